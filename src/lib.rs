@@ -3,4 +3,12 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod compensator;
 pub mod ds18b20;
+pub mod model;
+pub mod rate;
+pub mod table;
+
+pub use compensator::{Compensator, Config, Output, SampleError, Status, G0};
+pub use model::{AxisModel, BiasGrid, Extensions, ScaleFactor};
+pub use table::Table;

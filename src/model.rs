@@ -1,0 +1,452 @@
+//! Per-axis thermal model: scale factor (paper Eq. 11), branched bias grid, extension slots.
+//!
+//! Conventions (shared/REFERENCE.md): K1 in pulses per g per second, K0 in g,
+//! ΔT = T − T0 in °C, Ṫ in °C/min. The accelerometer output is `E = K1·(K0 + a)`,
+//! so the compensated specific force is `a = E/K1 − K0` (paper Eq. 5).
+//!
+//! Everything here runs in the per-temperature-sample path (about 1 Hz): it may divide,
+//! call `libm::expf` and index the bias grid. The per-IMU-cycle path only sees the cached
+//! `g0/K1` and `K0·g0` per axis.
+
+use serde::{Deserialize, Serialize};
+
+/// Largest number of bias grid points per branch.
+pub const MAX_BIAS_POINTS: usize = 16;
+
+/// Scale factor model, paper Eq. 11:
+/// `K1 = α·Ṫ² + β·ΔT² + η·Ṫ·ΔT + ε·Ṫ + μ·ΔT + γ` (pulses/(g·s), Ṫ in °C/min).
+/// The simple model (Eq. 3) is the special case α = β = η = ε = 0.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ScaleFactor {
+    /// Reference temperature T0, °C (22 °C in the paper).
+    pub t0_c: f32,
+    /// γ: K1 at T0 and Ṫ = 0.
+    pub gamma: f32,
+    /// μ: per °C.
+    pub mu: f32,
+    /// β: per °C².
+    pub beta: f32,
+    /// ε: per °C/min.
+    pub epsilon: f32,
+    /// η: per °C·°C/min.
+    pub eta: f32,
+    /// α: per (°C/min)².
+    pub alpha: f32,
+}
+
+impl ScaleFactor {
+    /// The simple linear model of Eq. 3: `K1 = μ·ΔT + γ`.
+    #[must_use]
+    pub const fn simple(t0_c: f32, gamma: f32, mu: f32) -> Self {
+        Self { t0_c, gamma, mu, beta: 0.0, epsilon: 0.0, eta: 0.0, alpha: 0.0 }
+    }
+
+    /// K1 at temperature `t_c` and rate `rate` (°C/min).
+    ///
+    /// Evaluation order is fixed so every platform gives the same bits:
+    /// `γ + ((((α·r)·r + (β·d)·d) + (η·r)·d) + ε·r) + μ·d)`.
+    #[must_use]
+    pub fn k1(&self, t_c: f32, rate: f32) -> f32 {
+        let d = t_c - self.t0_c;
+        let r = rate;
+        let dev = (((self.alpha * r) * r + (self.beta * d) * d) + (self.eta * r) * d + self.epsilon * r)
+            + self.mu * d;
+        self.gamma + dev
+    }
+
+    /// Bound on `|K1 − γ|` over `|ΔT| ≤ d_max`, `|Ṫ| ≤ r_max` (triangle inequality).
+    #[must_use]
+    pub fn max_deviation(&self, d_max: f32, r_max: f32) -> f32 {
+        abs(self.alpha) * r_max * r_max
+            + abs(self.beta) * d_max * d_max
+            + abs(self.eta) * r_max * d_max
+            + abs(self.epsilon) * r_max
+            + abs(self.mu) * d_max
+    }
+}
+
+/// Bias K0 (g) on a uniform temperature grid, with separate heating and cooling branches.
+///
+/// A uniform grid makes the lookup an index computation (no search). The branch is chosen
+/// from Ṫ with a deadband: above `+deadband` heating, below `−deadband` cooling, and in
+/// between the previous branch is kept, so it cannot chatter. Before the first decisive
+/// rate the mean of the two branches is used. A single-valued bias has equal branches.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct BiasGrid {
+    /// Temperature of the first grid point, °C: the bottom of the calibrated range.
+    pub t_start_c: f32,
+    /// Grid spacing, °C (> 0).
+    pub t_step_c: f32,
+    /// Branch-switch deadband on Ṫ, °C/min (≥ 0).
+    pub deadband_c_per_min: f32,
+    /// K0 while heating, g, one per grid point (2..=16).
+    pub heating_g: heapless::Vec<f32, MAX_BIAS_POINTS>,
+    /// K0 while cooling, g, same length as `heating_g`.
+    pub cooling_g: heapless::Vec<f32, MAX_BIAS_POINTS>,
+}
+
+impl BiasGrid {
+    /// A grid whose branches are both `f(T)` sampled at `n` points from `t_start` by `step`.
+    #[must_use]
+    pub fn single_valued(t_start_c: f32, t_step_c: f32, values_g: &[f32]) -> Self {
+        let mut v = heapless::Vec::new();
+        for &x in values_g.iter().take(MAX_BIAS_POINTS) {
+            // Capacity is MAX_BIAS_POINTS and take() bounds the count.
+            let _ = v.push(x);
+        }
+        Self { t_start_c, t_step_c, deadband_c_per_min: 0.05, heating_g: v.clone(), cooling_g: v }
+    }
+
+    /// Top of the grid, °C: the top of the calibrated range.
+    #[must_use]
+    pub fn t_end_c(&self) -> f32 {
+        let last = self.heating_g.len().saturating_sub(1) as f32;
+        self.t_start_c + self.t_step_c * last
+    }
+
+    /// Linear interpolation of `branch` at `t_c`, which the caller has clamped to the grid.
+    fn interpolate(&self, branch: &[f32], t_c: f32) -> f32 {
+        let n = branch.len();
+        if n < 2 {
+            return branch.first().copied().unwrap_or(0.0);
+        }
+        let x = (t_c - self.t_start_c) / self.t_step_c;
+        let max_i = n - 2;
+        // x ≥ 0 after clamping; `as usize` truncates toward zero and saturates.
+        let i = (x as usize).min(max_i);
+        let frac = x - i as f32;
+        let (a, b) = (branch[i], branch[i + 1]);
+        a + (b - a) * frac
+    }
+
+    /// K0 (g) at `t_c` on `branch`.
+    #[must_use]
+    pub fn k0(&self, t_c: f32, branch: Branch) -> f32 {
+        match branch {
+            Branch::Heating => self.interpolate(&self.heating_g, t_c),
+            Branch::Cooling => self.interpolate(&self.cooling_g, t_c),
+            Branch::Unknown => {
+                let h = self.interpolate(&self.heating_g, t_c);
+                let c = self.interpolate(&self.cooling_g, t_c);
+                (h + c) * 0.5
+            }
+        }
+    }
+}
+
+/// Which bias branch is in force.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Branch {
+    /// No decisive rate seen yet: mean of both branches.
+    #[default]
+    Unknown,
+    /// Temperature rising.
+    Heating,
+    /// Temperature falling.
+    Cooling,
+}
+
+impl Branch {
+    /// Next branch given the rate and deadband (°C/min).
+    #[must_use]
+    pub fn next(self, rate: f32, deadband: f32) -> Self {
+        if rate > deadband {
+            Self::Heating
+        } else if rate < -deadband {
+            Self::Cooling
+        } else {
+            self
+        }
+    }
+}
+
+/// `sensor_lag`: the sensing element follows the DS18B20 reading through a first-order lag.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SensorLag {
+    /// Time constant τ, s.
+    pub tau_s: f32,
+}
+
+/// `bias_branch_hysteresis`: a play operator of half-width r on temperature.
+///
+/// The play output p follows T but stays within `[T − r, T + r]`; the bias gains
+/// `weight·(T − p)/r`, which is +weight after sustained heating, −weight after sustained
+/// cooling, holds its value through holds, and switches over 2r after a turnaround.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct BranchHysteresis {
+    /// Half-width r, °C.
+    pub half_width_c: f32,
+    /// Weight, g.
+    pub weight_g: f32,
+}
+
+/// `bias_creep`: viscoelastic relaxation of the bias toward equilibrium.
+///
+/// A state x relaxes toward T with `τ(T) = τ_ref·exp(E·(1/(T+273.15) − 1/(T_ref+273.15)))`
+/// (Arrhenius: faster when hot for E > 0); the bias gains `gain·(T − x)`, which grows
+/// with ramp rate (≈ gain·τ·Ṫ on a ramp) and decays to zero over τ during a hold.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Creep {
+    /// Gain, g per °C.
+    pub gain_g_per_c: f32,
+    /// τ at `t_ref_c`, s.
+    pub tau_ref_s: f32,
+    /// Reference temperature of τ, °C.
+    pub t_ref_c: f32,
+    /// Activation temperature E (activation energy / Boltzmann), K.
+    pub activation_k: f32,
+}
+
+impl Creep {
+    /// τ(T), s.
+    #[must_use]
+    pub fn tau_s(&self, t_c: f32) -> f32 {
+        let inv = 1.0 / (t_c + 273.15) - 1.0 / (self.t_ref_c + 273.15);
+        self.tau_ref_s * libm::expf(self.activation_k * inv)
+    }
+}
+
+/// The extension slots the discovery workflow switches on; each is off (`None`) by default.
+#[derive(Clone, Copy, Debug, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Extensions {
+    /// Element temperature lags the sensor.
+    pub sensor_lag: Option<SensorLag>,
+    /// Rate-independent bias branch hysteresis.
+    pub bias_branch_hysteresis: Option<BranchHysteresis>,
+    /// Temperature-dependent bias creep.
+    pub bias_creep: Option<Creep>,
+}
+
+/// One axis's coefficient table.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct AxisModel {
+    /// Scale factor.
+    pub scale: ScaleFactor,
+    /// Bias; its grid is also the calibrated temperature range.
+    pub bias: BiasGrid,
+    /// Largest |Ṫ| calibrated, °C/min; larger rates are clamped and flagged.
+    pub rate_limit_c_per_min: f32,
+    /// Extension slots.
+    pub ext: Extensions,
+}
+
+/// Fixed-size state of one axis's model (branch, lag, play and creep states).
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct AxisState {
+    initialized: bool,
+    /// Bias branch in force.
+    pub branch: Branch,
+    /// Element temperature (sensor_lag), °C.
+    pub element_c: f32,
+    /// Play operator output (bias_branch_hysteresis), °C.
+    pub play_c: f32,
+    /// Creep state x (bias_creep), °C.
+    pub creep_c: f32,
+}
+
+/// The model evaluated at one temperature sample.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Evaluation {
+    /// Scale factor, pulses/(g·s).
+    pub k1: f32,
+    /// Bias, g.
+    pub k0: f32,
+    /// Temperature was outside the calibrated range and was clamped.
+    pub temp_clamped: bool,
+    /// |Ṫ| exceeded the calibrated limit and was clamped.
+    pub rate_clamped: bool,
+}
+
+/// `1 − exp(−dt/τ)`: the first-order lag's step weight, exact for a held input.
+fn lag_weight(dt_s: f32, tau_s: f32) -> f32 {
+    1.0 - libm::expf(-dt_s / tau_s)
+}
+
+fn abs(x: f32) -> f32 {
+    libm::fabsf(x)
+}
+
+fn clamp(x: f32, lo: f32, hi: f32) -> (f32, bool) {
+    if x < lo {
+        (lo, true)
+    } else if x > hi {
+        (hi, true)
+    } else {
+        (x, false)
+    }
+}
+
+impl AxisModel {
+    /// Advance `state` by `dt_s` seconds to sensor temperature `t_c` and rate `rate`
+    /// (°C/min), and evaluate K1 and K0.
+    ///
+    /// Order: clamp T and Ṫ to the calibrated range; the element temperature Te follows T
+    /// through `sensor_lag` (Te = T when off); the branch follows Ṫ; play and creep states
+    /// follow Te; K1 = Eq. 11 at (Te, Ṫ); K0 = grid(Te, branch) + play term + creep term.
+    /// On the first call (or after [`AxisState::default`]) every state starts at T.
+    pub fn evaluate(&self, state: &mut AxisState, t_c: f32, rate: f32, dt_s: f32) -> Evaluation {
+        let (t, temp_clamped) = clamp(t_c, self.bias.t_start_c, self.bias.t_end_c());
+        let lim = self.rate_limit_c_per_min;
+        let (r, rate_clamped) = clamp(rate, -lim, lim);
+        if !state.initialized {
+            *state = AxisState {
+                initialized: true,
+                branch: Branch::Unknown,
+                element_c: t,
+                play_c: t,
+                creep_c: t,
+            };
+        }
+        let te = match self.ext.sensor_lag {
+            Some(lag) if dt_s > 0.0 => {
+                state.element_c += lag_weight(dt_s, lag.tau_s) * (t - state.element_c);
+                state.element_c
+            }
+            Some(_) => state.element_c,
+            None => t,
+        };
+        state.branch = state.branch.next(r, self.bias.deadband_c_per_min);
+        let k1 = self.scale.k1(te, r);
+        let mut k0 = self.bias.k0(te, state.branch);
+        if let Some(h) = self.ext.bias_branch_hysteresis {
+            let lo = te - h.half_width_c;
+            let hi = te + h.half_width_c;
+            state.play_c = clamp(state.play_c, lo, hi).0;
+            k0 += h.weight_g * ((te - state.play_c) / h.half_width_c);
+        }
+        if let Some(c) = self.ext.bias_creep {
+            if dt_s > 0.0 {
+                state.creep_c += lag_weight(dt_s, c.tau_s(te)) * (te - state.creep_c);
+            }
+            k0 += c.gain_g_per_c * (te - state.creep_c);
+        }
+        Evaluation { k1, k0, temp_clamped, rate_clamped }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn kt8_1() -> ScaleFactor {
+        ScaleFactor {
+            t0_c: 22.0,
+            gamma: 320_320.0,
+            mu: -32.76,
+            beta: 0.1008,
+            epsilon: 88.14,
+            eta: -0.02409,
+            alpha: 273.0,
+        }
+    }
+
+    fn axis(ext: Extensions) -> AxisModel {
+        let grid: [f32; 14] = core::array::from_fn(|i| 1e-4 + 2e-7 * i as f32);
+        AxisModel { scale: kt8_1(), bias: BiasGrid::single_valued(-60.0, 10.0, &grid), rate_limit_c_per_min: 2.0, ext }
+    }
+
+    #[test]
+    fn eq11_matches_f64() {
+        let s = kt8_1();
+        for &(t, r) in &[(22.0f32, 0.0f32), (-60.0, -0.9), (70.0, 0.9), (0.0, 0.3)] {
+            let (d, rr) = (f64::from(t) - 22.0, f64::from(r));
+            let want = 273.0 * rr * rr + 0.1008 * d * d - 0.02409 * rr * d + 88.14 * rr - 32.76 * d + 320_320.0;
+            let got = f64::from(s.k1(t, r));
+            assert!((got - want).abs() / want < 2e-7, "{t} {r}: {got} vs {want}");
+        }
+    }
+
+    #[test]
+    fn branch_deadband_does_not_chatter() {
+        let mut b = Branch::Unknown;
+        b = b.next(0.04, 0.05);
+        assert_eq!(b, Branch::Unknown);
+        b = b.next(0.3, 0.05);
+        assert_eq!(b, Branch::Heating);
+        for r in [0.04, -0.04, 0.0, -0.05] {
+            b = b.next(r, 0.05);
+            assert_eq!(b, Branch::Heating);
+        }
+        assert_eq!(b.next(-0.06, 0.05), Branch::Cooling);
+    }
+
+    #[test]
+    fn bias_grid_interpolates_and_selects_branch() {
+        let mut g = BiasGrid::single_valued(0.0, 10.0, &[0.0, 1.0, 3.0]);
+        g.cooling_g = heapless::Vec::from_slice(&[1.0, 2.0, 4.0]).unwrap();
+        assert_eq!(g.k0(5.0, Branch::Heating), 0.5);
+        assert_eq!(g.k0(15.0, Branch::Cooling), 3.0);
+        assert_eq!(g.k0(20.0, Branch::Heating), 3.0);
+        assert_eq!(g.k0(5.0, Branch::Unknown), 1.0);
+        assert_eq!(g.t_end_c(), 20.0);
+    }
+
+    #[test]
+    fn out_of_range_is_clamped_and_flagged() {
+        let m = axis(Extensions::default());
+        let mut s = AxisState::default();
+        let e = m.evaluate(&mut s, 80.0, 5.0, 1.0);
+        assert!(e.temp_clamped && e.rate_clamped);
+        let mut s2 = AxisState::default();
+        let at_edge = m.evaluate(&mut s2, 70.0, 2.0, 1.0);
+        assert_eq!(e.k1, at_edge.k1);
+        assert_eq!(e.k0, at_edge.k0);
+    }
+
+    #[test]
+    fn sensor_lag_follows_first_order_step_response() {
+        let m = axis(Extensions { sensor_lag: Some(SensorLag { tau_s: 60.0 }), ..Default::default() });
+        let mut s = AxisState::default();
+        m.evaluate(&mut s, 20.0, 0.0, 1.0);
+        for _ in 0..60 {
+            m.evaluate(&mut s, 30.0, 0.0, 1.0);
+        }
+        // After one τ: 1 − e⁻¹ of the step.
+        let want = 20.0 + 10.0 * (1.0 - (-1.0f64).exp());
+        assert!((f64::from(s.element_c) - want).abs() < 1e-3, "{}", s.element_c);
+    }
+
+    #[test]
+    fn play_operator_persists_through_hold_and_switches_over_2r() {
+        let h = BranchHysteresis { half_width_c: 2.0, weight_g: 1e-4 };
+        let m = axis(Extensions { bias_branch_hysteresis: Some(h), ..Default::default() });
+        let base = axis(Extensions::default());
+        let mut s = AxisState::default();
+        let mut sb = AxisState::default();
+        let mut t = 0.0f32;
+        let mut extra = 0.0f32;
+        for _ in 0..100 {
+            t += 0.1;
+            extra = m.evaluate(&mut s, t, 0.0, 1.0).k0 - base.evaluate(&mut sb, t, 0.0, 1.0).k0;
+        }
+        assert!((extra - 1e-4).abs() < 1e-9, "heating saturates at +w: {extra}");
+        for _ in 0..50 {
+            extra = m.evaluate(&mut s, t, 0.0, 1.0).k0 - base.evaluate(&mut sb, t, 0.0, 1.0).k0;
+        }
+        assert!((extra - 1e-4).abs() < 1e-9, "hold keeps it");
+        for _ in 0..20 {
+            t -= 0.1;
+            extra = m.evaluate(&mut s, t, 0.0, 1.0).k0 - base.evaluate(&mut sb, t, 0.0, 1.0).k0;
+        }
+        assert!(extra.abs() < 1e-8, "halfway after 2 °C of 4: {extra}");
+    }
+
+    #[test]
+    fn creep_tau_is_arrhenius() {
+        let c = Creep { gain_g_per_c: 1e-6, tau_ref_s: 3600.0, t_ref_c: 25.0, activation_k: 5000.0 };
+        assert!((c.tau_s(25.0) - 3600.0).abs() < 1e-2);
+        let want = 3600.0 * (5000.0 * (1.0 / 358.15 - 1.0 / 298.15f64)).exp();
+        assert!((f64::from(c.tau_s(85.0)) - want).abs() / want < 1e-5);
+        assert!(c.tau_s(85.0) < c.tau_s(-55.0));
+    }
+}

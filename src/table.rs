@@ -1,0 +1,415 @@
+//! Coefficient table wire format: a 16-byte header and a postcard payload, CRC-32 checked.
+//!
+//! ```text
+//! offset size field
+//!      0    4 magic "QFAT"
+//!      4    2 format version, little-endian (1)
+//!      6    1 axis count (1..=3)
+//!      7    1 reserved, 0
+//!      8    4 payload length, little-endian
+//!     12    4 CRC-32/ISO-HDLC of the payload, little-endian
+//!     16    n payload: postcard encoding of [`Table`]
+//! ```
+//!
+//! [`Table::decode`] checks everything before it returns a table (header, CRC, postcard,
+//! no trailing bytes, then [`Table::validate`]), so a caller that only swaps in a table it
+//! got back from it loads atomically: a table either validates fully or nothing changes.
+
+use core::fmt;
+
+use serde::{Deserialize, Serialize};
+
+use crate::model::{AxisModel, MAX_BIAS_POINTS};
+
+/// Magic bytes at offset 0.
+pub const MAGIC: [u8; 4] = *b"QFAT";
+/// Format version written and accepted.
+pub const FORMAT_VERSION: u16 = 1;
+/// Header length in bytes.
+pub const HEADER_LEN: usize = 16;
+/// Largest encoded table (header + payload) for 3 axes with full grids and every slot.
+pub const MAX_TABLE_BYTES: usize = 1024;
+/// Most axes a table holds.
+pub const MAX_AXES: usize = 3;
+
+/// Physically sane limits a table must respect (beyond finiteness).
+pub mod limits {
+    /// Temperature range any grid may span, °C (DS18B20: −55..125).
+    pub const TEMP_C: (f32, f32) = (-60.0, 130.0);
+    /// Largest |K0| on the grid, g.
+    pub const BIAS_G: f32 = 0.1;
+    /// Largest calibrated |Ṫ|, °C/min.
+    pub const RATE_C_PER_MIN: f32 = 20.0;
+    /// γ range, pulses/(g·s).
+    pub const GAMMA: (f32, f32) = (1.0, 1.0e9);
+    /// Largest |K1 − γ|/γ anywhere in the calibrated box: keeps K1 ≥ γ/2 > 0.
+    pub const MAX_RELATIVE_DEVIATION: f32 = 0.5;
+    /// sensor_lag τ range, s.
+    pub const LAG_TAU_S: (f32, f32) = (0.1, 1.0e5);
+    /// Play half-width range, °C.
+    pub const PLAY_HALF_WIDTH_C: (f32, f32) = (0.01, 50.0);
+    /// Largest |play weight|, g.
+    pub const PLAY_WEIGHT_G: f32 = 0.01;
+    /// Creep τ_ref range, s.
+    pub const CREEP_TAU_S: (f32, f32) = (1.0, 1.0e6);
+    /// Largest creep activation temperature, K.
+    pub const CREEP_ACTIVATION_K: f32 = 20_000.0;
+    /// Largest |creep gain|, g/°C.
+    pub const CREEP_GAIN_G_PER_C: f32 = 1.0e-3;
+    /// Largest |M − I| element of the misalignment matrix.
+    pub const MISALIGNMENT: f32 = 0.05;
+    /// Largest branch deadband, °C/min.
+    pub const DEADBAND_C_PER_MIN: f32 = 10.0;
+}
+
+/// Why a table was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum Error {
+    /// Fewer bytes than the header and its stated payload.
+    Truncated,
+    /// Magic is not "QFAT".
+    BadMagic,
+    /// Format version not supported.
+    Version(u16),
+    /// Header axis count differs from the payload's or from the compensator's.
+    AxisCount {
+        /// Axes in the table.
+        table: u8,
+        /// Axes expected.
+        expected: u8,
+    },
+    /// CRC-32 of the payload does not match the header.
+    Crc,
+    /// The payload is not a postcard [`Table`].
+    Decode,
+    /// Bytes after the payload.
+    TrailingBytes,
+    /// Encoding does not fit the buffer.
+    BufferTooSmall,
+    /// A number is NaN or infinite; names the field.
+    NonFinite(&'static str),
+    /// A value is outside its sane range; names the field.
+    OutOfRange(&'static str),
+    /// The bias grid is malformed (step ≤ 0, fewer than 2 points, unequal branches).
+    Grid,
+    /// K1 could reach `γ/2` or less inside the calibrated box.
+    ScaleFactorNotPositive,
+    /// Table was fitted with another rate-estimator window than this firmware's.
+    RateWindow {
+        /// Window in the table.
+        table: u16,
+        /// Window of this firmware.
+        firmware: u16,
+    },
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Truncated => f.write_str("table truncated"),
+            Self::BadMagic => f.write_str("bad magic (not a QFAT table)"),
+            Self::Version(v) => write!(f, "format version {v} not supported"),
+            Self::AxisCount { table, expected } => write!(f, "table has {table} axes, expected {expected}"),
+            Self::Crc => f.write_str("payload CRC-32 mismatch"),
+            Self::Decode => f.write_str("payload is not a valid table encoding"),
+            Self::TrailingBytes => f.write_str("trailing bytes after payload"),
+            Self::BufferTooSmall => f.write_str("buffer too small for the encoding"),
+            Self::NonFinite(w) => write!(f, "non-finite number in {w}"),
+            Self::OutOfRange(w) => write!(f, "{w} out of range"),
+            Self::Grid => f.write_str("malformed bias grid"),
+            Self::ScaleFactorNotPositive => f.write_str("scale factor can fall to γ/2 or below in range"),
+            Self::RateWindow { table, firmware } => {
+                write!(f, "table fitted with rate window {table}, firmware uses {firmware}")
+            }
+        }
+    }
+}
+
+impl core::error::Error for Error {}
+
+/// Result with a table [`Error`].
+pub type Result<T> = core::result::Result<T, Error>;
+
+/// A full coefficient table: one [`AxisModel`] per axis, the rate window it was fitted
+/// with, and an optional misalignment / cross-axis matrix (3 axes only).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Table {
+    /// Samples in the rate estimator window the table was fitted with.
+    pub rate_window: u16,
+    /// Per-axis models.
+    pub axes: heapless::Vec<AxisModel, MAX_AXES>,
+    /// Row-major 3×3 matrix applied to the per-axis velocity increments, or none.
+    pub misalignment: Option<[f32; 9]>,
+}
+
+/// CRC-32/ISO-HDLC (the zlib/PNG CRC), bitwise: tables load rarely, flash is dear.
+const CRC32: crc::Crc<u32, crc::NoTable> = crc::Crc::<u32, crc::NoTable>::new(&crc::CRC_32_ISO_HDLC);
+
+/// CRC-32/ISO-HDLC of `bytes`.
+#[must_use]
+pub fn crc32(bytes: &[u8]) -> u32 {
+    CRC32.checksum(bytes)
+}
+
+fn finite(x: f32, what: &'static str) -> Result<()> {
+    if x.is_finite() {
+        Ok(())
+    } else {
+        Err(Error::NonFinite(what))
+    }
+}
+
+fn within(x: f32, (lo, hi): (f32, f32), what: &'static str) -> Result<()> {
+    finite(x, what)?;
+    if x >= lo && x <= hi {
+        Ok(())
+    } else {
+        Err(Error::OutOfRange(what))
+    }
+}
+
+fn validate_axis(a: &AxisModel) -> Result<()> {
+    let s = &a.scale;
+    for (x, w) in [
+        (s.t0_c, "scale.t0_c"),
+        (s.gamma, "scale.gamma"),
+        (s.mu, "scale.mu"),
+        (s.beta, "scale.beta"),
+        (s.epsilon, "scale.epsilon"),
+        (s.eta, "scale.eta"),
+        (s.alpha, "scale.alpha"),
+    ] {
+        finite(x, w)?;
+    }
+    within(s.t0_c, limits::TEMP_C, "scale.t0_c")?;
+    within(s.gamma, limits::GAMMA, "scale.gamma")?;
+
+    let b = &a.bias;
+    finite(b.t_start_c, "bias.t_start_c")?;
+    finite(b.t_step_c, "bias.t_step_c")?;
+    let n = b.heating_g.len();
+    if !(2..=MAX_BIAS_POINTS).contains(&n) || b.cooling_g.len() != n || b.t_step_c <= 0.0 {
+        return Err(Error::Grid);
+    }
+    within(b.t_start_c, limits::TEMP_C, "bias.t_start_c")?;
+    within(b.t_end_c(), limits::TEMP_C, "bias grid end")?;
+    within(b.deadband_c_per_min, (0.0, limits::DEADBAND_C_PER_MIN), "bias.deadband_c_per_min")?;
+    for &k0 in b.heating_g.iter().chain(b.cooling_g.iter()) {
+        within(k0, (-limits::BIAS_G, limits::BIAS_G), "bias value")?;
+    }
+    within(a.rate_limit_c_per_min, (0.0, limits::RATE_C_PER_MIN), "rate_limit_c_per_min")?;
+    if a.rate_limit_c_per_min <= 0.0 {
+        return Err(Error::OutOfRange("rate_limit_c_per_min"));
+    }
+
+    let d_max = libm::fmaxf(libm::fabsf(b.t_start_c - s.t0_c), libm::fabsf(b.t_end_c() - s.t0_c));
+    let dev = s.max_deviation(d_max, a.rate_limit_c_per_min);
+    if !(dev.is_finite() && dev < limits::MAX_RELATIVE_DEVIATION * s.gamma) {
+        return Err(Error::ScaleFactorNotPositive);
+    }
+
+    if let Some(lag) = a.ext.sensor_lag {
+        within(lag.tau_s, limits::LAG_TAU_S, "sensor_lag.tau_s")?;
+    }
+    if let Some(h) = a.ext.bias_branch_hysteresis {
+        within(h.half_width_c, limits::PLAY_HALF_WIDTH_C, "bias_branch_hysteresis.half_width_c")?;
+        let w = limits::PLAY_WEIGHT_G;
+        within(h.weight_g, (-w, w), "bias_branch_hysteresis.weight_g")?;
+    }
+    if let Some(c) = a.ext.bias_creep {
+        let g = limits::CREEP_GAIN_G_PER_C;
+        within(c.gain_g_per_c, (-g, g), "bias_creep.gain_g_per_c")?;
+        within(c.tau_ref_s, limits::CREEP_TAU_S, "bias_creep.tau_ref_s")?;
+        within(c.t_ref_c, limits::TEMP_C, "bias_creep.t_ref_c")?;
+        within(c.activation_k, (0.0, limits::CREEP_ACTIVATION_K), "bias_creep.activation_k")?;
+    }
+    Ok(())
+}
+
+impl Table {
+    /// Check every number: finite, grids well formed, K1 > γ/2 over the calibrated box,
+    /// and all values within [`limits`].
+    ///
+    /// # Errors
+    /// The first failed check.
+    pub fn validate(&self) -> Result<()> {
+        if self.axes.is_empty() {
+            return Err(Error::AxisCount { table: 0, expected: 1 });
+        }
+        for a in &self.axes {
+            validate_axis(a)?;
+        }
+        if let Some(m) = self.misalignment {
+            if self.axes.len() != 3 {
+                return Err(Error::AxisCount { table: self.axes.len() as u8, expected: 3 });
+            }
+            for (i, &x) in m.iter().enumerate() {
+                let ident = if i % 4 == 0 { 1.0 } else { 0.0 };
+                within(x - ident, (-limits::MISALIGNMENT, limits::MISALIGNMENT), "misalignment")?;
+            }
+        }
+        if self.rate_window < 3 {
+            return Err(Error::OutOfRange("rate_window"));
+        }
+        Ok(())
+    }
+
+    /// Encode into `buf` (header + payload), returning the used bytes. Validates first.
+    ///
+    /// # Errors
+    /// A validation error, or [`Error::BufferTooSmall`].
+    pub fn encode<'a>(&self, buf: &'a mut [u8]) -> Result<&'a [u8]> {
+        self.validate()?;
+        if buf.len() < HEADER_LEN {
+            return Err(Error::BufferTooSmall);
+        }
+        let (head, body) = buf.split_at_mut(HEADER_LEN);
+        let payload_len = postcard::to_slice(self, body).map_err(|_| Error::BufferTooSmall)?.len();
+        let crc = crc32(&body[..payload_len]);
+        head[0..4].copy_from_slice(&MAGIC);
+        head[4..6].copy_from_slice(&FORMAT_VERSION.to_le_bytes());
+        head[6] = self.axes.len() as u8;
+        head[7] = 0;
+        head[8..12].copy_from_slice(&(payload_len as u32).to_le_bytes());
+        head[12..16].copy_from_slice(&crc.to_le_bytes());
+        Ok(&buf[..HEADER_LEN + payload_len])
+    }
+
+    /// Decode and fully validate a table.
+    ///
+    /// # Errors
+    /// The first failed check, header to semantics.
+    pub fn decode(bytes: &[u8]) -> Result<Self> {
+        let Some((head, body)) = bytes.split_first_chunk::<HEADER_LEN>() else {
+            return Err(Error::Truncated);
+        };
+        if head[0..4] != MAGIC {
+            return Err(Error::BadMagic);
+        }
+        let version = u16::from_le_bytes([head[4], head[5]]);
+        if version != FORMAT_VERSION {
+            return Err(Error::Version(version));
+        }
+        let axes = head[6];
+        if axes == 0 || usize::from(axes) > MAX_AXES || head[7] != 0 {
+            return Err(Error::AxisCount { table: axes, expected: MAX_AXES as u8 });
+        }
+        let len = u32::from_le_bytes([head[8], head[9], head[10], head[11]]) as usize;
+        let stored_crc = u32::from_le_bytes([head[12], head[13], head[14], head[15]]);
+        if body.len() < len {
+            return Err(Error::Truncated);
+        }
+        if body.len() > len {
+            return Err(Error::TrailingBytes);
+        }
+        if crc32(body) != stored_crc {
+            return Err(Error::Crc);
+        }
+        let (table, rest): (Self, &[u8]) = postcard::take_from_bytes(body).map_err(|_| Error::Decode)?;
+        if !rest.is_empty() {
+            return Err(Error::TrailingBytes);
+        }
+        if table.axes.len() != usize::from(axes) {
+            return Err(Error::AxisCount { table: table.axes.len() as u8, expected: axes });
+        }
+        table.validate()?;
+        Ok(table)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::{BiasGrid, Extensions, ScaleFactor};
+
+    fn small() -> Table {
+        let axis = AxisModel {
+            scale: ScaleFactor::simple(22.0, 320_000.0, -32.0),
+            bias: BiasGrid::single_valued(-60.0, 130.0, &[1e-4, 2e-4]),
+            rate_limit_c_per_min: 1.0,
+            ext: Extensions::default(),
+        };
+        let mut axes = heapless::Vec::new();
+        axes.push(axis).unwrap();
+        Table { rate_window: 32, axes, misalignment: None }
+    }
+
+    #[test]
+    fn exact_bytes_of_a_small_table() {
+        let mut buf = [0u8; MAX_TABLE_BYTES];
+        let bytes = small().encode(&mut buf).unwrap();
+        // Independent spelling of the postcard layout: varint u16, varint len, f32 LE,
+        // Option tag bytes, Vec length prefixes.
+        let mut want: heapless::Vec<u8, 128> = heapless::Vec::new();
+        want.extend_from_slice(&[32, 1]).unwrap(); // rate_window 32, 1 axis
+        for f in [22.0f32, 320_000.0, -32.0, 0.0, 0.0, 0.0, 0.0] {
+            want.extend_from_slice(&f.to_le_bytes()).unwrap();
+        }
+        for f in [-60.0f32, 130.0, 0.05] {
+            want.extend_from_slice(&f.to_le_bytes()).unwrap();
+        }
+        for _ in 0..2 {
+            want.push(2).unwrap();
+            for f in [1e-4f32, 2e-4] {
+                want.extend_from_slice(&f.to_le_bytes()).unwrap();
+            }
+        }
+        want.extend_from_slice(&1.0f32.to_le_bytes()).unwrap();
+        want.extend_from_slice(&[0, 0, 0, 0]).unwrap(); // three slots off, no misalignment
+        assert_eq!(&bytes[HEADER_LEN..], &want[..]);
+        assert_eq!(&bytes[..8], &[b'Q', b'F', b'A', b'T', 1, 0, 1, 0]);
+        assert_eq!(&bytes[8..12], &(want.len() as u32).to_le_bytes());
+        assert_eq!(&bytes[12..16], &crc32(&want).to_le_bytes());
+        assert_eq!(crc32(b"123456789"), 0xCBF4_3926, "CRC-32/ISO-HDLC check value");
+        assert_eq!(Table::decode(bytes).unwrap(), small());
+    }
+
+    #[test]
+    fn every_header_fault_is_typed() {
+        let mut buf = [0u8; MAX_TABLE_BYTES];
+        let good: heapless::Vec<u8, MAX_TABLE_BYTES> =
+            heapless::Vec::from_slice(small().encode(&mut buf).unwrap()).unwrap();
+        let mutate = |f: &dyn Fn(&mut heapless::Vec<u8, MAX_TABLE_BYTES>)| {
+            let mut b = good.clone();
+            f(&mut b);
+            Table::decode(&b)
+        };
+        assert_eq!(mutate(&|b| b.truncate(10)), Err(Error::Truncated));
+        assert_eq!(mutate(&|b| b[0] = b'X'), Err(Error::BadMagic));
+        assert_eq!(mutate(&|b| b[4] = 2), Err(Error::Version(2)));
+        assert!(matches!(mutate(&|b| b[6] = 4), Err(Error::AxisCount { .. })));
+        assert!(matches!(mutate(&|b| b[6] = 2), Err(Error::AxisCount { .. })));
+        assert_eq!(mutate(&|b| b[20] ^= 1), Err(Error::Crc));
+        assert_eq!(mutate(&|b| b.push(0).unwrap()), Err(Error::TrailingBytes));
+        let n = good.len();
+        assert_eq!(mutate(&|b| b.truncate(n - 1)), Err(Error::Truncated));
+    }
+
+    #[test]
+    fn semantic_faults_are_typed() {
+        let mut t = small();
+        t.axes[0].scale.mu = f32::NAN;
+        assert_eq!(t.validate(), Err(Error::NonFinite("scale.mu")));
+        let mut t = small();
+        t.axes[0].scale.gamma = -1.0;
+        assert_eq!(t.validate(), Err(Error::OutOfRange("scale.gamma")));
+        let mut t = small();
+        t.axes[0].scale.mu = -3000.0; // K1 would fall below γ/2 at 70 °C·... span 108 °C
+        assert_eq!(t.validate(), Err(Error::ScaleFactorNotPositive));
+        let mut t = small();
+        t.axes[0].bias.t_step_c = 0.0;
+        assert_eq!(t.validate(), Err(Error::Grid));
+        let mut t = small();
+        t.axes[0].bias.cooling_g.pop();
+        assert_eq!(t.validate(), Err(Error::Grid));
+        let mut t = small();
+        t.axes[0].bias.heating_g[0] = 0.5;
+        assert_eq!(t.validate(), Err(Error::OutOfRange("bias value")));
+        let mut t = small();
+        t.misalignment = Some([1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]);
+        assert!(matches!(t.validate(), Err(Error::AxisCount { .. })));
+    }
+}
