@@ -5,7 +5,9 @@
 
 pub mod compensator;
 pub mod ds18b20;
+pub mod ds18b20_driver;
 pub mod model;
+pub mod onewire;
 pub mod rate;
 pub mod table;
 

@@ -1,0 +1,523 @@
+//! DS18B20 driver over a [`OneWire`] bus: resolution, conversions and validated reads.
+//!
+//! A [`Ds18b20`] is a handle for one sensor (by ROM, or the only one on the bus with
+//! SKIP ROM); it does not own the bus, so several sensors share one [`OneWire`].
+//! Scratchpads are validated and decoded by [`crate::ds18b20::decode_scratchpad`].
+//!
+//! # Conversion without blocking
+//!
+//! [`Ds18b20::start`] issues Convert T (44h) and returns; [`Ds18b20::is_ready`] answers
+//! from the elapsed time against the datasheet maximum for the resolution, or, after
+//! [`Ds18b20::use_read_slots`] found the sensor externally powered, from one read slot
+//! (the sensor answers 0 while converting); [`Ds18b20::read`] then reads and validates
+//! the scratchpad. [`Ds18b20::start_all`] converts every sensor at once with SKIP ROM.
+//! Each step blocks only for its own bus transaction:
+//!
+//! | call | blocks at most (µs, delays only) |
+//! |---|---|
+//! | `start` | [`START_US`] = 6 560 |
+//! | `is_ready` | one read slot, 70 |
+//! | `read` | (retries + 1) × [`READ_ATTEMPT_US`] = (retries + 1) × 11 600 |
+//! | `measure` (blocking) | [`Ds18b20::max_blocking_measure_us`]: (retries + 1) × (6 560 + conversion + 11 600) |
+//!
+//! At 12 bits with the default 1 retry, `measure` blocks at most 2 × 768 160 µs ≈ 1.54 s.
+//! The pin calls add their own latency (a few per slot) on top.
+//!
+//! # Retries
+//!
+//! A bad scratchpad read (CRC, all ones, all zero, reserved or config bytes) is re-read
+//! up to `retries` times ([`Ds18b20::with_retries`], at most [`MAX_RETRIES`]): the
+//! conversion result stays in the scratchpad. The power-on value (a brown-out) is not
+//! re-read, since reading again gives the same bytes: `read` returns it and the caller
+//! starts a new conversion; `measure` does that itself within its retry budget. Bus
+//! errors (no presence, stuck low, pin) are returned at once. A wrong temperature is
+//! never returned: every failure is a typed [`Error`].
+//!
+//! A scratchpad whose resolution differs from the one set ([`Error::ResolutionChanged`])
+//! means the sensor lost its configuration (a brown-out reloads it from EEPROM): the
+//! conversion time assumed was wrong, so the value may be stale. Call
+//! [`Ds18b20::set_resolution`] again.
+//!
+//! Parasite power needs a strong pull-up during conversions, which an open-drain pin
+//! cannot give; [`Ds18b20::read_power_supply`] tells which mode a sensor is in.
+//!
+//! # Feeding the compensator
+//!
+//! Take the timestamp when the conversion completes, not when it is read:
+//! [`Sample::completed_us`] is the start time plus the maximum conversion time
+//! (timer), or the time of the read slot that saw the conversion done (read slots).
+//! Pass the raw scratchpad, so the compensator applies its own checks (such as a
+//! 0550h that arrives as a jump):
+//!
+//! ```text
+//! sensor.start(&mut bus, now_us())?;
+//! // ... IMU cycles run; each scheduler tick:
+//! if sensor.is_ready(&mut bus, now_us())? {
+//!     match sensor.read(&mut bus) {
+//!         Ok(s) => { let status = comp.on_scratchpad(s.completed_us / 1000, &s.scratchpad)?; }
+//!         Err(e) => { /* typed error: count it, restart the conversion */ }
+//!     }
+//!     sensor.start(&mut bus, now_us())?;
+//! }
+//! ```
+//!
+//! `comp.on_raw(s.completed_us / 1000, s.reading.raw)` is the path for an already
+//! validated reading.
+
+use core::fmt;
+
+use embedded_hal::delay::DelayNs;
+use embedded_hal::digital::{InputPin, OutputPin};
+use heapless::Vec;
+
+use crate::ds18b20::{self, decode_scratchpad, Reading, Resolution, FAMILY_CODE};
+use crate::onewire::{self, OneWire, Rom, RESET_US, SLOT_MAX_US};
+
+/// Function command: start a temperature conversion.
+pub const CONVERT_T: u8 = 0x44;
+/// Function command: read the 9-byte scratchpad.
+pub const READ_SCRATCHPAD: u8 = 0xBE;
+/// Function command: write TH, TL and config.
+pub const WRITE_SCRATCHPAD: u8 = 0x4E;
+/// Function command: read the power supply mode (one read slot, 0 = parasite).
+pub const READ_POWER_SUPPLY: u8 = 0xB4;
+
+/// Most retries a sensor can be configured with.
+pub const MAX_RETRIES: u8 = 8;
+/// Retries of a new [`Ds18b20`].
+pub const DEFAULT_RETRIES: u8 = 1;
+
+/// Delay bound of selecting a sensor (reset, MATCH ROM + 8 ROM bytes) and sending
+/// one command byte, in µs.
+pub const START_US: u32 = RESET_US + 10 * 8 * SLOT_MAX_US;
+/// Delay bound of one scratchpad read (selection, BEh, 9 bytes), in µs.
+pub const READ_ATTEMPT_US: u32 = RESET_US + 19 * 8 * SLOT_MAX_US;
+
+/// Why a DS18B20 operation failed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum Error {
+    /// The bus failed: no presence, stuck low, pin error, bad ROM.
+    Bus(onewire::Error),
+    /// The scratchpad was rejected by the decoder (after the retries).
+    Scratchpad(ds18b20::Error),
+    /// The ROM's family code is not 28h.
+    WrongFamily(u8),
+    /// After writing the scratchpad, TH, TL or config read back differently; holds
+    /// the config byte read.
+    Verify(u8),
+    /// The scratchpad holds another resolution than the one set (a brown-out
+    /// reloaded the EEPROM); holds the one read.
+    ResolutionChanged(Resolution),
+    /// `is_ready` or `read` without a conversion started.
+    NotStarted,
+    /// `read` before `is_ready` returned true.
+    NotReady,
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Bus(e) => write!(f, "1-Wire: {e}"),
+            Self::Scratchpad(e) => write!(f, "scratchpad: {e}"),
+            Self::WrongFamily(fc) => write!(f, "family code {fc:02X}h is not a DS18B20"),
+            Self::Verify(c) => write!(f, "scratchpad write not verified (config {c:02X}h)"),
+            Self::ResolutionChanged(r) => write!(f, "sensor reports {r:?}, not the one set"),
+            Self::NotStarted => f.write_str("no conversion started"),
+            Self::NotReady => f.write_str("conversion not finished"),
+        }
+    }
+}
+
+impl core::error::Error for Error {}
+
+impl From<onewire::Error> for Error {
+    fn from(e: onewire::Error) -> Self {
+        Self::Bus(e)
+    }
+}
+
+impl From<ds18b20::Error> for Error {
+    fn from(e: ds18b20::Error) -> Self {
+        Self::Scratchpad(e)
+    }
+}
+
+/// How a sensor is powered (READ POWER SUPPLY, B4h).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum PowerSupply {
+    /// V_DD connected.
+    External,
+    /// Powered from the data line.
+    Parasite,
+}
+
+/// A validated reading and when its conversion completed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Sample {
+    /// The scratchpad as read (it passed [`decode_scratchpad`]).
+    pub scratchpad: [u8; 9],
+    /// The decoded reading.
+    pub reading: Reading,
+    /// Caller's clock, in µs, when the conversion completed (an upper bound).
+    pub completed_us: u32,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+enum State {
+    Idle,
+    Converting { started_us: u32, resets: u32 },
+    Done { completed_us: u32 },
+}
+
+/// One DS18B20 on a 1-Wire bus.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Ds18b20 {
+    rom: Option<Rom>,
+    resolution: Resolution,
+    retries: u8,
+    read_slots: bool,
+    state: State,
+}
+
+impl Ds18b20 {
+    /// The sensor with `rom`, assumed at 12 bits (the factory setting) until
+    /// [`Self::set_resolution`].
+    ///
+    /// # Errors
+    /// [`Error::WrongFamily`] unless the family code is 28h.
+    pub const fn new(rom: Rom) -> Result<Self, Error> {
+        if rom.family() != FAMILY_CODE {
+            return Err(Error::WrongFamily(rom.family()));
+        }
+        Ok(Self::with_rom(Some(rom)))
+    }
+
+    /// The only sensor on the bus, addressed with SKIP ROM.
+    #[must_use]
+    pub const fn single() -> Self {
+        Self::with_rom(None)
+    }
+
+    const fn with_rom(rom: Option<Rom>) -> Self {
+        Self {
+            rom,
+            resolution: Resolution::Bits12,
+            retries: DEFAULT_RETRIES,
+            read_slots: false,
+            state: State::Idle,
+        }
+    }
+
+    /// Set how many times a bad scratchpad read is retried (capped at [`MAX_RETRIES`]).
+    #[must_use]
+    pub const fn with_retries(mut self, retries: u8) -> Self {
+        self.retries = if retries > MAX_RETRIES { MAX_RETRIES } else { retries };
+        self
+    }
+
+    /// Every DS18B20 (family 28h) on the bus, by SEARCH ROM; other families are skipped.
+    ///
+    /// # Errors
+    /// [`Error::Bus`] with the [`OneWire::search`] error.
+    pub fn search<P, D, const N: usize>(bus: &mut OneWire<P, D>) -> Result<Vec<Self, N>, Error>
+    where
+        P: InputPin + OutputPin,
+        D: DelayNs,
+    {
+        let roms = bus.search::<N>(Some(FAMILY_CODE))?;
+        let mut sensors = Vec::new();
+        for rom in roms {
+            // Same capacity as `roms`: never full.
+            sensors.push(Self::with_rom(Some(rom))).map_err(|_| onewire::Error::TooManyDevices)?;
+        }
+        Ok(sensors)
+    }
+
+    /// The ROM, or `None` when addressed with SKIP ROM.
+    #[must_use]
+    pub const fn rom(&self) -> Option<Rom> {
+        self.rom
+    }
+
+    /// The resolution the driver expects.
+    #[must_use]
+    pub const fn resolution(&self) -> Resolution {
+        self.resolution
+    }
+
+    /// Worst-case delay of [`Self::measure`] in µs, from the datasheet conversion time
+    /// and the slot timing, without pin-call latency.
+    #[must_use]
+    pub const fn max_blocking_measure_us(resolution: Resolution, retries: u8) -> u32 {
+        let retries = if retries > MAX_RETRIES { MAX_RETRIES } else { retries };
+        (retries as u32 + 1) * (START_US + resolution.max_conversion_us() + READ_ATTEMPT_US)
+    }
+
+    fn command<P, D>(&self, bus: &mut OneWire<P, D>, cmd: u8) -> Result<(), Error>
+    where
+        P: InputPin + OutputPin,
+        D: DelayNs,
+    {
+        bus.select(self.rom.as_ref())?;
+        bus.write_byte(cmd)?;
+        Ok(())
+    }
+
+    /// READ POWER SUPPLY (B4h). With SKIP ROM on a bus of several sensors, `Parasite`
+    /// means at least one is.
+    ///
+    /// # Errors
+    /// [`Error::Bus`].
+    pub fn read_power_supply<P, D>(&self, bus: &mut OneWire<P, D>) -> Result<PowerSupply, Error>
+    where
+        P: InputPin + OutputPin,
+        D: DelayNs,
+    {
+        self.command(bus, READ_POWER_SUPPLY)?;
+        Ok(if bus.read_bit()? { PowerSupply::External } else { PowerSupply::Parasite })
+    }
+
+    /// Read the power supply and, if external, let [`Self::is_ready`] poll read slots
+    /// instead of waiting the full conversion time. Parasite sensors do not answer read
+    /// slots during a conversion, so they keep the timer.
+    ///
+    /// # Errors
+    /// As [`Self::read_power_supply`].
+    pub fn use_read_slots<P, D>(&mut self, bus: &mut OneWire<P, D>) -> Result<PowerSupply, Error>
+    where
+        P: InputPin + OutputPin,
+        D: DelayNs,
+    {
+        let power = self.read_power_supply(bus)?;
+        self.read_slots = power == PowerSupply::External;
+        Ok(power)
+    }
+
+    /// The 9 scratchpad bytes, unvalidated (one attempt).
+    ///
+    /// # Errors
+    /// [`Error::Bus`].
+    pub fn read_scratchpad_raw<P, D>(&self, bus: &mut OneWire<P, D>) -> Result<[u8; 9], Error>
+    where
+        P: InputPin + OutputPin,
+        D: DelayNs,
+    {
+        self.command(bus, READ_SCRATCHPAD)?;
+        let mut sp = [0; 9];
+        bus.read_bytes(&mut sp)?;
+        Ok(sp)
+    }
+
+    /// Read and decode the scratchpad (one attempt, no retry).
+    ///
+    /// # Errors
+    /// [`Error::Bus`], [`Error::Scratchpad`].
+    pub fn read_scratchpad<P, D>(&self, bus: &mut OneWire<P, D>) -> Result<([u8; 9], Reading), Error>
+    where
+        P: InputPin + OutputPin,
+        D: DelayNs,
+    {
+        let sp = self.read_scratchpad_raw(bus)?;
+        Ok((sp, decode_scratchpad(&sp)?))
+    }
+
+    /// A scratchpad that passed every check but may hold the power-on temperature,
+    /// which is normal before the first conversion. Retried like [`Self::read`].
+    fn read_intact<P, D>(&self, bus: &mut OneWire<P, D>) -> Result<[u8; 9], Error>
+    where
+        P: InputPin + OutputPin,
+        D: DelayNs,
+    {
+        let mut last = Error::NotReady;
+        for attempt in 0..=MAX_RETRIES {
+            if attempt > self.retries {
+                break;
+            }
+            let sp = self.read_scratchpad_raw(bus)?;
+            match decode_scratchpad(&sp) {
+                Ok(_) | Err(ds18b20::Error::PowerOn) => return Ok(sp),
+                Err(e) => last = e.into(),
+            }
+        }
+        Err(last)
+    }
+
+    /// Set the resolution: read the scratchpad to keep TH and TL, write TH, TL and the
+    /// config byte (4Eh), read back and compare. The setting lives in the scratchpad
+    /// only (not copied to EEPROM), so a brown-out reverts it; see
+    /// [`Error::ResolutionChanged`]. Cancels a conversion in progress.
+    ///
+    /// # Errors
+    /// [`Error::Bus`], [`Error::Scratchpad`], [`Error::Verify`].
+    pub fn set_resolution<P, D>(&mut self, bus: &mut OneWire<P, D>, resolution: Resolution) -> Result<(), Error>
+    where
+        P: InputPin + OutputPin,
+        D: DelayNs,
+    {
+        self.state = State::Idle;
+        let sp = self.read_intact(bus)?;
+        let written = [sp[2], sp[3], resolution.config_byte()];
+        self.command(bus, WRITE_SCRATCHPAD)?;
+        bus.write_bytes(&written)?;
+        let back = self.read_intact(bus)?;
+        if back[2..5] != written {
+            return Err(Error::Verify(back[4]));
+        }
+        self.resolution = resolution;
+        Ok(())
+    }
+
+    /// Start a conversion on this sensor (44h) at `now_us` on the caller's clock.
+    ///
+    /// # Errors
+    /// [`Error::Bus`].
+    pub fn start<P, D>(&mut self, bus: &mut OneWire<P, D>, now_us: u32) -> Result<(), Error>
+    where
+        P: InputPin + OutputPin,
+        D: DelayNs,
+    {
+        self.state = State::Idle;
+        self.command(bus, CONVERT_T)?;
+        self.state = State::Converting { started_us: now_us, resets: bus.reset_count() };
+        Ok(())
+    }
+
+    /// Start a conversion on every sensor at once (SKIP ROM, 44h) and mark each of
+    /// `sensors` as converting since `now_us`.
+    ///
+    /// # Errors
+    /// [`Error::Bus`].
+    pub fn start_all<P, D>(bus: &mut OneWire<P, D>, sensors: &mut [Self], now_us: u32) -> Result<(), Error>
+    where
+        P: InputPin + OutputPin,
+        D: DelayNs,
+    {
+        for s in sensors.iter_mut() {
+            s.state = State::Idle;
+        }
+        bus.skip_rom()?;
+        bus.write_byte(CONVERT_T)?;
+        let resets = bus.reset_count();
+        for s in sensors.iter_mut() {
+            s.state = State::Converting { started_us: now_us, resets };
+        }
+        Ok(())
+    }
+
+    /// Whether the conversion has completed at `now_us` (same clock as `start`,
+    /// wrapping; call within 71 minutes of the start).
+    ///
+    /// From the elapsed time against the datasheet maximum; with read slots enabled,
+    /// also from one read slot if the bus has not been reset since the start (with
+    /// SKIP ROM the slot reads 1 only when every sensor is done).
+    ///
+    /// # Errors
+    /// [`Error::NotStarted`], [`Error::Bus`].
+    pub fn is_ready<P, D>(&mut self, bus: &mut OneWire<P, D>, now_us: u32) -> Result<bool, Error>
+    where
+        P: InputPin + OutputPin,
+        D: DelayNs,
+    {
+        match self.state {
+            State::Idle => Err(Error::NotStarted),
+            State::Done { .. } => Ok(true),
+            State::Converting { started_us, resets } => {
+                let max = self.resolution.max_conversion_us();
+                let completed_us = if now_us.wrapping_sub(started_us) >= max {
+                    started_us.wrapping_add(max)
+                } else if self.read_slots && bus.reset_count() == resets && bus.read_bit()? {
+                    now_us
+                } else {
+                    return Ok(false);
+                };
+                self.state = State::Done { completed_us };
+                Ok(true)
+            }
+        }
+    }
+
+    /// Read the completed conversion, re-reading a bad scratchpad up to `retries` times.
+    ///
+    /// # Errors
+    /// [`Error::NotStarted`], [`Error::NotReady`], [`Error::Bus`] (not retried),
+    /// [`Error::Scratchpad`] (the last error after the retries; `PowerOn` at once, and
+    /// the conversion must be started again), [`Error::ResolutionChanged`].
+    pub fn read<P, D>(&mut self, bus: &mut OneWire<P, D>) -> Result<Sample, Error>
+    where
+        P: InputPin + OutputPin,
+        D: DelayNs,
+    {
+        let completed_us = match self.state {
+            State::Idle => return Err(Error::NotStarted),
+            State::Converting { .. } => return Err(Error::NotReady),
+            State::Done { completed_us } => completed_us,
+        };
+        let mut last = Error::NotReady;
+        for attempt in 0..=MAX_RETRIES {
+            if attempt > self.retries {
+                break;
+            }
+            match self.read_scratchpad(bus) {
+                Ok((scratchpad, reading)) => {
+                    self.state = State::Idle;
+                    if reading.resolution != self.resolution {
+                        return Err(Error::ResolutionChanged(reading.resolution));
+                    }
+                    return Ok(Sample { scratchpad, reading, completed_us });
+                }
+                Err(e @ Error::Scratchpad(ds18b20::Error::PowerOn)) => {
+                    self.state = State::Idle;
+                    return Err(e);
+                }
+                Err(e @ Error::Scratchpad(_)) => last = e,
+                Err(e) => return Err(e),
+            }
+        }
+        Err(last)
+    }
+
+    /// Blocking convenience: start, wait the datasheet conversion time, read. A
+    /// power-on value starts a new conversion, within the same `retries` budget, so
+    /// the call blocks at most [`Self::max_blocking_measure_us`]. `now_us` is the
+    /// caller's clock at the call; the sample's `completed_us` adds the bus time.
+    ///
+    /// # Errors
+    /// As [`Self::start`] and [`Self::read`].
+    pub fn measure<P, D>(&mut self, bus: &mut OneWire<P, D>, now_us: u32) -> Result<Sample, Error>
+    where
+        P: InputPin + OutputPin,
+        D: DelayNs,
+    {
+        let bus_t0 = bus.elapsed_us();
+        let mut last = Error::NotReady;
+        for attempt in 0..=MAX_RETRIES {
+            if attempt > self.retries {
+                break;
+            }
+            self.start(bus, now_us)?;
+            let conversion = self.resolution.max_conversion_us();
+            bus.delay_us(conversion);
+            let completed_us = now_us.wrapping_add(bus.elapsed_us().wrapping_sub(bus_t0));
+            self.state = State::Done { completed_us };
+            match self.read_scratchpad(bus) {
+                Ok((scratchpad, reading)) => {
+                    self.state = State::Idle;
+                    if reading.resolution != self.resolution {
+                        return Err(Error::ResolutionChanged(reading.resolution));
+                    }
+                    return Ok(Sample { scratchpad, reading, completed_us });
+                }
+                Err(e @ Error::Scratchpad(_)) => last = e,
+                Err(e) => return Err(e),
+            }
+        }
+        self.state = State::Idle;
+        Err(last)
+    }
+}
