@@ -111,6 +111,9 @@ pub enum Error {
     /// SEARCH ROM found more devices than the result can hold or than
     /// [`SEARCH_MAX_PASSES`].
     TooManyDevices,
+    /// SEARCH ROM answers changed between passes (a branch taken before vanished, or
+    /// a ROM was found twice): a slot was corrupted.
+    SearchInconsistent,
 }
 
 impl fmt::Display for Error {
@@ -126,6 +129,7 @@ impl fmt::Display for Error {
             Self::WrongFamily(fc) => write!(f, "wrong family code {fc:02X}h"),
             Self::SearchNoResponse => f.write_str("no device answered during SEARCH ROM"),
             Self::TooManyDevices => f.write_str("more devices than the search result holds"),
+            Self::SearchInconsistent => f.write_str("SEARCH ROM answers changed between passes"),
         }
     }
 }
@@ -398,7 +402,7 @@ where
     ///
     /// # Errors
     /// Reset errors (an empty bus gives [`Error::NoPresence`]),
-    /// [`Error::SearchNoResponse`], [`Error::RomCrc`], [`Error::RomAllZero`],
+    /// [`Error::SearchNoResponse`], [`Error::SearchInconsistent`], [`Error::RomCrc`], [`Error::RomAllZero`],
     /// [`Error::TooManyDevices`], [`Error::Pin`].
     pub fn search<const N: usize>(&mut self, family: Option<u8>) -> Result<Vec<Rom, N>, Error> {
         let mut found = Vec::new();
@@ -415,6 +419,10 @@ where
                 let complement = self.read_bit()?;
                 let dir = match (id, complement) {
                     (true, true) => return Err(Error::SearchNoResponse),
+                    // This pass must take the 1 branch of the last discrepancy.
+                    _ if pos == last_discrepancy && (id || complement) => {
+                        return Err(Error::SearchInconsistent)
+                    }
                     (false, false) => {
                         let dir = if pos < last_discrepancy {
                             rom[byte] & mask != 0
@@ -436,6 +444,9 @@ where
                 self.write_bit(dir)?;
             }
             let rom = Rom::from_bytes(rom)?;
+            if found.contains(&rom) {
+                return Err(Error::SearchInconsistent);
+            }
             if family.is_none_or(|fc| fc == rom.family()) {
                 found.push(rom).map_err(|_| Error::TooManyDevices)?;
             }
