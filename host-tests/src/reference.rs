@@ -1,0 +1,413 @@
+//! Independent f64 implementation of the compensator's equations, for checking the vectors.
+//!
+//! Written from the equations (paper Eq. 5 and 11, the bias grid, the three extension
+//! slots, least squares over the window, the plausibility rules), not from the f32 code:
+//! the least-squares slope is a direct centred sum over the window, timestamps are
+//! unwrapped to i64, and every quantity is f64. Only the table's wire decoding is shared
+//! (`Table::decode`), since the format itself is pinned by the exact-bytes test.
+//!
+//! Tolerances used by `tests/vectors.rs` ([`Tolerance`]) are stated there with reasons.
+
+use std::collections::VecDeque;
+
+use qfa_thermal::compensator::Status;
+use qfa_thermal::model::AxisModel;
+use qfa_thermal::table::Table;
+
+const G0: f64 = 9.806_65;
+const TICK_S: f64 = 1e-6;
+const STALE_AFTER: u64 = 3_000_000;
+const WINDOW: usize = 32;
+const MIN_SAMPLES: usize = 8;
+const MAX_GAP_MS: i64 = 30_000;
+const MAX_STEP: i64 = 16;
+const MAX_SLEW_PER_MIN: i64 = 160;
+const CONFIRM: u32 = 3;
+
+/// Result codes, spelled independently of `qfa_replay`'s mapping.
+pub mod code {
+    /// Scratchpad all FFh.
+    pub const BUS_ALL_ONES: u32 = 0x11;
+    /// Scratchpad all zero.
+    pub const ALL_ZERO: u32 = 0x12;
+    /// CRC mismatch.
+    pub const CRC: u32 = 0x13;
+    /// Reserved bytes.
+    pub const RESERVED: u32 = 0x14;
+    /// Config byte.
+    pub const CONFIG: u32 = 0x15;
+    /// Decoder's power-on rule.
+    pub const POWER_ON: u32 = 0x16;
+    /// Time not after previous.
+    pub const TIME: u32 = 0x21;
+    /// 0550h as a jump.
+    pub const POWER_ON_JUMP: u32 = 0x22;
+    /// Implausible jump.
+    pub const IMPLAUSIBLE: u32 = 0x23;
+}
+
+/// What the reference predicts for one event line.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Predicted {
+    /// Table load: `Some(())` accepted, `None` refused (any error).
+    Table(bool),
+    /// Sample accepted.
+    SampleOk {
+        /// Status word.
+        status: u16,
+        /// T̂, °C.
+        temp: f64,
+        /// Ṫ, °C/min.
+        rate: f64,
+        /// K1 per axis.
+        k1: [f64; 3],
+        /// K0 per axis.
+        k0: [f64; 3],
+    },
+    /// Sample refused.
+    SampleErr {
+        /// Result code.
+        code: u32,
+        /// Status word.
+        status: u16,
+    },
+    /// IMU cycle.
+    Cycle {
+        /// Status word.
+        status: u16,
+        /// Δv per axis, m/s.
+        dv: [f64; 3],
+    },
+}
+
+#[derive(Clone, Copy, Default)]
+struct AxisRef {
+    init: bool,
+    branch: i8, // 0 unknown, 1 heating, -1 cooling
+    te: f64,
+    play: f64,
+    creep: f64,
+}
+
+/// The f64 reference compensator (3 axes, window 32, default config).
+pub struct Reference {
+    table: Option<Table>,
+    window: VecDeque<(i64, i64)>,
+    last_abs: u32,
+    last_unwrapped: i64,
+    axes: [AxisRef; 3],
+    k1: [f64; 3],
+    k0: [f64; 3],
+    status: u16,
+    since: u64,
+    last_good: Option<(i64, i64)>,
+    pending: Option<(i64, i64)>,
+    pending_n: u32,
+    counters: Option<[u32; 3]>,
+}
+
+impl Default for Reference {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+fn crc8(bytes: &[u8]) -> u8 {
+    // Bit-serial Dallas/Maxim CRC from the datasheet's shift-register description.
+    let mut crc = 0u8;
+    for &b in bytes {
+        let mut byte = b;
+        for _ in 0..8 {
+            let mix = (crc ^ byte) & 1;
+            crc >>= 1;
+            if mix != 0 {
+                crc ^= 0x8C;
+            }
+            byte >>= 1;
+        }
+    }
+    crc
+}
+
+/// Decode a scratchpad independently: `Ok(raw)` or an error code.
+pub fn decode(sp: &[u8; 9]) -> Result<i64, u32> {
+    if sp.iter().all(|&b| b == 0xFF) {
+        return Err(code::BUS_ALL_ONES);
+    }
+    if sp.iter().all(|&b| b == 0) {
+        return Err(code::ALL_ZERO);
+    }
+    if crc8(&sp[..8]) != sp[8] {
+        return Err(code::CRC);
+    }
+    if sp[5] != 0xFF || sp[7] != 0x10 {
+        return Err(code::RESERVED);
+    }
+    let drop_bits = match sp[4] {
+        0x1F => 3,
+        0x3F => 2,
+        0x5F => 1,
+        0x7F => 0,
+        _ => return Err(code::CONFIG),
+    };
+    let raw = i64::from(i16::from_le_bytes([sp[0], sp[1]]));
+    if raw == 0x0550 && sp[6] == 0x0C {
+        return Err(code::POWER_ON);
+    }
+    Ok((raw >> drop_bits) << drop_bits)
+}
+
+fn interp(values: &[f32], start: f64, step: f64, t: f64) -> f64 {
+    let x = (t - start) / step;
+    let i = (x.floor().max(0.0) as usize).min(values.len() - 2);
+    let (a, b) = (f64::from(values[i]), f64::from(values[i + 1]));
+    a + (b - a) * (x - i as f64)
+}
+
+/// Evaluate one axis in f64: (K1, K0, temp clamped, rate clamped).
+fn eval_axis(m: &AxisModel, s: &mut AxisRef, t: f64, r: f64, dt: f64) -> (f64, f64, bool, bool) {
+    let lo = f64::from(m.bias.t_start_c);
+    let step = f64::from(m.bias.t_step_c);
+    let hi = lo + step * (m.bias.heating_g.len() - 1) as f64;
+    let tc = t.clamp(lo, hi);
+    let lim = f64::from(m.rate_limit_c_per_min);
+    let rc = r.clamp(-lim, lim);
+    if !s.init {
+        *s = AxisRef { init: true, branch: 0, te: tc, play: tc, creep: tc };
+    }
+    let te = match m.ext.sensor_lag {
+        Some(l) => {
+            if dt > 0.0 {
+                s.te += (1.0 - (-dt / f64::from(l.tau_s)).exp()) * (tc - s.te);
+            }
+            s.te
+        }
+        None => tc,
+    };
+    let db = f64::from(m.bias.deadband_c_per_min);
+    if rc > db {
+        s.branch = 1;
+    } else if rc < -db {
+        s.branch = -1;
+    }
+    let sf = &m.scale;
+    let d = te - f64::from(sf.t0_c);
+    let k1 = f64::from(sf.alpha) * rc * rc
+        + f64::from(sf.beta) * d * d
+        + f64::from(sf.eta) * rc * d
+        + f64::from(sf.epsilon) * rc
+        + f64::from(sf.mu) * d
+        + f64::from(sf.gamma);
+    let h = interp(&m.bias.heating_g, lo, step, te);
+    let c = interp(&m.bias.cooling_g, lo, step, te);
+    let mut k0 = match s.branch {
+        1 => h,
+        -1 => c,
+        _ => 0.5 * (h + c),
+    };
+    if let Some(p) = m.ext.bias_branch_hysteresis {
+        let r = f64::from(p.half_width_c);
+        s.play = s.play.clamp(te - r, te + r);
+        k0 += f64::from(p.weight_g) * (te - s.play) / r;
+    }
+    if let Some(cr) = m.ext.bias_creep {
+        let tau = f64::from(cr.tau_ref_s)
+            * (f64::from(cr.activation_k) * (1.0 / (te + 273.15) - 1.0 / (f64::from(cr.t_ref_c) + 273.15))).exp();
+        if dt > 0.0 {
+            s.creep += (1.0 - (-dt / tau).exp()) * (te - s.creep);
+        }
+        k0 += f64::from(cr.gain_g_per_c) * (te - s.creep);
+    }
+    (k1, k0, tc != t, rc != r)
+}
+
+impl Reference {
+    /// Fresh reference, as `Compensator::new(Config::default())`.
+    #[must_use]
+    pub fn new() -> Self {
+        Self {
+            table: None,
+            window: VecDeque::new(),
+            last_abs: 0,
+            last_unwrapped: 0,
+            axes: [AxisRef::default(); 3],
+            k1: [0.0; 3],
+            k0: [0.0; 3],
+            status: Status::NO_TABLE | Status::TEMP_STALE | Status::RATE_NOT_READY,
+            since: u64::from(u32::MAX),
+            last_good: None,
+            pending: None,
+            pending_n: 0,
+            counters: None,
+        }
+    }
+
+    /// (T̂, Ṫ, ready) from a direct f64 least-squares fit over the window.
+    fn estimate(&self) -> (f64, f64, bool) {
+        let n = self.window.len();
+        if n == 0 {
+            return (0.0, 0.0, false);
+        }
+        let newest = self.window[n - 1];
+        if n < MIN_SAMPLES {
+            return (newest.1 as f64 / 16.0, 0.0, false);
+        }
+        let nf = n as f64;
+        let mt = self.window.iter().map(|s| s.0 as f64).sum::<f64>() / nf;
+        let my = self.window.iter().map(|s| s.1 as f64).sum::<f64>() / nf;
+        let sxy: f64 = self.window.iter().map(|s| (s.0 as f64 - mt) * (s.1 as f64 - my)).sum();
+        let sxx: f64 = self.window.iter().map(|s| (s.0 as f64 - mt).powi(2)).sum();
+        let slope = sxy / sxx; // raw per ms
+        let fit = my + slope * (newest.0 as f64 - mt);
+        (fit / 16.0, slope * 60_000.0 / 16.0, true)
+    }
+
+    fn refresh(&mut self, dt: f64) {
+        let (temp, rate, ready) = self.estimate();
+        let mut st = if ready { 0 } else { Status::RATE_NOT_READY };
+        let Some(table) = &self.table else {
+            self.k1 = [0.0; 3];
+            self.k0 = [0.0; 3];
+            self.status = st | Status::NO_TABLE;
+            return;
+        };
+        let have = self.last_good.is_some();
+        for (i, m) in table.axes.iter().enumerate() {
+            let (k1, k0, tcl, rcl) = if have {
+                eval_axis(m, &mut self.axes[i], temp, rate, dt)
+            } else {
+                eval_axis(m, &mut AxisRef::default(), f64::from(m.scale.t0_c), 0.0, 0.0)
+            };
+            if tcl {
+                st |= Status::TEMP_OUT_OF_RANGE;
+            }
+            if rcl {
+                st |= Status::RATE_OUT_OF_RANGE;
+            }
+            self.k1[i] = k1;
+            self.k0[i] = k0;
+        }
+        if !have {
+            st |= Status::TEMP_STALE;
+        }
+        self.status = st;
+    }
+
+    /// Load a table (decoded by the crate's codec; everything after is independent).
+    pub fn table(&mut self, bytes: &[u8]) -> Predicted {
+        match Table::decode(bytes) {
+            Ok(t) if t.axes.len() == 3 && t.rate_window == 32 => {
+                self.table = Some(t);
+                self.axes = [AxisRef::default(); 3];
+                self.refresh(0.0);
+                Predicted::Table(true)
+            }
+            _ => Predicted::Table(false),
+        }
+    }
+
+    fn reject(&mut self, code: u32) -> Predicted {
+        self.status |= Status::TEMP_INVALID;
+        Predicted::SampleErr { code, status: self.status }
+    }
+
+    fn allowed(from_t: i64, to_t: i64) -> i64 {
+        MAX_STEP + MAX_SLEW_PER_MIN * (to_t - from_t) / 60_000
+    }
+
+    /// A scratchpad read at `t_ms`.
+    pub fn scratchpad(&mut self, t_ms: u32, sp: &[u8; 9]) -> Predicted {
+        match decode(sp) {
+            Ok(raw) => self.raw(t_ms, raw),
+            Err(c) => self.reject(c),
+        }
+    }
+
+    /// A raw reading at `t_ms`.
+    pub fn raw(&mut self, t_ms: u32, raw: i64) -> Predicted {
+        let mut restart = false;
+        let t;
+        match self.last_good {
+            None => {
+                if raw == 0x0550 {
+                    return self.reject(code::POWER_ON_JUMP);
+                }
+                t = i64::from(t_ms);
+            }
+            Some((lt, lraw)) => {
+                let d = t_ms.wrapping_sub(self.last_abs);
+                if d == 0 || d >= 1 << 31 {
+                    return self.reject(code::TIME);
+                }
+                t = lt + i64::from(d);
+                if (raw - lraw).abs() > Self::allowed(lt, t) {
+                    if raw == 0x0550 {
+                        return self.reject(code::POWER_ON_JUMP);
+                    }
+                    let consistent = match self.pending {
+                        Some((pt, praw)) => t > pt && (raw - praw).abs() <= Self::allowed(pt, t),
+                        None => false,
+                    };
+                    self.pending_n = if consistent { self.pending_n + 1 } else { 1 };
+                    self.pending = Some((t, raw));
+                    if self.pending_n < CONFIRM {
+                        return self.reject(code::IMPLAUSIBLE);
+                    }
+                    restart = true;
+                }
+            }
+        }
+        let prev = self.last_good.map(|g| g.0);
+        if restart || prev.is_some_and(|p| t - p > MAX_GAP_MS) {
+            self.window.clear();
+        }
+        self.window.push_back((t, raw));
+        if self.window.len() > WINDOW {
+            self.window.pop_front();
+        }
+        self.pending = None;
+        self.pending_n = 0;
+        self.last_good = Some((t, raw));
+        self.last_abs = t_ms;
+        self.last_unwrapped = t;
+        self.since = 0;
+        self.refresh(prev.map_or(0.0, |p| (t - p) as f64 / 1000.0));
+        let (temp, rate, _) = self.estimate();
+        Predicted::SampleOk { status: self.status, temp, rate, k1: self.k1, k0: self.k0 }
+    }
+
+    /// An IMU cycle.
+    pub fn cycle(&mut self, pulses: [i64; 3], dt: u32) -> Predicted {
+        self.since = (self.since + u64::from(dt)).min(u64::from(u32::MAX));
+        let stale = if self.since > STALE_AFTER { Status::TEMP_STALE } else { 0 };
+        let mut dv = [0.0; 3];
+        if self.table.is_some() {
+            for i in 0..3 {
+                dv[i] = pulses[i] as f64 * G0 / self.k1[i] - self.k0[i] * G0 * TICK_S * f64::from(dt);
+            }
+        }
+        if let Some(m) = self.table.as_ref().and_then(|t| t.misalignment) {
+            let raw = dv;
+            for (r, out) in dv.iter_mut().enumerate() {
+                *out = (0..3).map(|c| f64::from(m[r * 3 + c]) * raw[c]).sum();
+            }
+        }
+        Predicted::Cycle { status: self.status | stale, dv }
+    }
+
+    /// An IMU cycle from wrapping cumulative counters.
+    pub fn counters(&mut self, c: [u32; 3], dt: u32) -> Predicted {
+        match self.counters.replace(c) {
+            None => match self.cycle([0; 3], dt) {
+                Predicted::Cycle { status, .. } => {
+                    Predicted::Cycle { status: status | Status::NO_COUNTER_BASE, dv: [0.0; 3] }
+                }
+                other => other,
+            },
+            Some(p) => {
+                let d: [i64; 3] = std::array::from_fn(|i| i64::from(c[i].wrapping_sub(p[i]) as i32));
+                self.cycle(d, dt)
+            }
+        }
+    }
+}
