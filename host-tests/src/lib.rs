@@ -1,1 +1,4 @@
 //! Host tests for qfa-thermal.
+
+pub mod reference;
+pub mod scenarios;
