@@ -1,4 +1,3 @@
 //! Host tests for qfa-thermal.
 
-pub mod reference;
-pub mod scenarios;
+pub mod onewire_sim;
