@@ -1,3 +1,5 @@
 //! Host tests for qfa-thermal.
 
 pub mod onewire_sim;
+pub mod reference;
+pub mod scenarios;
