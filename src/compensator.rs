@@ -411,3 +411,146 @@ impl<const AXES: usize, const N: usize> Compensator<AXES, N> {
         self.counters = Some(counters);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::{AxisModel, BiasGrid, Extensions, ScaleFactor};
+
+    fn table(axes: usize, window: u16) -> Table {
+        let mut t = Table { rate_window: window, axes: heapless::Vec::new(), misalignment: None };
+        for i in 0..axes {
+            let a = AxisModel {
+                scale: ScaleFactor {
+                    t0_c: 22.0,
+                    gamma: 320_320.0 + 100.0 * i as f32,
+                    mu: -32.76,
+                    beta: 0.1008,
+                    epsilon: 88.14,
+                    eta: -0.02409,
+                    alpha: 273.0,
+                },
+                bias: BiasGrid::single_valued(-60.0, 65.0, &[1e-4, 1.5e-4, 3e-4]),
+                rate_limit_c_per_min: 2.0,
+                ext: Extensions::default(),
+            };
+            t.axes.push(a).unwrap();
+        }
+        t
+    }
+
+    fn warm(c: &mut Compensator<3, 32>, n: u32) {
+        for k in 0..n {
+            c.on_raw(1000 * k, 352).unwrap();
+        }
+    }
+
+    #[test]
+    fn recovers_the_applied_specific_force() {
+        let mut c = Compensator::<3, 32>::new(Config::default());
+        c.set_table(table(3, 32)).unwrap();
+        warm(&mut c, 20);
+        let s = c.on_raw(20_000, 352).unwrap();
+        assert!(s.is_ok(), "{s:?}");
+        // 22 °C, Ṫ = 0: K1 = γ, K0 = grid at 22 °C. Pulses for a = 0.5 g over 1 s (1e6 ticks).
+        // Grid points at −60, 5, 70 °C: 22 °C is 17/65 of the way from 1.5e-4 to 3e-4 g.
+        let k0 = 1.5e-4 + (3e-4 - 1.5e-4) * (17.0 / 65.0);
+        let n = (320_320.0f64 * (k0 + 0.5)).round() as i32;
+        let out = c.cycle([n, n, n], 1_000_000);
+        let a = f64::from(out.dv_mps[0]) / 9.806_65;
+        assert!((a - 0.5).abs() < 5e-6, "{a}");
+        assert!(out.status.is_ok());
+    }
+
+    #[test]
+    fn stale_after_timeout_keeps_last_compensation() {
+        let mut c = Compensator::<3, 32>::new(Config::default());
+        c.set_table(table(3, 32)).unwrap();
+        warm(&mut c, 12);
+        let fresh = c.cycle([800, 800, 800], 2500);
+        assert!(!fresh.status.contains(Status::TEMP_STALE));
+        let mut last = fresh;
+        for _ in 0..1300 {
+            last = c.cycle([800, 800, 800], 2500);
+        }
+        assert!(last.status.contains(Status::TEMP_STALE), "3.25 s without a reading");
+        assert_eq!(last.dv_mps, fresh.dv_mps, "same compensation, only flagged");
+        c.on_raw(12_000 + 3_250, 352).unwrap();
+        assert!(!c.cycle([800, 800, 800], 2500).status.contains(Status::TEMP_STALE));
+    }
+
+    #[test]
+    fn rejected_reading_flags_and_keeps_state() {
+        let mut c = Compensator::<3, 32>::new(Config::default());
+        c.set_table(table(3, 32)).unwrap();
+        warm(&mut c, 12);
+        let before = c.cycle([800, 800, 800], 2500);
+        let est = c.estimate();
+        assert_eq!(c.on_raw(12_000, 352 + 200), Err(SampleError::Implausible { raw: 552 }));
+        assert_eq!(c.on_scratchpad(12_500, &[0u8; 9]), Err(SampleError::Decode(ds18b20::Error::AllZero)));
+        let after = c.cycle([800, 800, 800], 2500);
+        assert!(after.status.contains(Status::TEMP_INVALID));
+        assert_eq!(after.dv_mps, before.dv_mps);
+        assert_eq!(c.estimate(), est);
+        c.on_raw(13_000, 352).unwrap();
+        assert!(!c.status().contains(Status::TEMP_INVALID));
+    }
+
+    #[test]
+    fn table_load_is_atomic() {
+        let mut c = Compensator::<3, 32>::new(Config::default());
+        c.set_table(table(3, 32)).unwrap();
+        warm(&mut c, 12);
+        let before = c.cycle([800, 800, 800], 2500);
+        let mut buf = [0u8; table::MAX_TABLE_BYTES];
+        let mut other = table(3, 32);
+        other.axes[0].scale.gamma = 300_000.0;
+        let len = other.encode(&mut buf).unwrap().len();
+        buf[len - 2] ^= 0x40;
+        assert_eq!(c.load_table(&buf[..len]), Err(table::Error::Crc));
+        assert_eq!(c.set_table(table(3, 64)), Err(table::Error::RateWindow { table: 64, firmware: 32 }));
+        assert!(matches!(c.set_table(table(2, 32)), Err(table::Error::AxisCount { .. })));
+        let mut nan = table(3, 32);
+        nan.axes[2].bias.cooling_g[1] = f32::NAN;
+        assert!(matches!(c.set_table(nan), Err(table::Error::NonFinite(_))));
+        assert_eq!(c.cycle([800, 800, 800], 2500).dv_mps, before.dv_mps);
+        assert_eq!(c.table().unwrap().axes[0].scale.gamma, 320_320.0);
+    }
+
+    #[test]
+    fn no_table_gives_zero_flagged_output() {
+        let mut c = Compensator::<3, 32>::new(Config::default());
+        let out = c.cycle([1000, -1000, 5], 2500);
+        assert_eq!(out.dv_mps, [0.0; 3]);
+        assert!(out.status.contains(Status::NO_TABLE));
+        assert!(out.status.contains(Status::TEMP_STALE));
+    }
+
+    #[test]
+    fn extreme_inputs_stay_finite() {
+        let mut c = Compensator::<3, 32>::new(Config::default());
+        let mut t = table(3, 32);
+        t.misalignment = Some([1.049, 0.049, -0.049, -0.049, 0.951, 0.049, 0.049, -0.049, 1.049]);
+        c.set_table(t).unwrap();
+        warm(&mut c, 12);
+        for (p, dt) in [([i32::MAX, i32::MIN, 0], u32::MAX), ([i32::MIN; 3], 0), ([0; 3], u32::MAX)] {
+            let out = c.cycle(p, dt);
+            assert!(out.dv_mps.iter().all(|v| v.is_finite()), "{out:?}");
+        }
+    }
+
+    #[test]
+    fn wrapping_counters_give_signed_increments() {
+        let mut c = Compensator::<1, 32>::new(Config::default());
+        c.set_table(table(1, 32)).unwrap();
+        for k in 0..12 {
+            c.on_raw(1000 * k, 352).unwrap();
+        }
+        let first = c.cycle_counters([u32::MAX - 99], 2500);
+        assert!(first.status.contains(Status::NO_COUNTER_BASE));
+        assert_eq!(first.dv_mps, [0.0]);
+        let wrapped = c.cycle_counters([700], 2500);
+        let direct = c.cycle([800], 2500);
+        assert_eq!(wrapped.dv_mps, direct.dv_mps);
+    }
+}
