@@ -62,7 +62,15 @@
 //! ```
 //!
 //! `comp.on_raw(s.completed_us / 1000, s.reading.raw)` is the path for an already
-//! validated reading.
+//! validated reading; both return the compensator's own `Result`.
+//!
+//! # Flash
+//!
+//! The bus and this driver (search, set resolution, read slots, start, is_ready, read,
+//! measure, start_all, read ROM) add 8 948 bytes of `.text` for `thumbv7em-none-eabihf`
+//! with the release profile (opt-level 3, LTO), 3 500 bytes at opt-level `s`: the
+//! difference of `llvm-size` between a minimal cortex-m-rt binary that calls them and
+//! the same binary calling only [`decode_scratchpad`] (which is counted with the core).
 
 use core::fmt;
 
