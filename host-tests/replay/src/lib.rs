@@ -141,7 +141,7 @@ fn hex_nibble(c: u8) -> Option<u8> {
 
 fn hex_bytes<'b>(s: &str, out: &'b mut [u8]) -> Option<&'b [u8]> {
     let b = s.as_bytes();
-    if b.len() % 2 != 0 || b.len() / 2 > out.len() {
+    if !b.len().is_multiple_of(2) || b.len() / 2 > out.len() {
         return None;
     }
     for (i, pair) in b.chunks_exact(2).enumerate() {

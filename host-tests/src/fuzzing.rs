@@ -1,0 +1,133 @@
+//! Fuzz harnesses, shared by the cargo-fuzz targets (`fuzz/`) and by `tests/fuzz_corpus.rs`,
+//! which runs the same harnesses over a fixed corpus under `cargo test` (CI has no nightly
+//! toolchain for libFuzzer).
+//!
+//! Each harness panics only when a property is violated, so a fuzzer crash is a bug.
+
+use qfa_thermal::compensator::{Compensator, Config, Status};
+use qfa_thermal::ds18b20;
+use qfa_thermal::table::Table;
+
+/// Scratchpad decoding: never panics; an accepted reading has masked low bits, a valid
+/// config byte, a matching CRC, and is not the power-on pattern.
+pub fn scratchpad(data: &[u8]) {
+    let Some(sp) = data.get(..9) else { return };
+    let sp: [u8; 9] = sp.try_into().expect("9 bytes");
+    if let Ok(r) = ds18b20::decode_scratchpad(&sp) {
+        assert_eq!(ds18b20::crc8(&sp), 0, "accepted scratchpad has a valid CRC");
+        assert_eq!(r.resolution.config_byte(), sp[4]);
+        assert_eq!(r.raw & !r.resolution.raw_mask(), 0, "undefined bits masked");
+        assert!(!(i16::from_le_bytes([sp[0], sp[1]]) == 0x0550 && sp[6] == 0x0C));
+        assert!(r.celsius().is_finite());
+    }
+}
+
+/// Table decoding: never panics; whatever decodes also validates and re-encodes to the
+/// same bytes.
+pub fn table(data: &[u8]) {
+    if let Ok(t) = Table::decode(data) {
+        t.validate().expect("decoded tables are valid");
+        let mut buf = [0u8; qfa_thermal::table::MAX_TABLE_BYTES];
+        let bytes = t.encode(&mut buf).expect("re-encodes");
+        assert_eq!(bytes, data, "decode∘encode is the identity on accepted tables");
+    }
+}
+
+/// A valid 3-axis table (JB-KT8 #1 with every slot on) for the stream harness.
+#[must_use]
+pub fn stream_table() -> Vec<u8> {
+    use crate::scenarios;
+    let e = qfa_thermal::Extensions {
+        sensor_lag: Some(scenarios::LAG),
+        bias_branch_hysteresis: Some(scenarios::PLAY),
+        bias_creep: Some(scenarios::CREEP),
+    };
+    let t = scenarios::table(0, [e; 3], Some(scenarios::MISALIGN));
+    let mut buf = [0u8; qfa_thermal::table::MAX_TABLE_BYTES];
+    t.encode(&mut buf).expect("valid").to_vec()
+}
+
+/// A compensator driven by a byte stream of mixed events: readings (raw and scratchpad),
+/// time jumps and stalls, cycles, counters, and table loads of mutated bytes.
+///
+/// Properties: no panic; every output finite; a rejected reading or table leaves the
+/// compensation unchanged; a cycle more than `stale_after_ticks` after the last good
+/// reading is flagged stale; after a good reading it is not.
+pub fn compensator_stream(data: &[u8]) {
+    let good_table = stream_table();
+    let mut c = Compensator::<3, 32>::new(Config::default());
+    let stale_after = u64::from(c.config().stale_after_ticks);
+    let mut since_good: u64 = u64::from(u32::MAX);
+    let mut t_ms: u32 = u32::from_le_bytes([data.first().copied().unwrap_or(0), 0, 0, 0x80]);
+    let mut raw: i16 = 352;
+    let mut bytes = data.iter().copied();
+    let mut next = || bytes.next();
+    let probe = |c: &Compensator<3, 32>| {
+        let mut c2 = c.clone();
+        c2.cycle([1000, -1000, 10], 2500).dv_mps
+    };
+    while let Some(op) = next() {
+        let arg = next().unwrap_or(0);
+        match op % 8 {
+            0 | 1 => {
+                // A reading: small step, occasionally a spike or the power-on value.
+                t_ms = t_ms.wrapping_add(u32::from(arg) * 40);
+                raw = match arg % 16 {
+                    0 => 0x0550,
+                    1 => raw.wrapping_add(400),
+                    _ => raw.wrapping_add(i16::from(arg as i8 % 3)),
+                };
+                let before = probe(&c);
+                match c.on_raw(t_ms, raw) {
+                    Ok(_) => since_good = 0,
+                    Err(_) => {
+                        assert!(c.status().contains(Status::TEMP_INVALID));
+                        assert_eq!(probe(&c), before, "rejected reading changed the compensation");
+                    }
+                }
+            }
+            2 => {
+                // A scratchpad, possibly corrupted.
+                t_ms = t_ms.wrapping_add(1000);
+                let mut sp = ds18b20::encode_scratchpad(raw, ds18b20::Resolution::Bits12, 0x0D);
+                if arg & 1 == 1 {
+                    sp[usize::from(arg >> 1) % 9] ^= 1 << (arg % 8);
+                }
+                let before = probe(&c);
+                match c.on_scratchpad(t_ms, &sp) {
+                    Ok(_) => since_good = 0,
+                    Err(_) => assert_eq!(probe(&c), before),
+                }
+            }
+            3 => t_ms = t_ms.wrapping_sub(u32::from(arg) * 100), // time goes backwards
+            4 | 5 => {
+                let dt = u32::from(arg) * 20_000 + u32::from(op);
+                let p = [i32::from(arg) * 257 - 30_000, -(i32::from(op) << 20), i32::from(arg as i8) << 23];
+                let out = c.cycle(p, dt);
+                since_good = (since_good + u64::from(dt)).min(u64::from(u32::MAX));
+                assert!(out.dv_mps.iter().all(|v| v.is_finite()), "non-finite output {out:?}");
+                assert_eq!(out.status.contains(Status::TEMP_STALE), since_good > stale_after || c.status().contains(Status::TEMP_STALE));
+            }
+            6 => {
+                let cnt = [u32::from(arg) << 24, u32::from(op) << 28, u32::from(arg) * 3];
+                let out = c.cycle_counters(cnt, 2500);
+                since_good = (since_good + 2500).min(u64::from(u32::MAX));
+                assert!(out.dv_mps.iter().all(|v| v.is_finite()));
+            }
+            _ => {
+                // Load the good table, possibly with one byte mutated.
+                let mut t = good_table.clone();
+                if arg != 0 {
+                    let i = usize::from(arg) * 7 % t.len();
+                    t[i] ^= arg;
+                }
+                let before = probe(&c);
+                let was = c.table().cloned();
+                if c.load_table(&t).is_err() {
+                    assert_eq!(c.table().cloned(), was, "refused table changed the active one");
+                    assert_eq!(probe(&c), before, "refused table changed the compensation");
+                }
+            }
+        }
+    }
+}
