@@ -1,0 +1,169 @@
+//! Instruction counts of the fast and slow paths on the Cortex-M4F, under QEMU with
+//! `-icount shift=0` (one instruction = 1 ns of virtual time; SysTick counts that clock
+//! deterministically, the DWT cycle counter reads 0). Run: `cargo xtask bench-target`.
+//!
+//! Method: SysTick runs from the core clock, reload 2²⁴−1. A loop of exactly two
+//! instructions per iteration (`subs`/`bne`, inline asm), timed at two lengths, gives
+//! instructions per tick without its fixed overhead. Each figure is `CALLS` calls in
+//! batches short enough never to wrap SysTick, minus the same loop with an empty body that
+//! passes the same values through `black_box`, times instructions per tick, over `CALLS`.
+#![cfg_attr(target_os = "none", no_std, no_main)]
+
+#[cfg(target_os = "none")]
+mod target {
+    use core::fmt::Write;
+    use core::hint::black_box;
+
+    use cortex_m::peripheral::{syst::SystClkSource, SYST};
+    use cortex_m_rt::{entry, exception, ExceptionFrame};
+    use qfa_firmware::{fixtures, rt};
+    use qfa_thermal::{Compensator, Config, Extensions, Output, Status};
+
+    const CALLS: u32 = 10_000;
+    const BATCH: u32 = 500;
+    const RELOAD: u32 = 0x00FF_FFFF;
+
+    fn now() -> u32 {
+        SYST::get_current()
+    }
+
+    /// Ticks from `start` to `end` of the down-counter (less than one wrap).
+    fn ticks(start: u32, end: u32) -> u32 {
+        start.wrapping_sub(end) & RELOAD
+    }
+
+    /// `n` iterations of exactly two instructions.
+    #[inline(always)]
+    #[allow(unsafe_code)]
+    fn spin(n: u32) {
+        // SAFETY: register-only countdown loop; no memory, no stack.
+        unsafe {
+            core::arch::asm!("2:", "subs {0}, {0}, #1", "bne 2b", inout(reg) n => _, options(nomem, nostack));
+        }
+    }
+
+    fn time_spin(n: u32) -> u32 {
+        let s = now();
+        spin(black_box(n));
+        ticks(s, now())
+    }
+
+    /// Ticks for `CALLS` calls of `f(k)`, k = 0.., in batches of `BATCH`.
+    fn time_calls(mut f: impl FnMut(u32)) -> u64 {
+        let mut total = 0u64;
+        let mut k = 0u32;
+        for _ in 0..CALLS / BATCH {
+            let s = now();
+            for _ in 0..BATCH {
+                f(k);
+                k = k.wrapping_add(1);
+            }
+            total += u64::from(ticks(s, now()));
+        }
+        total
+    }
+
+    /// Timestamp (ms) and raw reading of slow-path call `k`: 1 Hz samples, a triangle of
+    /// ±1/2 °C around 20.5 °C at 1/16 °C per 4 s (0.94 °C/min), so every reading is accepted,
+    /// and the branch switches.
+    fn sample(k: u32) -> (u32, i16) {
+        let p = (k >> 2) & 31;
+        let tri = if p < 16 { p } else { 31 - p };
+        (k.wrapping_mul(1000), 320 + tri as i16)
+    }
+
+    fn compensator(ext: Extensions, misalignment: bool) -> Compensator<3, 32> {
+        let mut c = Compensator::<3, 32>::new(Config::default());
+        c.set_table(fixtures::table(ext, misalignment, 32)).expect("fixture table validates");
+        for k in 0..64 {
+            let (t, raw) = sample(k);
+            c.on_raw(t, raw).expect("warm-up readings are plausible");
+        }
+        c
+    }
+
+    fn per_call(ticks: u64, empty: u64, insns_per_tick: f64) -> f64 {
+        (ticks as f64 - empty as f64) * insns_per_tick / f64::from(CALLS)
+    }
+
+    #[entry]
+    fn main() -> ! {
+        let Some(mut out) = rt::console() else { rt::exit(2) };
+        let mut cp = cortex_m::Peripherals::take().expect("first take");
+        cp.SYST.set_clock_source(SystClkSource::Core);
+        cp.SYST.set_reload(RELOAD);
+        cp.SYST.clear_current();
+        cp.SYST.enable_counter();
+
+        let (n1, n2) = (100_000u32, 1_100_000u32);
+        let (t1, t2) = (time_spin(n1), time_spin(n2));
+        let ipt = 2.0 * f64::from(n2 - n1) / f64::from(t2 - t1);
+
+        const PULSES: [i32; 3] = [1_602, -3_203, 320_320];
+        const DT: u32 = 5_000;
+        let fast_empty = time_calls(|_| {
+            black_box(black_box(PULSES));
+            black_box(black_box(DT));
+            black_box(Output { dv_mps: black_box([0.0f32; 3]), status: Status(black_box(0)) });
+        });
+        let mut c = compensator(Extensions::default(), false);
+        let fast = time_calls(|_| {
+            black_box(black_box(&mut c).cycle(black_box(PULSES), black_box(DT)));
+        });
+        let mut c = compensator(Extensions::default(), true);
+        let fast_m = time_calls(|_| {
+            black_box(black_box(&mut c).cycle(black_box(PULSES), black_box(DT)));
+        });
+
+        let slow_empty = time_calls(|k| {
+            let (t, raw) = sample(k + 64);
+            black_box(black_box(t));
+            black_box(black_box(raw));
+            let _ = black_box(Ok::<Status, qfa_thermal::SampleError>(Status(black_box(0))));
+        });
+        let mut c = compensator(Extensions::default(), false);
+        let slow_off = time_calls(|k| {
+            let (t, raw) = sample(k + 64);
+            let _ = black_box(black_box(&mut c).on_raw(black_box(t), black_box(raw)));
+        });
+        let off_status = c.status();
+        let mut c = compensator(fixtures::all_slots_on(), false);
+        let slow_on = time_calls(|k| {
+            let (t, raw) = sample(k + 64);
+            let _ = black_box(black_box(&mut c).on_raw(black_box(t), black_box(raw)));
+        });
+        let on_status = c.status();
+
+        let _ = writeln!(out, "calls_per_figure={CALLS}");
+        let _ = writeln!(out, "insns_per_systick_tick={ipt:.4}");
+        let _ = writeln!(out, "fast_path_insns_3axis={:.1}", per_call(fast, fast_empty, ipt));
+        let _ = writeln!(out, "fast_path_insns_3axis_misalign={:.1}", per_call(fast_m, fast_empty, ipt));
+        let _ = writeln!(out, "slow_path_insns_3axis_all_off={:.1}", per_call(slow_off, slow_empty, ipt));
+        let _ = writeln!(out, "slow_path_insns_3axis_all_on={:.1}", per_call(slow_on, slow_empty, ipt));
+        let _ = writeln!(out, "slow_path_status_all_off={:#06x}", off_status.0);
+        let _ = writeln!(out, "slow_path_status_all_on={:#06x}", on_status.0);
+        // The core has no statics: its RAM is the compensator it is given.
+        let _ = writeln!(out, "core_ram_bytes={}", core::mem::size_of::<Compensator<3, 32>>());
+        // Of which: the active table's copy and the rate estimator's window.
+        let _ = writeln!(out, "core_ram_table_bytes={}", core::mem::size_of::<Option<qfa_thermal::Table>>());
+        let _ = writeln!(out, "core_ram_rate_bytes={}", core::mem::size_of::<qfa_thermal::rate::RateEstimator<32>>());
+        rt::exit(0)
+    }
+
+    #[exception]
+    #[allow(unsafe_code)]
+    unsafe fn HardFault(ef: &ExceptionFrame) -> ! {
+        rt::on_hard_fault(ef)
+    }
+
+    #[panic_handler]
+    fn panic(info: &core::panic::PanicInfo<'_>) -> ! {
+        rt::on_panic(info)
+    }
+}
+
+#[cfg(not(target_os = "none"))]
+fn main() {
+    eprintln!("bench counts instructions under QEMU: run `cargo xtask bench-target`");
+    std::process::exit(2);
+}
