@@ -191,9 +191,11 @@ impl<const N: usize> RateEstimator<N> {
                 return Ok(outcome);
             }
         }
-        // First sample: it is the time origin.
-        self.gap[self.head] = 0;
-        self.raw[self.head] = raw;
+        // First sample: it is the time origin. `head < N` always; `% N` shows the compiler,
+        // so no bounds check (and no panic path) is emitted.
+        let head = self.head % N;
+        self.gap[head] = 0;
+        self.raw[head] = raw;
         self.len = 1;
         self.newest_rel = 0;
         self.add_to_sums(0, raw);
@@ -211,7 +213,7 @@ impl<const N: usize> RateEstimator<N> {
 
     /// Remove the oldest sample (at relative time 0) and move the origin to the next one.
     fn evict_oldest(&mut self) {
-        self.s_y -= i64::from(self.raw[self.head]);
+        self.s_y -= i64::from(self.raw[self.head % N]);
         self.head = (self.head + 1) % N;
         self.len -= 1;
         let d = i64::from(self.gap[self.head]);
