@@ -1,1 +1,419 @@
-fn main() {}
+//! Build and test commands: `cargo xtask test | demo-qemu | bench-target | panic-check`.
+//!
+//! Every step prints the command it runs and stops the whole run on the first failure.
+//! Nothing is skipped silently: a missing tool is installed (as root with apt) or the run
+//! fails with the exact command that installs it.
+
+use std::io::{BufRead, BufReader, Read};
+use std::path::{Path, PathBuf};
+use std::process::{exit, Child, Command, ExitStatus, Stdio};
+use std::time::{Duration, Instant};
+use std::{env, fmt, thread};
+
+const TARGET: &str = "thumbv7em-none-eabihf";
+const FIRMWARE: &str = "qfa-firmware";
+const QEMU: &str = "qemu-system-arm";
+const QEMU_INSTALL: &str = "apt-get update && apt-get install -y qemu-system-arm";
+const SIZE_INSTALL: &str = "apt-get update && apt-get install -y binutils-arm-none-eabi";
+/// Firmware binaries built by `test` (panic-check is built by its own step).
+const RUN_BINS: [&str; 4] = ["qemu-vectors", "bench", "demo", "size-baseline"];
+const QEMU_TIMEOUT: Duration = Duration::from_secs(300);
+/// The undefined symbol panic-check's panic handler calls.
+const PANIC_SYMBOL: &str = "qfa_panic_is_reachable_from_the_core";
+
+const USAGE: &str = "usage: cargo xtask <command>
+
+commands:
+  test          rustup target, clippy (host and target, -D warnings), host tests, target build,
+                reference vectors on QEMU mps2-an386, panic-check
+  demo-qemu     run the demo firmware on QEMU
+  bench-target  instruction counts (QEMU -icount shift=0, SysTick) and flash/RAM of the core
+  panic-check   link-time proof that no panic is reachable from the core's paths";
+
+/// A failed step: what failed, and why.
+struct Failure(String);
+
+impl fmt::Display for Failure {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+type Result<T = ()> = std::result::Result<T, Failure>;
+
+fn fail<T>(msg: impl Into<String>) -> Result<T> {
+    Err(Failure(msg.into()))
+}
+
+fn main() {
+    let args: Vec<String> = env::args().skip(1).collect();
+    let result = match args.first().map(String::as_str) {
+        Some("test") => test(),
+        Some("demo-qemu") => demo_qemu(),
+        Some("bench-target") => bench_target(),
+        Some("panic-check") => panic_check(),
+        Some("-h" | "--help" | "help") => {
+            println!("{USAGE}");
+            Ok(())
+        }
+        _ => {
+            eprintln!("{USAGE}");
+            exit(2);
+        }
+    };
+    if let Err(e) = result {
+        eprintln!("\nxtask: FAILED: {e}");
+        exit(1);
+    }
+}
+
+fn root() -> PathBuf {
+    // xtask/ sits in the workspace root.
+    Path::new(env!("CARGO_MANIFEST_DIR")).parent().map_or_else(|| PathBuf::from("."), Path::to_path_buf)
+}
+
+fn cargo() -> Command {
+    let mut c = Command::new(env::var_os("CARGO").unwrap_or_else(|| "cargo".into()));
+    c.current_dir(root());
+    c
+}
+
+fn show(c: &Command) -> String {
+    let mut s = c.get_program().to_string_lossy().into_owned();
+    for a in c.get_args() {
+        s.push(' ');
+        s.push_str(&a.to_string_lossy());
+    }
+    s
+}
+
+fn step(title: &str) {
+    println!("\n==> {title}");
+}
+
+/// Run `c` with inherited output; fail unless it exits 0.
+fn run(mut c: Command) -> Result {
+    let line = show(&c);
+    println!("$ {line}");
+    match c.status() {
+        Ok(s) if s.success() => Ok(()),
+        Ok(s) => fail(format!("`{line}` exited with {s}")),
+        Err(e) => fail(format!("`{line}` could not start: {e}")),
+    }
+}
+
+/// Run `c` and capture stdout and stderr (for commands whose output is parsed).
+fn capture(mut c: Command) -> Result<(ExitStatus, String, String)> {
+    let line = show(&c);
+    match c.output() {
+        Ok(o) => Ok((
+            o.status,
+            String::from_utf8_lossy(&o.stdout).into_owned(),
+            String::from_utf8_lossy(&o.stderr).into_owned(),
+        )),
+        Err(e) => fail(format!("`{line}` could not start: {e}")),
+    }
+}
+
+fn found(program: &str, arg: &str) -> bool {
+    Command::new(program).arg(arg).stdout(Stdio::null()).stderr(Stdio::null()).status().is_ok_and(|s| s.success())
+}
+
+fn is_root_with_apt() -> bool {
+    let uid = Command::new("id").arg("-u").output().ok().map(|o| String::from_utf8_lossy(&o.stdout).trim().to_owned());
+    uid.as_deref() == Some("0") && found("apt-get", "--version")
+}
+
+/// Run an apt install line as root, or fail with the exact command to run.
+fn apt_install(what: &str, line: &str) -> Result {
+    if !is_root_with_apt() {
+        return fail(format!("{what} is missing; install it with:\n    {line}"));
+    }
+    println!("{what} is missing: installing it (root, apt available)");
+    let mut c = Command::new("sh");
+    c.args(["-c", line]).env("DEBIAN_FRONTEND", "noninteractive");
+    run(c)
+}
+
+fn ensure_target() -> Result {
+    step(&format!("rustup target {TARGET}"));
+    let mut c = Command::new("rustup");
+    c.current_dir(root()).args(["target", "list", "--installed"]);
+    let (status, out, err) = capture(c)?;
+    if !status.success() {
+        return fail(format!("`rustup target list --installed` failed: {err}"));
+    }
+    if out.lines().any(|l| l.trim() == TARGET) {
+        println!("{TARGET} is installed");
+        return Ok(());
+    }
+    let mut c = Command::new("rustup");
+    c.current_dir(root()).args(["target", "add", TARGET]);
+    run(c)
+}
+
+fn ensure_qemu() -> Result {
+    if found(QEMU, "--version") {
+        return Ok(());
+    }
+    apt_install(QEMU, QEMU_INSTALL)?;
+    if found(QEMU, "--version") {
+        Ok(())
+    } else {
+        fail(format!("{QEMU} still missing after `{QEMU_INSTALL}`"))
+    }
+}
+
+/// A size tool printing Berkeley format: llvm-size, arm-none-eabi-size, or rustup's llvm-tools.
+fn ensure_size_tool() -> Result<PathBuf> {
+    for t in ["llvm-size", "arm-none-eabi-size"] {
+        if found(t, "--version") {
+            return Ok(PathBuf::from(t));
+        }
+    }
+    let llvm_tools = || -> Option<PathBuf> {
+        let o = Command::new("rustc").current_dir(root()).args(["--print", "sysroot"]).output().ok()?;
+        let sysroot = PathBuf::from(String::from_utf8_lossy(&o.stdout).trim());
+        let o = Command::new("rustc").current_dir(root()).arg("-vV").output().ok()?;
+        let text = String::from_utf8_lossy(&o.stdout).into_owned();
+        let host = text.lines().find_map(|l| l.strip_prefix("host: "))?.trim().to_owned();
+        let p = sysroot.join("lib/rustlib").join(host).join("bin/llvm-size");
+        p.exists().then_some(p)
+    };
+    if let Some(p) = llvm_tools() {
+        return Ok(p);
+    }
+    apt_install("a size tool (llvm-size or arm-none-eabi-size)", SIZE_INSTALL)?;
+    if found("arm-none-eabi-size", "--version") {
+        Ok(PathBuf::from("arm-none-eabi-size"))
+    } else {
+        fail(format!("arm-none-eabi-size still missing after `{SIZE_INSTALL}`"))
+    }
+}
+
+/// Cargo's target directory (honours CARGO_TARGET_DIR and config), from `cargo metadata`.
+fn target_dir() -> Result<PathBuf> {
+    let mut c = cargo();
+    c.args(["metadata", "--format-version", "1", "--no-deps"]);
+    let (status, out, err) = capture(c)?;
+    if !status.success() {
+        return fail(format!("cargo metadata failed: {err}"));
+    }
+    let key = "\"target_directory\":\"";
+    let Some(start) = out.find(key).map(|i| i + key.len()) else {
+        return fail("cargo metadata printed no target_directory");
+    };
+    let Some(len) = out[start..].find('"') else {
+        return fail("cargo metadata: unterminated target_directory");
+    };
+    Ok(PathBuf::from(out[start..start + len].replace("\\\\", "\\")))
+}
+
+fn elf(bin: &str) -> Result<PathBuf> {
+    Ok(target_dir()?.join(TARGET).join("release").join(bin))
+}
+
+fn build_firmware(bins: &[&str]) -> Result {
+    let mut c = cargo();
+    c.args(["build", "-p", FIRMWARE, "--release", "--target", TARGET]);
+    for b in bins {
+        c.args(["--bin", b]);
+    }
+    run(c)
+}
+
+fn qemu(kernel: &Path, icount: bool) -> Command {
+    let mut c = Command::new(QEMU);
+    c.args(["-machine", "mps2-an386", "-cpu", "cortex-m4", "-nographic"]);
+    c.args(["-semihosting-config", "enable=on,target=native"]);
+    if icount {
+        c.args(["-icount", "shift=0"]);
+    }
+    c.arg("-kernel").arg(kernel);
+    c
+}
+
+fn kill_on_timeout(child: &mut Child, line: &str) -> Result<ExitStatus> {
+    let deadline = Instant::now() + QEMU_TIMEOUT;
+    loop {
+        match child.try_wait() {
+            Ok(Some(s)) => return Ok(s),
+            Ok(None) if Instant::now() < deadline => thread::sleep(Duration::from_millis(20)),
+            Ok(None) => {
+                let _ = child.kill();
+                let _ = child.wait();
+                return fail(format!("`{line}` timed out after {} s (killed)", QEMU_TIMEOUT.as_secs()));
+            }
+            Err(e) => return fail(format!("waiting for `{line}`: {e}")),
+        }
+    }
+}
+
+/// Run a firmware under QEMU with a timeout, echoing and returning its stdout.
+fn run_qemu(kernel: &Path, icount: bool) -> Result<(ExitStatus, String)> {
+    ensure_qemu()?;
+    let mut c = qemu(kernel, icount);
+    let line = show(&c);
+    println!("$ {line}");
+    let mut child = c
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .spawn()
+        .map_err(|e| Failure(format!("`{line}` could not start: {e}")))?;
+    let Some(stdout) = child.stdout.take() else {
+        return fail("no stdout pipe");
+    };
+    let reader = thread::spawn(move || {
+        let mut all = String::new();
+        for l in BufReader::new(stdout).lines().map_while(std::result::Result::ok) {
+            println!("{l}");
+            all.push_str(&l);
+            all.push('\n');
+        }
+        all
+    });
+    let status = kill_on_timeout(&mut child, &line)?;
+    let out = reader.join().unwrap_or_default();
+    Ok((status, out))
+}
+
+fn test() -> Result {
+    ensure_target()?;
+
+    step("clippy, host (workspace, all targets)");
+    let mut c = cargo();
+    c.args(["clippy", "--workspace", "--all-targets", "--", "-D", "warnings"]);
+    run(c)?;
+
+    step(&format!("clippy, {TARGET} (core and firmware)"));
+    let mut c = cargo();
+    c.args(["clippy", "-p", "qfa-thermal", "-p", FIRMWARE, "--target", TARGET, "--", "-D", "warnings"]);
+    run(c)?;
+
+    step("host tests (default members)");
+    let mut c = cargo();
+    c.arg("test");
+    run(c)?;
+
+    step(&format!("target build, release ({})", RUN_BINS.join(", ")));
+    build_firmware(&RUN_BINS)?;
+
+    step("reference vectors on QEMU mps2-an386 (Cortex-M4F)");
+    let (status, out) = run_qemu(&elf("qemu-vectors")?, false)?;
+    let bit_exact = out.lines().find_map(|l| l.strip_suffix(" vectors bit-exact on thumbv7em")?.trim().parse::<usize>().ok());
+    if !status.success() {
+        return fail(format!("qemu-vectors exited with {status}: the replay failed on the target"));
+    }
+    let Some(n) = bit_exact else {
+        return fail("qemu-vectors printed no `N vectors bit-exact on thumbv7em` line");
+    };
+    println!("qemu-vectors: {n} vectors bit-exact on thumbv7em, exit 0");
+
+    panic_check()?;
+    println!("\nxtask test: all steps passed");
+    Ok(())
+}
+
+fn demo_qemu() -> Result {
+    ensure_target()?;
+    step("demo firmware");
+    build_firmware(&["demo"])?;
+    let (status, _) = run_qemu(&elf("demo")?, false)?;
+    if status.success() {
+        Ok(())
+    } else {
+        fail(format!("demo exited with {status}"))
+    }
+}
+
+/// Berkeley `text data bss` of an ELF.
+fn berkeley(tool: &Path, file: &Path) -> Result<(u64, u64, u64)> {
+    let mut c = Command::new(tool);
+    c.arg("-B").arg(file);
+    let (status, out, err) = capture(c)?;
+    if !status.success() {
+        return fail(format!("{} {}: {err}", tool.display(), file.display()));
+    }
+    let nums: Vec<u64> =
+        out.lines().nth(1).unwrap_or("").split_whitespace().take(3).filter_map(|w| w.parse().ok()).collect();
+    match nums[..] {
+        [t, d, b] => Ok((t, d, b)),
+        _ => fail(format!("unexpected size output:\n{out}")),
+    }
+}
+
+fn bench_target() -> Result {
+    ensure_target()?;
+    step("bench firmware, QEMU -icount shift=0");
+    build_firmware(&["bench", "size-baseline"])?;
+    let (status, out) = run_qemu(&elf("bench")?, true)?;
+    if !status.success() {
+        return fail(format!("bench exited with {status}"));
+    }
+    for name in [
+        "fast_path_insns_3axis",
+        "fast_path_insns_3axis_misalign",
+        "slow_path_insns_3axis_all_off",
+        "slow_path_insns_3axis_all_on",
+        "core_ram_bytes",
+    ] {
+        if !out.lines().any(|l| l.starts_with(&format!("{name}="))) {
+            return fail(format!("bench printed no {name}= line"));
+        }
+    }
+
+    step("flash of the core: panic-check (core paths + runtime) minus size-baseline (runtime)");
+    build_panic_check()?;
+    let tool = ensure_size_tool()?;
+    let (ct, cd, cb) = berkeley(&tool, &elf("panic-check")?)?;
+    let (bt, bd, bb) = berkeley(&tool, &elf("size-baseline")?)?;
+    println!("panic-check: text={ct} data={cd} bss={cb}; size-baseline: text={bt} data={bd} bss={bb}");
+    println!("core_flash_bytes={}", (ct + cd).saturating_sub(bt + bd));
+    println!("core_static_ram_bytes={}", (cd + cb).saturating_sub(bd + bb));
+    Ok(())
+}
+
+/// Build panic-check; on a link failure, return the linker's lines about the panic symbol.
+fn build_panic_check() -> Result {
+    let mut c = cargo();
+    c.args(["build", "-p", FIRMWARE, "--release", "--target", TARGET, "--bin", "panic-check"]);
+    let line = show(&c);
+    println!("$ {line}");
+    let mut child = c
+        .stdout(Stdio::inherit())
+        .stderr(Stdio::piped())
+        .spawn()
+        .map_err(|e| Failure(format!("`{line}` could not start: {e}")))?;
+    let mut err = String::new();
+    if let Some(mut s) = child.stderr.take() {
+        let _ = s.read_to_string(&mut err);
+    }
+    let status = child.wait().map_err(|e| Failure(format!("waiting for `{line}`: {e}")))?;
+    if status.success() {
+        return Ok(());
+    }
+    eprintln!("{err}");
+    if err.contains(PANIC_SYMBOL) {
+        let refs: Vec<&str> = err.lines().filter(|l| l.contains(PANIC_SYMBOL) || l.contains(">>>")).collect();
+        fail(format!(
+            "panic-check: a panic is reachable from the core (its handler references the undefined \
+             `{PANIC_SYMBOL}`):\n{}\nTo find it: give panic-check's handler a `loop {{}}` body, build, \
+             and look for the calls to core::panicking::* in `llvm-objdump -d -l` of the ELF (the \
+             source lines are in the debug info).",
+            refs.join("\n")
+        ))
+    } else {
+        fail(format!("`{line}` failed with {status} (not the panic symbol: see the output above)"))
+    }
+}
+
+fn panic_check() -> Result {
+    ensure_target()?;
+    step("panic-check: link with an undefined panic handler (release, LTO)");
+    build_panic_check()?;
+    println!(
+        "panic-check: OK, no panic reachable from Compensator::load_table, on_scratchpad, on_raw, \
+         cycle, cycle_counters (all inputs through black_box)"
+    );
+    Ok(())
+}
