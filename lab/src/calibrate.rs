@@ -1,0 +1,145 @@
+//! Calibration: log → fitted tables → held-out report, and its files.
+//!
+//! Files written to the output directory:
+//! `table.toml` / `table.bin` (the hysteresis model, the table to flash),
+//! `table_simple.toml` / `table_simple.bin` (the simple model, for comparison),
+//! `report.json`, `sf_vs_temp.png`, `residual_vs_time.png`.
+//! The table written is the one fitted on the fit programs only, so the report's held-out
+//! figures describe exactly the flashed table.
+
+use std::path::Path;
+use std::time::Instant;
+
+use crate::fit::{encode, fit, split_programs, FitOptions, Fitted};
+use crate::log::{read_log, Log};
+use crate::report::{evaluate, plot_residual_vs_time, plot_sf_vs_temp, Evaluation, FitSummary, Report, Timings, METRIC_TEXT};
+
+/// Calibration settings.
+#[derive(Clone, Debug, Default)]
+pub struct CalibrateOptions {
+    /// Programs to fit on; `None` applies [`split_programs`].
+    pub fit_programs: Option<Vec<String>>,
+    /// Draw the plots.
+    pub plots: bool,
+    /// Title for plots and messages.
+    pub title: String,
+    /// Show progress bars.
+    pub progress: bool,
+}
+
+/// Result of a calibration.
+#[derive(Clone, Debug)]
+pub struct Calibration {
+    /// Fits and tables.
+    pub fitted: Fitted,
+    /// Held-out evaluation.
+    pub eval: Evaluation,
+    /// The report as written.
+    pub report: Report,
+}
+
+fn bar(len: u64, msg: &str, show: bool) -> indicatif::ProgressBar {
+    if !show {
+        return indicatif::ProgressBar::hidden();
+    }
+    let pb = indicatif::ProgressBar::new(len);
+    pb.set_style(
+        indicatif::ProgressStyle::with_template("{msg:>22} [{bar:30}] {pos}/{len} {elapsed}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    pb.set_message(msg.to_string());
+    pb
+}
+
+/// Fit and evaluate an in-memory log (no files).
+///
+/// # Errors
+/// A message describing the failure.
+pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, String> {
+    let programs = log.programs();
+    let (fit_p, eval_p) = match &opts.fit_programs {
+        Some(f) => (f.clone(), programs.iter().filter(|p| !f.contains(p)).cloned().collect::<Vec<_>>()),
+        None => split_programs(&programs),
+    };
+    let eval_p = if eval_p.is_empty() { fit_p.clone() } else { eval_p };
+    let t = Instant::now();
+    let pb = bar(fit_p.len() as u64, "fitting", opts.progress);
+    let fitted = fit(log, &FitOptions::new(fit_p.clone()), Some(&pb)).map_err(|e| e.to_string())?;
+    pb.finish_and_clear();
+    let t_fit = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let n_eval = log.runs.iter().filter(|r| eval_p.contains(&r.program)).count();
+    let pb = bar(n_eval as u64, "held-out compensation", opts.progress);
+    let eval = evaluate(log, &eval_p, &fitted.simple, &fitted.hysteresis, Some(&pb)).map_err(|e| e.to_string())?;
+    pb.finish_and_clear();
+    let t_eval = t.elapsed().as_secs_f64();
+    let h = &fitted.sf_hysteresis.coef;
+    let report = Report {
+        rows: log.rows(),
+        held_out: fit_p.iter().all(|p| !eval_p.contains(p)),
+        fit_programs: fit_p,
+        eval_programs: eval_p,
+        sensitivity_ppm_per_c: eval.sensitivity_ppm_per_c,
+        bias_residual_ug: eval.bias_residual_ug,
+        metric: METRIC_TEXT.to_string(),
+        fit: FitSummary {
+            pairs: fitted.pairs,
+            cond_sf_simple: fitted.sf_simple.cond,
+            cond_sf_hysteresis: fitted.sf_hysteresis.cond,
+            cond_bias_grid: fitted.bias_hysteresis.cond,
+            eq11: [h[0], h[1], h[2], h[3], h[4], h[5]],
+            simple_sf: [fitted.sf_simple.coef[0], fitted.sf_simple.coef[1]],
+            simple_bias: [fitted.bias_simple.coef[0], fitted.bias_simple.coef[1]],
+            rms_sf_hysteresis: fitted.sf_hysteresis.rms,
+        },
+        rejected_readings: eval.rejected_readings,
+        timings_s: Timings { fit: t_fit, evaluate: t_eval, ..Timings::default() },
+    };
+    Ok(Calibration { fitted, eval, report })
+}
+
+/// Write a table as TOML and postcard `.bin` under `dir/stem.{toml,bin}`.
+///
+/// # Errors
+/// Encoding or I/O errors.
+pub fn write_table(dir: &Path, stem: &str, table: &qfa_thermal::Table) -> Result<(), String> {
+    let toml = toml::to_string_pretty(table).map_err(|e| e.to_string())?;
+    let header = "# qfa-thermal coefficient table (K1 pulses/(g*s), K0 g, T degC, rate degC/min)\n";
+    std::fs::write(dir.join(format!("{stem}.toml")), format!("{header}{toml}")).map_err(|e| e.to_string())?;
+    let bin = encode(table).map_err(|e| e.to_string())?;
+    std::fs::write(dir.join(format!("{stem}.bin")), bin).map_err(|e| e.to_string())
+}
+
+/// Calibrate an in-memory log and write every output file into `out`.
+///
+/// # Errors
+/// A message describing the failure.
+pub fn calibrate_into(log: &Log, out: &Path, opts: &CalibrateOptions, read_s: f64) -> Result<Calibration, String> {
+    let t0 = Instant::now();
+    std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
+    let mut cal = calibrate_log(log, opts)?;
+    write_table(out, "table", &cal.fitted.hysteresis)?;
+    write_table(out, "table_simple", &cal.fitted.simple)?;
+    let t = Instant::now();
+    if opts.plots {
+        let title = if opts.title.is_empty() { "held-out".to_string() } else { format!("{} (held out)", opts.title) };
+        plot_sf_vs_temp(&out.join("sf_vs_temp.png"), &title, &cal.eval).map_err(|e| e.to_string())?;
+        plot_residual_vs_time(&out.join("residual_vs_time.png"), &title, &cal.eval).map_err(|e| e.to_string())?;
+    }
+    cal.report.timings_s.plots = t.elapsed().as_secs_f64();
+    cal.report.timings_s.read = read_s;
+    cal.report.timings_s.total = read_s + t0.elapsed().as_secs_f64();
+    let json = serde_json::to_string_pretty(&cal.report).map_err(|e| e.to_string())?;
+    std::fs::write(out.join("report.json"), json).map_err(|e| e.to_string())?;
+    Ok(cal)
+}
+
+/// `qfa-lab calibrate --log LOG --out DIR`.
+///
+/// # Errors
+/// A message describing the failure (for a malformed log: every bad row with its line).
+pub fn calibrate_file(log_path: &Path, out: &Path, opts: &CalibrateOptions) -> Result<Calibration, String> {
+    let t = Instant::now();
+    let log = read_log(log_path).map_err(|e| e.to_string())?;
+    calibrate_into(&log, out, opts, t.elapsed().as_secs_f64())
+}

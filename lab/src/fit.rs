@@ -1,0 +1,378 @@
+//! Least-squares fits of the simple model (Eq. 3–4) and the hysteresis model (Eq. 11 plus
+//! heating and cooling bias grids), producing root-crate [`Table`]s.
+//!
+//! Inputs per paired row (see [`crate::pairing`]): measured K1 and K0, and the firmware's
+//! T̂, Ṫ, model temperature, branch and extension-slot bias of both runs (averaged, each
+//! feature separately, so the pair's equation is exact for a model linear in them).
+//! Consecutive rows are averaged in blocks of `block` rows before the solve (a linear
+//! model's equations may be averaged; it cuts a 1.35 M-row log to some 10⁴ equations).
+//!
+//! Solver: nalgebra SVD of the column-scaled design matrix (each column divided by its
+//! norm). The reported condition number is that of the **scaled** matrix (the one that
+//! governs the error amplification of the solve); the unscaled one is given too.
+//!
+//! * Simple: `K1 = γ + μ·ΔT`, `K0 = k0 + k1·ΔT` (ΔT against T0 = 22 °C).
+//! * Hysteresis: `K1 = Eq. 11` with ΔT and Ṫ (°C/min) as the firmware sees them;
+//!   K0 on a uniform grid of `grid_points` nodes over the fitted temperature range, one
+//!   value per node and branch (hat-function basis, the Unknown branch is the mean of both,
+//!   as in `BiasGrid::k0`), minus the extension slots' bias. Two weak regularisers (weight
+//!   1, against ~10⁴ data equations) tie each heating node to its cooling node and damp
+//!   second differences, so nodes no data reach stay defined.
+
+use std::fmt;
+
+use nalgebra::{DMatrix, DVector};
+use serde::Serialize;
+
+use qfa_thermal::model::{Branch, MAX_BIAS_POINTS};
+use qfa_thermal::{AxisModel, BiasGrid, Extensions, ScaleFactor, Table};
+
+use crate::log::Log;
+use crate::pairing::{pair_program, trace_run, Trace, RATE_WINDOW};
+
+/// Reference temperature of every lab table, °C (the paper's start temperature).
+pub const T0_C: f64 = 22.0;
+
+/// Why a fit failed.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum FitError {
+    /// A fit program lacks a +1 g or a −1 g run.
+    NoPair(String),
+    /// Too few equations for the unknowns.
+    TooFewRows {
+        /// Equations.
+        rows: usize,
+        /// Unknowns.
+        unknowns: usize,
+    },
+    /// The root crate refused the table.
+    Table(qfa_thermal::table::Error),
+}
+
+impl fmt::Display for FitError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::NoPair(p) => write!(f, "program `{p}` has no +1 g / −1 g pair of runs"),
+            Self::TooFewRows { rows, unknowns } => write!(f, "{rows} equations for {unknowns} unknowns"),
+            Self::Table(e) => write!(f, "table rejected: {e}"),
+        }
+    }
+}
+
+impl std::error::Error for FitError {}
+
+/// A least-squares solution.
+#[derive(Clone, Debug, Serialize)]
+pub struct LsResult {
+    /// Coefficients.
+    pub coef: Vec<f64>,
+    /// Condition number of the column-scaled design matrix.
+    pub cond: f64,
+    /// Condition number of the unscaled design matrix.
+    pub cond_unscaled: f64,
+    /// RMS residual of the (block-averaged) equations.
+    pub rms: f64,
+    /// Equations.
+    pub rows: usize,
+}
+
+/// Solve `min ‖X·c − y‖` with `X` row-major (`p` columns) by SVD with column scaling.
+///
+/// # Errors
+/// [`FitError::TooFewRows`].
+pub fn lstsq(x: &[f64], p: usize, y: &[f64]) -> Result<LsResult, FitError> {
+    let n = y.len();
+    if n < p || p == 0 {
+        return Err(FitError::TooFewRows { rows: n, unknowns: p });
+    }
+    let mut m = DMatrix::from_row_slice(n, p, x);
+    let sv_raw = m.clone().singular_values();
+    let cond_unscaled = sv_raw.max() / sv_raw.min();
+    let norms: Vec<f64> = (0..p).map(|j| m.column(j).norm().max(f64::MIN_POSITIVE)).collect();
+    for (j, nj) in norms.iter().enumerate() {
+        m.column_mut(j).scale_mut(1.0 / nj);
+    }
+    let yv = DVector::from_column_slice(y);
+    let svd = m.clone().svd(true, true);
+    let cond = svd.singular_values.max() / svd.singular_values.min();
+    let c = svd.solve(&yv, 1e-12 * svd.singular_values.max()).map_err(|_| FitError::TooFewRows { rows: n, unknowns: p })?;
+    let resid = &m * &c - &yv;
+    let rms = (resid.norm_squared() / n as f64).sqrt();
+    let coef = c.iter().zip(&norms).map(|(ci, nj)| ci / nj).collect();
+    Ok(LsResult { coef, cond, cond_unscaled, rms, rows: n })
+}
+
+/// Fit settings.
+#[derive(Clone, Debug)]
+pub struct FitOptions {
+    /// Programs to fit on (the others are held out).
+    pub fit_programs: Vec<String>,
+    /// Extension slots in force (their parameters fixed; their bias is subtracted).
+    pub ext: Extensions,
+    /// Branch deadband, °C/min.
+    pub deadband_c_per_min: f32,
+    /// Rows averaged per equation.
+    pub block: usize,
+    /// Bias grid nodes (2..=16).
+    pub grid_points: usize,
+}
+
+impl FitOptions {
+    /// Defaults for `fit_programs`: 30-s blocks at 1-s rows, 16 nodes, 0.05 °C/min.
+    #[must_use]
+    pub fn new(fit_programs: Vec<String>) -> Self {
+        Self { fit_programs, ext: Extensions::default(), deadband_c_per_min: 0.05, block: 30, grid_points: MAX_BIAS_POINTS }
+    }
+}
+
+/// The held-out rule: programs in order of first appearance; with three or more, fit on
+/// the first and the last (for the paper's test: 0.3 and 0.9 °C/min, the extreme rates)
+/// and hold out the rest (0.5 and 0.7); with two, fit on the first, hold out the second;
+/// with one, fit and evaluate on it (then nothing is held out, and the report says so).
+#[must_use]
+pub fn split_programs(programs: &[String]) -> (Vec<String>, Vec<String>) {
+    match programs.len() {
+        0 => (vec![], vec![]),
+        1 => (programs.to_vec(), programs.to_vec()),
+        2 => (vec![programs[0].clone()], vec![programs[1].clone()]),
+        n => (
+            vec![programs[0].clone(), programs[n - 1].clone()],
+            programs[1..n - 1].to_vec(),
+        ),
+    }
+}
+
+/// Everything the fits produce.
+#[derive(Clone, Debug)]
+pub struct Fitted {
+    /// Simple-model table (Eq. 3–4).
+    pub simple: Table,
+    /// Hysteresis-model table (Eq. 11 + branched bias grid).
+    pub hysteresis: Table,
+    /// Scale factor, simple: [γ, μ].
+    pub sf_simple: LsResult,
+    /// Scale factor, Eq. 11: [γ, μ, β, ε, η, α].
+    pub sf_hysteresis: LsResult,
+    /// Bias, simple: [k0, k1].
+    pub bias_simple: LsResult,
+    /// Bias grid: heating nodes then cooling nodes.
+    pub bias_hysteresis: LsResult,
+    /// Paired rows used.
+    pub pairs: usize,
+}
+
+/// Features of one paired row.
+#[derive(Clone, Copy, Debug)]
+struct Row {
+    k1: f64,
+    k0: f64,
+    d: f64,
+    d2: f64,
+    r: f64,
+    rd: f64,
+    r2: f64,
+    ext_k0: f64,
+    // For the grid: both runs' (temperature, branch).
+    tp: f64,
+    bp: Branch,
+    tm: f64,
+    bm: Branch,
+}
+
+fn rows_of(log: &Log, program: &str, ext: &Extensions, deadband: f32) -> Result<(Vec<Row>, f64), FitError> {
+    let pp = pair_program(log, program).ok_or_else(|| FitError::NoPair(program.to_string()))?;
+    let tp: Trace = trace_run(&log.runs[pp.plus], ext, deadband);
+    let tm: Trace = trace_run(&log.runs[pp.minus], ext, deadband);
+    let mut out = Vec::with_capacity(pp.rows.len());
+    let mut max_rate: f64 = 0.0;
+    for (k, &(i, j)) in pp.rows.iter().enumerate() {
+        if !(tp.valid[i] && tm.valid[j]) {
+            continue;
+        }
+        let (k1, k0) = pp.k1_k0(log, k);
+        let (dp, dm) = (tp.model_temp_c[i] - T0_C, tm.model_temp_c[j] - T0_C);
+        let (rp, rm) = (tp.rate_c_per_min[i], tm.rate_c_per_min[j]);
+        max_rate = max_rate.max(rp.abs()).max(rm.abs());
+        let avg = |a: f64, b: f64| 0.5 * (a + b);
+        out.push(Row {
+            k1,
+            k0,
+            d: avg(dp, dm),
+            d2: avg(dp * dp, dm * dm),
+            r: avg(rp, rm),
+            rd: avg(rp * dp, rm * dm),
+            r2: avg(rp * rp, rm * rm),
+            ext_k0: avg(tp.ext_k0_g[i], tm.ext_k0_g[j]),
+            tp: tp.model_temp_c[i],
+            bp: tp.branch[i],
+            tm: tm.model_temp_c[j],
+            bm: tm.branch[j],
+        });
+    }
+    Ok((out, max_rate))
+}
+
+/// Block-average equations: `x` row-major with `p` columns.
+fn block_average(x: &[f64], y: &[f64], p: usize, block: usize, starts: &[usize]) -> (Vec<f64>, Vec<f64>) {
+    let block = block.max(1);
+    let mut xo = Vec::new();
+    let mut yo = Vec::new();
+    // Blocks never straddle a program boundary.
+    let mut bounds = starts.to_vec();
+    bounds.push(y.len());
+    for w in bounds.windows(2) {
+        let mut s = w[0];
+        while s < w[1] {
+            let e = (s + block).min(w[1]);
+            let n = (e - s) as f64;
+            for j in 0..p {
+                xo.push((s..e).map(|i| x[i * p + j]).sum::<f64>() / n);
+            }
+            yo.push(y[s..e].iter().sum::<f64>() / n);
+            s = e;
+        }
+    }
+    (xo, yo)
+}
+
+/// Hat-function weights of temperature `t` on the grid, added into `row` at `offset`.
+fn hat(row: &mut [f64], offset: usize, t: f64, start: f64, step: f64, n: usize, w: f64) {
+    let x = ((t - start) / step).clamp(0.0, (n - 1) as f64);
+    let i = (x.floor() as usize).min(n - 2);
+    let f = x - i as f64;
+    row[offset + i] += w * (1.0 - f);
+    row[offset + i + 1] += w * f;
+}
+
+fn grid_row(row: &mut [f64], t: f64, b: Branch, start: f64, step: f64, n: usize, w: f64) {
+    match b {
+        Branch::Heating => hat(row, 0, t, start, step, n, w),
+        Branch::Cooling => hat(row, n, t, start, step, n, w),
+        Branch::Unknown => {
+            hat(row, 0, t, start, step, n, 0.5 * w);
+            hat(row, n, t, start, step, n, 0.5 * w);
+        }
+    }
+}
+
+fn f32v(v: &[f64]) -> heapless::Vec<f32, MAX_BIAS_POINTS> {
+    v.iter().map(|&x| x as f32).collect()
+}
+
+/// Fit both models on `opts.fit_programs` of `log`.
+///
+/// # Errors
+/// A missing pair, too little data, or a table the root crate refuses.
+pub fn fit(log: &Log, opts: &FitOptions, progress: Option<&indicatif::ProgressBar>) -> Result<Fitted, FitError> {
+    let mut rows: Vec<Row> = Vec::new();
+    let mut starts = Vec::new();
+    let mut max_rate: f64 = 0.0;
+    for p in &opts.fit_programs {
+        starts.push(rows.len());
+        let (r, mr) = rows_of(log, p, &opts.ext, opts.deadband_c_per_min)?;
+        rows.extend(r);
+        max_rate = max_rate.max(mr);
+        if let Some(pb) = progress {
+            pb.inc(1);
+        }
+    }
+    let n = rows.len();
+    // Scale factor.
+    let y_k1: Vec<f64> = rows.iter().map(|r| r.k1).collect();
+    let xs: Vec<f64> = rows.iter().flat_map(|r| [1.0, r.d]).collect();
+    let (xb, yb) = block_average(&xs, &y_k1, 2, opts.block, &starts);
+    let sf_simple = lstsq(&xb, 2, &yb)?;
+    let xh: Vec<f64> = rows.iter().flat_map(|r| [1.0, r.d, r.d2, r.r, r.rd, r.r2]).collect();
+    let (xb, yb) = block_average(&xh, &y_k1, 6, opts.block, &starts);
+    let sf_hysteresis = lstsq(&xb, 6, &yb)?;
+    // Bias, simple.
+    let y_k0: Vec<f64> = rows.iter().map(|r| r.k0).collect();
+    let (xb, yb) = block_average(&xs, &y_k0, 2, opts.block, &starts);
+    let bias_simple = lstsq(&xb, 2, &yb)?;
+    // Bias grid.
+    let tmin = rows.iter().map(|r| r.tp.min(r.tm)).fold(f64::INFINITY, f64::min);
+    let tmax = rows.iter().map(|r| r.tp.max(r.tm)).fold(f64::NEG_INFINITY, f64::max);
+    let start = tmin.floor().max(-60.0);
+    let end = tmax.ceil().min(130.0).max(start + 1.0);
+    let g = opts.grid_points.clamp(2, MAX_BIAS_POINTS);
+    let step = (end - start) / (g - 1) as f64;
+    let p = 2 * g;
+    let mut xg = vec![0.0; n * p];
+    let y_k0x: Vec<f64> = rows.iter().map(|r| r.k0 - r.ext_k0).collect();
+    for (i, r) in rows.iter().enumerate() {
+        let row = &mut xg[i * p..(i + 1) * p];
+        grid_row(row, r.tp, r.bp, start, step, g, 0.5);
+        grid_row(row, r.tm, r.bm, start, step, g, 0.5);
+    }
+    let (mut xb, mut yb) = block_average(&xg, &y_k0x, p, opts.block, &starts);
+    for i in 0..g {
+        let mut row = vec![0.0; p];
+        row[i] = 1.0;
+        row[g + i] = -1.0;
+        xb.extend(row);
+        yb.push(0.0);
+        if i >= 1 && i + 1 < g {
+            for off in [0, g] {
+                let mut row = vec![0.0; p];
+                row[off + i - 1] = 1.0;
+                row[off + i] = -2.0;
+                row[off + i + 1] = 1.0;
+                xb.extend(row);
+                yb.push(0.0);
+            }
+        }
+    }
+    let bias_hysteresis = lstsq(&xb, p, &yb)?;
+    let rate_limit = (max_rate * 1.25).clamp(0.5, 20.0) as f32;
+
+    let c = &sf_simple.coef;
+    let scale_simple = ScaleFactor::simple(T0_C as f32, c[0] as f32, c[1] as f32);
+    let b = &bias_simple.coef;
+    let nodes: Vec<f64> = (0..g).map(|i| b[0] + b[1] * (start + step * i as f64 - T0_C)).collect();
+    let mut grid_simple = BiasGrid::single_valued(start as f32, step as f32, &nodes.iter().map(|&x| x as f32).collect::<Vec<_>>());
+    grid_simple.deadband_c_per_min = opts.deadband_c_per_min;
+    let simple = table_of(AxisModel { scale: scale_simple, bias: grid_simple, rate_limit_c_per_min: rate_limit, ext: Extensions::default() })?;
+
+    let h = &sf_hysteresis.coef;
+    let scale_h = ScaleFactor {
+        t0_c: T0_C as f32,
+        gamma: h[0] as f32,
+        mu: h[1] as f32,
+        beta: h[2] as f32,
+        epsilon: h[3] as f32,
+        eta: h[4] as f32,
+        alpha: h[5] as f32,
+    };
+    let bg = &bias_hysteresis.coef;
+    let grid_h = BiasGrid {
+        t_start_c: start as f32,
+        t_step_c: step as f32,
+        deadband_c_per_min: opts.deadband_c_per_min,
+        heating_g: f32v(&bg[..g]),
+        cooling_g: f32v(&bg[g..]),
+    };
+    let hysteresis = table_of(AxisModel { scale: scale_h, bias: grid_h, rate_limit_c_per_min: rate_limit, ext: opts.ext })?;
+    Ok(Fitted { simple, hysteresis, sf_simple, sf_hysteresis, bias_simple, bias_hysteresis, pairs: n })
+}
+
+/// A validated single-axis lab table (`rate_window` 32).
+///
+/// # Errors
+/// The root crate's validation error.
+pub fn table_of(axis: AxisModel) -> Result<Table, FitError> {
+    let mut axes = heapless::Vec::new();
+    let _ = axes.push(axis);
+    let t = Table { rate_window: RATE_WINDOW as u16, axes, misalignment: None };
+    t.validate().map_err(FitError::Table)?;
+    Ok(t)
+}
+
+/// Encode a table to its flashable bytes.
+///
+/// # Errors
+/// The root crate's encoding error.
+pub fn encode(table: &Table) -> Result<Vec<u8>, FitError> {
+    let mut buf = [0u8; qfa_thermal::table::MAX_TABLE_BYTES];
+    table.encode(&mut buf).map(<[u8]>::to_vec).map_err(FitError::Table)
+}

@@ -1,0 +1,216 @@
+//! `qfa-lab`: simulate thermal tests, calibrate tables, compensate logs, run the demo.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Instant;
+
+use clap::{Parser, Subcommand, ValueEnum};
+
+use qfa_lab::calibrate::{calibrate_file, CalibrateOptions};
+use qfa_lab::compensate::compensate_log;
+use qfa_lab::log::{read_log, write_compensated, write_log};
+use qfa_lab::profile::{paper_positions, Program, PAPER_RATES};
+use qfa_lab::sim::simulate;
+use qfa_lab::truth::Truth;
+
+#[derive(Parser)]
+#[command(name = "qfa-lab", version, about = "Thermal-test simulator, calibration and compensation for QFA tables")]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum ProfileKind {
+    /// The paper's Steps 1–6: four rates × four positions.
+    Paper,
+    /// A flight-like profile (§3.2), four positions.
+    Flight,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Simulate a cycling log (CSV) and write its truth (TOML) next to it.
+    Simulate {
+        /// Output log, e.g. log.csv; the truth goes to log.truth.toml.
+        #[arg(long)]
+        out: PathBuf,
+        /// Unit preset: kt8-1, kt8-2 or kt8-3.
+        #[arg(long, default_value = "kt8-1")]
+        unit: String,
+        /// A truth TOML instead of a preset.
+        #[arg(long)]
+        truth: Option<PathBuf>,
+        /// Extension effects to switch on (sensor_lag, bias_branch_hysteresis, bias_creep).
+        #[arg(long, value_delimiter = ',')]
+        effects: Vec<String>,
+        /// Built-in profile.
+        #[arg(long, value_enum, default_value = "paper")]
+        profile: ProfileKind,
+        /// Chamber-air profile file (`time_s,temp_c`) instead of the built-in one.
+        #[arg(long)]
+        profile_file: Option<PathBuf>,
+        /// Only these paper rates, °C/min (default all four).
+        #[arg(long, value_delimiter = ',')]
+        rates: Vec<f64>,
+        /// Row length, s (integer).
+        #[arg(long, default_value_t = 1)]
+        row_s: u32,
+        /// Noise seed.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Simulation threads.
+        #[arg(long, default_value_t = 2)]
+        threads: usize,
+        /// No noise (accelerometer and DS18B20).
+        #[arg(long)]
+        noiseless: bool,
+    },
+    /// Fit the simple and hysteresis models; write table.toml, table.bin, report.json, plots.
+    Calibrate {
+        /// Cycling log.
+        #[arg(long)]
+        log: PathBuf,
+        /// Output directory.
+        #[arg(long)]
+        out: PathBuf,
+        /// Programs to fit on (default: first and last; the rest are held out).
+        #[arg(long, value_delimiter = ',')]
+        fit_programs: Vec<String>,
+        /// Skip the plots.
+        #[arg(long)]
+        no_plots: bool,
+    },
+    /// Compensate a log through the root crate's compensator; adds an accel_g column.
+    Compensate {
+        /// Cycling log.
+        #[arg(long)]
+        log: PathBuf,
+        /// Flashable table (.bin).
+        #[arg(long)]
+        table: PathBuf,
+        /// Output CSV.
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// The paper's full test for JB-KT8 #1–#3: simulate, calibrate, compensate, compare.
+    Demo {
+        /// Output directory.
+        #[arg(long, default_value = "out")]
+        out: PathBuf,
+        /// Row length, s.
+        #[arg(long, default_value_t = 1)]
+        row_s: u32,
+        /// Seed.
+        #[arg(long, default_value_t = 2021)]
+        seed: u64,
+        /// Simulation threads.
+        #[arg(long, default_value_t = 2)]
+        threads: usize,
+    },
+}
+
+fn run(cli: Cli) -> Result<(), String> {
+    match cli.cmd {
+        Cmd::Simulate { out, unit, truth, effects, profile, profile_file, rates, row_s, seed, threads, noiseless } => {
+            let mut t = match truth {
+                Some(p) => Truth::from_toml(&std::fs::read_to_string(&p).map_err(|e| format!("{}: {e}", p.display()))?)?,
+                None => Truth::preset(&unit).ok_or_else(|| format!("unknown unit `{unit}` (kt8-1, kt8-2, kt8-3)"))?,
+            };
+            for e in &effects {
+                t = t.with_effect(e)?;
+            }
+            if noiseless {
+                t = t.noiseless();
+            }
+            let programs: Vec<Program> = if let Some(f) = profile_file {
+                let id = f.file_stem().map_or("user".to_string(), |s| s.to_string_lossy().into_owned());
+                vec![Program::from_file(&f, &id)?]
+            } else {
+                match profile {
+                    ProfileKind::Paper => {
+                        let rs: Vec<f64> = if rates.is_empty() { PAPER_RATES.to_vec() } else { rates };
+                        rs.iter().map(|&r| Program::paper(r)).collect()
+                    }
+                    ProfileKind::Flight => vec![Program::flight()],
+                }
+            };
+            let pb = indicatif::ProgressBar::new((programs.len() * 4) as u64);
+            pb.set_message("simulating runs");
+            let t0 = Instant::now();
+            let log = simulate(&t, &programs, &paper_positions(), row_s, seed, threads, Some(&pb));
+            pb.finish_and_clear();
+            write_log(&out, &log).map_err(|e| format!("{}: {e}", out.display()))?;
+            let truth_path = out.with_extension("truth.toml");
+            std::fs::write(&truth_path, t.to_toml()?).map_err(|e| e.to_string())?;
+            eprintln!(
+                "{} rows in {:.1} s → {} (truth: {})",
+                log.rows(),
+                t0.elapsed().as_secs_f64(),
+                out.display(),
+                truth_path.display()
+            );
+        }
+        Cmd::Calibrate { log, out, fit_programs, no_plots } => {
+            let opts = CalibrateOptions {
+                fit_programs: if fit_programs.is_empty() { None } else { Some(fit_programs) },
+                plots: !no_plots,
+                title: log.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default(),
+                progress: true,
+            };
+            let cal = calibrate_file(&log, &out, &opts)?;
+            let r = &cal.report;
+            println!(
+                "held out on {:?} (fitted on {:?}), {} rows\n\
+                 sensitivity ppm/degC: none {:.2}, simple {:.2}, hysteresis {:.2}\n\
+                 bias residual ug:     none {:.1}, simple {:.1}, hysteresis {:.1}\n\
+                 Eq. 11 condition number {:.1}; timings: read {:.2} s, fit {:.2} s, evaluate {:.2} s, plots {:.2} s, total {:.2} s\n\
+                 wrote {}/table.toml, table.bin, report.json",
+                r.eval_programs,
+                r.fit_programs,
+                r.rows,
+                r.sensitivity_ppm_per_c.none,
+                r.sensitivity_ppm_per_c.simple,
+                r.sensitivity_ppm_per_c.hysteresis,
+                r.bias_residual_ug.none,
+                r.bias_residual_ug.simple,
+                r.bias_residual_ug.hysteresis,
+                r.fit.cond_sf_hysteresis,
+                r.timings_s.read,
+                r.timings_s.fit,
+                r.timings_s.evaluate,
+                r.timings_s.plots,
+                r.timings_s.total,
+                out.display()
+            );
+        }
+        Cmd::Compensate { log, table, out } => {
+            let l = read_log(&log).map_err(|e| e.to_string())?;
+            let bytes = std::fs::read(&table).map_err(|e| format!("{}: {e}", table.display()))?;
+            let t = qfa_thermal::Table::decode(&bytes).map_err(|e| format!("{}: {e}", table.display()))?;
+            let pb = indicatif::ProgressBar::new(l.runs.len() as u64);
+            let c = compensate_log(&t, &l, Some(&pb)).map_err(|e| e.to_string())?;
+            pb.finish_and_clear();
+            let acc: Vec<Vec<f64>> = c.into_iter().map(|c| c.accel_g).collect();
+            let f = std::fs::File::create(&out).map_err(|e| format!("{}: {e}", out.display()))?;
+            write_compensated(f, &l, &acc).map_err(|e| e.to_string())?;
+            eprintln!("{} rows → {}", l.rows(), out.display());
+        }
+        Cmd::Demo { out, row_s, seed, threads } => {
+            let opts = qfa_lab::demo::DemoOptions { out, row_s, seed, threads, progress: true };
+            // Hooks: issue 4 (discovery) and issue 5 (navigation) plug in here.
+            qfa_lab::demo::run(&opts, None, None)?;
+        }
+    }
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    match run(Cli::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

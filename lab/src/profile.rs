@@ -1,0 +1,180 @@
+//! Temperature programs: the paper's Steps 1–6, a flight-like profile, and user files.
+//!
+//! A program is the chamber-air temperature as a piecewise-linear function of time.
+//! The paper's program (§3.1) at rate `r` °C/min: hold 22 °C for 120 min; then to −60,
+//! up to +70 and back to 22 °C in 1 °C steps, each step a ramp at `r` followed by a
+//! 3-min dwell at the integer temperature. One pass takes 120 + 260·(1/r + 3) min:
+//! 1767 min at 0.3, 1420 at 0.5, 1271 at 0.7, 1189 at 0.9 °C/min. The index head runs
+//! every program at the four positions 0°, 90°, 180°, 270° = +1, 0, −1, 0 g (Step 5), so
+//! the full test at 1-s rows is 4·(1767+1420+1271+1189)·60 ≈ 1.355 M rows.
+
+use std::path::Path;
+
+/// Chamber-air temperature program.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Program {
+    /// Id written to the log's `program` column.
+    pub id: String,
+    /// Breakpoints `(time_s, temp_c)`, time strictly increasing, starting at 0.
+    pub points: Vec<(f64, f64)>,
+}
+
+/// An index-head position: run index and specific force along the input axis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Position {
+    /// Run index in the log.
+    pub run: u32,
+    /// Input, g.
+    pub input_g: f64,
+}
+
+/// The paper's four positions 0°, 90°, 180°, 270°: +1, 0, −1, 0 g (Fig. 4).
+#[must_use]
+pub fn paper_positions() -> Vec<Position> {
+    [1.0, 0.0, -1.0, 0.0].iter().enumerate().map(|(i, &g)| Position { run: i as u32, input_g: g }).collect()
+}
+
+/// The paper's ramp rates, °C/min (Step 6).
+pub const PAPER_RATES: [f64; 4] = [0.3, 0.5, 0.7, 0.9];
+
+/// Program id of the paper's program at `rate`, e.g. `paper-0.3`.
+#[must_use]
+pub fn paper_id(rate: f64) -> String {
+    format!("paper-{rate:.1}")
+}
+
+impl Program {
+    /// Duration, s.
+    #[must_use]
+    pub fn duration_s(&self) -> f64 {
+        self.points.last().map_or(0.0, |p| p.0)
+    }
+
+    /// Air temperature at `t_s` (held constant past the ends).
+    #[must_use]
+    pub fn temp_at(&self, t_s: f64) -> f64 {
+        let p = &self.points;
+        if p.is_empty() {
+            return 22.0;
+        }
+        if t_s <= p[0].0 {
+            return p[0].1;
+        }
+        let i = p.partition_point(|q| q.0 <= t_s);
+        if i >= p.len() {
+            return p[p.len() - 1].1;
+        }
+        let (a, b) = (p[i - 1], p[i]);
+        a.1 + (b.1 - a.1) * (t_s - a.0) / (b.0 - a.0)
+    }
+
+    /// The paper's Steps 1–4 at `rate` °C/min with `hold_min` at 22 °C and `dwell_min` at
+    /// each integer, over `low..high` (the paper: 120, 3, −60, 70).
+    #[must_use]
+    pub fn staircase(id: &str, rate: f64, hold_min: f64, dwell_min: f64, low: i32, high: i32) -> Self {
+        let start = 22;
+        let mut pts = vec![(0.0, f64::from(start))];
+        let mut t = hold_min * 60.0;
+        pts.push((t, f64::from(start)));
+        let ramp_s = 60.0 / rate;
+        let mut temp = start;
+        for target in [low, high, start] {
+            let step = if target < temp { -1 } else { 1 };
+            while temp != target {
+                temp += step;
+                t += ramp_s;
+                pts.push((t, f64::from(temp)));
+                t += dwell_min * 60.0;
+                pts.push((t, f64::from(temp)));
+            }
+        }
+        Self { id: id.to_string(), points: pts }
+    }
+
+    /// The paper's program (Steps 1–4) at `rate` °C/min.
+    #[must_use]
+    pub fn paper(rate: f64) -> Self {
+        Self::staircase(&paper_id(rate), rate, 120.0, 3.0, -60, 70)
+    }
+
+    /// A flight-like chamber profile after the paper's §3.2 (about 2.3 h): 30 min start-up
+    /// and climb while the INS warms from 20 to 40 °C, 90 min cruise cooling to about
+    /// −11 °C at the case, 20 min landing warming to 15 °C. Air leads the case, so the air
+    /// goes a little beyond the case targets.
+    #[must_use]
+    pub fn flight() -> Self {
+        let m = 60.0;
+        Self {
+            id: "flight".to_string(),
+            points: vec![
+                (0.0, 20.0),
+                (5.0 * m, 20.0),
+                (30.0 * m, 42.0),
+                (45.0 * m, 20.0),
+                (110.0 * m, -16.0),
+                (120.0 * m, -14.0),
+                (128.0 * m, 10.0),
+                (140.0 * m, 16.0),
+            ],
+        }
+    }
+
+    /// A user profile: CSV with header `time_s,temp_c`, time increasing from 0.
+    ///
+    /// # Errors
+    /// A message naming the line.
+    pub fn from_file(path: &Path, id: &str) -> Result<Self, String> {
+        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let mut pts: Vec<(f64, f64)> = Vec::new();
+        for (i, line) in text.lines().enumerate() {
+            let l = line.trim();
+            if i == 0 {
+                if l.replace(' ', "") != "time_s,temp_c" {
+                    return Err(format!("line 1: header must be `time_s,temp_c`, got `{l}`"));
+                }
+                continue;
+            }
+            if l.is_empty() || l.starts_with('#') {
+                continue;
+            }
+            let mut it = l.split(',').map(|f| f.trim().parse::<f64>());
+            let (Some(Ok(t)), Some(Ok(c)), None) = (it.next(), it.next(), it.next()) else {
+                return Err(format!("line {}: expected `time_s,temp_c`, got `{l}`", i + 1));
+            };
+            if !t.is_finite() || !c.is_finite() || !(-60.0..=125.0).contains(&c) {
+                return Err(format!("line {}: value out of range", i + 1));
+            }
+            if pts.last().is_some_and(|p| t <= p.0) || (pts.is_empty() && t != 0.0) {
+                return Err(format!("line {}: time must start at 0 and increase", i + 1));
+            }
+            pts.push((t, c));
+        }
+        if pts.len() < 2 {
+            return Err("profile needs at least two points".to_string());
+        }
+        Ok(Self { id: id.to_string(), points: pts })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn paper_program_duration_matches_hand_count() {
+        // 120 min hold + 260 one-degree steps of (1/r + 3) min.
+        for &r in &PAPER_RATES {
+            let p = Program::paper(r);
+            let want = (120.0 + 260.0 * (1.0 / r + 3.0)) * 60.0;
+            assert!((p.duration_s() - want).abs() < 1e-6, "{r}: {} vs {want}", p.duration_s());
+        }
+        let p = Program::paper(0.5);
+        assert_eq!(p.temp_at(3600.0), 22.0);
+        // First step: 22 → 21 over 120 s, then dwell.
+        assert!((p.temp_at(7200.0 + 60.0) - 21.5).abs() < 1e-12);
+        assert_eq!(p.temp_at(7200.0 + 200.0), 21.0);
+        let lo = p.points.iter().map(|q| q.1).fold(f64::INFINITY, f64::min);
+        let hi = p.points.iter().map(|q| q.1).fold(f64::NEG_INFINITY, f64::max);
+        assert_eq!((lo, hi), (-60.0, 70.0));
+    }
+}

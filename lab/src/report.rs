@@ -1,0 +1,316 @@
+//! Held-out evaluation, `report.json`, and plots.
+//!
+//! Every figure in the report is **held out**: the tables are fitted on the fit programs
+//! ([`crate::fit::split_programs`]: for the paper's test, 0.3 and 0.9 °C/min) and the
+//! figures come from compensating the other programs (0.5 and 0.7 °C/min) through the
+//! root crate's compensator. Metric definitions are in [`crate::metrics`].
+
+use std::path::Path;
+
+use serde::Serialize;
+
+use qfa_thermal::model::Branch;
+use qfa_thermal::Table;
+
+use crate::compensate::{compensate_run, not_compensated};
+use crate::log::Log;
+use crate::metrics::{bin_series, bins_sensitivity, rms, Bin};
+use crate::pairing::{pair_program, trace_run, Trace};
+
+/// Figures per compensation variant.
+#[derive(Clone, Copy, Debug, Default, Serialize, PartialEq)]
+pub struct Variants {
+    /// No compensation (constant K1 = fitted γ, no bias removed).
+    pub none: f64,
+    /// Simple model (Eq. 3–4).
+    pub simple: f64,
+    /// Hysteresis model (Eq. 11 + branched bias grid).
+    pub hysteresis: f64,
+}
+
+/// Held-out bins of one variant.
+#[derive(Clone, Debug, Default)]
+pub struct VariantBins {
+    /// Scale-factor bins (value: compensated scale factor, 1 = perfect).
+    pub sf: Vec<Bin>,
+    /// Bias bins (value: g).
+    pub bias: Vec<Bin>,
+}
+
+/// The held-out evaluation.
+#[derive(Clone, Debug, Default)]
+pub struct Evaluation {
+    /// Table-4 sensitivity, ppm/°C.
+    pub sensitivity_ppm_per_c: Variants,
+    /// Bias residual, µg RMS.
+    pub bias_residual_ug: Variants,
+    /// Bins per variant: none, simple, hysteresis.
+    pub bins: [VariantBins; 3],
+    /// Readings the compensator rejected.
+    pub rejected_readings: usize,
+}
+
+fn valid_rows(tr: &Trace, status: Option<&[u16]>) -> Vec<bool> {
+    (0..tr.valid.len()).map(|i| tr.valid[i] && status.is_none_or(|s| !not_compensated(s[i]))).collect()
+}
+
+/// Compensate `programs` of `log` with each table and form the held-out bins and figures.
+/// `none` uses `gamma_none` as its constant scale factor.
+///
+/// # Errors
+/// A table that does not load into the compensator.
+pub fn evaluate(
+    log: &Log,
+    programs: &[String],
+    simple: &Table,
+    hysteresis: &Table,
+    progress: Option<&indicatif::ProgressBar>,
+) -> Result<Evaluation, qfa_thermal::table::Error> {
+    let gamma_none = f64::from(hysteresis.axes[0].scale.gamma);
+    let mut ev = Evaluation::default();
+    let ext = qfa_thermal::Extensions::default();
+    for prog in programs {
+        // Runs of this program: their compensated outputs under each variant.
+        let idx: Vec<usize> = (0..log.runs.len()).filter(|&i| log.runs[i].program == *prog).collect();
+        let mut outs: Vec<[(Vec<f64>, Option<Vec<u16>>); 3]> = Vec::new();
+        let mut traces: Vec<Trace> = Vec::new();
+        for &i in &idx {
+            let run = &log.runs[i];
+            let none: Vec<f64> = run.samples.iter().map(|s| s.pulses as f64 / (s.interval_s * gamma_none)).collect();
+            let cs = compensate_run(simple, run)?;
+            let ch = compensate_run(hysteresis, run)?;
+            ev.rejected_readings += ch.rejected;
+            outs.push([(none, None), (cs.accel_g, Some(cs.status)), (ch.accel_g, Some(ch.status))]);
+            traces.push(trace_run(run, &ext, hysteresis.axes[0].bias.deadband_c_per_min));
+            if let Some(pb) = progress {
+                pb.inc(1);
+            }
+        }
+        let pos = |run_idx: usize| idx.iter().position(|&i| i == run_idx);
+        // Pairs: scale factor and bias.
+        if let Some(pp) = pair_program(log, prog) {
+            let (ip, im) = (pos(pp.plus).unwrap_or(0), pos(pp.minus).unwrap_or(0));
+            let (tp, tm) = (&traces[ip], &traces[im]);
+            let sp = &log.runs[pp.plus].samples;
+            let n = pp.rows.len();
+            let temp: Vec<f64> = pp.rows.iter().map(|&(i, j)| 0.5 * (tp.temp_c[i] + tm.temp_c[j])).collect();
+            let br: Vec<Branch> = pp.rows.iter().map(|&(i, _)| tp.branch[i]).collect();
+            let time: Vec<f64> = pp.rows.iter().map(|&(i, _)| sp[i].time_s).collect();
+            let ivl: Vec<f64> = pp.rows.iter().map(|&(i, _)| sp[i].interval_s).collect();
+            for v in 0..3 {
+                let (ap, sp_st) = &outs[ip][v];
+                let (am, sm_st) = &outs[im][v];
+                let okp = valid_rows(tp, sp_st.as_deref());
+                let okm = valid_rows(tm, sm_st.as_deref());
+                let use_row: Vec<bool> = pp.rows.iter().map(|&(i, j)| okp[i] && okm[j]).collect();
+                let g = log.runs[pp.plus].input_g - log.runs[pp.minus].input_g;
+                let sf: Vec<f64> = pp.rows.iter().map(|&(i, j)| (ap[i] - am[j]) / g).collect();
+                let bias: Vec<f64> = pp
+                    .rows
+                    .iter()
+                    .map(|&(i, j)| 0.5 * (ap[i] + am[j]) - 0.5 * (log.runs[pp.plus].input_g + log.runs[pp.minus].input_g))
+                    .collect();
+                debug_assert_eq!(sf.len(), n);
+                ev.bins[v].sf.extend(bin_series(prog, &temp, &br, &time, &ivl, &sf, &use_row));
+                ev.bins[v].bias.extend(bin_series(prog, &temp, &br, &time, &ivl, &bias, &use_row));
+            }
+        }
+        // Zero-g runs: bias directly.
+        for (k, &i) in idx.iter().enumerate() {
+            let run = &log.runs[i];
+            if run.input_g != 0.0 {
+                continue;
+            }
+            let tr = &traces[k];
+            let time: Vec<f64> = run.samples.iter().map(|s| s.time_s).collect();
+            let ivl: Vec<f64> = run.samples.iter().map(|s| s.interval_s).collect();
+            for v in 0..3 {
+                let (a, st) = &outs[k][v];
+                let ok = valid_rows(tr, st.as_deref());
+                ev.bins[v].bias.extend(bin_series(prog, &tr.temp_c, &tr.branch, &time, &ivl, a, &ok));
+            }
+        }
+    }
+    let sens = |v: usize| bins_sensitivity(&ev.bins[v].sf).unwrap_or(f64::NAN);
+    let bres = |v: usize| rms(&ev.bins[v].bias.iter().map(|b| b.value * 1e6).collect::<Vec<_>>());
+    ev.sensitivity_ppm_per_c = Variants { none: sens(0), simple: sens(1), hysteresis: sens(2) };
+    ev.bias_residual_ug = Variants { none: bres(0), simple: bres(1), hysteresis: bres(2) };
+    Ok(ev)
+}
+
+/// Fit diagnostics in the report.
+#[derive(Clone, Debug, Serialize)]
+pub struct FitSummary {
+    /// Paired rows fitted.
+    pub pairs: usize,
+    /// Condition number (column-scaled) of the simple scale-factor fit.
+    pub cond_sf_simple: f64,
+    /// Condition number (column-scaled) of the Eq. 11 fit.
+    pub cond_sf_hysteresis: f64,
+    /// Condition number (column-scaled) of the bias-grid fit.
+    pub cond_bias_grid: f64,
+    /// Eq. 11 coefficients [γ, μ, β, ε, η, α].
+    pub eq11: [f64; 6],
+    /// Simple [γ, μ].
+    pub simple_sf: [f64; 2],
+    /// Simple bias [k0 g, k1 g/°C].
+    pub simple_bias: [f64; 2],
+    /// RMS residual of the Eq. 11 fit, pulses/(g·s).
+    pub rms_sf_hysteresis: f64,
+}
+
+/// `report.json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct Report {
+    /// Log rows.
+    pub rows: usize,
+    /// Programs fitted.
+    pub fit_programs: Vec<String>,
+    /// Programs the figures come from.
+    pub eval_programs: Vec<String>,
+    /// Whether the figures are held out (false only for a one-program log).
+    pub held_out: bool,
+    /// Table-4 sensitivity, ppm/°C, held out.
+    pub sensitivity_ppm_per_c: Variants,
+    /// Bias residual, µg RMS, held out.
+    pub bias_residual_ug: Variants,
+    /// Metric definition, in words.
+    pub metric: String,
+    /// Fit diagnostics.
+    pub fit: FitSummary,
+    /// Readings the compensator rejected in the held-out runs.
+    pub rejected_readings: usize,
+    /// Step timings, s.
+    pub timings_s: Timings,
+}
+
+/// Step timings, s.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct Timings {
+    /// Reading the log.
+    pub read: f64,
+    /// Fitting.
+    pub fit: f64,
+    /// Held-out compensation and metrics.
+    pub evaluate: f64,
+    /// Plots.
+    pub plots: f64,
+    /// Total.
+    pub total: f64,
+}
+
+/// Metric definition written into the report.
+pub const METRIC_TEXT: &str = "Table-4 sensitivity (max-min)/(mean*span)*1e6 ppm/degC over held-out bins \
+(program, branch segment, 1 degC of T-hat; bins >= 60 s); compensated scale factor (a+ - a-)/2 from the root \
+crate's Compensator<1,32>; bias residual = RMS of binned (a+ + a-)/2 and 0 g outputs, ug";
+
+fn register_font() {
+    use std::sync::Once;
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        let _ = plotters::style::register_font("sans-serif", plotters::style::FontStyle::Normal, dejavu::sans::regular());
+    });
+}
+
+fn branch_color(b: Branch) -> plotters::style::RGBColor {
+    match b {
+        Branch::Heating => plotters::style::RGBColor(200, 30, 30),
+        Branch::Cooling => plotters::style::RGBColor(30, 60, 200),
+        Branch::Unknown => plotters::style::RGBColor(120, 120, 120),
+    }
+}
+
+type PlotResult = Result<(), Box<dyn std::error::Error>>;
+
+/// Scale factor (ppm from its mean) against temperature, before and after, heating red,
+/// cooling blue, hold grey.
+///
+/// # Errors
+/// Drawing or file errors.
+pub fn plot_sf_vs_temp(path: &Path, title: &str, ev: &Evaluation) -> PlotResult {
+    use plotters::prelude::*;
+    register_font();
+    let root = BitMapBackend::new(path, (1500, 500)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let (top, body) = root.split_vertically(30);
+    top.titled(title, ("sans-serif", 20))?;
+    let panels = body.split_evenly((1, 3));
+    let names = ["no compensation", "simple (Eq. 3-4)", "hysteresis (Eq. 11 + branched bias)"];
+    for (k, area) in panels.iter().enumerate() {
+        let bins = &ev.bins[k].sf;
+        if bins.is_empty() {
+            continue;
+        }
+        let mean = bins.iter().map(|b| b.value).sum::<f64>() / bins.len() as f64;
+        let ppm: Vec<f64> = bins.iter().map(|b| (b.value / mean - 1.0) * 1e6).collect();
+        let lo = ppm.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = ppm.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let pad = ((hi - lo) * 0.05).max(1.0);
+        let tmin = bins.iter().map(|b| b.temp_c).fold(f64::INFINITY, f64::min) - 2.0;
+        let tmax = bins.iter().map(|b| b.temp_c).fold(f64::NEG_INFINITY, f64::max) + 2.0;
+        let mut chart = ChartBuilder::on(area)
+            .caption(names[k], ("sans-serif", 16))
+            .margin(10)
+            .x_label_area_size(35)
+            .y_label_area_size(60)
+            .build_cartesian_2d(tmin..tmax, (lo - pad)..(hi + pad))?;
+        chart.configure_mesh().x_desc("T (degC, DS18B20)").y_desc("scale factor - mean (ppm)").draw()?;
+        chart.draw_series(
+            bins.iter().zip(&ppm).map(|(b, &y)| Circle::new((b.temp_c, y), 2, branch_color(b.branch).filled())),
+        )?;
+    }
+    root.present()?;
+    Ok(())
+}
+
+/// Held-out residuals against time: bias (µg) and scale factor (ppm) for simple and
+/// hysteresis, each program's time from its own start.
+///
+/// # Errors
+/// Drawing or file errors.
+pub fn plot_residual_vs_time(path: &Path, title: &str, ev: &Evaluation) -> PlotResult {
+    use plotters::prelude::*;
+    register_font();
+    let root = BitMapBackend::new(path, (1400, 800)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let (top, body) = root.split_vertically(30);
+    top.titled(title, ("sans-serif", 20))?;
+    let rows = body.split_evenly((2, 1));
+    let colors = [RGBColor(230, 140, 0), RGBColor(0, 130, 60)];
+    for (k, area) in rows.iter().enumerate() {
+        let series: Vec<Vec<(f64, f64)>> = (1..3)
+            .map(|v| {
+                let bins = if k == 0 { &ev.bins[v].sf } else { &ev.bins[v].bias };
+                let mean = if k == 0 { bins.iter().map(|b| b.value).sum::<f64>() / bins.len().max(1) as f64 } else { 0.0 };
+                bins.iter()
+                    .map(|b| (b.time_s / 3600.0, if k == 0 { (b.value / mean - 1.0) * 1e6 } else { b.value * 1e6 }))
+                    .collect()
+            })
+            .collect();
+        let all: Vec<&(f64, f64)> = series.iter().flatten().collect();
+        if all.is_empty() {
+            continue;
+        }
+        let xmax = all.iter().map(|p| p.0).fold(0.0, f64::max);
+        let lo = all.iter().map(|p| p.1).fold(f64::INFINITY, f64::min);
+        let hi = all.iter().map(|p| p.1).fold(f64::NEG_INFINITY, f64::max);
+        let pad = ((hi - lo) * 0.05).max(0.5);
+        let mut chart = ChartBuilder::on(area)
+            .margin(10)
+            .x_label_area_size(35)
+            .y_label_area_size(60)
+            .build_cartesian_2d(0.0..xmax, (lo - pad)..(hi + pad))?;
+        let ydesc = if k == 0 { "scale-factor residual (ppm)" } else { "bias residual (ug)" };
+        chart.configure_mesh().x_desc("time since program start (h)").y_desc(ydesc).draw()?;
+        for (s, (pts, c)) in series.iter().zip(colors).enumerate() {
+            let label = if s == 0 { "simple" } else { "hysteresis" };
+            chart
+                .draw_series(pts.iter().map(|&p| Circle::new(p, 2, c.filled())))?
+                .label(label)
+                .legend(move |(x, y)| Circle::new((x, y), 4, c.filled()));
+        }
+        chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw()?;
+    }
+    root.present()?;
+    Ok(())
+}

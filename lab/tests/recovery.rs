@@ -1,0 +1,129 @@
+//! Recovery of known coefficients from simulated logs, and held-out compensation.
+//!
+//! Short programs (pure ramps 22 → −30 → +50 → 22 °C at three rates, 30-min hold) and
+//! 2-s rows keep these at a few seconds in debug builds. Tolerances are stated per
+//! coefficient with the reason; expected values come from the truth presets (the paper's
+//! Eq. 15–17), never from the code under test.
+
+use qfa_lab::calibrate::{calibrate_log, CalibrateOptions};
+use qfa_lab::compensate::compensate_run;
+use qfa_lab::fit::{encode, fit, FitOptions, T0_C};
+use qfa_lab::log::Log;
+use qfa_lab::profile::{paper_positions, Program};
+use qfa_lab::sim::simulate;
+use qfa_lab::truth::Truth;
+
+fn ramps(rate: f64) -> Program {
+    Program::staircase(&format!("ramp-{rate}"), rate, 30.0, 0.0, -30, 50)
+}
+
+fn short_log(truth: &Truth, rates: &[f64], row_s: u32, seed: u64) -> Log {
+    let programs: Vec<Program> = rates.iter().map(|&r| ramps(r)).collect();
+    simulate(truth, &programs, &paper_positions(), row_s, seed, 2, None)
+}
+
+fn rel(a: f64, b: f64) -> f64 {
+    (a - b).abs() / b.abs()
+}
+
+/// Noiseless unit #2 (the one with a sizeable η), sensor offset 0: every Eq. 11
+/// coefficient comes back. Tolerances: the fit sees the firmware's T̂ and Ṫ (12-bit
+/// quantized, 32-sample LS window, reading applied to the row it ends) instead of the
+/// exact case temperature. The 32-sample LS window (1-s rows, as on target) reports the
+/// rate of 16 s ago, so after each turnaround of these pure ramps the rate it sees lags the
+/// true one; that biases the rate terms ε and η by several percent (measured: ε −7 %,
+/// η +5 %), hence 10 % on ε, η and α, tighter on the temperature terms.
+#[test]
+fn eq11_coefficients_recovered_from_noiseless_log() {
+    let mut truth = Truth::jb_kt8(2).noiseless();
+    truth.sensor.offset_c = 0.0;
+    let rates = [0.5, 1.0, 1.5];
+    let log = short_log(&truth, &rates, 1, 3);
+    let programs: Vec<String> = log.programs();
+    let f = fit(&log, &FitOptions::new(programs), None).unwrap();
+    let c = &f.sf_hysteresis.coef;
+    let s = truth.scale;
+    println!("fitted [γ μ β ε η α] = {c:?}, cond {:.1}", f.sf_hysteresis.cond);
+    let want = [s.gamma, s.mu, s.beta, s.epsilon, s.eta, s.alpha].map(f64::from);
+    assert!(rel(c[0], want[0]) < 3e-6, "γ {} vs {}", c[0], want[0]);
+    assert!(rel(c[1], want[1]) < 0.01, "μ {} vs {}", c[1], want[1]);
+    assert!(rel(c[2], want[2]) < 0.05, "β {} vs {}", c[2], want[2]);
+    assert!(rel(c[3], want[3]) < 0.10, "ε {} vs {}", c[3], want[3]);
+    assert!(rel(c[4], want[4]) < 0.10, "η {} vs {}", c[4], want[4]);
+    assert!(rel(c[5], want[5]) < 0.10, "α {} vs {}", c[5], want[5]);
+    // Bias: the grid nodes follow the smooth truth within 1 µg on both branches.
+    let g = &f.hysteresis.axes[0].bias;
+    for (i, (&h, &cg)) in g.heating_g.iter().zip(&g.cooling_g).enumerate() {
+        let t = f64::from(g.t_start_c) + f64::from(g.t_step_c) * i as f64;
+        let b = truth.bias.at(t - T0_C);
+        assert!((f64::from(h) - b).abs() < 1e-6, "heating node {i} at {t}: {h} vs {b}");
+        assert!((f64::from(cg) - b).abs() < 1e-6, "cooling node {i} at {t}: {cg} vs {b}");
+    }
+    // Simple model: a line through the curved truth. Independent reference: the LS line of
+    // the truth polynomial sampled uniformly over −30..50 °C (the ramps spend equal time
+    // per degree); ±5 µg at T0 and ±0.1 µg/°C on the slope cover the hold's extra weight.
+    let ts: Vec<f64> = (0..=800).map(|i| -30.0 + 0.1 * f64::from(i) - T0_C).collect();
+    let n = ts.len() as f64;
+    let (mx, my) = (ts.iter().sum::<f64>() / n, ts.iter().map(|&d| truth.bias.at(d)).sum::<f64>() / n);
+    let sxy: f64 = ts.iter().map(|&d| (d - mx) * (truth.bias.at(d) - my)).sum();
+    let sxx: f64 = ts.iter().map(|&d| (d - mx) * (d - mx)).sum();
+    let (slope, icept) = (sxy / sxx, my - sxy / sxx * mx);
+    let sb = &f.bias_simple.coef;
+    assert!((sb[0] - icept).abs() < 5e-6, "k0 {} vs {}", sb[0], icept);
+    assert!((sb[1] - slope).abs() < 0.1e-6, "k1 {} vs {}", sb[1], slope);
+    // The flashable bytes decode to the same table.
+    let bytes = encode(&f.hysteresis).unwrap();
+    assert_eq!(qfa_thermal::Table::decode(&bytes).unwrap(), f.hysteresis);
+}
+
+/// With the truth's own coefficients in a table, the root crate's compensator returns the
+/// input of a noiseless run on average (mean error within 3 µg; one pulse is 3 µg).
+/// Row by row it cannot be exact: the 32-sample LS rate of 12-bit readings jitters by
+/// about ±0.005–0.02 °C/min, which Eq. 11 turns into ±(ε + 2α·Ṫ)·δṪ ≈ ±3–13 pulses/s for
+/// JB-KT8 #1 (α = 273): RMS bounded by 30 µg, and the worst rows (turnarounds, where the
+/// window's 16-s lag adds ε·Δṫ) by 200 µg.
+#[test]
+fn compensator_with_exact_table_returns_the_input() {
+    let mut truth = Truth::jb_kt8(1).noiseless();
+    truth.sensor.offset_c = 0.0;
+    truth.bias.b2_g_per_c2 = 0.0; // linear: the grid represents it exactly
+    let p = ramps(1.0);
+    let run = qfa_lab::sim::simulate_run(&truth, &p, qfa_lab::profile::Position { run: 0, input_g: -1.0 }, 1, 5);
+    let nodes: Vec<f32> = (0..16).map(|i| truth.bias.at(-40.0 + 7.0 * f64::from(i) - T0_C) as f32).collect();
+    let axis = qfa_thermal::AxisModel {
+        scale: truth.scale,
+        bias: qfa_thermal::BiasGrid::single_valued(-40.0, 7.0, &nodes),
+        rate_limit_c_per_min: 3.0,
+        ext: truth.ext,
+    };
+    let table = qfa_lab::fit::table_of(axis).unwrap();
+    let c = compensate_run(&table, &run).unwrap();
+    // Skip the estimator's warm-up (min_samples = 8 readings and a full 32-sample window).
+    let err: Vec<f64> = c.accel_g[40..].iter().map(|a| a + 1.0).collect();
+    let worst = err.iter().map(|e| e.abs()).fold(0.0, f64::max);
+    let rms = (err.iter().map(|e| e * e).sum::<f64>() / err.len() as f64).sqrt();
+    let mean = err.iter().sum::<f64>() / err.len() as f64;
+    println!("a − input: mean {:.2} µg, RMS {:.2} µg, max {:.1} µg", mean * 1e6, rms * 1e6, worst * 1e6);
+    assert!(mean.abs() < 3e-6, "{mean}");
+    assert!(rms < 30e-6, "{rms}");
+    assert!(worst < 200e-6, "{worst}");
+}
+
+/// Noisy unit #1 on four short ramp programs: the held-out Table-4 sensitivity of the
+/// hysteresis model is at least 4× below the simple model's and below 4 ppm/°C (pure
+/// ramps turn around abruptly, the paper's dwell staircase does not: the demo measures
+/// the real program), and the simple model is at least 3× below no compensation.
+#[test]
+fn held_out_hysteresis_beats_simple() {
+    let truth = Truth::jb_kt8(1);
+    let log = short_log(&truth, &[0.5, 0.8, 1.1, 1.5], 2, 11);
+    let cal = calibrate_log(&log, &CalibrateOptions::default()).unwrap();
+    let s = cal.report.sensitivity_ppm_per_c;
+    println!("held-out ppm/°C: none {:.2}, simple {:.2}, hysteresis {:.2}; bias µg {:?}", s.none, s.simple, s.hysteresis, cal.report.bias_residual_ug);
+    assert!(cal.report.held_out);
+    assert_eq!(cal.report.fit_programs, vec!["ramp-0.5".to_string(), "ramp-1.5".to_string()]);
+    assert!(s.simple * 3.0 < s.none, "{s:?}");
+    assert!(s.hysteresis * 4.0 < s.simple, "{s:?}");
+    assert!(s.hysteresis < 4.0, "{s:?}");
+    assert!(cal.report.bias_residual_ug.hysteresis < cal.report.bias_residual_ug.simple);
+}
