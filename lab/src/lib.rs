@@ -17,6 +17,7 @@
 pub mod calibrate;
 pub mod compensate;
 pub mod demo;
+pub mod discover;
 pub mod fit;
 pub mod log;
 pub mod metrics;
@@ -26,3 +27,4 @@ pub mod report;
 pub mod sim;
 pub mod thermal;
 pub mod truth;
+pub mod nav;

@@ -1,0 +1,277 @@
+//! Channels: the scale-factor and bias series the discovery workflow compares the model
+//! against, formed from a cycling log (±1 g runs paired by time) or a single-channel log.
+//!
+//! Every program keeps its temperature trace at the log's row rate, run through the root
+//! crate's `RateEstimator<32>` exactly as the firmware would (raw = round(16·T)); the
+//! measured channels are averaged into bins (default 60 s) to cut noise. A model is
+//! evaluated on every row and averaged over the same bins, so its states (lag, play,
+//! creep) advance at the firmware's sample rate.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use anyhow::{bail, Context, Result};
+use qfa_thermal::rate::{RateConfig, RateEstimator};
+
+/// Kind of log the channels came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LogKind {
+    /// Four-position cycling log: scale factor (pulses/(g·s)) and bias (g) channels.
+    Cycling,
+    /// `time_s,temp_c,value`: one output in any unit, treated as the bias channel.
+    Single,
+}
+
+/// One averaging bin: rows `lo..hi` of its trace.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bin {
+    /// First row.
+    pub lo: usize,
+    /// One past the last row.
+    pub hi: usize,
+    /// Mean time of the rows, s.
+    pub time_s: f64,
+    /// Measured K1, pulses/(g·s) (NaN for a single-channel log).
+    pub sf: f64,
+    /// Measured K0 in g (cycling) or the mean value (single-channel).
+    pub bias: f64,
+}
+
+/// One temperature program: the firmware's view of its temperature and the measured bins.
+#[derive(Clone, Debug)]
+pub struct Trace {
+    /// Program id from the log.
+    pub program: String,
+    /// Row times, s.
+    pub time_s: Vec<f64>,
+    /// DS18B20 raw readings, 1/16 °C.
+    pub temp_raw: Vec<i16>,
+    /// The estimator's temperature, °C (what the firmware passes to `evaluate`).
+    pub est_t: Vec<f32>,
+    /// The estimator's Ṫ, °C/min.
+    pub est_rate: Vec<f32>,
+    /// Seconds since the previous row (0 for the first).
+    pub dt_s: Vec<f32>,
+    /// Bins.
+    pub bins: Vec<Bin>,
+}
+
+impl Trace {
+    /// Build a trace from rows `(time_s, temp_c)` and bin the measured channels.
+    /// `sf` and `bias` are per-row measured values; bins average `sf` and form the bias as
+    /// `mean(sf·bias)/mean(sf)` (the pairing's K0) when `sf` is given.
+    #[must_use]
+    pub fn new(program: String, rows: &[(f64, f32)], sf: Option<&[f64]>, bias: &[f64], bin_s: f64) -> Self {
+        let n = rows.len();
+        let mut est = RateEstimator::<32>::new(RateConfig::default());
+        let mut time_s = Vec::with_capacity(n);
+        let mut temp_raw = Vec::with_capacity(n);
+        let mut est_t = Vec::with_capacity(n);
+        let mut est_rate = Vec::with_capacity(n);
+        let mut dt_s = Vec::with_capacity(n);
+        let mut keep = Vec::with_capacity(n);
+        let mut last: Option<f64> = None;
+        for (i, &(t, temp)) in rows.iter().enumerate() {
+            let raw = (f64::from(temp) * 16.0).round().clamp(-32768.0, 32767.0) as i16;
+            let t_ms = (t * 1000.0).round() as u32;
+            if est.push(t_ms, raw).is_err() {
+                continue; // non-monotonic time: the firmware rejects it too
+            }
+            let e = est.estimate();
+            time_s.push(t);
+            temp_raw.push(raw);
+            est_t.push(e.temp_c);
+            est_rate.push(e.rate_c_per_min);
+            dt_s.push(last.map_or(0.0, |p| (t - p) as f32));
+            last = Some(t);
+            keep.push(i);
+        }
+        let mut bins = Vec::new();
+        let mut lo = 0;
+        while lo < time_s.len() {
+            let key = (time_s[lo] / bin_s).floor();
+            let mut hi = lo + 1;
+            while hi < time_s.len() && (time_s[hi] / bin_s).floor() == key {
+                hi += 1;
+            }
+            let m = (hi - lo) as f64;
+            let t_mean = time_s[lo..hi].iter().sum::<f64>() / m;
+            let (sf_b, bias_b) = match sf {
+                Some(sf) => {
+                    let s: f64 = keep[lo..hi].iter().map(|&k| sf[k]).sum::<f64>() / m;
+                    let sb: f64 = keep[lo..hi].iter().map(|&k| sf[k] * bias[k]).sum::<f64>() / m;
+                    (s, sb / s)
+                }
+                None => (f64::NAN, keep[lo..hi].iter().map(|&k| bias[k]).sum::<f64>() / m),
+            };
+            if sf_b.is_finite() || sf.is_none() {
+                bins.push(Bin { lo, hi, time_s: t_mean, sf: sf_b, bias: bias_b });
+            }
+            lo = hi;
+        }
+        Self { program, time_s, temp_raw, est_t, est_rate, dt_s, bins }
+    }
+
+    /// Typical ramp rate of the program, °C/min: the 90th percentile of |Ṫ|, to 0.1.
+    #[must_use]
+    pub fn ramp_rate(&self) -> f64 {
+        let mut r: Vec<f32> = self.est_rate.iter().map(|x| x.abs()).collect();
+        if r.is_empty() {
+            return 0.0;
+        }
+        r.sort_by(f32::total_cmp);
+        let p = f64::from(r[(r.len() * 9 / 10).min(r.len() - 1)]);
+        (p * 10.0).round() / 10.0
+    }
+}
+
+/// The channels of one log.
+#[derive(Clone, Debug)]
+pub struct Channels {
+    /// Which kind of log.
+    pub kind: LogKind,
+    /// One trace per program.
+    pub traces: Vec<Trace>,
+}
+
+impl Channels {
+    /// Number of bins over all traces.
+    #[must_use]
+    pub fn n_bins(&self) -> usize {
+        self.traces.iter().map(|t| t.bins.len()).sum()
+    }
+
+    /// Read a log, detecting its format from the header.
+    ///
+    /// # Errors
+    /// Unreadable file, unknown header, or malformed rows (each listed with its line).
+    pub fn read(path: &Path, bin_s: f64) -> Result<Self> {
+        let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+        Self::parse(&text, bin_s).with_context(|| format!("in {}", path.display()))
+    }
+
+    /// Parse log text (see [`Channels::read`]).
+    ///
+    /// # Errors
+    /// As [`Channels::read`].
+    pub fn parse(text: &str, bin_s: f64) -> Result<Self> {
+        let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
+        let Some((_, header)) = lines.next() else { bail!("empty log") };
+        let cols: Vec<String> = header.split(',').map(|c| c.trim().to_ascii_lowercase()).collect();
+        let idx = |name: &str| cols.iter().position(|c| c == name);
+        if let (Some(p), Some(ti), Some(g), Some(tc), Some(pu), Some(iv)) =
+            (idx("program"), idx("time_s"), idx("input_g"), idx("temp_c"), idx("pulses"), idx("interval_s"))
+        {
+            let run = idx("run");
+            let mut errors = Vec::new();
+            // program -> input sign -> (run id, rows)
+            type Runs = BTreeMap<String, Vec<(f64, Option<f32>, f64)>>;
+            let mut progs: BTreeMap<String, (Runs, Runs)> = BTreeMap::new();
+            for (ln, line) in lines {
+                let f: Vec<&str> = line.split(',').map(str::trim).collect();
+                let get = |i: usize| f.get(i).copied().unwrap_or("");
+                let parsed = (|| -> Result<()> {
+                    if f.len() < cols.len() {
+                        bail!("{} fields, expected {}", f.len(), cols.len());
+                    }
+                    let t: f64 = get(ti).parse().context("time_s")?;
+                    let g: f64 = get(g).parse().context("input_g")?;
+                    let temp: Option<f32> =
+                        if get(tc).is_empty() { None } else { Some(get(tc).parse().context("temp_c")?) };
+                    let pulses: f64 = get(pu).parse().context("pulses")?;
+                    let iv: f64 = get(iv).parse().context("interval_s")?;
+                    if !(iv > 0.0) || !t.is_finite() || !pulses.is_finite() {
+                        bail!("non-positive interval or non-finite value");
+                    }
+                    let entry = progs.entry(get(p).to_string()).or_default();
+                    let run_id = run.map_or(String::new(), |r| get(r).to_string());
+                    let rate = pulses / iv;
+                    if (g - 1.0).abs() < 1e-6 {
+                        entry.0.entry(run_id).or_default().push((t, temp, rate));
+                    } else if (g + 1.0).abs() < 1e-6 {
+                        entry.1.entry(run_id).or_default().push((t, temp, rate));
+                    }
+                    Ok(())
+                })();
+                if let Err(e) = parsed {
+                    errors.push(format!("line {}: {e:#}", ln + 1));
+                }
+            }
+            if !errors.is_empty() {
+                let n = errors.len();
+                errors.truncate(20);
+                bail!("{n} malformed row(s):\n{}", errors.join("\n"));
+            }
+            let mut traces = Vec::new();
+            for (prog, (plus, minus)) in progs {
+                let (Some(p), Some(m)) = (plus.into_values().next(), minus.into_values().next()) else {
+                    continue; // a program without both ±1 g runs gives no channels
+                };
+                let by_time: BTreeMap<i64, (Option<f32>, f64)> =
+                    m.iter().map(|&(t, tc, a)| ((t * 1000.0).round() as i64, (tc, a))).collect();
+                let (mut rows, mut sf, mut bias) = (Vec::new(), Vec::new(), Vec::new());
+                for &(t, tp, ap) in &p {
+                    let Some(&(tm, am)) = by_time.get(&((t * 1000.0).round() as i64)) else { continue };
+                    // The common program temperature: mean of both runs' readings.
+                    let temp = match (tp, tm) {
+                        (Some(a), Some(b)) => 0.5 * (a + b),
+                        (Some(a), None) | (None, Some(a)) => a,
+                        (None, None) => continue,
+                    };
+                    let k1 = 0.5 * (ap - am);
+                    rows.push((t, temp));
+                    sf.push(k1);
+                    bias.push((ap + am) / (2.0 * k1));
+                }
+                if rows.len() >= 8 {
+                    traces.push(Trace::new(prog, &rows, Some(&sf), &bias, bin_s));
+                }
+            }
+            if traces.is_empty() {
+                bail!("no program has paired +1 g and -1 g runs");
+            }
+            Ok(Self { kind: LogKind::Cycling, traces })
+        } else if let (Some(ti), Some(tc), Some(v)) = (idx("time_s"), idx("temp_c"), idx("value")) {
+            let mut errors = Vec::new();
+            let (mut rows, mut vals) = (Vec::new(), Vec::new());
+            for (ln, line) in lines {
+                let f: Vec<&str> = line.split(',').map(str::trim).collect();
+                let get = |i: usize| f.get(i).copied().unwrap_or("");
+                let parsed = (|| -> Result<Option<(f64, f32, f64)>> {
+                    let t: f64 = get(ti).parse().context("time_s")?;
+                    if get(tc).is_empty() {
+                        return Ok(None); // no reading yet
+                    }
+                    let temp: f32 = get(tc).parse().context("temp_c")?;
+                    let val: f64 = get(v).parse().context("value")?;
+                    if !t.is_finite() || !val.is_finite() || !temp.is_finite() {
+                        bail!("non-finite value");
+                    }
+                    Ok(Some((t, temp, val)))
+                })();
+                match parsed {
+                    Ok(Some((t, temp, val))) => {
+                        rows.push((t, temp));
+                        vals.push(val);
+                    }
+                    Ok(None) => {}
+                    Err(e) => errors.push(format!("line {}: {e:#}", ln + 1)),
+                }
+            }
+            if !errors.is_empty() {
+                let n = errors.len();
+                errors.truncate(20);
+                bail!("{n} malformed row(s):\n{}", errors.join("\n"));
+            }
+            if rows.len() < 8 {
+                bail!("too few rows");
+            }
+            Ok(Self { kind: LogKind::Single, traces: vec![Trace::new("log".into(), &rows, None, &vals, bin_s)] })
+        } else {
+            bail!(
+                "unknown header {header:?}: expected program,run,time_s,input_g,temp_c,pulses,interval_s \
+                 or time_s,temp_c,value"
+            )
+        }
+    }
+}

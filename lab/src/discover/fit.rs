@@ -1,0 +1,604 @@
+//! Fitting a model structure: nonlinear slot parameters by search, linear coefficients by
+//! least squares, every trial evaluated by the root crate's `AxisModel::evaluate`.
+//!
+//! For a given set of nonlinear parameters (lag τ, play half-width r, creep τ_ref and E)
+//! a probe `AxisModel` with those slots on is run over every row; its public states give
+//! the element temperature Te, the clamped Ṫ, the play term `(Te − p)/r` and the creep
+//! term `Te − x` exactly as the firmware computes them. Those are averaged into bins and
+//! form the columns of two linear least-squares problems (scale factor, bias). The fitted
+//! coefficients go into an `AxisModel`, which is then run again to give the predictions
+//! the residuals are formed from: what is scored is what the firmware would run.
+
+use nalgebra::{DMatrix, DVector};
+use qfa_thermal::model::{AxisModel, AxisState, BiasGrid, BranchHysteresis, Creep, Extensions, ScaleFactor, SensorLag};
+
+use super::channels::{Channels, LogKind};
+use super::Start;
+
+/// Reference temperature of ΔT (the paper's 22 °C program start).
+pub const T0_C: f32 = 22.0;
+/// Fixed reference temperature of the creep time constant, °C.
+pub const CREEP_T_REF_C: f32 = 22.0;
+/// Bias grid points.
+pub const GRID_POINTS: usize = 16;
+
+/// A catalog effect (with the channel it acts on for `temp_quadratic`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Effect {
+    /// β·ΔT² on the scale factor.
+    TempQuadSf,
+    /// β_b·ΔT² on the bias (simple start only; the paper start's bias grid already curves).
+    TempQuadBias,
+    /// ε·Ṫ on the scale factor.
+    RateHysteresis,
+    /// α·Ṫ² on the scale factor.
+    RateSquared,
+    /// η·Ṫ·ΔT on the scale factor.
+    RateTempCoupling,
+    /// Element temperature lags the DS18B20 (both channels).
+    SensorLag,
+    /// Play operator on the bias.
+    BiasBranchHysteresis,
+    /// Arrhenius creep on the bias.
+    BiasCreep,
+}
+
+impl Effect {
+    /// Every effect, in catalog order.
+    pub const ALL: [Effect; 8] = [
+        Effect::TempQuadSf,
+        Effect::TempQuadBias,
+        Effect::RateHysteresis,
+        Effect::RateSquared,
+        Effect::RateTempCoupling,
+        Effect::SensorLag,
+        Effect::BiasBranchHysteresis,
+        Effect::BiasCreep,
+    ];
+
+    /// Catalog name.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Effect::TempQuadSf | Effect::TempQuadBias => "temp_quadratic",
+            Effect::RateHysteresis => "rate_hysteresis",
+            Effect::RateSquared => "rate_squared",
+            Effect::RateTempCoupling => "rate_temp_coupling",
+            Effect::SensorLag => "sensor_lag",
+            Effect::BiasBranchHysteresis => "bias_branch_hysteresis",
+            Effect::BiasCreep => "bias_creep",
+        }
+    }
+
+    /// Channel it acts on: `scale_factor`, `bias` or `both`.
+    #[must_use]
+    pub fn channel(self) -> &'static str {
+        match self {
+            Effect::TempQuadSf | Effect::RateHysteresis | Effect::RateSquared | Effect::RateTempCoupling => {
+                "scale_factor"
+            }
+            Effect::TempQuadBias | Effect::BiasBranchHysteresis | Effect::BiasCreep => "bias",
+            Effect::SensorLag => "both",
+        }
+    }
+
+    /// Parameters it adds (for the selection penalty).
+    #[must_use]
+    pub fn n_params(self) -> usize {
+        match self {
+            Effect::BiasBranchHysteresis => 2,
+            Effect::BiasCreep => 3,
+            _ => 1,
+        }
+    }
+
+    /// Whether it acts on the scale-factor channel.
+    #[must_use]
+    pub fn touches_sf(self) -> bool {
+        self.channel() != "bias"
+    }
+
+    /// Whether it acts on the bias channel.
+    #[must_use]
+    pub fn touches_bias(self) -> bool {
+        self.channel() != "scale_factor"
+    }
+}
+
+/// Nonlinear parameters of the slots that are on.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Nonlinear {
+    /// sensor_lag τ, s.
+    pub lag_tau_s: Option<f32>,
+    /// bias_branch_hysteresis half-width, °C.
+    pub play_r_c: Option<f32>,
+    /// bias_creep (τ_ref s, activation K).
+    pub creep: Option<(f32, f32)>,
+}
+
+/// Linear structure: which terms are in the model.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Structure {
+    /// Start model.
+    pub start: Start,
+    /// β on the scale factor.
+    pub sf_quad: bool,
+    /// ε.
+    pub sf_eps: bool,
+    /// α.
+    pub sf_alpha: bool,
+    /// η.
+    pub sf_eta: bool,
+    /// ΔT² on a linear bias (simple start).
+    pub bias_quad: bool,
+}
+
+impl Structure {
+    /// The start model's structure.
+    #[must_use]
+    pub fn start(start: Start) -> Self {
+        let p = start == Start::Paper;
+        Self { start, sf_quad: p, sf_eps: p, sf_alpha: p, sf_eta: p, bias_quad: false }
+    }
+
+    /// Whether `e` can still be added.
+    #[must_use]
+    pub fn can_add(&self, e: Effect, nl: &Nonlinear, kind: LogKind) -> bool {
+        let cyc = kind == LogKind::Cycling;
+        match e {
+            Effect::TempQuadSf => cyc && !self.sf_quad,
+            Effect::RateHysteresis => cyc && !self.sf_eps,
+            Effect::RateSquared => cyc && !self.sf_alpha,
+            Effect::RateTempCoupling => cyc && !self.sf_eta,
+            Effect::TempQuadBias => self.start == Start::Simple && !self.bias_quad,
+            Effect::SensorLag => nl.lag_tau_s.is_none(),
+            Effect::BiasBranchHysteresis => nl.play_r_c.is_none(),
+            Effect::BiasCreep => nl.creep.is_none(),
+        }
+    }
+
+    /// The structure with the linear part of `e` switched on.
+    #[must_use]
+    pub fn with(mut self, e: Effect) -> Self {
+        match e {
+            Effect::TempQuadSf => self.sf_quad = true,
+            Effect::TempQuadBias => self.bias_quad = true,
+            Effect::RateHysteresis => self.sf_eps = true,
+            Effect::RateSquared => self.sf_alpha = true,
+            Effect::RateTempCoupling => self.sf_eta = true,
+            _ => {}
+        }
+        self
+    }
+}
+
+/// Fixed geometry of a data set: bias grid, rate limit, channel weights.
+#[derive(Clone, Debug)]
+pub struct Setup<'a> {
+    /// The data.
+    pub ch: &'a Channels,
+    /// First grid temperature, °C.
+    pub grid_start: f32,
+    /// Grid step, °C.
+    pub grid_step: f32,
+    /// Calibrated |Ṫ| limit, °C/min.
+    pub rate_limit: f32,
+    /// Noise floor of the scale-factor channel, ppm (weights of the joint objective).
+    pub sigma_sf: f64,
+    /// Noise floor of the bias channel, µg (or value units).
+    pub sigma_b: f64,
+}
+
+impl<'a> Setup<'a> {
+    /// Geometry from the data's temperature and rate range.
+    #[must_use]
+    pub fn new(ch: &'a Channels) -> Self {
+        let (mut lo, mut hi, mut rmax) = (f32::INFINITY, f32::NEG_INFINITY, 0.0f32);
+        for t in &ch.traces {
+            for (&x, &r) in t.est_t.iter().zip(&t.est_rate) {
+                lo = lo.min(x);
+                hi = hi.max(x);
+                rmax = rmax.max(r.abs());
+            }
+        }
+        let lo = (lo.floor() - 1.0).max(-60.0);
+        let hi = (hi.ceil() + 1.0).min(130.0).max(lo + 2.0);
+        let step = (hi - lo) / (GRID_POINTS - 1) as f32;
+        Self {
+            ch,
+            grid_start: lo,
+            grid_step: step,
+            rate_limit: (rmax * 1.25).clamp(0.1, 20.0),
+            sigma_sf: 1.0,
+            sigma_b: 1.0,
+        }
+    }
+
+    /// Factor from the bias channel's unit (g for cycling logs) to the reported unit.
+    #[must_use]
+    pub fn bias_unit(&self) -> f64 {
+        match self.ch.kind {
+            LogKind::Cycling => 1e6,
+            LogKind::Single => 1.0,
+        }
+    }
+
+    fn grid_temp(&self, j: usize) -> f32 {
+        self.grid_start + self.grid_step * j as f32
+    }
+}
+
+/// Per-bin mean features.
+#[derive(Clone, Debug, Default)]
+struct Features {
+    /// 1, d, d², r, r², r·d.
+    sf: Vec<[f64; 6]>,
+    /// Hat weights on the grid.
+    hat: Vec<[f64; GRID_POINTS]>,
+    play: Vec<f64>,
+    creep: Vec<f64>,
+}
+
+fn clampf(x: f32, lo: f32, hi: f32) -> f32 {
+    if x < lo {
+        lo
+    } else if x > hi {
+        hi
+    } else {
+        x
+    }
+}
+
+/// A fitted model and its per-bin predictions (K1, K0) over every bin.
+#[derive(Clone, Debug)]
+pub struct Fitted {
+    /// The axis model.
+    pub model: AxisModel,
+    /// Per-bin predicted K1 (pulses/(g·s); 1 for single-channel) and K0.
+    pub pred: Vec<(f64, f64)>,
+}
+
+/// Per-bin residuals: scale factor in ppm (NaN for single-channel), bias in µg (or value).
+#[derive(Clone, Debug, Default)]
+pub struct Residuals {
+    /// Scale-factor residual, ppm.
+    pub sf: Vec<f64>,
+    /// Bias residual, µg (or the value's unit).
+    pub bias: Vec<f64>,
+}
+
+impl Setup<'_> {
+    fn probe(&self, nl: &Nonlinear) -> AxisModel {
+        let zeros = [0.0f32; GRID_POINTS];
+        AxisModel {
+            scale: ScaleFactor::simple(T0_C, 1.0, 0.0),
+            bias: BiasGrid::single_valued(self.grid_start, self.grid_step, &zeros),
+            rate_limit_c_per_min: self.rate_limit,
+            ext: Extensions {
+                sensor_lag: nl.lag_tau_s.map(|tau_s| SensorLag { tau_s }),
+                bias_branch_hysteresis: nl.play_r_c.map(|r| BranchHysteresis { half_width_c: r, weight_g: 1.0 }),
+                bias_creep: nl.creep.map(|(tau, e)| Creep {
+                    gain_g_per_c: 1.0,
+                    tau_ref_s: tau,
+                    t_ref_c: CREEP_T_REF_C,
+                    activation_k: e,
+                }),
+            },
+        }
+    }
+
+    fn features(&self, nl: &Nonlinear) -> Features {
+        let probe = self.probe(nl);
+        let n = self.ch.n_bins();
+        let mut f = Features {
+            sf: Vec::with_capacity(n),
+            hat: Vec::with_capacity(n),
+            play: Vec::with_capacity(n),
+            creep: Vec::with_capacity(n),
+        };
+        let t_end = probe.bias.t_end_c();
+        let lim = self.rate_limit;
+        for tr in &self.ch.traces {
+            let mut st = AxisState::default();
+            let mut bi = 0;
+            let (mut s6, mut h, mut pl, mut cr) = ([0.0f64; 6], [0.0f64; GRID_POINTS], 0.0, 0.0);
+            for i in 0..tr.est_t.len() {
+                probe.evaluate(&mut st, tr.est_t[i], tr.est_rate[i], tr.dt_s[i]);
+                let t = clampf(tr.est_t[i], self.grid_start, t_end);
+                let te = if nl.lag_tau_s.is_some() { st.element_c } else { t };
+                let r = f64::from(clampf(tr.est_rate[i], -lim, lim));
+                let d = f64::from(te - T0_C);
+                let row = [1.0, d, d * d, r, r * r, r * d];
+                for k in 0..6 {
+                    s6[k] += row[k];
+                }
+                let x = (te - self.grid_start) / self.grid_step;
+                let j = (x as usize).min(GRID_POINTS - 2);
+                let frac = f64::from(x - j as f32);
+                h[j] += 1.0 - frac;
+                h[j + 1] += frac;
+                if let Some(rc) = nl.play_r_c {
+                    pl += f64::from((te - st.play_c) / rc);
+                }
+                if nl.creep.is_some() {
+                    cr += f64::from(te - st.creep_c);
+                }
+                while bi < tr.bins.len() && i + 1 == tr.bins[bi].hi {
+                    let m = (tr.bins[bi].hi - tr.bins[bi].lo) as f64;
+                    f.sf.push(s6.map(|v| v / m));
+                    f.hat.push(h.map(|v| v / m));
+                    f.play.push(pl / m);
+                    f.creep.push(cr / m);
+                    (s6, h, pl, cr) = ([0.0; 6], [0.0; GRID_POINTS], 0.0, 0.0);
+                    bi += 1;
+                }
+                if bi < tr.bins.len() && i + 1 == tr.bins[bi].lo {
+                    (s6, h, pl, cr) = ([0.0; 6], [0.0; GRID_POINTS], 0.0, 0.0);
+                }
+            }
+        }
+        f
+    }
+
+    /// Run `model` over every trace with the root crate's `evaluate`; per-bin (K1, K0).
+    #[must_use]
+    pub fn predict(&self, model: &AxisModel) -> Vec<(f64, f64)> {
+        let mut out = Vec::with_capacity(self.ch.n_bins());
+        for tr in &self.ch.traces {
+            let mut st = AxisState::default();
+            let mut bi = 0;
+            let (mut s1, mut s10) = (0.0f64, 0.0f64);
+            for i in 0..tr.est_t.len() {
+                let e = model.evaluate(&mut st, tr.est_t[i], tr.est_rate[i], tr.dt_s[i]);
+                if bi < tr.bins.len() && i >= tr.bins[bi].lo {
+                    s1 += f64::from(e.k1);
+                    s10 += f64::from(e.k1) * f64::from(e.k0);
+                }
+                while bi < tr.bins.len() && i + 1 == tr.bins[bi].hi {
+                    out.push((s1 / (tr.bins[bi].hi - tr.bins[bi].lo) as f64, s10 / s1));
+                    (s1, s10) = (0.0, 0.0);
+                    bi += 1;
+                }
+            }
+        }
+        out
+    }
+
+    /// Residuals (measured − model) of predictions.
+    #[must_use]
+    pub fn residuals(&self, pred: &[(f64, f64)]) -> Residuals {
+        let u = self.bias_unit();
+        let mut r = Residuals::default();
+        for (b, &(k1, k0)) in self.ch.traces.iter().flat_map(|t| t.bins.iter()).zip(pred) {
+            r.sf.push((b.sf - k1) / k1 * 1e6);
+            r.bias.push((b.bias - k0) * u);
+        }
+        r
+    }
+
+    /// Fit `structure` with nonlinear parameters `nl` on the bins where `train` is true.
+    #[must_use]
+    pub fn fit(&self, s: &Structure, nl: &Nonlinear, train: &[bool]) -> Fitted {
+        let f = self.features(nl);
+        let bins: Vec<_> = self.ch.traces.iter().flat_map(|t| t.bins.iter()).collect();
+        let cyc = self.ch.kind == LogKind::Cycling;
+        // Scale factor: columns 1, d, [d²], [r], [r²], [r·d].
+        let scale = if cyc {
+            let mut cols = vec![0usize, 1];
+            for (on, c) in [(s.sf_quad, 2), (s.sf_eps, 3), (s.sf_alpha, 4), (s.sf_eta, 5)] {
+                if on {
+                    cols.push(c);
+                }
+            }
+            let rows: Vec<usize> = (0..bins.len()).filter(|&i| train[i]).collect();
+            let a = DMatrix::from_fn(rows.len(), cols.len(), |i, j| f.sf[rows[i]][cols[j]]);
+            let y = DVector::from_fn(rows.len(), |i, _| bins[rows[i]].sf);
+            let c = solve(&a, &y, None);
+            let mut full = [0.0f64; 6];
+            for (j, &cj) in cols.iter().enumerate() {
+                full[cj] = c[j];
+            }
+            ScaleFactor {
+                t0_c: T0_C,
+                gamma: full[0] as f32,
+                mu: full[1] as f32,
+                beta: full[2] as f32,
+                epsilon: full[3] as f32,
+                alpha: full[4] as f32,
+                eta: full[5] as f32,
+            }
+        } else {
+            ScaleFactor::simple(T0_C, 1.0, 0.0)
+        };
+        // Bias: grid basis B (GRID_POINTS × nb) through the hats, then play, creep.
+        let basis: Vec<Vec<f64>> = match s.start {
+            Start::Simple => (0..GRID_POINTS)
+                .map(|j| {
+                    let d = f64::from(self.grid_temp(j) - T0_C);
+                    if s.bias_quad {
+                        vec![1.0, d, d * d]
+                    } else {
+                        vec![1.0, d]
+                    }
+                })
+                .collect(),
+            Start::Paper => {
+                (0..GRID_POINTS).map(|j| (0..GRID_POINTS).map(|k| if j == k { 1.0 } else { 0.0 }).collect()).collect()
+            }
+        };
+        let nb = basis[0].len();
+        let np = usize::from(nl.play_r_c.is_some());
+        let nc = usize::from(nl.creep.is_some());
+        let rows: Vec<usize> = (0..bins.len()).filter(|&i| train[i]).collect();
+        let a = DMatrix::from_fn(rows.len(), nb + np + nc, |i, j| {
+            let b = rows[i];
+            if j < nb {
+                (0..GRID_POINTS).map(|g| f.hat[b][g] * basis[g][j]).sum()
+            } else if j == nb && np == 1 {
+                f.play[b]
+            } else {
+                f.creep[b]
+            }
+        });
+        let y = DVector::from_fn(rows.len(), |i, _| bins[rows[i]].bias);
+        // Paper start: a gentle second-difference penalty keeps a sparse grid well posed.
+        let pen = (s.start == Start::Paper).then_some((0usize, nb));
+        let c = solve(&a, &y, pen);
+        let grid: Vec<f32> =
+            (0..GRID_POINTS).map(|g| (0..nb).map(|j| basis[g][j] * c[j]).sum::<f64>() as f32).collect();
+        let mut ext = Extensions { sensor_lag: nl.lag_tau_s.map(|tau_s| SensorLag { tau_s }), ..Default::default() };
+        if let Some(r) = nl.play_r_c {
+            ext.bias_branch_hysteresis = Some(BranchHysteresis { half_width_c: r, weight_g: c[nb] as f32 });
+        }
+        if let Some((tau, e)) = nl.creep {
+            ext.bias_creep = Some(Creep {
+                gain_g_per_c: c[nb + np] as f32,
+                tau_ref_s: tau,
+                t_ref_c: CREEP_T_REF_C,
+                activation_k: e,
+            });
+        }
+        let model = AxisModel {
+            scale,
+            bias: BiasGrid::single_valued(self.grid_start, self.grid_step, &grid),
+            rate_limit_c_per_min: self.rate_limit,
+            ext,
+        };
+        let pred = self.predict(&model);
+        Fitted { model, pred }
+    }
+
+    /// Normalized sum of squares of `res` over `mask`: Σ(sf/σ_sf)² + Σ(bias/σ_b)².
+    #[must_use]
+    pub fn score(&self, res: &Residuals, mask: &[bool]) -> f64 {
+        let mut s = 0.0;
+        for i in 0..mask.len() {
+            if mask[i] {
+                if res.sf[i].is_finite() {
+                    s += (res.sf[i] / self.sigma_sf).powi(2);
+                }
+                s += (res.bias[i] / self.sigma_b).powi(2);
+            }
+        }
+        s
+    }
+}
+
+/// Least squares with column scaling; `pen = Some((from, to))` adds a small
+/// second-difference penalty on coefficients `from..to`.
+fn solve(a: &DMatrix<f64>, y: &DVector<f64>, pen: Option<(usize, usize)>) -> Vec<f64> {
+    let k = a.ncols();
+    if a.nrows() == 0 || k == 0 {
+        return vec![0.0; k];
+    }
+    let scale: Vec<f64> = (0..k)
+        .map(|j| {
+            let n = a.column(j).norm();
+            if n > 0.0 {
+                1.0 / n
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    let mut an = a.clone();
+    for j in 0..k {
+        an.column_mut(j).scale_mut(scale[j]);
+    }
+    let mut ata = an.transpose() * &an;
+    let aty = an.transpose() * y;
+    for j in 0..k {
+        ata[(j, j)] += 1e-12;
+    }
+    if let Some((lo, hi)) = pen {
+        let lam = 1e-4;
+        let mean_s2 = scale[lo..hi].iter().map(|s| s * s).sum::<f64>() / (hi - lo) as f64;
+        for j in lo..hi.saturating_sub(2) {
+            let idx = [j, j + 1, j + 2];
+            let w = [1.0, -2.0, 1.0];
+            for p in 0..3 {
+                for q in 0..3 {
+                    ata[(idx[p], idx[q])] += lam * w[p] * w[q] * scale[idx[p]] * scale[idx[q]] / mean_s2;
+                }
+            }
+        }
+    }
+    let sol = match ata.clone().cholesky() {
+        Some(ch) => ch.solve(&aty),
+        None => ata.svd(true, true).solve(&aty, 1e-14).unwrap_or_else(|_| DVector::zeros(k)),
+    };
+    (0..k).map(|j| sol[j] * scale[j]).collect()
+}
+
+/// Golden-section minimum of `f` on `[a, b]`.
+pub fn golden(mut f: impl FnMut(f64) -> f64, mut a: f64, mut b: f64, iters: usize) -> (f64, f64) {
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    let mut c = b - g * (b - a);
+    let mut d = a + g * (b - a);
+    let (mut fc, mut fd) = (f(c), f(d));
+    for _ in 0..iters {
+        if fc < fd {
+            b = d;
+            d = c;
+            fd = fc;
+            c = b - g * (b - a);
+            fc = f(c);
+        } else {
+            a = c;
+            c = d;
+            fc = fd;
+            d = a + g * (b - a);
+            fd = f(d);
+        }
+    }
+    if fc < fd {
+        (c, fc)
+    } else {
+        (d, fd)
+    }
+}
+
+/// Nelder–Mead in 2-D from `x0` with initial steps `step`.
+pub fn nelder_mead2(
+    mut f: impl FnMut([f64; 2]) -> f64,
+    x0: [f64; 2],
+    step: [f64; 2],
+    iters: usize,
+) -> ([f64; 2], f64) {
+    let mut s = [x0, [x0[0] + step[0], x0[1]], [x0[0], x0[1] + step[1]]];
+    let mut v = [f(s[0]), f(s[1]), f(s[2])];
+    let lerp = |a: [f64; 2], b: [f64; 2], t: f64| [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
+    for _ in 0..iters {
+        let mut idx = [0, 1, 2];
+        idx.sort_by(|&i, &j| v[i].total_cmp(&v[j]));
+        s = [s[idx[0]], s[idx[1]], s[idx[2]]];
+        v = [v[idx[0]], v[idx[1]], v[idx[2]]];
+        let c = lerp(s[0], s[1], 0.5);
+        let xr = lerp(s[2], c, 2.0);
+        let fr = f(xr);
+        if fr < v[0] {
+            let xe = lerp(s[2], c, 3.0);
+            let fe = f(xe);
+            if fe < fr {
+                (s[2], v[2]) = (xe, fe);
+            } else {
+                (s[2], v[2]) = (xr, fr);
+            }
+        } else if fr < v[1] {
+            (s[2], v[2]) = (xr, fr);
+        } else {
+            let xc = lerp(s[2], c, 0.5);
+            let fcv = f(xc);
+            if fcv < v[2] {
+                (s[2], v[2]) = (xc, fcv);
+            } else {
+                for i in 1..3 {
+                    s[i] = lerp(s[0], s[i], 0.5);
+                    v[i] = f(s[i]);
+                }
+            }
+        }
+    }
+    let b = (0..3).min_by(|&i, &j| v[i].total_cmp(&v[j])).unwrap_or(0);
+    (s[b], v[b])
+}

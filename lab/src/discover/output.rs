@@ -1,0 +1,207 @@
+//! Outputs: `report.json`, `report.md`, `model.toml`, `model.bin` (root-crate `Table`,
+//! 1 axis, rate window 32, new slots on), `residuals.csv` and residual plots (PNG).
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use anyhow::{Context, Result};
+use plotters::prelude::*;
+use qfa_thermal::table::{Table, MAX_TABLE_BYTES};
+
+use super::{Channels, Gaps, LogKind, Report};
+
+fn gaps_text(g: &Gaps) -> String {
+    match g {
+        Gaps::Cycling { scale_factor_ppm, bias_ug } => {
+            format!("scale factor {scale_factor_ppm:.2} ppm, bias {bias_ug:.2} µg")
+        }
+        Gaps::Single { value_rms } => format!("value {value_rms:.4}"),
+    }
+}
+
+/// The root-crate table of the report's final model.
+#[must_use]
+pub fn table(report: &Report) -> Option<Table> {
+    let m = report.model.clone()?;
+    let mut t = Table { rate_window: 32, axes: Default::default(), misalignment: None };
+    t.axes.push(m).ok()?;
+    Some(t)
+}
+
+/// Write every output into `dir`.
+///
+/// # Errors
+/// A file could not be written.
+pub fn write(ch: &Channels, report: &Report, dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    std::fs::write(dir.join("report.json"), serde_json::to_string_pretty(report)? + "\n")?;
+    let mut notes = String::new();
+    if let Some(t) = table(report) {
+        std::fs::write(dir.join("model.toml"), toml::to_string(&t)?)?;
+        let mut buf = [0u8; MAX_TABLE_BYTES];
+        match t.encode(&mut buf) {
+            Ok(b) => std::fs::write(dir.join("model.bin"), b)?,
+            Err(e) => {
+                let _ = writeln!(notes, "\nThe table did not validate ({e:?}); no `model.bin` was written.");
+            }
+        }
+    }
+    write_csv(ch, report, &dir.join("residuals.csv"))?;
+    if let Err(e) = plots(ch, report, dir) {
+        let _ = writeln!(notes, "\nPlots failed: {e:#}");
+    }
+    std::fs::write(dir.join("report.md"), markdown(ch, report) + &notes)?;
+    Ok(())
+}
+
+fn markdown(ch: &Channels, r: &Report) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "# Discovery report\n");
+    let _ = writeln!(s, "Start model: `{}`. Held-out rule: {}.\n", r.start.name(), r.heldout_rule);
+    let _ = writeln!(s, "- Held-out gap before: {}", gaps_text(&r.heldout_gap_before));
+    let _ = writeln!(s, "- Held-out gap after: {}", gaps_text(&r.heldout_gap_after));
+    let _ = writeln!(s, "- Noise floor (bin-to-bin part of the final held-out residual): {}\n", gaps_text(&r.noise_floor));
+    if r.effects.is_empty() {
+        let _ = writeln!(s, "## Effects added: none\n\nNo candidate improved the held-out fit significantly.\n");
+    } else {
+        let _ = writeln!(s, "## Effects added\n\n| # | effect | channel | parameters | held-out gap before → after |\n|---|---|---|---|---|");
+        for (i, e) in r.effects.iter().enumerate() {
+            let p: Vec<String> = e.params.iter().map(|(k, v)| format!("{k} = {v:.4e}")).collect();
+            let _ = writeln!(
+                s,
+                "| {} | `{}` | {} | {} | {:.3} → {:.3} |",
+                i + 1,
+                e.name,
+                e.channel,
+                p.join(", "),
+                e.heldout_gap_before,
+                e.heldout_gap_after
+            );
+        }
+        let _ = writeln!(s);
+    }
+    let unit = if ch.kind == LogKind::Cycling { "ppm / µg" } else { "value units" };
+    let _ = writeln!(s, "## Where the start model disagrees (held-out RMS, {unit})\n\n| channel | segment | RMS |\n|---|---|---|");
+    for w in &r.where_ {
+        let _ = writeln!(s, "| {} | {} | {:.3} |", w.channel, w.segment, w.rms);
+    }
+    let _ = writeln!(s, "\n## Where the final model disagrees\n\n| channel | segment | RMS |\n|---|---|---|");
+    for w in &r.where_after {
+        let _ = writeln!(s, "| {} | {} | {:.3} |", w.channel, w.segment, w.rms);
+    }
+    let _ = writeln!(s, "\n## Candidates per round\n\nGain: drop of the held-out Σ(residual/noise floor)²; significant when above the penalty k·ln N and 5 % of N.\n");
+    for (i, round) in r.rounds.iter().enumerate() {
+        let _ = writeln!(s, "### Round {}\n\n| candidate | channel | gain | penalty | significant | held-out gaps |\n|---|---|---|---|---|---|", i + 1);
+        for t in round {
+            let _ = writeln!(
+                s,
+                "| `{}` | {} | {:.1} | {:.1} | {} | {} |",
+                t.name,
+                t.channel,
+                t.gain,
+                t.penalty,
+                if t.significant { "yes" } else { "no" },
+                gaps_text(&t.gaps)
+            );
+        }
+        let _ = writeln!(s);
+    }
+    let _ = writeln!(s, "Files: `report.json`, `model.toml`, `model.bin` (root-crate table, 1 axis, rate window 32), `residuals.csv`, `residual_*.png`.");
+    s
+}
+
+struct Row {
+    trace: usize,
+    time_s: f64,
+    temp_c: f64,
+    dir: i8,
+}
+
+fn rows(ch: &Channels) -> Vec<Row> {
+    let mut v = Vec::new();
+    for (ti, t) in ch.traces.iter().enumerate() {
+        for b in &t.bins {
+            let m = (b.hi - b.lo) as f64;
+            let tm = t.est_t[b.lo..b.hi].iter().map(|&x| f64::from(x)).sum::<f64>() / m;
+            let rm = t.est_rate[b.lo..b.hi].iter().map(|&x| f64::from(x)).sum::<f64>() / m;
+            let dir = if rm > 0.05 {
+                1
+            } else if rm < -0.05 {
+                -1
+            } else {
+                0
+            };
+            v.push(Row { trace: ti, time_s: b.time_s, temp_c: tm, dir });
+        }
+    }
+    v
+}
+
+fn write_csv(ch: &Channels, r: &Report, path: &Path) -> Result<()> {
+    let (b, a) = &r.residuals;
+    let mut s = String::from("program,time_s,temp_c,direction,sf_before_ppm,sf_after_ppm,bias_before,bias_after\n");
+    for (i, row) in rows(ch).iter().enumerate() {
+        let d = ["cooling", "hold", "heating"][(row.dir + 1) as usize];
+        let _ = writeln!(
+            s,
+            "{},{:.1},{:.3},{d},{:.4},{:.4},{:.6},{:.6}",
+            ch.traces[row.trace].program, row.time_s, row.temp_c, b.sf[i], a.sf[i], b.bias[i], a.bias[i]
+        );
+    }
+    std::fs::write(path, s)?;
+    Ok(())
+}
+
+fn plots(ch: &Channels, r: &Report, dir: &Path) -> Result<()> {
+    let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular());
+    let rows = rows(ch);
+    let (b, a) = &r.residuals;
+    let mut chans: Vec<(&str, &str, &Vec<f64>, &Vec<f64>)> = Vec::new();
+    if ch.kind == LogKind::Cycling {
+        chans.push(("scale_factor", "scale-factor residual, ppm", &b.sf, &a.sf));
+        chans.push(("bias", "bias residual, µg", &b.bias, &a.bias));
+    } else {
+        chans.push(("value", "residual, value units", &b.bias, &a.bias));
+    }
+    // Program offsets so time runs on across programs.
+    let mut off = vec![0.0; ch.traces.len()];
+    let mut acc = 0.0;
+    for (i, t) in ch.traces.iter().enumerate() {
+        off[i] = acc;
+        acc += t.time_s.last().copied().unwrap_or(0.0) / 3600.0 + 0.5;
+    }
+    for (name, label, before, after) in chans {
+        for vs_time in [true, false] {
+            let file = dir.join(format!("residual_{name}_vs_{}.png", if vs_time { "time" } else { "temp" }));
+            let root = BitMapBackend::new(&file, (1200, 800)).into_drawing_area();
+            root.fill(&WHITE)?;
+            let panels = root.split_evenly((2, 1));
+            let x_of = |i: usize| if vs_time { off[rows[i].trace] + rows[i].time_s / 3600.0 } else { rows[i].temp_c };
+            let (xlo, xhi) = (0..rows.len()).map(x_of).fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| (l.min(x), h.max(x)));
+            let ymax = before.iter().chain(after.iter()).filter(|v| v.is_finite()).fold(1e-12f64, |m, v| m.max(v.abs()));
+            for (p, (title, v)) in panels.iter().zip([("before (start model)", before), ("after (discovered model)", after)]) {
+                let mut chart = ChartBuilder::on(p)
+                    .caption(format!("{name} {title}: red heating, blue cooling, grey hold"), ("sans-serif", 18))
+                    .margin(8)
+                    .x_label_area_size(30)
+                    .y_label_area_size(60)
+                    .build_cartesian_2d(xlo..xhi.max(xlo + 1e-9), -ymax..ymax)?;
+                chart
+                    .configure_mesh()
+                    .x_desc(if vs_time { "time, h (programs in sequence)" } else { "temperature, °C" })
+                    .y_desc(label)
+                    .draw()?;
+                chart.draw_series((0..rows.len()).filter(|&i| v[i].is_finite()).map(|i| {
+                    let c = match rows[i].dir {
+                        1 => RED.mix(0.6),
+                        -1 => BLUE.mix(0.6),
+                        _ => BLACK.mix(0.3),
+                    };
+                    Circle::new((x_of(i), v[i]), 1, c.filled())
+                }))?;
+            }
+            root.present()?;
+        }
+    }
+    Ok(())
+}

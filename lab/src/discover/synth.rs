@@ -1,0 +1,252 @@
+//! Synthetic thermal-test data for the discovery tests and benchmark, made by running the
+//! root crate's `AxisModel` (the truth, with hidden slots on) over a temperature history
+//! shaped like the paper's program: hold at 22 °C, ramp down, up, and back to 22 °C at a
+//! given rate with a 3-min dwell at each integer °C, then a final hold.
+//!
+//! Chamber → case (first-order lag, the DS18B20 is on the case) → 12-bit reading with
+//! noise. By default the truth is evaluated on the firmware's own T and Ṫ (the
+//! `RateEstimator<32>` on the readings); `true_rate_truth` evaluates it on the true case
+//! temperature and its exact derivative instead, as a physical simulator would.
+
+use std::fmt::Write as _;
+
+use qfa_thermal::model::{AxisModel, AxisState, BiasGrid, Extensions, ScaleFactor};
+use qfa_thermal::rate::{RateConfig, RateEstimator};
+
+use super::channels::{Channels, LogKind, Trace};
+
+/// SplitMix64 with Box–Muller normals (small, seedable, no dependency).
+#[derive(Clone, Debug)]
+pub struct Rng(u64);
+
+impl Rng {
+    /// Seeded generator.
+    #[must_use]
+    pub fn new(seed: u64) -> Self {
+        Self(seed ^ 0x9E37_79B9_7F4A_7C15)
+    }
+    /// Uniform in (0, 1).
+    pub fn uniform(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^= z >> 31;
+        ((z >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+    }
+    /// Standard normal.
+    pub fn normal(&mut self) -> f64 {
+        let (u, v) = (self.uniform(), self.uniform());
+        (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+    }
+}
+
+/// Test-program and noise configuration.
+#[derive(Clone, Debug)]
+pub struct SynthConfig {
+    /// Ramp rates of the programs, °C/min (one program each).
+    pub rates: Vec<f64>,
+    /// Lowest and highest temperature, °C.
+    pub t_lo: f64,
+    /// Highest temperature, °C.
+    pub t_hi: f64,
+    /// Initial hold at 22 °C, min.
+    pub hold_start_min: f64,
+    /// Final hold at 22 °C, min.
+    pub hold_end_min: f64,
+    /// Dwell at each integer °C, min.
+    pub dwell_min: f64,
+    /// Row interval, s.
+    pub dt_s: f64,
+    /// Case time constant behind the chamber air, s.
+    pub case_tau_s: f64,
+    /// DS18B20 noise, °C.
+    pub temp_noise_c: f64,
+    /// Scale-factor noise per row, ppm.
+    pub sf_noise_ppm: f64,
+    /// Bias noise per row, µg (or value units × 1e-6 for single-channel).
+    pub bias_noise_ug: f64,
+    /// Seed.
+    pub seed: u64,
+    /// Evaluate the truth on the true case temperature and derivative.
+    pub true_rate_truth: bool,
+}
+
+impl Default for SynthConfig {
+    fn default() -> Self {
+        Self {
+            rates: vec![0.3, 0.5, 0.7, 0.9],
+            t_lo: 0.0,
+            t_hi: 45.0,
+            hold_start_min: 40.0,
+            hold_end_min: 60.0,
+            dwell_min: 3.0,
+            dt_s: 10.0,
+            case_tau_s: 120.0,
+            temp_noise_c: 0.02,
+            sf_noise_ppm: 5.0,
+            bias_noise_ug: 5.0,
+            seed: 1,
+            true_rate_truth: false,
+        }
+    }
+}
+
+impl SynthConfig {
+    /// The paper's full program (−60..70 °C, 120-min hold, four rates) at 10-s rows.
+    #[must_use]
+    pub fn paper_full(seed: u64) -> Self {
+        Self { t_lo: -60.0, t_hi: 70.0, hold_start_min: 120.0, hold_end_min: 60.0, seed, ..Self::default() }
+    }
+}
+
+/// JB-KT8 #1 scale factor (paper Eq. 15).
+#[must_use]
+pub fn kt8_1_scale() -> ScaleFactor {
+    ScaleFactor { t0_c: 22.0, gamma: 320_320.0, mu: -32.76, beta: 0.1008, epsilon: 88.14, eta: -0.02409, alpha: 273.0 }
+}
+
+/// A truth model: `scale`, bias `b0 + b1·ΔT + b2·ΔT²` (g) on a 16-point grid over
+/// −62..72 °C, and `ext`.
+#[must_use]
+pub fn truth(scale: ScaleFactor, b: [f32; 3], ext: Extensions) -> AxisModel {
+    let step = 134.0 / 15.0;
+    let grid: Vec<f32> = (0..16)
+        .map(|i| {
+            let d = -62.0 + step * i as f32 - 22.0;
+            b[0] + b[1] * d + b[2] * d * d
+        })
+        .collect();
+    AxisModel { scale, bias: BiasGrid::single_valued(-62.0, step, &grid), rate_limit_c_per_min: 20.0, ext }
+}
+
+/// Chamber temperature knots (min, °C) of one program.
+fn knots(c: &SynthConfig, rate: f64) -> Vec<(f64, f64)> {
+    let mut k = vec![(0.0, 22.0), (c.hold_start_min, 22.0)];
+    let (mut t, mut temp) = (c.hold_start_min, 22.0f64);
+    for target in [c.t_lo, c.t_hi, 22.0] {
+        let dir = (target - temp).signum();
+        while (target - temp).abs() > 1e-9 {
+            let next = if dir > 0.0 { (temp + 1e-9).floor() + 1.0 } else { (temp - 1e-9).ceil() - 1.0 };
+            let next = if dir > 0.0 { next.min(target) } else { next.max(target) };
+            t += (next - temp).abs() / rate;
+            temp = next;
+            k.push((t, temp));
+            t += c.dwell_min;
+            k.push((t, temp));
+        }
+    }
+    k.push((t + c.hold_end_min, 22.0));
+    k
+}
+
+/// One program's rows: (time s, DS18B20 °C, true K1, true K0).
+fn program_rows(c: &SynthConfig, rate: f64, model: &AxisModel, rng: &mut Rng) -> Vec<(f64, f32, f64, f64)> {
+    let k = knots(c, rate);
+    let end = k.last().map_or(0.0, |x| x.0) * 60.0;
+    let (mut case, mut prev_case) = (22.0f64, 22.0f64);
+    let mut est = RateEstimator::<32>::new(RateConfig::default());
+    let mut st = AxisState::default();
+    let mut out = Vec::new();
+    let mut ki = 0;
+    let sub = 10usize; // chamber/case integration sub-steps per row
+    let mut t = 0.0;
+    let mut last_t = None::<f64>;
+    while t <= end {
+        // Integrate the case lag over the row interval.
+        for _ in 0..sub {
+            let h = c.dt_s / sub as f64;
+            let tm = (t - c.dt_s + h * 0.5) / 60.0;
+            while ki + 1 < k.len() && k[ki + 1].0 < tm {
+                ki += 1;
+            }
+            let ch = if ki + 1 < k.len() {
+                let (a, b) = (k[ki], k[ki + 1]);
+                let f = ((tm - a.0) / (b.0 - a.0).max(1e-12)).clamp(0.0, 1.0);
+                a.1 + f * (b.1 - a.1)
+            } else {
+                22.0
+            };
+            if t > 0.0 {
+                case += (1.0 - (-h / c.case_tau_s).exp()) * (ch - case);
+            }
+        }
+        let raw = ((case + c.temp_noise_c * rng.normal()) * 16.0).round() as i16;
+        let reading = f32::from(raw) / 16.0;
+        let _ = est.push((t * 1000.0).round() as u32, raw);
+        let dt = last_t.map_or(0.0, |p| (t - p) as f32);
+        let e = if c.true_rate_truth {
+            let true_rate = if t > 0.0 { (case - prev_case) / c.dt_s * 60.0 } else { 0.0 };
+            model.evaluate(&mut st, case as f32, true_rate as f32, dt)
+        } else {
+            let es = est.estimate();
+            model.evaluate(&mut st, es.temp_c, es.rate_c_per_min, dt)
+        };
+        out.push((t, reading, f64::from(e.k1), f64::from(e.k0)));
+        prev_case = case;
+        last_t = Some(t);
+        t += c.dt_s;
+    }
+    out
+}
+
+/// Channels of a simulated cycling test (K1, K0 per row with noise, binned to `bin_s`).
+#[must_use]
+pub fn cycling_channels(c: &SynthConfig, model: &AxisModel, bin_s: f64) -> Channels {
+    let mut rng = Rng::new(c.seed);
+    let mut traces = Vec::new();
+    for (p, &rate) in c.rates.iter().enumerate() {
+        let rows = program_rows(c, rate, model, &mut rng);
+        let temps: Vec<(f64, f32)> = rows.iter().map(|r| (r.0, r.1)).collect();
+        let sf: Vec<f64> = rows.iter().map(|r| r.2 * (1.0 + c.sf_noise_ppm * 1e-6 * rng.normal())).collect();
+        let bias: Vec<f64> = rows.iter().map(|r| r.3 + c.bias_noise_ug * 1e-6 * rng.normal()).collect();
+        traces.push(Trace::new(format!("p{}", p + 1), &temps, Some(&sf), &bias, bin_s));
+    }
+    Channels { kind: LogKind::Cycling, traces }
+}
+
+/// A single-channel log (`time_s,temp_c,value`) of the first program: value = K0 in µg.
+#[must_use]
+pub fn single_csv(c: &SynthConfig, model: &AxisModel) -> String {
+    let mut rng = Rng::new(c.seed);
+    let mut s = String::from("time_s,temp_c,value\n");
+    for &rate in &c.rates {
+        let rows = program_rows(c, rate, model, &mut rng);
+        for r in rows {
+            let v = r.3 * 1e6 + c.bias_noise_ug * rng.normal();
+            let _ = writeln!(s, "{:.1},{:.4},{:.4}", r.0, r.1, v);
+        }
+        break;
+    }
+    s
+}
+
+/// A cycling log in the lab's CSV format: per program four runs (+1, 0, −1, 0 g), I/F
+/// pulses with carry; `accel_noise_ug` is white noise per row.
+#[must_use]
+pub fn cycling_csv(c: &SynthConfig, model: &AxisModel, accel_noise_ug: f64) -> String {
+    let mut rng = Rng::new(c.seed);
+    let mut s = String::with_capacity(1 << 20);
+    s.push_str("program,run,time_s,input_g,temp_c,pulses,interval_s\n");
+    for (p, &rate) in c.rates.iter().enumerate() {
+        let rows = program_rows(c, rate, model, &mut rng);
+        for (run, g) in [1.0f64, 0.0, -1.0, 0.0].into_iter().enumerate() {
+            let mut carry = 0.0f64;
+            let mut prev = None::<f64>;
+            for r in &rows {
+                let Some(p0) = prev else {
+                    prev = Some(r.0);
+                    continue;
+                };
+                let iv = r.0 - p0;
+                prev = Some(r.0);
+                let a = r.2 * (r.3 + g + accel_noise_ug * 1e-6 * rng.normal());
+                carry += a * iv;
+                let pulses = carry.floor();
+                carry -= pulses;
+                let _ = writeln!(s, "p{},{},{:.1},{},{:.4},{},{}", p + 1, run, r.0, g, r.1, pulses as i64, iv);
+            }
+        }
+    }
+    s
+}
