@@ -27,4 +27,3 @@ pub mod report;
 pub mod sim;
 pub mod thermal;
 pub mod truth;
-pub mod nav;
