@@ -27,3 +27,5 @@ pub mod report;
 pub mod sim;
 pub mod thermal;
 pub mod truth;
+pub mod nav;
+pub mod faults;

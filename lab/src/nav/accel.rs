@@ -1,0 +1,149 @@
+//! Accelerometer channels: truth-model corruption into I/F pulses, and compensation.
+//!
+//! Two small traits split the channel where the hardware splits it:
+//!
+//! * [`AccelTruth`] is the physical accelerometer plus its I/F converter on one axis:
+//!   it turns the true velocity increment of an IMU cycle into an integer pulse count,
+//!   carrying the fractional pulse to the next cycle so nothing is lost.
+//! * [`AccelCompensation`] is what the navigation computer does with the pulses of the
+//!   three axes: DS18B20 readings arrive on the slow path, pulse counts on the fast path.
+//!
+//! [`LabAccel`] wires in the lab's truth model: `E = K1·(K0 + a/g₀ + n)` pulses per second
+//! (paper Eq. 2), K1 from Eq. 11 and K0 a smooth bias plus any extension effects.
+
+use nalgebra::Vector3;
+use qfa_thermal::compensator::{self, Compensator};
+use qfa_thermal::table::Table;
+use rand::Rng;
+use rand_distr::{Distribution, StandardNormal};
+
+use super::earth::G0;
+use crate::sim::NoiseGen;
+use crate::thermal::Temps;
+use crate::truth::{SensorTruth, Truth, TruthModel};
+
+/// One physical accelerometer axis with its I/F converter.
+pub trait AccelTruth {
+    /// Advance one cycle of `dt_s` at temperatures `th`, with true velocity increment
+    /// `dv_mps` along the input axis; returns the signed pulse count of the cycle
+    /// (fraction carried).
+    fn corrupt(&mut self, th: &Temps, dv_mps: f64, dt_s: f64) -> i32;
+    /// Thermal K1 (pulses/(g·s)) and K0 (g) of the truth model during the last cycle
+    /// (without noise and bias instability): what the oracle compensation uses.
+    fn coefficients(&self) -> (f64, f64);
+}
+
+/// The navigation computer's accelerometer compensation, three axes.
+pub trait AccelCompensation {
+    /// Slow path: each axis's DS18B20 raw reading (1/16 °C), taken at `t_ms`.
+    fn on_temperature(&mut self, t_ms: u32, raw: [i16; 3]);
+    /// Fast path: pulses of the three axes over `dt_ticks` µs; `truth` carries each axis's
+    /// true (K1, K0) for the oracle and is ignored by real compensations.
+    fn compensate(&mut self, pulses: [i32; 3], dt_ticks: u32, truth: &[(f64, f64); 3]) -> Vector3<f64>;
+}
+
+/// [`AccelTruth`] from the lab's truth model: [`crate::truth::TruthModel`] (Eq. 11 scale
+/// factor, cubic bias, extension effects, on the case temperature and its rate) and
+/// [`crate::sim::NoiseGen`] (white noise + Gauss–Markov instability), with the I/F carry of
+/// [`crate::sim::Accelerometer::step`] (that type keeps K1 and K0 private, and the oracle
+/// needs them, so its five lines are mirrored here).
+#[derive(Debug)]
+pub struct LabAccel {
+    model: TruthModel,
+    noise: NoiseGen,
+    carry: f64,
+    k1: f64,
+    k0: f64,
+}
+
+impl LabAccel {
+    /// Unit `truth` with noise seed `seed`.
+    #[must_use]
+    pub fn new(truth: &Truth, seed: u64) -> Self {
+        Self { model: truth.model(), noise: NoiseGen::new(truth.noise, seed), carry: 0.0, k1: 0.0, k0: 0.0 }
+    }
+}
+
+impl AccelTruth for LabAccel {
+    fn corrupt(&mut self, th: &Temps, dv_mps: f64, dt_s: f64) -> i32 {
+        let e = self.model.step(th.case_c, th.case_rate_c_per_min, dt_s);
+        let n = self.noise.step(dt_s);
+        self.k1 = e.k1;
+        self.k0 = e.k0;
+        self.carry += e.k1 * ((e.k0 + n) * dt_s + dv_mps / G0);
+        let whole = self.carry.round();
+        self.carry -= whole;
+        whole as i32
+    }
+
+    fn coefficients(&self) -> (f64, f64) {
+        (self.k1, self.k0)
+    }
+}
+
+/// Compensation through the root crate's [`Compensator`], exactly as the firmware runs it:
+/// one `Compensator<1, 32>` per accelerometer, each fed by the DS18B20 on its own case
+/// and loaded with that unit's 1-axis table (as the lab calibrates it).
+#[derive(Clone, Debug)]
+pub struct TableCompensation {
+    comp: [Compensator<1, 32>; 3],
+    /// Slow-path rejections seen (should stay 0 in simulation).
+    pub rejected: u32,
+}
+
+impl TableCompensation {
+    /// With the x, y, z tables loaded and the default compensator settings (1 µs ticks).
+    ///
+    /// # Errors
+    /// A table's validation error.
+    pub fn new(tables: [&Table; 3]) -> anyhow::Result<Self> {
+        let mut comp: [Compensator<1, 32>; 3] = core::array::from_fn(|_| Compensator::new(compensator::Config::default()));
+        for (c, t) in comp.iter_mut().zip(tables) {
+            c.set_table(t.clone()).map_err(|e| anyhow::anyhow!("table refused: {e}"))?;
+        }
+        Ok(Self { comp, rejected: 0 })
+    }
+
+    /// The compensators, x, y, z.
+    #[must_use]
+    pub fn compensators(&self) -> &[Compensator<1, 32>; 3] {
+        &self.comp
+    }
+}
+
+impl AccelCompensation for TableCompensation {
+    fn on_temperature(&mut self, t_ms: u32, raw: [i16; 3]) {
+        for (c, r) in self.comp.iter_mut().zip(raw) {
+            if c.on_raw(t_ms, r).is_err() {
+                self.rejected += 1;
+            }
+        }
+    }
+
+    fn compensate(&mut self, pulses: [i32; 3], dt_ticks: u32, _truth: &[(f64, f64); 3]) -> Vector3<f64> {
+        Vector3::from_fn(|i, _| f64::from(self.comp[i].cycle([pulses[i]], dt_ticks).dv_mps[0]))
+    }
+}
+
+/// The limit: the truth model itself as the compensation, `Δv = g₀·(N/K1 − K0·dt)` with
+/// the true thermal K1 and K0 of the cycle (f64). What is left is the non-thermal error
+/// common to every variant (white noise, bias instability) and quantization.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct OracleCompensation;
+
+impl AccelCompensation for OracleCompensation {
+    fn on_temperature(&mut self, _t_ms: u32, _raw: [i16; 3]) {}
+
+    fn compensate(&mut self, pulses: [i32; 3], dt_ticks: u32, truth: &[(f64, f64); 3]) -> Vector3<f64> {
+        let dt = f64::from(dt_ticks) * 1e-6;
+        Vector3::from_fn(|i, _| G0 * (f64::from(pulses[i]) / truth[i].0 - truth[i].1 * dt))
+    }
+}
+
+/// A DS18B20 on a case: 12-bit raw (1/16 °C) of the case temperature plus the unit's
+/// sensor offset and noise (the lab's [`SensorTruth`]), as the lab simulator reads it.
+pub fn ds18b20_raw<R: Rng + ?Sized>(s: &SensorTruth, case_c: f64, rng: &mut R) -> i16 {
+    let z: f64 = if s.noise_c > 0.0 { StandardNormal.sample(rng) } else { 0.0 };
+    let t = case_c + s.offset_c + s.noise_c * z;
+    (t * 16.0).round().clamp(-880.0, 2000.0) as i16
+}

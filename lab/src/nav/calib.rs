@@ -1,0 +1,86 @@
+//! Calibration of each unit through the lab: a simulated four-position test of the same
+//! unit ([`crate::sim::simulate`], the paper's programs) fitted by [`crate::fit::fit`]
+//! into the root crate's tables, plus the "none" table derived from the simple fit.
+//!
+//! Only the +1 g and −1 g positions are simulated (the 0 g positions carry no K1 or K0
+//! information: the fit pairs ±1 g by time), and only the fit programs of the lab's
+//! held-out rule ([`crate::fit::split_programs`]: the extreme rates 0.3 and 0.9 °C/min),
+//! so the tables are exactly the ones the lab's `calibrate` would flash for that log.
+
+use qfa_thermal::model::AxisModel;
+use qfa_thermal::table::Table;
+
+use crate::fit::{fit, split_programs, FitOptions};
+use crate::profile::{paper_positions, Program, PAPER_RATES};
+use crate::sim::simulate;
+use crate::truth::Truth;
+
+/// Row length of the simulated log, s (the lab's default).
+pub const ROW_S: u32 = 1;
+
+/// The three tables of one unit and its fit figures.
+#[derive(Clone, Debug)]
+pub struct UnitTables {
+    /// Room-temperature constants: the simple fit's γ and K0 at T0, no temperature terms.
+    pub none: Table,
+    /// Paper Eq. 3–4.
+    pub simple: Table,
+    /// Eq. 11 plus heating / cooling bias grids.
+    pub hysteresis: Table,
+    /// Figures of the fit.
+    pub report: CalReport,
+}
+
+/// Fit figures of one unit.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct CalReport {
+    /// Unit.
+    pub unit: String,
+    /// Rows simulated.
+    pub rows: usize,
+    /// Condition number of the Eq. 11 design (column-scaled).
+    pub eq11_condition: f64,
+    /// RMS K1 residual of the Eq. 11 fit, ppm of γ.
+    pub k1_rms_ppm_hysteresis: f64,
+    /// Eq. 11 coefficients [γ, μ, β, ε, η, α].
+    pub eq11: Vec<f64>,
+}
+
+fn axis(t: &Table) -> anyhow::Result<&AxisModel> {
+    t.axes.first().ok_or_else(|| anyhow::anyhow!("empty table"))
+}
+
+/// Simulate and fit unit `truth`.
+///
+/// # Errors
+/// A fit or table validation failure.
+pub fn calibrate_unit(truth: &Truth, seed: u64, threads: usize) -> anyhow::Result<UnitTables> {
+    let programs: Vec<Program> = PAPER_RATES.iter().map(|&r| Program::paper(r)).collect();
+    let ids: Vec<String> = programs.iter().map(|p| p.id.clone()).collect();
+    let (fit_ids, _) = split_programs(&ids);
+    let used: Vec<Program> = programs.into_iter().filter(|p| fit_ids.contains(&p.id)).collect();
+    let positions: Vec<_> = paper_positions().into_iter().filter(|p| p.input_g != 0.0).collect();
+    let log = simulate(truth, &used, &positions, ROW_S, seed, threads, None);
+    let f = fit(&log, &FitOptions::new(fit_ids), None).map_err(|e| anyhow::anyhow!("{}: fit: {e}", truth.name))?;
+    let mut none = axis(&f.simple)?.clone();
+    none.scale.mu = 0.0;
+    let k0 = f.bias_simple.coef[0] as f32;
+    for v in none.bias.heating_g.iter_mut().chain(none.bias.cooling_g.iter_mut()) {
+        *v = k0;
+    }
+    let mut none_t = f.simple.clone();
+    none_t.axes[0] = none;
+    none_t.validate().map_err(|e| anyhow::anyhow!("none table: {e}"))?;
+    Ok(UnitTables {
+        none: none_t,
+        simple: f.simple,
+        hysteresis: f.hysteresis,
+        report: CalReport {
+            unit: truth.name.clone(),
+            rows: log.rows(),
+            eq11_condition: f.sf_hysteresis.cond,
+            k1_rms_ppm_hysteresis: f.sf_hysteresis.rms / f.sf_hysteresis.coef[0] * 1e6,
+            eq11: f.sf_hysteresis.coef.clone(),
+        },
+    })
+}

@@ -1,0 +1,370 @@
+//! Navigation impact: pure-inertial navigation error with compensated accelerometers.
+//!
+//! `navigate` flies a scenario (built-in: the paper's §3.2 flight, ~2.3 h) through a
+//! local-level NED strapdown mechanisation ([`strapdown`]) with WGS84 gravity and radii
+//! ([`earth`]), once per accelerometer compensation variant, all in lock-step on the same
+//! corrupted sensor data:
+//!
+//! | variant | accelerometer compensation |
+//! |---|---|
+//! | `none` | room-temperature constants only (γ and K0 at T0 from the simple fit) |
+//! | `simple` | paper Eq. 3–4 (K1, K0 linear in ΔT) through the root crate's `Compensator` |
+//! | `hysteresis` | Eq. 11 + heating / cooling bias tables, calibrated from a simulated four-position test of the same unit, through the `Compensator` |
+//! | `discovered` | tables with the discovery workflow's extension effects, one per axis (postcard `.bin` or TOML, [`NavigateArgs::discovered_tables`]); until issue 4 is wired the default is the hysteresis tables, flagged in `meta.discovered_source` |
+//! | `oracle` | the truth model itself (true K1, K0 each cycle, f64): the limit |
+//!
+//! The three accelerometer axes are the paper's three units, the lab's presets
+//! ([`crate::truth::Truth::jb_kt8`]): x = JB-KT8 #1, y = #2, z = #3. Each axis's truth
+//! model turns the ideal Δv into integer I/F pulses with carry ([`accel::LabAccel`]);
+//! the DS18B20 on each case (the unit's offset and noise, 12-bit) is read once a second
+//! into that axis's `Compensator<1, 32>`; the pulses of each 5 ms cycle go to
+//! `Compensator::cycle`. Each unit's tables come from the lab's simulation and fit of its
+//! own four-position test ([`calib`]). Gyros: a seeded constant bias of
+//! σ = 0.01 °/h per axis and 0.002 °/√h angle random walk ([`run::GyroErrors`]).
+//! Alignment is perfect (every variant starts at the true state); altitude is held by the
+//! reference.
+//!
+//! # Figures
+//! * RMS East / North velocity error over the whole flight, sampled at 1 Hz.
+//! * **CEP rate** (`cep_nmi_per_h`). PSINS's `cep.m` forms CEP = 0.5887·(σ_N + σ_E) from
+//!   an ensemble of runs; one simulated trajectory has no ensemble, so we use the
+//!   radial error growth per hour: the least-squares slope through the origin of the
+//!   radial position error r(t) = √(δN² + δE²) over the flight, `Σ t·r / Σ t²`, in
+//!   nmile/h. This is robust to the Schuler oscillation, unlike the end point. The end
+//!   point r(T)/T and the PSINS form over the flight's time series divided by T are also
+//!   reported.
+//! * Share of the thermally induced error removed: `(simple − variant)/(simple − oracle)`.
+//!
+//! The thermal chain (bay air → case → element) is the lab's
+//! ([`crate::thermal::ThermalChain`]), driven by the scenario's breakpoints.
+
+pub mod accel;
+pub mod calib;
+pub mod earth;
+pub mod run;
+pub mod scenario;
+pub mod strapdown;
+pub mod thermal;
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::Context;
+use qfa_thermal::table::Table;
+use serde::Serialize;
+
+use accel::{AccelCompensation, AccelTruth, LabAccel, OracleCompensation, TableCompensation};
+use crate::truth::Truth;
+use run::{Figures, FlightResult, GyroErrors, Variant};
+use scenario::Scenario;
+
+/// Variant names in report order.
+pub const VARIANTS: [&str; 5] = ["none", "simple", "hysteresis", "discovered", "oracle"];
+
+/// Arguments of `qfa-lab navigate`.
+#[derive(Clone, Debug, Default)]
+pub struct NavigateArgs {
+    /// Scenario TOML; the built-in §3.2 flight when absent.
+    pub scenario: Option<PathBuf>,
+    /// Output directory (created).
+    pub out: PathBuf,
+    /// Tables for the `discovered` variant, one per axis x, y, z (postcard `.bin` or
+    /// TOML, 1-axis, e.g. the discovery workflow's output for JB-KT8 #1, #2, #3); the
+    /// hysteresis tables when absent.
+    pub discovered_tables: Option<[PathBuf; 3]>,
+    /// Override the scenario's IMU rate, Hz.
+    pub imu_rate_hz: Option<f64>,
+    /// Fly only the first seconds of the scenario.
+    pub duration_s: Option<f64>,
+    /// Print progress to stderr.
+    pub verbose: bool,
+}
+
+/// The paper's flight figures (Table 7 and §3.2).
+#[derive(Clone, Debug, Serialize)]
+pub struct PaperFigures {
+    /// CEP, simple → hysteresis, nmile/h.
+    pub cep_nmi_per_h: [f64; 2],
+    /// RMS East velocity error, simple → hysteresis, m/s.
+    pub rms_ve_mps: [f64; 2],
+    /// RMS North velocity error, simple → hysteresis, m/s.
+    pub rms_vn_mps: [f64; 2],
+}
+
+/// Metadata of a run.
+#[derive(Clone, Debug, Serialize)]
+pub struct Meta {
+    /// Scenario name.
+    pub scenario: String,
+    /// Flight duration, h.
+    pub duration_h: f64,
+    /// IMU rate, Hz.
+    pub imu_rate_hz: f64,
+    /// Gyro biases drawn, °/h.
+    pub gyro_bias_dph: [f64; 3],
+    /// Temperature range of the case, °C.
+    pub case_temp_range_c: [f64; 2],
+    /// Share of the thermally induced CEP removed, `(simple − v)/(simple − oracle)`.
+    pub share_removed_cep: BTreeMap<String, f64>,
+    /// Same for RMS East and North velocity error (mean of the two shares).
+    pub share_removed_rms_v: BTreeMap<String, f64>,
+    /// Where the discovered table came from.
+    pub discovered_source: String,
+    /// Calibration fit figures per axis.
+    pub calibration: Vec<calib::CalReport>,
+    /// The paper's figures.
+    pub paper: PaperFigures,
+    /// Wall time of calibration and flight, s.
+    pub runtime_s: [f64; 2],
+}
+
+/// `report.json`: one entry per variant plus `meta`.
+#[derive(Clone, Debug, Serialize)]
+pub struct Report {
+    /// Figures per variant, keyed by name.
+    #[serde(flatten)]
+    pub variants: BTreeMap<String, Figures>,
+    /// Everything else.
+    pub meta: Meta,
+}
+
+impl Report {
+    /// Figures of `name`.
+    #[must_use]
+    pub fn get(&self, name: &str) -> Option<&Figures> {
+        self.variants.get(name)
+    }
+}
+
+/// Tables for the four table-driven variants, per axis x, y, z.
+pub struct Tables {
+    /// Per unit: none, simple, hysteresis and the fit figures.
+    pub units: Vec<calib::UnitTables>,
+    /// Per-axis calibration figures.
+    pub reports: Vec<calib::CalReport>,
+}
+
+/// The three units on the x, y, z axes: the lab's JB-KT8 #1, #2, #3 presets.
+#[must_use]
+pub fn units() -> [Truth; 3] {
+    [Truth::jb_kt8(1), Truth::jb_kt8(2), Truth::jb_kt8(3)]
+}
+
+/// Calibrate each unit from its simulated four-position test (two threads).
+///
+/// # Errors
+/// A fit or validation failure.
+pub fn calibrate(units: &[Truth; 3], seed: u64) -> anyhow::Result<Tables> {
+    let mut out = Vec::new();
+    for (i, u) in units.iter().enumerate() {
+        out.push(calib::calibrate_unit(u, seed.wrapping_add(1000 + i as u64), 2)?);
+    }
+    let reports = out.iter().map(|u| u.report.clone()).collect();
+    Ok(Tables { units: out, reports })
+}
+
+/// Read a table for the discovered variant: root-crate postcard (`.bin`) or TOML.
+///
+/// # Errors
+/// I/O, decode or validation errors.
+pub fn read_table(path: &Path) -> anyhow::Result<Table> {
+    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    if path.extension().is_some_and(|e| e == "toml") {
+        let text = String::from_utf8(bytes)?;
+        let t: Table = toml::from_str(&text).with_context(|| format!("parsing {}", path.display()))?;
+        t.validate().map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+        Ok(t)
+    } else {
+        Table::decode(&bytes).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
+    }
+}
+
+/// Build the five variants in [`VARIANTS`] order. `discovered` holds one 1-axis table per
+/// axis; `None` uses the hysteresis tables.
+///
+/// # Errors
+/// A table the compensator refuses.
+pub fn variants(t: &Tables, discovered: Option<[Table; 3]>) -> anyhow::Result<Vec<Variant>> {
+    let u = &t.units;
+    let tc = |f: &dyn Fn(&calib::UnitTables) -> &Table| -> anyhow::Result<Box<dyn AccelCompensation>> {
+        Ok(Box::new(TableCompensation::new([f(&u[0]), f(&u[1]), f(&u[2])])?))
+    };
+    let disc: Box<dyn AccelCompensation> = match &discovered {
+        Some(d) => Box::new(TableCompensation::new([&d[0], &d[1], &d[2]])?),
+        None => tc(&|x| &x.hysteresis)?,
+    };
+    Ok(vec![
+        Variant { name: "none".into(), comp: tc(&|x| &x.none)? },
+        Variant { name: "simple".into(), comp: tc(&|x| &x.simple)? },
+        Variant { name: "hysteresis".into(), comp: tc(&|x| &x.hysteresis)? },
+        Variant { name: "discovered".into(), comp: disc },
+        Variant { name: "oracle".into(), comp: Box::new(OracleCompensation) },
+    ])
+}
+
+/// Truth models of the three axes, noise seeded from `seed`.
+#[must_use]
+pub fn truths(units: &[Truth; 3], seed: u64) -> [Box<dyn AccelTruth>; 3] {
+    [0, 1, 2].map(|i| Box::new(LabAccel::new(&units[i], seed.wrapping_add(77 + i as u64))) as Box<dyn AccelTruth>)
+}
+
+fn share(simple: f64, v: f64, oracle: f64) -> f64 {
+    let den = simple - oracle;
+    if den.abs() < 1e-12 {
+        f64::NAN
+    } else {
+        (simple - v) / den
+    }
+}
+
+/// Assemble the report from a flight.
+#[must_use]
+pub fn report(sc: &Scenario, res: &FlightResult, tables: &Tables, discovered_source: String, runtime_s: [f64; 2]) -> Report {
+    let variants: BTreeMap<String, Figures> =
+        res.names.iter().zip(&res.tracks).map(|(n, tr)| (n.clone(), Figures::of(&res.t, tr))).collect();
+    let (s, o) = (variants["simple"], variants["oracle"]);
+    let mut share_cep = BTreeMap::new();
+    let mut share_v = BTreeMap::new();
+    for (n, f) in &variants {
+        share_cep.insert(n.clone(), share(s.cep_nmi_per_h, f.cep_nmi_per_h, o.cep_nmi_per_h));
+        let sv = 0.5 * (share(s.rms_ve_mps, f.rms_ve_mps, o.rms_ve_mps) + share(s.rms_vn_mps, f.rms_vn_mps, o.rms_vn_mps));
+        share_v.insert(n.clone(), sv);
+    }
+    let lo = res.temps.iter().map(|t| t[1]).fold(f64::INFINITY, f64::min);
+    let hi = res.temps.iter().map(|t| t[1]).fold(f64::NEG_INFINITY, f64::max);
+    Report {
+        variants,
+        meta: Meta {
+            scenario: sc.name.clone(),
+            duration_h: res.t.last().copied().unwrap_or(0.0) / 3600.0,
+            imu_rate_hz: sc.imu_rate_hz,
+            gyro_bias_dph: res.gyro_bias_dph,
+            case_temp_range_c: [lo, hi],
+            share_removed_cep: share_cep,
+            share_removed_rms_v: share_v,
+            discovered_source,
+            calibration: tables.reports.clone(),
+            paper: PaperFigures { cep_nmi_per_h: [1.54, 1.29], rms_ve_mps: [1.36, 1.09], rms_vn_mps: [1.40, 1.19] },
+            runtime_s,
+        },
+    }
+}
+
+/// Write the error time series (every 10 s) as CSV.
+///
+/// # Errors
+/// I/O.
+pub fn write_timeseries(path: &Path, res: &FlightResult) -> anyhow::Result<()> {
+    let mut s = String::from("time_s,drive_c,case_c,element_c");
+    for n in &res.names {
+        for q in ["ve_mps", "vn_mps", "de_m", "dn_m"] {
+            let _ = write!(s, ",{n}_{q}");
+        }
+    }
+    s.push('\n');
+    for i in (0..res.t.len()).step_by(10) {
+        let [d, c, e] = res.temps[i];
+        let _ = write!(s, "{:.0},{d:.3},{c:.3},{e:.3}", res.t[i]);
+        for tr in &res.tracks {
+            let _ = write!(s, ",{:.4},{:.4},{:.2},{:.2}", tr.ve[i], tr.vn[i], tr.de[i], tr.dn[i]);
+        }
+        s.push('\n');
+    }
+    std::fs::write(path, s).with_context(|| format!("writing {}", path.display()))
+}
+
+/// Load the scenario of `args` with its overrides.
+///
+/// # Errors
+/// Scenario file errors.
+pub fn scenario_of(args: &NavigateArgs) -> anyhow::Result<Scenario> {
+    let mut sc = match &args.scenario {
+        Some(p) => Scenario::load(p)?,
+        None => Scenario::builtin(),
+    };
+    if let Some(r) = args.imu_rate_hz {
+        sc.imu_rate_hz = r;
+    }
+    if let Some(d) = args.duration_s {
+        sc = sc.truncated(d);
+    }
+    Ok(sc)
+}
+
+/// `qfa-lab navigate`: calibrate, fly every variant, write `report.json`,
+/// `nav_timeseries.csv` and the three calibrated tables (`nav_table_*.toml`) to `args.out`.
+///
+/// # Errors
+/// Scenario, table or I/O errors.
+pub fn navigate(args: &NavigateArgs) -> anyhow::Result<Report> {
+    let sc = scenario_of(args)?;
+    let units = units();
+    let t0 = Instant::now();
+    let tables = calibrate(&units, sc.seed)?;
+    let t_cal = t0.elapsed().as_secs_f64();
+    let (disc, source) = match &args.discovered_tables {
+        Some(p) => {
+            let t = [read_table(&p[0])?, read_table(&p[1])?, read_table(&p[2])?];
+            (Some(t), p.iter().map(|x| x.display().to_string()).collect::<Vec<_>>().join(", "))
+        }
+        None => (None, "hysteresis tables (no discovery tables given; issue 4 not yet wired)".to_string()),
+    };
+    let t1 = Instant::now();
+    let sensors = [units[0].sensor, units[1].sensor, units[2].sensor];
+    let res = run::fly(&sc, &mut truths(&units, sc.seed), &sensors, GyroErrors::default(), variants(&tables, disc)?)?;
+    let t_fly = t1.elapsed().as_secs_f64();
+    let rep = report(&sc, &res, &tables, source, [t_cal, t_fly]);
+    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    std::fs::write(args.out.join("report.json"), serde_json::to_string_pretty(&rep)?)?;
+    write_timeseries(&args.out.join("nav_timeseries.csv"), &res)?;
+    for (i, u) in tables.units.iter().enumerate() {
+        for (n, t) in [("none", &u.none), ("simple", &u.simple), ("hysteresis", &u.hysteresis)] {
+            std::fs::write(args.out.join(format!("nav_table_{}_{n}.toml", ["x", "y", "z"][i])), toml::to_string(t)?)?;
+        }
+    }
+    if args.verbose {
+        eprintln!("{}", summary(&rep));
+    }
+    Ok(rep)
+}
+
+/// A human-readable table of the report, with the paper's figures beside ours.
+#[must_use]
+pub fn summary(r: &Report) -> String {
+    let mut s = format!(
+        "navigation ({}, {:.2} h at {} Hz; case {:.1}…{:.1} °C)\n{:<11} {:>8} {:>8} {:>8} {:>9} {:>8}\n",
+        r.meta.scenario,
+        r.meta.duration_h,
+        r.meta.imu_rate_hz,
+        r.meta.case_temp_range_c[0],
+        r.meta.case_temp_range_c[1],
+        "variant",
+        "CEP nmi/h",
+        "RMS vE",
+        "RMS vN",
+        "r(T)/T",
+        "removed"
+    );
+    for n in VARIANTS {
+        if let Some(f) = r.get(n) {
+            let _ = writeln!(
+                s,
+                "{n:<11} {:>8.3} {:>8.3} {:>8.3} {:>9.3} {:>7.0}%",
+                f.cep_nmi_per_h,
+                f.rms_ve_mps,
+                f.rms_vn_mps,
+                f.end_radial_nmi_per_h,
+                100.0 * r.meta.share_removed_cep.get(n).copied().unwrap_or(f64::NAN)
+            );
+        }
+    }
+    let p = &r.meta.paper;
+    let _ = writeln!(
+        s,
+        "paper (flight, Table 7): CEP {} → {} nmile/h; RMS vE {} → {} m/s; RMS vN {} → {} m/s (simple → hysteresis)",
+        p.cep_nmi_per_h[0], p.cep_nmi_per_h[1], p.rms_ve_mps[0], p.rms_ve_mps[1], p.rms_vn_mps[0], p.rms_vn_mps[1]
+    );
+    s
+}

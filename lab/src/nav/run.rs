@@ -1,0 +1,233 @@
+//! The flight simulation: one pass, every variant in lock-step on the same sensor data.
+//!
+//! Per IMU cycle: the true trajectory advances ([`Flight`]), the ideal increments come
+//! from the mechanisation's exact inverse, the gyros get their bias and noise, each
+//! accelerometer axis's truth model turns its ideal Δv into pulses, a DS18B20 reading
+//! of the case arrives every second, and each variant compensates the same pulses and
+//! drives its own mechanisation. Errors are sampled once a second.
+
+use nalgebra::Vector3;
+use rand::SeedableRng;
+use rand_distr::{Distribution, StandardNormal};
+use serde::{Deserialize, Serialize};
+
+use super::accel::{ds18b20_raw, AccelCompensation, AccelTruth};
+use super::earth::{self, NMI_M};
+use super::scenario::{Flight, Scenario};
+use super::strapdown::{inverse, AltRef, Increments, Strapdown};
+use super::thermal::Profile;
+use crate::truth::SensorTruth;
+
+/// Gyro error model, per axis, documented defaults.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct GyroErrors {
+    /// σ of the constant bias drawn per axis (seeded), °/h. The paper's class: 0.01 °/h.
+    pub bias_dph: f64,
+    /// Angle random walk, °/√h.
+    pub arw_dprh: f64,
+}
+
+impl Default for GyroErrors {
+    fn default() -> Self {
+        Self { bias_dph: 0.01, arw_dprh: 0.002 }
+    }
+}
+
+impl GyroErrors {
+    /// No gyro error.
+    #[must_use]
+    pub const fn none() -> Self {
+        Self { bias_dph: 0.0, arw_dprh: 0.0 }
+    }
+}
+
+/// One variant in the run.
+pub struct Variant {
+    /// Name in the report.
+    pub name: String,
+    /// Its compensation.
+    pub comp: Box<dyn AccelCompensation>,
+}
+
+/// Error time series of one variant, sampled every second.
+#[derive(Clone, Debug, Default)]
+pub struct Track {
+    /// North velocity error, m/s.
+    pub vn: Vec<f64>,
+    /// East velocity error, m/s.
+    pub ve: Vec<f64>,
+    /// North position error, m.
+    pub dn: Vec<f64>,
+    /// East position error, m.
+    pub de: Vec<f64>,
+}
+
+/// Result of a flight.
+#[derive(Clone, Debug, Default)]
+pub struct FlightResult {
+    /// Sample times, s.
+    pub t: Vec<f64>,
+    /// Bay air, case and element temperature, °C.
+    pub temps: Vec<[f64; 3]>,
+    /// Variant names, in order.
+    pub names: Vec<String>,
+    /// One track per variant.
+    pub tracks: Vec<Track>,
+    /// Gyro biases drawn, °/h.
+    pub gyro_bias_dph: [f64; 3],
+}
+
+/// Navigation figures of one variant.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Figures {
+    /// CEP rate, nmile/h: least-squares slope through the origin of the radial position
+    /// error r(t) over the whole flight, `Σ t·r / Σ t²` (one trajectory; see the module doc).
+    pub cep_nmi_per_h: f64,
+    /// RMS East velocity error over the flight, m/s.
+    pub rms_ve_mps: f64,
+    /// RMS North velocity error over the flight, m/s.
+    pub rms_vn_mps: f64,
+    /// Radial position error at the end divided by the flight time, nmile/h.
+    pub end_radial_nmi_per_h: f64,
+    /// Largest radial position error, m.
+    pub max_radial_m: f64,
+    /// 0.5887·(σ_N + σ_E) of the N/E position errors over the flight (PSINS `cep.m`
+    /// form), divided by the flight time, nmile/h.
+    pub cep_psins_nmi_per_h: f64,
+}
+
+fn rms(v: &[f64]) -> f64 {
+    (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt()
+}
+
+impl Figures {
+    /// Figures of a track sampled at times `t` (s).
+    #[must_use]
+    pub fn of(t: &[f64], tr: &Track) -> Self {
+        let r: Vec<f64> = tr.dn.iter().zip(&tr.de).map(|(n, e)| n.hypot(*e)).collect();
+        let stt: f64 = t.iter().map(|x| x * x).sum();
+        let str_: f64 = t.iter().zip(&r).map(|(a, b)| a * b).sum();
+        let slope = if stt > 0.0 { str_ / stt } else { 0.0 };
+        let hours = t.last().copied().unwrap_or(0.0) / 3600.0;
+        let end = r.last().copied().unwrap_or(0.0);
+        let per_h = |m: f64| if hours > 0.0 { m / NMI_M / hours } else { 0.0 };
+        Self {
+            cep_nmi_per_h: slope * 3600.0 / NMI_M,
+            rms_ve_mps: rms(&tr.ve),
+            rms_vn_mps: rms(&tr.vn),
+            end_radial_nmi_per_h: per_h(end),
+            max_radial_m: r.iter().copied().fold(0.0, f64::max),
+            cep_psins_nmi_per_h: per_h(0.5887 * (rms(&tr.dn) + rms(&tr.de))),
+        }
+    }
+}
+
+/// Run the scenario with the given accelerometer truths (x, y, z) and variants.
+///
+/// Every variant starts from the true state (perfect alignment) and sees the same
+/// gyro increments, pulses and temperature readings.
+#[allow(clippy::too_many_lines)]
+pub fn fly(
+    sc: &Scenario,
+    truths: &mut [Box<dyn AccelTruth>; 3],
+    sensors: &[SensorTruth; 3],
+    gyro: GyroErrors,
+    mut variants: Vec<Variant>,
+) -> anyhow::Result<FlightResult> {
+    let dt = sc.dt();
+    let dt_ticks = (dt * 1e6).round() as u32;
+    anyhow::ensure!((f64::from(dt_ticks) * 1e-6 - dt).abs() < 1e-12, "IMU period must be a whole number of µs");
+    let steps = sc.steps();
+    let per_second = sc.imu_rate_hz.round() as u64;
+    anyhow::ensure!((sc.imu_rate_hz - per_second as f64).abs() < 1e-9, "IMU rate must be a whole number of Hz");
+    let profile = Profile::new(sc.temperature.clone())?;
+    let mut chain = sc.thermal.start(profile.at(0.0), dt, sc.thermal.element_tau_s);
+    let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(sc.seed);
+    let dph = (1.0f64 / 3600.0).to_radians();
+    let gb = Vector3::from_fn(|_, _| {
+        let n: f64 = StandardNormal.sample(&mut rng);
+        gyro.bias_dph * n
+    });
+    let arw = gyro.arw_dprh.to_radians() / 60.0 * dt.sqrt();
+    let mut flight = Flight::new(sc);
+    let mut navs: Vec<Strapdown> = variants.iter().map(|_| Strapdown::new(flight.state)).collect();
+    let mut res = FlightResult {
+        names: variants.iter().map(|v| v.name.clone()).collect(),
+        tracks: vec![Track::default(); variants.len()],
+        gyro_bias_dph: [gb.x, gb.y, gb.z],
+        ..FlightResult::default()
+    };
+    let mut prev_ideal = Increments::default();
+    for k in 1..=steps {
+        let prev = flight.state;
+        let truth = flight.step();
+        let ideal = inverse(&prev, &truth, &prev_ideal, dt);
+        prev_ideal = ideal;
+        let th = chain.step(profile.at(flight.t));
+        let mut dtheta = ideal.dtheta + gb * (dph * dt);
+        if arw > 0.0 {
+            for i in 0..3 {
+                let n: f64 = StandardNormal.sample(&mut rng);
+                dtheta[i] += arw * n;
+            }
+        }
+        let mut pulses = [0i32; 3];
+        let mut coeffs = [(0.0, 0.0); 3];
+        for i in 0..3 {
+            pulses[i] = truths[i].corrupt(&th, ideal.dv[i], dt);
+            coeffs[i] = truths[i].coefficients();
+        }
+        // Each case's DS18B20 conversion completes once a second (the first at t = 1 s).
+        if k % per_second == 0 {
+            let raw = [0, 1, 2].map(|i| ds18b20_raw(&sensors[i], th.case_c, &mut rng));
+            let t_ms = (k / per_second * 1000) as u32;
+            for v in &mut variants {
+                v.comp.on_temperature(t_ms, raw);
+            }
+        }
+        let alt = AltRef { h: truth.h, vd: truth.v.z };
+        for (v, nav) in variants.iter_mut().zip(&mut navs) {
+            let dv = v.comp.compensate(pulses, dt_ticks, &coeffs);
+            nav.step(&Increments { dtheta, dv }, dt, alt);
+        }
+        if k % per_second == 0 {
+            res.t.push(flight.t);
+            res.temps.push([th.air_c, th.case_c, th.element_c]);
+            let (rm, rn) = earth::radii(truth.lat);
+            for (tr, nav) in res.tracks.iter_mut().zip(&navs) {
+                let s = &nav.state;
+                tr.vn.push(s.v.x - truth.v.x);
+                tr.ve.push(s.v.y - truth.v.y);
+                tr.dn.push((s.lat - truth.lat) * (rm + truth.h));
+                tr.de.push((s.lon - truth.lon) * (rn + truth.h) * truth.lat.cos());
+            }
+        }
+    }
+    Ok(res)
+}
+
+/// Closure check with perfect sensors: the ideal increments (f64, no quantization) drive
+/// the mechanisation over the whole scenario. Returns the largest horizontal position
+/// error (m) and the largest horizontal velocity error (m/s) seen.
+#[must_use]
+pub fn closure(sc: &Scenario) -> (f64, f64) {
+    let dt = sc.dt();
+    let mut flight = Flight::new(sc);
+    let mut nav = Strapdown::new(flight.state);
+    let mut prev_ideal = Increments::default();
+    let (mut max_p, mut max_v) = (0.0f64, 0.0f64);
+    for _ in 0..sc.steps() {
+        let prev = flight.state;
+        let truth = flight.step();
+        let ideal = inverse(&prev, &truth, &prev_ideal, dt);
+        prev_ideal = ideal;
+        nav.step(&ideal, dt, AltRef { h: truth.h, vd: truth.v.z });
+        let (rm, rn) = earth::radii(truth.lat);
+        let s = &nav.state;
+        let dn = (s.lat - truth.lat) * (rm + truth.h);
+        let de = (s.lon - truth.lon) * (rn + truth.h) * truth.lat.cos();
+        max_p = max_p.max(dn.hypot(de));
+        max_v = max_v.max((s.v.x - truth.v.x).hypot(s.v.y - truth.v.y));
+    }
+    (max_p, max_v)
+}
