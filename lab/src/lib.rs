@@ -28,4 +28,3 @@ pub mod sim;
 pub mod thermal;
 pub mod truth;
 pub mod nav;
-pub mod faults;
