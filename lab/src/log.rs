@@ -158,7 +158,7 @@ impl fmt::Display for LogError {
 
 impl std::error::Error for LogError {}
 
-fn field_str<'a>(rec: &'a csv::ByteRecord, i: usize) -> &'a [u8] {
+fn field_str(rec: &csv::ByteRecord, i: usize) -> &[u8] {
     let b = rec.get(i).unwrap_or(b"");
     // Trim ASCII spaces some spreadsheet exports add.
     let start = b.iter().position(|c| *c != b' ').unwrap_or(b.len());
@@ -178,7 +178,10 @@ fn parse_f64(b: &[u8], column: &'static str) -> Result<f64, RowFault> {
         .ok_or_else(|| bad(column, b))
 }
 
-fn parse_row(rec: &csv::ByteRecord) -> Result<(u32, f64, f64, Option<f64>, i64, f64), RowFault> {
+/// A parsed row: run, time_s, input_g, temp_c, pulses, interval_s.
+type Parsed = (u32, f64, f64, Option<f64>, i64, f64);
+
+fn parse_row(rec: &csv::ByteRecord) -> Result<Parsed, RowFault> {
     if rec.len() != COLUMNS.len() {
         return Err(RowFault::FieldCount(rec.len()));
     }

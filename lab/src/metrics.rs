@@ -71,6 +71,9 @@ pub struct Bin {
     pub seconds: f64,
 }
 
+/// Bin accumulator: Σw, Σw·T, Σw·t, Σw·v, branch.
+type Acc = (f64, f64, f64, f64, Branch);
+
 /// Bin a per-row series by (segment, 1 °C of temperature); rows where `use_row` is false
 /// are skipped. `interval_s[i]` weights row `i`.
 #[must_use]
@@ -87,7 +90,7 @@ pub fn bin_series(
     let mut seg = 0usize;
     let mut prev: Option<Branch> = None;
     // (segment, bin) → (Σw, Σw·T, Σw·t, Σw·v, branch)
-    let mut acc: BTreeMap<(usize, i64), (f64, f64, f64, f64, Branch)> = BTreeMap::new();
+    let mut acc: BTreeMap<(usize, i64), Acc> = BTreeMap::new();
     for i in 0..value.len() {
         if prev.is_some_and(|p| p != branch[i]) {
             seg += 1;

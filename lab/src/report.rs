@@ -54,11 +54,15 @@ fn valid_rows(tr: &Trace, status: Option<&[u16]>) -> Vec<bool> {
     (0..tr.valid.len()).map(|i| tr.valid[i] && status.is_none_or(|s| !not_compensated(s[i]))).collect()
 }
 
+/// A variant's per-row output and, when compensated, its status words.
+type Output = (Vec<f64>, Option<Vec<u16>>);
+
 /// Compensate `programs` of `log` with each table and form the held-out bins and figures.
 /// `none` uses `gamma_none` as its constant scale factor.
 ///
 /// # Errors
 /// A table that does not load into the compensator.
+#[allow(clippy::needless_range_loop)]
 pub fn evaluate(
     log: &Log,
     programs: &[String],
@@ -72,7 +76,7 @@ pub fn evaluate(
     for prog in programs {
         // Runs of this program: their compensated outputs under each variant.
         let idx: Vec<usize> = (0..log.runs.len()).filter(|&i| log.runs[i].program == *prog).collect();
-        let mut outs: Vec<[(Vec<f64>, Option<Vec<u16>>); 3]> = Vec::new();
+        let mut outs: Vec<[Output; 3]> = Vec::new();
         let mut traces: Vec<Trace> = Vec::new();
         for &i in &idx {
             let run = &log.runs[i];

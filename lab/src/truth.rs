@@ -127,7 +127,7 @@ impl Truth {
     /// Preset by name: `kt8-1`, `kt8-2`, `kt8-3` (also `1`, `2`, `3`, `JB-KT8 #1`…).
     #[must_use]
     pub fn preset(name: &str) -> Option<Self> {
-        let d = name.chars().filter(char::is_ascii_digit).last()?;
+        let d = name.chars().rfind(char::is_ascii_digit)?;
         match d {
             '1' => Some(Self::jb_kt8(1)),
             '2' => Some(Self::jb_kt8(2)),
