@@ -86,11 +86,14 @@ impl Accelerometer {
     }
 }
 
-/// DS18B20 reading of `temp_c`: offset, noise, 12-bit quantization.
+/// DS18B20 reading of `temp_c`: offset, noise, 12-bit quantization, limited to
+/// −60..+125 °C. The datasheet specifies −55..+125 °C, but the register reads on below
+/// −55 (the paper's chamber goes to −60 °C); clamping at −55 would freeze T̂ and Ṫ at the
+/// cold turnaround and break the fit there.
 fn ds18b20(truth: &Truth, rng: &mut StdRng, temp_c: f64) -> f64 {
     let z: f64 = if truth.sensor.noise_c > 0.0 { rng.sample(StandardNormal) } else { 0.0 };
     let v = temp_c + truth.sensor.offset_c + truth.sensor.noise_c * z;
-    (v * 16.0).round().clamp(-880.0, 2000.0) / 16.0
+    (v * 16.0).round().clamp(-960.0, 2000.0) / 16.0
 }
 
 fn run_seed(seed: u64, program: usize, run: u32) -> u64 {
