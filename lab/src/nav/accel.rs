@@ -31,12 +31,21 @@ pub trait AccelTruth {
     /// Thermal K1 (pulses/(g·s)) and K0 (g) of the truth model during the last cycle
     /// (without noise and bias instability): what the oracle compensation uses.
     fn coefficients(&self) -> (f64, f64);
+    /// The DS18B20 on this unit's case (offset, noise), if it has one.
+    fn sensor(&self) -> Option<SensorTruth> {
+        None
+    }
 }
 
 /// The navigation computer's accelerometer compensation, three axes.
 pub trait AccelCompensation {
-    /// Slow path: each axis's DS18B20 raw reading (1/16 °C), taken at `t_ms`.
-    fn on_temperature(&mut self, t_ms: u32, raw: [i16; 3]);
+    /// Slow path: one DS18B20 raw reading (1/16 °C) for the whole IMU, taken at `t_ms`.
+    fn on_temperature(&mut self, t_ms: u32, raw: i16);
+    /// Slow path: each axis's own DS18B20 reading (one sensor per case, as in the lab's
+    /// calibration), taken at `t_ms`. The default uses the x-axis reading for the IMU.
+    fn on_temperatures(&mut self, t_ms: u32, raw: [i16; 3]) {
+        self.on_temperature(t_ms, raw[0]);
+    }
     /// Fast path: pulses of the three axes over `dt_ticks` µs; `truth` carries each axis's
     /// true (K1, K0) for the oracle and is ignored by real compensations.
     fn compensate(&mut self, pulses: [i32; 3], dt_ticks: u32, truth: &[(f64, f64); 3]) -> Vector3<f64>;
@@ -49,6 +58,7 @@ pub trait AccelCompensation {
 /// needs them, so its five lines are mirrored here).
 #[derive(Debug)]
 pub struct LabAccel {
+    sensor: SensorTruth,
     model: TruthModel,
     noise: NoiseGen,
     carry: f64,
@@ -60,7 +70,7 @@ impl LabAccel {
     /// Unit `truth` with noise seed `seed`.
     #[must_use]
     pub fn new(truth: &Truth, seed: u64) -> Self {
-        Self { model: truth.model(), noise: NoiseGen::new(truth.noise, seed), carry: 0.0, k1: 0.0, k0: 0.0 }
+        Self { sensor: truth.sensor, model: truth.model(), noise: NoiseGen::new(truth.noise, seed), carry: 0.0, k1: 0.0, k0: 0.0 }
     }
 }
 
@@ -78,6 +88,10 @@ impl AccelTruth for LabAccel {
 
     fn coefficients(&self) -> (f64, f64) {
         (self.k1, self.k0)
+    }
+
+    fn sensor(&self) -> Option<SensorTruth> {
+        Some(self.sensor)
     }
 }
 
@@ -112,7 +126,11 @@ impl TableCompensation {
 }
 
 impl AccelCompensation for TableCompensation {
-    fn on_temperature(&mut self, t_ms: u32, raw: [i16; 3]) {
+    fn on_temperature(&mut self, t_ms: u32, raw: i16) {
+        self.on_temperatures(t_ms, [raw; 3]);
+    }
+
+    fn on_temperatures(&mut self, t_ms: u32, raw: [i16; 3]) {
         for (c, r) in self.comp.iter_mut().zip(raw) {
             if c.on_raw(t_ms, r).is_err() {
                 self.rejected += 1;
@@ -132,7 +150,7 @@ impl AccelCompensation for TableCompensation {
 pub struct OracleCompensation;
 
 impl AccelCompensation for OracleCompensation {
-    fn on_temperature(&mut self, _t_ms: u32, _raw: [i16; 3]) {}
+    fn on_temperature(&mut self, _t_ms: u32, _raw: i16) {}
 
     fn compensate(&mut self, pulses: [i32; 3], dt_ticks: u32, truth: &[(f64, f64); 3]) -> Vector3<f64> {
         let dt = f64::from(dt_ticks) * 1e-6;

@@ -84,3 +84,18 @@ pub fn calibrate_unit(truth: &Truth, seed: u64, threads: usize) -> anyhow::Resul
         },
     })
 }
+
+/// One 3-axis table (x, y, z) from three 1-axis tables, for a `Compensator<3, 32>`.
+///
+/// # Errors
+/// Tables that are not 1-axis, or validation of the result.
+pub fn table3(axes: [&Table; 3]) -> anyhow::Result<Table> {
+    let mut v = heapless::Vec::new();
+    for t in axes {
+        anyhow::ensure!(t.axes.len() == 1, "expected 1-axis tables");
+        v.push(t.axes[0].clone()).map_err(|_| anyhow::anyhow!("too many axes"))?;
+    }
+    let t = Table { rate_window: axes[0].rate_window, axes: v, misalignment: None };
+    t.validate().map_err(|e| anyhow::anyhow!("3-axis table invalid: {e}"))?;
+    Ok(t)
+}

@@ -130,10 +130,15 @@ impl Figures {
 pub fn fly(
     sc: &Scenario,
     truths: &mut [Box<dyn AccelTruth>; 3],
-    sensors: &[SensorTruth; 3],
     gyro: GyroErrors,
     mut variants: Vec<Variant>,
 ) -> anyhow::Result<FlightResult> {
+    let sensors: [SensorTruth; 3] = [0, 1, 2].map(|i| truths[i].sensor().unwrap_or(SensorTruth {
+        offset_c: 0.0,
+        noise_c: 0.01,
+        period_s: 1.0,
+        first_s: 1.0,
+    }));
     let dt = sc.dt();
     let dt_ticks = (dt * 1e6).round() as u32;
     anyhow::ensure!((f64::from(dt_ticks) * 1e-6 - dt).abs() < 1e-12, "IMU period must be a whole number of µs");
@@ -182,7 +187,7 @@ pub fn fly(
             let raw = [0, 1, 2].map(|i| ds18b20_raw(&sensors[i], th.case_c, &mut rng));
             let t_ms = (k / per_second * 1000) as u32;
             for v in &mut variants {
-                v.comp.on_temperature(t_ms, raw);
+                v.comp.on_temperatures(t_ms, raw);
             }
         }
         let alt = AltRef { h: truth.h, vd: truth.v.z };
