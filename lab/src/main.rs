@@ -81,6 +81,18 @@ enum Cmd {
         #[arg(long)]
         no_plots: bool,
     },
+    /// Discovery workflow (issue 4): name the missing effect, add it, show the held-out gap shrink.
+    Discover {
+        /// Cycling log or single-channel log (time_s,temp_c,value).
+        #[arg(long)]
+        log: PathBuf,
+        /// Start model: simple or paper.
+        #[arg(long, default_value = "simple")]
+        start: qfa_lab::discover::Start,
+        /// Output directory.
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Compensate a log through the root crate's compensator; adds an accel_g column.
     Compensate {
         /// Cycling log.
@@ -107,6 +119,21 @@ enum Cmd {
         /// Simulation threads.
         #[arg(long, default_value_t = 2)]
         threads: usize,
+    },
+    /// Pure-inertial navigation error of each compensation variant (issue 5).
+    Navigate {
+        /// Scenario TOML (default: the built-in §3.2 flight).
+        #[arg(long)]
+        scenario: Option<PathBuf>,
+        /// Output directory.
+        #[arg(long)]
+        out: PathBuf,
+        /// Discovered tables for x,y,z (three files, .bin or .toml).
+        #[arg(long, value_delimiter = ',', num_args = 3)]
+        discovered_tables: Option<Vec<PathBuf>>,
+        /// IMU rate override, Hz.
+        #[arg(long)]
+        imu_rate_hz: Option<f64>,
     },
 }
 
@@ -184,6 +211,9 @@ fn run(cli: Cli) -> Result<(), String> {
                 out.display()
             );
         }
+        Cmd::Discover { log, start, out } => {
+            qfa_lab::discover::run_cli(&log, start, &out).map_err(|e| format!("{e:#}"))?;
+        }
         Cmd::Compensate { log, table, out } => {
             let l = read_log(&log).map_err(|e| e.to_string())?;
             let bytes = std::fs::read(&table).map_err(|e| format!("{}: {e}", table.display()))?;
@@ -199,7 +229,12 @@ fn run(cli: Cli) -> Result<(), String> {
         Cmd::Demo { out, row_s, seed, threads } => {
             let opts = qfa_lab::demo::DemoOptions { out, row_s, seed, threads, progress: true };
             // Hooks: issue 4 (discovery) and issue 5 (navigation) plug in here.
-            qfa_lab::demo::run(&opts, None, None)?;
+            qfa_lab::demo::run(&opts, None, Some(qfa_lab::nav::demo_hook))?;
+        }
+        Cmd::Navigate { scenario, out, discovered_tables, imu_rate_hz } => {
+            let discovered_tables = discovered_tables.map(|v| [v[0].clone(), v[1].clone(), v[2].clone()]);
+            let args = qfa_lab::nav::NavigateArgs { scenario, out, discovered_tables, imu_rate_hz, verbose: true, ..Default::default() };
+            qfa_lab::nav::navigate(&args).map_err(|e| format!("{e:#}"))?;
         }
     }
     Ok(())
