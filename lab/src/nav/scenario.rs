@@ -277,7 +277,7 @@ impl Flight {
         let v = Vector3::new(self.speed * c, self.speed * s, -self.climb);
         let prev = self.state;
         let loc = Local::at(prev.lat, prev.h, &prev.v);
-        let (lat, lon) = advance_position(prev.lat, prev.lon, prev.h, h, &prev.v, &v, &loc, dt);
+        let (lat, lon) = advance_position(&prev, h, &v, &loc, dt);
         self.t += dt;
         self.state = NavState { q: self.attitude(), v, lat, lon, h };
         self.state

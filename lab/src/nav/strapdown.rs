@@ -67,20 +67,12 @@ fn skew(a: &Vector3<f64>) -> Matrix3<f64> {
 }
 
 /// Trapezoidal position update shared by the mechanisation and the trajectory generator.
+/// `prev` is the state at k−1 (`local` evaluated there); returns (latitude, longitude) at k.
 #[must_use]
-pub fn advance_position(
-    lat: f64,
-    lon: f64,
-    h_prev: f64,
-    h_next: f64,
-    v_prev: &Vector3<f64>,
-    v_next: &Vector3<f64>,
-    local: &Local,
-    dt: f64,
-) -> (f64, f64) {
-    let hm = 0.5 * (h_prev + h_next);
-    let lat_n = lat + 0.5 * (v_prev.x + v_next.x) * dt / (local.rm + hm);
-    let lon_n = lon + 0.5 * (v_prev.y + v_next.y) * dt / ((local.rn + hm) * lat.cos());
+pub fn advance_position(prev: &NavState, h_next: f64, v_next: &Vector3<f64>, local: &Local, dt: f64) -> (f64, f64) {
+    let hm = 0.5 * (prev.h + h_next);
+    let lat_n = prev.lat + 0.5 * (prev.v.x + v_next.x) * dt / (local.rm + hm);
+    let lon_n = prev.lon + 0.5 * (prev.v.y + v_next.y) * dt / ((local.rn + hm) * prev.lat.cos());
     (lat_n, lon_n)
 }
 
@@ -115,10 +107,10 @@ impl Strapdown {
         v.z = alt.vd;
         let mut q = UnitQuaternion::from_scaled_axis(-zeta) * s.q * UnitQuaternion::from_scaled_axis(phi);
         self.steps = self.steps.wrapping_add(1);
-        if self.steps % 1024 == 0 {
+        if self.steps.is_multiple_of(1024) {
             q.renormalize();
         }
-        let (lat, lon) = advance_position(s.lat, s.lon, s.h, alt.h, &s.v, &v, &loc, dt);
+        let (lat, lon) = advance_position(s, alt.h, &v, &loc, dt);
         self.state = NavState { q, v, lat, lon, h: alt.h };
         self.prev = *inc;
     }
