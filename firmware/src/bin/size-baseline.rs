@@ -1,15 +1,23 @@
-//! `panic-check`'s runtime without the core: vector table, reset, semihosting exit. The
-//! difference of their flash is `core_flash_bytes` (`cargo xtask bench-target`).
+//! `panic-check`'s runtime and input buffer without the core: vector table, reset,
+//! semihosting exit. The difference of their flash is `core_flash_bytes`
+//! (`cargo xtask bench-target`).
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 #[cfg(target_os = "none")]
 mod target {
+    use core::hint::black_box;
+
     use cortex_m_rt::{entry, exception, ExceptionFrame};
     use qfa_firmware::rt;
+    use qfa_thermal::table::MAX_TABLE_BYTES;
+
+    /// The same input buffer as panic-check's, so the difference is the core's code alone.
+    static TABLE_BYTES: [u8; MAX_TABLE_BYTES] = [0; MAX_TABLE_BYTES];
 
     #[entry]
     fn main() -> ! {
-        rt::exit(core::hint::black_box(0))
+        black_box(&TABLE_BYTES[..]);
+        rt::exit(black_box(0))
     }
 
     #[exception]
