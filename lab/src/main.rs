@@ -81,6 +81,18 @@ enum Cmd {
         #[arg(long)]
         no_plots: bool,
     },
+    /// Discovery workflow (issue 4): name the missing effect, add it, show the held-out gap shrink.
+    Discover {
+        /// Cycling log or single-channel log (time_s,temp_c,value).
+        #[arg(long)]
+        log: PathBuf,
+        /// Start model: simple or paper.
+        #[arg(long, default_value = "simple")]
+        start: qfa_lab::discover::Start,
+        /// Output directory.
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Compensate a log through the root crate's compensator; adds an accel_g column.
     Compensate {
         /// Cycling log.
@@ -198,6 +210,9 @@ fn run(cli: Cli) -> Result<(), String> {
                 r.timings_s.total,
                 out.display()
             );
+        }
+        Cmd::Discover { log, start, out } => {
+            qfa_lab::discover::run_cli(&log, start, &out).map_err(|e| format!("{e:#}"))?;
         }
         Cmd::Compensate { log, table, out } => {
             let l = read_log(&log).map_err(|e| e.to_string())?;

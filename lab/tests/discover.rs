@@ -58,7 +58,7 @@ fn within(got: f64, want: f64, tol: f64) {
 }
 
 fn quick(seed: u64) -> SynthConfig {
-    SynthConfig { seed, ..SynthConfig::default() }
+    SynthConfig { seed, t_lo: 5.0, t_hi: 40.0, hold_start_min: 30.0, hold_end_min: 45.0, ..SynthConfig::default() }
 }
 
 #[test]
@@ -71,4 +71,180 @@ fn discover_sensor_lag() {
         assert_shrinks(&r, "scale_factor");
         assert_shrinks(&r, "bias");
     }
+}
+
+fn paper_bias() -> [f32; 3] {
+    [1.2e-4, 2.5e-6, 1.5e-8]
+}
+
+#[test]
+fn discover_temp_quadratic_scale_factor() {
+    for (seed, beta) in [(3u64, 0.1008f32), (4, 0.2385)] {
+        let scale = ScaleFactor { beta, ..simple_scale() };
+        let r = run(&quick(seed), scale, [1e-4, 3e-6, 0.0], Extensions::default(), Start::Simple);
+        assert_eq!(names(&r), ["temp_quadratic"]);
+        assert_eq!(r.effects[0].channel, "scale_factor");
+        within(param(&r, "temp_quadratic", "beta"), f64::from(beta), 0.25);
+        assert_shrinks(&r, "scale_factor");
+    }
+}
+
+#[test]
+fn discover_temp_quadratic_bias() {
+    for (seed, b2) in [(5u64, 2e-8f32), (6, -3e-8)] {
+        let r = run(&quick(seed), simple_scale(), [1e-4, 3e-6, b2], Extensions::default(), Start::Simple);
+        assert_eq!(names(&r), ["temp_quadratic"]);
+        assert_eq!(r.effects[0].channel, "bias");
+        within(param(&r, "temp_quadratic", "beta_g_per_c2"), f64::from(b2), 0.25);
+        assert_shrinks(&r, "bias");
+    }
+}
+
+#[test]
+fn discover_rate_hysteresis_not_sensor_lag() {
+    for (seed, eps) in [(7u64, 88.14f32), (8, 48.53)] {
+        let scale = ScaleFactor { epsilon: eps, ..simple_scale() };
+        let r = run(&quick(seed), scale, [1e-4, 3e-6, 0.0], Extensions::default(), Start::Simple);
+        assert_eq!(names(&r), ["rate_hysteresis"]);
+        within(param(&r, "rate_hysteresis", "epsilon"), f64::from(eps), 0.25);
+        assert_shrinks(&r, "scale_factor");
+    }
+}
+
+#[test]
+fn discover_rate_squared() {
+    for (seed, alpha) in [(9u64, 273.0f32), (10, 102.76)] {
+        let scale = ScaleFactor { alpha, ..simple_scale() };
+        let r = run(&quick(seed), scale, [1e-4, 3e-6, 0.0], Extensions::default(), Start::Simple);
+        assert_eq!(names(&r), ["rate_squared"]);
+        within(param(&r, "rate_squared", "alpha"), f64::from(alpha), 0.25);
+        assert_shrinks(&r, "scale_factor");
+    }
+}
+
+#[test]
+fn discover_rate_temp_coupling() {
+    for (seed, eta) in [(11u64, -1.4912f32), (12, 0.8)] {
+        let scale = ScaleFactor { eta, ..simple_scale() };
+        let r = run(&quick(seed), scale, [1e-4, 3e-6, 0.0], Extensions::default(), Start::Simple);
+        assert_eq!(names(&r), ["rate_temp_coupling"]);
+        within(param(&r, "rate_temp_coupling", "eta"), f64::from(eta), 0.25);
+        assert_shrinks(&r, "scale_factor");
+    }
+}
+
+#[test]
+fn discover_bias_branch_hysteresis_not_creep() {
+    for (seed, r_c, w) in [(13u64, 2.0f32, 1e-5f32), (14, 1.0, -6e-6)] {
+        let ext = Extensions {
+            bias_branch_hysteresis: Some(BranchHysteresis { half_width_c: r_c, weight_g: w }),
+            ..Default::default()
+        };
+        let r = run(&quick(seed), kt8_1_scale(), paper_bias(), ext, Start::Paper);
+        assert_eq!(names(&r), ["bias_branch_hysteresis"]);
+        within(param(&r, "bias_branch_hysteresis", "weight_g"), f64::from(w), 0.25);
+        within(param(&r, "bias_branch_hysteresis", "half_width_c"), f64::from(r_c), 0.25);
+        assert_shrinks(&r, "bias");
+    }
+}
+
+#[test]
+fn discover_bias_creep_not_branch_hysteresis() {
+    for (seed, gain, tau, e) in [(15u64, 1e-6f32, 1200.0f32, 4000.0f32), (16, 6e-7, 2400.0, 3000.0)] {
+        let ext = Extensions {
+            bias_creep: Some(Creep { gain_g_per_c: gain, tau_ref_s: tau, t_ref_c: 22.0, activation_k: e }),
+            ..Default::default()
+        };
+        let r = run(&quick(seed), kt8_1_scale(), paper_bias(), ext, Start::Paper);
+        assert_eq!(names(&r), ["bias_creep"]);
+        within(param(&r, "bias_creep", "gain_g_per_c"), f64::from(gain), 0.25);
+        within(param(&r, "bias_creep", "tau_ref_s"), f64::from(tau), 0.25);
+        assert_shrinks(&r, "bias");
+    }
+}
+
+#[test]
+fn discover_none_when_nothing_is_missing() {
+    let r = run(&quick(17), simple_scale(), [1e-4, 3e-6, 0.0], Extensions::default(), Start::Simple);
+    assert!(r.effects.is_empty(), "{:?}", names(&r));
+    let r = run(&quick(18), kt8_1_scale(), paper_bias(), Extensions::default(), Start::Paper);
+    assert!(r.effects.is_empty(), "{:?}", names(&r));
+}
+
+#[test]
+fn discover_paper_structure_from_simple() {
+    let r = run(&quick(19), kt8_1_scale(), [1e-4, 3e-6, 0.0], Extensions::default(), Start::Simple);
+    let n = names(&r);
+    for want in ["temp_quadratic", "rate_hysteresis", "rate_squared"] {
+        assert!(n.contains(&want), "{n:?}");
+    }
+    for not in ["sensor_lag", "bias_branch_hysteresis", "bias_creep"] {
+        assert!(!n.contains(&not), "{n:?}");
+    }
+    within(param(&r, "temp_quadratic", "beta"), 0.1008, 0.25);
+    within(param(&r, "rate_hysteresis", "epsilon"), 88.14, 0.25);
+    within(param(&r, "rate_squared", "alpha"), 273.0, 0.25);
+    assert_shrinks(&r, "scale_factor");
+}
+
+#[test]
+fn discover_single_channel_log_and_outputs() {
+    use qfa_lab::discover::synth::single_csv;
+    use qfa_lab::discover::{discover, Channels};
+    let ext = Extensions {
+        bias_branch_hysteresis: Some(BranchHysteresis { half_width_c: 1.5, weight_g: 1.5e-5 }),
+        ..Default::default()
+    };
+    let cfg = SynthConfig { rates: vec![0.5], ..quick(20) };
+    let csv = single_csv(&cfg, &truth(kt8_1_scale(), paper_bias(), ext));
+    let ch = Channels::parse(&csv, 60.0).unwrap();
+    let dir = std::env::temp_dir().join(format!("qfa-discover-single-{}", std::process::id()));
+    let r = discover(&ch, Start::Paper, &dir).unwrap();
+    assert_eq!(names(&r), ["bias_branch_hysteresis"]);
+    // value in µg: the weight comes out in the value's unit.
+    within(param(&r, "bias_branch_hysteresis", "weight_g"), 15.0, 0.25);
+    assert_shrinks(&r, "value");
+    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap();
+    assert_eq!(json["start"], "paper");
+    assert!(json["heldout_gap_before"]["value_rms"].as_f64().unwrap() > json["heldout_gap_after"]["value_rms"].as_f64().unwrap());
+    assert_eq!(json["effects"][0]["name"], "bias_branch_hysteresis");
+    assert!(json["where"].as_array().is_some_and(|w| !w.is_empty()));
+    for f in ["report.md", "model.toml", "residuals.csv", "residual_value_vs_time.png"] {
+        assert!(dir.join(f).exists(), "{f}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn discover_from_lab_format_csv_with_pulses() {
+    use qfa_lab::discover::synth::cycling_csv;
+    use qfa_lab::discover::{discover, Channels};
+    let ext = Extensions { sensor_lag: Some(SensorLag { tau_s: 450.0 }), ..Default::default() };
+    let csv = cycling_csv(&quick(21), &truth(kt8_1_scale(), paper_bias(), ext), 20.0);
+    let ch = Channels::parse(&csv, 60.0).unwrap();
+    assert_eq!(ch.traces.len(), 4);
+    let dir = std::env::temp_dir().join(format!("qfa-discover-csv-{}", std::process::id()));
+    let r = discover(&ch, Start::Paper, &dir).unwrap();
+    assert_eq!(names(&r), ["sensor_lag"]);
+    within(param(&r, "sensor_lag", "tau_s"), 450.0, 0.25);
+    assert_shrinks(&r, "scale_factor");
+    let bin = std::fs::read(dir.join("model.bin")).unwrap();
+    let t = qfa_thermal::Table::decode(&bin).unwrap();
+    assert_eq!(t.rate_window, 32);
+    assert_eq!(t.axes.len(), 1);
+    assert!(t.axes[0].ext.sensor_lag.is_some());
+    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap();
+    assert!(json["heldout_gap_before"]["scale_factor_ppm"].is_number());
+    assert!(json["heldout_gap_after"]["bias_ug"].is_number());
+    assert_eq!(json["effects"][0]["channel"], "both");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn reader_reports_malformed_rows_with_line_numbers() {
+    use qfa_lab::discover::Channels;
+    let bad = "program,run,time_s,input_g,temp_c,pulses,interval_s\np,0,1,1,22.0,100,1\np,0,x,1,22.0,100,1\np,1,2,-1,22.0,abc,1\n";
+    let e = format!("{:#}", Channels::parse(bad, 60.0).unwrap_err());
+    assert!(e.contains("line 3") && e.contains("line 4"), "{e}");
+    assert!(Channels::parse("a,b\n1,2\n", 60.0).is_err());
 }

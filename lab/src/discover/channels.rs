@@ -112,16 +112,22 @@ impl Trace {
         Self { program, time_s, temp_raw, est_t, est_rate, dt_s, bins }
     }
 
-    /// Typical ramp rate of the program, °C/min: the 90th percentile of |Ṫ|, to 0.1.
+    /// Ramp rate of the program, °C/min: the number at the end of its id when there is
+    /// one (the lab's `paper-0.5`), else the mean |Ṫ| while ramping (|Ṫ| > 0.05 °C/min).
     #[must_use]
     pub fn ramp_rate(&self) -> f64 {
-        let mut r: Vec<f32> = self.est_rate.iter().map(|x| x.abs()).collect();
-        if r.is_empty() {
-            return 0.0;
+        let tail = self.program.rsplit(['-', '_', '@', ' ', '=']).next().unwrap_or("");
+        if let Ok(x) = tail.parse::<f64>() {
+            if x > 0.0 && x <= 20.0 {
+                return x;
+            }
         }
-        r.sort_by(f32::total_cmp);
-        let p = f64::from(r[(r.len() * 9 / 10).min(r.len() - 1)]);
-        (p * 10.0).round() / 10.0
+        let r: Vec<f64> = self.est_rate.iter().map(|x| f64::from(x.abs())).filter(|&x| x > 0.05).collect();
+        if r.is_empty() {
+            0.0
+        } else {
+            r.iter().sum::<f64>() / r.len() as f64
+        }
     }
 }
 
@@ -180,7 +186,7 @@ impl Channels {
                         if get(tc).is_empty() { None } else { Some(get(tc).parse().context("temp_c")?) };
                     let pulses: f64 = get(pu).parse().context("pulses")?;
                     let iv: f64 = get(iv).parse().context("interval_s")?;
-                    if !(iv > 0.0) || !t.is_finite() || !pulses.is_finite() {
+                    if iv.is_nan() || iv <= 0.0 || !t.is_finite() || !pulses.is_finite() {
                         bail!("non-positive interval or non-finite value");
                     }
                     let entry = progs.entry(get(p).to_string()).or_default();

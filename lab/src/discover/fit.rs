@@ -472,12 +472,12 @@ impl Setup<'_> {
     #[must_use]
     pub fn score(&self, res: &Residuals, mask: &[bool]) -> f64 {
         let mut s = 0.0;
-        for i in 0..mask.len() {
-            if mask[i] {
-                if res.sf[i].is_finite() {
-                    s += (res.sf[i] / self.sigma_sf).powi(2);
+        for ((&m, &sf), &b) in mask.iter().zip(&res.sf).zip(&res.bias) {
+            if m {
+                if sf.is_finite() {
+                    s += (sf / self.sigma_sf).powi(2);
                 }
-                s += (res.bias[i] / self.sigma_b).powi(2);
+                s += (b / self.sigma_b).powi(2);
             }
         }
         s
@@ -502,8 +502,8 @@ fn solve(a: &DMatrix<f64>, y: &DVector<f64>, pen: Option<(usize, usize)>) -> Vec
         })
         .collect();
     let mut an = a.clone();
-    for j in 0..k {
-        an.column_mut(j).scale_mut(scale[j]);
+    for (j, &sj) in scale.iter().enumerate() {
+        an.column_mut(j).scale_mut(sj);
     }
     let mut ata = an.transpose() * &an;
     let aty = an.transpose() * y;

@@ -260,11 +260,9 @@ fn heldout(setup: &Setup, s: &Structure, nls: &[Nonlinear], masks: &[Vec<bool>])
         let train: Vec<bool> = test.iter().map(|&t| !t).collect();
         let f = setup.fit(s, &nls[k], &train);
         let r = setup.residuals(&f.pred);
-        for i in 0..n {
-            if test[i] {
-                out.sf[i] = r.sf[i];
-                out.bias[i] = r.bias[i];
-            }
+        for (i, _) in test.iter().enumerate().filter(|(_, &t)| t) {
+            out.sf[i] = r.sf[i];
+            out.bias[i] = r.bias[i];
         }
     }
     out
@@ -281,7 +279,7 @@ fn search(setup: &Setup, s: &Structure, nl: &Nonlinear, e: Effect, train: &[bool
         let b = (0..pts.len()).min_by(|&i, &j| vals[i].total_cmp(&vals[j])).unwrap_or(0);
         let lo = pts[b.saturating_sub(1)].ln();
         let hi = pts[(b + 1).min(pts.len() - 1)].ln();
-        let (x, fx) = golden(|x| obj(&set(x.exp())), lo, hi, 12);
+        let (x, fx) = golden(|x| obj(&set(x.exp())), lo, hi, 9);
         if fx < vals[b] {
             set(x.exp())
         } else {
@@ -303,7 +301,7 @@ fn search(setup: &Setup, s: &Structure, nl: &Nonlinear, e: Effect, train: &[bool
                 ..*nl
             };
             let mut best = ([0.0, 0.0], f64::INFINITY);
-            for &tau in &[120.0f64, 300.0, 750.0, 1900.0, 4700.0, 12_000.0, 30_000.0] {
+            for &tau in &[150.0f64, 450.0, 1350.0, 4000.0, 12_000.0, 36_000.0] {
                 for &ek in &[0.0, 2.5, 5.0] {
                     let x = [tau.ln(), ek];
                     let v = obj(&set(x));
@@ -312,7 +310,7 @@ fn search(setup: &Setup, s: &Structure, nl: &Nonlinear, e: Effect, train: &[bool
                     }
                 }
             }
-            let (x, v) = nelder_mead2(|x| obj(&set(x)), best.0, [0.4, 1.0], 30);
+            let (x, v) = nelder_mead2(|x| obj(&set(x)), best.0, [0.5, 1.0], 24);
             set(if v < best.1 { x } else { best.0 })
         }
         _ => *nl,

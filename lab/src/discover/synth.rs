@@ -195,12 +195,12 @@ fn program_rows(c: &SynthConfig, rate: f64, model: &AxisModel, rng: &mut Rng) ->
 pub fn cycling_channels(c: &SynthConfig, model: &AxisModel, bin_s: f64) -> Channels {
     let mut rng = Rng::new(c.seed);
     let mut traces = Vec::new();
-    for (p, &rate) in c.rates.iter().enumerate() {
+    for &rate in &c.rates {
         let rows = program_rows(c, rate, model, &mut rng);
         let temps: Vec<(f64, f32)> = rows.iter().map(|r| (r.0, r.1)).collect();
         let sf: Vec<f64> = rows.iter().map(|r| r.2 * (1.0 + c.sf_noise_ppm * 1e-6 * rng.normal())).collect();
         let bias: Vec<f64> = rows.iter().map(|r| r.3 + c.bias_noise_ug * 1e-6 * rng.normal()).collect();
-        traces.push(Trace::new(format!("p{}", p + 1), &temps, Some(&sf), &bias, bin_s));
+        traces.push(Trace::new(format!("paper-{rate:.1}"), &temps, Some(&sf), &bias, bin_s));
     }
     Channels { kind: LogKind::Cycling, traces }
 }
@@ -210,13 +210,12 @@ pub fn cycling_channels(c: &SynthConfig, model: &AxisModel, bin_s: f64) -> Chann
 pub fn single_csv(c: &SynthConfig, model: &AxisModel) -> String {
     let mut rng = Rng::new(c.seed);
     let mut s = String::from("time_s,temp_c,value\n");
-    for &rate in &c.rates {
+    if let Some(&rate) = c.rates.first() {
         let rows = program_rows(c, rate, model, &mut rng);
         for r in rows {
             let v = r.3 * 1e6 + c.bias_noise_ug * rng.normal();
             let _ = writeln!(s, "{:.1},{:.4},{:.4}", r.0, r.1, v);
         }
-        break;
     }
     s
 }
@@ -228,7 +227,7 @@ pub fn cycling_csv(c: &SynthConfig, model: &AxisModel, accel_noise_ug: f64) -> S
     let mut rng = Rng::new(c.seed);
     let mut s = String::with_capacity(1 << 20);
     s.push_str("program,run,time_s,input_g,temp_c,pulses,interval_s\n");
-    for (p, &rate) in c.rates.iter().enumerate() {
+    for &rate in &c.rates {
         let rows = program_rows(c, rate, model, &mut rng);
         for (run, g) in [1.0f64, 0.0, -1.0, 0.0].into_iter().enumerate() {
             let mut carry = 0.0f64;
@@ -244,7 +243,7 @@ pub fn cycling_csv(c: &SynthConfig, model: &AxisModel, accel_noise_ug: f64) -> S
                 carry += a * iv;
                 let pulses = carry.floor();
                 carry -= pulses;
-                let _ = writeln!(s, "p{},{},{:.1},{},{:.4},{},{}", p + 1, run, r.0, g, r.1, pulses as i64, iv);
+                let _ = writeln!(s, "paper-{rate:.1},{},{:.1},{},{:.4},{},{}", run, r.0, g, r.1, pulses as i64, iv);
             }
         }
     }
