@@ -41,6 +41,7 @@
 pub mod accel;
 pub mod calib;
 pub mod earth;
+pub mod plot;
 pub mod run;
 pub mod scenario;
 pub mod strapdown;
@@ -78,8 +79,10 @@ pub struct NavigateArgs {
     pub imu_rate_hz: Option<f64>,
     /// Fly only the first seconds of the scenario.
     pub duration_s: Option<f64>,
-    /// Print progress to stderr.
+    /// Print the summary to stderr.
     pub verbose: bool,
+    /// Skip `nav_errors.png`.
+    pub no_plots: bool,
 }
 
 /// The paper's flight figures (Table 7 and §3.2).
@@ -330,6 +333,10 @@ pub fn navigate(args: &NavigateArgs) -> anyhow::Result<Report> {
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     std::fs::write(args.out.join("report.json"), serde_json::to_string_pretty(&rep)?)?;
     write_timeseries(&args.out.join("nav_timeseries.csv"), &res)?;
+    if !args.no_plots {
+        plot::plot_flight(&args.out.join("nav_errors.png"), &format!("pure-inertial errors: {}", sc.name), &res)
+            .map_err(|e| anyhow::anyhow!("plot: {e}"))?;
+    }
     for (i, u) in tables.units.iter().enumerate() {
         for (n, t) in [("none", &u.none), ("simple", &u.simple), ("hysteresis", &u.hysteresis)] {
             std::fs::write(args.out.join(format!("nav_table_{}_{n}.toml", ["x", "y", "z"][i])), toml::to_string(t)?)?;

@@ -1,0 +1,81 @@
+//! PNG of a flight: temperatures, and per variant the radial, East and North position
+//! errors and the East and North velocity errors against time.
+
+use std::path::Path;
+
+use plotters::prelude::*;
+
+use super::run::FlightResult;
+
+type PlotResult = Result<(), Box<dyn std::error::Error>>;
+
+fn register_font() {
+    use std::sync::Once;
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular());
+    });
+}
+
+const COLORS: [RGBColor; 5] =
+    [RGBColor(120, 120, 120), RGBColor(230, 140, 0), RGBColor(0, 130, 60), RGBColor(150, 60, 200), RGBColor(30, 60, 200)];
+
+fn panel(
+    area: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>,
+    title: &str,
+    y_desc: &str,
+    t_h: &[f64],
+    series: &[(String, Vec<f64>)],
+) -> PlotResult {
+    let lo = series.iter().flat_map(|s| s.1.iter()).copied().fold(f64::INFINITY, f64::min);
+    let hi = series.iter().flat_map(|s| s.1.iter()).copied().fold(f64::NEG_INFINITY, f64::max);
+    let pad = ((hi - lo) * 0.05).max(1e-6);
+    let xmax = t_h.last().copied().unwrap_or(1.0);
+    let mut chart = ChartBuilder::on(area)
+        .caption(title, ("sans-serif", 16))
+        .margin(10)
+        .x_label_area_size(35)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0.0..xmax, (lo - pad)..(hi + pad))?;
+    chart.configure_mesh().x_desc("time (h)").y_desc(y_desc).draw()?;
+    for (k, (name, y)) in series.iter().enumerate() {
+        let c = COLORS[k % COLORS.len()];
+        chart
+            .draw_series(LineSeries::new(t_h.iter().copied().zip(y.iter().copied()), c.stroke_width(2)))?
+            .label(name.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+    }
+    chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw()?;
+    Ok(())
+}
+
+/// Write `nav_errors.png` (1600 × 1200) for `res` to `path`.
+///
+/// # Errors
+/// Drawing or file errors.
+pub fn plot_flight(path: &Path, title: &str, res: &FlightResult) -> PlotResult {
+    register_font();
+    let root = BitMapBackend::new(path, (1600, 1200)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let (top, body) = root.split_vertically(30);
+    top.titled(title, ("sans-serif", 20))?;
+    let areas = body.split_evenly((3, 2));
+    let t_h: Vec<f64> = res.t.iter().map(|t| t / 3600.0).collect();
+    let temps: Vec<(String, Vec<f64>)> = ["bay air", "case (DS18B20)", "element"]
+        .iter()
+        .enumerate()
+        .map(|(i, n)| ((*n).to_string(), res.temps.iter().map(|t| t[i]).collect()))
+        .collect();
+    panel(&areas[0], "IMU temperature", "degC", &t_h, &temps)?;
+    let by = |f: &dyn Fn(usize, usize) -> f64| -> Vec<(String, Vec<f64>)> {
+        res.names.iter().enumerate().map(|(v, n)| (n.clone(), (0..res.t.len()).map(|i| f(v, i)).collect())).collect()
+    };
+    let tr = &res.tracks;
+    panel(&areas[1], "radial position error", "m", &t_h, &by(&|v, i| tr[v].dn[i].hypot(tr[v].de[i])))?;
+    panel(&areas[2], "East velocity error", "m/s", &t_h, &by(&|v, i| tr[v].ve[i]))?;
+    panel(&areas[3], "North velocity error", "m/s", &t_h, &by(&|v, i| tr[v].vn[i]))?;
+    panel(&areas[4], "East position error", "m", &t_h, &by(&|v, i| tr[v].de[i]))?;
+    panel(&areas[5], "North position error", "m", &t_h, &by(&|v, i| tr[v].dn[i]))?;
+    root.present()?;
+    Ok(())
+}
