@@ -28,3 +28,4 @@ pub mod sim;
 pub mod thermal;
 pub mod truth;
 pub mod nav;
+pub mod faults;

@@ -1,0 +1,684 @@
+//! Fault injection on the streams the navigation run feeds into the compensator, and the
+//! navigation scenario flown with faults.
+//!
+//! The navigation run ([`crate::nav::run::fly`]) gives every variant one DS18B20 reading
+//! per accelerometer case once a second (`on_temperatures(t_ms, [raw; 3])`) and the
+//! pulses of each IMU cycle (`compensate(pulses, dt_ticks, ..)`). [`FaultyCompensation`]
+//! sits on those streams exactly where the nav's own `TableCompensation` does (one
+//! `Compensator<1, 32>` per axis with that unit's table, fed by its own case sensor): an
+//! [`Injector`] per sensor stream turns each reading into what the firmware would
+//! receive (a scratchpad, possibly corrupted, or nothing) and each cycle length into what
+//! the firmware's timer would measure, and the result goes to a [`ThermalCompensator`]
+//! (the root crate's compensator, through the same `on_scratchpad` path the driver uses).
+//! Windowed faults (brown-out, dropout, stuck) hit the three sensors at the same times,
+//! as on one shared 1-Wire bus; CRC errors and spikes are drawn per reading. Every outcome is logged in a [`FaultLog`]: faults injected, faults flagged
+//! (a `SampleError`, `TEMP_INVALID`, `TEMP_STALE`, a refused table), non-finite outputs.
+//!
+//! | fault | model | how the compensator can see it |
+//! |---|---|---|
+//! | CRC errors at rate p | each reading, with probability p, arrives with one flipped bit | `SampleError::Decode(Crc)`, `TEMP_INVALID` |
+//! | power-on 85 °C after a brown-out | at given times the next reading is the power-on scratchpad (0550h, byte 6 = 0Ch, valid CRC) | `SampleError::Decode(PowerOn)` |
+//! | dropout 10 s – 10 min | no reading in a window | `TEMP_STALE` on the fast path after 3 s |
+//! | spikes at rate p | a reading off by ±`magnitude` | `SampleError::Implausible` |
+//! | stuck sensor | the reading repeats the value at the start of a window | not detectable from the value alone: a plausible constant |
+//! | corrupted table bytes at load | the table is first offered with one byte changed, then intact | `load_table` refuses it; the previous (intact) table stays active |
+//! | IMU cycle jitter | the cycle length the firmware passes is off by a uniform ±j µs (the pulses are of the true cycle) | not a fault the compensator can see |
+//!
+//! [`fly_with_faults`] flies the scenario once with every fault set in lock-step beside
+//! a fault-free twin (same sensor data, same noise), so each CEP difference is the
+//! fault's alone.
+
+use std::cell::RefCell;
+use std::fmt::Write as _;
+use std::rc::Rc;
+
+use nalgebra::Vector3;
+use qfa_thermal::compensator::{Compensator, Config, Output, SampleError, Status};
+use qfa_thermal::ds18b20::{self, encode_scratchpad, Resolution, POWER_ON_RAW};
+use qfa_thermal::table::{self, Table, MAX_TABLE_BYTES};
+
+use crate::nav::accel::AccelCompensation;
+use crate::nav::run::{self, Figures, GyroErrors, Variant};
+use crate::nav::scenario::Scenario;
+
+/// The compensator interface the injector drives: the firmware's entry points, for one
+/// accelerometer axis.
+pub trait ThermalCompensator {
+    /// Decode, validate and activate a table (atomic).
+    ///
+    /// # Errors
+    /// The table error; the active table is unchanged.
+    fn load_table(&mut self, bytes: &[u8]) -> table::Result<()>;
+    /// Slow path: a scratchpad whose conversion completed at `t_ms`.
+    ///
+    /// # Errors
+    /// Why the reading was not used.
+    fn on_scratchpad(&mut self, t_ms: u32, sp: &[u8; 9]) -> Result<Status, SampleError>;
+    /// Fast path: Δv (m/s) and status.
+    fn cycle(&mut self, pulses: i32, dt_ticks: u32) -> (f32, Status);
+    /// The active table.
+    fn table(&self) -> Option<&Table>;
+}
+
+impl ThermalCompensator for Compensator<1, 32> {
+    fn load_table(&mut self, bytes: &[u8]) -> table::Result<()> {
+        Compensator::load_table(self, bytes)
+    }
+    fn on_scratchpad(&mut self, t_ms: u32, sp: &[u8; 9]) -> Result<Status, SampleError> {
+        Compensator::on_scratchpad(self, t_ms, sp)
+    }
+    fn cycle(&mut self, pulses: i32, dt_ticks: u32) -> (f32, Status) {
+        let Output { dv_mps, status } = Compensator::cycle(self, [pulses], dt_ticks);
+        (dv_mps[0], status)
+    }
+    fn table(&self) -> Option<&Table> {
+        Compensator::table(self)
+    }
+}
+
+/// Which faults to inject. Times are seconds since the start of the flight.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FaultSet {
+    /// Probability that a reading arrives with one flipped bit (CRC error).
+    pub crc_error_rate: f64,
+    /// Brown-outs: the first reading at or after each time is the power-on scratchpad.
+    pub brown_outs_s: Vec<f64>,
+    /// Dropouts: (start, duration), no reading at all.
+    pub dropouts_s: Vec<(f64, f64)>,
+    /// Probability that a reading is a spike.
+    pub spike_rate: f64,
+    /// Spike size, °C (sign drawn per spike).
+    pub spike_c: f64,
+    /// Stuck sensor: (start, duration), the reading repeats the value before the window.
+    pub stuck_s: Vec<(f64, f64)>,
+    /// Offer the table with byte `i` XOR-ed with `x` first: `Some((i, x))`.
+    pub corrupt_table: Option<(usize, u8)>,
+    /// IMU cycle jitter: the firmware's cycle length is off by uniform ±this many µs.
+    pub imu_jitter_us: u32,
+    /// Seed of the injector's own draws.
+    pub seed: u64,
+}
+
+impl FaultSet {
+    /// No fault.
+    #[must_use]
+    pub fn none() -> Self {
+        Self::default()
+    }
+
+    /// `crc_error_rate` readings with a CRC error.
+    #[must_use]
+    pub fn crc(rate: f64) -> Self {
+        Self { crc_error_rate: rate, ..Self::default() }
+    }
+
+    /// One dropout.
+    #[must_use]
+    pub fn dropout(start_s: f64, dur_s: f64) -> Self {
+        Self { dropouts_s: vec![(start_s, dur_s)], ..Self::default() }
+    }
+}
+
+/// What a reading became.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Delivered {
+    /// A scratchpad reaches the compensator.
+    Scratchpad([u8; 9]),
+    /// Nothing arrives.
+    Nothing,
+}
+
+/// Kinds of fault, for the log.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Kind {
+    /// A flipped bit.
+    Crc,
+    /// Power-on value after a brown-out.
+    PowerOn,
+    /// A missing reading (counted per dropout window).
+    Dropout,
+    /// A spike.
+    Spike,
+    /// A stuck reading (counted per window).
+    Stuck,
+    /// A corrupted table offered.
+    CorruptTable,
+    /// A jittered cycle length (counted per cycle).
+    Jitter,
+}
+
+/// Counts per fault kind.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Count {
+    /// Injected.
+    pub injected: u64,
+    /// Flagged by the compensator.
+    pub flagged: u64,
+}
+
+/// What happened in one faulty run.
+#[derive(Clone, Debug, Default)]
+pub struct FaultLog {
+    /// Per kind.
+    pub counts: std::collections::BTreeMap<Kind, Count>,
+    /// Readings passed on, and how many the compensator refused.
+    pub readings: u64,
+    /// Readings refused (any reason).
+    pub refused: u64,
+    /// Refusals of intact readings (a false alarm).
+    pub refused_intact: u64,
+    /// Cycles with `TEMP_STALE`.
+    pub stale_cycles: u64,
+    /// Cycles with a non-finite output.
+    pub non_finite: u64,
+    /// A corrupted table was made active.
+    pub corrupt_table_applied: bool,
+    /// The table was loaded in the end.
+    pub table_loaded: bool,
+}
+
+impl FaultLog {
+    fn count(&mut self, k: Kind) -> &mut Count {
+        self.counts.entry(k).or_default()
+    }
+}
+
+/// xorshift64*: the injector's own reproducible draws.
+#[derive(Clone, Debug)]
+struct Rng(u64);
+
+impl Rng {
+    fn new(seed: u64) -> Self {
+        Self(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1)
+    }
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
+    }
+    fn uniform(&mut self) -> f64 {
+        (self.next() >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn below(&mut self, n: u64) -> u64 {
+        self.next() % n
+    }
+}
+
+/// Turns the clean streams into faulty ones, per a [`FaultSet`].
+#[derive(Clone, Debug)]
+pub struct Injector {
+    set: FaultSet,
+    rng: Rng,
+    brown_outs_done: usize,
+    /// The last value delivered intact, repeated while stuck.
+    last_raw: Option<i16>,
+    stuck_raw: Option<i16>,
+    in_stuck: Option<usize>,
+}
+
+/// What the injector did to a reading.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Injected {
+    /// What reaches the compensator.
+    pub delivered: Delivered,
+    /// The fault applied, if any.
+    pub fault: Option<Kind>,
+}
+
+impl Injector {
+    /// An injector of `set`.
+    #[must_use]
+    pub fn new(set: FaultSet) -> Self {
+        let rng = Rng::new(set.seed ^ 0xFA17);
+        Self { set, rng, brown_outs_done: 0, last_raw: None, stuck_raw: None, in_stuck: None }
+    }
+
+    /// The fault set.
+    #[must_use]
+    pub fn set(&self) -> &FaultSet {
+        &self.set
+    }
+
+    fn window(ws: &[(f64, f64)], t_s: f64) -> Option<usize> {
+        ws.iter().position(|&(s, d)| t_s >= s && t_s < s + d)
+    }
+
+    /// Whether `t_s` lies in a dropout (the fast path should then go stale).
+    #[must_use]
+    pub fn in_dropout(&self, t_s: f64) -> bool {
+        Self::window(&self.set.dropouts_s, t_s).is_some()
+    }
+
+    /// A reading of `raw` (12-bit, 1/16 °C) completed at `t_ms`.
+    pub fn reading(&mut self, t_ms: u32, raw: i16) -> Injected {
+        let t_s = f64::from(t_ms) * 1e-3;
+        let intact = |r: i16| encode_scratchpad(r, Resolution::Bits12, 0x10 - (r.to_le_bytes()[0] & 0x0F));
+        if Self::window(&self.set.dropouts_s, t_s).is_some() {
+            return Injected { delivered: Delivered::Nothing, fault: Some(Kind::Dropout) };
+        }
+        if self.brown_outs_done < self.set.brown_outs_s.len() && t_s >= self.set.brown_outs_s[self.brown_outs_done] {
+            self.brown_outs_done += 1;
+            // Power-on scratchpad: 0550h, the EEPROM config, byte 6 = 0Ch, valid CRC.
+            let mut sp = encode_scratchpad(POWER_ON_RAW, Resolution::Bits12, 0x0C);
+            sp[8] = ds18b20::crc8(&sp[..8]);
+            return Injected { delivered: Delivered::Scratchpad(sp), fault: Some(Kind::PowerOn) };
+        }
+        match Self::window(&self.set.stuck_s, t_s) {
+            Some(i) => {
+                if self.in_stuck != Some(i) {
+                    self.in_stuck = Some(i);
+                    self.stuck_raw = self.last_raw.or(Some(raw));
+                }
+                let r = self.stuck_raw.unwrap_or(raw);
+                return Injected { delivered: Delivered::Scratchpad(intact(r)), fault: Some(Kind::Stuck) };
+            }
+            None => self.in_stuck = None,
+        }
+        self.last_raw = Some(raw);
+        if self.set.spike_rate > 0.0 && self.rng.uniform() < self.set.spike_rate {
+            let sign = if self.rng.below(2) == 0 { 1.0 } else { -1.0 };
+            let r = raw.saturating_add((sign * self.set.spike_c * 16.0).round() as i16);
+            return Injected { delivered: Delivered::Scratchpad(intact(r)), fault: Some(Kind::Spike) };
+        }
+        let mut sp = intact(raw);
+        if self.set.crc_error_rate > 0.0 && self.rng.uniform() < self.set.crc_error_rate {
+            let bit = self.rng.below(72) as usize;
+            sp[bit / 8] ^= 1 << (bit % 8);
+            return Injected { delivered: Delivered::Scratchpad(sp), fault: Some(Kind::Crc) };
+        }
+        Injected { delivered: Delivered::Scratchpad(sp), fault: None }
+    }
+
+    /// The cycle length the firmware measures for a true cycle of `dt_ticks`.
+    pub fn cycle_ticks(&mut self, dt_ticks: u32) -> (u32, bool) {
+        let j = self.set.imu_jitter_us;
+        if j == 0 {
+            return (dt_ticks, false);
+        }
+        let off = self.rng.below(2 * u64::from(j) + 1) as i64 - i64::from(j);
+        (u32::try_from((i64::from(dt_ticks) + off).max(0)).unwrap_or(0), true)
+    }
+
+    /// The byte strings offered to the table loader, in order: a corrupted copy first
+    /// when configured, then the intact bytes.
+    #[must_use]
+    pub fn table_loads(&self, good: &[u8]) -> Vec<(Vec<u8>, bool)> {
+        let mut v = Vec::new();
+        if let Some((i, x)) = self.set.corrupt_table {
+            let mut bad = good.to_vec();
+            let i = i % bad.len();
+            bad[i] ^= if x == 0 { 0x01 } else { x };
+            v.push((bad, true));
+        }
+        v.push((good.to_vec(), false));
+        v
+    }
+}
+
+/// A compensation that runs the faulty streams into three [`ThermalCompensator`]s (x, y,
+/// z, each with its own sensor stream) and logs.
+pub struct FaultyCompensation<C: ThermalCompensator> {
+    comps: [C; 3],
+    injs: [Injector; 3],
+    log: Rc<RefCell<FaultLog>>,
+    /// Time of the last reading offered, s, for the dropout bookkeeping.
+    t_s: f64,
+    /// Per axis and window: counted injected / flagged.
+    dropout_seen: [Vec<bool>; 3],
+    dropout_flagged: [Vec<bool>; 3],
+    stuck_seen: [Vec<bool>; 3],
+    stuck_flagged: [Vec<bool>; 3],
+    jitter: Injector,
+}
+
+/// Refusals this long after a stuck window count for it (the jump back to the truth).
+const STUCK_RELEASE_S: f64 = 10.0;
+
+impl<C: ThermalCompensator> FaultyCompensation<C> {
+    /// Load each axis's table bytes through its injector (a corrupted copy first if
+    /// configured) and return the compensation and its shared log.
+    #[must_use]
+    pub fn new(mut comps: [C; 3], set: &FaultSet, tables: [&[u8]; 3]) -> (Self, Rc<RefCell<FaultLog>>) {
+        let injs: [Injector; 3] =
+            core::array::from_fn(|i| Injector::new(FaultSet { seed: set.seed.wrapping_add(i as u64 * 0x1000), ..set.clone() }));
+        let mut log = FaultLog { table_loaded: true, ..FaultLog::default() };
+        for ((comp, inj), bytes) in comps.iter_mut().zip(&injs).zip(tables) {
+            let good = Table::decode(bytes).ok();
+            for (offered, corrupted) in inj.table_loads(bytes) {
+                let r = comp.load_table(&offered);
+                if corrupted {
+                    let c = log.count(Kind::CorruptTable);
+                    c.injected += 1;
+                    if r.is_err() {
+                        c.flagged += 1;
+                    } else {
+                        log.corrupt_table_applied = true;
+                    }
+                }
+            }
+            log.table_loaded &= comp.table().is_some();
+            // Never a corrupted table: what is active is exactly the intact one.
+            if comp.table().cloned() != good {
+                log.corrupt_table_applied = true;
+            }
+        }
+        let windows = |w: &[(f64, f64)]| -> [Vec<bool>; 3] { core::array::from_fn(|_| vec![false; w.len()]) };
+        let log = Rc::new(RefCell::new(log));
+        let me = Self {
+            comps,
+            log: Rc::clone(&log),
+            t_s: 0.0,
+            dropout_seen: windows(&set.dropouts_s),
+            dropout_flagged: windows(&set.dropouts_s),
+            stuck_seen: windows(&set.stuck_s),
+            stuck_flagged: windows(&set.stuck_s),
+            jitter: Injector::new(FaultSet { seed: set.seed ^ 0x5EED, ..set.clone() }),
+            injs,
+        };
+        (me, log)
+    }
+
+    fn reading(&mut self, axis: usize, t_ms: u32, raw: i16) {
+        let t_s = f64::from(t_ms) * 1e-3;
+        let got = self.injs[axis].reading(t_ms, raw);
+        let set = &self.injs[axis].set;
+        let mut log = self.log.borrow_mut();
+        match got.fault {
+            Some(Kind::Dropout) => {
+                if let Some(i) = Injector::window(&set.dropouts_s, t_s) {
+                    if !self.dropout_seen[axis][i] {
+                        self.dropout_seen[axis][i] = true;
+                        log.count(Kind::Dropout).injected += 1;
+                    }
+                }
+            }
+            Some(Kind::Stuck) => {
+                if let Some(i) = Injector::window(&set.stuck_s, t_s) {
+                    if !self.stuck_seen[axis][i] {
+                        self.stuck_seen[axis][i] = true;
+                        log.count(Kind::Stuck).injected += 1;
+                    }
+                }
+            }
+            Some(k) => log.count(k).injected += 1,
+            None => {}
+        }
+        let Delivered::Scratchpad(sp) = got.delivered else { return };
+        log.readings += 1;
+        if self.comps[axis].on_scratchpad(t_ms, &sp).is_err() {
+            log.refused += 1;
+            // A stuck window is flagged if a reading in it, or the jump back within
+            // STUCK_RELEASE_S after it, is refused.
+            let stuck = set.stuck_s.iter().position(|&(s, d)| t_s >= s && t_s < s + d + STUCK_RELEASE_S);
+            match (got.fault, stuck) {
+                (Some(Kind::Stuck) | None, Some(i)) => {
+                    if !self.stuck_flagged[axis][i] {
+                        self.stuck_flagged[axis][i] = true;
+                        log.count(Kind::Stuck).flagged += 1;
+                    }
+                }
+                (Some(k), _) => log.count(k).flagged += 1,
+                (None, None) => log.refused_intact += 1,
+            }
+        }
+    }
+}
+
+impl<C: ThermalCompensator> AccelCompensation for FaultyCompensation<C> {
+    fn on_temperature(&mut self, t_ms: u32, raw: i16) {
+        self.on_temperatures(t_ms, [raw; 3]);
+    }
+
+    fn on_temperatures(&mut self, t_ms: u32, raw: [i16; 3]) {
+        self.t_s = f64::from(t_ms) * 1e-3;
+        for (axis, r) in raw.into_iter().enumerate() {
+            self.reading(axis, t_ms, r);
+        }
+    }
+
+    fn compensate(&mut self, pulses: [i32; 3], dt_ticks: u32, _truth: &[(f64, f64); 3]) -> Vector3<f64> {
+        // One timer for the IMU: the same (possibly jittered) cycle length for every axis.
+        let (ticks, jittered) = self.jitter.cycle_ticks(dt_ticks);
+        let mut log = self.log.borrow_mut();
+        if jittered {
+            log.count(Kind::Jitter).injected += 1;
+        }
+        let mut dv = Vector3::zeros();
+        for axis in 0..3 {
+            let (v, status) = self.comps[axis].cycle(pulses[axis], ticks);
+            if status.contains(Status::TEMP_STALE) {
+                log.stale_cycles += 1;
+                if let Some(i) = Injector::window(&self.injs[axis].set.dropouts_s, self.t_s) {
+                    if !self.dropout_flagged[axis][i] {
+                        self.dropout_flagged[axis][i] = true;
+                        log.count(Kind::Dropout).flagged += 1;
+                    }
+                }
+            }
+            if !v.is_finite() {
+                log.non_finite += 1;
+            }
+            dv[axis] = f64::from(v);
+        }
+        dv
+    }
+}
+
+/// One row of the fault table.
+#[derive(Clone, Debug)]
+pub struct FaultRow {
+    /// Name of the fault set.
+    pub name: String,
+    /// The set.
+    pub set: FaultSet,
+    /// Navigation figures with the faults.
+    pub figures: Figures,
+    /// CEP change against the fault-free twin, relative (0.01 = +1 %).
+    pub cep_change: f64,
+    /// RMS horizontal velocity error change, relative.
+    pub rms_v_change: f64,
+    /// What happened.
+    pub log: FaultLog,
+}
+
+/// The fault-free twin and every faulty run.
+#[derive(Clone, Debug)]
+pub struct FaultReport {
+    /// Flight duration, s.
+    pub duration_s: f64,
+    /// The fault-free twin.
+    pub clean: Figures,
+    /// One row per fault set.
+    pub rows: Vec<FaultRow>,
+}
+
+fn rms_v(f: &Figures) -> f64 {
+    f.rms_ve_mps.hypot(f.rms_vn_mps)
+}
+
+/// Fly `sc` once with each axis's table (`tables`, x, y, z: the `hysteresis` variant's
+/// 1-axis unit tables, usually) loaded into a fault-free twin and into one compensation
+/// per named fault set, all in lock-step on the same sensor data, and compare each with
+/// the fault-free twin.
+///
+/// # Errors
+/// A table the compensator refuses, or the flight's errors.
+pub fn fly_with_faults(sc: &Scenario, tables: [&Table; 3], sets: &[(String, FaultSet)]) -> anyhow::Result<FaultReport> {
+    let mut bytes: Vec<Vec<u8>> = Vec::new();
+    for t in tables {
+        let mut buf = [0u8; MAX_TABLE_BYTES];
+        bytes.push(t.encode(&mut buf).map_err(|e| anyhow::anyhow!("table: {e}"))?.to_vec());
+    }
+    let tb = [bytes[0].as_slice(), bytes[1].as_slice(), bytes[2].as_slice()];
+    let fresh = || -> [Compensator<1, 32>; 3] { core::array::from_fn(|_| Compensator::new(Config::default())) };
+    let (clean, clean_log) = FaultyCompensation::new(fresh(), &FaultSet::none(), tb);
+    anyhow::ensure!(clean_log.borrow().table_loaded, "a table was refused");
+    let mut variants = vec![Variant { name: "clean".into(), comp: Box::new(clean) }];
+    let mut logs = Vec::new();
+    for (name, set) in sets {
+        let (c, log) = FaultyCompensation::new(fresh(), set, tb);
+        variants.push(Variant { name: name.clone(), comp: Box::new(c) });
+        logs.push(log);
+    }
+    let units = crate::nav::units();
+    let res = run::fly(sc, &mut crate::nav::truths(&units), GyroErrors::default(), variants)?;
+    let figs: Vec<Figures> = res.tracks.iter().map(|tr| Figures::of(&res.t, tr)).collect();
+    let clean = figs[0];
+    anyhow::ensure!(clean_log.borrow().refused == 0, "the fault-free twin refused readings");
+    let rows = sets
+        .iter()
+        .zip(&figs[1..])
+        .zip(&logs)
+        .map(|(((name, set), f), log)| FaultRow {
+            name: name.clone(),
+            set: set.clone(),
+            figures: *f,
+            cep_change: f.cep_nmi_per_h / clean.cep_nmi_per_h - 1.0,
+            rms_v_change: rms_v(f) / rms_v(&clean) - 1.0,
+            log: log.borrow().clone(),
+        })
+        .collect();
+    Ok(FaultReport { duration_s: res.t.last().copied().unwrap_or(0.0), clean, rows })
+}
+
+/// The fault sets of issue 7 on a flight of `duration_s` whose cruise runs from
+/// `cruise_s.0` to `cruise_s.1`.
+#[must_use]
+pub fn standard_sets(cruise_s: (f64, f64)) -> Vec<(String, FaultSet)> {
+    let mid = 0.5 * (cruise_s.0 + cruise_s.1);
+    let seed = 0x7_0001;
+    let s = |f: FaultSet| FaultSet { seed, ..f };
+    vec![
+        ("CRC errors 5 %".into(), s(FaultSet::crc(0.05))),
+        ("CRC errors 20 %".into(), s(FaultSet::crc(0.20))),
+        ("power-on 85 °C after brown-out ×10".into(), s(FaultSet { brown_outs_s: (1..=10).map(|k| f64::from(k) * 700.0).collect(), ..FaultSet::default() })),
+        ("dropout 10 s mid-cruise".into(), s(FaultSet::dropout(mid - 5.0, 10.0))),
+        ("dropout 2 min mid-cruise".into(), s(FaultSet::dropout(mid - 60.0, 120.0))),
+        ("dropout 10 min mid-cruise".into(), s(FaultSet::dropout(mid - 300.0, 600.0))),
+        ("spikes ±5 °C, 1 %".into(), s(FaultSet { spike_rate: 0.01, spike_c: 5.0, ..FaultSet::default() })),
+        ("stuck sensor 2 min mid-cruise".into(), s(FaultSet { stuck_s: vec![(mid - 60.0, 120.0)], ..FaultSet::default() })),
+        ("corrupted table byte at load".into(), s(FaultSet { corrupt_table: Some((37, 0x5A)), ..FaultSet::default() })),
+        ("IMU cycle jitter ±50 µs".into(), s(FaultSet { imu_jitter_us: 50, ..FaultSet::default() })),
+        (
+            "all of the above together".into(),
+            s(FaultSet {
+                crc_error_rate: 0.05,
+                brown_outs_s: (1..=10).map(|k| f64::from(k) * 700.0).collect(),
+                dropouts_s: vec![(mid - 60.0, 120.0)],
+                spike_rate: 0.01,
+                spike_c: 5.0,
+                stuck_s: vec![(mid + 600.0, 120.0)],
+                corrupt_table: Some((37, 0x5A)),
+                imu_jitter_us: 50,
+                seed,
+            }),
+        ),
+    ]
+}
+
+/// The fault table as Markdown.
+#[must_use]
+pub fn markdown(r: &FaultReport) -> String {
+    let mut s = format!(
+        "Fault-free twin: CEP {:.4} nmile/h, RMS vE {:.4} m/s, RMS vN {:.4} m/s over {:.2} h.\n\n\
+         | fault | injected | flagged | refused intact | stale cycles | non-finite | CEP nmile/h | ΔCEP | ΔRMS v |\n|---|---|---|---|---|---|---|---|---|\n",
+        r.clean.cep_nmi_per_h,
+        r.clean.rms_ve_mps,
+        r.clean.rms_vn_mps,
+        r.duration_s / 3600.0
+    );
+    for row in &r.rows {
+        let mut inj = String::new();
+        let mut flg = String::new();
+        for (k, c) in &row.log.counts {
+            let _ = write!(inj, "{k:?} {} ", c.injected);
+            let _ = write!(flg, "{k:?} {} ", c.flagged);
+        }
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {} | {} | {:.4} | {:+.3} % | {:+.3} % |",
+            row.name,
+            inj.trim(),
+            flg.trim(),
+            row.log.refused_intact,
+            row.log.stale_cycles,
+            row.log.non_finite,
+            row.figures.cep_nmi_per_h,
+            100.0 * row.cep_change,
+            100.0 * row.rms_v_change
+        );
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use qfa_thermal::model::{AxisModel, BiasGrid, Extensions, ScaleFactor};
+
+    /// A 1-axis JB-KT8 #1-like table.
+    fn table_bytes() -> Vec<u8> {
+        let mut t = Table { rate_window: 32, axes: heapless::Vec::new(), misalignment: None };
+        let a = AxisModel {
+            scale: ScaleFactor { t0_c: 22.0, gamma: 320_320.0, mu: -32.76, beta: 0.1008, epsilon: 88.14, eta: -0.024_09, alpha: 273.0 },
+            bias: BiasGrid::single_valued(-60.0, 65.0, &[1e-4, 1.5e-4, 3e-4]),
+            rate_limit_c_per_min: 2.0,
+            ext: Extensions::default(),
+        };
+        t.axes.push(a).expect("one axis");
+        let mut buf = [0u8; MAX_TABLE_BYTES];
+        t.encode(&mut buf).expect("encodes").to_vec()
+    }
+
+    fn comps() -> [Compensator<1, 32>; 3] {
+        core::array::from_fn(|_| Compensator::new(Config::default()))
+    }
+
+    #[test]
+    fn every_detectable_reading_fault_is_refused_and_flagged() {
+        let b = table_bytes();
+        let set = FaultSet {
+            crc_error_rate: 0.3,
+            brown_outs_s: vec![50.0, 120.0],
+            spike_rate: 0.05,
+            spike_c: 5.0,
+            dropouts_s: vec![(200.0, 20.0), (300.0, 20.0)],
+            corrupt_table: Some((5, 0x10)),
+            seed: 3,
+            ..FaultSet::default()
+        };
+        let (mut c, log) = FaultyCompensation::new(comps(), &set, [&b, &b, &b]);
+        for k in 1..=400u32 {
+            let raw = 352 + (k / 40) as i16;
+            c.on_temperatures(k * 1000, [raw, raw + 1, raw - 1]);
+            for _ in 0..200 {
+                let v = c.compensate([3000, -3000, 10], 5000, &[(0.0, 0.0); 3]);
+                assert!(v.iter().all(|x| x.is_finite()));
+            }
+        }
+        let log = log.borrow();
+        assert!(!log.corrupt_table_applied && log.table_loaded);
+        assert_eq!(log.refused_intact, 0);
+        assert_eq!(log.non_finite, 0);
+        for k in [Kind::Crc, Kind::PowerOn, Kind::Spike, Kind::Dropout, Kind::CorruptTable] {
+            let c = log.counts[&k];
+            assert!(c.injected > 0, "{k:?}");
+            assert_eq!(c.flagged, c.injected, "{k:?}: {c:?}");
+        }
+    }
+
+    #[test]
+    fn corrupt_table_is_never_applied_at_any_byte() {
+        let b = table_bytes();
+        for i in 0..b.len() {
+            for x in [0x01u8, 0x80, 0xFF] {
+                let set = FaultSet { corrupt_table: Some((i, x)), ..FaultSet::default() };
+                let (_, log) = FaultyCompensation::new(comps(), &set, [&b, &b, &b]);
+                let log = log.borrow();
+                assert!(!log.corrupt_table_applied && log.table_loaded, "byte {i} ^ {x:#x}");
+                assert_eq!(log.counts[&Kind::CorruptTable], Count { injected: 3, flagged: 3 }, "byte {i} ^ {x:#x}");
+            }
+        }
+    }
+}
