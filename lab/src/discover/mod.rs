@@ -29,7 +29,8 @@
 //!    channels. The noise floor is the held-out residual's bin-to-bin part,
 //!    1.4826·median|r[i+1] − r[i]|/√2. A candidate is significant if its gain exceeds the
 //!    BIC-style penalty k·ln N (k added parameters) and 5 % of N (the affected channels'
-//!    held-out bins: it must remove at least 5 % of a noise variance per bin). The best
+//!    held-out bins: it must remove at least 5 % of a noise variance per bin), and the
+//!    affected channel's held-out RMS must drop by at least 2 %. The best
 //!    significant candidate (gain − penalty) is added; repeat until none is left.
 
 pub mod channels;
@@ -491,7 +492,14 @@ pub fn analyze(ch: &Channels, start: Start) -> Report {
             let gain = cur_score - setup.score(&r, &all);
             let n_aff = n_bins * f64::from(u8::from(cyc && e.touches_sf()) + u8::from(e.touches_bias()));
             let penalty = e.n_params() as f64 * n_bins.ln();
-            let significant = gain > penalty && gain > 0.05 * n_aff;
+            // Practical significance too: the affected channel's held-out RMS must drop by
+            // ≥ 2 % (low-frequency noise such as bias instability is not in the floor).
+            let drop = |a: &[f64], b: &[f64]| 1.0 - rms(b) / rms(a).max(1e-300);
+            let rel = f64::max(
+                if cyc && e.touches_sf() { drop(&cur.sf, &r.sf) } else { 0.0 },
+                if e.touches_bias() { drop(&cur.bias, &r.bias) } else { 0.0 },
+            );
+            let significant = gain > penalty && gain > 0.05 * n_aff && rel >= 0.02;
             trials.push(CandidateTrial {
                 name: e.name().into(),
                 channel: if e == Effect::TempQuadBias && !cyc { "bias".into() } else { e.channel().into() },
