@@ -33,7 +33,11 @@
 //!   nmile/h. This is robust to the Schuler oscillation, unlike the end point. The end
 //!   point r(T)/T and the PSINS form over the flight's time series divided by T are also
 //!   reported.
-//! * Share of the thermally induced error removed: `(simple − variant)/(simple − oracle)`.
+//! * Share of the thermally induced error removed: `(simple − variant)/(simple − oracle)`
+//!   on the total CEP rate (`meta.share_removed_cep`), and, because one trajectory's total
+//!   radial error mixes the gyro and accelerometer errors with their signs, also on the
+//!   isolated thermal error: the radial growth of (variant − oracle) position, the same
+//!   sensor data in both (`meta.thermal_cep_nmi_per_h`, `meta.share_removed_thermal`).
 //!
 //! The thermal chain (bay air → case → element) is the lab's
 //! ([`crate::thermal::ThermalChain`]), driven by the scenario's breakpoints.
@@ -111,6 +115,14 @@ pub struct Meta {
     pub case_temp_range_c: [f64; 2],
     /// Share of the thermally induced CEP removed, `(simple − v)/(simple − oracle)`.
     pub share_removed_cep: BTreeMap<String, f64>,
+    /// Thermally induced CEP rate of each variant, nmile/h: the radial growth (same
+    /// least-squares slope as `cep_nmi_per_h`) of its position minus the oracle's position
+    /// (same gyros, same noise, so only the accelerometer thermal residual is left).
+    pub thermal_cep_nmi_per_h: BTreeMap<String, f64>,
+    /// `1 − thermal(variant)/thermal(simple)`: the share of simple's thermally induced
+    /// error that the variant removes, measured on the isolated thermal error (robust to
+    /// the gyro error's sign, unlike the share of total CEP).
+    pub share_removed_thermal: BTreeMap<String, f64>,
     /// Same for RMS East and North velocity error (mean of the two shares).
     pub share_removed_rms_v: BTreeMap<String, f64>,
     /// Where the discovered table came from.
@@ -247,6 +259,21 @@ pub fn report(sc: &Scenario, res: &FlightResult, tables: &Tables, discovered_sou
         let sv = 0.5 * (share(s.rms_ve_mps, f.rms_ve_mps, o.rms_ve_mps) + share(s.rms_vn_mps, f.rms_vn_mps, o.rms_vn_mps));
         share_v.insert(n.clone(), sv);
     }
+    let mut thermal = BTreeMap::new();
+    if let Some(oi) = res.names.iter().position(|n| n == "oracle") {
+        let o = &res.tracks[oi];
+        for (n, tr) in res.names.iter().zip(&res.tracks) {
+            let d = run::Track {
+                dn: tr.dn.iter().zip(&o.dn).map(|(a, b)| a - b).collect(),
+                de: tr.de.iter().zip(&o.de).map(|(a, b)| a - b).collect(),
+                vn: tr.vn.iter().zip(&o.vn).map(|(a, b)| a - b).collect(),
+                ve: tr.ve.iter().zip(&o.ve).map(|(a, b)| a - b).collect(),
+            };
+            thermal.insert(n.clone(), Figures::of(&res.t, &d).cep_nmi_per_h);
+        }
+    }
+    let ts = thermal.get("simple").copied().unwrap_or(f64::NAN);
+    let share_thermal = thermal.iter().map(|(n, v)| (n.clone(), 1.0 - v / ts)).collect();
     let lo = res.temps.iter().map(|t| t[1]).fold(f64::INFINITY, f64::min);
     let hi = res.temps.iter().map(|t| t[1]).fold(f64::NEG_INFINITY, f64::max);
     Report {
@@ -259,6 +286,8 @@ pub fn report(sc: &Scenario, res: &FlightResult, tables: &Tables, discovered_sou
             case_temp_range_c: [lo, hi],
             share_removed_cep: share_cep,
             share_removed_rms_v: share_v,
+            thermal_cep_nmi_per_h: thermal,
+            share_removed_thermal: share_thermal,
             discovered_source,
             calibration: tables.reports.clone(),
             paper: PaperFigures { cep_nmi_per_h: [1.54, 1.29], rms_ve_mps: [1.36, 1.09], rms_vn_mps: [1.40, 1.19] },
@@ -365,16 +394,19 @@ pub fn summary(r: &Report) -> String {
         "r(T)/T",
         "removed"
     );
+    s = s.trim_end().to_string() + "  thermal nmi/h  removed\n";
     for n in VARIANTS {
         if let Some(f) = r.get(n) {
             let _ = writeln!(
                 s,
-                "{n:<11} {:>8.3} {:>8.3} {:>8.3} {:>9.3} {:>7.0}%",
+                "{n:<11} {:>8.3} {:>8.3} {:>8.3} {:>9.3} {:>7.0}% {:>13.4} {:>7.0}%",
                 f.cep_nmi_per_h,
                 f.rms_ve_mps,
                 f.rms_vn_mps,
                 f.end_radial_nmi_per_h,
-                100.0 * r.meta.share_removed_cep.get(n).copied().unwrap_or(f64::NAN)
+                100.0 * r.meta.share_removed_cep.get(n).copied().unwrap_or(f64::NAN),
+                r.meta.thermal_cep_nmi_per_h.get(n).copied().unwrap_or(f64::NAN),
+                100.0 * r.meta.share_removed_thermal.get(n).copied().unwrap_or(f64::NAN)
             );
         }
     }
