@@ -228,8 +228,8 @@ fn run(cli: Cli) -> Result<(), String> {
         }
         Cmd::Demo { out, row_s, seed, threads } => {
             let opts = qfa_lab::demo::DemoOptions { out, row_s, seed, threads, progress: true };
-            // Hooks: issue 4 (discovery) and issue 5 (navigation) plug in here.
-            qfa_lab::demo::run(&opts, None, Some(qfa_lab::nav::demo_hook))?;
+            // Issue 4 (discovery, on unit #1) and issue 5 (navigation) run inside the demo.
+            qfa_lab::demo::run(&opts, Some(qfa_lab::discover::demo_hook), Some(qfa_lab::nav::demo_hook))?;
         }
         Cmd::Navigate { scenario, out, discovered_tables, imu_rate_hz } => {
             let discovered_tables = discovered_tables.map(|v| [v[0].clone(), v[1].clone(), v[2].clone()]);

@@ -569,3 +569,31 @@ pub fn run_cli(log: &Path, start: Start, out_dir: &Path) -> Result<Report> {
     println!("{}", serde_json::to_string_pretty(&r)?);
     Ok(r)
 }
+
+/// Demo hook (issue 3's demo runs one discovery): start `simple` on a unit's cycling log.
+/// With the simulator's Eq. 11 truth this should rediscover the paper's structure
+/// (`temp_quadratic` and the rate terms). Returns a one-line summary.
+#[must_use]
+pub fn demo_hook(log: &Path, out: &Path) -> Option<String> {
+    let run = || -> Result<Report> {
+        let ch = Channels::read(log, 60.0)?;
+        discover(&ch, Start::Simple, out)
+    };
+    match run() {
+        Ok(r) => {
+            let names: Vec<&str> = r.effects.iter().map(|e| e.name.as_str()).collect();
+            let gap = |g: &Gaps| match g {
+                Gaps::Cycling { scale_factor_ppm, bias_ug } => format!("{scale_factor_ppm:.1} ppm / {bias_ug:.1} µg"),
+                Gaps::Single { value_rms } => format!("{value_rms:.3}"),
+            };
+            Some(format!(
+                "start simple → added [{}]; held-out gap (scale factor / bias) {} → {}; {}",
+                if names.is_empty() { "none".to_string() } else { names.join(", ") },
+                gap(&r.heldout_gap_before),
+                gap(&r.heldout_gap_after),
+                out.join("report.md").display()
+            ))
+        }
+        Err(e) => Some(format!("failed: {e:#}")),
+    }
+}

@@ -10,7 +10,9 @@
 use qfa_thermal::model::AxisModel;
 use qfa_thermal::table::Table;
 
+use crate::discover::{analyze, Channels, Start};
 use crate::fit::{fit, split_programs, FitOptions};
+use crate::log::{write_log_to, Log};
 use crate::profile::{paper_positions, Program, PAPER_RATES};
 use crate::sim::simulate;
 use crate::truth::Truth;
@@ -27,6 +29,12 @@ pub struct UnitTables {
     pub simple: Table,
     /// Eq. 11 plus heating / cooling bias grids.
     pub hysteresis: Table,
+    /// The hysteresis model refitted with the extension slots the discovery workflow
+    /// found on the same calibration log (start `paper`); the hysteresis table itself
+    /// when discovery finds nothing missing.
+    pub discovered: Table,
+    /// Effects the discovery workflow added, in order (empty: `none`).
+    pub discovered_effects: Vec<String>,
     /// Figures of the fit.
     pub report: CalReport,
 }
@@ -61,7 +69,7 @@ pub fn calibrate_unit(truth: &Truth, seed: u64, threads: usize) -> anyhow::Resul
     let used: Vec<Program> = programs.into_iter().filter(|p| fit_ids.contains(&p.id)).collect();
     let positions: Vec<_> = paper_positions().into_iter().filter(|p| p.input_g != 0.0).collect();
     let log = simulate(truth, &used, &positions, ROW_S, seed, threads, None);
-    let f = fit(&log, &FitOptions::new(fit_ids), None).map_err(|e| anyhow::anyhow!("{}: fit: {e}", truth.name))?;
+    let f = fit(&log, &FitOptions::new(fit_ids.clone()), None).map_err(|e| anyhow::anyhow!("{}: fit: {e}", truth.name))?;
     let mut none = axis(&f.simple)?.clone();
     none.scale.mu = 0.0;
     let k0 = f.bias_simple.coef[0] as f32;
@@ -71,10 +79,13 @@ pub fn calibrate_unit(truth: &Truth, seed: u64, threads: usize) -> anyhow::Resul
     let mut none_t = f.simple.clone();
     none_t.axes[0] = none;
     none_t.validate().map_err(|e| anyhow::anyhow!("none table: {e}"))?;
+    let (discovered, discovered_effects) = discover_on(&log, &fit_ids, &f.hysteresis)?;
     Ok(UnitTables {
         none: none_t,
         simple: f.simple,
         hysteresis: f.hysteresis,
+        discovered,
+        discovered_effects,
         report: CalReport {
             unit: truth.name.clone(),
             rows: log.rows(),
@@ -83,6 +94,28 @@ pub fn calibrate_unit(truth: &Truth, seed: u64, threads: usize) -> anyhow::Resul
             eq11: f.sf_hysteresis.coef.clone(),
         },
     })
+}
+
+/// Run the discovery workflow (start `paper`) on the calibration log; refit the
+/// hysteresis model with the slots it switched on. Rate and temperature terms it may add
+/// are already in Eq. 11, so only the extension slots change the table.
+///
+/// # Errors
+/// Discovery or the refit failed.
+pub fn discover_on(log: &Log, fit_ids: &[String], hysteresis: &Table) -> anyhow::Result<(Table, Vec<String>)> {
+    let mut csv = Vec::new();
+    write_log_to(&mut csv, log)?;
+    let ch = Channels::parse(std::str::from_utf8(&csv)?, 60.0)?;
+    drop(csv);
+    let rep = analyze(&ch, Start::Paper);
+    let names: Vec<String> = rep.effects.iter().map(|e| e.name.clone()).collect();
+    let ext = rep.model.map(|m| m.ext).unwrap_or_default();
+    if ext == qfa_thermal::Extensions::default() {
+        return Ok((hysteresis.clone(), names));
+    }
+    let f = fit(log, &FitOptions { ext, ..FitOptions::new(fit_ids.to_vec()) }, None)
+        .map_err(|e| anyhow::anyhow!("refit with discovered slots: {e}"))?;
+    Ok((f.hysteresis, names))
 }
 
 /// One 3-axis table (x, y, z) from three 1-axis tables, for a `Compensator<3, 32>`.

@@ -10,7 +10,7 @@
 //! | `none` | room-temperature constants only (γ and K0 at T0 from the simple fit) |
 //! | `simple` | paper Eq. 3–4 (K1, K0 linear in ΔT) through the root crate's `Compensator` |
 //! | `hysteresis` | Eq. 11 + heating / cooling bias tables, calibrated from a simulated four-position test of the same unit, through the `Compensator` |
-//! | `discovered` | tables with the discovery workflow's extension effects, one per axis (postcard `.bin` or TOML, [`NavigateArgs::discovered_tables`]); until issue 4 is wired the default is the hysteresis tables, flagged in `meta.discovered_source` |
+//! | `discovered` | tables with the discovery workflow's extension effects, one per axis (postcard `.bin` or TOML, [`NavigateArgs::discovered_tables`]); by default, the hysteresis model refitted with the extension slots the discovery workflow (start `paper`) finds on each unit's own calibration log; `meta.discovered_source` names them |
 //! | `oracle` | the truth model itself (true K1, K0 each cycle, f64): the limit |
 //!
 //! The three accelerometer axes are the paper's three units, the lab's presets
@@ -353,7 +353,15 @@ pub fn navigate(args: &NavigateArgs) -> anyhow::Result<Report> {
             let t = [read_table(&p[0])?, read_table(&p[1])?, read_table(&p[2])?];
             (Some(t), p.iter().map(|x| x.display().to_string()).collect::<Vec<_>>().join(", "))
         }
-        None => (None, "hysteresis tables (no discovery tables given; issue 4 not yet wired)".to_string()),
+        None => {
+            let u = &tables.units;
+            let t = [u[0].discovered.clone(), u[1].discovered.clone(), u[2].discovered.clone()];
+            let effects: Vec<String> = u
+                .iter()
+                .map(|x| if x.discovered_effects.is_empty() { "none".into() } else { x.discovered_effects.join("+") })
+                .collect();
+            (Some(t), format!("discovery (start paper) on each unit's calibration log: x [{}], y [{}], z [{}]", effects[0], effects[1], effects[2]))
+        }
     };
     let t1 = Instant::now();
     let res = run::fly(&sc, &mut truths_seeded(&units, sc.seed), GyroErrors::default(), variants(&tables, disc)?)?;
