@@ -322,6 +322,16 @@ impl Ds18b20 {
         Ok(sp)
     }
 
+    /// A good read ends the conversion; a resolution other than the one set means the
+    /// sensor lost its configuration, so the value may come from the wrong conversion time.
+    fn finish(&mut self, scratchpad: [u8; 9], reading: Reading, completed_us: u32) -> Result<Sample, Error> {
+        self.state = State::Idle;
+        if reading.resolution != self.resolution {
+            return Err(Error::ResolutionChanged(reading.resolution));
+        }
+        Ok(Sample { scratchpad, reading, completed_us })
+    }
+
     /// Read and decode the scratchpad (one attempt, no retry).
     ///
     /// # Errors
@@ -472,13 +482,7 @@ impl Ds18b20 {
                 break;
             }
             match self.read_scratchpad(bus) {
-                Ok((scratchpad, reading)) => {
-                    self.state = State::Idle;
-                    if reading.resolution != self.resolution {
-                        return Err(Error::ResolutionChanged(reading.resolution));
-                    }
-                    return Ok(Sample { scratchpad, reading, completed_us });
-                }
+                Ok((scratchpad, reading)) => return self.finish(scratchpad, reading, completed_us),
                 Err(e @ Error::Scratchpad(ds18b20::Error::PowerOn)) => {
                     self.state = State::Idle;
                     return Err(e);
@@ -514,13 +518,7 @@ impl Ds18b20 {
             let completed_us = now_us.wrapping_add(bus.elapsed_us().wrapping_sub(bus_t0));
             self.state = State::Done { completed_us };
             match self.read_scratchpad(bus) {
-                Ok((scratchpad, reading)) => {
-                    self.state = State::Idle;
-                    if reading.resolution != self.resolution {
-                        return Err(Error::ResolutionChanged(reading.resolution));
-                    }
-                    return Ok(Sample { scratchpad, reading, completed_us });
-                }
+                Ok((scratchpad, reading)) => return self.finish(scratchpad, reading, completed_us),
                 Err(e @ Error::Scratchpad(_)) => last = e,
                 Err(e) => return Err(e),
             }
