@@ -1,59 +1,91 @@
 //! The compensator: a per-temperature-sample path and a per-IMU-cycle path.
 //!
-//! * **Slow path** ([`Compensator::on_scratchpad`], [`Compensator::on_raw`], about 1 Hz):
-//!   validate the reading, update the rate estimator, evaluate each axis's model and cache
-//!   `g0/K1` (m/s per pulse) and `K0·g0·tick` (m/s per tick) for the fast path.
+//! * **Slow path** ([`Compensator::on_scratchpad`], [`Compensator::on_raw`], about 1 Hz per
+//!   sensor): validate the reading, update that sensor's rate estimator, evaluate the
+//!   models of the axes it serves and publish `g0/K1` (m/s per pulse), `K0·g0·tick` (m/s
+//!   per tick) and `K0·g0` (m/s²) for the fast path.
 //! * **Fast path** ([`Compensator::cycle`], 200 Hz–2 kHz): per axis
-//!   `Δv = N·(g0/K1) − (K0·g0·tick)·dt_ticks`, then the optional misalignment matrix.
+//!   `Δv = N·(g0/K1) − (K0·g0·tick)·dt_ticks`, then the optional misalignment matrix; or,
+//!   for MEMS samples, [`Compensator::cycle_samples`]: `a = raw·(g0/K1) − K0·g0`, the
+//!   paper's `a = E/K1 − K0` with the division done in the slow path.
 //!   No division, no transcendental function, no search, loops bounded by `AXES`.
 //!   Measured cost under QEMU (`cargo xtask bench-target`) is in the README.
 //!
+//! # Interrupt-safe split
+//! [`Compensator::split`] gives an [`Updater`] (slow path, thread mode or a 1 Hz task) and
+//! an [`Applier`] (fast path, the IMU interrupt). They share only a [`Published`]
+//! coefficient set: two buffers of atomics and a sequence number. The updater writes the
+//! inactive buffer, then flips the sequence with a release store; the applier reads the
+//! sequence, the buffer it names, and the sequence again. The applier never blocks and never
+//! waits: on one core, with the applier in an interrupt that preempts the updater (the
+//! usual wiring), the buffer it reads is never being written, so the re-check can never
+//! fail. If the contract is broken (the updater preempts the applier, or runs on another
+//! core, and publishes twice during one read), the applier retries at most
+//! [`Applier::MAX_READS`] times and then flags [`Status::COEFFS_RACED`]: never a silent
+//! half-written set. Only 32-bit atomic loads and stores are used, which every Cortex-M
+//! has (no compare-and-swap, so no `portable-atomic` is needed).
+//!
+//! # Sensors
+//! `SENSORS` is 1 (one temperature stream for every axis) or `AXES` (one DS18B20 per
+//! accelerometer case, as in the paper): each stream has its own rate estimator,
+//! plausibility rules and staleness, and one misalignment matrix still spans the axes.
+//!
 //! Faults never produce a silent wrong answer: a rejected reading returns a typed
 //! [`SampleError`], raises [`Status::TEMP_INVALID`] and keeps the last good compensation;
-//! no reading for `stale_after_ticks` raises [`Status::TEMP_STALE`]. Outputs are always
-//! finite: table validation bounds `g0/K1` and `K0`, and the inputs are integers.
+//! no reading for `stale_after_ticks` raises [`Status::TEMP_STALE`]; with no table the raw
+//! input passes through at the nominal scale [`Config::nominal_k1`], flagged
+//! [`Status::NO_TABLE`], so an INS that ignores the status still sees gravity, not free
+//! fall. Outputs are always finite: table validation bounds `g0/K1` and `K0`,
+//! [`Config::validate`] bounds the nominal scale, and the inputs are integers.
 
+use core::borrow::Borrow;
 use core::fmt;
+use core::sync::atomic::{fence, AtomicU32, Ordering};
 
 use crate::ds18b20::{self, POWER_ON_RAW};
 use crate::model::{AxisState, Evaluation};
-use crate::rate::{self, RateConfig, RateEstimator};
+use crate::rate::{self, Estimate, RateConfig, RateEstimator};
 use crate::table::{self, Table};
 
 /// Standard gravity, m/s² (the unit the tables' g refers to).
 pub const G0: f32 = 9.806_65;
 
-/// Status word: one bit per condition, OR-ed together.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Status(pub u16);
+bitflags::bitflags! {
+    /// Status word: one flag per condition. [`Status::is_ok`] when none is set.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Hash)]
+    pub struct Status: u16 {
+        /// No good temperature for longer than `stale_after_ticks`, or none yet (any sensor).
+        const TEMP_STALE = 1 << 0;
+        /// A sensor's latest reading was rejected; the last good compensation is in use.
+        const TEMP_INVALID = 1 << 1;
+        /// A rate estimator has too few samples; Ṫ = 0 is used.
+        const RATE_NOT_READY = 1 << 2;
+        /// Temperature outside the calibrated range: clamped.
+        const TEMP_OUT_OF_RANGE = 1 << 3;
+        /// |Ṫ| above the calibrated limit: clamped.
+        const RATE_OUT_OF_RANGE = 1 << 4;
+        /// No table loaded: the raw input passes through at [`Config::nominal_k1`], no bias.
+        const NO_TABLE = 1 << 5;
+        /// Cumulative counters had no previous value: increments of this cycle are zero.
+        const NO_COUNTER_BASE = 1 << 6;
+        /// The updater published repeatedly while the applier read (split contract broken):
+        /// the output of this cycle may mix two coefficient sets.
+        const COEFFS_RACED = 1 << 7;
+    }
+}
 
 impl Status {
-    /// No good temperature for longer than `stale_after_ticks` (or none yet).
-    pub const TEMP_STALE: u16 = 1 << 0;
-    /// The latest reading was rejected; the last good compensation is in use.
-    pub const TEMP_INVALID: u16 = 1 << 1;
-    /// The rate estimator has too few samples; Ṫ = 0 is used.
-    pub const RATE_NOT_READY: u16 = 1 << 2;
-    /// Temperature outside the calibrated range: clamped.
-    pub const TEMP_OUT_OF_RANGE: u16 = 1 << 3;
-    /// |Ṫ| above the calibrated limit: clamped.
-    pub const RATE_OUT_OF_RANGE: u16 = 1 << 4;
-    /// No table loaded: outputs are zero.
-    pub const NO_TABLE: u16 = 1 << 5;
-    /// Cumulative counters had no previous value: increments of this cycle are zero.
-    pub const NO_COUNTER_BASE: u16 = 1 << 6;
-
-    /// Whether `bit` is set.
-    #[must_use]
-    pub const fn contains(self, bit: u16) -> bool {
-        self.0 & bit != 0
-    }
-
     /// No condition at all: fully compensated from a fresh, calibrated temperature.
     #[must_use]
     pub const fn is_ok(self) -> bool {
-        self.0 == 0
+        self.is_empty()
+    }
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for Status {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        defmt::write!(f, "Status({=u16:#06x})", self.bits());
     }
 }
 
@@ -64,7 +96,7 @@ impl Status {
 pub enum SampleError {
     /// The scratchpad failed decoding.
     Decode(ds18b20::Error),
-    /// Timestamp not after the previous good sample.
+    /// Timestamp not after the previous good sample (and not yet confirmed as a restart).
     Time(rate::Error),
     /// The power-on value 0550h (+85 °C) arrived as a jump, or as the first reading.
     PowerOnJump,
@@ -72,6 +104,11 @@ pub enum SampleError {
     Implausible {
         /// The rejected raw value, 1/16 °C.
         raw: i16,
+    },
+    /// No temperature stream with this index (`SENSORS` streams exist).
+    NoSuchSensor {
+        /// The index given.
+        sensor: u8,
     },
 }
 
@@ -82,28 +119,72 @@ impl fmt::Display for SampleError {
             Self::Time(e) => write!(f, "time: {e}"),
             Self::PowerOnJump => f.write_str("power-on value 0550h arrived as a jump"),
             Self::Implausible { raw } => write!(f, "implausible jump to raw {raw}"),
+            Self::NoSuchSensor { sensor } => write!(f, "no temperature sensor {sensor}"),
         }
     }
 }
 
 impl core::error::Error for SampleError {}
 
-/// Compensator settings.
+/// Why a [`Config`] was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum ConfigError {
+    /// A field is NaN or infinite.
+    NonFinite(&'static str),
+    /// A field is outside its allowed range (the field's doc gives the range).
+    OutOfRange(&'static str),
+    /// `stale_after_ticks` is not longer than one sample period: every cycle would be stale.
+    StaleShorterThanSamplePeriod,
+    /// The rate window restarts after a gap shorter than one sample period.
+    GapShorterThanSamplePeriod,
+    /// `rate.min_samples` exceeds the window `N`: the rate would never be ready.
+    MinSamplesAboveWindow,
+    /// `SENSORS` is neither 1 nor `AXES`.
+    SensorCount,
+}
+
+impl fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::NonFinite(what) => write!(f, "{what} is not finite"),
+            Self::OutOfRange(what) => write!(f, "{what} is out of range"),
+            Self::StaleShorterThanSamplePeriod => f.write_str("stale threshold not longer than one sample period"),
+            Self::GapShorterThanSamplePeriod => f.write_str("rate max_gap_ms shorter than one sample period"),
+            Self::MinSamplesAboveWindow => f.write_str("rate min_samples above the window length"),
+            Self::SensorCount => f.write_str("SENSORS must be 1 or AXES"),
+        }
+    }
+}
+
+impl core::error::Error for ConfigError {}
+
+/// Compensator settings. Checked by [`Config::validate`]; [`Compensator::new`] refuses a
+/// config that fails it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Config {
-    /// Length of one fast-path tick, s (default 1 µs).
+    /// Length of one fast-path tick, s (default 1 µs; 1 ns..1 s).
     pub tick_s: f32,
-    /// Ticks without a good temperature before [`Status::TEMP_STALE`] (default 3 s).
+    /// Ticks without a good temperature before [`Status::TEMP_STALE`] (default 3 s); must
+    /// be longer than [`sample_period_ms`](Self::sample_period_ms).
     pub stale_after_ticks: u32,
+    /// Nominal period of each sensor's readings, ms (default 1 000; 1..=60 000).
+    pub sample_period_ms: u32,
     /// Rate estimator settings.
     pub rate: RateConfig,
-    /// Step allowed between good readings regardless of time, 1/16 °C (default 16 = 1 °C).
+    /// Step allowed between good readings regardless of time, 1/16 °C (default 16 = 1 °C; ≥ 0).
     pub max_step_raw: i16,
-    /// Slew allowed between good readings, 1/16 °C per minute (default 160 = 10 °C/min).
+    /// Slew allowed between good readings, 1/16 °C per minute (default 160 = 10 °C/min; ≥ 0).
     pub max_slew_raw_per_min: i32,
-    /// Consecutive mutually consistent jumped readings that are accepted as a real step.
+    /// Consecutive mutually consistent readings that are accepted as a real step or a
+    /// restarted clock (default 3; 1..=16).
     pub confirm_samples: u8,
+    /// Scale factor used while no table is loaded, in the sensor's own unit: pulses/(g·s)
+    /// for pulse counts, LSB/g for samples. Default 320 000, a JB-KT8-class QFA (Zhang et
+    /// al. 2021, Eq. 15–17: γ = 308 000…328 000); set the nominal of your own sensor.
+    pub nominal_k1: f32,
 }
 
 impl Default for Config {
@@ -111,10 +192,73 @@ impl Default for Config {
         Self {
             tick_s: 1e-6,
             stale_after_ticks: 3_000_000,
+            sample_period_ms: 1_000,
             rate: RateConfig::default(),
             max_step_raw: 16,
             max_slew_raw_per_min: 160,
             confirm_samples: 3,
+            nominal_k1: 320_000.0,
+        }
+    }
+}
+
+impl Config {
+    /// Check every field and their relations.
+    ///
+    /// # Errors
+    /// The first [`ConfigError`] found.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        if !self.tick_s.is_finite() {
+            return Err(ConfigError::NonFinite("tick_s"));
+        }
+        if !(1e-9..=1.0).contains(&self.tick_s) {
+            return Err(ConfigError::OutOfRange("tick_s"));
+        }
+        if !self.nominal_k1.is_finite() {
+            return Err(ConfigError::NonFinite("nominal_k1"));
+        }
+        if !(table::limits::GAMMA.0..=table::limits::GAMMA.1).contains(&self.nominal_k1) {
+            return Err(ConfigError::OutOfRange("nominal_k1"));
+        }
+        let a = self.rate.smoothing_alpha;
+        if !a.is_finite() {
+            return Err(ConfigError::NonFinite("rate.smoothing_alpha"));
+        }
+        if !(a > 0.0 && a <= 1.0) {
+            return Err(ConfigError::OutOfRange("rate.smoothing_alpha"));
+        }
+        if self.rate.min_samples < 3 {
+            return Err(ConfigError::OutOfRange("rate.min_samples"));
+        }
+        if !(1..=60_000).contains(&self.sample_period_ms) {
+            return Err(ConfigError::OutOfRange("sample_period_ms"));
+        }
+        if u32::from(self.rate.max_gap_ms) <= self.sample_period_ms {
+            return Err(ConfigError::GapShorterThanSamplePeriod);
+        }
+        let stale_s = self.stale_after_ticks as f32 * self.tick_s;
+        if stale_s * 1000.0 <= self.sample_period_ms as f32 {
+            return Err(ConfigError::StaleShorterThanSamplePeriod);
+        }
+        if self.max_step_raw < 0 {
+            return Err(ConfigError::OutOfRange("max_step_raw"));
+        }
+        if self.max_slew_raw_per_min < 0 {
+            return Err(ConfigError::OutOfRange("max_slew_raw_per_min"));
+        }
+        if !(1..=16).contains(&self.confirm_samples) {
+            return Err(ConfigError::OutOfRange("confirm_samples"));
+        }
+        Ok(())
+    }
+
+    /// The stale threshold in ms (for comparing sensors' timestamps in the slow path).
+    fn stale_after_ms(&self) -> u32 {
+        let ms = self.stale_after_ticks as f32 * self.tick_s * 1000.0;
+        if ms >= u32::MAX as f32 {
+            u32::MAX
+        } else {
+            ms as u32
         }
     }
 }
@@ -123,283 +267,233 @@ impl Default for Config {
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Output<const AXES: usize> {
-    /// Compensated velocity increment per axis, m/s.
+    /// Compensated velocity increment per axis, m/s ([`Compensator::cycle`]), or
+    /// acceleration, m/s² ([`Compensator::cycle_samples`]).
     pub dv_mps: [f32; AXES],
     /// Conditions in force.
     pub status: Status,
 }
 
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Timed {
-    t_ms: u32,
-    raw: i16,
+/// One coefficient buffer: f32 values as atomic bit patterns.
+#[derive(Debug)]
+struct Coeffs<const AXES: usize> {
+    /// g0/K1, m/s per pulse (m/s² per LSB for samples).
+    scale: [AtomicU32; AXES],
+    /// K0·g0·tick, m/s per tick.
+    bias_tick: [AtomicU32; AXES],
+    /// K0·g0, m/s².
+    bias_acc: [AtomicU32; AXES],
+    /// Row-major misalignment matrix (valid when `flags` has [`HAS_MISALIGN`]).
+    misalign: [[AtomicU32; AXES]; AXES],
+    /// Status bits (low 16) and [`HAS_MISALIGN`].
+    flags: AtomicU32,
 }
 
-/// Temperature compensation for `AXES` accelerometers with an `N`-sample rate window.
-#[derive(Clone, Debug)]
-pub struct Compensator<const AXES: usize = 3, const N: usize = 32> {
-    config: Config,
-    table: Option<Table>,
-    rate: RateEstimator<N>,
-    states: [AxisState; AXES],
-    evals: [Evaluation; AXES],
-    // Fast-path cache, written only by the slow path and table loads.
-    scale: [f32; AXES],
-    bias: [f32; AXES],
-    misalign: Option<[[f32; AXES]; AXES]>,
-    status: u16,
-    since_sample_ticks: u32,
-    counters: Option<[u32; AXES]>,
-    // Plausibility of readings.
-    last_good: Option<Timed>,
-    pending: Option<Timed>,
-    pending_count: u8,
-}
+const HAS_MISALIGN: u32 = 1 << 16;
 
-const NO_EVAL: Evaluation = Evaluation { k1: 0.0, k0: 0.0, temp_clamped: false, rate_clamped: false };
-
-impl<const AXES: usize, const N: usize> Compensator<AXES, N> {
-    const BOUNDS: () = assert!(AXES >= 1 && AXES <= table::MAX_AXES, "AXES must be 1..=3");
-
-    /// A compensator with no table: outputs are zero with [`Status::NO_TABLE`] until
-    /// [`load_table`](Self::load_table) succeeds.
-    #[must_use]
-    pub fn new(config: Config) -> Self {
-        let () = Self::BOUNDS;
+impl<const AXES: usize> Coeffs<AXES> {
+    const fn new() -> Self {
         Self {
-            config,
-            table: None,
-            rate: RateEstimator::new(config.rate),
-            states: [AxisState::default(); AXES],
-            evals: [NO_EVAL; AXES],
-            scale: [0.0; AXES],
-            bias: [0.0; AXES],
-            misalign: None,
-            status: Status::NO_TABLE | Status::TEMP_STALE | Status::RATE_NOT_READY,
-            since_sample_ticks: u32::MAX,
-            counters: None,
-            last_good: None,
-            pending: None,
-            pending_count: 0,
+            scale: [const { AtomicU32::new(0) }; AXES],
+            bias_tick: [const { AtomicU32::new(0) }; AXES],
+            bias_acc: [const { AtomicU32::new(0) }; AXES],
+            misalign: [const { [const { AtomicU32::new(0) }; AXES] }; AXES],
+            flags: AtomicU32::new(0),
         }
     }
+}
 
-    /// Decode, validate and activate a table from its wire bytes. Atomic: on any error the
-    /// active table and every state are unchanged.
-    ///
-    /// # Errors
-    /// Any [`table::Error`], including an axis count other than `AXES` and a rate window
-    /// other than `N`.
-    pub fn load_table(&mut self, bytes: &[u8]) -> table::Result<()> {
-        let t = Table::decode(bytes)?;
-        self.set_table(t)
+/// The coefficient set shared by an [`Updater`] and an [`Applier`]: a double buffer of
+/// atomics, a publication sequence number and a good-sample counter. Const-constructible,
+/// so it can live in a `static`.
+#[derive(Debug)]
+pub struct Published<const AXES: usize> {
+    /// Publications so far; buffer `seq & 1` is the active one.
+    seq: AtomicU32,
+    /// Good temperature samples so far (any sensor): the applier's staleness clock resets
+    /// when it changes.
+    samples: AtomicU32,
+    bufs: [Coeffs<AXES>; 2],
+}
+
+impl<const AXES: usize> Default for Published<AXES> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// A plain copy of one coefficient set (the updater's working copy).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Set<const AXES: usize> {
+    scale: [f32; AXES],
+    bias_tick: [f32; AXES],
+    bias_acc: [f32; AXES],
+    misalign: Option<[[f32; AXES]; AXES]>,
+    status: Status,
+}
+
+impl<const AXES: usize> Published<AXES> {
+    /// Empty: every coefficient zero and no status until the first publication (the
+    /// compensator publishes at construction).
+    #[must_use]
+    pub const fn new() -> Self {
+        Self { seq: AtomicU32::new(0), samples: AtomicU32::new(0), bufs: [Coeffs::new(), Coeffs::new()] }
     }
 
-    /// Validate and activate an already decoded table. Atomic like [`load_table`](Self::load_table).
-    ///
-    /// # Errors
-    /// As [`load_table`](Self::load_table).
-    pub fn set_table(&mut self, t: Table) -> table::Result<()> {
-        t.validate()?;
-        if t.axes.len() != AXES {
-            return Err(table::Error::AxisCount { table: t.axes.len() as u8, expected: AXES as u8 });
+    /// Write `set` into the inactive buffer and make it active. `after_store` runs after
+    /// every single store (a test hook that preempts the writer there; a no-op closure
+    /// otherwise). Only the updater calls this.
+    fn publish_with(&self, set: &Set<AXES>, good_sample: bool, mut after_store: impl FnMut()) {
+        let seq = self.seq.load(Ordering::Relaxed);
+        let next = seq.wrapping_add(1);
+        let b = &self.bufs[(next & 1) as usize];
+        for i in 0..AXES {
+            b.scale[i].store(set.scale[i].to_bits(), Ordering::Relaxed);
+            after_store();
+            b.bias_tick[i].store(set.bias_tick[i].to_bits(), Ordering::Relaxed);
+            after_store();
+            b.bias_acc[i].store(set.bias_acc[i].to_bits(), Ordering::Relaxed);
+            after_store();
         }
-        if usize::from(t.rate_window) != N {
-            return Err(table::Error::RateWindow { table: t.rate_window, firmware: N as u16 });
-        }
-        self.misalign = t.misalignment.map(|m| {
-            // Validation allows a matrix only with 3 axes, so AXES == 3 here.
-            core::array::from_fn(|r| core::array::from_fn(|c| m[r * 3 + c]))
-        });
-        self.table = Some(t);
-        self.states = [AxisState::default(); AXES];
-        self.refresh(0.0);
-        Ok(())
-    }
-
-    /// The active table.
-    #[must_use]
-    pub fn table(&self) -> Option<&Table> {
-        self.table.as_ref()
-    }
-
-    /// Settings.
-    #[must_use]
-    pub const fn config(&self) -> &Config {
-        &self.config
-    }
-
-    /// The rate estimator's current estimate.
-    #[must_use]
-    pub fn estimate(&self) -> rate::Estimate {
-        self.rate.estimate()
-    }
-
-    /// The model evaluated at the last good sample, per axis (K1 in pulses/(g·s), K0 in g).
-    #[must_use]
-    pub const fn evaluations(&self) -> &[Evaluation; AXES] {
-        &self.evals
-    }
-
-    /// Status as of the last slow-path call (the fast path adds staleness).
-    #[must_use]
-    pub const fn status(&self) -> Status {
-        Status(self.status)
-    }
-
-    /// Slow path: a 9-byte scratchpad read at `t_ms` (wrapping ms, taken when the
-    /// conversion completed).
-    ///
-    /// # Errors
-    /// A [`SampleError`]; the last good compensation stays in force and
-    /// [`Status::TEMP_INVALID`] is raised.
-    pub fn on_scratchpad(&mut self, t_ms: u32, scratchpad: &[u8; 9]) -> Result<Status, SampleError> {
-        match ds18b20::decode_scratchpad(scratchpad) {
-            Ok(r) => self.on_raw(t_ms, r.raw),
-            Err(e) => self.reject(SampleError::Decode(e)),
-        }
-    }
-
-    /// Slow path: a raw reading (1/16 °C, already masked) taken at `t_ms`.
-    ///
-    /// # Errors
-    /// As [`on_scratchpad`](Self::on_scratchpad).
-    pub fn on_raw(&mut self, t_ms: u32, raw: i16) -> Result<Status, SampleError> {
-        let mut restart = false;
-        match self.last_good {
-            None if raw == POWER_ON_RAW => return self.reject(SampleError::PowerOnJump),
-            None => {}
-            Some(last) => {
-                let d = t_ms.wrapping_sub(last.t_ms);
-                if d == 0 || d > i32::MAX as u32 {
-                    return self.reject(SampleError::Time(rate::Error::NonMonotonic));
-                }
-                if !self.plausible(last, t_ms, raw) {
-                    if raw == POWER_ON_RAW {
-                        return self.reject(SampleError::PowerOnJump);
-                    }
-                    if !self.confirm_step(t_ms, raw) {
-                        return self.reject(SampleError::Implausible { raw });
-                    }
-                    restart = true;
+        let mut flags = u32::from(set.status.bits());
+        if let Some(m) = &set.misalign {
+            for (dst, src) in b.misalign.iter().zip(m.iter()) {
+                for (d, s) in dst.iter().zip(src.iter()) {
+                    d.store(s.to_bits(), Ordering::Relaxed);
+                    after_store();
                 }
             }
+            flags |= HAS_MISALIGN;
         }
-        if restart {
-            self.rate.reset();
+        b.flags.store(flags, Ordering::Relaxed);
+        after_store();
+        if good_sample {
+            self.samples.store(self.samples.load(Ordering::Relaxed).wrapping_add(1), Ordering::Relaxed);
+            after_store();
         }
-        let prev_ms = self.last_good.map(|l| l.t_ms);
-        if let Err(e) = self.rate.push(t_ms, raw) {
-            return self.reject(SampleError::Time(e));
+        // Release: every store above is visible before the new sequence number.
+        self.seq.store(next, Ordering::Release);
+        after_store();
+    }
+}
+
+/// Fast-path state (the applier's own, never touched by the updater).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct FastState<const AXES: usize> {
+    stale_after_ticks: u32,
+    since_sample_ticks: u32,
+    seen_samples: u32,
+    counters: Option<[u32; AXES]>,
+}
+
+/// The fast path of a split compensator: owns the IMU-cycle state, reads the published
+/// coefficients. Put it where the IMU interrupt can reach it.
+#[derive(Debug)]
+pub struct Applier<'a, const AXES: usize> {
+    fast: &'a mut FastState<AXES>,
+    shared: &'a Published<AXES>,
+}
+
+impl<const AXES: usize> Applier<'_, AXES> {
+    /// Reads of the coefficient set per cycle at most before [`Status::COEFFS_RACED`].
+    pub const MAX_READS: usize = 2;
+
+    /// Advance the staleness clock by `dt_ticks` and return the status bits it adds.
+    #[inline(always)]
+    fn tick(&mut self, dt_ticks: u32) -> Status {
+        let n = self.shared.samples.load(Ordering::Relaxed);
+        if n != self.fast.seen_samples {
+            self.fast.seen_samples = n;
+            self.fast.since_sample_ticks = 0;
         }
-        self.pending = None;
-        self.pending_count = 0;
-        self.last_good = Some(Timed { t_ms, raw });
-        self.since_sample_ticks = 0;
-        let dt_s = prev_ms.map_or(0.0, |p| t_ms.wrapping_sub(p) as f32 * 1e-3);
-        self.refresh(dt_s);
-        Ok(Status(self.status))
+        self.fast.since_sample_ticks = self.fast.since_sample_ticks.saturating_add(dt_ticks);
+        if self.fast.since_sample_ticks > self.fast.stale_after_ticks {
+            Status::TEMP_STALE
+        } else {
+            Status::empty()
+        }
     }
 
-    /// |raw − last.raw| within step + slew·elapsed.
-    fn plausible(&self, last: Timed, t_ms: u32, raw: i16) -> bool {
-        let d_ms = i64::from(t_ms.wrapping_sub(last.t_ms));
-        let allowed =
-            i64::from(self.config.max_step_raw) + i64::from(self.config.max_slew_raw_per_min) * d_ms / 60_000;
-        (i64::from(raw) - i64::from(last.raw)).abs() <= allowed
-    }
-
-    /// Count consecutive jumped readings consistent with each other; true once there are
-    /// `confirm_samples` of them (a real step, e.g. after the sensor was replaced).
-    fn confirm_step(&mut self, t_ms: u32, raw: i16) -> bool {
-        match self.pending {
-            Some(p) if t_ms.wrapping_sub(p.t_ms) < i32::MAX as u32 && self.plausible(p, t_ms, raw) => {
-                self.pending_count = self.pending_count.saturating_add(1);
+    /// Read a consistent coefficient set and apply `f` to it; at most [`Self::MAX_READS`]
+    /// reads, then the last result flagged [`Status::COEFFS_RACED`].
+    #[inline(always)]
+    fn read<R>(&self, mut f: impl FnMut(&Coeffs<AXES>, u32) -> R) -> (R, Status) {
+        let mut attempt = 0;
+        loop {
+            let seq = self.shared.seq.load(Ordering::Acquire);
+            let c = &self.shared.bufs[(seq & 1) as usize];
+            let flags = c.flags.load(Ordering::Relaxed);
+            let r = f(c, flags);
+            // The loads above happen before the re-check (seqlock read side).
+            fence(Ordering::Acquire);
+            // Buffer `seq & 1` is rewritten only by the publication after next.
+            let intact = self.shared.seq.load(Ordering::Relaxed).wrapping_sub(seq) < 2;
+            attempt += 1;
+            let status = Status::from_bits_retain(flags as u16);
+            if intact {
+                return (r, status);
             }
-            _ => self.pending_count = 1,
-        }
-        self.pending = Some(Timed { t_ms, raw });
-        self.pending_count >= self.config.confirm_samples
-    }
-
-    fn reject(&mut self, e: SampleError) -> Result<Status, SampleError> {
-        self.status |= Status::TEMP_INVALID;
-        Err(e)
-    }
-
-    /// Re-evaluate every axis at the current estimate (or at T0 before the first reading)
-    /// and rebuild the fast-path cache.
-    fn refresh(&mut self, dt_s: f32) {
-        let est = self.rate.estimate();
-        let mut st = 0u16;
-        if !est.ready {
-            st |= Status::RATE_NOT_READY;
-        }
-        let Some(table) = &self.table else {
-            self.scale = [0.0; AXES];
-            self.bias = [0.0; AXES];
-            self.status = st | Status::NO_TABLE;
-            return;
-        };
-        let have_temp = self.last_good.is_some();
-        for (i, axis) in table.axes.iter().take(AXES).enumerate() {
-            let e = if have_temp {
-                axis.evaluate(&mut self.states[i], est.temp_c, est.rate_c_per_min, dt_s)
-            } else {
-                // No reading yet: T0 and Ṫ = 0, without touching the state; flagged stale.
-                axis.evaluate(&mut AxisState::default(), axis.scale.t0_c, 0.0, 0.0)
-            };
-            if e.temp_clamped {
-                st |= Status::TEMP_OUT_OF_RANGE;
+            if attempt == Self::MAX_READS {
+                return (r, status | Status::COEFFS_RACED);
             }
-            if e.rate_clamped {
-                st |= Status::RATE_OUT_OF_RANGE;
-            }
-            self.evals[i] = e;
-            self.scale[i] = G0 / e.k1;
-            self.bias[i] = (e.k0 * G0) * self.config.tick_s;
         }
-        if !have_temp {
-            st |= Status::TEMP_STALE;
-        }
-        self.status = st;
     }
 
     /// Fast path: signed pulse counts of this cycle and its length in ticks.
     ///
     /// `Δv[i] = N[i]·(g0/K1[i]) − (K0[i]·g0·tick)·dt`, then `Δv = M·Δv` with a
-    /// misalignment matrix. Always finite.
+    /// misalignment matrix. Always finite. Never blocks.
     #[inline]
     pub fn cycle(&mut self, pulses: [i32; AXES], dt_ticks: u32) -> Output<AXES> {
-        self.since_sample_ticks = self.since_sample_ticks.saturating_add(dt_ticks);
-        let stale = if self.since_sample_ticks > self.config.stale_after_ticks { Status::TEMP_STALE } else { 0 };
+        let stale = self.tick(dt_ticks);
         let dt = dt_ticks as f32;
-        let mut dv = [0.0f32; AXES];
-        for i in 0..AXES {
-            dv[i] = pulses[i] as f32 * self.scale[i] - self.bias[i] * dt;
-        }
-        if let Some(m) = &self.misalign {
-            let raw = dv;
-            for (out, row) in dv.iter_mut().zip(m.iter()) {
-                let mut acc = 0.0f32;
-                for (a, b) in row.iter().zip(raw.iter()) {
-                    acc += a * b;
-                }
-                *out = acc;
+        let (dv, status) = self.read(|c, flags| {
+            let mut dv = [0.0f32; AXES];
+            for i in 0..AXES {
+                let scale = f32::from_bits(c.scale[i].load(Ordering::Relaxed));
+                let bias = f32::from_bits(c.bias_tick[i].load(Ordering::Relaxed));
+                dv[i] = pulses[i] as f32 * scale - bias * dt;
             }
-        }
-        Output { dv_mps: dv, status: Status(self.status | stale) }
+            if flags & HAS_MISALIGN != 0 {
+                dv = misalign(&c.misalign, dv);
+            }
+            dv
+        });
+        Output { dv_mps: dv, status: status | stale }
     }
 
-    /// Fast path from wrapping cumulative u32 counters. The first call after
-    /// [`new`](Self::new) has no base: it returns zero increments with
-    /// [`Status::NO_COUNTER_BASE`]; call [`prime_counters`](Self::prime_counters) to avoid it.
+    /// Fast path for MEMS samples: raw readings (LSB) of this cycle and the ticks since
+    /// the previous one (for staleness only).
+    ///
+    /// `a[i] = raw[i]·(g0/K1[i]) − K0[i]·g0`, m/s², then `a = M·a` with a misalignment
+    /// matrix: the paper's `a = E/K1 − K0`, with `1/K1` formed in the slow path.
+    #[inline]
+    pub fn cycle_samples(&mut self, raw: [i32; AXES], dt_ticks: u32) -> Output<AXES> {
+        let stale = self.tick(dt_ticks);
+        let (a, status) = self.read(|c, flags| {
+            let mut a = [0.0f32; AXES];
+            for i in 0..AXES {
+                let scale = f32::from_bits(c.scale[i].load(Ordering::Relaxed));
+                let bias = f32::from_bits(c.bias_acc[i].load(Ordering::Relaxed));
+                a[i] = raw[i] as f32 * scale - bias;
+            }
+            if flags & HAS_MISALIGN != 0 {
+                a = misalign(&c.misalign, a);
+            }
+            a
+        });
+        Output { dv_mps: a, status: status | stale }
+    }
+
+    /// Fast path from wrapping cumulative u32 counters. The first call has no base: it
+    /// returns zero increments with [`Status::NO_COUNTER_BASE`]; call
+    /// [`prime_counters`](Self::prime_counters) to avoid it.
     #[inline]
     pub fn cycle_counters(&mut self, counters: [u32; AXES], dt_ticks: u32) -> Output<AXES> {
-        let Some(prev) = self.counters.replace(counters) else {
+        let Some(prev) = self.fast.counters.replace(counters) else {
             let mut out = self.cycle([0; AXES], dt_ticks);
             out.dv_mps = [0.0; AXES];
-            out.status.0 |= Status::NO_COUNTER_BASE;
+            out.status |= Status::NO_COUNTER_BASE;
             return out;
         };
         let pulses: [i32; AXES] = core::array::from_fn(|i| counters[i].wrapping_sub(prev[i]) as i32);
@@ -408,7 +502,485 @@ impl<const AXES: usize, const N: usize> Compensator<AXES, N> {
 
     /// Set the cumulative counters' base without producing output.
     pub fn prime_counters(&mut self, counters: [u32; AXES]) {
-        self.counters = Some(counters);
+        self.fast.counters = Some(counters);
+    }
+}
+
+#[inline(always)]
+fn misalign<const AXES: usize>(m: &[[AtomicU32; AXES]; AXES], v: [f32; AXES]) -> [f32; AXES] {
+    let mut out = [0.0f32; AXES];
+    for (o, row) in out.iter_mut().zip(m.iter()) {
+        let mut acc = 0.0f32;
+        for (a, b) in row.iter().zip(v.iter()) {
+            acc += f32::from_bits(a.load(Ordering::Relaxed)) * b;
+        }
+        *o = acc;
+    }
+    out
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Timed {
+    t_ms: u32,
+    raw: i16,
+}
+
+/// One temperature stream: its estimator, plausibility state and flags.
+#[derive(Clone, Debug)]
+struct Stream<const N: usize> {
+    rate: RateEstimator<N>,
+    last_good: Option<Timed>,
+    pending: Option<Timed>,
+    pending_count: u8,
+    /// The latest reading was rejected.
+    invalid: bool,
+    /// No good reading for longer than the stale threshold, seen from another stream.
+    stale: bool,
+}
+
+/// Slow-path state (the updater's own, never touched by the applier).
+#[derive(Clone, Debug)]
+struct SlowState<const AXES: usize, const N: usize, const SENSORS: usize, T> {
+    config: Config,
+    stale_after_ms: u32,
+    table: Option<T>,
+    streams: [Stream<N>; SENSORS],
+    states: [AxisState; AXES],
+    evals: [Evaluation; AXES],
+    /// The set last published (the updater's working copy).
+    set: Set<AXES>,
+}
+
+/// The slow path of a split compensator: temperature readings and tables. Never runs in
+/// the IMU interrupt.
+#[derive(Debug)]
+pub struct Updater<'a, const AXES: usize, const N: usize, const SENSORS: usize, T> {
+    slow: &'a mut SlowState<AXES, N, SENSORS, T>,
+    shared: &'a Published<AXES>,
+}
+
+/// Temperature compensation for `AXES` accelerometers with an `N`-sample rate window and
+/// `SENSORS` temperature streams (1, or one per axis). The table is held as `T`: an owned
+/// [`Table`] (708 B, loadable from bytes at run time) or a `&'static Table` in flash.
+///
+/// Unsplit, it is one value with both paths (`&mut self` each); [`split`](Self::split)
+/// hands the two paths to two execution contexts.
+#[derive(Debug)]
+pub struct Compensator<const AXES: usize = 3, const N: usize = 32, const SENSORS: usize = 1, T = Table> {
+    slow: SlowState<AXES, N, SENSORS, T>,
+    shared: Published<AXES>,
+    fast: FastState<AXES>,
+}
+
+impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Clone> Clone for Compensator<AXES, N, SENSORS, T> {
+    /// An independent copy: the clone gets its own [`Published`] set holding the same
+    /// coefficients (atomics are not `Clone`).
+    fn clone(&self) -> Self {
+        let shared = Published::new();
+        shared.samples.store(self.shared.samples.load(Ordering::Relaxed), Ordering::Relaxed);
+        shared.publish_with(&self.slow.set, false, || {});
+        Self { slow: self.slow.clone(), shared, fast: self.fast }
+    }
+}
+
+const NO_EVAL: Evaluation = Evaluation { k1: 0.0, k0: 0.0, temp_clamped: false, rate_clamped: false };
+
+impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> Compensator<AXES, N, SENSORS, T> {
+    const BOUNDS: () = assert!(AXES >= 1 && AXES <= table::MAX_AXES, "AXES must be 1..=3");
+
+    /// A compensator with no table: the raw input passes through at
+    /// [`Config::nominal_k1`] with [`Status::NO_TABLE`] until a table is set.
+    ///
+    /// # Errors
+    /// [`Config::validate`]'s error, [`ConfigError::MinSamplesAboveWindow`] or
+    /// [`ConfigError::SensorCount`].
+    pub fn new(config: Config) -> Result<Self, ConfigError> {
+        let () = Self::BOUNDS;
+        config.validate()?;
+        if usize::from(config.rate.min_samples) > N {
+            return Err(ConfigError::MinSamplesAboveWindow);
+        }
+        if SENSORS != 1 && SENSORS != AXES {
+            return Err(ConfigError::SensorCount);
+        }
+        let stream = Stream {
+            rate: RateEstimator::new(config.rate),
+            last_good: None,
+            pending: None,
+            pending_count: 0,
+            invalid: false,
+            stale: false,
+        };
+        let mut c = Self {
+            slow: SlowState {
+                config,
+                stale_after_ms: config.stale_after_ms(),
+                table: None,
+                streams: core::array::from_fn(|_| stream.clone()),
+                states: [AxisState::default(); AXES],
+                evals: [NO_EVAL; AXES],
+                set: Set {
+                    scale: [0.0; AXES],
+                    bias_tick: [0.0; AXES],
+                    bias_acc: [0.0; AXES],
+                    misalign: None,
+                    status: Status::empty(),
+                },
+            },
+            shared: Published::new(),
+            fast: FastState {
+                stale_after_ticks: config.stale_after_ticks,
+                since_sample_ticks: u32::MAX,
+                seen_samples: 0,
+                counters: None,
+            },
+        };
+        c.updater().refresh_all(0.0);
+        Ok(c)
+    }
+
+    fn updater(&mut self) -> Updater<'_, AXES, N, SENSORS, T> {
+        Updater { slow: &mut self.slow, shared: &self.shared }
+    }
+
+    fn applier(&mut self) -> Applier<'_, AXES> {
+        Applier { fast: &mut self.fast, shared: &self.shared }
+    }
+
+    /// The two paths, for two execution contexts: the [`Updater`] for thread mode or a
+    /// task, the [`Applier`] for the IMU interrupt. With a `&'static mut Compensator`
+    /// (from a `static_cell::StaticCell`, say) both halves are `'static`.
+    pub fn split(&mut self) -> (Updater<'_, AXES, N, SENSORS, T>, Applier<'_, AXES>) {
+        (Updater { slow: &mut self.slow, shared: &self.shared }, Applier { fast: &mut self.fast, shared: &self.shared })
+    }
+
+    /// Validate and activate a table. Atomic: on any error the active table and every
+    /// state are unchanged; on success the fast path switches to the new coefficients in
+    /// one publication.
+    ///
+    /// # Errors
+    /// Any [`table::Error`], including an axis count other than `AXES` and a rate window
+    /// other than `N`.
+    pub fn set_table(&mut self, t: T) -> table::Result<()> {
+        self.updater().set_table(t)
+    }
+
+    /// The active table.
+    #[must_use]
+    pub fn table(&self) -> Option<&Table> {
+        self.slow.table.as_ref().map(Borrow::borrow)
+    }
+
+    /// Settings.
+    #[must_use]
+    pub const fn config(&self) -> &Config {
+        &self.slow.config
+    }
+
+    /// Sensor 0's current estimate; `None` before its first good reading.
+    #[must_use]
+    pub fn estimate(&self) -> Option<Estimate> {
+        self.slow.streams[0].rate.estimate()
+    }
+
+    /// Sensor `sensor`'s current estimate; `None` before its first good reading or for an
+    /// index ≥ `SENSORS`.
+    #[must_use]
+    pub fn estimate_of(&self, sensor: usize) -> Option<Estimate> {
+        self.slow.streams.get(sensor).and_then(|s| s.rate.estimate())
+    }
+
+    /// The model evaluated at each axis's last good sample (K1 in pulses/(g·s), K0 in g).
+    #[must_use]
+    pub const fn evaluations(&self) -> &[Evaluation; AXES] {
+        &self.slow.evals
+    }
+
+    /// Status as of the last slow-path call (the fast path adds its own staleness).
+    #[must_use]
+    pub const fn status(&self) -> Status {
+        self.slow.set.status
+    }
+
+    /// Slow path, sensor 0: a 9-byte scratchpad read at `t_ms` (the time base of
+    /// [`crate::time`], taken when the conversion completed).
+    ///
+    /// # Errors
+    /// A [`SampleError`]; the last good compensation stays in force and
+    /// [`Status::TEMP_INVALID`] is raised.
+    pub fn on_scratchpad(&mut self, t_ms: u32, scratchpad: &[u8; 9]) -> Result<Status, SampleError> {
+        self.updater().on_scratchpad_from(0, t_ms, scratchpad)
+    }
+
+    /// Slow path, sensor 0: a raw reading (1/16 °C, already masked) taken at `t_ms`.
+    ///
+    /// # Errors
+    /// As [`on_scratchpad`](Self::on_scratchpad).
+    pub fn on_raw(&mut self, t_ms: u32, raw: i16) -> Result<Status, SampleError> {
+        self.updater().on_raw_from(0, t_ms, raw)
+    }
+
+    /// Slow path for sensor `sensor` (0..`SENSORS`): a scratchpad read at `t_ms`.
+    ///
+    /// # Errors
+    /// As [`on_scratchpad`](Self::on_scratchpad), and [`SampleError::NoSuchSensor`].
+    pub fn on_scratchpad_from(&mut self, sensor: usize, t_ms: u32, sp: &[u8; 9]) -> Result<Status, SampleError> {
+        self.updater().on_scratchpad_from(sensor, t_ms, sp)
+    }
+
+    /// Slow path for sensor `sensor` (0..`SENSORS`): a raw reading at `t_ms`.
+    ///
+    /// # Errors
+    /// As [`on_scratchpad_from`](Self::on_scratchpad_from).
+    pub fn on_raw_from(&mut self, sensor: usize, t_ms: u32, raw: i16) -> Result<Status, SampleError> {
+        self.updater().on_raw_from(sensor, t_ms, raw)
+    }
+
+    /// Fast path: see [`Applier::cycle`].
+    #[inline]
+    pub fn cycle(&mut self, pulses: [i32; AXES], dt_ticks: u32) -> Output<AXES> {
+        self.applier().cycle(pulses, dt_ticks)
+    }
+
+    /// Fast path for MEMS samples: see [`Applier::cycle_samples`].
+    #[inline]
+    pub fn cycle_samples(&mut self, raw: [i32; AXES], dt_ticks: u32) -> Output<AXES> {
+        self.applier().cycle_samples(raw, dt_ticks)
+    }
+
+    /// Fast path from cumulative counters: see [`Applier::cycle_counters`].
+    #[inline]
+    pub fn cycle_counters(&mut self, counters: [u32; AXES], dt_ticks: u32) -> Output<AXES> {
+        self.applier().cycle_counters(counters, dt_ticks)
+    }
+
+    /// Set the cumulative counters' base without producing output.
+    pub fn prime_counters(&mut self, counters: [u32; AXES]) {
+        self.applier().prime_counters(counters);
+    }
+}
+
+impl<const AXES: usize, const N: usize, const SENSORS: usize> Compensator<AXES, N, SENSORS, Table> {
+    /// Decode, validate and activate a table from its wire bytes. Atomic: on any error
+    /// the active table and every state are unchanged.
+    ///
+    /// # Errors
+    /// Any [`table::Error`], including an axis count other than `AXES` and a rate window
+    /// other than `N`.
+    pub fn load_table(&mut self, bytes: &[u8]) -> table::Result<()> {
+        let t = Table::decode(bytes)?;
+        self.set_table(t)
+    }
+}
+
+impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> Updater<'_, AXES, N, SENSORS, T> {
+    /// The stream serving axis `axis`.
+    const fn sensor_of(axis: usize) -> usize {
+        if SENSORS == 1 {
+            0
+        } else {
+            axis
+        }
+    }
+
+    /// Validate and activate a table: see [`Compensator::set_table`].
+    ///
+    /// # Errors
+    /// As [`Compensator::set_table`].
+    pub fn set_table(&mut self, t: T) -> table::Result<()> {
+        let tb: &Table = t.borrow();
+        tb.validate()?;
+        if tb.axes.len() != AXES {
+            return Err(table::Error::AxisCount { table: tb.axes.len() as u8, expected: AXES as u8 });
+        }
+        if usize::from(tb.rate_window) != N {
+            return Err(table::Error::RateWindow { table: tb.rate_window, firmware: N as u16 });
+        }
+        self.slow.set.misalign = tb.misalignment.map(|m| {
+            // Validation allows a matrix only with 3 axes, so AXES == 3 here.
+            core::array::from_fn(|r| core::array::from_fn(|c| m[r * 3 + c]))
+        });
+        self.slow.table = Some(t);
+        self.slow.states = [AxisState::default(); AXES];
+        self.refresh_all(0.0);
+        Ok(())
+    }
+
+    /// Slow path: see [`Compensator::on_scratchpad_from`].
+    ///
+    /// # Errors
+    /// As [`Compensator::on_scratchpad_from`].
+    pub fn on_scratchpad_from(&mut self, sensor: usize, t_ms: u32, sp: &[u8; 9]) -> Result<Status, SampleError> {
+        if sensor >= SENSORS {
+            return Err(SampleError::NoSuchSensor { sensor: sensor as u8 });
+        }
+        match ds18b20::decode_scratchpad(sp) {
+            Ok(r) => self.on_raw_from(sensor, t_ms, r.raw),
+            Err(e) => self.reject(sensor, SampleError::Decode(e)),
+        }
+    }
+
+    /// Slow path: see [`Compensator::on_raw_from`].
+    ///
+    /// # Errors
+    /// As [`Compensator::on_raw_from`].
+    pub fn on_raw_from(&mut self, sensor: usize, t_ms: u32, raw: i16) -> Result<Status, SampleError> {
+        let Some(s) = self.slow.streams.get(sensor) else {
+            return Err(SampleError::NoSuchSensor { sensor: sensor as u8 });
+        };
+        let last_good = s.last_good;
+        let mut restart = false;
+        let mut clock_restart = false;
+        match last_good {
+            None if raw == POWER_ON_RAW => return self.reject(sensor, SampleError::PowerOnJump),
+            None => {}
+            Some(last) => {
+                let d = t_ms.wrapping_sub(last.t_ms);
+                if d == 0 || d > i32::MAX as u32 {
+                    // A clock that restarted, or a gap past half the ms wrap: accepted
+                    // once `confirm_samples` readings agree with each other.
+                    if raw == POWER_ON_RAW || !self.confirm_step(sensor, t_ms, raw) {
+                        return self.reject(sensor, SampleError::Time(rate::Error::NonMonotonic));
+                    }
+                    restart = true;
+                    clock_restart = true;
+                } else if !self.plausible(last, t_ms, raw) {
+                    if raw == POWER_ON_RAW {
+                        return self.reject(sensor, SampleError::PowerOnJump);
+                    }
+                    if !self.confirm_step(sensor, t_ms, raw) {
+                        return self.reject(sensor, SampleError::Implausible { raw });
+                    }
+                    restart = true;
+                }
+            }
+        }
+        let s = &mut self.slow.streams[sensor];
+        if restart {
+            s.rate.reset();
+        }
+        let prev_ms = s.last_good.map(|l| l.t_ms);
+        if let Err(e) = s.rate.push(t_ms, raw) {
+            return self.reject(sensor, SampleError::Time(e));
+        }
+        s.pending = None;
+        s.pending_count = 0;
+        s.invalid = false;
+        s.stale = false;
+        s.last_good = Some(Timed { t_ms, raw });
+        // Every other stream is stale if its last good reading is too old at this time.
+        let stale_ms = self.slow.stale_after_ms;
+        for (j, other) in self.slow.streams.iter_mut().enumerate() {
+            if j != sensor {
+                other.stale = other.last_good.is_none_or(|l| t_ms.wrapping_sub(l.t_ms) > stale_ms);
+            }
+        }
+        // Across a restarted clock the elapsed time is unknown: the slot states hold.
+        let dt_s = match prev_ms {
+            Some(p) if !clock_restart => t_ms.wrapping_sub(p) as f32 * 1e-3,
+            _ => 0.0,
+        };
+        self.refresh(Some(sensor), dt_s, true);
+        Ok(self.slow.set.status)
+    }
+
+    /// |raw − last.raw| within step + slew·elapsed.
+    fn plausible(&self, last: Timed, t_ms: u32, raw: i16) -> bool {
+        let c = &self.slow.config;
+        let d_ms = i64::from(t_ms.wrapping_sub(last.t_ms));
+        let allowed = i64::from(c.max_step_raw) + i64::from(c.max_slew_raw_per_min) * d_ms / 60_000;
+        (i64::from(raw) - i64::from(last.raw)).abs() <= allowed
+    }
+
+    /// Count consecutive rejected readings consistent with each other (later in time and
+    /// plausible); true once there are `confirm_samples` of them: a real step (e.g. a
+    /// replaced sensor) or a restarted clock.
+    fn confirm_step(&mut self, sensor: usize, t_ms: u32, raw: i16) -> bool {
+        let pending = self.slow.streams[sensor].pending;
+        let consistent = match pending {
+            Some(p) => {
+                let d = t_ms.wrapping_sub(p.t_ms);
+                d != 0 && d < i32::MAX as u32 && self.plausible(p, t_ms, raw)
+            }
+            None => false,
+        };
+        let s = &mut self.slow.streams[sensor];
+        s.pending_count = if consistent { s.pending_count.saturating_add(1) } else { 1 };
+        s.pending = Some(Timed { t_ms, raw });
+        s.pending_count >= self.slow.config.confirm_samples
+    }
+
+    fn reject(&mut self, sensor: usize, e: SampleError) -> Result<Status, SampleError> {
+        self.slow.streams[sensor].invalid = true;
+        self.slow.set.status |= Status::TEMP_INVALID;
+        self.shared.publish_with(&self.slow.set, false, || {});
+        Err(e)
+    }
+
+    fn refresh_all(&mut self, dt_s: f32) {
+        self.refresh(None, dt_s, false);
+    }
+
+    /// Re-evaluate the axes served by `sensor` (every axis for `None`) at their stream's
+    /// estimate (or at T0 before its first reading), rebuild the status and publish.
+    fn refresh(&mut self, sensor: Option<usize>, dt_s: f32, good_sample: bool) {
+        let slow = &mut *self.slow;
+        let nominal = G0 / slow.config.nominal_k1;
+        match &slow.table {
+            None => {
+                slow.set.scale = [nominal; AXES];
+                slow.set.bias_tick = [0.0; AXES];
+                slow.set.bias_acc = [0.0; AXES];
+                slow.set.misalign = None;
+            }
+            Some(t) => {
+                let table: &Table = t.borrow();
+                for (i, axis) in table.axes.iter().take(AXES).enumerate() {
+                    let j = Self::sensor_of(i);
+                    if sensor.is_some_and(|s| s != j) {
+                        continue;
+                    }
+                    let stream = &slow.streams[j];
+                    let e = match (stream.last_good, stream.rate.estimate()) {
+                        (Some(_), Some(est)) => {
+                            axis.evaluate(&mut slow.states[i], est.temp_c, est.rate_c_per_min, dt_s)
+                        }
+                        // No reading yet: T0 and Ṫ = 0, without touching the state; flagged stale.
+                        _ => axis.evaluate(&mut AxisState::default(), axis.scale.t0_c, 0.0, 0.0),
+                    };
+                    slow.evals[i] = e;
+                    slow.set.scale[i] = G0 / e.k1;
+                    slow.set.bias_tick[i] = (e.k0 * G0) * slow.config.tick_s;
+                    slow.set.bias_acc[i] = e.k0 * G0;
+                }
+            }
+        }
+        let mut st = Status::empty();
+        for s in &slow.streams {
+            if !s.rate.ready() {
+                st |= Status::RATE_NOT_READY;
+            }
+            if s.last_good.is_none() || s.stale {
+                st |= Status::TEMP_STALE;
+            }
+            if s.invalid {
+                st |= Status::TEMP_INVALID;
+            }
+        }
+        if slow.table.is_none() {
+            st |= Status::NO_TABLE;
+        } else {
+            for e in &slow.evals {
+                if e.temp_clamped {
+                    st |= Status::TEMP_OUT_OF_RANGE;
+                }
+                if e.rate_clamped {
+                    st |= Status::RATE_OUT_OF_RANGE;
+                }
+            }
+        }
+        slow.set.status = st;
+        self.shared.publish_with(&self.slow.set, good_sample, || {});
     }
 }
 
@@ -439,6 +1011,10 @@ mod tests {
         t
     }
 
+    fn comp3() -> Compensator<3, 32> {
+        Compensator::new(Config::default()).unwrap()
+    }
+
     fn warm(c: &mut Compensator<3, 32>, n: u32) {
         for k in 0..n {
             c.on_raw(1000 * k, 352).unwrap();
@@ -447,7 +1023,7 @@ mod tests {
 
     #[test]
     fn recovers_the_applied_specific_force() {
-        let mut c = Compensator::<3, 32>::new(Config::default());
+        let mut c = comp3();
         c.set_table(table(3, 32)).unwrap();
         warm(&mut c, 20);
         let s = c.on_raw(20_000, 352).unwrap();
@@ -460,11 +1036,16 @@ mod tests {
         let a = f64::from(out.dv_mps[0]) / 9.806_65;
         assert!((a - 0.5).abs() < 5e-6, "{a}");
         assert!(out.status.is_ok());
+        // The same model on samples: raw = K1·(K0 + a) LSB gives a in m/s².
+        let samples = c.cycle_samples([n, n, n], 1_000_000);
+        let a = f64::from(samples.dv_mps[0]) / 9.806_65;
+        assert!((a - 0.5).abs() < 5e-6, "{a}");
+        assert!(samples.status.is_ok());
     }
 
     #[test]
     fn stale_after_timeout_keeps_last_compensation() {
-        let mut c = Compensator::<3, 32>::new(Config::default());
+        let mut c = comp3();
         c.set_table(table(3, 32)).unwrap();
         warm(&mut c, 12);
         let fresh = c.cycle([800, 800, 800], 2500);
@@ -481,7 +1062,7 @@ mod tests {
 
     #[test]
     fn rejected_reading_flags_and_keeps_state() {
-        let mut c = Compensator::<3, 32>::new(Config::default());
+        let mut c = comp3();
         c.set_table(table(3, 32)).unwrap();
         warm(&mut c, 12);
         let before = c.cycle([800, 800, 800], 2500);
@@ -498,7 +1079,7 @@ mod tests {
 
     #[test]
     fn table_load_is_atomic() {
-        let mut c = Compensator::<3, 32>::new(Config::default());
+        let mut c = comp3();
         c.set_table(table(3, 32)).unwrap();
         warm(&mut c, 12);
         let before = c.cycle([800, 800, 800], 2500);
@@ -518,17 +1099,72 @@ mod tests {
     }
 
     #[test]
-    fn no_table_gives_zero_flagged_output() {
-        let mut c = Compensator::<3, 32>::new(Config::default());
-        let out = c.cycle([1000, -1000, 5], 2500);
-        assert_eq!(out.dv_mps, [0.0; 3]);
+    fn a_table_in_flash_is_held_by_reference() {
+        static TABLE: std::sync::OnceLock<Table> = std::sync::OnceLock::new();
+        let t: &'static Table = TABLE.get_or_init(|| table(3, 32));
+        let mut flash = Compensator::<3, 32, 1, &'static Table>::new(Config::default()).unwrap();
+        let mut owned = comp3();
+        flash.set_table(t).unwrap();
+        owned.set_table(t.clone()).unwrap();
+        for k in 0..12 {
+            flash.on_raw(1000 * k, 352).unwrap();
+            owned.on_raw(1000 * k, 352).unwrap();
+        }
+        assert_eq!(flash.cycle([800, 1, -3], 2500), owned.cycle([800, 1, -3], 2500));
+        assert!(core::mem::size_of_val(&flash) + 600 < core::mem::size_of_val(&owned));
+    }
+
+    /// No table: the counts pass through at the nominal scale, never as zero (free fall).
+    #[test]
+    fn no_table_passes_raw_through_at_nominal_scale_flagged() {
+        let mut c = comp3();
+        let out = c.cycle([320_000, -320_000, 5], 2500);
         assert!(out.status.contains(Status::NO_TABLE));
         assert!(out.status.contains(Status::TEMP_STALE));
+        // 320 000 pulses at the default nominal 320 000 pulses/(g·s) is 1 g·s = g0 m/s.
+        assert!((out.dv_mps[0] - 9.806_65).abs() < 1e-5, "{out:?}");
+        assert!((out.dv_mps[1] + 9.806_65).abs() < 1e-5, "{out:?}");
+        let s = c.cycle_samples([160_000, 0, 0], 2500);
+        assert!((s.dv_mps[0] - 4.903_325).abs() < 1e-5, "{s:?}");
+    }
+
+    #[test]
+    fn bad_configs_are_refused_with_their_reason() {
+        let d = Config::default();
+        let cases = [
+            (Config { tick_s: f32::NAN, ..d }, ConfigError::NonFinite("tick_s")),
+            (Config { tick_s: 0.0, ..d }, ConfigError::OutOfRange("tick_s")),
+            (Config { nominal_k1: f32::INFINITY, ..d }, ConfigError::NonFinite("nominal_k1")),
+            (Config { nominal_k1: -1.0, ..d }, ConfigError::OutOfRange("nominal_k1")),
+            (
+                Config { rate: RateConfig { smoothing_alpha: f32::NAN, ..d.rate }, ..d },
+                ConfigError::NonFinite("rate.smoothing_alpha"),
+            ),
+            (
+                Config { rate: RateConfig { smoothing_alpha: 0.0, ..d.rate }, ..d },
+                ConfigError::OutOfRange("rate.smoothing_alpha"),
+            ),
+            (Config { rate: RateConfig { min_samples: 2, ..d.rate }, ..d }, ConfigError::OutOfRange("rate.min_samples")),
+            (Config { confirm_samples: 0, ..d }, ConfigError::OutOfRange("confirm_samples")),
+            (Config { stale_after_ticks: 999_999, ..d }, ConfigError::StaleShorterThanSamplePeriod),
+            (Config { rate: RateConfig { max_gap_ms: 1000, ..d.rate }, ..d }, ConfigError::GapShorterThanSamplePeriod),
+            (Config { sample_period_ms: 0, ..d }, ConfigError::OutOfRange("sample_period_ms")),
+            (Config { max_step_raw: -1, ..d }, ConfigError::OutOfRange("max_step_raw")),
+            (Config { max_slew_raw_per_min: -1, ..d }, ConfigError::OutOfRange("max_slew_raw_per_min")),
+        ];
+        for (cfg, want) in cases {
+            assert_eq!(cfg.validate(), Err(want), "{cfg:?}");
+            assert_eq!(Compensator::<3, 32>::new(cfg).err(), Some(want));
+        }
+        assert_eq!(d.validate(), Ok(()));
+        let min40 = Config { rate: RateConfig { min_samples: 40, ..d.rate }, ..d };
+        assert_eq!(Compensator::<3, 32>::new(min40).err(), Some(ConfigError::MinSamplesAboveWindow));
+        assert_eq!(Compensator::<3, 32, 2>::new(d).err(), Some(ConfigError::SensorCount));
     }
 
     #[test]
     fn extreme_inputs_stay_finite() {
-        let mut c = Compensator::<3, 32>::new(Config::default());
+        let mut c = comp3();
         let mut t = table(3, 32);
         t.misalignment = Some([1.049, 0.049, -0.049, -0.049, 0.951, 0.049, 0.049, -0.049, 1.049]);
         c.set_table(t).unwrap();
@@ -536,12 +1172,14 @@ mod tests {
         for (p, dt) in [([i32::MAX, i32::MIN, 0], u32::MAX), ([i32::MIN; 3], 0), ([0; 3], u32::MAX)] {
             let out = c.cycle(p, dt);
             assert!(out.dv_mps.iter().all(|v| v.is_finite()), "{out:?}");
+            let out = c.cycle_samples(p, dt);
+            assert!(out.dv_mps.iter().all(|v| v.is_finite()), "{out:?}");
         }
     }
 
     #[test]
     fn wrapping_counters_give_signed_increments() {
-        let mut c = Compensator::<1, 32>::new(Config::default());
+        let mut c = Compensator::<1, 32>::new(Config::default()).unwrap();
         c.set_table(table(1, 32)).unwrap();
         for k in 0..12 {
             c.on_raw(1000 * k, 352).unwrap();
@@ -552,5 +1190,139 @@ mod tests {
         let wrapped = c.cycle_counters([700], 2500);
         let direct = c.cycle([800], 2500);
         assert_eq!(wrapped.dv_mps, direct.dv_mps);
+    }
+
+    /// A clock that jumps back (a reset time source) is refused, then accepted as a restart
+    /// once `confirm_samples` readings agree: never stuck for half a wrap.
+    #[test]
+    fn a_restarted_clock_is_confirmed_not_rejected_forever() {
+        let mut c = comp3();
+        c.set_table(table(3, 32)).unwrap();
+        warm(&mut c, 20);
+        let err = Err(SampleError::Time(rate::Error::NonMonotonic));
+        assert_eq!(c.on_raw(500, 352), err);
+        assert_eq!(c.on_raw(1_500, 353), err);
+        assert!(c.on_raw(2_500, 353).is_ok(), "third consistent reading: restart");
+        assert_eq!(c.estimate().map(|e| e.ready), Some(false), "window restarted");
+        assert!(c.on_raw(3_500, 353).is_ok());
+    }
+
+    /// One sensor per axis: each axis follows its own stream; a dead sensor is flagged stale
+    /// by the others' timestamps, and its axis keeps its last good compensation.
+    #[test]
+    fn one_sensor_per_axis() {
+        let mut c = Compensator::<3, 32, 3>::new(Config::default()).unwrap();
+        c.set_table(table(3, 32)).unwrap();
+        let mut one = Compensator::<1, 32>::new(Config::default()).unwrap();
+        let mut t1 = table(1, 32);
+        t1.axes[0] = table(3, 32).axes[2].clone();
+        one.set_table(t1).unwrap();
+        for k in 0..20u32 {
+            for s in 0..3 {
+                c.on_raw_from(s, 1000 * k + 10 * s as u32, 320 + 16 * s as i16 + (k / 4) as i16).unwrap();
+            }
+            one.on_raw(1000 * k + 20, 352 + (k / 4) as i16).unwrap();
+        }
+        let e: [f32; 3] = core::array::from_fn(|s| c.estimate_of(s).unwrap().temp_c);
+        assert!((e[1] - e[0] - 1.0).abs() < 1e-4 && (e[2] - e[0] - 2.0).abs() < 1e-4, "{e:?}");
+        let out = c.cycle([800, 800, 800], 2500);
+        assert!(out.status.is_ok(), "{out:?}");
+        // Axis 2 equals a one-axis compensator fed axis 2's stream alone.
+        assert_eq!(out.dv_mps[2], one.cycle([800], 2500).dv_mps[0]);
+        // Sensor 1 dies: after 3 s of the others' readings it is stale; axis 1 unchanged.
+        for k in 20..25u32 {
+            c.on_raw_from(0, 1000 * k, 320 + (k / 4) as i16).unwrap();
+            c.on_raw_from(2, 1000 * k + 20, 352 + (k / 4) as i16).unwrap();
+        }
+        let later = c.cycle([800, 800, 800], 2500);
+        assert!(later.status.contains(Status::TEMP_STALE), "{later:?}");
+        assert_eq!(later.dv_mps[1], out.dv_mps[1]);
+        assert_eq!(c.on_raw_from(3, 0, 0), Err(SampleError::NoSuchSensor { sensor: 3 }));
+    }
+
+    /// The split halves give the same outputs as the unsplit compensator.
+    #[test]
+    fn split_halves_match_the_whole() {
+        let mut a = comp3();
+        let mut b = comp3();
+        a.set_table(table(3, 32)).unwrap();
+        b.set_table(table(3, 32)).unwrap();
+        let (mut up, mut ap) = b.split();
+        for k in 0..40u32 {
+            let raw = 352 + (k / 4) as i16;
+            assert_eq!(a.on_raw(1000 * k, raw), up.on_raw_from(0, 1000 * k, raw));
+            for _ in 0..3 {
+                assert_eq!(a.cycle([800, -7, 3], 2500), ap.cycle([800, -7, 3], 2500));
+            }
+        }
+    }
+
+    /// Deterministic interleaving: the writer is preempted after every single store, and
+    /// the reader runs there. Every output must equal the output of the old set or of the
+    /// new set, never a mixture.
+    #[test]
+    fn reader_preempting_the_writer_at_every_store_sees_whole_sets() {
+        let mut c = comp3();
+        let mut t = table(3, 32);
+        t.misalignment = Some([1.049, 0.049, -0.049, -0.049, 0.951, 0.049, 0.049, -0.049, 1.049]);
+        c.set_table(t).unwrap();
+        warm(&mut c, 12);
+        let old = c.slow.set;
+        let mut new = old;
+        new.scale = [1.0, 2.0, 3.0];
+        new.bias_tick = [0.5, 0.25, 0.125];
+        new.bias_acc = [4.0, 5.0, 6.0];
+        new.status = Status::TEMP_OUT_OF_RANGE;
+        let pulses = [800, -7, 3];
+        let reference = |s: &Set<3>| {
+            let shared = Published::new();
+            shared.publish_with(s, false, || {});
+            let mut fast = c.fast;
+            let mut ap = Applier { fast: &mut fast, shared: &shared };
+            (ap.cycle(pulses, 2500), ap.cycle_samples(pulses, 2500))
+        };
+        let (want_old, want_new) = (reference(&old), reference(&new));
+        assert_ne!(want_old.0.dv_mps, want_new.0.dv_mps);
+        let mut fast = c.fast;
+        let mut stores = 0;
+        let mut seen_new = false;
+        c.shared.publish_with(&new, true, || {
+            stores += 1;
+            let mut ap = Applier { fast: &mut fast, shared: &c.shared };
+            let got = (ap.cycle(pulses, 2500), ap.cycle_samples(pulses, 2500));
+            let strip = |o: Output<3>| (o.dv_mps, o.status - Status::TEMP_STALE);
+            let same = |a: &(Output<3>, Output<3>), b: &(Output<3>, Output<3>)| {
+                strip(a.0) == strip(b.0) && strip(a.1) == strip(b.1)
+            };
+            if same(&got, &want_new) {
+                seen_new = true;
+            } else {
+                assert!(!seen_new, "went back to the old set after store {stores}");
+                assert!(same(&got, &want_old), "mixed set after store {stores}: {got:?}");
+            }
+        });
+        assert_eq!(stores, 3 * 3 + 9 + 1 + 1 + 1, "every store was preempted");
+        assert!(seen_new, "the last store publishes the new set");
+    }
+
+    /// The same interleaving, with a writer that publishes *twice* while the reader reads
+    /// (the contract broken): the reader must flag it, never return a silent mixture.
+    #[test]
+    fn a_writer_racing_the_reader_is_flagged() {
+        let mut c = comp3();
+        c.set_table(table(3, 32)).unwrap();
+        warm(&mut c, 12);
+        let shared = &c.shared;
+        let set = c.slow.set;
+        let mut fast = c.fast;
+        let ap = Applier { fast: &mut fast, shared };
+        // Publish twice inside the reader's closure (between its loads and its re-check).
+        let (_, status) = ap.read(|_, _| {
+            shared.publish_with(&set, false, || {});
+            shared.publish_with(&set, false, || {});
+        });
+        assert!(status.contains(Status::COEFFS_RACED));
+        let (_, status) = ap.read(|_, _| ());
+        assert!(!status.contains(Status::COEFFS_RACED));
     }
 }

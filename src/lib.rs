@@ -10,7 +10,8 @@ pub mod model;
 pub mod onewire;
 pub mod rate;
 pub mod table;
+pub mod time;
 
-pub use compensator::{Compensator, Config, Output, SampleError, Status, G0};
+pub use compensator::{Applier, Compensator, Config, ConfigError, Output, Published, SampleError, Status, Updater, G0};
 pub use model::{AxisModel, BiasGrid, Extensions, ScaleFactor};
 pub use table::Table;

@@ -247,26 +247,27 @@ impl<const N: usize> RateEstimator<N> {
         }
     }
 
-    /// Current estimate. Before it is ready, `temp_c` is the newest reading and the rate is 0.
+    /// Current estimate, or `None` before the first sample: "no estimate yet" is not a
+    /// number. Before it is ready, `temp_c` is the newest reading and the rate is 0.
     #[must_use]
-    pub fn estimate(&self) -> Estimate {
+    pub fn estimate(&self) -> Option<Estimate> {
         if self.len == 0 {
-            return Estimate { temp_c: 0.0, rate_c_per_min: 0.0, ready: false };
+            return None;
         }
         if !self.ready() {
             let newest = self.raw[(self.head + self.len - 1) % N];
-            return Estimate {
+            return Some(Estimate {
                 temp_c: crate::ds18b20::raw_to_celsius(newest),
                 rate_c_per_min: 0.0,
                 ready: false,
-            };
+            });
         }
         let n = self.len as i64;
         let slope = self.slope_raw_per_ms();
         // T̂(t_new) = (Σy + slope·(n·t_new − Σt)) / n, the fitted line at the newest time.
         let lever = (n * self.newest_rel - self.s_t) as f32;
         let raw_fit = (self.s_y as f32 + slope * lever) / n as f32;
-        Estimate { temp_c: raw_fit * 0.0625, rate_c_per_min: self.smoothed, ready: true }
+        Some(Estimate { temp_c: raw_fit * 0.0625, rate_c_per_min: self.smoothed, ready: true })
     }
 }
 
@@ -285,7 +286,7 @@ mod tests {
         let mut e = RateEstimator::<32>::new(RateConfig::default());
         // 1 raw per second = 1/16 °C/s = 3.75 °C/min, exactly.
         ramp(&mut e, 1000, 100, 1000, 1);
-        let est = e.estimate();
+        let est = e.estimate().unwrap();
         assert!(est.ready);
         // Exact integer sums; only the final int→f32 conversions and one division round.
         assert!((est.rate_c_per_min - 3.75).abs() <= 2.0 * f32::EPSILON * 3.75, "{}", est.rate_c_per_min);
@@ -326,7 +327,7 @@ mod tests {
         let slope = sxy / sxx;
         let want_rate = slope * 3750.0;
         let want_t = (my + slope * (w[15].0 as f64 - mt)) / 16.0;
-        let got = e.estimate();
+        let got = e.estimate().unwrap();
         assert!((f64::from(got.rate_c_per_min) - want_rate).abs() < 1e-5 * want_rate.abs().max(1.0));
         assert!((f64::from(got.temp_c) - want_t).abs() < 1e-5);
     }
@@ -346,10 +347,20 @@ mod tests {
         let mut e = RateEstimator::<32>::new(RateConfig::default());
         ramp(&mut e, 0, 20, 1000, 1);
         assert_eq!(e.push(19_000 + 31_000, 400), Ok(Accepted::Restarted));
-        let est = e.estimate();
+        let est = e.estimate().unwrap();
         assert!(!est.ready);
         assert_eq!(est.temp_c, 25.0);
         assert_eq!(est.rate_c_per_min, 0.0);
+    }
+
+    #[test]
+    fn no_estimate_before_the_first_sample() {
+        let mut e = RateEstimator::<32>::new(RateConfig::default());
+        assert_eq!(e.estimate(), None);
+        e.push(0, 0).unwrap();
+        assert_eq!(e.estimate().map(|x| x.temp_c), Some(0.0), "a real 0 °C reading");
+        e.reset();
+        assert_eq!(e.estimate(), None);
     }
 
     #[test]

@@ -28,7 +28,7 @@ pub const TRUE_G: [f64; 3] = [0.02, -0.01, 1.0];
 pub const REPORT_EVERY_S: u32 = 30;
 
 fn flags(out: &mut dyn Write, s: Status) -> fmt::Result {
-    const NAMES: [(u16, &str); 7] = [
+    const NAMES: [(Status, &str); 8] = [
         (Status::TEMP_STALE, "stale"),
         (Status::TEMP_INVALID, "invalid"),
         (Status::RATE_NOT_READY, "rate-not-ready"),
@@ -36,8 +36,9 @@ fn flags(out: &mut dyn Write, s: Status) -> fmt::Result {
         (Status::RATE_OUT_OF_RANGE, "rate-out-of-range"),
         (Status::NO_TABLE, "no-table"),
         (Status::NO_COUNTER_BASE, "no-counter-base"),
+        (Status::COEFFS_RACED, "coeffs-raced"),
     ];
-    write!(out, "{:#06x}", s.0)?;
+    write!(out, "{:#06x}", s.bits())?;
     if s.is_ok() {
         return out.write_str(" ok");
     }
@@ -57,7 +58,7 @@ pub fn run(out: &mut dyn Write) -> fmt::Result {
     let table = fixtures::table(Extensions::default(), false, 32);
     let mut buf = [0u8; MAX_TABLE_BYTES];
     let bytes = fixtures::encode(&table, &mut buf).map_err(|_| fmt::Error)?;
-    let mut comp = Compensator::<3, 32>::new(Config::default());
+    let mut comp = Compensator::<3, 32>::new(Config::default()).map_err(|_| fmt::Error)?;
     comp.load_table(bytes).map_err(|_| fmt::Error)?;
     writeln!(
         out,
@@ -78,7 +79,7 @@ pub fn run(out: &mut dyn Write) -> fmt::Result {
     let mut carry = [0.0f64; 3];
     let mut dv_sum = [0.0f64; 3];
     let mut pulse_sum = [0i64; 3];
-    let mut status = Status(0);
+    let mut status = Status::empty();
     let rate_true = RAMP_C_PER_MIN as f32;
 
     for cycle in 0..DURATION_S * IMU_HZ {
@@ -112,7 +113,7 @@ pub fn run(out: &mut dyn Write) -> fmt::Result {
         let next = cycle + 1;
         if next % (REPORT_EVERY_S * IMU_HZ) == 0 {
             let span = f64::from(REPORT_EVERY_S);
-            let est = comp.estimate();
+            let est = comp.estimate().ok_or(fmt::Error)?;
             write!(out, "{:>4} s {:>6.2} °C {:>+6.3} °C/min [", next / IMU_HZ, est.temp_c, est.rate_c_per_min)?;
             let a: [f64; 3] = core::array::from_fn(|i| dv_sum[i] / span / f64::from(G0));
             for x in a {

@@ -55,7 +55,7 @@ pub fn stream_table() -> Vec<u8> {
 /// reading is flagged stale; after a good reading it is not.
 pub fn compensator_stream(data: &[u8]) {
     let good_table = stream_table();
-    let mut c = Compensator::<3, 32>::new(Config::default());
+    let mut c = Compensator::<3, 32>::new(Config::default()).expect("the default config is valid");
     let stale_after = u64::from(c.config().stale_after_ticks);
     let mut since_good: u64 = u64::from(u32::MAX);
     let mut t_ms: u32 = u32::from_le_bytes([data.first().copied().unwrap_or(0), 0, 0, 0x80]);

@@ -10,7 +10,6 @@
 
 use std::collections::VecDeque;
 
-use qfa_thermal::compensator::Status;
 use qfa_thermal::model::AxisModel;
 use qfa_thermal::table::Table;
 
@@ -23,6 +22,27 @@ const MAX_GAP_MS: i64 = 30_000;
 const MAX_STEP: i64 = 16;
 const MAX_SLEW_PER_MIN: i64 = 160;
 const CONFIRM: u32 = 3;
+/// `Config::default().nominal_k1`: the pass-through scale with no table, pulses/(g·s).
+const NOMINAL_K1: f64 = 320_000.0;
+
+/// Status bits, spelled from the documented flag list rather than imported.
+pub mod flag {
+    /// No fresh temperature.
+    pub const TEMP_STALE: u16 = 1 << 0;
+    /// Latest reading rejected.
+    pub const TEMP_INVALID: u16 = 1 << 1;
+    /// Rate not ready.
+    pub const RATE_NOT_READY: u16 = 1 << 2;
+    /// Temperature clamped.
+    pub const TEMP_OUT_OF_RANGE: u16 = 1 << 3;
+    /// Rate clamped.
+    pub const RATE_OUT_OF_RANGE: u16 = 1 << 4;
+    /// No table.
+    pub const NO_TABLE: u16 = 1 << 5;
+    /// No counter base.
+    pub const NO_COUNTER_BASE: u16 = 1 << 6;
+}
+use flag as Status;
 
 /// Result codes, spelled independently of `qfa_replay`'s mapping.
 pub mod code {
@@ -101,7 +121,8 @@ pub struct Reference {
     status: u16,
     since: u64,
     last_good: Option<(i64, i64)>,
-    pending: Option<(i64, i64)>,
+    /// (absolute ms, raw) of the last rejected reading that may start a confirmed restart.
+    pending: Option<(u32, i64)>,
     pending_n: u32,
     counters: Option<[u32; 3]>,
 }
@@ -315,6 +336,21 @@ impl Reference {
         MAX_STEP + MAX_SLEW_PER_MIN * (to_t - from_t) / 60_000
     }
 
+    /// Count a rejected reading towards a confirmed restart: consecutive rejected readings,
+    /// each later than the previous and within its step/slew allowance.
+    fn confirm(&mut self, t_ms: u32, raw: i64) -> bool {
+        let consistent = match self.pending {
+            Some((pt, praw)) => {
+                let d = t_ms.wrapping_sub(pt);
+                d != 0 && d < (1 << 31) - 1 && (raw - praw).abs() <= Self::allowed(0, i64::from(d))
+            }
+            None => false,
+        };
+        self.pending_n = if consistent { self.pending_n + 1 } else { 1 };
+        self.pending = Some((t_ms, raw));
+        self.pending_n >= CONFIRM
+    }
+
     /// A scratchpad read at `t_ms`.
     pub fn scratchpad(&mut self, t_ms: u32, sp: &[u8; 9]) -> Predicted {
         match decode(sp) {
@@ -326,6 +362,7 @@ impl Reference {
     /// A raw reading at `t_ms`.
     pub fn raw(&mut self, t_ms: u32, raw: i64) -> Predicted {
         let mut restart = false;
+        let mut clock_restart = false;
         let t;
         match self.last_good {
             None => {
@@ -337,23 +374,25 @@ impl Reference {
             Some((lt, lraw)) => {
                 let d = t_ms.wrapping_sub(self.last_abs);
                 if d == 0 || d >= 1 << 31 {
-                    return self.reject(code::TIME);
-                }
-                t = lt + i64::from(d);
-                if (raw - lraw).abs() > Self::allowed(lt, t) {
-                    if raw == 0x0550 {
-                        return self.reject(code::POWER_ON_JUMP);
-                    }
-                    let consistent = match self.pending {
-                        Some((pt, praw)) => t > pt && (raw - praw).abs() <= Self::allowed(pt, t),
-                        None => false,
-                    };
-                    self.pending_n = if consistent { self.pending_n + 1 } else { 1 };
-                    self.pending = Some((t, raw));
-                    if self.pending_n < CONFIRM {
-                        return self.reject(code::IMPLAUSIBLE);
+                    // Backwards or too far: a restarted clock once CONFIRM readings agree.
+                    if raw == 0x0550 || !self.confirm(t_ms, raw) {
+                        return self.reject(code::TIME);
                     }
                     restart = true;
+                    clock_restart = true;
+                    // The window restarts, so only differences from here on matter.
+                    t = lt + 1;
+                } else {
+                    t = lt + i64::from(d);
+                    if (raw - lraw).abs() > Self::allowed(lt, t) {
+                        if raw == 0x0550 {
+                            return self.reject(code::POWER_ON_JUMP);
+                        }
+                        if !self.confirm(t_ms, raw) {
+                            return self.reject(code::IMPLAUSIBLE);
+                        }
+                        restart = true;
+                    }
                 }
             }
         }
@@ -371,7 +410,11 @@ impl Reference {
         self.last_abs = t_ms;
         self.last_unwrapped = t;
         self.since = 0;
-        self.refresh(prev.map_or(0.0, |p| (t - p) as f64 / 1000.0));
+        let dt = match prev {
+            Some(p) if !clock_restart => (t - p) as f64 / 1000.0,
+            _ => 0.0,
+        };
+        self.refresh(dt);
         let (temp, rate, _) = self.estimate();
         Predicted::SampleOk { status: self.status, temp, rate, k1: self.k1, k0: self.k0 }
     }
@@ -381,10 +424,12 @@ impl Reference {
         self.since = (self.since + u64::from(dt)).min(u64::from(u32::MAX));
         let stale = if self.since > STALE_AFTER { Status::TEMP_STALE } else { 0 };
         let mut dv = [0.0; 3];
-        if self.table.is_some() {
-            for i in 0..3 {
-                dv[i] = pulses[i] as f64 * G0 / self.k1[i] - self.k0[i] * G0 * TICK_S * f64::from(dt);
-            }
+        for i in 0..3 {
+            dv[i] = if self.table.is_some() {
+                pulses[i] as f64 * G0 / self.k1[i] - self.k0[i] * G0 * TICK_S * f64::from(dt)
+            } else {
+                pulses[i] as f64 * G0 / NOMINAL_K1
+            };
         }
         if let Some(m) = self.table.as_ref().and_then(|t| t.misalignment) {
             let raw = dv;
@@ -393,6 +438,27 @@ impl Reference {
             }
         }
         Predicted::Cycle { status: self.status | stale, dv }
+    }
+
+    /// An IMU cycle of MEMS samples: `a = raw·g0/K1 − K0·g0`, m/s².
+    pub fn samples(&mut self, raw: [i64; 3], dt: u32) -> Predicted {
+        self.since = (self.since + u64::from(dt)).min(u64::from(u32::MAX));
+        let stale = if self.since > STALE_AFTER { Status::TEMP_STALE } else { 0 };
+        let mut a = [0.0; 3];
+        for i in 0..3 {
+            a[i] = if self.table.is_some() {
+                raw[i] as f64 * G0 / self.k1[i] - self.k0[i] * G0
+            } else {
+                raw[i] as f64 * G0 / NOMINAL_K1
+            };
+        }
+        if let Some(m) = self.table.as_ref().and_then(|t| t.misalignment) {
+            let v = a;
+            for (r, out) in a.iter_mut().enumerate() {
+                *out = (0..3).map(|c| f64::from(m[r * 3 + c]) * v[c]).sum();
+            }
+        }
+        Predicted::Cycle { status: self.status | stale, dv: a }
     }
 
     /// An IMU cycle from wrapping cumulative counters.

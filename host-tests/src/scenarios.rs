@@ -121,6 +121,11 @@ pub fn profile_events(lines: &mut Vec<String>, rng: &mut Lcg, unit: usize, t_sta
                 .map(|a| (k1 * (1.2e-4 + a) * f64::from(dt) * 1e-6 + rng.uniform() - 0.5).round() as i32)
                 .collect();
             lines.push(format!("cycle {dt} {} {} {}", n[0], n[1], n[2]));
+            // The same unit read as MEMS samples: raw = K1·(K0 + a) LSB, one 1 kHz sample,
+            // with a fixed dither (not the rng, so the other lines keep their values).
+            let dither = f64::from((k * 7919) % 17) / 17.0 - 0.5;
+            let s: Vec<i32> = inputs_g.iter().map(|a| (k1 * (1.2e-4 + a) + 8.0 * dither).round() as i32).collect();
+            lines.push(format!("samp 1000 {} {} {}", s[0], s[1], s[2]));
         }
     }
 }
@@ -186,11 +191,12 @@ pub fn all() -> Vec<(&'static str, Vec<String>)> {
 #[must_use]
 pub fn faults() -> Vec<String> {
     let mut l = Vec::new();
-    header(&mut l, "faults: no table, corrupted tables, bad scratchpads, power-on value, spikes, time faults, dropout, clamps, counters");
+    header(&mut l, "faults: no table, corrupted tables, bad scratchpads, power-on value, spikes, time faults, dropout, clamps, counters, clock restart");
     let good = table(0, [Extensions::default(); 3], None);
     let good_hex = table_hex(&good);
-    l.push("# no table yet: zero output, NO_TABLE|STALE|RATE_NOT_READY".into());
+    l.push("# no table yet: raw counts at the nominal scale, NO_TABLE|STALE|RATE_NOT_READY".into());
     l.push("cycle 2500 800 -400 200".into());
+    l.push("samp 1000 320000 -160000 80000".into());
     l.push("# one flipped payload bit: CRC error, still no table".into());
     let mut bytes: Vec<u8> = (0..good_hex.len() / 2).map(|i| u8::from_str_radix(&good_hex[2 * i..2 * i + 2], 16).unwrap()).collect();
     bytes[HEADER_LEN + 5] ^= 0x10;
@@ -289,5 +295,10 @@ pub fn faults() -> Vec<String> {
     l.push("count 2500 4294966000 100 7".into());
     l.push("count 2500 4294966800 4294967000 207".into());
     l.push("count 2500 504 4294966600 407".into());
+    l.push("# the clock restarts (a reset time source): refused until three readings agree".into());
+    for k in 0..4u32 {
+        l.push(format!("raw {} 436", 5_000 + 1000 * k));
+    }
+    l.push("samp 1000 320000 -160000 80000".into());
     l
 }

@@ -112,7 +112,7 @@ fn driver_and_compensator_come_through_every_fault() {
     let mut sensor = Ds18b20::single().with_retries(1);
     sensor.set_resolution(&mut bus, Resolution::Bits12).unwrap();
 
-    let mut comp = Compensator::<3, 32>::new(Config::default());
+    let mut comp = Compensator::<3, 32>::new(Config::default()).expect("the default config is valid");
     comp.load_table(&stream_table()).unwrap();
     let stale_after_us = u64::from(comp.config().stale_after_ticks); // 1 tick = 1 µs
     let probe = |c: &Compensator<3, 32>| c.clone().cycle(PROBE, 2_500).dv_mps;
@@ -224,7 +224,7 @@ fn driver_and_compensator_come_through_every_fault() {
                                     ev.true_readings_during += 1;
                                     let t_done = u64::from(s.completed_us);
                                     last_good_us = Some(t_done);
-                                    let est = comp.estimate();
+                                    let est = comp.estimate().expect("a good reading leaves an estimate");
                                     let err = (f64::from(est.temp_c) - truth_c(t_done)).abs();
                                     max_err_c = max_err_c.max(err);
                                     assert!(err <= TOL_C, "estimate {} °C vs truth {:.4} °C at {t_done} µs", est.temp_c, truth_c(t_done));

@@ -8,7 +8,8 @@
 //! * K1: 2e-6 relative (≈ 0.6 pulse/(g·s) on 3.2·10⁵): f32 has 24 bits, Eq. 11 adds terms
 //!   up to 10³ to γ ≈ 3.2·10⁵ (ulp 0.03) and Ṫ enters through ε ≈ 88.
 //! * K0: 2e-9 g + 1e-5 relative (0.002 µg): the lag/play/creep states accumulate f32 rounding.
-//! * Δv: 3e-6 relative + 1e-9 m/s: one pulse count times `g0/K1` and the bias term.
+//! * Δv and sample-mode a: 3e-6 relative + 1e-9 m/s (m/s²): one count times `g0/K1` and
+//!   the bias term.
 
 use host_tests::reference::{Predicted, Reference};
 use qfa_replay::{replay, Kind, FILES};
@@ -29,6 +30,10 @@ fn predict(r: &mut Reference, kind: Kind, input: &str) -> Predicted {
         Kind::Raw => r.raw(tok[1].parse().unwrap(), tok[2].parse().unwrap()),
         Kind::Scratchpad => r.scratchpad(tok[1].parse().unwrap(), &hexbytes(tok[2]).try_into().unwrap()),
         Kind::Cycle => r.cycle(
+            [tok[2].parse().unwrap(), tok[3].parse().unwrap(), tok[4].parse().unwrap()],
+            tok[1].parse().unwrap(),
+        ),
+        Kind::Samples => r.samples(
             [tok[2].parse().unwrap(), tok[3].parse().unwrap(), tok[4].parse().unwrap()],
             tok[1].parse().unwrap(),
         ),
@@ -115,11 +120,18 @@ fn vectors_cover_every_fault_kind_and_flag() {
                 Kind::Raw | Kind::Scratchpad | Kind::Table if s.computed[0] != 0 => {
                     codes.insert(s.computed[0]);
                 }
-                Kind::Cycle | Kind::Counters => flags |= s.computed[0],
+                Kind::Cycle | Kind::Counters | Kind::Samples => flags |= s.computed[0],
                 _ => {}
             }
         })
         .unwrap();
+    }
+    let kinds: std::collections::BTreeSet<_> = FILES
+        .iter()
+        .flat_map(|(_, t)| t.lines().filter_map(|l| l.split_ascii_whitespace().next()))
+        .collect();
+    for k in ["table", "raw", "sp", "cycle", "count", "samp"] {
+        assert!(kinds.contains(k), "no `{k}` line in the vectors");
     }
     for c in [0x11, 0x12, 0x13, 0x14, 0x15, 0x16, 0x21, 0x22, 0x23, 0x31, 0x35, 0x38] {
         assert!(codes.contains(&c), "error code {c:#x} not covered: {codes:x?}");
@@ -133,6 +145,6 @@ fn vectors_cover_every_fault_kind_and_flag() {
         Status::NO_TABLE,
         Status::NO_COUNTER_BASE,
     ] {
-        assert!(flags & u32::from(f) != 0, "status bit {f:#x} never reaches the fast path");
+        assert!(flags & u32::from(f.bits()) != 0, "status bit {f:?} never reaches the fast path");
     }
 }

@@ -30,7 +30,7 @@ pub struct Compensated {
 /// # Errors
 /// The table does not load into a `Compensator<1, 32>`.
 pub fn compensate_run(table: &Table, run: &Run) -> Result<Compensated, qfa_thermal::table::Error> {
-    let mut c = Compensator::<1, RATE_WINDOW>::new(Config::default());
+    let mut c = Compensator::<1, RATE_WINDOW>::new(Config::default()).expect("the default config is valid");
     c.set_table(table.clone())?;
     let tick_s = f64::from(c.config().tick_s);
     let mut out = Compensated {
@@ -48,7 +48,7 @@ pub fn compensate_run(table: &Table, run: &Run) -> Result<Compensated, qfa_therm
         let ticks = (s.interval_s / tick_s).round() as u32;
         let o = c.cycle([s.pulses as i32], ticks);
         out.accel_g.push(f64::from(o.dv_mps[0]) / (f64::from(G0) * s.interval_s));
-        out.status.push(o.status.0);
+        out.status.push(o.status.bits());
     }
     Ok(out)
 }
@@ -77,5 +77,5 @@ pub fn compensate_log(
 /// Whether a status word means "no temperature-based compensation yet".
 #[must_use]
 pub fn not_compensated(status: u16) -> bool {
-    Status(status).contains(Status::NO_TABLE) || Status(status).contains(Status::TEMP_STALE)
+    Status::from_bits_retain(status).intersects(Status::NO_TABLE | Status::TEMP_STALE)
 }

@@ -511,7 +511,7 @@ pub fn fly_with_faults(sc: &Scenario, tables: [&Table; 3], sets: &[(String, Faul
         bytes.push(t.encode(&mut buf).map_err(|e| anyhow::anyhow!("table: {e}"))?.to_vec());
     }
     let tb = [bytes[0].as_slice(), bytes[1].as_slice(), bytes[2].as_slice()];
-    let fresh = || -> [Compensator<1, 32>; 3] { core::array::from_fn(|_| Compensator::new(Config::default())) };
+    let fresh = || -> [Compensator<1, 32>; 3] { core::array::from_fn(|_| Compensator::new(Config::default()).expect("the default config is valid")) };
     let (clean, clean_log) = FaultyCompensation::new(fresh(), &FaultSet::none(), tb);
     anyhow::ensure!(clean_log.borrow().table_loaded, "a table was refused");
     let mut variants = vec![Variant { name: "clean".into(), comp: Box::new(clean) }];
@@ -632,7 +632,7 @@ mod tests {
     }
 
     fn comps() -> [Compensator<1, 32>; 3] {
-        core::array::from_fn(|_| Compensator::new(Config::default()))
+        core::array::from_fn(|_| Compensator::new(Config::default()).expect("the default config is valid"))
     }
 
     #[test]

@@ -69,7 +69,7 @@ pub fn trace_run(run: &Run, ext: &Extensions, deadband: f32) -> Trace {
             let raw = (t * 16.0).round() as i16;
             let t_ms = (s.time_s * 1000.0).round() as u32;
             if est.push(t_ms, raw).is_ok() {
-                let e = est.estimate();
+                let e = est.estimate().expect("a sample was just pushed");
                 let dt = last_ms.map_or(0.0, |p| t_ms.wrapping_sub(p) as f32 * 1e-3);
                 last_ms = Some(t_ms);
                 let ev = axis.evaluate(&mut st, e.temp_c, e.rate_c_per_min, dt);

@@ -18,7 +18,8 @@ mod target {
 
     #[entry]
     fn main() -> ! {
-        let mut c = Compensator::<3, 32>::new(black_box(Config::default()));
+        // A refused config is an error value, not a panic: park on it.
+        let Ok(mut c) = Compensator::<3, 32>::new(black_box(Config::default())) else { rt::exit(3) };
         let table: &[u8] = black_box(&TABLE_BYTES[..]);
         let _ = black_box(c.load_table(table));
         loop {
@@ -27,6 +28,12 @@ mod target {
             let _ = black_box(c.on_raw(black_box(0), black_box(0)));
             black_box(c.cycle(black_box([0; 3]), black_box(0)));
             black_box(c.cycle_counters(black_box([0; 3]), black_box(0)));
+            black_box(c.cycle_samples(black_box([0; 3]), black_box(0)));
+            {
+                let (mut up, mut ap) = c.split();
+                let _ = black_box(up.on_raw_from(black_box(0), black_box(0), black_box(0)));
+                black_box(ap.cycle(black_box([0; 3]), black_box(0)));
+            }
             c.prime_counters(black_box([0; 3]));
             if black_box(true) {
                 break;

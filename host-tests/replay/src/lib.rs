@@ -13,6 +13,7 @@
 //! sp    <t_ms> <18 hex digits>   => <result> <status> <T̂> <Ṫ> <K1 ×3> <K0 ×3>
 //! cycle <dt_ticks> <n0> <n1> <n2> => <status> <Δv0> <Δv1> <Δv2>
 //! count <dt_ticks> <c0> <c1> <c2> => <status> <Δv0> <Δv1> <Δv2>     (wrapping u32 counters)
+//! samp  <dt_ticks> <r0> <r1> <r2> => <status> <a0> <a1> <a2>        (MEMS samples, m/s²)
 //! ```
 //! `<result>` is 0 for success or an error code ([`sample_error_code`], [`table_error_code`]).
 //! Every file starts from `Compensator::<3, 32>::new(Config::default())`.
@@ -75,6 +76,8 @@ pub enum Kind {
     Cycle,
     /// IMU cycle with cumulative counters.
     Counters,
+    /// IMU cycle of MEMS samples.
+    Samples,
 }
 
 /// One replayed line: what was fed and what came out.
@@ -164,10 +167,15 @@ fn three<T: core::str::FromStr>(it: &mut core::str::SplitAsciiWhitespace<'_>) ->
 type Comp = Compensator<3, 32>;
 
 fn sample_words(comp: &Comp, result: Result<(), SampleError>, out: &mut heapless::Vec<u32, MAX_WORDS>) {
-    let status = u32::from(comp.status().0);
+    let status = u32::from(comp.status().bits());
     match result {
         Ok(()) => {
-            let est = comp.estimate();
+            // A good reading always leaves an estimate; none would be a bug, shown as a
+            // word no f32 result can have here (a NaN pattern is never a computed value).
+            let Some(est) = comp.estimate() else {
+                let _ = out.push(0xFFFF_FFFF);
+                return;
+            };
             let ev = comp.evaluations();
             let _ = out.push(0);
             let _ = out.push(status);
@@ -215,22 +223,18 @@ fn step(comp: &mut Comp, input: &str, out: &mut heapless::Vec<u32, MAX_WORDS>) -
             sample_words(comp, r, out);
             Kind::Scratchpad
         }
-        "cycle" | "count" => {
+        "cycle" | "count" | "samp" => {
             let dt: u32 = it.next()?.parse().ok()?;
-            let o = if kind == "cycle" {
-                comp.cycle(three::<i32>(&mut it)?, dt)
-            } else {
-                comp.cycle_counters(three::<u32>(&mut it)?, dt)
+            let (o, k) = match kind {
+                "cycle" => (comp.cycle(three::<i32>(&mut it)?, dt), Kind::Cycle),
+                "count" => (comp.cycle_counters(three::<u32>(&mut it)?, dt), Kind::Counters),
+                _ => (comp.cycle_samples(three::<i32>(&mut it)?, dt), Kind::Samples),
             };
-            let _ = out.push(u32::from(o.status.0));
+            let _ = out.push(u32::from(o.status.bits()));
             for v in o.dv_mps {
                 let _ = out.push(v.to_bits());
             }
-            if kind == "cycle" {
-                Kind::Cycle
-            } else {
-                Kind::Counters
-            }
+            k
         }
         _ => return None,
     };
@@ -251,7 +255,9 @@ pub fn replay(
     check: bool,
     visit: &mut dyn FnMut(Step<'_>),
 ) -> Result<usize, Error> {
-    let mut comp = Comp::new(Config::default());
+    let Ok(mut comp) = Comp::new(Config::default()) else {
+        return Err(Error::Parse { file, line: 0 });
+    };
     let mut count = 0;
     for (i, raw_line) in text.lines().enumerate() {
         let line = i as u32 + 1;

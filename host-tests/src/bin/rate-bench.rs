@@ -33,7 +33,7 @@ fn rms_error<const N: usize>(rate: f64, sigma_n: f64, trials: usize, rng: &mut L
             let raw = (temp / Q).round() as i16;
             e.push(1000 * k as u32 + 7, raw).expect("monotonic");
         }
-        let err = f64::from(e.estimate().rate_c_per_min) - rate;
+        let err = f64::from(e.estimate().expect("N samples pushed").rate_c_per_min) - rate;
         sum2 += err * err;
     }
     (sum2 / trials as f64).sqrt()
@@ -55,7 +55,7 @@ fn step_lag<const N: usize>() -> (usize, usize) {
             t += 1.0 / 60.0; // 1 °C/min after N samples of hold
         }
         e.push(1000 * k as u32, (t / Q).round() as i16).expect("monotonic");
-        let r = f64::from(e.estimate().rate_c_per_min);
+        let r = f64::from(e.estimate().expect("a sample was pushed").rate_c_per_min);
         if k >= N {
             if half == 0 && r >= 0.5 {
                 half = k - N + 1;

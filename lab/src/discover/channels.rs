@@ -77,7 +77,7 @@ impl Trace {
             if est.push(t_ms, raw).is_err() {
                 continue; // non-monotonic time: the firmware rejects it too
             }
-            let e = est.estimate();
+            let Some(e) = est.estimate() else { continue };
             time_s.push(t);
             temp_raw.push(raw);
             est_t.push(e.temp_c);

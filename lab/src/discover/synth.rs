@@ -179,7 +179,7 @@ fn program_rows(c: &SynthConfig, rate: f64, model: &AxisModel, rng: &mut Rng) ->
             let true_rate = if t > 0.0 { (case - prev_case) / c.dt_s * 60.0 } else { 0.0 };
             model.evaluate(&mut st, case as f32, true_rate as f32, dt)
         } else {
-            let es = est.estimate();
+            let es = est.estimate().expect("a sample was pushed before");
             model.evaluate(&mut st, es.temp_c, es.rate_c_per_min, dt)
         };
         out.push((t, reading, f64::from(e.k1), f64::from(e.k0)));

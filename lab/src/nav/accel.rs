@@ -111,7 +111,7 @@ impl TableCompensation {
     /// # Errors
     /// A table's validation error.
     pub fn new(tables: [&Table; 3]) -> anyhow::Result<Self> {
-        let mut comp: [Compensator<1, 32>; 3] = core::array::from_fn(|_| Compensator::new(compensator::Config::default()));
+        let mut comp: [Compensator<1, 32>; 3] = core::array::from_fn(|_| Compensator::new(compensator::Config::default()).expect("the default config is valid"));
         for (c, t) in comp.iter_mut().zip(tables) {
             c.set_table(t.clone()).map_err(|e| anyhow::anyhow!("table refused: {e}"))?;
         }
