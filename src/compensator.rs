@@ -783,6 +783,19 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
         }
     }
 
+    /// Sensor `sensor`'s current estimate; `None` before its first good reading or for an
+    /// index ≥ `SENSORS`.
+    #[must_use]
+    pub fn estimate_of(&self, sensor: usize) -> Option<Estimate> {
+        self.slow.streams.get(sensor).and_then(|s| s.rate.estimate())
+    }
+
+    /// Status as of the last slow-path call.
+    #[must_use]
+    pub const fn status(&self) -> Status {
+        self.slow.set.status
+    }
+
     /// Validate and activate a table: see [`Compensator::set_table`].
     ///
     /// # Errors

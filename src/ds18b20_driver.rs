@@ -49,20 +49,31 @@
 //! Pass the raw scratchpad, so the compensator applies its own checks (such as a
 //! 0550h that arrives as a jump):
 //!
+//! The compensator's time base is wrapping `u32` milliseconds ([`crate::time`]). Convert
+//! the µs timestamp with one [`MsClock`](crate::time::MsClock) for the whole system, never
+//! with `completed_us / 1000`, which jumps back to 0 every 71.6 min when the µs clock
+//! wraps:
+//!
 //! ```text
+//! let mut clock = MsClock::new();            // one for every sensor
 //! sensor.start(&mut bus, now_us())?;
 //! // ... IMU cycles run; each scheduler tick:
 //! if sensor.is_ready(&mut bus, now_us())? {
 //!     match sensor.read(&mut bus) {
-//!         Ok(s) => { let status = comp.on_scratchpad(s.completed_us / 1000, &s.scratchpad)?; }
+//!         Ok(s) => {
+//!             let t_ms = clock.ms(s.completed_us);
+//!             let status = updater.on_scratchpad_from(axis, t_ms, &s.scratchpad)?;
+//!         }
 //!         Err(e) => { /* typed error: count it, restart the conversion */ }
 //!     }
 //!     sensor.start(&mut bus, now_us())?;
 //! }
 //! ```
 //!
-//! `comp.on_raw(s.completed_us / 1000, s.reading.raw)` is the path for an already
-//! validated reading; both return the compensator's own `Result`.
+//! `updater.on_raw_from(axis, t_ms, s.reading.raw)` is the path for an already
+//! validated reading; both return the compensator's own `Result`. The soak benchmark
+//! (`cargo run --release -p host-tests --bin soak -- --hours 1200`) runs this recipe
+//! across 1 200 simulated hours, past the ms wrap.
 //!
 //! # Flash
 //!

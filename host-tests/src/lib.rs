@@ -4,3 +4,4 @@ pub mod fuzzing;
 pub mod onewire_sim;
 pub mod reference;
 pub mod scenarios;
+pub mod soak;

@@ -117,6 +117,7 @@ fn driver_and_compensator_come_through_every_fault() {
     let stale_after_us = u64::from(comp.config().stale_after_ticks); // 1 tick = 1 µs
     let probe = |c: &Compensator<3, 32>| c.clone().cycle(PROBE, 2_500).dv_mps;
 
+    let mut clock = qfa_thermal::time::MsClock::new();
     let mut app = App::Idle { at_us: 0 };
     let mut last_cycle_ns = sim.now_ns();
     let mut last_good_us: Option<u64> = None;
@@ -216,7 +217,7 @@ fn driver_and_compensator_come_through_every_fault() {
                             // Never a wrong temperature from the driver: exactly what the device measured.
                             assert_eq!(s.reading.raw, measured, "driver returned a value the sensor did not measure");
                             spike_pending = false;
-                            let t_ms = s.completed_us / 1000;
+                            let t_ms = clock.ms(s.completed_us);
                             match comp.on_scratchpad(t_ms, &s.scratchpad) {
                                 Ok(_) => {
                                     assert_ne!(measured, truth_raw(now_us) + 48, "a spike was accepted");
