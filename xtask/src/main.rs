@@ -353,6 +353,7 @@ fn bench_target() -> Result {
     for name in [
         "fast_path_insns_3axis",
         "fast_path_insns_3axis_misalign",
+        "fast_path_samples_insns_3axis",
         "slow_path_insns_3axis_all_off",
         "slow_path_insns_3axis_all_on",
         "core_ram_bytes",

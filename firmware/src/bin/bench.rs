@@ -106,14 +106,45 @@ mod target {
             black_box(black_box(DT));
             black_box(Output { dv_mps: black_box([0.0f32; 3]), status: Status::from_bits_retain(black_box(0)) });
         });
+        // The fast path is measured through the split applier, as the IMU interrupt runs it.
         let mut c = compensator(Extensions::default(), false);
+        let (_, mut ap) = c.split();
         let fast = time_calls(|_| {
-            black_box(black_box(&mut c).cycle(black_box(PULSES), black_box(DT)));
+            black_box(black_box(&mut ap).cycle(black_box(PULSES), black_box(DT)));
+        });
+        let fast_s = time_calls(|_| {
+            black_box(black_box(&mut ap).cycle_samples(black_box(PULSES), black_box(DT)));
         });
         let mut c = compensator(Extensions::default(), true);
+        let (_, mut ap) = c.split();
         let fast_m = time_calls(|_| {
-            black_box(black_box(&mut c).cycle(black_box(PULSES), black_box(DT)));
+            black_box(black_box(&mut ap).cycle(black_box(PULSES), black_box(DT)));
         });
+
+        // The creep slot's exp: libm against micromath, over its argument range −dt/τ for
+        // dt = 1 s and τ ≥ 1 s, i.e. [−1, 0).
+        let arg = |k: u32| -((k & 1023) as f32 + 0.5) / 1024.0;
+        let exp_empty = time_calls(|k| {
+            black_box(black_box(arg(k)));
+        });
+        let exp_libm = time_calls(|k| {
+            black_box(libm::expf(black_box(arg(k))));
+        });
+        let exp_mm = time_calls(|k| {
+            black_box(micromath::F32(black_box(arg(k))).exp().0);
+        });
+        let mut exp_err = 0.0f64;
+        for k in 0..1024 {
+            let x = arg(k);
+            let want = libm::exp(f64::from(x));
+            exp_err = exp_err.max(((f64::from(micromath::F32(x).exp().0) - want) / want).abs());
+        }
+        let mut libm_err = 0.0f64;
+        for k in 0..1024 {
+            let x = arg(k);
+            let want = libm::exp(f64::from(x));
+            libm_err = libm_err.max(((f64::from(libm::expf(x)) - want) / want).abs());
+        }
 
         let slow_empty = time_calls(|k| {
             let (t, raw) = sample(k + 64);
@@ -138,12 +169,29 @@ mod target {
         let _ = writeln!(out, "insns_per_systick_tick={ipt:.4}");
         let _ = writeln!(out, "fast_path_insns_3axis={:.1}", per_call(fast, fast_empty, ipt));
         let _ = writeln!(out, "fast_path_insns_3axis_misalign={:.1}", per_call(fast_m, fast_empty, ipt));
+        let _ = writeln!(out, "fast_path_samples_insns_3axis={:.1}", per_call(fast_s, fast_empty, ipt));
+        let _ = writeln!(out, "expf_libm_insns={:.1}", per_call(exp_libm, exp_empty, ipt));
+        let _ = writeln!(out, "expf_micromath_insns={:.1}", per_call(exp_mm, exp_empty, ipt));
+        let _ = writeln!(out, "expf_libm_max_rel_err={libm_err:.2e}");
+        let _ = writeln!(out, "expf_micromath_max_rel_err={exp_err:.2e}");
         let _ = writeln!(out, "slow_path_insns_3axis_all_off={:.1}", per_call(slow_off, slow_empty, ipt));
         let _ = writeln!(out, "slow_path_insns_3axis_all_on={:.1}", per_call(slow_on, slow_empty, ipt));
         let _ = writeln!(out, "slow_path_status_all_off={:#06x}", off_status.0);
         let _ = writeln!(out, "slow_path_status_all_on={:#06x}", on_status.0);
-        // The core has no statics: its RAM is the compensator it is given.
-        let _ = writeln!(out, "core_ram_bytes={}", core::mem::size_of::<Compensator<3, 32>>());
+        // The core has no statics: its RAM is the compensator it is given. The recommended
+        // configuration: one sensor per axis, the table in flash (`&'static Table`).
+        let _ = writeln!(
+            out,
+            "core_ram_bytes={}",
+            core::mem::size_of::<Compensator<3, 32, 3, &'static qfa_thermal::Table>>()
+        );
+        let _ = writeln!(
+            out,
+            "core_ram_bytes_one_sensor={}",
+            core::mem::size_of::<Compensator<3, 32, 1, &'static qfa_thermal::Table>>()
+        );
+        let _ = writeln!(out, "core_ram_bytes_table_in_ram={}", core::mem::size_of::<Compensator<3, 32, 3>>());
+        let _ = writeln!(out, "core_ram_published_bytes={}", core::mem::size_of::<qfa_thermal::Published<3>>());
         // Of which: the active table's copy and the rate estimator's window.
         let _ = writeln!(out, "core_ram_table_bytes={}", core::mem::size_of::<Option<qfa_thermal::Table>>());
         let _ = writeln!(out, "core_ram_rate_bytes={}", core::mem::size_of::<qfa_thermal::rate::RateEstimator<32>>());
