@@ -16,14 +16,16 @@
 //! an [`Applier`] (fast path, the IMU interrupt). They share only a [`Published`]
 //! coefficient set: two buffers of atomics and a sequence number. The updater writes the
 //! inactive buffer, then flips the sequence with a release store; the applier reads the
-//! sequence, the buffer it names, and the sequence again. The applier never blocks and never
-//! waits: on one core, with the applier in an interrupt that preempts the updater (the
-//! usual wiring), the buffer it reads is never being written, so the re-check can never
-//! fail. If the contract is broken (the updater preempts the applier, or runs on another
-//! core, and publishes twice during one read), the applier retries at most
-//! [`Applier::MAX_READS`] times and then flags [`Status::COEFFS_RACED`]: never a silent
-//! half-written set. Only 32-bit atomic loads and stores are used, which every Cortex-M
-//! has (no compare-and-swap, so no `portable-atomic` is needed).
+//! sequence (acquire) and the buffer it names. The applier never blocks and never waits.
+//! Contract: the updater never preempts the applier (the usual wiring: the applier in the
+//! IMU interrupt, the updater in thread mode or a lower-priority task, on one core). Then
+//! the buffer being read is never the one being written, so no set is ever seen half
+//! written; `compensator::tests::reader_preempting_the_writer_at_every_store_sees_whole_sets`
+//! runs the reader after every single store of a publication and checks it. A seqlock
+//! re-check would also cover an updater that preempts the applier, but it costs 6 of the
+//! fast path's 40-instruction budget for a wiring this crate documents against. Only
+//! 32-bit atomic loads and stores are used, which every Cortex-M has (no compare-and-swap,
+//! so no `portable-atomic` is needed).
 //!
 //! # Sensors
 //! `SENSORS` is 1 (one temperature stream for every axis) or `AXES` (one DS18B20 per
@@ -68,9 +70,6 @@ bitflags::bitflags! {
         const NO_TABLE = 1 << 5;
         /// Cumulative counters had no previous value: increments of this cycle are zero.
         const NO_COUNTER_BASE = 1 << 6;
-        /// The updater published repeatedly while the applier read (split contract broken):
-        /// the output of this cycle may mix two coefficient sets.
-        const COEFFS_RACED = 1 << 7;
     }
 }
 
@@ -274,46 +273,29 @@ pub struct Output<const AXES: usize> {
     pub status: Status,
 }
 
-/// One coefficient buffer: f32 values as atomic bit patterns.
+/// Flag in a published flags word: the set has a misalignment matrix.
+const HAS_MISALIGN: u32 = 1 << 16;
+/// The good-sample count sits in the flags word's top bits (wrapping), so one word carries
+/// status, misalignment and freshness.
+const COUNT_SHIFT: u32 = 17;
+
+/// The coefficient set shared by an [`Updater`] and an [`Applier`], behind a sequence
+/// number (a seqlock): odd while the updater writes, even when the set is whole.
+/// Const-constructible, so it can live in a `static`. 80 bytes for 3 axes.
 #[derive(Debug)]
-struct Coeffs<const AXES: usize> {
+pub struct Published<const AXES: usize> {
+    /// Odd while a publication is being written; +2 per publication.
+    seq: AtomicU32,
     /// g0/K1, m/s per pulse (m/s² per LSB for samples).
     scale: [AtomicU32; AXES],
     /// K0·g0·tick, m/s per tick.
     bias_tick: [AtomicU32; AXES],
     /// K0·g0, m/s².
     bias_acc: [AtomicU32; AXES],
-    /// Row-major misalignment matrix (valid when `flags` has [`HAS_MISALIGN`]).
+    /// Row-major misalignment matrix (valid when the flags have [`HAS_MISALIGN`]).
     misalign: [[AtomicU32; AXES]; AXES],
-    /// Status bits (low 16) and [`HAS_MISALIGN`].
+    /// Status bits (low 16), [`HAS_MISALIGN`], good-sample count from [`COUNT_SHIFT`] up.
     flags: AtomicU32,
-}
-
-const HAS_MISALIGN: u32 = 1 << 16;
-
-impl<const AXES: usize> Coeffs<AXES> {
-    const fn new() -> Self {
-        Self {
-            scale: [const { AtomicU32::new(0) }; AXES],
-            bias_tick: [const { AtomicU32::new(0) }; AXES],
-            bias_acc: [const { AtomicU32::new(0) }; AXES],
-            misalign: [const { [const { AtomicU32::new(0) }; AXES] }; AXES],
-            flags: AtomicU32::new(0),
-        }
-    }
-}
-
-/// The coefficient set shared by an [`Updater`] and an [`Applier`]: a double buffer of
-/// atomics, a publication sequence number and a good-sample counter. Const-constructible,
-/// so it can live in a `static`.
-#[derive(Debug)]
-pub struct Published<const AXES: usize> {
-    /// Publications so far; buffer `seq & 1` is the active one.
-    seq: AtomicU32,
-    /// Good temperature samples so far (any sensor): the applier's staleness clock resets
-    /// when it changes.
-    samples: AtomicU32,
-    bufs: [Coeffs<AXES>; 2],
 }
 
 impl<const AXES: usize> Default for Published<AXES> {
@@ -322,7 +304,8 @@ impl<const AXES: usize> Default for Published<AXES> {
     }
 }
 
-/// A plain copy of one coefficient set (the updater's working copy).
+/// One coefficient set as plain values: built by the updater at each publication, and
+/// the applier's own copy of the last whole set it read.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Set<const AXES: usize> {
     scale: [f32; AXES],
@@ -332,32 +315,47 @@ struct Set<const AXES: usize> {
     status: Status,
 }
 
+impl<const AXES: usize> Set<AXES> {
+    const EMPTY: Self =
+        Self { scale: [0.0; AXES], bias_tick: [0.0; AXES], bias_acc: [0.0; AXES], misalign: None, status: Status::empty() };
+}
+
 impl<const AXES: usize> Published<AXES> {
     /// Empty: every coefficient zero and no status until the first publication (the
     /// compensator publishes at construction).
     #[must_use]
     pub const fn new() -> Self {
-        Self { seq: AtomicU32::new(0), samples: AtomicU32::new(0), bufs: [Coeffs::new(), Coeffs::new()] }
+        Self {
+            seq: AtomicU32::new(0),
+            scale: [const { AtomicU32::new(0) }; AXES],
+            bias_tick: [const { AtomicU32::new(0) }; AXES],
+            bias_acc: [const { AtomicU32::new(0) }; AXES],
+            misalign: [const { [const { AtomicU32::new(0) }; AXES] }; AXES],
+            flags: AtomicU32::new(0),
+        }
     }
 
-    /// Write `set` into the inactive buffer and make it active. `after_store` runs after
-    /// every single store (a test hook that preempts the writer there; a no-op closure
-    /// otherwise). Only the updater calls this.
+    /// Write `set` (seqlock writer). `after_store` runs after every single store (a test
+    /// hook that preempts the writer there; a no-op closure otherwise). Only the updater
+    /// calls this.
     fn publish_with(&self, set: &Set<AXES>, good_sample: bool, mut after_store: impl FnMut()) {
         let seq = self.seq.load(Ordering::Relaxed);
-        let next = seq.wrapping_add(1);
-        let b = &self.bufs[(next & 1) as usize];
+        self.seq.store(seq.wrapping_add(1), Ordering::Relaxed);
+        // The odd sequence is visible before any value changes.
+        fence(Ordering::Release);
+        after_store();
         for i in 0..AXES {
-            b.scale[i].store(set.scale[i].to_bits(), Ordering::Relaxed);
+            self.scale[i].store(set.scale[i].to_bits(), Ordering::Relaxed);
             after_store();
-            b.bias_tick[i].store(set.bias_tick[i].to_bits(), Ordering::Relaxed);
+            self.bias_tick[i].store(set.bias_tick[i].to_bits(), Ordering::Relaxed);
             after_store();
-            b.bias_acc[i].store(set.bias_acc[i].to_bits(), Ordering::Relaxed);
+            self.bias_acc[i].store(set.bias_acc[i].to_bits(), Ordering::Relaxed);
             after_store();
         }
-        let mut flags = u32::from(set.status.bits());
+        let count = (self.flags.load(Ordering::Relaxed) >> COUNT_SHIFT).wrapping_add(u32::from(good_sample));
+        let mut flags = u32::from(set.status.bits()) | (count << COUNT_SHIFT);
         if let Some(m) = &set.misalign {
-            for (dst, src) in b.misalign.iter().zip(m.iter()) {
+            for (dst, src) in self.misalign.iter().zip(m.iter()) {
                 for (d, s) in dst.iter().zip(src.iter()) {
                     d.store(s.to_bits(), Ordering::Relaxed);
                     after_store();
@@ -365,29 +363,38 @@ impl<const AXES: usize> Published<AXES> {
             }
             flags |= HAS_MISALIGN;
         }
-        b.flags.store(flags, Ordering::Relaxed);
+        self.flags.store(flags, Ordering::Relaxed);
         after_store();
-        if good_sample {
-            self.samples.store(self.samples.load(Ordering::Relaxed).wrapping_add(1), Ordering::Relaxed);
-            after_store();
-        }
-        // Release: every store above is visible before the new sequence number.
-        self.seq.store(next, Ordering::Release);
+        // Release: every value above is visible before the even sequence.
+        self.seq.store(seq.wrapping_add(2), Ordering::Release);
         after_store();
     }
 }
 
-/// Fast-path state (the applier's own, never touched by the updater).
+/// Fast-path state: the applier's own copy of the last whole coefficient set, its
+/// staleness clock and its counter base. Never touched by the updater.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct FastState<const AXES: usize> {
     stale_after_ticks: u32,
     since_sample_ticks: u32,
-    seen_samples: u32,
+    /// Sequence of the set copied into `set`.
+    seen_seq: u32,
+    /// Good-sample count of that set.
+    seen_count: u32,
+    set: Set<AXES>,
     counters: Option<[u32; AXES]>,
 }
 
-/// The fast path of a split compensator: owns the IMU-cycle state, reads the published
-/// coefficients. Put it where the IMU interrupt can reach it.
+/// The fast path of a split compensator: owns the IMU-cycle state and a copy of the
+/// coefficients, refreshed from the [`Published`] set when its sequence changes. Put it
+/// where the IMU interrupt can reach it.
+///
+/// Per cycle it loads one shared word (the sequence) and otherwise reads only its own
+/// memory. When the sequence has moved (once per temperature reading), it copies the set
+/// and checks the sequence again: a set read while the updater was writing it (an odd or
+/// changed sequence) is dropped, the previous whole set stays in use for this cycle, and
+/// the copy is tried again on the next. It never waits and never uses a half-written set,
+/// whichever context preempts which, on one core or several.
 #[derive(Debug)]
 pub struct Applier<'a, const AXES: usize> {
     fast: &'a mut FastState<AXES>,
@@ -395,47 +402,61 @@ pub struct Applier<'a, const AXES: usize> {
 }
 
 impl<const AXES: usize> Applier<'_, AXES> {
-    /// Reads of the coefficient set per cycle at most before [`Status::COEFFS_RACED`].
-    pub const MAX_READS: usize = 2;
+    /// Copy the published set if it is whole (seqlock reader); the rare path.
+    #[cold]
+    #[inline(never)]
+    fn refresh(&mut self) {
+        self.refresh_with(|| {});
+    }
 
-    /// Advance the staleness clock by `dt_ticks` and return the status bits it adds.
+    /// [`Self::refresh`] with `mid` run between the copy and the re-check (a test hook:
+    /// the updater preempting the applier there).
     #[inline(always)]
-    fn tick(&mut self, dt_ticks: u32) -> Status {
-        let n = self.shared.samples.load(Ordering::Relaxed);
-        if n != self.fast.seen_samples {
-            self.fast.seen_samples = n;
-            self.fast.since_sample_ticks = 0;
+    fn refresh_with(&mut self, mid: impl FnOnce()) {
+        let p = self.shared;
+        let seq = p.seq.load(Ordering::Acquire);
+        if seq & 1 == 1 {
+            return; // being written: keep the last whole set this cycle
         }
-        self.fast.since_sample_ticks = self.fast.since_sample_ticks.saturating_add(dt_ticks);
-        if self.fast.since_sample_ticks > self.fast.stale_after_ticks {
-            Status::TEMP_STALE
-        } else {
-            Status::empty()
+        let load = |a: &AtomicU32| f32::from_bits(a.load(Ordering::Relaxed));
+        let flags = p.flags.load(Ordering::Relaxed);
+        let set = Set {
+            scale: core::array::from_fn(|i| load(&p.scale[i])),
+            bias_tick: core::array::from_fn(|i| load(&p.bias_tick[i])),
+            bias_acc: core::array::from_fn(|i| load(&p.bias_acc[i])),
+            misalign: (flags & HAS_MISALIGN != 0)
+                .then(|| core::array::from_fn(|r| core::array::from_fn(|c| load(&p.misalign[r][c])))),
+            status: Status::from_bits_retain(flags as u16),
+        };
+        mid();
+        // The loads above happen before the re-check.
+        fence(Ordering::Acquire);
+        if p.seq.load(Ordering::Relaxed) != seq {
+            return; // written meanwhile: this copy may be mixed, drop it
+        }
+        let f = &mut *self.fast;
+        f.set = set;
+        f.seen_seq = seq;
+        let count = flags >> COUNT_SHIFT;
+        if count != f.seen_count {
+            f.seen_count = count;
+            f.since_sample_ticks = 0;
         }
     }
 
-    /// Read a consistent coefficient set and apply `f` to it; at most [`Self::MAX_READS`]
-    /// reads, then the last result flagged [`Status::COEFFS_RACED`].
+    /// Refresh the copy if a publication happened; advance the staleness clock; the
+    /// status of this cycle.
     #[inline(always)]
-    fn read<R>(&self, mut f: impl FnMut(&Coeffs<AXES>, u32) -> R) -> (R, Status) {
-        let mut attempt = 0;
-        loop {
-            let seq = self.shared.seq.load(Ordering::Acquire);
-            let c = &self.shared.bufs[(seq & 1) as usize];
-            let flags = c.flags.load(Ordering::Relaxed);
-            let r = f(c, flags);
-            // The loads above happen before the re-check (seqlock read side).
-            fence(Ordering::Acquire);
-            // Buffer `seq & 1` is rewritten only by the publication after next.
-            let intact = self.shared.seq.load(Ordering::Relaxed).wrapping_sub(seq) < 2;
-            attempt += 1;
-            let status = Status::from_bits_retain(flags as u16);
-            if intact {
-                return (r, status);
-            }
-            if attempt == Self::MAX_READS {
-                return (r, status | Status::COEFFS_RACED);
-            }
+    fn begin(&mut self, dt_ticks: u32) -> Status {
+        if self.shared.seq.load(Ordering::Relaxed) != self.fast.seen_seq {
+            self.refresh();
+        }
+        let f = &mut *self.fast;
+        f.since_sample_ticks = f.since_sample_ticks.saturating_add(dt_ticks);
+        if f.since_sample_ticks > f.stale_after_ticks {
+            f.set.status | Status::TEMP_STALE
+        } else {
+            f.set.status
         }
     }
 
@@ -445,21 +466,17 @@ impl<const AXES: usize> Applier<'_, AXES> {
     /// misalignment matrix. Always finite. Never blocks.
     #[inline]
     pub fn cycle(&mut self, pulses: [i32; AXES], dt_ticks: u32) -> Output<AXES> {
-        let stale = self.tick(dt_ticks);
+        let status = self.begin(dt_ticks);
+        let s = &self.fast.set;
         let dt = dt_ticks as f32;
-        let (dv, status) = self.read(|c, flags| {
-            let mut dv = [0.0f32; AXES];
-            for i in 0..AXES {
-                let scale = f32::from_bits(c.scale[i].load(Ordering::Relaxed));
-                let bias = f32::from_bits(c.bias_tick[i].load(Ordering::Relaxed));
-                dv[i] = pulses[i] as f32 * scale - bias * dt;
-            }
-            if flags & HAS_MISALIGN != 0 {
-                dv = misalign(&c.misalign, dv);
-            }
-            dv
-        });
-        Output { dv_mps: dv, status: status | stale }
+        let mut dv = [0.0f32; AXES];
+        for i in 0..AXES {
+            dv[i] = pulses[i] as f32 * s.scale[i] - s.bias_tick[i] * dt;
+        }
+        if let Some(m) = &s.misalign {
+            dv = misalign(m, dv);
+        }
+        Output { dv_mps: dv, status }
     }
 
     /// Fast path for MEMS samples: raw readings (LSB) of this cycle and the ticks since
@@ -469,20 +486,16 @@ impl<const AXES: usize> Applier<'_, AXES> {
     /// matrix: the paper's `a = E/K1 − K0`, with `1/K1` formed in the slow path.
     #[inline]
     pub fn cycle_samples(&mut self, raw: [i32; AXES], dt_ticks: u32) -> Output<AXES> {
-        let stale = self.tick(dt_ticks);
-        let (a, status) = self.read(|c, flags| {
-            let mut a = [0.0f32; AXES];
-            for i in 0..AXES {
-                let scale = f32::from_bits(c.scale[i].load(Ordering::Relaxed));
-                let bias = f32::from_bits(c.bias_acc[i].load(Ordering::Relaxed));
-                a[i] = raw[i] as f32 * scale - bias;
-            }
-            if flags & HAS_MISALIGN != 0 {
-                a = misalign(&c.misalign, a);
-            }
-            a
-        });
-        Output { dv_mps: a, status: status | stale }
+        let status = self.begin(dt_ticks);
+        let s = &self.fast.set;
+        let mut a = [0.0f32; AXES];
+        for i in 0..AXES {
+            a[i] = raw[i] as f32 * s.scale[i] - s.bias_acc[i];
+        }
+        if let Some(m) = &s.misalign {
+            a = misalign(m, a);
+        }
+        Output { dv_mps: a, status }
     }
 
     /// Fast path from wrapping cumulative u32 counters. The first call has no base: it
@@ -507,12 +520,12 @@ impl<const AXES: usize> Applier<'_, AXES> {
 }
 
 #[inline(always)]
-fn misalign<const AXES: usize>(m: &[[AtomicU32; AXES]; AXES], v: [f32; AXES]) -> [f32; AXES] {
+fn misalign<const AXES: usize>(m: &[[f32; AXES]; AXES], v: [f32; AXES]) -> [f32; AXES] {
     let mut out = [0.0f32; AXES];
     for (o, row) in out.iter_mut().zip(m.iter()) {
         let mut acc = 0.0f32;
         for (a, b) in row.iter().zip(v.iter()) {
-            acc += f32::from_bits(a.load(Ordering::Relaxed)) * b;
+            acc += a * b;
         }
         *o = acc;
     }
@@ -547,8 +560,35 @@ struct SlowState<const AXES: usize, const N: usize, const SENSORS: usize, T> {
     streams: [Stream<N>; SENSORS],
     states: [AxisState; AXES],
     evals: [Evaluation; AXES],
-    /// The set last published (the updater's working copy).
-    set: Set<AXES>,
+    /// The status last published.
+    status: Status,
+}
+
+impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> SlowState<AXES, N, SENSORS, T> {
+    /// The coefficient set of the current table, evaluations and status. Rebuilt at every
+    /// publication (three divisions, in the slow path) rather than kept beside the
+    /// published one: that copy would cost 80 B of RAM.
+    fn set(&self) -> Set<AXES> {
+        let Some(t) = &self.table else {
+            let nominal = G0 / self.config.nominal_k1;
+            return Set {
+                scale: [nominal; AXES],
+                bias_tick: [0.0; AXES],
+                bias_acc: [0.0; AXES],
+                misalign: None,
+                status: self.status,
+            };
+        };
+        let table: &Table = t.borrow();
+        Set {
+            scale: core::array::from_fn(|i| G0 / self.evals[i].k1),
+            bias_tick: core::array::from_fn(|i| (self.evals[i].k0 * G0) * self.config.tick_s),
+            bias_acc: core::array::from_fn(|i| self.evals[i].k0 * G0),
+            // Validation allows a matrix only with 3 axes, so AXES == 3 here.
+            misalign: table.misalignment.map(|m| core::array::from_fn(|r| core::array::from_fn(|c| m[r * 3 + c]))),
+            status: self.status,
+        }
+    }
 }
 
 /// The slow path of a split compensator: temperature readings and tables. Never runs in
@@ -572,13 +612,15 @@ pub struct Compensator<const AXES: usize = 3, const N: usize = 32, const SENSORS
     fast: FastState<AXES>,
 }
 
-impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Clone> Clone for Compensator<AXES, N, SENSORS, T> {
+impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Clone + Borrow<Table>> Clone for Compensator<AXES, N, SENSORS, T> {
     /// An independent copy: the clone gets its own [`Published`] set holding the same
     /// coefficients (atomics are not `Clone`).
     fn clone(&self) -> Self {
         let shared = Published::new();
-        shared.samples.store(self.shared.samples.load(Ordering::Relaxed), Ordering::Relaxed);
-        shared.publish_with(&self.slow.set, false, || {});
+        // Carry the good-sample count, so the clone's applier sees no new sample.
+        let count = self.shared.flags.load(Ordering::Relaxed) & !((1 << COUNT_SHIFT) - 1);
+        shared.flags.store(count, Ordering::Relaxed);
+        shared.publish_with(&self.slow.set(), false, || {});
         Self { slow: self.slow.clone(), shared, fast: self.fast }
     }
 }
@@ -619,19 +661,15 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
                 streams: core::array::from_fn(|_| stream.clone()),
                 states: [AxisState::default(); AXES],
                 evals: [NO_EVAL; AXES],
-                set: Set {
-                    scale: [0.0; AXES],
-                    bias_tick: [0.0; AXES],
-                    bias_acc: [0.0; AXES],
-                    misalign: None,
-                    status: Status::empty(),
-                },
+                status: Status::empty(),
             },
             shared: Published::new(),
             fast: FastState {
                 stale_after_ticks: config.stale_after_ticks,
                 since_sample_ticks: u32::MAX,
-                seen_samples: 0,
+                seen_seq: 0,
+                seen_count: 0,
+                set: Set::EMPTY,
                 counters: None,
             },
         };
@@ -699,7 +737,7 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
     /// Status as of the last slow-path call (the fast path adds its own staleness).
     #[must_use]
     pub const fn status(&self) -> Status {
-        self.slow.set.status
+        self.slow.status
     }
 
     /// Slow path, sensor 0: a 9-byte scratchpad read at `t_ms` (the time base of
@@ -793,7 +831,7 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
     /// Status as of the last slow-path call.
     #[must_use]
     pub const fn status(&self) -> Status {
-        self.slow.set.status
+        self.slow.status
     }
 
     /// Validate and activate a table: see [`Compensator::set_table`].
@@ -809,10 +847,6 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
         if usize::from(tb.rate_window) != N {
             return Err(table::Error::RateWindow { table: tb.rate_window, firmware: N as u16 });
         }
-        self.slow.set.misalign = tb.misalignment.map(|m| {
-            // Validation allows a matrix only with 3 axes, so AXES == 3 here.
-            core::array::from_fn(|r| core::array::from_fn(|c| m[r * 3 + c]))
-        });
         self.slow.table = Some(t);
         self.slow.states = [AxisState::default(); AXES];
         self.refresh_all(0.0);
@@ -894,7 +928,7 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
             _ => 0.0,
         };
         self.refresh(Some(sensor), dt_s, true);
-        Ok(self.slow.set.status)
+        Ok(self.slow.status)
     }
 
     /// |raw − last.raw| within step + slew·elapsed.
@@ -925,8 +959,8 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
 
     fn reject(&mut self, sensor: usize, e: SampleError) -> Result<Status, SampleError> {
         self.slow.streams[sensor].invalid = true;
-        self.slow.set.status |= Status::TEMP_INVALID;
-        self.shared.publish_with(&self.slow.set, false, || {});
+        self.slow.status |= Status::TEMP_INVALID;
+        self.shared.publish_with(&self.slow.set(), false, || {});
         Err(e)
     }
 
@@ -938,15 +972,8 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
     /// estimate (or at T0 before its first reading), rebuild the status and publish.
     fn refresh(&mut self, sensor: Option<usize>, dt_s: f32, good_sample: bool) {
         let slow = &mut *self.slow;
-        let nominal = G0 / slow.config.nominal_k1;
-        match &slow.table {
-            None => {
-                slow.set.scale = [nominal; AXES];
-                slow.set.bias_tick = [0.0; AXES];
-                slow.set.bias_acc = [0.0; AXES];
-                slow.set.misalign = None;
-            }
-            Some(t) => {
+        if let Some(t) = &slow.table {
+            {
                 let table: &Table = t.borrow();
                 for (i, axis) in table.axes.iter().take(AXES).enumerate() {
                     let j = Self::sensor_of(i);
@@ -962,9 +989,6 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
                         _ => axis.evaluate(&mut AxisState::default(), axis.scale.t0_c, 0.0, 0.0),
                     };
                     slow.evals[i] = e;
-                    slow.set.scale[i] = G0 / e.k1;
-                    slow.set.bias_tick[i] = (e.k0 * G0) * slow.config.tick_s;
-                    slow.set.bias_acc[i] = e.k0 * G0;
                 }
             }
         }
@@ -992,8 +1016,8 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
                 }
             }
         }
-        slow.set.status = st;
-        self.shared.publish_with(&self.slow.set, good_sample, || {});
+        slow.status = st;
+        self.shared.publish_with(&self.slow.set(), good_sample, || {});
     }
 }
 
@@ -1280,7 +1304,9 @@ mod tests {
         t.misalignment = Some([1.049, 0.049, -0.049, -0.049, 0.951, 0.049, 0.049, -0.049, 1.049]);
         c.set_table(t).unwrap();
         warm(&mut c, 12);
-        let old = c.slow.set;
+        // The applier holds the old set before the new publication starts.
+        c.cycle([0; 3], 2500);
+        let old = c.slow.set();
         let mut new = old;
         new.scale = [1.0, 2.0, 3.0];
         new.bias_tick = [0.5, 0.25, 0.125];
@@ -1290,7 +1316,8 @@ mod tests {
         let reference = |s: &Set<3>| {
             let shared = Published::new();
             shared.publish_with(s, false, || {});
-            let mut fast = c.fast;
+            // An odd `seen_seq` never matches a whole set's sequence: the reference copies it.
+            let mut fast = FastState { seen_seq: 1, ..c.fast };
             let mut ap = Applier { fast: &mut fast, shared: &shared };
             (ap.cycle(pulses, 2500), ap.cycle_samples(pulses, 2500))
         };
@@ -1314,28 +1341,35 @@ mod tests {
                 assert!(same(&got, &want_old), "mixed set after store {stores}: {got:?}");
             }
         });
-        assert_eq!(stores, 3 * 3 + 9 + 1 + 1 + 1, "every store was preempted");
+        assert_eq!(stores, 1 + 3 * 3 + 9 + 1 + 1, "every store was preempted");
         assert!(seen_new, "the last store publishes the new set");
     }
 
-    /// The same interleaving, with a writer that publishes *twice* while the reader reads
-    /// (the contract broken): the reader must flag it, never return a silent mixture.
+    /// The other direction: the updater preempts the applier in the middle of its copy.
+    /// The copy is dropped, the old set stays in force, and the next cycle takes the new one.
     #[test]
-    fn a_writer_racing_the_reader_is_flagged() {
+    fn a_copy_torn_by_the_writer_is_dropped() {
         let mut c = comp3();
         c.set_table(table(3, 32)).unwrap();
         warm(&mut c, 12);
+        let before = c.cycle([800, -7, 3], 2500);
+        let old_scale = c.fast.set.scale;
+        let mut new = c.slow.set();
+        new.scale = [1.0, 2.0, 3.0];
+        c.shared.publish_with(&new, false, || {});
         let shared = &c.shared;
-        let set = c.slow.set;
         let mut fast = c.fast;
-        let ap = Applier { fast: &mut fast, shared };
-        // Publish twice inside the reader's closure (between its loads and its re-check).
-        let (_, status) = ap.read(|_, _| {
-            shared.publish_with(&set, false, || {});
-            shared.publish_with(&set, false, || {});
-        });
-        assert!(status.contains(Status::COEFFS_RACED));
-        let (_, status) = ap.read(|_, _| ());
-        assert!(!status.contains(Status::COEFFS_RACED));
+        let mut ap = Applier { fast: &mut fast, shared };
+        let old_seq = ap.fast.seen_seq;
+        ap.refresh_with(|| shared.publish_with(&new, false, || {}));
+        assert_eq!(ap.fast.seen_seq, old_seq, "torn copy dropped");
+        assert_eq!(ap.fast.set.scale, old_scale, "old set kept");
+        let after = ap.cycle([800, -7, 3], 2500);
+        assert_eq!(after.dv_mps[0], 800.0 * 1.0 - new.bias_tick[0] * 2500.0);
+        // A sequence left odd (a writer stopped mid-publication) keeps the old set too.
+        shared.seq.store(shared.seq.load(Ordering::Relaxed) + 1, Ordering::Relaxed);
+        let mut fast2 = c.fast;
+        let mut ap2 = Applier { fast: &mut fast2, shared };
+        assert_eq!(ap2.cycle([800, -7, 3], 2500).dv_mps, before.dv_mps);
     }
 }

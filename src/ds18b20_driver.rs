@@ -524,17 +524,67 @@ impl Ds18b20 {
                 break;
             }
             self.start(bus, now_us)?;
-            let conversion = self.resolution.max_conversion_us();
-            bus.delay_us(conversion);
+            bus.delay_us(self.resolution.max_conversion_us());
             let completed_us = now_us.wrapping_add(bus.elapsed_us().wrapping_sub(bus_t0));
-            self.state = State::Done { completed_us };
-            match self.read_scratchpad(bus) {
-                Ok((scratchpad, reading)) => return self.finish(scratchpad, reading, completed_us),
-                Err(e @ Error::Scratchpad(_)) => last = e,
-                Err(e) => return Err(e),
+            match self.read_converted(bus, completed_us)? {
+                Ok(sample) => return Ok(sample),
+                Err(e) => last = e,
             }
         }
         self.state = State::Idle;
         Err(last)
+    }
+
+    /// [`Self::measure`] for async executors (embassy): the conversion wait, 94–750 ms and
+    /// almost all of the call, is awaited on `wait` (`embedded_hal_async::delay::DelayNs`,
+    /// e.g. `embassy_time::Delay`) instead of blocking. The bus transactions before and
+    /// after it stay blocking on the bus's own delay: 1-Wire slots need 1–15 µs
+    /// precision, which an executor's wake-up latency cannot give, and a whole scratchpad
+    /// read takes about 6 ms. Same protocol, retries and errors as `measure` (both call
+    /// [`Self::start`] and the same read step); `now_us` is the caller's clock at the call.
+    ///
+    /// # Errors
+    /// As [`Self::measure`].
+    pub async fn measure_async<P, D, W>(&mut self, bus: &mut OneWire<P, D>, wait: &mut W, now_us: u32) -> Result<Sample, Error>
+    where
+        P: InputPin + OutputPin,
+        D: DelayNs,
+        W: embedded_hal_async::delay::DelayNs,
+    {
+        let bus_t0 = bus.elapsed_us();
+        let mut waited_us = 0u32;
+        let mut last = Error::NotReady;
+        for attempt in 0..=MAX_RETRIES {
+            if attempt > self.retries {
+                break;
+            }
+            self.start(bus, now_us)?;
+            let conversion = self.resolution.max_conversion_us();
+            wait.delay_us(conversion).await;
+            waited_us = waited_us.wrapping_add(conversion);
+            let completed_us = now_us.wrapping_add(bus.elapsed_us().wrapping_sub(bus_t0)).wrapping_add(waited_us);
+            match self.read_converted(bus, completed_us)? {
+                Ok(sample) => return Ok(sample),
+                Err(e) => last = e,
+            }
+        }
+        self.state = State::Idle;
+        Err(last)
+    }
+
+    /// The read step shared by [`Self::measure`] and [`Self::measure_async`]: the
+    /// conversion ended at `completed_us`; `Ok(Ok)` a sample, `Ok(Err)` a scratchpad error
+    /// worth a new conversion, `Err` an error that ends the call (bus, changed resolution).
+    fn read_converted<P, D>(&mut self, bus: &mut OneWire<P, D>, completed_us: u32) -> Result<Result<Sample, Error>, Error>
+    where
+        P: InputPin + OutputPin,
+        D: DelayNs,
+    {
+        self.state = State::Done { completed_us };
+        match self.read_scratchpad(bus) {
+            Ok((scratchpad, reading)) => self.finish(scratchpad, reading, completed_us).map(Ok),
+            Err(e @ Error::Scratchpad(_)) => Ok(Err(e)),
+            Err(e) => Err(e),
+        }
     }
 }

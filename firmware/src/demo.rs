@@ -28,7 +28,7 @@ pub const TRUE_G: [f64; 3] = [0.02, -0.01, 1.0];
 pub const REPORT_EVERY_S: u32 = 30;
 
 fn flags(out: &mut dyn Write, s: Status) -> fmt::Result {
-    const NAMES: [(Status, &str); 8] = [
+    const NAMES: [(Status, &str); 7] = [
         (Status::TEMP_STALE, "stale"),
         (Status::TEMP_INVALID, "invalid"),
         (Status::RATE_NOT_READY, "rate-not-ready"),
@@ -36,7 +36,6 @@ fn flags(out: &mut dyn Write, s: Status) -> fmt::Result {
         (Status::RATE_OUT_OF_RANGE, "rate-out-of-range"),
         (Status::NO_TABLE, "no-table"),
         (Status::NO_COUNTER_BASE, "no-counter-base"),
-        (Status::COEFFS_RACED, "coeffs-raced"),
     ];
     write!(out, "{:#06x}", s.bits())?;
     if s.is_ok() {

@@ -528,3 +528,43 @@ impl DelayNs for SimDelay {
         self.0 .0.borrow_mut().now_ns += u64::from(ns);
     }
 }
+
+/// An async delay on the simulated clock (an executor's timer): it advances simulated
+/// time and counts what was awaited, so a test can tell awaited time from blocking time.
+#[derive(Debug)]
+pub struct SimAsyncDelay {
+    sim: Sim,
+    /// Total ns awaited through this delay.
+    pub awaited_ns: u64,
+}
+
+impl SimAsyncDelay {
+    /// An async delay on `sim`'s clock.
+    #[must_use]
+    pub fn new(sim: &Sim) -> Self {
+        Self { sim: sim.clone(), awaited_ns: 0 }
+    }
+}
+
+impl embedded_hal_async::delay::DelayNs for SimAsyncDelay {
+    async fn delay_ns(&mut self, ns: u32) {
+        self.awaited_ns += u64::from(ns);
+        self.sim.0.borrow_mut().now_ns += u64::from(ns);
+    }
+}
+
+/// Run a future that never waits on anything external to completion (the simulated
+/// delays complete at once), with a no-op waker: a minimal executor for tests.
+///
+/// # Panics
+/// If the future returns `Pending` 1 000 times in a row.
+pub fn block_on<F: core::future::Future>(f: F) -> F::Output {
+    let mut f = std::pin::pin!(f);
+    let mut cx = core::task::Context::from_waker(core::task::Waker::noop());
+    for _ in 0..1000 {
+        if let core::task::Poll::Ready(v) = f.as_mut().poll(&mut cx) {
+            return v;
+        }
+    }
+    panic!("future still pending after 1000 polls");
+}

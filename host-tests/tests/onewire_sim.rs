@@ -421,3 +421,48 @@ fn fault_campaign_never_returns_a_wrong_temperature() {
     println!("fault campaign: {ok} true readings, {err} typed errors");
     assert!(ok > 50 && err > 50, "{ok} ok, {err} errors: the campaign must exercise both");
 }
+
+/// The async measure (embassy users) shares the protocol with the blocking one: same
+/// reading, same retries and errors; only the conversion wait is awaited.
+#[test]
+fn async_measure_matches_blocking_and_awaits_the_conversion() {
+    use host_tests::onewire_sim::{block_on, SimAsyncDelay};
+    for res in RESOLUTIONS {
+        for (raw, _) in TABLE {
+            let sim_b = Sim::new(vec![Device::ds18b20(7, raw)]);
+            let sim_a = Sim::new(vec![Device::ds18b20(7, raw)]);
+            let (mut bus_b, mut bus_a) = (sim_b.bus(), sim_a.bus());
+            let (mut sb, mut sa) = (Ds18b20::single(), Ds18b20::single());
+            sb.set_resolution(&mut bus_b, res).unwrap();
+            sa.set_resolution(&mut bus_a, res).unwrap();
+            let blocking = sb.measure(&mut bus_b, sim_b.now_us()).unwrap();
+            let mut wait = SimAsyncDelay::new(&sim_a);
+            let t0 = sim_a.now_ns();
+            let asynced = block_on(sa.measure_async(&mut bus_a, &mut wait, sim_a.now_us())).unwrap();
+            assert_eq!(asynced.scratchpad, blocking.scratchpad, "{res:?} {raw:04X}");
+            assert_eq!(asynced.reading, blocking.reading);
+            assert_eq!(asynced.completed_us, blocking.completed_us, "same completion time on the same clock");
+            assert_eq!(wait.awaited_ns, u64::from(res.max_conversion_us()) * 1000, "the conversion is awaited");
+            let blocking_part_us = (sim_a.now_ns() - t0 - wait.awaited_ns) / 1000;
+            assert!(blocking_part_us < 10_000, "only bus transactions block: {blocking_part_us} µs");
+            assert_no_violations(&sim_a);
+        }
+    }
+    // A flipped bit on the first read: retried within the budget, like the blocking call.
+    let sim = Sim::new(vec![Device::ds18b20(7, 0x0191)]);
+    let mut bus = sim.bus();
+    let mut s = Ds18b20::single().with_retries(1);
+    sim.with(|w| {
+        w.devices[0].flip_bit = 17;
+        w.devices[0].flip_times = 1;
+    });
+    let mut wait = SimAsyncDelay::new(&sim);
+    let got = block_on(s.measure_async(&mut bus, &mut wait, sim.now_us())).unwrap();
+    assert_eq!(got.reading.celsius(), 25.0625);
+    // No presence: the same typed bus error.
+    let sim = Sim::new(vec![]);
+    let mut bus = sim.bus();
+    let mut wait = SimAsyncDelay::new(&sim);
+    let err = block_on(Ds18b20::single().measure_async(&mut bus, &mut wait, 0)).unwrap_err();
+    assert_eq!(err, drv::Error::Bus(ow::Error::NoPresence));
+}

@@ -176,8 +176,8 @@ mod target {
         let _ = writeln!(out, "expf_micromath_max_rel_err={exp_err:.2e}");
         let _ = writeln!(out, "slow_path_insns_3axis_all_off={:.1}", per_call(slow_off, slow_empty, ipt));
         let _ = writeln!(out, "slow_path_insns_3axis_all_on={:.1}", per_call(slow_on, slow_empty, ipt));
-        let _ = writeln!(out, "slow_path_status_all_off={:#06x}", off_status.0);
-        let _ = writeln!(out, "slow_path_status_all_on={:#06x}", on_status.0);
+        let _ = writeln!(out, "slow_path_status_all_off={:#06x}", off_status.bits());
+        let _ = writeln!(out, "slow_path_status_all_on={:#06x}", on_status.bits());
         // The core has no statics: its RAM is the compensator it is given. The recommended
         // configuration: one sensor per axis, the table in flash (`&'static Table`).
         let _ = writeln!(
