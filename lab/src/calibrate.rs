@@ -7,6 +7,8 @@
 //! The table written is the one fitted on the fit programs only, so the report's held-out
 //! figures describe exactly the flashed table.
 
+pub mod static_cal;
+
 use std::path::Path;
 use std::time::Instant;
 

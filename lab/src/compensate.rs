@@ -79,3 +79,86 @@ pub fn compensate_log(
 pub fn not_compensated(status: u16) -> bool {
     Status(status).contains(Status::NO_TABLE) || Status(status).contains(Status::TEMP_STALE)
 }
+
+/// Why a static log cannot be compensated.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum StaticCompensateError {
+    /// The table has a different number of axes than the log.
+    AxisCount {
+        /// Table axes.
+        table: usize,
+        /// Log axes.
+        log: usize,
+    },
+    /// Writing failed.
+    Io(String),
+}
+
+impl std::fmt::Display for StaticCompensateError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::AxisCount { table, log } => {
+                write!(f, "the table has {table} axis(es), the log {log}: use the table calibrated on this kind of log")
+            }
+            Self::Io(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl std::error::Error for StaticCompensateError {}
+
+/// Status of a compensated static row.
+#[must_use]
+pub fn static_status(valid: bool, clamped: bool) -> &'static str {
+    match (valid, clamped) {
+        (false, _) => "no_temperature",
+        (true, true) => "clamped",
+        (true, false) => "ok",
+    }
+}
+
+/// Compensate a static log with a table of the same axes: per axis, `a − K0(T̂, Ṫ, slots)`
+/// with K0 from the root crate's `AxisModel::evaluate` fed by its `RateEstimator<32>`
+/// (until the firmware has a sample-mode path). Writes `time_s,temp_c,<axes…>,status`
+/// in g; `status` is `ok`, `clamped` (T or Ṫ outside the calibrated range on some axis) or
+/// `no_temperature` (no estimate yet: the output is then the raw reading).
+///
+/// # Errors
+/// Axis count mismatch or I/O.
+pub fn compensate_static<W: std::io::Write>(
+    table: &Table,
+    log: &crate::log::static_log::StaticLog,
+    w: W,
+) -> Result<(), StaticCompensateError> {
+    if table.axes.len() != log.axes.len() {
+        return Err(StaticCompensateError::AxisCount { table: table.axes.len(), log: log.axes.len() });
+    }
+    let traces: Vec<crate::pairing::Trace> = log
+        .axes
+        .iter()
+        .zip(&table.axes)
+        .map(|(ax, model)| {
+            let s = crate::fit::StaticSeries { time_s: &log.time_s, temp_c: &log.temp_c, accel_g: &ax.accel_g };
+            s.model_trace(model)
+        })
+        .collect();
+    let io = |e: &dyn std::fmt::Display| StaticCompensateError::Io(e.to_string());
+    let mut wr = csv::Writer::from_writer(w);
+    let mut head = vec!["time_s".to_string(), "temp_c".to_string()];
+    head.extend(log.axes.iter().map(|a| a.name.clone()));
+    head.push("status".to_string());
+    wr.write_record(&head).map_err(|e| io(&e))?;
+    for i in 0..log.rows() {
+        let mut rec = vec![format!("{:.6}", log.time_s[i]), format!("{:.4}", log.temp_c[i])];
+        let valid = traces.iter().all(|t| t.valid[i]);
+        let clamped = traces.iter().any(|t| t.clamped[i]);
+        for (ax, tr) in log.axes.iter().zip(&traces) {
+            let k0 = if tr.valid[i] { tr.ext_k0_g[i] } else { 0.0 };
+            rec.push(format!("{:.9}", ax.accel_g[i] - k0));
+        }
+        rec.push(static_status(valid, clamped).to_string());
+        wr.write_record(&rec).map_err(|e| io(&e))?;
+    }
+    wr.flush().map_err(|e| io(&e))
+}

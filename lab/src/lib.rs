@@ -22,6 +22,7 @@ pub mod fit;
 pub mod log;
 pub mod metrics;
 pub mod pairing;
+pub mod peers;
 pub mod profile;
 pub mod report;
 pub mod sim;
