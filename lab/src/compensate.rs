@@ -7,6 +7,7 @@
 //! alignment the fit uses, see [`crate::pairing::trace_run`]).
 //! `accel_g = Δv / (g0 · interval_s)`: the compensated mean specific force of the interval.
 //! Each run starts a fresh compensator (each run is a fresh power-up in the test).
+//! The staleness limit is at least 1.5 rows (see [`compensate_run`]).
 
 use qfa_thermal::compensator::{Compensator, Config, Status, G0};
 use qfa_thermal::Table;
@@ -30,7 +31,15 @@ pub struct Compensated {
 /// # Errors
 /// The table does not load into a `Compensator<1, 32>`.
 pub fn compensate_run(table: &Table, run: &Run) -> Result<Compensated, qfa_thermal::table::Error> {
-    let mut c = Compensator::<1, RATE_WINDOW>::new(Config::default());
+    // One row is one fast-path cycle; a log's rows may be longer than the default 3-s
+    // staleness limit (the project's 10-s rows), although each row carries a fresh reading.
+    // Staleness then means "no reading for 1.5 rows", else every row of such a log would be
+    // flagged stale and no held-out figure could be formed.
+    let default = Config::default();
+    let max_interval_s = run.samples.iter().map(|s| s.interval_s).fold(0.0, f64::max);
+    let row_ticks = (1.5 * max_interval_s / f64::from(default.tick_s)).ceil().min(f64::from(u32::MAX)) as u32;
+    let config = Config { stale_after_ticks: default.stale_after_ticks.max(row_ticks), ..default };
+    let mut c = Compensator::<1, RATE_WINDOW>::new(config);
     c.set_table(table.clone())?;
     let tick_s = f64::from(c.config().tick_s);
     let mut out = Compensated {

@@ -174,7 +174,7 @@ mod tests {
             .enumerate()
             .map(|(i, &p)| Sample { time_s: t0 + i as f64, temp_c: Some(22.0), pulses: p, interval_s: 1.0 })
             .collect();
-        Run { program: program.to_string(), run: 0, input_g, samples }
+        Run { program: program.to_string(), run: "0".to_string(), input_g, samples }
     }
 
     #[test]
