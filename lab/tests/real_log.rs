@@ -1,5 +1,5 @@
 //! The real measured log (tofupilot IMU thermal cycle), end to end through the CLI with only
-//! `--columns` and unit flags: calibrate, then compensate.
+//! `--columns` and unit flags: calibrate, compensate, discover.
 //!
 //! The file is not in this repository. It is GitHub `tofupilot/examples`,
 //! `templates/imu_thermal_calibration/data/imu_raw_data.csv` at commit
@@ -97,6 +97,18 @@ fn calibrate_beats_the_cubic_on_every_axis_and_compensate_agrees() {
         let got = (r.iter().map(|x| x * x).sum::<f64>() / r.len() as f64).sqrt() * 1e3;
         let want = f(a, "ours");
         assert!((got - want).abs() < 0.01 * want, "{}: compensate {got:.3} mg vs report {want:.3} mg", a["axis"]);
+    }
+
+    // Discovery on each axis (a static log's axis is a single-channel bias log for it).
+    let disc = dir.join("disc");
+    let mut args = vec!["discover", "--log", log_s, "--out", disc.to_str().unwrap()];
+    args.extend(FLAGS);
+    let out = lab(&args);
+    let text = String::from_utf8_lossy(&out.stdout);
+    println!("{text}");
+    for axis in ["ax", "ay", "az"] {
+        assert!(text.contains(&format!("{axis} (imu.acc.")), "{text}");
+        assert!(disc.join(axis).join("report.json").is_file(), "{axis}");
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
