@@ -225,7 +225,7 @@ fn run(cli: Cli) -> Result<(), String> {
         Cmd::Calibrate { log, out, fmt, .. } if fmt.options(&log)?.is_some() => {
             let o = fmt.options(&log)?.unwrap_or_default();
             let l = qfa_lab::log::static_log::read_static(&log, &o).map_err(|e| format!("{}: {e}", log.display()))?;
-            eprintln!("{} rows read; {}", l.rows(), l.skipped);
+            eprintln!("{} rows read; {}; {}", l.rows(), l.skipped, l.sampling);
             let opts = qfa_lab::calibrate::static_cal::StaticCalOptions::default();
             let cal = qfa_lab::calibrate::static_cal::calibrate_static(&l, &opts, true).map_err(|e| e.to_string())?;
             qfa_lab::calibrate::static_cal::write_static(&out, &cal).map_err(|e| e.to_string())?;

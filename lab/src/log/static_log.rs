@@ -292,6 +292,16 @@ pub struct StaticLog {
     pub sampling: Sampling,
 }
 
+impl fmt::Display for Sampling {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "median row interval {:.3} s, {} interval(s) outside 0.5..2x the median, {} gap(s) over 30 s (longest {:.1} s)",
+            self.median_interval_s, self.irregular_intervals, self.gaps_over_30s, self.max_interval_s
+        )
+    }
+}
+
 impl StaticLog {
     /// Kept rows.
     #[must_use]
@@ -746,5 +756,28 @@ mod tests {
         assert_eq!(log.rows(), 39);
         assert_eq!(log.time_s[0], 0.0);
         assert!((log.axes[0].accel_g[0] - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn duplicates_skipped_gaps_reported_units_from_names() {
+        // Units from the names (ms, g); line 4 repeats line 3's time; a 40-s gap after line 20.
+        let mut text = String::from("time_ms,temp_c,ax_g\n");
+        let mut t = 0u64;
+        for i in 0..40u64 {
+            text.push_str(&format!("{t},{},0.001\n", 20.0 + 0.001 * i as f64));
+            if i != 1 {
+                t += if i == 18 { 40_000 } else { 1000 };
+            }
+        }
+        let log = read_static_from(text.as_bytes(), &StaticOptions::default()).unwrap();
+        assert_eq!(log.skipped.duplicate, SkipCount { count: 1, lines: vec![4] });
+        assert_eq!(log.rows(), 39);
+        assert_eq!(log.sampling.median_interval_s, 1.0);
+        assert_eq!((log.sampling.gaps_over_30s, log.sampling.irregular_intervals), (1, 1));
+        assert_eq!(log.sampling.max_interval_s, 40.0);
+        assert_eq!(log.columns[0], ("time".into(), "time_ms".into(), "ms".into()));
+        // Without a unit in the name or a flag: an error naming the flag.
+        let e = read_static_from("timestamp,temp_c,ax_g\n0,20,0\n".as_bytes(), &StaticOptions::default()).unwrap_err();
+        assert_eq!(e.to_string(), "the unit of column `timestamp` is not known: pass --time-unit s|ms|us|ns");
     }
 }
