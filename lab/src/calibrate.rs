@@ -76,6 +76,7 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
     pb.finish_and_clear();
     let t_eval = t.elapsed().as_secs_f64();
     check_figures(&eval)?;
+    let peers = crate::report::peer_bias(log, &fit_p, &eval_p, &fitted.hysteresis)?;
     let h = &fitted.sf_hysteresis.coef;
     let report = Report {
         rows: log.rows(),
@@ -84,6 +85,7 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
         eval_programs: eval_p,
         sensitivity_ppm_per_c: eval.sensitivity_ppm_per_c,
         bias_residual_ug: eval.bias_residual_ug,
+        peers_bias_residual_ug: peers,
         metric: METRIC_TEXT.to_string(),
         fit: FitSummary {
             pairs: fitted.pairs,

@@ -244,7 +244,7 @@ fn run(cli: Cli) -> Result<(), String> {
             println!(
                 "held out on {:?} (fitted on {:?}), {} rows\n\
                  sensitivity ppm/degC: none {:.2}, simple {:.2}, hysteresis {:.2}\n\
-                 bias residual ug:     none {:.1}, simple {:.1}, hysteresis {:.1}\n\
+                 bias residual ug:     none {:.1}, simple {:.1}, hysteresis {:.1}; peers: PX4/tofupilot cubic {:.1}, ArduPilot TCAL {:.1}\n\
                  Eq. 11 condition number {:.1}; timings: read {:.2} s, fit {:.2} s, evaluate {:.2} s, plots {:.2} s, total {:.2} s\n\
                  wrote {}/table.toml, table.bin, report.json",
                 r.eval_programs,
@@ -256,6 +256,8 @@ fn run(cli: Cli) -> Result<(), String> {
                 r.bias_residual_ug.none,
                 r.bias_residual_ug.simple,
                 r.bias_residual_ug.hysteresis,
+                r.peers_bias_residual_ug.cubic,
+                r.peers_bias_residual_ug.ardupilot,
                 r.fit.cond_sf_hysteresis,
                 r.timings_s.read,
                 r.timings_s.fit,

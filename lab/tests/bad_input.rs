@@ -220,6 +220,11 @@ fn ten_second_rows_give_real_figures_and_missing_bins_are_an_error() {
     }
     let b = &r["bias_residual_ug"];
     assert!(b["hysteresis"].as_f64().unwrap() < b["none"].as_f64().unwrap(), "{b}");
+    // The peers' rows exist, are numbers, and are far from no compensation.
+    for p in ["cubic", "ardupilot"] {
+        let v = r["peers_bias_residual_ug"][p].as_f64().unwrap();
+        assert!(v > 0.0 && v < 0.5 * b["none"].as_f64().unwrap(), "{p}: {}", r["peers_bias_residual_ug"]);
+    }
     // An evaluation without bins is an error with its reason, never a figure.
     let e = qfa_lab::calibrate::check_figures(&qfa_lab::report::Evaluation::default()).unwrap_err();
     assert!(e.starts_with("bias residual (no compensation) not computable: no held-out bin qualified"), "{e}");
