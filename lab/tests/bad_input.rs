@@ -230,3 +230,21 @@ fn ten_second_rows_give_real_figures_and_missing_bins_are_an_error() {
     assert!(e.starts_with("bias residual (no compensation) not computable: no held-out bin qualified"), "{e}");
     let _ = std::fs::remove_dir_all(&d);
 }
+
+#[test]
+fn single_channel_logs_still_reach_discover() {
+    // `time_s,temp_c,value` is discover's own single-channel format, not a static log.
+    let d = dir().join("single");
+    std::fs::create_dir_all(&d).unwrap();
+    let log = d.join("single.csv");
+    let mut s = String::from("time_s,temp_c,value\n");
+    for i in 0..1500 {
+        let t = 20.0 + 10.0 * (f64::from(i) / 200.0).sin();
+        s.push_str(&format!("{},{t:.4},{:.9}\n", i * 10, 1e-4 * t));
+    }
+    std::fs::write(&log, s).unwrap();
+    let (ok, text) = lab(&["discover", "--log", log.to_str().unwrap(), "--out", d.join("out").to_str().unwrap()]);
+    assert!(ok, "{text}");
+    assert!(d.join("out").join("report.json").is_file());
+    let _ = std::fs::remove_dir_all(&d);
+}

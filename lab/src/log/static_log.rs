@@ -730,10 +730,11 @@ pub fn read_static(path: &Path, opts: &StaticOptions) -> Result<StaticLog, Stati
     read_static_from(std::io::BufReader::new(f), opts)
 }
 
-/// Whether a header line is a static log's rather than a cycling log's (no `pulses` column).
+/// Whether a header line is a static log's: neither a cycling log's (a `pulses` column) nor
+/// a single-channel `time_s,temp_c,value` log's (a `value` column).
 #[must_use]
 pub fn looks_static(header_line: &str) -> bool {
-    !header_line.split([',', '\t', ';']).any(|c| c.trim() == "pulses")
+    !header_line.split([',', '\t', ';']).any(|c| matches!(c.trim(), "pulses" | "value"))
 }
 
 #[cfg(test)]
@@ -756,6 +757,13 @@ mod tests {
         assert_eq!(log.rows(), 39);
         assert_eq!(log.time_s[0], 0.0);
         assert!((log.axes[0].accel_g[0] - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn log_kind_from_the_header() {
+        assert!(looks_static("timestamp\timu.acc.x\timu.temperature"));
+        assert!(!looks_static("program,run,time_s,input_g,temp_c,pulses,interval_s"));
+        assert!(!looks_static("time_s,temp_c,value"));
     }
 
     #[test]
