@@ -434,3 +434,26 @@ pub fn write_static(out: &Path, cal: &StaticCalibration) -> Result<(), StaticCal
     std::fs::write(out.join("ardupilot_tcal.parm"), ardupilot_params(&ap)).map_err(|e| io(&e))?;
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::log::static_log::{read_static_from, AccelUnit, StaticOptions, TimeUnit};
+
+    #[test]
+    fn a_log_that_ends_at_its_hottest_has_nothing_to_evaluate() {
+        // Heating only: the maximum is the last row, so no held-out rows: an error, no figure.
+        let mut text = String::from("time,temp,az\n");
+        for i in 0..200 {
+            text.push_str(&format!("{i},{},-1.0\n", 20.0 + 0.1 * f64::from(i)));
+        }
+        let opts = StaticOptions { time_unit: Some(TimeUnit::S), accel_unit: Some(AccelUnit::G), ..Default::default() };
+        let log = read_static_from(text.as_bytes(), &opts).unwrap();
+        let e = calibrate_static(&log, &StaticCalOptions::default(), false).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "held-out split: the highest temperature (39.90 °C) is at row 200 of 200: fewer than a tenth of the \
+             rows lie after it, nothing to evaluate on"
+        );
+    }
+}

@@ -16,9 +16,10 @@
 //! * a timestamp equal to the previous row's: the later row is **skipped**, counted in
 //!   [`Skipped::duplicate`];
 //! * a glitch row (a spike in one row; the tofupilot log's first row is one): **skipped**,
-//!   counted in [`Skipped::glitch`]. A row is a glitch when one channel deviates from the
-//!   median of its ±5-row neighbourhood by more than [`GLITCH_SIGMAS`] robust σ of that
-//!   channel (σ = 1.4826 · median absolute deviation from the neighbourhood medians), and,
+//!   counted in [`Skipped::glitch`]. A row is a glitch when one channel deviates from what
+//!   its ±5-row neighbourhood predicts (a robust local line: median slope, median level) by
+//!   more than [`GLITCH_SIGMAS`] robust σ of that channel (σ = 1.4826 · the median of those
+//!   deviations), and
 //!   by more than a floor too ([`GLITCH_MIN_TEMP_C`], [`GLITCH_MIN_ACCEL_G`]: a quantised
 //!   channel has a median deviation of 0);
 //! * irregular sampling: **reported** in [`Sampling`] (intervals outside 0.5…2 × the
@@ -495,8 +496,11 @@ fn median(v: &[f64]) -> f64 {
     s[s.len() / 2]
 }
 
-/// Rows (indices into `v`) that deviate from their ±5-row median by more than
-/// `GLITCH_SIGMAS` robust σ (and at least `floor`).
+/// Rows (indices into `v`) that deviate from their ±5-row neighbourhood by more than
+/// `GLITCH_SIGMAS` robust σ (and at least `floor`). The neighbourhood's prediction for row
+/// `i` is `median_j(v[j] − slope·(j − i))` with `slope` the median of the window's
+/// differences, so a steady ramp deviates by nothing, also at the ends of the log where the
+/// window is one-sided.
 fn glitches(v: &[f64], floor: f64) -> Vec<usize> {
     const HALF: usize = 5;
     let n = v.len();
@@ -504,7 +508,10 @@ fn glitches(v: &[f64], floor: f64) -> Vec<usize> {
         .map(|i| {
             let lo = i.saturating_sub(HALF);
             let hi = (i + HALF + 1).min(n);
-            (v[i] - median(&v[lo..hi])).abs()
+            let diffs: Vec<f64> = v[lo..hi].windows(2).map(|w| w[1] - w[0]).collect();
+            let slope = if diffs.is_empty() { 0.0 } else { median(&diffs) };
+            let moved: Vec<f64> = (lo..hi).map(|j| v[j] - slope * (j as f64 - i as f64)).collect();
+            (v[i] - median(&moved)).abs()
         })
         .collect();
     let sigma = 1.4826 * median(&dev);
