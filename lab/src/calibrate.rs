@@ -7,6 +7,8 @@
 //! The table written is the one fitted on the fit programs only, so the report's held-out
 //! figures describe exactly the flashed table.
 
+pub mod static_cal;
+
 use std::path::Path;
 use std::time::Instant;
 
@@ -73,6 +75,8 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
     let eval = evaluate(log, &eval_p, &fitted.simple, &fitted.hysteresis, Some(&pb)).map_err(|e| e.to_string())?;
     pb.finish_and_clear();
     let t_eval = t.elapsed().as_secs_f64();
+    check_figures(&eval)?;
+    let peers = crate::report::peer_bias(log, &fit_p, &eval_p, &fitted.hysteresis)?;
     let h = &fitted.sf_hysteresis.coef;
     let report = Report {
         rows: log.rows(),
@@ -81,6 +85,7 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
         eval_programs: eval_p,
         sensitivity_ppm_per_c: eval.sensitivity_ppm_per_c,
         bias_residual_ug: eval.bias_residual_ug,
+        peers_bias_residual_ug: peers,
         metric: METRIC_TEXT.to_string(),
         fit: FitSummary {
             pairs: fitted.pairs,
@@ -96,6 +101,40 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
         timings_s: Timings { fit: t_fit, evaluate: t_eval, ..Timings::default() },
     };
     Ok(Calibration { fitted, eval, report })
+}
+
+/// Every held-out figure must exist: a figure with no bins behind it is an error with its
+/// reason, never NaN, `null` or 0.0.
+///
+/// # Errors
+/// The first figure that could not be formed, and why.
+pub fn check_figures(ev: &crate::report::Evaluation) -> Result<(), String> {
+    let names = ["no compensation", "simple", "hysteresis"];
+    for (v, name) in names.iter().enumerate() {
+        if ev.bins[v].bias.is_empty() {
+            return Err(format!(
+                "bias residual ({name}) not computable: no held-out bin qualified (a bin is one program, branch \
+                 segment and 1 °C of T-hat with at least {} s of rows the compensator marked compensated)",
+                crate::metrics::MIN_BIN_S
+            ));
+        }
+        if ev.bins[v].sf.len() < 2 {
+            return Err(format!(
+                "sensitivity ({name}) not computable: {} held-out scale-factor bin(s); needs 2 or more (held-out \
+                 programs need both +1 g and -1 g runs, and bins at least {} s of compensated rows)",
+                ev.bins[v].sf.len(),
+                crate::metrics::MIN_BIN_S
+            ));
+        }
+    }
+    let s = ev.sensitivity_ppm_per_c;
+    let b = ev.bias_residual_ug;
+    for (x, what) in [(s.none, "sensitivity (none)"), (s.simple, "sensitivity (simple)"), (s.hysteresis, "sensitivity (hysteresis)"), (b.none, "bias residual (none)"), (b.simple, "bias residual (simple)"), (b.hysteresis, "bias residual (hysteresis)")] {
+        if !x.is_finite() {
+            return Err(format!("{what} not computable: the held-out bins span no temperature range"));
+        }
+    }
+    Ok(())
 }
 
 /// Write a table as TOML and postcard `.bin` under `dir/stem.{toml,bin}`.

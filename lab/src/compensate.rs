@@ -7,12 +7,35 @@
 //! alignment the fit uses, see [`crate::pairing::trace_run`]).
 //! `accel_g = Δv / (g0 · interval_s)`: the compensated mean specific force of the interval.
 //! Each run starts a fresh compensator (each run is a fresh power-up in the test).
+//! The staleness limit is at least 1.5 rows (see [`compensate_run`]).
 
 use qfa_thermal::compensator::{Compensator, Config, Status, G0};
 use qfa_thermal::Table;
 
 use crate::log::{Log, Run};
 use crate::pairing::RATE_WINDOW;
+
+/// Why a log could not be compensated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Error {
+    /// The table was refused.
+    Table(qfa_thermal::table::Error),
+    /// The log's row length gives a compensator configuration the firmware refuses (rows
+    /// longer than the rate window's 30-s gap limit, say).
+    Config(qfa_thermal::ConfigError),
+}
+
+impl std::fmt::Display for Error {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Table(e) => write!(f, "table refused: {e}"),
+            Self::Config(e) => write!(f, "rows too long for the firmware's settings: {e}"),
+        }
+    }
+}
+
+impl std::error::Error for Error {}
 
 /// Compensated output of one run.
 #[derive(Clone, Debug, Default)]
@@ -28,10 +51,23 @@ pub struct Compensated {
 /// Compensate one run with `table`.
 ///
 /// # Errors
-/// The table does not load into a `Compensator<1, 32>`.
-pub fn compensate_run(table: &Table, run: &Run) -> Result<Compensated, qfa_thermal::table::Error> {
-    let mut c = Compensator::<1, RATE_WINDOW>::new(Config::default()).expect("the default config is valid");
-    c.set_table(table.clone())?;
+/// The table does not load into a `Compensator<1, 32>`, or the rows are too long for it.
+pub fn compensate_run(table: &Table, run: &Run) -> Result<Compensated, Error> {
+    // One row is one fast-path cycle; a log's rows may be longer than the default 3-s
+    // staleness limit (the project's 10-s rows), although each row carries a fresh reading.
+    // The sample period is then one row and staleness means "no reading for 1.5 rows", else
+    // every row of such a log would be flagged stale and no held-out figure could be formed.
+    let default = Config::default();
+    let max_interval_s = run.samples.iter().map(|s| s.interval_s).fold(0.0, f64::max);
+    let row_ticks = (1.5 * max_interval_s / f64::from(default.tick_s)).ceil().min(f64::from(u32::MAX)) as u32;
+    let row_ms = (max_interval_s * 1000.0).ceil().min(60_000.0) as u32;
+    let config = Config {
+        stale_after_ticks: default.stale_after_ticks.max(row_ticks),
+        sample_period_ms: default.sample_period_ms.max(row_ms),
+        ..default
+    };
+    let mut c = Compensator::<1, RATE_WINDOW>::new(config).map_err(Error::Config)?;
+    c.set_table(table.clone()).map_err(Error::Table)?;
     let tick_s = f64::from(c.config().tick_s);
     let mut out = Compensated {
         accel_g: Vec::with_capacity(run.samples.len()),
@@ -61,7 +97,7 @@ pub fn compensate_log(
     table: &Table,
     log: &Log,
     progress: Option<&indicatif::ProgressBar>,
-) -> Result<Vec<Compensated>, qfa_thermal::table::Error> {
+) -> Result<Vec<Compensated>, Error> {
     log.runs
         .iter()
         .map(|r| {
@@ -78,4 +114,119 @@ pub fn compensate_log(
 #[must_use]
 pub fn not_compensated(status: u16) -> bool {
     Status::from_bits_retain(status).intersects(Status::NO_TABLE | Status::TEMP_STALE)
+}
+
+/// Why a static log cannot be compensated.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum StaticCompensateError {
+    /// The table has a different number of axes than the log.
+    AxisCount {
+        /// Table axes.
+        table: usize,
+        /// Log axes.
+        log: usize,
+    },
+    /// The firmware refuses the table.
+    Table(qfa_thermal::table::Error),
+    /// The log's row spacing gives a configuration the firmware refuses.
+    Config(qfa_thermal::ConfigError),
+    /// Writing failed.
+    Io(String),
+}
+
+impl std::fmt::Display for StaticCompensateError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::AxisCount { table, log } => {
+                write!(f, "the table has {table} axis(es), the log {log}: use the table calibrated on this kind of log")
+            }
+            Self::Table(e) => write!(f, "table refused: {e}"),
+            Self::Config(e) => write!(f, "rows too far apart for the firmware's settings: {e}"),
+            Self::Io(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl std::error::Error for StaticCompensateError {}
+
+/// Status of a compensated static row.
+#[must_use]
+pub fn static_status(status: Status) -> String {
+    // RATE_NOT_READY only says Ṫ = 0 is used for the first readings: not a fault of the row.
+    let shown = status - Status::RATE_NOT_READY;
+    if shown.is_empty() {
+        return "ok".to_string();
+    }
+    if shown == Status::TEMP_STALE {
+        return "no_temperature".to_string();
+    }
+    shown.iter_names().map(|(n, _)| n).collect::<Vec<_>>().join("|")
+}
+
+/// Compensate a static log with a table of the same axes, through the firmware's own
+/// sample path: per axis a `Compensator<1, 32>` with that axis's model, fed each row's
+/// reading (`on_raw`) and the row's acceleration as pseudo-LSB
+/// (`cycle_samples([round(a·2²⁰)])`, see [`crate::fit::STATIC_LSB_PER_G`]); the output
+/// `a = raw·(g0/K1) − K0·g0` is written back in g. Writes `time_s,temp_c,<axes…>,status`;
+/// `status` is `ok`, `no_temperature` (no reading yet: compensated at T0 and flagged
+/// stale), or the firmware's flags joined by `|` (`TEMP_OUT_OF_RANGE`, `TEMP_INVALID`, …),
+/// OR-ed over the axes.
+///
+/// # Errors
+/// A table whose axis count differs from the log's, a table or row spacing the firmware
+/// refuses, or a write failure.
+pub fn compensate_static<W: std::io::Write>(
+    table: &Table,
+    log: &crate::log::static_log::StaticLog,
+    w: W,
+) -> Result<(), StaticCompensateError> {
+    if table.axes.len() != log.axes.len() {
+        return Err(StaticCompensateError::AxisCount { table: table.axes.len(), log: log.axes.len() });
+    }
+    // Rows may be slower than 1 Hz: the sample period is the longest row spacing, and
+    // staleness means no reading for 1.5 of them (as for cycling logs).
+    let default = Config::default();
+    let max_dt_s = log.time_s.windows(2).map(|w| w[1] - w[0]).fold(0.0, f64::max);
+    let config = Config {
+        stale_after_ticks: default
+            .stale_after_ticks
+            .max((1.5 * max_dt_s / f64::from(default.tick_s)).ceil().min(f64::from(u32::MAX)) as u32),
+        sample_period_ms: default.sample_period_ms.max((max_dt_s * 1000.0).ceil().min(60_000.0) as u32),
+        ..default
+    };
+    let mut comps = Vec::with_capacity(table.axes.len());
+    for axis in &table.axes {
+        let mut c = Compensator::<1, RATE_WINDOW>::new(config).map_err(StaticCompensateError::Config)?;
+        let mut one = Table { rate_window: table.rate_window, axes: heapless::Vec::new(), misalignment: None };
+        let _ = one.axes.push(axis.clone());
+        c.set_table(one).map_err(StaticCompensateError::Table)?;
+        comps.push(c);
+    }
+    let io = |e: &dyn std::fmt::Display| StaticCompensateError::Io(e.to_string());
+    let mut wr = csv::Writer::from_writer(w);
+    let mut head = vec!["time_s".to_string(), "temp_c".to_string()];
+    head.extend(log.axes.iter().map(|a| a.name.clone()));
+    head.push("status".to_string());
+    wr.write_record(&head).map_err(|e| io(&e))?;
+    let lsb = f64::from(crate::fit::STATIC_LSB_PER_G);
+    let tick_s = f64::from(config.tick_s);
+    for i in 0..log.rows() {
+        let mut rec = vec![format!("{:.6}", log.time_s[i]), format!("{:.4}", log.temp_c[i])];
+        let t_ms = (log.time_s[i] * 1000.0).round() as u32;
+        let raw_t = (log.temp_c[i] * 16.0).round().clamp(-32768.0, 32767.0) as i16;
+        let dt_ticks = if i == 0 { 0 } else { ((log.time_s[i] - log.time_s[i - 1]) / tick_s).round() as u32 };
+        let mut status = Status::empty();
+        for (c, ax) in comps.iter_mut().zip(&log.axes) {
+            // A refused reading raises TEMP_INVALID in the output's status: nothing is lost.
+            let _ = c.on_raw(t_ms, raw_t);
+            let raw = (ax.accel_g[i] * lsb).round().clamp(f64::from(i32::MIN), f64::from(i32::MAX)) as i32;
+            let out = c.cycle_samples([raw], dt_ticks);
+            status |= out.status;
+            rec.push(format!("{:.9}", f64::from(out.dv_mps[0]) / f64::from(G0)));
+        }
+        rec.push(static_status(status));
+        wr.write_record(&rec).map_err(|e| io(&e))?;
+    }
+    wr.flush().map_err(|e| io(&e))
 }

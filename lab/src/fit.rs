@@ -376,3 +376,259 @@ pub fn encode(table: &Table) -> Result<Vec<u8>, FitError> {
     let mut buf = [0u8; qfa_thermal::table::MAX_TABLE_BYTES];
     table.encode(&mut buf).map(<[u8]>::to_vec).map_err(FitError::Table)
 }
+
+// ---------------------------------------------------------------------------------------
+// Bias-only fit of one axis of a static log (board at constant orientation).
+// ---------------------------------------------------------------------------------------
+
+/// How the two bias branches are tied in a static fit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub enum BranchMode {
+    /// One curve: heating = cooling.
+    Single,
+    /// One curve plus a constant heating/cooling step: heating = f(T) + d, cooling = f(T) − d.
+    Offset,
+    /// Free nodes per branch, tied weakly as in [`fit`].
+    Free,
+}
+
+/// The structure of a static bias model: which firmware slots are on, with their fixed
+/// nonlinear parameters (the linear weights — grid nodes, creep gain, play weight — are
+/// fitted).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct StaticStructure {
+    /// Branch tie.
+    pub branches: BranchMode,
+    /// `sensor_lag` τ, s.
+    pub lag_tau_s: Option<f32>,
+    /// `bias_creep` τ (no activation), s.
+    pub creep_tau_s: Option<f32>,
+    /// `bias_branch_hysteresis` half-width, °C.
+    pub play_half_width_c: Option<f32>,
+}
+
+impl StaticStructure {
+    /// Grid only, one branch.
+    pub const PLAIN: Self = Self { branches: BranchMode::Single, lag_tau_s: None, creep_tau_s: None, play_half_width_c: None };
+
+    /// Short name for reports, e.g. `offset+lag120+creep600`.
+    #[must_use]
+    pub fn name(&self) -> String {
+        let mut s = match self.branches {
+            BranchMode::Single => "grid".to_string(),
+            BranchMode::Offset => "grid+branch-step".to_string(),
+            BranchMode::Free => "grid-2-branches".to_string(),
+        };
+        if let Some(t) = self.lag_tau_s {
+            s.push_str(&format!("+lag{t}s"));
+        }
+        if let Some(t) = self.creep_tau_s {
+            s.push_str(&format!("+creep{t}s"));
+        }
+        if let Some(r) = self.play_half_width_c {
+            s.push_str(&format!("+play{r}C"));
+        }
+        s
+    }
+
+    /// Linear unknowns for `g` grid nodes.
+    #[must_use]
+    pub fn unknowns(&self, g: usize) -> usize {
+        let b = match self.branches {
+            BranchMode::Single => g,
+            BranchMode::Offset => g + 1,
+            BranchMode::Free => 2 * g,
+        };
+        b + usize::from(self.creep_tau_s.is_some()) + usize::from(self.play_half_width_c.is_some())
+    }
+
+    fn ext(&self, creep_gain: f32, play_weight: f32) -> Extensions {
+        Extensions {
+            sensor_lag: self.lag_tau_s.map(|tau_s| qfa_thermal::model::SensorLag { tau_s }),
+            bias_branch_hysteresis: self
+                .play_half_width_c
+                .map(|half_width_c| qfa_thermal::model::BranchHysteresis { half_width_c, weight_g: play_weight }),
+            bias_creep: self.creep_tau_s.map(|tau_ref_s| qfa_thermal::model::Creep {
+                gain_g_per_c: creep_gain,
+                tau_ref_s,
+                t_ref_c: T0_C as f32,
+                activation_k: 0.0,
+            }),
+        }
+    }
+}
+
+/// A static fit of one axis.
+#[derive(Clone, Debug)]
+pub struct StaticFit {
+    /// The fitted model (scale factor 1: a static log says nothing about it).
+    pub axis: AxisModel,
+    /// Its structure.
+    pub structure: StaticStructure,
+    /// The least-squares solve.
+    pub ls: LsResult,
+    /// The constant the bias is measured from, g: the axis's mean over the training rows
+    /// (gravity's projection and the offset cannot be told apart at one orientation).
+    pub reference_g: f64,
+}
+
+/// One static series: rows `(time_s, temp_c)` and one axis's output (g).
+#[derive(Clone, Copy, Debug)]
+pub struct StaticSeries<'a> {
+    /// Row times, s.
+    pub time_s: &'a [f64],
+    /// Temperature readings, °C.
+    pub temp_c: &'a [f64],
+    /// Axis output, g.
+    pub accel_g: &'a [f64],
+}
+
+impl StaticSeries<'_> {
+    fn rows(&self) -> impl Iterator<Item = (f64, Option<f64>)> + '_ {
+        self.time_s.iter().zip(self.temp_c).map(|(&t, &c)| (t, Some(c)))
+    }
+
+    /// The firmware's view of the series under `ext` (see [`crate::pairing::trace_readings`]).
+    #[must_use]
+    pub fn trace(&self, ext: &Extensions, deadband: f32) -> Trace {
+        crate::pairing::trace_readings(self.rows(), self.time_s.len(), ext, deadband)
+    }
+
+    /// The model's K0 (g) per row through the root crate's `AxisModel::evaluate`.
+    #[must_use]
+    pub fn model_trace(&self, axis: &AxisModel) -> Trace {
+        crate::pairing::trace_axis(self.rows(), self.time_s.len(), axis)
+    }
+}
+
+/// K1 of a static log's table, LSB/g. A static log holds accelerations as numbers (g after
+/// the unit flags), while the firmware's sample path takes integer LSB:
+/// `raw = round(a·2²⁰)` quantizes to 0.95 µg, three orders below the figures that matter,
+/// and keeps |raw| below 2²⁴ for |a| < 16 g, where f32 holds every integer exactly.
+pub const STATIC_LSB_PER_G: f32 = 1_048_576.0;
+
+/// Fit the bias model `structure` to `series` on the rows where `train` is true.
+///
+/// Equations: `a − reference = grid(Te, branch) [+ creep gain·(Te − x)] [+ play weight·(Te − p)/r]`
+/// per training row, with Te, branch, x and p from the root crate (unit gains), averaged in
+/// blocks of `block` consecutive rows; the grid spans the training range of Te with
+/// `grid_points` nodes. Weak second-difference rows (weight 1, as in [`fit`]) keep nodes
+/// few data reach defined.
+///
+/// # Errors
+/// Too few training rows, or a table the root crate refuses.
+pub fn fit_static_axis(
+    series: &StaticSeries<'_>,
+    train: &[bool],
+    structure: &StaticStructure,
+    grid_points: usize,
+    deadband: f32,
+    block: usize,
+) -> Result<StaticFit, FitError> {
+    let base = series.trace(&structure.ext(0.0, 0.0), deadband);
+    let creep = structure.creep_tau_s.map(|_| series.trace(&structure.ext(1.0, 0.0), deadband));
+    let play = structure.play_half_width_c.map(|_| series.trace(&structure.ext(0.0, 1.0), deadband));
+    let idx: Vec<usize> = (0..train.len()).filter(|&i| train[i] && base.valid[i]).collect();
+    let g = grid_points.clamp(2, MAX_BIAS_POINTS);
+    let p = structure.unknowns(g);
+    if idx.len() < 2 * p {
+        return Err(FitError::TooFewRows { rows: idx.len(), unknowns: p });
+    }
+    let reference_g = idx.iter().map(|&i| series.accel_g[i]).sum::<f64>() / idx.len() as f64;
+    let tmin = idx.iter().map(|&i| base.model_temp_c[i]).fold(f64::INFINITY, f64::min);
+    let tmax = idx.iter().map(|&i| base.model_temp_c[i]).fold(f64::NEG_INFINITY, f64::max);
+    let start = tmin.floor().max(-60.0);
+    let end = tmax.ceil().min(130.0).max(start + 1.0);
+    let step = (end - start) / (g - 1) as f64;
+    let nb = match structure.branches {
+        BranchMode::Single => g,
+        BranchMode::Offset => g + 1,
+        BranchMode::Free => 2 * g,
+    };
+    let mut x = vec![0.0; idx.len() * p];
+    let mut y = Vec::with_capacity(idx.len());
+    let mut max_rate: f64 = 0.0;
+    for (k, &i) in idx.iter().enumerate() {
+        let row = &mut x[k * p..(k + 1) * p];
+        let (t, b) = (base.model_temp_c[i], base.branch[i]);
+        match structure.branches {
+            BranchMode::Single => hat(row, 0, t, start, step, g, 1.0),
+            BranchMode::Offset => {
+                hat(row, 0, t, start, step, g, 1.0);
+                row[g] = match b {
+                    Branch::Heating => 1.0,
+                    Branch::Cooling => -1.0,
+                    Branch::Unknown => 0.0,
+                };
+            }
+            BranchMode::Free => grid_row(row, t, b, start, step, g, 1.0),
+        }
+        let mut c = nb;
+        if let Some(tr) = &creep {
+            row[c] = tr.ext_k0_g[i];
+            c += 1;
+        }
+        if let Some(tr) = &play {
+            row[c] = tr.ext_k0_g[i];
+        }
+        y.push(series.accel_g[i] - reference_g);
+        max_rate = max_rate.max(base.rate_c_per_min[i].abs());
+    }
+    // Blocks of consecutive training rows (a block never spans a gap in the training set).
+    let mut starts = vec![0];
+    for k in 1..idx.len() {
+        if idx[k] != idx[k - 1] + 1 {
+            starts.push(k);
+        }
+    }
+    let (mut xb, mut yb) = block_average(&x, &y, p, block, &starts);
+    let branches = if structure.branches == BranchMode::Free { 2 } else { 1 };
+    for off in (0..branches).map(|b| b * g) {
+        for i in 1..g - 1 {
+            let mut row = vec![0.0; p];
+            row[off + i - 1] = 1.0;
+            row[off + i] = -2.0;
+            row[off + i + 1] = 1.0;
+            xb.extend(row);
+            yb.push(0.0);
+        }
+    }
+    if structure.branches == BranchMode::Free {
+        for i in 0..g {
+            let mut row = vec![0.0; p];
+            row[i] = 1.0;
+            row[g + i] = -1.0;
+            xb.extend(row);
+            yb.push(0.0);
+        }
+    }
+    let ls = lstsq(&xb, p, &yb)?;
+    let c = &ls.coef;
+    let (heating, cooling): (Vec<f64>, Vec<f64>) = match structure.branches {
+        BranchMode::Single => (c[..g].to_vec(), c[..g].to_vec()),
+        BranchMode::Offset => (c[..g].iter().map(|v| v + c[g]).collect(), c[..g].iter().map(|v| v - c[g]).collect()),
+        BranchMode::Free => (c[..g].to_vec(), c[g..2 * g].to_vec()),
+    };
+    let mut k = nb;
+    let creep_gain = if structure.creep_tau_s.is_some() {
+        k += 1;
+        c[k - 1] as f32
+    } else {
+        0.0
+    };
+    let play_weight = if structure.play_half_width_c.is_some() { c[k] as f32 } else { 0.0 };
+    let axis = AxisModel {
+        scale: ScaleFactor::simple(T0_C as f32, STATIC_LSB_PER_G, 0.0),
+        bias: BiasGrid {
+            t_start_c: start as f32,
+            t_step_c: step as f32,
+            deadband_c_per_min: deadband,
+            heating_g: f32v(&heating),
+            cooling_g: f32v(&cooling),
+        },
+        rate_limit_c_per_min: (max_rate * 1.25).clamp(0.5, 20.0) as f32,
+        ext: structure.ext(creep_gain, play_weight),
+    };
+    table_of(axis.clone())?;
+    Ok(StaticFit { axis, structure: *structure, ls, reference_g })
+}

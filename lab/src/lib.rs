@@ -12,7 +12,10 @@
 //! * calibrate: [`calibrate::calibrate_log`] (in memory) and [`calibrate::calibrate_file`];
 //! * firmware view of a run: [`pairing::trace_run`]; fitting with extension slots:
 //!   [`fit::fit`] with [`fit::FitOptions::ext`];
-//! * compensation: [`compensate::compensate_run`].
+//! * compensation: [`compensate::compensate_run`];
+//! * static multi-axis logs (a board at one orientation, CSV/TSV):
+//!   [`log::static_log::read_static`] → [`calibrate::static_cal::calibrate_static`]
+//!   (per-axis [`fit::fit_static_axis`], peers in [`peers`]) → [`compensate::compensate_static`].
 
 pub mod calibrate;
 pub mod compensate;
@@ -22,6 +25,7 @@ pub mod fit;
 pub mod log;
 pub mod metrics;
 pub mod pairing;
+pub mod peers;
 pub mod profile;
 pub mod report;
 pub mod sim;

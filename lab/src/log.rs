@@ -1,4 +1,5 @@
 //! Cycling log: CSV reader and writer for `program,run,time_s,input_g,temp_c,pulses,interval_s`.
+//! Static multi-axis logs (a board at one orientation, CSV or TSV) are read by [`static_log`].
 //!
 //! One row per counting interval of one index-head position (`run`) under one temperature
 //! program. `temp_c` is the latest valid DS18B20 reading (empty until the first one),
@@ -8,6 +9,8 @@
 //! number (the header is line 1); nothing is dropped silently. It parses through
 //! `csv::ByteRecord` into one reused record, so a row costs no allocation: about 0.6 s per
 //! million rows in release on this machine (`qfa-lab demo` prints the measured figure).
+
+pub mod static_log;
 
 use std::fmt;
 use std::io::{BufWriter, Read, Write};
@@ -34,8 +37,9 @@ pub struct Sample {
 pub struct Run {
     /// Program id.
     pub program: String,
-    /// Run index within the program.
-    pub run: u32,
+    /// Run name within the program (any non-empty text: `0`, `rate0.3_pos0`); runs and
+    /// programs are matched by name.
+    pub run: String,
     /// Specific force along the input axis, g (+1, 0 or −1 in the paper's test).
     pub input_g: f64,
     /// Rows.
@@ -135,8 +139,8 @@ pub struct LogError {
 }
 
 impl LogError {
-    /// Errors kept in detail.
-    pub const KEPT: usize = 1000;
+    /// Errors kept in detail (all are counted).
+    pub const KEPT: usize = 20;
 
     fn single(line: u64, fault: RowFault) -> Self {
         Self { errors: vec![RowError { line, fault }], total: 1 }
@@ -178,8 +182,9 @@ fn parse_f64(b: &[u8], column: &'static str) -> Result<f64, RowFault> {
         .ok_or_else(|| bad(column, b))
 }
 
-/// A parsed row: run, time_s, input_g, temp_c, pulses, interval_s.
-type Parsed = (u32, f64, f64, Option<f64>, i64, f64);
+/// A parsed row: time_s, input_g, temp_c, pulses, interval_s (program and run are read
+/// in place, without allocating).
+type Parsed = (f64, f64, Option<f64>, i64, f64);
 
 fn parse_row(rec: &csv::ByteRecord) -> Result<Parsed, RowFault> {
     if rec.len() != COLUMNS.len() {
@@ -190,7 +195,9 @@ fn parse_row(rec: &csv::ByteRecord) -> Result<Parsed, RowFault> {
         return Err(bad("program", prog));
     }
     let run_b = field_str(rec, 1);
-    let run = std::str::from_utf8(run_b).ok().and_then(|s| s.parse::<u32>().ok()).ok_or_else(|| bad("run", run_b))?;
+    if run_b.is_empty() || std::str::from_utf8(run_b).is_err() {
+        return Err(bad("run", run_b));
+    }
     let time_s = parse_f64(field_str(rec, 2), "time_s")?;
     if time_s < 0.0 {
         return Err(bad("time_s", field_str(rec, 2)));
@@ -217,7 +224,7 @@ fn parse_row(rec: &csv::ByteRecord) -> Result<Parsed, RowFault> {
     if interval_s <= 0.0 {
         return Err(bad("interval_s", ib));
     }
-    Ok((run, time_s, input_g, temp_c, pulses, interval_s))
+    Ok((time_s, input_g, temp_c, pulses, interval_s))
 }
 
 /// Read a log from any reader.
@@ -262,7 +269,7 @@ pub fn read_log_from<R: Read>(reader: R) -> Result<Log, LogError> {
         if let Some(pos) = rec.position() {
             line = pos.line();
         }
-        let (run, time_s, input_g, temp_c, pulses, interval_s) = match parse_row(&rec) {
+        let (time_s, input_g, temp_c, pulses, interval_s) = match parse_row(&rec) {
             Ok(v) => v,
             Err(f) => {
                 push_err(&mut errors, line, f);
@@ -270,7 +277,8 @@ pub fn read_log_from<R: Read>(reader: R) -> Result<Log, LogError> {
             }
         };
         let prog = field_str(&rec, 0);
-        let same = |r: &Run| r.run == run && r.program.as_bytes() == prog;
+        let run = field_str(&rec, 1);
+        let same = |r: &Run| r.run.as_bytes() == run && r.program.as_bytes() == prog;
         let idx = match current {
             Some(i) if same(&log.runs[i]) => i,
             _ => match log.runs.iter().position(same) {
@@ -278,7 +286,7 @@ pub fn read_log_from<R: Read>(reader: R) -> Result<Log, LogError> {
                 None => {
                     log.runs.push(Run {
                         program: String::from_utf8_lossy(prog).into_owned(),
-                        run,
+                        run: String::from_utf8_lossy(run).into_owned(),
                         input_g,
                         samples: Vec::new(),
                     });

@@ -28,6 +28,44 @@ enum ProfileKind {
     Flight,
 }
 
+/// How to read a static multi-axis log (CSV/TSV with a header); any flag, or a header
+/// without a `pulses` column, selects the static-log path.
+#[derive(clap::Args, Clone, Default)]
+struct StaticFlags {
+    /// Column choices, e.g. `time=timestamp,temp=imu.temperature,ax=imu.acc.x,ay=imu.acc.y,az=imu.acc.z`.
+    #[arg(long)]
+    columns: Option<String>,
+    /// Unit of the time column: s, ms, us or ns.
+    #[arg(long)]
+    time_unit: Option<String>,
+    /// Unit of the acceleration columns: g, mg or m/s2.
+    #[arg(long)]
+    accel_unit: Option<String>,
+}
+
+impl StaticFlags {
+    /// The reader options, or `None` for a cycling log.
+    fn options(&self, log: &std::path::Path) -> Result<Option<qfa_lab::log::static_log::StaticOptions>, String> {
+        use qfa_lab::log::static_log::{looks_static, StaticOptions};
+        let any = self.columns.is_some() || self.time_unit.is_some() || self.accel_unit.is_some();
+        if !any {
+            let f = std::fs::File::open(log).map_err(|e| format!("{}: {e}", log.display()))?;
+            let mut first = String::new();
+            std::io::BufRead::read_line(&mut std::io::BufReader::new(f), &mut first)
+                .map_err(|e| format!("{}: {e}", log.display()))?;
+            if first.trim().is_empty() || !looks_static(&first) {
+                return Ok(None);
+            }
+        }
+        let e = |e: qfa_lab::log::static_log::StaticError| e.to_string();
+        Ok(Some(StaticOptions {
+            columns: self.columns.as_deref().map(str::parse).transpose().map_err(e)?.unwrap_or_default(),
+            time_unit: self.time_unit.as_deref().map(str::parse).transpose().map_err(e)?,
+            accel_unit: self.accel_unit.as_deref().map(str::parse).transpose().map_err(e)?,
+        }))
+    }
+}
+
 #[derive(Subcommand)]
 enum Cmd {
     /// Simulate a cycling log (CSV) and write its truth (TOML) next to it.
@@ -80,6 +118,8 @@ enum Cmd {
         /// Skip the plots.
         #[arg(long)]
         no_plots: bool,
+        #[command(flatten)]
+        fmt: StaticFlags,
     },
     /// Discovery workflow (issue 4): name the missing effect, add it, show the held-out gap shrink.
     Discover {
@@ -89,9 +129,11 @@ enum Cmd {
         /// Start model: simple or paper.
         #[arg(long, default_value = "simple")]
         start: qfa_lab::discover::Start,
-        /// Output directory.
+        /// Output directory (a static log: one subdirectory per axis).
         #[arg(long)]
         out: PathBuf,
+        #[command(flatten)]
+        fmt: StaticFlags,
     },
     /// Compensate a log through the root crate's compensator; adds an accel_g column.
     Compensate {
@@ -104,6 +146,8 @@ enum Cmd {
         /// Output CSV.
         #[arg(long)]
         out: PathBuf,
+        #[command(flatten)]
+        fmt: StaticFlags,
     },
     /// The paper's full test for JB-KT8 #1–#3: simulate, calibrate, compensate, compare.
     Demo {
@@ -178,7 +222,17 @@ fn run(cli: Cli) -> Result<(), String> {
                 truth_path.display()
             );
         }
-        Cmd::Calibrate { log, out, fit_programs, no_plots } => {
+        Cmd::Calibrate { log, out, fmt, .. } if fmt.options(&log)?.is_some() => {
+            let o = fmt.options(&log)?.unwrap_or_default();
+            let l = qfa_lab::log::static_log::read_static(&log, &o).map_err(|e| format!("{}: {e}", log.display()))?;
+            eprintln!("{} rows read; {}; {}", l.rows(), l.skipped, l.sampling);
+            let opts = qfa_lab::calibrate::static_cal::StaticCalOptions::default();
+            let cal = qfa_lab::calibrate::static_cal::calibrate_static(&l, &opts, true).map_err(|e| e.to_string())?;
+            qfa_lab::calibrate::static_cal::write_static(&out, &cal).map_err(|e| e.to_string())?;
+            print!("{}", qfa_lab::calibrate::static_cal::markdown(&cal.report));
+            println!("wrote {}/table.toml, table.bin, report.json, report.md, px4_tc.params, ardupilot_tcal.parm", out.display());
+        }
+        Cmd::Calibrate { log, out, fit_programs, no_plots, .. } => {
             let opts = CalibrateOptions {
                 fit_programs: if fit_programs.is_empty() { None } else { Some(fit_programs) },
                 plots: !no_plots,
@@ -190,7 +244,7 @@ fn run(cli: Cli) -> Result<(), String> {
             println!(
                 "held out on {:?} (fitted on {:?}), {} rows\n\
                  sensitivity ppm/degC: none {:.2}, simple {:.2}, hysteresis {:.2}\n\
-                 bias residual ug:     none {:.1}, simple {:.1}, hysteresis {:.1}\n\
+                 bias residual ug:     none {:.1}, simple {:.1}, hysteresis {:.1}; peers: PX4/tofupilot cubic {:.1}, ArduPilot TCAL {:.1}\n\
                  Eq. 11 condition number {:.1}; timings: read {:.2} s, fit {:.2} s, evaluate {:.2} s, plots {:.2} s, total {:.2} s\n\
                  wrote {}/table.toml, table.bin, report.json",
                 r.eval_programs,
@@ -202,6 +256,8 @@ fn run(cli: Cli) -> Result<(), String> {
                 r.bias_residual_ug.none,
                 r.bias_residual_ug.simple,
                 r.bias_residual_ug.hysteresis,
+                r.peers_bias_residual_ug.cubic,
+                r.peers_bias_residual_ug.ardupilot,
                 r.fit.cond_sf_hysteresis,
                 r.timings_s.read,
                 r.timings_s.fit,
@@ -211,10 +267,35 @@ fn run(cli: Cli) -> Result<(), String> {
                 out.display()
             );
         }
-        Cmd::Discover { log, start, out } => {
+        Cmd::Discover { log, start, out, fmt } if fmt.options(&log)?.is_some() => {
+            // A static log: each axis is a single-channel (bias) log for the discovery.
+            use qfa_lab::discover::channels::{Channels, LogKind, Trace};
+            let o = fmt.options(&log)?.unwrap_or_default();
+            let l = qfa_lab::log::static_log::read_static(&log, &o).map_err(|e| format!("{}: {e}", log.display()))?;
+            eprintln!("{} rows read; {}", l.rows(), l.skipped);
+            let rows: Vec<(f64, f32)> = l.time_s.iter().zip(&l.temp_c).map(|(&t, &c)| (t, c as f32)).collect();
+            for ax in &l.axes {
+                let mean = ax.accel_g.iter().sum::<f64>() / ax.accel_g.len() as f64;
+                let bias: Vec<f64> = ax.accel_g.iter().map(|a| a - mean).collect();
+                let ch = Channels { kind: LogKind::Single, traces: vec![Trace::new(ax.name.clone(), &rows, None, &bias, 60.0)] };
+                let r = qfa_lab::discover::discover(&ch, start, &out.join(&ax.name)).map_err(|e| format!("{}: {e:#}", ax.name))?;
+                let names: Vec<&str> = r.effects.iter().map(|e| e.name.as_str()).collect();
+                println!("{} ({}): effects found: {}", ax.name, ax.column, if names.is_empty() { "none".to_string() } else { names.join(", ") });
+            }
+        }
+        Cmd::Discover { log, start, out, .. } => {
             qfa_lab::discover::run_cli(&log, start, &out).map_err(|e| format!("{e:#}"))?;
         }
-        Cmd::Compensate { log, table, out } => {
+        Cmd::Compensate { log, table, out, fmt } if fmt.options(&log)?.is_some() => {
+            let o = fmt.options(&log)?.unwrap_or_default();
+            let l = qfa_lab::log::static_log::read_static(&log, &o).map_err(|e| format!("{}: {e}", log.display()))?;
+            let bytes = std::fs::read(&table).map_err(|e| format!("{}: {e}", table.display()))?;
+            let t = qfa_thermal::Table::decode(&bytes).map_err(|e| format!("{}: {e}", table.display()))?;
+            let f = std::fs::File::create(&out).map_err(|e| format!("{}: {e}", out.display()))?;
+            qfa_lab::compensate::compensate_static(&t, &l, std::io::BufWriter::new(f)).map_err(|e| e.to_string())?;
+            eprintln!("{} rows ({}) → {}", l.rows(), l.skipped, out.display());
+        }
+        Cmd::Compensate { log, table, out, .. } => {
             let l = read_log(&log).map_err(|e| e.to_string())?;
             let bytes = std::fs::read(&table).map_err(|e| format!("{}: {e}", table.display()))?;
             let t = qfa_thermal::Table::decode(&bytes).map_err(|e| format!("{}: {e}", table.display()))?;

@@ -39,21 +39,38 @@ pub struct Trace {
     pub model_temp_c: Vec<f64>,
     /// Bias branch in force.
     pub branch: Vec<Branch>,
-    /// Bias from the extension slots (play + creep) with the given parameters, g.
+    /// Bias from the extension slots (play + creep) with the given parameters, g; from
+    /// [`trace_axis`], the whole model's K0.
     pub ext_k0_g: Vec<f64>,
+    /// The model clamped T̂ or Ṫ to its calibrated range at this row.
+    pub clamped: Vec<bool>,
 }
 
 /// Replay `run` through the root crate's estimator and model with extension slots `ext`
 /// and branch deadband `deadband` (°C/min).
 #[must_use]
 pub fn trace_run(run: &Run, ext: &Extensions, deadband: f32) -> Trace {
-    let mut est = RateEstimator::<RATE_WINDOW>::new(RateConfig::default());
+    trace_readings(run.samples.iter().map(|s| (s.time_s, s.temp_c)), run.samples.len(), ext, deadband)
+}
+
+/// Replay rows `(time_s, reading °C or none)` through the root crate's estimator and model
+/// (see [`trace_run`]); any log kind with a temperature column uses this.
+#[must_use]
+pub fn trace_readings(rows: impl Iterator<Item = (f64, Option<f64>)>, n: usize, ext: &Extensions, deadband: f32) -> Trace {
     let zeros = [0.0f32; 16];
     let mut bias = BiasGrid::single_valued(-60.0, 190.0 / 15.0, &zeros);
     bias.deadband_c_per_min = deadband;
     let axis = AxisModel { scale: ScaleFactor::simple(22.0, 1.0, 0.0), bias, rate_limit_c_per_min: 20.0, ext: *ext };
+    trace_axis(rows, n, &axis)
+}
+
+/// Replay rows through the root crate's estimator and `axis.evaluate`, as the firmware
+/// does per temperature sample; `ext_k0_g` is then the model's K0 (g).
+#[must_use]
+pub fn trace_axis(rows: impl Iterator<Item = (f64, Option<f64>)>, n: usize, axis: &AxisModel) -> Trace {
+    let ext = &axis.ext;
+    let mut est = RateEstimator::<RATE_WINDOW>::new(RateConfig::default());
     let mut st = AxisState::default();
-    let n = run.samples.len();
     let mut tr = Trace {
         valid: Vec::with_capacity(n),
         temp_c: Vec::with_capacity(n),
@@ -61,13 +78,15 @@ pub fn trace_run(run: &Run, ext: &Extensions, deadband: f32) -> Trace {
         model_temp_c: Vec::with_capacity(n),
         branch: Vec::with_capacity(n),
         ext_k0_g: Vec::with_capacity(n),
+        clamped: Vec::with_capacity(n),
     };
     let mut last_ms: Option<u32> = None;
     let mut cur = (false, f64::NAN, 0.0, f64::NAN, Branch::Unknown, 0.0);
-    for s in &run.samples {
-        if let Some(t) = s.temp_c {
+    let mut clamped = false;
+    for (time_s, temp_c) in rows {
+        if let Some(t) = temp_c {
             let raw = (t * 16.0).round() as i16;
-            let t_ms = (s.time_s * 1000.0).round() as u32;
+            let t_ms = (time_s * 1000.0).round() as u32;
             if est.push(t_ms, raw).is_ok() {
                 let e = est.estimate().expect("a sample was just pushed");
                 let dt = last_ms.map_or(0.0, |p| t_ms.wrapping_sub(p) as f32 * 1e-3);
@@ -75,8 +94,10 @@ pub fn trace_run(run: &Run, ext: &Extensions, deadband: f32) -> Trace {
                 let ev = axis.evaluate(&mut st, e.temp_c, e.rate_c_per_min, dt);
                 let te = if ext.sensor_lag.is_some() { st.element_c } else { e.temp_c.clamp(-60.0, 130.0) };
                 cur = (true, f64::from(e.temp_c), f64::from(e.rate_c_per_min), f64::from(te), st.branch, f64::from(ev.k0));
+                clamped = ev.temp_clamped || ev.rate_clamped;
             }
         }
+        tr.clamped.push(clamped);
         tr.valid.push(cur.0);
         tr.temp_c.push(cur.1);
         tr.rate_c_per_min.push(cur.2);
@@ -153,7 +174,7 @@ mod tests {
             .enumerate()
             .map(|(i, &p)| Sample { time_s: t0 + i as f64, temp_c: Some(22.0), pulses: p, interval_s: 1.0 })
             .collect();
-        Run { program: program.to_string(), run: 0, input_g, samples }
+        Run { program: program.to_string(), run: "0".to_string(), input_g, samples }
     }
 
     #[test]

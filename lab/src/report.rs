@@ -69,7 +69,7 @@ pub fn evaluate(
     simple: &Table,
     hysteresis: &Table,
     progress: Option<&indicatif::ProgressBar>,
-) -> Result<Evaluation, qfa_thermal::table::Error> {
+) -> Result<Evaluation, crate::compensate::Error> {
     let gamma_none = f64::from(hysteresis.axes[0].scale.gamma);
     let mut ev = Evaluation::default();
     let ext = qfa_thermal::Extensions::default();
@@ -178,6 +178,8 @@ pub struct Report {
     pub sensitivity_ppm_per_c: Variants,
     /// Bias residual, µg RMS, held out.
     pub bias_residual_ug: Variants,
+    /// Bias residual of the bias-only peers (fitted on the same fit programs), µg RMS, held out.
+    pub peers_bias_residual_ug: PeerBias,
     /// Metric definition, in words.
     pub metric: String,
     /// Fit diagnostics.
@@ -317,4 +319,80 @@ pub fn plot_residual_vs_time(path: &Path, title: &str, ev: &Evaluation) -> PlotR
     }
     root.present()?;
     Ok(())
+}
+
+/// Held-out bias residual of the bias-only peers on a cycling log, µg (same bins as
+/// [`Evaluation::bias_residual_ug`]).
+#[derive(Clone, Copy, Debug, Default, Serialize, PartialEq)]
+pub struct PeerBias {
+    /// PX4 / tofupilot cubic of K0 in T.
+    pub cubic: f64,
+    /// ArduPilot TCAL cubic about 35 °C (learner rule: points on rises).
+    pub ardupilot: f64,
+}
+
+/// Fit the peers on the ±1 g pairs of `fit_programs` (K0 against the pair's mean T̂) and
+/// score them on `eval_programs`: per matched pair `K0 − peer(T̂)`, per 0 g row
+/// `A/γ − peer(T̂)` with the hysteresis table's γ, binned as the other variants.
+///
+/// # Errors
+/// No fit pairs, a failed fit, or no held-out bin (the reason is in the message).
+pub fn peer_bias(log: &Log, fit_programs: &[String], eval_programs: &[String], hysteresis: &Table) -> Result<PeerBias, String> {
+    let ext = qfa_thermal::Extensions::default();
+    let deadband = hysteresis.axes[0].bias.deadband_c_per_min;
+    let (mut t, mut k0) = (Vec::new(), Vec::new());
+    for prog in fit_programs {
+        let Some(pp) = pair_program(log, prog) else { continue };
+        let (tp, tm) = (trace_run(&log.runs[pp.plus], &ext, deadband), trace_run(&log.runs[pp.minus], &ext, deadband));
+        for (k, &(i, j)) in pp.rows.iter().enumerate() {
+            if tp.valid[i] && tm.valid[j] {
+                t.push(0.5 * (tp.temp_c[i] + tm.temp_c[j]));
+                k0.push(pp.k1_k0(log, k).1);
+            }
+        }
+    }
+    if t.is_empty() {
+        return Err("peers: no +1 g / -1 g pair with temperatures in the fit programs".to_string());
+    }
+    let peers = crate::peers::fit_peers(&t, &k0).map_err(|e| format!("peers: {e}"))?;
+    let gamma = f64::from(hysteresis.axes[0].scale.gamma);
+    let mut bins: [Vec<Bin>; 2] = [Vec::new(), Vec::new()];
+    let polys = [&peers.cubic, &peers.ardupilot];
+    for prog in eval_programs {
+        if let Some(pp) = pair_program(log, prog) {
+            let (tp, tm) = (trace_run(&log.runs[pp.plus], &ext, deadband), trace_run(&log.runs[pp.minus], &ext, deadband));
+            let sp = &log.runs[pp.plus].samples;
+            let temp: Vec<f64> = pp.rows.iter().map(|&(i, j)| 0.5 * (tp.temp_c[i] + tm.temp_c[j])).collect();
+            let br: Vec<Branch> = pp.rows.iter().map(|&(i, _)| tp.branch[i]).collect();
+            let time: Vec<f64> = pp.rows.iter().map(|&(i, _)| sp[i].time_s).collect();
+            let ivl: Vec<f64> = pp.rows.iter().map(|&(i, _)| sp[i].interval_s).collect();
+            let ok: Vec<bool> = pp.rows.iter().map(|&(i, j)| tp.valid[i] && tm.valid[j]).collect();
+            for (b, poly) in bins.iter_mut().zip(polys) {
+                let v: Vec<f64> = (0..pp.rows.len()).map(|k| pp.k1_k0(log, k).1 - poly.eval(temp[k])).collect();
+                b.extend(bin_series(prog, &temp, &br, &time, &ivl, &v, &ok));
+            }
+        }
+        for run in log.runs.iter().filter(|r| r.program == *prog && r.input_g == 0.0) {
+            let tr = trace_run(run, &ext, deadband);
+            let time: Vec<f64> = run.samples.iter().map(|s| s.time_s).collect();
+            let ivl: Vec<f64> = run.samples.iter().map(|s| s.interval_s).collect();
+            for (b, poly) in bins.iter_mut().zip(polys) {
+                let v: Vec<f64> = run
+                    .samples
+                    .iter()
+                    .zip(&tr.temp_c)
+                    .map(|(s, &tc)| s.pulses as f64 / (s.interval_s * gamma) - poly.eval(tc))
+                    .collect();
+                b.extend(bin_series(prog, &tr.temp_c, &tr.branch, &time, &ivl, &v, &tr.valid));
+            }
+        }
+    }
+    if bins[0].is_empty() {
+        return Err(format!(
+            "peer bias residual not computable: no held-out bin qualified (bins need {} s of rows)",
+            crate::metrics::MIN_BIN_S
+        ));
+    }
+    let r = |b: &[Bin]| rms(&b.iter().map(|x| x.value * 1e6).collect::<Vec<_>>());
+    Ok(PeerBias { cubic: r(&bins[0]), ardupilot: r(&bins[1]) })
 }

@@ -139,7 +139,7 @@ pub fn simulate_run(truth: &Truth, program: &Program, pos: Position, row_s: u32,
             pulses = 0;
         }
     }
-    Run { program: program.id.clone(), run: pos.run, input_g: pos.input_g, samples }
+    Run { program: program.id.clone(), run: pos.run.to_string(), input_g: pos.input_g, samples }
 }
 
 /// Simulate every program at every position. Runs are simulated on up to `threads`

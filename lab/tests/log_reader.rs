@@ -16,7 +16,7 @@ fn every_malformed_row_is_reported_with_its_line() {
          p,0,5,0,22.0625,320003,1\n\
          p,0,6,1,22.0625,320004,0\n\
          p,0,7,1,22.0625,320005,1\n\
-         p,zero,8,1,22.0625,320005,1\n\
+         p,,8,1,22.0625,320005,1\n\
          p,0,9,1,400,320005,1\n"
     );
     let err = read_log_from(text.as_bytes()).unwrap_err();
@@ -46,9 +46,9 @@ fn bad_header_is_line_one_and_empty_file_is_an_error() {
 
 #[test]
 fn write_then_read_round_trips_and_groups_runs() {
-    let mk = |program: &str, run: u32, g: f64, t0: f64| Run {
+    let mk = |program: &str, run: &str, g: f64, t0: f64| Run {
         program: program.to_string(),
-        run,
+        run: run.to_string(),
         input_g: g,
         samples: (0..5)
             .map(|i| Sample {
@@ -59,7 +59,7 @@ fn write_then_read_round_trips_and_groups_runs() {
             })
             .collect(),
     };
-    let log = Log { runs: vec![mk("paper-0.3", 0, 1.0, 10.0), mk("paper-0.3", 2, -1.0, 10.0), mk("b", 1, 0.0, 10.0)] };
+    let log = Log { runs: vec![mk("paper-0.3", "0", 1.0, 10.0), mk("paper-0.3", "rate0.3_pos2", -1.0, 10.0), mk("b", "1", 0.0, 10.0)] };
     let mut buf = Vec::new();
     write_log_to(&mut buf, &log).unwrap();
     let back = read_log_from(buf.as_slice()).unwrap();

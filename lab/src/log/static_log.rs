@@ -1,0 +1,798 @@
+//! Static multi-axis log: time, temperature and one or more acceleration axes of a board at
+//! constant orientation (a board on a chamber shelf), as CSV or TSV with a header.
+//!
+//! Columns are found by common names (see [`COMMON_NAMES`]) or given with a
+//! [`ColumnMap`] (`time=timestamp,temp=imu.temperature,ax=imu.acc.x,...`); the delimiter
+//! (comma, tab or semicolon) is taken from the header line. Units come from
+//! [`TimeUnit`] / [`AccelUnit`], or from a column-name suffix (`time_s`, `timestamp_us`,
+//! `ax_g`, `acc_x_mps2`); a unit that is neither given nor in the name is an error, never a
+//! guess. Time is shifted to start at 0 s (logs often count from power-up or the epoch).
+//!
+//! What the reader does with each kind of bad row, so nothing reaches a fit unnoticed:
+//! * a field that does not parse as a number (`abc`), or a temperature outside
+//!   −60…130 °C: **error** ([`StaticError::Rows`], every row with its line number);
+//! * time going backwards: **error** (same);
+//! * an empty or `NaN` field: the row is **skipped**, counted in [`Skipped::nan`];
+//! * a timestamp equal to the previous row's: the later row is **skipped**, counted in
+//!   [`Skipped::duplicate`];
+//! * a glitch row (a spike in one row; the tofupilot log's first row is one): **skipped**,
+//!   counted in [`Skipped::glitch`]. A row is a glitch when one channel deviates from what
+//!   its ±5-row neighbourhood predicts (a robust local line: median slope, median level) by
+//!   more than [`GLITCH_SIGMAS`] robust σ of that channel (σ = 1.4826 · the median of those
+//!   deviations), and
+//!   by more than a floor too ([`GLITCH_MIN_TEMP_C`], [`GLITCH_MIN_ACCEL_G`]: a quantised
+//!   channel has a median deviation of 0);
+//! * irregular sampling: **reported** in [`Sampling`] (intervals outside 0.5…2 × the
+//!   median, and gaps longer than the rate estimator's 30-s restart), not skipped: the
+//!   root crate's estimator handles irregular spacing by design.
+//!
+//! Whole-log checks (errors): no header, no data rows, an unknown or missing column, a
+//! unit that makes the data implausible (median |a| over the axes above 1.5 g, or a
+//! median row interval outside 10 µs…60 s), fewer than [`MIN_ROWS`] rows left.
+
+use std::fmt;
+use std::io::Read;
+use std::path::Path;
+use std::str::FromStr;
+
+use serde::Serialize;
+
+/// Standard gravity, m/s², to convert m/s² to g.
+pub const G0_MPS2: f64 = 9.806_65;
+
+/// Robust σ above which a one-row deviation is a glitch.
+pub const GLITCH_SIGMAS: f64 = 10.0;
+
+/// Smallest temperature deviation that counts as a glitch, °C (4 DS18B20 LSB).
+pub const GLITCH_MIN_TEMP_C: f64 = 0.25;
+
+/// Smallest acceleration deviation that counts as a glitch, g (2 mg: a quantised output can
+/// have a median deviation of 0).
+pub const GLITCH_MIN_ACCEL_G: f64 = 0.002;
+
+/// Fewest good rows a static log must keep.
+pub const MIN_ROWS: usize = 16;
+
+/// Line numbers kept per kind of skip or error (all are counted).
+pub const KEPT_LINES: usize = 20;
+
+/// Common column names, lower case, per role. A header column matches a role when its
+/// lower-cased name equals one of these or ends with `.`/`_` + one of them.
+pub const COMMON_NAMES: [(&str, &[&str]); 5] = [
+    ("time", &["time_s", "time_ms", "time_us", "time_ns", "timestamp_s", "timestamp_ms", "timestamp_us", "timestamp_ns", "timestamp", "time", "t"]),
+    ("temp", &["temp_c", "temperature", "temp", "temperature_c", "imu_temp"]),
+    ("ax", &["ax", "ax_g", "ax_mg", "ax_mps2", "acc.x", "accel.x", "acc_x", "accel_x", "acc_x_g", "acc_x_mps2", "accx"]),
+    ("ay", &["ay", "ay_g", "ay_mg", "ay_mps2", "acc.y", "accel.y", "acc_y", "accel_y", "acc_y_g", "acc_y_mps2", "accy"]),
+    ("az", &["az", "az_g", "az_mg", "az_mps2", "acc.z", "accel.z", "acc_z", "accel_z", "acc_z_g", "acc_z_mps2", "accz"]),
+];
+
+/// Unit of the time column.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub enum TimeUnit {
+    /// Seconds.
+    S,
+    /// Milliseconds.
+    Ms,
+    /// Microseconds.
+    Us,
+    /// Nanoseconds.
+    Ns,
+}
+
+impl TimeUnit {
+    /// Seconds per unit.
+    #[must_use]
+    pub fn seconds(self) -> f64 {
+        match self {
+            Self::S => 1.0,
+            Self::Ms => 1e-3,
+            Self::Us => 1e-6,
+            Self::Ns => 1e-9,
+        }
+    }
+
+    fn from_suffix(col: &str) -> Option<Self> {
+        let c = col.to_ascii_lowercase();
+        [("_s", Self::S), ("_ms", Self::Ms), ("_us", Self::Us), ("_ns", Self::Ns)]
+            .into_iter()
+            .find(|(s, _)| c.ends_with(s))
+            .map(|(_, u)| u)
+    }
+}
+
+impl FromStr for TimeUnit {
+    type Err = StaticError;
+    fn from_str(s: &str) -> Result<Self, StaticError> {
+        match s {
+            "s" => Ok(Self::S),
+            "ms" => Ok(Self::Ms),
+            "us" | "µs" => Ok(Self::Us),
+            "ns" => Ok(Self::Ns),
+            _ => Err(StaticError::BadUnit { flag: "--time-unit", value: s.to_string(), allowed: "s|ms|us|ns" }),
+        }
+    }
+}
+
+/// Unit of the acceleration columns.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub enum AccelUnit {
+    /// Standard gravity.
+    G,
+    /// Milli-g.
+    Mg,
+    /// m/s² (divided by [`G0_MPS2`]).
+    Mps2,
+}
+
+impl AccelUnit {
+    /// g per unit.
+    #[must_use]
+    pub fn g(self) -> f64 {
+        match self {
+            Self::G => 1.0,
+            Self::Mg => 1e-3,
+            Self::Mps2 => 1.0 / G0_MPS2,
+        }
+    }
+
+    fn from_suffix(col: &str) -> Option<Self> {
+        let c = col.to_ascii_lowercase();
+        [("_mps2", Self::Mps2), ("_mg", Self::Mg), ("_g", Self::G)].into_iter().find(|(s, _)| c.ends_with(s)).map(|(_, u)| u)
+    }
+}
+
+impl FromStr for AccelUnit {
+    type Err = StaticError;
+    fn from_str(s: &str) -> Result<Self, StaticError> {
+        match s {
+            "g" => Ok(Self::G),
+            "mg" => Ok(Self::Mg),
+            "m/s2" | "m/s^2" | "mps2" => Ok(Self::Mps2),
+            _ => Err(StaticError::BadUnit { flag: "--accel-unit", value: s.to_string(), allowed: "g|mg|m/s2" }),
+        }
+    }
+}
+
+/// Explicit column choices (`--columns time=...,temp=...,ax=...`); unset roles are found by
+/// common names.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct ColumnMap {
+    /// `(role, column)`; roles are `time`, `temp`, `ax`, `ay`, `az`.
+    pub roles: Vec<(String, String)>,
+}
+
+impl FromStr for ColumnMap {
+    type Err = StaticError;
+    fn from_str(s: &str) -> Result<Self, StaticError> {
+        let mut roles = Vec::new();
+        for part in s.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+            let Some((role, col)) = part.split_once('=') else {
+                return Err(StaticError::BadColumnSpec(part.to_string()));
+            };
+            let role = role.trim();
+            if !COMMON_NAMES.iter().any(|(r, _)| *r == role) {
+                return Err(StaticError::BadColumnSpec(part.to_string()));
+            }
+            roles.push((role.to_string(), col.trim().to_string()));
+        }
+        Ok(Self { roles })
+    }
+}
+
+/// How to read a static log.
+#[derive(Clone, Debug, Default)]
+pub struct StaticOptions {
+    /// Column choices.
+    pub columns: ColumnMap,
+    /// Time unit (else from the column name's suffix).
+    pub time_unit: Option<TimeUnit>,
+    /// Acceleration unit (else from the column names' suffix).
+    pub accel_unit: Option<AccelUnit>,
+}
+
+/// Rows skipped, per reason: count and the first [`KEPT_LINES`] line numbers (1-based; the
+/// header is line 1).
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct SkipCount {
+    /// Rows skipped.
+    pub count: usize,
+    /// First line numbers.
+    pub lines: Vec<u64>,
+}
+
+impl SkipCount {
+    fn add(&mut self, line: u64) {
+        self.count += 1;
+        if self.lines.len() < KEPT_LINES {
+            self.lines.push(line);
+        }
+    }
+}
+
+/// Rows the reader skipped.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct Skipped {
+    /// An empty or NaN field.
+    pub nan: SkipCount,
+    /// Same timestamp as the previous row.
+    pub duplicate: SkipCount,
+    /// One-row spike (see the module docs).
+    pub glitch: SkipCount,
+}
+
+impl Skipped {
+    /// Total rows skipped.
+    #[must_use]
+    pub fn total(&self) -> usize {
+        self.nan.count + self.duplicate.count + self.glitch.count
+    }
+}
+
+impl fmt::Display for Skipped {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let mut first = true;
+        for (name, s) in [("NaN/empty field", &self.nan), ("duplicate timestamp", &self.duplicate), ("glitch", &self.glitch)] {
+            if s.count == 0 {
+                continue;
+            }
+            if !first {
+                f.write_str("; ")?;
+            }
+            first = false;
+            let lines: Vec<String> = s.lines.iter().map(u64::to_string).collect();
+            let more = if s.count > s.lines.len() { ", ..." } else { "" };
+            write!(f, "{} {name} row(s) skipped (line {}{more})", s.count, lines.join(", "))?;
+        }
+        if first {
+            f.write_str("no rows skipped")?;
+        }
+        Ok(())
+    }
+}
+
+/// Sampling regularity (reported, not corrected).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct Sampling {
+    /// Median row interval, s.
+    pub median_interval_s: f64,
+    /// Intervals outside 0.5…2 × the median.
+    pub irregular_intervals: usize,
+    /// Gaps longer than 30 s (the rate estimator restarts its window there).
+    pub gaps_over_30s: usize,
+    /// Longest interval, s.
+    pub max_interval_s: f64,
+}
+
+/// One acceleration axis.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AxisColumn {
+    /// Role: `ax`, `ay` or `az`.
+    pub name: String,
+    /// Column name in the file.
+    pub column: String,
+    /// Specific force, g, one per kept row.
+    pub accel_g: Vec<f64>,
+}
+
+/// A static multi-axis log, after the skips.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StaticLog {
+    /// Time since the first kept row, s.
+    pub time_s: Vec<f64>,
+    /// Temperature, °C.
+    pub temp_c: Vec<f64>,
+    /// Axes, in the order ax, ay, az (those present).
+    pub axes: Vec<AxisColumn>,
+    /// Line number of each kept row.
+    pub line: Vec<u64>,
+    /// Columns used: `(role, column, unit)`.
+    pub columns: Vec<(String, String, String)>,
+    /// Skipped rows.
+    pub skipped: Skipped,
+    /// Sampling regularity.
+    pub sampling: Sampling,
+}
+
+impl fmt::Display for Sampling {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "median row interval {:.3} s, {} interval(s) outside 0.5..2x the median, {} gap(s) over 30 s (longest {:.1} s)",
+            self.median_interval_s, self.irregular_intervals, self.gaps_over_30s, self.max_interval_s
+        )
+    }
+}
+
+impl StaticLog {
+    /// Kept rows.
+    #[must_use]
+    pub fn rows(&self) -> usize {
+        self.time_s.len()
+    }
+}
+
+/// A row-level error of a static log.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum StaticRowFault {
+    /// A field is not a number (names the column and the text).
+    NotANumber {
+        /// Column.
+        column: String,
+        /// Text.
+        text: String,
+    },
+    /// Temperature outside −60…130 °C.
+    TempOutOfRange(f64),
+    /// Time earlier than the previous row's.
+    TimeBackwards {
+        /// Previous row's time, file units.
+        previous: f64,
+        /// This row's time, file units.
+        time: f64,
+    },
+    /// Wrong number of fields.
+    FieldCount {
+        /// Fields found.
+        got: usize,
+        /// Header fields.
+        want: usize,
+    },
+}
+
+impl fmt::Display for StaticRowFault {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::NotANumber { column, text } => write!(f, "column `{column}`: `{text}` is not a number"),
+            Self::TempOutOfRange(t) => write!(f, "temperature {t} °C outside -60..130 °C"),
+            Self::TimeBackwards { previous, time } => write!(f, "time goes backwards ({time} after {previous})"),
+            Self::FieldCount { got, want } => write!(f, "{got} fields, the header has {want}"),
+        }
+    }
+}
+
+/// Why a static log cannot be used.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum StaticError {
+    /// The file could not be read.
+    Io(String),
+    /// No header line (an empty file).
+    Empty,
+    /// A header but no data rows.
+    NoRows,
+    /// `--columns` names a column the header lacks.
+    UnknownColumn {
+        /// Role.
+        role: String,
+        /// Column asked for.
+        column: String,
+        /// The header's columns.
+        header: Vec<String>,
+    },
+    /// No column for a role, by common name or `--columns`.
+    MissingColumn {
+        /// Role (`time`, `temp`, or `ax/ay/az`).
+        role: String,
+        /// The header's columns.
+        header: Vec<String>,
+    },
+    /// A `--columns` item that is not `role=column` with a known role.
+    BadColumnSpec(String),
+    /// A unit flag value that is not one of the allowed ones.
+    BadUnit {
+        /// Flag.
+        flag: &'static str,
+        /// Value given.
+        value: String,
+        /// Allowed values.
+        allowed: &'static str,
+    },
+    /// No unit given and none in the column name.
+    UnitUnknown {
+        /// Flag to pass.
+        flag: &'static str,
+        /// Column.
+        column: String,
+    },
+    /// The data are implausible in the units given.
+    ImplausibleUnit(String),
+    /// Malformed rows: the first [`KEPT_LINES`] with line numbers, and the count.
+    Rows {
+        /// `(line, fault)`.
+        first: Vec<(u64, StaticRowFault)>,
+        /// All malformed rows.
+        total: usize,
+    },
+    /// Too few rows left after the skips.
+    TooFewRows {
+        /// Rows kept.
+        kept: usize,
+        /// What was skipped.
+        skipped: Skipped,
+    },
+}
+
+impl fmt::Display for StaticError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Io(e) => write!(f, "cannot read the log: {e}"),
+            Self::Empty => f.write_str("empty log: no header line"),
+            Self::NoRows => f.write_str("the log has a header but no data rows"),
+            Self::UnknownColumn { role, column, header } => {
+                write!(f, "unknown column `{column}` for {role}; the header has: {}", header.join(", "))
+            }
+            Self::MissingColumn { role, header } => write!(
+                f,
+                "no {role} column found by common names; pass --columns {role}=NAME (the header has: {})",
+                header.join(", ")
+            ),
+            Self::BadColumnSpec(s) => {
+                write!(f, "bad --columns item `{s}`: expected role=column with role time, temp, ax, ay or az")
+            }
+            Self::BadUnit { flag, value, allowed } => write!(f, "{flag} `{value}`: expected {allowed}"),
+            Self::UnitUnknown { flag, column } => {
+                write!(f, "the unit of column `{column}` is not known: pass {flag}")
+            }
+            Self::ImplausibleUnit(s) => write!(f, "wrong unit? {s}"),
+            Self::Rows { first, total } => {
+                write!(f, "{total} malformed row(s)")?;
+                for (line, fault) in first {
+                    write!(f, "\n  line {line}: {fault}")?;
+                }
+                if *total > first.len() {
+                    write!(f, "\n  ... and {} more", total - first.len())?;
+                }
+                Ok(())
+            }
+            Self::TooFewRows { kept, skipped } => {
+                write!(f, "only {kept} usable row(s), need {MIN_ROWS}: {skipped}")
+            }
+        }
+    }
+}
+
+impl std::error::Error for StaticError {}
+
+/// Whether a header column matches a common name.
+fn matches_common(col: &str, name: &str) -> bool {
+    let c = col.to_ascii_lowercase();
+    c == name || c.ends_with(&format!(".{name}")) || c.ends_with(&format!("_{name}"))
+}
+
+fn find_column(header: &[String], role: &str, opts: &StaticOptions) -> Result<Option<usize>, StaticError> {
+    if let Some((_, col)) = opts.columns.roles.iter().find(|(r, _)| r == role) {
+        return header.iter().position(|h| h == col).map(Some).ok_or_else(|| StaticError::UnknownColumn {
+            role: role.to_string(),
+            column: col.clone(),
+            header: header.to_vec(),
+        });
+    }
+    let names = COMMON_NAMES.iter().find(|(r, _)| *r == role).map_or(&[][..], |(_, n)| *n);
+    // Names in priority order: the first name any column matches wins.
+    Ok(names.iter().find_map(|n| header.iter().position(|h| matches_common(h, n))))
+}
+
+/// Field text → value: `Ok(None)` for an empty or NaN field, `Err` for text that is no number.
+fn parse_field(b: &[u8], column: &str) -> Result<Option<f64>, StaticRowFault> {
+    let s = std::str::from_utf8(b).unwrap_or("").trim();
+    if s.is_empty() || s.eq_ignore_ascii_case("nan") {
+        return Ok(None);
+    }
+    match s.parse::<f64>() {
+        Ok(x) if x.is_finite() => Ok(Some(x)),
+        Ok(_) => Ok(None),
+        Err(_) => Err(StaticRowFault::NotANumber { column: column.to_string(), text: s.to_string() }),
+    }
+}
+
+/// Median of a copy of `v` (NaN-free input).
+fn median(v: &[f64]) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    s[s.len() / 2]
+}
+
+/// Rows (indices into `v`) that deviate from their ±5-row neighbourhood by more than
+/// `GLITCH_SIGMAS` robust σ (and at least `floor`). The neighbourhood's prediction for row
+/// `i` is `median_j(v[j] − slope·(j − i))` with `slope` the median of the window's
+/// differences, so a steady ramp deviates by nothing, also at the ends of the log where the
+/// window is one-sided.
+fn glitches(v: &[f64], floor: f64) -> Vec<usize> {
+    const HALF: usize = 5;
+    let n = v.len();
+    let dev: Vec<f64> = (0..n)
+        .map(|i| {
+            let lo = i.saturating_sub(HALF);
+            let hi = (i + HALF + 1).min(n);
+            let diffs: Vec<f64> = v[lo..hi].windows(2).map(|w| w[1] - w[0]).collect();
+            let slope = if diffs.is_empty() { 0.0 } else { median(&diffs) };
+            let moved: Vec<f64> = (lo..hi).map(|j| v[j] - slope * (j as f64 - i as f64)).collect();
+            (v[i] - median(&moved)).abs()
+        })
+        .collect();
+    let sigma = 1.4826 * median(&dev);
+    let thr = (GLITCH_SIGMAS * sigma).max(floor);
+    (0..n).filter(|&i| dev[i] > thr).collect()
+}
+
+/// Read a static log from text.
+///
+/// # Errors
+/// See [`StaticError`]; skipped rows are in [`StaticLog::skipped`].
+pub fn read_static_from<R: Read>(reader: R, opts: &StaticOptions) -> Result<StaticLog, StaticError> {
+    let mut text = Vec::new();
+    let mut reader = reader;
+    reader.read_to_end(&mut text).map_err(|e| StaticError::Io(e.to_string()))?;
+    let first_line = text.split(|&c| c == b'\n').next().unwrap_or(b"");
+    if first_line.iter().all(u8::is_ascii_whitespace) {
+        return Err(StaticError::Empty);
+    }
+    // The delimiter is the most frequent of tab, comma and semicolon in the header.
+    let delim = [b'\t', b',', b';'].into_iter().max_by_key(|d| first_line.iter().filter(|c| *c == d).count()).unwrap_or(b',');
+    let mut rdr = csv::ReaderBuilder::new().delimiter(delim).has_headers(false).flexible(true).from_reader(&text[..]);
+    let mut rec = csv::ByteRecord::new();
+    if !rdr.read_byte_record(&mut rec).map_err(|e| StaticError::Io(e.to_string()))? {
+        return Err(StaticError::Empty);
+    }
+    let header: Vec<String> = rec.iter().map(|b| String::from_utf8_lossy(b).trim().to_string()).collect();
+    let need = |role: &str| -> Result<usize, StaticError> {
+        find_column(&header, role, opts)?
+            .ok_or_else(|| StaticError::MissingColumn { role: role.to_string(), header: header.clone() })
+    };
+    let ti = need("time")?;
+    let tc = need("temp")?;
+    let mut axes_idx: Vec<(&str, usize)> = Vec::new();
+    for role in ["ax", "ay", "az"] {
+        if let Some(i) = find_column(&header, role, opts)? {
+            axes_idx.push((role, i));
+        }
+    }
+    if axes_idx.is_empty() {
+        return Err(StaticError::MissingColumn { role: "ax/ay/az".to_string(), header: header.clone() });
+    }
+    let time_unit = match opts.time_unit {
+        Some(u) => u,
+        None => TimeUnit::from_suffix(&header[ti])
+            .ok_or_else(|| StaticError::UnitUnknown { flag: "--time-unit s|ms|us|ns", column: header[ti].clone() })?,
+    };
+    let accel_unit = match opts.accel_unit {
+        Some(u) => u,
+        None => {
+            let us: Vec<Option<AccelUnit>> = axes_idx.iter().map(|(_, i)| AccelUnit::from_suffix(&header[*i])).collect();
+            match us[0] {
+                Some(u) if us.iter().all(|x| *x == Some(u)) => u,
+                _ => {
+                    return Err(StaticError::UnitUnknown {
+                        flag: "--accel-unit g|mg|m/s2",
+                        column: header[axes_idx[0].1].clone(),
+                    })
+                }
+            }
+        }
+    };
+
+    let ncol = header.len();
+    let mut raw_t: Vec<f64> = Vec::new();
+    let mut temp: Vec<f64> = Vec::new();
+    let mut acc: Vec<Vec<f64>> = vec![Vec::new(); axes_idx.len()];
+    let mut lines: Vec<u64> = Vec::new();
+    let mut skipped = Skipped::default();
+    let mut faults: Vec<(u64, StaticRowFault)> = Vec::new();
+    let mut n_faults = 0usize;
+    let mut any_row = false;
+    let mut line: u64 = 1;
+    let mut fault = |faults: &mut Vec<(u64, StaticRowFault)>, line: u64, f: StaticRowFault| {
+        n_faults += 1;
+        if faults.len() < KEPT_LINES {
+            faults.push((line, f));
+        }
+    };
+    loop {
+        line += 1;
+        match rdr.read_byte_record(&mut rec) {
+            Ok(true) => {}
+            Ok(false) => break,
+            Err(e) => return Err(StaticError::Io(format!("line {line}: {e}"))),
+        }
+        if let Some(p) = rec.position() {
+            line = p.line();
+        }
+        if rec.len() == 1 && rec.get(0).is_some_and(|b| b.iter().all(u8::is_ascii_whitespace)) {
+            continue; // a blank line
+        }
+        any_row = true;
+        if rec.len() != ncol {
+            fault(&mut faults, line, StaticRowFault::FieldCount { got: rec.len(), want: ncol });
+            continue;
+        }
+        let mut cols: Vec<usize> = vec![ti, tc];
+        cols.extend(axes_idx.iter().map(|(_, i)| *i));
+        let mut vals = Vec::with_capacity(cols.len());
+        let mut bad = false;
+        for &c in &cols {
+            match parse_field(rec.get(c).unwrap_or(b""), &header[c]) {
+                Ok(v) => vals.push(v),
+                Err(f) => {
+                    fault(&mut faults, line, f);
+                    bad = true;
+                    break;
+                }
+            }
+        }
+        if bad {
+            continue;
+        }
+        if vals.iter().any(Option::is_none) {
+            skipped.nan.add(line);
+            continue;
+        }
+        let vals: Vec<f64> = vals.into_iter().flatten().collect();
+        let (t, tc_v) = (vals[0], vals[1]);
+        if !(-60.0..=130.0).contains(&tc_v) {
+            fault(&mut faults, line, StaticRowFault::TempOutOfRange(tc_v));
+            continue;
+        }
+        if let Some(&prev) = raw_t.last() {
+            if t < prev {
+                fault(&mut faults, line, StaticRowFault::TimeBackwards { previous: prev, time: t });
+                continue;
+            }
+            if t == prev {
+                skipped.duplicate.add(line);
+                continue;
+            }
+        }
+        raw_t.push(t);
+        temp.push(tc_v);
+        for (k, a) in acc.iter_mut().enumerate() {
+            a.push(vals[2 + k] * accel_unit.g());
+        }
+        lines.push(line);
+    }
+    if n_faults > 0 {
+        return Err(StaticError::Rows { first: faults, total: n_faults });
+    }
+    if !any_row {
+        return Err(StaticError::NoRows);
+    }
+    // Glitch rows: any channel spiking marks the row.
+    let mut glitch = vec![false; raw_t.len()];
+    for i in glitches(&temp, GLITCH_MIN_TEMP_C) {
+        glitch[i] = true;
+    }
+    for a in &acc {
+        for i in glitches(a, GLITCH_MIN_ACCEL_G) {
+            glitch[i] = true;
+        }
+    }
+    let keep: Vec<usize> = (0..raw_t.len()).filter(|&i| !glitch[i]).collect();
+    for (i, _) in glitch.iter().enumerate().filter(|(_, g)| **g) {
+        skipped.glitch.add(lines[i]);
+    }
+    if keep.len() < MIN_ROWS {
+        return Err(StaticError::TooFewRows { kept: keep.len(), skipped });
+    }
+    let t0 = raw_t[keep[0]];
+    let time_s: Vec<f64> = keep.iter().map(|&i| (raw_t[i] - t0) * time_unit.seconds()).collect();
+    let intervals: Vec<f64> = time_s.windows(2).map(|w| w[1] - w[0]).collect();
+    let med = median(&intervals);
+    if !(1e-5..=60.0).contains(&med) {
+        return Err(StaticError::ImplausibleUnit(format!(
+            "the median row interval is {med:.3e} s in {time_unit:?}, outside 10 µs..60 s: check --time-unit"
+        )));
+    }
+    let sampling = Sampling {
+        median_interval_s: med,
+        irregular_intervals: intervals.iter().filter(|&&d| d < 0.5 * med || d > 2.0 * med).count(),
+        gaps_over_30s: intervals.iter().filter(|&&d| d > 30.0).count(),
+        max_interval_s: intervals.iter().copied().fold(0.0, f64::max),
+    };
+    let axes: Vec<AxisColumn> = axes_idx
+        .iter()
+        .zip(&acc)
+        .map(|((role, i), a)| AxisColumn {
+            name: (*role).to_string(),
+            column: header[*i].clone(),
+            accel_g: keep.iter().map(|&k| a[k]).collect(),
+        })
+        .collect();
+    // A board at rest reads |a| ≈ 1 g; far above that the unit is wrong (m/s² read as g).
+    let mag: Vec<f64> =
+        (0..keep.len()).map(|k| axes.iter().map(|a| a.accel_g[k] * a.accel_g[k]).sum::<f64>().sqrt()).collect();
+    let med_mag = median(&mag);
+    if med_mag > 1.5 {
+        return Err(StaticError::ImplausibleUnit(format!(
+            "the median |a| over {} is {med_mag:.3} g in {accel_unit:?}; a board at rest reads about 1 g: check --accel-unit",
+            axes.iter().map(|a| a.column.as_str()).collect::<Vec<_>>().join(", ")
+        )));
+    }
+    let mut columns = vec![
+        ("time".to_string(), header[ti].clone(), format!("{time_unit:?}").to_lowercase()),
+        ("temp".to_string(), header[tc].clone(), "degC".to_string()),
+    ];
+    for a in &axes {
+        columns.push((a.name.clone(), a.column.clone(), format!("{accel_unit:?}").to_lowercase()));
+    }
+    Ok(StaticLog {
+        time_s,
+        temp_c: keep.iter().map(|&k| temp[k]).collect(),
+        axes,
+        line: keep.iter().map(|&k| lines[k]).collect(),
+        columns,
+        skipped,
+        sampling,
+    })
+}
+
+/// Read a static log file.
+///
+/// # Errors
+/// As [`read_static_from`], or the file cannot be opened.
+pub fn read_static(path: &Path, opts: &StaticOptions) -> Result<StaticLog, StaticError> {
+    let f = std::fs::File::open(path).map_err(|e| StaticError::Io(format!("{}: {e}", path.display())))?;
+    read_static_from(std::io::BufReader::new(f), opts)
+}
+
+/// Whether a header line is a static log's: neither a cycling log's (a `pulses` column) nor
+/// a single-channel `time_s,temp_c,value` log's (a `value` column).
+#[must_use]
+pub fn looks_static(header_line: &str) -> bool {
+    !header_line.split([',', '\t', ';']).any(|c| matches!(c.trim(), "pulses" | "value"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn opts() -> StaticOptions {
+        StaticOptions { time_unit: Some(TimeUnit::Ms), accel_unit: Some(AccelUnit::Mg), ..Default::default() }
+    }
+
+    #[test]
+    fn glitch_row_is_skipped_and_counted() {
+        let mut text = String::from("time\ttemp\taz\n0\t20\t1050\n");
+        for i in 1..40 {
+            text.push_str(&format!("{}\t{}\t1000\n", i * 500, 20.0 + 0.01 * f64::from(i)));
+        }
+        let log = read_static_from(text.as_bytes(), &opts()).unwrap();
+        // Line 2 is 50 mg off its neighbours (σ ≈ 0): a glitch.
+        assert_eq!(log.skipped.glitch, SkipCount { count: 1, lines: vec![2] });
+        assert_eq!(log.rows(), 39);
+        assert_eq!(log.time_s[0], 0.0);
+        assert!((log.axes[0].accel_g[0] - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn log_kind_from_the_header() {
+        assert!(looks_static("timestamp\timu.acc.x\timu.temperature"));
+        assert!(!looks_static("program,run,time_s,input_g,temp_c,pulses,interval_s"));
+        assert!(!looks_static("time_s,temp_c,value"));
+    }
+
+    #[test]
+    fn duplicates_skipped_gaps_reported_units_from_names() {
+        // Units from the names (ms, g); line 4 repeats line 3's time; a 40-s gap after line 20.
+        let mut text = String::from("time_ms,temp_c,ax_g\n");
+        let mut t = 0u64;
+        for i in 0..40u64 {
+            text.push_str(&format!("{t},{},0.001\n", 20.0 + 0.001 * i as f64));
+            if i != 1 {
+                t += if i == 18 { 40_000 } else { 1000 };
+            }
+        }
+        let log = read_static_from(text.as_bytes(), &StaticOptions::default()).unwrap();
+        assert_eq!(log.skipped.duplicate, SkipCount { count: 1, lines: vec![4] });
+        assert_eq!(log.rows(), 39);
+        assert_eq!(log.sampling.median_interval_s, 1.0);
+        assert_eq!((log.sampling.gaps_over_30s, log.sampling.irregular_intervals), (1, 1));
+        assert_eq!(log.sampling.max_interval_s, 40.0);
+        assert_eq!(log.columns[0], ("time".into(), "time_ms".into(), "ms".into()));
+        // Without a unit in the name or a flag: an error naming the flag.
+        let e = read_static_from("timestamp,temp_c,ax_g\n0,20,0\n".as_bytes(), &StaticOptions::default()).unwrap_err();
+        assert_eq!(e.to_string(), "the unit of column `timestamp` is not known: pass --time-unit s|ms|us|ns");
+    }
+}

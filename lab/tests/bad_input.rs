@@ -1,0 +1,250 @@
+//! The bad-input matrix: each class of bad input fed to `calibrate` and `compensate` (and,
+//! for static logs, `discover`, which shares the static reader) through the CLI, as a user
+//! runs them, asserting the exact message. (`discover` on cycling logs still has its own
+//! reader in `discover/channels.rs`, owned elsewhere; it is not asserted here.)
+//!
+//! | input | static log (`--columns`/unit flags) | cycling log |
+//! |---|---|---|
+//! | unknown column | error `unknown column ...` | error `header is ...` |
+//! | wrong unit | error `wrong unit? the median |a| ...` / `--time-unit ...: expected s|ms|us|ns` | – |
+//! | non-monotonic time | error `line N: time goes backwards` | error `line N: time_s not after ...` |
+//! | a single run / no ±1 g pair | – | calibrate: error `no +1 g / −1 g pair`; compensate: each run compensated |
+//! | empty file | error `empty log: no header line` | error `line 1: header is ``` |
+//! | NaN fields | rows skipped, counted with line numbers on stderr and in report.json | error `bad temp_c `NaN`` |
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn dir() -> PathBuf {
+    let d = std::env::temp_dir().join(format!("qfa-bad-input-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Run qfa-lab; (success, stdout + stderr).
+fn lab(args: &[&str]) -> (bool, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_qfa-lab")).args(args).output().expect("run qfa-lab");
+    let text = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    (out.status.success(), text)
+}
+
+fn fails_with(args: &[&str], want: &str) {
+    let (ok, text) = lab(args);
+    assert!(!ok, "{args:?} succeeded:\n{text}");
+    assert!(text.contains(want), "{args:?}: expected `{want}` in\n{text}");
+}
+
+/// A static 3-axis log, 1-s rows in ms, m/s²: 20 → −10 → 60 → 30 °C at 3 °C/min, bias
+/// quadratic in T. `edit` may change rows (index, text).
+fn static_log(path: &Path, edit: impl Fn(usize, String) -> String) {
+    let mut temps = Vec::new();
+    let mut t = 20.0f64;
+    for (target, step) in [(-10.0, -0.05), (60.0, 0.05), (30.0, -0.05)] {
+        while (step < 0.0 && t > target) || (step > 0.0 && t < target) {
+            temps.push(t);
+            t += step;
+        }
+    }
+    let mut s = String::from("time_ms\timu.temperature\tacc_x\tacc_y\tacc_z\n");
+    for (i, &tc) in temps.iter().enumerate() {
+        let b = 1e-3 * (tc - 20.0) / 40.0 + 2e-6 * (tc - 20.0).powi(2);
+        let g = 9.806_65;
+        let row = format!("{}\t{tc:.4}\t{:.6}\t{:.6}\t{:.6}", i * 1000, b * g, (0.01 - b) * g, (-1.0 + b) * g);
+        s.push_str(&edit(i, row));
+        s.push('\n');
+    }
+    std::fs::write(path, s).unwrap();
+}
+
+const FLAGS: [&str; 4] = ["--time-unit", "ms", "--accel-unit", "m/s2"];
+
+fn static_args<'a>(cmd: &'a str, log: &'a str, out: &'a str, table: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut v = vec![cmd, "--log", log, "--out", out];
+    if cmd == "compensate" {
+        v.extend(["--table", table]);
+    }
+    v.extend(extra);
+    v
+}
+
+#[test]
+fn static_log_bad_inputs_get_their_exact_errors() {
+    let d = dir();
+    let good = d.join("good.tsv");
+    static_log(&good, |_, r| r);
+    let cal = d.join("cal");
+    let (ok, text) = lab(&static_args("calibrate", good.to_str().unwrap(), cal.to_str().unwrap(), "", &FLAGS));
+    assert!(ok, "{text}");
+    let table = cal.join("table.bin");
+    let table_s = table.to_str().unwrap();
+    let out = d.join("comp.csv");
+    let out_s = out.to_str().unwrap();
+    let (ok, text) = lab(&static_args("compensate", good.to_str().unwrap(), out_s, table_s, &FLAGS));
+    assert!(ok, "{text}");
+
+    let backwards = d.join("backwards.tsv");
+    // Row 100 (line 102) at 98.5 s, after 99 s.
+    static_log(&backwards, |i, r| if i == 100 { r.replacen("100000\t", "98500\t", 1) } else { r });
+    let nan_fields = d.join("nan_fields.tsv");
+    // Two rows with a NaN temperature field (lines 52 and 72: header is line 1).
+    static_log(&nan_fields, |i, r| {
+        if i == 50 || i == 70 {
+            let mut f: Vec<String> = r.split('\t').map(str::to_string).collect();
+            f[1] = "NaN".into();
+            f.join("\t")
+        } else {
+            r
+        }
+    });
+    let empty = d.join("empty.tsv");
+    std::fs::write(&empty, "").unwrap();
+
+    for cmd in ["calibrate", "compensate", "discover"] {
+        let g = good.to_str().unwrap();
+        let o = if cmd == "compensate" { out.clone() } else { d.join(format!("out-{cmd}")) };
+        let o = o.to_str().unwrap().to_string();
+        // Unknown column.
+        let mut f = FLAGS.to_vec();
+        f.extend(["--columns", "temp=board.temp"]);
+        fails_with(
+            &static_args(cmd, g, &o, table_s, &f),
+            "unknown column `board.temp` for temp; the header has: time_ms, imu.temperature, acc_x, acc_y, acc_z",
+        );
+        // Wrong unit: m/s² data read as g; an unknown unit name.
+        fails_with(
+            &static_args(cmd, g, &o, table_s, &["--time-unit", "ms", "--accel-unit", "g"]),
+            "wrong unit? the median |a| over acc_x, acc_y, acc_z is 9.",
+        );
+        fails_with(&static_args(cmd, g, &o, table_s, &["--time-unit", "h"]), "--time-unit `h`: expected s|ms|us|ns");
+        // Non-monotonic time.
+        fails_with(
+            &static_args(cmd, backwards.to_str().unwrap(), &o, table_s, &FLAGS),
+            "1 malformed row(s)\n  line 102: time goes backwards (98500 after 99000)",
+        );
+        // Empty file.
+        fails_with(&static_args(cmd, empty.to_str().unwrap(), &o, table_s, &FLAGS), "empty log: no header line");
+        // NaN fields: skipped and reported, with their lines.
+        let (ok, text) = lab(&static_args(cmd, nan_fields.to_str().unwrap(), &o, table_s, &FLAGS));
+        assert!(ok, "{text}");
+        assert!(text.contains("2 NaN/empty field row(s) skipped (line 52, 72)"), "{text}");
+    }
+    // The compensated output leaves the NaN rows out and says so in the count of rows.
+    let rows = std::fs::read_to_string(&out).unwrap().lines().count();
+    let good_rows = std::fs::read_to_string(&good).unwrap().lines().count();
+    assert_eq!(rows, good_rows - 2);
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+const CYCLING_HEADER: &str = "program,run,time_s,input_g,temp_c,pulses,interval_s\n";
+
+fn cycling(rows: &[(&str, &str, f64)], n: usize) -> String {
+    let mut s = CYCLING_HEADER.to_string();
+    for &(prog, run, g) in rows {
+        for i in 0..n {
+            let t = 20.0 + 0.01 * i as f64;
+            s.push_str(&format!("{prog},{run},{},{g},{t:.4},{},10\n", 10 * (i + 1), (g * 3_200_000.0) as i64 + 100));
+        }
+    }
+    s
+}
+
+#[test]
+fn cycling_log_bad_inputs_get_their_exact_errors() {
+    let d = dir().join("cycling");
+    std::fs::create_dir_all(&d).unwrap();
+    let w = |name: &str, text: &str| {
+        let p = d.join(name);
+        std::fs::write(&p, text).unwrap();
+        p.to_str().unwrap().to_string()
+    };
+    let out = d.join("out").to_str().unwrap().to_string();
+    let single = w("single.csv", &cycling(&[("rate0.3", "rate0.3_pos0", 1.0)], 50));
+    let no_pair = w("nopair.csv", &cycling(&[("rate0.3", "pos1", 0.0), ("rate0.3", "pos3", 0.0)], 50));
+    let bad_header = w("header.csv", "program,run,time,input_g,temp_c,pulses,interval_s\np,0,1,1,,1,1\n");
+    let backwards = w("backwards.csv", &format!("{CYCLING_HEADER}p,a,10,1,20,1,10\np,a,5,1,20,1,10\n"));
+    let nan = w("nan.csv", &format!("{CYCLING_HEADER}p,a,10,1,NaN,1,10\n"));
+    let empty = w("empty.csv", "");
+    // Named runs are runs: calibrate fails for the missing pair, not for the names.
+    fails_with(&["calibrate", "--log", &single, "--out", &out], "program `rate0.3` has no +1 g / −1 g pair of runs");
+    fails_with(&["calibrate", "--log", &no_pair, "--out", &out], "program `rate0.3` has no +1 g / −1 g pair of runs");
+    for cmd in ["calibrate", "compensate"] {
+        let args = |log: &str| -> Vec<String> {
+            let mut v: Vec<String> = [cmd, "--log", log, "--out", &out].iter().map(|s| s.to_string()).collect();
+            if cmd == "compensate" {
+                v.extend(["--table".to_string(), "missing.bin".to_string()]);
+            }
+            v
+        };
+        let run = |log: &str, want: &str| {
+            let a = args(log);
+            fails_with(&a.iter().map(String::as_str).collect::<Vec<_>>(), want);
+        };
+        run(&bad_header, "line 1: header is `program,run,time,input_g,temp_c,pulses,interval_s`");
+        run(&backwards, "line 3: time_s not after the run's previous row");
+        run(&nan, "line 2: bad temp_c `NaN`");
+        run(&empty, "line 1: header is ``");
+    }
+}
+
+#[test]
+fn cycling_reader_reports_the_first_20_malformed_rows_and_the_count() {
+    let mut text = CYCLING_HEADER.to_string();
+    for i in 0..500 {
+        text.push_str(&format!("p,rate0.3_pos0,{},1,oops,1,1\n", i + 1));
+    }
+    let err = qfa_lab::log::read_log_from(text.as_bytes()).unwrap_err();
+    assert_eq!(err.total, 500);
+    assert_eq!(err.errors.len(), 20);
+    assert_eq!(err.errors[19].line, 21);
+    let s = err.to_string();
+    assert!(s.starts_with("500 malformed row(s) in the log:\n  line 2: bad temp_c `oops`"), "{s}");
+    assert!(s.ends_with("  ... and 480 more\n"), "{s}");
+}
+
+#[test]
+fn ten_second_rows_give_real_figures_and_missing_bins_are_an_error() {
+    let d = dir().join("ten");
+    std::fs::create_dir_all(&d).unwrap();
+    let log = d.join("log10.csv");
+    let out = d.join("cal");
+    let (ok, text) = lab(&["simulate", "--out", log.to_str().unwrap(), "--row-s", "10", "--seed", "3"]);
+    assert!(ok, "{text}");
+    let (ok, text) = lab(&["calibrate", "--log", log.to_str().unwrap(), "--out", out.to_str().unwrap(), "--no-plots"]);
+    assert!(ok, "{text}");
+    let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    // Before the staleness fix every compensated row was flagged stale: sensitivity null and
+    // bias residual 0.0. Now each is a number, and the models beat no compensation.
+    for v in ["none", "simple", "hysteresis"] {
+        assert!(r["sensitivity_ppm_per_c"][v].is_f64(), "{v}: {}", r["sensitivity_ppm_per_c"]);
+        assert!(r["bias_residual_ug"][v].as_f64().unwrap() > 0.0, "{v}: {}", r["bias_residual_ug"]);
+    }
+    let b = &r["bias_residual_ug"];
+    assert!(b["hysteresis"].as_f64().unwrap() < b["none"].as_f64().unwrap(), "{b}");
+    // The peers' rows exist, are numbers, and are far from no compensation.
+    for p in ["cubic", "ardupilot"] {
+        let v = r["peers_bias_residual_ug"][p].as_f64().unwrap();
+        assert!(v > 0.0 && v < 0.5 * b["none"].as_f64().unwrap(), "{p}: {}", r["peers_bias_residual_ug"]);
+    }
+    // An evaluation without bins is an error with its reason, never a figure.
+    let e = qfa_lab::calibrate::check_figures(&qfa_lab::report::Evaluation::default()).unwrap_err();
+    assert!(e.starts_with("bias residual (no compensation) not computable: no held-out bin qualified"), "{e}");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn single_channel_logs_still_reach_discover() {
+    // `time_s,temp_c,value` is discover's own single-channel format, not a static log.
+    let d = dir().join("single");
+    std::fs::create_dir_all(&d).unwrap();
+    let log = d.join("single.csv");
+    let mut s = String::from("time_s,temp_c,value\n");
+    for i in 0..1500 {
+        let t = 20.0 + 10.0 * (f64::from(i) / 200.0).sin();
+        s.push_str(&format!("{},{t:.4},{:.9}\n", i * 10, 1e-4 * t));
+    }
+    std::fs::write(&log, s).unwrap();
+    let (ok, text) = lab(&["discover", "--log", log.to_str().unwrap(), "--out", d.join("out").to_str().unwrap()]);
+    assert!(ok, "{text}");
+    assert!(d.join("out").join("report.json").is_file());
+    let _ = std::fs::remove_dir_all(&d);
+}
