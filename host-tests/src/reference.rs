@@ -421,44 +421,35 @@ impl Reference {
 
     /// An IMU cycle.
     pub fn cycle(&mut self, pulses: [i64; 3], dt: u32) -> Predicted {
-        self.since = (self.since + u64::from(dt)).min(u64::from(u32::MAX));
-        let stale = if self.since > STALE_AFTER { Status::TEMP_STALE } else { 0 };
-        let mut dv = [0.0; 3];
-        for i in 0..3 {
-            dv[i] = if self.table.is_some() {
-                pulses[i] as f64 * G0 / self.k1[i] - self.k0[i] * G0 * TICK_S * f64::from(dt)
-            } else {
-                pulses[i] as f64 * G0 / NOMINAL_K1
-            };
-        }
-        if let Some(m) = self.table.as_ref().and_then(|t| t.misalignment) {
-            let raw = dv;
-            for (r, out) in dv.iter_mut().enumerate() {
-                *out = (0..3).map(|c| f64::from(m[r * 3 + c]) * raw[c]).sum();
-            }
-        }
-        Predicted::Cycle { status: self.status | stale, dv }
+        self.apply(pulses, dt, true)
     }
 
     /// An IMU cycle of MEMS samples: `a = raw·g0/K1 − K0·g0`, m/s².
     pub fn samples(&mut self, raw: [i64; 3], dt: u32) -> Predicted {
+        self.apply(raw, dt, false)
+    }
+
+    /// `counts·g0/K1 − K0·g0·(tick·dt if per_tick, else 1)`, then the misalignment; with no
+    /// table the counts at the nominal scale.
+    fn apply(&mut self, counts: [i64; 3], dt: u32, per_tick: bool) -> Predicted {
         self.since = (self.since + u64::from(dt)).min(u64::from(u32::MAX));
         let stale = if self.since > STALE_AFTER { Status::TEMP_STALE } else { 0 };
-        let mut a = [0.0; 3];
+        let bias_factor = if per_tick { G0 * TICK_S * f64::from(dt) } else { G0 };
+        let mut v = [0.0; 3];
         for i in 0..3 {
-            a[i] = if self.table.is_some() {
-                raw[i] as f64 * G0 / self.k1[i] - self.k0[i] * G0
+            v[i] = if self.table.is_some() {
+                counts[i] as f64 * G0 / self.k1[i] - self.k0[i] * bias_factor
             } else {
-                raw[i] as f64 * G0 / NOMINAL_K1
+                counts[i] as f64 * G0 / NOMINAL_K1
             };
         }
         if let Some(m) = self.table.as_ref().and_then(|t| t.misalignment) {
-            let v = a;
-            for (r, out) in a.iter_mut().enumerate() {
-                *out = (0..3).map(|c| f64::from(m[r * 3 + c]) * v[c]).sum();
+            let raw = v;
+            for (r, out) in v.iter_mut().enumerate() {
+                *out = (0..3).map(|c| f64::from(m[r * 3 + c]) * raw[c]).sum();
             }
         }
-        Predicted::Cycle { status: self.status | stale, dv: a }
+        Predicted::Cycle { status: self.status | stale, dv: v }
     }
 
     /// An IMU cycle from wrapping cumulative counters.

@@ -306,22 +306,9 @@ pub fn fit(log: &Log, opts: &FitOptions, progress: Option<&indicatif::ProgressBa
         grid_row(row, r.tm, r.bm, start, step, g, 0.5);
     }
     let (mut xb, mut yb) = block_average(&xg, &y_k0x, p, opts.block, &starts);
-    for i in 0..g {
-        let mut row = vec![0.0; p];
-        row[i] = 1.0;
-        row[g + i] = -1.0;
-        xb.extend(row);
-        yb.push(0.0);
-        if i >= 1 && i + 1 < g {
-            for off in [0, g] {
-                let mut row = vec![0.0; p];
-                row[off + i - 1] = 1.0;
-                row[off + i] = -2.0;
-                row[off + i + 1] = 1.0;
-                xb.extend(row);
-                yb.push(0.0);
-            }
-        }
+    push_branch_ties(&mut xb, &mut yb, p, g);
+    for off in [0, g] {
+        push_second_differences(&mut xb, &mut yb, p, off, g);
     }
     let bias_hysteresis = lstsq(&xb, p, &yb)?;
     let rate_limit = (max_rate * 1.25).clamp(0.5, 20.0) as f32;
@@ -501,6 +488,31 @@ impl StaticSeries<'_> {
     }
 }
 
+/// Weak (weight 1) rows `c[off+i−1] − 2·c[off+i] + c[off+i+1] = 0` over the `g` grid
+/// nodes at `off` of a `p`-column design: they keep nodes that few data reach defined.
+fn push_second_differences(xb: &mut Vec<f64>, yb: &mut Vec<f64>, p: usize, off: usize, g: usize) {
+    for i in 1..g.saturating_sub(1) {
+        let mut row = vec![0.0; p];
+        row[off + i - 1] = 1.0;
+        row[off + i] = -2.0;
+        row[off + i + 1] = 1.0;
+        xb.extend(row);
+        yb.push(0.0);
+    }
+}
+
+/// Weak rows `heating[i] − cooling[i] = 0` for the two `g`-node branches at 0 and `g`:
+/// where only one branch has data, the other follows it.
+fn push_branch_ties(xb: &mut Vec<f64>, yb: &mut Vec<f64>, p: usize, g: usize) {
+    for i in 0..g {
+        let mut row = vec![0.0; p];
+        row[i] = 1.0;
+        row[g + i] = -1.0;
+        xb.extend(row);
+        yb.push(0.0);
+    }
+}
+
 /// K1 of a static log's table, LSB/g. A static log holds accelerations as numbers (g after
 /// the unit flags), while the firmware's sample path takes integer LSB:
 /// `raw = round(a·2²⁰)` quantizes to 0.95 µg, three orders below the figures that matter,
@@ -584,23 +596,10 @@ pub fn fit_static_axis(
     let (mut xb, mut yb) = block_average(&x, &y, p, block, &starts);
     let branches = if structure.branches == BranchMode::Free { 2 } else { 1 };
     for off in (0..branches).map(|b| b * g) {
-        for i in 1..g - 1 {
-            let mut row = vec![0.0; p];
-            row[off + i - 1] = 1.0;
-            row[off + i] = -2.0;
-            row[off + i + 1] = 1.0;
-            xb.extend(row);
-            yb.push(0.0);
-        }
+        push_second_differences(&mut xb, &mut yb, p, off, g);
     }
     if structure.branches == BranchMode::Free {
-        for i in 0..g {
-            let mut row = vec![0.0; p];
-            row[i] = 1.0;
-            row[g + i] = -1.0;
-            xb.extend(row);
-            yb.push(0.0);
-        }
+        push_branch_ties(&mut xb, &mut yb, p, g);
     }
     let ls = lstsq(&xb, p, &yb)?;
     let c = &ls.coef;
