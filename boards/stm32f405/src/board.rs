@@ -15,7 +15,7 @@ use qfa_thermal::time::MsClock;
 use qfa_thermal::{Applier, Compensator, Config, Status, Table, Updater};
 use static_cell::StaticCell;
 use stm32f4xx_hal::dwt::{Delay, DwtExt};
-use stm32f4xx_hal::gpio::{alt, OpenDrain, Output, PartiallyErasedPin};
+use stm32f4xx_hal::gpio::{alt, OpenDrain, Output, PartiallyErasedPin, PinState};
 use stm32f4xx_hal::pac::{self, interrupt, Interrupt, TIM3, TIM4, TIM7, TIM8};
 use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::rcc::Config as RccConfig;
@@ -226,10 +226,13 @@ fn slow_path(mut updater: Slow, mut chans: [Channel; 3], tim2: &pac::TIM2) -> ! 
             }
             match ch.sensor.is_ready(&mut ch.bus, now_us(tim2)) {
                 Ok(false) => continue,
-                Ok(true) => {}
-                Err(e) => defmt::error!("axis {}: DS18B20 poll: {}", axis, e),
+                Ok(true) => ch.converting = false,
+                Err(e) => {
+                    defmt::error!("axis {}: DS18B20 poll: {}", axis, e);
+                    ch.converting = false;
+                    continue;
+                }
             }
-            ch.converting = false;
             match ch.sensor.read(&mut ch.bus) {
                 Ok(s) => {
                     // One time base for every sensor, wrap-safe (never completed_us / 1000).
@@ -299,10 +302,12 @@ fn main() -> ! {
 
     // Three DS18B20s, each alone on an open-drain pin with a 4.7 kΩ pull-up to 3.3 V.
     let gpiob = dp.GPIOB.split(&mut rcc);
+    // Released (high) from the start: a pin that came up driving low would hold the bus
+    // down and make the first reset see it stuck low.
     let pins: [OneWirePin; 3] = [
-        gpiob.pb6.into_open_drain_output().erase_number(),
-        gpiob.pb7.into_open_drain_output().erase_number(),
-        gpiob.pb8.into_open_drain_output().erase_number(),
+        gpiob.pb6.into_open_drain_output_in_state(PinState::High).erase_number(),
+        gpiob.pb7.into_open_drain_output_in_state(PinState::High).erase_number(),
+        gpiob.pb8.into_open_drain_output_in_state(PinState::High).erase_number(),
     ];
     let mut chans = pins.map(|pin| Channel { bus: OneWire::new(pin, delay), sensor: Ds18b20::single(), converting: false });
     for (axis, ch) in chans.iter_mut().enumerate() {
