@@ -194,8 +194,11 @@ struct Channel {
 }
 
 /// The slow path, in thread mode: start conversions at 1 Hz, read them when done, feed the
-/// updater. Every call is bounded (the driver's table: start ≤ 2.1 ms with SKIP ROM, read
-/// ≤ 2 × 6.7 ms); the IMU interrupt preempts all of it.
+/// updater. Every call is bounded (delays alone, SKIP ROM: start 2.1 ms, poll 70 µs, read
+/// ≤ 2 × 7.1 ms with the default retry); the IMU interrupt preempts all of it. A 1-Wire read
+/// slot samples 10 µs after its falling edge and the sensor's data is valid until 15 µs, so
+/// the IMU interrupt must stay well under 5 µs (its handler is straight-line code, a few
+/// hundred cycles at 168 MHz; not measured on hardware).
 fn slow_path(mut updater: Slow, mut chans: [Channel; 3], tim2: &pac::TIM2) -> ! {
     let mut clock = MsClock::new();
     let mut next_start = now_us(tim2);
