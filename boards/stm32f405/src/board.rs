@@ -247,14 +247,14 @@ fn slow_path(mut updater: Slow, mut chans: [Channel; 3], tim2: &pac::TIM2) -> ! 
                 Err(e) => defmt::error!("axis {}: DS18B20 read: {}", axis, e),
             }
         }
-        let summary = critical_section::with(|_| {
-            let seq = SUMMARY.seq.load(Ordering::Relaxed);
-            (seq != seen).then(|| {
+        // Look without a critical section; take one (a few cycles of masked interrupts) only
+        // once a second, to copy a whole summary.
+        if SUMMARY.seq.load(Ordering::Relaxed) != seen {
+            let (seq, dv, status) = critical_section::with(|_| {
                 let dv = SUMMARY.dv.each_ref().map(|d| f32::from_bits(d.load(Ordering::Relaxed)));
-                (seq, dv, Status::from_bits_retain(SUMMARY.status.load(Ordering::Relaxed) as u16))
-            })
-        });
-        if let Some((seq, dv, status)) = summary {
+                let status = Status::from_bits_retain(SUMMARY.status.load(Ordering::Relaxed) as u16);
+                (SUMMARY.seq.load(Ordering::Relaxed), dv, status)
+            });
             seen = seq;
             defmt::println!("1 s: dv_mps={} status={} temp_c={}", dv, status, temps(&updater));
         }
