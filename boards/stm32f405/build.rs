@@ -61,18 +61,21 @@ fn fixture() -> Table {
 fn main() {
     println!("cargo:rerun-if-changed=build.rs");
     println!("cargo:rerun-if-env-changed=QFA_BOARD_TABLE");
+    let out = PathBuf::from(env::var_os("OUT_DIR").expect("OUT_DIR"));
+    // The table image is written for the host too: the host tests decode it.
+    write_table_image(&out);
     if env::var("CARGO_CFG_TARGET_OS").as_deref() != Ok("none") {
         return;
     }
-    let out = PathBuf::from(env::var_os("OUT_DIR").expect("OUT_DIR"));
-
     // cortex-m-rt's link.x does `INCLUDE memory.x`: this board's map, on the link path.
     fs::write(out.join("memory.x"), MEMORY_X).expect("write memory.x");
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rustc-link-arg-bins=--nmagic");
     println!("cargo:rustc-link-arg-bins=-Tlink.x");
     println!("cargo:rustc-link-arg-bins=-Tdefmt.x");
+}
 
+fn write_table_image(out: &std::path::Path) {
     let mut image = vec![0xFF_u8; MAX_TABLE_BYTES];
     let len = match env::var_os("QFA_BOARD_TABLE") {
         Some(path) => {

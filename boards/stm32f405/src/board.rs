@@ -10,7 +10,7 @@ use panic_probe as _;
 use qfa_thermal::ds18b20::Resolution;
 use qfa_thermal::ds18b20_driver::Ds18b20;
 use qfa_thermal::onewire::OneWire;
-use qfa_thermal::table::{self, HEADER_LEN, MAX_TABLE_BYTES};
+use qfa_thermal::table::{self, MAX_TABLE_BYTES};
 use qfa_thermal::time::MsClock;
 use qfa_thermal::{Applier, Compensator, Config, Status, Table, Updater};
 use static_cell::StaticCell;
@@ -21,6 +21,7 @@ use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::rcc::Config as RccConfig;
 use stm32f4xx_hal::timer::{CounterUs, Event, FTimerUs, Timer};
 
+use crate::slot;
 use crate::widen::Widen16;
 
 /// The recommended configuration: 3 axes, a 32-sample rate window, one DS18B20 per
@@ -176,14 +177,10 @@ fn now_us(tim2: &pac::TIM2) -> u32 {
 ///
 /// The sector is read through `black_box`, so the bytes come from flash at run time, not
 /// from the image the compiler saw: a sector rewritten after flashing is what is decoded.
-/// The header's payload length bounds the slice (`Table::decode` refuses trailing bytes);
-/// an erased sector fails with `BadMagic`, a length past the slot with `Truncated`.
+/// An erased sector fails with `BadMagic`, a length past the slot with `Truncated`.
 fn load_table() -> Result<&'static Table, table::Error> {
     let sector: &[u8; MAX_TABLE_BYTES] = black_box(&TABLE_SECTOR);
-    let payload = u32::from_le_bytes([sector[8], sector[9], sector[10], sector[11]]) as usize;
-    let len = HEADER_LEN.saturating_add(payload).min(MAX_TABLE_BYTES);
-    let table = Table::decode(&sector[..len])?;
-    Ok(TABLE.init(table))
+    Ok(TABLE.init(slot::decode(sector)?))
 }
 
 /// One DS18B20 on its own open-drain pin.
