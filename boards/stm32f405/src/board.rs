@@ -130,6 +130,8 @@ impl Fast {
         ];
         // The time between two reads: one period plus the change in latency, in µs ticks
         // (Config::tick_s = 1 µs), exact however late the interrupt runs within its period.
+        // A whole missed period (the interrupt masked for over 2.5 ms) would make it one
+        // period short; keep every critical section far below that.
         let dt = PERIOD_US.wrapping_add(lat).wrapping_sub(self.last_lat);
         self.last_lat = lat;
 

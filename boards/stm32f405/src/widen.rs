@@ -11,10 +11,11 @@
 //! # The one bound
 //! The 16-bit difference is exact while fewer than 65 536 pulses arrive between two reads:
 //! at the board's 400 Hz IMU cycle, below 26.2 MHz. A QFA's I/F converter at 10 g with
-//! K1 ≈ 320 000 pulses/(g·s) gives 3.2 MHz, and the ETR inputs' digital filter (4 samples)
-//! passes at most f_CK_INT/8 = 10.5 MHz on the APB1 timers (84 MHz). A cycle that is missed
-//! altogether (the interrupt masked for a full 2.5 ms) still counts right at 3.2 MHz
-//! (8 000 pulses per cycle, 8 cycles before 65 536).
+//! K1 ≈ 320 000 pulses/(g·s) gives 3.2 MHz, and the ETR inputs' digital filter (4 samples
+//! high, 4 low) passes at most f_CK_INT/8: 10.5 MHz on TIM3/TIM4 (84 MHz), 21 MHz on TIM8
+//! (168 MHz). The counts of a cycle whose interrupt was missed altogether (masked for a
+//! full 2.5 ms) still come out right at 3.2 MHz: 8 000 pulses per cycle, 8 cycles before
+//! 65 536. (That cycle's `dt` is one period short; see `Fast::cycle`.)
 
 /// One axis: the last 16-bit counter value seen and the widened total.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
