@@ -72,8 +72,8 @@ struct Fast {
 /// The one-time handoff of [`Fast`] from `main` to the interrupt. The lock is taken once:
 /// the handler moves `Fast` into its own `static mut` local on its first run and owns it
 /// from then on, so each later cycle runs with no lock (no critical section to add to
-/// other interrupts' latency, nothing to fail) and no shared mutable state but the
-/// compensator's own lock-free `Published` set.
+/// other interrupts' latency, nothing to fail); it shares only the compensator's lock-free
+/// `Published` set and the log's [`SUMMARY`] atomics.
 static FAST_HANDOFF: Mutex<RefCell<Option<Fast>>> = Mutex::new(RefCell::new(None));
 
 /// What the interrupt publishes once a second for the main loop's log: Δv sums (f32 bits),
