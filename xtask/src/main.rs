@@ -12,6 +12,8 @@ use std::{env, fmt, thread};
 
 const TARGET: &str = "thumbv7em-none-eabihf";
 const FIRMWARE: &str = "qfa-firmware";
+/// The STM32F405 board example (built, not run: no hardware in CI).
+const BOARD: &str = "qfa-board-stm32f405";
 const QEMU: &str = "qemu-system-arm";
 const QEMU_INSTALL: &str = "apt-get update && apt-get install -y qemu-system-arm";
 const SIZE_INSTALL: &str = "apt-get update && apt-get install -y binutils-arm-none-eabi";
@@ -25,9 +27,10 @@ const USAGE: &str = "usage: cargo xtask <command>
 
 commands:
   test          rustup target, clippy (host and target, -D warnings), host tests, target build,
-                reference vectors on QEMU mps2-an386, panic-check
+                reference vectors on QEMU mps2-an386, panic-check, STM32F405 board build
   demo-qemu     run the demo firmware on QEMU
-  bench-target  instruction counts (QEMU -icount shift=0, SysTick) and flash/RAM of the core
+  bench-target  instruction counts (QEMU -icount shift=0, SysTick), flash/RAM of the core and
+                of the STM32F405 board example
   panic-check   link-time proof that no panic is reachable from the core's paths";
 
 /// A failed step: what failed, and why.
@@ -285,9 +288,9 @@ fn test() -> Result {
     c.args(["clippy", "--workspace", "--all-targets", "--", "-D", "warnings"]);
     run(c)?;
 
-    step(&format!("clippy, {TARGET} (core and firmware)"));
+    step(&format!("clippy, {TARGET} (core, firmware, board example)"));
     let mut c = cargo();
-    c.args(["clippy", "-p", "qfa-thermal", "-p", FIRMWARE, "--target", TARGET, "--", "-D", "warnings"]);
+    c.args(["clippy", "-p", "qfa-thermal", "-p", FIRMWARE, "-p", BOARD, "--target", TARGET, "--", "-D", "warnings"]);
     run(c)?;
 
     step("host tests (default members)");
@@ -310,6 +313,13 @@ fn test() -> Result {
     println!("qemu-vectors: {n} vectors bit-exact on thumbv7em, exit 0");
 
     panic_check()?;
+
+    step("board example (STM32F405): host tests, then the firmware build (no hardware needed)");
+    let mut c = cargo();
+    c.args(["test", "-p", BOARD]);
+    run(c)?;
+    build_board()?;
+
     println!("\nxtask test: all steps passed");
     Ok(())
 }
@@ -324,6 +334,12 @@ fn demo_qemu() -> Result {
     } else {
         fail(format!("demo exited with {status}"))
     }
+}
+
+fn build_board() -> Result {
+    let mut c = cargo();
+    c.args(["build", "-p", BOARD, "--release", "--target", TARGET]);
+    run(c)
 }
 
 /// Berkeley `text data bss` of an ELF.
@@ -371,6 +387,13 @@ fn bench_target() -> Result {
     println!("panic-check: text={ct} data={cd} bss={cb}; size-baseline: text={bt} data={bd} bss={bb}");
     println!("core_flash_bytes={}", (ct + cd).saturating_sub(bt + bd));
     println!("core_static_ram_bytes={}", (cd + cb).saturating_sub(bd + bb));
+
+    step("flash and RAM of the STM32F405 board example (whole image, release)");
+    build_board()?;
+    let (t, d, b) = berkeley(&tool, &elf(BOARD)?)?;
+    println!("{BOARD}: text={t} data={d} bss={b}");
+    println!("board_flash_bytes={}", t + d);
+    println!("board_ram_bytes={}", d + b);
     Ok(())
 }
 

@@ -1,0 +1,360 @@
+//! The firmware proper (thumbv7em-none-eabihf only). See the crate docs for the wiring.
+
+use core::cell::RefCell;
+use core::hint::black_box;
+use core::sync::atomic::{AtomicU32, Ordering};
+
+use critical_section::Mutex;
+use defmt_rtt as _;
+use panic_probe as _;
+use qfa_thermal::ds18b20::Resolution;
+use qfa_thermal::ds18b20_driver::Ds18b20;
+use qfa_thermal::onewire::OneWire;
+use qfa_thermal::table::{self, MAX_TABLE_BYTES};
+use qfa_thermal::time::MsClock;
+use qfa_thermal::{Applier, Compensator, Config, Status, Table, Updater};
+use static_cell::StaticCell;
+use stm32f4xx_hal::dwt::{Delay, DwtExt};
+use stm32f4xx_hal::gpio::{alt, OpenDrain, Output, PartiallyErasedPin, PinState};
+use stm32f4xx_hal::pac::{self, interrupt, Interrupt, TIM3, TIM4, TIM7, TIM8};
+use stm32f4xx_hal::prelude::*;
+use stm32f4xx_hal::rcc::Config as RccConfig;
+use stm32f4xx_hal::timer::{CounterUs, Event, FTimerUs, Timer};
+
+use crate::slot;
+use crate::widen::Widen16;
+
+/// The recommended configuration: 3 axes, a 32-sample rate window, one DS18B20 per
+/// accelerometer case, the table held by reference.
+type Comp = Compensator<3, 32, 3, &'static Table>;
+type Slow = Updater<'static, 3, 32, 3, &'static Table>;
+type OneWirePin = PartiallyErasedPin<'B', Output<OpenDrain>>;
+
+/// IMU cycle: TIM7 update at 400 Hz.
+const PERIOD_US: u32 = 2_500;
+/// IMU cycles per logged summary (1 s).
+const CYCLES_PER_SUMMARY: u32 = 1_000_000 / PERIOD_US;
+/// Temperature cycle: a conversion on every sensor once a second.
+const TEMP_PERIOD_US: u32 = 1_000_000;
+
+/// The table sector's image, written by build.rs: the encoded table, then erased 0xFF.
+/// The linker puts it alone in flash sector 11 (0x080E_0000), so a calibration station
+/// can erase and rewrite that sector (probe, bootloader) without touching the code.
+// `link_section` is an unsafe attribute (a wrong section can break the image); this one
+// names the output section that build.rs's memory.x places in the QFA_TABLE region.
+#[allow(unsafe_code)]
+#[link_section = ".qfa_table"]
+#[used]
+static TABLE_SECTOR: [u8; MAX_TABLE_BYTES] = *include_bytes!(concat!(env!("OUT_DIR"), "/table_sector.bin"));
+
+/// The decoded table, in RAM (708 B): decoding copies it out of flash.
+static TABLE: StaticCell<Table> = StaticCell::new();
+/// The compensator; `split` borrows it for `'static`.
+static COMP: StaticCell<Comp> = StaticCell::new();
+
+/// Everything the IMU interrupt owns. Built in `main`, handed over once through
+/// [`FAST_HANDOFF`].
+struct Fast {
+    applier: Applier<'static, 3>,
+    /// TIM7: the 400 Hz cycle; its counter (1 MHz) also times each read.
+    tick: CounterUs<TIM7>,
+    x: TIM3,
+    y: TIM4,
+    z: TIM8,
+    widen: [Widen16; 3],
+    /// TIM7 count (µs after the update event) at the previous read.
+    last_lat: u32,
+    sum: [f32; 3],
+    status: Status,
+    cycles: u32,
+}
+
+/// The one-time handoff of [`Fast`] from `main` to the interrupt. The lock is taken once:
+/// the handler moves `Fast` into its own `static mut` local on its first run and owns it
+/// from then on, so each later cycle runs with no lock (no critical section to add to
+/// other interrupts' latency, nothing to fail); it shares only the compensator's lock-free
+/// `Published` set and the log's [`SUMMARY`] atomics.
+static FAST_HANDOFF: Mutex<RefCell<Option<Fast>>> = Mutex::new(RefCell::new(None));
+
+/// What the interrupt publishes once a second for the main loop's log: Δv sums (f32 bits),
+/// the OR of the status words, and a sequence number. Written only by the interrupt; the
+/// main loop reads it inside a critical section, where the interrupt cannot run, so it
+/// sees one whole second.
+struct Summary {
+    dv: [AtomicU32; 3],
+    status: AtomicU32,
+    seq: AtomicU32,
+}
+
+static SUMMARY: Summary =
+    Summary { dv: [const { AtomicU32::new(0) }; 3], status: AtomicU32::new(0), seq: AtomicU32::new(0) };
+
+/// Program TIM3/TIM4 (`tim3::RegisterBlock`) or TIM8 (`tim1::RegisterBlock`) as a free-running
+/// 16-bit up-counter of rising edges on its ETR pin: external clock mode 2 (ECE = 1), no
+/// ETR prescaler, a 4-sample digital filter at f_CK_INT (an edge must last 4 timer clocks:
+/// 48 ns on TIM3/TIM4 at 84 MHz, 24 ns on TIM8 at 168 MHz), auto-reload 0xFFFF. The HAL
+/// has no ETR counting mode, so these are plain PAC writes (safe svd2rust API); the HAL
+/// has already enabled and reset the timer.
+macro_rules! etr_counter {
+    ($tim:expr) => {{
+        let t = &$tim;
+        t.smcr().write(|w| w.etf().fck_int_n4().etps().div1().etp().not_inverted().ece().enabled().sms().disabled());
+        t.arr().write(|w| w.arr().set(0xFFFF));
+        t.egr().write(|w| w.ug().set_bit());
+        t.cr1().write(|w| w.cen().enabled());
+    }};
+}
+
+fn cnt16_tim3(t: &TIM3) -> u16 {
+    t.cnt().read().cnt().bits()
+}
+fn cnt16_tim4(t: &TIM4) -> u16 {
+    t.cnt().read().cnt().bits()
+}
+fn cnt16_tim8(t: &TIM8) -> u16 {
+    t.cnt().read().cnt().bits()
+}
+
+impl Fast {
+    /// One IMU cycle, in the TIM7 interrupt.
+    #[inline(always)]
+    fn cycle(&mut self) {
+        // Clear the update flag first (clearing it last can re-enter the handler).
+        let _ = self.tick.wait();
+        // µs since this cycle's update event; the counters are read right after it.
+        let lat = self.tick.now().ticks();
+        let counters = [
+            self.widen[0].update(cnt16_tim3(&self.x)),
+            self.widen[1].update(cnt16_tim4(&self.y)),
+            self.widen[2].update(cnt16_tim8(&self.z)),
+        ];
+        // The time between two reads: one period plus the change in latency, in µs ticks
+        // (Config::tick_s = 1 µs), exact however late the interrupt runs within its period.
+        // A whole missed period (the interrupt masked for over 2.5 ms) would make it one
+        // period short; keep every critical section far below that.
+        let dt = PERIOD_US.wrapping_add(lat).wrapping_sub(self.last_lat);
+        self.last_lat = lat;
+
+        let out = self.applier.cycle_counters(counters, dt);
+        // The navigation filter would take `out` here. The example sums it for the log.
+        for (s, v) in self.sum.iter_mut().zip(out.dv_mps) {
+            *s += v;
+        }
+        self.status |= out.status;
+        self.cycles += 1;
+        if self.cycles == CYCLES_PER_SUMMARY {
+            for (d, s) in SUMMARY.dv.iter().zip(self.sum) {
+                d.store(s.to_bits(), Ordering::Relaxed);
+            }
+            SUMMARY.status.store(u32::from(self.status.bits()), Ordering::Relaxed);
+            SUMMARY.seq.store(SUMMARY.seq.load(Ordering::Relaxed).wrapping_add(1), Ordering::Relaxed);
+            self.sum = [0.0; 3];
+            self.status = Status::empty();
+            self.cycles = 0;
+        }
+    }
+}
+
+#[interrupt]
+fn TIM7() {
+    static mut FAST: Option<Fast> = None;
+    if FAST.is_none() {
+        // The only lock: taken on the first cycle.
+        *FAST = critical_section::with(|cs| FAST_HANDOFF.borrow_ref_mut(cs).take());
+    }
+    match FAST.as_mut() {
+        Some(fast) => fast.cycle(),
+        // Unreachable (main hands over before it unmasks TIM7); without the timer the
+        // flag cannot be cleared, so stop the interrupt rather than re-enter forever.
+        None => cortex_m::peripheral::NVIC::mask(Interrupt::TIM7),
+    }
+}
+
+/// The TIM2 count: the free-running 32-bit µs clock (wraps every 71.6 min).
+fn now_us(tim2: &pac::TIM2) -> u32 {
+    tim2.cnt().read().bits()
+}
+
+/// Decode and validate the table in flash sector 11.
+///
+/// The sector is read through `black_box`, so the bytes come from flash at run time, not
+/// from the image the compiler saw: a sector rewritten after flashing is what is decoded.
+/// An erased sector fails with `BadMagic`, a length past the slot with `Truncated`.
+fn load_table() -> Result<&'static Table, table::Error> {
+    let sector: &[u8; MAX_TABLE_BYTES] = black_box(&TABLE_SECTOR);
+    Ok(TABLE.init(slot::decode(sector)?))
+}
+
+/// One DS18B20 on its own open-drain pin.
+struct Channel {
+    bus: OneWire<OneWirePin, Delay>,
+    sensor: Ds18b20,
+    converting: bool,
+}
+
+/// The slow path, in thread mode: start conversions at 1 Hz, read them when done, feed the
+/// updater. Every call is bounded (delays alone, SKIP ROM: start 2.1 ms, poll 70 µs, read
+/// ≤ 2 × 7.1 ms with the default retry); the IMU interrupt preempts all of it. A 1-Wire read
+/// slot samples 10 µs after its falling edge and the sensor's data is valid until 15 µs, so
+/// the IMU interrupt must stay well under 5 µs (its handler is straight-line code, a few
+/// hundred cycles at 168 MHz; not measured on hardware).
+fn slow_path(mut updater: Slow, mut chans: [Channel; 3], tim2: &pac::TIM2) -> ! {
+    let mut clock = MsClock::new();
+    let mut next_start = now_us(tim2);
+    let mut seen = SUMMARY.seq.load(Ordering::Relaxed);
+    loop {
+        let now = now_us(tim2);
+        if now.wrapping_sub(next_start) as i32 >= 0 {
+            next_start = next_start.wrapping_add(TEMP_PERIOD_US);
+            // Keep the ms clock fed even if every sensor is failing (it must see the µs
+            // clock at least every 35.8 min to count its wraps).
+            let _ = clock.ms(now);
+            for (axis, ch) in chans.iter_mut().enumerate() {
+                if ch.converting {
+                    defmt::error!("axis {}: conversion not read within 1 s, restarted", axis);
+                }
+                ch.converting = match ch.sensor.start(&mut ch.bus, now_us(tim2)) {
+                    Ok(()) => true,
+                    Err(e) => {
+                        defmt::error!("axis {}: DS18B20 start: {}", axis, e);
+                        false
+                    }
+                };
+            }
+        }
+        for (axis, ch) in chans.iter_mut().enumerate() {
+            if !ch.converting {
+                continue;
+            }
+            match ch.sensor.is_ready(&mut ch.bus, now_us(tim2)) {
+                Ok(false) => continue,
+                Ok(true) => ch.converting = false,
+                Err(e) => {
+                    defmt::error!("axis {}: DS18B20 poll: {}", axis, e);
+                    ch.converting = false;
+                    continue;
+                }
+            }
+            match ch.sensor.read(&mut ch.bus) {
+                Ok(s) => {
+                    // One time base for every sensor, wrap-safe (never completed_us / 1000).
+                    let t_ms = clock.ms(s.completed_us);
+                    if let Err(e) = updater.on_scratchpad_from(axis, t_ms, &s.scratchpad) {
+                        defmt::error!("axis {}: reading refused: {}", axis, e);
+                    }
+                }
+                Err(e) => defmt::error!("axis {}: DS18B20 read: {}", axis, e),
+            }
+        }
+        // Look without a critical section; take one (a few cycles of masked interrupts) only
+        // once a second, to copy a whole summary.
+        if SUMMARY.seq.load(Ordering::Relaxed) != seen {
+            let (seq, dv, status) = critical_section::with(|_| {
+                let dv = SUMMARY.dv.each_ref().map(|d| f32::from_bits(d.load(Ordering::Relaxed)));
+                let status = Status::from_bits_retain(SUMMARY.status.load(Ordering::Relaxed) as u16);
+                (SUMMARY.seq.load(Ordering::Relaxed), dv, status)
+            });
+            seen = seq;
+            defmt::println!("1 s: dv_mps={} status={} temp_c={}", dv, status, temps(&updater));
+        }
+    }
+}
+
+/// Each sensor's current temperature estimate, °C; `None` before its first good reading.
+fn temps(updater: &Slow) -> [Option<f32>; 3] {
+    core::array::from_fn(|i| updater.estimate_of(i).map(|e| e.temp_c))
+}
+
+#[cortex_m_rt::entry]
+fn main() -> ! {
+    let (Some(dp), Some(cp)) = (pac::Peripherals::take(), cortex_m::Peripherals::take()) else {
+        defmt::panic!("peripherals taken twice");
+    };
+    // 8 MHz crystal, 168 MHz core; APB1 42 MHz (its timers 84 MHz), APB2 84 MHz (168 MHz).
+    let mut rcc = dp.RCC.freeze(RccConfig::hse(8.MHz()).sysclk(168.MHz()).pclk1(42.MHz()).pclk2(84.MHz()));
+    // 1-Wire slot delays from the cycle counter: exact, and `Copy`, so each bus has one.
+    let delay = cp.DWT.constrain(cp.DCB, &rcc.clocks).delay();
+
+    // TIM2: the µs clock. The HAL enables it and sets the 1 MHz prescaler; the PAC makes it
+    // free-running over all 32 bits (ARR = 2^32 - 1, so it wraps at exactly 2^32 µs, as
+    // MsClock expects: the HAL's Counter::start would make ARR one tick short of that).
+    let tim2 = FTimerUs::new(dp.TIM2, &mut rcc).release();
+    tim2.arr().write(|w| w.arr().set(u32::MAX));
+    tim2.egr().write(|w| w.ug().set_bit());
+    tim2.cr1().write(|w| w.cen().enabled());
+
+    defmt::println!(
+        "qfa-board-stm32f405: RAM compensator {=usize} B + table {=usize} B",
+        core::mem::size_of::<Comp>(),
+        core::mem::size_of::<Table>()
+    );
+
+    let comp = match Comp::new(Config::default()) {
+        Ok(c) => COMP.init(c),
+        Err(e) => defmt::panic!("compensator config: {}", e),
+    };
+    match load_table() {
+        Ok(t) => match comp.set_table(t) {
+            Ok(()) => defmt::println!("table: loaded and validated, {} axes", t.axes.len()),
+            Err(e) => defmt::error!("table: refused by the compensator: {}; raw pass-through (NO_TABLE)", e),
+        },
+        Err(e) => defmt::error!("table: {}; raw pass-through at the nominal scale (NO_TABLE)", e),
+    }
+    let (updater, mut applier) = comp.split();
+
+    // Three DS18B20s, each alone on an open-drain pin with a 4.7 kΩ pull-up to 3.3 V.
+    let gpiob = dp.GPIOB.split(&mut rcc);
+    // Released (high) from the start: a pin that came up driving low would hold the bus
+    // down and make the first reset see it stuck low.
+    let pins: [OneWirePin; 3] = [
+        gpiob.pb6.into_open_drain_output_in_state(PinState::High).erase_number(),
+        gpiob.pb7.into_open_drain_output_in_state(PinState::High).erase_number(),
+        gpiob.pb8.into_open_drain_output_in_state(PinState::High).erase_number(),
+    ];
+    let mut chans = pins.map(|pin| Channel { bus: OneWire::new(pin, delay), sensor: Ds18b20::single(), converting: false });
+    for (axis, ch) in chans.iter_mut().enumerate() {
+        // 12 bits (0.0625 °C, 750 ms); the driver re-checks it in every scratchpad.
+        if let Err(e) = ch.sensor.set_resolution(&mut ch.bus, Resolution::Bits12) {
+            defmt::error!("axis {}: DS18B20 setup: {}; its axis stays TEMP_STALE until it answers", axis, e);
+        }
+    }
+
+    // Pulse counters: TIM3 ETR on PD2 (AF2), TIM4 ETR on PE0 (AF2), TIM8 ETR on PA0 (AF3).
+    // The HAL's typed ETR pins check the pin/AF pairs at compile time.
+    let gpioa = dp.GPIOA.split(&mut rcc);
+    let gpiod = dp.GPIOD.split(&mut rcc);
+    let gpioe = dp.GPIOE.split(&mut rcc);
+    let _etr_x: alt::tim3::Etr = gpiod.pd2.into();
+    let _etr_y: alt::tim4::Etr = gpioe.pe0.into();
+    let _etr_z: alt::tim8::Etr = gpioa.pa0.into();
+    let x = Timer::new(dp.TIM3, &mut rcc).release();
+    let y = Timer::new(dp.TIM4, &mut rcc).release();
+    let z = Timer::new(dp.TIM8, &mut rcc).release();
+    etr_counter!(x);
+    etr_counter!(y);
+    etr_counter!(z);
+
+    // TIM7: the 400 Hz IMU cycle.
+    let mut tick = dp.TIM7.counter_us(&mut rcc);
+    if let Err(e) = tick.start(PERIOD_US.micros()) {
+        defmt::panic!("TIM7 start: {}", e);
+    }
+    tick.listen(Event::Update);
+    // Base the counters and the latency now, with no update pending, so the first cycle
+    // gives real increments (no NO_COUNTER_BASE) over a real dt.
+    let _ = tick.wait();
+    let last_lat = tick.now().ticks();
+    let widen = [Widen16::new(cnt16_tim3(&x)), Widen16::new(cnt16_tim4(&y)), Widen16::new(cnt16_tim8(&z))];
+    applier.prime_counters(widen.map(|w| w.total()));
+    let fast = Fast { applier, tick, x, y, z, widen, last_lat, sum: [0.0; 3], status: Status::empty(), cycles: 0 };
+    critical_section::with(|cs| *FAST_HANDOFF.borrow_ref_mut(cs) = Some(fast));
+    // Unmasking is unsafe because it can break a critical section built on masking this
+    // interrupt; this program's only critical sections disable all interrupts (PRIMASK),
+    // and everything the handler needs was handed over on the line above.
+    #[allow(unsafe_code)]
+    unsafe {
+        cortex_m::peripheral::NVIC::unmask(Interrupt::TIM7);
+    }
+
+    slow_path(updater, chans, &tim2)
+}

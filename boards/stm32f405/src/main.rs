@@ -1,0 +1,48 @@
+//! qfa-thermal on an STM32F405 navigation computer (`stm32f4xx-hal`, `defmt-rtt`).
+//!
+//! | what | where |
+//! |---|---|
+//! | DS18B20, axis X / Y / Z (one per accelerometer case) | PB6 / PB7 / PB8, open drain, 4.7 kΩ pull-up to 3.3 V, sensors on V_DD (not parasite) |
+//! | accelerometer pulses X / Y / Z | TIM3 ETR PD2 (AF2) / TIM4 ETR PE0 (AF2) / TIM8 ETR PA0 (AF3), rising edges |
+//! | µs clock | TIM2, 32-bit, 1 MHz, free-running (wraps every 71.6 min) |
+//! | IMU cycle | TIM7 update interrupt, 400 Hz: the fast path (`Applier::cycle_counters`) |
+//! | slow path | thread mode: 1 Hz conversions, `Updater::on_scratchpad_from` |
+//! | table | flash sector 11 (0x080E_0000), decoded and validated at boot |
+//! | log | RTT (defmt) |
+//!
+//! Build: `cargo build -p qfa-board-stm32f405 --release --target thumbv7em-none-eabihf`.
+//! On the host this binary only prints that line.
+//!
+//! # Pulses and samples
+//! Each axis here is one pulse line counted up by its timer. An I/F converter with
+//! separate + and − lines needs a second counter per axis; the signed cumulative count
+//! `plus.wrapping_sub(minus)` (both widened, see `widen`) is then what `cycle_counters`
+//! takes. A MEMS IMU instead gives samples over SPI: read them in its data-ready EXTI
+//! interrupt and call `Applier::cycle_samples(raw, dt_ticks)`, with the same handoff.
+//!
+//! # RAM
+//! The compensator (`core_ram_bytes` of `cargo xtask bench-target`, 1 072 B) and the
+//! decoded table (708 B) live in `StaticCell`s, 1 080 B and 712 B with their init flags
+//! (`llvm-nm -S` of the release image). `Table` is a postcard decoding, so validating the
+//! flash bytes means copying them to RAM once; the compensator then holds only a
+//! `&'static Table`. The other RAM: the defmt-rtt buffer (1 024 B), the interrupt's state
+//! and handoff (116 B), the summary (20 B), and the stack (not in these figures).
+#![cfg_attr(target_os = "none", no_std, no_main)]
+
+#[cfg(target_os = "none")]
+mod board;
+#[cfg(any(test, target_os = "none"))]
+mod slot;
+#[cfg(any(test, target_os = "none"))]
+mod widen;
+
+/// On the host: say how to build and flash it.
+#[cfg(not(target_os = "none"))]
+fn main() {
+    println!(
+        "qfa-board-stm32f405 is firmware for an STM32F405 (Cortex-M4F). Build it with\n  \
+         cargo build -p qfa-board-stm32f405 --release --target thumbv7em-none-eabihf\n\
+         and flash and watch its defmt log with\n  \
+         probe-rs run --chip STM32F405RGTx target/thumbv7em-none-eabihf/release/qfa-board-stm32f405"
+    );
+}
