@@ -22,7 +22,7 @@
 //!
 //! # RAM
 //! The compensator (`core_ram_bytes` of `cargo xtask bench-target`, 1 072 B) and the
-//! decoded table (708 B) live in `StaticCell`s, 1 080 B and 712 B with their init flags
+//! decoded table (708 B) live in `StaticCell`s, about 1 000 B and 712 B with their init flags
 //! (`llvm-nm -S` of the release image). `Table` is a postcard decoding, so validating the
 //! flash bytes means copying them to RAM once; the compensator then holds only a
 //! `&'static Table`. The other RAM: the defmt-rtt buffer (1 024 B), the interrupt's state
