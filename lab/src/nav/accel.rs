@@ -95,12 +95,28 @@ impl AccelTruth for LabAccel {
     }
 }
 
+/// The compensator flown on each accelerometer axis today: the root crate's
+/// `Compensator<1, 32>`, one per axis, each fed by the DS18B20 on its own case.
+///
+/// This alias, [`axis_compensator`] and [`TableCompensation`] are the only places the nav
+/// and fault studies name it: when the 3-axis compensator with one temperature stream per
+/// axis lands, `TableCompensation` holds one of those instead (loaded with
+/// [`super::calib::table3`]'s 3-axis table and the misalignment matrix) and nothing else
+/// changes.
+pub type AxisCompensator = Compensator<1, 32>;
+
+/// A fresh [`AxisCompensator`] with the firmware's default settings (1 µs ticks).
+#[must_use]
+pub fn axis_compensator() -> AxisCompensator {
+    Compensator::new(compensator::Config::default())
+}
+
 /// Compensation through the root crate's [`Compensator`], exactly as the firmware runs it:
-/// one `Compensator<1, 32>` per accelerometer, each fed by the DS18B20 on its own case
+/// one [`AxisCompensator`] per accelerometer, each fed by the DS18B20 on its own case
 /// and loaded with that unit's 1-axis table (as the lab calibrates it).
 #[derive(Clone, Debug)]
 pub struct TableCompensation {
-    comp: [Compensator<1, 32>; 3],
+    comp: [AxisCompensator; 3],
     /// Slow-path rejections seen (should stay 0 in simulation).
     pub rejected: u32,
 }
@@ -111,7 +127,7 @@ impl TableCompensation {
     /// # Errors
     /// A table's validation error.
     pub fn new(tables: [&Table; 3]) -> anyhow::Result<Self> {
-        let mut comp: [Compensator<1, 32>; 3] = core::array::from_fn(|_| Compensator::new(compensator::Config::default()));
+        let mut comp: [AxisCompensator; 3] = core::array::from_fn(|_| axis_compensator());
         for (c, t) in comp.iter_mut().zip(tables) {
             c.set_table(t.clone()).map_err(|e| anyhow::anyhow!("table refused: {e}"))?;
         }
@@ -120,7 +136,7 @@ impl TableCompensation {
 
     /// The compensators, x, y, z.
     #[must_use]
-    pub fn compensators(&self) -> &[Compensator<1, 32>; 3] {
+    pub fn compensators(&self) -> &[AxisCompensator; 3] {
         &self.comp
     }
 }
