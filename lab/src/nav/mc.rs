@@ -401,8 +401,8 @@ pub fn summarize(parts: &[Partial]) -> anyhow::Result<(Summary, Vec<Outcome>)> {
     Ok((sum, outs))
 }
 
-/// Summarize `parts` and write `mc_runs.csv` and, with `plots`, `mc_thermal_share.png`
-/// and `mc_cep.png` to `out`.
+/// Summarize `parts` and write `mc_runs.csv` and, with `plots`, `mc_thermal_share.png`,
+/// `mc_thermal_cep.png` and `mc_cep.png` (empirical distribution functions) to `out`.
 ///
 /// # Errors
 /// As [`summarize`], I/O or drawing.
@@ -447,7 +447,15 @@ pub fn write_outputs(out: &Path, parts: &[Partial], plots: bool) -> anyhow::Resu
             &out.join("mc_thermal_share.png"),
             &format!("thermal share removed, (simple − v)/(simple − oracle) on thermal-only CEP; {title}"),
             "thermal share removed (%)",
-            &col(&|o| &o.thermal_share_removed, 100.0, &["simple", "oracle"]),
+            // `none` (several hundred % negative) would squash the scale.
+            &col(&|o| &o.thermal_share_removed, 100.0, &["none", "simple", "oracle"]),
+        )
+        .map_err(|e| anyhow::anyhow!("plot: {e}"))?;
+        super::plot::plot_distributions(
+            &out.join("mc_thermal_cep.png"),
+            &format!("thermal-only CEP rate (variant − oracle, same sensor data); {title}"),
+            "thermal-only CEP (nmile/h)",
+            &col(&|o| &o.thermal_cep_nmi_per_h, 1.0, &["none", "oracle"]),
         )
         .map_err(|e| anyhow::anyhow!("plot: {e}"))?;
         super::plot::plot_distributions(
@@ -562,6 +570,58 @@ mod tests {
         assert!((s.median - 1.5).abs() < 1e-12 && (s.p10 - 1.1).abs() < 1e-12);
         assert!(Stats::of(&[]).is_err());
         assert!(Stats::of(&[1.0, f64::NAN]).is_err());
+    }
+
+    fn outcome(run: u64, share: f64) -> Outcome {
+        let m = |v: f64| -> BTreeMap<String, f64> { [("hysteresis".to_string(), v)].into_iter().collect() };
+        Outcome {
+            run,
+            seed: run,
+            temp_offset_c: 0.0,
+            temp_scale: 1.0,
+            case_temp_range_c: [0.0, 1.0],
+            cep_nmi_per_h: m(1.0 + share),
+            thermal_cep_nmi_per_h: m(1.0 - share),
+            thermal_share_removed: m(share),
+            share_removed_total_cep: m(share),
+            alignment: BTreeMap::new(),
+            wall_s: 1.0,
+        }
+    }
+
+    fn partial(shard: (u64, u64), runs: &[u64]) -> Partial {
+        Partial {
+            scenario: "s".into(),
+            scenario_toml: "x".into(),
+            runs: 4,
+            seed: 9,
+            shard,
+            jobs: 1,
+            wall_s: 60.0,
+            outcomes: runs.iter().map(|&r| outcome(r, r as f64 / 10.0)).collect(),
+            nominal: None,
+        }
+    }
+
+    #[test]
+    fn merge_needs_every_run_once_from_one_study() {
+        let scenario_toml = toml::to_string(&Scenario::builtin()).unwrap();
+        let fix = |mut p: Partial| {
+            p.scenario_toml.clone_from(&scenario_toml);
+            p
+        };
+        let (a, b) = (fix(partial((0, 2), &[0, 2])), fix(partial((1, 2), &[1, 3])));
+        let (sum, outs) = summarize(&[b.clone(), a.clone()]).unwrap();
+        assert_eq!(outs.iter().map(|o| o.run).collect::<Vec<_>>(), vec![0, 1, 2, 3]);
+        // Shares 0, 0.1, 0.2, 0.3: median 0.15, p10 0.03, p90 0.27.
+        let h = sum.thermal_share_removed["hysteresis"];
+        assert!((h.median - 0.15).abs() < 1e-12 && (h.p10 - 0.03).abs() < 1e-12 && (h.p90 - 0.27).abs() < 1e-12, "{h:?}");
+        assert_eq!(sum.timing.len(), 2);
+        assert!(summarize(std::slice::from_ref(&a)).unwrap_err().to_string().contains("missing"));
+        assert!(summarize(&[a.clone(), a.clone(), b.clone()]).unwrap_err().to_string().contains("twice"));
+        let mut other = b.clone();
+        other.seed = 10;
+        assert!(summarize(&[a, other]).unwrap_err().to_string().contains("another study"));
     }
 
     #[test]
