@@ -1,5 +1,5 @@
 //! Stationary alignment before take-off: coarse leveling and gyrocompassing, then a fine
-//! alignment by a five-state Kalman filter on zero velocity.
+//! alignment by an eight-state Kalman filter on zero velocity.
 //!
 //! The vehicle stands still at the scenario's start point for `[alignment] duration_s`
 //! with the IMU bay at `ground_temp_c`, on the same simulated sensors and the same

@@ -244,12 +244,24 @@ pub fn varied_units<R: Rng + ?Sized>(v: &Variation, rng: &mut R) -> [Truth; 3] {
     us
 }
 
-/// Fly run `i` of base seed `seed`.
-///
-/// # Errors
-/// Calibration, flight, or a share that cannot be computed.
-pub fn one(sc: &Scenario, seed: u64, i: u64) -> anyhow::Result<Outcome> {
-    let t0 = Instant::now();
+/// What run `i` of a study flies.
+#[derive(Clone, Debug)]
+pub struct Draw {
+    /// The scenario with the run's seed and temperature variation.
+    pub scenario: Scenario,
+    /// The three units with their spread.
+    pub units: [Truth; 3],
+    /// The run's seed, `splitmix64(base + i)`.
+    pub seed: u64,
+    /// Temperature shift, °C.
+    pub temp_offset_c: f64,
+    /// Excursion scale.
+    pub temp_scale: f64,
+}
+
+/// The draws of run `i` of base seed `seed` (see the module doc).
+#[must_use]
+pub fn draw(sc: &Scenario, seed: u64, i: u64) -> Draw {
     let rs = splitmix64(seed.wrapping_add(i));
     let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(rs);
     let v = sc.monte_carlo;
@@ -257,7 +269,17 @@ pub fn one(sc: &Scenario, seed: u64, i: u64) -> anyhow::Result<Outcome> {
     let scale = if v.temp_scale > 0.0 { 1.0 + rng.random_range(-v.temp_scale..=v.temp_scale) } else { 1.0 };
     let mut s = sc.clone().with_temperature_variation(off, scale);
     s.seed = rs;
-    let us = varied_units(&v, &mut rng);
+    let units = varied_units(&v, &mut rng);
+    Draw { scenario: s, units, seed: rs, temp_offset_c: off, temp_scale: scale }
+}
+
+/// Fly run `i` of base seed `seed`.
+///
+/// # Errors
+/// Calibration, flight, or a share that cannot be computed.
+pub fn one(sc: &Scenario, seed: u64, i: u64) -> anyhow::Result<Outcome> {
+    let t0 = Instant::now();
+    let Draw { scenario: s, units: us, seed: rs, temp_offset_c: off, temp_scale: scale } = draw(sc, seed, i);
     let tables = calibrate_with(&us, rs, 1, false).with_context(|| format!("run {i}: calibration"))?;
     let res = run::fly(&s, &mut truths_seeded(&us, rs), mc_variants(&tables)?).with_context(|| format!("run {i}: flight"))?;
     let cep: BTreeMap<String, f64> =

@@ -24,7 +24,7 @@
 //! scale factor and misalignment; accelerometer turn-on bias σ = 50 µg, scale factor and
 //! misalignment beside the thermal truth model. Before take-off every variant aligns on
 //! the ground on its own compensated output ([`align`]: coarse leveling and
-//! gyrocompassing, then a five-state Kalman fine alignment), and navigates from that
+//! gyrocompassing, then an eight-state Kalman fine alignment), and navigates from that
 //! attitude; `meta.alignment` gives the errors it left. Altitude is held by the reference.
 //!
 //! `--runs N` adds a Monte Carlo study ([`mc`]): N seeds varying the noise, the IMU error
