@@ -11,34 +11,45 @@
 //! the firmware's timer would measure, and the result goes to a [`ThermalCompensator`]
 //! (the root crate's compensator, through the same `on_scratchpad` path the driver uses).
 //! Windowed faults (brown-out, dropout, stuck) hit the three sensors at the same times,
-//! as on one shared 1-Wire bus; CRC errors and spikes are drawn per reading. Every outcome is logged in a [`FaultLog`]: faults injected, faults flagged
-//! (a `SampleError`, `TEMP_INVALID`, `TEMP_STALE`, a refused table), non-finite outputs.
+//! as on one shared 1-Wire bus; CRC errors and spikes are drawn per reading. Every outcome is logged in a [`FaultLog`]: faults injected, faults
+//! flagged **with the flag of that fault** (the column below; a refusal for another
+//! reason counts as `wrong`), refusals of intact readings, non-finite outputs.
 //!
-//! | fault | model | how the compensator can see it |
+//! | fault | model | the right flag |
 //! |---|---|---|
-//! | CRC errors at rate p | each reading, with probability p, arrives with one flipped bit | `SampleError::Decode(Crc)`, `TEMP_INVALID` |
-//! | power-on 85 °C after a brown-out | at given times the next reading is the power-on scratchpad (0550h, byte 6 = 0Ch, valid CRC) | `SampleError::Decode(PowerOn)` |
-//! | dropout 10 s – 10 min | no reading in a window | `TEMP_STALE` on the fast path after 3 s |
+//! | CRC errors at rate p | each reading, with probability p, arrives with one flipped bit | `SampleError::Decode(ds18b20::Error::Crc)` |
+//! | power-on 85 °C after a brown-out | at given times the next reading is the power-on scratchpad (0550h, byte 6 = 0Ch, valid CRC) | `SampleError::Decode(ds18b20::Error::PowerOn)` or `SampleError::PowerOnJump` |
+//! | dropout 10 s – 10 min | no reading in a window | `Status::TEMP_STALE` on the fast path of that axis during the window |
 //! | spikes at rate p | a reading off by ±`magnitude` | `SampleError::Implausible` |
-//! | stuck sensor | the reading repeats the value at the start of a window | not detectable from the value alone: a plausible constant |
+//! | stuck sensor | the reading repeats the value at the start of a window | not detectable from the value alone (a plausible constant); the jump back may give `SampleError::Implausible` |
 //! | corrupted table bytes at load | the table is first offered with one byte changed, then intact | `load_table` refuses it; the previous (intact) table stays active |
 //! | IMU cycle jitter | the cycle length the firmware passes is off by a uniform ±j µs (the pulses are of the true cycle) | not a fault the compensator can see |
 //!
 //! [`fly_with_faults`] flies the scenario once with every fault set in lock-step beside
-//! a fault-free twin (same sensor data, same noise), so each CEP difference is the
-//! fault's alone.
+//! a fault-free twin and the oracle (same sensor data, same noise). Its figures are on
+//! the **thermal-only** error, not total CEP (gyro errors dominate total CEP and would
+//! hide a broken compensation): `thermal` is the radial growth of (row − oracle)
+//! position, and `added` the radial growth of (row − fault-free twin) position divided by
+//! the `simple` variant's thermal-only CEP rate (flown beside them): the fault's cost as a
+//! share of the thermal error the compensation is there to remove. The twin's own
+//! thermal-only rate is not a stable denominator: the alignment's response to DS18B20
+//! flicker moves it by ×4 between 20 and 200 Hz on the same seed (0.085 and 0.021
+//! nmile/h), while the fault's absolute cost stays put; this choice was made after seeing
+//! that. `added_vs_twin` keeps the other ratio for the table.
+//! [`check`] lists every violated expectation; [`Broken`] rows fly a deliberately broken
+//! compensation to show each expectation can fail.
 
 use std::cell::RefCell;
 use std::fmt::Write as _;
 use std::rc::Rc;
 
 use nalgebra::Vector3;
-use qfa_thermal::compensator::{Compensator, Config, Output, SampleError, Status};
+use qfa_thermal::compensator::{Compensator, Output, SampleError, Status};
 use qfa_thermal::ds18b20::{self, encode_scratchpad, Resolution, POWER_ON_RAW};
 use qfa_thermal::table::{self, Table, MAX_TABLE_BYTES};
 
-use crate::nav::accel::AccelCompensation;
-use crate::nav::run::{self, Figures, GyroErrors, Variant};
+use crate::nav::accel::{axis_compensator, AccelCompensation, AxisCompensator, OracleCompensation, TableCompensation};
+use crate::nav::run::{self, Figures, Variant};
 use crate::nav::scenario::Scenario;
 
 /// The compensator interface the injector drives: the firmware's entry points, for one
@@ -60,7 +71,7 @@ pub trait ThermalCompensator {
     fn table(&self) -> Option<&Table>;
 }
 
-impl ThermalCompensator for Compensator<1, 32> {
+impl ThermalCompensator for AxisCompensator {
     fn load_table(&mut self, bytes: &[u8]) -> table::Result<()> {
         Compensator::load_table(self, bytes)
     }
@@ -97,6 +108,9 @@ pub struct FaultSet {
     pub imu_jitter_us: u32,
     /// Seed of the injector's own draws.
     pub seed: u64,
+    /// Take-off on the compensator's clock, s (the alignment's length): fault times are
+    /// relative to it, and nothing is injected before it.
+    pub takeoff_s: f64,
 }
 
 impl FaultSet {
@@ -152,8 +166,21 @@ pub enum Kind {
 pub struct Count {
     /// Injected.
     pub injected: u64,
-    /// Flagged by the compensator.
+    /// Flagged by the compensator with the right flag for this fault (see the module table).
     pub flagged: u64,
+    /// Refused, but for another reason than this fault's.
+    pub wrong: u64,
+}
+
+/// Whether `e` is the right [`SampleError`] for a reading fault of kind `k`.
+#[must_use]
+pub fn right_flag(k: Kind, e: &SampleError) -> bool {
+    match k {
+        Kind::Crc => matches!(e, SampleError::Decode(ds18b20::Error::Crc { .. })),
+        Kind::PowerOn => matches!(e, SampleError::Decode(ds18b20::Error::PowerOn) | SampleError::PowerOnJump),
+        Kind::Spike | Kind::Stuck => matches!(e, SampleError::Implausible { .. }),
+        Kind::Dropout | Kind::CorruptTable | Kind::Jitter => false,
+    }
 }
 
 /// What happened in one faulty run.
@@ -252,8 +279,11 @@ impl Injector {
 
     /// A reading of `raw` (12-bit, 1/16 °C) completed at `t_ms`.
     pub fn reading(&mut self, t_ms: u32, raw: i16) -> Injected {
-        let t_s = f64::from(t_ms) * 1e-3;
+        let t_s = f64::from(t_ms) * 1e-3 - self.set.takeoff_s;
         let intact = |r: i16| encode_scratchpad(r, Resolution::Bits12, 0x10 - (r.to_le_bytes()[0] & 0x0F));
+        if t_s < 0.0 {
+            return Injected { delivered: Delivered::Scratchpad(intact(raw)), fault: None };
+        }
         if Self::window(&self.set.dropouts_s, t_s).is_some() {
             return Injected { delivered: Delivered::Nothing, fault: Some(Kind::Dropout) };
         }
@@ -380,7 +410,7 @@ impl<C: ThermalCompensator> FaultyCompensation<C> {
     }
 
     fn reading(&mut self, axis: usize, t_ms: u32, raw: i16) {
-        let t_s = f64::from(t_ms) * 1e-3;
+        let t_s = f64::from(t_ms) * 1e-3 - self.injs[axis].set.takeoff_s;
         let got = self.injs[axis].reading(t_ms, raw);
         let set = &self.injs[axis].set;
         let mut log = self.log.borrow_mut();
@@ -406,19 +436,22 @@ impl<C: ThermalCompensator> FaultyCompensation<C> {
         }
         let Delivered::Scratchpad(sp) = got.delivered else { return };
         log.readings += 1;
-        if self.comps[axis].on_scratchpad(t_ms, &sp).is_err() {
+        if let Err(e) = self.comps[axis].on_scratchpad(t_ms, &sp) {
             log.refused += 1;
             // A stuck window is flagged if a reading in it, or the jump back within
-            // STUCK_RELEASE_S after it, is refused.
+            // STUCK_RELEASE_S after it, is refused as implausible.
             let stuck = set.stuck_s.iter().position(|&(s, d)| t_s >= s && t_s < s + d + STUCK_RELEASE_S);
             match (got.fault, stuck) {
                 (Some(Kind::Stuck) | None, Some(i)) => {
-                    if !self.stuck_flagged[axis][i] {
+                    if !right_flag(Kind::Stuck, &e) {
+                        log.count(Kind::Stuck).wrong += 1;
+                    } else if !self.stuck_flagged[axis][i] {
                         self.stuck_flagged[axis][i] = true;
                         log.count(Kind::Stuck).flagged += 1;
                     }
                 }
-                (Some(k), _) => log.count(k).flagged += 1,
+                (Some(k), _) if right_flag(k, &e) => log.count(k).flagged += 1,
+                (Some(k), _) => log.count(k).wrong += 1,
                 (None, None) => log.refused_intact += 1,
             }
         }
@@ -431,7 +464,7 @@ impl<C: ThermalCompensator> AccelCompensation for FaultyCompensation<C> {
     }
 
     fn on_temperatures(&mut self, t_ms: u32, raw: [i16; 3]) {
-        self.t_s = f64::from(t_ms) * 1e-3;
+        self.t_s = f64::from(t_ms) * 1e-3 - self.jitter.set.takeoff_s;
         for (axis, r) in raw.into_iter().enumerate() {
             self.reading(axis, t_ms, r);
         }
@@ -439,7 +472,7 @@ impl<C: ThermalCompensator> AccelCompensation for FaultyCompensation<C> {
 
     fn compensate(&mut self, pulses: [i32; 3], dt_ticks: u32, _truth: &[(f64, f64); 3]) -> Vector3<f64> {
         // One timer for the IMU: the same (possibly jittered) cycle length for every axis.
-        let (ticks, jittered) = self.jitter.cycle_ticks(dt_ticks);
+        let (ticks, jittered) = if self.t_s >= 0.0 { self.jitter.cycle_ticks(dt_ticks) } else { (dt_ticks, false) };
         let mut log = self.log.borrow_mut();
         if jittered {
             log.count(Kind::Jitter).injected += 1;
@@ -465,19 +498,51 @@ impl<C: ThermalCompensator> AccelCompensation for FaultyCompensation<C> {
     }
 }
 
+/// A deliberately broken compensation, to show that [`check`] can fail.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Broken {
+    /// The real compensation.
+    #[default]
+    No,
+    /// Every thermal coefficient zeroed: μ, β, ε, η, α and both bias grids (K1 = γ, K0 = 0).
+    ZeroedCoefficients,
+    /// The rate the model sees pinned at zero: the table's rate limit set to 1e-4 °C/min,
+    /// so the Eq. 11 rate terms and the heating / cooling branch never see Ṫ.
+    RatePinned,
+    /// Flags scrambled: every refused reading reports `SampleError::Time` and the fast
+    /// path never raises `TEMP_STALE` (the compensation itself is intact).
+    WrongFlags,
+}
+
+/// One row to fly: a named fault set, a limit on its `added` share, and whether the
+/// compensation is broken.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RowSpec {
+    /// Name.
+    pub name: String,
+    /// Faults injected.
+    pub set: FaultSet,
+    /// Largest `added` share allowed (0.01 = the fault may add 1 % of the fault-free
+    /// twin's thermal-only CEP rate); `None`: measured, not asserted.
+    pub limit: Option<f64>,
+    /// Broken compensation (proofs that [`check`] can fail).
+    pub broken: Broken,
+}
+
 /// One row of the fault table.
 #[derive(Clone, Debug)]
 pub struct FaultRow {
-    /// Name of the fault set.
-    pub name: String,
-    /// The set.
-    pub set: FaultSet,
-    /// Navigation figures with the faults.
+    /// What was flown.
+    pub spec: RowSpec,
+    /// Navigation figures (total) with the faults.
     pub figures: Figures,
-    /// CEP change against the fault-free twin, relative (0.01 = +1 %).
-    pub cep_change: f64,
-    /// RMS horizontal velocity error change, relative.
-    pub rms_v_change: f64,
+    /// Thermal-only CEP rate, nmile/h: radial growth of (row − oracle) position.
+    pub thermal_nmi_per_h: f64,
+    /// Radial growth of (row − fault-free twin) position over the `simple` variant's
+    /// thermal-only CEP rate (0.01 = 1 %): what [`check`] limits.
+    pub added: f64,
+    /// The same growth over the twin's own thermal-only CEP rate.
+    pub added_vs_twin: f64,
     /// What happened.
     pub log: FaultLog,
 }
@@ -487,126 +552,300 @@ pub struct FaultRow {
 pub struct FaultReport {
     /// Flight duration, s.
     pub duration_s: f64,
-    /// The fault-free twin.
+    /// IMU rate, Hz.
+    pub imu_rate_hz: f64,
+    /// The fault-free twin (total figures).
     pub clean: Figures,
+    /// Its thermal-only CEP rate, nmile/h.
+    pub clean_thermal_nmi_per_h: f64,
+    /// The `simple` variant's thermal-only CEP rate, nmile/h (the denominator of `added`).
+    pub simple_thermal_nmi_per_h: f64,
     /// One row per fault set.
     pub rows: Vec<FaultRow>,
 }
 
-fn rms_v(f: &Figures) -> f64 {
-    f.rms_ve_mps.hypot(f.rms_vn_mps)
+/// [`ThermalCompensator`] behind a box, so rows can mix real and broken compensators.
+impl ThermalCompensator for Box<dyn ThermalCompensator> {
+    fn load_table(&mut self, bytes: &[u8]) -> table::Result<()> {
+        (**self).load_table(bytes)
+    }
+    fn on_scratchpad(&mut self, t_ms: u32, sp: &[u8; 9]) -> Result<Status, SampleError> {
+        (**self).on_scratchpad(t_ms, sp)
+    }
+    fn cycle(&mut self, pulses: i32, dt_ticks: u32) -> (f32, Status) {
+        (**self).cycle(pulses, dt_ticks)
+    }
+    fn table(&self) -> Option<&Table> {
+        (**self).table()
+    }
+}
+
+/// [`Broken::WrongFlags`]: the real compensator with its flags scrambled.
+struct WrongFlags(AxisCompensator);
+
+impl ThermalCompensator for WrongFlags {
+    fn load_table(&mut self, bytes: &[u8]) -> table::Result<()> {
+        self.0.load_table(bytes)
+    }
+    fn on_scratchpad(&mut self, t_ms: u32, sp: &[u8; 9]) -> Result<Status, SampleError> {
+        ThermalCompensator::on_scratchpad(&mut self.0, t_ms, sp)
+            .map_err(|_| SampleError::Time(qfa_thermal::rate::Error::NonMonotonic))
+    }
+    fn cycle(&mut self, pulses: i32, dt_ticks: u32) -> (f32, Status) {
+        let (v, st) = ThermalCompensator::cycle(&mut self.0, pulses, dt_ticks);
+        (v, st - Status::TEMP_STALE)
+    }
+    fn table(&self) -> Option<&Table> {
+        self.0.table()
+    }
+}
+
+/// The tables a [`Broken`] row loads, from the real ones.
+///
+/// # Errors
+/// A broken table that does not validate.
+pub fn broken_tables(tables: [&Table; 3], b: Broken) -> anyhow::Result<[Table; 3]> {
+    let mut out = [tables[0].clone(), tables[1].clone(), tables[2].clone()];
+    for t in &mut out {
+        for a in &mut t.axes {
+            match b {
+                Broken::ZeroedCoefficients => {
+                    let s = &mut a.scale;
+                    (s.mu, s.beta, s.epsilon, s.eta, s.alpha) = (0.0, 0.0, 0.0, 0.0, 0.0);
+                    for v in a.bias.heating_g.iter_mut().chain(a.bias.cooling_g.iter_mut()) {
+                        *v = 0.0;
+                    }
+                }
+                Broken::RatePinned => a.rate_limit_c_per_min = 1e-4,
+                Broken::No | Broken::WrongFlags => {}
+            }
+        }
+        t.validate().map_err(|e| anyhow::anyhow!("broken table ({b:?}) invalid: {e}"))?;
+    }
+    Ok(out)
+}
+
+fn encode(t: &Table) -> anyhow::Result<Vec<u8>> {
+    let mut buf = [0u8; MAX_TABLE_BYTES];
+    Ok(t.encode(&mut buf).map_err(|e| anyhow::anyhow!("table: {e}"))?.to_vec())
 }
 
 /// Fly `sc` once with each axis's table (`tables`, x, y, z: the `hysteresis` variant's
 /// 1-axis unit tables, usually) loaded into a fault-free twin and into one compensation
-/// per named fault set, all in lock-step on the same sensor data, and compare each with
-/// the fault-free twin.
+/// per row (broken as the row says), beside the oracle and the `simple` tables (`simple`,
+/// fault-free), all in lock-step on the same sensor data.
 ///
 /// # Errors
-/// A table the compensator refuses, or the flight's errors.
-pub fn fly_with_faults(sc: &Scenario, tables: [&Table; 3], sets: &[(String, FaultSet)]) -> anyhow::Result<FaultReport> {
-    let mut bytes: Vec<Vec<u8>> = Vec::new();
-    for t in tables {
-        let mut buf = [0u8; MAX_TABLE_BYTES];
-        bytes.push(t.encode(&mut buf).map_err(|e| anyhow::anyhow!("table: {e}"))?.to_vec());
-    }
-    let tb = [bytes[0].as_slice(), bytes[1].as_slice(), bytes[2].as_slice()];
-    let fresh = || -> [Compensator<1, 32>; 3] { core::array::from_fn(|_| Compensator::new(Config::default()).expect("the default config is valid")) };
-    let (clean, clean_log) = FaultyCompensation::new(fresh(), &FaultSet::none(), tb);
+/// A table the compensator refuses, a broken table that does not validate, the
+/// flight's errors, or a thermal-only error of `simple` too small to divide by.
+pub fn fly_with_faults(sc: &Scenario, tables: [&Table; 3], simple: [&Table; 3], rows: &[RowSpec]) -> anyhow::Result<FaultReport> {
+    let good: Vec<Vec<u8>> = tables.iter().map(|t| encode(t)).collect::<anyhow::Result<_>>()?;
+    let fresh = |b: Broken| -> [Box<dyn ThermalCompensator>; 3] {
+        core::array::from_fn(|_| -> Box<dyn ThermalCompensator> {
+            if b == Broken::WrongFlags {
+                Box::new(WrongFlags(axis_compensator()))
+            } else {
+                Box::new(axis_compensator())
+            }
+        })
+    };
+    let tb = |v: &[Vec<u8>]| -> [Vec<u8>; 3] { [v[0].clone(), v[1].clone(), v[2].clone()] };
+    let (clean, clean_log) = {
+        let b = tb(&good);
+        FaultyCompensation::new(fresh(Broken::No), &FaultSet::none(), [&b[0], &b[1], &b[2]])
+    };
     anyhow::ensure!(clean_log.borrow().table_loaded, "a table was refused");
-    let mut variants = vec![Variant { name: "clean".into(), comp: Box::new(clean) }];
+    let mut variants = vec![
+        Variant { name: "oracle".into(), comp: Box::new(OracleCompensation) },
+        Variant { name: "clean".into(), comp: Box::new(clean) },
+        Variant { name: "simple".into(), comp: Box::new(TableCompensation::new(simple)?) },
+    ];
     let mut logs = Vec::new();
-    for (name, set) in sets {
-        let (c, log) = FaultyCompensation::new(fresh(), set, tb);
-        variants.push(Variant { name: name.clone(), comp: Box::new(c) });
+    for r in rows {
+        let bytes = match r.broken {
+            Broken::ZeroedCoefficients | Broken::RatePinned => {
+                let bt = broken_tables(tables, r.broken)?;
+                bt.iter().map(encode).collect::<anyhow::Result<Vec<_>>>()?
+            }
+            Broken::No | Broken::WrongFlags => good.clone(),
+        };
+        let b = tb(&bytes);
+        let set = FaultSet { takeoff_s: sc.align_steps() as f64 / sc.imu_rate_hz, ..r.set.clone() };
+        let (c, log) = FaultyCompensation::new(fresh(r.broken), &set, [&b[0], &b[1], &b[2]]);
+        variants.push(Variant { name: r.name.clone(), comp: Box::new(c) });
         logs.push(log);
     }
     let units = crate::nav::units();
-    let res = run::fly(sc, &mut crate::nav::truths(&units), GyroErrors::default(), variants)?;
-    let figs: Vec<Figures> = res.tracks.iter().map(|tr| Figures::of(&res.t, tr)).collect();
-    let clean = figs[0];
+    let res = run::fly(sc, &mut crate::nav::truths(&units), variants)?;
     anyhow::ensure!(clean_log.borrow().refused == 0, "the fault-free twin refused readings");
-    let rows = sets
+    let growth = |a: &run::Track, b: &run::Track| -> f64 {
+        let d = |x: &[f64], y: &[f64]| -> Vec<f64> { x.iter().zip(y).map(|(p, q)| p - q).collect() };
+        let tr = run::Track { dn: d(&a.dn, &b.dn), de: d(&a.de, &b.de), vn: d(&a.vn, &b.vn), ve: d(&a.ve, &b.ve) };
+        Figures::of(&res.t, &tr).cep_nmi_per_h
+    };
+    let (oracle, clean) = (&res.tracks[0], &res.tracks[1]);
+    let clean_thermal = growth(clean, oracle);
+    let simple_thermal = growth(&res.tracks[2], oracle);
+    anyhow::ensure!(
+        clean_thermal > 1e-9 && simple_thermal > 1e-9,
+        "thermal-only CEP rates twin {clean_thermal}, simple {simple_thermal}: nothing to compare with"
+    );
+    let rows = rows
         .iter()
-        .zip(&figs[1..])
+        .zip(&res.tracks[3..])
         .zip(&logs)
-        .map(|(((name, set), f), log)| FaultRow {
-            name: name.clone(),
-            set: set.clone(),
-            figures: *f,
-            cep_change: f.cep_nmi_per_h / clean.cep_nmi_per_h - 1.0,
-            rms_v_change: rms_v(f) / rms_v(&clean) - 1.0,
+        .map(|((spec, tr), log)| FaultRow {
+            spec: spec.clone(),
+            figures: Figures::of(&res.t, tr),
+            thermal_nmi_per_h: growth(tr, oracle),
+            added: growth(tr, clean) / simple_thermal,
+            added_vs_twin: growth(tr, clean) / clean_thermal,
             log: log.borrow().clone(),
         })
         .collect();
-    Ok(FaultReport { duration_s: res.t.last().copied().unwrap_or(0.0), clean, rows })
+    Ok(FaultReport {
+        duration_s: res.t.last().copied().unwrap_or(0.0),
+        imu_rate_hz: sc.imu_rate_hz,
+        clean: Figures::of(&res.t, clean),
+        clean_thermal_nmi_per_h: clean_thermal,
+        simple_thermal_nmi_per_h: simple_thermal,
+        rows,
+    })
 }
 
-/// The fault sets of issue 7 on a flight of `duration_s` whose cruise runs from
-/// `cruise_s.0` to `cruise_s.1`.
+/// Every expectation `row` violates: a non-finite output, a corrupted or missing table,
+/// an intact reading refused, a detectable fault not flagged every time with its own
+/// flag (stuck values and cycle jitter are invisible, see the module table), a refusal
+/// with the wrong flag, an `added` share above the row's limit.
 #[must_use]
-pub fn standard_sets(cruise_s: (f64, f64)) -> Vec<(String, FaultSet)> {
+pub fn check(row: &FaultRow) -> Vec<String> {
+    let mut v = Vec::new();
+    let l = &row.log;
+    if l.non_finite > 0 {
+        v.push(format!("{} non-finite outputs", l.non_finite));
+    }
+    if l.corrupt_table_applied || !l.table_loaded {
+        v.push("table: corrupted applied or none loaded".into());
+    }
+    if l.refused_intact > 0 {
+        v.push(format!("{} intact readings refused", l.refused_intact));
+    }
+    for (k, c) in &l.counts {
+        if c.injected == 0 {
+            v.push(format!("{k:?}: counted but never injected"));
+        }
+        if !matches!(k, Kind::Stuck | Kind::Jitter) && c.flagged != c.injected {
+            v.push(format!("{k:?}: flagged {} of {} with its own flag", c.flagged, c.injected));
+        }
+        if c.wrong > 0 {
+            v.push(format!("{k:?}: {} refusals with the wrong flag", c.wrong));
+        }
+    }
+    if let Some(lim) = row.spec.limit {
+        if row.added.is_nan() || row.added.abs() >= lim {
+            v.push(format!("adds {:.3} % of simple's thermal-only CEP rate (limit {:.1} %)", 100.0 * row.added, 100.0 * lim));
+        }
+    }
+    v
+}
+
+/// The fault sets of issue 7 on a flight whose cruise runs from `cruise_s.0` to
+/// `cruise_s.1`, with issue 7's limits now on the thermal-only error: 5 % CRC errors may
+/// add 1 %, a 2-minute dropout 5 % of `simple`'s thermal-only CEP rate.
+#[must_use]
+pub fn standard_sets(cruise_s: (f64, f64)) -> Vec<RowSpec> {
     let mid = 0.5 * (cruise_s.0 + cruise_s.1);
     let seed = 0x7_0001;
     let s = |f: FaultSet| FaultSet { seed, ..f };
+    let row = |name: &str, set: FaultSet, limit: Option<f64>| RowSpec { name: name.into(), set: s(set), limit, broken: Broken::No };
     vec![
-        ("CRC errors 5 %".into(), s(FaultSet::crc(0.05))),
-        ("CRC errors 20 %".into(), s(FaultSet::crc(0.20))),
-        ("power-on 85 °C after brown-out ×10".into(), s(FaultSet { brown_outs_s: (1..=10).map(|k| f64::from(k) * 700.0).collect(), ..FaultSet::default() })),
-        ("dropout 10 s mid-cruise".into(), s(FaultSet::dropout(mid - 5.0, 10.0))),
-        ("dropout 2 min mid-cruise".into(), s(FaultSet::dropout(mid - 60.0, 120.0))),
-        ("dropout 10 min mid-cruise".into(), s(FaultSet::dropout(mid - 300.0, 600.0))),
-        ("spikes ±5 °C, 1 %".into(), s(FaultSet { spike_rate: 0.01, spike_c: 5.0, ..FaultSet::default() })),
-        ("stuck sensor 2 min mid-cruise".into(), s(FaultSet { stuck_s: vec![(mid - 60.0, 120.0)], ..FaultSet::default() })),
-        ("corrupted table byte at load".into(), s(FaultSet { corrupt_table: Some((37, 0x5A)), ..FaultSet::default() })),
-        ("IMU cycle jitter ±50 µs".into(), s(FaultSet { imu_jitter_us: 50, ..FaultSet::default() })),
-        (
-            "all of the above together".into(),
-            s(FaultSet {
-                crc_error_rate: 0.05,
-                brown_outs_s: (1..=10).map(|k| f64::from(k) * 700.0).collect(),
-                dropouts_s: vec![(mid - 60.0, 120.0)],
-                spike_rate: 0.01,
-                spike_c: 5.0,
-                stuck_s: vec![(mid + 600.0, 120.0)],
-                corrupt_table: Some((37, 0x5A)),
-                imu_jitter_us: 50,
-                seed,
-            }),
-        ),
+        row("CRC errors 5 %", FaultSet::crc(0.05), Some(0.01)),
+        row("CRC errors 20 %", FaultSet::crc(0.20), None),
+        row("power-on 85 °C after brown-out ×10", FaultSet { brown_outs_s: (1..=10).map(|k| f64::from(k) * 700.0).collect(), ..FaultSet::default() }, None),
+        row("dropout 10 s mid-cruise", FaultSet::dropout(mid - 5.0, 10.0), None),
+        row("dropout 2 min mid-cruise", FaultSet::dropout(mid - 60.0, 120.0), Some(0.05)),
+        row("dropout 10 min mid-cruise", FaultSet::dropout(mid - 300.0, 600.0), None),
+        row("spikes ±5 °C, 1 %", FaultSet { spike_rate: 0.01, spike_c: 5.0, ..FaultSet::default() }, None),
+        row("stuck sensor 2 min mid-cruise", FaultSet { stuck_s: vec![(mid - 60.0, 120.0)], ..FaultSet::default() }, None),
+        row("corrupted table byte at load", FaultSet { corrupt_table: Some((37, 0x5A)), ..FaultSet::default() }, None),
+        row("IMU cycle jitter ±50 µs", FaultSet { imu_jitter_us: 50, ..FaultSet::default() }, None),
+        row("all of the above together", all_faults(mid, seed), None),
     ]
+}
+
+fn all_faults(mid: f64, seed: u64) -> FaultSet {
+    FaultSet {
+        crc_error_rate: 0.05,
+        brown_outs_s: (1..=10).map(|k| f64::from(k) * 700.0).collect(),
+        dropouts_s: vec![(mid - 60.0, 120.0)],
+        spike_rate: 0.01,
+        spike_c: 5.0,
+        stuck_s: vec![(mid + 600.0, 120.0)],
+        corrupt_table: Some((37, 0x5A)),
+        imu_jitter_us: 50,
+        seed,
+        takeoff_s: 0.0,
+    }
+}
+
+/// The broken rows: each must make [`check`] fail. Zeroed coefficients and a pinned rate
+/// with 5 % CRC errors and with a 2-minute dropout (the two limited rows); scrambled flags
+/// with every fault at once.
+#[must_use]
+pub fn broken_sets(cruise_s: (f64, f64)) -> Vec<RowSpec> {
+    let std = standard_sets(cruise_s);
+    let pick = |name: &str| std.iter().find(|r| r.name == name).cloned();
+    let mut v = Vec::new();
+    for b in [Broken::ZeroedCoefficients, Broken::RatePinned] {
+        for n in ["CRC errors 5 %", "dropout 2 min mid-cruise"] {
+            if let Some(r) = pick(n) {
+                v.push(RowSpec { name: format!("BROKEN {b:?}: {n}"), broken: b, ..r });
+            }
+        }
+    }
+    let mid = 0.5 * (cruise_s.0 + cruise_s.1);
+    v.push(RowSpec { name: "BROKEN WrongFlags: all faults".into(), set: all_faults(mid, 0x7_0001), limit: None, broken: Broken::WrongFlags });
+    v
 }
 
 /// The fault table as Markdown.
 #[must_use]
 pub fn markdown(r: &FaultReport) -> String {
     let mut s = format!(
-        "Fault-free twin: CEP {:.4} nmile/h, RMS vE {:.4} m/s, RMS vN {:.4} m/s over {:.2} h.\n\n\
-         | fault | injected | flagged | refused intact | stale cycles | non-finite | CEP nmile/h | ΔCEP | ΔRMS v |\n|---|---|---|---|---|---|---|---|---|\n",
+        "Fault-free twin over {:.2} h at {} Hz: CEP {:.4} nmile/h total, thermal-only {:.5} nmile/h (twin − oracle); \
+         simple's thermal-only {:.5} nmile/h.\n\n\
+         | fault | injected | flagged (own flag) | wrong flag | refused intact | stale cycles | non-finite | thermal-only nmile/h | added (of simple's) | added (of twin's) | limit | check |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+        r.duration_s / 3600.0,
+        r.imu_rate_hz,
         r.clean.cep_nmi_per_h,
-        r.clean.rms_ve_mps,
-        r.clean.rms_vn_mps,
-        r.duration_s / 3600.0
+        r.clean_thermal_nmi_per_h,
+        r.simple_thermal_nmi_per_h
     );
     for row in &r.rows {
         let mut inj = String::new();
         let mut flg = String::new();
+        let mut wrong = 0;
         for (k, c) in &row.log.counts {
             let _ = write!(inj, "{k:?} {} ", c.injected);
             let _ = write!(flg, "{k:?} {} ", c.flagged);
+            wrong += c.wrong;
         }
+        let bad = check(row);
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} | {} | {} | {:.4} | {:+.3} % | {:+.3} % |",
-            row.name,
+            "| {} | {} | {} | {} | {} | {} | {} | {:.5} | {:+.3} % | {:+.3} % | {} | {} |",
+            row.spec.name,
             inj.trim(),
             flg.trim(),
+            wrong,
             row.log.refused_intact,
             row.log.stale_cycles,
             row.log.non_finite,
-            row.figures.cep_nmi_per_h,
-            100.0 * row.cep_change,
-            100.0 * row.rms_v_change
+            row.thermal_nmi_per_h,
+            100.0 * row.added,
+            100.0 * row.added_vs_twin,
+            row.spec.limit.map_or("–".to_string(), |l| format!("< {:.0} %", 100.0 * l)),
+            if bad.is_empty() { "pass".to_string() } else { format!("FAIL: {}", bad.join("; ")) }
         );
     }
     s
@@ -631,8 +870,8 @@ mod tests {
         t.encode(&mut buf).expect("encodes").to_vec()
     }
 
-    fn comps() -> [Compensator<1, 32>; 3] {
-        core::array::from_fn(|_| Compensator::new(Config::default()).expect("the default config is valid"))
+    fn comps() -> [AxisCompensator; 3] {
+        core::array::from_fn(|_| axis_compensator())
     }
 
     #[test]
@@ -677,7 +916,7 @@ mod tests {
                 let (_, log) = FaultyCompensation::new(comps(), &set, [&b, &b, &b]);
                 let log = log.borrow();
                 assert!(!log.corrupt_table_applied && log.table_loaded, "byte {i} ^ {x:#x}");
-                assert_eq!(log.counts[&Kind::CorruptTable], Count { injected: 3, flagged: 3 }, "byte {i} ^ {x:#x}");
+                assert_eq!(log.counts[&Kind::CorruptTable], Count { injected: 3, flagged: 3, wrong: 0 }, "byte {i} ^ {x:#x}");
             }
         }
     }

@@ -164,21 +164,67 @@ enum Cmd {
         #[arg(long, default_value_t = 2)]
         threads: usize,
     },
-    /// Pure-inertial navigation error of each compensation variant (issue 5).
+    /// Pure-inertial navigation error of each compensation variant (issues 5, 13), with
+    /// alignment and an optional Monte Carlo study; `navigate merge DIR…` combines shards.
+    #[command(args_conflicts_with_subcommands = true)]
     Navigate {
+        #[command(subcommand)]
+        sub: Option<NavCmd>,
         /// Scenario TOML (default: the built-in §3.2 flight).
         #[arg(long)]
         scenario: Option<PathBuf>,
         /// Output directory.
         #[arg(long)]
-        out: PathBuf,
+        out: Option<PathBuf>,
         /// Discovered tables for x,y,z (three files, .bin or .toml).
         #[arg(long, value_delimiter = ',', num_args = 3)]
         discovered_tables: Option<Vec<PathBuf>>,
         /// IMU rate override, Hz.
         #[arg(long)]
         imu_rate_hz: Option<f64>,
+        /// Monte Carlo runs (0: the nominal run only).
+        #[arg(long, default_value_t = 0)]
+        runs: u64,
+        /// Monte Carlo base seed (default: the scenario's seed).
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Worker threads for the Monte Carlo runs (0: all cores).
+        #[arg(long, default_value_t = 0)]
+        jobs: usize,
+        /// Run only shard K of N (0 ≤ K < N: runs i with i mod N = K) and write
+        /// DIR/mc_partial_K_of_N.json; shard 0 also flies the nominal run.
+        #[arg(long, value_parser = parse_shard)]
+        shard: Option<(u64, u64)>,
+        /// Skip the plots.
+        #[arg(long)]
+        no_plots: bool,
     },
+}
+
+#[derive(Subcommand)]
+enum NavCmd {
+    /// Combine the mc_partial_*.json of shards into report.json, mc_runs.csv and plots.
+    Merge {
+        /// Directories (or partial files) to read.
+        #[arg(required = true)]
+        dirs: Vec<PathBuf>,
+        /// Output directory (default: the first DIR).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Skip the plots.
+        #[arg(long)]
+        no_plots: bool,
+    },
+}
+
+fn parse_shard(s: &str) -> Result<(u64, u64), String> {
+    let (k, n) = s.split_once('/').ok_or_else(|| format!("`{s}`: expected K/N"))?;
+    let k: u64 = k.trim().parse().map_err(|e| format!("`{s}`: K: {e}"))?;
+    let n: u64 = n.trim().parse().map_err(|e| format!("`{s}`: N: {e}"))?;
+    if n == 0 || k >= n {
+        return Err(format!("`{s}`: need 0 ≤ K < N"));
+    }
+    Ok((k, n))
 }
 
 fn run(cli: Cli) -> Result<(), String> {
@@ -312,10 +358,34 @@ fn run(cli: Cli) -> Result<(), String> {
             // Issue 4 (discovery, on unit #1) and issue 5 (navigation) run inside the demo.
             qfa_lab::demo::run(&opts, Some(qfa_lab::discover::demo_hook), Some(qfa_lab::nav::demo_hook))?;
         }
-        Cmd::Navigate { scenario, out, discovered_tables, imu_rate_hz } => {
+        Cmd::Navigate { sub: Some(NavCmd::Merge { dirs, out, no_plots }), .. } => {
+            let out = out.unwrap_or_else(|| dirs[0].clone());
+            let sum = qfa_lab::nav::mc::merge(&dirs, &out, !no_plots).map_err(|e| format!("{e:#}"))?;
+            eprintln!("{}", qfa_lab::nav::mc::table(&sum));
+            eprintln!("wrote {}/report.json, mc_runs.csv", out.display());
+        }
+        Cmd::Navigate { sub: None, scenario, out, discovered_tables, imu_rate_hz, runs, seed, jobs, shard, no_plots } => {
+            let out = out.ok_or("navigate: --out DIR is required")?;
             let discovered_tables = discovered_tables.map(|v| [v[0].clone(), v[1].clone(), v[2].clone()]);
-            let args = qfa_lab::nav::NavigateArgs { scenario, out, discovered_tables, imu_rate_hz, verbose: true, ..Default::default() };
-            qfa_lab::nav::navigate(&args).map_err(|e| format!("{e:#}"))?;
+            let args = qfa_lab::nav::NavigateArgs {
+                scenario,
+                out,
+                discovered_tables,
+                imu_rate_hz,
+                verbose: true,
+                no_plots,
+                runs,
+                mc_seed: seed,
+                jobs,
+                shard,
+                ..Default::default()
+            };
+            if shard.is_some() {
+                let p = qfa_lab::nav::navigate_shard(&args).map_err(|e| format!("{e:#}"))?;
+                eprintln!("wrote {}", p.display());
+            } else {
+                qfa_lab::nav::navigate(&args).map_err(|e| format!("{e:#}"))?;
+            }
         }
     }
     Ok(())

@@ -95,12 +95,29 @@ impl AccelTruth for LabAccel {
     }
 }
 
+/// A one-axis compensator: the root crate's `Compensator<1, 32>`, as the fault runs use it
+/// per axis (their injector works on one axis's stream and table at a time).
+pub type AxisCompensator = Compensator<1, 32>;
+
+/// The configuration the navigation study flies, the one the firmware recommends: one
+/// 3-axis compensator with one temperature stream per axis (each DS18B20 on its own case)
+/// and one misalignment matrix.
+pub type ImuCompensator = Compensator<3, 32, 3>;
+
+/// A fresh [`AxisCompensator`] with the firmware's default settings (1 µs ticks).
+#[must_use]
+pub fn axis_compensator() -> AxisCompensator {
+    Compensator::new(compensator::Config::default()).expect("the default config is valid")
+}
+
 /// Compensation through the root crate's [`Compensator`], exactly as the firmware runs it:
-/// one `Compensator<1, 32>` per accelerometer, each fed by the DS18B20 on its own case
-/// and loaded with that unit's 1-axis table (as the lab calibrates it).
+/// one [`ImuCompensator`] with a stream per axis, each fed by the DS18B20 on its own case,
+/// loaded with the three units' 1-axis tables joined into one 3-axis table
+/// ([`super::calib::table3`]; no misalignment matrix: the lab's cycling calibration does
+/// not estimate one).
 #[derive(Clone, Debug)]
 pub struct TableCompensation {
-    comp: [Compensator<1, 32>; 3],
+    comp: ImuCompensator,
     /// Slow-path rejections seen (should stay 0 in simulation).
     pub rejected: u32,
 }
@@ -111,16 +128,14 @@ impl TableCompensation {
     /// # Errors
     /// A table's validation error.
     pub fn new(tables: [&Table; 3]) -> anyhow::Result<Self> {
-        let mut comp: [Compensator<1, 32>; 3] = core::array::from_fn(|_| Compensator::new(compensator::Config::default()).expect("the default config is valid"));
-        for (c, t) in comp.iter_mut().zip(tables) {
-            c.set_table(t.clone()).map_err(|e| anyhow::anyhow!("table refused: {e}"))?;
-        }
+        let mut comp = ImuCompensator::new(compensator::Config::default()).map_err(|e| anyhow::anyhow!("config: {e}"))?;
+        comp.set_table(super::calib::table3(tables)?).map_err(|e| anyhow::anyhow!("table refused: {e}"))?;
         Ok(Self { comp, rejected: 0 })
     }
 
-    /// The compensators, x, y, z.
+    /// The compensator.
     #[must_use]
-    pub fn compensators(&self) -> &[Compensator<1, 32>; 3] {
+    pub fn compensator(&self) -> &ImuCompensator {
         &self.comp
     }
 }
@@ -131,15 +146,16 @@ impl AccelCompensation for TableCompensation {
     }
 
     fn on_temperatures(&mut self, t_ms: u32, raw: [i16; 3]) {
-        for (c, r) in self.comp.iter_mut().zip(raw) {
-            if c.on_raw(t_ms, r).is_err() {
+        for (axis, r) in raw.into_iter().enumerate() {
+            if self.comp.on_raw_from(axis, t_ms, r).is_err() {
                 self.rejected += 1;
             }
         }
     }
 
     fn compensate(&mut self, pulses: [i32; 3], dt_ticks: u32, _truth: &[(f64, f64); 3]) -> Vector3<f64> {
-        Vector3::from_fn(|i, _| f64::from(self.comp[i].cycle([pulses[i]], dt_ticks).dv_mps[0]))
+        let dv = self.comp.cycle(pulses, dt_ticks).dv_mps;
+        Vector3::from_fn(|i, _| f64::from(dv[i]))
     }
 }
 

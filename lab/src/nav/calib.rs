@@ -58,11 +58,21 @@ fn axis(t: &Table) -> anyhow::Result<&AxisModel> {
     t.axes.first().ok_or_else(|| anyhow::anyhow!("empty table"))
 }
 
-/// Simulate and fit unit `truth`.
+/// Simulate and fit unit `truth`, with the discovery workflow on its log.
 ///
 /// # Errors
 /// A fit or table validation failure.
 pub fn calibrate_unit(truth: &Truth, seed: u64, threads: usize) -> anyhow::Result<UnitTables> {
+    calibrate_unit_with(truth, seed, threads, true)
+}
+
+/// Simulate and fit unit `truth`; `discover` runs the discovery workflow on its log
+/// (without it, `discovered` is the hysteresis table and `discovered_effects` is
+/// `["not run"]`; the Monte Carlo runs skip it, it costs several seconds per unit).
+///
+/// # Errors
+/// A fit or table validation failure.
+pub fn calibrate_unit_with(truth: &Truth, seed: u64, threads: usize, discover: bool) -> anyhow::Result<UnitTables> {
     let programs: Vec<Program> = PAPER_RATES.iter().map(|&r| Program::paper(r)).collect();
     let ids: Vec<String> = programs.iter().map(|p| p.id.clone()).collect();
     let (fit_ids, _) = split_programs(&ids);
@@ -79,7 +89,8 @@ pub fn calibrate_unit(truth: &Truth, seed: u64, threads: usize) -> anyhow::Resul
     let mut none_t = f.simple.clone();
     none_t.axes[0] = none;
     none_t.validate().map_err(|e| anyhow::anyhow!("none table: {e}"))?;
-    let (discovered, discovered_effects) = discover_on(&log, &fit_ids, &f.hysteresis)?;
+    let (discovered, discovered_effects) =
+        if discover { discover_on(&log, &fit_ids, &f.hysteresis)? } else { (f.hysteresis.clone(), vec!["not run".to_string()]) };
     Ok(UnitTables {
         none: none_t,
         simple: f.simple,

@@ -17,12 +17,20 @@
 //! ([`crate::truth::Truth::jb_kt8`]): x = JB-KT8 #1, y = #2, z = #3. Each axis's truth
 //! model turns the ideal Δv into integer I/F pulses with carry ([`accel::LabAccel`]);
 //! the DS18B20 on each case (the unit's offset and noise, 12-bit) is read once a second
-//! into that axis's `Compensator<1, 32>`; the pulses of each 5 ms cycle go to
-//! `Compensator::cycle`. Each unit's tables come from the lab's simulation and fit of its
-//! own four-position test ([`calib`]). Gyros: a seeded constant bias of
-//! σ = 0.01 °/h per axis and 0.002 °/√h angle random walk ([`run::GyroErrors`]).
-//! Alignment is perfect (every variant starts at the true state); altitude is held by the
-//! reference.
+//! into that axis's stream of one `Compensator<3, 32, 3>` (the firmware's recommended
+//! configuration: one stream per case, one 3-axis table); the pulses of each 5 ms cycle go
+//! to `Compensator::cycle`. (The fault runs still use one `Compensator<1, 32>` per axis.) Each unit's tables come from the lab's simulation and fit of its
+//! own four-position test ([`calib`]). Non-thermal IMU errors come from the scenario's
+//! `[imu]` table ([`errors`]): gyro turn-on bias σ = 0.01 °/h, bias instability, ARW,
+//! scale factor and misalignment; accelerometer turn-on bias σ = 50 µg, scale factor and
+//! misalignment beside the thermal truth model. Before take-off every variant aligns on
+//! the ground on its own compensated output ([`align`]: coarse leveling and
+//! gyrocompassing, then an eight-state Kalman fine alignment), and navigates from that
+//! attitude; `meta.alignment` gives the errors it left. Altitude is held by the reference.
+//!
+//! `--runs N` adds a Monte Carlo study ([`mc`]): N seeds varying the noise, the IMU error
+//! draws, the temperature profile within the scenario's `[monte_carlo]` bounds and the
+//! units' thermal coefficients, each unit recalibrated; `report.json` gains `monte_carlo`.
 //!
 //! # Figures
 //! * RMS East / North velocity error over the whole flight, sampled at 1 Hz.
@@ -43,8 +51,11 @@
 //! ([`crate::thermal::ThermalChain`]), driven by the scenario's breakpoints.
 
 pub mod accel;
+pub mod align;
 pub mod calib;
 pub mod earth;
+pub mod errors;
+pub mod mc;
 pub mod plot;
 pub mod run;
 pub mod scenario;
@@ -62,7 +73,8 @@ use serde::Serialize;
 
 use accel::{AccelCompensation, AccelTruth, LabAccel, OracleCompensation, TableCompensation};
 use crate::truth::Truth;
-use run::{Figures, FlightResult, GyroErrors, Variant};
+use align::AlignErrors;
+use run::{Figures, FlightResult, Variant};
 use scenario::Scenario;
 
 /// Variant names in report order.
@@ -87,6 +99,14 @@ pub struct NavigateArgs {
     pub verbose: bool,
     /// Skip `nav_errors.png`.
     pub no_plots: bool,
+    /// Monte Carlo runs (0: the single nominal run only).
+    pub runs: u64,
+    /// Monte Carlo base seed; the scenario's seed when absent.
+    pub mc_seed: Option<u64>,
+    /// Monte Carlo worker threads (0: all cores).
+    pub jobs: usize,
+    /// `(k, n)`: run only the runs `i` with `i mod n = k` and write a partial result.
+    pub shard: Option<(u64, u64)>,
 }
 
 /// The paper's flight figures (Table 7 and §3.2).
@@ -111,6 +131,12 @@ pub struct Meta {
     pub imu_rate_hz: f64,
     /// Gyro biases drawn, °/h.
     pub gyro_bias_dph: [f64; 3],
+    /// Alignment errors each variant's navigation started from (empty: alignment off).
+    pub alignment: BTreeMap<String, AlignErrors>,
+    /// The alignment settings and ground temperature, °C.
+    pub alignment_config: align::AlignConfig,
+    /// The non-thermal IMU error model flown.
+    pub imu_errors: errors::ImuErrors,
     /// Temperature range of the case, °C.
     pub case_temp_range_c: [f64; 2],
     /// Share of the thermally induced CEP removed, `(simple − v)/(simple − oracle)`.
@@ -143,6 +169,9 @@ pub struct Report {
     pub variants: BTreeMap<String, Figures>,
     /// Everything else.
     pub meta: Meta,
+    /// The Monte Carlo study, with `--runs N`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub monte_carlo: Option<mc::Summary>,
 }
 
 impl Report {
@@ -176,9 +205,18 @@ pub fn units() -> [Truth; 3] {
 /// # Errors
 /// A fit or validation failure.
 pub fn calibrate(units: &[Truth; 3], sc: &Scenario) -> anyhow::Result<Tables> {
+    calibrate_with(units, sc.seed, 2, true)
+}
+
+/// Calibrate each unit (seeds `seed + 1000 + i`) on `threads` threads; `discover` runs
+/// the discovery workflow for the `discovered` variant.
+///
+/// # Errors
+/// A fit or validation failure.
+pub fn calibrate_with(units: &[Truth; 3], seed: u64, threads: usize, discover: bool) -> anyhow::Result<Tables> {
     let mut out = Vec::new();
     for (i, u) in units.iter().enumerate() {
-        out.push(calib::calibrate_unit(u, sc.seed.wrapping_add(1000 + i as u64), 2)?);
+        out.push(calib::calibrate_unit_with(u, seed.wrapping_add(1000 + i as u64), threads, discover)?);
     }
     let reports = out.iter().map(|u| u.report.clone()).collect();
     let hysteresis = calib::table3([&out[0].hysteresis, &out[1].hysteresis, &out[2].hysteresis])?;
@@ -237,52 +275,72 @@ pub fn truths_seeded(units: &[Truth; 3], seed: u64) -> [Box<dyn AccelTruth>; 3] 
     [0, 1, 2].map(|i| Box::new(LabAccel::new(&units[i], seed.wrapping_add(77 + i as u64))) as Box<dyn AccelTruth>)
 }
 
-fn share(simple: f64, v: f64, oracle: f64) -> f64 {
+/// `(simple − v)/(simple − oracle)`.
+///
+/// # Errors
+/// A zero denominator (simple and oracle equal): the share cannot be computed.
+pub fn share(simple: f64, v: f64, oracle: f64) -> anyhow::Result<f64> {
     let den = simple - oracle;
-    if den.abs() < 1e-12 {
-        f64::NAN
-    } else {
-        (simple - v) / den
-    }
+    anyhow::ensure!(den.abs() > 1e-12 && v.is_finite(), "share undefined: simple {simple} and oracle {oracle} coincide");
+    Ok((simple - v) / den)
+}
+
+/// Thermally induced CEP rate of each variant, nmile/h: the radial growth of its position
+/// minus the oracle's (same sensor data), the same least-squares slope as `cep_nmi_per_h`.
+///
+/// # Errors
+/// No `oracle` variant in the flight.
+pub fn thermal_ceps(res: &FlightResult) -> anyhow::Result<BTreeMap<String, f64>> {
+    let oi = res.names.iter().position(|n| n == "oracle").ok_or_else(|| anyhow::anyhow!("no oracle variant"))?;
+    let o = &res.tracks[oi];
+    let diff = |a: &[f64], b: &[f64]| -> Vec<f64> { a.iter().zip(b).map(|(x, y)| x - y).collect() };
+    Ok(res
+        .names
+        .iter()
+        .zip(&res.tracks)
+        .map(|(n, tr)| {
+            let d = run::Track { dn: diff(&tr.dn, &o.dn), de: diff(&tr.de, &o.de), vn: diff(&tr.vn, &o.vn), ve: diff(&tr.ve, &o.ve) };
+            (n.clone(), Figures::of(&res.t, &d).cep_nmi_per_h)
+        })
+        .collect())
 }
 
 /// Assemble the report from a flight.
-#[must_use]
-pub fn report(sc: &Scenario, res: &FlightResult, tables: &Tables, discovered_source: String, runtime_s: [f64; 2]) -> Report {
+///
+/// # Errors
+/// A share that cannot be computed (see [`share`]), or no oracle.
+pub fn report(sc: &Scenario, res: &FlightResult, tables: &Tables, discovered_source: String, runtime_s: [f64; 2]) -> anyhow::Result<Report> {
     let variants: BTreeMap<String, Figures> =
         res.names.iter().zip(&res.tracks).map(|(n, tr)| (n.clone(), Figures::of(&res.t, tr))).collect();
-    let (s, o) = (variants["simple"], variants["oracle"]);
+    let get = |n: &str| variants.get(n).copied().ok_or_else(|| anyhow::anyhow!("no `{n}` variant"));
+    let (s, o) = (get("simple")?, get("oracle")?);
     let mut share_cep = BTreeMap::new();
     let mut share_v = BTreeMap::new();
     for (n, f) in &variants {
-        share_cep.insert(n.clone(), share(s.cep_nmi_per_h, f.cep_nmi_per_h, o.cep_nmi_per_h));
-        let sv = 0.5 * (share(s.rms_ve_mps, f.rms_ve_mps, o.rms_ve_mps) + share(s.rms_vn_mps, f.rms_vn_mps, o.rms_vn_mps));
+        share_cep.insert(n.clone(), share(s.cep_nmi_per_h, f.cep_nmi_per_h, o.cep_nmi_per_h)?);
+        let sv = 0.5 * (share(s.rms_ve_mps, f.rms_ve_mps, o.rms_ve_mps)? + share(s.rms_vn_mps, f.rms_vn_mps, o.rms_vn_mps)?);
         share_v.insert(n.clone(), sv);
     }
-    let mut thermal = BTreeMap::new();
-    if let Some(oi) = res.names.iter().position(|n| n == "oracle") {
-        let o = &res.tracks[oi];
-        for (n, tr) in res.names.iter().zip(&res.tracks) {
-            let d = run::Track {
-                dn: tr.dn.iter().zip(&o.dn).map(|(a, b)| a - b).collect(),
-                de: tr.de.iter().zip(&o.de).map(|(a, b)| a - b).collect(),
-                vn: tr.vn.iter().zip(&o.vn).map(|(a, b)| a - b).collect(),
-                ve: tr.ve.iter().zip(&o.ve).map(|(a, b)| a - b).collect(),
-            };
-            thermal.insert(n.clone(), Figures::of(&res.t, &d).cep_nmi_per_h);
-        }
+    let thermal = thermal_ceps(res)?;
+    let ts = thermal["simple"];
+    let mut share_thermal = BTreeMap::new();
+    for (n, v) in &thermal {
+        share_thermal.insert(n.clone(), share(ts, *v, 0.0)?);
     }
-    let ts = thermal.get("simple").copied().unwrap_or(f64::NAN);
-    let share_thermal = thermal.iter().map(|(n, v)| (n.clone(), 1.0 - v / ts)).collect();
     let lo = res.temps.iter().map(|t| t[1]).fold(f64::INFINITY, f64::min);
     let hi = res.temps.iter().map(|t| t[1]).fold(f64::NEG_INFINITY, f64::max);
-    Report {
+    let mut alignment_config = sc.alignment;
+    alignment_config.ground_temp_c = Some(sc.ground_temp_c());
+    Ok(Report {
         variants,
         meta: Meta {
             scenario: sc.name.clone(),
             duration_h: res.t.last().copied().unwrap_or(0.0) / 3600.0,
             imu_rate_hz: sc.imu_rate_hz,
             gyro_bias_dph: res.gyro_bias_dph,
+            alignment: res.names.iter().cloned().zip(res.alignment.iter().copied()).collect(),
+            alignment_config,
+            imu_errors: sc.imu,
             case_temp_range_c: [lo, hi],
             share_removed_cep: share_cep,
             share_removed_rms_v: share_v,
@@ -293,7 +351,8 @@ pub fn report(sc: &Scenario, res: &FlightResult, tables: &Tables, discovered_sou
             paper: PaperFigures { cep_nmi_per_h: [1.54, 1.29], rms_ve_mps: [1.36, 1.09], rms_vn_mps: [1.40, 1.19] },
             runtime_s,
         },
-    }
+        monte_carlo: None,
+    })
 }
 
 /// Write the error time series (every 10 s) as CSV.
@@ -337,16 +396,16 @@ pub fn scenario_of(args: &NavigateArgs) -> anyhow::Result<Scenario> {
     Ok(sc)
 }
 
-/// `qfa-lab navigate`: calibrate, fly every variant, write `report.json`,
-/// `nav_timeseries.csv` and the three calibrated tables (`nav_table_*.toml`) to `args.out`.
+/// The nominal single run: calibrate (with discovery), align and fly every variant on the
+/// scenario's own seed; writes `nav_timeseries.csv`, the calibrated tables
+/// (`nav_table_*.toml`) and `nav_errors.png` to `args.out`.
 ///
 /// # Errors
 /// Scenario, table or I/O errors.
-pub fn navigate(args: &NavigateArgs) -> anyhow::Result<Report> {
-    let sc = scenario_of(args)?;
+pub fn nominal(args: &NavigateArgs, sc: &Scenario) -> anyhow::Result<Report> {
     let units = units();
     let t0 = Instant::now();
-    let tables = calibrate(&units, &sc)?;
+    let tables = calibrate(&units, sc)?;
     let t_cal = t0.elapsed().as_secs_f64();
     let (disc, source) = match &args.discovered_tables {
         Some(p) => {
@@ -364,11 +423,10 @@ pub fn navigate(args: &NavigateArgs) -> anyhow::Result<Report> {
         }
     };
     let t1 = Instant::now();
-    let res = run::fly(&sc, &mut truths_seeded(&units, sc.seed), GyroErrors::default(), variants(&tables, disc)?)?;
+    let res = run::fly(sc, &mut truths_seeded(&units, sc.seed), variants(&tables, disc)?)?;
     let t_fly = t1.elapsed().as_secs_f64();
-    let rep = report(&sc, &res, &tables, source, [t_cal, t_fly]);
+    let rep = report(sc, &res, &tables, source, [t_cal, t_fly])?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
-    std::fs::write(args.out.join("report.json"), serde_json::to_string_pretty(&rep)?)?;
     write_timeseries(&args.out.join("nav_timeseries.csv"), &res)?;
     if !args.no_plots {
         plot::plot_flight(&args.out.join("nav_errors.png"), &format!("pure-inertial errors: {}", sc.name), &res)
@@ -379,10 +437,53 @@ pub fn navigate(args: &NavigateArgs) -> anyhow::Result<Report> {
             std::fs::write(args.out.join(format!("nav_table_{}_{n}.toml", ["x", "y", "z"][i])), toml::to_string(t)?)?;
         }
     }
+    Ok(rep)
+}
+
+/// `qfa-lab navigate`: the nominal run ([`nominal`]), then with `args.runs > 0` the Monte
+/// Carlo study ([`mc::run`]); writes `report.json` (and the Monte Carlo outputs) to
+/// `args.out`. With `args.shard` use [`navigate_shard`] instead.
+///
+/// # Errors
+/// Scenario, table, Monte Carlo or I/O errors.
+pub fn navigate(args: &NavigateArgs) -> anyhow::Result<Report> {
+    anyhow::ensure!(args.shard.is_none(), "a shard writes a partial result: use navigate_shard");
+    let sc = scenario_of(args)?;
+    let mut rep = nominal(args, &sc)?;
     if args.verbose {
         eprintln!("{}", summary(&rep));
     }
+    if args.runs > 0 {
+        let part = mc::run(&sc, &mc::Plan::of(args, &sc, (0, 1)), args.verbose)?;
+        let sum = mc::write_outputs(&args.out, std::slice::from_ref(&part), !args.no_plots)?;
+        if args.verbose {
+            eprintln!("{}", mc::table(&sum));
+        }
+        rep.monte_carlo = Some(sum);
+    }
+    std::fs::write(args.out.join("report.json"), serde_json::to_string_pretty(&rep)?)?;
     Ok(rep)
+}
+
+/// `qfa-lab navigate --runs N --shard K/N`: the Monte Carlo runs of shard K (and, for
+/// K = 0, the nominal run) into `args.out/mc_partial_K_of_N.json`, for
+/// [`mc::merge`].
+///
+/// # Errors
+/// Scenario, table, Monte Carlo or I/O errors.
+pub fn navigate_shard(args: &NavigateArgs) -> anyhow::Result<PathBuf> {
+    let (k, n) = args.shard.ok_or_else(|| anyhow::anyhow!("no shard given"))?;
+    anyhow::ensure!(n > 0 && k < n, "shard {k}/{n}: need 0 ≤ K < N");
+    anyhow::ensure!(args.runs > 0, "a shard needs --runs N > 0");
+    let sc = scenario_of(args)?;
+    let mut part = mc::run(&sc, &mc::Plan::of(args, &sc, (k, n)), args.verbose)?;
+    if k == 0 {
+        part.nominal = Some(serde_json::to_value(nominal(args, &sc)?)?);
+    }
+    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    let path = args.out.join(format!("mc_partial_{k}_of_{n}.json"));
+    std::fs::write(&path, serde_json::to_string(&part)?).with_context(|| format!("writing {}", path.display()))?;
+    Ok(path)
 }
 
 /// A human-readable table of the report, with the paper's figures beside ours.
@@ -418,6 +519,13 @@ pub fn summary(r: &Report) -> String {
             );
         }
     }
+    for (n, a) in &r.meta.alignment {
+        let _ = writeln!(
+            s,
+            "alignment {n:<11} roll {:+8.1}″ pitch {:+8.1}″ heading {:+7.3} mrad",
+            a.roll_arcsec, a.pitch_arcsec, a.heading_mrad
+        );
+    }
     let p = &r.meta.paper;
     let _ = writeln!(
         s,
@@ -425,6 +533,25 @@ pub fn summary(r: &Report) -> String {
         p.cep_nmi_per_h[0], p.cep_nmi_per_h[1], p.rms_ve_mps[0], p.rms_ve_mps[1], p.rms_vn_mps[0], p.rms_vn_mps[1]
     );
     s
+}
+
+/// The variants flown in the Monte Carlo runs: `none`, `simple`, `hysteresis`, `oracle`
+/// (the `discovered` variant needs the discovery workflow per unit and run, several
+/// seconds each; it is in the nominal run only).
+///
+/// # Errors
+/// A table the compensator refuses.
+pub fn mc_variants(t: &Tables) -> anyhow::Result<Vec<Variant>> {
+    let u = &t.units;
+    let tc = |f: &dyn Fn(&calib::UnitTables) -> &Table| -> anyhow::Result<Box<dyn AccelCompensation>> {
+        Ok(Box::new(TableCompensation::new([f(&u[0]), f(&u[1]), f(&u[2])])?))
+    };
+    Ok(vec![
+        Variant { name: "none".into(), comp: tc(&|x| &x.none)? },
+        Variant { name: "simple".into(), comp: tc(&|x| &x.simple)? },
+        Variant { name: "hysteresis".into(), comp: tc(&|x| &x.hysteresis)? },
+        Variant { name: "oracle".into(), comp: Box::new(OracleCompensation) },
+    ])
 }
 
 /// The lab demo's navigation hook ([`crate::demo::NavigationHook`]): `navigate` on the

@@ -79,3 +79,46 @@ pub fn plot_flight(path: &Path, title: &str, res: &FlightResult) -> PlotResult {
     root.present()?;
     Ok(())
 }
+
+/// Empirical distribution functions of one quantity per variant (x: value, y: fraction of
+/// runs ≤ x), with the median marked; 1200 × 700.
+///
+/// # Errors
+/// Drawing or file errors, or no values.
+pub fn plot_distributions(path: &Path, title: &str, x_desc: &str, series: &[(String, Vec<f64>)]) -> PlotResult {
+    register_font();
+    let all = series.iter().flat_map(|s| s.1.iter()).copied();
+    let lo = all.clone().fold(f64::INFINITY, f64::min);
+    let hi = all.fold(f64::NEG_INFINITY, f64::max);
+    if !(lo.is_finite() && hi.is_finite()) {
+        return Err("no finite values to plot".into());
+    }
+    let pad = ((hi - lo) * 0.05).max(1e-6);
+    let root = BitMapBackend::new(path, (1200, 700)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 18))
+        .margin(15)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d((lo - pad)..(hi + pad), 0.0..1.0)?;
+    chart.configure_mesh().x_desc(x_desc).y_desc("fraction of runs ≤ x").draw()?;
+    for (k, (name, v)) in series.iter().enumerate() {
+        let mut s = v.clone();
+        s.sort_by(f64::total_cmp);
+        let n = s.len() as f64;
+        let c = COLORS[k % COLORS.len()];
+        let pts: Vec<(f64, f64)> =
+            s.iter().enumerate().flat_map(|(i, &x)| [(x, i as f64 / n), (x, (i + 1) as f64 / n)]).collect();
+        chart
+            .draw_series(LineSeries::new(pts, c.stroke_width(2)))?
+            .label(name.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+        if let Some(&m) = s.get(s.len() / 2) {
+            chart.draw_series(std::iter::once(Circle::new((m, 0.5), 5, c.filled())))?;
+        }
+    }
+    chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw()?;
+    root.present()?;
+    Ok(())
+}

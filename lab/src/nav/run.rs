@@ -1,45 +1,27 @@
 //! The flight simulation: one pass, every variant in lock-step on the same sensor data.
 //!
-//! Per IMU cycle: the true trajectory advances ([`Flight`]), the ideal increments come
-//! from the mechanisation's exact inverse, the gyros get their bias and noise, each
+//! First, when the scenario asks for it, the stationary alignment ([`super::align`]) on
+//! the same sensors. Then per IMU cycle: the true trajectory advances ([`Flight`]), the
+//! ideal increments come from the mechanisation's exact inverse, the gyros and the
+//! accelerometer axes get their non-thermal errors ([`super::errors`]), each
 //! accelerometer axis's truth model turns its ideal Δv into pulses, a DS18B20 reading
 //! of the case arrives every second, and each variant compensates the same pulses and
 //! drives its own mechanisation. Errors are sampled once a second.
 
 use nalgebra::Vector3;
 use rand::SeedableRng;
-use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
 use super::accel::{ds18b20_raw, AccelCompensation, AccelTruth};
+use super::align::{AlignErrors, Aligner, FilterNoise};
 use super::earth::{self, NMI_M};
+use super::errors::ImuDraw;
 use super::scenario::{Flight, Scenario};
 use super::strapdown::{inverse, AltRef, Increments, Strapdown};
 use super::thermal::Profile;
 use crate::truth::SensorTruth;
 
-/// Gyro error model, per axis, documented defaults.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct GyroErrors {
-    /// σ of the constant bias drawn per axis (seeded), °/h. The paper's class: 0.01 °/h.
-    pub bias_dph: f64,
-    /// Angle random walk, °/√h.
-    pub arw_dprh: f64,
-}
-
-impl Default for GyroErrors {
-    fn default() -> Self {
-        Self { bias_dph: 0.01, arw_dprh: 0.002 }
-    }
-}
-
-impl GyroErrors {
-    /// No gyro error.
-    #[must_use]
-    pub const fn none() -> Self {
-        Self { bias_dph: 0.0, arw_dprh: 0.0 }
-    }
-}
+pub use super::errors::GyroErrors;
 
 /// One variant in the run.
 pub struct Variant {
@@ -75,6 +57,8 @@ pub struct FlightResult {
     pub tracks: Vec<Track>,
     /// Gyro biases drawn, °/h.
     pub gyro_bias_dph: [f64; 3],
+    /// Alignment errors per variant (empty when alignment is off).
+    pub alignment: Vec<AlignErrors>,
 }
 
 /// Navigation figures of one variant.
@@ -122,17 +106,50 @@ impl Figures {
     }
 }
 
+/// The simulated IMU: gyros with their drawn errors, the three accelerometer truth models
+/// behind their non-thermal errors, and the three case DS18B20s.
+struct Imu<'a> {
+    truths: &'a mut [Box<dyn AccelTruth>; 3],
+    sensors: [SensorTruth; 3],
+    draw: ImuDraw,
+    rng: rand::rngs::Xoshiro256PlusPlus,
+}
+
+/// One cycle of IMU output.
+struct Sensed {
+    dtheta: Vector3<f64>,
+    pulses: [i32; 3],
+    coeffs: [(f64, f64); 3],
+}
+
+impl Imu<'_> {
+    fn sense(&mut self, ideal: &Increments, th: &crate::thermal::Temps, dt: f64) -> Sensed {
+        let dtheta = self.draw.gyro(&ideal.dtheta, dt, &mut self.rng);
+        let dv = self.draw.accel(&ideal.dv, dt);
+        let mut pulses = [0i32; 3];
+        let mut coeffs = [(0.0, 0.0); 3];
+        for i in 0..3 {
+            pulses[i] = self.truths[i].corrupt(th, dv[i], dt);
+            coeffs[i] = self.truths[i].coefficients();
+        }
+        Sensed { dtheta, pulses, coeffs }
+    }
+
+    fn ds18b20(&mut self, case_c: f64) -> [i16; 3] {
+        let s = self.sensors;
+        [0, 1, 2].map(|i| ds18b20_raw(&s[i], case_c, &mut self.rng))
+    }
+}
+
 /// Run the scenario with the given accelerometer truths (x, y, z) and variants.
 ///
-/// Every variant starts from the true state (perfect alignment) and sees the same
-/// gyro increments, pulses and temperature readings.
+/// The non-thermal IMU errors are drawn from `sc.imu` with `sc.seed`. With
+/// `sc.alignment.enabled` (the default) every variant first aligns on the ground on its
+/// own compensated output ([`super::align`]) and starts from its aligned attitude, zero
+/// velocity and the true position; otherwise every variant starts at the true state.
+/// Every variant sees the same gyro increments, pulses and temperature readings.
 #[allow(clippy::too_many_lines)]
-pub fn fly(
-    sc: &Scenario,
-    truths: &mut [Box<dyn AccelTruth>; 3],
-    gyro: GyroErrors,
-    mut variants: Vec<Variant>,
-) -> anyhow::Result<FlightResult> {
+pub fn fly(sc: &Scenario, truths: &mut [Box<dyn AccelTruth>; 3], mut variants: Vec<Variant>) -> anyhow::Result<FlightResult> {
     let sensors: [SensorTruth; 3] = [0, 1, 2].map(|i| truths[i].sensor().unwrap_or(SensorTruth {
         offset_c: 0.0,
         noise_c: 0.01,
@@ -146,54 +163,79 @@ pub fn fly(
     let per_second = sc.imu_rate_hz.round() as u64;
     anyhow::ensure!((sc.imu_rate_hz - per_second as f64).abs() < 1e-9, "IMU rate must be a whole number of Hz");
     let profile = Profile::new(sc.temperature.clone())?;
-    let mut chain = sc.thermal.start(profile.at(0.0), dt, sc.thermal.element_tau_s);
+    let align_steps = sc.align_steps();
+    let ground_c = sc.ground_temp_c();
+    let mut chain = sc.thermal.start(if align_steps > 0 { ground_c } else { profile.at(0.0) }, dt, sc.thermal.element_tau_s);
     let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(sc.seed);
-    let dph = (1.0f64 / 3600.0).to_radians();
-    let gb = Vector3::from_fn(|_, _| {
-        let n: f64 = StandardNormal.sample(&mut rng);
-        gyro.bias_dph * n
-    });
-    let arw = gyro.arw_dprh.to_radians() / 60.0 * dt.sqrt();
+    let draw = ImuDraw::draw(&sc.imu, &mut rng);
+    let mut imu = Imu { truths, sensors, draw, rng };
     let mut flight = Flight::new(sc);
-    let mut navs: Vec<Strapdown> = variants.iter().map(|_| Strapdown::new(flight.state)).collect();
+    let start = flight.state;
     let mut res = FlightResult {
         names: variants.iter().map(|v| v.name.clone()).collect(),
         tracks: vec![Track::default(); variants.len()],
-        gyro_bias_dph: [gb.x, gb.y, gb.z],
+        gyro_bias_dph: imu.draw.gyro_bias_dph(),
         ..FlightResult::default()
     };
+    // Global cycle count: the DS18B20 timestamps run on through alignment and flight.
+    let mut clock: u64 = 0;
     let mut prev_ideal = Increments::default();
+    let mut starts = vec![start; variants.len()];
+    if align_steps > 0 {
+        let g = sc.imu.gyro;
+        let noise = FilterNoise {
+            arw_rad_rs: g.arw_dprh.to_radians() / 60.0,
+            // The lab units' white noise, 10 µg/√Hz.
+            accel_white_mps2_rhz: 10e-6 * earth::G0,
+            gyro_bias_rad_s: g.bias_dph.hypot(g.bias_instability_dph).to_radians() / 3600.0,
+        };
+        let mut aligners: Vec<Aligner> =
+            variants.iter().map(|_| Aligner::new(&sc.alignment, start, dt, per_second, noise)).collect();
+        for _ in 0..align_steps {
+            clock += 1;
+            let ideal = inverse(&start, &start, &prev_ideal, dt);
+            prev_ideal = ideal;
+            let th = chain.step(ground_c);
+            let s = imu.sense(&ideal, &th, dt);
+            if clock.is_multiple_of(per_second) {
+                let raw = imu.ds18b20(th.case_c);
+                let t_ms = (clock / per_second * 1000) as u32;
+                for v in &mut variants {
+                    v.comp.on_temperatures(t_ms, raw);
+                }
+            }
+            for (v, a) in variants.iter_mut().zip(&mut aligners) {
+                let dv = v.comp.compensate(s.pulses, dt_ticks, &s.coeffs);
+                a.step(&Increments { dtheta: s.dtheta, dv });
+            }
+        }
+        for (st, a) in starts.iter_mut().zip(&aligners) {
+            let q = a.attitude().ok_or_else(|| anyhow::anyhow!("alignment shorter than its coarse phase"))?;
+            st.q = q;
+            res.alignment.push(AlignErrors::of(&q, &start.q));
+        }
+    }
+    let mut navs: Vec<Strapdown> = starts.into_iter().map(Strapdown::new).collect();
     for k in 1..=steps {
+        clock += 1;
         let prev = flight.state;
         let truth = flight.step();
         let ideal = inverse(&prev, &truth, &prev_ideal, dt);
         prev_ideal = ideal;
         let th = chain.step(profile.at(flight.t));
-        let mut dtheta = ideal.dtheta + gb * (dph * dt);
-        if arw > 0.0 {
-            for i in 0..3 {
-                let n: f64 = StandardNormal.sample(&mut rng);
-                dtheta[i] += arw * n;
-            }
-        }
-        let mut pulses = [0i32; 3];
-        let mut coeffs = [(0.0, 0.0); 3];
-        for i in 0..3 {
-            pulses[i] = truths[i].corrupt(&th, ideal.dv[i], dt);
-            coeffs[i] = truths[i].coefficients();
-        }
+        let s = imu.sense(&ideal, &th, dt);
         // Each case's DS18B20 conversion completes once a second (the first at t = 1 s).
-        if k % per_second == 0 {
-            let raw = [0, 1, 2].map(|i| ds18b20_raw(&sensors[i], th.case_c, &mut rng));
-            let t_ms = (k / per_second * 1000) as u32;
+        if clock.is_multiple_of(per_second) {
+            let raw = imu.ds18b20(th.case_c);
+            let t_ms = (clock / per_second * 1000) as u32;
             for v in &mut variants {
                 v.comp.on_temperatures(t_ms, raw);
             }
         }
         let alt = AltRef { h: truth.h, vd: truth.v.z };
         for (v, nav) in variants.iter_mut().zip(&mut navs) {
-            let dv = v.comp.compensate(pulses, dt_ticks, &coeffs);
-            nav.step(&Increments { dtheta, dv }, dt, alt);
+            let dv = v.comp.compensate(s.pulses, dt_ticks, &s.coeffs);
+            nav.step(&Increments { dtheta: s.dtheta, dv }, dt, alt);
         }
         if k % per_second == 0 {
             res.t.push(flight.t);

@@ -23,7 +23,9 @@ use anyhow::Context;
 use nalgebra::{UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
+use super::align::AlignConfig;
 use super::earth::{self, Local};
+use super::errors::ImuErrors;
 use super::strapdown::{advance_position, NavState};
 use super::thermal::TempPoint;
 use crate::thermal::ThermalChain;
@@ -119,6 +121,38 @@ pub struct Scenario {
     pub thermal: ThermalChain,
     /// Drive-temperature breakpoints.
     pub temperature: Vec<TempPoint>,
+    /// Non-thermal IMU errors (`[imu.gyro]`, `[imu.accel]`), documented defaults.
+    #[serde(default)]
+    pub imu: ImuErrors,
+    /// Stationary alignment before take-off (on by default).
+    #[serde(default)]
+    pub alignment: AlignConfig,
+    /// Bounds of the Monte Carlo variations.
+    #[serde(default)]
+    pub monte_carlo: Variation,
+}
+
+/// The scenario's `[monte_carlo]` table: what varies from run to run besides the noise
+/// and the IMU error draws ([`super::errors`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct Variation {
+    /// The drive profile and the ground temperature shift by U(−x, +x), °C.
+    pub temp_offset_c: f64,
+    /// The drive profile's excursion from the ground temperature is scaled by
+    /// U(1 − x, 1 + x).
+    pub temp_scale: f64,
+    /// Unit-to-unit spread: each thermal coefficient of each accelerometer (Eq. 11 μ, β,
+    /// ε, η, α and the bias K0, slope and curvature) is multiplied by `1 + x·N(0, 1)`.
+    pub unit_spread: f64,
+    /// σ of a change of each DS18B20's offset, °C.
+    pub sensor_offset_c: f64,
+}
+
+impl Default for Variation {
+    fn default() -> Self {
+        Self { temp_offset_c: 3.0, temp_scale: 0.1, unit_spread: 0.1, sensor_offset_c: 0.1 }
+    }
 }
 
 impl Scenario {
@@ -140,6 +174,18 @@ impl Scenario {
         anyhow::ensure!(s.imu_rate_hz > 0.0 && s.imu_rate_hz <= 10_000.0, "imu_rate_hz out of range");
         anyhow::ensure!(!s.segments.is_empty(), "scenario has no segments");
         anyhow::ensure!(s.segments.iter().all(|g| g.duration_s > 0.0), "segment duration must be > 0");
+        let a = &s.alignment;
+        anyhow::ensure!(
+            !a.enabled || (a.coarse_s > 0.0 && a.duration_s >= a.coarse_s && a.duration_s <= 7200.0),
+            "alignment: need 0 < coarse_s ≤ duration_s ≤ 7200 s"
+        );
+        let v = &s.monte_carlo;
+        anyhow::ensure!(
+            [v.temp_offset_c, v.temp_scale, v.unit_spread, v.sensor_offset_c].iter().all(|x| x.is_finite() && *x >= 0.0)
+                && v.temp_scale < 1.0
+                && v.unit_spread < 0.5,
+            "monte_carlo: bounds must be ≥ 0, temp_scale < 1, unit_spread < 0.5"
+        );
         Ok(s)
     }
 
@@ -168,6 +214,34 @@ impl Scenario {
     #[must_use]
     pub fn steps(&self) -> u64 {
         (self.duration_s() * self.imu_rate_hz).round() as u64
+    }
+
+    /// Ground (alignment) temperature, °C.
+    #[must_use]
+    pub fn ground_temp_c(&self) -> f64 {
+        self.alignment.ground_temp_c.unwrap_or_else(|| self.temperature.first().map_or(20.0, |p| p.temp_c))
+    }
+
+    /// Alignment steps before take-off (0 when alignment is off).
+    #[must_use]
+    pub fn align_steps(&self) -> u64 {
+        if self.alignment.enabled {
+            (self.alignment.duration_s * self.imu_rate_hz).round() as u64
+        } else {
+            0
+        }
+    }
+
+    /// Shift the drive profile and ground temperature by `offset_c` and scale the
+    /// excursion from the ground temperature by `scale`.
+    #[must_use]
+    pub fn with_temperature_variation(mut self, offset_c: f64, scale: f64) -> Self {
+        let g = self.ground_temp_c();
+        for p in &mut self.temperature {
+            p.temp_c = g + offset_c + scale * (p.temp_c - g);
+        }
+        self.alignment.ground_temp_c = Some(g + offset_c);
+        self
     }
 
     /// Keep only the first `seconds` of flight (for short tests).
