@@ -210,6 +210,9 @@ fn discover_single_channel_log_and_outputs() {
     assert_shrinks(&r, "value");
     let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap();
     assert_eq!(json["start"], "paper");
+    assert!(json["unexplained"].is_array(), "report.json lists unexplained structure (empty here)");
+    assert!(json["effects"][0]["params_ci"]["half_width_c"]["ci95"].is_array());
+    assert!(json["effects"][0]["gain"]["bootstrap_se"].as_f64().is_some_and(|x| x > 0.0));
     assert!(json["heldout_gap_before"]["value_rms"].as_f64().unwrap() > json["heldout_gap_after"]["value_rms"].as_f64().unwrap());
     assert_eq!(json["effects"][0]["name"], "bias_branch_hysteresis");
     assert!(json["where"].as_array().is_some_and(|w| !w.is_empty()));

@@ -963,7 +963,7 @@ pub fn analyze(ch: &Channels, start: Start) -> Report {
             bound.dedup();
             trials.push(CandidateTrial {
                 name: e.name().into(),
-                channel: if e == Effect::TempQuadBias && !cyc { "bias".into() } else { e.channel().into() },
+                channel: if cyc { e.channel().into() } else { "value".into() },
                 gain: g.clone(),
                 significant,
                 at_bound: bound.clone(),
@@ -1094,7 +1094,7 @@ pub fn analyze(ch: &Channels, start: Start) -> Report {
             }
             EffectReport {
                 name: e.name().into(),
-                channel: if e == Effect::TempQuadBias && !cyc { "bias".into() } else { e.channel().into() },
+                channel: if cyc { e.channel().into() } else { "value".into() },
                 params,
                 params_ci,
                 gain: g,
