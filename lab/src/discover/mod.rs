@@ -823,12 +823,39 @@ fn coords(e: Effect, nl: &Nonlinear) -> Vec<Coord> {
 }
 
 /// 95 % profile interval of one coordinate: where the all-data Σ(residual/RMS)² rises by
-/// 3.84·κ (κ = N/N_eff of the residual); the other nonlinear parameters stay fixed, the
-/// linear ones are refitted at every point. Stops at the search limits.
-fn profile(setup: &Setup, s: &Structure, nl: &Nonlinear, c: &Coord, thresh: f64) -> [f64; 2] {
+/// 3.84·κ (κ = N/N_eff of the residual); the effect's other nonlinear coordinate (creep:
+/// τ_ref and E) is re-optimised at every point (golden section), the linear coefficients
+/// refitted. Stops at the search limits. Also returns the effect's parameters at the two
+/// ends, which widen the linear coefficients' intervals.
+fn profile(
+    setup: &Setup,
+    s: &Structure,
+    nl: &Nonlinear,
+    c: &Coord,
+    other: Option<&Coord>,
+    e: Effect,
+    thresh: f64,
+) -> ([f64; 2], Vec<std::collections::BTreeMap<String, f64>>) {
     let all = vec![true; setup.ch.n_bins()];
-    let obj = |x: f64| setup.score(&setup.residuals(&setup.fit(s, &(c.4)(nl, x), &all).pred), &all);
-    let s0 = obj(c.1);
+    let score = |n: &Nonlinear| setup.score(&setup.residuals(&setup.fit(s, n, &all).pred), &all);
+    let best_at = |x: f64| -> (f64, Nonlinear) {
+        let n1 = (c.4)(nl, x);
+        match other {
+            None => (score(&n1), n1),
+            Some(o) => {
+                let (lo, hi) = ((o.1 - 1.5).max(o.2), (o.1 + 1.5).min(o.3));
+                let (y, f) = golden(|y| score(&(o.4)(&n1, y)), lo, hi, 10);
+                let f0 = score(&(o.4)(&n1, o.1));
+                if f0 <= f {
+                    (f0, (o.4)(&n1, o.1))
+                } else {
+                    (f, (o.4)(&n1, y))
+                }
+            }
+        }
+    };
+    let obj = |x: f64| best_at(x).0;
+    let s0 = score(nl);
     let mut ends = [c.1; 2];
     for (k, dir) in [-1.0f64, 1.0].into_iter().enumerate() {
         let limit = if dir < 0.0 { c.2 } else { c.3 };
@@ -862,7 +889,8 @@ fn profile(setup: &Setup, s: &Structure, nl: &Nonlinear, c: &Coord, thresh: f64)
         }
         ends[k] = inside;
     }
-    [(c.5)(ends[0]), (c.5)(ends[1])]
+    let at_ends = ends.iter().map(|&x| effect_params(e, &setup.fit(s, &best_at(x).1, &all))).collect();
+    ([(c.5)(ends[0]), (c.5)(ends[1])], at_ends)
 }
 
 /// Linear parameters' spread by a moving-block bootstrap of the all-data residual
@@ -1067,8 +1095,12 @@ pub fn analyze(ch: &Channels, start: Start) -> Report {
             let params = effect_params(e, &final_fit);
             let mut params_ci = std::collections::BTreeMap::new();
             let bound = at_bound(e, &nl_all);
-            for c in coords(e, &nl_all) {
-                let ci = profile(&setup, &s, &nl_all, &c, 3.84 * kappa);
+            let cs = coords(e, &nl_all);
+            let mut ends: Vec<std::collections::BTreeMap<String, f64>> = Vec::new();
+            for (i, c) in cs.iter().enumerate() {
+                let other = cs.iter().enumerate().find(|(j, _)| *j != i).map(|(_, o)| o);
+                let (ci, at_ends) = profile(&setup, &s, &nl_all, c, other, e, 3.84 * kappa);
+                ends.extend(at_ends);
                 let v = (c.5)(c.1);
                 params_ci.insert(
                     c.0.to_string(),
@@ -1076,7 +1108,10 @@ pub fn analyze(ch: &Channels, start: Start) -> Report {
                         value: v,
                         ci95: ci,
                         at_bound: bound.iter().any(|b| b.starts_with(c.0)),
-                        method: format!("profile, threshold 3.84·N/N_eff (N/N_eff = {kappa:.1}), other nonlinear parameters fixed"),
+                        method: format!(
+                            "profile, threshold 3.84·N/N_eff (N/N_eff = {kappa:.1}){}",
+                            if other.is_some() { ", the other nonlinear parameter re-optimised" } else { "" }
+                        ),
                     },
                 );
             }
@@ -1088,7 +1123,14 @@ pub fn analyze(ch: &Channels, start: Start) -> Report {
                     ([v, v], "fixed reference, not fitted".to_string())
                 } else {
                     let sd = lin_sd.get(k).and_then(|m| m.get(key)).copied().unwrap_or(f64::NAN);
-                    ([v - 1.96 * sd, v + 1.96 * sd], format!("moving-block bootstrap (40 × {len_all}-bin blocks), nonlinear parameters fixed"))
+                    let mut ci = [v - 1.96 * sd, v + 1.96 * sd];
+                    for m in &ends {
+                        if let Some(&x) = m.get(key) {
+                            ci = [ci[0].min(x), ci[1].max(x)];
+                        }
+                    }
+                    let widened = if ends.is_empty() { "" } else { ", widened to its values at the nonlinear parameters' profile ends" };
+                    (ci, format!("moving-block bootstrap (40 × {len_all}-bin blocks) with nonlinear parameters fixed{widened}"))
                 };
                 params_ci.insert(key.clone(), ParamCi { value: v, ci95: ci, at_bound: false, method });
             }
