@@ -347,3 +347,27 @@ fn false_discovery_rate_single_channel() {
     println!("unexplained_rate={:.4}", res.iter().filter(|r| r.1).count() as f64 / n as f64);
     assert!(fd as f64 / n as f64 <= 0.05);
 }
+
+#[test]
+fn unexplained_is_reported_in_json_and_in_words() {
+    // Accelerating ageing leaves a t² the linear drift cannot take: report.json lists it
+    // with what it follows, and report.md says it in a sentence.
+    let ch = Channels::parse(&generate(Hidden::Ageing2, 3), 60.0).expect("parses");
+    let dir = std::env::temp_dir().join(format!("qfa-discover-unexplained-{}", std::process::id()));
+    let r = qfa_lab::discover::discover(&ch, Start::Paper, &dir).expect("discovery writes its outputs");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).expect("report.json")).expect("json");
+    let u = &json["unexplained"][0];
+    assert_eq!(u["channel"], "value", "{json}");
+    assert!(u["rms"].as_f64().is_some_and(|x| x > 0.0));
+    assert!(u["where"].as_str().is_some_and(|w| !w.is_empty()));
+    assert!(u["correlates_with"].as_array().is_some_and(|a| a.iter().any(|c| c == "time_since_start")));
+    let md = std::fs::read_to_string(dir.join("report.md")).expect("report.md");
+    assert!(md.contains("## Unexplained") && md.contains("keeps structure that no catalog effect explains"), "{md}");
+    assert!(md.contains("follows time_since_start"), "{md}");
+    assert!(!r.unexplained.is_empty());
+    // The value is in µg, not g: the root crate's table refuses a 120-"g" bias, and the
+    // report must say so rather than leave a table out silently.
+    assert!(dir.join("table.bin").exists() || md.contains("did not validate"), "{md}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
