@@ -161,8 +161,10 @@ pub struct Unexplained {
     pub where_: String,
     /// Held-out RMS of the channel's final residual (ppm, µg or value units).
     pub rms: f64,
-    /// RMS of the part that follows the strongest driver (cross-fitted), same unit.
-    pub structure_rms: f64,
+    /// RMS of the part that follows the strongest driver (cross-fitted), same unit;
+    /// absent when only a pinned candidate flagged the channel.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub structure_rms: Option<f64>,
     /// Drivers the leftover follows significantly, strongest first: `time_since_start`,
     /// `temperature`, `temperature_rate`, `time_since_reversal`, `branch` (direction of
     /// the last ramp, kept through dwells).
@@ -770,7 +772,7 @@ fn find_unexplained(ch: &Channels, cur: &Residuals, masks: &[Vec<bool>], trains:
             channel: name.into(),
             where_: after.iter().find(|w| w.channel == name).map_or_else(String::new, |w| w.segment.clone()),
             rms: rms(r),
-            structure_rms: hits.first().map_or(0.0, |h| h.2),
+            structure_rms: hits.first().map(|h| h.2),
             correlates_with: hits.iter().map(|h| h.1.to_string()).collect(),
             pinned: pins,
         });

@@ -116,10 +116,11 @@ fn markdown(ch: &Channels, r: &Report) -> String {
         let _ = writeln!(s, "## Unexplained\n");
         for u in &r.unexplained {
             let mut line = format!("- The {} channel keeps structure that no catalog effect explains (held-out RMS {:.3}", u.channel, u.rms);
-            if u.correlates_with.is_empty() {
-                line.push_str(").");
-            } else {
-                let _ = write!(line, "; about {:.3} of it follows {}).", u.structure_rms, u.correlates_with.join(", then "));
+            match u.structure_rms {
+                Some(x) if !u.correlates_with.is_empty() => {
+                    let _ = write!(line, "; about {x:.3} of it follows {}).", u.correlates_with.join(", then "));
+                }
+                _ => line.push_str(")."),
             }
             if !u.where_.is_empty() {
                 let _ = write!(line, " It is largest on {}.", u.where_);
