@@ -1021,7 +1021,11 @@ pub fn analyze(ch: &Channels, start: Start) -> Report {
         let mut pick = 0;
         let mut confusable = Vec::new();
         for j in 1..sig.len() {
-            if sig[0].4.gain - sig[j].4.gain < sig[0].4.se {
+            // Effects on disjoint channels explain different data: never confusable
+            // (`temp_quadratic` on the scale factor and on the bias both get added).
+            let (a, b) = (sig[0].1, sig[j].1);
+            let overlap = (cyc && a.touches_sf() && b.touches_sf()) || (a.touches_bias() && b.touches_bias());
+            if overlap && sig[0].4.gain - sig[j].4.gain < sig[0].4.se {
                 confusable.push(j);
                 let (pj, pp) = (sig[j].1.n_params(), sig[pick].1.n_params());
                 if pj < pp || (pj == pp && sig[j].4.gain > sig[pick].4.gain) {
