@@ -43,6 +43,15 @@ fn check(name: &str, r: &Report, base: &Report, params: &[(&str, f64)], sf: bool
         gaps(&r.heldout_gap_after),
         gaps(&base.heldout_gap_after)
     );
+    for (i, round) in r.rounds.iter().enumerate() {
+        for c in round {
+            println!(
+                "  round {i} {:24} gain {:9.1} se {:7.1} t {:6.2} crit {:5.2} {} {:?}",
+                c.name, c.gain.gain, c.gain.se, c.gain.t, c.gain.critical, c.significant, c.at_bound
+            );
+        }
+    }
+    println!("  unexplained {:?}", r.unexplained);
     assert_eq!(names, [name], "exactly the hidden effect is named");
     let e = &r.effects[0];
     for &(p, want) in params {

@@ -41,11 +41,16 @@ pub enum Effect {
     BiasBranchHysteresis,
     /// Arrhenius creep on the bias.
     BiasCreep,
+    /// Slow drift of the bias with time since the start of the program (ageing, turn-on
+    /// settling): `d·t`. Signature: follows time, not temperature or its history, so it
+    /// shows on holds as much as on ramps. Lab-only: the root crate has no time slot yet,
+    /// so a discovered drift is reported but cannot go into the flashed table.
+    BiasDrift,
 }
 
 impl Effect {
     /// Every effect, in catalog order.
-    pub const ALL: [Effect; 8] = [
+    pub const ALL: [Effect; 9] = [
         Effect::TempQuadSf,
         Effect::TempQuadBias,
         Effect::RateHysteresis,
@@ -54,6 +59,7 @@ impl Effect {
         Effect::SensorLag,
         Effect::BiasBranchHysteresis,
         Effect::BiasCreep,
+        Effect::BiasDrift,
     ];
 
     /// Catalog name.
@@ -67,6 +73,7 @@ impl Effect {
             Effect::SensorLag => "sensor_lag",
             Effect::BiasBranchHysteresis => "bias_branch_hysteresis",
             Effect::BiasCreep => "bias_creep",
+            Effect::BiasDrift => "bias_drift",
         }
     }
 
@@ -77,7 +84,7 @@ impl Effect {
             Effect::TempQuadSf | Effect::RateHysteresis | Effect::RateSquared | Effect::RateTempCoupling => {
                 "scale_factor"
             }
-            Effect::TempQuadBias | Effect::BiasBranchHysteresis | Effect::BiasCreep => "bias",
+            Effect::TempQuadBias | Effect::BiasBranchHysteresis | Effect::BiasCreep | Effect::BiasDrift => "bias",
             Effect::SensorLag => "both",
         }
     }
@@ -90,6 +97,12 @@ impl Effect {
             Effect::BiasCreep => 3,
             _ => 1,
         }
+    }
+
+    /// Whether the root crate's `AxisModel` can run it (so it goes into the table).
+    #[must_use]
+    pub fn in_firmware(self) -> bool {
+        self != Effect::BiasDrift
     }
 
     /// Whether it acts on the scale-factor channel.
@@ -116,6 +129,20 @@ pub struct Nonlinear {
     pub creep: Option<(f32, f32)>,
 }
 
+impl Nonlinear {
+    /// The parameters with `e`'s slot off.
+    #[must_use]
+    pub fn without(mut self, e: Effect) -> Self {
+        match e {
+            Effect::SensorLag => self.lag_tau_s = None,
+            Effect::BiasBranchHysteresis => self.play_r_c = None,
+            Effect::BiasCreep => self.creep = None,
+            _ => {}
+        }
+        self
+    }
+}
+
 /// Linear structure: which terms are in the model.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Structure {
@@ -131,6 +158,8 @@ pub struct Structure {
     pub sf_eta: bool,
     /// ΔT² on a linear bias (simple start).
     pub bias_quad: bool,
+    /// Bias drift with time (lab-only term).
+    pub bias_drift: bool,
 }
 
 impl Structure {
@@ -138,7 +167,7 @@ impl Structure {
     #[must_use]
     pub fn start(start: Start) -> Self {
         let p = start == Start::Paper;
-        Self { start, sf_quad: p, sf_eps: p, sf_alpha: p, sf_eta: p, bias_quad: false }
+        Self { start, sf_quad: p, sf_eps: p, sf_alpha: p, sf_eta: p, bias_quad: false, bias_drift: false }
     }
 
     /// Whether `e` can still be added.
@@ -154,7 +183,26 @@ impl Structure {
             Effect::SensorLag => nl.lag_tau_s.is_none(),
             Effect::BiasBranchHysteresis => nl.play_r_c.is_none(),
             Effect::BiasCreep => nl.creep.is_none(),
+            Effect::BiasDrift => !self.bias_drift,
         }
+    }
+
+    /// The structure with the linear part of `e` switched off (the start model's own
+    /// terms stay).
+    #[must_use]
+    pub fn without(self, e: Effect) -> Self {
+        let base = Structure::start(self.start);
+        let mut s = self;
+        match e {
+            Effect::TempQuadSf => s.sf_quad = base.sf_quad,
+            Effect::TempQuadBias => s.bias_quad = base.bias_quad,
+            Effect::RateHysteresis => s.sf_eps = base.sf_eps,
+            Effect::RateSquared => s.sf_alpha = base.sf_alpha,
+            Effect::RateTempCoupling => s.sf_eta = base.sf_eta,
+            Effect::BiasDrift => s.bias_drift = false,
+            _ => {}
+        }
+        s
     }
 
     /// The structure with the linear part of `e` switched on.
@@ -166,6 +214,7 @@ impl Structure {
             Effect::RateHysteresis => self.sf_eps = true,
             Effect::RateSquared => self.sf_alpha = true,
             Effect::RateTempCoupling => self.sf_eta = true,
+            Effect::BiasDrift => self.bias_drift = true,
             _ => {}
         }
         self
@@ -256,6 +305,8 @@ pub struct Fitted {
     pub model: AxisModel,
     /// Per-bin predicted K1 (pulses/(g·s); 1 for single-channel) and K0.
     pub pred: Vec<(f64, f64)>,
+    /// Bias drift, g/h (value units per hour for single-channel logs), when in the structure.
+    pub drift_per_h: Option<f64>,
 }
 
 /// Per-bin residuals: scale factor in ppm (NaN for single-channel), bias in µg (or value).
@@ -379,8 +430,28 @@ impl Setup<'_> {
     /// Fit `structure` with nonlinear parameters `nl` on the bins where `train` is true.
     #[must_use]
     pub fn fit(&self, s: &Structure, nl: &Nonlinear, train: &[bool]) -> Fitted {
+        self.fit_y(s, nl, train, None)
+    }
+
+    /// Hours since the start of its program, per bin (the drift column).
+    #[must_use]
+    pub fn bin_hours(&self) -> Vec<f64> {
+        let mut v = Vec::with_capacity(self.ch.n_bins());
+        for t in &self.ch.traces {
+            let t0 = t.time_s.first().copied().unwrap_or(0.0);
+            v.extend(t.bins.iter().map(|b| (b.time_s - t0) / 3600.0));
+        }
+        v
+    }
+
+    /// As [`Setup::fit`], with the measured per-bin (K1, K0) replaced by `y` when given
+    /// (the block bootstrap refits resampled data through this).
+    #[must_use]
+    pub fn fit_y(&self, s: &Structure, nl: &Nonlinear, train: &[bool], y_over: Option<&[(f64, f64)]>) -> Fitted {
         let f = self.features(nl);
         let bins: Vec<_> = self.ch.traces.iter().flat_map(|t| t.bins.iter()).collect();
+        let meas = |i: usize| y_over.map_or((bins[i].sf, bins[i].bias), |y| y[i]);
+        let hours = if s.bias_drift { self.bin_hours() } else { Vec::new() };
         let cyc = self.ch.kind == LogKind::Cycling;
         // Scale factor: columns 1, d, [d²], [r], [r²], [r·d].
         let scale = if cyc {
@@ -392,7 +463,7 @@ impl Setup<'_> {
             }
             let rows: Vec<usize> = (0..bins.len()).filter(|&i| train[i]).collect();
             let a = DMatrix::from_fn(rows.len(), cols.len(), |i, j| f.sf[rows[i]][cols[j]]);
-            let y = DVector::from_fn(rows.len(), |i, _| bins[rows[i]].sf);
+            let y = DVector::from_fn(rows.len(), |i, _| meas(rows[i]).0);
             let c = solve(&a, &y, None);
             let mut full = [0.0f64; 6];
             for (j, &cj) in cols.iter().enumerate() {
@@ -429,18 +500,21 @@ impl Setup<'_> {
         let nb = basis[0].len();
         let np = usize::from(nl.play_r_c.is_some());
         let nc = usize::from(nl.creep.is_some());
+        let nd = usize::from(s.bias_drift);
         let rows: Vec<usize> = (0..bins.len()).filter(|&i| train[i]).collect();
-        let a = DMatrix::from_fn(rows.len(), nb + np + nc, |i, j| {
+        let a = DMatrix::from_fn(rows.len(), nb + np + nc + nd, |i, j| {
             let b = rows[i];
             if j < nb {
                 (0..GRID_POINTS).map(|g| f.hat[b][g] * basis[g][j]).sum()
             } else if j == nb && np == 1 {
                 f.play[b]
-            } else {
+            } else if j == nb + np && nc == 1 {
                 f.creep[b]
+            } else {
+                hours[b]
             }
         });
-        let y = DVector::from_fn(rows.len(), |i, _| bins[rows[i]].bias);
+        let y = DVector::from_fn(rows.len(), |i, _| meas(rows[i]).1);
         // Paper start: a gentle second-difference penalty keeps a sparse grid well posed.
         let pen = (s.start == Start::Paper).then_some((0usize, nb));
         let c = solve(&a, &y, pen);
@@ -464,8 +538,15 @@ impl Setup<'_> {
             rate_limit_c_per_min: self.rate_limit,
             ext,
         };
-        let pred = self.predict(&model);
-        Fitted { model, pred }
+        let mut pred = self.predict(&model);
+        // The drift is not an `AxisModel` term: it is added to the predicted K0 here.
+        let drift_per_h = s.bias_drift.then(|| c[nb + np + nc]);
+        if let Some(d) = drift_per_h {
+            for (p, h) in pred.iter_mut().zip(&hours) {
+                p.1 += d * h;
+            }
+        }
+        Fitted { model, pred, drift_per_h }
     }
 
     /// Normalized sum of squares of `res` over `mask`: Σ(sf/σ_sf)² + Σ(bias/σ_b)².

@@ -17,25 +17,56 @@
 //!    so each bin's residual comes from a model that never saw its program. With one
 //!    program, or a single-channel log, each trace is cut into 20-bin (20-min) time blocks
 //!    dealt alternately into the two folds (interleaved blocks: every fold sees heating,
-//!    cooling and holds at every temperature). Model states always run through the whole trace; only the fit skips
-//!    the held-out bins. Nonlinear parameters are searched on the training fold only.
+//!    cooling and holds at every temperature). Model states always run through the whole
+//!    trace; only the fit skips the held-out bins. Nonlinear parameters are searched on
+//!    the training fold only, weighted by each channel's bin-to-bin noise floor.
 //! 4. **Localization** ([`localize`]): RMS of the held-out residual by heating / cooling
 //!    ramps × program rate × temperature band, and holds by time since the last change.
 //! 5. **Candidates**: each catalog effect not yet in the model. Nonlinear parameters by a
-//!    coarse log-grid then golden section (τ, r) or Nelder–Mead (creep τ_ref, E; T_ref
-//!    fixed at 22 °C); linear coefficients re-fitted by least squares for every trial;
-//!    every trial scored by running the root crate's `AxisModel::evaluate`.
-//! 6. **Selection**: gain = drop of the held-out Σ(residual/noise floor)² over both
-//!    channels. The noise floor is the held-out residual's bin-to-bin part,
-//!    1.4826·median|r[i+1] − r[i]|/√2. A candidate is significant if its gain exceeds the
-//!    BIC-style penalty k·ln N (k added parameters) and 5 % of N (the affected channels'
-//!    held-out bins: it must remove at least 5 % of a noise variance per bin), and the
-//!    affected channel's held-out RMS must drop by at least 2 %. The best
-//!    significant candidate (gain − penalty) is added; repeat until none is left.
+//!    coarse log-grid then golden section (τ, r; 20 steps) or Nelder–Mead (creep τ_ref,
+//!    E; T_ref fixed at 22 °C); linear coefficients re-fitted by least squares for every
+//!    trial; every trial scored by running the root crate's `AxisModel::evaluate`.
+//! 6. **Selection** ([`stats`], issue 12): the per-bin held-out gain (drop of
+//!    (residual/RMS)², summed over the channels) is summed over blocks of consecutive
+//!    bins, four times the residual's 1/e autocorrelation lag long (≥ 10 bins, ≥ 8
+//!    blocks), so the block sums are close to independent even under the Gauss–Markov
+//!    bias instability. A candidate is significant when its gain exceeds
+//!    t(1 − 0.05/m, blocks − 1) standard errors of the block sums (m = 9, the catalog's
+//!    size, in every round: Bonferroni over everything the workflow could add). A significant candidate with a parameter at a search limit is
+//!    not added (a limit, not the data, decided it); it is reported. Among the rest the
+//!    largest gain is best, and by the one-standard-error rule the candidate with fewest
+//!    parameters whose gain is within one SE of the best's is added; the others are
+//!    listed as `confusable_with` (name not identified). After the last round a
+//!    backward step drops any added effect whose removal the block test does not reject
+//!    (a simpler effect picked by the one-SE rule, made redundant by a later addition). Repeat until none is
+//!    left, then re-optimise the nonlinear parameters jointly (cyclic search). Measured
+//!    false-discovery rate on clean simulator logs: see the README and
+//!    `tests/discover_fdr.rs`.
+//! 7. **Uncertainty**: each added effect's gain carries a block-bootstrap SE and 95 %
+//!    interval; nonlinear parameters a profile interval (all-data Σ(residual/RMS)² rising
+//!    by 3.84·N/N_eff, N/N_eff from the residual autocorrelation), linear ones a
+//!    moving-block bootstrap interval; `at_bound` flags a search limit.
+//! 8. **Unexplained**: the final held-out residual of each channel is cross-fitted on
+//!    time since start, temperature, Ṫ, time since the last reversal and the ramp branch
+//!    (a quadratic in each); drivers it follows significantly (same block test, level
+//!    0.05 shared over drivers and channels) and catalog effects pinned at a search limit
+//!    are reported as `unexplained`, not given a name.
+//!
+//! The catalog's `bias_drift` (bias linear in time since the program start: ageing or a
+//! long turn-on settling) has no root-crate slot yet, so it is reported but not flashed
+//! (`in_table: false`). Left out of the catalog, as the issue allows: a thermal-gradient
+//! term in Ṫ on the bias (on the paper's test Ṫ is the same program signal that
+//! `sensor_lag` and, on the scale factor, `rate_hysteresis` already use: ε·Ṫ and a lag's
+//! −τ·Ṫ·∂b/∂T cannot be told apart without a second sensor or a gradient that changes
+//! sign independently of Ṫ), and a second lag stage (two stages τ₁, τ₂ give a response
+//! within a fraction of the noise of one stage with τ₁ + τ₂ on 0.3–0.9 °C/min ramps with
+//! 3-min dwells; the out-of-catalog test confirms a two-stage lag is named as one lag
+//! with the effective τ).
 
 pub mod channels;
 pub mod fit;
 pub mod output;
+pub mod stats;
 pub mod synth;
 
 use std::path::Path;
@@ -47,6 +78,7 @@ use serde::Serialize;
 pub use channels::{Channels, LogKind};
 pub use fit::Effect;
 use fit::{golden, nelder_mead2, Fitted, Nonlinear, Residuals, Setup, Structure};
+pub use stats::GainStat;
 
 /// Start model.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -80,6 +112,19 @@ impl Start {
     }
 }
 
+/// A fitted parameter with its 95 % confidence interval.
+#[derive(Clone, Debug, Serialize)]
+pub struct ParamCi {
+    /// Estimate (fit on all data).
+    pub value: f64,
+    /// 95 % interval.
+    pub ci95: [f64; 2],
+    /// The estimate sits at a search limit (the limit, not the data, decided it).
+    pub at_bound: bool,
+    /// How the interval was formed.
+    pub method: String,
+}
+
 /// An effect added by the workflow.
 #[derive(Clone, Debug, Serialize)]
 pub struct EffectReport {
@@ -89,11 +134,43 @@ pub struct EffectReport {
     pub channel: String,
     /// Fitted parameters (from the fit on all data).
     pub params: std::collections::BTreeMap<String, f64>,
+    /// The same parameters with 95 % intervals and the search-limit flag.
+    pub params_ci: std::collections::BTreeMap<String, ParamCi>,
+    /// Held-out gain when it was added, with its block-bootstrap uncertainty.
+    pub gain: GainStat,
+    /// Whether the flashed table (`table.bin`) carries it (`bias_drift` has no root-crate
+    /// slot yet: reported, not flashed).
+    pub in_table: bool,
+    /// Significant candidates it did not beat by one standard error (one-SE rule: the
+    /// one with fewest parameters was added); empty when the name is clear.
+    pub confusable_with: Vec<String>,
     /// Held-out gap of its channel before it was added (for `both`: the channel it
-    /// improved more, relative to its noise floor).
+    /// improved more, relative to its held-out RMS).
     pub heldout_gap_before: f64,
     /// The same gap after.
     pub heldout_gap_after: f64,
+}
+
+/// Residual structure no catalog effect explains.
+#[derive(Clone, Debug, Serialize)]
+pub struct Unexplained {
+    /// `scale_factor`, `bias` or `value`.
+    pub channel: String,
+    /// Segment where the final held-out residual is largest.
+    #[serde(rename = "where")]
+    pub where_: String,
+    /// Held-out RMS of the channel's final residual (ppm, µg or value units).
+    pub rms: f64,
+    /// RMS of the part that follows the strongest driver (cross-fitted), same unit;
+    /// absent when only a pinned candidate flagged the channel.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub structure_rms: Option<f64>,
+    /// Drivers the leftover follows significantly, strongest first: `time_since_start`,
+    /// `temperature`, `temperature_rate`, `time_since_reversal`, `branch` (direction of
+    /// the last ramp, kept through dwells).
+    pub correlates_with: Vec<String>,
+    /// Catalog effects that would fit only with a parameter at a search limit.
+    pub pinned: Vec<String>,
 }
 
 /// Held-out gaps: RMS residuals.
@@ -132,12 +209,12 @@ pub struct CandidateTrial {
     pub name: String,
     /// Channel.
     pub channel: String,
-    /// Held-out normalized gain.
-    pub gain: f64,
-    /// Penalty k·ln N.
-    pub penalty: f64,
-    /// Passed the significance threshold.
+    /// Held-out gain and its block test.
+    pub gain: GainStat,
+    /// Passed the block test.
     pub significant: bool,
+    /// Parameters at a search limit (`name=value`); such a candidate is not added.
+    pub at_bound: Vec<String>,
     /// Held-out gaps with it.
     pub gaps: Gaps,
 }
@@ -156,8 +233,12 @@ pub struct Report {
     /// Where the start model disagrees most (held out).
     #[serde(rename = "where")]
     pub where_: Vec<Where>,
-    /// Noise floors of the final held-out residual.
+    /// Structure left in the final held-out residual that no catalog effect explains.
+    pub unexplained: Vec<Unexplained>,
+    /// Noise floors of the final held-out residual (bin-to-bin part).
     pub noise_floor: Gaps,
+    /// The selection rule, in words.
+    pub selection_rule: String,
     /// Every candidate of every round (for the Markdown report).
     #[serde(skip)]
     pub rounds: Vec<Vec<CandidateTrial>>,
@@ -175,14 +256,39 @@ pub struct Report {
     pub heldout_rule: String,
 }
 
-/// Bins per time block of the single-trace held-out split (20 min at 60-s bins): short
-/// enough that both folds see every temperature region on heating and cooling.
-const TIME_BLOCK_BINS: usize = 20;
+impl Report {
+    /// Added effects as `name (channel)`: `temp_quadratic` can be added once per channel,
+    /// and a summary must say which.
+    #[must_use]
+    pub fn effect_labels(&self) -> Vec<String> {
+        self.effects
+            .iter()
+            .map(|e| {
+                if e.confusable_with.is_empty() {
+                    format!("{} ({})", e.name, e.channel)
+                } else {
+                    format!("{} ({}; not identified: as good as {})", e.name, e.channel, e.confusable_with.join(", "))
+                }
+            })
+            .collect()
+    }
+}
 
-/// Held-out folds: per fold, the mask of its test bins.
-fn folds(ch: &Channels) -> (Vec<Vec<bool>>, String) {
+/// Bins per time block of the single-trace held-out split (20 min at 60-s bins): short
+/// enough that every fold sees every temperature region on heating and cooling.
+const TIME_BLOCK_BINS: usize = 20;
+/// Folds of the single-trace split (blocks dealt round-robin).
+const TIME_FOLDS: usize = 2;
+/// Bins on each side of a held-out block that its training set leaves out. Tried: 3
+/// folds of 60-bin blocks with a 30-bin buffer (so noise slower than the blocks cannot
+/// leak from training into held-out bins); the training folds then miss whole
+/// temperature regions and the held-out gap of a clean log grew 5× (1.7 → 8.3 µg), so
+/// the buffer is off and slow noise is left to the block test.
+const BUFFER_BINS: usize = 0;
+
+/// Held-out folds: per fold, the mask of its test bins and the mask of its training bins.
+fn folds(ch: &Channels) -> (Vec<Vec<bool>>, Vec<Vec<bool>>, String) {
     let n = ch.n_bins();
-    let mut masks = vec![vec![false; n]; 2];
     let mut offs = Vec::new();
     let mut o = 0;
     for t in &ch.traces {
@@ -190,6 +296,7 @@ fn folds(ch: &Channels) -> (Vec<Vec<bool>>, String) {
         o += t.bins.len();
     }
     if ch.kind == LogKind::Cycling && ch.traces.len() >= 2 {
+        let mut masks = vec![vec![false; n]; 2];
         let mut order: Vec<usize> = (0..ch.traces.len()).collect();
         order.sort_by(|&a, &b| ch.traces[a].ramp_rate().total_cmp(&ch.traces[b].ramp_rate()).then(a.cmp(&b)));
         let mut desc = [Vec::new(), Vec::new()];
@@ -206,18 +313,29 @@ fn folds(ch: &Channels) -> (Vec<Vec<bool>>, String) {
             desc[0].join(", "),
             desc[1].join(", ")
         );
-        (masks, rule)
+        let trains = masks.iter().map(|m| m.iter().map(|&t| !t).collect()).collect();
+        (masks, trains, rule)
     } else {
+        let mut masks = vec![vec![false; n]; TIME_FOLDS];
+        let mut trains = vec![vec![false; n]; TIME_FOLDS];
         for (ti, t) in ch.traces.iter().enumerate() {
             let m = t.bins.len();
             for b in 0..m {
-                masks[(b / TIME_BLOCK_BINS) % 2][offs[ti] + b] = true;
+                masks[(b / TIME_BLOCK_BINS) % TIME_FOLDS][offs[ti] + b] = true;
+            }
+            for k in 0..TIME_FOLDS {
+                for b in 0..m {
+                    let lo = b.saturating_sub(BUFFER_BINS);
+                    let hi = (b + BUFFER_BINS + 1).min(m);
+                    trains[k][offs[ti] + b] = (lo..hi).all(|j| !masks[k][offs[ti] + j]);
+                }
             }
         }
         let rule = format!(
-            "split in time: blocks of {TIME_BLOCK_BINS} bins dealt alternately into 2 folds; each fold fitted on the other"
+            "split in time: blocks of {TIME_BLOCK_BINS} bins dealt round-robin into {TIME_FOLDS} folds; each fold \
+             fitted on the others less {BUFFER_BINS} bins either side of its blocks"
         );
-        (masks, rule)
+        (masks, trains, rule)
     }
 }
 
@@ -260,12 +378,11 @@ fn gaps(kind: LogKind, r: &Residuals) -> Gaps {
 }
 
 /// Held-out evaluation of a structure with per-fold nonlinear parameters.
-fn heldout(setup: &Setup, s: &Structure, nls: &[Nonlinear], masks: &[Vec<bool>]) -> Residuals {
+fn heldout(setup: &Setup, s: &Structure, nls: &[Nonlinear], masks: &[Vec<bool>], trains: &[Vec<bool>]) -> Residuals {
     let n = setup.ch.n_bins();
     let mut out = Residuals { sf: vec![f64::NAN; n], bias: vec![f64::NAN; n] };
     for (k, test) in masks.iter().enumerate() {
-        let train: Vec<bool> = test.iter().map(|&t| !t).collect();
-        let f = setup.fit(s, &nls[k], &train);
+        let f = setup.fit(s, &nls[k], &trains[k]);
         let r = setup.residuals(&f.pred);
         for (i, _) in test.iter().enumerate().filter(|(_, &t)| t) {
             out.sf[i] = r.sf[i];
@@ -274,6 +391,15 @@ fn heldout(setup: &Setup, s: &Structure, nls: &[Nonlinear], masks: &[Vec<bool>])
     }
     out
 }
+
+/// Search limits of the sensor-lag τ, s.
+const LAG_LIMITS: (f64, f64) = (30.0, 3840.0);
+/// Search limits of the play half-width, °C.
+const PLAY_LIMITS: (f64, f64) = (0.15, 20.0);
+/// Search limits of the creep τ_ref, s.
+const CREEP_TAU_LIMITS: (f64, f64) = (1.0, 1e6);
+/// Upper search limit of the creep activation, K.
+const CREEP_E_MAX: f64 = 20_000.0;
 
 /// Search the nonlinear parameters `e` adds, on the `train` bins.
 fn search(setup: &Setup, s: &Structure, nl: &Nonlinear, e: Effect, train: &[bool]) -> Nonlinear {
@@ -286,7 +412,7 @@ fn search(setup: &Setup, s: &Structure, nl: &Nonlinear, e: Effect, train: &[bool
         let b = (0..pts.len()).min_by(|&i, &j| vals[i].total_cmp(&vals[j])).unwrap_or(0);
         let lo = pts[b.saturating_sub(1)].ln();
         let hi = pts[(b + 1).min(pts.len() - 1)].ln();
-        let (x, fx) = golden(|x| obj(&set(x.exp())), lo, hi, 9);
+        let (x, fx) = golden(|x| obj(&set(x.exp())), lo, hi, 20);
         if fx < vals[b] {
             set(x.exp())
         } else {
@@ -304,7 +430,7 @@ fn search(setup: &Setup, s: &Structure, nl: &Nonlinear, e: Effect, train: &[bool
         }),
         Effect::BiasCreep => {
             let set = |x: [f64; 2]| Nonlinear {
-                creep: Some((x[0].exp().clamp(1.0, 1e6) as f32, (x[1] * 1000.0).clamp(0.0, 20_000.0) as f32)),
+                creep: Some((x[0].exp().clamp(CREEP_TAU_LIMITS.0, CREEP_TAU_LIMITS.1) as f32, (x[1] * 1000.0).clamp(0.0, CREEP_E_MAX) as f32)),
                 ..*nl
             };
             let mut best = ([0.0, 0.0], f64::INFINITY);
@@ -317,15 +443,16 @@ fn search(setup: &Setup, s: &Structure, nl: &Nonlinear, e: Effect, train: &[bool
                     }
                 }
             }
-            let (x, v) = nelder_mead2(|x| obj(&set(x)), best.0, [0.5, 1.0], 24);
+            let (x, v) = nelder_mead2(|x| obj(&set(x)), best.0, [0.5, 1.0], 40);
             set(if v < best.1 { x } else { best.0 })
         }
         _ => *nl,
     }
 }
 
-fn effect_params(e: Effect, m: &AxisModel) -> std::collections::BTreeMap<String, f64> {
+fn effect_params(e: Effect, f: &Fitted) -> std::collections::BTreeMap<String, f64> {
     let mut p = std::collections::BTreeMap::new();
+    let m = &f.model;
     let s = &m.scale;
     match e {
         Effect::TempQuadSf => {
@@ -366,6 +493,11 @@ fn effect_params(e: Effect, m: &AxisModel) -> std::collections::BTreeMap<String,
                 p.insert("tau_ref_s".into(), f64::from(c.tau_ref_s));
                 p.insert("t_ref_c".into(), f64::from(c.t_ref_c));
                 p.insert("activation_k".into(), f64::from(c.activation_k));
+            }
+        }
+        Effect::BiasDrift => {
+            if let Some(d) = f.drift_per_h {
+                p.insert("drift_g_per_h".into(), d);
             }
         }
     }
@@ -458,84 +590,567 @@ pub fn discover(input: &Channels, start: Start, out_dir: &Path) -> Result<Report
     Ok(report)
 }
 
+/// Family-wise level of one selection round: the candidates of a round share it
+/// (Bonferroni), so the chance that a log with nothing missing gets any addition in the
+/// first round is at most this, if the block test holds its level.
+pub const ALPHA: f64 = 0.05;
+
+/// Search limits of the nonlinear parameters (the grids in [`search`]); an estimate
+/// within 2 % of one is "at bound". The creep activation's lower limit 0 is physical (no
+/// thermal activation), not a search limit, so it is not flagged.
+fn at_bound(e: Effect, nl: &Nonlinear) -> Vec<String> {
+    let near = |x: f64, b: f64| (x / b).ln().abs() < 0.02;
+    let mut v = Vec::new();
+    match e {
+        Effect::SensorLag => {
+            if let Some(t) = nl.lag_tau_s.map(f64::from) {
+                if near(t, LAG_LIMITS.0) || near(t, LAG_LIMITS.1) {
+                    v.push(format!("tau_s={t:.0}"));
+                }
+            }
+        }
+        Effect::BiasBranchHysteresis => {
+            if let Some(r) = nl.play_r_c.map(f64::from) {
+                if near(r, PLAY_LIMITS.0) || near(r, PLAY_LIMITS.1) {
+                    v.push(format!("half_width_c={r:.2}"));
+                }
+            }
+        }
+        Effect::BiasCreep => {
+            if let Some((t, ek)) = nl.creep {
+                let (t, ek) = (f64::from(t), f64::from(ek));
+                if near(t, CREEP_TAU_LIMITS.0) || near(t, CREEP_TAU_LIMITS.1) {
+                    v.push(format!("tau_ref_s={t:.0}"));
+                }
+                if ek >= 0.98 * CREEP_E_MAX {
+                    v.push(format!("activation_k={ek:.0}"));
+                }
+            }
+        }
+        _ => {}
+    }
+    v
+}
+
+/// Per-bin held-out gain of `r` over `cur`, each channel in units of its held-out
+/// variance before the candidate.
+fn per_bin_gain(cur: &Residuals, r: &Residuals) -> Vec<f64> {
+    let (v_sf, v_b) = (rms(&cur.sf).powi(2).max(1e-300), rms(&cur.bias).powi(2).max(1e-300));
+    (0..cur.bias.len())
+        .map(|i| {
+            let mut d = 0.0;
+            if cur.sf[i].is_finite() && r.sf[i].is_finite() {
+                d += (cur.sf[i].powi(2) - r.sf[i].powi(2)) / v_sf;
+            }
+            if cur.bias[i].is_finite() && r.bias[i].is_finite() {
+                d += (cur.bias[i].powi(2) - r.bias[i].powi(2)) / v_b;
+            }
+            d
+        })
+        .collect()
+}
+
+/// The selection rule, in words (report.json and report.md).
+fn selection_rule_text() -> String {
+    format!(
+        "paired block test of the held-out gain: per bin, the drop of (residual/RMS)² summed over the \
+         channels; bins grouped into blocks of four times the residual's 1/e autocorrelation lag (≥ 10 bins, \
+         ≥ 8 blocks); significant when gain > t(1 − {ALPHA}/m, blocks − 1) × SE of the block sums \
+         (m = {} catalog effects, every round); a candidate with a parameter at a search limit is not added; \
+         the best is the largest gain; by the one-standard-error rule the candidate with fewest \
+         parameters whose gain is within one SE of the best's is added (the others are listed as \
+         confusable); at the end each added effect must still be significant given the others \
+         (backward step), else it is removed",
+        Effect::ALL.len()
+    )
+}
+
+/// Per-bin drivers the leftover residual is tested against.
+fn drivers(ch: &Channels) -> Vec<(&'static str, Vec<f64>)> {
+    let n = ch.n_bins();
+    let (mut since, mut temp, mut rate, mut rev, mut branch) =
+        (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
+    for t in &ch.traces {
+        let t0 = t.time_s.first().copied().unwrap_or(0.0);
+        let (mut last_rev, mut dir, mut row) = (t0, 0i8, 0);
+        for b in &t.bins {
+            while row < b.hi {
+                let r = t.est_rate[row];
+                let d = if r > 0.05 {
+                    1
+                } else if r < -0.05 {
+                    -1
+                } else {
+                    0
+                };
+                if d != 0 && d != dir {
+                    if dir != 0 {
+                        last_rev = t.time_s[row];
+                    }
+                    dir = d;
+                }
+                row += 1;
+            }
+            let m = (b.hi - b.lo) as f64;
+            since.push((b.time_s - t0) / 3600.0);
+            temp.push(t.est_t[b.lo..b.hi].iter().map(|&x| f64::from(x)).sum::<f64>() / m);
+            rate.push(t.est_rate[b.lo..b.hi].iter().map(|&x| f64::from(x)).sum::<f64>() / m);
+            rev.push((b.time_s - last_rev) / 3600.0);
+            branch.push(f64::from(dir));
+        }
+    }
+    vec![
+        ("time_since_start", since),
+        ("temperature", temp),
+        ("temperature_rate", rate),
+        ("time_since_reversal", rev),
+        ("branch", branch),
+    ]
+}
+
+/// Cross-fitted quadratic in `x` of the residual `r`: each fold's bins predicted from a
+/// fit on the other fold. NaN where `r` is NaN.
+fn cross_fit(r: &[f64], x: &[f64], masks: &[Vec<bool>], trains: &[Vec<bool>]) -> Vec<f64> {
+    let fin: Vec<usize> = (0..r.len()).filter(|&i| r[i].is_finite() && x[i].is_finite()).collect();
+    let mean = fin.iter().map(|&i| x[i]).sum::<f64>() / fin.len().max(1) as f64;
+    let sd = (fin.iter().map(|&i| (x[i] - mean).powi(2)).sum::<f64>() / fin.len().max(1) as f64).sqrt().max(1e-12);
+    let z = |i: usize| (x[i] - mean) / sd;
+    let mut out = vec![f64::NAN; r.len()];
+    for (test, train) in masks.iter().zip(trains) {
+        let rows: Vec<usize> = fin.iter().copied().filter(|&i| train[i]).collect();
+        if rows.len() < 4 {
+            continue;
+        }
+        let a = nalgebra::DMatrix::from_fn(rows.len(), 3, |k, j| z(rows[k]).powi(j as i32));
+        let y = nalgebra::DVector::from_fn(rows.len(), |k, _| r[rows[k]]);
+        let Ok(c) = a.svd(true, true).solve(&y, 1e-12) else { continue };
+        for &i in fin.iter().filter(|&&i| test[i]) {
+            out[i] = c[0] + c[1] * z(i) + c[2] * z(i).powi(2);
+        }
+    }
+    out
+}
+
+/// Leftover structure per channel: the drivers the final held-out residual follows
+/// (cross-fitted, same block test at level ALPHA shared over drivers and channels), plus
+/// the candidates that would fit only at a search limit.
+fn find_unexplained(ch: &Channels, cur: &Residuals, masks: &[Vec<bool>], trains: &[Vec<bool>], pinned: &[(Effect, Vec<String>)]) -> Vec<Unexplained> {
+    let cyc = ch.kind == LogKind::Cycling;
+    let drv = drivers(ch);
+    let chans: Vec<(&str, &Vec<f64>, bool)> = if cyc {
+        vec![("scale_factor", &cur.sf, true), ("bias", &cur.bias, false)]
+    } else {
+        vec![("value", &cur.bias, false)]
+    };
+    let len = stats::block_len(ch, &[&cur.sf, &cur.bias]);
+    let blocks = stats::blocks(ch, len);
+    let alpha = ALPHA / (drv.len() * chans.len()) as f64;
+    let after = localize(ch, cur, 1);
+    let mut out = Vec::new();
+    for (name, r, is_sf) in chans {
+        let var = rms(r).powi(2).max(1e-300);
+        let mut hits: Vec<(f64, &str, f64)> = Vec::new();
+        for (dn, x) in &drv {
+            let f = cross_fit(r, x, masks, trains);
+            let d: Vec<f64> =
+                r.iter().zip(&f).map(|(&a, &b)| if b.is_finite() { (a * a - (a - b).powi(2)) / var } else { 0.0 }).collect();
+            let g = stats::gain_stat(&blocks, &d, alpha);
+            if g.gain > 0.0 && g.t > g.critical {
+                hits.push((g.t, dn, rms(&f)));
+            }
+        }
+        hits.sort_by(|a, b| b.0.total_cmp(&a.0));
+        let pins: Vec<String> = pinned
+            .iter()
+            .filter(|(e, _)| if is_sf { e.touches_sf() } else { e.touches_bias() })
+            .map(|(e, p)| format!("{} ({} at a search limit)", e.name(), p.join(", ")))
+            .collect();
+        if hits.is_empty() && pins.is_empty() {
+            continue;
+        }
+        out.push(Unexplained {
+            channel: name.into(),
+            where_: after.iter().find(|w| w.channel == name).map_or_else(String::new, |w| w.segment.clone()),
+            rms: rms(r),
+            structure_rms: hits.first().map(|h| h.2),
+            correlates_with: hits.iter().map(|h| h.1.to_string()).collect(),
+            pinned: pins,
+        });
+    }
+    out
+}
+
+/// Transformed coordinate of each nonlinear parameter of `e` for the profile: getter,
+/// setter, limits (ln τ, ln r; E in kK).
+type Coord = (&'static str, f64, f64, f64, Box<dyn Fn(&Nonlinear, f64) -> Nonlinear>, Box<dyn Fn(f64) -> f64>);
+
+fn coords(e: Effect, nl: &Nonlinear) -> Vec<Coord> {
+    match (e, nl.lag_tau_s, nl.play_r_c, nl.creep) {
+        (Effect::SensorLag, Some(t), _, _) => vec![(
+            "tau_s",
+            f64::from(t).ln(),
+            LAG_LIMITS.0.ln(),
+            LAG_LIMITS.1.ln(),
+            Box::new(|n: &Nonlinear, x: f64| Nonlinear { lag_tau_s: Some(x.exp() as f32), ..*n }),
+            Box::new(f64::exp),
+        )],
+        (Effect::BiasBranchHysteresis, _, Some(r), _) => vec![(
+            "half_width_c",
+            f64::from(r).ln(),
+            PLAY_LIMITS.0.ln(),
+            PLAY_LIMITS.1.ln(),
+            Box::new(|n: &Nonlinear, x: f64| Nonlinear { play_r_c: Some(x.exp() as f32), ..*n }),
+            Box::new(f64::exp),
+        )],
+        (Effect::BiasCreep, _, _, Some((t, ek))) => vec![
+            (
+                "tau_ref_s",
+                f64::from(t).ln(),
+                CREEP_TAU_LIMITS.0.ln(),
+                CREEP_TAU_LIMITS.1.ln(),
+                Box::new(|n: &Nonlinear, x: f64| Nonlinear { creep: n.creep.map(|c| (x.exp() as f32, c.1)), ..*n }),
+                Box::new(f64::exp),
+            ),
+            (
+                "activation_k",
+                f64::from(ek) / 1000.0,
+                0.0,
+                CREEP_E_MAX / 1000.0,
+                Box::new(|n: &Nonlinear, x: f64| Nonlinear { creep: n.creep.map(|c| (c.0, (x * 1000.0) as f32)), ..*n }),
+                Box::new(|x| x * 1000.0),
+            ),
+        ],
+        _ => Vec::new(),
+    }
+}
+
+/// 95 % profile interval of one coordinate: where the all-data Σ(residual/RMS)² rises by
+/// 3.84·κ (κ = N/N_eff of the residual); the effect's other nonlinear coordinate (creep:
+/// τ_ref and E) is re-optimised at every point (golden section), the linear coefficients
+/// refitted. Stops at the search limits. Also returns the effect's parameters at the two
+/// ends, which widen the linear coefficients' intervals.
+fn profile(
+    setup: &Setup,
+    s: &Structure,
+    nl: &Nonlinear,
+    c: &Coord,
+    other: Option<&Coord>,
+    e: Effect,
+    thresh: f64,
+) -> ([f64; 2], Vec<std::collections::BTreeMap<String, f64>>) {
+    let all = vec![true; setup.ch.n_bins()];
+    let score = |n: &Nonlinear| setup.score(&setup.residuals(&setup.fit(s, n, &all).pred), &all);
+    let best_at = |x: f64| -> (f64, Nonlinear) {
+        let n1 = (c.4)(nl, x);
+        match other {
+            None => (score(&n1), n1),
+            Some(o) => {
+                let (lo, hi) = ((o.1 - 1.5).max(o.2), (o.1 + 1.5).min(o.3));
+                let (y, f) = golden(|y| score(&(o.4)(&n1, y)), lo, hi, 10);
+                let f0 = score(&(o.4)(&n1, o.1));
+                if f0 <= f {
+                    (f0, (o.4)(&n1, o.1))
+                } else {
+                    (f, (o.4)(&n1, y))
+                }
+            }
+        }
+    };
+    let obj = |x: f64| best_at(x).0;
+    let s0 = score(nl);
+    let mut ends = [c.1; 2];
+    for (k, dir) in [-1.0f64, 1.0].into_iter().enumerate() {
+        let limit = if dir < 0.0 { c.2 } else { c.3 };
+        let (mut inside, mut step, mut outside) = (c.1, 0.05, None);
+        for _ in 0..10 {
+            let x = c.1 + dir * step;
+            if (x - limit) * dir >= 0.0 {
+                if obj(limit) - s0 <= thresh {
+                    inside = limit;
+                } else {
+                    outside = Some(limit);
+                }
+                break;
+            }
+            if obj(x) - s0 > thresh {
+                outside = Some(x);
+                break;
+            }
+            inside = x;
+            step *= 2.0;
+        }
+        if let Some(mut out) = outside {
+            for _ in 0..6 {
+                let m = 0.5 * (inside + out);
+                if obj(m) - s0 > thresh {
+                    out = m;
+                } else {
+                    inside = m;
+                }
+            }
+        }
+        ends[k] = inside;
+    }
+    let at_ends = ends.iter().map(|&x| effect_params(e, &setup.fit(s, &best_at(x).1, &all))).collect();
+    ([(c.5)(ends[0]), (c.5)(ends[1])], at_ends)
+}
+
+/// Linear parameters' spread by a moving-block bootstrap of the all-data residual
+/// (nonlinear parameters fixed): per effect and parameter, the bootstrap SD.
+fn bootstrap_linear(setup: &Setup, s: &Structure, nl: &Nonlinear, fit: &Fitted, eff: &[Effect], len: usize) -> Vec<std::collections::BTreeMap<String, f64>> {
+    const B: usize = 40;
+    let bins: Vec<_> = setup.ch.traces.iter().flat_map(|t| t.bins.iter()).collect();
+    let res: Vec<(f64, f64)> = bins.iter().zip(&fit.pred).map(|(b, p)| (b.sf - p.0, b.bias - p.1)).collect();
+    let all = vec![true; bins.len()];
+    let mut rng = stats_rng();
+    let mut samples: Vec<Vec<std::collections::BTreeMap<String, f64>>> = vec![Vec::new(); eff.len()];
+    for _ in 0..B {
+        let mut y = Vec::with_capacity(bins.len());
+        let mut o = 0;
+        for t in &setup.ch.traces {
+            let m = t.bins.len();
+            let mut i = 0;
+            while i < m {
+                let start = if m > len { (rng.uniform() * (m - len + 1) as f64) as usize } else { 0 };
+                for k in 0..len.min(m - i) {
+                    let j = o + (start + k).min(m - 1);
+                    let (p, r) = (fit.pred[o + i + k], res[j]);
+                    y.push((p.0 + if r.0.is_finite() { r.0 } else { 0.0 }, p.1 + r.1));
+                }
+                i += len;
+            }
+            o += m;
+        }
+        let f = setup.fit_y(s, nl, &all, Some(&y));
+        for (k, &e) in eff.iter().enumerate() {
+            samples[k].push(effect_params(e, &f));
+        }
+    }
+    samples
+        .into_iter()
+        .map(|v| {
+            let mut sd = std::collections::BTreeMap::new();
+            if let Some(first) = v.first() {
+                for key in first.keys() {
+                    let xs: Vec<f64> = v.iter().filter_map(|m| m.get(key).copied()).collect();
+                    let mean = xs.iter().sum::<f64>() / xs.len() as f64;
+                    let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (xs.len() - 1).max(1) as f64;
+                    sd.insert(key.clone(), var.sqrt());
+                }
+            }
+            sd
+        })
+        .collect()
+}
+
+fn stats_rng() -> synth::Rng {
+    synth::Rng::new(0x5EED_B007)
+}
+
 /// The workflow without writing anything.
 #[must_use]
 pub fn analyze(ch: &Channels, start: Start) -> Report {
     let mut setup = Setup::new(ch);
-    let (masks, rule) = folds(ch);
+    let (masks, trains, rule) = folds(ch);
     let nf = masks.len();
-    let trains: Vec<Vec<bool>> = masks.iter().map(|m| m.iter().map(|&t| !t).collect()).collect();
     let all = vec![true; ch.n_bins()];
     let cyc = ch.kind == LogKind::Cycling;
 
     let mut s = Structure::start(start);
     let mut nls = vec![Nonlinear::default(); nf];
     let mut nl_all = Nonlinear::default();
-    let mut cur = heldout(&setup, &s, &nls, &masks);
+    let mut cur = heldout(&setup, &s, &nls, &masks, &trains);
     let before = cur.clone();
-    let n_bins = ch.n_bins() as f64;
-    let mut effects = Vec::new();
+    let mut effects: Vec<(Effect, f64, f64, GainStat, Vec<String>)> = Vec::new();
     let mut rounds = Vec::new();
+    let mut pinned: Vec<(Effect, Vec<String>)>;
     loop {
+        // Weights of the parameter search: each channel's bin-to-bin noise floor (close to
+        // inverse-variance weights). Weighting by the held-out RMS instead lets the channel
+        // with the larger gap starve the other: a lag's τ then comes out ~0.6 % off from
+        // the bias channel alone, and a small ε·Ṫ is "discovered" to mop up the rest.
         setup.sigma_sf = if cyc { noise_floor(ch, &cur.sf) } else { 1.0 };
         setup.sigma_b = noise_floor(ch, &cur.bias);
-        let cur_score = setup.score(&cur, &all);
+        let cands: Vec<Effect> = Effect::ALL.into_iter().filter(|&e| s.can_add(e, &nl_all, ch.kind)).collect();
+        // Bonferroni over the whole catalog, the same in every round: the family is every
+        // effect the workflow could ever add. (Per round, over the candidates left, made
+        // later rounds laxer and let a lag log pick up a 0.06 µg/h drift at t = 2.31.)
+        let alpha = ALPHA / Effect::ALL.len() as f64;
         let mut trials = Vec::new();
-        let mut best: Option<(f64, Effect, Vec<Nonlinear>, Residuals, f64)> = None;
-        for e in Effect::ALL {
-            if !s.can_add(e, &nl_all, ch.kind) {
-                continue;
-            }
+        let mut sig: Vec<(f64, Effect, Vec<Nonlinear>, Residuals, GainStat)> = Vec::new();
+        pinned = Vec::new();
+        for e in cands {
             let s2 = s.with(e);
             let nls2: Vec<Nonlinear> = (0..nf).map(|k| search(&setup, &s2, &nls[k], e, &trains[k])).collect();
-            let r = heldout(&setup, &s2, &nls2, &masks);
-            let gain = cur_score - setup.score(&r, &all);
-            let n_aff = n_bins * f64::from(u8::from(cyc && e.touches_sf()) + u8::from(e.touches_bias()));
-            let penalty = e.n_params() as f64 * n_bins.ln();
-            // Practical significance too: the affected channel's held-out RMS must drop by
-            // ≥ 2 % (low-frequency noise such as bias instability is not in the floor).
-            let drop = |a: &[f64], b: &[f64]| 1.0 - rms(b) / rms(a).max(1e-300);
-            let rel = f64::max(
-                if cyc && e.touches_sf() { drop(&cur.sf, &r.sf) } else { 0.0 },
-                if e.touches_bias() { drop(&cur.bias, &r.bias) } else { 0.0 },
-            );
-            let significant = gain > penalty && gain > 0.05 * n_aff && rel >= 0.02;
+            let r = heldout(&setup, &s2, &nls2, &masks, &trains);
+            // Blocks from the residual with the candidate in (the larger model's residual
+            // estimates the noise, as in an F-test): the current residual still holds the
+            // structure under test, whose long correlation would leave too few blocks.
+            let blocks = stats::blocks(ch, stats::block_len(ch, &[&r.sf, &r.bias]));
+            let g = stats::gain_stat(&blocks, &per_bin_gain(&cur, &r), alpha);
+            let significant = g.gain > 0.0 && g.t > g.critical;
+            let mut bound: Vec<String> = nls2.iter().flat_map(|n| at_bound(e, n)).collect();
+            bound.dedup();
             trials.push(CandidateTrial {
                 name: e.name().into(),
-                channel: if e == Effect::TempQuadBias && !cyc { "bias".into() } else { e.channel().into() },
-                gain,
-                penalty,
+                channel: if cyc { e.channel().into() } else { "value".into() },
+                gain: g.clone(),
                 significant,
+                at_bound: bound.clone(),
                 gaps: gaps(ch.kind, &r),
             });
-            if significant && best.as_ref().is_none_or(|b| gain - penalty > b.0) {
-                best = Some((gain - penalty, e, nls2, r, gain));
+            if significant && !bound.is_empty() {
+                pinned.push((e, bound));
+                continue;
+            }
+            if significant {
+                sig.push((g.gain - g.critical * g.se, e, nls2, r, g));
             }
         }
         rounds.push(trials);
-        let Some((_, e, nls2, r, _)) = best else { break };
+        // Best by gain; then the one-standard-error rule: every significant candidate whose
+        // gain is within one SE of the best's is confusable with it, and the one with
+        // fewest parameters among them is added. (A paired version, 2 SE of the per-block
+        // difference, was tried: the residuals of a lag, a creep and a play on one channel
+        // are so alike that 2 % gain differences came out "significant", and the choice
+        // then depended on which pair was compared.)
+        sig.sort_by(|a, b| b.4.gain.total_cmp(&a.4.gain));
+        if sig.is_empty() {
+            break;
+        }
+        let mut pick = 0;
+        let mut confusable = Vec::new();
+        for j in 1..sig.len() {
+            // Effects on disjoint channels explain different data: never confusable
+            // (`temp_quadratic` on the scale factor and on the bias both get added).
+            let (a, b) = (sig[0].1, sig[j].1);
+            let overlap = (cyc && a.touches_sf() && b.touches_sf()) || (a.touches_bias() && b.touches_bias());
+            if overlap && sig[0].4.gain - sig[j].4.gain < sig[0].4.se {
+                confusable.push(j);
+                let (pj, pp) = (sig[j].1.n_params(), sig[pick].1.n_params());
+                if pj < pp || (pj == pp && sig[j].4.gain > sig[pick].4.gain) {
+                    pick = j;
+                }
+            }
+        }
+        let conf_names: Vec<String> =
+            std::iter::once(0).chain(confusable).filter(|&j| j != pick).map(|j| sig[j].1.name().to_string()).collect();
+        let (_, e, nls2, r, g) = sig.swap_remove(pick);
         // Gap of the channel the effect acts on (for `both`: the one it improved more).
-        let (sf_gain, b_gain) = (
-            (rms(&cur.sf) / setup.sigma_sf).powi(2) - (rms(&r.sf) / setup.sigma_sf).powi(2),
-            (rms(&cur.bias) / setup.sigma_b).powi(2) - (rms(&r.bias) / setup.sigma_b).powi(2),
-        );
-        let use_sf = cyc && (e.channel() == "scale_factor" || (e.channel() == "both" && sf_gain >= b_gain));
+        let rel = |a: &[f64], b: &[f64]| 1.0 - (rms(b) / rms(a).max(1e-300)).powi(2);
+        let use_sf = cyc
+            && (e.channel() == "scale_factor" || (e.channel() == "both" && rel(&cur.sf, &r.sf) >= rel(&cur.bias, &r.bias)));
         let (gb, ga) = if use_sf { (rms(&cur.sf), rms(&r.sf)) } else { (rms(&cur.bias), rms(&r.bias)) };
         s = s.with(e);
         nls = nls2;
         nl_all = search(&setup, &s, &nl_all, e, &all);
-        effects.push((e, gb, ga));
+        effects.push((e, gb, ga, g, conf_names));
         cur = r;
     }
+    // Backward step: drop an added effect the others make redundant (its removal costs no
+    // significant held-out gain). Later additions first; nonlinear parameters of the rest
+    // stay as fitted.
+    let mut k = effects.len();
+    while k > 0 && effects.len() > 1 {
+        k -= 1;
+        let e = effects[k].0;
+        let s_minus = s.without(e);
+        let nls_minus: Vec<Nonlinear> = nls.iter().map(|n| n.without(e)).collect();
+        let r_minus = heldout(&setup, &s_minus, &nls_minus, &masks, &trains);
+        let blocks = stats::blocks(ch, stats::block_len(ch, &[&cur.sf, &cur.bias]));
+        let g = stats::gain_stat(&blocks, &per_bin_gain(&r_minus, &cur), ALPHA / Effect::ALL.len() as f64);
+        if !(g.gain > 0.0 && g.t > g.critical) {
+            effects.remove(k);
+            s = s_minus;
+            nls = nls_minus;
+            nl_all = nl_all.without(e);
+            cur = r_minus;
+        }
+    }
+    // Re-optimise the nonlinear parameters jointly (cyclic coordinate search on all data)
+    // when more than one nonlinear effect was added.
+    let nonlin: Vec<Effect> = effects
+        .iter()
+        .map(|x| x.0)
+        .filter(|e| matches!(e, Effect::SensorLag | Effect::BiasBranchHysteresis | Effect::BiasCreep))
+        .collect();
+    if nonlin.len() > 1 {
+        for _ in 0..2 {
+            for &e in &nonlin {
+                nl_all = search(&setup, &s, &nl_all, e, &all);
+            }
+        }
+    }
     let final_fit: Fitted = setup.fit(&s, &nl_all, &all);
+    // Parameter intervals: profile for nonlinear, block bootstrap for linear coefficients.
+    let res_all = setup.residuals(&final_fit.pred);
+    setup.sigma_sf = if cyc { rms(&res_all.sf).max(1e-12) } else { 1.0 };
+    setup.sigma_b = rms(&res_all.bias).max(1e-12);
+    let kappa = stats::inflation(ch, &res_all.sf).max(stats::inflation(ch, &res_all.bias));
+    let len_all = stats::block_len(ch, &[&res_all.sf, &res_all.bias]);
+    let eff_list: Vec<Effect> = effects.iter().map(|x| x.0).collect();
+    let lin_sd = if eff_list.is_empty() {
+        Vec::new()
+    } else {
+        bootstrap_linear(&setup, &s, &nl_all, &final_fit, &eff_list, len_all)
+    };
     let effects = effects
         .into_iter()
-        .map(|(e, gb, ga)| EffectReport {
-            name: e.name().into(),
-            channel: e.channel().into(),
-            params: effect_params(e, &final_fit.model),
-            heldout_gap_before: gb,
-            heldout_gap_after: ga,
+        .enumerate()
+        .map(|(k, (e, gb, ga, g, confusable_with))| {
+            let params = effect_params(e, &final_fit);
+            let mut params_ci = std::collections::BTreeMap::new();
+            let bound = at_bound(e, &nl_all);
+            let cs = coords(e, &nl_all);
+            let mut ends: Vec<std::collections::BTreeMap<String, f64>> = Vec::new();
+            for (i, c) in cs.iter().enumerate() {
+                let other = cs.iter().enumerate().find(|(j, _)| *j != i).map(|(_, o)| o);
+                let (ci, at_ends) = profile(&setup, &s, &nl_all, c, other, e, 3.84 * kappa);
+                ends.extend(at_ends);
+                let v = (c.5)(c.1);
+                params_ci.insert(
+                    c.0.to_string(),
+                    ParamCi {
+                        value: v,
+                        ci95: ci,
+                        at_bound: bound.iter().any(|b| b.starts_with(c.0)),
+                        method: format!(
+                            "profile, threshold 3.84·N/N_eff (N/N_eff = {kappa:.1}){}",
+                            if other.is_some() { ", the other nonlinear parameter re-optimised" } else { "" }
+                        ),
+                    },
+                );
+            }
+            for (key, &v) in &params {
+                if params_ci.contains_key(key) {
+                    continue;
+                }
+                let (ci, method) = if key == "t_ref_c" {
+                    ([v, v], "fixed reference, not fitted".to_string())
+                } else {
+                    let sd = lin_sd.get(k).and_then(|m| m.get(key)).copied().unwrap_or(f64::NAN);
+                    let mut ci = [v - 1.96 * sd, v + 1.96 * sd];
+                    for m in &ends {
+                        if let Some(&x) = m.get(key) {
+                            ci = [ci[0].min(x), ci[1].max(x)];
+                        }
+                    }
+                    let widened = if ends.is_empty() { "" } else { ", widened to its values at the nonlinear parameters' profile ends" };
+                    (ci, format!("moving-block bootstrap (40 × {len_all}-bin blocks) with nonlinear parameters fixed{widened}"))
+                };
+                params_ci.insert(key.clone(), ParamCi { value: v, ci95: ci, at_bound: false, method });
+            }
+            EffectReport {
+                name: e.name().into(),
+                channel: if cyc { e.channel().into() } else { "value".into() },
+                params,
+                params_ci,
+                gain: g,
+                in_table: e.in_firmware(),
+                confusable_with,
+                heldout_gap_before: gb,
+                heldout_gap_after: ga,
+            }
         })
         .collect();
     let floor = match ch.kind {
@@ -544,13 +1159,16 @@ pub fn analyze(ch: &Channels, start: Start) -> Report {
         }
         LogKind::Single => Gaps::Single { value_rms: noise_floor(ch, &cur.bias) },
     };
+    let unexplained = find_unexplained(ch, &cur, &masks, &trains, &pinned);
     Report {
         start,
         effects,
         heldout_gap_before: gaps(ch.kind, &before),
         heldout_gap_after: gaps(ch.kind, &cur),
         where_: localize(ch, &before, 5),
+        unexplained,
         noise_floor: floor,
+        selection_rule: selection_rule_text(),
         rounds,
         where_after: localize(ch, &cur, 5),
         model: Some(final_fit.model),
@@ -581,7 +1199,7 @@ pub fn demo_hook(log: &Path, out: &Path) -> Option<String> {
     };
     match run() {
         Ok(r) => {
-            let names: Vec<&str> = r.effects.iter().map(|e| e.name.as_str()).collect();
+            let names = r.effect_labels();
             let gap = |g: &Gaps| match g {
                 Gaps::Cycling { scale_factor_ppm, bias_ug } => format!("{scale_factor_ppm:.1} ppm / {bias_ug:.1} µg"),
                 Gaps::Single { value_rms } => format!("{value_rms:.3}"),

@@ -1,5 +1,7 @@
-//! Outputs: `report.json`, `report.md`, `model.toml`, `model.bin` (root-crate `Table`,
-//! 1 axis, rate window 32, new slots on), `residuals.csv` and residual plots (PNG).
+//! Outputs: `report.json`, `report.md`, `table.bin` (root-crate `Table`, 1 axis, rate
+//! window 32, new slots on: what `qfa-lab compensate --table DIR/table.bin` loads, so
+//! "discover, then compensate" is the workflow), the same bytes as `model.bin` (older
+//! name), `model.toml`, `residuals.csv` and residual plots (PNG).
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -40,9 +42,12 @@ pub fn write(ch: &Channels, report: &Report, dir: &Path) -> Result<()> {
         std::fs::write(dir.join("model.toml"), toml::to_string(&t)?)?;
         let mut buf = [0u8; MAX_TABLE_BYTES];
         match t.encode(&mut buf) {
-            Ok(b) => std::fs::write(dir.join("model.bin"), b)?,
+            Ok(b) => {
+                std::fs::write(dir.join("table.bin"), b)?;
+                std::fs::write(dir.join("model.bin"), b)?;
+            }
             Err(e) => {
-                let _ = writeln!(notes, "\nThe table did not validate ({e:?}); no `model.bin` was written.");
+                let _ = writeln!(notes, "\nThe table did not validate ({e:?}); no `table.bin` was written.");
             }
         }
     }
@@ -61,22 +66,69 @@ fn markdown(ch: &Channels, r: &Report) -> String {
     let _ = writeln!(s, "- Held-out gap before: {}", gaps_text(&r.heldout_gap_before));
     let _ = writeln!(s, "- Held-out gap after: {}", gaps_text(&r.heldout_gap_after));
     let _ = writeln!(s, "- Noise floor (bin-to-bin part of the final held-out residual): {}\n", gaps_text(&r.noise_floor));
+    let labels = r.effect_labels();
+    let _ = writeln!(
+        s,
+        "Summary: added {}; {}.\n",
+        if labels.is_empty() { "none".to_string() } else { labels.join(", ") },
+        if r.unexplained.is_empty() {
+            "no structure left that the catalog fails to explain".to_string()
+        } else {
+            format!("unexplained structure left on {}", r.unexplained.iter().map(|u| u.channel.as_str()).collect::<Vec<_>>().join(", "))
+        }
+    );
+    let _ = writeln!(s, "Selection: {}.\n", r.selection_rule);
     if r.effects.is_empty() {
         let _ = writeln!(s, "## Effects added: none\n\nNo candidate improved the held-out fit significantly.\n");
     } else {
-        let _ = writeln!(s, "## Effects added\n\n| # | effect | channel | parameters | held-out gap before → after |\n|---|---|---|---|---|");
+        let _ = writeln!(s, "## Effects added\n\n| # | effect | channel | parameters (95 % interval) | held-out gain ± block-bootstrap SE | held-out gap before → after | in table.bin |\n|---|---|---|---|---|---|---|");
         for (i, e) in r.effects.iter().enumerate() {
-            let p: Vec<String> = e.params.iter().map(|(k, v)| format!("{k} = {v:.4e}")).collect();
+            let p: Vec<String> = e
+                .params_ci
+                .iter()
+                .map(|(k, c)| {
+                    format!(
+                        "{k} = {:.4e} [{:.3e}, {:.3e}]{}",
+                        c.value,
+                        c.ci95[0],
+                        c.ci95[1],
+                        if c.at_bound { " **at search limit**" } else { "" }
+                    )
+                })
+                .collect();
             let _ = writeln!(
                 s,
-                "| {} | `{}` | {} | {} | {:.3} → {:.3} |",
+                "| {} | `{}` | {} | {} | {:.1} ± {:.1} | {:.3} → {:.3} | {} |",
                 i + 1,
                 e.name,
                 e.channel,
-                p.join(", "),
+                p.join("; "),
+                e.gain.gain,
+                e.gain.bootstrap_se,
                 e.heldout_gap_before,
-                e.heldout_gap_after
+                e.heldout_gap_after,
+                if e.in_table { "yes" } else { "no (no root-crate slot)" }
             );
+        }
+        let _ = writeln!(s);
+    }
+    if !r.unexplained.is_empty() {
+        let _ = writeln!(s, "## Unexplained\n");
+        for u in &r.unexplained {
+            let mut line = format!("- The {} channel keeps structure that no catalog effect explains (held-out RMS {:.3}", u.channel, u.rms);
+            match u.structure_rms {
+                Some(x) if !u.correlates_with.is_empty() => {
+                    let _ = write!(line, "; about {x:.3} of it follows {}).", u.correlates_with.join(", then "));
+                }
+                _ => line.push_str(")."),
+            }
+            if !u.where_.is_empty() {
+                let _ = write!(line, " It is largest on {}.", u.where_);
+            }
+            if !u.pinned.is_empty() {
+                let _ = write!(line, " Catalog effects that would fit only with a parameter at a search limit, so are not named: {}.", u.pinned.join("; "));
+            }
+            let _ = writeln!(s, "{line}");
         }
         let _ = writeln!(s);
     }
@@ -89,24 +141,29 @@ fn markdown(ch: &Channels, r: &Report) -> String {
     for w in &r.where_after {
         let _ = writeln!(s, "| {} | {} | {:.3} |", w.channel, w.segment, w.rms);
     }
-    let _ = writeln!(s, "\n## Candidates per round\n\nGain: drop of the held-out Σ(residual/noise floor)²; significant when above the penalty k·ln N and 5 % of N.\n");
+    let _ = writeln!(s, "\n## Candidates per round\n\nGain: drop of the held-out Σ(residual/RMS)² (units of one bin's variance); SE from the block sums; significant when gain/SE exceeds the critical value.\n");
     for (i, round) in r.rounds.iter().enumerate() {
-        let _ = writeln!(s, "### Round {}\n\n| candidate | channel | gain | penalty | significant | held-out gaps |\n|---|---|---|---|---|---|", i + 1);
+        let _ = writeln!(s, "### Round {}\n\n| candidate | channel | gain | SE | gain/SE | critical | blocks × bins | significant | at search limit | held-out gaps |\n|---|---|---|---|---|---|---|---|---|---|", i + 1);
         for t in round {
             let _ = writeln!(
                 s,
-                "| `{}` | {} | {:.1} | {:.1} | {} | {} |",
+                "| `{}` | {} | {:.1} | {:.1} | {:.2} | {:.2} | {} × {} | {} | {} | {} |",
                 t.name,
                 t.channel,
-                t.gain,
-                t.penalty,
+                t.gain.gain,
+                t.gain.se,
+                t.gain.t,
+                t.gain.critical,
+                t.gain.blocks,
+                t.gain.block_bins,
                 if t.significant { "yes" } else { "no" },
+                if t.at_bound.is_empty() { "-".to_string() } else { t.at_bound.join(", ") },
                 gaps_text(&t.gaps)
             );
         }
         let _ = writeln!(s);
     }
-    let _ = writeln!(s, "Files: `report.json`, `model.toml`, `model.bin` (root-crate table, 1 axis, rate window 32), `residuals.csv`, `residual_*.png`.");
+    let _ = writeln!(s, "Files: `report.json`, `table.bin` (root-crate table, 1 axis, rate window 32: `qfa-lab compensate --table DIR/table.bin`), `model.bin` (same bytes), `model.toml`, `residuals.csv`, `residual_*.png`.");
     s
 }
 
