@@ -139,6 +139,18 @@ impl Imu<'_> {
         let s = self.sensors;
         [0, 1, 2].map(|i| ds18b20_raw(&s[i], case_c, &mut self.rng))
     }
+
+    /// Each case's DS18B20 conversion completes once a second (the first at t = 1 s):
+    /// on those IMU cycles, read the three sensors and feed every variant.
+    fn read_temperatures(&mut self, clock: u64, per_second: u64, case_c: f64, variants: &mut [Variant]) {
+        if clock.is_multiple_of(per_second) {
+            let raw = self.ds18b20(case_c);
+            let t_ms = (clock / per_second * 1000) as u32;
+            for v in variants {
+                v.comp.on_temperatures(t_ms, raw);
+            }
+        }
+    }
 }
 
 /// Run the scenario with the given accelerometer truths (x, y, z) and variants.
@@ -197,13 +209,7 @@ pub fn fly(sc: &Scenario, truths: &mut [Box<dyn AccelTruth>; 3], mut variants: V
             prev_ideal = ideal;
             let th = chain.step(ground_c);
             let s = imu.sense(&ideal, &th, dt);
-            if clock.is_multiple_of(per_second) {
-                let raw = imu.ds18b20(th.case_c);
-                let t_ms = (clock / per_second * 1000) as u32;
-                for v in &mut variants {
-                    v.comp.on_temperatures(t_ms, raw);
-                }
-            }
+            imu.read_temperatures(clock, per_second, th.case_c, &mut variants);
             for (v, a) in variants.iter_mut().zip(&mut aligners) {
                 let dv = v.comp.compensate(s.pulses, dt_ticks, &s.coeffs);
                 a.step(&Increments { dtheta: s.dtheta, dv });
@@ -224,14 +230,7 @@ pub fn fly(sc: &Scenario, truths: &mut [Box<dyn AccelTruth>; 3], mut variants: V
         prev_ideal = ideal;
         let th = chain.step(profile.at(flight.t));
         let s = imu.sense(&ideal, &th, dt);
-        // Each case's DS18B20 conversion completes once a second (the first at t = 1 s).
-        if clock.is_multiple_of(per_second) {
-            let raw = imu.ds18b20(th.case_c);
-            let t_ms = (clock / per_second * 1000) as u32;
-            for v in &mut variants {
-                v.comp.on_temperatures(t_ms, raw);
-            }
-        }
+        imu.read_temperatures(clock, per_second, th.case_c, &mut variants);
         let alt = AltRef { h: truth.h, vd: truth.v.z };
         for (v, nav) in variants.iter_mut().zip(&mut navs) {
             let dv = v.comp.compensate(s.pulses, dt_ticks, &s.coeffs);
