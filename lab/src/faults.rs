@@ -48,43 +48,49 @@ use qfa_thermal::compensator::{Compensator, Output, SampleError, Status};
 use qfa_thermal::ds18b20::{self, encode_scratchpad, Resolution, POWER_ON_RAW};
 use qfa_thermal::table::{self, Table, MAX_TABLE_BYTES};
 
-use crate::nav::accel::{axis_compensator, AccelCompensation, AxisCompensator, OracleCompensation, TableCompensation};
+use crate::nav::accel::{AccelCompensation, ImuCompensator, OracleCompensation, TableCompensation};
 use crate::nav::run::{self, Figures, Variant};
 use crate::nav::scenario::Scenario;
 
-/// The compensator interface the injector drives: the firmware's entry points, for one
-/// accelerometer axis.
+/// The compensator interface the injector drives: the firmware's entry points for the
+/// whole IMU, in the recommended configuration (one 3-axis compensator, one DS18B20
+/// stream per axis).
 pub trait ThermalCompensator {
-    /// Decode, validate and activate a table (atomic).
+    /// Decode, validate and activate a 3-axis table (atomic).
     ///
     /// # Errors
     /// The table error; the active table is unchanged.
     fn load_table(&mut self, bytes: &[u8]) -> table::Result<()>;
-    /// Slow path: a scratchpad whose conversion completed at `t_ms`.
+    /// Slow path: axis `axis`'s scratchpad, whose conversion completed at `t_ms`.
     ///
     /// # Errors
     /// Why the reading was not used.
-    fn on_scratchpad(&mut self, t_ms: u32, sp: &[u8; 9]) -> Result<Status, SampleError>;
-    /// Fast path: Δv (m/s) and status.
-    fn cycle(&mut self, pulses: i32, dt_ticks: u32) -> (f32, Status);
+    fn on_scratchpad(&mut self, axis: usize, t_ms: u32, sp: &[u8; 9]) -> Result<Status, SampleError>;
+    /// Fast path: Δv per axis (m/s) and status.
+    fn cycle(&mut self, pulses: [i32; 3], dt_ticks: u32) -> ([f32; 3], Status);
     /// The active table.
     fn table(&self) -> Option<&Table>;
 }
 
-impl ThermalCompensator for AxisCompensator {
+impl ThermalCompensator for ImuCompensator {
     fn load_table(&mut self, bytes: &[u8]) -> table::Result<()> {
         Compensator::load_table(self, bytes)
     }
-    fn on_scratchpad(&mut self, t_ms: u32, sp: &[u8; 9]) -> Result<Status, SampleError> {
-        Compensator::on_scratchpad(self, t_ms, sp)
+    fn on_scratchpad(&mut self, axis: usize, t_ms: u32, sp: &[u8; 9]) -> Result<Status, SampleError> {
+        Compensator::on_scratchpad_from(self, axis, t_ms, sp)
     }
-    fn cycle(&mut self, pulses: i32, dt_ticks: u32) -> (f32, Status) {
-        let Output { dv_mps, status } = Compensator::cycle(self, [pulses], dt_ticks);
-        (dv_mps[0], status)
+    fn cycle(&mut self, pulses: [i32; 3], dt_ticks: u32) -> ([f32; 3], Status) {
+        let Output { dv_mps, status } = Compensator::cycle(self, pulses, dt_ticks);
+        (dv_mps, status)
     }
     fn table(&self) -> Option<&Table> {
         Compensator::table(self)
     }
+}
+
+/// A fresh [`ImuCompensator`] with the firmware's default settings.
+fn imu_compensator() -> ImuCompensator {
+    Compensator::new(qfa_thermal::Config::default()).expect("the default config is valid")
 }
 
 /// Which faults to inject. Times are seconds since the start of the flight.
@@ -346,10 +352,10 @@ impl Injector {
     }
 }
 
-/// A compensation that runs the faulty streams into three [`ThermalCompensator`]s (x, y,
+/// A compensation that runs the faulty streams into one [`ThermalCompensator`] (x, y,
 /// z, each with its own sensor stream) and logs.
 pub struct FaultyCompensation<C: ThermalCompensator> {
-    comps: [C; 3],
+    comp: C,
     injs: [Injector; 3],
     log: Rc<RefCell<FaultLog>>,
     /// Time of the last reading offered, s, for the dropout bookkeeping.
@@ -366,37 +372,35 @@ pub struct FaultyCompensation<C: ThermalCompensator> {
 const STUCK_RELEASE_S: f64 = 10.0;
 
 impl<C: ThermalCompensator> FaultyCompensation<C> {
-    /// Load each axis's table bytes through its injector (a corrupted copy first if
-    /// configured) and return the compensation and its shared log.
+    /// Load the 3-axis table's bytes (a corrupted copy first if configured) and return the
+    /// compensation and its shared log.
     #[must_use]
-    pub fn new(mut comps: [C; 3], set: &FaultSet, tables: [&[u8]; 3]) -> (Self, Rc<RefCell<FaultLog>>) {
+    pub fn new(mut comp: C, set: &FaultSet, table: &[u8]) -> (Self, Rc<RefCell<FaultLog>>) {
         let injs: [Injector; 3] =
             core::array::from_fn(|i| Injector::new(FaultSet { seed: set.seed.wrapping_add(i as u64 * 0x1000), ..set.clone() }));
         let mut log = FaultLog { table_loaded: true, ..FaultLog::default() };
-        for ((comp, inj), bytes) in comps.iter_mut().zip(&injs).zip(tables) {
-            let good = Table::decode(bytes).ok();
-            for (offered, corrupted) in inj.table_loads(bytes) {
-                let r = comp.load_table(&offered);
-                if corrupted {
-                    let c = log.count(Kind::CorruptTable);
-                    c.injected += 1;
-                    if r.is_err() {
-                        c.flagged += 1;
-                    } else {
-                        log.corrupt_table_applied = true;
-                    }
+        let good = Table::decode(table).ok();
+        for (offered, corrupted) in injs[0].table_loads(table) {
+            let r = comp.load_table(&offered);
+            if corrupted {
+                let c = log.count(Kind::CorruptTable);
+                c.injected += 1;
+                if r.is_err() {
+                    c.flagged += 1;
+                } else {
+                    log.corrupt_table_applied = true;
                 }
             }
-            log.table_loaded &= comp.table().is_some();
-            // Never a corrupted table: what is active is exactly the intact one.
-            if comp.table().cloned() != good {
-                log.corrupt_table_applied = true;
-            }
+        }
+        log.table_loaded &= comp.table().is_some();
+        // Never a corrupted table: what is active is exactly the intact one.
+        if comp.table().cloned() != good {
+            log.corrupt_table_applied = true;
         }
         let windows = |w: &[(f64, f64)]| -> [Vec<bool>; 3] { core::array::from_fn(|_| vec![false; w.len()]) };
         let log = Rc::new(RefCell::new(log));
         let me = Self {
-            comps,
+            comp,
             log: Rc::clone(&log),
             t_s: 0.0,
             dropout_seen: windows(&set.dropouts_s),
@@ -436,7 +440,7 @@ impl<C: ThermalCompensator> FaultyCompensation<C> {
         }
         let Delivered::Scratchpad(sp) = got.delivered else { return };
         log.readings += 1;
-        if let Err(e) = self.comps[axis].on_scratchpad(t_ms, &sp) {
+        if let Err(e) = self.comp.on_scratchpad(axis, t_ms, &sp) {
             log.refused += 1;
             // A stuck window is flagged if a reading in it, or the jump back within
             // STUCK_RELEASE_S after it, is refused as implausible.
@@ -477,11 +481,12 @@ impl<C: ThermalCompensator> AccelCompensation for FaultyCompensation<C> {
         if jittered {
             log.count(Kind::Jitter).injected += 1;
         }
-        let mut dv = Vector3::zeros();
-        for axis in 0..3 {
-            let (v, status) = self.comps[axis].cycle(pulses[axis], ticks);
-            if status.contains(Status::TEMP_STALE) {
-                log.stale_cycles += 1;
+        let (v, status) = self.comp.cycle(pulses, ticks);
+        if status.contains(Status::TEMP_STALE) {
+            log.stale_cycles += 1;
+            // One status for the IMU: a window is flagged when its axis's sensor is in a
+            // dropout while the compensator reports stale.
+            for axis in 0..3 {
                 if let Some(i) = Injector::window(&self.injs[axis].set.dropouts_s, self.t_s) {
                     if !self.dropout_flagged[axis][i] {
                         self.dropout_flagged[axis][i] = true;
@@ -489,10 +494,13 @@ impl<C: ThermalCompensator> AccelCompensation for FaultyCompensation<C> {
                     }
                 }
             }
-            if !v.is_finite() {
+        }
+        let mut dv = Vector3::zeros();
+        for axis in 0..3 {
+            if !v[axis].is_finite() {
                 log.non_finite += 1;
             }
-            dv[axis] = f64::from(v);
+            dv[axis] = f64::from(v[axis]);
         }
         dv
     }
@@ -569,10 +577,10 @@ impl ThermalCompensator for Box<dyn ThermalCompensator> {
     fn load_table(&mut self, bytes: &[u8]) -> table::Result<()> {
         (**self).load_table(bytes)
     }
-    fn on_scratchpad(&mut self, t_ms: u32, sp: &[u8; 9]) -> Result<Status, SampleError> {
-        (**self).on_scratchpad(t_ms, sp)
+    fn on_scratchpad(&mut self, axis: usize, t_ms: u32, sp: &[u8; 9]) -> Result<Status, SampleError> {
+        (**self).on_scratchpad(axis, t_ms, sp)
     }
-    fn cycle(&mut self, pulses: i32, dt_ticks: u32) -> (f32, Status) {
+    fn cycle(&mut self, pulses: [i32; 3], dt_ticks: u32) -> ([f32; 3], Status) {
         (**self).cycle(pulses, dt_ticks)
     }
     fn table(&self) -> Option<&Table> {
@@ -581,17 +589,17 @@ impl ThermalCompensator for Box<dyn ThermalCompensator> {
 }
 
 /// [`Broken::WrongFlags`]: the real compensator with its flags scrambled.
-struct WrongFlags(AxisCompensator);
+struct WrongFlags(ImuCompensator);
 
 impl ThermalCompensator for WrongFlags {
     fn load_table(&mut self, bytes: &[u8]) -> table::Result<()> {
         self.0.load_table(bytes)
     }
-    fn on_scratchpad(&mut self, t_ms: u32, sp: &[u8; 9]) -> Result<Status, SampleError> {
-        ThermalCompensator::on_scratchpad(&mut self.0, t_ms, sp)
+    fn on_scratchpad(&mut self, axis: usize, t_ms: u32, sp: &[u8; 9]) -> Result<Status, SampleError> {
+        ThermalCompensator::on_scratchpad(&mut self.0, axis, t_ms, sp)
             .map_err(|_| SampleError::Time(qfa_thermal::rate::Error::NonMonotonic))
     }
-    fn cycle(&mut self, pulses: i32, dt_ticks: u32) -> (f32, Status) {
+    fn cycle(&mut self, pulses: [i32; 3], dt_ticks: u32) -> ([f32; 3], Status) {
         let (v, st) = ThermalCompensator::cycle(&mut self.0, pulses, dt_ticks);
         (v, st - Status::TEMP_STALE)
     }
@@ -639,21 +647,16 @@ fn encode(t: &Table) -> anyhow::Result<Vec<u8>> {
 /// A table the compensator refuses, a broken table that does not validate, the
 /// flight's errors, or a thermal-only error of `simple` too small to divide by.
 pub fn fly_with_faults(sc: &Scenario, tables: [&Table; 3], simple: [&Table; 3], rows: &[RowSpec]) -> anyhow::Result<FaultReport> {
-    let good: Vec<Vec<u8>> = tables.iter().map(|t| encode(t)).collect::<anyhow::Result<_>>()?;
-    let fresh = |b: Broken| -> [Box<dyn ThermalCompensator>; 3] {
-        core::array::from_fn(|_| -> Box<dyn ThermalCompensator> {
-            if b == Broken::WrongFlags {
-                Box::new(WrongFlags(axis_compensator()))
-            } else {
-                Box::new(axis_compensator())
-            }
-        })
+    // One 3-axis table for the IMU's compensator, as the firmware flies it.
+    let good = encode(&crate::nav::calib::table3(tables)?)?;
+    let fresh = |b: Broken| -> Box<dyn ThermalCompensator> {
+        if b == Broken::WrongFlags {
+            Box::new(WrongFlags(imu_compensator()))
+        } else {
+            Box::new(imu_compensator())
+        }
     };
-    let tb = |v: &[Vec<u8>]| -> [Vec<u8>; 3] { [v[0].clone(), v[1].clone(), v[2].clone()] };
-    let (clean, clean_log) = {
-        let b = tb(&good);
-        FaultyCompensation::new(fresh(Broken::No), &FaultSet::none(), [&b[0], &b[1], &b[2]])
-    };
+    let (clean, clean_log) = FaultyCompensation::new(fresh(Broken::No), &FaultSet::none(), &good);
     anyhow::ensure!(clean_log.borrow().table_loaded, "a table was refused");
     let mut variants = vec![
         Variant { name: "oracle".into(), comp: Box::new(OracleCompensation) },
@@ -665,13 +668,12 @@ pub fn fly_with_faults(sc: &Scenario, tables: [&Table; 3], simple: [&Table; 3], 
         let bytes = match r.broken {
             Broken::ZeroedCoefficients | Broken::RatePinned => {
                 let bt = broken_tables(tables, r.broken)?;
-                bt.iter().map(encode).collect::<anyhow::Result<Vec<_>>>()?
+                encode(&crate::nav::calib::table3([&bt[0], &bt[1], &bt[2]])?)?
             }
             Broken::No | Broken::WrongFlags => good.clone(),
         };
-        let b = tb(&bytes);
         let set = FaultSet { takeoff_s: sc.align_steps() as f64 / sc.imu_rate_hz, ..r.set.clone() };
-        let (c, log) = FaultyCompensation::new(fresh(r.broken), &set, [&b[0], &b[1], &b[2]]);
+        let (c, log) = FaultyCompensation::new(fresh(r.broken), &set, &bytes);
         variants.push(Variant { name: r.name.clone(), comp: Box::new(c) });
         logs.push(log);
     }
@@ -865,13 +867,15 @@ mod tests {
             rate_limit_c_per_min: 2.0,
             ext: Extensions::default(),
         };
-        t.axes.push(a).expect("one axis");
+        for _ in 0..3 {
+            t.axes.push(a.clone()).expect("three axes");
+        }
         let mut buf = [0u8; MAX_TABLE_BYTES];
         t.encode(&mut buf).expect("encodes").to_vec()
     }
 
-    fn comps() -> [AxisCompensator; 3] {
-        core::array::from_fn(|_| axis_compensator())
+    fn comps() -> ImuCompensator {
+        imu_compensator()
     }
 
     #[test]
@@ -887,7 +891,7 @@ mod tests {
             seed: 3,
             ..FaultSet::default()
         };
-        let (mut c, log) = FaultyCompensation::new(comps(), &set, [&b, &b, &b]);
+        let (mut c, log) = FaultyCompensation::new(comps(), &set, &b);
         for k in 1..=400u32 {
             let raw = 352 + (k / 40) as i16;
             c.on_temperatures(k * 1000, [raw, raw + 1, raw - 1]);
@@ -913,10 +917,10 @@ mod tests {
         for i in 0..b.len() {
             for x in [0x01u8, 0x80, 0xFF] {
                 let set = FaultSet { corrupt_table: Some((i, x)), ..FaultSet::default() };
-                let (_, log) = FaultyCompensation::new(comps(), &set, [&b, &b, &b]);
+                let (_, log) = FaultyCompensation::new(comps(), &set, &b);
                 let log = log.borrow();
                 assert!(!log.corrupt_table_applied && log.table_loaded, "byte {i} ^ {x:#x}");
-                assert_eq!(log.counts[&Kind::CorruptTable], Count { injected: 3, flagged: 3, wrong: 0 }, "byte {i} ^ {x:#x}");
+                assert_eq!(log.counts[&Kind::CorruptTable], Count { injected: 1, flagged: 1, wrong: 0 }, "byte {i} ^ {x:#x}");
             }
         }
     }
