@@ -5,7 +5,8 @@
 //! per accelerometer case once a second (`on_temperatures(t_ms, [raw; 3])`) and the
 //! pulses of each IMU cycle (`compensate(pulses, dt_ticks, ..)`). [`FaultyCompensation`]
 //! sits on those streams exactly where the nav's own `TableCompensation` does (one
-//! `Compensator<1, 32>` per axis with that unit's table, fed by its own case sensor): an
+//! `Compensator<3, 32, 3>` with the three units' 3-axis table, each axis fed by its own
+//! case sensor, as the firmware recommends): an
 //! [`Injector`] per sensor stream turns each reading into what the firmware would
 //! receive (a scratchpad, possibly corrupted, or nothing) and each cycle length into what
 //! the firmware's timer would measure, and the result goes to a [`ThermalCompensator`]
@@ -19,10 +20,10 @@
 //! |---|---|---|
 //! | CRC errors at rate p | each reading, with probability p, arrives with one flipped bit | `SampleError::Decode(ds18b20::Error::Crc)` |
 //! | power-on 85 °C after a brown-out | at given times the next reading is the power-on scratchpad (0550h, byte 6 = 0Ch, valid CRC) | `SampleError::Decode(ds18b20::Error::PowerOn)` or `SampleError::PowerOnJump` |
-//! | dropout 10 s – 10 min | no reading in a window | `Status::TEMP_STALE` on the fast path of that axis during the window |
+//! | dropout 10 s – 10 min | no reading in a window | `Status::TEMP_STALE` on the fast path during the window (one status word for the IMU) |
 //! | spikes at rate p | a reading off by ±`magnitude` | `SampleError::Implausible` |
 //! | stuck sensor | the reading repeats the value at the start of a window | not detectable from the value alone (a plausible constant); the jump back may give `SampleError::Implausible` |
-//! | corrupted table bytes at load | the table is first offered with one byte changed, then intact | `load_table` refuses it; the previous (intact) table stays active |
+//! | corrupted table bytes at load | the 3-axis table is first offered with one byte changed, then intact | `load_table` refuses it; the previous (intact) table stays active |
 //! | IMU cycle jitter | the cycle length the firmware passes is off by a uniform ±j µs (the pulses are of the true cycle) | not a fault the compensator can see |
 //!
 //! [`fly_with_faults`] flies the scenario once with every fault set in lock-step beside

@@ -95,8 +95,8 @@ impl AccelTruth for LabAccel {
     }
 }
 
-/// A one-axis compensator: the root crate's `Compensator<1, 32>`, as the fault runs use it
-/// per axis (their injector works on one axis's stream and table at a time).
+/// A one-axis compensator: the root crate's `Compensator<1, 32>` (the configuration the
+/// navigation study flew before the 3-axis one; kept to show the two agree).
 pub type AxisCompensator = Compensator<1, 32>;
 
 /// The configuration the navigation study flies, the one the firmware recommends: one

@@ -19,7 +19,7 @@
 //! the DS18B20 on each case (the unit's offset and noise, 12-bit) is read once a second
 //! into that axis's stream of one `Compensator<3, 32, 3>` (the firmware's recommended
 //! configuration: one stream per case, one 3-axis table); the pulses of each 5 ms cycle go
-//! to `Compensator::cycle`. (The fault runs still use one `Compensator<1, 32>` per axis.) Each unit's tables come from the lab's simulation and fit of its
+//! to `Compensator::cycle`. The fault runs ([`crate::faults`]) fly the same configuration. Each unit's tables come from the lab's simulation and fit of its
 //! own four-position test ([`calib`]). Non-thermal IMU errors come from the scenario's
 //! `[imu]` table ([`errors`]): gyro turn-on bias σ = 0.01 °/h, bias instability, ARW,
 //! scale factor and misalignment; accelerometer turn-on bias σ = 50 µg, scale factor and
