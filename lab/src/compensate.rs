@@ -4,7 +4,7 @@
 //! (a rejected reading leaves the last good compensation in force, as on target); then
 //! `cycle([pulses], interval_s·10⁶ ticks)` with the default 1-µs tick. The reading is
 //! applied before the row's pulses because it was taken inside that interval (the same
-//! alignment the fit uses, see [`crate::pairing::trace_run`]).
+//! alignment the fit uses, see [`crate::data::pairing::trace_run`]).
 //! `accel_g = Δv / (g0 · interval_s)`: the compensated mean specific force of the interval.
 //! Each run starts a fresh compensator (each run is a fresh power-up in the test).
 //! The staleness limit is at least 1.5 rows (see [`compensate_run`]).
@@ -12,8 +12,8 @@
 use qfa_thermal::compensator::{Compensator, Config, Status, G0};
 use qfa_thermal::Table;
 
-use crate::log::{Log, Run};
-use crate::pairing::RATE_WINDOW;
+use crate::data::cycling::{Log, Run};
+use crate::data::pairing::RATE_WINDOW;
 
 /// Why a log could not be compensated.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -167,7 +167,7 @@ pub fn static_status(status: Status) -> String {
 /// Compensate a static log with a table of the same axes, through the firmware's own
 /// sample path: per axis a `Compensator<1, 32>` with that axis's model, fed each row's
 /// reading (`on_raw`) and the row's acceleration as pseudo-LSB
-/// (`cycle_samples([round(a·2²⁰)])`, see [`crate::fit::STATIC_LSB_PER_G`]); the output
+/// (`cycle_samples([round(a·2²⁰)])`, see [`crate::calibrate::fit::STATIC_LSB_PER_G`]); the output
 /// `a = raw·(g0/K1) − K0·g0` is written back in g. Writes `time_s,temp_c,<axes…>,status`;
 /// `status` is `ok`, `no_temperature` (no reading yet: compensated at T0 and flagged
 /// stale), or the firmware's flags joined by `|` (`TEMP_OUT_OF_RANGE`, `TEMP_INVALID`, …),
@@ -178,7 +178,7 @@ pub fn static_status(status: Status) -> String {
 /// refuses, or a write failure.
 pub fn compensate_static<W: std::io::Write>(
     table: &Table,
-    log: &crate::log::static_log::StaticLog,
+    log: &crate::data::static_log::StaticLog,
     w: W,
 ) -> Result<(), StaticCompensateError> {
     if table.axes.len() != log.axes.len() {
@@ -209,7 +209,7 @@ pub fn compensate_static<W: std::io::Write>(
     head.extend(log.axes.iter().map(|a| a.name.clone()));
     head.push("status".to_string());
     wr.write_record(&head).map_err(|e| io(&e))?;
-    let lsb = f64::from(crate::fit::STATIC_LSB_PER_G);
+    let lsb = f64::from(crate::calibrate::fit::STATIC_LSB_PER_G);
     let tick_s = f64::from(config.tick_s);
     for i in 0..log.rows() {
         let mut rec = vec![format!("{:.6}", log.time_s[i]), format!("{:.4}", log.temp_c[i])];

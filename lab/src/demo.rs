@@ -11,10 +11,10 @@ use std::time::Instant;
 use serde::Serialize;
 
 use crate::calibrate::{calibrate_file, CalibrateOptions};
-use crate::log::write_log;
-use crate::report::Variants;
-use crate::sim::simulate_paper;
-use crate::truth::Truth;
+use crate::data::cycling::write_log;
+use crate::calibrate::report::Variants;
+use crate::simulate::simulate_paper;
+use crate::simulate::truth::Truth;
 
 /// The paper's Table 4: (none, simple, hysteresis) ppm/°C for #1, #2, #3.
 pub const PAPER_TABLE4: [[f64; 3]; 3] = [[74.14, 12.78, 2.48], [104.22, 14.14, 4.23], [105.79, 14.46, 5.19]];

@@ -6,30 +6,21 @@
 //! what the firmware runs.
 //!
 //! Entry points for other tools:
-//! * simulate: [`sim::simulate_paper`], [`sim::simulate`], [`sim::Accelerometer`];
-//! * truth over a temperature history: [`truth::Truth::model`] → [`truth::TruthModel::step`],
-//!   or [`truth::TruthModel::over_history`];
+//! * simulate: [`simulate::simulate_paper`], [`simulate::simulate`], [`simulate::Accelerometer`];
+//! * truth over a temperature history: [`simulate::truth::Truth::model`] → [`simulate::truth::TruthModel::step`],
+//!   or [`simulate::truth::TruthModel::over_history`];
 //! * calibrate: [`calibrate::calibrate_log`] (in memory) and [`calibrate::calibrate_file`];
-//! * firmware view of a run: [`pairing::trace_run`]; fitting with extension slots:
-//!   [`fit::fit`] with [`fit::FitOptions::ext`];
+//! * firmware view of a run: [`data::pairing::trace_run`]; fitting with extension slots:
+//!   [`calibrate::fit::fit`] with [`calibrate::fit::FitOptions::ext`];
 //! * compensation: [`compensate::compensate_run`];
 //! * static multi-axis logs (a board at one orientation, CSV/TSV):
-//!   [`log::static_log::read_static`] → [`calibrate::static_cal::calibrate_static`]
-//!   (per-axis [`fit::fit_static_axis`], peers in [`peers`]) → [`compensate::compensate_static`].
+//!   [`data::static_log::read_static`] → [`calibrate::static_cal::calibrate_static`]
+//!   (per-axis [`calibrate::fit::fit_static_axis`], peers in [`calibrate::peers`]) → [`compensate::compensate_static`].
 
 pub mod calibrate;
 pub mod compensate;
+pub mod data;
 pub mod demo;
 pub mod discover;
-pub mod fit;
-pub mod log;
-pub mod metrics;
-pub mod pairing;
-pub mod peers;
-pub mod profile;
-pub mod report;
-pub mod sim;
-pub mod thermal;
-pub mod truth;
-pub mod nav;
-pub mod faults;
+pub mod navigate;
+pub mod simulate;

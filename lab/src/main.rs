@@ -8,10 +8,10 @@ use clap::{Parser, Subcommand, ValueEnum};
 
 use qfa_lab::calibrate::{calibrate_file, CalibrateOptions};
 use qfa_lab::compensate::compensate_log;
-use qfa_lab::log::{read_log, write_compensated, write_log};
-use qfa_lab::profile::{paper_positions, Program, PAPER_RATES};
-use qfa_lab::sim::simulate;
-use qfa_lab::truth::Truth;
+use qfa_lab::data::cycling::{read_log, write_compensated, write_log};
+use qfa_lab::simulate::profile::{paper_positions, Program, PAPER_RATES};
+use qfa_lab::simulate::simulate;
+use qfa_lab::simulate::truth::Truth;
 
 #[derive(Parser)]
 #[command(name = "qfa-lab", version, about = "Thermal-test simulator, calibration and compensation for QFA tables")]
@@ -45,8 +45,8 @@ struct StaticFlags {
 
 impl StaticFlags {
     /// The reader options, or `None` for a cycling log.
-    fn options(&self, log: &std::path::Path) -> Result<Option<qfa_lab::log::static_log::StaticOptions>, String> {
-        use qfa_lab::log::static_log::{looks_static, StaticOptions};
+    fn options(&self, log: &std::path::Path) -> Result<Option<qfa_lab::data::static_log::StaticOptions>, String> {
+        use qfa_lab::data::static_log::{looks_static, StaticOptions};
         let any = self.columns.is_some() || self.time_unit.is_some() || self.accel_unit.is_some();
         if !any {
             let f = std::fs::File::open(log).map_err(|e| format!("{}: {e}", log.display()))?;
@@ -57,7 +57,7 @@ impl StaticFlags {
                 return Ok(None);
             }
         }
-        let e = |e: qfa_lab::log::static_log::StaticError| e.to_string();
+        let e = |e: qfa_lab::data::static_log::StaticError| e.to_string();
         Ok(Some(StaticOptions {
             columns: self.columns.as_deref().map(str::parse).transpose().map_err(e)?.unwrap_or_default(),
             time_unit: self.time_unit.as_deref().map(str::parse).transpose().map_err(e)?,
@@ -270,7 +270,7 @@ fn run(cli: Cli) -> Result<(), String> {
         }
         Cmd::Calibrate { log, out, fmt, .. } if fmt.options(&log)?.is_some() => {
             let o = fmt.options(&log)?.unwrap_or_default();
-            let l = qfa_lab::log::static_log::read_static(&log, &o).map_err(|e| format!("{}: {e}", log.display()))?;
+            let l = qfa_lab::data::static_log::read_static(&log, &o).map_err(|e| format!("{}: {e}", log.display()))?;
             eprintln!("{} rows read; {}; {}", l.rows(), l.skipped, l.sampling);
             let opts = qfa_lab::calibrate::static_cal::StaticCalOptions::default();
             let cal = qfa_lab::calibrate::static_cal::calibrate_static(&l, &opts, true).map_err(|e| e.to_string())?;
@@ -315,9 +315,9 @@ fn run(cli: Cli) -> Result<(), String> {
         }
         Cmd::Discover { log, start, out, fmt } if fmt.options(&log)?.is_some() => {
             // A static log: each axis is a single-channel (bias) log for the discovery.
-            use qfa_lab::discover::channels::{Channels, LogKind, Trace};
+            use qfa_lab::data::channels::{Channels, LogKind, Trace};
             let o = fmt.options(&log)?.unwrap_or_default();
-            let l = qfa_lab::log::static_log::read_static(&log, &o).map_err(|e| format!("{}: {e}", log.display()))?;
+            let l = qfa_lab::data::static_log::read_static(&log, &o).map_err(|e| format!("{}: {e}", log.display()))?;
             eprintln!("{} rows read; {}", l.rows(), l.skipped);
             let rows: Vec<(f64, f32)> = l.time_s.iter().zip(&l.temp_c).map(|(&t, &c)| (t, c as f32)).collect();
             for ax in &l.axes {
@@ -334,7 +334,7 @@ fn run(cli: Cli) -> Result<(), String> {
         }
         Cmd::Compensate { log, table, out, fmt } if fmt.options(&log)?.is_some() => {
             let o = fmt.options(&log)?.unwrap_or_default();
-            let l = qfa_lab::log::static_log::read_static(&log, &o).map_err(|e| format!("{}: {e}", log.display()))?;
+            let l = qfa_lab::data::static_log::read_static(&log, &o).map_err(|e| format!("{}: {e}", log.display()))?;
             let bytes = std::fs::read(&table).map_err(|e| format!("{}: {e}", table.display()))?;
             let t = qfa_thermal::Table::decode(&bytes).map_err(|e| format!("{}: {e}", table.display()))?;
             let f = std::fs::File::create(&out).map_err(|e| format!("{}: {e}", out.display()))?;
@@ -356,18 +356,18 @@ fn run(cli: Cli) -> Result<(), String> {
         Cmd::Demo { out, row_s, seed, threads } => {
             let opts = qfa_lab::demo::DemoOptions { out, row_s, seed, threads, progress: true };
             // Issue 4 (discovery, on unit #1) and issue 5 (navigation) run inside the demo.
-            qfa_lab::demo::run(&opts, Some(qfa_lab::discover::demo_hook), Some(qfa_lab::nav::demo_hook))?;
+            qfa_lab::demo::run(&opts, Some(qfa_lab::discover::demo_hook), Some(qfa_lab::navigate::demo_hook))?;
         }
         Cmd::Navigate { sub: Some(NavCmd::Merge { dirs, out, no_plots }), .. } => {
             let out = out.unwrap_or_else(|| dirs[0].clone());
-            let sum = qfa_lab::nav::mc::merge(&dirs, &out, !no_plots).map_err(|e| format!("{e:#}"))?;
-            eprintln!("{}", qfa_lab::nav::mc::table(&sum));
+            let sum = qfa_lab::navigate::mc::merge(&dirs, &out, !no_plots).map_err(|e| format!("{e:#}"))?;
+            eprintln!("{}", qfa_lab::navigate::mc::table(&sum));
             eprintln!("wrote {}/report.json, mc_runs.csv", out.display());
         }
         Cmd::Navigate { sub: None, scenario, out, discovered_tables, imu_rate_hz, runs, seed, jobs, shard, no_plots } => {
             let out = out.ok_or("navigate: --out DIR is required")?;
             let discovered_tables = discovered_tables.map(|v| [v[0].clone(), v[1].clone(), v[2].clone()]);
-            let args = qfa_lab::nav::NavigateArgs {
+            let args = qfa_lab::navigate::NavigateArgs {
                 scenario,
                 out,
                 discovered_tables,
@@ -381,10 +381,10 @@ fn run(cli: Cli) -> Result<(), String> {
                 ..Default::default()
             };
             if shard.is_some() {
-                let p = qfa_lab::nav::navigate_shard(&args).map_err(|e| format!("{e:#}"))?;
+                let p = qfa_lab::navigate::navigate_shard(&args).map_err(|e| format!("{e:#}"))?;
                 eprintln!("wrote {}", p.display());
             } else {
-                qfa_lab::nav::navigate(&args).map_err(|e| format!("{e:#}"))?;
+                qfa_lab::navigate::navigate(&args).map_err(|e| format!("{e:#}"))?;
             }
         }
     }

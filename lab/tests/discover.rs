@@ -2,7 +2,7 @@
 //! hidden slots on: each catalog effect is named, its parameter recovered within 25 %,
 //! and the held-out gap of its channel shrinks ≥ 3× or to within 1.5× the noise floor.
 
-use qfa_lab::discover::synth::{cycling_channels, kt8_1_scale, truth, SynthConfig};
+use qfa_lab::simulate::synth::{cycling_channels, kt8_1_scale, truth, SynthConfig};
 use qfa_lab::discover::{analyze, Gaps, Report, Start};
 use qfa_thermal::model::{BranchHysteresis, Creep, Extensions, ScaleFactor, SensorLag};
 
@@ -193,7 +193,7 @@ fn discover_paper_structure_from_simple() {
 
 #[test]
 fn discover_single_channel_log_and_outputs() {
-    use qfa_lab::discover::synth::single_csv;
+    use qfa_lab::simulate::synth::single_csv;
     use qfa_lab::discover::{discover, Channels};
     let ext = Extensions {
         bias_branch_hysteresis: Some(BranchHysteresis { half_width_c: 1.5, weight_g: 1.5e-5 }),
@@ -224,7 +224,7 @@ fn discover_single_channel_log_and_outputs() {
 
 #[test]
 fn discover_from_lab_format_csv_with_pulses() {
-    use qfa_lab::discover::synth::cycling_csv;
+    use qfa_lab::simulate::synth::cycling_csv;
     use qfa_lab::discover::{discover, Channels};
     let ext = Extensions { sensor_lag: Some(SensorLag { tau_s: 450.0 }), ..Default::default() };
     let csv = cycling_csv(&quick(21), &truth(kt8_1_scale(), paper_bias(), ext), 20.0);
@@ -244,7 +244,7 @@ fn discover_from_lab_format_csv_with_pulses() {
     // DIR/table.bin gives the applied ±1 g back. 100 µg is below the unit's own bias
     // (120 µg at 22 °C, 2.5 µg/°C), so a table that lost the fitted bias fails it; the
     // row noise alone is 20 µg.
-    let log = qfa_lab::log::read_log_from(csv.as_bytes()).unwrap();
+    let log = qfa_lab::data::cycling::read_log_from(csv.as_bytes()).unwrap();
     let comp = qfa_lab::compensate::compensate_log(&t, &log, None).unwrap();
     let (mut err, mut n) = (0.0f64, 0usize);
     for (run, c) in log.runs.iter().zip(&comp) {

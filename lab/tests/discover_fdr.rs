@@ -14,10 +14,10 @@
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use qfa_lab::discover::{analyze, Channels, Start};
-use qfa_lab::log::write_log_to;
-use qfa_lab::profile::{Position, Program, PAPER_RATES};
-use qfa_lab::sim::simulate;
-use qfa_lab::truth::Truth;
+use qfa_lab::data::cycling::write_log_to;
+use qfa_lab::simulate::profile::{Position, Program, PAPER_RATES};
+use qfa_lab::simulate::simulate;
+use qfa_lab::simulate::truth::Truth;
 use rayon::prelude::*;
 
 /// One clean log's discovery: (effects added, unexplained channels).

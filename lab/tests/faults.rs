@@ -21,8 +21,8 @@
 use std::sync::OnceLock;
 use std::time::Instant;
 
-use qfa_lab::faults::{self, Broken, FaultReport};
-use qfa_lab::nav::{self, scenario::Scenario};
+use qfa_lab::navigate::faults::{self, Broken, FaultReport};
+use qfa_lab::navigate::{self, scenario::Scenario};
 
 // Cruise: after start-up (600 s) and climb (1200 s), four legs (5400 s).
 const CRUISE: (f64, f64) = (1800.0, 7200.0);
@@ -34,7 +34,7 @@ fn flight() -> &'static FaultReport {
         let hz = std::env::var("QFA_FAULTS_IMU_HZ").ok().and_then(|s| s.parse().ok());
         sc.imu_rate_hz = hz.unwrap_or(if cfg!(debug_assertions) { 20.0 } else { 200.0 });
         let t0 = Instant::now();
-        let tables = nav::calibrate_with(&nav::units(), sc.seed, 2, false).unwrap();
+        let tables = navigate::calibrate_with(&navigate::units(), sc.seed, 2, false).unwrap();
         let mut rows = faults::standard_sets(CRUISE);
         rows.extend(faults::broken_sets(CRUISE));
         let u = &tables.units;

@@ -4,13 +4,13 @@
 //! (δψ = −ε_E/(Ω cos L)). Computed here from the drawn biases alone.
 
 use nalgebra::{UnitQuaternion, Vector3};
-use qfa_lab::nav::accel::OracleCompensation;
-use qfa_lab::nav::align::AlignErrors;
-use qfa_lab::nav::earth::{self, OMEGA_IE};
-use qfa_lab::nav::errors::{AccelErrors, GyroErrors, ImuErrors};
-use qfa_lab::nav::run::{self, Variant};
-use qfa_lab::nav::scenario::{Flight, Scenario};
-use qfa_lab::nav::{truths_seeded, units};
+use qfa_lab::navigate::accel::OracleCompensation;
+use qfa_lab::navigate::align::AlignErrors;
+use qfa_lab::navigate::earth::{self, OMEGA_IE};
+use qfa_lab::navigate::errors::{AccelErrors, GyroErrors, ImuErrors};
+use qfa_lab::navigate::run::{self, Variant};
+use qfa_lab::navigate::scenario::{Flight, Scenario};
+use qfa_lab::navigate::{truths_seeded, units};
 
 fn stationary(seed: u64, align_s: f64) -> Scenario {
     let text = format!(
@@ -31,7 +31,7 @@ fn stationary(seed: u64, align_s: f64) -> Scenario {
 /// first from the scenario seed.
 fn expected(sc: &Scenario) -> AlignErrors {
     let mut rng = <rand::rngs::Xoshiro256PlusPlus as rand::SeedableRng>::seed_from_u64(sc.seed);
-    let d = qfa_lab::nav::errors::ImuDraw::draw(&sc.imu, &mut rng);
+    let d = qfa_lab::navigate::errors::ImuDraw::draw(&sc.imu, &mut rng);
     let q = Flight::new(sc).state.q;
     let lat = sc.start.lat_deg.to_radians();
     let g = earth::gravity(lat, sc.start.alt_m);

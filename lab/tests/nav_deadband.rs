@@ -5,7 +5,7 @@
 //! `cargo test --release -p qfa-lab --test nav_deadband -- --ignored --nocapture`.
 //! Measured (dev profile, 200 Hz): median 70.3 % (worst −92 %) → 78.4 % (worst 66.6 %).
 
-use qfa_lab::nav::{self, mc, run, scenario::Scenario};
+use qfa_lab::navigate::{self, mc, run, scenario::Scenario};
 use rayon::prelude::*;
 
 #[test]
@@ -19,15 +19,15 @@ fn nav_deadband_experiment() {
             let d = mc::draw(&sc, sc.seed, i);
             let mut out = [0.0; 2];
             for (o, db) in out.iter_mut().zip(deadbands) {
-                let mut tables = nav::calibrate_with(&d.units, d.seed, 1, false).unwrap();
+                let mut tables = navigate::calibrate_with(&d.units, d.seed, 1, false).unwrap();
                 for u in &mut tables.units {
                     for a in &mut u.hysteresis.axes {
                         a.bias.deadband_c_per_min = db;
                     }
                 }
-                let r = run::fly(&d.scenario, &mut nav::truths_seeded(&d.units, d.seed), nav::mc_variants(&tables).unwrap()).unwrap();
-                let th = nav::thermal_ceps(&r).unwrap();
-                *o = nav::share(th["simple"], th["hysteresis"], th["oracle"]).unwrap();
+                let r = run::fly(&d.scenario, &mut navigate::truths_seeded(&d.units, d.seed), navigate::mc_variants(&tables).unwrap()).unwrap();
+                let th = navigate::thermal_ceps(&r).unwrap();
+                *o = navigate::share(th["simple"], th["hysteresis"], th["oracle"]).unwrap();
             }
             println!("run {i}: thermal share removed, deadband 0.05 → {:.3}, 0.15 → {:.3}", out[0], out[1]);
             out

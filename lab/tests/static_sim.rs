@@ -15,10 +15,10 @@
 //! 22.1 / 31.9 / 403.
 
 use qfa_lab::calibrate::static_cal::{calibrate_static, StaticCalOptions};
-use qfa_lab::log::static_log::{read_static_from, AccelUnit, StaticOptions, TimeUnit};
-use qfa_lab::profile::{Position, Program};
-use qfa_lab::sim::simulate_run;
-use qfa_lab::truth::Truth;
+use qfa_lab::data::static_log::{read_static_from, AccelUnit, StaticOptions, TimeUnit};
+use qfa_lab::simulate::profile::{Position, Program};
+use qfa_lab::simulate::simulate_run;
+use qfa_lab::simulate::truth::Truth;
 
 fn case(effect: Option<&str>) -> (f64, f64, String) {
     let mut truth = Truth::jb_kt8(1);

@@ -29,11 +29,11 @@ use serde::Serialize;
 
 use qfa_thermal::{AxisModel, Table};
 
-use crate::fit::{encode, fit_static_axis, BranchMode, FitError, StaticFit, StaticSeries, StaticStructure};
-use crate::log::static_log::{Sampling, Skipped, StaticLog};
-use crate::metrics::rms;
-use crate::pairing::RATE_WINDOW;
-use crate::peers::{ardupilot_params, fit_peers, px4_params, Peers, Poly};
+use crate::calibrate::fit::{encode, fit_static_axis, BranchMode, FitError, StaticFit, StaticSeries, StaticStructure};
+use crate::data::static_log::{Sampling, Skipped, StaticLog};
+use crate::calibrate::metrics::rms;
+use crate::data::pairing::RATE_WINDOW;
+use crate::calibrate::peers::{ardupilot_params, fit_peers, px4_params, Peers, Poly};
 
 /// Contiguous cross-validation blocks in the training rows.
 pub const CV_FOLDS: usize = 5;
@@ -438,7 +438,7 @@ pub fn write_static(out: &Path, cal: &StaticCalibration) -> Result<(), StaticCal
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::log::static_log::{read_static_from, AccelUnit, StaticOptions, TimeUnit};
+    use crate::data::static_log::{read_static_from, AccelUnit, StaticOptions, TimeUnit};
 
     #[test]
     fn a_log_that_ends_at_its_hottest_has_nothing_to_evaluate() {

@@ -12,7 +12,7 @@
 use nalgebra::{DMatrix, DVector};
 use qfa_thermal::model::{AxisModel, AxisState, BiasGrid, BranchHysteresis, Creep, Extensions, ScaleFactor, SensorLag};
 
-use super::channels::{Channels, LogKind};
+use crate::data::channels::{Channels, LogKind};
 use super::Start;
 
 /// Reference temperature of ΔT (the paper's 22 °C program start).

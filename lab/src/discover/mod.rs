@@ -4,7 +4,7 @@
 //! gap shrank. Says `none` when nothing significant is missing.
 //!
 //! # Workflow
-//! 1. **Channels** ([`channels`]): pair the ±1 g runs of each program by time,
+//! 1. **Channels** ([`crate::data::channels`]): pair the ±1 g runs of each program by time,
 //!    `K1 = (A₊ − A₋)/2`, `K0 = (A₊ + A₋)/(2·K1)`, average into 60-s bins; T and Ṫ come
 //!    from the root crate's `RateEstimator<32>` on raw = round(16·T), the mean of the two
 //!    runs' readings. A single-channel log `time_s,temp_c,value` is the bias channel.
@@ -63,11 +63,9 @@
 //! 3-min dwells; the out-of-catalog test confirms a two-stage lag is named as one lag
 //! with the effective τ).
 
-pub mod channels;
 pub mod fit;
 pub mod output;
 pub mod stats;
-pub mod synth;
 
 use std::path::Path;
 
@@ -75,7 +73,7 @@ use anyhow::Result;
 use qfa_thermal::model::AxisModel;
 use serde::Serialize;
 
-pub use channels::{Channels, LogKind};
+pub use crate::data::channels::{Channels, LogKind};
 pub use fit::Effect;
 use fit::{golden, nelder_mead2, Fitted, Nonlinear, Residuals, Setup, Structure};
 pub use stats::GainStat;
@@ -943,8 +941,8 @@ fn bootstrap_linear(setup: &Setup, s: &Structure, nl: &Nonlinear, fit: &Fitted, 
         .collect()
 }
 
-fn stats_rng() -> synth::Rng {
-    synth::Rng::new(0x5EED_B007)
+fn stats_rng() -> crate::simulate::synth::Rng {
+    crate::simulate::synth::Rng::new(0x5EED_B007)
 }
 
 /// The workflow without writing anything.

@@ -10,8 +10,8 @@
 
 use serde::Serialize;
 
-use super::channels::Channels;
-use super::synth::Rng;
+use crate::data::channels::Channels;
+use crate::simulate::synth::Rng;
 
 /// Blocks of consecutive bins within each trace (a block never spans two programs).
 #[derive(Clone, Debug)]

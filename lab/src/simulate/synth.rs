@@ -13,7 +13,7 @@ use std::fmt::Write as _;
 use qfa_thermal::model::{AxisModel, AxisState, BiasGrid, Extensions, ScaleFactor};
 use qfa_thermal::rate::{RateConfig, RateEstimator};
 
-use super::channels::{Channels, LogKind, Trace};
+use crate::data::channels::{Channels, LogKind, Trace};
 
 /// SplitMix64 with Box–Muller normals (small, seedable, no dependency).
 #[derive(Clone, Debug)]

@@ -18,9 +18,9 @@ use rand::Rng;
 use rand_distr::{Distribution, StandardNormal};
 
 use super::earth::G0;
-use crate::sim::NoiseGen;
-use crate::thermal::Temps;
-use crate::truth::{SensorTruth, Truth, TruthModel};
+use crate::simulate::NoiseGen;
+use crate::simulate::thermal::Temps;
+use crate::simulate::truth::{SensorTruth, Truth, TruthModel};
 
 /// One physical accelerometer axis with its I/F converter.
 pub trait AccelTruth {
@@ -51,10 +51,10 @@ pub trait AccelCompensation {
     fn compensate(&mut self, pulses: [i32; 3], dt_ticks: u32, truth: &[(f64, f64); 3]) -> Vector3<f64>;
 }
 
-/// [`AccelTruth`] from the lab's truth model: [`crate::truth::TruthModel`] (Eq. 11 scale
+/// [`AccelTruth`] from the lab's truth model: [`crate::simulate::truth::TruthModel`] (Eq. 11 scale
 /// factor, cubic bias, extension effects, on the case temperature and its rate) and
-/// [`crate::sim::NoiseGen`] (white noise + Gauss–Markov instability), with the I/F carry of
-/// [`crate::sim::Accelerometer::step`] (that type keeps K1 and K0 private, and the oracle
+/// [`crate::simulate::NoiseGen`] (white noise + Gauss–Markov instability), with the I/F carry of
+/// [`crate::simulate::Accelerometer::step`] (that type keeps K1 and K0 private, and the oracle
 /// needs them, so its five lines are mirrored here).
 #[derive(Debug)]
 pub struct LabAccel {

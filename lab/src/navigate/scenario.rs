@@ -28,7 +28,7 @@ use super::earth::{self, Local};
 use super::errors::ImuErrors;
 use super::strapdown::{advance_position, NavState};
 use super::thermal::TempPoint;
-use crate::thermal::ThermalChain;
+use crate::simulate::thermal::ThermalChain;
 
 /// The built-in scenario, TOML.
 pub const DEFAULT_TOML: &str = include_str!("default_scenario.toml");

@@ -22,8 +22,8 @@ use std::fmt::Write as _;
 
 use serde::Serialize;
 
-use crate::fit::{lstsq, FitError};
-use crate::log::static_log::G0_MPS2;
+use crate::calibrate::fit::{lstsq, FitError};
+use crate::data::static_log::G0_MPS2;
 
 /// ArduPilot's fixed reference temperature, °C.
 pub const ARDUPILOT_TREF_C: f64 = 35.0;
@@ -107,7 +107,7 @@ pub fn fit_peers(t: &[f64], y: &[f64]) -> Result<Peers, FitError> {
     let tmax = t.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let mid = 0.5 * (tmin + tmax);
     let cubic = Poly::fit(t, y, 3, mid, tmin, tmax)?;
-    let simple = Poly::fit(t, y, 1, crate::fit::T0_C, -60.0, 130.0)?;
+    let simple = Poly::fit(t, y, 1, crate::calibrate::fit::T0_C, -60.0, 130.0)?;
     let (pt, py) = ardupilot_points(t, y);
     let mut ardupilot = Poly::fit(&pt, &py, 3, ARDUPILOT_TREF_C, tmin, tmax)?;
     // The learner's own constant is not a parameter: the ordinary calibration sets the

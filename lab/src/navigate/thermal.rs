@@ -1,6 +1,6 @@
 //! Drive temperature of the IMU bay over a flight: piecewise-linear breakpoints.
 //!
-//! The lab's thermal chain ([`crate::thermal::ThermalChain`]: air → case (DS18B20) →
+//! The lab's thermal chain ([`crate::simulate::thermal::ThermalChain`]: air → case (DS18B20) →
 //! element, first-order lags) turns it into the case temperature and rate that the truth
 //! model and the DS18B20s see.
 

@@ -1,21 +1,21 @@
 //! Calibration of each unit through the lab: a simulated four-position test of the same
-//! unit ([`crate::sim::simulate`], the paper's programs) fitted by [`crate::fit::fit`]
+//! unit ([`crate::simulate::simulate`], the paper's programs) fitted by [`crate::calibrate::fit::fit`]
 //! into the root crate's tables, plus the "none" table derived from the simple fit.
 //!
 //! Only the +1 g and −1 g positions are simulated (the 0 g positions carry no K1 or K0
 //! information: the fit pairs ±1 g by time), and only the fit programs of the lab's
-//! held-out rule ([`crate::fit::split_programs`]: the extreme rates 0.3 and 0.9 °C/min),
+//! held-out rule ([`crate::calibrate::fit::split_programs`]: the extreme rates 0.3 and 0.9 °C/min),
 //! so the tables are exactly the ones the lab's `calibrate` would flash for that log.
 
 use qfa_thermal::model::AxisModel;
 use qfa_thermal::table::Table;
 
 use crate::discover::{analyze, Channels, Start};
-use crate::fit::{fit, split_programs, FitOptions};
-use crate::log::{write_log_to, Log};
-use crate::profile::{paper_positions, Program, PAPER_RATES};
-use crate::sim::simulate;
-use crate::truth::Truth;
+use crate::calibrate::fit::{fit, split_programs, FitOptions};
+use crate::data::cycling::{write_log_to, Log};
+use crate::simulate::profile::{paper_positions, Program, PAPER_RATES};
+use crate::simulate::simulate;
+use crate::simulate::truth::Truth;
 
 /// Row length of the simulated log, s (the lab's default).
 pub const ROW_S: u32 = 1;

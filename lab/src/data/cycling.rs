@@ -1,5 +1,5 @@
 //! Cycling log: CSV reader and writer for `program,run,time_s,input_g,temp_c,pulses,interval_s`.
-//! Static multi-axis logs (a board at one orientation, CSV or TSV) are read by [`static_log`].
+//! Static multi-axis logs (a board at one orientation, CSV or TSV) are read by [`super::static_log`].
 //!
 //! One row per counting interval of one index-head position (`run`) under one temperature
 //! program. `temp_c` is the latest valid DS18B20 reading (empty until the first one),
@@ -10,7 +10,7 @@
 //! `csv::ByteRecord` into one reused record, so a row costs no allocation: about 0.6 s per
 //! million rows in release on this machine (`qfa-lab demo` prints the measured figure).
 
-pub mod static_log;
+
 
 use std::fmt;
 use std::io::{BufWriter, Read, Write};

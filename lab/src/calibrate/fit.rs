@@ -1,7 +1,7 @@
 //! Least-squares fits of the simple model (Eq. 3–4) and the hysteresis model (Eq. 11 plus
 //! heating and cooling bias grids), producing root-crate [`Table`]s.
 //!
-//! Inputs per paired row (see [`crate::pairing`]): measured K1 and K0, and the firmware's
+//! Inputs per paired row (see [`crate::data::pairing`]): measured K1 and K0, and the firmware's
 //! T̂, Ṫ, model temperature, branch and extension-slot bias of both runs (averaged, each
 //! feature separately, so the pair's equation is exact for a model linear in them).
 //! Consecutive rows are averaged in blocks of `block` rows before the solve (a linear
@@ -27,8 +27,8 @@ use serde::Serialize;
 use qfa_thermal::model::{Branch, MAX_BIAS_POINTS};
 use qfa_thermal::{AxisModel, BiasGrid, Extensions, ScaleFactor, Table};
 
-use crate::log::Log;
-use crate::pairing::{pair_program, trace_run, Trace, RATE_WINDOW};
+use crate::data::cycling::Log;
+use crate::data::pairing::{pair_program, trace_run, Trace, RATE_WINDOW};
 
 /// Reference temperature of every lab table, °C (the paper's start temperature).
 pub const T0_C: f64 = 22.0;
@@ -475,16 +475,16 @@ impl StaticSeries<'_> {
         self.time_s.iter().zip(self.temp_c).map(|(&t, &c)| (t, Some(c)))
     }
 
-    /// The firmware's view of the series under `ext` (see [`crate::pairing::trace_readings`]).
+    /// The firmware's view of the series under `ext` (see [`crate::data::pairing::trace_readings`]).
     #[must_use]
     pub fn trace(&self, ext: &Extensions, deadband: f32) -> Trace {
-        crate::pairing::trace_readings(self.rows(), self.time_s.len(), ext, deadband)
+        crate::data::pairing::trace_readings(self.rows(), self.time_s.len(), ext, deadband)
     }
 
     /// The model's K0 (g) per row through the root crate's `AxisModel::evaluate`.
     #[must_use]
     pub fn model_trace(&self, axis: &AxisModel) -> Trace {
-        crate::pairing::trace_axis(self.rows(), self.time_s.len(), axis)
+        crate::data::pairing::trace_axis(self.rows(), self.time_s.len(), axis)
     }
 }
 

@@ -10,13 +10,18 @@
 //! Rows are `row_s` (an integer ≥ 1) seconds long. Every (program, run) gets its own
 //! seeded noise stream, so a log is reproducible from the seed.
 
+pub mod profile;
+pub mod synth;
+pub mod thermal;
+pub mod truth;
+
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
 use rand_distr::StandardNormal;
 
-use crate::log::{Log, Run, Sample};
-use crate::profile::{Position, Program};
-use crate::truth::{NoiseTruth, Truth, TruthModel};
+use crate::data::cycling::{Log, Run, Sample};
+use crate::simulate::profile::{Position, Program};
+use crate::simulate::truth::{NoiseTruth, Truth, TruthModel};
 
 /// Accelerometer noise generator (white + Gauss–Markov), g.
 #[derive(Debug)]
@@ -196,8 +201,8 @@ pub fn simulate_paper(
     threads: usize,
     progress: Option<&indicatif::ProgressBar>,
 ) -> Log {
-    let programs: Vec<Program> = crate::profile::PAPER_RATES.iter().map(|&r| Program::paper(r)).collect();
-    simulate(truth, &programs, &crate::profile::paper_positions(), row_s, seed, threads, progress)
+    let programs: Vec<Program> = crate::simulate::profile::PAPER_RATES.iter().map(|&r| Program::paper(r)).collect();
+    simulate(truth, &programs, &crate::simulate::profile::paper_positions(), row_s, seed, threads, progress)
 }
 
 #[cfg(test)]

@@ -30,7 +30,7 @@ use serde::{Deserialize, Serialize};
 use qfa_thermal::model::{BranchHysteresis, Creep, SensorLag};
 use qfa_thermal::{Extensions, ScaleFactor};
 
-use crate::thermal::{Lag, ThermalChain};
+use crate::simulate::thermal::{Lag, ThermalChain};
 
 /// Smooth bias, g, as a cubic in ΔT = T − T0 (T0 from the scale factor).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

@@ -36,7 +36,7 @@ use super::align::AlignErrors;
 use super::run::{self, Figures};
 use super::scenario::{Scenario, Variation};
 use super::{calibrate_with, mc_variants, share, thermal_ceps, truths_seeded, units, NavigateArgs};
-use crate::truth::Truth;
+use crate::simulate::truth::Truth;
 
 /// What to run.
 #[derive(Clone, Debug, PartialEq, Eq)]

@@ -1,9 +1,9 @@
 //! Held-out evaluation, `report.json`, and plots.
 //!
 //! Every figure in the report is **held out**: the tables are fitted on the fit programs
-//! ([`crate::fit::split_programs`]: for the paper's test, 0.3 and 0.9 °C/min) and the
+//! ([`crate::calibrate::fit::split_programs`]: for the paper's test, 0.3 and 0.9 °C/min) and the
 //! figures come from compensating the other programs (0.5 and 0.7 °C/min) through the
-//! root crate's compensator. Metric definitions are in [`crate::metrics`].
+//! root crate's compensator. Metric definitions are in [`crate::calibrate::metrics`].
 
 use std::path::Path;
 
@@ -13,9 +13,9 @@ use qfa_thermal::model::Branch;
 use qfa_thermal::Table;
 
 use crate::compensate::{compensate_run, not_compensated};
-use crate::log::Log;
-use crate::metrics::{bin_series, bins_sensitivity, rms, Bin};
-use crate::pairing::{pair_program, trace_run, Trace};
+use crate::data::cycling::Log;
+use crate::calibrate::metrics::{bin_series, bins_sensitivity, rms, Bin};
+use crate::data::pairing::{pair_program, trace_run, Trace};
 
 /// Figures per compensation variant.
 #[derive(Clone, Copy, Debug, Default, Serialize, PartialEq)]
@@ -354,7 +354,7 @@ pub fn peer_bias(log: &Log, fit_programs: &[String], eval_programs: &[String], h
     if t.is_empty() {
         return Err("peers: no +1 g / -1 g pair with temperatures in the fit programs".to_string());
     }
-    let peers = crate::peers::fit_peers(&t, &k0).map_err(|e| format!("peers: {e}"))?;
+    let peers = crate::calibrate::peers::fit_peers(&t, &k0).map_err(|e| format!("peers: {e}"))?;
     let gamma = f64::from(hysteresis.axes[0].scale.gamma);
     let mut bins: [Vec<Bin>; 2] = [Vec::new(), Vec::new()];
     let polys = [&peers.cubic, &peers.ardupilot];
@@ -390,7 +390,7 @@ pub fn peer_bias(log: &Log, fit_programs: &[String], eval_programs: &[String], h
     if bins[0].is_empty() {
         return Err(format!(
             "peer bias residual not computable: no held-out bin qualified (bins need {} s of rows)",
-            crate::metrics::MIN_BIN_S
+            crate::calibrate::metrics::MIN_BIN_S
         ));
     }
     let r = |b: &[Bin]| rms(&b.iter().map(|x| x.value * 1e6).collect::<Vec<_>>());

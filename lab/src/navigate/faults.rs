@@ -1,7 +1,7 @@
 //! Fault injection on the streams the navigation run feeds into the compensator, and the
 //! navigation scenario flown with faults.
 //!
-//! The navigation run ([`crate::nav::run::fly`]) gives every variant one DS18B20 reading
+//! The navigation run ([`crate::navigate::run::fly`]) gives every variant one DS18B20 reading
 //! per accelerometer case once a second (`on_temperatures(t_ms, [raw; 3])`) and the
 //! pulses of each IMU cycle (`compensate(pulses, dt_ticks, ..)`). [`FaultyCompensation`]
 //! sits on those streams exactly where the nav's own `TableCompensation` does (one
@@ -49,9 +49,9 @@ use qfa_thermal::compensator::{Compensator, Output, SampleError, Status};
 use qfa_thermal::ds18b20::{self, encode_scratchpad, Resolution, POWER_ON_RAW};
 use qfa_thermal::table::{self, Table, MAX_TABLE_BYTES};
 
-use crate::nav::accel::{AccelCompensation, ImuCompensator, OracleCompensation, TableCompensation};
-use crate::nav::run::{self, Figures, Variant};
-use crate::nav::scenario::Scenario;
+use crate::navigate::accel::{AccelCompensation, ImuCompensator, OracleCompensation, TableCompensation};
+use crate::navigate::run::{self, Figures, Variant};
+use crate::navigate::scenario::Scenario;
 
 /// The compensator interface the injector drives: the firmware's entry points for the
 /// whole IMU, in the recommended configuration (one 3-axis compensator, one DS18B20
@@ -649,7 +649,7 @@ fn encode(t: &Table) -> anyhow::Result<Vec<u8>> {
 /// flight's errors, or a thermal-only error of `simple` too small to divide by.
 pub fn fly_with_faults(sc: &Scenario, tables: [&Table; 3], simple: [&Table; 3], rows: &[RowSpec]) -> anyhow::Result<FaultReport> {
     // One 3-axis table for the IMU's compensator, as the firmware flies it.
-    let good = encode(&crate::nav::calib::table3(tables)?)?;
+    let good = encode(&crate::navigate::calib::table3(tables)?)?;
     let fresh = |b: Broken| -> Box<dyn ThermalCompensator> {
         if b == Broken::WrongFlags {
             Box::new(WrongFlags(imu_compensator()))
@@ -669,7 +669,7 @@ pub fn fly_with_faults(sc: &Scenario, tables: [&Table; 3], simple: [&Table; 3], 
         let bytes = match r.broken {
             Broken::ZeroedCoefficients | Broken::RatePinned => {
                 let bt = broken_tables(tables, r.broken)?;
-                encode(&crate::nav::calib::table3([&bt[0], &bt[1], &bt[2]])?)?
+                encode(&crate::navigate::calib::table3([&bt[0], &bt[1], &bt[2]])?)?
             }
             Broken::No | Broken::WrongFlags => good.clone(),
         };
@@ -678,8 +678,8 @@ pub fn fly_with_faults(sc: &Scenario, tables: [&Table; 3], simple: [&Table; 3], 
         variants.push(Variant { name: r.name.clone(), comp: Box::new(c) });
         logs.push(log);
     }
-    let units = crate::nav::units();
-    let res = run::fly(sc, &mut crate::nav::truths(&units), variants)?;
+    let units = crate::navigate::units();
+    let res = run::fly(sc, &mut crate::navigate::truths(&units), variants)?;
     anyhow::ensure!(clean_log.borrow().refused == 0, "the fault-free twin refused readings");
     let growth = |a: &run::Track, b: &run::Track| -> f64 {
         let d = |x: &[f64], y: &[f64]| -> Vec<f64> { x.iter().zip(y).map(|(p, q)| p - q).collect() };

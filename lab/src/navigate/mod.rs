@@ -14,12 +14,12 @@
 //! | `oracle` | the truth model itself (true K1, K0 each cycle, f64): the limit |
 //!
 //! The three accelerometer axes are the paper's three units, the lab's presets
-//! ([`crate::truth::Truth::jb_kt8`]): x = JB-KT8 #1, y = #2, z = #3. Each axis's truth
+//! ([`crate::simulate::truth::Truth::jb_kt8`]): x = JB-KT8 #1, y = #2, z = #3. Each axis's truth
 //! model turns the ideal Δv into integer I/F pulses with carry ([`accel::LabAccel`]);
 //! the DS18B20 on each case (the unit's offset and noise, 12-bit) is read once a second
 //! into that axis's stream of one `Compensator<3, 32, 3>` (the firmware's recommended
 //! configuration: one stream per case, one 3-axis table); the pulses of each 5 ms cycle go
-//! to `Compensator::cycle`. The fault runs ([`crate::faults`]) fly the same configuration. Each unit's tables come from the lab's simulation and fit of its
+//! to `Compensator::cycle`. The fault runs ([`crate::navigate::faults`]) fly the same configuration. Each unit's tables come from the lab's simulation and fit of its
 //! own four-position test ([`calib`]). Non-thermal IMU errors come from the scenario's
 //! `[imu]` table ([`errors`]): gyro turn-on bias σ = 0.01 °/h, bias instability, ARW,
 //! scale factor and misalignment; accelerometer turn-on bias σ = 50 µg, scale factor and
@@ -48,13 +48,14 @@
 //!   sensor data in both (`meta.thermal_cep_nmi_per_h`, `meta.share_removed_thermal`).
 //!
 //! The thermal chain (bay air → case → element) is the lab's
-//! ([`crate::thermal::ThermalChain`]), driven by the scenario's breakpoints.
+//! ([`crate::simulate::thermal::ThermalChain`]), driven by the scenario's breakpoints.
 
 pub mod accel;
 pub mod align;
 pub mod calib;
 pub mod earth;
 pub mod errors;
+pub mod faults;
 pub mod mc;
 pub mod plot;
 pub mod run;
@@ -72,7 +73,7 @@ use qfa_thermal::table::Table;
 use serde::Serialize;
 
 use accel::{AccelCompensation, AccelTruth, LabAccel, OracleCompensation, TableCompensation};
-use crate::truth::Truth;
+use crate::simulate::truth::Truth;
 use align::AlignErrors;
 use run::{Figures, FlightResult, Variant};
 use scenario::Scenario;

@@ -21,7 +21,7 @@ use qfa_thermal::model::{AxisState, Branch};
 use qfa_thermal::rate::{RateConfig, RateEstimator};
 use qfa_thermal::{AxisModel, BiasGrid, Extensions, ScaleFactor};
 
-use crate::log::{Log, Run};
+use crate::data::cycling::{Log, Run};
 
 /// Rate-estimator window of every lab table (`Table::rate_window`).
 pub const RATE_WINDOW: usize = 32;
@@ -166,7 +166,7 @@ pub fn pair_program(log: &Log, program: &str) -> Option<ProgramPairs> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::log::Sample;
+    use crate::data::cycling::Sample;
 
     fn run(program: &str, input_g: f64, pulses: &[i64], t0: f64) -> Run {
         let samples = pulses

@@ -7,14 +7,18 @@
 //! The table written is the one fitted on the fit programs only, so the report's held-out
 //! figures describe exactly the flashed table.
 
+pub mod fit;
+pub mod metrics;
+pub mod peers;
+pub mod report;
 pub mod static_cal;
 
 use std::path::Path;
 use std::time::Instant;
 
-use crate::fit::{encode, fit, split_programs, FitOptions, Fitted};
-use crate::log::{read_log, Log};
-use crate::report::{evaluate, plot_residual_vs_time, plot_sf_vs_temp, Evaluation, FitSummary, Report, Timings, METRIC_TEXT};
+use crate::calibrate::fit::{encode, fit, split_programs, FitOptions, Fitted};
+use crate::data::cycling::{read_log, Log};
+use crate::calibrate::report::{evaluate, plot_residual_vs_time, plot_sf_vs_temp, Evaluation, FitSummary, Report, Timings, METRIC_TEXT};
 
 /// Calibration settings.
 #[derive(Clone, Debug, Default)]
@@ -76,7 +80,7 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
     pb.finish_and_clear();
     let t_eval = t.elapsed().as_secs_f64();
     check_figures(&eval)?;
-    let peers = crate::report::peer_bias(log, &fit_p, &eval_p, &fitted.hysteresis)?;
+    let peers = crate::calibrate::report::peer_bias(log, &fit_p, &eval_p, &fitted.hysteresis)?;
     let h = &fitted.sf_hysteresis.coef;
     let report = Report {
         rows: log.rows(),
@@ -108,14 +112,14 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
 ///
 /// # Errors
 /// The first figure that could not be formed, and why.
-pub fn check_figures(ev: &crate::report::Evaluation) -> Result<(), String> {
+pub fn check_figures(ev: &crate::calibrate::report::Evaluation) -> Result<(), String> {
     let names = ["no compensation", "simple", "hysteresis"];
     for (v, name) in names.iter().enumerate() {
         if ev.bins[v].bias.is_empty() {
             return Err(format!(
                 "bias residual ({name}) not computable: no held-out bin qualified (a bin is one program, branch \
                  segment and 1 °C of T-hat with at least {} s of rows the compensator marked compensated)",
-                crate::metrics::MIN_BIN_S
+                crate::calibrate::metrics::MIN_BIN_S
             ));
         }
         if ev.bins[v].sf.len() < 2 {
@@ -123,7 +127,7 @@ pub fn check_figures(ev: &crate::report::Evaluation) -> Result<(), String> {
                 "sensitivity ({name}) not computable: {} held-out scale-factor bin(s); needs 2 or more (held-out \
                  programs need both +1 g and -1 g runs, and bins at least {} s of compensated rows)",
                 ev.bins[v].sf.len(),
-                crate::metrics::MIN_BIN_S
+                crate::calibrate::metrics::MIN_BIN_S
             ));
         }
     }

@@ -19,7 +19,7 @@ use super::errors::ImuDraw;
 use super::scenario::{Flight, Scenario};
 use super::strapdown::{inverse, AltRef, Increments, Strapdown};
 use super::thermal::Profile;
-use crate::truth::SensorTruth;
+use crate::simulate::truth::SensorTruth;
 
 pub use super::errors::GyroErrors;
 
@@ -123,7 +123,7 @@ struct Sensed {
 }
 
 impl Imu<'_> {
-    fn sense(&mut self, ideal: &Increments, th: &crate::thermal::Temps, dt: f64) -> Sensed {
+    fn sense(&mut self, ideal: &Increments, th: &crate::simulate::thermal::Temps, dt: f64) -> Sensed {
         let dtheta = self.draw.gyro(&ideal.dtheta, dt, &mut self.rng);
         let dv = self.draw.accel(&ideal.dv, dt);
         let mut pulses = [0i32; 3];

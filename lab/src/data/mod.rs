@@ -1,0 +1,9 @@
+//! The data layer: every log kind the lab reads or writes, and the channels the fitters
+//! see. Data flows one way: a log ([`cycling`] or [`static_log`]) → its channels
+//! ([`pairing`] for the ±1 g runs of a cycling log, [`channels`] for discovery's binned
+//! series) → a fit (`crate::calibrate`) → a table → compensation and evaluation.
+
+pub mod channels;
+pub mod cycling;
+pub mod pairing;
+pub mod static_log;
