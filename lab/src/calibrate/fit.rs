@@ -46,6 +46,8 @@ pub enum FitError {
         /// Unknowns.
         unknowns: usize,
     },
+    /// More axes than a table holds (`qfa_thermal::table::MAX_AXES`).
+    TooManyAxes,
     /// The root crate refused the table.
     Table(qfa_thermal::table::Error),
 }
@@ -55,6 +57,7 @@ impl fmt::Display for FitError {
         match self {
             Self::NoPair(p) => write!(f, "program `{p}` has no +1 g / −1 g pair of runs"),
             Self::TooFewRows { rows, unknowns } => write!(f, "{rows} equations for {unknowns} unknowns"),
+            Self::TooManyAxes => write!(f, "more axes than a table holds"),
             Self::Table(e) => write!(f, "table rejected: {e}"),
         }
     }
@@ -86,21 +89,54 @@ pub fn lstsq(x: &[f64], p: usize, y: &[f64]) -> Result<LsResult, FitError> {
     if n < p || p == 0 {
         return Err(FitError::TooFewRows { rows: n, unknowns: p });
     }
-    let mut m = DMatrix::from_row_slice(n, p, x);
+    lstsq_matrix(DMatrix::from_row_slice(n, p, x), &DVector::from_column_slice(y))
+}
+
+/// The lab's one least-squares solver: `min ‖A·c − y‖` by nalgebra SVD of `A` with each
+/// column divided by its norm (singular values below 10⁻¹² of the largest are cut).
+/// Never the normal equations, which square the condition number.
+///
+/// # Errors
+/// [`FitError::TooFewRows`] when `A` has fewer rows than columns or none.
+pub fn lstsq_matrix(mut m: DMatrix<f64>, y: &DVector<f64>) -> Result<LsResult, FitError> {
+    let (n, p) = m.shape();
+    if n < p || p == 0 {
+        return Err(FitError::TooFewRows { rows: n, unknowns: p });
+    }
     let sv_raw = m.clone().singular_values();
     let cond_unscaled = sv_raw.max() / sv_raw.min();
     let norms: Vec<f64> = (0..p).map(|j| m.column(j).norm().max(f64::MIN_POSITIVE)).collect();
     for (j, nj) in norms.iter().enumerate() {
         m.column_mut(j).scale_mut(1.0 / nj);
     }
-    let yv = DVector::from_column_slice(y);
     let svd = m.clone().svd(true, true);
     let cond = svd.singular_values.max() / svd.singular_values.min();
-    let c = svd.solve(&yv, 1e-12 * svd.singular_values.max()).map_err(|_| FitError::TooFewRows { rows: n, unknowns: p })?;
-    let resid = &m * &c - &yv;
+    let c = svd.solve(y, 1e-12 * svd.singular_values.max()).map_err(|_| FitError::TooFewRows { rows: n, unknowns: p })?;
+    let resid = &m * &c - y;
     let rms = (resid.norm_squared() / n as f64).sqrt();
     let coef = c.iter().zip(&norms).map(|(ci, nj)| ci / nj).collect();
     Ok(LsResult { coef, cond, cond_unscaled, rms, rows: n })
+}
+
+/// Eq. 11's regressors in the lab's one column order, `[1, ΔT, ΔT², Ṫ, Ṫ·ΔT, Ṫ²]`, whose
+/// coefficients are `[γ, μ, β, ε, η, α]` ([`scale_of_eq11`]); ΔT in °C, Ṫ in °C/min.
+#[must_use]
+pub fn eq11_regressors(d: f64, r: f64) -> [f64; 6] {
+    [1.0, d, d * d, r, r * d, r * r]
+}
+
+/// The root crate's scale factor from coefficients in [`eq11_regressors`]' order.
+#[must_use]
+pub fn scale_of_eq11(c: &[f64; 6]) -> ScaleFactor {
+    ScaleFactor {
+        t0_c: T0_C as f32,
+        gamma: c[0] as f32,
+        mu: c[1] as f32,
+        beta: c[2] as f32,
+        epsilon: c[3] as f32,
+        eta: c[4] as f32,
+        alpha: c[5] as f32,
+    }
 }
 
 /// Fit settings.
@@ -283,6 +319,8 @@ pub fn fit(log: &Log, opts: &FitOptions, progress: Option<&indicatif::ProgressBa
     let xs: Vec<f64> = rows.iter().flat_map(|r| [1.0, r.d]).collect();
     let (xb, yb) = block_average(&xs, &y_k1, 2, opts.block, &starts);
     let sf_simple = lstsq(&xb, 2, &yb)?;
+    // Eq. 11's columns in `eq11_regressors`' order; each product is averaged over the
+    // pair's two runs (not the product of the averages), so the columns are written out.
     let xh: Vec<f64> = rows.iter().flat_map(|r| [1.0, r.d, r.d2, r.r, r.rd, r.r2]).collect();
     let (xb, yb) = block_average(&xh, &y_k1, 6, opts.block, &starts);
     let sf_hysteresis = lstsq(&xb, 6, &yb)?;
@@ -321,16 +359,8 @@ pub fn fit(log: &Log, opts: &FitOptions, progress: Option<&indicatif::ProgressBa
     grid_simple.deadband_c_per_min = opts.deadband_c_per_min;
     let simple = table_of(AxisModel { scale: scale_simple, bias: grid_simple, rate_limit_c_per_min: rate_limit, ext: Extensions::default() })?;
 
-    let h = &sf_hysteresis.coef;
-    let scale_h = ScaleFactor {
-        t0_c: T0_C as f32,
-        gamma: h[0] as f32,
-        mu: h[1] as f32,
-        beta: h[2] as f32,
-        epsilon: h[3] as f32,
-        eta: h[4] as f32,
-        alpha: h[5] as f32,
-    };
+    let h: [f64; 6] = sf_hysteresis.coef[..6].try_into().map_err(|_| FitError::TooFewRows { rows: n, unknowns: 6 })?;
+    let scale_h = scale_of_eq11(&h);
     let bg = &bias_hysteresis.coef;
     let grid_h = BiasGrid {
         t_start_c: start as f32,
@@ -343,14 +373,25 @@ pub fn fit(log: &Log, opts: &FitOptions, progress: Option<&indicatif::ProgressBa
     Ok(Fitted { simple, hysteresis, sf_simple, sf_hysteresis, bias_simple, bias_hysteresis, pairs: n })
 }
 
-/// A validated single-axis lab table (`rate_window` 32).
+/// A validated single-axis lab table (see [`table_of_axes`]).
 ///
 /// # Errors
 /// The root crate's validation error.
 pub fn table_of(axis: AxisModel) -> Result<Table, FitError> {
-    let mut axes = heapless::Vec::new();
-    let _ = axes.push(axis);
-    let t = Table { rate_window: RATE_WINDOW as u16, axes, misalignment: None };
+    table_of_axes([axis])
+}
+
+/// The one place the lab builds a table: these axes, the lab's rate window
+/// ([`RATE_WINDOW`] = 32), no misalignment matrix, validated by the root crate.
+///
+/// # Errors
+/// More axes than a table holds, or the root crate's validation error.
+pub fn table_of_axes(axes: impl IntoIterator<Item = AxisModel>) -> Result<Table, FitError> {
+    let mut v = heapless::Vec::new();
+    for a in axes {
+        v.push(a).map_err(|_| FitError::TooManyAxes)?;
+    }
+    let t = Table { rate_window: RATE_WINDOW as u16, axes: v, misalignment: None };
     t.validate().map_err(FitError::Table)?;
     Ok(t)
 }

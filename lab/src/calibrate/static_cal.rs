@@ -27,12 +27,11 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use qfa_thermal::{AxisModel, Table};
+use qfa_thermal::Table;
 
-use crate::calibrate::fit::{encode, fit_static_axis, BranchMode, FitError, StaticFit, StaticSeries, StaticStructure};
+use crate::calibrate::fit::{encode, fit_static_axis, table_of_axes, BranchMode, FitError, StaticFit, StaticSeries, StaticStructure};
 use crate::data::static_log::{Sampling, Skipped, StaticLog};
 use crate::calibrate::metrics::rms;
-use crate::data::pairing::RATE_WINDOW;
 use crate::calibrate::peers::{ardupilot_params, fit_peers, px4_params, Peers, Poly};
 
 /// Contiguous cross-validation blocks in the training rows.
@@ -335,7 +334,7 @@ pub fn calibrate_static(log: &StaticLog, opts: &StaticCalOptions, progress: bool
         peers.push(p);
     }
     pb.finish_and_clear();
-    let table = table_of_axes(fits.iter().map(|f| f.axis.clone()).collect())
+    let table = table_of_axes(fits.iter().map(|f| f.axis.clone()))
         .map_err(|e| StaticCalError::Fit("table".to_string(), e))?;
     let range = |r: &[f64]| (r.iter().copied().fold(f64::INFINITY, f64::min), r.iter().copied().fold(f64::NEG_INFINITY, f64::max));
     let report = StaticReport {
@@ -364,20 +363,6 @@ pub fn calibrate_static(log: &StaticLog, opts: &StaticCalOptions, progress: bool
         axes,
     };
     Ok(StaticCalibration { table, fits, peers, report })
-}
-
-/// A validated lab table with these axes (`rate_window` 32).
-///
-/// # Errors
-/// The root crate's validation error.
-pub fn table_of_axes(axes: Vec<AxisModel>) -> Result<Table, FitError> {
-    let mut v = heapless::Vec::new();
-    for a in axes {
-        v.push(a).map_err(|_| FitError::TooFewRows { rows: 0, unknowns: 0 })?;
-    }
-    let t = Table { rate_window: RATE_WINDOW as u16, axes: v, misalignment: None };
-    t.validate().map_err(FitError::Table)?;
-    Ok(t)
 }
 
 /// The held-out table in Markdown (mg, per axis).

@@ -7,7 +7,6 @@
 //! evaluated on every row and averaged over the same bins, so its states (lag, play,
 //! creep) advance at the firmware's sample rate.
 
-use std::collections::BTreeMap;
 use std::path::Path;
 
 use anyhow::{bail, Context, Result};
@@ -147,6 +146,41 @@ impl Channels {
         self.traces.iter().map(|t| t.bins.len()).sum()
     }
 
+    /// Channels of a cycling log: per program, the first +1 g and −1 g runs paired by
+    /// [`crate::data::pairing::pair_program`]; the program temperature of a pair is the
+    /// mean of both runs' readings (either one when only one has a reading yet).
+    ///
+    /// # Errors
+    /// No program has paired ±1 g runs with at least 8 rows.
+    pub fn from_cycling(log: &crate::data::cycling::Log, bin_s: f64) -> Result<Self> {
+        let mut traces = Vec::new();
+        for prog in log.programs() {
+            let Some(pp) = crate::data::pairing::pair_program(log, &prog) else {
+                continue; // a program without both ±1 g runs gives no channels
+            };
+            let (plus, minus) = (&log.runs[pp.plus].samples, &log.runs[pp.minus].samples);
+            let (mut rows, mut sf, mut bias) = (Vec::new(), Vec::new(), Vec::new());
+            for (k, &(i, j)) in pp.rows.iter().enumerate() {
+                let temp = match (plus[i].temp_c, minus[j].temp_c) {
+                    (Some(a), Some(b)) => 0.5 * (a + b),
+                    (Some(a), None) | (None, Some(a)) => a,
+                    (None, None) => continue,
+                };
+                let (k1, k0) = pp.k1_k0(log, k);
+                rows.push((plus[i].time_s, temp as f32));
+                sf.push(k1);
+                bias.push(k0);
+            }
+            if rows.len() >= 8 {
+                traces.push(Trace::new(prog, &rows, Some(&sf), &bias, bin_s));
+            }
+        }
+        if traces.is_empty() {
+            bail!("no program has paired +1 g and -1 g runs with at least 8 rows");
+        }
+        Ok(Self { kind: LogKind::Cycling, traces })
+    }
+
     /// Read a log, detecting its format from the header.
     ///
     /// # Errors
@@ -165,78 +199,11 @@ impl Channels {
         let Some((_, header)) = lines.next() else { bail!("empty log") };
         let cols: Vec<String> = header.split(',').map(|c| c.trim().to_ascii_lowercase()).collect();
         let idx = |name: &str| cols.iter().position(|c| c == name);
-        if let (Some(p), Some(ti), Some(g), Some(tc), Some(pu), Some(iv)) =
-            (idx("program"), idx("time_s"), idx("input_g"), idx("temp_c"), idx("pulses"), idx("interval_s"))
-        {
-            let run = idx("run");
-            let mut errors = Vec::new();
-            // program -> input sign -> (run id, rows)
-            type Runs = BTreeMap<String, Vec<(f64, Option<f32>, f64)>>;
-            let mut progs: BTreeMap<String, (Runs, Runs)> = BTreeMap::new();
-            for (ln, line) in lines {
-                let f: Vec<&str> = line.split(',').map(str::trim).collect();
-                let get = |i: usize| f.get(i).copied().unwrap_or("");
-                let parsed = (|| -> Result<()> {
-                    if f.len() < cols.len() {
-                        bail!("{} fields, expected {}", f.len(), cols.len());
-                    }
-                    let t: f64 = get(ti).parse().context("time_s")?;
-                    let g: f64 = get(g).parse().context("input_g")?;
-                    let temp: Option<f32> =
-                        if get(tc).is_empty() { None } else { Some(get(tc).parse().context("temp_c")?) };
-                    let pulses: f64 = get(pu).parse().context("pulses")?;
-                    let iv: f64 = get(iv).parse().context("interval_s")?;
-                    if iv.is_nan() || iv <= 0.0 || !t.is_finite() || !pulses.is_finite() {
-                        bail!("non-positive interval or non-finite value");
-                    }
-                    let entry = progs.entry(get(p).to_string()).or_default();
-                    let run_id = run.map_or(String::new(), |r| get(r).to_string());
-                    let rate = pulses / iv;
-                    if (g - 1.0).abs() < 1e-6 {
-                        entry.0.entry(run_id).or_default().push((t, temp, rate));
-                    } else if (g + 1.0).abs() < 1e-6 {
-                        entry.1.entry(run_id).or_default().push((t, temp, rate));
-                    }
-                    Ok(())
-                })();
-                if let Err(e) = parsed {
-                    errors.push(format!("line {}: {e:#}", ln + 1));
-                }
-            }
-            if !errors.is_empty() {
-                let n = errors.len();
-                errors.truncate(20);
-                bail!("{n} malformed row(s):\n{}", errors.join("\n"));
-            }
-            let mut traces = Vec::new();
-            for (prog, (plus, minus)) in progs {
-                let (Some(p), Some(m)) = (plus.into_values().next(), minus.into_values().next()) else {
-                    continue; // a program without both ±1 g runs gives no channels
-                };
-                let by_time: BTreeMap<i64, (Option<f32>, f64)> =
-                    m.iter().map(|&(t, tc, a)| ((t * 1000.0).round() as i64, (tc, a))).collect();
-                let (mut rows, mut sf, mut bias) = (Vec::new(), Vec::new(), Vec::new());
-                for &(t, tp, ap) in &p {
-                    let Some(&(tm, am)) = by_time.get(&((t * 1000.0).round() as i64)) else { continue };
-                    // The common program temperature: mean of both runs' readings.
-                    let temp = match (tp, tm) {
-                        (Some(a), Some(b)) => 0.5 * (a + b),
-                        (Some(a), None) | (None, Some(a)) => a,
-                        (None, None) => continue,
-                    };
-                    let k1 = 0.5 * (ap - am);
-                    rows.push((t, temp));
-                    sf.push(k1);
-                    bias.push((ap + am) / (2.0 * k1));
-                }
-                if rows.len() >= 8 {
-                    traces.push(Trace::new(prog, &rows, Some(&sf), &bias, bin_s));
-                }
-            }
-            if traces.is_empty() {
-                bail!("no program has paired +1 g and -1 g runs");
-            }
-            Ok(Self { kind: LogKind::Cycling, traces })
+        if crate::data::cycling::COLUMNS.iter().all(|c| idx(c).is_some()) {
+            // The cycling log has one reader (every malformed row reported, NaN refused)
+            // and one ±1 g pairing; the channels are formed from what they return.
+            let log = crate::data::cycling::read_log_from(text.as_bytes()).map_err(|e| anyhow::anyhow!("{e}"))?;
+            Self::from_cycling(&log, bin_s)
         } else if let (Some(ti), Some(tc), Some(v)) = (idx("time_s"), idx("temp_c"), idx("value")) {
             let mut errors = Vec::new();
             let (mut rows, mut vals) = (Vec::new(), Vec::new());

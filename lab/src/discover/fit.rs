@@ -359,7 +359,7 @@ impl Setup<'_> {
                 let te = if nl.lag_tau_s.is_some() { st.element_c } else { t };
                 let r = f64::from(clampf(tr.est_rate[i], -lim, lim));
                 let d = f64::from(te - T0_C);
-                let row = [1.0, d, d * d, r, r * r, r * d];
+                let row = crate::calibrate::fit::eq11_regressors(d, r);
                 for k in 0..6 {
                     s6[k] += row[k];
                 }
@@ -453,10 +453,10 @@ impl Setup<'_> {
         let meas = |i: usize| y_over.map_or((bins[i].sf, bins[i].bias), |y| y[i]);
         let hours = if s.bias_drift { self.bin_hours() } else { Vec::new() };
         let cyc = self.ch.kind == LogKind::Cycling;
-        // Scale factor: columns 1, d, [d²], [r], [r²], [r·d].
+        // Scale factor: Eq. 11's columns (`eq11_regressors`' order) 1, d, [d²], [r], [r·d], [r²].
         let scale = if cyc {
             let mut cols = vec![0usize, 1];
-            for (on, c) in [(s.sf_quad, 2), (s.sf_eps, 3), (s.sf_alpha, 4), (s.sf_eta, 5)] {
+            for (on, c) in [(s.sf_quad, 2), (s.sf_eps, 3), (s.sf_eta, 4), (s.sf_alpha, 5)] {
                 if on {
                     cols.push(c);
                 }
@@ -469,15 +469,7 @@ impl Setup<'_> {
             for (j, &cj) in cols.iter().enumerate() {
                 full[cj] = c[j];
             }
-            ScaleFactor {
-                t0_c: T0_C,
-                gamma: full[0] as f32,
-                mu: full[1] as f32,
-                beta: full[2] as f32,
-                epsilon: full[3] as f32,
-                alpha: full[4] as f32,
-                eta: full[5] as f32,
-            }
+            crate::calibrate::fit::scale_of_eq11(&full)
         } else {
             ScaleFactor::simple(T0_C, 1.0, 0.0)
         };
@@ -565,50 +557,38 @@ impl Setup<'_> {
     }
 }
 
-/// Least squares with column scaling; `pen = Some((from, to))` adds a small
-/// second-difference penalty on coefficients `from..to`.
+/// Least squares through the lab's one solver ([`crate::calibrate::fit::lstsq_matrix`],
+/// SVD), on `A` stacked with two kinds of weak rows:
+/// * a ridge of 10⁻⁶ × each column's norm, so a column the training bins leave empty (or
+///   fewer bins than columns) still gives a defined, minimal answer;
+/// * with `pen = Some((from, to))`, a second-difference penalty on coefficients
+///   `from..to` of weight 10⁻² / rms(column norm⁻¹), which keeps a sparse bias grid well
+///   posed (weight 10⁻⁴ in the squared objective, against bins of unit weight).
 fn solve(a: &DMatrix<f64>, y: &DVector<f64>, pen: Option<(usize, usize)>) -> Vec<f64> {
-    let k = a.ncols();
-    if a.nrows() == 0 || k == 0 {
+    let (n, k) = a.shape();
+    if n == 0 || k == 0 {
         return vec![0.0; k];
     }
-    let scale: Vec<f64> = (0..k)
-        .map(|j| {
-            let n = a.column(j).norm();
-            if n > 0.0 {
-                1.0 / n
-            } else {
-                1.0
-            }
-        })
-        .collect();
-    let mut an = a.clone();
-    for (j, &sj) in scale.iter().enumerate() {
-        an.column_mut(j).scale_mut(sj);
-    }
-    let mut ata = an.transpose() * &an;
-    let aty = an.transpose() * y;
+    let norm: Vec<f64> = (0..k).map(|j| a.column(j).norm()).map(|v| if v > 0.0 { v } else { 1.0 }).collect();
+    let pen_rows = pen.map_or(0, |(lo, hi)| hi.saturating_sub(lo + 2));
+    let mut m = DMatrix::zeros(n + k + pen_rows, k);
+    m.rows_mut(0, n).copy_from(a);
     for j in 0..k {
-        ata[(j, j)] += 1e-12;
+        m[(n + j, j)] = 1e-6 * norm[j];
     }
     if let Some((lo, hi)) = pen {
-        let lam = 1e-4;
-        let mean_s2 = scale[lo..hi].iter().map(|s| s * s).sum::<f64>() / (hi - lo) as f64;
-        for j in lo..hi.saturating_sub(2) {
-            let idx = [j, j + 1, j + 2];
-            let w = [1.0, -2.0, 1.0];
-            for p in 0..3 {
-                for q in 0..3 {
-                    ata[(idx[p], idx[q])] += lam * w[p] * w[q] * scale[idx[p]] * scale[idx[q]] / mean_s2;
-                }
+        let mean_s2 = norm[lo..hi].iter().map(|v| 1.0 / (v * v)).sum::<f64>() / (hi - lo) as f64;
+        let w = (1e-4 / mean_s2).sqrt();
+        for (i, j) in (lo..hi.saturating_sub(2)).enumerate() {
+            for (d, c) in [1.0, -2.0, 1.0].into_iter().enumerate() {
+                m[(n + k + i, j + d)] = w * c;
             }
         }
     }
-    let sol = match ata.clone().cholesky() {
-        Some(ch) => ch.solve(&aty),
-        None => ata.svd(true, true).solve(&aty, 1e-14).unwrap_or_else(|_| DVector::zeros(k)),
-    };
-    (0..k).map(|j| sol[j] * scale[j]).collect()
+    let mut yy = DVector::zeros(n + k + pen_rows);
+    yy.rows_mut(0, n).copy_from(y);
+    // Never fails: the ridge rows make the stacked matrix at least as tall as wide.
+    crate::calibrate::fit::lstsq_matrix(m, &yy).map_or_else(|_| vec![0.0; k], |r| r.coef)
 }
 
 /// Golden-section minimum of `f` on `[a, b]`.

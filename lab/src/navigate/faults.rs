@@ -857,13 +857,13 @@ pub fn markdown(r: &FaultReport) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use qfa_thermal::model::{AxisModel, BiasGrid, Extensions, ScaleFactor};
+    use qfa_thermal::model::{AxisModel, BiasGrid, Extensions};
 
     /// A 1-axis JB-KT8 #1-like table.
     fn table_bytes() -> Vec<u8> {
         let mut t = Table { rate_window: 32, axes: heapless::Vec::new(), misalignment: None };
         let a = AxisModel {
-            scale: ScaleFactor { t0_c: 22.0, gamma: 320_320.0, mu: -32.76, beta: 0.1008, epsilon: 88.14, eta: -0.024_09, alpha: 273.0 },
+            scale: crate::simulate::truth::Truth::jb_kt8(1).scale,
             bias: BiasGrid::single_valued(-60.0, 65.0, &[1e-4, 1.5e-4, 3e-4]),
             rate_limit_c_per_min: 2.0,
             ext: Extensions::default(),

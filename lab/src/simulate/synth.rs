@@ -100,10 +100,11 @@ impl SynthConfig {
     }
 }
 
-/// JB-KT8 #1 scale factor (paper Eq. 15).
+/// JB-KT8 #1 scale factor (paper Eq. 15): the simulator's preset, written once in
+/// [`crate::simulate::truth::Truth::jb_kt8`].
 #[must_use]
 pub fn kt8_1_scale() -> ScaleFactor {
-    ScaleFactor { t0_c: 22.0, gamma: 320_320.0, mu: -32.76, beta: 0.1008, epsilon: 88.14, eta: -0.02409, alpha: 273.0 }
+    crate::simulate::truth::Truth::jb_kt8(1).scale
 }
 
 /// A truth model: `scale`, bias `b0 + b1·ΔT + b2·ΔT²` (g) on a 16-point grid over
