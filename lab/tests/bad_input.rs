@@ -1,7 +1,7 @@
 //! The bad-input matrix: each class of bad input fed to `calibrate` and `compensate` (and,
 //! for static logs, `discover`, which shares the static reader) through the CLI, as a user
-//! runs them, asserting the exact message. (`discover` on cycling logs still has its own
-//! reader in `discover/channels.rs`, owned elsewhere; it is not asserted here.)
+//! runs them, asserting the exact message. `discover` reads cycling logs through the same
+//! reader, so it gets the same messages.
 //!
 //! | input | static log (`--columns`/unit flags) | cycling log |
 //! |---|---|---|
@@ -167,7 +167,7 @@ fn cycling_log_bad_inputs_get_their_exact_errors() {
     // Named runs are runs: calibrate fails for the missing pair, not for the names.
     fails_with(&["calibrate", "--log", &single, "--out", &out], "program `rate0.3` has no +1 g / −1 g pair of runs");
     fails_with(&["calibrate", "--log", &no_pair, "--out", &out], "program `rate0.3` has no +1 g / −1 g pair of runs");
-    for cmd in ["calibrate", "compensate"] {
+    for cmd in ["calibrate", "compensate", "discover"] {
         let args = |log: &str| -> Vec<String> {
             let mut v: Vec<String> = [cmd, "--log", log, "--out", &out].iter().map(|s| s.to_string()).collect();
             if cmd == "compensate" {

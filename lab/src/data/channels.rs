@@ -196,14 +196,19 @@ impl Channels {
     /// As [`Channels::read`].
     pub fn parse(text: &str, bin_s: f64) -> Result<Self> {
         let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
-        let Some((_, header)) = lines.next() else { bail!("empty log") };
-        let cols: Vec<String> = header.split(',').map(|c| c.trim().to_ascii_lowercase()).collect();
-        let idx = |name: &str| cols.iter().position(|c| c == name);
-        if crate::data::cycling::COLUMNS.iter().all(|c| idx(c).is_some()) {
-            // The cycling log has one reader (every malformed row reported, NaN refused)
-            // and one ±1 g pairing; the channels are formed from what they return.
+        let cycling = |text: &str| -> Result<Self> {
             let log = crate::data::cycling::read_log_from(text.as_bytes()).map_err(|e| anyhow::anyhow!("{e}"))?;
             Self::from_cycling(&log, bin_s)
+        };
+        // An empty file and a cycling header with a wrong column get the cycling reader's
+        // own message, as `calibrate` and `compensate` give it.
+        let Some((_, header)) = lines.next() else { return cycling(text) };
+        let cols: Vec<String> = header.split(',').map(|c| c.trim().to_ascii_lowercase()).collect();
+        let idx = |name: &str| cols.iter().position(|c| c == name);
+        if idx("program").is_some() || idx("pulses").is_some() {
+            // The cycling log has one reader (every malformed row reported, NaN refused)
+            // and one ±1 g pairing; the channels are formed from what they return.
+            cycling(text)
         } else if let (Some(ti), Some(tc), Some(v)) = (idx("time_s"), idx("temp_c"), idx("value")) {
             let mut errors = Vec::new();
             let (mut rows, mut vals) = (Vec::new(), Vec::new());
