@@ -100,7 +100,7 @@ pub fn run(
         let cal = calibrate_file(
             &log_path,
             &dir,
-            &CalibrateOptions { fit_programs: None, plots: true, title: truth.name.clone(), progress: opts.progress },
+            &CalibrateOptions { fit_programs: None, plots: true, title: truth.name.clone(), progress: opts.progress, axis: None },
         )?;
         let calibrate_s = t.elapsed().as_secs_f64();
         let p = PAPER_TABLE4[usize::from(unit) - 1];

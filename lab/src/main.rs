@@ -118,6 +118,10 @@ enum Cmd {
         /// Skip the plots.
         #[arg(long)]
         no_plots: bool,
+        /// Cycling log: the IMU axis this accelerometer is, for the PX4 / ArduPilot
+        /// parameter files (px4_tc.params, ardupilot_tcal.parm).
+        #[arg(long, default_value = "x", value_parser = ["x", "y", "z"])]
+        axis: String,
         #[command(flatten)]
         fmt: StaticFlags,
     },
@@ -278,12 +282,13 @@ fn run(cli: Cli) -> Result<(), String> {
             print!("{}", qfa_lab::calibrate::static_cal::markdown(&cal.report));
             println!("wrote {}/table.toml, table.bin, report.json, report.md, px4_tc.params, ardupilot_tcal.parm", out.display());
         }
-        Cmd::Calibrate { log, out, fit_programs, no_plots, .. } => {
+        Cmd::Calibrate { log, out, fit_programs, no_plots, axis, .. } => {
             let opts = CalibrateOptions {
                 fit_programs: if fit_programs.is_empty() { None } else { Some(fit_programs) },
                 plots: !no_plots,
                 title: log.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default(),
                 progress: true,
+                axis: Some(format!("a{axis}")),
             };
             let cal = calibrate_file(&log, &out, &opts)?;
             let r = &cal.report;
@@ -292,7 +297,7 @@ fn run(cli: Cli) -> Result<(), String> {
                  sensitivity ppm/degC: none {:.2}, simple {:.2}, hysteresis {:.2}\n\
                  bias residual ug:     none {:.1}, simple {:.1}, hysteresis {:.1}; peers: PX4/tofupilot cubic {:.1}, ArduPilot TCAL {:.1}\n\
                  Eq. 11 condition number {:.1}; timings: read {:.2} s, fit {:.2} s, evaluate {:.2} s, plots {:.2} s, total {:.2} s\n\
-                 wrote {}/table.toml, table.bin, report.json",
+                 wrote {}/table.toml, table.bin, report.json, px4_tc.params, ardupilot_tcal.parm",
                 r.eval_programs,
                 r.fit_programs,
                 r.rows,

@@ -3,7 +3,9 @@
 //! Files written to the output directory:
 //! `table.toml` / `table.bin` (the hysteresis model, the table to flash),
 //! `table_simple.toml` / `table_simple.bin` (the simple model, for comparison),
-//! `report.json`, `sf_vs_temp.png`, `residual_vs_time.png`.
+//! `report.json`, `sf_vs_temp.png`, `residual_vs_time.png`, and the cubic peer fitted on
+//! the same training pairs as PX4 (`px4_tc.params`) and ArduPilot (`ardupilot_tcal.parm`)
+//! parameters, written for the IMU axis [`CalibrateOptions::axis`] names.
 //! The table written is the one fitted on the fit programs only, so the report's held-out
 //! figures describe exactly the flashed table.
 
@@ -31,6 +33,9 @@ pub struct CalibrateOptions {
     pub title: String,
     /// Show progress bars.
     pub progress: bool,
+    /// IMU axis this accelerometer is (`ax`, `ay` or `az`) in the PX4 / ArduPilot
+    /// parameter files; `None` is `ax`.
+    pub axis: Option<String>,
 }
 
 /// Result of a calibration.
@@ -42,6 +47,8 @@ pub struct Calibration {
     pub eval: Evaluation,
     /// The report as written.
     pub report: Report,
+    /// The peers fitted on the same training pairs.
+    pub peers: crate::calibrate::peers::Peers,
 }
 
 fn bar(len: u64, msg: &str, show: bool) -> indicatif::ProgressBar {
@@ -80,7 +87,7 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
     pb.finish_and_clear();
     let t_eval = t.elapsed().as_secs_f64();
     check_figures(&eval)?;
-    let peers = crate::calibrate::report::peer_bias(log, &fit_p, &eval_p, &fitted.hysteresis)?;
+    let (peers, peer_fits) = crate::calibrate::report::peer_bias(log, &fit_p, &eval_p, &fitted.hysteresis)?;
     let h = &fitted.sf_hysteresis.coef;
     let report = Report {
         rows: log.rows(),
@@ -104,7 +111,7 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
         rejected_readings: eval.rejected_readings,
         timings_s: Timings { fit: t_fit, evaluate: t_eval, ..Timings::default() },
     };
-    Ok(Calibration { fitted, eval, report })
+    Ok(Calibration { fitted, eval, report, peers: peer_fits })
 }
 
 /// Every held-out figure must exist: a figure with no bins behind it is an error with its
@@ -163,6 +170,15 @@ pub fn calibrate_into(log: &Log, out: &Path, opts: &CalibrateOptions, read_s: f6
     let mut cal = calibrate_log(log, opts)?;
     write_table(out, "table", &cal.fitted.hysteresis)?;
     write_table(out, "table_simple", &cal.fitted.simple)?;
+    let axis = opts.axis.clone().unwrap_or_else(|| "ax".to_string());
+    if !["ax", "ay", "az"].contains(&axis.as_str()) {
+        return Err(format!("axis `{axis}`: expected ax, ay or az"));
+    }
+    let cubic = [(axis.clone(), cal.peers.cubic.clone())];
+    let ardupilot = [(axis, cal.peers.ardupilot.clone())];
+    let w = |name: &str, text: String| std::fs::write(out.join(name), text).map_err(|e| format!("{}: {e}", out.join(name).display()));
+    w("px4_tc.params", crate::calibrate::peers::px4_params(&cubic))?;
+    w("ardupilot_tcal.parm", crate::calibrate::peers::ardupilot_params(&ardupilot))?;
     let t = Instant::now();
     if opts.plots {
         let title = if opts.title.is_empty() { "held-out".to_string() } else { format!("{} (held out)", opts.title) };

@@ -335,9 +335,16 @@ pub struct PeerBias {
 /// score them on `eval_programs`: per matched pair `K0 − peer(T̂)`, per 0 g row
 /// `A/γ − peer(T̂)` with the hysteresis table's γ, binned as the other variants.
 ///
+/// Returns the figures and the fitted peers (for the PX4 / ArduPilot parameter files).
+///
 /// # Errors
 /// No fit pairs, a failed fit, or no held-out bin (the reason is in the message).
-pub fn peer_bias(log: &Log, fit_programs: &[String], eval_programs: &[String], hysteresis: &Table) -> Result<PeerBias, String> {
+pub fn peer_bias(
+    log: &Log,
+    fit_programs: &[String],
+    eval_programs: &[String],
+    hysteresis: &Table,
+) -> Result<(PeerBias, crate::calibrate::peers::Peers), String> {
     let ext = qfa_thermal::Extensions::default();
     let deadband = hysteresis.axes[0].bias.deadband_c_per_min;
     let (mut t, mut k0) = (Vec::new(), Vec::new());
@@ -394,5 +401,5 @@ pub fn peer_bias(log: &Log, fit_programs: &[String], eval_programs: &[String], h
         ));
     }
     let r = |b: &[Bin]| rms(&b.iter().map(|x| x.value * 1e6).collect::<Vec<_>>());
-    Ok(PeerBias { cubic: r(&bins[0]), ardupilot: r(&bins[1]) })
+    Ok((PeerBias { cubic: r(&bins[0]), ardupilot: r(&bins[1]) }, peers))
 }
