@@ -1,7 +1,9 @@
-//! Synthetic thermal-test data for the discovery tests and benchmark, made by running the
-//! root crate's `AxisModel` (the truth, with hidden slots on) over a temperature history
-//! shaped like the paper's program: hold at 22 °C, ramp down, up, and back to 22 °C at a
-//! given rate with a 3-min dwell at each integer °C, then a final hold.
+//! Fast channels for the discovery tests and benchmark: the simulator's paper program
+//! ([`Program::staircase`]: hold at 22 °C, ramp down, up and back to 22 °C at a given rate
+//! with a dwell at each integer °C, then a final hold) and its case [`Lag`], with the root
+//! crate's `AxisModel` (hidden slots on) as the truth, written straight to channels or to
+//! a cycling / single-channel log. The full simulator (`crate::simulate`) adds the I/F
+//! converter, the DS18B20 timing and the bias instability; the discovery's FDR runs on it.
 //!
 //! Chamber → case (first-order lag, the DS18B20 is on the case) → 12-bit reading with
 //! noise. By default the truth is evaluated on the firmware's own T and Ṫ (the
@@ -14,6 +16,8 @@ use qfa_thermal::model::{AxisModel, AxisState, BiasGrid, Extensions, ScaleFactor
 use qfa_thermal::rate::{RateConfig, RateEstimator};
 
 use crate::data::channels::{Channels, LogKind, Trace};
+use crate::simulate::profile::Program;
+use crate::simulate::thermal::Lag;
 
 /// SplitMix64 with Box–Muller normals (small, seedable, no dependency).
 #[derive(Clone, Debug)]
@@ -121,70 +125,49 @@ pub fn truth(scale: ScaleFactor, b: [f32; 3], ext: Extensions) -> AxisModel {
     AxisModel { scale, bias: BiasGrid::single_valued(-62.0, step, &grid), rate_limit_c_per_min: 20.0, ext }
 }
 
-/// Chamber temperature knots (min, °C) of one program.
-fn knots(c: &SynthConfig, rate: f64) -> Vec<(f64, f64)> {
-    let mut k = vec![(0.0, 22.0), (c.hold_start_min, 22.0)];
-    let (mut t, mut temp) = (c.hold_start_min, 22.0f64);
-    for target in [c.t_lo, c.t_hi, 22.0] {
-        let dir = (target - temp).signum();
-        while (target - temp).abs() > 1e-9 {
-            let next = if dir > 0.0 { (temp + 1e-9).floor() + 1.0 } else { (temp - 1e-9).ceil() - 1.0 };
-            let next = if dir > 0.0 { next.min(target) } else { next.max(target) };
-            t += (next - temp).abs() / rate;
-            temp = next;
-            k.push((t, temp));
-            t += c.dwell_min;
-            k.push((t, temp));
-        }
-    }
-    k.push((t + c.hold_end_min, 22.0));
-    k
+/// The chamber program: the simulator's paper staircase ([`Program::staircase`]) between
+/// `t_lo` and `t_hi` (rounded to whole °C: the program steps 1 °C), then a final hold.
+fn program(c: &SynthConfig, rate: f64) -> Program {
+    let mut p = Program::staircase("synth", rate, c.hold_start_min, c.dwell_min, c.t_lo.round() as i32, c.t_hi.round() as i32);
+    let end = p.duration_s();
+    p.points.push((end + c.hold_end_min * 60.0, 22.0));
+    p
 }
 
-/// One program's rows: (time s, DS18B20 °C, true K1, true K0).
+/// One program's rows: (time s, DS18B20 °C, true K1, true K0). The case follows the
+/// chamber through the simulator's first-order [`Lag`] (exact for the piecewise-linear
+/// program, 10 sub-steps per row so the knots fall close to step edges).
 fn program_rows(c: &SynthConfig, rate: f64, model: &AxisModel, rng: &mut Rng) -> Vec<(f64, f32, f64, f64)> {
-    let k = knots(c, rate);
-    let end = k.last().map_or(0.0, |x| x.0) * 60.0;
-    let (mut case, mut prev_case) = (22.0f64, 22.0f64);
+    let prog = program(c, rate);
+    let end = prog.duration_s();
+    let sub = 10usize;
+    let h = c.dt_s / sub as f64;
+    let mut case = Lag::new(c.case_tau_s, h, 22.0);
     let mut est = RateEstimator::<32>::new(RateConfig::default());
     let mut st = AxisState::default();
     let mut out = Vec::new();
-    let mut ki = 0;
-    let sub = 10usize; // chamber/case integration sub-steps per row
     let mut t = 0.0;
     let mut last_t = None::<f64>;
     while t <= end {
-        // Integrate the case lag over the row interval.
-        for _ in 0..sub {
-            let h = c.dt_s / sub as f64;
-            let tm = (t - c.dt_s + h * 0.5) / 60.0;
-            while ki + 1 < k.len() && k[ki + 1].0 < tm {
-                ki += 1;
-            }
-            let ch = if ki + 1 < k.len() {
-                let (a, b) = (k[ki], k[ki + 1]);
-                let f = ((tm - a.0) / (b.0 - a.0).max(1e-12)).clamp(0.0, 1.0);
-                a.1 + f * (b.1 - a.1)
-            } else {
-                22.0
-            };
-            if t > 0.0 {
-                case += (1.0 - (-h / c.case_tau_s).exp()) * (ch - case);
+        if t > 0.0 {
+            for k in 0..sub {
+                let t0 = t - c.dt_s + h * k as f64;
+                case.step(prog.temp_at(t0), prog.temp_at(t0 + h));
             }
         }
-        let raw = ((case + c.temp_noise_c * rng.normal()) * 16.0).round() as i16;
+        let raw = ((case.y + c.temp_noise_c * rng.normal()) * 16.0).round() as i16;
         let reading = f32::from(raw) / 16.0;
         let _ = est.push((t * 1000.0).round() as u32, raw);
         let dt = last_t.map_or(0.0, |p| (t - p) as f32);
         let e = if c.true_rate_truth {
-            let true_rate = if t > 0.0 { (case - prev_case) / c.dt_s * 60.0 } else { 0.0 };
-            model.evaluate(&mut st, case as f32, true_rate as f32, dt)
+            // The exact derivative of the case temperature, °C/min.
+            let true_rate = case.rate_per_s(prog.temp_at(t)) * 60.0;
+            model.evaluate(&mut st, case.y as f32, true_rate as f32, dt)
         } else {
             let es = est.estimate().expect("a sample was pushed before");
             model.evaluate(&mut st, es.temp_c, es.rate_c_per_min, dt)
         };
         out.push((t, reading, f64::from(e.k1), f64::from(e.k0)));
-        prev_case = case;
         last_t = Some(t);
         t += c.dt_s;
     }
