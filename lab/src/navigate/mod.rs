@@ -53,6 +53,7 @@
 pub mod accel;
 pub mod align;
 pub mod calib;
+pub mod clock;
 pub mod earth;
 pub mod errors;
 pub mod faults;
