@@ -79,7 +79,9 @@ pub struct BiasGrid {
     pub t_start_c: f32,
     /// Grid spacing, °C (> 0).
     pub t_step_c: f32,
-    /// Branch-switch deadband on Ṫ, °C/min (≥ 0).
+    /// Branch-switch deadband on Ṫ, °C/min (≥ 0). The compensator uses at least the
+    /// flicker floor of its rate window and sample period
+    /// ([`crate::rate::flicker_deadband_c_per_min`], 0.182 °C/min for 32 readings at 1 s).
     pub deadband_c_per_min: f32,
     /// K0 while heating, g, one per grid point (2..=16).
     pub heating_g: heapless::Vec<f32, MAX_BIAS_POINTS>,

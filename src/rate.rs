@@ -84,7 +84,7 @@ pub struct Estimate {
     pub ready: bool,
 }
 
-/// Hours of readings at rest over which the bias branch should not flip on flicker.
+/// Seconds of readings at rest over which the bias branch should not flip on flicker (1 h).
 pub const FLICKER_HOLD_S: f32 = 3600.0;
 
 /// Probability allowed for such a flip (a false heating/cooling switch) over
@@ -110,8 +110,9 @@ pub const FLICKER_FALSE_SWITCH: f32 = 0.01;
 /// √(2 ln(3.6·10⁵)) = 5.06, d = 0.182 °C/min. The union bound ignores that consecutive
 /// windows share N − 1 readings, so the real flip rate is far lower.
 ///
-/// The hold (1 h) and α (1 %) were set before any navigation run with this rule; d moves
-/// only with √ln of either (10 min at 5 %: 0.156; 10 h at 0.1 %: 0.212 °C/min). Lower
+/// The hold (1 h) and α (1 %) were set before any navigation run with this rule (an
+/// earlier what-if at 0.15 °C/min was known); d moves only with √ln of either (10 min at
+/// 5 %: 0.156; 10 h at 0.1 %: 0.212 °C/min). Lower
 /// resolutions have a larger q: scale the table's deadband by `2^(12 − bits)`.
 ///
 /// Slow-path only (a square root and a logarithm).
