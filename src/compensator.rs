@@ -556,6 +556,8 @@ struct Stream<const N: usize> {
 struct SlowState<const AXES: usize, const N: usize, const SENSORS: usize, T> {
     config: Config,
     stale_after_ms: u32,
+    /// Smallest branch deadband, °C/min: the flicker floor of `N` and the sample period.
+    deadband_floor: f32,
     table: Option<T>,
     streams: [Stream<N>; SENSORS],
     states: [AxisState; AXES],
@@ -657,6 +659,7 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
             slow: SlowState {
                 config,
                 stale_after_ms: config.stale_after_ms(),
+                deadband_floor: rate::flicker_deadband_c_per_min(N, config.sample_period_ms),
                 table: None,
                 streams: core::array::from_fn(|_| stream.clone()),
                 states: [AxisState::default(); AXES],
@@ -983,7 +986,8 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
                     let stream = &slow.streams[j];
                     let e = match (stream.last_good, stream.rate.estimate()) {
                         (Some(_), Some(est)) => {
-                            axis.evaluate(&mut slow.states[i], est.temp_c, est.rate_c_per_min, dt_s)
+                            let db = axis.bias.deadband_c_per_min.max(slow.deadband_floor);
+                            axis.evaluate_with_deadband(&mut slow.states[i], est.temp_c, est.rate_c_per_min, dt_s, db)
                         }
                         // No reading yet: T0 and Ṫ = 0, without touching the state; flagged stale.
                         _ => axis.evaluate(&mut AxisState::default(), axis.scale.t0_c, 0.0, 0.0),
@@ -1056,6 +1060,44 @@ mod tests {
         for k in 0..n {
             c.on_raw(1000 * k, 352).unwrap();
         }
+    }
+
+    /// At rest on a code edge the DS18B20 flickers by one LSB; with the table's 0.05 °C/min
+    /// deadband the branch would flip (the plain `AxisModel::evaluate` path shows it does),
+    /// but the compensator's flicker floor keeps it: K0 stays the mean of the branches.
+    #[test]
+    fn flicker_at_rest_does_not_flip_the_branch() {
+        let mut t = table(1, 32);
+        t.axes[0].bias.cooling_g = heapless::Vec::from_slice(&[2e-4, 2.5e-4, 4e-4]).unwrap();
+        assert_eq!(t.axes[0].bias.deadband_c_per_min, 0.05);
+        let mut c: Compensator<1, 32> = Compensator::new(Config::default()).unwrap();
+        c.set_table(t.clone()).unwrap();
+        let mut est = RateEstimator::<32>::new(RateConfig::default());
+        let mut plain = AxisState::default();
+        let mut x: u64 = 0x2545_F491_4F6C_DD1D;
+        let (mut plain_flips, mut k0s) = (0u32, [f32::INFINITY, f32::NEG_INFINITY]);
+        let mut last = None;
+        for k in 0..7200u32 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let raw = 352 + (x >> 63) as i16;
+            c.on_raw(1000 * k, raw).unwrap();
+            est.push(1000 * k, raw).unwrap();
+            let e = est.estimate().unwrap();
+            t.axes[0].evaluate(&mut plain, e.temp_c, e.rate_c_per_min, 1.0);
+            if e.ready {
+                plain_flips += u32::from(last.is_some_and(|b| b != plain.branch));
+                last = Some(plain.branch);
+                let k0 = c.evaluations()[0].k0;
+                k0s = [k0s[0].min(k0), k0s[1].max(k0)];
+            }
+        }
+        assert!(plain_flips > 10, "the 0.05 °C/min deadband flips on flicker: {plain_flips}");
+        // Unknown branch at T̂ ≈ 22.0–22.06 °C (±0.1 °C for the fitted line's scatter): the
+        // mean of the branches, which are 1e-4 g apart, so one flip would leave the band.
+        let mean = |t: f32| 0.5 * ((1.5e-4 + 1.5e-4 * (t - 5.0) / 65.0) + (2.5e-4 + 1.5e-4 * (t - 5.0) / 65.0));
+        assert!(k0s[0] >= mean(21.9) && k0s[1] <= mean(22.2), "{k0s:?}");
     }
 
     #[test]

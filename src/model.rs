@@ -79,7 +79,9 @@ pub struct BiasGrid {
     pub t_start_c: f32,
     /// Grid spacing, °C (> 0).
     pub t_step_c: f32,
-    /// Branch-switch deadband on Ṫ, °C/min (≥ 0).
+    /// Branch-switch deadband on Ṫ, °C/min (≥ 0). The compensator uses at least the
+    /// flicker floor of its rate window and sample period
+    /// ([`crate::rate::flicker_deadband_c_per_min`], 0.182 °C/min for 32 readings at 1 s).
     pub deadband_c_per_min: f32,
     /// K0 while heating, g, one per grid point (2..=16).
     pub heating_g: heapless::Vec<f32, MAX_BIAS_POINTS>,
@@ -295,6 +297,14 @@ impl AxisModel {
     /// follow Te; K1 = Eq. 11 at (Te, Ṫ); K0 = grid(Te, branch) + play term + creep term.
     /// On the first call (or after [`AxisState::default`]) every state starts at T.
     pub fn evaluate(&self, state: &mut AxisState, t_c: f32, rate: f32, dt_s: f32) -> Evaluation {
+        self.evaluate_with_deadband(state, t_c, rate, dt_s, self.bias.deadband_c_per_min)
+    }
+
+    /// [`evaluate`](Self::evaluate) with the branch deadband `deadband` (°C/min) in place
+    /// of the table's: the compensator passes the larger of the table's and the flicker
+    /// floor of its rate window and sample period
+    /// ([`crate::rate::flicker_deadband_c_per_min`]).
+    pub fn evaluate_with_deadband(&self, state: &mut AxisState, t_c: f32, rate: f32, dt_s: f32, deadband: f32) -> Evaluation {
         let (t, temp_clamped) = clamp(t_c, self.bias.t_start_c, self.bias.t_end_c());
         let lim = self.rate_limit_c_per_min;
         let (r, rate_clamped) = clamp(rate, -lim, lim);
@@ -315,7 +325,7 @@ impl AxisModel {
             Some(_) => state.element_c,
             None => t,
         };
-        state.branch = state.branch.next(r, self.bias.deadband_c_per_min);
+        state.branch = state.branch.next(r, deadband);
         let k1 = self.scale.k1(te, r);
         let mut k0 = self.bias.k0(te, state.branch);
         if let Some(h) = self.ext.bias_branch_hysteresis {

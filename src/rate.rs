@@ -84,6 +84,48 @@ pub struct Estimate {
     pub ready: bool,
 }
 
+/// Seconds of readings at rest over which the bias branch should not flip on flicker (1 h).
+pub const FLICKER_HOLD_S: f32 = 3600.0;
+
+/// Probability allowed for such a flip (a false heating/cooling switch) over
+/// [`FLICKER_HOLD_S`].
+pub const FLICKER_FALSE_SWITCH: f32 = 0.01;
+
+/// The smallest heating/cooling branch deadband (°C/min) that one-LSB DS18B20 flicker at a
+/// constant temperature crosses, with probability at most [`FLICKER_FALSE_SWITCH`] in
+/// [`FLICKER_HOLD_S`] of readings, for an `window`-sample slope at one reading every
+/// `period_ms`.
+///
+/// # Derivation
+/// At rest a 12-bit reading near a code edge flickers between two adjacent codes
+/// (q = 1/16 °C; the DS18B20's own noise, ≈ 0.01 °C, is well under one LSB). The slope is
+/// `Ṫ = Σ wᵢ·yᵢ` with `wᵢ = 60·(tᵢ − t̄)/S` (°C/min per °C) and `S = Σ(tᵢ − t̄)² =
+/// P²·N(N² − 1)/12` for N readings P seconds apart; `Σ wᵢ = 0`, so its mean is 0 whatever
+/// the flicker probability. Each term is bounded in a range of `|wᵢ|·q`, so Hoeffding's
+/// inequality gives, for any flicker probability,
+/// `Pr(Ṫ < −d) ≤ exp(−d²/(2σ²))`, `σ = 60·q/(2·√S)`
+/// (σ is also the largest standard deviation flicker can give: a fair coin per reading).
+/// A union bound over the `M = FLICKER_HOLD_S/P` estimates of the hold asks
+/// `M·exp(−d²/(2σ²)) ≤ α`, so `d = σ·√(2·ln(M/α))`. For N = 32 at 1 s: σ = 0.0359 °C/min,
+/// √(2 ln(3.6·10⁵)) = 5.06, d = 0.182 °C/min. The union bound ignores that consecutive
+/// windows share N − 1 readings, so the real flip rate is far lower.
+///
+/// The hold (1 h) and α (1 %) were set before any navigation run with this rule (an
+/// earlier what-if at 0.15 °C/min was known); d moves only with √ln of either (10 min at
+/// 5 %: 0.156; 10 h at 0.1 %: 0.212 °C/min). Lower
+/// resolutions have a larger q: scale the table's deadband by `2^(12 − bits)`.
+///
+/// Slow-path only (a square root and a logarithm).
+#[must_use]
+pub fn flicker_deadband_c_per_min(window: usize, period_ms: u32) -> f32 {
+    let n = window as f32;
+    let p_s = period_ms.max(1) as f32 * 1e-3;
+    let s = p_s * p_s * n * (n * n - 1.0) / 12.0;
+    let sigma = 60.0 * 0.0625 / (2.0 * libm::sqrtf(s));
+    let m = FLICKER_HOLD_S / p_s;
+    sigma * libm::sqrtf(2.0 * libm::logf(m / FLICKER_FALSE_SWITCH))
+}
+
 /// Sliding-window least-squares differentiator over `N` samples (3..=128).
 #[derive(Clone, Debug)]
 pub struct RateEstimator<const N: usize> {
@@ -361,6 +403,41 @@ mod tests {
         assert_eq!(e.estimate().map(|x| x.temp_c), Some(0.0), "a real 0 °C reading");
         e.reset();
         assert_eq!(e.estimate(), None);
+    }
+
+    /// Worst-case flicker (a fair coin between two codes every second, 20 h): the rate's
+    /// standard deviation is the σ of the derivation, and the derived deadband is never
+    /// crossed, while the old 0.05 °C/min is crossed hundreds of times.
+    #[test]
+    fn flicker_never_crosses_the_derived_deadband() {
+        let mut e = RateEstimator::<32>::new(RateConfig::default());
+        let mut x: u64 = 0x9E37_79B9_7F4A_7C15;
+        let d = flicker_deadband_c_per_min(32, 1000);
+        // Independent f64 figures: S = 32·1023/12 s², σ = 3.75/(2√S) °C/min.
+        let sigma = 3.75 / (2.0 * (32.0f64 * 1023.0 / 12.0).sqrt());
+        let want_d = sigma * (2.0 * (3600.0f64 / 0.01).ln()).sqrt();
+        assert!((f64::from(d) - want_d).abs() < 1e-5, "{d} vs {want_d}");
+        assert!((want_d - 0.1816).abs() < 1e-3, "{want_d}");
+        let (mut n, mut s2, mut over_d, mut over_old) = (0u32, 0.0f64, 0u32, 0u32);
+        for i in 0..72_000u32 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            e.push(i * 1000, 320 + (x >> 63) as i16).unwrap();
+            let r = e.estimate().unwrap();
+            if r.ready && e.len() == 32 {
+                let v = f64::from(r.rate_c_per_min);
+                n += 1;
+                s2 += v * v;
+                over_d += u32::from(v.abs() >= f64::from(d));
+                over_old += u32::from(v.abs() > 0.05);
+            }
+        }
+        let sd = (s2 / f64::from(n)).sqrt();
+        println!("flicker: σ(Ṫ) {sd:.4} °C/min (derived {sigma:.4}), |Ṫ| ≥ {d:.3}: {over_d}, > 0.05: {over_old} of {n}");
+        assert!((sd / sigma - 1.0).abs() < 0.05, "σ {sd} vs {sigma}");
+        assert_eq!(over_d, 0);
+        assert!(over_old > 1000, "{over_old}");
     }
 
     #[test]

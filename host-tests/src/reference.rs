@@ -185,6 +185,16 @@ fn interp(values: &[f32], start: f64, step: f64, t: f64) -> f64 {
     a + (b - a) * (x - i as f64)
 }
 
+/// The compensator's smallest branch deadband for window 32 at 1 s, °C/min, from its
+/// derivation (`qfa_thermal::rate::flicker_deadband_c_per_min`): the one-LSB flicker's
+/// largest rate σ = 60·q/(2·√S), S = Σ(tᵢ − t̄)², times √(2·ln(M/α)) for M = 3600 readings
+/// and α = 1 %.
+fn flicker_floor() -> f64 {
+    let s: f64 = (0..32).map(|i| (f64::from(i) - 15.5).powi(2)).sum();
+    let sigma = 60.0 * 0.0625 / (2.0 * s.sqrt());
+    sigma * (2.0 * (3600.0f64 / 0.01).ln()).sqrt()
+}
+
 /// Evaluate one axis in f64: (K1, K0, temp clamped, rate clamped).
 fn eval_axis(m: &AxisModel, s: &mut AxisRef, t: f64, r: f64, dt: f64) -> (f64, f64, bool, bool) {
     let lo = f64::from(m.bias.t_start_c);
@@ -205,7 +215,7 @@ fn eval_axis(m: &AxisModel, s: &mut AxisRef, t: f64, r: f64, dt: f64) -> (f64, f
         }
         None => tc,
     };
-    let db = f64::from(m.bias.deadband_c_per_min);
+    let db = f64::from(m.bias.deadband_c_per_min).max(flicker_floor());
     if rc > db {
         s.branch = 1;
     } else if rc < -db {

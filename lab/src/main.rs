@@ -202,6 +202,10 @@ enum Cmd {
         /// Skip the plots.
         #[arg(long)]
         no_plots: bool,
+        /// Leave `discovered` out of the Monte Carlo runs (skips discovery per run, about
+        /// half the cost).
+        #[arg(long)]
+        no_mc_discovered: bool,
     },
 }
 
@@ -369,7 +373,7 @@ fn run(cli: Cli) -> Result<(), String> {
             eprintln!("{}", qfa_lab::navigate::mc::table(&sum));
             eprintln!("wrote {}/report.json, mc_runs.csv", out.display());
         }
-        Cmd::Navigate { sub: None, scenario, out, discovered_tables, imu_rate_hz, runs, seed, jobs, shard, no_plots } => {
+        Cmd::Navigate { sub: None, scenario, out, discovered_tables, imu_rate_hz, runs, seed, jobs, shard, no_plots, no_mc_discovered } => {
             let out = out.ok_or("navigate: --out DIR is required")?;
             let discovered_tables = discovered_tables.map(|v| [v[0].clone(), v[1].clone(), v[2].clone()]);
             let args = qfa_lab::navigate::NavigateArgs {
@@ -383,6 +387,7 @@ fn run(cli: Cli) -> Result<(), String> {
                 mc_seed: seed,
                 jobs,
                 shard,
+                no_mc_discovered,
                 ..Default::default()
             };
             if shard.is_some() {

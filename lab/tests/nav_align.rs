@@ -49,7 +49,7 @@ fn alignment_errors_follow_the_biases() {
     for seed in [1u64, 2, 3] {
         let sc = stationary(seed, 600.0);
         let us = units().map(|u| u.noiseless());
-        let res = run::fly(&sc, &mut truths_seeded(&us, seed), vec![Variant { name: "oracle".into(), comp: Box::new(OracleCompensation) }])
+        let res = run::fly(&sc, &mut truths_seeded(&us, seed), vec![Variant { name: "oracle".into(), comp: Box::new(OracleCompensation::default()) }])
             .unwrap();
         let got = res.alignment[0];
         let want = expected(&sc);
@@ -72,7 +72,7 @@ fn fine_alignment_improves_on_coarse() {
             let mut sc = stationary(seed, align_s);
             sc.imu.gyro.arw_dprh = 0.002;
             let us = units().map(|u| u.noiseless());
-            run::fly(&sc, &mut truths_seeded(&us, seed), vec![Variant { name: "oracle".into(), comp: Box::new(OracleCompensation) }])
+            run::fly(&sc, &mut truths_seeded(&us, seed), vec![Variant { name: "oracle".into(), comp: Box::new(OracleCompensation::default()) }])
                 .unwrap()
                 .alignment[0]
         };

@@ -155,10 +155,17 @@ pub struct FitOptions {
 }
 
 impl FitOptions {
-    /// Defaults for `fit_programs`: 30-s blocks at 1-s rows, 16 nodes, 0.05 °C/min.
+    /// Defaults for `fit_programs`: 30-s blocks at 1-s rows, 16 nodes, the firmware's
+    /// flicker deadband ([`crate::data::pairing::branch_deadband_c_per_min`], 0.182 °C/min).
     #[must_use]
     pub fn new(fit_programs: Vec<String>) -> Self {
-        Self { fit_programs, ext: Extensions::default(), deadband_c_per_min: 0.05, block: 30, grid_points: MAX_BIAS_POINTS }
+        Self {
+            fit_programs,
+            ext: Extensions::default(),
+            deadband_c_per_min: crate::data::pairing::branch_deadband_c_per_min(),
+            block: 30,
+            grid_points: MAX_BIAS_POINTS,
+        }
     }
 }
 

@@ -82,7 +82,7 @@ pub struct StaticCalOptions {
 
 impl Default for StaticCalOptions {
     fn default() -> Self {
-        Self { grid_points: 16, block: 10, deadband_c_per_min: 0.05, candidates: candidates() }
+        Self { grid_points: 16, block: 10, deadband_c_per_min: crate::data::pairing::branch_deadband_c_per_min(), candidates: candidates() }
     }
 }
 

@@ -26,6 +26,15 @@ use crate::data::cycling::{Log, Run};
 /// Rate-estimator window of every lab table (`Table::rate_window`).
 pub const RATE_WINDOW: usize = 32;
 
+/// Branch deadband the lab writes into its tables, °C/min: the firmware's flicker floor
+/// for [`RATE_WINDOW`] at its default 1 s sample period
+/// ([`qfa_thermal::rate::flicker_deadband_c_per_min`], 0.182 °C/min), so the fit traces
+/// the branch exactly as the compensator will switch it.
+#[must_use]
+pub fn branch_deadband_c_per_min() -> f32 {
+    qfa_thermal::rate::flicker_deadband_c_per_min(RATE_WINDOW, qfa_thermal::Config::default().sample_period_ms)
+}
+
 /// The firmware's view of one run, row by row.
 #[derive(Clone, Debug, Default)]
 pub struct Trace {

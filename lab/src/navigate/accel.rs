@@ -113,13 +113,16 @@ pub fn axis_compensator() -> AxisCompensator {
 /// Compensation through the root crate's [`Compensator`], exactly as the firmware runs it:
 /// one [`ImuCompensator`] with a stream per axis, each fed by the DS18B20 on its own case,
 /// loaded with the three units' 1-axis tables joined into one 3-axis table
-/// ([`super::calib::table3`]; no misalignment matrix: the lab's cycling calibration does
-/// not estimate one).
+/// ([`super::calib::table3_with`]) with the triad's misalignment matrix when given (the
+/// lab's cycling calibration does not estimate one: the navigation study carries the
+/// scenario's known triad misalignment, [`super::errors::AccelErrors::carried_misalignment`]).
 #[derive(Clone, Debug)]
 pub struct TableCompensation {
     comp: ImuCompensator,
     /// Slow-path rejections seen (should stay 0 in simulation).
     pub rejected: u32,
+    /// Status of the last IMU cycle.
+    pub last_status: compensator::Status,
 }
 
 impl TableCompensation {
@@ -128,9 +131,18 @@ impl TableCompensation {
     /// # Errors
     /// A table's validation error.
     pub fn new(tables: [&Table; 3]) -> anyhow::Result<Self> {
+        Self::with_misalignment(tables, None)
+    }
+
+    /// With the x, y, z tables and the misalignment matrix `misalignment` (row-major) in
+    /// one 3-axis table.
+    ///
+    /// # Errors
+    /// A table's validation error.
+    pub fn with_misalignment(tables: [&Table; 3], misalignment: Option<[f32; 9]>) -> anyhow::Result<Self> {
         let mut comp = ImuCompensator::new(compensator::Config::default()).map_err(|e| anyhow::anyhow!("config: {e}"))?;
-        comp.set_table(super::calib::table3(tables)?).map_err(|e| anyhow::anyhow!("table refused: {e}"))?;
-        Ok(Self { comp, rejected: 0 })
+        comp.set_table(super::calib::table3_with(tables, misalignment)?).map_err(|e| anyhow::anyhow!("table refused: {e}"))?;
+        Ok(Self { comp, rejected: 0, last_status: compensator::Status::empty() })
     }
 
     /// The compensator.
@@ -154,23 +166,37 @@ impl AccelCompensation for TableCompensation {
     }
 
     fn compensate(&mut self, pulses: [i32; 3], dt_ticks: u32, _truth: &[(f64, f64); 3]) -> Vector3<f64> {
-        let dv = self.comp.cycle(pulses, dt_ticks).dv_mps;
-        Vector3::from_fn(|i, _| f64::from(dv[i]))
+        let out = self.comp.cycle(pulses, dt_ticks);
+        self.last_status = out.status;
+        Vector3::from_fn(|i, _| f64::from(out.dv_mps[i]))
     }
 }
 
 /// The limit: the truth model itself as the compensation, `Δv = g₀·(N/K1 − K0·dt)` with
-/// the true thermal K1 and K0 of the cycle (f64). What is left is the non-thermal error
+/// the true thermal K1 and K0 of the cycle (f64), then the triad's known misalignment
+/// inverse when given (the one the tables carry). What is left is the non-thermal error
 /// common to every variant (white noise, bias instability) and quantization.
 #[derive(Clone, Copy, Debug, Default)]
-pub struct OracleCompensation;
+pub struct OracleCompensation {
+    /// `(I + K)⁻¹`, applied after the thermal compensation.
+    pub misalignment: Option<nalgebra::Matrix3<f64>>,
+}
+
+impl OracleCompensation {
+    /// The oracle with the known triad misalignment inverse `m` (none: orthogonal).
+    #[must_use]
+    pub const fn carrying(m: Option<nalgebra::Matrix3<f64>>) -> Self {
+        Self { misalignment: m }
+    }
+}
 
 impl AccelCompensation for OracleCompensation {
     fn on_temperature(&mut self, _t_ms: u32, _raw: i16) {}
 
     fn compensate(&mut self, pulses: [i32; 3], dt_ticks: u32, truth: &[(f64, f64); 3]) -> Vector3<f64> {
         let dt = f64::from(dt_ticks) * 1e-6;
-        Vector3::from_fn(|i, _| G0 * (f64::from(pulses[i]) / truth[i].0 - truth[i].1 * dt))
+        let v = Vector3::from_fn(|i, _| G0 * (f64::from(pulses[i]) / truth[i].0 - truth[i].1 * dt));
+        self.misalignment.map_or(v, |m| m * v)
     }
 }
 

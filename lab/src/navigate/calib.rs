@@ -134,12 +134,20 @@ pub fn discover_on(log: &Log, fit_ids: &[String], hysteresis: &Table) -> anyhow:
 /// # Errors
 /// Tables that are not 1-axis, or validation of the result.
 pub fn table3(axes: [&Table; 3]) -> anyhow::Result<Table> {
+    table3_with(axes, None)
+}
+
+/// [`table3`] carrying the misalignment matrix `misalignment` (row-major).
+///
+/// # Errors
+/// As [`table3`], and a matrix outside the table's limits.
+pub fn table3_with(axes: [&Table; 3], misalignment: Option<[f32; 9]>) -> anyhow::Result<Table> {
     let mut v = heapless::Vec::new();
     for t in axes {
         anyhow::ensure!(t.axes.len() == 1, "expected 1-axis tables");
         v.push(t.axes[0].clone()).map_err(|_| anyhow::anyhow!("too many axes"))?;
     }
-    let t = Table { rate_window: axes[0].rate_window, axes: v, misalignment: None };
+    let t = Table { rate_window: axes[0].rate_window, axes: v, misalignment };
     t.validate().map_err(|e| anyhow::anyhow!("3-axis table invalid: {e}"))?;
     Ok(t)
 }

@@ -12,10 +12,14 @@
 //! | white noise | ARW 0.002 °/√h | (the truth model's own: 10 µg/√Hz) |
 //! | scale-factor error, σ per axis | 10 ppm | 20 ppm (on top of the thermal K1) |
 //! | misalignment, σ per off-diagonal term (non-orthogonal) | 10 arcsec | 10 arcsec |
+//! | known triad misalignment (the same every run; the tables carry its inverse) | | 20–45 arcsec per term ([`AccelErrors::triad_arcsec`]) |
 //!
-//! Every term is drawn once per run from the run's seed ([`ImuDraw::draw`]); nothing here
-//! is known to any compensation variant, the oracle included, so these errors are common
-//! to every variant and cancel in the thermal-only error (variant − oracle).
+//! Every random term is drawn once per run from the run's seed ([`ImuDraw::draw`]); none is
+//! known to any compensation variant, the oracle included, so these errors are common to
+//! every variant and cancel in the thermal-only error (variant − oracle). The one known
+//! term is the accelerometer triad's non-orthogonality `I + K`: a multi-position
+//! calibration measures it, and every table variant (and the oracle) carries
+//! `(I + K)⁻¹` as the table's misalignment matrix ([`AccelErrors::carried_misalignment`]).
 
 use nalgebra::{Matrix3, Vector3};
 use rand::Rng;
@@ -81,21 +85,55 @@ pub struct AccelErrors {
     pub bias_ug: f64,
     /// σ of the scale-factor error per axis, ppm.
     pub scale_factor_ppm: f64,
-    /// σ of each of the six off-diagonal misalignment terms, arcsec.
+    /// σ of each of the six off-diagonal misalignment terms, arcsec (the residual the
+    /// calibration leaves: unknown to every variant).
     pub misalignment_arcsec: f64,
+    /// The triad's known non-orthogonality K, arcsec, off-diagonal terms in the order
+    /// xy, xz, yx, yz, zx, zy (row: the sensing axis, column: the body axis it picks up),
+    /// the same every run. The tables carry `(I + K)⁻¹`.
+    pub triad_arcsec: [f64; 6],
 }
 
 impl Default for AccelErrors {
     fn default() -> Self {
-        Self { bias_ug: 50.0, scale_factor_ppm: 20.0, misalignment_arcsec: 10.0 }
+        Self { bias_ug: 50.0, scale_factor_ppm: 20.0, misalignment_arcsec: 10.0, triad_arcsec: TRIAD_ARCSEC }
     }
 }
+
+/// Default known triad misalignment, arcsec (xy, xz, yx, yz, zx, zy): 0.1–0.2 mrad per
+/// term, a mechanically aligned triad before its misalignment calibration. The vertical
+/// axis's terms (zx, zy) and the horizontal axes' z terms couple 1 g into the horizontal
+/// channel, 100–220 µg, twice the 50 µg turn-on bias.
+pub const TRIAD_ARCSEC: [f64; 6] = [30.0, -45.0, 20.0, 40.0, -25.0, 35.0];
 
 impl AccelErrors {
     /// No non-thermal accelerometer error.
     #[must_use]
     pub const fn none() -> Self {
-        Self { bias_ug: 0.0, scale_factor_ppm: 0.0, misalignment_arcsec: 0.0 }
+        Self { bias_ug: 0.0, scale_factor_ppm: 0.0, misalignment_arcsec: 0.0, triad_arcsec: [0.0; 6] }
+    }
+
+    /// `I + K`: what the triad senses of a body-axis Δv.
+    #[must_use]
+    pub fn triad(&self) -> Matrix3<f64> {
+        let k = self.triad_arcsec.map(|a| a * ARCSEC);
+        Matrix3::new(1.0, k[0], k[1], k[2], 1.0, k[3], k[4], k[5], 1.0)
+    }
+
+    /// `(I + K)⁻¹` (f64), or `None` when the triad is orthogonal.
+    #[must_use]
+    pub fn triad_inverse(&self) -> Option<Matrix3<f64>> {
+        if self.triad_arcsec.iter().all(|a| *a == 0.0) {
+            return None;
+        }
+        self.triad().try_inverse()
+    }
+
+    /// The table's misalignment matrix, row-major f32: `(I + K)⁻¹`, or `None` when the
+    /// triad is orthogonal.
+    #[must_use]
+    pub fn carried_misalignment(&self) -> Option<[f32; 9]> {
+        self.triad_inverse().map(|m| core::array::from_fn(|i| m[(i / 3, i % 3)] as f32))
     }
 }
 
@@ -126,7 +164,8 @@ pub struct ImuDraw {
     pub gyro_m: Matrix3<f64>,
     /// Accelerometer turn-on bias, m/s².
     pub accel_bias: Vector3<f64>,
-    /// Accelerometer `I + S + M`, applied to the true Δv before the thermal truth model.
+    /// Accelerometer `(I + S + M)·(I + K)` (random, then the known triad term), applied
+    /// to the true Δv before the thermal truth model.
     pub accel_m: Matrix3<f64>,
     gm: Vector3<f64>,
     gm_sigma: f64,
@@ -151,7 +190,7 @@ impl ImuDraw {
         let gyro_m = matrix(g.scale_factor_ppm, g.misalignment_arcsec, rng);
         let a = e.accel;
         let accel_bias = Vector3::from_fn(|_, _| a.bias_ug * 1e-6 * G0 * z(rng));
-        let accel_m = matrix(a.scale_factor_ppm, a.misalignment_arcsec, rng);
+        let accel_m = matrix(a.scale_factor_ppm, a.misalignment_arcsec, rng) * a.triad();
         let gm_sigma = g.bias_instability_dph * DPH;
         let gm = Vector3::from_fn(|_, _| gm_sigma * z(rng));
         Self {

@@ -649,7 +649,8 @@ fn encode(t: &Table) -> anyhow::Result<Vec<u8>> {
 /// flight's errors, or a thermal-only error of `simple` too small to divide by.
 pub fn fly_with_faults(sc: &Scenario, tables: [&Table; 3], simple: [&Table; 3], rows: &[RowSpec]) -> anyhow::Result<FaultReport> {
     // One 3-axis table for the IMU's compensator, as the firmware flies it.
-    let good = encode(&crate::navigate::calib::table3(tables)?)?;
+    let m = sc.imu.accel.carried_misalignment();
+    let good = encode(&crate::navigate::calib::table3_with(tables, m)?)?;
     let fresh = |b: Broken| -> Box<dyn ThermalCompensator> {
         if b == Broken::WrongFlags {
             Box::new(WrongFlags(imu_compensator()))
@@ -660,16 +661,16 @@ pub fn fly_with_faults(sc: &Scenario, tables: [&Table; 3], simple: [&Table; 3], 
     let (clean, clean_log) = FaultyCompensation::new(fresh(Broken::No), &FaultSet::none(), &good);
     anyhow::ensure!(clean_log.borrow().table_loaded, "a table was refused");
     let mut variants = vec![
-        Variant { name: "oracle".into(), comp: Box::new(OracleCompensation) },
+        Variant { name: "oracle".into(), comp: Box::new(OracleCompensation::carrying(sc.imu.accel.triad_inverse())) },
         Variant { name: "clean".into(), comp: Box::new(clean) },
-        Variant { name: "simple".into(), comp: Box::new(TableCompensation::new(simple)?) },
+        Variant { name: "simple".into(), comp: Box::new(TableCompensation::with_misalignment(simple, m)?) },
     ];
     let mut logs = Vec::new();
     for r in rows {
         let bytes = match r.broken {
             Broken::ZeroedCoefficients | Broken::RatePinned => {
                 let bt = broken_tables(tables, r.broken)?;
-                encode(&crate::navigate::calib::table3([&bt[0], &bt[1], &bt[2]])?)?
+                encode(&crate::navigate::calib::table3_with([&bt[0], &bt[1], &bt[2]], m)?)?
             }
             Broken::No | Broken::WrongFlags => good.clone(),
         };

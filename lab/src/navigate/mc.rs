@@ -14,8 +14,9 @@
 //!   simulated four-position test (the lab's fit), as a real unit would be;
 //! * the non-thermal IMU errors ([`super::errors`]) and every noise sequence.
 //!
-//! Every run aligns (if the scenario does) and flies `none`, `simple`, `hysteresis` and
-//! `oracle` in lock-step ([`super::mc_variants`]). The thermal share removed by a variant
+//! Every run aligns (if the scenario does) and flies `none`, `simple`, `hysteresis`,
+//! `discovered` (each varied unit's own discovery run on its calibration log; off with
+//! `--no-mc-discovered`) and `oracle` in lock-step ([`super::mc_variants`]). The thermal share removed by a variant
 //! is `(simple − variant)/(simple − oracle)` on that run's **thermal-only** CEP rate (the
 //! radial growth of variant − oracle position, same sensor data; the oracle's is 0 by
 //! construction), so the gyro error's sign cannot flip it. The share on total CEP is kept
@@ -49,13 +50,16 @@ pub struct Plan {
     pub jobs: usize,
     /// This shard `(k, n)`: the runs `i` with `i mod n = k`.
     pub shard: (u64, u64),
+    /// Run the discovery workflow on each unit's calibration log and fly `discovered`
+    /// (about doubles a run's cost).
+    pub discover: bool,
 }
 
 impl Plan {
     /// From the command-line arguments.
     #[must_use]
     pub fn of(args: &NavigateArgs, sc: &Scenario, shard: (u64, u64)) -> Self {
-        Self { runs: args.runs, seed: args.mc_seed.unwrap_or(sc.seed), jobs: args.jobs, shard }
+        Self { runs: args.runs, seed: args.mc_seed.unwrap_or(sc.seed), jobs: args.jobs, shard, discover: !args.no_mc_discovered }
     }
 
     /// Run indices of this shard.
@@ -273,14 +277,15 @@ pub fn draw(sc: &Scenario, seed: u64, i: u64) -> Draw {
     Draw { scenario: s, units, seed: rs, temp_offset_c: off, temp_scale: scale }
 }
 
-/// Fly run `i` of base seed `seed`.
+/// Fly run `i` of base seed `seed`; `discover` adds the `discovered` variant.
 ///
 /// # Errors
 /// Calibration, flight, or a share that cannot be computed.
-pub fn one(sc: &Scenario, seed: u64, i: u64) -> anyhow::Result<Outcome> {
+pub fn one(sc: &Scenario, seed: u64, i: u64, discover: bool) -> anyhow::Result<Outcome> {
     let t0 = Instant::now();
     let Draw { scenario: s, units: us, seed: rs, temp_offset_c: off, temp_scale: scale } = draw(sc, seed, i);
-    let tables = calibrate_with(&us, rs, 1, false).with_context(|| format!("run {i}: calibration"))?;
+    let mut tables = calibrate_with(&us, rs, 1, discover).with_context(|| format!("run {i}: calibration"))?;
+    tables.misalignment = s.imu.accel.carried_misalignment();
     let res = run::fly(&s, &mut truths_seeded(&us, rs), mc_variants(&tables)?).with_context(|| format!("run {i}: flight"))?;
     let cep: BTreeMap<String, f64> =
         res.names.iter().zip(&res.tracks).map(|(n, tr)| (n.clone(), Figures::of(&res.t, tr).cep_nmi_per_h)).collect();
@@ -331,7 +336,7 @@ pub fn run(sc: &Scenario, plan: &Plan, progress: bool) -> anyhow::Result<Partial
     let outcomes: Vec<anyhow::Result<Outcome>> = pool.install(|| {
         idx.par_iter()
             .map(|&i| {
-                let r = one(sc, plan.seed, i);
+                let r = one(sc, plan.seed, i, plan.discover);
                 pb.inc(1);
                 r
             })
@@ -650,7 +655,7 @@ mod tests {
     fn shards_partition_the_runs() {
         let mut all = Vec::new();
         for k in 0..3 {
-            all.extend(Plan { runs: 10, seed: 1, jobs: 1, shard: (k, 3) }.indices());
+            all.extend(Plan { runs: 10, seed: 1, jobs: 1, shard: (k, 3), discover: false }.indices());
         }
         all.sort_unstable();
         assert_eq!(all, (0..10).collect::<Vec<_>>());

@@ -53,6 +53,7 @@
 pub mod accel;
 pub mod align;
 pub mod calib;
+pub mod clock;
 pub mod earth;
 pub mod errors;
 pub mod faults;
@@ -108,6 +109,8 @@ pub struct NavigateArgs {
     pub jobs: usize,
     /// `(k, n)`: run only the runs `i` with `i mod n = k` and write a partial result.
     pub shard: Option<(u64, u64)>,
+    /// Leave the `discovered` variant out of the Monte Carlo runs (no discovery per run).
+    pub no_mc_discovered: bool,
 }
 
 /// The paper's flight figures (Table 7 and §3.2).
@@ -193,6 +196,10 @@ pub struct Tables {
     pub simple: Table,
     /// Per-axis calibration figures.
     pub reports: Vec<calib::CalReport>,
+    /// The triad's misalignment matrix every table variant carries (row-major; `None`:
+    /// none). [`calibrate_with`] leaves it `None`; the flights set the scenario's
+    /// ([`errors::AccelErrors::carried_misalignment`]).
+    pub misalignment: Option<[f32; 9]>,
 }
 
 /// The three units on the x, y, z axes: the lab's JB-KT8 #1, #2, #3 presets.
@@ -222,7 +229,7 @@ pub fn calibrate_with(units: &[Truth; 3], seed: u64, threads: usize, discover: b
     let reports = out.iter().map(|u| u.report.clone()).collect();
     let hysteresis = calib::table3([&out[0].hysteresis, &out[1].hysteresis, &out[2].hysteresis])?;
     let simple = calib::table3([&out[0].simple, &out[1].simple, &out[2].simple])?;
-    Ok(Tables { units: out, hysteresis, simple, reports })
+    Ok(Tables { units: out, hysteresis, simple, reports, misalignment: None })
 }
 
 /// Read a table for the discovered variant: root-crate postcard (`.bin`) or TOML.
@@ -248,11 +255,12 @@ pub fn read_table(path: &Path) -> anyhow::Result<Table> {
 /// A table the compensator refuses.
 pub fn variants(t: &Tables, discovered: Option<[Table; 3]>) -> anyhow::Result<Vec<Variant>> {
     let u = &t.units;
+    let m = t.misalignment;
     let tc = |f: &dyn Fn(&calib::UnitTables) -> &Table| -> anyhow::Result<Box<dyn AccelCompensation>> {
-        Ok(Box::new(TableCompensation::new([f(&u[0]), f(&u[1]), f(&u[2])])?))
+        Ok(Box::new(TableCompensation::with_misalignment([f(&u[0]), f(&u[1]), f(&u[2])], m)?))
     };
     let disc: Box<dyn AccelCompensation> = match &discovered {
-        Some(d) => Box::new(TableCompensation::new([&d[0], &d[1], &d[2]])?),
+        Some(d) => Box::new(TableCompensation::with_misalignment([&d[0], &d[1], &d[2]], m)?),
         None => tc(&|x| &x.hysteresis)?,
     };
     Ok(vec![
@@ -260,8 +268,14 @@ pub fn variants(t: &Tables, discovered: Option<[Table; 3]>) -> anyhow::Result<Ve
         Variant { name: "simple".into(), comp: tc(&|x| &x.simple)? },
         Variant { name: "hysteresis".into(), comp: tc(&|x| &x.hysteresis)? },
         Variant { name: "discovered".into(), comp: disc },
-        Variant { name: "oracle".into(), comp: Box::new(OracleCompensation) },
+        Variant { name: "oracle".into(), comp: Box::new(oracle_of(t)) },
     ])
+}
+
+/// The oracle carrying the same misalignment as the tables (in f64).
+fn oracle_of(t: &Tables) -> OracleCompensation {
+    let m = t.misalignment.map(|m| nalgebra::Matrix3::from_fn(|r, c| f64::from(m[r * 3 + c])));
+    OracleCompensation::carrying(m)
 }
 
 /// Truth models of the three axes with the default noise seed.
@@ -406,7 +420,8 @@ pub fn scenario_of(args: &NavigateArgs) -> anyhow::Result<Scenario> {
 pub fn nominal(args: &NavigateArgs, sc: &Scenario) -> anyhow::Result<Report> {
     let units = units();
     let t0 = Instant::now();
-    let tables = calibrate(&units, sc)?;
+    let mut tables = calibrate(&units, sc)?;
+    tables.misalignment = sc.imu.accel.carried_misalignment();
     let t_cal = t0.elapsed().as_secs_f64();
     let (disc, source) = match &args.discovered_tables {
         Some(p) => {
@@ -536,23 +551,29 @@ pub fn summary(r: &Report) -> String {
     s
 }
 
-/// The variants flown in the Monte Carlo runs: `none`, `simple`, `hysteresis`, `oracle`
-/// (the `discovered` variant needs the discovery workflow per unit and run, several
-/// seconds each; it is in the nominal run only).
+/// The variants flown in the Monte Carlo runs: `none`, `simple`, `hysteresis`,
+/// `discovered` (each unit's own discovery run on its calibration log, when the tables
+/// were calibrated with discovery; otherwise it is the hysteresis table and is left out)
+/// and `oracle`.
 ///
 /// # Errors
 /// A table the compensator refuses.
 pub fn mc_variants(t: &Tables) -> anyhow::Result<Vec<Variant>> {
     let u = &t.units;
+    let m = t.misalignment;
     let tc = |f: &dyn Fn(&calib::UnitTables) -> &Table| -> anyhow::Result<Box<dyn AccelCompensation>> {
-        Ok(Box::new(TableCompensation::new([f(&u[0]), f(&u[1]), f(&u[2])])?))
+        Ok(Box::new(TableCompensation::with_misalignment([f(&u[0]), f(&u[1]), f(&u[2])], m)?))
     };
-    Ok(vec![
+    let mut v = vec![
         Variant { name: "none".into(), comp: tc(&|x| &x.none)? },
         Variant { name: "simple".into(), comp: tc(&|x| &x.simple)? },
         Variant { name: "hysteresis".into(), comp: tc(&|x| &x.hysteresis)? },
-        Variant { name: "oracle".into(), comp: Box::new(OracleCompensation) },
-    ])
+    ];
+    if u.iter().all(|x| x.discovered_effects.iter().all(|e| e != "not run")) {
+        v.push(Variant { name: "discovered".into(), comp: tc(&|x| &x.discovered)? });
+    }
+    v.push(Variant { name: "oracle".into(), comp: Box::new(oracle_of(t)) });
+    Ok(v)
 }
 
 /// The lab demo's navigation hook ([`crate::demo::NavigationHook`]): `navigate` on the

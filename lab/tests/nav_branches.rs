@@ -1,0 +1,46 @@
+//! Experiment (not a timed test): what is left of the hysteresis variant's thermal error
+//! once the branch flicker is gone. The lab's truth units (JB-KT8 #1–#3) have a
+//! single-valued bias: their heating and cooling branches differ only by the calibration's
+//! noise (±5–19 µg per grid node on the nominal tables). This flies the first 20 runs of the
+//! default Monte Carlo study twice: with the fitted branches, and with both branches
+//! replaced by their mean (what a fit that tied them would give), and prints the thermal
+//! share removed by `hysteresis`:
+//! `cargo test --release -p qfa-lab --test nav_branches -- --ignored --nocapture`.
+//! A diagnostic, not a change: the tables flown by the study keep their free branches.
+
+use qfa_lab::navigate::{self, mc, run, scenario::Scenario};
+
+#[test]
+#[ignore = "experiment: run with --ignored"]
+fn nav_branch_noise_experiment() {
+    let sc = Scenario::builtin();
+    let mut shares = Vec::new();
+    for i in 0..20u64 {
+        let d = mc::draw(&sc, sc.seed, i);
+        let mut out = [0.0; 2];
+        for (k, o) in out.iter_mut().enumerate() {
+            let mut tables = navigate::calibrate_with(&d.units, d.seed, 1, false).unwrap();
+            tables.misalignment = d.scenario.imu.accel.carried_misalignment();
+            if k == 1 {
+                for u in &mut tables.units {
+                    for a in &mut u.hysteresis.axes {
+                        let b = &mut a.bias;
+                        for (h, c) in b.heating_g.iter_mut().zip(b.cooling_g.iter_mut()) {
+                            let m = 0.5 * (*h + *c);
+                            (*h, *c) = (m, m);
+                        }
+                    }
+                }
+            }
+            let r = run::fly(&d.scenario, &mut navigate::truths_seeded(&d.units, d.seed), navigate::mc_variants(&tables).unwrap()).unwrap();
+            let th = navigate::thermal_ceps(&r).unwrap();
+            *o = navigate::share(th["simple"], th["hysteresis"], th["oracle"]).unwrap();
+        }
+        println!("run {i}: thermal share removed, fitted branches {:.3}, tied branches {:.3}", out[0], out[1]);
+        shares.push(out);
+    }
+    for (j, name) in ["fitted branches", "tied branches"].iter().enumerate() {
+        let s = mc::Stats::of(&shares.iter().map(|x| x[j]).collect::<Vec<_>>()).unwrap();
+        println!("{name}: median {:.3}, p10 {:.3}, p90 {:.3}, min {:.3}", s.median, s.p10, s.p90, s.min);
+    }
+}
