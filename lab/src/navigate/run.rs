@@ -19,6 +19,7 @@ use super::errors::ImuDraw;
 use super::scenario::{Flight, Scenario};
 use super::strapdown::{inverse, AltRef, Increments, Strapdown};
 use super::thermal::Profile;
+use crate::calibrate::metrics::rms;
 use crate::simulate::truth::SensorTruth;
 
 pub use super::errors::GyroErrors;
@@ -80,9 +81,6 @@ pub struct Figures {
     pub cep_psins_nmi_per_h: f64,
 }
 
-fn rms(v: &[f64]) -> f64 {
-    (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt()
-}
 
 impl Figures {
     /// Figures of a track sampled at times `t` (s).
