@@ -276,3 +276,60 @@ fn reader_reports_malformed_rows_with_line_numbers() {
     assert!(e.contains("line 3") && e.contains("line 4"), "{e}");
     assert!(Channels::parse("a,b\n1,2\n", 60.0).is_err());
 }
+
+#[test]
+fn a_parameter_pinned_at_its_search_limit_is_a_finding_not_a_fit() {
+    // A lag of 8 h, twice the search's upper limit (3840 s): the element temperature is
+    // a heavy smoothing of the reading, which a lag at the limit fits well but not at the
+    // truth. The honest report flags the limit and does not name the lag; were the flag
+    // broken (never set), the lag would pass the block test and be added at τ = 3840 s.
+    for seed in [31u64, 32] {
+        let ext = Extensions { sensor_lag: Some(SensorLag { tau_s: 28_800.0 }), ..Default::default() };
+        let r = run(&quick(seed), simple_scale(), [1e-4, 3e-6, 0.0], ext, Start::Simple);
+        let lag: Vec<_> = r.rounds.iter().flatten().filter(|c| c.name == "sensor_lag").collect();
+        assert!(
+            lag.iter().any(|c| c.significant && c.at_bound.iter().any(|b| b.starts_with("tau_s="))),
+            "seed {seed}: the lag trial must be significant and flagged at its limit: {:?}",
+            lag.iter().map(|c| (c.gain.t, c.significant, &c.at_bound)).collect::<Vec<_>>()
+        );
+        assert!(!names(&r).contains(&"sensor_lag"), "seed {seed}: a pinned lag was named: {:?}", names(&r));
+        assert!(
+            r.unexplained.iter().any(|u| u.pinned.iter().any(|p| p.starts_with("sensor_lag"))),
+            "seed {seed}: the pinned lag must be reported as unexplained: {:?}",
+            r.unexplained
+        );
+        // Any effect that was added with a parameter at a limit says so in its interval.
+        for e in &r.effects {
+            for (k, c) in &e.params_ci {
+                let near = |b: f64| (c.value / b).ln().abs() < 0.02;
+                if k == "tau_s" && (near(30.0) || near(3840.0)) {
+                    assert!(c.at_bound, "{} {k} = {} not flagged", e.name, c.value);
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn discover_bias_drift_not_creep_on_a_cycling_log() {
+    // Confusable pair: a slow drift with time and a creep with a long τ both look like a
+    // bias that wanders. The drift is added to the measured bias bins after pairing (the
+    // root crate's model has no time term, so it cannot come from the truth model): each
+    // program's bias rises by d·(hours since its start).
+    for (seed, d_ug_per_h) in [(33u64, 4.0f64), (34, -3.0)] {
+        let m = truth(kt8_1_scale(), paper_bias(), Extensions::default());
+        let mut ch = cycling_channels(&quick(seed), &m, 60.0);
+        for t in &mut ch.traces {
+            let t0 = t.time_s[0];
+            for b in &mut t.bins {
+                b.bias += d_ug_per_h * 1e-6 * (b.time_s - t0) / 3600.0;
+            }
+        }
+        let r = analyze(&ch, Start::Paper);
+        eprintln!("seed {seed}: {:?}", r.effect_labels());
+        assert_eq!(names(&r), ["bias_drift"], "seed {seed}");
+        // The report's drift is in the bias channel's unit, g/h.
+        within(param(&r, "bias_drift", "drift_g_per_h") * 1e6, d_ug_per_h, 0.25);
+        assert_shrinks(&r, "bias");
+    }
+}

@@ -1284,3 +1284,25 @@ pub fn demo_hook(log: &Path, out: &Path) -> Option<String> {
         Err(e) => Some(format!("failed: {e:#}")),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn at_bound_flags_each_search_limit_and_nothing_inside() {
+        // Limits from the search grids (30..3840 s, 0.15..20 °C, 1..1e6 s, E ≤ 20 000 K).
+        let lag = |t: f32| at_bound(Effect::SensorLag, &Nonlinear { lag_tau_s: Some(t), ..Default::default() });
+        assert_eq!(lag(3840.0), ["tau_s=3840"]);
+        assert_eq!(lag(30.2), ["tau_s=30"]);
+        assert!(lag(500.0).is_empty() && lag(3500.0).is_empty());
+        let play = |r: f32| at_bound(Effect::BiasBranchHysteresis, &Nonlinear { play_r_c: Some(r), ..Default::default() });
+        assert_eq!(play(20.0), ["half_width_c=20.00"]);
+        assert_eq!(play(0.15), ["half_width_c=0.15"]);
+        assert!(play(2.0).is_empty());
+        let creep = |t: f32, e: f32| at_bound(Effect::BiasCreep, &Nonlinear { creep: Some((t, e)), ..Default::default() });
+        assert_eq!(creep(1e6, 20_000.0), ["tau_ref_s=1000000", "activation_k=20000"]);
+        // E = 0 is physical (no thermal activation), not a search limit.
+        assert!(creep(3000.0, 0.0).is_empty());
+    }
+}
