@@ -216,6 +216,19 @@ fn discover_single_channel_log_and_outputs() {
     assert!(json["heldout_gap_before"]["value_rms"].as_f64().unwrap() > json["heldout_gap_after"]["value_rms"].as_f64().unwrap());
     assert_eq!(json["effects"][0]["name"], "bias_branch_hysteresis");
     assert!(json["where"].as_array().is_some_and(|w| !w.is_empty()));
+    // Peers on the same held-out split: a polynomial of temperature has no branch, so it
+    // cannot take the hidden ±15 µg heating/cooling offset the discovered play does.
+    let peers = json["peers"].as_array().expect("peers in report.json");
+    let labels: Vec<&str> = peers.iter().map(|p| p["peer"].as_str().unwrap()).collect();
+    assert_eq!(labels.len(), 3, "{labels:?}");
+    let after = json["heldout_gap_after"]["value_rms"].as_f64().unwrap();
+    for p in peers {
+        let x = p["heldout_rms"].as_f64().unwrap_or_else(|| panic!("peer without a figure: {p}"));
+        eprintln!("peer {}: {x:.2} µg held out (discovered {after:.2} µg)", p["peer"]);
+        assert!(x > 2.0 * after, "{p} vs discovered {after}");
+    }
+    let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
+    assert!(md.contains("## Peers on the same held-out split") && md.contains("| PX4/tofupilot cubic |"), "{md}");
     for f in ["report.md", "model.toml", "residuals.csv", "residual_value_vs_time.png"] {
         assert!(dir.join(f).exists(), "{f}");
     }
@@ -265,6 +278,10 @@ fn discover_from_lab_format_csv_with_pulses() {
     assert!(json["heldout_gap_before"]["scale_factor_ppm"].is_number());
     assert!(json["heldout_gap_after"]["bias_ug"].is_number());
     assert_eq!(json["effects"][0]["channel"], "both");
+    // A cycling log's peers are scored on the bias channel, in µg, on the program folds.
+    for p in json["peers"].as_array().expect("peers") {
+        assert!(p["heldout_rms"].as_f64().is_some_and(|x| x.is_finite() && x > 0.0), "{p}");
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
 
