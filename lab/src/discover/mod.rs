@@ -52,6 +52,13 @@
 //!    0.05 shared over drivers and channels) and catalog effects pinned at a search limit
 //!    are reported as `unexplained`, not given a name.
 //!
+//! 9. **Peers** ([`PeerGap`]): the PX4/tofupilot cubic, ArduPilot TCAL and the paper's
+//!    simple model ([`crate::calibrate::peers`]) on the same folds, bias channel only, so
+//!    every report shows what the discovered model is worth against what users pick.
+//!
+//! A static multi-axis log goes through [`static_axes`]: each axis a single-channel log,
+//! on static calibration's split (fit up to the temperature maximum, hold out the rest).
+//!
 //! The catalog's `bias_drift` (bias linear in time since the program start: ageing or a
 //! long turn-on settling) has no root-crate slot yet, so it is reported but not flashed
 //! (`in_table: false`). Left out of the catalog, as the issue allows: a thermal-gradient
