@@ -323,20 +323,21 @@ fn run(cli: Cli) -> Result<(), String> {
             );
         }
         Cmd::Discover { log, start, out, fmt } if fmt.options(&log)?.is_some() => {
-            // A static log: each axis is a single-channel (bias) log for the discovery.
-            use qfa_lab::data::channels::{Channels, LogKind, Trace};
+            // A static log: each axis is a single-channel (bias) log, on static calibration's split.
             let o = fmt.options(&log)?.unwrap_or_default();
             let l = qfa_lab::data::static_log::read_static(&log, &o).map_err(|e| format!("{}: {e}", log.display()))?;
             eprintln!("{} rows read; {}", l.rows(), l.skipped);
-            let rows: Vec<(f64, f32)> = l.time_s.iter().zip(&l.temp_c).map(|(&t, &c)| (t, c as f32)).collect();
-            for ax in &l.axes {
-                let mean = ax.accel_g.iter().sum::<f64>() / ax.accel_g.len() as f64;
-                let bias: Vec<f64> = ax.accel_g.iter().map(|a| a - mean).collect();
-                let ch = Channels { kind: LogKind::Single, traces: vec![Trace::new(ax.name.clone(), &rows, None, &bias, 60.0)] };
-                let r = qfa_lab::discover::discover(&ch, start, &out.join(&ax.name)).map_err(|e| format!("{}: {e:#}", ax.name))?;
-                let names: Vec<&str> = r.effects.iter().map(|e| e.name.as_str()).collect();
-                println!("{} ({}): effects found: {}", ax.name, ax.column, if names.is_empty() { "none".to_string() } else { names.join(", ") });
+            let d = qfa_lab::discover::static_axes::run(&l, start, &out).map_err(|e| format!("{e:#}"))?;
+            for a in &d.axes {
+                println!(
+                    "{} ({}): effects found: {}",
+                    a.axis,
+                    a.column,
+                    if a.effects.is_empty() { "none".to_string() } else { a.effects.join(", ") }
+                );
             }
+            print!("{}", qfa_lab::discover::static_axes::markdown(&d));
+            println!("wrote {}/report.json, report.md, table.bin", out.display());
         }
         Cmd::Discover { log, start, out, .. } => {
             qfa_lab::discover::run_cli(&log, start, &out).map_err(|e| format!("{e:#}"))?;

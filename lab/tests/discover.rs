@@ -216,6 +216,19 @@ fn discover_single_channel_log_and_outputs() {
     assert!(json["heldout_gap_before"]["value_rms"].as_f64().unwrap() > json["heldout_gap_after"]["value_rms"].as_f64().unwrap());
     assert_eq!(json["effects"][0]["name"], "bias_branch_hysteresis");
     assert!(json["where"].as_array().is_some_and(|w| !w.is_empty()));
+    // Peers on the same held-out split: a polynomial of temperature has no branch, so it
+    // cannot take the hidden ±15 µg heating/cooling offset the discovered play does.
+    let peers = json["peers"].as_array().expect("peers in report.json");
+    let labels: Vec<&str> = peers.iter().map(|p| p["peer"].as_str().unwrap()).collect();
+    assert_eq!(labels.len(), 3, "{labels:?}");
+    let after = json["heldout_gap_after"]["value_rms"].as_f64().unwrap();
+    for p in peers {
+        let x = p["heldout_rms"].as_f64().unwrap_or_else(|| panic!("peer without a figure: {p}"));
+        eprintln!("peer {}: {x:.2} µg held out (discovered {after:.2} µg)", p["peer"]);
+        assert!(x > 2.0 * after, "{p} vs discovered {after}");
+    }
+    let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
+    assert!(md.contains("## Peers on the same held-out split") && md.contains("| PX4/tofupilot cubic |"), "{md}");
     for f in ["report.md", "model.toml", "residuals.csv", "residual_value_vs_time.png"] {
         assert!(dir.join(f).exists(), "{f}");
     }
@@ -265,6 +278,10 @@ fn discover_from_lab_format_csv_with_pulses() {
     assert!(json["heldout_gap_before"]["scale_factor_ppm"].is_number());
     assert!(json["heldout_gap_after"]["bias_ug"].is_number());
     assert_eq!(json["effects"][0]["channel"], "both");
+    // A cycling log's peers are scored on the bias channel, in µg, on the program folds.
+    for p in json["peers"].as_array().expect("peers") {
+        assert!(p["heldout_rms"].as_f64().is_some_and(|x| x.is_finite() && x > 0.0), "{p}");
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -275,4 +292,61 @@ fn reader_reports_malformed_rows_with_line_numbers() {
     let e = format!("{:#}", Channels::parse(bad, 60.0).unwrap_err());
     assert!(e.contains("line 3") && e.contains("line 4"), "{e}");
     assert!(Channels::parse("a,b\n1,2\n", 60.0).is_err());
+}
+
+#[test]
+fn a_parameter_pinned_at_its_search_limit_is_a_finding_not_a_fit() {
+    // A lag of 8 h, twice the search's upper limit (3840 s): the element temperature is
+    // a heavy smoothing of the reading, which a lag at the limit fits well but not at the
+    // truth. The honest report flags the limit and does not name the lag; were the flag
+    // broken (never set), the lag would pass the block test and be added at τ = 3840 s.
+    for seed in [31u64, 32] {
+        let ext = Extensions { sensor_lag: Some(SensorLag { tau_s: 28_800.0 }), ..Default::default() };
+        let r = run(&quick(seed), simple_scale(), [1e-4, 3e-6, 0.0], ext, Start::Simple);
+        let lag: Vec<_> = r.rounds.iter().flatten().filter(|c| c.name == "sensor_lag").collect();
+        assert!(
+            lag.iter().any(|c| c.significant && c.at_bound.iter().any(|b| b.starts_with("tau_s="))),
+            "seed {seed}: the lag trial must be significant and flagged at its limit: {:?}",
+            lag.iter().map(|c| (c.gain.t, c.significant, &c.at_bound)).collect::<Vec<_>>()
+        );
+        assert!(!names(&r).contains(&"sensor_lag"), "seed {seed}: a pinned lag was named: {:?}", names(&r));
+        assert!(
+            r.unexplained.iter().any(|u| u.pinned.iter().any(|p| p.starts_with("sensor_lag"))),
+            "seed {seed}: the pinned lag must be reported as unexplained: {:?}",
+            r.unexplained
+        );
+        // Any effect that was added with a parameter at a limit says so in its interval.
+        for e in &r.effects {
+            for (k, c) in &e.params_ci {
+                let near = |b: f64| (c.value / b).ln().abs() < 0.02;
+                if k == "tau_s" && (near(30.0) || near(3840.0)) {
+                    assert!(c.at_bound, "{} {k} = {} not flagged", e.name, c.value);
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn discover_bias_drift_not_creep_on_a_cycling_log() {
+    // Confusable pair: a slow drift with time and a creep with a long τ both look like a
+    // bias that wanders. The drift is added to the measured bias bins after pairing (the
+    // root crate's model has no time term, so it cannot come from the truth model): each
+    // program's bias rises by d·(hours since its start).
+    for (seed, d_ug_per_h) in [(33u64, 4.0f64), (34, -3.0)] {
+        let m = truth(kt8_1_scale(), paper_bias(), Extensions::default());
+        let mut ch = cycling_channels(&quick(seed), &m, 60.0);
+        for t in &mut ch.traces {
+            let t0 = t.time_s[0];
+            for b in &mut t.bins {
+                b.bias += d_ug_per_h * 1e-6 * (b.time_s - t0) / 3600.0;
+            }
+        }
+        let r = analyze(&ch, Start::Paper);
+        eprintln!("seed {seed}: {:?}", r.effect_labels());
+        assert_eq!(names(&r), ["bias_drift"], "seed {seed}");
+        // The report's drift is in the bias channel's unit, g/h.
+        within(param(&r, "bias_drift", "drift_g_per_h") * 1e6, d_ug_per_h, 0.25);
+        assert_shrinks(&r, "bias");
+    }
 }

@@ -235,6 +235,22 @@ fn truth_generator_is_what_it_says() {
 
 #[test]
 fn discovery_is_honest_on_data_it_did_not_make() {
+    honest_on_seeds(&[1, 2]);
+}
+
+/// The same cases on a third seed. Fails today, measured: the one-stage lag (500 s) is
+/// named `bias_branch_hysteresis` (r = 1.15 °C, "not identified: as good as
+/// bias_creep"), without `sensor_lag` among the equally good candidates: a wrong name.
+/// Every other case, the drift included (`bias_drift` alone, 2.14 µg/h), is answered
+/// honestly. Kept visible, not in the default run:
+/// `cargo test --release -p qfa-lab --test discover_truth -- --ignored third_seed --nocapture`.
+#[test]
+#[ignore = "fails: seed 3's one-stage lag is named bias_branch_hysteresis (README)"]
+fn discovery_is_honest_on_a_third_seed() {
+    honest_on_seeds(&[3]);
+}
+
+fn honest_on_seeds(seeds: &[u64]) {
     let cases: Vec<(Hidden, u64)> = [
         Hidden::Nothing,
         Hidden::Lag1,
@@ -245,7 +261,7 @@ fn discovery_is_honest_on_data_it_did_not_make() {
         Hidden::Ageing2,
     ]
         .into_iter()
-        .flat_map(|h| [(h, 1u64), (h, 2)])
+        .flat_map(|h| seeds.iter().map(move |&s| (h, s)))
         .collect();
     let reports: Vec<Report> = cases
         .par_iter()
@@ -371,3 +387,4 @@ fn unexplained_is_reported_in_json_and_in_words() {
     assert!(dir.join("table.bin").exists() || md.contains("did not validate"), "{md}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+

@@ -97,25 +97,67 @@ fn ardupilot_points(t: &[f64], y: &[f64]) -> (Vec<f64>, Vec<f64>) {
     (pt, py)
 }
 
+/// One peer, for callers that fit them one at a time (discovery's held-out folds).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PeerKind {
+    /// PX4 / tofupilot cubic.
+    Cubic,
+    /// ArduPilot TCAL cubic about 35 °C.
+    Ardupilot,
+    /// The paper's simple model (linear in T).
+    Simple,
+}
+
+impl PeerKind {
+    /// Every peer, in report order.
+    pub const ALL: [PeerKind; 3] = [PeerKind::Cubic, PeerKind::Ardupilot, PeerKind::Simple];
+
+    /// Name as in the reports.
+    #[must_use]
+    pub fn label(self) -> &'static str {
+        match self {
+            PeerKind::Cubic => "PX4/tofupilot cubic",
+            PeerKind::Ardupilot => "ArduPilot TCAL",
+            PeerKind::Simple => "paper simple (linear in T)",
+        }
+    }
+
+    /// Fit this peer to training temperatures `t` (°C, the raw reading) and outputs `y`
+    /// (reference removed), as [`fit_peers`] does.
+    ///
+    /// # Errors
+    /// Too few training rows, or (ArduPilot) fewer than 4 learner points.
+    pub fn fit(self, t: &[f64], y: &[f64]) -> Result<Poly, FitError> {
+        let tmin = t.iter().copied().fold(f64::INFINITY, f64::min);
+        let tmax = t.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        match self {
+            PeerKind::Cubic => Poly::fit(t, y, 3, 0.5 * (tmin + tmax), tmin, tmax),
+            PeerKind::Simple => Poly::fit(t, y, 1, crate::calibrate::fit::T0_C, -60.0, 130.0),
+            PeerKind::Ardupilot => {
+                let (pt, py) = ardupilot_points(t, y);
+                let mut ardupilot = Poly::fit(&pt, &py, 3, ARDUPILOT_TREF_C, tmin, tmax)?;
+                // The learner's own constant is not a parameter: the ordinary calibration
+                // sets the offset, here the training mean of what remains.
+                ardupilot.coef[0] = 0.0;
+                let rest: f64 = t.iter().zip(y).map(|(&ti, &yi)| yi - ardupilot.eval(ti)).sum::<f64>() / t.len() as f64;
+                ardupilot.coef[0] = rest;
+                Ok(ardupilot)
+            }
+        }
+    }
+}
+
 /// Fit every peer to training temperatures `t` (°C) and outputs `y` (g, reference removed).
 ///
 /// # Errors
 /// Too few training rows, or fewer than 4 ArduPilot points (the learner needs a rise of
 /// 2 °C or more after the coldest row).
 pub fn fit_peers(t: &[f64], y: &[f64]) -> Result<Peers, FitError> {
-    let tmin = t.iter().copied().fold(f64::INFINITY, f64::min);
-    let tmax = t.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    let mid = 0.5 * (tmin + tmax);
-    let cubic = Poly::fit(t, y, 3, mid, tmin, tmax)?;
-    let simple = Poly::fit(t, y, 1, crate::calibrate::fit::T0_C, -60.0, 130.0)?;
-    let (pt, py) = ardupilot_points(t, y);
-    let mut ardupilot = Poly::fit(&pt, &py, 3, ARDUPILOT_TREF_C, tmin, tmax)?;
-    // The learner's own constant is not a parameter: the ordinary calibration sets the
-    // offset, here the training mean of what remains.
-    ardupilot.coef[0] = 0.0;
-    let rest: f64 = t.iter().zip(y).map(|(&ti, &yi)| yi - ardupilot.eval(ti)).sum::<f64>() / t.len() as f64;
-    ardupilot.coef[0] = rest;
-    Ok(Peers { cubic, ardupilot, ardupilot_points: pt.len(), simple })
+    let cubic = PeerKind::Cubic.fit(t, y)?;
+    let simple = PeerKind::Simple.fit(t, y)?;
+    let ardupilot = PeerKind::Ardupilot.fit(t, y)?;
+    Ok(Peers { cubic, ardupilot, ardupilot_points: ardupilot_points(t, y).0.len(), simple })
 }
 
 /// A PX4 parameter file (QGroundControl `.params` format: vehicle, component, name, value,

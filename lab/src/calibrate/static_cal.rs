@@ -187,7 +187,12 @@ pub struct StaticCalibration {
 }
 
 /// Index of the last training row: the first row with the highest temperature.
-fn split_index(log: &StaticLog) -> Result<usize, StaticCalError> {
+/// Index of the last training row: the first row at the log's highest temperature (see the
+/// module docs). Static discovery uses the same split.
+///
+/// # Errors
+/// Fewer than a tenth of the rows on either side.
+pub fn split_index(log: &StaticLog) -> Result<usize, StaticCalError> {
     let n = log.rows();
     let imax = (0..n).fold(0, |b, i| if log.temp_c[i] > log.temp_c[b] { i } else { b });
     let tenth = (n / 10).max(1);
@@ -208,7 +213,12 @@ fn split_index(log: &StaticLog) -> Result<usize, StaticCalError> {
     Ok(imax)
 }
 
-fn score(resid: &[f64], time_s: &[f64], what: &str) -> Result<Score, StaticCalError> {
+/// Held-out figures of residuals `resid` (g) at times `time_s`: RMS over the rows and over
+/// their 60-s means, mg.
+///
+/// # Errors
+/// No residual, or a non-finite one.
+pub fn score(resid: &[f64], time_s: &[f64], what: &str) -> Result<Score, StaticCalError> {
     if resid.is_empty() {
         return Err(StaticCalError::Figure(format!("{what}: no held-out row had a model output")));
     }

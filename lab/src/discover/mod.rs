@@ -52,6 +52,13 @@
 //!    0.05 shared over drivers and channels) and catalog effects pinned at a search limit
 //!    are reported as `unexplained`, not given a name.
 //!
+//! 9. **Peers** ([`PeerGap`]): the PX4/tofupilot cubic, ArduPilot TCAL and the paper's
+//!    simple model ([`crate::calibrate::peers`]) on the same folds, bias channel only, so
+//!    every report shows what the discovered model is worth against what users pick.
+//!
+//! A static multi-axis log goes through [`static_axes`]: each axis a single-channel log,
+//! on static calibration's split (fit up to the temperature maximum, hold out the rest).
+//!
 //! The catalog's `bias_drift` (bias linear in time since the program start: ageing or a
 //! long turn-on settling) has no root-crate slot yet, so it is reported but not flashed
 //! (`in_table: false`). Left out of the catalog, as the issue allows: a thermal-gradient
@@ -65,6 +72,7 @@
 
 pub mod fit;
 pub mod output;
+pub mod static_axes;
 pub mod stats;
 
 use std::path::Path;
@@ -217,6 +225,22 @@ pub struct CandidateTrial {
     pub gaps: Gaps,
 }
 
+/// A peer (what users pick today) on the report's own held-out split, bias channel: per
+/// fold fitted on the training bins (bin means of the raw temperature reading and of the
+/// bias or value) and scored on the held-out bins, as the model's gaps are.
+#[derive(Clone, Debug, Serialize)]
+pub struct PeerGap {
+    /// Peer name.
+    pub peer: String,
+    /// Held-out RMS of the bias channel (µg for a cycling log, value units for a
+    /// single-channel log); absent when the peer could not be fitted (then `error` says why).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub heldout_rms: Option<f64>,
+    /// Why no figure could be formed.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+}
+
 /// The discovery report; `report.json` is its serialization.
 #[derive(Clone, Debug, Serialize)]
 pub struct Report {
@@ -235,6 +259,9 @@ pub struct Report {
     pub unexplained: Vec<Unexplained>,
     /// Noise floors of the final held-out residual (bin-to-bin part).
     pub noise_floor: Gaps,
+    /// Peers on the same held-out split, bias channel (cycling logs: the bias channel
+    /// only; the peers have no scale-factor model).
+    pub peers: Vec<PeerGap>,
     /// The selection rule, in words.
     pub selection_rule: String,
     /// Every candidate of every round (for the Markdown report).
@@ -388,6 +415,47 @@ fn heldout(setup: &Setup, s: &Structure, nls: &[Nonlinear], masks: &[Vec<bool>],
         }
     }
     out
+}
+
+/// The peers of [`crate::calibrate::peers`] on the held-out folds, bias channel: each
+/// fold's peer is fitted on the bin means of its training bins (raw temperature reading,
+/// bias) in log order and scored on the fold's held-out bins.
+fn peer_gaps(ch: &Channels, masks: &[Vec<bool>], trains: &[Vec<bool>]) -> Vec<PeerGap> {
+    use crate::calibrate::peers::PeerKind;
+    let unit = if ch.kind == LogKind::Cycling { 1e6 } else { 1.0 };
+    let (mut temp, mut y) = (Vec::new(), Vec::new());
+    for t in &ch.traces {
+        for b in &t.bins {
+            let m = (b.hi - b.lo) as f64;
+            temp.push(t.temp_raw[b.lo..b.hi].iter().map(|&r| f64::from(r) / 16.0).sum::<f64>() / m);
+            y.push(b.bias);
+        }
+    }
+    PeerKind::ALL
+        .into_iter()
+        .map(|kind| {
+            let mut res = vec![f64::NAN; y.len()];
+            for (test, train) in masks.iter().zip(trains) {
+                let idx: Vec<usize> = (0..y.len()).filter(|&i| train[i] && y[i].is_finite()).collect();
+                let tt: Vec<f64> = idx.iter().map(|&i| temp[i]).collect();
+                let ty: Vec<f64> = idx.iter().map(|&i| y[i]).collect();
+                match kind.fit(&tt, &ty) {
+                    Ok(p) => {
+                        for i in (0..y.len()).filter(|&i| test[i]) {
+                            res[i] = (y[i] - p.eval(temp[i])) * unit;
+                        }
+                    }
+                    Err(e) => {
+                        return PeerGap { peer: kind.label().into(), heldout_rms: None, error: Some(format!("fit on a fold: {e}")) }
+                    }
+                }
+            }
+            if res.iter().all(|x| !x.is_finite()) {
+                return PeerGap { peer: kind.label().into(), heldout_rms: None, error: Some("no held-out bin".into()) };
+            }
+            PeerGap { peer: kind.label().into(), heldout_rms: Some(rms(&res)), error: None }
+        })
+        .collect()
 }
 
 /// Search limits of the sensor-lag τ, s.
@@ -945,6 +1013,14 @@ fn stats_rng() -> crate::simulate::synth::Rng {
     crate::simulate::synth::Rng::new(0x5EED_B007)
 }
 
+/// The start model fitted on every bin of `ch` (no held-out split): the "before" of a
+/// discovery whose figures are scored on data outside `ch`.
+#[must_use]
+pub fn start_model(ch: &Channels, start: Start) -> AxisModel {
+    let setup = Setup::new(ch);
+    setup.fit(&Structure::start(start), &Nonlinear::default(), &vec![true; ch.n_bins()]).model
+}
+
 /// The workflow without writing anything.
 #[must_use]
 pub fn analyze(ch: &Channels, start: Start) -> Report {
@@ -1158,6 +1234,7 @@ pub fn analyze(ch: &Channels, start: Start) -> Report {
         LogKind::Single => Gaps::Single { value_rms: noise_floor(ch, &cur.bias) },
     };
     let unexplained = find_unexplained(ch, &cur, &masks, &trains, &pinned);
+    let peers = peer_gaps(ch, &masks, &trains);
     Report {
         start,
         effects,
@@ -1166,6 +1243,7 @@ pub fn analyze(ch: &Channels, start: Start) -> Report {
         where_: localize(ch, &before, 5),
         unexplained,
         noise_floor: floor,
+        peers,
         selection_rule: selection_rule_text(),
         rounds,
         where_after: localize(ch, &cur, 5),
@@ -1211,5 +1289,27 @@ pub fn demo_hook(log: &Path, out: &Path) -> Option<String> {
             ))
         }
         Err(e) => Some(format!("failed: {e:#}")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn at_bound_flags_each_search_limit_and_nothing_inside() {
+        // Limits from the search grids (30..3840 s, 0.15..20 °C, 1..1e6 s, E ≤ 20 000 K).
+        let lag = |t: f32| at_bound(Effect::SensorLag, &Nonlinear { lag_tau_s: Some(t), ..Default::default() });
+        assert_eq!(lag(3840.0), ["tau_s=3840"]);
+        assert_eq!(lag(30.2), ["tau_s=30"]);
+        assert!(lag(500.0).is_empty() && lag(3500.0).is_empty());
+        let play = |r: f32| at_bound(Effect::BiasBranchHysteresis, &Nonlinear { play_r_c: Some(r), ..Default::default() });
+        assert_eq!(play(20.0), ["half_width_c=20.00"]);
+        assert_eq!(play(0.15), ["half_width_c=0.15"]);
+        assert!(play(2.0).is_empty());
+        let creep = |t: f32, e: f32| at_bound(Effect::BiasCreep, &Nonlinear { creep: Some((t, e)), ..Default::default() });
+        assert_eq!(creep(1e6, 20_000.0), ["tau_ref_s=1000000", "activation_k=20000"]);
+        // E = 0 is physical (no thermal activation), not a search limit.
+        assert!(creep(3000.0, 0.0).is_empty());
     }
 }

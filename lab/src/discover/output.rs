@@ -78,6 +78,28 @@ fn markdown(ch: &Channels, r: &Report) -> String {
         }
     );
     let _ = writeln!(s, "Selection: {}.\n", r.selection_rule);
+    let unit = if ch.kind == LogKind::Cycling { "µg" } else { "value units" };
+    let _ = writeln!(
+        s,
+        "## Peers on the same held-out split (bias channel, {unit})\n\nEach fitted per fold on the training bins (bin means of the raw temperature reading) and scored on the held-out bins.\n\n| model | held-out RMS |\n|---|---|"
+    );
+    let bias_gap = |g: &Gaps| match g {
+        Gaps::Cycling { bias_ug, .. } => *bias_ug,
+        Gaps::Single { value_rms } => *value_rms,
+    };
+    let _ = writeln!(s, "| start model (`{}`) | {:.4} |", r.start.name(), bias_gap(&r.heldout_gap_before));
+    let _ = writeln!(s, "| discovered model | {:.4} |", bias_gap(&r.heldout_gap_after));
+    for p in &r.peers {
+        match (&p.heldout_rms, &p.error) {
+            (Some(x), _) => {
+                let _ = writeln!(s, "| {} | {x:.4} |", p.peer);
+            }
+            (None, e) => {
+                let _ = writeln!(s, "| {} | not computed: {} |", p.peer, e.as_deref().unwrap_or("no figure"));
+            }
+        }
+    }
+    let _ = writeln!(s);
     if r.effects.is_empty() {
         let _ = writeln!(s, "## Effects added: none\n\nNo candidate improved the held-out fit significantly.\n");
     } else {
