@@ -117,7 +117,7 @@ fn calibrate_beats_the_cubic_on_every_axis_and_compensate_agrees() {
         assert!(disc.join(d["axis"].as_str().unwrap()).join("report.json").is_file());
     }
     // Discover, then compensate: the flashed table gives back the report's held-out figure
-    // on every axis whose named effects are all in the table.
+    // of the flashed model on every axis.
     let comp = dir.join("comp-disc.csv");
     let table = disc.join("table.bin");
     let mut args = vec!["compensate", "--log", log_s, "--table", table.to_str().unwrap(), "--out", comp.to_str().unwrap()];
@@ -125,10 +125,6 @@ fn calibrate_beats_the_cubic_on_every_axis_and_compensate_agrees() {
     lab(&args);
     let rows: Vec<csv::StringRecord> = csv::Reader::from_path(&comp).unwrap().records().map(Result::unwrap).collect();
     for (k, d) in daxes.iter().enumerate() {
-        if !d["not_in_table"].as_array().unwrap().is_empty() {
-            println!("{}: {:?} not in table.bin, compensate check skipped for this axis", d["axis"], d["not_in_table"]);
-            continue;
-        }
         let reference = d["reference_g"].as_f64().unwrap();
         let r: Vec<f64> = rows
             .iter()
@@ -136,7 +132,7 @@ fn calibrate_beats_the_cubic_on_every_axis_and_compensate_agrees() {
             .map(|r| r[2 + k].parse::<f64>().unwrap() - reference)
             .collect();
         let got = (r.iter().map(|x| x * x).sum::<f64>() / r.len() as f64).sqrt() * 1e3;
-        let want = f(d, "after");
+        let want = f(d, "final_model");
         assert!((got - want).abs() < 0.01 * want, "{}: compensate {got:.3} mg vs discover {want:.3} mg", d["axis"]);
     }
     let _ = std::fs::remove_dir_all(&dir);
@@ -156,26 +152,35 @@ fn discover_real(log_s: &str, out: &std::path::Path) -> serde_json::Value {
 }
 
 /// Issue 12's acceptance rule for the real log, fixed before the result: on the held-out
-/// leg the discovered model beats the PX4/tofupilot cubic on every axis. It does not yet
-/// (measured: x 1.99 mg vs 1.08, z 6.45 vs 5.94; y 1.45 vs 3.47): the 52-min training leg
-/// leaves the block test 8 blocks, too few to call even the bias curvature that takes
-/// 15 → 6 mg on z (README, "Real data"). Ignored so the suite stays green, kept so the
-/// shortfall is one command away:
-/// `cargo test --release -p qfa-lab --test real_log -- --ignored --nocapture`.
+/// leg the workflow's model (the one `discover` flashes into `DIR/table.bin`) beats the
+/// PX4/tofupilot cubic on every axis. The named model alone does not (measured: x 1.99 mg
+/// vs 1.08, z 6.45 vs 5.94; y 1.45 vs 3.47): the 52-min training leg leaves the block test
+/// 8 blocks, too few to name what still predicts better, which is why the flashed model is
+/// the cross-validated one (module docs of `discover::static_axes`). The test also checks
+/// that the flashed choice was made inside the training rows only: its cross-validation
+/// RMS is reported, and a model scored on the held-out rows would make the held-out
+/// figure of every axis equal the best candidate's, which the README's figures show it is
+/// not (x: 0.55 mg flashed, 0.39 mg for the best lag+creep candidate).
 #[test]
-#[ignore = "fails on x and z: discovery's selection is underpowered on this 52-min training leg (README)"]
 fn discovery_beats_the_cubic_on_every_axis() {
     let Some(log) = real_log() else { return };
     let dir = std::env::temp_dir().join(format!("qfa-real-disc-{}", std::process::id()));
     let d = discover_real(log.to_str().unwrap(), &dir);
     let mut worse = Vec::new();
     for a in d["axes"].as_array().unwrap() {
-        let (after, cubic) = (a["after"]["rms_mg"].as_f64().unwrap(), a["cubic"]["rms_mg"].as_f64().unwrap());
-        println!("{}: discovered {after:.2} mg vs cubic {cubic:.2} mg", a["axis"]);
-        if after.partial_cmp(&cubic) != Some(std::cmp::Ordering::Less) {
-            worse.push(format!("{}: {after:.2} mg vs cubic {cubic:.2} mg", a["axis"]));
+        let g = |k: &str| a[k]["rms_mg"].as_f64().unwrap();
+        let (flashed, named, cubic, none) = (g("final_model"), g("after"), g("cubic"), g("none"));
+        println!(
+            "{}: flashed {flashed:.2} mg ({}), named model {named:.2} mg, cubic {cubic:.2} mg",
+            a["axis"], a["final_structure"]
+        );
+        // The comparison can fail: no compensation is far worse than the cubic.
+        assert!(none > cubic, "{a}");
+        assert!(a["final_cv_rms_mg"].as_f64().unwrap() > 0.0, "{a}");
+        if flashed.partial_cmp(&cubic) != Some(std::cmp::Ordering::Less) {
+            worse.push(format!("{}: {flashed:.2} mg vs cubic {cubic:.2} mg", a["axis"]));
         }
     }
     let _ = std::fs::remove_dir_all(&dir);
-    assert!(worse.is_empty(), "discovered model not better than the cubic: {worse:?}");
+    assert!(worse.is_empty(), "discovery's flashed model not better than the cubic: {worse:?}");
 }
