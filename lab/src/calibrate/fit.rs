@@ -394,11 +394,20 @@ pub fn table_of(axis: AxisModel) -> Result<Table, FitError> {
 /// # Errors
 /// More axes than a table holds, or the root crate's validation error.
 pub fn table_of_axes(axes: impl IntoIterator<Item = AxisModel>) -> Result<Table, FitError> {
+    table_of_axes_with(axes, None)
+}
+
+/// [`table_of_axes`] with a misalignment matrix (row-major, applied after the per-axis
+/// compensation).
+///
+/// # Errors
+/// As [`table_of_axes`], and a matrix outside the table's limits.
+pub fn table_of_axes_with(axes: impl IntoIterator<Item = AxisModel>, misalignment: Option<[f32; 9]>) -> Result<Table, FitError> {
     let mut v = heapless::Vec::new();
     for a in axes {
         v.push(a).map_err(|_| FitError::TooManyAxes)?;
     }
-    let t = Table { rate_window: RATE_WINDOW as u16, axes: v, misalignment: None };
+    let t = Table { rate_window: RATE_WINDOW as u16, axes: v, misalignment };
     t.validate().map_err(FitError::Table)?;
     Ok(t)
 }

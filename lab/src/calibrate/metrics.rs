@@ -52,6 +52,19 @@ pub fn rms(v: &[f64]) -> f64 {
     (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt()
 }
 
+/// RMS of the finite values of `v` (0 when none is): for series where NaN marks a bin
+/// without that channel (a single-channel log has no scale-factor channel), as the
+/// discovery's residuals do.
+#[must_use]
+pub fn rms_of_finite(v: &[f64]) -> f64 {
+    let (s, n) = v.iter().filter(|x| x.is_finite()).fold((0.0, 0usize), |(s, n), x| (s + x * x, n + 1));
+    if n == 0 {
+        0.0
+    } else {
+        (s / n as f64).sqrt()
+    }
+}
+
 /// One temperature bin of one segment.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Bin {

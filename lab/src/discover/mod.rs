@@ -86,6 +86,8 @@ pub use fit::Effect;
 use fit::{golden, nelder_mead2, Fitted, Nonlinear, Residuals, Setup, Structure};
 pub use stats::GainStat;
 
+use crate::calibrate::metrics::rms_of_finite as rms;
+
 /// Start model.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
@@ -386,14 +388,6 @@ fn noise_floor(ch: &Channels, v: &[f64]) -> f64 {
     (1.4826 * med / std::f64::consts::SQRT_2).max(1e-12)
 }
 
-fn rms(v: &[f64]) -> f64 {
-    let (s, n) = v.iter().filter(|x| x.is_finite()).fold((0.0, 0usize), |(s, n), x| (s + x * x, n + 1));
-    if n == 0 {
-        0.0
-    } else {
-        (s / n as f64).sqrt()
-    }
-}
 
 fn gaps(kind: LogKind, r: &Residuals) -> Gaps {
     match kind {

@@ -24,9 +24,11 @@ fn gaps_text(g: &Gaps) -> String {
 /// The root-crate table of the report's final model.
 #[must_use]
 pub fn table(report: &Report) -> Option<Table> {
-    let m = report.model.clone()?;
-    let mut t = Table { rate_window: 32, axes: Default::default(), misalignment: None };
-    t.axes.push(m).ok()?;
+    // Not validated here: a single-channel log's model is in the log's own units (often
+    // µg), which the root crate refuses as a table. `model.toml` is written either way;
+    // `write` validates before `table.bin` and says why when it cannot.
+    let mut t = Table { rate_window: crate::data::pairing::RATE_WINDOW as u16, axes: Default::default(), misalignment: None };
+    t.axes.push(report.model.clone()?).ok()?;
     Some(t)
 }
 

@@ -142,12 +142,10 @@ pub fn table3(axes: [&Table; 3]) -> anyhow::Result<Table> {
 /// # Errors
 /// As [`table3`], and a matrix outside the table's limits.
 pub fn table3_with(axes: [&Table; 3], misalignment: Option<[f32; 9]>) -> anyhow::Result<Table> {
-    let mut v = heapless::Vec::new();
     for t in axes {
         anyhow::ensure!(t.axes.len() == 1, "expected 1-axis tables");
-        v.push(t.axes[0].clone()).map_err(|_| anyhow::anyhow!("too many axes"))?;
+        anyhow::ensure!(usize::from(t.rate_window) == crate::data::pairing::RATE_WINDOW, "expected the lab's rate window");
     }
-    let t = Table { rate_window: axes[0].rate_window, axes: v, misalignment };
-    t.validate().map_err(|e| anyhow::anyhow!("3-axis table invalid: {e}"))?;
-    Ok(t)
+    crate::calibrate::fit::table_of_axes_with(axes.map(|t| t.axes[0].clone()), misalignment)
+        .map_err(|e| anyhow::anyhow!("3-axis table invalid: {e}"))
 }

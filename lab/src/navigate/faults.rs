@@ -860,20 +860,16 @@ mod tests {
     use super::*;
     use qfa_thermal::model::{AxisModel, BiasGrid, Extensions};
 
-    /// A 1-axis JB-KT8 #1-like table.
+    /// A 3-axis table, each axis JB-KT8 #1-like.
     fn table_bytes() -> Vec<u8> {
-        let mut t = Table { rate_window: 32, axes: heapless::Vec::new(), misalignment: None };
         let a = AxisModel {
             scale: crate::simulate::truth::Truth::jb_kt8(1).scale,
             bias: BiasGrid::single_valued(-60.0, 65.0, &[1e-4, 1.5e-4, 3e-4]),
             rate_limit_c_per_min: 2.0,
             ext: Extensions::default(),
         };
-        for _ in 0..3 {
-            t.axes.push(a.clone()).expect("three axes");
-        }
-        let mut buf = [0u8; MAX_TABLE_BYTES];
-        t.encode(&mut buf).expect("encodes").to_vec()
+        let t = crate::calibrate::fit::table_of_axes([a.clone(), a.clone(), a]).expect("a valid table");
+        crate::calibrate::fit::encode(&t).expect("encodes")
     }
 
     fn comps() -> ImuCompensator {
