@@ -162,6 +162,10 @@ pub struct FitOptions {
     pub block: usize,
     /// Bias grid nodes (2..=16).
     pub grid_points: usize,
+    /// `None` (the default): the branch tie is chosen by cross-validation
+    /// ([`choose_branch_mode`]). `Some(mode)` forces it (the CV figures are still
+    /// reported, the rule says it was forced): for tests that must show a wrong tie fails.
+    pub branch_mode: Option<BranchMode>,
 }
 
 impl FitOptions {
@@ -175,6 +179,7 @@ impl FitOptions {
             deadband_c_per_min: crate::data::pairing::branch_deadband_c_per_min(),
             block: 30,
             grid_points: MAX_BIAS_POINTS,
+            branch_mode: None,
         }
     }
 }
@@ -369,7 +374,11 @@ pub fn fit(log: &Log, opts: &FitOptions, progress: Option<&indicatif::ProgressBa
     let grid = GridSpec { start, step, g };
     // How the branches are tied is the data's call (cross-validation, one-SE rule), then
     // the chosen mode is fitted on all fit rows with the fit's own blocks.
-    let branch = choose_branch_mode(&rows, &y_k0x, &starts, grid, opts.block)?;
+    let mut branch = choose_branch_mode(&rows, &y_k0x, &starts, grid, opts.block)?;
+    if let Some(m) = opts.branch_mode {
+        branch.mode = m;
+        branch.rule = format!("forced to {m:?} by the caller (FitOptions::branch_mode); the CV figures are for reference");
+    }
     let (xg, p) = bias_design(&rows, branch.mode, grid);
     let (mut xb, mut yb) = block_average(&xg, &y_k0x, p, opts.block, &starts);
     drop(xg);
