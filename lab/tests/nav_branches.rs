@@ -47,3 +47,32 @@ fn nav_branch_noise_experiment() {
         println!("{name}: median {:.3}, p10 {:.3}, p90 {:.3}, min {:.3}", s.median, s.p10, s.p90, s.min);
     }
 }
+
+/// Experiment: which branch tie the cross-validation picks on the Monte Carlo study's varied
+/// units (first 100 runs × 3 units, default scenario), read off the fitted tables: equal
+/// branches are Single, a constant difference Offset, anything else Free:
+/// `cargo test --release -p qfa-lab --test nav_branches tally -- --ignored --nocapture`.
+#[test]
+#[ignore = "experiment: run with --ignored"]
+fn branch_tie_tally_on_the_monte_carlo_units() {
+    let sc = Scenario::builtin();
+    let mut tally = std::collections::BTreeMap::new();
+    for i in 0..100u64 {
+        let d = mc::draw(&sc, sc.seed, i);
+        let tables = navigate::calibrate_with(&d.units, d.seed, 1, false).unwrap();
+        for u in &tables.units {
+            let b = &u.hysteresis.axes[0].bias;
+            let diff: Vec<f32> = b.heating_g.iter().zip(&b.cooling_g).map(|(h, c)| h - c).collect();
+            let mode = if diff.iter().all(|&x| x == 0.0) {
+                "Single"
+            } else if diff.iter().all(|&x| (x - diff[0]).abs() <= 1e-9) {
+                "Offset"
+            } else {
+                "Free"
+            };
+            *tally.entry(mode).or_insert(0usize) += 1;
+        }
+    }
+    println!("branch tie on 300 varied units: {tally:?}");
+    assert_eq!(tally.values().sum::<usize>(), 300);
+}
