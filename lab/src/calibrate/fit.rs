@@ -452,7 +452,7 @@ fn bias_design(rows: &[Row], mode: BranchMode, gs: GridSpec) -> (Vec<f64>, usize
 
 /// Contiguous cross-validation folds over the cycling fit's paired rows. Chosen before any
 /// result, for a standard error from ten fold MSEs; on the paper's two fit programs
-/// (0.3 and 0.9 °C/min, about 45 h of rows) a fold is some 4.5 h of contiguous time, far
+/// (0.3 and 0.9 °C/min, about 49 h of rows) a fold is some 5 h of contiguous time, far
 /// beyond the 30-min correlation time of the simulated bias instability.
 pub const CYCLING_CV_FOLDS: usize = 10;
 
