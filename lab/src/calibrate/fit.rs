@@ -15,9 +15,16 @@
 //! * Hysteresis: `K1 = Eq. 11` with ΔT and Ṫ (°C/min) as the firmware sees them;
 //!   K0 on a uniform grid of `grid_points` nodes over the fitted temperature range, one
 //!   value per node and branch (hat-function basis, the Unknown branch is the mean of both,
-//!   as in `BiasGrid::k0`), minus the extension slots' bias. Two weak regularisers (weight
-//!   1, against ~10⁴ data equations) tie each heating node to its cooling node and damp
-//!   second differences, so nodes no data reach stay defined.
+//!   as in `BiasGrid::k0`), minus the extension slots' bias. How the two branches are tied
+//!   is chosen from the data, as the static fit chooses among the same [`BranchMode`]s:
+//!   Single (one curve, `g` unknowns), Offset (one curve ± a constant half-step, `g + 1`)
+//!   or Free (a curve per branch, `2g`), by blocked cross-validation over the fit programs'
+//!   paired rows with the one-standard-error rule ([`crate::calibrate::select`]): the
+//!   fewest-unknown mode whose held-out K0 error is within one SE of the best's. Without
+//!   it, a unit whose bias is single-valued got two branches that differ by calibration
+//!   noise, which the firmware then applies as a branch-switching error. Weak regularisers
+//!   (weight 1, against ~10⁴ data equations) damp second differences and, in Free, tie
+//!   each heating node to its cooling node, so nodes no data reach stay defined.
 
 use std::fmt;
 
@@ -50,6 +57,8 @@ pub enum FitError {
     TooManyAxes,
     /// The root crate refused the table.
     Table(qfa_thermal::table::Error),
+    /// A cross-validation figure could not be formed.
+    Cv(String),
 }
 
 impl fmt::Display for FitError {
@@ -59,6 +68,7 @@ impl fmt::Display for FitError {
             Self::TooFewRows { rows, unknowns } => write!(f, "{rows} equations for {unknowns} unknowns"),
             Self::TooManyAxes => write!(f, "more axes than a table holds"),
             Self::Table(e) => write!(f, "table rejected: {e}"),
+            Self::Cv(s) => write!(f, "cross-validation: {s}"),
         }
     }
 }
@@ -152,6 +162,10 @@ pub struct FitOptions {
     pub block: usize,
     /// Bias grid nodes (2..=16).
     pub grid_points: usize,
+    /// `None` (the default): the branch tie is chosen by cross-validation
+    /// ([`choose_branch_mode`]). `Some(mode)` forces it (the CV figures are still
+    /// reported, the rule says it was forced): for tests that must show a wrong tie fails.
+    pub branch_mode: Option<BranchMode>,
 }
 
 impl FitOptions {
@@ -165,6 +179,7 @@ impl FitOptions {
             deadband_c_per_min: crate::data::pairing::branch_deadband_c_per_min(),
             block: 30,
             grid_points: MAX_BIAS_POINTS,
+            branch_mode: None,
         }
     }
 }
@@ -199,8 +214,11 @@ pub struct Fitted {
     pub sf_hysteresis: LsResult,
     /// Bias, simple: [k0, k1].
     pub bias_simple: LsResult,
-    /// Bias grid: heating nodes then cooling nodes.
+    /// Bias grid in the chosen branch mode's unknowns ([`BranchMode::expand`]): Single the
+    /// nodes, Offset the nodes then the half-step, Free heating nodes then cooling nodes.
     pub bias_hysteresis: LsResult,
+    /// How the grid's branches are tied, chosen by cross-validation ([`choose_branch_mode`]).
+    pub branch: BranchChoice,
     /// Paired rows used.
     pub pairs: usize,
 }
@@ -256,25 +274,35 @@ fn rows_of(log: &Log, program: &str, ext: &Extensions, deadband: f32) -> Result<
     Ok((out, max_rate))
 }
 
-/// Block-average equations: `x` row-major with `p` columns.
-fn block_average(x: &[f64], y: &[f64], p: usize, block: usize, starts: &[usize]) -> (Vec<f64>, Vec<f64>) {
+/// Ranges `[s, e)` of consecutive rows averaged into one equation: `block` rows each,
+/// restarting at every index in `starts` (a block never straddles a program boundary or a
+/// gap), the last of a segment shorter.
+fn block_ranges(n: usize, block: usize, starts: &[usize]) -> Vec<(usize, usize)> {
     let block = block.max(1);
-    let mut xo = Vec::new();
-    let mut yo = Vec::new();
-    // Blocks never straddle a program boundary.
     let mut bounds = starts.to_vec();
-    bounds.push(y.len());
+    bounds.push(n);
+    let mut out = Vec::new();
     for w in bounds.windows(2) {
         let mut s = w[0];
         while s < w[1] {
             let e = (s + block).min(w[1]);
-            let n = (e - s) as f64;
-            for j in 0..p {
-                xo.push((s..e).map(|i| x[i * p + j]).sum::<f64>() / n);
-            }
-            yo.push(y[s..e].iter().sum::<f64>() / n);
+            out.push((s, e));
             s = e;
         }
+    }
+    out
+}
+
+/// Block-average equations: `x` row-major with `p` columns.
+fn block_average(x: &[f64], y: &[f64], p: usize, block: usize, starts: &[usize]) -> (Vec<f64>, Vec<f64>) {
+    let mut xo = Vec::new();
+    let mut yo = Vec::new();
+    for (s, e) in block_ranges(y.len(), block, starts) {
+        let n = (e - s) as f64;
+        for j in 0..p {
+            xo.push((s..e).map(|i| x[i * p + j]).sum::<f64>() / n);
+        }
+        yo.push(y[s..e].iter().sum::<f64>() / n);
     }
     (xo, yo)
 }
@@ -342,20 +370,21 @@ pub fn fit(log: &Log, opts: &FitOptions, progress: Option<&indicatif::ProgressBa
     let end = tmax.ceil().min(130.0).max(start + 1.0);
     let g = opts.grid_points.clamp(2, MAX_BIAS_POINTS);
     let step = (end - start) / (g - 1) as f64;
-    let p = 2 * g;
-    let mut xg = vec![0.0; n * p];
     let y_k0x: Vec<f64> = rows.iter().map(|r| r.k0 - r.ext_k0).collect();
-    for (i, r) in rows.iter().enumerate() {
-        let row = &mut xg[i * p..(i + 1) * p];
-        grid_row(row, r.tp, r.bp, start, step, g, 0.5);
-        grid_row(row, r.tm, r.bm, start, step, g, 0.5);
+    let grid = GridSpec { start, step, g };
+    // How the branches are tied is the data's call (cross-validation, one-SE rule), then
+    // the chosen mode is fitted on all fit rows with the fit's own blocks.
+    let mut branch = choose_branch_mode(&rows, &y_k0x, &starts, grid, opts.block)?;
+    if let Some(m) = opts.branch_mode {
+        branch.mode = m;
+        branch.rule = format!("forced to {m:?} by the caller (FitOptions::branch_mode); the CV figures are for reference");
     }
+    let (xg, p) = bias_design(&rows, branch.mode, grid);
     let (mut xb, mut yb) = block_average(&xg, &y_k0x, p, opts.block, &starts);
-    push_branch_ties(&mut xb, &mut yb, p, g);
-    for off in [0, g] {
-        push_second_differences(&mut xb, &mut yb, p, off, g);
-    }
+    drop(xg);
+    branch.mode.push_regularisers(&mut xb, &mut yb, p, g);
     let bias_hysteresis = lstsq(&xb, p, &yb)?;
+    let (heating, cooling) = branch.mode.expand(&bias_hysteresis.coef, g);
     let rate_limit = (max_rate * 1.25).clamp(0.5, 20.0) as f32;
 
     let c = &sf_simple.coef;
@@ -368,16 +397,162 @@ pub fn fit(log: &Log, opts: &FitOptions, progress: Option<&indicatif::ProgressBa
 
     let h: [f64; 6] = sf_hysteresis.coef[..6].try_into().map_err(|_| FitError::TooFewRows { rows: n, unknowns: 6 })?;
     let scale_h = scale_of_eq11(&h);
-    let bg = &bias_hysteresis.coef;
     let grid_h = BiasGrid {
         t_start_c: start as f32,
         t_step_c: step as f32,
         deadband_c_per_min: opts.deadband_c_per_min,
-        heating_g: f32v(&bg[..g]),
-        cooling_g: f32v(&bg[g..]),
+        heating_g: f32v(&heating),
+        cooling_g: f32v(&cooling),
     };
     let hysteresis = table_of(AxisModel { scale: scale_h, bias: grid_h, rate_limit_c_per_min: rate_limit, ext: opts.ext })?;
-    Ok(Fitted { simple, hysteresis, sf_simple, sf_hysteresis, bias_simple, bias_hysteresis, pairs: n })
+    Ok(Fitted { simple, hysteresis, sf_simple, sf_hysteresis, bias_simple, bias_hysteresis, branch, pairs: n })
+}
+
+/// The bias grid's nodes: `g` nodes from `start` °C every `step` °C.
+#[derive(Clone, Copy, Debug)]
+struct GridSpec {
+    start: f64,
+    step: f64,
+    g: usize,
+}
+
+/// The K0 design of the paired rows in branch mode `mode` (row-major, and its column
+/// count): each row is the mean of its two runs' hat functions (see [`Row`]); Offset adds
+/// the half-step column, +1 on heating, −1 on cooling, 0 on Unknown (as `BiasGrid::k0`
+/// takes the mean of both branches there).
+fn bias_design(rows: &[Row], mode: BranchMode, gs: GridSpec) -> (Vec<f64>, usize) {
+    let GridSpec { start, step, g } = gs;
+    let p = mode.unknowns(g);
+    let sign = |b: Branch| match b {
+        Branch::Heating => 1.0,
+        Branch::Cooling => -1.0,
+        Branch::Unknown => 0.0,
+    };
+    let mut x = vec![0.0; rows.len() * p];
+    for (i, r) in rows.iter().enumerate() {
+        let row = &mut x[i * p..(i + 1) * p];
+        match mode {
+            BranchMode::Single => {
+                hat(row, 0, r.tp, start, step, g, 0.5);
+                hat(row, 0, r.tm, start, step, g, 0.5);
+            }
+            BranchMode::Offset => {
+                hat(row, 0, r.tp, start, step, g, 0.5);
+                hat(row, 0, r.tm, start, step, g, 0.5);
+                row[g] = 0.5 * (sign(r.bp) + sign(r.bm));
+            }
+            BranchMode::Free => {
+                grid_row(row, r.tp, r.bp, start, step, g, 0.5);
+                grid_row(row, r.tm, r.bm, start, step, g, 0.5);
+            }
+        }
+    }
+    (x, p)
+}
+
+/// Contiguous cross-validation folds over the cycling fit's paired rows. Chosen before any
+/// result, for a standard error from ten fold MSEs; on the paper's two fit programs
+/// (0.3 and 0.9 °C/min, about 49 h of rows) a fold is some 5 h of contiguous time, far
+/// beyond the 30-min correlation time of the simulated bias instability.
+pub const CYCLING_CV_FOLDS: usize = 10;
+
+/// Cross-validation figures of one branch mode, µg.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct BranchCv {
+    /// The mode.
+    pub mode: BranchMode,
+    /// Its linear unknowns.
+    pub unknowns: usize,
+    /// √(CV MSE), µg.
+    pub cv_rms_ug: f64,
+    /// CV MSE (mean of the fold MSEs), µg².
+    pub cv_mse_ug2: f64,
+    /// Its standard error, µg².
+    pub cv_se_ug2: f64,
+}
+
+/// The branch tie of a cycling fit's bias grid and how it was chosen.
+#[derive(Clone, Debug, Serialize)]
+pub struct BranchChoice {
+    /// The chosen mode.
+    pub mode: BranchMode,
+    /// Every candidate's figures (Single, Offset, Free).
+    pub candidates: Vec<BranchCv>,
+    /// The limit the chosen mode had to meet: best CV MSE + its SE, µg².
+    pub limit_ug2: f64,
+    /// Folds.
+    pub folds: usize,
+    /// The rule, in words.
+    pub rule: String,
+}
+
+/// Choose the bias grid's branch tie for the paired rows `rows` (targets `y`, K0 minus the
+/// extension slots) by blocked cross-validation with the one-SE rule
+/// ([`crate::calibrate::select`]): the rows (programs in order, each in time order) are
+/// cut into [`CYCLING_CV_FOLDS`] contiguous equal chunks; for each chunk, every mode is
+/// fitted (same grid, blocks and weak regularisers as the final fit) on the other chunks
+/// and scored by the MSE of its residual on the held-out chunk's `block`-row K0 means.
+///
+/// # Errors
+/// Too few rows for the folds, a failed solve, or a figure that cannot be formed.
+fn choose_branch_mode(rows: &[Row], y: &[f64], starts: &[usize], gs: GridSpec, block: usize) -> Result<BranchChoice, FitError> {
+    let n = y.len();
+    let k = CYCLING_CV_FOLDS;
+    // Fold boundaries join the program starts, so no averaged block straddles a fold.
+    let mut st: Vec<usize> = starts.iter().copied().chain((0..k).map(|f| (f * n).div_ceil(k))).filter(|&i| i < n).collect();
+    st.sort_unstable();
+    st.dedup();
+    let ranges = block_ranges(n, block, &st);
+    let fold_of: Vec<usize> = ranges.iter().map(|&(s, _)| s * k / n.max(1)).collect();
+    let mut cands = Vec::new();
+    for mode in [BranchMode::Single, BranchMode::Offset, BranchMode::Free] {
+        let (x, p) = bias_design(rows, mode, gs);
+        let (xb, yb) = block_average(&x, y, p, block, &st);
+        drop(x);
+        let mut fold_mse = Vec::with_capacity(k);
+        for f in 0..k {
+            let (mut xt, mut yt) = (Vec::new(), Vec::new());
+            for (b, &fb) in fold_of.iter().enumerate() {
+                if fb != f {
+                    xt.extend_from_slice(&xb[b * p..(b + 1) * p]);
+                    yt.push(yb[b]);
+                }
+            }
+            mode.push_regularisers(&mut xt, &mut yt, p, gs.g);
+            let c = lstsq(&xt, p, &yt)?.coef;
+            let (mut sse, mut m) = (0.0, 0usize);
+            for (b, &fb) in fold_of.iter().enumerate() {
+                if fb == f {
+                    let pred: f64 = xb[b * p..(b + 1) * p].iter().zip(&c).map(|(a, ci)| a * ci).sum();
+                    sse += (yb[b] - pred).powi(2);
+                    m += 1;
+                }
+            }
+            if m == 0 {
+                return Err(FitError::Cv(format!("fold {f} of {k} holds no block of {block} rows ({n} paired rows)")));
+            }
+            fold_mse.push(sse / m as f64 * 1e12);
+        }
+        cands.push((mode, p, crate::calibrate::select::CvFigure::of_folds(&fold_mse)?));
+    }
+    let figs: Vec<(usize, crate::calibrate::select::CvFigure)> = cands.iter().map(|&(_, p, f)| (p, f)).collect();
+    let chosen = crate::calibrate::select::one_se_rule(&figs).ok_or_else(|| FitError::Cv("no candidate".to_string()))?;
+    let best = figs.iter().map(|(_, f)| *f).min_by(|a, b| a.mse.total_cmp(&b.mse)).ok_or_else(|| FitError::Cv("no candidate".to_string()))?;
+    Ok(BranchChoice {
+        mode: cands[chosen].0,
+        candidates: cands
+            .iter()
+            .map(|&(mode, unknowns, f)| BranchCv { mode, unknowns, cv_rms_ug: f.mse.sqrt(), cv_mse_ug2: f.mse, cv_se_ug2: f.se })
+            .collect(),
+        limit_ug2: best.mse + best.se,
+        folds: k,
+        rule: format!(
+            "bias-grid branch tie (Single: one curve; Offset: one curve ± a constant half-step; Free: a curve per branch) \
+             by {k}-fold blocked cross-validation over the fit programs' paired rows (contiguous equal chunks in time), \
+             scored on the held-out chunk's {block}-row K0 means; the mode with the fewest unknowns whose CV MSE is within \
+             one standard error of the best's (one-SE rule)"
+        ),
+    })
 }
 
 /// A validated single-axis lab table (see [`table_of_axes`]).
@@ -436,6 +611,41 @@ pub enum BranchMode {
     Free,
 }
 
+impl BranchMode {
+    /// Linear unknowns for `g` grid nodes.
+    #[must_use]
+    pub fn unknowns(self, g: usize) -> usize {
+        match self {
+            Self::Single => g,
+            Self::Offset => g + 1,
+            Self::Free => 2 * g,
+        }
+    }
+
+    /// Heating and cooling nodes from this mode's first [`Self::unknowns`] coefficients.
+    #[must_use]
+    pub fn expand(self, c: &[f64], g: usize) -> (Vec<f64>, Vec<f64>) {
+        match self {
+            Self::Single => (c[..g].to_vec(), c[..g].to_vec()),
+            Self::Offset => (c[..g].iter().map(|v| v + c[g]).collect(), c[..g].iter().map(|v| v - c[g]).collect()),
+            Self::Free => (c[..g].to_vec(), c[g..2 * g].to_vec()),
+        }
+    }
+
+    /// The weak rows (weight 1) that keep every node defined: second differences along each
+    /// fitted curve, and for Free the heating–cooling ties, so a node that only one branch's
+    /// data reach follows the other branch.
+    fn push_regularisers(self, xb: &mut Vec<f64>, yb: &mut Vec<f64>, p: usize, g: usize) {
+        if self == Self::Free {
+            push_branch_ties(xb, yb, p, g);
+        }
+        let curves = if self == Self::Free { 2 } else { 1 };
+        for off in (0..curves).map(|b| b * g) {
+            push_second_differences(xb, yb, p, off, g);
+        }
+    }
+}
+
 /// The structure of a static bias model: which firmware slots are on, with their fixed
 /// nonlinear parameters (the linear weights — grid nodes, creep gain, play weight — are
 /// fitted).
@@ -478,12 +688,7 @@ impl StaticStructure {
     /// Linear unknowns for `g` grid nodes.
     #[must_use]
     pub fn unknowns(&self, g: usize) -> usize {
-        let b = match self.branches {
-            BranchMode::Single => g,
-            BranchMode::Offset => g + 1,
-            BranchMode::Free => 2 * g,
-        };
-        b + usize::from(self.creep_tau_s.is_some()) + usize::from(self.play_half_width_c.is_some())
+        self.branches.unknowns(g) + usize::from(self.creep_tau_s.is_some()) + usize::from(self.play_half_width_c.is_some())
     }
 
     fn ext(&self, creep_gain: f32, play_weight: f32) -> Extensions {
@@ -609,11 +814,7 @@ pub fn fit_static_axis(
     let start = tmin.floor().max(-60.0);
     let end = tmax.ceil().min(130.0).max(start + 1.0);
     let step = (end - start) / (g - 1) as f64;
-    let nb = match structure.branches {
-        BranchMode::Single => g,
-        BranchMode::Offset => g + 1,
-        BranchMode::Free => 2 * g,
-    };
+    let nb = structure.branches.unknowns(g);
     let mut x = vec![0.0; idx.len() * p];
     let mut y = Vec::with_capacity(idx.len());
     let mut max_rate: f64 = 0.0;
@@ -651,20 +852,10 @@ pub fn fit_static_axis(
         }
     }
     let (mut xb, mut yb) = block_average(&x, &y, p, block, &starts);
-    let branches = if structure.branches == BranchMode::Free { 2 } else { 1 };
-    for off in (0..branches).map(|b| b * g) {
-        push_second_differences(&mut xb, &mut yb, p, off, g);
-    }
-    if structure.branches == BranchMode::Free {
-        push_branch_ties(&mut xb, &mut yb, p, g);
-    }
+    structure.branches.push_regularisers(&mut xb, &mut yb, p, g);
     let ls = lstsq(&xb, p, &yb)?;
     let c = &ls.coef;
-    let (heating, cooling): (Vec<f64>, Vec<f64>) = match structure.branches {
-        BranchMode::Single => (c[..g].to_vec(), c[..g].to_vec()),
-        BranchMode::Offset => (c[..g].iter().map(|v| v + c[g]).collect(), c[..g].iter().map(|v| v - c[g]).collect()),
-        BranchMode::Free => (c[..g].to_vec(), c[g..2 * g].to_vec()),
-    };
+    let (heating, cooling) = structure.branches.expand(c, g);
     let mut k = nb;
     let creep_gain = if structure.creep_tau_s.is_some() {
         k += 1;

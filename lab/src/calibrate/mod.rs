@@ -13,6 +13,7 @@ pub mod fit;
 pub mod metrics;
 pub mod peers;
 pub mod report;
+pub mod select;
 pub mod static_cal;
 
 use std::path::Path;
@@ -107,6 +108,7 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
             simple_sf: [fitted.sf_simple.coef[0], fitted.sf_simple.coef[1]],
             simple_bias: [fitted.bias_simple.coef[0], fitted.bias_simple.coef[1]],
             rms_sf_hysteresis: fitted.sf_hysteresis.rms,
+            branch: fitted.branch.clone(),
         },
         rejected_readings: eval.rejected_readings,
         timings_s: Timings { fit: t_fit, evaluate: t_eval, ..Timings::default() },

@@ -161,6 +161,8 @@ pub struct FitSummary {
     pub simple_bias: [f64; 2],
     /// RMS residual of the Eq. 11 fit, pulses/(g·s).
     pub rms_sf_hysteresis: f64,
+    /// The bias grid's branch tie, chosen by cross-validation, with every mode's figures.
+    pub branch: crate::calibrate::fit::BranchChoice,
 }
 
 /// `report.json`.
