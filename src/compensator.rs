@@ -316,8 +316,13 @@ struct Set<const AXES: usize> {
 }
 
 impl<const AXES: usize> Set<AXES> {
-    const EMPTY: Self =
-        Self { scale: [0.0; AXES], bias_tick: [0.0; AXES], bias_acc: [0.0; AXES], misalign: None, status: Status::empty() };
+    const EMPTY: Self = Self {
+        scale: [0.0; AXES],
+        bias_tick: [0.0; AXES],
+        bias_acc: [0.0; AXES],
+        misalign: None,
+        status: Status::empty(),
+    };
 }
 
 impl<const AXES: usize> Published<AXES> {
@@ -614,7 +619,9 @@ pub struct Compensator<const AXES: usize = 3, const N: usize = 32, const SENSORS
     fast: FastState<AXES>,
 }
 
-impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Clone + Borrow<Table>> Clone for Compensator<AXES, N, SENSORS, T> {
+impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Clone + Borrow<Table>> Clone
+    for Compensator<AXES, N, SENSORS, T>
+{
     /// An independent copy: the clone gets its own [`Published`] set holding the same
     /// coefficients (atomics are not `Clone`).
     fn clone(&self) -> Self {
@@ -1223,7 +1230,10 @@ mod tests {
                 Config { rate: RateConfig { smoothing_alpha: 0.0, ..d.rate }, ..d },
                 ConfigError::OutOfRange("rate.smoothing_alpha"),
             ),
-            (Config { rate: RateConfig { min_samples: 2, ..d.rate }, ..d }, ConfigError::OutOfRange("rate.min_samples")),
+            (
+                Config { rate: RateConfig { min_samples: 2, ..d.rate }, ..d },
+                ConfigError::OutOfRange("rate.min_samples"),
+            ),
             (Config { confirm_samples: 0, ..d }, ConfigError::OutOfRange("confirm_samples")),
             (Config { stale_after_ticks: 999_999, ..d }, ConfigError::StaleShorterThanSamplePeriod),
             (Config { rate: RateConfig { max_gap_ms: 1000, ..d.rate }, ..d }, ConfigError::GapShorterThanSamplePeriod),

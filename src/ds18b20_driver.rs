@@ -224,13 +224,7 @@ impl Ds18b20 {
     }
 
     const fn with_rom(rom: Option<Rom>) -> Self {
-        Self {
-            rom,
-            resolution: Resolution::Bits12,
-            retries: DEFAULT_RETRIES,
-            read_slots: false,
-            state: State::Idle,
-        }
+        Self { rom, resolution: Resolution::Bits12, retries: DEFAULT_RETRIES, read_slots: false, state: State::Idle }
     }
 
     /// Set how many times a bad scratchpad read is retried (capped at [`MAX_RETRIES`]).
@@ -545,7 +539,12 @@ impl Ds18b20 {
     ///
     /// # Errors
     /// As [`Self::measure`].
-    pub async fn measure_async<P, D, W>(&mut self, bus: &mut OneWire<P, D>, wait: &mut W, now_us: u32) -> Result<Sample, Error>
+    pub async fn measure_async<P, D, W>(
+        &mut self,
+        bus: &mut OneWire<P, D>,
+        wait: &mut W,
+        now_us: u32,
+    ) -> Result<Sample, Error>
     where
         P: InputPin + OutputPin,
         D: DelayNs,
@@ -575,7 +574,11 @@ impl Ds18b20 {
     /// The read step shared by [`Self::measure`] and [`Self::measure_async`]: the
     /// conversion ended at `completed_us`; `Ok(Ok)` a sample, `Ok(Err)` a scratchpad error
     /// worth a new conversion, `Err` an error that ends the call (bus, changed resolution).
-    fn read_converted<P, D>(&mut self, bus: &mut OneWire<P, D>, completed_us: u32) -> Result<Result<Sample, Error>, Error>
+    fn read_converted<P, D>(
+        &mut self,
+        bus: &mut OneWire<P, D>,
+        completed_us: u32,
+    ) -> Result<Result<Sample, Error>, Error>
     where
         P: InputPin + OutputPin,
         D: DelayNs,

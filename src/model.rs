@@ -50,8 +50,7 @@ impl ScaleFactor {
     pub fn k1(&self, t_c: f32, rate: f32) -> f32 {
         let d = t_c - self.t0_c;
         let r = rate;
-        let dev = (((self.alpha * r) * r + (self.beta * d) * d) + (self.eta * r) * d + self.epsilon * r)
-            + self.mu * d;
+        let dev = (((self.alpha * r) * r + (self.beta * d) * d) + (self.eta * r) * d + self.epsilon * r) + self.mu * d;
         self.gamma + dev
     }
 
@@ -304,18 +303,19 @@ impl AxisModel {
     /// of the table's: the compensator passes the larger of the table's and the flicker
     /// floor of its rate window and sample period
     /// ([`crate::rate::flicker_deadband_c_per_min`]).
-    pub fn evaluate_with_deadband(&self, state: &mut AxisState, t_c: f32, rate: f32, dt_s: f32, deadband: f32) -> Evaluation {
+    pub fn evaluate_with_deadband(
+        &self,
+        state: &mut AxisState,
+        t_c: f32,
+        rate: f32,
+        dt_s: f32,
+        deadband: f32,
+    ) -> Evaluation {
         let (t, temp_clamped) = clamp(t_c, self.bias.t_start_c, self.bias.t_end_c());
         let lim = self.rate_limit_c_per_min;
         let (r, rate_clamped) = clamp(rate, -lim, lim);
         if !state.initialized {
-            *state = AxisState {
-                initialized: true,
-                branch: Branch::Unknown,
-                element_c: t,
-                play_c: t,
-                creep_c: t,
-            };
+            *state = AxisState { initialized: true, branch: Branch::Unknown, element_c: t, play_c: t, creep_c: t };
         }
         let te = match self.ext.sensor_lag {
             Some(lag) if dt_s > 0.0 => {

@@ -420,15 +420,9 @@ where
                 let dir = match (id, complement) {
                     (true, true) => return Err(Error::SearchNoResponse),
                     // This pass must take the 1 branch of the last discrepancy.
-                    _ if pos == last_discrepancy && (id || complement) => {
-                        return Err(Error::SearchInconsistent)
-                    }
+                    _ if pos == last_discrepancy && (id || complement) => return Err(Error::SearchInconsistent),
                     (false, false) => {
-                        let dir = if pos < last_discrepancy {
-                            rom[byte] & mask != 0
-                        } else {
-                            pos == last_discrepancy
-                        };
+                        let dir = if pos < last_discrepancy { rom[byte] & mask != 0 } else { pos == last_discrepancy };
                         if !dir {
                             last_zero = pos;
                         }

@@ -434,7 +434,9 @@ mod tests {
             }
         }
         let sd = (s2 / f64::from(n)).sqrt();
-        println!("flicker: σ(Ṫ) {sd:.4} °C/min (derived {sigma:.4}), |Ṫ| ≥ {d:.3}: {over_d}, > 0.05: {over_old} of {n}");
+        println!(
+            "flicker: σ(Ṫ) {sd:.4} °C/min (derived {sigma:.4}), |Ṫ| ≥ {d:.3}: {over_d}, > 0.05: {over_old} of {n}"
+        );
         assert!((sd / sigma - 1.0).abs() < 0.05, "σ {sd} vs {sigma}");
         assert_eq!(over_d, 0);
         assert!(over_old > 1000, "{over_old}");

@@ -106,7 +106,10 @@ pub fn compensator_stream(data: &[u8]) {
                 let out = c.cycle(p, dt);
                 since_good = (since_good + u64::from(dt)).min(u64::from(u32::MAX));
                 assert!(out.dv_mps.iter().all(|v| v.is_finite()), "non-finite output {out:?}");
-                assert_eq!(out.status.contains(Status::TEMP_STALE), since_good > stale_after || c.status().contains(Status::TEMP_STALE));
+                assert_eq!(
+                    out.status.contains(Status::TEMP_STALE),
+                    since_good > stale_after || c.status().contains(Status::TEMP_STALE)
+                );
             }
             6 => {
                 let cnt = [u32::from(arg) << 24, u32::from(op) << 28, u32::from(arg) * 3];

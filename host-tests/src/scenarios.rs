@@ -163,7 +163,15 @@ pub fn all() -> Vec<(&'static str, Vec<String>)> {
         [("kt8_1.vec", 0, None), ("kt8_2.vec", 1, None), ("kt8_3_misalign.vec", 2, Some(MISALIGN))];
     for (name, unit, m) in units {
         let mut l = Vec::new();
-        header(&mut l, &format!("JB-KT8 #{} (Eq. {}), all slots off{}", unit + 1, 15 + unit, if m.is_some() { ", misalignment" } else { "" }));
+        header(
+            &mut l,
+            &format!(
+                "JB-KT8 #{} (Eq. {}), all slots off{}",
+                unit + 1,
+                15 + unit,
+                if m.is_some() { ", misalignment" } else { "" }
+            ),
+        );
         l.push(format!("table {}", table_hex(&table(unit, [none; 3], m))));
         profile_events(&mut l, &mut Lcg::new(11 + unit as u64), unit, 1000);
         files.push((name, l));
@@ -198,7 +206,8 @@ pub fn faults() -> Vec<String> {
     l.push("cycle 2500 800 -400 200".into());
     l.push("samp 1000 320000 -160000 80000".into());
     l.push("# one flipped payload bit: CRC error, still no table".into());
-    let mut bytes: Vec<u8> = (0..good_hex.len() / 2).map(|i| u8::from_str_radix(&good_hex[2 * i..2 * i + 2], 16).unwrap()).collect();
+    let mut bytes: Vec<u8> =
+        (0..good_hex.len() / 2).map(|i| u8::from_str_radix(&good_hex[2 * i..2 * i + 2], 16).unwrap()).collect();
     bytes[HEADER_LEN + 5] ^= 0x10;
     l.push(format!("table {}", hex(&bytes)));
     bytes[HEADER_LEN + 5] ^= 0x10;

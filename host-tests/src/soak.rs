@@ -148,7 +148,13 @@ pub fn run(set: Settings, mut progress: impl FnMut(f64)) -> Figures {
         }
         sim.idle_us(760_000);
         for (s, d) in found.iter_mut().enumerate() {
-            match d.is_ready(&mut bus, clock_us(&sim)).and_then(|ready| if ready { d.read(&mut bus).map(Some) } else { Ok(None) }) {
+            match d.is_ready(&mut bus, clock_us(&sim)).and_then(|ready| {
+                if ready {
+                    d.read(&mut bus).map(Some)
+                } else {
+                    Ok(None)
+                }
+            }) {
                 Ok(Some(sample)) => {
                     f.readings += 1;
                     if last_us.is_some_and(|l| sample.completed_us < l) {

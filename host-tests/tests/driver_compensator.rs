@@ -77,8 +77,16 @@ enum Kind {
     Dropout,
 }
 
-const KINDS: [Kind; 8] =
-    [Kind::FlipRetried, Kind::FlipExhausted, Kind::NoPresence, Kind::StuckLow, Kind::BrownOut, Kind::PinError, Kind::Spike, Kind::Dropout];
+const KINDS: [Kind; 8] = [
+    Kind::FlipRetried,
+    Kind::FlipExhausted,
+    Kind::NoPresence,
+    Kind::StuckLow,
+    Kind::BrownOut,
+    Kind::PinError,
+    Kind::Spike,
+    Kind::Dropout,
+];
 
 #[derive(Debug, Default)]
 struct Event {
@@ -96,7 +104,9 @@ struct Event {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum App {
     /// Start a conversion at or after this time (µs).
-    Idle { at_us: u64 },
+    Idle {
+        at_us: u64,
+    },
     Converting,
 }
 
@@ -228,7 +238,12 @@ fn driver_and_compensator_come_through_every_fault() {
                                     let est = comp.estimate().expect("a good reading leaves an estimate");
                                     let err = (f64::from(est.temp_c) - truth_c(t_done)).abs();
                                     max_err_c = max_err_c.max(err);
-                                    assert!(err <= TOL_C, "estimate {} °C vs truth {:.4} °C at {t_done} µs", est.temp_c, truth_c(t_done));
+                                    assert!(
+                                        err <= TOL_C,
+                                        "estimate {} °C vs truth {:.4} °C at {t_done} µs",
+                                        est.temp_c,
+                                        truth_c(t_done)
+                                    );
                                     if est.ready {
                                         let rate = (truth_c(t_done + 1_000) - truth_c(t_done - 1_000)) / 2e-3 * 60.0;
                                         max_rate_err = max_rate_err.max((f64::from(est.rate_c_per_min) - rate).abs());
@@ -242,7 +257,11 @@ fn driver_and_compensator_come_through_every_fault() {
                                     *sample_error_kinds.entry(kind_name(&e)).or_default() += 1;
                                     ev.sample_errors.push(e);
                                     assert!(comp.status().contains(Status::TEMP_INVALID));
-                                    assert_eq!(probe(&comp), probe_at_last_good, "a rejected reading changed the compensation");
+                                    assert_eq!(
+                                        probe(&comp),
+                                        probe_at_last_good,
+                                        "a rejected reading changed the compensation"
+                                    );
                                 }
                             }
                         }
@@ -318,7 +337,10 @@ fn driver_and_compensator_come_through_every_fault() {
                 assert!(matches!(ev.driver_errors[..], [drv::Error::Scratchpad(ds18b20::Error::Crc { .. })]), "{ev:?}");
             }
             Kind::NoPresence | Kind::Dropout => {
-                assert!(ev.driver_errors.iter().all(|e| *e == drv::Error::Bus(ow::Error::NoPresence)) && flagged, "{ev:?}");
+                assert!(
+                    ev.driver_errors.iter().all(|e| *e == drv::Error::Bus(ow::Error::NoPresence)) && flagged,
+                    "{ev:?}"
+                );
             }
             Kind::StuckLow => {
                 assert!(ev.driver_errors.contains(&drv::Error::Bus(ow::Error::BusStuckLow)), "{ev:?}");
@@ -343,7 +365,9 @@ fn driver_and_compensator_come_through_every_fault() {
     }
 
     println!("driver + compensator, {RUN_S} s simulated, {cycles} cycles, {good} good readings");
-    println!("max |T̂ − T| = {max_err_c:.4} °C (tolerance {TOL_C:.4}); max |Ṫ̂ − Ṫ| = {max_rate_err:.3} °C/min when ready");
+    println!(
+        "max |T̂ − T| = {max_err_c:.4} °C (tolerance {TOL_C:.4}); max |Ṫ̂ − Ṫ| = {max_rate_err:.3} °C/min when ready"
+    );
     println!("stale cycles {stale_cycles} in {stale_periods} periods");
     println!("fault            events flagged stale retried");
     for (k, r) in &table {

@@ -113,7 +113,8 @@ fn line_still_low_after_presence_window_is_stuck_low() {
 
 #[test]
 fn pin_error_is_typed() {
-    let s = Script { pin: vec![P::set(State::High).with_error(MockError::Io(std::io::ErrorKind::Other))], delay: vec![] };
+    let s =
+        Script { pin: vec![P::set(State::High).with_error(MockError::Io(std::io::ErrorKind::Other))], delay: vec![] };
     let mut bus = s.bus();
     assert_eq!(bus.reset(), Err(ow::Error::Pin));
     done(bus);

@@ -247,7 +247,10 @@ fn fault_flipped_rom_bit() {
         // In a search pass the flip hits bit or complement slot `bit`.
         sim.with(|w| w.devices[0].flip_times = 1);
         let r = bus.search::<2>(None);
-        assert!(matches!(r, Err(ow::Error::SearchNoResponse | ow::Error::SearchInconsistent | ow::Error::RomCrc { .. })), "search slot {bit}: {r:?}");
+        assert!(
+            matches!(r, Err(ow::Error::SearchNoResponse | ow::Error::SearchInconsistent | ow::Error::RomCrc { .. })),
+            "search slot {bit}: {r:?}"
+        );
     }
 }
 

@@ -84,12 +84,18 @@ fn fuzz_harnesses_over_fixed_corpus() {
 fn fuzz_seed_files() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz-corpus");
     type Harness = fn(&[u8]);
-    let harnesses: [(&str, Harness); 3] =
-        [("scratchpad", fuzzing::scratchpad), ("table", fuzzing::table), ("compensator_stream", fuzzing::compensator_stream)];
+    let harnesses: [(&str, Harness); 3] = [
+        ("scratchpad", fuzzing::scratchpad),
+        ("table", fuzzing::table),
+        ("compensator_stream", fuzzing::compensator_stream),
+    ];
     let mut n = 0;
     for (target, harness) in harnesses {
         let dir = root.join(target);
-        let mut files: Vec<_> = std::fs::read_dir(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display())).map(|e| e.unwrap().path()).collect();
+        let mut files: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+            .map(|e| e.unwrap().path())
+            .collect();
         files.sort();
         assert!(!files.is_empty(), "no seed files in {}", dir.display());
         for f in files {

@@ -100,7 +100,12 @@ fn every_vector_matches_the_f64_reference() {
             checked += 1;
         })
         .unwrap_or_else(|e| panic!("{e:?}"));
-        assert!(fails.is_empty(), "{} lines differ from the f64 reference:\n{}", fails.len(), fails[..fails.len().min(5)].join("\n"));
+        assert!(
+            fails.is_empty(),
+            "{} lines differ from the f64 reference:\n{}",
+            fails.len(),
+            fails[..fails.len().min(5)].join("\n")
+        );
     }
     println!(
         "{checked} vectors within tolerance of the f64 reference; worst |ΔT̂| {:.2e} °C, |ΔṪ| {:.2e} °C/min, K1 {:.2e} rel, |ΔK0| {:.2e} g, Δv {:.2e} rel",
@@ -115,21 +120,17 @@ fn vectors_cover_every_fault_kind_and_flag() {
     let mut codes = std::collections::BTreeSet::new();
     let mut flags = 0u32;
     for (name, text) in FILES {
-        replay(name, text, true, &mut |s| {
-            match s.kind {
-                Kind::Raw | Kind::Scratchpad | Kind::Table if s.computed[0] != 0 => {
-                    codes.insert(s.computed[0]);
-                }
-                Kind::Cycle | Kind::Counters | Kind::Samples => flags |= s.computed[0],
-                _ => {}
+        replay(name, text, true, &mut |s| match s.kind {
+            Kind::Raw | Kind::Scratchpad | Kind::Table if s.computed[0] != 0 => {
+                codes.insert(s.computed[0]);
             }
+            Kind::Cycle | Kind::Counters | Kind::Samples => flags |= s.computed[0],
+            _ => {}
         })
         .unwrap();
     }
-    let kinds: std::collections::BTreeSet<_> = FILES
-        .iter()
-        .flat_map(|(_, t)| t.lines().filter_map(|l| l.split_ascii_whitespace().next()))
-        .collect();
+    let kinds: std::collections::BTreeSet<_> =
+        FILES.iter().flat_map(|(_, t)| t.lines().filter_map(|l| l.split_ascii_whitespace().next())).collect();
     for k in ["table", "raw", "sp", "cycle", "count", "samp"] {
         assert!(kinds.contains(k), "no `{k}` line in the vectors");
     }

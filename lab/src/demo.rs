@@ -10,9 +10,9 @@ use std::time::Instant;
 
 use serde::Serialize;
 
+use crate::calibrate::report::Variants;
 use crate::calibrate::{calibrate_file, CalibrateOptions};
 use crate::data::cycling::write_log;
-use crate::calibrate::report::Variants;
 use crate::simulate::simulate_paper;
 use crate::simulate::truth::Truth;
 
@@ -100,14 +100,23 @@ pub fn run(
         let cal = calibrate_file(
             &log_path,
             &dir,
-            &CalibrateOptions { fit_programs: None, plots: true, title: truth.name.clone(), progress: opts.progress, axis: None },
+            &CalibrateOptions {
+                fit_programs: None,
+                plots: true,
+                title: truth.name.clone(),
+                progress: opts.progress,
+                axis: None,
+            },
         )?;
         let calibrate_s = t.elapsed().as_secs_f64();
         let p = PAPER_TABLE4[usize::from(unit) - 1];
         eprintln!(
             "   {rows} rows: simulate {simulate_s:.1} s, write {write_s:.1} s, calibrate {calibrate_s:.1} s \
              (read {:.1}, fit {:.1}, held-out compensation {:.1}); Eq. 11 cond {:.1}",
-            cal.report.timings_s.read, cal.report.timings_s.fit, cal.report.timings_s.evaluate, cal.report.fit.cond_sf_hysteresis
+            cal.report.timings_s.read,
+            cal.report.timings_s.fit,
+            cal.report.timings_s.evaluate,
+            cal.report.fit.cond_sf_hysteresis
         );
         // One discovery run, on the first unit: enough to show the workflow, and it keeps
         // the demo well inside its two minutes.

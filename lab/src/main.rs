@@ -239,7 +239,9 @@ fn run(cli: Cli) -> Result<(), String> {
     match cli.cmd {
         Cmd::Simulate { out, unit, truth, effects, profile, profile_file, rates, row_s, seed, threads, noiseless } => {
             let mut t = match truth {
-                Some(p) => Truth::from_toml(&std::fs::read_to_string(&p).map_err(|e| format!("{}: {e}", p.display()))?)?,
+                Some(p) => {
+                    Truth::from_toml(&std::fs::read_to_string(&p).map_err(|e| format!("{}: {e}", p.display()))?)?
+                }
                 None => Truth::preset(&unit).ok_or_else(|| format!("unknown unit `{unit}` (kt8-1, kt8-2, kt8-3)"))?,
             };
             for e in &effects {
@@ -284,7 +286,10 @@ fn run(cli: Cli) -> Result<(), String> {
             let cal = qfa_lab::calibrate::static_cal::calibrate_static(&l, &opts, true).map_err(|e| e.to_string())?;
             qfa_lab::calibrate::static_cal::write_static(&out, &cal).map_err(|e| e.to_string())?;
             print!("{}", qfa_lab::calibrate::static_cal::markdown(&cal.report));
-            println!("wrote {}/table.toml, table.bin, report.json, report.md, px4_tc.params, ardupilot_tcal.parm", out.display());
+            println!(
+                "wrote {}/table.toml, table.bin, report.json, report.md, px4_tc.params, ardupilot_tcal.parm",
+                out.display()
+            );
         }
         Cmd::Calibrate { log, out, fit_programs, no_plots, axis, .. } => {
             let opts = CalibrateOptions {
@@ -374,7 +379,19 @@ fn run(cli: Cli) -> Result<(), String> {
             eprintln!("{}", qfa_lab::navigate::mc::table(&sum));
             eprintln!("wrote {}/report.json, mc_runs.csv", out.display());
         }
-        Cmd::Navigate { sub: None, scenario, out, discovered_tables, imu_rate_hz, runs, seed, jobs, shard, no_plots, no_mc_discovered } => {
+        Cmd::Navigate {
+            sub: None,
+            scenario,
+            out,
+            discovered_tables,
+            imu_rate_hz,
+            runs,
+            seed,
+            jobs,
+            shard,
+            no_plots,
+            no_mc_discovered,
+        } => {
             let out = out.ok_or("navigate: --out DIR is required")?;
             let discovered_tables = discovered_tables.map(|v| [v[0].clone(), v[1].clone(), v[2].clone()]);
             let args = qfa_lab::navigate::NavigateArgs {

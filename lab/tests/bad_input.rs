@@ -209,7 +209,16 @@ fn ten_second_rows_give_real_figures_and_missing_bins_are_an_error() {
     let out = d.join("cal");
     let (ok, text) = lab(&["simulate", "--out", log.to_str().unwrap(), "--row-s", "10", "--seed", "3"]);
     assert!(ok, "{text}");
-    let (ok, text) = lab(&["calibrate", "--log", log.to_str().unwrap(), "--out", out.to_str().unwrap(), "--no-plots", "--axis", "z"]);
+    let (ok, text) = lab(&[
+        "calibrate",
+        "--log",
+        log.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--no-plots",
+        "--axis",
+        "z",
+    ]);
     assert!(ok, "{text}");
     // The cubic peer as PX4 and ArduPilot parameters, for the axis asked for. The
     // simulated unit (JB-KT8 #1 preset) has bias 120 µg + 12 µg/°C·ΔT + 0.02 µg/°C²·ΔT²
@@ -217,7 +226,10 @@ fn ten_second_rows_give_real_figures_and_missing_bins_are_an_error() {
     // (× g0 in m/s²); 10 % covers the log's noise and its heating/cooling split.
     let params = std::fs::read_to_string(out.join("px4_tc.params")).unwrap();
     let value = |name: &str| -> f64 {
-        let line = params.lines().find(|l| l.split('\t').nth(2) == Some(name)).unwrap_or_else(|| panic!("{name} in\n{params}"));
+        let line = params
+            .lines()
+            .find(|l| l.split('\t').nth(2) == Some(name))
+            .unwrap_or_else(|| panic!("{name} in\n{params}"));
         line.split('\t').nth(3).unwrap().parse().unwrap()
     };
     let tref = value("TC_A0_TREF");
@@ -226,7 +238,8 @@ fn ten_second_rows_give_real_figures_and_missing_bins_are_an_error() {
     assert!((got - want).abs() < 0.1 * want, "TC_A0_X1_2 {got} vs {want} (TREF {tref})");
     let parm = std::fs::read_to_string(out.join("ardupilot_tcal.parm")).unwrap();
     assert!(parm.contains("INS_TCAL1_ACC1_Z,") && !parm.contains("_X,"), "{parm}");
-    let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
     // Before the staleness fix every compensated row was flagged stale: sensitivity null and
     // bias residual 0.0. Now each is a number, and the models beat no compensation.
     for v in ["none", "simple", "hysteresis"] {

@@ -24,7 +24,8 @@ use qfa_lab::simulate::truth::Truth;
 const PLAY_WEIGHT_G: f64 = 20e-6;
 
 fn log_of(truth: &Truth, seed: u64) -> Log {
-    let programs: Vec<Program> = [0.3, 0.9].iter().map(|&r| Program::staircase(&format!("steps-{r}"), r, 30.0, 3.0, -30, 50)).collect();
+    let programs: Vec<Program> =
+        [0.3, 0.9].iter().map(|&r| Program::staircase(&format!("steps-{r}"), r, 30.0, 3.0, -30, 50)).collect();
     simulate(truth, &programs, &paper_positions(), 2, seed, 2, None)
 }
 

@@ -2,8 +2,8 @@
 //! hidden slots on: each catalog effect is named, its parameter recovered within 25 %,
 //! and the held-out gap of its channel shrinks ≥ 3× or to within 1.5× the noise floor.
 
-use qfa_lab::simulate::synth::{cycling_channels, kt8_1_scale, truth, SynthConfig};
 use qfa_lab::discover::{analyze, Gaps, Report, Start};
+use qfa_lab::simulate::synth::{cycling_channels, kt8_1_scale, truth, SynthConfig};
 use qfa_thermal::model::{BranchHysteresis, Creep, Extensions, ScaleFactor, SensorLag};
 
 fn simple_scale() -> ScaleFactor {
@@ -18,7 +18,10 @@ fn run(cfg: &SynthConfig, scale: ScaleFactor, bias: [f32; 3], ext: Extensions, s
     eprintln!(
         "{:.1} s: effects {:?}\n  before {:?}\n  after {:?}\n  floor {:?}",
         t.elapsed().as_secs_f64(),
-        r.effects.iter().map(|e| (&e.name, &e.channel, &e.params, e.heldout_gap_before, e.heldout_gap_after)).collect::<Vec<_>>(),
+        r.effects
+            .iter()
+            .map(|e| (&e.name, &e.channel, &e.params, e.heldout_gap_before, e.heldout_gap_after))
+            .collect::<Vec<_>>(),
         r.heldout_gap_before,
         r.heldout_gap_after,
         r.noise_floor
@@ -193,8 +196,8 @@ fn discover_paper_structure_from_simple() {
 
 #[test]
 fn discover_single_channel_log_and_outputs() {
-    use qfa_lab::simulate::synth::single_csv;
     use qfa_lab::discover::{discover, Channels};
+    use qfa_lab::simulate::synth::single_csv;
     let ext = Extensions {
         bias_branch_hysteresis: Some(BranchHysteresis { half_width_c: 1.5, weight_g: 1.5e-5 }),
         ..Default::default()
@@ -208,12 +211,16 @@ fn discover_single_channel_log_and_outputs() {
     // value in µg: the weight comes out in the value's unit.
     within(param(&r, "bias_branch_hysteresis", "weight_g"), 15.0, 0.25);
     assert_shrinks(&r, "value");
-    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap();
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap();
     assert_eq!(json["start"], "paper");
     assert!(json["unexplained"].is_array(), "report.json lists unexplained structure (empty here)");
     assert!(json["effects"][0]["params_ci"]["half_width_c"]["ci95"].is_array());
     assert!(json["effects"][0]["gain"]["bootstrap_se"].as_f64().is_some_and(|x| x > 0.0));
-    assert!(json["heldout_gap_before"]["value_rms"].as_f64().unwrap() > json["heldout_gap_after"]["value_rms"].as_f64().unwrap());
+    assert!(
+        json["heldout_gap_before"]["value_rms"].as_f64().unwrap()
+            > json["heldout_gap_after"]["value_rms"].as_f64().unwrap()
+    );
     assert_eq!(json["effects"][0]["name"], "bias_branch_hysteresis");
     assert!(json["where"].as_array().is_some_and(|w| !w.is_empty()));
     // Peers on the same held-out split: a polynomial of temperature has no branch, so it
@@ -237,8 +244,8 @@ fn discover_single_channel_log_and_outputs() {
 
 #[test]
 fn discover_from_lab_format_csv_with_pulses() {
-    use qfa_lab::simulate::synth::cycling_csv;
     use qfa_lab::discover::{discover, Channels};
+    use qfa_lab::simulate::synth::cycling_csv;
     let ext = Extensions { sensor_lag: Some(SensorLag { tau_s: 450.0 }), ..Default::default() };
     let csv = cycling_csv(&quick(21), &truth(kt8_1_scale(), paper_bias(), ext), 20.0);
     let ch = Channels::parse(&csv, 60.0).unwrap();
@@ -274,7 +281,8 @@ fn discover_from_lab_format_csv_with_pulses() {
     let mean_err_ug = err / n.max(1) as f64 * 1e6;
     eprintln!("compensated with table.bin: mean |a − input| = {mean_err_ug:.1} µg over {n} rows");
     assert!(n > 1000 && mean_err_ug < 100.0, "{mean_err_ug} µg over {n} rows");
-    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap();
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap();
     assert!(json["heldout_gap_before"]["scale_factor_ppm"].is_number());
     assert!(json["heldout_gap_after"]["bias_ug"].is_number());
     assert_eq!(json["effects"][0]["channel"], "both");

@@ -13,8 +13,8 @@
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use qfa_lab::discover::{analyze, Channels, Start};
 use qfa_lab::data::cycling::write_log_to;
+use qfa_lab::discover::{analyze, Channels, Start};
 use qfa_lab::simulate::profile::{Position, Program, PAPER_RATES};
 use qfa_lab::simulate::simulate;
 use qfa_lab::simulate::truth::Truth;
@@ -23,10 +23,8 @@ use rayon::prelude::*;
 /// One clean log's discovery: (effects added, unexplained channels).
 fn one(i: usize) -> (Vec<String>, Vec<String>) {
     let truth = Truth::jb_kt8((i % 3) as u8 + 1);
-    let programs: Vec<Program> = PAPER_RATES
-        .iter()
-        .map(|&r| Program::staircase(&format!("paper-{r:.1}"), r, 40.0, 3.0, 5, 40))
-        .collect();
+    let programs: Vec<Program> =
+        PAPER_RATES.iter().map(|&r| Program::staircase(&format!("paper-{r:.1}"), r, 40.0, 3.0, 5, 40)).collect();
     let positions = [Position { run: 0, input_g: 1.0 }, Position { run: 2, input_g: -1.0 }];
     let log = simulate(&truth, &programs, &positions, 10, 1000 + i as u64, 1, None);
     let mut csv = Vec::new();

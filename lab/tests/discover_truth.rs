@@ -214,7 +214,8 @@ fn param(r: &Report, name: &str, p: &str) -> f64 {
 /// `family` among the equally good candidates, and the family is named, listed that way,
 /// or the leftover is reported as unexplained.
 fn honest(r: &Report, family: &str) -> bool {
-    let related = |e: &qfa_lab::discover::EffectReport| e.name == family || e.confusable_with.iter().any(|c| c == family);
+    let related =
+        |e: &qfa_lab::discover::EffectReport| e.name == family || e.confusable_with.iter().any(|c| c == family);
     r.effects.iter().all(related) && (r.effects.iter().any(related) || !r.unexplained.is_empty())
 }
 
@@ -260,9 +261,9 @@ fn honest_on_seeds(seeds: &[u64]) {
         Hidden::Preisach,
         Hidden::Ageing2,
     ]
-        .into_iter()
-        .flat_map(|h| seeds.iter().map(move |&s| (h, s)))
-        .collect();
+    .into_iter()
+    .flat_map(|h| seeds.iter().map(move |&s| (h, s)))
+    .collect();
     let reports: Vec<Report> = cases
         .par_iter()
         .map(|&(h, seed)| {
@@ -279,12 +280,21 @@ fn honest_on_seeds(seeds: &[u64]) {
             .iter()
             .flat_map(|e| {
                 e.params_ci.iter().filter(|(k, _)| k.as_str() != "t_ref_c").map(|(k, c)| {
-                    format!("{k} {:.3} [{:.3}, {:.3}]{}", c.value, c.ci95[0], c.ci95[1], if c.at_bound { " at limit" } else { "" })
+                    format!(
+                        "{k} {:.3} [{:.3}, {:.3}]{}",
+                        c.value,
+                        c.ci95[0],
+                        c.ci95[1],
+                        if c.at_bound { " at limit" } else { "" }
+                    )
                 })
             })
             .collect();
-        let un: Vec<String> =
-            r.unexplained.iter().map(|u| format!("{} follows {:?}; pinned {:?}", u.channel, u.correlates_with, u.pinned)).collect();
+        let un: Vec<String> = r
+            .unexplained
+            .iter()
+            .map(|u| format!("{} follows {:?}; pinned {:?}", u.channel, u.correlates_with, u.pinned))
+            .collect();
         println!(
             "| {} | {seed} | {} | {} | {} | {:.2} → {:.2} |",
             h.label(),
@@ -299,8 +309,12 @@ fn honest_on_seeds(seeds: &[u64]) {
         let shrinks = gap(&r.heldout_gap_after) < gap(&r.heldout_gap_before);
         let ok = match h {
             Hidden::Nothing => n.is_empty() && !unexplained,
-            Hidden::Lag1 => n == ["sensor_lag"] && (param(r, "sensor_lag", "tau_s") / 500.0 - 1.0).abs() <= 0.25 && shrinks,
-            Hidden::Lag2 => n == ["sensor_lag"] && (param(r, "sensor_lag", "tau_s") / 600.0 - 1.0).abs() <= 0.25 && shrinks,
+            Hidden::Lag1 => {
+                n == ["sensor_lag"] && (param(r, "sensor_lag", "tau_s") / 500.0 - 1.0).abs() <= 0.25 && shrinks
+            }
+            Hidden::Lag2 => {
+                n == ["sensor_lag"] && (param(r, "sensor_lag", "tau_s") / 600.0 - 1.0).abs() <= 0.25 && shrinks
+            }
             Hidden::MultiCreep => honest(r, "bias_creep") && shrinks,
             Hidden::Drift => {
                 honest(r, "bias_drift")
@@ -387,4 +401,3 @@ fn unexplained_is_reported_in_json_and_in_words() {
     assert!(dir.join("table.bin").exists() || md.contains("did not validate"), "{md}");
     let _ = std::fs::remove_dir_all(&dir);
 }
-

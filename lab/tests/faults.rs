@@ -69,7 +69,11 @@ fn broken_compensation_fails_the_thermal_limits() {
     for row in rep.rows.iter().filter(|r| matches!(r.spec.broken, Broken::ZeroedCoefficients | Broken::RatePinned)) {
         n += 1;
         let bad = faults::check(row);
-        assert!(bad.iter().any(|b| b.contains("thermal-only CEP rate")), "{}: check passed a broken compensation: {bad:?}", row.spec.name);
+        assert!(
+            bad.iter().any(|b| b.contains("thermal-only CEP rate")),
+            "{}: check passed a broken compensation: {bad:?}",
+            row.spec.name
+        );
         // Not by a hair: each broken row adds more than twice its limit.
         assert!(row.added > 2.0 * row.spec.limit.unwrap(), "{}: {}", row.spec.name, row.added);
     }

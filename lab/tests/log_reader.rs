@@ -38,7 +38,8 @@ fn every_malformed_row_is_reported_with_its_line() {
 
 #[test]
 fn bad_header_is_line_one_and_empty_file_is_an_error() {
-    let err = read_log_from("program,run,time,input_g,temp_c,pulses,interval_s\np,0,1,1,,1,1\n".as_bytes()).unwrap_err();
+    let err =
+        read_log_from("program,run,time,input_g,temp_c,pulses,interval_s\np,0,1,1,,1,1\n".as_bytes()).unwrap_err();
     assert_eq!(err.errors[0].line, 1);
     assert!(matches!(err.errors[0].fault, RowFault::Header(_)));
     assert!(read_log_from("".as_bytes()).is_err());
@@ -59,7 +60,13 @@ fn write_then_read_round_trips_and_groups_runs() {
             })
             .collect(),
     };
-    let log = Log { runs: vec![mk("paper-0.3", "0", 1.0, 10.0), mk("paper-0.3", "rate0.3_pos2", -1.0, 10.0), mk("b", "1", 0.0, 10.0)] };
+    let log = Log {
+        runs: vec![
+            mk("paper-0.3", "0", 1.0, 10.0),
+            mk("paper-0.3", "rate0.3_pos2", -1.0, 10.0),
+            mk("b", "1", 0.0, 10.0),
+        ],
+    };
     let mut buf = Vec::new();
     write_log_to(&mut buf, &log).unwrap();
     let back = read_log_from(buf.as_slice()).unwrap();

@@ -106,7 +106,13 @@ fn nav_schuler_period_and_amplitude() {
 fn nav_variant_ordering_in_demo_flight() {
     let out = std::env::temp_dir().join(format!("qfa-nav-test-{}", std::process::id()));
     let t = Instant::now();
-    let rep = navigate::navigate(&NavigateArgs { out: out.clone(), imu_rate_hz: Some(50.0), no_plots: true, ..Default::default() }).unwrap();
+    let rep = navigate::navigate(&NavigateArgs {
+        out: out.clone(),
+        imu_rate_hz: Some(50.0),
+        no_plots: true,
+        ..Default::default()
+    })
+    .unwrap();
     println!("{}", navigate::summary(&rep));
     println!("wall {:.1} s", t.elapsed().as_secs_f64());
     let th = |n: &str| rep.meta.thermal_cep_nmi_per_h[n];

@@ -49,8 +49,12 @@ fn alignment_errors_follow_the_biases() {
     for seed in [1u64, 2, 3] {
         let sc = stationary(seed, 600.0);
         let us = units().map(|u| u.noiseless());
-        let res = run::fly(&sc, &mut truths_seeded(&us, seed), vec![Variant { name: "oracle".into(), comp: Box::new(OracleCompensation::default()) }])
-            .unwrap();
+        let res = run::fly(
+            &sc,
+            &mut truths_seeded(&us, seed),
+            vec![Variant { name: "oracle".into(), comp: Box::new(OracleCompensation::default()) }],
+        )
+        .unwrap();
         let got = res.alignment[0];
         let want = expected(&sc);
         println!("seed {seed}: got {got:?}\n        want {want:?}");
@@ -72,13 +76,20 @@ fn fine_alignment_improves_on_coarse() {
             let mut sc = stationary(seed, align_s);
             sc.imu.gyro.arw_dprh = 0.002;
             let us = units().map(|u| u.noiseless());
-            run::fly(&sc, &mut truths_seeded(&us, seed), vec![Variant { name: "oracle".into(), comp: Box::new(OracleCompensation::default()) }])
-                .unwrap()
-                .alignment[0]
+            run::fly(
+                &sc,
+                &mut truths_seeded(&us, seed),
+                vec![Variant { name: "oracle".into(), comp: Box::new(OracleCompensation::default()) }],
+            )
+            .unwrap()
+            .alignment[0]
         };
         let (c, f) = (fly(60.0), fly(600.0));
         let w = expected(&stationary(seed, 600.0));
-        println!("seed {seed}: coarse {:+.3} fine {:+.3} bias-limited {:+.3} mrad", c.heading_mrad, f.heading_mrad, w.heading_mrad);
+        println!(
+            "seed {seed}: coarse {:+.3} fine {:+.3} bias-limited {:+.3} mrad",
+            c.heading_mrad, f.heading_mrad, w.heading_mrad
+        );
         sc2 += (c.heading_mrad - w.heading_mrad).powi(2);
         sf2 += (f.heading_mrad - w.heading_mrad).powi(2);
     }

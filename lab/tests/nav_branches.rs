@@ -35,7 +35,12 @@ fn nav_branch_noise_experiment() {
                     }
                 }
             }
-            let r = run::fly(&d.scenario, &mut navigate::truths_seeded(&d.units, d.seed), navigate::mc_variants(&tables).unwrap()).unwrap();
+            let r = run::fly(
+                &d.scenario,
+                &mut navigate::truths_seeded(&d.units, d.seed),
+                navigate::mc_variants(&tables).unwrap(),
+            )
+            .unwrap();
             let th = navigate::thermal_ceps(&r).unwrap();
             *o = navigate::share(th["simple"], th["hysteresis"], th["oracle"]).unwrap();
         }

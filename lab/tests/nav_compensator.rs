@@ -36,7 +36,8 @@ fn three_axis_per_sensor_equals_three_one_axis_compensators() {
     for k in 0..3_000u32 {
         if k % 200 == 0 {
             // Each case at its own temperature, ramping at its own rate.
-            let raw: [i16; 3] = core::array::from_fn(|i| 320 + (i as i16) * 40 + ((k / 200) as i16) * (i as i16 + 1) / 4);
+            let raw: [i16; 3] =
+                core::array::from_fn(|i| 320 + (i as i16) * 40 + ((k / 200) as i16) * (i as i16 + 1) / 4);
             three.on_temperatures(k * 5, raw);
             for (c, r) in ones.iter_mut().zip(raw) {
                 c.on_raw(k * 5, r).unwrap();

@@ -36,11 +36,19 @@ fn nav_deadband_experiment() {
                         a.bias.deadband_c_per_min = db;
                     }
                 }
-                let r = run::fly(&d.scenario, &mut navigate::truths_seeded(&d.units, d.seed), navigate::mc_variants(&tables).unwrap()).unwrap();
+                let r = run::fly(
+                    &d.scenario,
+                    &mut navigate::truths_seeded(&d.units, d.seed),
+                    navigate::mc_variants(&tables).unwrap(),
+                )
+                .unwrap();
                 let th = navigate::thermal_ceps(&r).unwrap();
                 *o = navigate::share(th["simple"], th["hysteresis"], th["oracle"]).unwrap();
             }
-            println!("run {i}: thermal share removed, deadband {:.3} / {:.3} / {:.3} → {:.3} / {:.3} / {:.3}", deadbands[0], deadbands[1], deadbands[2], out[0], out[1], out[2]);
+            println!(
+                "run {i}: thermal share removed, deadband {:.3} / {:.3} / {:.3} → {:.3} / {:.3} / {:.3}",
+                deadbands[0], deadbands[1], deadbands[2], out[0], out[1], out[2]
+            );
             out
         })
         .collect();

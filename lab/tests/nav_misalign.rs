@@ -37,7 +37,10 @@ fn the_triad_misalignment_matrix_matters() {
     let variants = vec![
         Variant { name: "oracle".into(), comp: Box::new(OracleCompensation::carrying(a.triad_inverse())) },
         Variant { name: "simple".into(), comp: Box::new(TableCompensation::with_misalignment(s, Some(m)).unwrap()) },
-        Variant { name: "hysteresis".into(), comp: Box::new(TableCompensation::with_misalignment(h, Some(m)).unwrap()) },
+        Variant {
+            name: "hysteresis".into(),
+            comp: Box::new(TableCompensation::with_misalignment(h, Some(m)).unwrap()),
+        },
         Variant { name: "hysteresis, no matrix".into(), comp: Box::new(TableCompensation::new(h).unwrap()) },
     ];
     let res = run::fly(&sc, &mut navigate::truths(&units), variants).unwrap();
@@ -55,7 +58,10 @@ fn the_triad_misalignment_matrix_matters() {
         th["simple"], th["hysteresis"], th["hysteresis, no matrix"]
     );
     for (n, al) in res.names.iter().zip(&res.alignment) {
-        println!("alignment {n}: roll {:+.1}″ pitch {:+.1}″ heading {:+.3} mrad", al.roll_arcsec, al.pitch_arcsec, al.heading_mrad);
+        println!(
+            "alignment {n}: roll {:+.1}″ pitch {:+.1}″ heading {:+.3} mrad",
+            al.roll_arcsec, al.pitch_arcsec, al.heading_mrad
+        );
     }
     assert!(th["hysteresis"] < 0.5 * th["simple"], "with the matrix the hysteresis tables keep their gain");
     assert!(

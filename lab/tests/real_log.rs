@@ -78,7 +78,8 @@ fn calibrate_beats_the_cubic_on_every_axis_and_compensate_agrees() {
     // axis's reference, give back the report's figure (an independent path: CSV text).
     let comp = dir.join("comp.csv");
     let table = out_dir.join("table.bin");
-    let mut args = vec!["compensate", "--log", log_s, "--table", table.to_str().unwrap(), "--out", comp.to_str().unwrap()];
+    let mut args =
+        vec!["compensate", "--log", log_s, "--table", table.to_str().unwrap(), "--out", comp.to_str().unwrap()];
     args.extend(FLAGS);
     lab(&args);
     let mut rdr = csv::Reader::from_path(&comp).unwrap();
@@ -120,7 +121,8 @@ fn calibrate_beats_the_cubic_on_every_axis_and_compensate_agrees() {
     // of the flashed model on every axis.
     let comp = dir.join("comp-disc.csv");
     let table = disc.join("table.bin");
-    let mut args = vec!["compensate", "--log", log_s, "--table", table.to_str().unwrap(), "--out", comp.to_str().unwrap()];
+    let mut args =
+        vec!["compensate", "--log", log_s, "--table", table.to_str().unwrap(), "--out", comp.to_str().unwrap()];
     args.extend(FLAGS);
     lab(&args);
     let rows: Vec<csv::StringRecord> = csv::Reader::from_path(&comp).unwrap().records().map(Result::unwrap).collect();

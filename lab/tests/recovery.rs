@@ -5,9 +5,9 @@
 //! coefficient with the reason; expected values come from the truth presets (the paper's
 //! Eq. 15–17), never from the code under test.
 
+use qfa_lab::calibrate::fit::{encode, fit, FitOptions, T0_C};
 use qfa_lab::calibrate::{calibrate_log, CalibrateOptions};
 use qfa_lab::compensate::compensate_run;
-use qfa_lab::calibrate::fit::{encode, fit, FitOptions, T0_C};
 use qfa_lab::data::cycling::Log;
 use qfa_lab::simulate::profile::{paper_positions, Program};
 use qfa_lab::simulate::simulate;
@@ -88,7 +88,13 @@ fn compensator_with_exact_table_returns_the_input() {
     truth.sensor.offset_c = 0.0;
     truth.bias.b2_g_per_c2 = 0.0; // linear: the grid represents it exactly
     let p = ramps(1.0);
-    let run = qfa_lab::simulate::simulate_run(&truth, &p, qfa_lab::simulate::profile::Position { run: 0, input_g: -1.0 }, 1, 5);
+    let run = qfa_lab::simulate::simulate_run(
+        &truth,
+        &p,
+        qfa_lab::simulate::profile::Position { run: 0, input_g: -1.0 },
+        1,
+        5,
+    );
     let nodes: Vec<f32> = (0..16).map(|i| truth.bias.at(-40.0 + 7.0 * f64::from(i) - T0_C) as f32).collect();
     let axis = qfa_thermal::AxisModel {
         scale: truth.scale,
@@ -119,7 +125,10 @@ fn held_out_hysteresis_beats_simple() {
     let log = short_log(&truth, &[0.5, 0.8, 1.1, 1.5], 2, 11);
     let cal = calibrate_log(&log, &CalibrateOptions::default()).unwrap();
     let s = cal.report.sensitivity_ppm_per_c;
-    println!("held-out ppm/°C: none {:.2}, simple {:.2}, hysteresis {:.2}; bias µg {:?}", s.none, s.simple, s.hysteresis, cal.report.bias_residual_ug);
+    println!(
+        "held-out ppm/°C: none {:.2}, simple {:.2}, hysteresis {:.2}; bias µg {:?}",
+        s.none, s.simple, s.hysteresis, cal.report.bias_residual_ug
+    );
     assert!(cal.report.held_out);
     assert_eq!(cal.report.fit_programs, vec!["ramp-0.5".to_string(), "ramp-1.5".to_string()]);
     assert!(s.simple * 3.0 < s.none, "{s:?}");

@@ -283,6 +283,11 @@ fn run_qemu(kernel: &Path, icount: bool) -> Result<(ExitStatus, String)> {
 fn test() -> Result {
     ensure_target()?;
 
+    step("rustfmt --check (rustfmt.toml: 120 columns)");
+    let mut c = cargo();
+    c.args(["fmt", "--all", "--check"]);
+    run(c)?;
+
     step("clippy, host (workspace, all targets)");
     let mut c = cargo();
     c.args(["clippy", "--workspace", "--all-targets", "--", "-D", "warnings"]);
@@ -303,7 +308,8 @@ fn test() -> Result {
 
     step("reference vectors on QEMU mps2-an386 (Cortex-M4F)");
     let (status, out) = run_qemu(&elf("qemu-vectors")?, false)?;
-    let bit_exact = out.lines().find_map(|l| l.strip_suffix(" vectors bit-exact on thumbv7em")?.trim().parse::<usize>().ok());
+    let bit_exact =
+        out.lines().find_map(|l| l.strip_suffix(" vectors bit-exact on thumbv7em")?.trim().parse::<usize>().ok());
     if !status.success() {
         return fail(format!("qemu-vectors exited with {status}: the replay failed on the target"));
     }

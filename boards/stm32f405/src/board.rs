@@ -311,7 +311,8 @@ fn main() -> ! {
         gpiob.pb7.into_open_drain_output_in_state(PinState::High).erase_number(),
         gpiob.pb8.into_open_drain_output_in_state(PinState::High).erase_number(),
     ];
-    let mut chans = pins.map(|pin| Channel { bus: OneWire::new(pin, delay), sensor: Ds18b20::single(), converting: false });
+    let mut chans =
+        pins.map(|pin| Channel { bus: OneWire::new(pin, delay), sensor: Ds18b20::single(), converting: false });
     for (axis, ch) in chans.iter_mut().enumerate() {
         // 12 bits (0.0625 °C, 750 ms); the driver re-checks it in every scratchpad.
         if let Err(e) = ch.sensor.set_resolution(&mut ch.bus, Resolution::Bits12) {

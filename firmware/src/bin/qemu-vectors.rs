@@ -11,7 +11,9 @@ mod target {
     fn main() -> ! {
         let result = qfa_replay::replay_all();
         let code = match rt::console() {
-            Some(mut out) => qfa_firmware::report_replay(&mut out, "thumbv7em", result).unwrap_or(qfa_firmware::EXIT_MISMATCH),
+            Some(mut out) => {
+                qfa_firmware::report_replay(&mut out, "thumbv7em", result).unwrap_or(qfa_firmware::EXIT_MISMATCH)
+            }
             None => qfa_firmware::EXIT_MISMATCH,
         };
         rt::exit(code)

@@ -249,12 +249,7 @@ fn step(comp: &mut Comp, input: &str, out: &mut heapless::Vec<u32, MAX_WORDS>) -
 ///
 /// # Errors
 /// The first parse error or (with `check`) mismatch.
-pub fn replay(
-    file: &'static str,
-    text: &str,
-    check: bool,
-    visit: &mut dyn FnMut(Step<'_>),
-) -> Result<usize, Error> {
+pub fn replay(file: &'static str, text: &str, check: bool, visit: &mut dyn FnMut(Step<'_>)) -> Result<usize, Error> {
     let Ok(mut comp) = Comp::new(Config::default()) else {
         return Err(Error::Parse { file, line: 0 });
     };

@@ -121,7 +121,8 @@ pub fn lstsq_matrix(mut m: DMatrix<f64>, y: &DVector<f64>) -> Result<LsResult, F
     }
     let svd = m.clone().svd(true, true);
     let cond = svd.singular_values.max() / svd.singular_values.min();
-    let c = svd.solve(y, 1e-12 * svd.singular_values.max()).map_err(|_| FitError::TooFewRows { rows: n, unknowns: p })?;
+    let c =
+        svd.solve(y, 1e-12 * svd.singular_values.max()).map_err(|_| FitError::TooFewRows { rows: n, unknowns: p })?;
     let resid = &m * &c - y;
     let rms = (resid.norm_squared() / n as f64).sqrt();
     let coef = c.iter().zip(&norms).map(|(ci, nj)| ci / nj).collect();
@@ -194,10 +195,7 @@ pub fn split_programs(programs: &[String]) -> (Vec<String>, Vec<String>) {
         0 => (vec![], vec![]),
         1 => (programs.to_vec(), programs.to_vec()),
         2 => (vec![programs[0].clone()], vec![programs[1].clone()]),
-        n => (
-            vec![programs[0].clone(), programs[n - 1].clone()],
-            programs[1..n - 1].to_vec(),
-        ),
+        n => (vec![programs[0].clone(), programs[n - 1].clone()], programs[1..n - 1].to_vec()),
     }
 }
 
@@ -377,7 +375,8 @@ pub fn fit(log: &Log, opts: &FitOptions, progress: Option<&indicatif::ProgressBa
     let mut branch = choose_branch_mode(&rows, &y_k0x, &starts, grid, opts.block)?;
     if let Some(m) = opts.branch_mode {
         branch.mode = m;
-        branch.rule = format!("forced to {m:?} by the caller (FitOptions::branch_mode); the CV figures are for reference");
+        branch.rule =
+            format!("forced to {m:?} by the caller (FitOptions::branch_mode); the CV figures are for reference");
     }
     let (xg, p) = bias_design(&rows, branch.mode, grid);
     let (mut xb, mut yb) = block_average(&xg, &y_k0x, p, opts.block, &starts);
@@ -391,9 +390,15 @@ pub fn fit(log: &Log, opts: &FitOptions, progress: Option<&indicatif::ProgressBa
     let scale_simple = ScaleFactor::simple(T0_C as f32, c[0] as f32, c[1] as f32);
     let b = &bias_simple.coef;
     let nodes: Vec<f64> = (0..g).map(|i| b[0] + b[1] * (start + step * i as f64 - T0_C)).collect();
-    let mut grid_simple = BiasGrid::single_valued(start as f32, step as f32, &nodes.iter().map(|&x| x as f32).collect::<Vec<_>>());
+    let mut grid_simple =
+        BiasGrid::single_valued(start as f32, step as f32, &nodes.iter().map(|&x| x as f32).collect::<Vec<_>>());
     grid_simple.deadband_c_per_min = opts.deadband_c_per_min;
-    let simple = table_of(AxisModel { scale: scale_simple, bias: grid_simple, rate_limit_c_per_min: rate_limit, ext: Extensions::default() })?;
+    let simple = table_of(AxisModel {
+        scale: scale_simple,
+        bias: grid_simple,
+        rate_limit_c_per_min: rate_limit,
+        ext: Extensions::default(),
+    })?;
 
     let h: [f64; 6] = sf_hysteresis.coef[..6].try_into().map_err(|_| FitError::TooFewRows { rows: n, unknowns: 6 })?;
     let scale_h = scale_of_eq11(&h);
@@ -404,7 +409,8 @@ pub fn fit(log: &Log, opts: &FitOptions, progress: Option<&indicatif::ProgressBa
         heating_g: f32v(&heating),
         cooling_g: f32v(&cooling),
     };
-    let hysteresis = table_of(AxisModel { scale: scale_h, bias: grid_h, rate_limit_c_per_min: rate_limit, ext: opts.ext })?;
+    let hysteresis =
+        table_of(AxisModel { scale: scale_h, bias: grid_h, rate_limit_c_per_min: rate_limit, ext: opts.ext })?;
     Ok(Fitted { simple, hysteresis, sf_simple, sf_hysteresis, bias_simple, bias_hysteresis, branch, pairs: n })
 }
 
@@ -495,11 +501,18 @@ pub struct BranchChoice {
 ///
 /// # Errors
 /// Too few rows for the folds, a failed solve, or a figure that cannot be formed.
-fn choose_branch_mode(rows: &[Row], y: &[f64], starts: &[usize], gs: GridSpec, block: usize) -> Result<BranchChoice, FitError> {
+fn choose_branch_mode(
+    rows: &[Row],
+    y: &[f64],
+    starts: &[usize],
+    gs: GridSpec,
+    block: usize,
+) -> Result<BranchChoice, FitError> {
     let n = y.len();
     let k = CYCLING_CV_FOLDS;
     // Fold boundaries join the program starts, so no averaged block straddles a fold.
-    let mut st: Vec<usize> = starts.iter().copied().chain((0..k).map(|f| (f * n).div_ceil(k))).filter(|&i| i < n).collect();
+    let mut st: Vec<usize> =
+        starts.iter().copied().chain((0..k).map(|f| (f * n).div_ceil(k))).filter(|&i| i < n).collect();
     st.sort_unstable();
     st.dedup();
     let ranges = block_ranges(n, block, &st);
@@ -536,8 +549,13 @@ fn choose_branch_mode(rows: &[Row], y: &[f64], starts: &[usize], gs: GridSpec, b
         cands.push((mode, p, crate::calibrate::select::CvFigure::of_folds(&fold_mse)?));
     }
     let figs: Vec<(usize, crate::calibrate::select::CvFigure)> = cands.iter().map(|&(_, p, f)| (p, f)).collect();
-    let chosen = crate::calibrate::select::one_se_rule(&figs).ok_or_else(|| FitError::Cv("no candidate".to_string()))?;
-    let best = figs.iter().map(|(_, f)| *f).min_by(|a, b| a.mse.total_cmp(&b.mse)).ok_or_else(|| FitError::Cv("no candidate".to_string()))?;
+    let chosen =
+        crate::calibrate::select::one_se_rule(&figs).ok_or_else(|| FitError::Cv("no candidate".to_string()))?;
+    let best = figs
+        .iter()
+        .map(|(_, f)| *f)
+        .min_by(|a, b| a.mse.total_cmp(&b.mse))
+        .ok_or_else(|| FitError::Cv("no candidate".to_string()))?;
     Ok(BranchChoice {
         mode: cands[chosen].0,
         candidates: cands
@@ -577,7 +595,10 @@ pub fn table_of_axes(axes: impl IntoIterator<Item = AxisModel>) -> Result<Table,
 ///
 /// # Errors
 /// As [`table_of_axes`], and a matrix outside the table's limits.
-pub fn table_of_axes_with(axes: impl IntoIterator<Item = AxisModel>, misalignment: Option<[f32; 9]>) -> Result<Table, FitError> {
+pub fn table_of_axes_with(
+    axes: impl IntoIterator<Item = AxisModel>,
+    misalignment: Option<[f32; 9]>,
+) -> Result<Table, FitError> {
     let mut v = heapless::Vec::new();
     for a in axes {
         v.push(a).map_err(|_| FitError::TooManyAxes)?;
@@ -663,7 +684,8 @@ pub struct StaticStructure {
 
 impl StaticStructure {
     /// Grid only, one branch.
-    pub const PLAIN: Self = Self { branches: BranchMode::Single, lag_tau_s: None, creep_tau_s: None, play_half_width_c: None };
+    pub const PLAIN: Self =
+        Self { branches: BranchMode::Single, lag_tau_s: None, creep_tau_s: None, play_half_width_c: None };
 
     /// Short name for reports, e.g. `offset+lag120+creep600`.
     #[must_use]
@@ -688,7 +710,9 @@ impl StaticStructure {
     /// Linear unknowns for `g` grid nodes.
     #[must_use]
     pub fn unknowns(&self, g: usize) -> usize {
-        self.branches.unknowns(g) + usize::from(self.creep_tau_s.is_some()) + usize::from(self.play_half_width_c.is_some())
+        self.branches.unknowns(g)
+            + usize::from(self.creep_tau_s.is_some())
+            + usize::from(self.play_half_width_c.is_some())
     }
 
     fn ext(&self, creep_gain: f32, play_weight: f32) -> Extensions {

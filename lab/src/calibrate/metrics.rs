@@ -166,7 +166,8 @@ mod tests {
     fn bins_split_segments_and_drop_short_bins() {
         // 200 s heating through 0.0..1.99 °C, then 200 s cooling back: 2 segments × 2 bins.
         let n = 400;
-        let temp: Vec<f64> = (0..n).map(|i| if i < 200 { i as f64 / 100.0 } else { (399 - i) as f64 / 100.0 }).collect();
+        let temp: Vec<f64> =
+            (0..n).map(|i| if i < 200 { i as f64 / 100.0 } else { (399 - i) as f64 / 100.0 }).collect();
         let br: Vec<Branch> = (0..n).map(|i| if i < 200 { Branch::Heating } else { Branch::Cooling }).collect();
         let time: Vec<f64> = (0..n).map(f64::from).collect();
         let ones = vec![1.0; n as usize];

@@ -20,8 +20,10 @@ use std::path::Path;
 use std::time::Instant;
 
 use crate::calibrate::fit::{encode, fit, split_programs, FitOptions, Fitted};
+use crate::calibrate::report::{
+    evaluate, plot_residual_vs_time, plot_sf_vs_temp, Evaluation, FitSummary, Report, Timings, METRIC_TEXT,
+};
 use crate::data::cycling::{read_log, Log};
-use crate::calibrate::report::{evaluate, plot_residual_vs_time, plot_sf_vs_temp, Evaluation, FitSummary, Report, Timings, METRIC_TEXT};
 
 /// Calibration settings.
 #[derive(Clone, Debug, Default)]
@@ -142,7 +144,14 @@ pub fn check_figures(ev: &crate::calibrate::report::Evaluation) -> Result<(), St
     }
     let s = ev.sensitivity_ppm_per_c;
     let b = ev.bias_residual_ug;
-    for (x, what) in [(s.none, "sensitivity (none)"), (s.simple, "sensitivity (simple)"), (s.hysteresis, "sensitivity (hysteresis)"), (b.none, "bias residual (none)"), (b.simple, "bias residual (simple)"), (b.hysteresis, "bias residual (hysteresis)")] {
+    for (x, what) in [
+        (s.none, "sensitivity (none)"),
+        (s.simple, "sensitivity (simple)"),
+        (s.hysteresis, "sensitivity (hysteresis)"),
+        (b.none, "bias residual (none)"),
+        (b.simple, "bias residual (simple)"),
+        (b.hysteresis, "bias residual (hysteresis)"),
+    ] {
         if !x.is_finite() {
             return Err(format!("{what} not computable: the held-out bins span no temperature range"));
         }
@@ -178,7 +187,9 @@ pub fn calibrate_into(log: &Log, out: &Path, opts: &CalibrateOptions, read_s: f6
     }
     let cubic = [(axis.clone(), cal.peers.cubic.clone())];
     let ardupilot = [(axis, cal.peers.ardupilot.clone())];
-    let w = |name: &str, text: String| std::fs::write(out.join(name), text).map_err(|e| format!("{}: {e}", out.join(name).display()));
+    let w = |name: &str, text: String| {
+        std::fs::write(out.join(name), text).map_err(|e| format!("{}: {e}", out.join(name).display()))
+    };
     w("px4_tc.params", crate::calibrate::peers::px4_params(&cubic))?;
     w("ardupilot_tcal.parm", crate::calibrate::peers::ardupilot_params(&ardupilot))?;
     let t = Instant::now();

@@ -12,9 +12,9 @@ use serde::Serialize;
 use qfa_thermal::model::Branch;
 use qfa_thermal::Table;
 
+use crate::calibrate::metrics::{bin_series, bins_sensitivity, rms, Bin};
 use crate::compensate::{compensate_run, not_compensated};
 use crate::data::cycling::Log;
-use crate::calibrate::metrics::{bin_series, bins_sensitivity, rms, Bin};
 use crate::data::pairing::{pair_program, trace_run, Trace};
 
 /// Figures per compensation variant.
@@ -112,7 +112,9 @@ pub fn evaluate(
                 let bias: Vec<f64> = pp
                     .rows
                     .iter()
-                    .map(|&(i, j)| 0.5 * (ap[i] + am[j]) - 0.5 * (log.runs[pp.plus].input_g + log.runs[pp.minus].input_g))
+                    .map(|&(i, j)| {
+                        0.5 * (ap[i] + am[j]) - 0.5 * (log.runs[pp.plus].input_g + log.runs[pp.minus].input_g)
+                    })
                     .collect();
                 debug_assert_eq!(sf.len(), n);
                 ev.bins[v].sf.extend(bin_series(prog, &temp, &br, &time, &ivl, &sf, &use_row));
@@ -216,7 +218,8 @@ fn register_font() {
     use std::sync::Once;
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
-        let _ = plotters::style::register_font("sans-serif", plotters::style::FontStyle::Normal, dejavu::sans::regular());
+        let _ =
+            plotters::style::register_font("sans-serif", plotters::style::FontStyle::Normal, dejavu::sans::regular());
     });
 }
 
@@ -289,7 +292,8 @@ pub fn plot_residual_vs_time(path: &Path, title: &str, ev: &Evaluation) -> PlotR
         let series: Vec<Vec<(f64, f64)>> = (1..3)
             .map(|v| {
                 let bins = if k == 0 { &ev.bins[v].sf } else { &ev.bins[v].bias };
-                let mean = if k == 0 { bins.iter().map(|b| b.value).sum::<f64>() / bins.len().max(1) as f64 } else { 0.0 };
+                let mean =
+                    if k == 0 { bins.iter().map(|b| b.value).sum::<f64>() / bins.len().max(1) as f64 } else { 0.0 };
                 bins.iter()
                     .map(|b| (b.time_s / 3600.0, if k == 0 { (b.value / mean - 1.0) * 1e6 } else { b.value * 1e6 }))
                     .collect()
@@ -369,7 +373,8 @@ pub fn peer_bias(
     let polys = [&peers.cubic, &peers.ardupilot];
     for prog in eval_programs {
         if let Some(pp) = pair_program(log, prog) {
-            let (tp, tm) = (trace_run(&log.runs[pp.plus], &ext, deadband), trace_run(&log.runs[pp.minus], &ext, deadband));
+            let (tp, tm) =
+                (trace_run(&log.runs[pp.plus], &ext, deadband), trace_run(&log.runs[pp.minus], &ext, deadband));
             let sp = &log.runs[pp.plus].samples;
             let temp: Vec<f64> = pp.rows.iter().map(|&(i, j)| 0.5 * (tp.temp_c[i] + tm.temp_c[j])).collect();
             let br: Vec<Branch> = pp.rows.iter().map(|&(i, _)| tp.branch[i]).collect();

@@ -29,10 +29,12 @@ use serde::Serialize;
 
 use qfa_thermal::Table;
 
-use crate::calibrate::fit::{encode, fit_static_axis, table_of_axes, BranchMode, FitError, StaticFit, StaticSeries, StaticStructure};
-use crate::data::static_log::{Sampling, Skipped, StaticLog};
+use crate::calibrate::fit::{
+    encode, fit_static_axis, table_of_axes, BranchMode, FitError, StaticFit, StaticSeries, StaticStructure,
+};
 use crate::calibrate::metrics::rms;
 use crate::calibrate::peers::{ardupilot_params, fit_peers, px4_params, Peers, Poly};
+use crate::data::static_log::{Sampling, Skipped, StaticLog};
 
 /// Contiguous cross-validation blocks in the training rows.
 pub const CV_FOLDS: usize = 5;
@@ -82,7 +84,12 @@ pub struct StaticCalOptions {
 
 impl Default for StaticCalOptions {
     fn default() -> Self {
-        Self { grid_points: 16, block: 10, deadband_c_per_min: crate::data::pairing::branch_deadband_c_per_min(), candidates: candidates() }
+        Self {
+            grid_points: 16,
+            block: 10,
+            deadband_c_per_min: crate::data::pairing::branch_deadband_c_per_min(),
+            candidates: candidates(),
+        }
     }
 }
 
@@ -246,7 +253,12 @@ pub fn score(resid: &[f64], time_s: &[f64], what: &str) -> Result<Score, StaticC
 }
 
 /// Blocked cross-validation RMS (g) of `s` on the training rows `0..=last`.
-fn cv_rms(series: &StaticSeries<'_>, last: usize, s: &StaticStructure, opts: &StaticCalOptions) -> Result<f64, FitError> {
+fn cv_rms(
+    series: &StaticSeries<'_>,
+    last: usize,
+    s: &StaticStructure,
+    opts: &StaticCalOptions,
+) -> Result<f64, FitError> {
     let n = last + 1;
     let mut sum = 0.0;
     let mut count = 0usize;
@@ -273,7 +285,11 @@ fn cv_rms(series: &StaticSeries<'_>, last: usize, s: &StaticStructure, opts: &St
 ///
 /// # Errors
 /// A split that leaves nothing to evaluate, a failed fit, or a figure that cannot be formed.
-pub fn calibrate_static(log: &StaticLog, opts: &StaticCalOptions, progress: bool) -> Result<StaticCalibration, StaticCalError> {
+pub fn calibrate_static(
+    log: &StaticLog,
+    opts: &StaticCalOptions,
+    progress: bool,
+) -> Result<StaticCalibration, StaticCalError> {
     let last = split_index(log)?;
     let n = log.rows();
     let train: Vec<bool> = (0..n).map(|i| i <= last).collect();
@@ -344,9 +360,11 @@ pub fn calibrate_static(log: &StaticLog, opts: &StaticCalOptions, progress: bool
         peers.push(p);
     }
     pb.finish_and_clear();
-    let table = table_of_axes(fits.iter().map(|f| f.axis.clone()))
-        .map_err(|e| StaticCalError::Fit("table".to_string(), e))?;
-    let range = |r: &[f64]| (r.iter().copied().fold(f64::INFINITY, f64::min), r.iter().copied().fold(f64::NEG_INFINITY, f64::max));
+    let table =
+        table_of_axes(fits.iter().map(|f| f.axis.clone())).map_err(|e| StaticCalError::Fit("table".to_string(), e))?;
+    let range = |r: &[f64]| {
+        (r.iter().copied().fold(f64::INFINITY, f64::min), r.iter().copied().fold(f64::NEG_INFINITY, f64::max))
+    };
     let report = StaticReport {
         kind: "static multi-axis",
         columns: log.columns.clone(),
@@ -383,11 +401,19 @@ pub fn markdown(r: &StaticReport) -> String {
     s.push_str(&format!("Split: {}.\n\n", r.split));
     s.push_str(&format!(
         "Training {} rows, {:.1}..{:.1} °C; held out {} rows, {:.1}..{:.1} °C. Reader: {}.\n\n",
-        r.train_rows, r.train_temp_c.0, r.train_temp_c.1, r.heldout_rows, r.heldout_temp_c.0, r.heldout_temp_c.1, r.skipped
+        r.train_rows,
+        r.train_temp_c.0,
+        r.train_temp_c.1,
+        r.heldout_rows,
+        r.heldout_temp_c.0,
+        r.heldout_temp_c.1,
+        r.skipped
     ));
     s.push_str(&format!("Model choice: {}.\n\n", r.selection));
     s.push_str("Held-out bias RMS, mg (rows / 60-s means):\n\n");
-    s.push_str("| axis | ours | PX4/tofupilot cubic | ArduPilot TCAL | paper simple (linear) | none | our structure |\n");
+    s.push_str(
+        "| axis | ours | PX4/tofupilot cubic | ArduPilot TCAL | paper simple (linear) | none | our structure |\n",
+    );
     s.push_str("|---|---|---|---|---|---|---|\n");
     let f = |x: &Score| format!("{:.2} / {:.2}", x.rms_mg, x.binned_mg);
     for a in &r.axes {

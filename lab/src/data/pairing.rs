@@ -65,7 +65,12 @@ pub fn trace_run(run: &Run, ext: &Extensions, deadband: f32) -> Trace {
 /// Replay rows `(time_s, reading °C or none)` through the root crate's estimator and model
 /// (see [`trace_run`]); any log kind with a temperature column uses this.
 #[must_use]
-pub fn trace_readings(rows: impl Iterator<Item = (f64, Option<f64>)>, n: usize, ext: &Extensions, deadband: f32) -> Trace {
+pub fn trace_readings(
+    rows: impl Iterator<Item = (f64, Option<f64>)>,
+    n: usize,
+    ext: &Extensions,
+    deadband: f32,
+) -> Trace {
     let zeros = [0.0f32; 16];
     let mut bias = BiasGrid::single_valued(-60.0, 190.0 / 15.0, &zeros);
     bias.deadband_c_per_min = deadband;
@@ -102,7 +107,14 @@ pub fn trace_axis(rows: impl Iterator<Item = (f64, Option<f64>)>, n: usize, axis
                 last_ms = Some(t_ms);
                 let ev = axis.evaluate(&mut st, e.temp_c, e.rate_c_per_min, dt);
                 let te = if ext.sensor_lag.is_some() { st.element_c } else { e.temp_c.clamp(-60.0, 130.0) };
-                cur = (true, f64::from(e.temp_c), f64::from(e.rate_c_per_min), f64::from(te), st.branch, f64::from(ev.k0));
+                cur = (
+                    true,
+                    f64::from(e.temp_c),
+                    f64::from(e.rate_c_per_min),
+                    f64::from(te),
+                    st.branch,
+                    f64::from(ev.k0),
+                );
                 clamped = ev.temp_clamped || ev.rate_clamped;
             }
         }

@@ -59,11 +59,35 @@ pub const KEPT_LINES: usize = 20;
 /// Common column names, lower case, per role. A header column matches a role when its
 /// lower-cased name equals one of these or ends with `.`/`_` + one of them.
 pub const COMMON_NAMES: [(&str, &[&str]); 5] = [
-    ("time", &["time_s", "time_ms", "time_us", "time_ns", "timestamp_s", "timestamp_ms", "timestamp_us", "timestamp_ns", "timestamp", "time", "t"]),
+    (
+        "time",
+        &[
+            "time_s",
+            "time_ms",
+            "time_us",
+            "time_ns",
+            "timestamp_s",
+            "timestamp_ms",
+            "timestamp_us",
+            "timestamp_ns",
+            "timestamp",
+            "time",
+            "t",
+        ],
+    ),
     ("temp", &["temp_c", "temperature", "temp", "temperature_c", "imu_temp"]),
-    ("ax", &["ax", "ax_g", "ax_mg", "ax_mps2", "acc.x", "accel.x", "acc_x", "accel_x", "acc_x_g", "acc_x_mps2", "accx"]),
-    ("ay", &["ay", "ay_g", "ay_mg", "ay_mps2", "acc.y", "accel.y", "acc_y", "accel_y", "acc_y_g", "acc_y_mps2", "accy"]),
-    ("az", &["az", "az_g", "az_mg", "az_mps2", "acc.z", "accel.z", "acc_z", "accel_z", "acc_z_g", "acc_z_mps2", "accz"]),
+    (
+        "ax",
+        &["ax", "ax_g", "ax_mg", "ax_mps2", "acc.x", "accel.x", "acc_x", "accel_x", "acc_x_g", "acc_x_mps2", "accx"],
+    ),
+    (
+        "ay",
+        &["ay", "ay_g", "ay_mg", "ay_mps2", "acc.y", "accel.y", "acc_y", "accel_y", "acc_y_g", "acc_y_mps2", "accy"],
+    ),
+    (
+        "az",
+        &["az", "az_g", "az_mg", "az_mps2", "acc.z", "accel.z", "acc_z", "accel_z", "acc_z_g", "acc_z_mps2", "accz"],
+    ),
 ];
 
 /// Unit of the time column.
@@ -137,7 +161,10 @@ impl AccelUnit {
 
     fn from_suffix(col: &str) -> Option<Self> {
         let c = col.to_ascii_lowercase();
-        [("_mps2", Self::Mps2), ("_mg", Self::Mg), ("_g", Self::G)].into_iter().find(|(s, _)| c.ends_with(s)).map(|(_, u)| u)
+        [("_mps2", Self::Mps2), ("_mg", Self::Mg), ("_g", Self::G)]
+            .into_iter()
+            .find(|(s, _)| c.ends_with(s))
+            .map(|(_, u)| u)
     }
 }
 
@@ -231,7 +258,9 @@ impl Skipped {
 impl fmt::Display for Skipped {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let mut first = true;
-        for (name, s) in [("NaN/empty field", &self.nan), ("duplicate timestamp", &self.duplicate), ("glitch", &self.glitch)] {
+        for (name, s) in
+            [("NaN/empty field", &self.nan), ("duplicate timestamp", &self.duplicate), ("glitch", &self.glitch)]
+        {
             if s.count == 0 {
                 continue;
             }
@@ -532,7 +561,8 @@ pub fn read_static_from<R: Read>(reader: R, opts: &StaticOptions) -> Result<Stat
         return Err(StaticError::Empty);
     }
     // The delimiter is the most frequent of tab, comma and semicolon in the header.
-    let delim = [b'\t', b',', b';'].into_iter().max_by_key(|d| first_line.iter().filter(|c| *c == d).count()).unwrap_or(b',');
+    let delim =
+        [b'\t', b',', b';'].into_iter().max_by_key(|d| first_line.iter().filter(|c| *c == d).count()).unwrap_or(b',');
     let mut rdr = csv::ReaderBuilder::new().delimiter(delim).has_headers(false).flexible(true).from_reader(&text[..]);
     let mut rec = csv::ByteRecord::new();
     if !rdr.read_byte_record(&mut rec).map_err(|e| StaticError::Io(e.to_string()))? {
@@ -562,7 +592,8 @@ pub fn read_static_from<R: Read>(reader: R, opts: &StaticOptions) -> Result<Stat
     let accel_unit = match opts.accel_unit {
         Some(u) => u,
         None => {
-            let us: Vec<Option<AccelUnit>> = axes_idx.iter().map(|(_, i)| AccelUnit::from_suffix(&header[*i])).collect();
+            let us: Vec<Option<AccelUnit>> =
+                axes_idx.iter().map(|(_, i)| AccelUnit::from_suffix(&header[*i])).collect();
             match us[0] {
                 Some(u) if us.iter().all(|x| *x == Some(u)) => u,
                 _ => {

@@ -12,8 +12,8 @@
 use nalgebra::{DMatrix, DVector};
 use qfa_thermal::model::{AxisModel, AxisState, BiasGrid, BranchHysteresis, Creep, Extensions, ScaleFactor, SensorLag};
 
-use crate::data::channels::{Channels, LogKind};
 use super::Start;
+use crate::data::channels::{Channels, LogKind};
 
 /// Reference temperature of ΔT (the paper's 22 °C program start).
 pub const T0_C: f32 = 22.0;
@@ -620,12 +620,7 @@ pub fn golden(mut f: impl FnMut(f64) -> f64, mut a: f64, mut b: f64, iters: usiz
 }
 
 /// Nelder–Mead in 2-D from `x0` with initial steps `step`.
-pub fn nelder_mead2(
-    mut f: impl FnMut([f64; 2]) -> f64,
-    x0: [f64; 2],
-    step: [f64; 2],
-    iters: usize,
-) -> ([f64; 2], f64) {
+pub fn nelder_mead2(mut f: impl FnMut([f64; 2]) -> f64, x0: [f64; 2], step: [f64; 2], iters: usize) -> ([f64; 2], f64) {
     let mut s = [x0, [x0[0] + step[0], x0[1]], [x0[0], x0[1] + step[1]]];
     let mut v = [f(s[0]), f(s[1]), f(s[2])];
     let lerp = |a: [f64; 2], b: [f64; 2], t: f64| [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];

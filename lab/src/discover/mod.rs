@@ -388,7 +388,6 @@ fn noise_floor(ch: &Channels, v: &[f64]) -> f64 {
     (1.4826 * med / std::f64::consts::SQRT_2).max(1e-12)
 }
 
-
 fn gaps(kind: LogKind, r: &Residuals) -> Gaps {
     match kind {
         LogKind::Cycling => Gaps::Cycling { scale_factor_ppm: rms(&r.sf), bias_ug: rms(&r.bias) },
@@ -440,7 +439,11 @@ fn peer_gaps(ch: &Channels, masks: &[Vec<bool>], trains: &[Vec<bool>]) -> Vec<Pe
                         }
                     }
                     Err(e) => {
-                        return PeerGap { peer: kind.label().into(), heldout_rms: None, error: Some(format!("fit on a fold: {e}")) }
+                        return PeerGap {
+                            peer: kind.label().into(),
+                            heldout_rms: None,
+                            error: Some(format!("fit on a fold: {e}")),
+                        }
                     }
                 }
             }
@@ -484,13 +487,15 @@ fn search(setup: &Setup, s: &Structure, nl: &Nonlinear, e: Effect, train: &[bool
             lag_tau_s: Some(t as f32),
             ..*nl
         }),
-        Effect::BiasBranchHysteresis => grid_1d(&[0.15, 0.3, 0.6, 1.2, 2.5, 5.0, 10.0, 20.0], &|r| Nonlinear {
-            play_r_c: Some(r as f32),
-            ..*nl
-        }),
+        Effect::BiasBranchHysteresis => {
+            grid_1d(&[0.15, 0.3, 0.6, 1.2, 2.5, 5.0, 10.0, 20.0], &|r| Nonlinear { play_r_c: Some(r as f32), ..*nl })
+        }
         Effect::BiasCreep => {
             let set = |x: [f64; 2]| Nonlinear {
-                creep: Some((x[0].exp().clamp(CREEP_TAU_LIMITS.0, CREEP_TAU_LIMITS.1) as f32, (x[1] * 1000.0).clamp(0.0, CREEP_E_MAX) as f32)),
+                creep: Some((
+                    x[0].exp().clamp(CREEP_TAU_LIMITS.0, CREEP_TAU_LIMITS.1) as f32,
+                    (x[1] * 1000.0).clamp(0.0, CREEP_E_MAX) as f32,
+                )),
                 ..*nl
             };
             let mut best = ([0.0, 0.0], f64::INFINITY);
@@ -523,8 +528,8 @@ fn effect_params(e: Effect, f: &Fitted) -> std::collections::BTreeMap<String, f6
             let g = &m.bias.heating_g;
             let h = f64::from(m.bias.t_step_c);
             let n = g.len();
-            let c: f64 = (1..n - 1).map(|i| f64::from(g[i + 1] - 2.0 * g[i] + g[i - 1])).sum::<f64>()
-                / ((n - 2) as f64 * h * h);
+            let c: f64 =
+                (1..n - 1).map(|i| f64::from(g[i + 1] - 2.0 * g[i] + g[i - 1])).sum::<f64>() / ((n - 2) as f64 * h * h);
             p.insert("beta_g_per_c2".into(), c / 2.0);
         }
         Effect::RateHysteresis => {
@@ -728,8 +733,13 @@ fn selection_rule_text() -> String {
 /// Per-bin drivers the leftover residual is tested against.
 fn drivers(ch: &Channels) -> Vec<(&'static str, Vec<f64>)> {
     let n = ch.n_bins();
-    let (mut since, mut temp, mut rate, mut rev, mut branch) =
-        (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
+    let (mut since, mut temp, mut rate, mut rev, mut branch) = (
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+    );
     for t in &ch.traces {
         let t0 = t.time_s.first().copied().unwrap_or(0.0);
         let (mut last_rev, mut dir, mut row) = (t0, 0i8, 0);
@@ -794,7 +804,13 @@ fn cross_fit(r: &[f64], x: &[f64], masks: &[Vec<bool>], trains: &[Vec<bool>]) ->
 /// Leftover structure per channel: the drivers the final held-out residual follows
 /// (cross-fitted, same block test at level ALPHA shared over drivers and channels), plus
 /// the candidates that would fit only at a search limit.
-fn find_unexplained(ch: &Channels, cur: &Residuals, masks: &[Vec<bool>], trains: &[Vec<bool>], pinned: &[(Effect, Vec<String>)]) -> Vec<Unexplained> {
+fn find_unexplained(
+    ch: &Channels,
+    cur: &Residuals,
+    masks: &[Vec<bool>],
+    trains: &[Vec<bool>],
+    pinned: &[(Effect, Vec<String>)],
+) -> Vec<Unexplained> {
     let cyc = ch.kind == LogKind::Cycling;
     let drv = drivers(ch);
     let chans: Vec<(&str, &Vec<f64>, bool)> = if cyc {
@@ -812,8 +828,11 @@ fn find_unexplained(ch: &Channels, cur: &Residuals, masks: &[Vec<bool>], trains:
         let mut hits: Vec<(f64, &str, f64)> = Vec::new();
         for (dn, x) in &drv {
             let f = cross_fit(r, x, masks, trains);
-            let d: Vec<f64> =
-                r.iter().zip(&f).map(|(&a, &b)| if b.is_finite() { (a * a - (a - b).powi(2)) / var } else { 0.0 }).collect();
+            let d: Vec<f64> = r
+                .iter()
+                .zip(&f)
+                .map(|(&a, &b)| if b.is_finite() { (a * a - (a - b).powi(2)) / var } else { 0.0 })
+                .collect();
             let g = stats::gain_stat(&blocks, &d, alpha);
             if g.gain > 0.0 && g.t > g.critical {
                 hits.push((g.t, dn, rms(&f)));
@@ -876,7 +895,10 @@ fn coords(e: Effect, nl: &Nonlinear) -> Vec<Coord> {
                 f64::from(ek) / 1000.0,
                 0.0,
                 CREEP_E_MAX / 1000.0,
-                Box::new(|n: &Nonlinear, x: f64| Nonlinear { creep: n.creep.map(|c| (c.0, (x * 1000.0) as f32)), ..*n }),
+                Box::new(|n: &Nonlinear, x: f64| Nonlinear {
+                    creep: n.creep.map(|c| (c.0, (x * 1000.0) as f32)),
+                    ..*n
+                }),
                 Box::new(|x| x * 1000.0),
             ),
         ],
@@ -957,7 +979,14 @@ fn profile(
 
 /// Linear parameters' spread by a moving-block bootstrap of the all-data residual
 /// (nonlinear parameters fixed): per effect and parameter, the bootstrap SD.
-fn bootstrap_linear(setup: &Setup, s: &Structure, nl: &Nonlinear, fit: &Fitted, eff: &[Effect], len: usize) -> Vec<std::collections::BTreeMap<String, f64>> {
+fn bootstrap_linear(
+    setup: &Setup,
+    s: &Structure,
+    nl: &Nonlinear,
+    fit: &Fitted,
+    eff: &[Effect],
+    len: usize,
+) -> Vec<std::collections::BTreeMap<String, f64>> {
     const B: usize = 40;
     let bins: Vec<_> = setup.ch.traces.iter().flat_map(|t| t.bins.iter()).collect();
     let res: Vec<(f64, f64)> = bins.iter().zip(&fit.pred).map(|(b, p)| (b.sf - p.0, b.bias - p.1)).collect();
@@ -1107,7 +1136,8 @@ pub fn analyze(ch: &Channels, start: Start) -> Report {
         // Gap of the channel the effect acts on (for `both`: the one it improved more).
         let rel = |a: &[f64], b: &[f64]| 1.0 - (rms(b) / rms(a).max(1e-300)).powi(2);
         let use_sf = cyc
-            && (e.channel() == "scale_factor" || (e.channel() == "both" && rel(&cur.sf, &r.sf) >= rel(&cur.bias, &r.bias)));
+            && (e.channel() == "scale_factor"
+                || (e.channel() == "both" && rel(&cur.sf, &r.sf) >= rel(&cur.bias, &r.bias)));
         let (gb, ga) = if use_sf { (rms(&cur.sf), rms(&r.sf)) } else { (rms(&cur.bias), rms(&r.bias)) };
         s = s.with(e);
         nls = nls2;
@@ -1297,11 +1327,13 @@ mod tests {
         assert_eq!(lag(3840.0), ["tau_s=3840"]);
         assert_eq!(lag(30.2), ["tau_s=30"]);
         assert!(lag(500.0).is_empty() && lag(3500.0).is_empty());
-        let play = |r: f32| at_bound(Effect::BiasBranchHysteresis, &Nonlinear { play_r_c: Some(r), ..Default::default() });
+        let play =
+            |r: f32| at_bound(Effect::BiasBranchHysteresis, &Nonlinear { play_r_c: Some(r), ..Default::default() });
         assert_eq!(play(20.0), ["half_width_c=20.00"]);
         assert_eq!(play(0.15), ["half_width_c=0.15"]);
         assert!(play(2.0).is_empty());
-        let creep = |t: f32, e: f32| at_bound(Effect::BiasCreep, &Nonlinear { creep: Some((t, e)), ..Default::default() });
+        let creep =
+            |t: f32, e: f32| at_bound(Effect::BiasCreep, &Nonlinear { creep: Some((t, e)), ..Default::default() });
         assert_eq!(creep(1e6, 20_000.0), ["tau_ref_s=1000000", "activation_k=20000"]);
         // E = 0 is physical (no thermal activation), not a search limit.
         assert!(creep(3000.0, 0.0).is_empty());

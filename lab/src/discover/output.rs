@@ -27,7 +27,8 @@ pub fn table(report: &Report) -> Option<Table> {
     // Not validated here: a single-channel log's model is in the log's own units (often
     // µg), which the root crate refuses as a table. `model.toml` is written either way;
     // `write` validates before `table.bin` and says why when it cannot.
-    let mut t = Table { rate_window: crate::data::pairing::RATE_WINDOW as u16, axes: Default::default(), misalignment: None };
+    let mut t =
+        Table { rate_window: crate::data::pairing::RATE_WINDOW as u16, axes: Default::default(), misalignment: None };
     t.axes.push(report.model.clone()?).ok()?;
     Some(t)
 }
@@ -67,7 +68,8 @@ fn markdown(ch: &Channels, r: &Report) -> String {
     let _ = writeln!(s, "Start model: `{}`. Held-out rule: {}.\n", r.start.name(), r.heldout_rule);
     let _ = writeln!(s, "- Held-out gap before: {}", gaps_text(&r.heldout_gap_before));
     let _ = writeln!(s, "- Held-out gap after: {}", gaps_text(&r.heldout_gap_after));
-    let _ = writeln!(s, "- Noise floor (bin-to-bin part of the final held-out residual): {}\n", gaps_text(&r.noise_floor));
+    let _ =
+        writeln!(s, "- Noise floor (bin-to-bin part of the final held-out residual): {}\n", gaps_text(&r.noise_floor));
     let labels = r.effect_labels();
     let _ = writeln!(
         s,
@@ -76,7 +78,10 @@ fn markdown(ch: &Channels, r: &Report) -> String {
         if r.unexplained.is_empty() {
             "no structure left that the catalog fails to explain".to_string()
         } else {
-            format!("unexplained structure left on {}", r.unexplained.iter().map(|u| u.channel.as_str()).collect::<Vec<_>>().join(", "))
+            format!(
+                "unexplained structure left on {}",
+                r.unexplained.iter().map(|u| u.channel.as_str()).collect::<Vec<_>>().join(", ")
+            )
         }
     );
     let _ = writeln!(s, "Selection: {}.\n", r.selection_rule);
@@ -139,7 +144,10 @@ fn markdown(ch: &Channels, r: &Report) -> String {
     if !r.unexplained.is_empty() {
         let _ = writeln!(s, "## Unexplained\n");
         for u in &r.unexplained {
-            let mut line = format!("- The {} channel keeps structure that no catalog effect explains (held-out RMS {:.3}", u.channel, u.rms);
+            let mut line = format!(
+                "- The {} channel keeps structure that no catalog effect explains (held-out RMS {:.3}",
+                u.channel, u.rms
+            );
             match u.structure_rms {
                 Some(x) if !u.correlates_with.is_empty() => {
                     let _ = write!(line, "; about {x:.3} of it follows {}).", u.correlates_with.join(", then "));
@@ -150,14 +158,21 @@ fn markdown(ch: &Channels, r: &Report) -> String {
                 let _ = write!(line, " It is largest on {}.", u.where_);
             }
             if !u.pinned.is_empty() {
-                let _ = write!(line, " Catalog effects that would fit only with a parameter at a search limit, so are not named: {}.", u.pinned.join("; "));
+                let _ = write!(
+                    line,
+                    " Catalog effects that would fit only with a parameter at a search limit, so are not named: {}.",
+                    u.pinned.join("; ")
+                );
             }
             let _ = writeln!(s, "{line}");
         }
         let _ = writeln!(s);
     }
     let unit = if ch.kind == LogKind::Cycling { "ppm / µg" } else { "value units" };
-    let _ = writeln!(s, "## Where the start model disagrees (held-out RMS, {unit})\n\n| channel | segment | RMS |\n|---|---|---|");
+    let _ = writeln!(
+        s,
+        "## Where the start model disagrees (held-out RMS, {unit})\n\n| channel | segment | RMS |\n|---|---|---|"
+    );
     for w in &r.where_ {
         let _ = writeln!(s, "| {} | {} | {:.3} |", w.channel, w.segment, w.rms);
     }
@@ -258,9 +273,13 @@ fn plots(ch: &Channels, r: &Report, dir: &Path) -> Result<()> {
             root.fill(&WHITE)?;
             let panels = root.split_evenly((2, 1));
             let x_of = |i: usize| if vs_time { off[rows[i].trace] + rows[i].time_s / 3600.0 } else { rows[i].temp_c };
-            let (xlo, xhi) = (0..rows.len()).map(x_of).fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| (l.min(x), h.max(x)));
-            let ymax = before.iter().chain(after.iter()).filter(|v| v.is_finite()).fold(1e-12f64, |m, v| m.max(v.abs()));
-            for (p, (title, v)) in panels.iter().zip([("before (start model)", before), ("after (discovered model)", after)]) {
+            let (xlo, xhi) =
+                (0..rows.len()).map(x_of).fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| (l.min(x), h.max(x)));
+            let ymax =
+                before.iter().chain(after.iter()).filter(|v| v.is_finite()).fold(1e-12f64, |m, v| m.max(v.abs()));
+            for (p, (title, v)) in
+                panels.iter().zip([("before (start model)", before), ("after (discovered model)", after)])
+            {
                 let mut chart = ChartBuilder::on(p)
                     .caption(format!("{name} {title}: red heating, blue cooling, grey hold"), ("sans-serif", 18))
                     .margin(8)

@@ -39,8 +39,8 @@ use serde::Serialize;
 
 use super::{analyze, start_model, Channels, LogKind, Report, Start};
 use crate::calibrate::fit::{encode, BranchMode, StaticStructure};
-use crate::calibrate::static_cal::{calibrate_static, StaticCalOptions};
 use crate::calibrate::peers::{PeerKind, Poly};
+use crate::calibrate::static_cal::{calibrate_static, StaticCalOptions};
 use crate::calibrate::static_cal::{score, split_index, Score};
 use crate::data::channels::Trace;
 use crate::data::static_log::StaticLog;
@@ -296,7 +296,13 @@ pub fn discover_static(log: &StaticLog, start: Start) -> Result<StaticDiscovery>
 #[must_use]
 pub fn markdown(d: &StaticDiscovery) -> String {
     let mut s = String::from("# Discovery on a static log\n\n");
-    let _ = writeln!(s, "Split: {}. Start model `{}`; {}-s bins; the per-axis reports are in µg.\n", d.split, d.start.name(), d.bin_s);
+    let _ = writeln!(
+        s,
+        "Split: {}. Start model `{}`; {}-s bins; the per-axis reports are in µg.\n",
+        d.split,
+        d.start.name(),
+        d.bin_s
+    );
     s.push_str(
         "Selection sees only the training rows (its own time-block held-out rule inside them); every figure \
          below is on the held-out rows, RMS over rows / over 60-s means, mg. Peers fitted on the same training \
@@ -331,10 +337,15 @@ pub fn markdown(d: &StaticDiscovery) -> String {
          lowest 5-fold cross-validation RMS inside the training rows among static calibration's candidates and the \
          named structures (a prediction).\n",
     );
-    let missing: Vec<String> =
-        d.axes.iter().filter(|a| !a.not_in_table.is_empty()).map(|a| format!("{}: {}", a.axis, a.not_in_table.join(", "))).collect();
+    let missing: Vec<String> = d
+        .axes
+        .iter()
+        .filter(|a| !a.not_in_table.is_empty())
+        .map(|a| format!("{}: {}", a.axis, a.not_in_table.join(", ")))
+        .collect();
     if !missing.is_empty() {
-        let _ = writeln!(s, "\nNamed but with no root-crate slot (not in any flashed structure): {}.", missing.join("; "));
+        let _ =
+            writeln!(s, "\nNamed but with no root-crate slot (not in any flashed structure): {}.", missing.join("; "));
     }
     s.push_str("\nPer-axis discovery reports (candidates, tests, intervals): `ax/`, `ay/`, `az/`. `table.bin`: `qfa-lab compensate --table DIR/table.bin`.\n");
     s

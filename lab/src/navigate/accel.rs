@@ -18,9 +18,9 @@ use rand::Rng;
 use rand_distr::{Distribution, StandardNormal};
 
 use super::earth::G0;
-use crate::simulate::NoiseGen;
 use crate::simulate::thermal::Temps;
 use crate::simulate::truth::{SensorTruth, Truth, TruthModel};
+use crate::simulate::NoiseGen;
 
 /// One physical accelerometer axis with its I/F converter.
 pub trait AccelTruth {
@@ -70,7 +70,14 @@ impl LabAccel {
     /// Unit `truth` with noise seed `seed`.
     #[must_use]
     pub fn new(truth: &Truth, seed: u64) -> Self {
-        Self { sensor: truth.sensor, model: truth.model(), noise: NoiseGen::new(truth.noise, seed), carry: 0.0, k1: 0.0, k0: 0.0 }
+        Self {
+            sensor: truth.sensor,
+            model: truth.model(),
+            noise: NoiseGen::new(truth.noise, seed),
+            carry: 0.0,
+            k1: 0.0,
+            k0: 0.0,
+        }
     }
 }
 
@@ -140,8 +147,10 @@ impl TableCompensation {
     /// # Errors
     /// A table's validation error.
     pub fn with_misalignment(tables: [&Table; 3], misalignment: Option<[f32; 9]>) -> anyhow::Result<Self> {
-        let mut comp = ImuCompensator::new(compensator::Config::default()).map_err(|e| anyhow::anyhow!("config: {e}"))?;
-        comp.set_table(super::calib::table3_with(tables, misalignment)?).map_err(|e| anyhow::anyhow!("table refused: {e}"))?;
+        let mut comp =
+            ImuCompensator::new(compensator::Config::default()).map_err(|e| anyhow::anyhow!("config: {e}"))?;
+        comp.set_table(super::calib::table3_with(tables, misalignment)?)
+            .map_err(|e| anyhow::anyhow!("table refused: {e}"))?;
         Ok(Self { comp, rejected: 0, last_status: compensator::Status::empty() })
     }
 

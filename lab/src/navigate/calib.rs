@@ -10,9 +10,9 @@
 use qfa_thermal::model::AxisModel;
 use qfa_thermal::table::Table;
 
-use crate::discover::{analyze, Channels, Start};
 use crate::calibrate::fit::{fit, split_programs, FitOptions};
 use crate::data::cycling::{write_log_to, Log};
+use crate::discover::{analyze, Channels, Start};
 use crate::simulate::profile::{paper_positions, Program, PAPER_RATES};
 use crate::simulate::simulate;
 use crate::simulate::truth::Truth;
@@ -79,7 +79,8 @@ pub fn calibrate_unit_with(truth: &Truth, seed: u64, threads: usize, discover: b
     let used: Vec<Program> = programs.into_iter().filter(|p| fit_ids.contains(&p.id)).collect();
     let positions: Vec<_> = paper_positions().into_iter().filter(|p| p.input_g != 0.0).collect();
     let log = simulate(truth, &used, &positions, ROW_S, seed, threads, None);
-    let f = fit(&log, &FitOptions::new(fit_ids.clone()), None).map_err(|e| anyhow::anyhow!("{}: fit: {e}", truth.name))?;
+    let f =
+        fit(&log, &FitOptions::new(fit_ids.clone()), None).map_err(|e| anyhow::anyhow!("{}: fit: {e}", truth.name))?;
     let mut none = axis(&f.simple)?.clone();
     none.scale.mu = 0.0;
     let k0 = f.bias_simple.coef[0] as f32;
@@ -89,8 +90,11 @@ pub fn calibrate_unit_with(truth: &Truth, seed: u64, threads: usize, discover: b
     let mut none_t = f.simple.clone();
     none_t.axes[0] = none;
     none_t.validate().map_err(|e| anyhow::anyhow!("none table: {e}"))?;
-    let (discovered, discovered_effects) =
-        if discover { discover_on(&log, &fit_ids, &f.hysteresis)? } else { (f.hysteresis.clone(), vec!["not run".to_string()]) };
+    let (discovered, discovered_effects) = if discover {
+        discover_on(&log, &fit_ids, &f.hysteresis)?
+    } else {
+        (f.hysteresis.clone(), vec!["not run".to_string()])
+    };
     Ok(UnitTables {
         none: none_t,
         simple: f.simple,
@@ -144,7 +148,10 @@ pub fn table3(axes: [&Table; 3]) -> anyhow::Result<Table> {
 pub fn table3_with(axes: [&Table; 3], misalignment: Option<[f32; 9]>) -> anyhow::Result<Table> {
     for t in axes {
         anyhow::ensure!(t.axes.len() == 1, "expected 1-axis tables");
-        anyhow::ensure!(usize::from(t.rate_window) == crate::data::pairing::RATE_WINDOW, "expected the lab's rate window");
+        anyhow::ensure!(
+            usize::from(t.rate_window) == crate::data::pairing::RATE_WINDOW,
+            "expected the lab's rate window"
+        );
     }
     crate::calibrate::fit::table_of_axes_with(axes.map(|t| t.axes[0].clone()), misalignment)
         .map_err(|e| anyhow::anyhow!("3-axis table invalid: {e}"))

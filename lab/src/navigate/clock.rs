@@ -178,7 +178,10 @@ pub fn check(got: &ClockFigures, ideal: &ClockFigures, limit_nmi_per_h: f64) -> 
         v.push(format!("{} cycles flagged stale or invalid", got.flagged_cycles));
     }
     if (got.thermal_nmi_per_h - ideal.thermal_nmi_per_h).abs() > 0.01 * ideal.thermal_nmi_per_h + 1e-4 {
-        v.push(format!("thermal-only {:.5} nmile/h against {:.5} on the ideal time base", got.thermal_nmi_per_h, ideal.thermal_nmi_per_h));
+        v.push(format!(
+            "thermal-only {:.5} nmile/h against {:.5} on the ideal time base",
+            got.thermal_nmi_per_h, ideal.thermal_nmi_per_h
+        ));
     }
     if got.thermal_nmi_per_h >= limit_nmi_per_h {
         v.push(format!("thermal-only {:.5} nmile/h ≥ limit {limit_nmi_per_h:.5}", got.thermal_nmi_per_h));

@@ -377,8 +377,9 @@ impl<C: ThermalCompensator> FaultyCompensation<C> {
     /// compensation and its shared log.
     #[must_use]
     pub fn new(mut comp: C, set: &FaultSet, table: &[u8]) -> (Self, Rc<RefCell<FaultLog>>) {
-        let injs: [Injector; 3] =
-            core::array::from_fn(|i| Injector::new(FaultSet { seed: set.seed.wrapping_add(i as u64 * 0x1000), ..set.clone() }));
+        let injs: [Injector; 3] = core::array::from_fn(|i| {
+            Injector::new(FaultSet { seed: set.seed.wrapping_add(i as u64 * 0x1000), ..set.clone() })
+        });
         let mut log = FaultLog { table_loaded: true, ..FaultLog::default() };
         let good = Table::decode(table).ok();
         for (offered, corrupted) in injs[0].table_loads(table) {
@@ -647,7 +648,12 @@ fn encode(t: &Table) -> anyhow::Result<Vec<u8>> {
 /// # Errors
 /// A table the compensator refuses, a broken table that does not validate, the
 /// flight's errors, or a thermal-only error of `simple` too small to divide by.
-pub fn fly_with_faults(sc: &Scenario, tables: [&Table; 3], simple: [&Table; 3], rows: &[RowSpec]) -> anyhow::Result<FaultReport> {
+pub fn fly_with_faults(
+    sc: &Scenario,
+    tables: [&Table; 3],
+    simple: [&Table; 3],
+    rows: &[RowSpec],
+) -> anyhow::Result<FaultReport> {
     // One 3-axis table for the IMU's compensator, as the firmware flies it.
     let m = sc.imu.accel.carried_misalignment();
     let good = encode(&crate::navigate::calib::table3_with(tables, m)?)?;
@@ -747,7 +753,11 @@ pub fn check(row: &FaultRow) -> Vec<String> {
     }
     if let Some(lim) = row.spec.limit {
         if row.added.is_nan() || row.added.abs() >= lim {
-            v.push(format!("adds {:.3} % of simple's thermal-only CEP rate (limit {:.1} %)", 100.0 * row.added, 100.0 * lim));
+            v.push(format!(
+                "adds {:.3} % of simple's thermal-only CEP rate (limit {:.1} %)",
+                100.0 * row.added,
+                100.0 * lim
+            ));
         }
     }
     v
@@ -761,16 +771,29 @@ pub fn standard_sets(cruise_s: (f64, f64)) -> Vec<RowSpec> {
     let mid = 0.5 * (cruise_s.0 + cruise_s.1);
     let seed = 0x7_0001;
     let s = |f: FaultSet| FaultSet { seed, ..f };
-    let row = |name: &str, set: FaultSet, limit: Option<f64>| RowSpec { name: name.into(), set: s(set), limit, broken: Broken::No };
+    let row = |name: &str, set: FaultSet, limit: Option<f64>| RowSpec {
+        name: name.into(),
+        set: s(set),
+        limit,
+        broken: Broken::No,
+    };
     vec![
         row("CRC errors 5 %", FaultSet::crc(0.05), Some(0.01)),
         row("CRC errors 20 %", FaultSet::crc(0.20), None),
-        row("power-on 85 °C after brown-out ×10", FaultSet { brown_outs_s: (1..=10).map(|k| f64::from(k) * 700.0).collect(), ..FaultSet::default() }, None),
+        row(
+            "power-on 85 °C after brown-out ×10",
+            FaultSet { brown_outs_s: (1..=10).map(|k| f64::from(k) * 700.0).collect(), ..FaultSet::default() },
+            None,
+        ),
         row("dropout 10 s mid-cruise", FaultSet::dropout(mid - 5.0, 10.0), None),
         row("dropout 2 min mid-cruise", FaultSet::dropout(mid - 60.0, 120.0), Some(0.05)),
         row("dropout 10 min mid-cruise", FaultSet::dropout(mid - 300.0, 600.0), None),
         row("spikes ±5 °C, 1 %", FaultSet { spike_rate: 0.01, spike_c: 5.0, ..FaultSet::default() }, None),
-        row("stuck sensor 2 min mid-cruise", FaultSet { stuck_s: vec![(mid - 60.0, 120.0)], ..FaultSet::default() }, None),
+        row(
+            "stuck sensor 2 min mid-cruise",
+            FaultSet { stuck_s: vec![(mid - 60.0, 120.0)], ..FaultSet::default() },
+            None,
+        ),
         row("corrupted table byte at load", FaultSet { corrupt_table: Some((37, 0x5A)), ..FaultSet::default() }, None),
         row("IMU cycle jitter ±50 µs", FaultSet { imu_jitter_us: 50, ..FaultSet::default() }, None),
         row("all of the above together", all_faults(mid, seed), None),
@@ -808,7 +831,12 @@ pub fn broken_sets(cruise_s: (f64, f64)) -> Vec<RowSpec> {
         }
     }
     let mid = 0.5 * (cruise_s.0 + cruise_s.1);
-    v.push(RowSpec { name: "BROKEN WrongFlags: all faults".into(), set: all_faults(mid, 0x7_0001), limit: None, broken: Broken::WrongFlags });
+    v.push(RowSpec {
+        name: "BROKEN WrongFlags: all faults".into(),
+        set: all_faults(mid, 0x7_0001),
+        limit: None,
+        broken: Broken::WrongFlags,
+    });
     v
 }
 
@@ -918,7 +946,11 @@ mod tests {
                 let (_, log) = FaultyCompensation::new(comps(), &set, &b);
                 let log = log.borrow();
                 assert!(!log.corrupt_table_applied && log.table_loaded, "byte {i} ^ {x:#x}");
-                assert_eq!(log.counts[&Kind::CorruptTable], Count { injected: 1, flagged: 1, wrong: 0 }, "byte {i} ^ {x:#x}");
+                assert_eq!(
+                    log.counts[&Kind::CorruptTable],
+                    Count { injected: 1, flagged: 1, wrong: 0 },
+                    "byte {i} ^ {x:#x}"
+                );
             }
         }
     }

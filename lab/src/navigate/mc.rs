@@ -59,7 +59,13 @@ impl Plan {
     /// From the command-line arguments.
     #[must_use]
     pub fn of(args: &NavigateArgs, sc: &Scenario, shard: (u64, u64)) -> Self {
-        Self { runs: args.runs, seed: args.mc_seed.unwrap_or(sc.seed), jobs: args.jobs, shard, discover: !args.no_mc_discovered }
+        Self {
+            runs: args.runs,
+            seed: args.mc_seed.unwrap_or(sc.seed),
+            jobs: args.jobs,
+            shard,
+            discover: !args.no_mc_discovered,
+        }
     }
 
     /// Run indices of this shard.
@@ -286,14 +292,18 @@ pub fn one(sc: &Scenario, seed: u64, i: u64, discover: bool) -> anyhow::Result<O
     let Draw { scenario: s, units: us, seed: rs, temp_offset_c: off, temp_scale: scale } = draw(sc, seed, i);
     let mut tables = calibrate_with(&us, rs, 1, discover).with_context(|| format!("run {i}: calibration"))?;
     tables.misalignment = s.imu.accel.carried_misalignment();
-    let res = run::fly(&s, &mut truths_seeded(&us, rs), mc_variants(&tables)?).with_context(|| format!("run {i}: flight"))?;
+    let res =
+        run::fly(&s, &mut truths_seeded(&us, rs), mc_variants(&tables)?).with_context(|| format!("run {i}: flight"))?;
     let cep: BTreeMap<String, f64> =
         res.names.iter().zip(&res.tracks).map(|(n, tr)| (n.clone(), Figures::of(&res.t, tr).cep_nmi_per_h)).collect();
     let thermal = thermal_ceps(&res)?;
     let mut ts = BTreeMap::new();
     let mut tot = BTreeMap::new();
     for n in cep.keys() {
-        ts.insert(n.clone(), share(thermal["simple"], thermal[n], thermal["oracle"]).with_context(|| format!("run {i}"))?);
+        ts.insert(
+            n.clone(),
+            share(thermal["simple"], thermal[n], thermal["oracle"]).with_context(|| format!("run {i}"))?,
+        );
         tot.insert(n.clone(), share(cep["simple"], cep[n], cep["oracle"]).with_context(|| format!("run {i}"))?);
     }
     let lo = res.temps.iter().map(|t| t[1]).fold(f64::INFINITY, f64::min);
@@ -328,8 +338,10 @@ pub fn run(sc: &Scenario, plan: &Plan, progress: bool) -> anyhow::Result<Partial
     let jobs = pool.current_num_threads();
     let pb = if progress { indicatif::ProgressBar::new(idx.len() as u64) } else { indicatif::ProgressBar::hidden() };
     pb.set_style(
-        indicatif::ProgressStyle::with_template("monte carlo {pos}/{len} runs [{elapsed_precise} < {eta_precise}] {msg}")
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        indicatif::ProgressStyle::with_template(
+            "monte carlo {pos}/{len} runs [{elapsed_precise} < {eta_precise}] {msg}",
+        )
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
     pb.set_message(format!("{jobs} jobs"));
     let t0 = Instant::now();
@@ -358,7 +370,10 @@ pub fn run(sc: &Scenario, plan: &Plan, progress: bool) -> anyhow::Result<Partial
     })
 }
 
-fn stats_by(outs: &[&Outcome], f: impl Fn(&Outcome) -> &BTreeMap<String, f64>) -> anyhow::Result<BTreeMap<String, Stats>> {
+fn stats_by(
+    outs: &[&Outcome],
+    f: impl Fn(&Outcome) -> &BTreeMap<String, f64>,
+) -> anyhow::Result<BTreeMap<String, Stats>> {
     let mut m: BTreeMap<String, Vec<f64>> = BTreeMap::new();
     for o in outs {
         for (k, v) in f(o) {
@@ -390,7 +405,13 @@ pub fn summarize(parts: &[Partial]) -> anyhow::Result<(Summary, Vec<Outcome>)> {
     }
     let have: std::collections::BTreeSet<u64> = outs.iter().map(|o| o.run).collect();
     let missing: Vec<u64> = (0..first.runs).filter(|i| !have.contains(i)).collect();
-    anyhow::ensure!(missing.is_empty(), "{} of {} runs missing (first: {:?})", missing.len(), first.runs, &missing[..missing.len().min(10)]);
+    anyhow::ensure!(
+        missing.is_empty(),
+        "{} of {} runs missing (first: {:?})",
+        missing.len(),
+        first.runs,
+        &missing[..missing.len().min(10)]
+    );
     let refs: Vec<&Outcome> = outs.iter().collect();
     let mut alignment = BTreeMap::new();
     if let Some(o) = outs.first() {
@@ -400,7 +421,11 @@ pub fn summarize(parts: &[Partial]) -> anyhow::Result<(Summary, Vec<Outcome>)> {
             };
             alignment.insert(
                 n.clone(),
-                AlignStats { roll_arcsec: col(&|a| a.roll_arcsec)?, pitch_arcsec: col(&|a| a.pitch_arcsec)?, heading_mrad: col(&|a| a.heading_mrad)? },
+                AlignStats {
+                    roll_arcsec: col(&|a| a.roll_arcsec)?,
+                    pitch_arcsec: col(&|a| a.pitch_arcsec)?,
+                    heading_mrad: col(&|a| a.heading_mrad)?,
+                },
             );
         }
     }
@@ -443,7 +468,11 @@ pub fn write_outputs(out: &Path, parts: &[Partial], plots: bool) -> anyhow::Resu
     }
     s.push_str(",wall_s\n");
     for o in &outs {
-        let _ = write!(s, "{},{},{:.3},{:.4},{:.2},{:.2}", o.run, o.seed, o.temp_offset_c, o.temp_scale, o.case_temp_range_c[0], o.case_temp_range_c[1]);
+        let _ = write!(
+            s,
+            "{},{},{:.3},{:.4},{:.2},{:.2}",
+            o.run, o.seed, o.temp_offset_c, o.temp_scale, o.case_temp_range_c[0], o.case_temp_range_c[1]
+        );
         for n in &names {
             let a = o.alignment.get(n).copied().unwrap_or_default();
             let _ = write!(
@@ -462,13 +491,14 @@ pub fn write_outputs(out: &Path, parts: &[Partial], plots: bool) -> anyhow::Resu
     }
     std::fs::write(out.join("mc_runs.csv"), s)?;
     if plots {
-        let col = |f: &dyn Fn(&Outcome) -> &BTreeMap<String, f64>, scale: f64, skip: &[&str]| -> Vec<(String, Vec<f64>)> {
-            names
-                .iter()
-                .filter(|n| !skip.contains(&n.as_str()))
-                .map(|n| (n.clone(), outs.iter().map(|o| f(o)[n] * scale).collect()))
-                .collect()
-        };
+        let col =
+            |f: &dyn Fn(&Outcome) -> &BTreeMap<String, f64>, scale: f64, skip: &[&str]| -> Vec<(String, Vec<f64>)> {
+                names
+                    .iter()
+                    .filter(|n| !skip.contains(&n.as_str()))
+                    .map(|n| (n.clone(), outs.iter().map(|o| f(o)[n] * scale).collect()))
+                    .collect()
+            };
         let title = format!("{} runs", outs.len());
         super::plot::plot_distributions(
             &out.join("mc_thermal_share.png"),
@@ -510,7 +540,11 @@ pub fn merge(dirs: &[PathBuf], out: &Path, plots: bool) -> anyhow::Result<Summar
                 .with_context(|| format!("reading {}", d.display()))?
                 .filter_map(Result::ok)
                 .map(|e| e.path())
-                .filter(|p| p.file_name().and_then(|n| n.to_str()).is_some_and(|n| n.starts_with("mc_partial_") && n.ends_with(".json")))
+                .filter(|p| {
+                    p.file_name()
+                        .and_then(|n| n.to_str())
+                        .is_some_and(|n| n.starts_with("mc_partial_") && n.ends_with(".json"))
+                })
                 .collect()
         } else {
             vec![d.clone()]
@@ -538,10 +572,17 @@ pub fn merge(dirs: &[PathBuf], out: &Path, plots: bool) -> anyhow::Result<Summar
 pub fn table(s: &Summary) -> String {
     let mut t = format!(
         "monte carlo: {} runs (seed {})\n{:<11} {:>28} {:>30} {:>28}\n",
-        s.runs, s.seed, "variant", "CEP nmi/h med [p10, p90]", "thermal CEP nmi/h med [p10,p90]", "thermal share med [p10, p90]"
+        s.runs,
+        s.seed,
+        "variant",
+        "CEP nmi/h med [p10, p90]",
+        "thermal CEP nmi/h med [p10,p90]",
+        "thermal share med [p10, p90]"
     );
     for n in super::VARIANTS {
-        let (Some(c), Some(th), Some(sh)) = (s.cep_nmi_per_h.get(n), s.thermal_cep_nmi_per_h.get(n), s.thermal_share_removed.get(n)) else {
+        let (Some(c), Some(th), Some(sh)) =
+            (s.cep_nmi_per_h.get(n), s.thermal_cep_nmi_per_h.get(n), s.thermal_share_removed.get(n))
+        else {
             continue;
         };
         let _ = writeln!(
@@ -642,7 +683,10 @@ mod tests {
         assert_eq!(outs.iter().map(|o| o.run).collect::<Vec<_>>(), vec![0, 1, 2, 3]);
         // Shares 0, 0.1, 0.2, 0.3: median 0.15, p10 0.03, p90 0.27.
         let h = sum.thermal_share_removed["hysteresis"];
-        assert!((h.median - 0.15).abs() < 1e-12 && (h.p10 - 0.03).abs() < 1e-12 && (h.p90 - 0.27).abs() < 1e-12, "{h:?}");
+        assert!(
+            (h.median - 0.15).abs() < 1e-12 && (h.p10 - 0.03).abs() < 1e-12 && (h.p90 - 0.27).abs() < 1e-12,
+            "{h:?}"
+        );
         assert_eq!(sum.timing.len(), 2);
         assert!(summarize(std::slice::from_ref(&a)).unwrap_err().to_string().contains("missing"));
         assert!(summarize(&[a.clone(), a.clone(), b.clone()]).unwrap_err().to_string().contains("twice"));

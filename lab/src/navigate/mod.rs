@@ -73,8 +73,8 @@ use anyhow::Context;
 use qfa_thermal::table::Table;
 use serde::Serialize;
 
-use accel::{AccelCompensation, AccelTruth, LabAccel, OracleCompensation, TableCompensation};
 use crate::simulate::truth::Truth;
+use accel::{AccelCompensation, AccelTruth, LabAccel, OracleCompensation, TableCompensation};
 use align::AlignErrors;
 use run::{Figures, FlightResult, Variant};
 use scenario::Scenario;
@@ -296,7 +296,10 @@ pub fn truths_seeded(units: &[Truth; 3], seed: u64) -> [Box<dyn AccelTruth>; 3] 
 /// A zero denominator (simple and oracle equal): the share cannot be computed.
 pub fn share(simple: f64, v: f64, oracle: f64) -> anyhow::Result<f64> {
     let den = simple - oracle;
-    anyhow::ensure!(den.abs() > 1e-12 && v.is_finite(), "share undefined: simple {simple} and oracle {oracle} coincide");
+    anyhow::ensure!(
+        den.abs() > 1e-12 && v.is_finite(),
+        "share undefined: simple {simple} and oracle {oracle} coincide"
+    );
     Ok((simple - v) / den)
 }
 
@@ -314,7 +317,12 @@ pub fn thermal_ceps(res: &FlightResult) -> anyhow::Result<BTreeMap<String, f64>>
         .iter()
         .zip(&res.tracks)
         .map(|(n, tr)| {
-            let d = run::Track { dn: diff(&tr.dn, &o.dn), de: diff(&tr.de, &o.de), vn: diff(&tr.vn, &o.vn), ve: diff(&tr.ve, &o.ve) };
+            let d = run::Track {
+                dn: diff(&tr.dn, &o.dn),
+                de: diff(&tr.de, &o.de),
+                vn: diff(&tr.vn, &o.vn),
+                ve: diff(&tr.ve, &o.ve),
+            };
             (n.clone(), Figures::of(&res.t, &d).cep_nmi_per_h)
         })
         .collect())
@@ -324,7 +332,13 @@ pub fn thermal_ceps(res: &FlightResult) -> anyhow::Result<BTreeMap<String, f64>>
 ///
 /// # Errors
 /// A share that cannot be computed (see [`share`]), or no oracle.
-pub fn report(sc: &Scenario, res: &FlightResult, tables: &Tables, discovered_source: String, runtime_s: [f64; 2]) -> anyhow::Result<Report> {
+pub fn report(
+    sc: &Scenario,
+    res: &FlightResult,
+    tables: &Tables,
+    discovered_source: String,
+    runtime_s: [f64; 2],
+) -> anyhow::Result<Report> {
     let variants: BTreeMap<String, Figures> =
         res.names.iter().zip(&res.tracks).map(|(n, tr)| (n.clone(), Figures::of(&res.t, tr))).collect();
     let get = |n: &str| variants.get(n).copied().ok_or_else(|| anyhow::anyhow!("no `{n}` variant"));
@@ -333,7 +347,8 @@ pub fn report(sc: &Scenario, res: &FlightResult, tables: &Tables, discovered_sou
     let mut share_v = BTreeMap::new();
     for (n, f) in &variants {
         share_cep.insert(n.clone(), share(s.cep_nmi_per_h, f.cep_nmi_per_h, o.cep_nmi_per_h)?);
-        let sv = 0.5 * (share(s.rms_ve_mps, f.rms_ve_mps, o.rms_ve_mps)? + share(s.rms_vn_mps, f.rms_vn_mps, o.rms_vn_mps)?);
+        let sv =
+            0.5 * (share(s.rms_ve_mps, f.rms_ve_mps, o.rms_ve_mps)? + share(s.rms_vn_mps, f.rms_vn_mps, o.rms_vn_mps)?);
         share_v.insert(n.clone(), sv);
     }
     let thermal = thermal_ceps(res)?;
@@ -435,7 +450,13 @@ pub fn nominal(args: &NavigateArgs, sc: &Scenario) -> anyhow::Result<Report> {
                 .iter()
                 .map(|x| if x.discovered_effects.is_empty() { "none".into() } else { x.discovered_effects.join("+") })
                 .collect();
-            (Some(t), format!("discovery (start paper) on each unit's calibration log: x [{}], y [{}], z [{}]", effects[0], effects[1], effects[2]))
+            (
+                Some(t),
+                format!(
+                    "discovery (start paper) on each unit's calibration log: x [{}], y [{}], z [{}]",
+                    effects[0], effects[1], effects[2]
+                ),
+            )
         }
     };
     let t1 = Instant::now();

@@ -17,8 +17,13 @@ fn register_font() {
     });
 }
 
-const COLORS: [RGBColor; 5] =
-    [RGBColor(120, 120, 120), RGBColor(230, 140, 0), RGBColor(0, 130, 60), RGBColor(150, 60, 200), RGBColor(30, 60, 200)];
+const COLORS: [RGBColor; 5] = [
+    RGBColor(120, 120, 120),
+    RGBColor(230, 140, 0),
+    RGBColor(0, 130, 60),
+    RGBColor(150, 60, 200),
+    RGBColor(30, 60, 200),
+];
 
 fn panel(
     area: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>,

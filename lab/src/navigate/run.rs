@@ -81,7 +81,6 @@ pub struct Figures {
     pub cep_psins_nmi_per_h: f64,
 }
 
-
 impl Figures {
     /// Figures of a track sampled at times `t` (s).
     #[must_use]
@@ -159,13 +158,14 @@ impl Imu<'_> {
 /// velocity and the true position; otherwise every variant starts at the true state.
 /// Every variant sees the same gyro increments, pulses and temperature readings.
 #[allow(clippy::too_many_lines)]
-pub fn fly(sc: &Scenario, truths: &mut [Box<dyn AccelTruth>; 3], mut variants: Vec<Variant>) -> anyhow::Result<FlightResult> {
-    let sensors: [SensorTruth; 3] = [0, 1, 2].map(|i| truths[i].sensor().unwrap_or(SensorTruth {
-        offset_c: 0.0,
-        noise_c: 0.01,
-        period_s: 1.0,
-        first_s: 1.0,
-    }));
+pub fn fly(
+    sc: &Scenario,
+    truths: &mut [Box<dyn AccelTruth>; 3],
+    mut variants: Vec<Variant>,
+) -> anyhow::Result<FlightResult> {
+    let sensors: [SensorTruth; 3] = [0, 1, 2].map(|i| {
+        truths[i].sensor().unwrap_or(SensorTruth { offset_c: 0.0, noise_c: 0.01, period_s: 1.0, first_s: 1.0 })
+    });
     let dt = sc.dt();
     let dt_ticks = (dt * 1e6).round() as u32;
     anyhow::ensure!((f64::from(dt_ticks) * 1e-6 - dt).abs() < 1e-12, "IMU period must be a whole number of µs");
@@ -175,7 +175,8 @@ pub fn fly(sc: &Scenario, truths: &mut [Box<dyn AccelTruth>; 3], mut variants: V
     let profile = Profile::new(sc.temperature.clone())?;
     let align_steps = sc.align_steps();
     let ground_c = sc.ground_temp_c();
-    let mut chain = sc.thermal.start(if align_steps > 0 { ground_c } else { profile.at(0.0) }, dt, sc.thermal.element_tau_s);
+    let mut chain =
+        sc.thermal.start(if align_steps > 0 { ground_c } else { profile.at(0.0) }, dt, sc.thermal.element_tau_s);
     let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(sc.seed);
     let draw = ImuDraw::draw(&sc.imu, &mut rng);
     let mut imu = Imu { truths, sensors, draw, rng };

@@ -181,7 +181,9 @@ impl Scenario {
         );
         let v = &s.monte_carlo;
         anyhow::ensure!(
-            [v.temp_offset_c, v.temp_scale, v.unit_spread, v.sensor_offset_c].iter().all(|x| x.is_finite() && *x >= 0.0)
+            [v.temp_offset_c, v.temp_scale, v.unit_spread, v.sensor_offset_c]
+                .iter()
+                .all(|x| x.is_finite() && *x >= 0.0)
                 && v.temp_scale < 1.0
                 && v.unit_spread < 0.5,
             "monte_carlo: bounds must be ≥ 0, temp_scale < 1, unit_spread < 0.5"
@@ -344,7 +346,11 @@ impl Flight {
         }
         let h_prev = self.state.h;
         let climb_prev = self.climb;
-        let c_cmd = if self.airborne { (lim.alt_gain * (seg.alt_m - h_prev)).clamp(-lim.climb_mps, lim.climb_mps) } else { 0.0 };
+        let c_cmd = if self.airborne {
+            (lim.alt_gain * (seg.alt_m - h_prev)).clamp(-lim.climb_mps, lim.climb_mps)
+        } else {
+            0.0
+        };
         self.climb = slew(self.climb, c_cmd, lim.climb_accel_mps2 * dt);
         let h = h_prev + 0.5 * (climb_prev + self.climb) * dt;
         let (s, c) = self.heading.sin_cos();

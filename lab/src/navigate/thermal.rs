@@ -28,7 +28,10 @@ impl Profile {
     /// Empty or unsorted breakpoints.
     pub fn new(points: Vec<TempPoint>) -> anyhow::Result<Self> {
         anyhow::ensure!(!points.is_empty(), "temperature profile has no breakpoints");
-        anyhow::ensure!(points.windows(2).all(|w| w[1].t_s > w[0].t_s), "temperature breakpoints not increasing in time");
+        anyhow::ensure!(
+            points.windows(2).all(|w| w[1].t_s > w[0].t_s),
+            "temperature breakpoints not increasing in time"
+        );
         Ok(Self { points })
     }
 
@@ -54,7 +57,8 @@ mod tests {
 
     #[test]
     fn profile_interpolates_and_holds() {
-        let p = Profile::new(vec![TempPoint { t_s: 0.0, temp_c: 20.0 }, TempPoint { t_s: 100.0, temp_c: 30.0 }]).unwrap();
+        let p =
+            Profile::new(vec![TempPoint { t_s: 0.0, temp_c: 20.0 }, TempPoint { t_s: 100.0, temp_c: 30.0 }]).unwrap();
         assert_eq!(p.at(-5.0), 20.0);
         assert_eq!(p.at(50.0), 25.0);
         assert_eq!(p.at(500.0), 30.0);

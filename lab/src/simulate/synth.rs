@@ -128,7 +128,8 @@ pub fn truth(scale: ScaleFactor, b: [f32; 3], ext: Extensions) -> AxisModel {
 /// The chamber program: the simulator's paper staircase ([`Program::staircase`]) between
 /// `t_lo` and `t_hi` (rounded to whole °C: the program steps 1 °C), then a final hold.
 fn program(c: &SynthConfig, rate: f64) -> Program {
-    let mut p = Program::staircase("synth", rate, c.hold_start_min, c.dwell_min, c.t_lo.round() as i32, c.t_hi.round() as i32);
+    let mut p =
+        Program::staircase("synth", rate, c.hold_start_min, c.dwell_min, c.t_lo.round() as i32, c.t_hi.round() as i32);
     let end = p.duration_s();
     p.points.push((end + c.hold_end_min * 60.0, 22.0));
     p

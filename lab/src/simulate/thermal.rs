@@ -107,12 +107,7 @@ impl ChainState {
         let c1 = self.case.step(self.air_c, air_c);
         let e = self.element.step(c0, c1);
         self.air_c = air_c;
-        Temps {
-            air_c,
-            case_c: c1,
-            case_rate_c_per_min: self.case.rate_per_s(air_c) * 60.0,
-            element_c: e,
-        }
+        Temps { air_c, case_c: c1, case_rate_c_per_min: self.case.rate_per_s(air_c) * 60.0, element_c: e }
     }
 }
 
