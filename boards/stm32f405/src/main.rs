@@ -21,7 +21,7 @@
 //! interrupt and call `Applier::cycle_samples(raw, dt_ticks)`, with the same handoff.
 //!
 //! # RAM
-//! The compensator (`core_ram_bytes` of `cargo xtask bench-target`, 992 B) and the
+//! The compensator (`core_ram_bytes` of `cargo xtask bench-target`, 1 000 B) and the
 //! decoded table (708 B) live in `StaticCell`s, about 1 000 B and 712 B with their init flags
 //! (`llvm-nm -S` of the release image). `Table` is a postcard decoding, so validating the
 //! flash bytes means copying them to RAM once; the compensator then holds only a
