@@ -89,13 +89,7 @@ fn calibrate_beats_the_cubic_on_every_axis_and_compensate_agrees() {
     assert_eq!(rows.len(), 8399);
     let split_t = report["split_time_s"].as_f64().unwrap();
     for (k, a) in axes.iter().enumerate() {
-        let reference = a["reference_g"].as_f64().unwrap();
-        let r: Vec<f64> = rows
-            .iter()
-            .filter(|r| r[0].parse::<f64>().unwrap() > split_t + 1e-3 && &r[5] != "no_temperature")
-            .map(|r| r[2 + k].parse::<f64>().unwrap() - reference)
-            .collect();
-        let got = (r.iter().map(|x| x * x).sum::<f64>() / r.len() as f64).sqrt() * 1e3;
+        let got = heldout_rms_mg(&rows, k, a["reference_g"].as_f64().unwrap(), split_t);
         let want = f(a, "ours");
         assert!((got - want).abs() < 0.01 * want, "{}: compensate {got:.3} mg vs report {want:.3} mg", a["axis"]);
     }
@@ -127,17 +121,22 @@ fn calibrate_beats_the_cubic_on_every_axis_and_compensate_agrees() {
     lab(&args);
     let rows: Vec<csv::StringRecord> = csv::Reader::from_path(&comp).unwrap().records().map(Result::unwrap).collect();
     for (k, d) in daxes.iter().enumerate() {
-        let reference = d["reference_g"].as_f64().unwrap();
-        let r: Vec<f64> = rows
-            .iter()
-            .filter(|r| r[0].parse::<f64>().unwrap() > split_t + 1e-3 && &r[5] != "no_temperature")
-            .map(|r| r[2 + k].parse::<f64>().unwrap() - reference)
-            .collect();
-        let got = (r.iter().map(|x| x * x).sum::<f64>() / r.len() as f64).sqrt() * 1e3;
+        let got = heldout_rms_mg(&rows, k, d["reference_g"].as_f64().unwrap(), split_t);
         let want = f(d, "final_model");
         assert!((got - want).abs() < 0.01 * want, "{}: compensate {got:.3} mg vs discover {want:.3} mg", d["axis"]);
     }
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// RMS (mg) of axis `k` of `compensate`'s output rows after the split, less `reference` g:
+/// computed here from the CSV, independently of the report it is compared with.
+fn heldout_rms_mg(rows: &[csv::StringRecord], k: usize, reference: f64, split_t: f64) -> f64 {
+    let r: Vec<f64> = rows
+        .iter()
+        .filter(|r| r[0].parse::<f64>().unwrap() > split_t + 1e-3 && &r[5] != "no_temperature")
+        .map(|r| r[2 + k].parse::<f64>().unwrap() - reference)
+        .collect();
+    (r.iter().map(|x| x * x).sum::<f64>() / r.len() as f64).sqrt() * 1e3
 }
 
 /// Run `qfa-lab discover` on the real log into `out`; its `report.json`.

@@ -277,14 +277,9 @@ pub fn discover_static(log: &StaticLog, start: Start) -> Result<StaticDiscovery>
     Ok(StaticDiscovery {
         table: cal.table,
         start,
-        split: format!(
-            "fit on rows 1..={} (up to the first row at the highest temperature, t = {:.1} s), evaluate on rows {}..={}",
-            last + 1,
-            log.time_s[last],
-            last + 2,
-            n
-        ),
-        split_time_s: log.time_s[last],
+        // The split is calibration's own (same `split_index`), so its words are too.
+        split: cal.report.split.clone(),
+        split_time_s: cal.report.split_time_s,
         bin_s,
         axes,
         reports,
