@@ -11,7 +11,7 @@
 //! usually have tied branches already (Single), and the two columns then coincide; the
 //! figures quoted in the README (78.3 → 81.3 %) were measured with free branches always.
 
-use qfa_lab::navigate::{self, mc, run, scenario::Scenario};
+use qfa_lab::navigate::{self, mc, scenario::Scenario};
 
 #[test]
 #[ignore = "experiment: run with --ignored"]
@@ -22,8 +22,7 @@ fn nav_branch_noise_experiment() {
         let d = mc::draw(&sc, sc.seed, i);
         let mut out = [0.0; 2];
         for (k, o) in out.iter_mut().enumerate() {
-            let mut tables = navigate::calibrate_with(&d.units, d.seed, 1, false).unwrap();
-            tables.misalignment = d.scenario.imu.accel.carried_misalignment();
+            let mut tables = mc::tables_of(&d, false).unwrap();
             if k == 1 {
                 for u in &mut tables.units {
                     for a in &mut u.hysteresis.axes {
@@ -35,14 +34,7 @@ fn nav_branch_noise_experiment() {
                     }
                 }
             }
-            let r = run::fly(
-                &d.scenario,
-                &mut navigate::truths_seeded(&d.units, d.seed),
-                navigate::mc_variants(&tables).unwrap(),
-            )
-            .unwrap();
-            let th = navigate::thermal_ceps(&r).unwrap();
-            *o = navigate::share(th["simple"], th["hysteresis"], th["oracle"]).unwrap();
+            *o = mc::hysteresis_share(&d, &tables).unwrap();
         }
         println!("run {i}: thermal share removed, fitted branches {:.3}, tied branches {:.3}", out[0], out[1]);
         shares.push(out);

@@ -14,7 +14,7 @@
 //! 0.5 → 82.0 %, 72.3 %, 70.6 %. Not applied: 0.3 and 0.5 are not derived from anything,
 //! and the fit traces the branch with the table's deadband.
 
-use qfa_lab::navigate::{self, mc, run, scenario::Scenario};
+use qfa_lab::navigate::{mc, scenario::Scenario};
 use rayon::prelude::*;
 
 #[test]
@@ -29,21 +29,13 @@ fn nav_deadband_experiment() {
             let d = mc::draw(&sc, sc.seed, i);
             let mut out = [0.0; 3];
             for (o, db) in out.iter_mut().zip(deadbands) {
-                let mut tables = navigate::calibrate_with(&d.units, d.seed, 1, false).unwrap();
-                tables.misalignment = d.scenario.imu.accel.carried_misalignment();
+                let mut tables = mc::tables_of(&d, false).unwrap();
                 for u in &mut tables.units {
                     for a in &mut u.hysteresis.axes {
                         a.bias.deadband_c_per_min = db;
                     }
                 }
-                let r = run::fly(
-                    &d.scenario,
-                    &mut navigate::truths_seeded(&d.units, d.seed),
-                    navigate::mc_variants(&tables).unwrap(),
-                )
-                .unwrap();
-                let th = navigate::thermal_ceps(&r).unwrap();
-                *o = navigate::share(th["simple"], th["hysteresis"], th["oracle"]).unwrap();
+                *o = mc::hysteresis_share(&d, &tables).unwrap();
             }
             println!(
                 "run {i}: thermal share removed, deadband {:.3} / {:.3} / {:.3} → {:.3} / {:.3} / {:.3}",

@@ -36,7 +36,7 @@ use serde::{Deserialize, Serialize};
 use super::align::AlignErrors;
 use super::run::{self, Figures};
 use super::scenario::{Scenario, Variation};
-use super::{calibrate_with, mc_variants, share, thermal_ceps, truths_seeded, units, NavigateArgs};
+use super::{calibrate_with, mc_variants, share, thermal_ceps, truths_seeded, units, NavigateArgs, Tables};
 use crate::simulate::truth::Truth;
 
 /// What to run.
@@ -283,15 +283,37 @@ pub fn draw(sc: &Scenario, seed: u64, i: u64) -> Draw {
     Draw { scenario: s, units, seed: rs, temp_offset_c: off, temp_scale: scale }
 }
 
+/// The tables run `d` flies: its units calibrated (`discover` adds the `discovered`
+/// variant), carrying the triad's known misalignment matrix.
+///
+/// # Errors
+/// Calibration.
+pub fn tables_of(d: &Draw, discover: bool) -> anyhow::Result<Tables> {
+    let mut tables = calibrate_with(&d.units, d.seed, 1, discover)?;
+    tables.misalignment = d.scenario.imu.accel.carried_misalignment();
+    Ok(tables)
+}
+
+/// Fly draw `d` with `tables` (possibly edited, for an experiment) and return the
+/// hysteresis variant's thermal share removed, `(simple − hysteresis)/(simple − oracle)`.
+///
+/// # Errors
+/// Flight, or a share that cannot be computed.
+pub fn hysteresis_share(d: &Draw, tables: &Tables) -> anyhow::Result<f64> {
+    let r = run::fly(&d.scenario, &mut truths_seeded(&d.units, d.seed), mc_variants(tables)?)?;
+    let th = thermal_ceps(&r)?;
+    share(th["simple"], th["hysteresis"], th["oracle"])
+}
+
 /// Fly run `i` of base seed `seed`; `discover` adds the `discovered` variant.
 ///
 /// # Errors
 /// Calibration, flight, or a share that cannot be computed.
 pub fn one(sc: &Scenario, seed: u64, i: u64, discover: bool) -> anyhow::Result<Outcome> {
     let t0 = Instant::now();
-    let Draw { scenario: s, units: us, seed: rs, temp_offset_c: off, temp_scale: scale } = draw(sc, seed, i);
-    let mut tables = calibrate_with(&us, rs, 1, discover).with_context(|| format!("run {i}: calibration"))?;
-    tables.misalignment = s.imu.accel.carried_misalignment();
+    let d = draw(sc, seed, i);
+    let tables = tables_of(&d, discover).with_context(|| format!("run {i}: calibration"))?;
+    let Draw { scenario: s, units: us, seed: rs, temp_offset_c: off, temp_scale: scale } = d;
     let res =
         run::fly(&s, &mut truths_seeded(&us, rs), mc_variants(&tables)?).with_context(|| format!("run {i}: flight"))?;
     let cep: BTreeMap<String, f64> =
