@@ -562,7 +562,7 @@ impl Setup<'_> {
 /// * a ridge of 10⁻⁶ × each column's norm, so a column the training bins leave empty (or
 ///   fewer bins than columns) still gives a defined, minimal answer;
 /// * with `pen = Some((from, to))`, a second-difference penalty on coefficients
-///   `from..to` of weight 10⁻² / rms(column norm⁻¹), which keeps a sparse bias grid well
+///   `from..to` of weight 10⁻² × the median column norm, which keeps a sparse bias grid well
 ///   posed (weight 10⁻⁴ in the squared objective, against bins of unit weight).
 fn solve(a: &DMatrix<f64>, y: &DVector<f64>, pen: Option<(usize, usize)>) -> Vec<f64> {
     let (n, k) = a.shape();
@@ -577,8 +577,12 @@ fn solve(a: &DMatrix<f64>, y: &DVector<f64>, pen: Option<(usize, usize)>) -> Vec
         m[(n + j, j)] = 1e-6 * norm[j];
     }
     if let Some((lo, hi)) = pen {
-        let mean_s2 = norm[lo..hi].iter().map(|v| 1.0 / (v * v)).sum::<f64>() / (hi - lo) as f64;
-        let w = (1e-4 / mean_s2).sqrt();
+        // Scaled by the median column norm: a node the training bins barely touch must not
+        // set the weight (an earlier 1/rms(norm⁻¹) let one near-empty end node shrink the
+        // penalty to nothing, and that node then took a coefficient of 10⁶ µg).
+        let mut sorted: Vec<f64> = norm[lo..hi].to_vec();
+        sorted.sort_by(f64::total_cmp);
+        let w = 1e-2 * sorted[sorted.len() / 2];
         for (i, j) in (lo..hi.saturating_sub(2)).enumerate() {
             for (d, c) in [1.0, -2.0, 1.0].into_iter().enumerate() {
                 m[(n + k + i, j + d)] = w * c;
