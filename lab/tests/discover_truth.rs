@@ -11,7 +11,7 @@
 //! the same at 0.8 °C/min, and a 40-min hold; 3-min dwell at every integer °C; the case
 //! follows the chamber with τ = 300 s; 10-s rows (about 12.9 h, 770 bins of 60 s).
 //!
-//! Cases and the honest answer asserted for each (two seeds each):
+//! Cases and the honest answer asserted for each (three seeds each):
 //! - nothing hidden → `none`, nothing unexplained;
 //! - one-stage lag (τ = 500 s) → `sensor_lag`, τ within 25 %;
 //! - two-stage lag (240 s + 360 s) → `sensor_lag` with the effective τ (the sum, 600 s)
@@ -234,21 +234,15 @@ fn truth_generator_is_what_it_says() {
     assert!((rise - 2.0 * hours).abs() < 3.0, "drift rise {rise} over {hours} h");
 }
 
+/// Three seeds of every case. Before this round seed 2's drift log also got a play
+/// operator (0.78 µg, held-out t = 3.7, weight z = 4.8 against the residuals' own
+/// bootstrap), and seed 3's one-stage lag was named a play: the first was stopped by the
+/// weight test's search bootstrap (with r searched again per resample the weight's SE is
+/// 0.58 µg, against 0.18 µg with r fixed, so z = 1.3), the second was a blown-up grid node in one fold (fixed in
+/// the fitter's penalty). Either fix reverted makes this test fail, measured.
 #[test]
 fn discovery_is_honest_on_data_it_did_not_make() {
-    honest_on_seeds(&[1, 2]);
-}
-
-/// The same cases on a third seed. Fails today, measured: the one-stage lag (500 s) is
-/// named `bias_branch_hysteresis` (r = 1.15 °C, "not identified: as good as
-/// bias_creep"), without `sensor_lag` among the equally good candidates: a wrong name.
-/// Every other case, the drift included (`bias_drift` alone, 2.14 µg/h), is answered
-/// honestly. Kept visible, not in the default run:
-/// `cargo test --release -p qfa-lab --test discover_truth -- --ignored third_seed --nocapture`.
-#[test]
-#[ignore = "fails: seed 3's one-stage lag is named bias_branch_hysteresis (README)"]
-fn discovery_is_honest_on_a_third_seed() {
-    honest_on_seeds(&[3]);
+    honest_on_seeds(&[1, 2, 3]);
 }
 
 fn honest_on_seeds(seeds: &[u64]) {
@@ -305,41 +299,9 @@ fn honest_on_seeds(seeds: &[u64]) {
             gap(&r.heldout_gap_after)
         );
         let n = names(r);
-        let unexplained = !r.unexplained.is_empty();
-        let shrinks = gap(&r.heldout_gap_after) < gap(&r.heldout_gap_before);
-        let ok = match h {
-            Hidden::Nothing => n.is_empty() && !unexplained,
-            Hidden::Lag1 => {
-                n == ["sensor_lag"] && (param(r, "sensor_lag", "tau_s") / 500.0 - 1.0).abs() <= 0.25 && shrinks
-            }
-            Hidden::Lag2 => {
-                n == ["sensor_lag"] && (param(r, "sensor_lag", "tau_s") / 600.0 - 1.0).abs() <= 0.25 && shrinks
-            }
-            Hidden::MultiCreep => honest(r, "bias_creep") && shrinks,
-            Hidden::Drift => {
-                honest(r, "bias_drift")
-                    && shrinks
-                    && (n != ["bias_drift"] || (param(r, "bias_drift", "drift_g_per_h") / 2.0 - 1.0).abs() <= 0.25)
-            }
-            Hidden::Preisach => honest(r, "bias_branch_hysteresis") && shrinks,
-            // The catalog's drift is linear: what it leaves of t² must be reported as
-            // unexplained and following time since start.
-            Hidden::Ageing2 => {
-                n.iter().all(|x| *x == "bias_drift")
-                    && r.unexplained.iter().any(|u| u.correlates_with.iter().any(|c| c == "time_since_start"))
-            }
-        };
-        // Known spurious addition, kept visible rather than hidden behind a seed: on this
-        // seed the drift is found (2.04 µg/h) and then a play operator (r = 5 °C, 1 µg,
-        // t = 4.8) takes the held-out residual from 1.76 to 1.33 µg. Not understood yet;
-        // the README lists it. The first name and its rate are still asserted.
-        let ok = if (h, seed) == (Hidden::Drift, 2) && !ok {
-            println!("    KNOWN spurious addition: {n:?}");
-            n.first() == Some(&"bias_drift") && (param(r, "bias_drift", "drift_g_per_h") / 2.0 - 1.0).abs() <= 0.25
-        } else {
-            ok
-        };
+        let ok = is_honest(h, r);
         if !ok {
+            println!("    rule: {}", r.heldout_rule);
             for (i, round) in r.rounds.iter().enumerate() {
                 for c in round {
                     println!(
@@ -352,6 +314,31 @@ fn honest_on_seeds(seeds: &[u64]) {
         }
     }
     assert!(failures.is_empty(), "dishonest answers:\n{}", failures.join("\n"));
+}
+
+/// The honest answer for case `h` (the module doc lists them).
+fn is_honest(h: Hidden, r: &Report) -> bool {
+    let n = names(r);
+    let unexplained = !r.unexplained.is_empty();
+    let shrinks = gap(&r.heldout_gap_after) < gap(&r.heldout_gap_before);
+    match h {
+        Hidden::Nothing => n.is_empty() && !unexplained,
+        Hidden::Lag1 => n == ["sensor_lag"] && (param(r, "sensor_lag", "tau_s") / 500.0 - 1.0).abs() <= 0.25 && shrinks,
+        Hidden::Lag2 => n == ["sensor_lag"] && (param(r, "sensor_lag", "tau_s") / 600.0 - 1.0).abs() <= 0.25 && shrinks,
+        Hidden::MultiCreep => honest(r, "bias_creep") && shrinks,
+        Hidden::Drift => {
+            honest(r, "bias_drift")
+                && shrinks
+                && (n != ["bias_drift"] || (param(r, "bias_drift", "drift_g_per_h") / 2.0 - 1.0).abs() <= 0.25)
+        }
+        Hidden::Preisach => honest(r, "bias_branch_hysteresis") && shrinks,
+        // The catalog's drift is linear: what it leaves of t² must be reported as
+        // unexplained and following time since start.
+        Hidden::Ageing2 => {
+            n.iter().all(|x| *x == "bias_drift")
+                && r.unexplained.iter().any(|u| u.correlates_with.iter().any(|c| c == "time_since_start"))
+        }
+    }
 }
 
 /// False-discovery check on this generator's clean single-channel logs (not timed; run
@@ -400,4 +387,57 @@ fn unexplained_is_reported_in_json_and_in_words() {
     // report must say so rather than leave a table out silently.
     assert!(dir.join("table.bin").exists() || md.contains("did not validate"), "{md}");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The honest-answer rate over many seeds per case (seeds 1000…, not the three above):
+/// the table in the README. Run with
+/// `QFA_HONEST_SEEDS=20 cargo test --release -p qfa-lab --test discover_truth -- --ignored honest_rate --nocapture`.
+/// The bound asserted, 90 % over all cases, was set after the first measurement (132 of 140,
+/// 94 %); with the weight test off the same seeds gave 131 of 140, and with the ramp split
+/// tried this round 99 of 140, so it separates what it should only coarsely: the
+/// per-case lines are the figure.
+#[test]
+#[ignore = "calibration run: release, about 2 min"]
+fn honest_rate_over_many_seeds() {
+    let n: u64 = std::env::var("QFA_HONEST_SEEDS").ok().and_then(|v| v.parse().ok()).unwrap_or(20);
+    let all = [
+        Hidden::Nothing,
+        Hidden::Lag1,
+        Hidden::Lag2,
+        Hidden::MultiCreep,
+        Hidden::Drift,
+        Hidden::Preisach,
+        Hidden::Ageing2,
+    ];
+    let cases: Vec<(Hidden, u64)> = all.iter().flat_map(|&h| (0..n).map(move |s| (h, 1000 + s))).collect();
+    let res: Vec<(bool, Vec<String>)> = cases
+        .par_iter()
+        .map(|&(h, seed)| {
+            let ch = Channels::parse(&generate(h, seed), 60.0).expect("parses");
+            let r = analyze(&ch, Start::Paper);
+            let mut v: Vec<String> = names(&r).iter().map(|x| x.to_string()).collect();
+            if !is_honest(h, &r) {
+                for (i, round) in r.rounds.iter().enumerate() {
+                    for c in round.iter().filter(|c| c.gain.t > c.gain.critical) {
+                        v.push(format!(
+                            "r{i}:{} t{:.1}/{:.1} z{:?}",
+                            c.name,
+                            c.gain.t,
+                            c.gain.critical,
+                            c.weight.as_ref().map(|w| (w.value, w.z))
+                        ));
+                    }
+                }
+            }
+            (is_honest(h, &r), v)
+        })
+        .collect();
+    for h in all {
+        let v: Vec<&(bool, Vec<String>)> = cases.iter().zip(&res).filter(|(c, _)| c.0 == h).map(|(_, r)| r).collect();
+        let bad: Vec<String> = v.iter().filter(|r| !r.0).map(|r| format!("{:?}", r.1)).collect();
+        println!("{:32} honest {}/{}  bad: {}", h.label(), v.iter().filter(|r| r.0).count(), v.len(), bad.join(" "));
+    }
+    let ok = res.iter().filter(|r| r.0).count();
+    println!("honest={ok} of {}", res.len());
+    assert!(ok as f64 >= 0.9 * res.len() as f64);
 }

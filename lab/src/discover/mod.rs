@@ -219,12 +219,29 @@ pub struct CandidateTrial {
     pub channel: String,
     /// Held-out gain and its block test.
     pub gain: GainStat,
-    /// Passed the block test.
+    /// The effect's own weight against its block-bootstrap standard error, on all bins
+    /// (tested only after the block test passed; `None` for a lag, which has no weight).
+    pub weight: Option<WeightZ>,
+    /// Passed the block test, and the weight test where there is one.
     pub significant: bool,
     /// Parameters at a search limit (`name=value`); such a candidate is not added.
     pub at_bound: Vec<String>,
     /// Held-out gaps with it.
     pub gaps: Gaps,
+}
+
+/// An added effect's own weight (drift rate, play weight, creep gain, Eq. 11 term) against
+/// its moving-block bootstrap standard error.
+#[derive(Clone, Debug, Serialize)]
+pub struct WeightZ {
+    /// Parameter name.
+    pub param: String,
+    /// Fitted value on all bins, the other nonlinear parameters as in the first fold.
+    pub value: f64,
+    /// Moving-block bootstrap standard error.
+    pub se: f64,
+    /// |value| / se.
+    pub z: f64,
 }
 
 /// A peer (what users pick today) on the report's own held-out split, bias channel: per
@@ -721,7 +738,10 @@ fn selection_rule_text() -> String {
         "paired block test of the held-out gain: per bin, the drop of (residual/RMS)² summed over the \
          channels; bins grouped into blocks of four times the residual's 1/e autocorrelation lag (≥ 10 bins, \
          ≥ 8 blocks); significant when gain > t(1 − {ALPHA}/m, blocks − 1) × SE of the block sums \
-         (m = {} catalog effects, every round); a candidate with a parameter at a search limit is not added; \
+         (m = {} catalog effects, every round) and, for an effect with a weight of its own (drift rate, \
+         play weight, Eq. 11 term; not a lag or a creep), when |weight| > z(1 − {ALPHA}/(2m)) × its \
+         moving-block bootstrap SE (held-out residuals resampled, the effect's nonlinear parameters \
+         searched again on each of 30 resamples); a candidate with a parameter at a search limit is not added; \
          the best is the largest gain; by the one-standard-error rule the candidate with fewest \
          parameters whose gain is within one SE of the best's is added (the others are listed as \
          confusable); at the end each added effect must still be significant given the others \
@@ -979,17 +999,118 @@ fn profile(
 
 /// Linear parameters' spread by a moving-block bootstrap of the all-data residual
 /// (nonlinear parameters fixed): per effect and parameter, the bootstrap SD.
+/// The weight test of candidate `e` in structure `s` (see [`WeightZ`]). Why a second test
+/// besides the held-out gain: an effect whose regressor is global in time (a drift, or a
+/// play's heating/cooling offset) shares the noise's realised trend or leg offsets between
+/// every training and held-out block, so its held-out gain is real on this log even when
+/// the effect is not; its weight against a bootstrap that resamples that slow noise says
+/// whether the log could show such a weight without the effect. The bootstrap resamples
+/// the held-out residuals in moving blocks around the fit and searches the effect's
+/// nonlinear parameters again on every resample, so a play's free half-width is in the
+/// spread; the weight passes when |value|/SE > z(1 − α/(2m)), two-sided, m as in the gain
+/// test.
+fn weight_z(setup: &Setup, s: &Structure, nl: &Nonlinear, e: Effect, heldout: &Residuals) -> Option<WeightZ> {
+    let key = match e {
+        Effect::TempQuadSf => "beta",
+        Effect::TempQuadBias => "beta_g_per_c2",
+        Effect::RateHysteresis => "epsilon",
+        Effect::RateSquared => "alpha",
+        Effect::RateTempCoupling => "eta",
+        Effect::SensorLag => return None,
+        Effect::BiasBranchHysteresis => "weight_g",
+        // The creep's gain trades off against its τ (a long τ with a large gain looks like a
+        // short one with a small gain; its interval was [0.5, 43] µg/°C on a two-τ creep
+        // log), so the gain is not a weight to test; like the lag, the creep answers to
+        // the held-out test alone.
+        Effect::BiasCreep => return None,
+        Effect::BiasDrift => "drift_g_per_h",
+    };
+    let all = vec![true; setup.ch.n_bins()];
+    let f = setup.fit(s, nl, &all);
+    let value = *effect_params(e, &f).get(key)?;
+    // The noise to resample: the held-out residuals. The all-bin fit's own residuals have
+    // lost the slow noise its 16 grid nodes and the effect absorbed (measured on drift logs
+    // with a play tried on top: the play's z then spread with SD 1.8 instead of 1).
+    let r = heldout;
+    let len = stats::block_len(setup.ch, &[&r.sf, &r.bias]);
+    let se = search_bootstrap_se(setup, s, nl, e, &f, r, len, key)?;
+    Some(WeightZ { param: key.into(), value, se, z: value.abs() / se.max(1e-300) })
+}
+
+/// Moving-block bootstrap SD of parameter `key` of effect `e`, its nonlinear parameters
+/// searched again on every resample (so the search's own freedom is in the spread).
+#[allow(clippy::too_many_arguments)]
+fn search_bootstrap_se(
+    setup: &Setup,
+    s: &Structure,
+    nl: &Nonlinear,
+    e: Effect,
+    fit: &Fitted,
+    noise: &Residuals,
+    len: usize,
+    key: &str,
+) -> Option<f64> {
+    // 30 resamples: the SE to about ±13 %, at 30 parameter searches per tested candidate.
+    let b_n: usize = 30;
+    let ch = setup.ch;
+    let n = ch.n_bins();
+    let u = setup.bias_unit();
+    let all = vec![true; n];
+    let mut rng = stats_rng();
+    let base = nl.without(e);
+    let mut xs = Vec::with_capacity(b_n);
+    for _ in 0..b_n {
+        let mut ch2 = ch.clone();
+        let mut o = 0;
+        for t in &mut ch2.traces {
+            let m = t.bins.len();
+            let mut i = 0;
+            while i < m {
+                let start = if m > len { (rng.uniform() * (m - len + 1) as f64) as usize } else { 0 };
+                for k in 0..len.min(m - i) {
+                    let j = o + (start + k).min(m - 1);
+                    let p = fit.pred[o + i + k];
+                    let (rs, rb) = (noise.sf[j], noise.bias[j]);
+                    let b = &mut t.bins[i + k];
+                    b.sf = p.0 + if rs.is_finite() { rs * p.0 * 1e-6 } else { 0.0 };
+                    b.bias = p.1 + rb / u;
+                }
+                i += len;
+            }
+            o += m;
+        }
+        let mut st2 = Setup::new(&ch2);
+        st2.sigma_sf = setup.sigma_sf;
+        st2.sigma_b = setup.sigma_b;
+        let nl2 = search(&st2, s, &base, e, &all);
+        let f2 = st2.fit(s, &nl2, &all);
+        if let Some(&v) = effect_params(e, &f2).get(key) {
+            xs.push(v);
+        }
+    }
+    if xs.len() < 2 {
+        return None;
+    }
+    let m = xs.iter().sum::<f64>() / xs.len() as f64;
+    Some((xs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (xs.len() - 1) as f64).sqrt())
+}
+
 fn bootstrap_linear(
     setup: &Setup,
     s: &Structure,
     nl: &Nonlinear,
     fit: &Fitted,
+    noise: Option<&Residuals>,
     eff: &[Effect],
     len: usize,
 ) -> Vec<std::collections::BTreeMap<String, f64>> {
     const B: usize = 40;
     let bins: Vec<_> = setup.ch.traces.iter().flat_map(|t| t.bins.iter()).collect();
-    let res: Vec<(f64, f64)> = bins.iter().zip(&fit.pred).map(|(b, p)| (b.sf - p.0, b.bias - p.1)).collect();
+    let res: Vec<(f64, f64)> = match noise {
+        // Back from ppm and µg (or value units) to the fit's K1 and K0.
+        Some(r) => (0..bins.len()).map(|i| (r.sf[i] * fit.pred[i].0 * 1e-6, r.bias[i] / setup.bias_unit())).collect(),
+        None => bins.iter().zip(&fit.pred).map(|(b, p)| (b.sf - p.0, b.bias - p.1)).collect(),
+    };
     let all = vec![true; bins.len()];
     let mut rng = stats_rng();
     let mut samples: Vec<Vec<std::collections::BTreeMap<String, f64>>> = vec![Vec::new(); eff.len()];
@@ -1085,13 +1206,16 @@ pub fn analyze(ch: &Channels, start: Start) -> Report {
             // structure under test, whose long correlation would leave too few blocks.
             let blocks = stats::blocks(ch, stats::block_len(ch, &[&r.sf, &r.bias]));
             let g = stats::gain_stat(&blocks, &per_bin_gain(&cur, &r), alpha);
-            let significant = g.gain > 0.0 && g.t > g.critical;
+            let wz = if g.gain > 0.0 && g.t > g.critical { weight_z(&setup, &s2, &nls2[0], e, &r) } else { None };
+            let z_crit = stats::normal_quantile(1.0 - alpha / 2.0);
+            let significant = g.gain > 0.0 && g.t > g.critical && wz.as_ref().is_none_or(|w| w.z > z_crit);
             let mut bound: Vec<String> = nls2.iter().flat_map(|n| at_bound(e, n)).collect();
             bound.dedup();
             trials.push(CandidateTrial {
                 name: e.name().into(),
                 channel: if cyc { e.channel().into() } else { "value".into() },
                 gain: g.clone(),
+                weight: wz,
                 significant,
                 at_bound: bound.clone(),
                 gaps: gaps(ch.kind, &r),
@@ -1190,7 +1314,7 @@ pub fn analyze(ch: &Channels, start: Start) -> Report {
     let lin_sd = if eff_list.is_empty() {
         Vec::new()
     } else {
-        bootstrap_linear(&setup, &s, &nl_all, &final_fit, &eff_list, len_all)
+        bootstrap_linear(&setup, &s, &nl_all, &final_fit, None, &eff_list, len_all)
     };
     let effects = effects
         .into_iter()
