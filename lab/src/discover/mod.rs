@@ -32,7 +32,11 @@
 //!    blocks), so the block sums are close to independent even under the Gauss–Markov
 //!    bias instability. A candidate is significant when its gain exceeds
 //!    t(1 − 0.05/m, blocks − 1) standard errors of the block sums (m = 9, the catalog's
-//!    size, in every round: Bonferroni over everything the workflow could add). A significant candidate with a parameter at a search limit is
+//!    size, in every round: Bonferroni over everything the workflow could add). An
+//!    effect with a weight of its own (drift rate, play weight, Eq. 11 term) must also
+//!    clear its weight test ([`WeightZ`]: |weight| > z(1 − 0.05/(2m)) moving-block
+//!    bootstrap SEs, held-out residuals resampled, nonlinear parameters searched again
+//!    per resample). A significant candidate with a parameter at a search limit is
 //!    not added (a limit, not the data, decided it); it is reported. Among the rest the
 //!    largest gain is best, and by the one-standard-error rule the candidate with fewest
 //!    parameters whose gain is within one SE of the best's is added; the others are
