@@ -1057,31 +1057,16 @@ fn search_bootstrap_se(
     // 30 resamples: the SE to about ±13 %, at 30 parameter searches per tested candidate.
     let b_n: usize = 30;
     let ch = setup.ch;
-    let n = ch.n_bins();
-    let u = setup.bias_unit();
-    let all = vec![true; n];
+    let all = vec![true; ch.n_bins()];
+    let res = noise_of(setup, fit, Some(noise));
     let mut rng = stats_rng();
     let base = nl.without(e);
     let mut xs = Vec::with_capacity(b_n);
     for _ in 0..b_n {
+        let y = block_resample(ch, &fit.pred, &res, len, &mut rng);
         let mut ch2 = ch.clone();
-        let mut o = 0;
-        for t in &mut ch2.traces {
-            let m = t.bins.len();
-            let mut i = 0;
-            while i < m {
-                let start = if m > len { (rng.uniform() * (m - len + 1) as f64) as usize } else { 0 };
-                for k in 0..len.min(m - i) {
-                    let j = o + (start + k).min(m - 1);
-                    let p = fit.pred[o + i + k];
-                    let (rs, rb) = (noise.sf[j], noise.bias[j]);
-                    let b = &mut t.bins[i + k];
-                    b.sf = p.0 + if rs.is_finite() { rs * p.0 * 1e-6 } else { 0.0 };
-                    b.bias = p.1 + rb / u;
-                }
-                i += len;
-            }
-            o += m;
+        for (b, v) in ch2.traces.iter_mut().flat_map(|t| t.bins.iter_mut()).zip(y) {
+            (b.sf, b.bias) = v;
         }
         let mut st2 = Setup::new(&ch2);
         st2.sigma_sf = setup.sigma_sf;
@@ -1099,42 +1084,61 @@ fn search_bootstrap_se(
     Some((xs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (xs.len() - 1) as f64).sqrt())
 }
 
+/// The noise a bootstrap resamples, in the fit's K1 and K0 units: `noise` (ppm and µg or
+/// value units) when given, else the fit's own residuals.
+fn noise_of(setup: &Setup, fit: &Fitted, noise: Option<&Residuals>) -> Vec<(f64, f64)> {
+    let bins = setup.ch.traces.iter().flat_map(|t| t.bins.iter());
+    match noise {
+        Some(r) => {
+            (0..fit.pred.len()).map(|i| (r.sf[i] * fit.pred[i].0 * 1e-6, r.bias[i] / setup.bias_unit())).collect()
+        }
+        None => bins.zip(&fit.pred).map(|(b, p)| (b.sf - p.0, b.bias - p.1)).collect(),
+    }
+}
+
+/// One moving-block resample: per bin, the prediction plus the noise of a bin in a block
+/// of `len` consecutive bins of the same trace, each block starting at a random bin.
+fn block_resample(
+    ch: &Channels,
+    pred: &[(f64, f64)],
+    res: &[(f64, f64)],
+    len: usize,
+    rng: &mut crate::simulate::synth::Rng,
+) -> Vec<(f64, f64)> {
+    let mut y = Vec::with_capacity(pred.len());
+    let mut o = 0;
+    for t in &ch.traces {
+        let m = t.bins.len();
+        let mut i = 0;
+        while i < m {
+            let start = if m > len { (rng.uniform() * (m - len + 1) as f64) as usize } else { 0 };
+            for k in 0..len.min(m - i) {
+                let j = o + (start + k).min(m - 1);
+                let (p, r) = (pred[o + i + k], res[j]);
+                y.push((p.0 + if r.0.is_finite() { r.0 } else { 0.0 }, p.1 + r.1));
+            }
+            i += len;
+        }
+        o += m;
+    }
+    y
+}
+
 fn bootstrap_linear(
     setup: &Setup,
     s: &Structure,
     nl: &Nonlinear,
     fit: &Fitted,
-    noise: Option<&Residuals>,
     eff: &[Effect],
     len: usize,
 ) -> Vec<std::collections::BTreeMap<String, f64>> {
     const B: usize = 40;
-    let bins: Vec<_> = setup.ch.traces.iter().flat_map(|t| t.bins.iter()).collect();
-    let res: Vec<(f64, f64)> = match noise {
-        // Back from ppm and µg (or value units) to the fit's K1 and K0.
-        Some(r) => (0..bins.len()).map(|i| (r.sf[i] * fit.pred[i].0 * 1e-6, r.bias[i] / setup.bias_unit())).collect(),
-        None => bins.iter().zip(&fit.pred).map(|(b, p)| (b.sf - p.0, b.bias - p.1)).collect(),
-    };
-    let all = vec![true; bins.len()];
+    let res = noise_of(setup, fit, None);
+    let all = vec![true; setup.ch.n_bins()];
     let mut rng = stats_rng();
     let mut samples: Vec<Vec<std::collections::BTreeMap<String, f64>>> = vec![Vec::new(); eff.len()];
     for _ in 0..B {
-        let mut y = Vec::with_capacity(bins.len());
-        let mut o = 0;
-        for t in &setup.ch.traces {
-            let m = t.bins.len();
-            let mut i = 0;
-            while i < m {
-                let start = if m > len { (rng.uniform() * (m - len + 1) as f64) as usize } else { 0 };
-                for k in 0..len.min(m - i) {
-                    let j = o + (start + k).min(m - 1);
-                    let (p, r) = (fit.pred[o + i + k], res[j]);
-                    y.push((p.0 + if r.0.is_finite() { r.0 } else { 0.0 }, p.1 + r.1));
-                }
-                i += len;
-            }
-            o += m;
-        }
+        let y = block_resample(setup.ch, &fit.pred, &res, len, &mut rng);
         let f = setup.fit_y(s, nl, &all, Some(&y));
         for (k, &e) in eff.iter().enumerate() {
             samples[k].push(effect_params(e, &f));
@@ -1318,7 +1322,7 @@ pub fn analyze(ch: &Channels, start: Start) -> Report {
     let lin_sd = if eff_list.is_empty() {
         Vec::new()
     } else {
-        bootstrap_linear(&setup, &s, &nl_all, &final_fit, None, &eff_list, len_all)
+        bootstrap_linear(&setup, &s, &nl_all, &final_fit, &eff_list, len_all)
     };
     let effects = effects
         .into_iter()
