@@ -245,19 +245,12 @@ fn discovery_is_honest_on_data_it_did_not_make() {
     honest_on_seeds(&[1, 2, 3]);
 }
 
+/// Every case, in the order of the tables.
+const ALL_CASES: [Hidden; 7] =
+    [Hidden::Nothing, Hidden::Lag1, Hidden::Lag2, Hidden::MultiCreep, Hidden::Drift, Hidden::Preisach, Hidden::Ageing2];
+
 fn honest_on_seeds(seeds: &[u64]) {
-    let cases: Vec<(Hidden, u64)> = [
-        Hidden::Nothing,
-        Hidden::Lag1,
-        Hidden::Lag2,
-        Hidden::MultiCreep,
-        Hidden::Drift,
-        Hidden::Preisach,
-        Hidden::Ageing2,
-    ]
-    .into_iter()
-    .flat_map(|h| seeds.iter().map(move |&s| (h, s)))
-    .collect();
+    let cases: Vec<(Hidden, u64)> = ALL_CASES.into_iter().flat_map(|h| seeds.iter().map(move |&s| (h, s))).collect();
     let reports: Vec<Report> = cases
         .par_iter()
         .map(|&(h, seed)| {
@@ -400,15 +393,7 @@ fn unexplained_is_reported_in_json_and_in_words() {
 #[ignore = "calibration run: release, about 2 min"]
 fn honest_rate_over_many_seeds() {
     let n: u64 = std::env::var("QFA_HONEST_SEEDS").ok().and_then(|v| v.parse().ok()).unwrap_or(20);
-    let all = [
-        Hidden::Nothing,
-        Hidden::Lag1,
-        Hidden::Lag2,
-        Hidden::MultiCreep,
-        Hidden::Drift,
-        Hidden::Preisach,
-        Hidden::Ageing2,
-    ];
+    let all = ALL_CASES;
     let cases: Vec<(Hidden, u64)> = all.iter().flat_map(|&h| (0..n).map(move |s| (h, 1000 + s))).collect();
     let res: Vec<(bool, Vec<String>)> = cases
         .par_iter()
