@@ -42,15 +42,7 @@ const RATE_WINDOW: u16 = 32;
 /// plausible bias (about 100 µg at 22 °C, 1.5 µg/°C) on a −40..80 °C grid. It validates,
 /// so the board runs compensated out of the box; it is not a calibration of any sensor.
 fn fixture() -> Table {
-    let scale = ScaleFactor {
-        t0_c: 22.0,
-        gamma: 320_320.0,
-        mu: -32.76,
-        beta: 0.1008,
-        epsilon: 88.14,
-        eta: -0.02409,
-        alpha: 273.0,
-    };
+    let scale = ScaleFactor::JB_KT8_1;
     let mut table = Table { rate_window: RATE_WINDOW, axes: Default::default(), misalignment: None };
     for axis in 0..MAX_AXES {
         let offset = 1.0e-4 + 2.0e-5 * axis as f32;

@@ -7,7 +7,7 @@ use qfa_thermal::{AxisModel, BiasGrid, Extensions, ScaleFactor, Table};
 /// Scale factor of JB-KT8 #1 (paper Eq. 15), pulses/(g·s), T0 = 22 °C, Ṫ in °C/min.
 #[must_use]
 pub const fn kt8_1() -> ScaleFactor {
-    ScaleFactor { t0_c: 22.0, gamma: 320_320.0, mu: -32.76, beta: 0.1008, epsilon: 88.14, eta: -0.02409, alpha: 273.0 }
+    ScaleFactor::JB_KT8_1
 }
 
 /// First grid point, °C.

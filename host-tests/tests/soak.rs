@@ -54,15 +54,7 @@ fn one_axis_table() -> Vec<u8> {
     use qfa_thermal::model::{AxisModel, BiasGrid, Extensions, ScaleFactor};
     use qfa_thermal::table::{Table, MAX_TABLE_BYTES};
     let mut t = Table { rate_window: 32, axes: heapless::Vec::new(), misalignment: None };
-    let scale = ScaleFactor {
-        t0_c: 22.0,
-        gamma: 320_320.0,
-        mu: -32.76,
-        beta: 0.1008,
-        epsilon: 88.14,
-        eta: -0.02409,
-        alpha: 273.0,
-    };
+    let scale = ScaleFactor::JB_KT8_1;
     let bias = BiasGrid::single_valued(-60.0, 65.0, &[1e-4, 1.5e-4, 3e-4]);
     t.axes.push(AxisModel { scale, bias, rate_limit_c_per_min: 2.0, ext: Extensions::default() }).unwrap();
     let mut buf = [0u8; MAX_TABLE_BYTES];

@@ -1037,9 +1037,8 @@ fn weight_z(setup: &Setup, s: &Structure, nl: &Nonlinear, e: Effect, heldout: &R
     // development on 60 drift logs with a play tried on top (no play in the truth), the
     // play's z spread with SD 1.8 from the fit's own residuals, 1.5 from the held-out ones
     // with r fixed, and 0.84 with r searched again per resample, as here.
-    let r = heldout;
-    let len = stats::block_len(setup.ch, &[&r.sf, &r.bias]);
-    let se = search_bootstrap_se(setup, s, nl, e, &f, r, len, key)?;
+    let len = stats::block_len(setup.ch, &[&heldout.sf, &heldout.bias]);
+    let se = search_bootstrap_se(setup, s, nl, e, &f, heldout, len, key)?;
     Some(WeightZ { param: key.into(), value, se, z: value.abs() / se.max(1e-300) })
 }
 
