@@ -104,6 +104,9 @@ pub enum SampleError {
         /// The rejected raw value, 1/16 °C.
         raw: i16,
     },
+    /// The reading never arrived: the bus or the sensor failed (see
+    /// [`Updater::on_missed_reading`]).
+    Missed,
     /// No temperature stream with this index (`SENSORS` streams exist).
     NoSuchSensor {
         /// The index given.
@@ -118,6 +121,7 @@ impl fmt::Display for SampleError {
             Self::Time(e) => write!(f, "time: {e}"),
             Self::PowerOnJump => f.write_str("power-on value 0550h arrived as a jump"),
             Self::Implausible { raw } => write!(f, "implausible jump to raw {raw}"),
+            Self::Missed => f.write_str("reading missed: bus or sensor failure"),
             Self::NoSuchSensor { sensor } => write!(f, "no temperature sensor {sensor}"),
         }
     }
@@ -776,6 +780,15 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
         self.updater().on_scratchpad_from(sensor, t_ms, sp)
     }
 
+    /// Slow path: a reading of sensor `sensor` that never arrived; see
+    /// [`Updater::on_missed_reading`].
+    ///
+    /// # Errors
+    /// As [`Updater::on_missed_reading`].
+    pub fn on_missed_reading(&mut self, sensor: usize, t_ms: u32) -> Result<Status, SampleError> {
+        self.updater().on_missed_reading(sensor, t_ms)
+    }
+
     /// Slow path for sensor `sensor` (0..`SENSORS`): a raw reading at `t_ms`.
     ///
     /// # Errors
@@ -875,6 +888,24 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
             Ok(r) => self.on_raw_from(sensor, t_ms, r.raw),
             Err(e) => self.reject(sensor, SampleError::Decode(e)),
         }
+    }
+
+    /// Slow path: sensor `sensor`'s reading, due at `t_ms`, did not arrive (no presence
+    /// pulse, a CRC failure on every retry, a conversion that never started). Raises
+    /// [`Status::TEMP_INVALID`], keeps the last good compensation and advances the
+    /// staleness clock, so a sensor that is dead for weeks is stale for weeks. Call it
+    /// for every reading that fails: the slow path must hear of each sensor, good or bad,
+    /// at least once every 2³¹ ms (24.8 days) to measure how long a sensor was away.
+    ///
+    /// # Errors
+    /// [`SampleError::NoSuchSensor`]; otherwise always [`SampleError::Missed`], with the
+    /// flag raised.
+    pub fn on_missed_reading(&mut self, sensor: usize, t_ms: u32) -> Result<Status, SampleError> {
+        if sensor >= SENSORS {
+            return Err(SampleError::NoSuchSensor { sensor: sensor as u8 });
+        }
+        let _ = t_ms;
+        self.reject(sensor, SampleError::Missed)
     }
 
     /// Slow path: see [`Compensator::on_raw_from`].

@@ -109,6 +109,7 @@ pub fn sample_error_code(e: SampleError) -> u32 {
         SampleError::Time(_) => 0x21,
         SampleError::PowerOnJump => 0x22,
         SampleError::Implausible { .. } => 0x23,
+        SampleError::Missed => 0x24,
         _ => 0x2F,
     }
 }
