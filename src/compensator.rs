@@ -70,6 +70,10 @@ bitflags::bitflags! {
         const NO_TABLE = 1 << 5;
         /// Cumulative counters had no previous value: increments of this cycle are zero.
         const NO_COUNTER_BASE = 1 << 6;
+        /// The fast-path call does not match [`Config::input`] (pulse counts through
+        /// [`Compensator::cycle_samples`], or samples through [`Compensator::cycle`]): the
+        /// output is in the wrong unit and must not be used.
+        const WRONG_INPUT = 1 << 7;
     }
 }
 
@@ -175,6 +179,10 @@ pub struct Config {
     pub stale_after_ticks: u32,
     /// Nominal period of each sensor's readings, ms (default 1 000; 1..=60 000).
     pub sample_period_ms: u32,
+    /// The input the fast path is given (default pulse counts). A table fitted for another
+    /// input is refused ([`table::Error::Input`]), and a fast-path call of the other kind
+    /// raises [`Status::WRONG_INPUT`].
+    pub input: table::Input,
     /// Rate estimator settings.
     pub rate: RateConfig,
     /// Step allowed between good readings regardless of time, 1/16 °C (default 16 = 1 °C; ≥ 0).
@@ -182,7 +190,8 @@ pub struct Config {
     /// Slew allowed between good readings, 1/16 °C per minute (default 160 = 10 °C/min; ≥ 0).
     pub max_slew_raw_per_min: i32,
     /// Consecutive mutually consistent readings that are accepted as a real step or a
-    /// restarted clock (default 3; 1..=16).
+    /// restarted clock (default 3; 2..=16: one reading confirming itself would switch off
+    /// both the plausibility and the restart checks).
     pub confirm_samples: u8,
     /// Scale factor used while no table is loaded, in the sensor's own unit: pulses/(g·s)
     /// for pulse counts, LSB/g for samples. Default 320 000, a JB-KT8-class QFA (Zhang et
@@ -196,6 +205,7 @@ impl Default for Config {
             tick_s: 1e-6,
             stale_after_ticks: 3_000_000,
             sample_period_ms: 1_000,
+            input: table::Input::PulseCounts,
             rate: RateConfig::default(),
             max_step_raw: 16,
             max_slew_raw_per_min: 160,
@@ -249,7 +259,7 @@ impl Config {
         if self.max_slew_raw_per_min < 0 {
             return Err(ConfigError::OutOfRange("max_slew_raw_per_min"));
         }
-        if !(1..=16).contains(&self.confirm_samples) {
+        if !(2..=16).contains(&self.confirm_samples) {
             return Err(ConfigError::OutOfRange("confirm_samples"));
         }
         Ok(())
@@ -344,6 +354,20 @@ impl<const AXES: usize> Published<AXES> {
         }
     }
 
+    /// A word-for-word copy. Only for [`Compensator::clone`]: `&self` there means no split is
+    /// alive, so no publication is in progress and the words are one whole set.
+    fn snapshot(&self) -> Self {
+        let copy = |a: &AtomicU32| AtomicU32::new(a.load(Ordering::Relaxed));
+        Self {
+            seq: copy(&self.seq),
+            scale: core::array::from_fn(|i| copy(&self.scale[i])),
+            bias_tick: core::array::from_fn(|i| copy(&self.bias_tick[i])),
+            bias_acc: core::array::from_fn(|i| copy(&self.bias_acc[i])),
+            misalign: core::array::from_fn(|r| core::array::from_fn(|c| copy(&self.misalign[r][c]))),
+            flags: copy(&self.flags),
+        }
+    }
+
     /// Write `set` (seqlock writer). `after_store` runs after every single store (a test
     /// hook that preempts the writer there; a no-op closure otherwise). Only the updater
     /// calls this.
@@ -391,6 +415,12 @@ struct FastState<const AXES: usize> {
     /// Good-sample count of that set.
     seen_count: u32,
     set: Set<AXES>,
+    /// The set's status as each entry sees it, `[pulses, samples]`: the entry that does not
+    /// match [`Config::input`] adds [`Status::WRONG_INPUT`]. Formed when a set is copied, so
+    /// the per-cycle path only picks a field.
+    path_status: [Status; 2],
+    /// [`Status::WRONG_INPUT`] on the entry of the other kind than the configured input.
+    wrong_path: [Status; 2],
     counters: Option<[u32; AXES]>,
 }
 
@@ -444,6 +474,7 @@ impl<const AXES: usize> Applier<'_, AXES> {
             return; // written meanwhile: this copy may be mixed, drop it
         }
         let f = &mut *self.fast;
+        f.path_status = [set.status | f.wrong_path[0], set.status | f.wrong_path[1]];
         f.set = set;
         f.seen_seq = seq;
         let count = flags >> COUNT_SHIFT;
@@ -454,18 +485,19 @@ impl<const AXES: usize> Applier<'_, AXES> {
     }
 
     /// Refresh the copy if a publication happened; advance the staleness clock; the
-    /// status of this cycle.
+    /// status of this cycle for the pulse (`SAMPLES = false`) or sample entry.
     #[inline(always)]
-    fn begin(&mut self, dt_ticks: u32) -> Status {
+    fn begin<const SAMPLES: bool>(&mut self, dt_ticks: u32) -> Status {
         if self.shared.seq.load(Ordering::Relaxed) != self.fast.seen_seq {
             self.refresh();
         }
         let f = &mut *self.fast;
         f.since_sample_ticks = f.since_sample_ticks.saturating_add(dt_ticks);
+        let status = f.path_status[usize::from(SAMPLES)];
         if f.since_sample_ticks > f.stale_after_ticks {
-            f.set.status | Status::TEMP_STALE
+            status | Status::TEMP_STALE
         } else {
-            f.set.status
+            status
         }
     }
 
@@ -475,7 +507,7 @@ impl<const AXES: usize> Applier<'_, AXES> {
     /// misalignment matrix. Always finite. Never blocks.
     #[inline]
     pub fn cycle(&mut self, pulses: [i32; AXES], dt_ticks: u32) -> Output<AXES> {
-        let status = self.begin(dt_ticks);
+        let status = self.begin::<false>(dt_ticks);
         let s = &self.fast.set;
         let dt = dt_ticks as f32;
         let mut dv = [0.0f32; AXES];
@@ -495,7 +527,7 @@ impl<const AXES: usize> Applier<'_, AXES> {
     /// matrix: the paper's `a = E/K1 − K0`, with `1/K1` formed in the slow path.
     #[inline]
     pub fn cycle_samples(&mut self, raw: [i32; AXES], dt_ticks: u32) -> Output<AXES> {
-        let status = self.begin(dt_ticks);
+        let status = self.begin::<true>(dt_ticks);
         let s = &self.fast.set;
         let mut a = [0.0f32; AXES];
         for i in 0..AXES {
@@ -556,8 +588,9 @@ struct Stream<const N: usize> {
     pending_count: u8,
     /// The latest reading was rejected.
     invalid: bool,
-    /// No good reading for longer than the stale threshold, seen from another stream.
-    stale: bool,
+    /// ms since the last good reading, summed from the slow path's own calls and
+    /// saturating: unlike a wrapping difference of timestamps it never reads fresh again.
+    age_ms: u32,
 }
 
 /// Slow-path state (the updater's own, never touched by the applier).
@@ -565,6 +598,9 @@ struct Stream<const N: usize> {
 struct SlowState<const AXES: usize, const N: usize, const SENSORS: usize, T> {
     config: Config,
     stale_after_ms: u32,
+    /// The latest slow-path time seen (readings, rejections and missed readings alike): the
+    /// clock that advances every stream's `age_ms`.
+    clock_ms: Option<u32>,
     /// Smallest branch deadband, °C/min: the flicker floor of `N` and the sample period.
     deadband_floor: f32,
     table: Option<T>,
@@ -576,6 +612,35 @@ struct SlowState<const AXES: usize, const N: usize, const SENSORS: usize, T> {
 }
 
 impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> SlowState<AXES, N, SENSORS, T> {
+    /// The status of the streams, the table and the evaluations as they stand.
+    fn status(&self) -> Status {
+        let mut st = Status::empty();
+        for s in &self.streams {
+            if !s.rate.ready() {
+                st |= Status::RATE_NOT_READY;
+            }
+            if s.last_good.is_none() || s.age_ms > self.stale_after_ms {
+                st |= Status::TEMP_STALE;
+            }
+            if s.invalid {
+                st |= Status::TEMP_INVALID;
+            }
+        }
+        if self.table.is_none() {
+            st |= Status::NO_TABLE;
+        } else {
+            for e in &self.evals {
+                if e.temp_clamped {
+                    st |= Status::TEMP_OUT_OF_RANGE;
+                }
+                if e.rate_clamped {
+                    st |= Status::RATE_OUT_OF_RANGE;
+                }
+            }
+        }
+        st
+    }
+
     /// The coefficient set of the current table, evaluations and status. Rebuilt at every
     /// publication (three divisions, in the slow path) rather than kept beside the
     /// published one: that copy would cost 80 B of RAM.
@@ -626,15 +691,11 @@ pub struct Compensator<const AXES: usize = 3, const N: usize = 32, const SENSORS
 impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Clone + Borrow<Table>> Clone
     for Compensator<AXES, N, SENSORS, T>
 {
-    /// An independent copy: the clone gets its own [`Published`] set holding the same
-    /// coefficients (atomics are not `Clone`).
+    /// An independent copy in the same state: its own [`Published`] set holds every word
+    /// of the original's, the sequence included, so its applier sees exactly what the
+    /// original's sees (a publication it has not copied yet included).
     fn clone(&self) -> Self {
-        let shared = Published::new();
-        // Carry the good-sample count, so the clone's applier sees no new sample.
-        let count = self.shared.flags.load(Ordering::Relaxed) & !((1 << COUNT_SHIFT) - 1);
-        shared.flags.store(count, Ordering::Relaxed);
-        shared.publish_with(&self.slow.set(), false, || {});
-        Self { slow: self.slow.clone(), shared, fast: self.fast }
+        Self { slow: self.slow.clone(), shared: self.shared.snapshot(), fast: self.fast }
     }
 }
 
@@ -664,12 +725,13 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
             pending: None,
             pending_count: 0,
             invalid: false,
-            stale: false,
+            age_ms: 0,
         };
         let mut c = Self {
             slow: SlowState {
                 config,
                 stale_after_ms: config.stale_after_ms(),
+                clock_ms: None,
                 deadband_floor: rate::flicker_deadband_c_per_min(N, config.sample_period_ms),
                 table: None,
                 streams: core::array::from_fn(|_| stream.clone()),
@@ -684,6 +746,12 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
                 seen_seq: 0,
                 seen_count: 0,
                 set: Set::EMPTY,
+                // Until the first set is copied, nothing is calibrated.
+                path_status: [Status::NO_TABLE | Status::TEMP_STALE; 2],
+                wrong_path: match config.input {
+                    table::Input::PulseCounts => [Status::empty(), Status::WRONG_INPUT],
+                    table::Input::Samples => [Status::WRONG_INPUT, Status::empty()],
+                },
                 counters: None,
             },
         };
@@ -867,6 +935,9 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
         if tb.axes.len() != AXES {
             return Err(table::Error::AxisCount { table: tb.axes.len() as u8, expected: AXES as u8 });
         }
+        if tb.input != self.slow.config.input {
+            return Err(table::Error::Input { table: tb.input, compensator: self.slow.config.input });
+        }
         if usize::from(tb.rate_window) != N {
             return Err(table::Error::RateWindow { table: tb.rate_window, firmware: N as u16 });
         }
@@ -884,6 +955,7 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
         if sensor >= SENSORS {
             return Err(SampleError::NoSuchSensor { sensor: sensor as u8 });
         }
+        self.advance_clock(t_ms);
         match ds18b20::decode_scratchpad(sp) {
             Ok(r) => self.on_raw_from(sensor, t_ms, r.raw),
             Err(e) => self.reject(sensor, SampleError::Decode(e)),
@@ -904,7 +976,7 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
         if sensor >= SENSORS {
             return Err(SampleError::NoSuchSensor { sensor: sensor as u8 });
         }
-        let _ = t_ms;
+        self.advance_clock(t_ms);
         self.reject(sensor, SampleError::Missed)
     }
 
@@ -916,66 +988,98 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
         let Some(s) = self.slow.streams.get(sensor) else {
             return Err(SampleError::NoSuchSensor { sensor: sensor as u8 });
         };
-        let last_good = s.last_good;
+        let (last_good, age_ms) = (s.last_good, s.age_ms);
+        self.advance_clock(t_ms);
+        let age_ms = self.slow.streams[sensor].age_ms.max(age_ms);
+        if !ds18b20::RAW_RANGE.contains(&raw) {
+            return self.reject(sensor, SampleError::Decode(ds18b20::Error::OutOfRange { raw }));
+        }
+        let stale_ms = self.slow.stale_after_ms;
         let mut restart = false;
         let mut clock_restart = false;
+        // ms since this stream's last good reading, `None` across a restarted clock.
+        let mut elapsed_ms = None;
         match last_good {
             None if raw == POWER_ON_RAW => return self.reject(sensor, SampleError::PowerOnJump),
             None => {}
             Some(last) => {
                 let d = t_ms.wrapping_sub(last.t_ms);
-                if d == 0 || d > i32::MAX as u32 {
-                    // A clock that restarted, or a gap past half the ms wrap: accepted
-                    // once `confirm_samples` readings agree with each other.
+                // Away for more than half a wrap: the wrapped difference means nothing (it
+                // reads 2 s after 49.7 days), the saturated age is the elapsed time.
+                let long_gap = age_ms > i32::MAX as u32;
+                let elapsed = if long_gap { age_ms } else { d };
+                if !long_gap && (d == 0 || d > i32::MAX as u32) {
+                    // A clock that restarted: accepted once `confirm_samples` readings
+                    // agree with each other.
                     if raw == POWER_ON_RAW || !self.confirm_step(sensor, t_ms, raw) {
                         return self.reject(sensor, SampleError::Time(rate::Error::NonMonotonic));
                     }
                     restart = true;
                     clock_restart = true;
-                } else if !self.plausible(last, t_ms, raw) {
-                    if raw == POWER_ON_RAW {
-                        return self.reject(sensor, SampleError::PowerOnJump);
-                    }
+                } else if raw == POWER_ON_RAW
+                    && !(elapsed <= stale_ms
+                        && i32::from(raw).abs_diff(i32::from(last.raw)) <= self.slow.config.max_step_raw as u32)
+                {
+                    // A brown-out reads 0550h: taken only as the continuation of a stream
+                    // that was already there, never after a gap or a step.
+                    return self.reject(sensor, SampleError::PowerOnJump);
+                } else if !self.plausible(last, elapsed, raw) {
                     if !self.confirm_step(sensor, t_ms, raw) {
                         return self.reject(sensor, SampleError::Implausible { raw });
                     }
                     restart = true;
+                } else if long_gap {
+                    restart = true;
                 }
+                elapsed_ms = (!clock_restart).then_some(elapsed);
             }
         }
         let s = &mut self.slow.streams[sensor];
         if restart {
             s.rate.reset();
         }
-        let prev_ms = s.last_good.map(|l| l.t_ms);
         if let Err(e) = s.rate.push(t_ms, raw) {
             return self.reject(sensor, SampleError::Time(e));
         }
         s.pending = None;
         s.pending_count = 0;
         s.invalid = false;
-        s.stale = false;
+        s.age_ms = 0;
         s.last_good = Some(Timed { t_ms, raw });
-        // Every other stream is stale if its last good reading is too old at this time.
-        let stale_ms = self.slow.stale_after_ms;
-        for (j, other) in self.slow.streams.iter_mut().enumerate() {
-            if j != sensor {
-                other.stale = other.last_good.is_none_or(|l| t_ms.wrapping_sub(l.t_ms) > stale_ms);
-            }
-        }
         // Across a restarted clock the elapsed time is unknown: the slot states hold.
-        let dt_s = match prev_ms {
-            Some(p) if !clock_restart => t_ms.wrapping_sub(p) as f32 * 1e-3,
-            _ => 0.0,
-        };
+        let dt_s = elapsed_ms.map_or(0.0, |ms| ms as f32 * 1e-3);
         self.refresh(Some(sensor), dt_s, true);
         Ok(self.slow.status)
     }
 
-    /// |raw − last.raw| within step + slew·elapsed.
-    fn plausible(&self, last: Timed, t_ms: u32, raw: i16) -> bool {
+    /// Advance every stream's age by the time since the previous slow-path call. A time
+    /// before that call (a conversion that completed before the previous poll) adds
+    /// nothing; one more than the stale threshold before it is a restarted clock, which
+    /// restarts the count from here.
+    fn advance_clock(&mut self, t_ms: u32) {
+        let slow = &mut *self.slow;
+        let d = match slow.clock_ms {
+            Some(prev) => t_ms.wrapping_sub(prev),
+            None => 0,
+        };
+        if d > i32::MAX as u32 {
+            if d.wrapping_neg() > slow.stale_after_ms {
+                slow.clock_ms = Some(t_ms);
+            }
+            return;
+        }
+        slow.clock_ms = Some(t_ms);
+        for s in &mut slow.streams {
+            s.age_ms = s.age_ms.saturating_add(d);
+        }
+    }
+
+    /// |raw − last.raw| within step + slew·elapsed, the slew term capped at the stale
+    /// threshold: after a longer gap only a step within `max_step_raw` is taken at once,
+    /// anything larger waits for `confirm_samples` readings that agree.
+    fn plausible(&self, last: Timed, elapsed_ms: u32, raw: i16) -> bool {
         let c = &self.slow.config;
-        let d_ms = i64::from(t_ms.wrapping_sub(last.t_ms));
+        let d_ms = i64::from(elapsed_ms.min(self.slow.stale_after_ms));
         let allowed = i64::from(c.max_step_raw) + i64::from(c.max_slew_raw_per_min) * d_ms / 60_000;
         (i64::from(raw) - i64::from(last.raw)).abs() <= allowed
     }
@@ -988,7 +1092,7 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
         let consistent = match pending {
             Some(p) => {
                 let d = t_ms.wrapping_sub(p.t_ms);
-                d != 0 && d < i32::MAX as u32 && self.plausible(p, t_ms, raw)
+                d != 0 && d < i32::MAX as u32 && self.plausible(p, d, raw)
             }
             None => false,
         };
@@ -1000,7 +1104,7 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
 
     fn reject(&mut self, sensor: usize, e: SampleError) -> Result<Status, SampleError> {
         self.slow.streams[sensor].invalid = true;
-        self.slow.status |= Status::TEMP_INVALID;
+        self.slow.status = self.slow.status();
         self.shared.publish_with(&self.slow.set(), false, || {});
         Err(e)
     }
@@ -1034,31 +1138,7 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
                 }
             }
         }
-        let mut st = Status::empty();
-        for s in &slow.streams {
-            if !s.rate.ready() {
-                st |= Status::RATE_NOT_READY;
-            }
-            if s.last_good.is_none() || s.stale {
-                st |= Status::TEMP_STALE;
-            }
-            if s.invalid {
-                st |= Status::TEMP_INVALID;
-            }
-        }
-        if slow.table.is_none() {
-            st |= Status::NO_TABLE;
-        } else {
-            for e in &slow.evals {
-                if e.temp_clamped {
-                    st |= Status::TEMP_OUT_OF_RANGE;
-                }
-                if e.rate_clamped {
-                    st |= Status::RATE_OUT_OF_RANGE;
-                }
-            }
-        }
-        slow.status = st;
+        slow.status = slow.status();
         self.shared.publish_with(&self.slow.set(), good_sample, || {});
     }
 }
@@ -1069,7 +1149,12 @@ mod tests {
     use crate::model::{AxisModel, BiasGrid, Extensions, ScaleFactor};
 
     fn table(axes: usize, window: u16) -> Table {
-        let mut t = Table { rate_window: window, axes: heapless::Vec::new(), misalignment: None };
+        let mut t = Table {
+            input: table::Input::PulseCounts,
+            rate_window: window,
+            axes: heapless::Vec::new(),
+            misalignment: None,
+        };
         for i in 0..axes {
             let a = AxisModel {
                 scale: ScaleFactor {
@@ -1153,11 +1238,17 @@ mod tests {
         let a = f64::from(out.dv_mps[0]) / 9.806_65;
         assert!((a - 0.5).abs() < 5e-6, "{a}");
         assert!(out.status.is_ok());
+        // Samples through the pulse compensator: flagged, never status OK.
+        assert!(c.cycle_samples([n, n, n], 1_000_000).status.contains(Status::WRONG_INPUT));
         // The same model on samples: raw = K1·(K0 + a) LSB gives a in m/s².
-        let samples = c.cycle_samples([n, n, n], 1_000_000);
+        let mut m = Compensator::<3, 32>::new(Config { input: table::Input::Samples, ..Config::default() }).unwrap();
+        m.set_table(Table { input: table::Input::Samples, ..table(3, 32) }).unwrap();
+        warm(&mut m, 21);
+        let samples = m.cycle_samples([n, n, n], 1_000_000);
         let a = f64::from(samples.dv_mps[0]) / 9.806_65;
         assert!((a - 0.5).abs() < 5e-6, "{a}");
-        assert!(samples.status.is_ok());
+        assert!(samples.status.is_ok(), "{samples:?}");
+        assert!(m.cycle([n, n, n], 1_000_000).status.contains(Status::WRONG_INPUT));
     }
 
     #[test]

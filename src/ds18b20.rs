@@ -10,7 +10,7 @@
 //! passes the CRC), CRC mismatch, reserved bytes 5 and 7, config byte, and the
 //! power-on value `0550h` with byte 6 = `0Ch` (the Linux `w1_therm` rule). Byte 6
 //! varies between parts (real reads show 01h, 0Dh, 0Fh), so it is only used for the
-//! power-on rule.
+//! power-on rule. Last, the value must lie in −55…+125 °C ([`RAW_RANGE`]).
 
 use core::fmt;
 
@@ -23,6 +23,11 @@ pub const FAMILY_CODE: u8 = 0x28;
 
 /// Raw value the DS18B20 holds after power-on or a brown-out: +85 °C.
 pub const POWER_ON_RAW: i16 = 0x0550;
+
+/// Raw values the DS18B20 can report: −55…+125 °C (datasheet, "Operating temperature
+/// range"), −880…2 000 in 1/16 °C. Anything else with a good CRC is a clone part or a bus
+/// fault, never a temperature.
+pub const RAW_RANGE: core::ops::RangeInclusive<i16> = -880..=2_000;
 
 /// CRC-8/Maxim of `bytes`. A message followed by its own CRC gives 0.
 #[must_use]
@@ -113,6 +118,11 @@ pub enum Error {
     Config(u8),
     /// Raw 0550h (+85 °C) with byte 6 = 0Ch: the power-on or brown-out value.
     PowerOn,
+    /// A value outside −55…+125 °C ([`RAW_RANGE`]), which the sensor cannot report.
+    OutOfRange {
+        /// The raw value read, 1/16 °C.
+        raw: i16,
+    },
 }
 
 impl fmt::Display for Error {
@@ -126,6 +136,7 @@ impl fmt::Display for Error {
             Self::Reserved => f.write_str("reserved bytes are not FFh/10h"),
             Self::Config(c) => write!(f, "config byte {c:02X}h is not 1F/3F/5F/7Fh"),
             Self::PowerOn => f.write_str("power-on value 0550h (+85 °C)"),
+            Self::OutOfRange { raw } => write!(f, "raw {raw} is outside -55..125 °C"),
         }
     }
 }
@@ -179,7 +190,11 @@ pub fn decode_scratchpad(sp: &[u8; 9]) -> Result<Reading, Error> {
     if unmasked == POWER_ON_RAW && sp[6] == 0x0C {
         return Err(Error::PowerOn);
     }
-    Ok(Reading { raw: unmasked & resolution.raw_mask(), resolution })
+    let raw = unmasked & resolution.raw_mask();
+    if !RAW_RANGE.contains(&raw) {
+        return Err(Error::OutOfRange { raw });
+    }
+    Ok(Reading { raw, resolution })
 }
 
 /// Build a valid scratchpad for `raw` (test and simulation helper; TH/TL as after power-up).

@@ -14,4 +14,4 @@ pub mod time;
 
 pub use compensator::{Applier, Compensator, Config, ConfigError, Output, Published, SampleError, Status, Updater, G0};
 pub use model::{AxisModel, BiasGrid, Extensions, ScaleFactor};
-pub use table::Table;
+pub use table::{Input, Table};

@@ -123,7 +123,9 @@ impl BiasGrid {
         let max_i = n - 2;
         // x ≥ 0 after clamping; `as usize` truncates toward zero and saturates.
         let i = (x as usize).min(max_i);
-        let frac = x - i as f32;
+        // Clamped so that K0 never leaves the two nodes it lies between, whatever rounding
+        // does to x: a validated grid bounds K0 by its own values.
+        let frac = (x - i as f32).clamp(0.0, 1.0);
         let (a, b) = (branch[i], branch[i + 1]);
         a + (b - a) * frac
     }

@@ -3,13 +3,18 @@
 //! ```text
 //! offset size field
 //!      0    4 magic "QFAT"
-//!      4    2 format version, little-endian (1)
+//!      4    2 format version, little-endian (2; 1 is refused, see below)
 //!      6    1 axis count (1..=3)
 //!      7    1 reserved, 0
 //!      8    4 payload length, little-endian
 //!     12    4 CRC-32/ISO-HDLC of the payload, little-endian
 //!     16    n payload: postcard encoding of [`Table`]
 //! ```
+//!
+//! The payload's first field is the [`Input`] the table was fitted for: pulse counts (K1 in
+//! pulses/(g·s)) or samples (K1 in LSB/g). Format 1 did not record it, and the two kinds
+//! differ in nothing else a decoder could check, so a format-1 table is refused with
+//! [`Error::NoInputRecorded`] rather than guessed: re-export it with `qfa-lab`.
 //!
 //! [`Table::decode`] checks everything before it returns a table (header, CRC, postcard,
 //! no trailing bytes, then [`Table::validate`]), so a caller that only swaps in a table it
@@ -24,7 +29,9 @@ use crate::model::{AxisModel, MAX_BIAS_POINTS};
 /// Magic bytes at offset 0.
 pub const MAGIC: [u8; 4] = *b"QFAT";
 /// Format version written and accepted.
-pub const FORMAT_VERSION: u16 = 1;
+pub const FORMAT_VERSION: u16 = 2;
+/// The format before tables recorded their [`Input`]: refused with [`Error::NoInputRecorded`].
+const FORMAT_WITHOUT_INPUT: u16 = 1;
 /// Header length in bytes.
 pub const HEADER_LEN: usize = 16;
 /// Largest encoded table (header + payload) for 3 axes with full grids and every slot.
@@ -60,6 +67,32 @@ pub mod limits {
     pub const MISALIGNMENT: f32 = 0.05;
     /// Largest branch deadband, °C/min.
     pub const DEADBAND_C_PER_MIN: f32 = 10.0;
+    /// Smallest bias-grid step, °C: 1.6 DS18B20 LSB (0.0625 °C). Finer steps resolve nothing
+    /// the sensor can tell apart, and at 64 °C a step of 2.6e-7 °C is below one f32 ulp of
+    /// the temperature (7.6e-6 °C), so the node index would be noise.
+    pub const MIN_GRID_STEP_C: f32 = 0.1;
+}
+
+/// What a table's coefficients convert: the input the fast path is given.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Input {
+    /// Pulse counts per IMU cycle from a QFA's current-to-frequency converter
+    /// ([`Compensator::cycle`](crate::Compensator::cycle)); K1 and γ in pulses/(g·s).
+    #[default]
+    PulseCounts,
+    /// Raw samples of a digital accelerometer
+    /// ([`Compensator::cycle_samples`](crate::Compensator::cycle_samples)); K1 and γ in LSB/g.
+    Samples,
+}
+
+impl fmt::Display for Input {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Self::PulseCounts => "pulse counts",
+            Self::Samples => "samples",
+        })
+    }
 }
 
 /// Why a table was refused.
@@ -96,6 +129,15 @@ pub enum Error {
     Grid,
     /// K1 could reach `γ/2` or less inside the calibrated box.
     ScaleFactorNotPositive,
+    /// A format-1 table: it does not record whether it converts pulse counts or samples.
+    NoInputRecorded,
+    /// The table converts another input than the compensator is configured for.
+    Input {
+        /// Input the table was fitted for.
+        table: Input,
+        /// Input the compensator's [`Config`](crate::Config) names.
+        compensator: Input,
+    },
     /// Table was fitted with another rate-estimator window than this firmware's.
     RateWindow {
         /// Window in the table.
@@ -120,6 +162,12 @@ impl fmt::Display for Error {
             Self::OutOfRange(w) => write!(f, "{w} out of range"),
             Self::Grid => f.write_str("malformed bias grid"),
             Self::ScaleFactorNotPositive => f.write_str("scale factor can fall to γ/2 or below in range"),
+            Self::NoInputRecorded => f.write_str(
+                "format 1 table does not record whether it converts pulse counts or samples; re-export it with qfa-lab",
+            ),
+            Self::Input { table, compensator } => {
+                write!(f, "table converts {table}, the compensator is configured for {compensator}")
+            }
             Self::RateWindow { table, firmware } => {
                 write!(f, "table fitted with rate window {table}, firmware uses {firmware}")
             }
@@ -137,6 +185,8 @@ pub type Result<T> = core::result::Result<T, Error>;
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Table {
+    /// The input the coefficients convert; sets the unit of every K1 and γ.
+    pub input: Input,
     /// Samples in the rate estimator window the table was fitted with.
     pub rate_window: u16,
     /// Per-axis models.
@@ -193,6 +243,9 @@ fn validate_axis(a: &AxisModel) -> Result<()> {
     let n = b.heating_g.len();
     if !(2..=MAX_BIAS_POINTS).contains(&n) || b.cooling_g.len() != n || b.t_step_c <= 0.0 {
         return Err(Error::Grid);
+    }
+    if b.t_step_c < limits::MIN_GRID_STEP_C {
+        return Err(Error::OutOfRange("bias.t_step_c"));
     }
     within(b.t_start_c, limits::TEMP_C, "bias.t_start_c")?;
     within(b.t_end_c(), limits::TEMP_C, "bias grid end")?;
@@ -290,6 +343,9 @@ impl Table {
             return Err(Error::BadMagic);
         }
         let version = u16::from_le_bytes([head[4], head[5]]);
+        if version == FORMAT_WITHOUT_INPUT {
+            return Err(Error::NoInputRecorded);
+        }
         if version != FORMAT_VERSION {
             return Err(Error::Version(version));
         }
@@ -334,7 +390,7 @@ mod tests {
         };
         let mut axes = heapless::Vec::new();
         axes.push(axis).unwrap();
-        Table { rate_window: 32, axes, misalignment: None }
+        Table { input: Input::PulseCounts, rate_window: 32, axes, misalignment: None }
     }
 
     #[test]
@@ -344,7 +400,7 @@ mod tests {
         // Independent spelling of the postcard layout: varint u16, varint len, f32 LE,
         // Option tag bytes, Vec length prefixes.
         let mut want: heapless::Vec<u8, 128> = heapless::Vec::new();
-        want.extend_from_slice(&[32, 1]).unwrap(); // rate_window 32, 1 axis
+        want.extend_from_slice(&[0, 32, 1]).unwrap(); // pulse counts, rate_window 32, 1 axis
         for f in [22.0f32, 320_000.0, -32.0, 0.0, 0.0, 0.0, 0.0] {
             want.extend_from_slice(&f.to_le_bytes()).unwrap();
         }
@@ -360,7 +416,7 @@ mod tests {
         want.extend_from_slice(&1.0f32.to_le_bytes()).unwrap();
         want.extend_from_slice(&[0, 0, 0, 0]).unwrap(); // three slots off, no misalignment
         assert_eq!(&bytes[HEADER_LEN..], &want[..]);
-        assert_eq!(&bytes[..8], &[b'Q', b'F', b'A', b'T', 1, 0, 1, 0]);
+        assert_eq!(&bytes[..8], &[b'Q', b'F', b'A', b'T', 2, 0, 1, 0]);
         assert_eq!(&bytes[8..12], &(want.len() as u32).to_le_bytes());
         assert_eq!(&bytes[12..16], &crc32(&want).to_le_bytes());
         assert_eq!(crc32(b"123456789"), 0xCBF4_3926, "CRC-32/ISO-HDLC check value");
@@ -379,7 +435,8 @@ mod tests {
         };
         assert_eq!(mutate(&|b| b.truncate(10)), Err(Error::Truncated));
         assert_eq!(mutate(&|b| b[0] = b'X'), Err(Error::BadMagic));
-        assert_eq!(mutate(&|b| b[4] = 2), Err(Error::Version(2)));
+        assert_eq!(mutate(&|b| b[4] = 3), Err(Error::Version(3)));
+        assert_eq!(mutate(&|b| b[4] = 1), Err(Error::NoInputRecorded));
         assert!(matches!(mutate(&|b| b[6] = 4), Err(Error::AxisCount { .. })));
         assert!(matches!(mutate(&|b| b[6] = 2), Err(Error::AxisCount { .. })));
         assert_eq!(mutate(&|b| b[20] ^= 1), Err(Error::Crc));

@@ -58,7 +58,12 @@ pub fn table(ext: Extensions, misalignment: bool, rate_window: u16) -> Table {
         // Capacity is MAX_AXES and the loop pushes MAX_AXES.
         let _ = axes.push(axis);
     }
-    Table { rate_window, axes, misalignment: misalignment.then_some(MISALIGNMENT) }
+    Table {
+        input: qfa_thermal::Input::PulseCounts,
+        rate_window,
+        axes,
+        misalignment: misalignment.then_some(MISALIGNMENT),
+    }
 }
 
 /// Wire bytes of `t`.

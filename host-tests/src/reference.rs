@@ -22,6 +22,11 @@ const MAX_GAP_MS: i64 = 30_000;
 const MAX_STEP: i64 = 16;
 const MAX_SLEW_PER_MIN: i64 = 160;
 const CONFIRM: u32 = 3;
+/// `stale_after_ticks · tick`, ms: also where the slew allowance stops growing.
+const STALE_MS: i64 = 3_000;
+/// The DS18B20's range, −55…+125 °C, in 1/16 °C.
+const RAW_MIN: i64 = -55 * 16;
+const RAW_MAX: i64 = 125 * 16;
 /// `Config::default().nominal_k1`: the pass-through scale with no table, pulses/(g·s).
 const NOMINAL_K1: f64 = 320_000.0;
 
@@ -41,6 +46,8 @@ pub mod flag {
     pub const NO_TABLE: u16 = 1 << 5;
     /// No counter base.
     pub const NO_COUNTER_BASE: u16 = 1 << 6;
+    /// Fast-path entry of the other input kind than configured (pulse counts by default).
+    pub const WRONG_INPUT: u16 = 1 << 7;
 }
 use flag as Status;
 
@@ -58,6 +65,8 @@ pub mod code {
     pub const CONFIG: u32 = 0x15;
     /// Decoder's power-on rule.
     pub const POWER_ON: u32 = 0x16;
+    /// Outside −55…+125 °C.
+    pub const OUT_OF_RANGE: u32 = 0x17;
     /// Time not after previous.
     pub const TIME: u32 = 0x21;
     /// 0550h as a jump.
@@ -115,6 +124,9 @@ pub struct Reference {
     window: VecDeque<(i64, i64)>,
     last_abs: u32,
     last_unwrapped: i64,
+    /// Newest slow-path time seen (any reading, good or rejected), unwrapped; staleness is
+    /// its distance from the last good reading.
+    clock: Option<(u32, i64)>,
     axes: [AxisRef; 3],
     k1: [f64; 3],
     k0: [f64; 3],
@@ -175,7 +187,11 @@ pub fn decode(sp: &[u8; 9]) -> Result<i64, u32> {
     if raw == 0x0550 && sp[6] == 0x0C {
         return Err(code::POWER_ON);
     }
-    Ok((raw >> drop_bits) << drop_bits)
+    let raw = (raw >> drop_bits) << drop_bits;
+    if !(RAW_MIN..=RAW_MAX).contains(&raw) {
+        return Err(code::OUT_OF_RANGE);
+    }
+    Ok(raw)
 }
 
 fn interp(values: &[f32], start: f64, step: f64, t: f64) -> f64 {
@@ -261,6 +277,7 @@ impl Reference {
             window: VecDeque::new(),
             last_abs: 0,
             last_unwrapped: 0,
+            clock: None,
             axes: [AxisRef::default(); 3],
             k1: [0.0; 3],
             k0: [0.0; 3],
@@ -318,7 +335,7 @@ impl Reference {
             self.k1[i] = k1;
             self.k0[i] = k0;
         }
-        if !have {
+        if !have || self.stale() {
             st |= Status::TEMP_STALE;
         }
         self.status = st;
@@ -337,13 +354,38 @@ impl Reference {
         }
     }
 
+    /// The slow-path clock moves forward only (an earlier time adds nothing).
+    fn tick_clock(&mut self, t_ms: u32) {
+        self.clock = Some(match self.clock {
+            None => (t_ms, i64::from(t_ms)),
+            Some((abs, un)) => {
+                let d = t_ms.wrapping_sub(abs);
+                if d < 1 << 31 {
+                    (t_ms, un + i64::from(d))
+                } else {
+                    (abs, un)
+                }
+            }
+        });
+    }
+
+    fn stale(&self) -> bool {
+        match (self.last_good, self.clock) {
+            (Some((t, _)), Some((_, now))) => now - t > STALE_MS,
+            _ => true,
+        }
+    }
+
     fn reject(&mut self, code: u32) -> Predicted {
         self.status |= Status::TEMP_INVALID;
+        if self.stale() {
+            self.status |= Status::TEMP_STALE;
+        }
         Predicted::SampleErr { code, status: self.status }
     }
 
     fn allowed(from_t: i64, to_t: i64) -> i64 {
-        MAX_STEP + MAX_SLEW_PER_MIN * (to_t - from_t) / 60_000
+        MAX_STEP + MAX_SLEW_PER_MIN * (to_t - from_t).min(STALE_MS) / 60_000
     }
 
     /// Count a rejected reading towards a confirmed restart: consecutive rejected readings,
@@ -363,6 +405,7 @@ impl Reference {
 
     /// A scratchpad read at `t_ms`.
     pub fn scratchpad(&mut self, t_ms: u32, sp: &[u8; 9]) -> Predicted {
+        self.tick_clock(t_ms);
         match decode(sp) {
             Ok(raw) => self.raw(t_ms, raw),
             Err(c) => self.reject(c),
@@ -371,6 +414,10 @@ impl Reference {
 
     /// A raw reading at `t_ms`.
     pub fn raw(&mut self, t_ms: u32, raw: i64) -> Predicted {
+        self.tick_clock(t_ms);
+        if !(RAW_MIN..=RAW_MAX).contains(&raw) {
+            return self.reject(code::OUT_OF_RANGE);
+        }
         let mut restart = false;
         let mut clock_restart = false;
         let t;
@@ -394,10 +441,11 @@ impl Reference {
                     t = lt + 1;
                 } else {
                     t = lt + i64::from(d);
+                    // 0550h only continues a stream that is there: within one step, no gap.
+                    if raw == 0x0550 && ((raw - lraw).abs() > MAX_STEP || t - lt > STALE_MS) {
+                        return self.reject(code::POWER_ON_JUMP);
+                    }
                     if (raw - lraw).abs() > Self::allowed(lt, t) {
-                        if raw == 0x0550 {
-                            return self.reject(code::POWER_ON_JUMP);
-                        }
                         if !self.confirm(t_ms, raw) {
                             return self.reject(code::IMPLAUSIBLE);
                         }
@@ -436,7 +484,11 @@ impl Reference {
 
     /// An IMU cycle of MEMS samples: `a = raw·g0/K1 − K0·g0`, m/s².
     pub fn samples(&mut self, raw: [i64; 3], dt: u32) -> Predicted {
-        self.apply(raw, dt, false)
+        match self.apply(raw, dt, false) {
+            // The reference is configured as `Config::default()`: pulse counts.
+            Predicted::Cycle { status, dv } => Predicted::Cycle { status: status | Status::WRONG_INPUT, dv },
+            other => other,
+        }
     }
 
     /// `counts·g0/K1 − K0·g0·(tick·dt if per_tick, else 1)`, then the misalignment; with no

@@ -51,7 +51,7 @@ pub fn table(unit: usize, ext: [Extensions; 3], misalignment: Option<[f32; 9]>) 
         };
         axes.push(a).expect("3 axes fit");
     }
-    Table { rate_window: 32, axes, misalignment }
+    Table { input: qfa_thermal::Input::PulseCounts, rate_window: 32, axes, misalignment }
 }
 
 /// Encoded bytes of a table as a hex string.
@@ -213,8 +213,9 @@ pub fn faults() -> Vec<String> {
     bytes[HEADER_LEN + 5] ^= 0x10;
     l.push("# γ of axis 0 set to +inf with a matching CRC: NonFinite".into());
     let mut inf = bytes.clone();
-    // Payload: varint window (32 → 1 byte), varint axis count (1 byte), t0 (4), then γ.
-    inf[HEADER_LEN + 6..HEADER_LEN + 10].copy_from_slice(&f32::INFINITY.to_le_bytes());
+    // Payload: input tag (1 byte), varint window (32 → 1 byte), varint axis count (1 byte),
+    // t0 (4), then γ.
+    inf[HEADER_LEN + 7..HEADER_LEN + 11].copy_from_slice(&f32::INFINITY.to_le_bytes());
     let crc = crc32(&inf[HEADER_LEN..]);
     inf[12..16].copy_from_slice(&crc.to_le_bytes());
     l.push(format!("table {}", hex(&inf)));

@@ -53,7 +53,12 @@ fn the_old_recipe_fails_the_soak_figures() {
 fn one_axis_table() -> Vec<u8> {
     use qfa_thermal::model::{AxisModel, BiasGrid, Extensions, ScaleFactor};
     use qfa_thermal::table::{Table, MAX_TABLE_BYTES};
-    let mut t = Table { rate_window: 32, axes: heapless::Vec::new(), misalignment: None };
+    let mut t = Table {
+        input: qfa_thermal::Input::PulseCounts,
+        rate_window: 32,
+        axes: heapless::Vec::new(),
+        misalignment: None,
+    };
     let scale = ScaleFactor::JB_KT8_1;
     let bias = BiasGrid::single_valued(-60.0, 65.0, &[1e-4, 1.5e-4, 3e-4]);
     t.axes.push(AxisModel { scale, bias, rate_limit_c_per_min: 2.0, ext: Extensions::default() }).unwrap();

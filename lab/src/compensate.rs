@@ -193,12 +193,18 @@ pub fn compensate_static<W: std::io::Write>(
             .stale_after_ticks
             .max((1.5 * max_dt_s / f64::from(default.tick_s)).ceil().min(f64::from(u32::MAX)) as u32),
         sample_period_ms: default.sample_period_ms.max((max_dt_s * 1000.0).ceil().min(60_000.0) as u32),
+        input: qfa_thermal::Input::Samples,
         ..default
     };
     let mut comps = Vec::with_capacity(table.axes.len());
     for axis in &table.axes {
         let mut c = Compensator::<1, RATE_WINDOW>::new(config).map_err(StaticCompensateError::Config)?;
-        let mut one = Table { rate_window: table.rate_window, axes: heapless::Vec::new(), misalignment: None };
+        let mut one = Table {
+            input: table.input,
+            rate_window: table.rate_window,
+            axes: heapless::Vec::new(),
+            misalignment: None,
+        };
         let _ = one.axes.push(axis.clone());
         c.set_table(one).map_err(StaticCompensateError::Table)?;
         comps.push(c);

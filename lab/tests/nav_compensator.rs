@@ -8,7 +8,12 @@ use qfa_thermal::model::{AxisModel, BiasGrid, Extensions, ScaleFactor};
 use qfa_thermal::Table;
 
 fn one_axis(gamma: f32, b0: f32) -> Table {
-    let mut t = Table { rate_window: 32, axes: heapless::Vec::new(), misalignment: None };
+    let mut t = Table {
+        input: qfa_thermal::Input::PulseCounts,
+        rate_window: 32,
+        axes: heapless::Vec::new(),
+        misalignment: None,
+    };
     let axis = AxisModel {
         scale: ScaleFactor { t0_c: 22.0, gamma, mu: -32.76, beta: 0.1008, epsilon: 88.14, eta: -0.02409, alpha: 273.0 },
         bias: BiasGrid::single_valued(-60.0, 65.0, &[b0, 1.5e-4, 3e-4]),

@@ -104,6 +104,7 @@ pub fn sample_error_code(e: SampleError) -> u32 {
             ds18b20::Error::Reserved => 0x14,
             ds18b20::Error::Config(_) => 0x15,
             ds18b20::Error::PowerOn => 0x16,
+            ds18b20::Error::OutOfRange { .. } => 0x17,
             _ => 0x1F,
         },
         SampleError::Time(_) => 0x21,
@@ -130,6 +131,8 @@ pub fn table_error_code(e: table::Error) -> u32 {
         table::Error::Grid => 0x3A,
         table::Error::ScaleFactorNotPositive => 0x3B,
         table::Error::RateWindow { .. } => 0x3C,
+        table::Error::NoInputRecorded => 0x3D,
+        table::Error::Input { .. } => 0x3E,
         _ => 0x3F,
     }
 }

@@ -32,7 +32,7 @@ use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
 use qfa_thermal::model::{Branch, MAX_BIAS_POINTS};
-use qfa_thermal::{AxisModel, BiasGrid, Extensions, ScaleFactor, Table};
+use qfa_thermal::{AxisModel, BiasGrid, Extensions, Input, ScaleFactor, Table};
 
 use crate::data::cycling::Log;
 use crate::data::pairing::{pair_program, trace_run, Trace, RATE_WINDOW};
@@ -578,7 +578,7 @@ fn choose_branch_mode(
 /// # Errors
 /// The root crate's validation error.
 pub fn table_of(axis: AxisModel) -> Result<Table, FitError> {
-    table_of_axes([axis])
+    table_of_axes(Input::PulseCounts, [axis])
 }
 
 /// The one place the lab builds a table: these axes, the lab's rate window
@@ -586,8 +586,8 @@ pub fn table_of(axis: AxisModel) -> Result<Table, FitError> {
 ///
 /// # Errors
 /// More axes than a table holds, or the root crate's validation error.
-pub fn table_of_axes(axes: impl IntoIterator<Item = AxisModel>) -> Result<Table, FitError> {
-    table_of_axes_with(axes, None)
+pub fn table_of_axes(input: Input, axes: impl IntoIterator<Item = AxisModel>) -> Result<Table, FitError> {
+    table_of_axes_with(input, axes, None)
 }
 
 /// [`table_of_axes`] with a misalignment matrix (row-major, applied after the per-axis
@@ -596,6 +596,7 @@ pub fn table_of_axes(axes: impl IntoIterator<Item = AxisModel>) -> Result<Table,
 /// # Errors
 /// As [`table_of_axes`], and a matrix outside the table's limits.
 pub fn table_of_axes_with(
+    input: Input,
     axes: impl IntoIterator<Item = AxisModel>,
     misalignment: Option<[f32; 9]>,
 ) -> Result<Table, FitError> {
@@ -603,7 +604,7 @@ pub fn table_of_axes_with(
     for a in axes {
         v.push(a).map_err(|_| FitError::TooManyAxes)?;
     }
-    let t = Table { rate_window: RATE_WINDOW as u16, axes: v, misalignment };
+    let t = Table { input, rate_window: RATE_WINDOW as u16, axes: v, misalignment };
     t.validate().map_err(FitError::Table)?;
     Ok(t)
 }

@@ -27,7 +27,7 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use qfa_thermal::Table;
+use qfa_thermal::{Input, Table};
 
 use crate::calibrate::fit::{
     encode, fit_static_axis, table_of_axes, BranchMode, FitError, StaticFit, StaticSeries, StaticStructure,
@@ -360,8 +360,8 @@ pub fn calibrate_static(
         peers.push(p);
     }
     pb.finish_and_clear();
-    let table =
-        table_of_axes(fits.iter().map(|f| f.axis.clone())).map_err(|e| StaticCalError::Fit("table".to_string(), e))?;
+    let table = table_of_axes(Input::Samples, fits.iter().map(|f| f.axis.clone()))
+        .map_err(|e| StaticCalError::Fit("table".to_string(), e))?;
     let range = |r: &[f64]| {
         (r.iter().copied().fold(f64::INFINITY, f64::min), r.iter().copied().fold(f64::NEG_INFINITY, f64::max))
     };

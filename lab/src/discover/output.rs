@@ -8,7 +8,7 @@ use std::path::Path;
 
 use anyhow::{Context, Result};
 use plotters::prelude::*;
-use qfa_thermal::table::{Table, MAX_TABLE_BYTES};
+use qfa_thermal::table::{Input, Table, MAX_TABLE_BYTES};
 
 use super::{Channels, Gaps, LogKind, Report};
 
@@ -21,14 +21,19 @@ fn gaps_text(g: &Gaps) -> String {
     }
 }
 
-/// The root-crate table of the report's final model.
+/// The root-crate table of the report's final model, for `input`: pulse counts for a
+/// cycling log's scale-factor model, samples for a single-output log.
 #[must_use]
-pub fn table(report: &Report) -> Option<Table> {
+pub fn table(report: &Report, input: Input) -> Option<Table> {
     // Not validated here: a single-channel log's model is in the log's own units (often
     // µg), which the root crate refuses as a table. `model.toml` is written either way;
     // `write` validates before `table.bin` and says why when it cannot.
-    let mut t =
-        Table { rate_window: crate::data::pairing::RATE_WINDOW as u16, axes: Default::default(), misalignment: None };
+    let mut t = Table {
+        input,
+        rate_window: crate::data::pairing::RATE_WINDOW as u16,
+        axes: Default::default(),
+        misalignment: None,
+    };
     t.axes.push(report.model.clone()?).ok()?;
     Some(t)
 }
@@ -41,7 +46,11 @@ pub fn write(ch: &Channels, report: &Report, dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     std::fs::write(dir.join("report.json"), serde_json::to_string_pretty(report)? + "\n")?;
     let mut notes = String::new();
-    if let Some(t) = table(report) {
+    let input = match ch.kind {
+        LogKind::Cycling => Input::PulseCounts,
+        LogKind::Single => Input::Samples,
+    };
+    if let Some(t) = table(report, input) {
         std::fs::write(dir.join("model.toml"), toml::to_string(&t)?)?;
         let mut buf = [0u8; MAX_TABLE_BYTES];
         match t.encode(&mut buf) {

@@ -153,6 +153,10 @@ pub fn table3_with(axes: [&Table; 3], misalignment: Option<[f32; 9]>) -> anyhow:
             "expected the lab's rate window"
         );
     }
-    crate::calibrate::fit::table_of_axes_with(axes.map(|t| t.axes[0].clone()), misalignment)
-        .map_err(|e| anyhow::anyhow!("3-axis table invalid: {e}"))
+    crate::calibrate::fit::table_of_axes_with(
+        qfa_thermal::Input::PulseCounts,
+        axes.map(|t| t.axes[0].clone()),
+        misalignment,
+    )
+    .map_err(|e| anyhow::anyhow!("3-axis table invalid: {e}"))
 }

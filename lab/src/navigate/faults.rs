@@ -896,7 +896,8 @@ mod tests {
             rate_limit_c_per_min: 2.0,
             ext: Extensions::default(),
         };
-        let t = crate::calibrate::fit::table_of_axes([a.clone(), a.clone(), a]).expect("a valid table");
+        let t = crate::calibrate::fit::table_of_axes(qfa_thermal::Input::PulseCounts, [a.clone(), a.clone(), a])
+            .expect("a valid table");
         crate::calibrate::fit::encode(&t).expect("encodes")
     }
 
