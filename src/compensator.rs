@@ -175,7 +175,7 @@ pub struct Config {
     /// Length of one fast-path tick, s (default 1 µs; 1 ns..1 s).
     pub tick_s: f32,
     /// Ticks without a good temperature before [`Status::TEMP_STALE`] (default 3 s); must
-    /// be longer than [`sample_period_ms`](Self::sample_period_ms).
+    /// be longer than [`sample_period_ms`](Self::sample_period_ms) and below 2³¹ − 1.
     pub stale_after_ticks: u32,
     /// Nominal period of each sensor's readings, ms (default 1 000; 1..=60 000).
     pub sample_period_ms: u32,
@@ -248,6 +248,10 @@ impl Config {
         }
         if u32::from(self.rate.max_gap_ms) <= self.sample_period_ms {
             return Err(ConfigError::GapShorterThanSamplePeriod);
+        }
+        if self.stale_after_ticks >= i32::MAX as u32 {
+            // The fast path's countdown starts at stale_after_ticks + 1 and needs it ≤ 2³¹.
+            return Err(ConfigError::OutOfRange("stale_after_ticks"));
         }
         let stale_s = self.stale_after_ticks as f32 * self.tick_s;
         if stale_s * 1000.0 <= self.sample_period_ms as f32 {
@@ -409,7 +413,10 @@ impl<const AXES: usize> Published<AXES> {
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct FastState<const AXES: usize> {
     stale_after_ticks: u32,
-    since_sample_ticks: u32,
+    /// Ticks left before the set is stale: `stale_after_ticks + 1` at each new sample,
+    /// counted down and held at 0. A countdown costs two instructions per cycle less than
+    /// counting up and comparing.
+    ticks_left: u32,
     /// Sequence of the set copied into `set`.
     seen_seq: u32,
     /// Good-sample count of that set.
@@ -480,7 +487,7 @@ impl<const AXES: usize> Applier<'_, AXES> {
         let count = flags >> COUNT_SHIFT;
         if count != f.seen_count {
             f.seen_count = count;
-            f.since_sample_ticks = 0;
+            f.ticks_left = f.stale_after_ticks.saturating_add(1);
         }
     }
 
@@ -492,13 +499,11 @@ impl<const AXES: usize> Applier<'_, AXES> {
             self.refresh();
         }
         let f = &mut *self.fast;
-        f.since_sample_ticks = f.since_sample_ticks.saturating_add(dt_ticks);
-        let status = f.path_status[usize::from(SAMPLES)];
-        if f.since_sample_ticks > f.stale_after_ticks {
-            status | Status::TEMP_STALE
-        } else {
-            status
-        }
+        f.ticks_left = f.ticks_left.saturating_sub(dt_ticks);
+        // TEMP_STALE (bit 0) exactly when ticks_left == 0: `validate` keeps it ≤ 2³¹, so
+        // `ticks_left − 1` has its top bit set only at 0. Two instructions, no branch.
+        let stale = (f.ticks_left.wrapping_sub(1) >> 31) as u16;
+        Status::from_bits_retain(f.path_status[usize::from(SAMPLES)].bits() | stale)
     }
 
     /// Fast path: signed pulse counts of this cycle and its length in ticks.
@@ -742,7 +747,7 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
             shared: Published::new(),
             fast: FastState {
                 stale_after_ticks: config.stale_after_ticks,
-                since_sample_ticks: u32::MAX,
+                ticks_left: 0,
                 seen_seq: 0,
                 seen_count: 0,
                 set: Set::EMPTY,
@@ -1077,11 +1082,19 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
     /// |raw − last.raw| within step + slew·elapsed, the slew term capped at the stale
     /// threshold: after a longer gap only a step within `max_step_raw` is taken at once,
     /// anything larger waits for `confirm_samples` readings that agree.
+    ///
+    /// `step + ⌊slew·d/60 000⌋ ≥ |Δ|` is tested as `(|Δ| − step)·60 000 ≤ slew·d` in u64:
+    /// the same integer rule without a 64-bit division (about 1 KB of library code on a
+    /// Cortex-M4, which has no such instruction).
     fn plausible(&self, last: Timed, elapsed_ms: u32, raw: i16) -> bool {
         let c = &self.slow.config;
-        let d_ms = i64::from(elapsed_ms.min(self.slow.stale_after_ms));
-        let allowed = i64::from(c.max_step_raw) + i64::from(c.max_slew_raw_per_min) * d_ms / 60_000;
-        (i64::from(raw) - i64::from(last.raw)).abs() <= allowed
+        let d_ms = u64::from(elapsed_ms.min(self.slow.stale_after_ms));
+        // Both validated ≥ 0.
+        let (step, slew) = (c.max_step_raw as u32, c.max_slew_raw_per_min as u32);
+        let Some(excess) = i32::from(raw).abs_diff(i32::from(last.raw)).checked_sub(step) else {
+            return true;
+        };
+        u64::from(excess) * 60_000 <= u64::from(slew) * d_ms
     }
 
     /// Count consecutive rejected readings consistent with each other (later in time and
@@ -1358,6 +1371,8 @@ mod tests {
             ),
             (Config { confirm_samples: 0, ..d }, ConfigError::OutOfRange("confirm_samples")),
             (Config { stale_after_ticks: 999_999, ..d }, ConfigError::StaleShorterThanSamplePeriod),
+            (Config { stale_after_ticks: i32::MAX as u32, ..d }, ConfigError::OutOfRange("stale_after_ticks")),
+            (Config { confirm_samples: 1, ..d }, ConfigError::OutOfRange("confirm_samples")),
             (Config { rate: RateConfig { max_gap_ms: 1000, ..d.rate }, ..d }, ConfigError::GapShorterThanSamplePeriod),
             (Config { sample_period_ms: 0, ..d }, ConfigError::OutOfRange("sample_period_ms")),
             (Config { max_step_raw: -1, ..d }, ConfigError::OutOfRange("max_step_raw")),

@@ -59,7 +59,7 @@ pub fn compensate_run(table: &Table, run: &Run) -> Result<Compensated, Error> {
     // every row of such a log would be flagged stale and no held-out figure could be formed.
     let default = Config::default();
     let max_interval_s = run.samples.iter().map(|s| s.interval_s).fold(0.0, f64::max);
-    let row_ticks = (1.5 * max_interval_s / f64::from(default.tick_s)).ceil().min(f64::from(u32::MAX)) as u32;
+    let row_ticks = (1.5 * max_interval_s / f64::from(default.tick_s)).ceil().min(f64::from(i32::MAX - 1)) as u32;
     let row_ms = (max_interval_s * 1000.0).ceil().min(60_000.0) as u32;
     let config = Config {
         stale_after_ticks: default.stale_after_ticks.max(row_ticks),
@@ -191,7 +191,7 @@ pub fn compensate_static<W: std::io::Write>(
     let config = Config {
         stale_after_ticks: default
             .stale_after_ticks
-            .max((1.5 * max_dt_s / f64::from(default.tick_s)).ceil().min(f64::from(u32::MAX)) as u32),
+            .max((1.5 * max_dt_s / f64::from(default.tick_s)).ceil().min(f64::from(i32::MAX - 1)) as u32),
         sample_period_ms: default.sample_period_ms.max((max_dt_s * 1000.0).ceil().min(60_000.0) as u32),
         input: qfa_thermal::Input::Samples,
         ..default
