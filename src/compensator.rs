@@ -423,11 +423,10 @@ struct FastState<const AXES: usize> {
     seen_count: u32,
     set: Set<AXES>,
     /// The set's status as each entry sees it, `[pulses, samples]`: the entry that does not
-    /// match [`Config::input`] adds [`Status::WRONG_INPUT`]. Formed when a set is copied, so
-    /// the per-cycle path only picks a field.
+    /// match [`Config::input`] carries [`Status::WRONG_INPUT`] from construction on (the
+    /// bit is kept at each copy, so it needs no field of its own). Formed when a set is
+    /// copied, so the per-cycle path only picks a field.
     path_status: [Status; 2],
-    /// [`Status::WRONG_INPUT`] on the entry of the other kind than the configured input.
-    wrong_path: [Status; 2],
     counters: Option<[u32; AXES]>,
 }
 
@@ -481,7 +480,8 @@ impl<const AXES: usize> Applier<'_, AXES> {
             return; // written meanwhile: this copy may be mixed, drop it
         }
         let f = &mut *self.fast;
-        f.path_status = [set.status | f.wrong_path[0], set.status | f.wrong_path[1]];
+        let [pulses, samples] = f.path_status.map(|s| s & Status::WRONG_INPUT);
+        f.path_status = [set.status | pulses, set.status | samples];
         f.set = set;
         f.seen_seq = seq;
         let count = flags >> COUNT_SHIFT;
@@ -588,8 +588,14 @@ struct Timed {
 #[derive(Clone, Debug)]
 struct Stream<const N: usize> {
     rate: RateEstimator<N>,
-    last_good: Option<Timed>,
-    pending: Option<Timed>,
+    /// The last good reading, meaningful once `has_good` (no `Option`: with the rate
+    /// window's 8-byte alignment it would cost 8 B per stream).
+    last: Timed,
+    has_good: bool,
+    /// The latest rejected reading, counted towards a confirmed step; meaningful only while
+    /// `pending_count > 0` (no `Option`: 4 B less per stream).
+    pending: Timed,
+    /// Consecutive mutually consistent rejected readings, the latest being `pending`.
     pending_count: u8,
     /// The latest reading was rejected.
     invalid: bool,
@@ -598,14 +604,20 @@ struct Stream<const N: usize> {
     age_ms: u32,
 }
 
+impl<const N: usize> Stream<N> {
+    fn last_good(&self) -> Option<Timed> {
+        self.has_good.then_some(self.last)
+    }
+}
+
 /// Slow-path state (the updater's own, never touched by the applier).
 #[derive(Clone, Debug)]
 struct SlowState<const AXES: usize, const N: usize, const SENSORS: usize, T> {
     config: Config,
-    stale_after_ms: u32,
     /// The latest slow-path time seen (readings, rejections and missed readings alike): the
-    /// clock that advances every stream's `age_ms`.
-    clock_ms: Option<u32>,
+    /// clock that advances every stream's `age_ms`. Starts at 0: ages before a stream's
+    /// first good reading do not matter, since it is stale until then.
+    clock_ms: u32,
     /// Smallest branch deadband, °C/min: the flicker floor of `N` and the sample period.
     deadband_floor: f32,
     table: Option<T>,
@@ -624,7 +636,7 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
             if !s.rate.ready() {
                 st |= Status::RATE_NOT_READY;
             }
-            if s.last_good.is_none() || s.age_ms > self.stale_after_ms {
+            if !s.has_good || s.age_ms > self.config.stale_after_ms() {
                 st |= Status::TEMP_STALE;
             }
             if s.invalid {
@@ -704,6 +716,9 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Clone + Borrow<
     }
 }
 
+/// The status before the applier's first copy of a set.
+const NOT_YET: Status = Status::NO_TABLE.union(Status::TEMP_STALE);
+
 const NO_EVAL: Evaluation = Evaluation { k1: 0.0, k0: 0.0, temp_clamped: false, rate_clamped: false };
 
 impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> Compensator<AXES, N, SENSORS, T> {
@@ -726,8 +741,9 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
         }
         let stream = Stream {
             rate: RateEstimator::new(config.rate),
-            last_good: None,
-            pending: None,
+            last: Timed { t_ms: 0, raw: 0 },
+            has_good: false,
+            pending: Timed { t_ms: 0, raw: 0 },
             pending_count: 0,
             invalid: false,
             age_ms: 0,
@@ -735,8 +751,7 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
         let mut c = Self {
             slow: SlowState {
                 config,
-                stale_after_ms: config.stale_after_ms(),
-                clock_ms: None,
+                clock_ms: 0,
                 deadband_floor: rate::flicker_deadband_c_per_min(N, config.sample_period_ms),
                 table: None,
                 streams: core::array::from_fn(|_| stream.clone()),
@@ -752,10 +767,9 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
                 seen_count: 0,
                 set: Set::EMPTY,
                 // Until the first set is copied, nothing is calibrated.
-                path_status: [Status::NO_TABLE | Status::TEMP_STALE; 2],
-                wrong_path: match config.input {
-                    table::Input::PulseCounts => [Status::empty(), Status::WRONG_INPUT],
-                    table::Input::Samples => [Status::WRONG_INPUT, Status::empty()],
+                path_status: match config.input {
+                    table::Input::PulseCounts => [NOT_YET, NOT_YET | Status::WRONG_INPUT],
+                    table::Input::Samples => [NOT_YET | Status::WRONG_INPUT, NOT_YET],
                 },
                 counters: None,
             },
@@ -993,13 +1007,13 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
         let Some(s) = self.slow.streams.get(sensor) else {
             return Err(SampleError::NoSuchSensor { sensor: sensor as u8 });
         };
-        let (last_good, age_ms) = (s.last_good, s.age_ms);
+        let (last_good, age_ms) = (s.last_good(), s.age_ms);
         self.advance_clock(t_ms);
         let age_ms = self.slow.streams[sensor].age_ms.max(age_ms);
         if !ds18b20::RAW_RANGE.contains(&raw) {
             return self.reject(sensor, SampleError::Decode(ds18b20::Error::OutOfRange { raw }));
         }
-        let stale_ms = self.slow.stale_after_ms;
+        let stale_ms = self.slow.config.stale_after_ms();
         let mut restart = false;
         let mut clock_restart = false;
         // ms since this stream's last good reading, `None` across a restarted clock.
@@ -1046,11 +1060,11 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
         if let Err(e) = s.rate.push(t_ms, raw) {
             return self.reject(sensor, SampleError::Time(e));
         }
-        s.pending = None;
         s.pending_count = 0;
         s.invalid = false;
         s.age_ms = 0;
-        s.last_good = Some(Timed { t_ms, raw });
+        s.last = Timed { t_ms, raw };
+        s.has_good = true;
         // Across a restarted clock the elapsed time is unknown: the slot states hold.
         let dt_s = elapsed_ms.map_or(0.0, |ms| ms as f32 * 1e-3);
         self.refresh(Some(sensor), dt_s, true);
@@ -1063,17 +1077,14 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
     /// restarts the count from here.
     fn advance_clock(&mut self, t_ms: u32) {
         let slow = &mut *self.slow;
-        let d = match slow.clock_ms {
-            Some(prev) => t_ms.wrapping_sub(prev),
-            None => 0,
-        };
+        let d = t_ms.wrapping_sub(slow.clock_ms);
         if d > i32::MAX as u32 {
-            if d.wrapping_neg() > slow.stale_after_ms {
-                slow.clock_ms = Some(t_ms);
+            if d.wrapping_neg() > slow.config.stale_after_ms() {
+                slow.clock_ms = t_ms;
             }
             return;
         }
-        slow.clock_ms = Some(t_ms);
+        slow.clock_ms = t_ms;
         for s in &mut slow.streams {
             s.age_ms = s.age_ms.saturating_add(d);
         }
@@ -1088,7 +1099,7 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
     /// Cortex-M4, which has no such instruction).
     fn plausible(&self, last: Timed, elapsed_ms: u32, raw: i16) -> bool {
         let c = &self.slow.config;
-        let d_ms = u64::from(elapsed_ms.min(self.slow.stale_after_ms));
+        let d_ms = u64::from(elapsed_ms.min(self.slow.config.stale_after_ms()));
         // Both validated ≥ 0.
         let (step, slew) = (c.max_step_raw as u32, c.max_slew_raw_per_min as u32);
         let Some(excess) = i32::from(raw).abs_diff(i32::from(last.raw)).checked_sub(step) else {
@@ -1101,8 +1112,8 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
     /// plausible); true once there are `confirm_samples` of them: a real step (e.g. a
     /// replaced sensor) or a restarted clock.
     fn confirm_step(&mut self, sensor: usize, t_ms: u32, raw: i16) -> bool {
-        let pending = self.slow.streams[sensor].pending;
-        let consistent = match pending {
+        let s = &self.slow.streams[sensor];
+        let consistent = match (s.pending_count > 0).then_some(s.pending) {
             Some(p) => {
                 let d = t_ms.wrapping_sub(p.t_ms);
                 d != 0 && d < i32::MAX as u32 && self.plausible(p, d, raw)
@@ -1111,15 +1122,22 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
         };
         let s = &mut self.slow.streams[sensor];
         s.pending_count = if consistent { s.pending_count.saturating_add(1) } else { 1 };
-        s.pending = Some(Timed { t_ms, raw });
+        s.pending = Timed { t_ms, raw };
         s.pending_count >= self.slow.config.confirm_samples
     }
 
     fn reject(&mut self, sensor: usize, e: SampleError) -> Result<Status, SampleError> {
         self.slow.streams[sensor].invalid = true;
-        self.slow.status = self.slow.status();
-        self.shared.publish_with(&self.slow.set(), false, || {});
+        self.publish(false);
         Err(e)
+    }
+
+    /// Rebuild the status and publish the set. One out-of-line copy for the accepted and the
+    /// rejected reading: inlined into both it cost about 300 B of Cortex-M4 flash.
+    #[inline(never)]
+    fn publish(&mut self, good_sample: bool) {
+        self.slow.status = self.slow.status();
+        self.shared.publish_with(&self.slow.set(), good_sample, || {});
     }
 
     fn refresh_all(&mut self, dt_s: f32) {
@@ -1133,14 +1151,19 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
         if let Some(t) = &slow.table {
             {
                 let table: &Table = t.borrow();
+                // Each stream's estimate once, however many axes it serves: an estimate is
+                // seven 64-bit → f32 conversions, about 250 instructions on a Cortex-M4.
+                let estimates: [Option<Estimate>; SENSORS] = core::array::from_fn(|j| {
+                    let s = &slow.streams[j];
+                    (s.has_good && sensor.is_none_or(|k| k == j)).then(|| s.rate.estimate()).flatten()
+                });
                 for (i, axis) in table.axes.iter().take(AXES).enumerate() {
                     let j = Self::sensor_of(i);
                     if sensor.is_some_and(|s| s != j) {
                         continue;
                     }
-                    let stream = &slow.streams[j];
-                    let e = match (stream.last_good, stream.rate.estimate()) {
-                        (Some(_), Some(est)) => {
+                    let e = match estimates[j] {
+                        Some(est) => {
                             let db = axis.bias.deadband_c_per_min.max(slow.deadband_floor);
                             axis.evaluate_with_deadband(&mut slow.states[i], est.temp_c, est.rate_c_per_min, dt_s, db)
                         }
@@ -1151,8 +1174,7 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
                 }
             }
         }
-        slow.status = slow.status();
-        self.shared.publish_with(&self.slow.set(), good_sample, || {});
+        self.publish(good_sample);
     }
 }
 

@@ -1,38 +1,29 @@
-//! For the bare-metal target only: the STM32F405 memory map (with a flash sector kept for the
-//! coefficient table), the link scripts, and the table sector's image.
+//! The coefficient table as a `static` in flash, the STM32F405 memory map and the link
+//! scripts (the last two for the bare-metal target only).
 //!
-//! The image is 1 024 bytes (`qfa_thermal::table::MAX_TABLE_BYTES`): a table encoded by the
-//! root crate's own `Table::encode`, then erased-flash 0xFF. By default the table is a
-//! fixture built below; `QFA_BOARD_TABLE=path/to/table.bin` embeds a calibrated one (the
-//! wire bytes `qfa-lab` writes) instead, after checking it with `Table::decode`.
+//! `QFA_BOARD_TABLE=path/to/table.bin` builds a calibrated table in (the wire bytes
+//! `qfa-lab` writes, checked with the root crate's `Table::decode`); without it, a fixture
+//! built below. Either way the table is written out as a Rust `static Table` initialiser
+//! (`OUT_DIR/table.rs`), so it lives in flash as the very value the compensator reads: the
+//! board validates it in place at boot and keeps no RAM copy (708 B saved against decoding
+//! a flash sector into RAM; the format's varints cannot be read in place). Recalibrating
+//! means rebuilding with the new file and flashing, never rewriting a sector behind the
+//! firmware's back. The wire bytes are also written (`OUT_DIR/table.bin`), for the host test
+//! that checks the `static` equals their decoding.
 
 use std::{env, fs, path::PathBuf};
 
 use qfa_thermal::table::{MAX_AXES, MAX_TABLE_BYTES};
-use qfa_thermal::{AxisModel, BiasGrid, Extensions, ScaleFactor, Table};
+use qfa_thermal::{AxisModel, BiasGrid, Extensions, Input, ScaleFactor, Table};
 
-/// STM32F405xG: 1 MiB of flash in sectors 0–3 (16 KiB), 4 (64 KiB), 5–11 (128 KiB), and
-/// 128 KiB of contiguous SRAM (SRAM1 112 KiB + SRAM2 16 KiB; the 64 KiB CCM is not used).
-/// Sector 11, the last, holds only the table, so it can be erased and rewritten without
-/// touching the code.
+/// STM32F405xG: 1 MiB of flash and 128 KiB of contiguous SRAM (SRAM1 112 KiB + SRAM2
+/// 16 KiB; the 64 KiB CCM is not used).
 const MEMORY_X: &str = "\
 MEMORY
 {
-  /* Sectors 0-10: code and constants. */
-  FLASH : ORIGIN = 0x08000000, LENGTH = 1024K - 128K
-  /* Sector 11 (128 KiB, erased as one unit): the coefficient table only. */
-  QFA_TABLE : ORIGIN = 0x080E0000, LENGTH = 128K
+  FLASH : ORIGIN = 0x08000000, LENGTH = 1024K
   RAM : ORIGIN = 0x20000000, LENGTH = 128K
 }
-
-SECTIONS
-{
-  .qfa_table : ALIGN(4)
-  {
-    KEEP(*(.qfa_table .qfa_table.*));
-  } > QFA_TABLE
-}
-INSERT AFTER .rodata;
 ";
 
 /// The rate window the board's compensator is built with (`Compensator<3, 32, 3, _>`).
@@ -43,12 +34,8 @@ const RATE_WINDOW: u16 = 32;
 /// so the board runs compensated out of the box; it is not a calibration of any sensor.
 fn fixture() -> Table {
     let scale = ScaleFactor::JB_KT8_1;
-    let mut table = Table {
-        input: qfa_thermal::Input::PulseCounts,
-        rate_window: RATE_WINDOW,
-        axes: Default::default(),
-        misalignment: None,
-    };
+    let mut table =
+        Table { input: Input::PulseCounts, rate_window: RATE_WINDOW, axes: Default::default(), misalignment: None };
     for axis in 0..MAX_AXES {
         let offset = 1.0e-4 + 2.0e-5 * axis as f32;
         let k0: Vec<f32> = (0..13).map(|i| offset + 1.5e-6 * (-40.0 + 10.0 * i as f32 - 22.0)).collect();
@@ -67,8 +54,8 @@ fn main() {
     println!("cargo:rerun-if-changed=build.rs");
     println!("cargo:rerun-if-env-changed=QFA_BOARD_TABLE");
     let out = PathBuf::from(env::var_os("OUT_DIR").expect("OUT_DIR"));
-    // The table image is written for the host too: the host tests decode it.
-    write_table_image(&out);
+    // Written for the host too: the host tests check the `static` against the bytes.
+    write_table(&out);
     if env::var("CARGO_CFG_TARGET_OS").as_deref() != Ok("none") {
         return;
     }
@@ -80,27 +67,101 @@ fn main() {
     println!("cargo:rustc-link-arg-bins=-Tdefmt.x");
 }
 
-fn write_table_image(out: &std::path::Path) {
-    let mut image = vec![0xFF_u8; MAX_TABLE_BYTES];
-    let len = match env::var_os("QFA_BOARD_TABLE") {
+/// The table's wire bytes (from `QFA_BOARD_TABLE` or the fixture) and its `static`.
+fn write_table(out: &std::path::Path) {
+    let bytes = match env::var_os("QFA_BOARD_TABLE") {
         Some(path) => {
             println!("cargo:rerun-if-changed={}", PathBuf::from(&path).display());
-            let bytes = fs::read(&path).unwrap_or_else(|e| panic!("QFA_BOARD_TABLE={}: {e}", path.to_string_lossy()));
-            let table = Table::decode(&bytes)
-                .unwrap_or_else(|e| panic!("QFA_BOARD_TABLE={}: not a valid table: {e}", path.to_string_lossy()));
-            assert_eq!(
-                table.rate_window, RATE_WINDOW,
-                "QFA_BOARD_TABLE: table fitted with rate window {}, the board uses {RATE_WINDOW}",
-                table.rate_window
-            );
-            assert_eq!(table.axes.len(), MAX_AXES, "QFA_BOARD_TABLE: the board has 3 axes");
-            assert!(bytes.len() <= MAX_TABLE_BYTES, "QFA_BOARD_TABLE: larger than the table slot");
-            image[..bytes.len()].copy_from_slice(&bytes);
-            bytes.len()
+            fs::read(&path).unwrap_or_else(|e| panic!("QFA_BOARD_TABLE={}: {e}", path.to_string_lossy()))
         }
-        None => fixture().encode(&mut image).expect("the fixture table validates and fits").len(),
+        None => {
+            let mut buf = [0u8; MAX_TABLE_BYTES];
+            fixture().encode(&mut buf).expect("the fixture table validates and fits").to_vec()
+        }
     };
-    // `encode` wrote into the front of the image; the rest stays erased (0xFF).
-    image[len..].fill(0xFF);
-    fs::write(out.join("table_sector.bin"), &image).expect("write table_sector.bin");
+    let table = Table::decode(&bytes).unwrap_or_else(|e| panic!("QFA_BOARD_TABLE: not a valid table: {e}"));
+    assert_eq!(
+        table.rate_window, RATE_WINDOW,
+        "QFA_BOARD_TABLE: table fitted with rate window {}, the board uses {RATE_WINDOW}",
+        table.rate_window
+    );
+    assert_eq!(table.axes.len(), MAX_AXES, "QFA_BOARD_TABLE: the board has 3 axes");
+    assert_eq!(table.input, Input::PulseCounts, "QFA_BOARD_TABLE: the board counts pulses; this table is for samples");
+    fs::write(out.join("table.bin"), &bytes).expect("write table.bin");
+    let source = format!(
+        "/// The coefficient table, generated by build.rs from {}.\npub static TABLE: Table = {};\n",
+        if env::var_os("QFA_BOARD_TABLE").is_some() { "QFA_BOARD_TABLE" } else { "its placeholder fixture" },
+        rust_literal(&table)
+    );
+    fs::write(out.join("table.rs"), source).expect("write table.rs");
+}
+
+/// `x` exactly, as a const expression.
+fn f(x: f32) -> String {
+    format!("f32::from_bits({:#010x})", x.to_bits())
+}
+
+fn floats(v: &[f32]) -> String {
+    v.iter().map(|&x| f(x)).collect::<Vec<_>>().join(", ")
+}
+
+/// `Some(expr)` or `None`.
+fn option<T>(o: Option<T>, expr: impl Fn(T) -> String) -> String {
+    o.map_or_else(|| "None".to_string(), |v| format!("Some({})", expr(v)))
+}
+
+/// A Rust initialiser for `t`: struct literals need every field, so a field added to the
+/// table's types fails this build rather than being left out.
+fn rust_literal(t: &Table) -> String {
+    let axes: Vec<String> = t
+        .axes
+        .iter()
+        .map(|a| {
+            let s = &a.scale;
+            let b = &a.bias;
+            let e = &a.ext;
+            format!(
+                "AxisModel {{ scale: ScaleFactor {{ t0_c: {}, gamma: {}, mu: {}, beta: {}, epsilon: {}, eta: {}, alpha: {} }}, \
+                 bias: BiasGrid {{ t_start_c: {}, t_step_c: {}, deadband_c_per_min: {}, \
+                 heating_g: heapless::Vec::from_array([{}]), cooling_g: heapless::Vec::from_array([{}]) }}, \
+                 rate_limit_c_per_min: {}, ext: Extensions {{ sensor_lag: {}, bias_branch_hysteresis: {}, bias_creep: {} }} }}",
+                f(s.t0_c),
+                f(s.gamma),
+                f(s.mu),
+                f(s.beta),
+                f(s.epsilon),
+                f(s.eta),
+                f(s.alpha),
+                f(b.t_start_c),
+                f(b.t_step_c),
+                f(b.deadband_c_per_min),
+                floats(&b.heating_g),
+                floats(&b.cooling_g),
+                f(a.rate_limit_c_per_min),
+                option(e.sensor_lag, |l| format!("SensorLag {{ tau_s: {} }}", f(l.tau_s))),
+                option(e.bias_branch_hysteresis, |h| format!(
+                    "BranchHysteresis {{ half_width_c: {}, weight_g: {} }}",
+                    f(h.half_width_c),
+                    f(h.weight_g)
+                )),
+                option(e.bias_creep, |c| format!(
+                    "Creep {{ gain_g_per_c: {}, tau_ref_s: {}, t_ref_c: {}, activation_k: {} }}",
+                    f(c.gain_g_per_c),
+                    f(c.tau_ref_s),
+                    f(c.t_ref_c),
+                    f(c.activation_k)
+                )),
+            )
+        })
+        .collect();
+    let input = match t.input {
+        Input::PulseCounts => "Input::PulseCounts",
+        Input::Samples => "Input::Samples",
+    };
+    format!(
+        "Table {{ input: {input}, rate_window: {}, axes: heapless::Vec::from_array([{}]), misalignment: {} }}",
+        t.rate_window,
+        axes.join(", "),
+        option(t.misalignment, |m| format!("[{}]", floats(&m)))
+    )
 }

@@ -10,7 +10,6 @@ use panic_probe as _;
 use qfa_thermal::ds18b20::Resolution;
 use qfa_thermal::ds18b20_driver::Ds18b20;
 use qfa_thermal::onewire::OneWire;
-use qfa_thermal::table::{self, MAX_TABLE_BYTES};
 use qfa_thermal::time::MsClock;
 use qfa_thermal::{Applier, Compensator, Config, Status, Table, Updater};
 use static_cell::StaticCell;
@@ -21,7 +20,7 @@ use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::rcc::Config as RccConfig;
 use stm32f4xx_hal::timer::{CounterUs, Event, FTimerUs, Timer};
 
-use crate::slot;
+use crate::calibration;
 use crate::widen::Widen16;
 
 /// The recommended configuration: 3 axes, a 32-sample rate window, one DS18B20 per
@@ -37,18 +36,6 @@ const CYCLES_PER_SUMMARY: u32 = 1_000_000 / PERIOD_US;
 /// Temperature cycle: a conversion on every sensor once a second.
 const TEMP_PERIOD_US: u32 = 1_000_000;
 
-/// The table sector's image, written by build.rs: the encoded table, then erased 0xFF.
-/// The linker puts it alone in flash sector 11 (0x080E_0000), so a calibration station
-/// can erase and rewrite that sector (probe, bootloader) without touching the code.
-// `link_section` is an unsafe attribute (a wrong section can break the image); this one
-// names the output section that build.rs's memory.x places in the QFA_TABLE region.
-#[allow(unsafe_code)]
-#[link_section = ".qfa_table"]
-#[used]
-static TABLE_SECTOR: [u8; MAX_TABLE_BYTES] = *include_bytes!(concat!(env!("OUT_DIR"), "/table_sector.bin"));
-
-/// The decoded table, in RAM (708 B): decoding copies it out of flash.
-static TABLE: StaticCell<Table> = StaticCell::new();
 /// The compensator; `split` borrows it for `'static`.
 static COMP: StaticCell<Comp> = StaticCell::new();
 
@@ -175,16 +162,6 @@ fn now_us(tim2: &pac::TIM2) -> u32 {
     tim2.cnt().read().bits()
 }
 
-/// Decode and validate the table in flash sector 11.
-///
-/// The sector is read through `black_box`, so the bytes come from flash at run time, not
-/// from the image the compiler saw: a sector rewritten after flashing is what is decoded.
-/// An erased sector fails with `BadMagic`, a length past the slot with `Truncated`.
-fn load_table() -> Result<&'static Table, table::Error> {
-    let sector: &[u8; MAX_TABLE_BYTES] = black_box(&TABLE_SECTOR);
-    Ok(TABLE.init(slot::decode(sector)?))
-}
-
 /// One DS18B20 on its own open-drain pin.
 struct Channel {
     bus: OneWire<OneWirePin, Delay>,
@@ -284,7 +261,7 @@ fn main() -> ! {
     tim2.cr1().write(|w| w.cen().enabled());
 
     defmt::println!(
-        "qfa-board-stm32f405: RAM compensator {=usize} B + table {=usize} B",
+        "qfa-board-stm32f405: RAM compensator {=usize} B; table {=usize} B in flash",
         core::mem::size_of::<Comp>(),
         core::mem::size_of::<Table>()
     );
@@ -293,12 +270,10 @@ fn main() -> ! {
         Ok(c) => COMP.init(c),
         Err(e) => defmt::panic!("compensator config: {}", e),
     };
-    match load_table() {
-        Ok(t) => match comp.set_table(t) {
-            Ok(()) => defmt::println!("table: loaded and validated, {} axes", t.axes.len()),
-            Err(e) => defmt::error!("table: refused by the compensator: {}; raw pass-through (NO_TABLE)", e),
-        },
-        Err(e) => defmt::error!("table: {}; raw pass-through at the nominal scale (NO_TABLE)", e),
+    // Validated where it lies in flash; a refusal leaves the raw pass-through, flagged.
+    match comp.set_table(&calibration::TABLE) {
+        Ok(()) => defmt::println!("table: validated in flash, {} axes", calibration::TABLE.axes.len()),
+        Err(e) => defmt::error!("table: refused: {}; raw pass-through at the nominal scale (NO_TABLE)", e),
     }
     let (updater, mut applier) = comp.split();
 

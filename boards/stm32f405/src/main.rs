@@ -7,7 +7,7 @@
 //! | µs clock | TIM2, 32-bit, 1 MHz, free-running (wraps every 71.6 min) |
 //! | IMU cycle | TIM7 update interrupt, 400 Hz: the fast path (`Applier::cycle_counters`) |
 //! | slow path | thread mode: 1 Hz conversions, `Updater::on_scratchpad_from` |
-//! | table | flash sector 11 (0x080E_0000), decoded and validated at boot |
+//! | table | a `static` in flash built in by build.rs (`QFA_BOARD_TABLE=table.bin`), validated in place at boot |
 //! | log | RTT (defmt) |
 //!
 //! Build: `cargo build -p qfa-board-stm32f405 --release --target thumbv7em-none-eabihf`.
@@ -21,18 +21,16 @@
 //! interrupt and call `Applier::cycle_samples(raw, dt_ticks)`, with the same handoff.
 //!
 //! # RAM
-//! The compensator (`core_ram_bytes` of `cargo xtask bench-target`, 1 000 B) and the
-//! decoded table (708 B) live in `StaticCell`s, about 1 000 B and 712 B with their init flags
-//! (`llvm-nm -S` of the release image). `Table` is a postcard decoding, so validating the
-//! flash bytes means copying them to RAM once; the compensator then holds only a
-//! `&'static Table`. The other RAM: the defmt-rtt buffer (1 024 B), the interrupt's state
-//! and handoff (116 B), the summary (20 B), and the stack (not in these figures).
+//! The compensator (`core_ram_bytes` of `cargo xtask bench-target`) lives in a `StaticCell`
+//! and holds a `&'static Table`: the table is a `static` in flash (see `calibration`), so
+//! validating it reads flash and nothing is copied. The other RAM: the defmt-rtt buffer,
+//! the interrupt's state and handoff, the summary, and the stack (not in these figures).
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 #[cfg(target_os = "none")]
 mod board;
 #[cfg(any(test, target_os = "none"))]
-mod slot;
+mod calibration;
 #[cfg(any(test, target_os = "none"))]
 mod widen;
 
