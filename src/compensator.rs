@@ -32,13 +32,29 @@
 //! accelerometer case, as in the paper): each stream has its own rate estimator,
 //! plausibility rules and staleness, and one misalignment matrix still spans the axes.
 //!
-//! Faults never produce a silent wrong answer: a rejected reading returns a typed
-//! [`SampleError`], raises [`Status::TEMP_INVALID`] and keeps the last good compensation;
-//! no reading for `stale_after_ticks` raises [`Status::TEMP_STALE`]; with no table the raw
-//! input passes through at the nominal scale [`Config::nominal_k1`], flagged
-//! [`Status::NO_TABLE`], so an INS that ignores the status still sees gravity, not free
-//! fall. Outputs are always finite: table validation bounds `g0/K1` and `K0`,
-//! [`Config::validate`] bounds the nominal scale, and the inputs are integers.
+//! # Faults
+//! Faults never produce a silent wrong answer:
+//! * A rejected reading returns a typed [`SampleError`], raises [`Status::TEMP_INVALID`]
+//!   and keeps the last good compensation. So does a reading that never arrived, reported
+//!   with [`Compensator::on_missed_reading`]: report every failed read.
+//! * A stream with no good reading for the stale threshold raises [`Status::TEMP_STALE`]:
+//!   the fast path counts its own ticks, and the slow path keeps a saturating age per
+//!   stream that no clock wrap resets (see [`crate::time`]).
+//! * A reading that jumps further than `max_step_raw` plus `max_slew_raw_per_min` times the
+//!   elapsed time (the slew counted at most up to the stale threshold) is used only once
+//!   [`Config::confirm_samples`] readings agree. The DS18B20's power-on value 0550h
+//!   (+85 °C) is used only as the continuation of a stream already there (within one step,
+//!   no gap); after a dropout or as a jump it is refused, whether or not the scratchpad's
+//!   byte 6 gives it away. Values outside −55…+125 °C are refused.
+//! * A table records the [`Input`](table::Input) it converts; [`Config::input`] names the
+//!   compensator's, a table of the other kind is refused, and the fast-path entry of the
+//!   other kind raises [`Status::WRONG_INPUT`].
+//! * With no table the raw input passes through at the nominal scale
+//!   [`Config::nominal_k1`], flagged [`Status::NO_TABLE`], so an INS that ignores the
+//!   status still sees gravity, not free fall.
+//! * Outputs are always finite and bounded: table validation bounds `g0/K1` and `K0` (the
+//!   bias grid never extrapolates), [`Config::validate`] bounds the nominal scale, and the
+//!   inputs are integers.
 
 use core::borrow::Borrow;
 use core::fmt;

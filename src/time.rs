@@ -3,13 +3,22 @@
 //! # One time base
 //! Every slow-path call ([`Compensator::on_raw`](crate::Compensator::on_raw) and friends)
 //! takes `t_ms`, a **wrapping `u32` count of milliseconds** from one clock shared by all
-//! temperature sensors. It wraps every 2³² ms = 49.7 days; the compensator and the rate
-//! estimator only ever use `t_ms.wrapping_sub(previous)`, so the wrap is invisible as long
-//! as two good readings of a sensor are less than 2³¹ ms (24.8 days) apart. After a longer
-//! gap, or a clock that was reset, readings are first rejected as
-//! [`SampleError::Time`](crate::SampleError::Time) and then, once
+//! temperature sensors. It wraps every 2³² ms = 49.7 days. The rate estimator only uses
+//! `t_ms.wrapping_sub(previous)` within its window (gaps of at most 65.5 s). How long a
+//! sensor has been silent is not read from a wrapped difference, which says "2 s" for a
+//! sensor that died 49.7 days and 2 s ago: the slow path sums the forward steps of `t_ms`
+//! over all its calls (readings, rejections, [`on_missed_reading`]) into a saturating age per
+//! sensor. That age drives [`Status::TEMP_STALE`](crate::Status::TEMP_STALE), restarts a
+//! returning sensor's rate window, and caps the plausibility slew, however many wraps
+//! passed. Its one requirement: the slow path hears of some sensor at least once every 2³¹
+//! ms (24.8 days), which a 1 Hz loop that reports every failed read through
+//! [`on_missed_reading`] does 2 million times over. A clock that was reset (a step back of
+//! more than the stale threshold) restarts the count; the readings that follow are first
+//! rejected as [`SampleError::Time`](crate::SampleError::Time) and then, once
 //! [`Config::confirm_samples`](crate::Config::confirm_samples) consecutive readings agree
 //! with each other, accepted as a restart of that sensor's stream.
+//!
+//! [`on_missed_reading`]: crate::Compensator::on_missed_reading
 //!
 //! The fast path counts its own ticks as deltas (`dt_ticks`, a `u32` per IMU cycle); it
 //! never sees an absolute time, so it has no wrap.

@@ -1,7 +1,6 @@
 //! The firmware proper (thumbv7em-none-eabihf only). See the crate docs for the wiring.
 
 use core::cell::RefCell;
-use core::hint::black_box;
 use core::sync::atomic::{AtomicU32, Ordering};
 
 use critical_section::Mutex;
