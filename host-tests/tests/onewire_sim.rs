@@ -2,7 +2,7 @@
 //! datasheet limits, SEARCH ROM, resolutions, the non-blocking state machine, and
 //! every injected fault giving a typed error, never a wrong temperature.
 
-use host_tests::onewire_sim::{Device, Sim};
+use host_tests::onewire_sim::{Device, Sim, SimDelay, SimPin};
 use qfa_thermal::ds18b20::{self, Resolution};
 use qfa_thermal::ds18b20_driver::{self as drv, Ds18b20, PowerSupply, Sample};
 use qfa_thermal::onewire::{self as ow, Rom};
@@ -191,6 +191,121 @@ fn convert_all_then_read_each() {
 }
 
 // ---------- Faults ----------
+
+/// Start, poll every millisecond (the driver's non-blocking recipe), read.
+fn convert_and_read(
+    sim: &Sim,
+    bus: &mut ow::OneWire<SimPin, SimDelay>,
+    sensor: &mut Ds18b20,
+) -> Result<Sample, drv::Error> {
+    sensor.start(bus, sim.now_us())?;
+    for _ in 0..2_000 {
+        if sensor.is_ready(bus, sim.now_us())? {
+            return sensor.read(bus);
+        }
+        sim.idle_us(1_000);
+    }
+    panic!("not ready after 2 s");
+}
+
+/// Scenario 5, a frozen sensor: a Convert T the sensor never took (dropped here by the
+/// simulator) leaves the previous conversion in the scratchpad, CRC good. Read after it,
+/// that conversion came back as a new sample with a fresh timestamp, and so on for every
+/// lost command: the status stayed OK on a value that no longer moved. With read slots,
+/// the slot right after Convert T must read 0 (converting); a 1 means the command was
+/// not taken, and the driver says so instead of reading.
+#[test]
+fn frozen_sensor_lost_convert_t_is_a_typed_error_not_the_previous_sample() {
+    let sim = Sim::new(vec![Device::ds18b20(1, 0x0191)]);
+    let mut bus = sim.bus();
+    let mut sensor = Ds18b20::single();
+    assert_eq!(sensor.use_read_slots(&mut bus), Ok(PowerSupply::External));
+    assert_eq!(convert_and_read(&sim, &mut bus, &mut sensor).map(|s| s.reading.raw), Ok(0x0191));
+
+    // The case warms by 1 °C, and the next Convert T is lost.
+    sim.with(|w| {
+        w.devices[0].temp_raw = 0x01A1;
+        w.devices[0].drop_convert_t = 1;
+    });
+    sim.idle_us(200_000);
+    assert_eq!(convert_and_read(&sim, &mut bus, &mut sensor), Err(drv::Error::ConversionNotStarted));
+    // Nothing is left to read: the lost conversion is never delivered later either.
+    assert_eq!(sensor.read(&mut bus), Err(drv::Error::NotStarted));
+    // The next command is taken: the new temperature.
+    assert_eq!(convert_and_read(&sim, &mut bus, &mut sensor).map(|s| s.reading.raw), Ok(0x01A1));
+
+    // `measure` starts again within its retry budget (1 retry), and gives up past it.
+    sim.with(|w| {
+        w.devices[0].temp_raw = 0x01B1;
+        w.devices[0].drop_convert_t = 1;
+    });
+    assert_eq!(sensor.measure(&mut bus, sim.now_us()).map(|s| s.reading.raw), Ok(0x01B1));
+    sim.with(|w| w.devices[0].drop_convert_t = 2);
+    assert_eq!(sensor.measure(&mut bus, sim.now_us()), Err(drv::Error::ConversionNotStarted));
+    assert_no_violations(&sim);
+}
+
+/// `start_all` on externally powered sensors: every command lost is seen (the slot after
+/// it reads 1); one lost among three is not (the others drive it to 0), as documented.
+#[test]
+fn frozen_sensor_start_all_sees_only_every_command_lost() {
+    let sim = Sim::new((1..=3).map(|i| Device::ds18b20(i, 0x0191)).collect());
+    let mut bus = sim.bus();
+    let mut sensors = Ds18b20::search::<_, _, 4>(&mut bus).unwrap();
+    for s in &mut sensors {
+        assert_eq!(s.use_read_slots(&mut bus), Ok(PowerSupply::External));
+    }
+    sim.with(|w| w.devices.iter_mut().for_each(|d| d.drop_convert_t = 1));
+    assert_eq!(Ds18b20::start_all(&mut bus, &mut sensors, sim.now_us()), Err(drv::Error::ConversionNotStarted));
+    assert!(sensors.iter_mut().all(|s| s.read(&mut bus) == Err(drv::Error::NotStarted)));
+    sim.with(|w| w.devices[1].drop_convert_t = 1);
+    assert_eq!(Ds18b20::start_all(&mut bus, &mut sensors, sim.now_us()), Ok(()));
+    assert_no_violations(&sim);
+}
+
+/// Scenario 5, the other way to freeze: a conversion that starts and never ends (here
+/// five times the datasheet maximum). Judged by the timer, the read after 750 ms returned
+/// the previous conversion. Judged by the read slot, the sensor is still converting past
+/// the maximum, which is a typed error.
+#[test]
+fn frozen_sensor_conversion_that_never_ends_is_overdue_not_the_previous_sample() {
+    let sim = Sim::new(vec![Device::ds18b20(1, 0x0191)]);
+    let mut bus = sim.bus();
+    let mut sensor = Ds18b20::single();
+    assert_eq!(sensor.use_read_slots(&mut bus), Ok(PowerSupply::External));
+    assert_eq!(convert_and_read(&sim, &mut bus, &mut sensor).map(|s| s.reading.raw), Ok(0x0191));
+    sim.with(|w| {
+        w.devices[0].temp_raw = 0x01A1;
+        w.devices[0].conversion_fraction = 5.0;
+    });
+    let start = sim.now_us();
+    assert_eq!(convert_and_read(&sim, &mut bus, &mut sensor), Err(drv::Error::ConversionOverdue));
+    let waited = sim.now_us() - start;
+    // Not before the datasheet maximum and its margin, and not much after.
+    assert!((825_000..830_000).contains(&waited), "overdue after {waited} µs");
+    assert_eq!(sensor.read(&mut bus), Err(drv::Error::NotStarted));
+    // `measure` waits the maximum, sees the sensor still converting, and does not read.
+    assert_eq!(sensor.measure(&mut bus, sim.now_us()), Err(drv::Error::ConversionOverdue));
+    assert_no_violations(&sim);
+}
+
+/// A parasite-powered sensor cannot tell a lost conversion (it does not drive read
+/// slots while converting), so `use_read_slots` leaves it on the timer, and a lost
+/// Convert T still gives the previous value: why the board refuses such a sensor.
+#[test]
+fn parasite_sensor_cannot_see_a_lost_convert_t() {
+    let sim = Sim::new(vec![Device::ds18b20(1, 0x0191)]);
+    sim.with(|w| w.devices[0].parasite = true);
+    let mut bus = sim.bus();
+    let mut sensor = Ds18b20::single();
+    assert_eq!(sensor.use_read_slots(&mut bus), Ok(PowerSupply::Parasite));
+    assert_eq!(convert_and_read(&sim, &mut bus, &mut sensor).map(|s| s.reading.raw), Ok(0x0191));
+    sim.with(|w| {
+        w.devices[0].temp_raw = 0x01A1;
+        w.devices[0].drop_convert_t = 1;
+    });
+    assert_eq!(convert_and_read(&sim, &mut bus, &mut sensor).map(|s| s.reading.raw), Ok(0x0191));
+}
 
 /// Without retries, a flip of any of the 72 scratchpad bits is a typed error.
 #[test]
