@@ -81,24 +81,31 @@
 //!
 //! ```text
 //! let mut clock = MsClock::new();            // one for every sensor
-//! sensor.start(&mut bus, now_us())?;
+//! let started = now_us();
+//! sensor.start(&mut bus, started)?;          // ConversionNotStarted: a missed reading too
 //! // ... IMU cycles run; each scheduler tick:
-//! if sensor.is_ready(&mut bus, now_us())? {
-//!     match sensor.read(&mut bus) {
+//! let due_ms = clock.ms(started.wrapping_add(resolution.max_conversion_us()));
+//! match sensor.is_ready(&mut bus, now_us()) {
+//!     Ok(false) => {}
+//!     Ok(true) => match sensor.read_keeping_bytes(&mut bus) {
 //!         Ok(s) => {
 //!             let t_ms = clock.ms(s.completed_us);
-//!             let status = updater.on_scratchpad_from(axis, t_ms, &s.scratchpad)?;
+//!             let status = updater.on_scratchpad_from(axis, t_ms, &s.scratchpad);
 //!         }
-//!         Err(e) => { /* typed error: count it, restart the conversion */ }
-//!     }
-//!     sensor.start(&mut bus, now_us())?;
+//!         // Every failure reaches the compensator, which raises TEMP_INVALID: the bytes
+//!         // that failed decoding (a typed decode error), or a reading that never came.
+//!         Err(ReadFailure { scratchpad: Some(sp), .. }) => { updater.on_scratchpad_from(axis, due_ms, &sp); }
+//!         Err(_) => { updater.on_missed_reading(axis, due_ms); }
+//!     },
+//!     Err(_) => { updater.on_missed_reading(axis, due_ms); }  // bus, ConversionOverdue
 //! }
 //! ```
 //!
 //! `updater.on_raw_from(axis, t_ms, s.reading.raw)` is the path for an already
 //! validated reading; both return the compensator's own `Result`. The soak benchmark
-//! (`cargo run --release -p host-tests --bin soak -- --hours 1200`) runs this recipe
-//! across 1 200 simulated hours, past the ms wrap.
+//! (`cargo run --release -p host-tests --bin soak -- --hours 1200`) runs the non-blocking
+//! recipe across 1 200 simulated hours, past the ms wrap. The STM32F405 board's
+//! `poll.rs` is this recipe with a 1 s period, tested on the simulated bus.
 //!
 //! # Flash
 //!
@@ -223,6 +230,20 @@ pub struct Sample {
     pub reading: Reading,
     /// Caller's clock, in µs, when the conversion completed (an upper bound).
     pub completed_us: u32,
+}
+
+/// A failed [`Ds18b20::read_keeping_bytes`]: the error and, when the bytes were at fault,
+/// the bytes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ReadFailure {
+    /// The error, as [`Ds18b20::read`] returns it.
+    pub error: Error,
+    /// For [`Error::Scratchpad`], the last scratchpad read, which failed
+    /// [`decode_scratchpad`]: `Updater::on_scratchpad_from` rejects these bytes with the
+    /// same typed decode error. `None` for every other error (bus, not ready, changed
+    /// resolution): nothing usable was read.
+    pub scratchpad: Option<[u8; 9]>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -539,24 +560,43 @@ impl Ds18b20 {
         P: InputPin + OutputPin,
         D: DelayNs,
     {
+        self.read_keeping_bytes(bus).map_err(|f| f.error)
+    }
+
+    /// [`Self::read`], keeping the bytes of a scratchpad that failed decoding, so a caller
+    /// can hand every failed read to the compensator: the bytes to
+    /// `Updater::on_scratchpad_from` (a typed decode error), or, with no bytes,
+    /// `Updater::on_missed_reading`.
+    ///
+    /// # Errors
+    /// As [`Self::read`], in [`ReadFailure::error`].
+    pub fn read_keeping_bytes<P, D>(&mut self, bus: &mut OneWire<P, D>) -> Result<Sample, ReadFailure>
+    where
+        P: InputPin + OutputPin,
+        D: DelayNs,
+    {
+        let fail = |error| ReadFailure { error, scratchpad: None };
         let completed_us = match self.state {
-            State::Idle => return Err(Error::NotStarted),
-            State::Converting { .. } => return Err(Error::NotReady),
+            State::Idle => return Err(fail(Error::NotStarted)),
+            State::Converting { .. } => return Err(fail(Error::NotReady)),
             State::Done { completed_us } => completed_us,
         };
-        let mut last = Error::NotReady;
+        let mut last = fail(Error::NotReady);
         for attempt in 0..=MAX_RETRIES {
             if attempt > self.retries {
                 break;
             }
-            match self.read_scratchpad(bus) {
-                Ok((scratchpad, reading)) => return self.finish(scratchpad, reading, completed_us),
-                Err(e @ Error::Scratchpad(ds18b20::Error::PowerOn)) => {
-                    self.state = State::Idle;
-                    return Err(e);
+            // A bus error is not retried.
+            let sp = self.read_scratchpad_raw(bus).map_err(fail)?;
+            match decode_scratchpad(&sp) {
+                Ok(reading) => return self.finish(sp, reading, completed_us).map_err(fail),
+                Err(e) => {
+                    last = ReadFailure { error: e.into(), scratchpad: Some(sp) };
+                    if e == ds18b20::Error::PowerOn {
+                        self.state = State::Idle;
+                        return Err(last);
+                    }
                 }
-                Err(e @ Error::Scratchpad(_)) => last = e,
-                Err(e) => return Err(e),
             }
         }
         Err(last)

@@ -307,6 +307,37 @@ fn parasite_sensor_cannot_see_a_lost_convert_t() {
     assert_eq!(convert_and_read(&sim, &mut bus, &mut sensor).map(|s| s.reading.raw), Ok(0x0191));
 }
 
+/// `read_keeping_bytes` gives back a scratchpad that failed decoding, so the caller can
+/// hand it to the compensator (which rejects it with the same typed error), and no bytes
+/// when nothing was read.
+#[test]
+fn read_keeping_bytes_gives_the_failed_scratchpad_and_only_that() {
+    let sim = Sim::new(vec![Device::ds18b20(1, 0x0191)]);
+    let mut bus = sim.bus();
+    let mut sensor = Ds18b20::single().with_retries(1);
+    // The CRC byte's lowest bit, flipped on the read and on its retry.
+    sim.with(|w| {
+        w.devices[0].flip_bit = 64;
+        w.devices[0].flip_times = 2;
+    });
+    sensor.start(&mut bus, sim.now_us()).unwrap();
+    sim.idle_us(750_000);
+    assert!(sensor.is_ready(&mut bus, sim.now_us()).unwrap());
+    let f = sensor.read_keeping_bytes(&mut bus).unwrap_err();
+    let sp = f.scratchpad.expect("the bytes that failed");
+    assert_eq!(f.error, drv::Error::Scratchpad(ds18b20::decode_scratchpad(&sp).unwrap_err()));
+    assert!(matches!(f.error, drv::Error::Scratchpad(ds18b20::Error::Crc { .. })), "{f:?}");
+    assert_eq!(sp[..8], sim.with(|w| w.devices[0].scratchpad()));
+
+    // No presence: an error without bytes.
+    sensor.start(&mut bus, sim.now_us()).unwrap();
+    sim.idle_us(750_000);
+    assert!(sensor.is_ready(&mut bus, sim.now_us()).unwrap());
+    sim.with(|w| w.devices[0].present = false);
+    let f = sensor.read_keeping_bytes(&mut bus).unwrap_err();
+    assert_eq!(f, drv::ReadFailure { error: drv::Error::Bus(ow::Error::NoPresence), scratchpad: None });
+}
+
 /// Without retries, a flip of any of the 72 scratchpad bits is a typed error.
 #[test]
 fn fault_flipped_scratchpad_bit_is_an_error_without_retries() {
