@@ -7,8 +7,6 @@ use core::sync::atomic::{AtomicU32, Ordering};
 use critical_section::Mutex;
 use defmt_rtt as _;
 use panic_probe as _;
-use qfa_thermal::ds18b20::Resolution;
-use qfa_thermal::ds18b20_driver::Ds18b20;
 use qfa_thermal::onewire::OneWire;
 use qfa_thermal::table::{self, MAX_TABLE_BYTES};
 use qfa_thermal::time::MsClock;
@@ -21,6 +19,7 @@ use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::rcc::Config as RccConfig;
 use stm32f4xx_hal::timer::{CounterUs, Event, FTimerUs, Timer};
 
+use crate::poll::{self, Event as SensorEvent};
 use crate::slot;
 use crate::widen::Widen16;
 
@@ -34,8 +33,6 @@ type OneWirePin = PartiallyErasedPin<'B', Output<OpenDrain>>;
 const PERIOD_US: u32 = 2_500;
 /// IMU cycles per logged summary (1 s).
 const CYCLES_PER_SUMMARY: u32 = 1_000_000 / PERIOD_US;
-/// Temperature cycle: a conversion on every sensor once a second.
-const TEMP_PERIOD_US: u32 = 1_000_000;
 
 /// The table sector's image, written by build.rs: the encoded table, then erased 0xFF.
 /// The linker puts it alone in flash sector 11 (0x080E_0000), so a calibration station
@@ -186,65 +183,25 @@ fn load_table() -> Result<&'static Table, table::Error> {
 }
 
 /// One DS18B20 on its own open-drain pin.
-struct Channel {
-    bus: OneWire<OneWirePin, Delay>,
-    sensor: Ds18b20,
-    converting: bool,
-}
+type Channel = poll::Channel<OneWirePin, Delay>;
 
-/// The slow path, in thread mode: start conversions at 1 Hz, read them when done, feed the
-/// updater. Every call is bounded (delays alone, SKIP ROM: start 2.1 ms, poll 70 µs, read
-/// ≤ 2 × 7.1 ms with the default retry); the IMU interrupt preempts all of it. A 1-Wire read
-/// slot samples 10 µs after its falling edge and the sensor's data is valid until 15 µs, so
-/// the IMU interrupt must stay well under 5 µs (its handler is straight-line code, a few
-/// hundred cycles at 168 MHz; not measured on hardware).
+/// The slow path, in thread mode: each sensor's [`poll::Channel::step`] (1 Hz conversions,
+/// read when done, the updater fed), and the log. Every call is bounded (delays alone,
+/// SKIP ROM: start 2.1 ms, poll 70 µs, read ≤ 2 × 7.1 ms with the default retry); the IMU
+/// interrupt preempts all of it. A 1-Wire read slot samples 10 µs after its falling edge
+/// and the sensor's data is valid until 15 µs, so the IMU interrupt must stay well under
+/// 5 µs (its handler is straight-line code, a few hundred cycles at 168 MHz; not measured
+/// on hardware).
 fn slow_path(mut updater: Slow, mut chans: [Channel; 3], tim2: &pac::TIM2) -> ! {
     let mut clock = MsClock::new();
-    let mut next_start = now_us(tim2);
     let mut seen = SUMMARY.seq.load(Ordering::Relaxed);
     loop {
-        let now = now_us(tim2);
-        if now.wrapping_sub(next_start) as i32 >= 0 {
-            next_start = next_start.wrapping_add(TEMP_PERIOD_US);
-            // Keep the ms clock fed even if every sensor is failing (it must see the µs
-            // clock at least every 35.8 min to count its wraps).
-            let _ = clock.ms(now);
-            for (axis, ch) in chans.iter_mut().enumerate() {
-                if ch.converting {
-                    defmt::error!("axis {}: conversion not read within 1 s, restarted", axis);
-                }
-                ch.converting = match ch.sensor.start(&mut ch.bus, now_us(tim2)) {
-                    Ok(()) => true,
-                    Err(e) => {
-                        defmt::error!("axis {}: DS18B20 start: {}", axis, e);
-                        false
-                    }
-                };
-            }
-        }
+        // Keep the ms clock fed even if every sensor is failing (it must see the µs clock
+        // at least every 35.8 min to count its wraps).
+        let _ = clock.ms(now_us(tim2));
         for (axis, ch) in chans.iter_mut().enumerate() {
-            if !ch.converting {
-                continue;
-            }
-            match ch.sensor.is_ready(&mut ch.bus, now_us(tim2)) {
-                Ok(false) => continue,
-                Ok(true) => ch.converting = false,
-                Err(e) => {
-                    defmt::error!("axis {}: DS18B20 poll: {}", axis, e);
-                    ch.converting = false;
-                    continue;
-                }
-            }
-            match ch.sensor.read(&mut ch.bus) {
-                Ok(s) => {
-                    // One time base for every sensor, wrap-safe (never completed_us / 1000).
-                    let t_ms = clock.ms(s.completed_us);
-                    if let Err(e) = updater.on_scratchpad_from(axis, t_ms, &s.scratchpad) {
-                        defmt::error!("axis {}: reading refused: {}", axis, e);
-                    }
-                }
-                Err(e) => defmt::error!("axis {}: DS18B20 read: {}", axis, e),
-            }
+            let event = ch.step(&mut updater, &mut clock, axis, now_us(tim2));
+            log_event(axis, event);
         }
         // Look without a critical section; take one (a few cycles of masked interrupts) only
         // once a second, to copy a whole summary.
@@ -257,6 +214,17 @@ fn slow_path(mut updater: Slow, mut chans: [Channel; 3], tim2: &pac::TIM2) -> ! 
             seen = seq;
             defmt::println!("1 s: dv_mps={} status={} temp_c={}", dv, status, temps(&updater));
         }
+    }
+}
+
+/// Log what a sensor's step did that a person should see.
+fn log_event(axis: usize, event: SensorEvent) {
+    match event {
+        SensorEvent::Idle | SensorEvent::Started | SensorEvent::Accepted(_) => {}
+        SensorEvent::Rejected { cause, error } => {
+            defmt::error!("axis {}: reading refused: {} (driver: {})", axis, error, cause)
+        }
+        SensorEvent::NotReported(cause) => defmt::error!("axis {}: DS18B20: {}", axis, cause),
     }
 }
 
@@ -311,11 +279,10 @@ fn main() -> ! {
         gpiob.pb7.into_open_drain_output_in_state(PinState::High).erase_number(),
         gpiob.pb8.into_open_drain_output_in_state(PinState::High).erase_number(),
     ];
-    let mut chans =
-        pins.map(|pin| Channel { bus: OneWire::new(pin, delay), sensor: Ds18b20::single(), converting: false });
+    let first_us = now_us(&tim2);
+    let mut chans = pins.map(|pin| Channel::new(OneWire::new(pin, delay), first_us));
     for (axis, ch) in chans.iter_mut().enumerate() {
-        // 12 bits (0.0625 °C, 750 ms); the driver re-checks it in every scratchpad.
-        if let Err(e) = ch.sensor.set_resolution(&mut ch.bus, Resolution::Bits12) {
+        if let Err(e) = ch.setup() {
             defmt::error!("axis {}: DS18B20 setup: {}; its axis stays TEMP_STALE until it answers", axis, e);
         }
     }

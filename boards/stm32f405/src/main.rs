@@ -32,6 +32,8 @@
 #[cfg(target_os = "none")]
 mod board;
 #[cfg(any(test, target_os = "none"))]
+mod poll;
+#[cfg(any(test, target_os = "none"))]
 mod slot;
 #[cfg(any(test, target_os = "none"))]
 mod widen;
