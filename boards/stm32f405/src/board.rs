@@ -186,8 +186,9 @@ fn load_table() -> Result<&'static Table, table::Error> {
 type Channel = poll::Channel<OneWirePin, Delay>;
 
 /// The slow path, in thread mode: each sensor's [`poll::Channel::step`] (1 Hz conversions,
-/// read when done, the updater fed), and the log. Every call is bounded (delays alone,
-/// SKIP ROM: start 2.1 ms, poll 70 µs, read ≤ 2 × 7.1 ms with the default retry); the IMU
+/// checked on the bus, read when done; every reading, good or failed, reaches the updater),
+/// and the log. Every call is bounded (delays alone, SKIP ROM: start 2.2 ms with its check
+/// slot, poll 70 µs, read ≤ 2 × 7.1 ms with the default retry, setup ≤ 35 ms); the IMU
 /// interrupt preempts all of it. A 1-Wire read slot samples 10 µs after its falling edge
 /// and the sensor's data is valid until 15 µs, so the IMU interrupt must stay well under
 /// 5 µs (its handler is straight-line code, a few hundred cycles at 168 MHz; not measured
@@ -217,14 +218,25 @@ fn slow_path(mut updater: Slow, mut chans: [Channel; 3], tim2: &pac::TIM2) -> ! 
     }
 }
 
-/// Log what a sensor's step did that a person should see.
+/// Log what a sensor's step did that a person should see. Thread mode only: the IMU
+/// interrupt never logs.
 fn log_event(axis: usize, event: SensorEvent) {
     match event {
         SensorEvent::Idle | SensorEvent::Started | SensorEvent::Accepted(_) => {}
+        SensorEvent::Configured => {
+            defmt::println!("axis {}: DS18B20 at 12 bits, externally powered: conversions checked on the bus", axis)
+        }
+        SensorEvent::Missed { cause: poll::Cause::Parasite, .. } => defmt::error!(
+            "axis {}: DS18B20 is parasite-powered: a lost conversion cannot be seen, so it is refused; \
+             axis flagged TEMP_INVALID and TEMP_STALE",
+            axis
+        ),
         SensorEvent::Rejected { cause, error } => {
             defmt::error!("axis {}: reading refused: {} (driver: {})", axis, error, cause)
         }
-        SensorEvent::NotReported(cause) => defmt::error!("axis {}: DS18B20: {}", axis, cause),
+        SensorEvent::Missed { cause, result } => {
+            defmt::error!("axis {}: reading missed: {}; updater: {}", axis, cause, result)
+        }
     }
 }
 
@@ -279,13 +291,10 @@ fn main() -> ! {
         gpiob.pb7.into_open_drain_output_in_state(PinState::High).erase_number(),
         gpiob.pb8.into_open_drain_output_in_state(PinState::High).erase_number(),
     ];
+    // Each channel's first step sets 12 bits and reads the power supply (a parasite-powered
+    // sensor is refused); a sensor that does not answer is set up again every second.
     let first_us = now_us(&tim2);
-    let mut chans = pins.map(|pin| Channel::new(OneWire::new(pin, delay), first_us));
-    for (axis, ch) in chans.iter_mut().enumerate() {
-        if let Err(e) = ch.setup() {
-            defmt::error!("axis {}: DS18B20 setup: {}; its axis stays TEMP_STALE until it answers", axis, e);
-        }
-    }
+    let chans = pins.map(|pin| Channel::new(OneWire::new(pin, delay), first_us));
 
     // Pulse counters: TIM3 ETR on PD2 (AF2), TIM4 ETR on PE0 (AF2), TIM8 ETR on PA0 (AF3).
     // The HAL's typed ETR pins check the pin/AF pairs at compile time.

@@ -2,11 +2,11 @@
 //!
 //! | what | where |
 //! |---|---|
-//! | DS18B20, axis X / Y / Z (one per accelerometer case) | PB6 / PB7 / PB8, open drain, 4.7 kΩ pull-up to 3.3 V, sensors on V_DD (not parasite) |
+//! | DS18B20, axis X / Y / Z (one per accelerometer case) | PB6 / PB7 / PB8, open drain, 4.7 kΩ pull-up to 3.3 V, sensors on V_DD (a parasite-powered one is refused and its axis flagged) |
 //! | accelerometer pulses X / Y / Z | TIM3 ETR PD2 (AF2) / TIM4 ETR PE0 (AF2) / TIM8 ETR PA0 (AF3), rising edges |
 //! | µs clock | TIM2, 32-bit, 1 MHz, free-running (wraps every 71.6 min) |
 //! | IMU cycle | TIM7 update interrupt, 400 Hz: the fast path (`Applier::cycle_counters`) |
-//! | slow path | thread mode: 1 Hz conversions, `Updater::on_scratchpad_from` |
+//! | slow path | thread mode, `poll.rs`: 1 Hz conversions checked on the bus (read slots), every reading to the updater: `on_scratchpad_from`, or `on_missed_reading` when none came |
 //! | table | flash sector 11 (0x080E_0000), decoded and validated at boot |
 //! | log | RTT (defmt) |
 //!
