@@ -48,3 +48,17 @@ fn main() {
          probe-rs run --chip STM32F405RGTx target/thumbv7em-none-eabihf/release/qfa-board-stm32f405"
     );
 }
+
+#[cfg(test)]
+mod tests {
+    /// Scenario 8(a), a guard on the build: in blocking mode (what probe-rs sets, and keeps
+    /// after the probe is unplugged) a full RTT buffer made the next defmt call spin for
+    /// ever with interrupts masked, stopping the IMU interrupt. The board's defmt-rtt must
+    /// have `disable-blocking-mode`.
+    #[test]
+    fn logging_never_blocks_defmt_rtt_has_disable_blocking_mode() {
+        let manifest = include_str!("../Cargo.toml");
+        let dep = manifest.lines().find(|l| l.starts_with("defmt-rtt")).expect("defmt-rtt is a dependency");
+        assert!(dep.contains("\"disable-blocking-mode\""), "{dep}");
+    }
+}
