@@ -4,6 +4,7 @@ use core::cell::RefCell;
 use core::hint::black_box;
 use core::sync::atomic::{AtomicU32, Ordering};
 
+use cortex_m::peripheral::DWT;
 use critical_section::Mutex;
 use defmt_rtt as _;
 use panic_probe as _;
@@ -19,6 +20,7 @@ use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::rcc::Config as RccConfig;
 use stm32f4xx_hal::timer::{CounterUs, Event, FTimerUs, Timer};
 
+use crate::cycle::{self, PERIOD_US};
 use crate::poll::{self, Event as SensorEvent};
 use crate::slot;
 use crate::widen::Widen16;
@@ -29,8 +31,6 @@ type Comp = Compensator<3, 32, 3, &'static Table>;
 type Slow = Updater<'static, 3, 32, 3, &'static Table>;
 type OneWirePin = PartiallyErasedPin<'B', Output<OpenDrain>>;
 
-/// IMU cycle: TIM7 update at 400 Hz.
-const PERIOD_US: u32 = 2_500;
 /// IMU cycles per logged summary (1 s).
 const CYCLES_PER_SUMMARY: u32 = 1_000_000 / PERIOD_US;
 
@@ -61,9 +61,14 @@ struct Fast {
     widen: [Widen16; 3],
     /// TIM7 count (µs after the update event) at the previous read.
     last_lat: u32,
+    /// DWT cycle counter at the previous read: tells how many periods passed.
+    last_cyc: u32,
     sum: [f32; 3],
     status: Status,
+    /// TIM7 periods in the summary being summed (runs and lost ones).
     cycles: u32,
+    /// Update events lost in the summary being summed.
+    lost: u32,
 }
 
 /// The one-time handoff of [`Fast`] from `main` to the interrupt. The lock is taken once:
@@ -74,17 +79,23 @@ struct Fast {
 static FAST_HANDOFF: Mutex<RefCell<Option<Fast>>> = Mutex::new(RefCell::new(None));
 
 /// What the interrupt publishes once a second for the main loop's log: Δv sums (f32 bits),
-/// the OR of the status words, and a sequence number. Written only by the interrupt; the
-/// main loop reads it inside a critical section, where the interrupt cannot run, so it
-/// sees one whole second.
+/// the OR of the status words, the TIM7 cycles lost (update events that found the
+/// interrupt still pending, held off past a whole period), and a sequence number. Written
+/// only by the interrupt; the main loop reads it inside a critical section, where the
+/// interrupt cannot run, so it sees one whole second.
 struct Summary {
     dv: [AtomicU32; 3],
     status: AtomicU32,
+    lost: AtomicU32,
     seq: AtomicU32,
 }
 
-static SUMMARY: Summary =
-    Summary { dv: [const { AtomicU32::new(0) }; 3], status: AtomicU32::new(0), seq: AtomicU32::new(0) };
+static SUMMARY: Summary = Summary {
+    dv: [const { AtomicU32::new(0) }; 3],
+    status: AtomicU32::new(0),
+    lost: AtomicU32::new(0),
+    seq: AtomicU32::new(0),
+};
 
 /// Program TIM3/TIM4 (`tim3::RegisterBlock`) or TIM8 (`tim1::RegisterBlock`) as a free-running
 /// 16-bit up-counter of rising edges on its ETR pin: external clock mode 2 (ECE = 1), no
@@ -113,41 +124,48 @@ fn cnt16_tim8(t: &TIM8) -> u16 {
 }
 
 impl Fast {
-    /// One IMU cycle, in the TIM7 interrupt.
+    /// One IMU cycle, in the TIM7 interrupt. Never logs: a log call takes defmt-rtt's
+    /// critical section and copies into the RTT buffer, time the cycle does not have.
     #[inline(always)]
     fn cycle(&mut self) {
         // Clear the update flag first (clearing it last can re-enter the handler).
         let _ = self.tick.wait();
-        // µs since this cycle's update event; the counters are read right after it.
+        // µs since this cycle's update event, and the second clock that tells whether whole
+        // periods passed unseen; the counters are read right after them.
         let lat = self.tick.now().ticks();
+        let cyc = DWT::cycle_count();
         let counters = [
             self.widen[0].update(cnt16_tim3(&self.x)),
             self.widen[1].update(cnt16_tim4(&self.y)),
             self.widen[2].update(cnt16_tim8(&self.z)),
         ];
-        // The time between two reads: one period plus the change in latency, in µs ticks
-        // (Config::tick_s = 1 µs), exact however late the interrupt runs within its period.
-        // A whole missed period (the interrupt masked for over 2.5 ms) would make it one
-        // period short; keep every critical section far below that.
-        let dt = PERIOD_US.wrapping_add(lat).wrapping_sub(self.last_lat);
+        // The time between two reads in µs ticks (Config::tick_s = 1 µs), exact however late
+        // the interrupt runs, and the update events it missed when held off past a whole
+        // period (cycle::timing): counted, not silent. The counts stay exact too (widen.rs).
+        let t = cycle::timing(lat, self.last_lat, cyc.wrapping_sub(self.last_cyc));
         self.last_lat = lat;
+        self.last_cyc = cyc;
+        self.lost = self.lost.saturating_add(t.lost);
 
-        let out = self.applier.cycle_counters(counters, dt);
+        let out = self.applier.cycle_counters(counters, t.dt_us);
         // The navigation filter would take `out` here. The example sums it for the log.
         for (s, v) in self.sum.iter_mut().zip(out.dv_mps) {
             *s += v;
         }
         self.status |= out.status;
-        self.cycles += 1;
-        if self.cycles == CYCLES_PER_SUMMARY {
+        // A summary is 1 s of periods, the lost ones included.
+        self.cycles = self.cycles.saturating_add(1 + t.lost);
+        if self.cycles >= CYCLES_PER_SUMMARY {
             for (d, s) in SUMMARY.dv.iter().zip(self.sum) {
                 d.store(s.to_bits(), Ordering::Relaxed);
             }
             SUMMARY.status.store(u32::from(self.status.bits()), Ordering::Relaxed);
+            SUMMARY.lost.store(self.lost, Ordering::Relaxed);
             SUMMARY.seq.store(SUMMARY.seq.load(Ordering::Relaxed).wrapping_add(1), Ordering::Relaxed);
             self.sum = [0.0; 3];
             self.status = Status::empty();
             self.cycles = 0;
+            self.lost = 0;
         }
     }
 }
@@ -207,13 +225,16 @@ fn slow_path(mut updater: Slow, mut chans: [Channel; 3], tim2: &pac::TIM2) -> ! 
         // Look without a critical section; take one (a few cycles of masked interrupts) only
         // once a second, to copy a whole summary.
         if SUMMARY.seq.load(Ordering::Relaxed) != seen {
-            let (seq, dv, status) = critical_section::with(|_| {
+            let (seq, dv, status, lost) = critical_section::with(|_| {
                 let dv = SUMMARY.dv.each_ref().map(|d| f32::from_bits(d.load(Ordering::Relaxed)));
                 let status = Status::from_bits_retain(SUMMARY.status.load(Ordering::Relaxed) as u16);
-                (SUMMARY.seq.load(Ordering::Relaxed), dv, status)
+                (SUMMARY.seq.load(Ordering::Relaxed), dv, status, SUMMARY.lost.load(Ordering::Relaxed))
             });
             seen = seq;
-            defmt::println!("1 s: dv_mps={} status={} temp_c={}", dv, status, temps(&updater));
+            defmt::println!("1 s: dv_mps={} status={} temp_c={} lost_cycles={}", dv, status, temps(&updater), lost);
+            if lost > 0 {
+                defmt::error!("IMU: {} TIM7 cycles lost (interrupt held off past 2.5 ms); dt covers them", lost);
+            }
         }
     }
 }
@@ -321,9 +342,23 @@ fn main() -> ! {
     // gives real increments (no NO_COUNTER_BASE) over a real dt.
     let _ = tick.wait();
     let last_lat = tick.now().ticks();
+    let last_cyc = DWT::cycle_count();
     let widen = [Widen16::new(cnt16_tim3(&x)), Widen16::new(cnt16_tim4(&y)), Widen16::new(cnt16_tim8(&z))];
     applier.prime_counters(widen.map(|w| w.total()));
-    let fast = Fast { applier, tick, x, y, z, widen, last_lat, sum: [0.0; 3], status: Status::empty(), cycles: 0 };
+    let fast = Fast {
+        applier,
+        tick,
+        x,
+        y,
+        z,
+        widen,
+        last_lat,
+        last_cyc,
+        sum: [0.0; 3],
+        status: Status::empty(),
+        cycles: 0,
+        lost: 0,
+    };
     critical_section::with(|cs| *FAST_HANDOFF.borrow_ref_mut(cs) = Some(fast));
     // Unmasking is unsafe because it can break a critical section built on masking this
     // interrupt; this program's only critical sections disable all interrupts (PRIMASK),

@@ -5,7 +5,7 @@
 //! | DS18B20, axis X / Y / Z (one per accelerometer case) | PB6 / PB7 / PB8, open drain, 4.7 kΩ pull-up to 3.3 V, sensors on V_DD (a parasite-powered one is refused and its axis flagged) |
 //! | accelerometer pulses X / Y / Z | TIM3 ETR PD2 (AF2) / TIM4 ETR PE0 (AF2) / TIM8 ETR PA0 (AF3), rising edges |
 //! | µs clock | TIM2, 32-bit, 1 MHz, free-running (wraps every 71.6 min) |
-//! | IMU cycle | TIM7 update interrupt, 400 Hz: the fast path (`Applier::cycle_counters`) |
+//! | IMU cycle | TIM7 update interrupt, 400 Hz: the fast path (`Applier::cycle_counters`); cycles lost to a held-off interrupt counted (`cycle.rs`, DWT cycle counter) and logged from the main loop |
 //! | slow path | thread mode, `poll.rs`: 1 Hz conversions checked on the bus (read slots), every reading to the updater: `on_scratchpad_from`, or `on_missed_reading` when none came |
 //! | table | flash sector 11 (0x080E_0000), decoded and validated at boot |
 //! | log | RTT (defmt) |
@@ -26,11 +26,13 @@
 //! (`llvm-nm -S` of the release image). `Table` is a postcard decoding, so validating the
 //! flash bytes means copying them to RAM once; the compensator then holds only a
 //! `&'static Table`. The other RAM: the defmt-rtt buffer (1 024 B), the interrupt's state
-//! and handoff (116 B), the summary (20 B), and the stack (not in these figures).
+//! and handoff (132 B), the summary (24 B), and the stack (not in these figures).
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 #[cfg(target_os = "none")]
 mod board;
+#[cfg(any(test, target_os = "none"))]
+mod cycle;
 #[cfg(any(test, target_os = "none"))]
 mod poll;
 #[cfg(any(test, target_os = "none"))]
