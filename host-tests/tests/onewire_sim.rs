@@ -2,7 +2,7 @@
 //! datasheet limits, SEARCH ROM, resolutions, the non-blocking state machine, and
 //! every injected fault giving a typed error, never a wrong temperature.
 
-use host_tests::onewire_sim::{Device, Sim, SimDelay, SimPin};
+use host_tests::onewire_sim::{sim_slot_lock, Device, Interrupt, Sim, SimDelay, SimPin};
 use qfa_thermal::ds18b20::{self, Resolution};
 use qfa_thermal::ds18b20_driver::{self as drv, Ds18b20, PowerSupply, Sample};
 use qfa_thermal::onewire::{self as ow, Rom};
@@ -336,6 +336,50 @@ fn read_keeping_bytes_gives_the_failed_scratchpad_and_only_that() {
     sim.with(|w| w.devices[0].present = false);
     let f = sensor.read_keeping_bytes(&mut bus).unwrap_err();
     assert_eq!(f, drv::ReadFailure { error: drv::Error::Bus(ow::Error::NoPresence), scratchpad: None });
+}
+
+/// Scenario 8(c): an interrupt inside a slot. A 12 µs handler every 997 µs (a period that
+/// walks across every slot phase) lands between some slots' falling edge and their sample:
+/// without the slot lock the sample comes after the device's 15 µs window (a 0 reads 1)
+/// and a write-1 is held low past 15 µs (written as 0). With the lock, the interrupt waits
+/// for the locked part of the slot (at most 10 µs of delay) and then runs.
+#[test]
+fn interrupt_cannot_stretch_a_slot_under_the_slot_lock() {
+    let reads = |locked: bool| {
+        let sim = Sim::new(vec![Device::ds18b20(1, 0x0191)]);
+        let bus = sim.bus();
+        let mut bus = if locked { bus.with_slot_lock(sim_slot_lock) } else { bus };
+        let mut sensor = Ds18b20::single().with_retries(0);
+        sensor.measure(&mut bus, sim.now_us()).unwrap();
+        sim.with(|w| w.interrupt = Some(Interrupt { next_ns: w.now_ns, period_ns: 997_000, duration_ns: 12_000 }));
+        let mut bad = 0;
+        for _ in 0..300 {
+            match sensor.read_scratchpad(&mut bus) {
+                Ok((_, r)) if r.raw == 0x0191 => {}
+                _ => bad += 1,
+            }
+        }
+        let (stretching, deferred) = sim.with(|w| (w.interrupts_stretching, w.interrupts_deferred));
+        (bad, sim.violations(), stretching, deferred)
+    };
+    // Without the lock (the bus as it was): wrong bits and late samples.
+    let (bad, violations, stretching, deferred) = reads(false);
+    println!(
+        "without the lock: {bad} bad reads of 300, {} violations, {stretching} interrupts held the master up",
+        violations.len()
+    );
+    assert!(bad >= 10, "{bad} bad reads of 300");
+    assert!(violations.iter().any(|v| v.starts_with("read sampled")), "{violations:?}");
+    assert!(violations.iter().any(|v| v.starts_with("write low")), "{violations:?}");
+    assert_eq!(deferred, 0);
+    // With it: every read right, every slot in time, and interrupts did come inside locked
+    // parts (and waited), while others still ran between slots.
+    let (bad, violations, stretching, deferred) = reads(true);
+    assert_eq!((bad, violations), (0, Vec::<String>::new()));
+    println!(
+        "with the lock: {deferred} interrupts waited for a locked part, {stretching} held the master up elsewhere"
+    );
+    assert!(deferred >= 50 && stretching >= 50, "{deferred} deferred, {stretching} in between");
 }
 
 /// Without retries, a flip of any of the 72 scratchpad bits is a typed error.

@@ -203,14 +203,28 @@ fn load_table() -> Result<&'static Table, table::Error> {
 /// One DS18B20 on its own open-drain pin.
 type Channel = poll::Channel<OneWirePin, Delay>;
 
+/// The 1-Wire slot lock: the timing-critical part of each read slot and write-1 slot (pull
+/// low, release, sample) runs with interrupts masked. A read slot samples 10 µs after its
+/// falling edge and the sensor's data is valid only until 15 µs, so a TIM7 run landing in
+/// between (the handler plus its entry and exit) could push the sample out of the window
+/// and read a 0 as 1; a write-1 held low past 15 µs is written as 0.
+///
+/// Safe for the IMU interrupt: the locked part is at most 10 µs of delay and three pin
+/// calls (register writes and a read, tens of ns at 168 MHz), so a TIM7 update that comes
+/// during it stays pending for at most about 11 µs and then runs. That is far inside its
+/// budget: the fast path measures its own dt, so a late run costs nothing, and a cycle is
+/// lost only when held off a whole 2.5 ms period (and then counted, `cycle::timing`). The
+/// rest of each slot (the write-0 low time, the recovery, the reset) stays open to
+/// interrupts; see `qfa_thermal::onewire` for why it tolerates them.
+fn slot_lock(f: &mut dyn FnMut()) {
+    critical_section::with(|_| f());
+}
+
 /// The slow path, in thread mode: each sensor's [`poll::Channel::step`] (1 Hz conversions,
 /// checked on the bus, read when done; every reading, good or failed, reaches the updater),
 /// and the log. Every call is bounded (delays alone, SKIP ROM: start 2.2 ms with its check
 /// slot, poll 70 µs, read ≤ 2 × 7.1 ms with the default retry, setup ≤ 35 ms); the IMU
-/// interrupt preempts all of it. A 1-Wire read slot samples 10 µs after its falling edge
-/// and the sensor's data is valid until 15 µs, so the IMU interrupt must stay well under
-/// 5 µs (its handler is straight-line code, a few hundred cycles at 168 MHz; not measured
-/// on hardware).
+/// interrupt preempts all of it except each slot's few locked µs ([`slot_lock`]).
 fn slow_path(mut updater: Slow, mut chans: [Channel; 3], tim2: &pac::TIM2) -> ! {
     let mut clock = MsClock::new();
     let mut seen = SUMMARY.seq.load(Ordering::Relaxed);
@@ -315,7 +329,7 @@ fn main() -> ! {
     // Each channel's first step sets 12 bits and reads the power supply (a parasite-powered
     // sensor is refused); a sensor that does not answer is set up again every second.
     let first_us = now_us(&tim2);
-    let chans = pins.map(|pin| Channel::new(OneWire::new(pin, delay), first_us));
+    let chans = pins.map(|pin| Channel::new(OneWire::new(pin, delay).with_slot_lock(slot_lock), first_us));
 
     // Pulse counters: TIM3 ETR on PD2 (AF2), TIM4 ETR on PE0 (AF2), TIM8 ETR on PA0 (AF3).
     // The HAL's typed ETR pins check the pin/AF pairs at compile time.

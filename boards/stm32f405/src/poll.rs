@@ -240,7 +240,7 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
-    use host_tests::onewire_sim::{Device, Sim, SimDelay, SimPin};
+    use host_tests::onewire_sim::{sim_slot_lock, Device, Sim, SimDelay, SimPin};
     use qfa_thermal::onewire as ow;
     use qfa_thermal::{ds18b20, Compensator, Config};
 
@@ -249,8 +249,9 @@ mod tests {
     /// One sensor on the simulated bus as axis `AXIS` of the board's compensator type.
     const AXIS: usize = 1;
 
+    /// The bus as the board builds it, with the slot lock.
     fn channel(sim: &Sim) -> Channel<SimPin, SimDelay> {
-        Channel::new(sim.bus(), sim.now_us())
+        Channel::new(sim.bus().with_slot_lock(sim_slot_lock), sim.now_us())
     }
 
     /// Step every millisecond (the board's loop is much faster; 1 ms keeps the test short)
