@@ -9,18 +9,18 @@
 //! [`Ds18b20::start`] issues Convert T (44h) and returns; [`Ds18b20::is_ready`] answers
 //! from the elapsed time against the datasheet maximum for the resolution, or, after
 //! [`Ds18b20::use_read_slots`] found the sensor externally powered, from one read slot
-//! (the sensor answers 0 while converting); [`Ds18b20::read`] then reads and validates
-//! the scratchpad. [`Ds18b20::start_all`] converts every sensor at once with SKIP ROM.
+//! (the sensor answers 0 while converting; see [Lost conversions](#lost-conversions));
+//! [`Ds18b20::read`] then reads and validates the scratchpad. [`Ds18b20::start_all`] converts every sensor at once with SKIP ROM.
 //! Each step blocks only for its own bus transaction:
 //!
 //! | call | blocks at most (µs, delays only) |
 //! |---|---|
-//! | `start` | [`START_US`] = 6 560 |
+//! | `start` | [`START_US`] = 6 630 (the check slot included) |
 //! | `is_ready` | one read slot, 70 |
 //! | `read` | (retries + 1) × [`READ_ATTEMPT_US`] = (retries + 1) × 11 600 |
-//! | `measure` (blocking) | [`Ds18b20::max_blocking_measure_us`]: (retries + 1) × (6 560 + conversion + 11 600) |
+//! | `measure` (blocking) | [`Ds18b20::max_blocking_measure_us`]: (retries + 1) × (6 630 + conversion + 70 + 11 600) |
 //!
-//! At 12 bits with the default 1 retry, `measure` blocks at most 2 × 768 160 µs ≈ 1.54 s.
+//! At 12 bits with the default 1 retry, `measure` blocks at most 2 × 768 300 µs ≈ 1.54 s.
 //! The pin calls add their own latency (a few per slot) on top.
 //!
 //! # Retries
@@ -41,6 +41,31 @@
 //! Parasite power needs a strong pull-up during conversions, which an open-drain pin
 //! cannot give; [`Ds18b20::read_power_supply`] tells which mode a sensor is in.
 //!
+//! # Lost conversions
+//!
+//! A Convert T the sensor never takes (a glitch on the command byte or on MATCH ROM, a
+//! brown-out between the reset and the command) leaves the previous conversion in the
+//! scratchpad, CRC good: read after the timer, it is a new-looking sample with a fresh
+//! timestamp, and a sensor that keeps losing them freezes with a good status. The same
+//! holds for a conversion that starts and never ends. Judged by the clock alone, neither
+//! can be seen. Judged by the bus, both can: with [`Ds18b20::use_read_slots`] on an
+//! externally powered sensor,
+//!
+//! * the read slot right after Convert T must read 0 (converting); a 1 is
+//!   [`Error::ConversionNotStarted`] from [`Ds18b20::start`], and nothing is read;
+//! * readiness is the sensor's own read slot, and one still converting
+//!   [`OVERDUE_MARGIN_PERCENT`] % past the datasheet maximum is
+//!   [`Error::ConversionOverdue`];
+//! * [`Ds18b20::measure`] checks both, and starts again within its retry budget.
+//!
+//! **A parasite-powered sensor cannot be checked**: it does not drive read slots while
+//! converting, so `use_read_slots` leaves it on the timer, and a lost conversion is
+//! delivered as the previous value. A system that must not run on a frozen temperature
+//! refuses such a sensor (the STM32F405 board does: it flags that axis instead). A part
+//! that does not answer read slots during a conversion although externally powered
+//! (some clones) fails every start with `ConversionNotStarted`: an error, never a stale
+//! value.
+//!
 //! # Feeding the compensator
 //!
 //! Take the timestamp when the conversion completes, not when it is read:
@@ -56,24 +81,31 @@
 //!
 //! ```text
 //! let mut clock = MsClock::new();            // one for every sensor
-//! sensor.start(&mut bus, now_us())?;
+//! let started = now_us();
+//! sensor.start(&mut bus, started)?;          // ConversionNotStarted: a missed reading too
 //! // ... IMU cycles run; each scheduler tick:
-//! if sensor.is_ready(&mut bus, now_us())? {
-//!     match sensor.read(&mut bus) {
+//! let due_ms = clock.ms(started.wrapping_add(resolution.max_conversion_us()));
+//! match sensor.is_ready(&mut bus, now_us()) {
+//!     Ok(false) => {}
+//!     Ok(true) => match sensor.read_keeping_bytes(&mut bus) {
 //!         Ok(s) => {
 //!             let t_ms = clock.ms(s.completed_us);
-//!             let status = updater.on_scratchpad_from(axis, t_ms, &s.scratchpad)?;
+//!             let status = updater.on_scratchpad_from(axis, t_ms, &s.scratchpad);
 //!         }
-//!         Err(e) => { /* typed error: count it, restart the conversion */ }
-//!     }
-//!     sensor.start(&mut bus, now_us())?;
+//!         // Every failure reaches the compensator, which raises TEMP_INVALID: the bytes
+//!         // that failed decoding (a typed decode error), or a reading that never came.
+//!         Err(ReadFailure { scratchpad: Some(sp), .. }) => { updater.on_scratchpad_from(axis, due_ms, &sp); }
+//!         Err(_) => { updater.on_missed_reading(axis, due_ms); }
+//!     },
+//!     Err(_) => { updater.on_missed_reading(axis, due_ms); }  // bus, ConversionOverdue
 //! }
 //! ```
 //!
 //! `updater.on_raw_from(axis, t_ms, s.reading.raw)` is the path for an already
 //! validated reading; both return the compensator's own `Result`. The soak benchmark
-//! (`cargo run --release -p host-tests --bin soak -- --hours 1200`) runs this recipe
-//! across 1 200 simulated hours, past the ms wrap.
+//! (`cargo run --release -p host-tests --bin soak -- --hours 1200`) runs the non-blocking
+//! recipe across 1 200 simulated hours, past the ms wrap. The STM32F405 board's
+//! `poll.rs` is this recipe with a 1 s period, tested on the simulated bus.
 //!
 //! # Flash
 //!
@@ -82,6 +114,9 @@
 //! with the release profile (opt-level 3, LTO), 3 500 bytes at opt-level `s`: the
 //! difference of `llvm-size` between a minimal cortex-m-rt binary that calls them and
 //! the same binary calling only [`decode_scratchpad`] (which is counted with the core).
+//! Measured before the lost-conversion checks, `read_keeping_bytes` and the slot lock,
+//! not since; the whole STM32F405 image grew by 3 772 bytes with those and the board's
+//! own changes.
 
 use core::fmt;
 
@@ -106,9 +141,13 @@ pub const MAX_RETRIES: u8 = 8;
 /// Retries of a new [`Ds18b20`].
 pub const DEFAULT_RETRIES: u8 = 1;
 
-/// Delay bound of selecting a sensor (reset, MATCH ROM + 8 ROM bytes) and sending
-/// one command byte, in µs.
-pub const START_US: u32 = RESET_US + 10 * 8 * SLOT_MAX_US;
+/// Delay bound of selecting a sensor (reset, MATCH ROM + 8 ROM bytes), sending one
+/// command byte and, with read slots, the slot that checks the conversion started, in µs.
+pub const START_US: u32 = RESET_US + (10 * 8 + 1) * SLOT_MAX_US;
+/// With read slots, a conversion still running this far past the datasheet maximum is
+/// [`Error::ConversionOverdue`]: 75 ms at 12 bits. The margin covers the caller's clock,
+/// which `start` takes before the command's own bus time (up to [`START_US`], 6.6 ms).
+pub const OVERDUE_MARGIN_PERCENT: u32 = 10;
 /// Delay bound of one scratchpad read (selection, BEh, 9 bytes), in µs.
 pub const READ_ATTEMPT_US: u32 = RESET_US + 19 * 8 * SLOT_MAX_US;
 
@@ -133,6 +172,15 @@ pub enum Error {
     NotStarted,
     /// `read` before `is_ready` returned true.
     NotReady,
+    /// The read slot right after Convert T read 1: the sensor is not converting, so the
+    /// command was lost (a glitch on the bus, a brown-out between the reset and the
+    /// command). Its scratchpad still holds the previous conversion, CRC good, so it is
+    /// not read. Only seen with read slots ([`Ds18b20::use_read_slots`]).
+    ConversionNotStarted,
+    /// The read slot still reads 0 (converting) [`OVERDUE_MARGIN_PERCENT`] % past the
+    /// datasheet maximum: the conversion will not end, and the scratchpad holds the
+    /// previous one. Only seen with read slots.
+    ConversionOverdue,
 }
 
 impl fmt::Display for Error {
@@ -145,6 +193,8 @@ impl fmt::Display for Error {
             Self::ResolutionChanged(r) => write!(f, "sensor reports {r:?}, not the one set"),
             Self::NotStarted => f.write_str("no conversion started"),
             Self::NotReady => f.write_str("conversion not finished"),
+            Self::ConversionNotStarted => f.write_str("Convert T lost: the sensor is not converting"),
+            Self::ConversionOverdue => f.write_str("conversion still running past the datasheet maximum"),
         }
     }
 }
@@ -183,6 +233,20 @@ pub struct Sample {
     pub reading: Reading,
     /// Caller's clock, in µs, when the conversion completed (an upper bound).
     pub completed_us: u32,
+}
+
+/// A failed [`Ds18b20::read_keeping_bytes`]: the error and, when the bytes were at fault,
+/// the bytes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ReadFailure {
+    /// The error, as [`Ds18b20::read`] returns it.
+    pub error: Error,
+    /// For [`Error::Scratchpad`], the last scratchpad read, which failed
+    /// [`decode_scratchpad`]: `Updater::on_scratchpad_from` rejects these bytes with the
+    /// same typed decode error. `None` for every other error (bus, not ready, changed
+    /// resolution): nothing usable was read.
+    pub scratchpad: Option<[u8; 9]>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -265,11 +329,12 @@ impl Ds18b20 {
     }
 
     /// Worst-case delay of [`Self::measure`] in µs, from the datasheet conversion time
-    /// and the slot timing, without pin-call latency.
+    /// and the slot timing (with read slots, one more slot before the read), without
+    /// pin-call latency.
     #[must_use]
     pub const fn max_blocking_measure_us(resolution: Resolution, retries: u8) -> u32 {
         let retries = if retries > MAX_RETRIES { MAX_RETRIES } else { retries };
-        (retries as u32 + 1) * (START_US + resolution.max_conversion_us() + READ_ATTEMPT_US)
+        (retries as u32 + 1) * (START_US + resolution.max_conversion_us() + SLOT_MAX_US + READ_ATTEMPT_US)
     }
 
     fn command<P, D>(&self, bus: &mut OneWire<P, D>, cmd: u8) -> Result<(), Error>
@@ -407,6 +472,11 @@ impl Ds18b20 {
     {
         self.state = State::Idle;
         self.command(bus, CONVERT_T)?;
+        // An externally powered sensor answers 0 while converting; conversions take tens of
+        // ms and this slot follows the command within 70 µs, so a 1 means no conversion.
+        if self.read_slots && bus.read_bit()? {
+            return Err(Error::ConversionNotStarted);
+        }
         self.state = State::Converting { started_us: now_us, resets: bus.reset_count() };
         Ok(())
     }
@@ -414,8 +484,13 @@ impl Ds18b20 {
     /// Start a conversion on every sensor at once (SKIP ROM, 44h) and mark each of
     /// `sensors` as converting since `now_us`.
     ///
+    /// When every one of `sensors` uses read slots, the slot after the command must read 0:
+    /// a 1 means none of them is converting. One lost command among several cannot be
+    /// seen here (the others drive the slot to 0); give each sensor its own [`Self::start`]
+    /// when that matters.
+    ///
     /// # Errors
-    /// [`Error::Bus`].
+    /// [`Error::Bus`], [`Error::ConversionNotStarted`] (every sensor left idle).
     pub fn start_all<P, D>(bus: &mut OneWire<P, D>, sensors: &mut [Self], now_us: u32) -> Result<(), Error>
     where
         P: InputPin + OutputPin,
@@ -426,6 +501,9 @@ impl Ds18b20 {
         }
         bus.skip_rom()?;
         bus.write_byte(CONVERT_T)?;
+        if !sensors.is_empty() && sensors.iter().all(|s| s.read_slots) && bus.read_bit()? {
+            return Err(Error::ConversionNotStarted);
+        }
         let resets = bus.reset_count();
         for s in sensors.iter_mut() {
             s.state = State::Converting { started_us: now_us, resets };
@@ -436,12 +514,15 @@ impl Ds18b20 {
     /// Whether the conversion has completed at `now_us` (same clock as `start`,
     /// wrapping; call within 71 minutes of the start).
     ///
-    /// From the elapsed time against the datasheet maximum; with read slots enabled,
-    /// also from one read slot if the bus has not been reset since the start (with
-    /// SKIP ROM the slot reads 1 only when every sensor is done).
+    /// With read slots enabled and no bus reset since the start, from one read slot: the
+    /// sensor, not the clock, says when it is done (with SKIP ROM the slot reads 1 only
+    /// when every sensor is done), and one still converting [`OVERDUE_MARGIN_PERCENT`] %
+    /// past the datasheet maximum is an error rather than a read of the previous
+    /// conversion. Otherwise from the elapsed time against the datasheet maximum.
     ///
     /// # Errors
-    /// [`Error::NotStarted`], [`Error::Bus`].
+    /// [`Error::NotStarted`], [`Error::Bus`], [`Error::ConversionOverdue`] (the
+    /// conversion is abandoned).
     pub fn is_ready<P, D>(&mut self, bus: &mut OneWire<P, D>, now_us: u32) -> Result<bool, Error>
     where
         P: InputPin + OutputPin,
@@ -452,13 +533,19 @@ impl Ds18b20 {
             State::Done { .. } => Ok(true),
             State::Converting { started_us, resets } => {
                 let max = self.resolution.max_conversion_us();
-                let completed_us = if now_us.wrapping_sub(started_us) >= max {
-                    started_us.wrapping_add(max)
-                } else if self.read_slots && bus.reset_count() == resets && bus.read_bit()? {
-                    now_us
-                } else {
+                let elapsed = now_us.wrapping_sub(started_us);
+                let by_slot = self.read_slots && bus.reset_count() == resets;
+                let done = if by_slot { bus.read_bit()? } else { elapsed >= max };
+                if !done {
+                    if by_slot && elapsed >= max + max / 100 * OVERDUE_MARGIN_PERCENT {
+                        self.state = State::Idle;
+                        return Err(Error::ConversionOverdue);
+                    }
                     return Ok(false);
-                };
+                }
+                // Both are upper bounds of the completion; the datasheet's is the tighter
+                // one when the poll comes late.
+                let completed_us = if elapsed >= max { started_us.wrapping_add(max) } else { now_us };
                 self.state = State::Done { completed_us };
                 Ok(true)
             }
@@ -476,32 +563,52 @@ impl Ds18b20 {
         P: InputPin + OutputPin,
         D: DelayNs,
     {
+        self.read_keeping_bytes(bus).map_err(|f| f.error)
+    }
+
+    /// [`Self::read`], keeping the bytes of a scratchpad that failed decoding, so a caller
+    /// can hand every failed read to the compensator: the bytes to
+    /// `Updater::on_scratchpad_from` (a typed decode error), or, with no bytes,
+    /// `Updater::on_missed_reading`.
+    ///
+    /// # Errors
+    /// As [`Self::read`], in [`ReadFailure::error`].
+    pub fn read_keeping_bytes<P, D>(&mut self, bus: &mut OneWire<P, D>) -> Result<Sample, ReadFailure>
+    where
+        P: InputPin + OutputPin,
+        D: DelayNs,
+    {
+        let fail = |error| ReadFailure { error, scratchpad: None };
         let completed_us = match self.state {
-            State::Idle => return Err(Error::NotStarted),
-            State::Converting { .. } => return Err(Error::NotReady),
+            State::Idle => return Err(fail(Error::NotStarted)),
+            State::Converting { .. } => return Err(fail(Error::NotReady)),
             State::Done { completed_us } => completed_us,
         };
-        let mut last = Error::NotReady;
+        let mut last = fail(Error::NotReady);
         for attempt in 0..=MAX_RETRIES {
             if attempt > self.retries {
                 break;
             }
-            match self.read_scratchpad(bus) {
-                Ok((scratchpad, reading)) => return self.finish(scratchpad, reading, completed_us),
-                Err(e @ Error::Scratchpad(ds18b20::Error::PowerOn)) => {
-                    self.state = State::Idle;
-                    return Err(e);
+            // A bus error is not retried.
+            let sp = self.read_scratchpad_raw(bus).map_err(fail)?;
+            match decode_scratchpad(&sp) {
+                Ok(reading) => return self.finish(sp, reading, completed_us).map_err(fail),
+                Err(e) => {
+                    last = ReadFailure { error: e.into(), scratchpad: Some(sp) };
+                    if e == ds18b20::Error::PowerOn {
+                        self.state = State::Idle;
+                        return Err(last);
+                    }
                 }
-                Err(e @ Error::Scratchpad(_)) => last = e,
-                Err(e) => return Err(e),
             }
         }
         Err(last)
     }
 
     /// Blocking convenience: start, wait the datasheet conversion time, read. A
-    /// power-on value starts a new conversion, within the same `retries` budget, so
-    /// the call blocks at most [`Self::max_blocking_measure_us`]. `now_us` is the
+    /// power-on value, a lost Convert T or an overdue conversion starts a new conversion,
+    /// within the same `retries` budget, so the call blocks at most
+    /// [`Self::max_blocking_measure_us`]. `now_us` is the
     /// caller's clock at the call; the sample's `completed_us` adds the bus time.
     ///
     /// # Errors
@@ -517,7 +624,14 @@ impl Ds18b20 {
             if attempt > self.retries {
                 break;
             }
-            self.start(bus, now_us)?;
+            match self.start(bus, now_us) {
+                Ok(()) => {}
+                Err(e @ Error::ConversionNotStarted) => {
+                    last = e;
+                    continue;
+                }
+                Err(e) => return Err(e),
+            }
             bus.delay_us(self.resolution.max_conversion_us());
             let completed_us = now_us.wrapping_add(bus.elapsed_us().wrapping_sub(bus_t0));
             match self.read_converted(bus, completed_us)? {
@@ -557,7 +671,14 @@ impl Ds18b20 {
             if attempt > self.retries {
                 break;
             }
-            self.start(bus, now_us)?;
+            match self.start(bus, now_us) {
+                Ok(()) => {}
+                Err(e @ Error::ConversionNotStarted) => {
+                    last = e;
+                    continue;
+                }
+                Err(e) => return Err(e),
+            }
             let conversion = self.resolution.max_conversion_us();
             wait.delay_us(conversion).await;
             waited_us = waited_us.wrapping_add(conversion);
@@ -573,7 +694,9 @@ impl Ds18b20 {
 
     /// The read step shared by [`Self::measure`] and [`Self::measure_async`]: the
     /// conversion ended at `completed_us`; `Ok(Ok)` a sample, `Ok(Err)` a scratchpad error
-    /// worth a new conversion, `Err` an error that ends the call (bus, changed resolution).
+    /// or an overdue conversion, worth a new one, `Err` an error that ends the call (bus,
+    /// changed resolution). With read slots the sensor must say it is done (one slot)
+    /// before its scratchpad is read: after the full datasheet wait, a 0 is overdue.
     fn read_converted<P, D>(
         &mut self,
         bus: &mut OneWire<P, D>,
@@ -583,6 +706,10 @@ impl Ds18b20 {
         P: InputPin + OutputPin,
         D: DelayNs,
     {
+        if self.read_slots && !bus.read_bit()? {
+            self.state = State::Idle;
+            return Ok(Err(Error::ConversionOverdue));
+        }
         self.state = State::Done { completed_us };
         match self.read_scratchpad(bus) {
             Ok((scratchpad, reading)) => self.finish(scratchpad, reading, completed_us).map(Ok),

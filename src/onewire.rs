@@ -12,6 +12,22 @@
 //! byte transfers are 8 slots, a ROM is 64 bits, and [`OneWire::search`] makes at most
 //! [`SEARCH_MAX_PASSES`] passes.
 //!
+//! # Interrupts
+//!
+//! An interrupt between a slot's falling edge and its sample stretches the slot: a read
+//! slot samples 10 µs after the edge and the device's data is valid only until 15 µs, so
+//! a handler of more than about 5 µs there reads a 0 as 1; a write-1 held low past 15 µs
+//! is written as 0. [`OneWire::with_slot_lock`] runs the timing-critical part of each such
+//! slot inside a lock the caller gives (a critical section, say): for a read slot, pull
+//! low, 2 µs, release, 8 µs, sample (10 µs of delay and three pin calls); for a write-1
+//! slot, pull low, 6 µs, release (6 µs and two pin calls). An interrupt that comes during
+//! that part waits at most that long, then runs. The rest is left open to interrupts, as
+//! it tolerates them: a write-0 is judged by a low time of 60–120 µs (written with 60),
+//! and the slots' recovery times are minimums. The reset's presence sample (70 µs after
+//! release, in a window that ends at 75 µs for the slowest conforming device) is not
+//! locked either, since that would mask interrupts for 70 µs: a longer interrupt there
+//! gives [`Error::NoPresence`], a typed error, never a wrong bit.
+//!
 //! A ROM is accepted only with a matching CRC-8 (shared with the scratchpad decoder,
 //! [`crate::ds18b20::crc8`]) and not all zero (eight 00h bytes pass the CRC, and are
 //! what a bus held low reads).
@@ -191,6 +207,10 @@ impl fmt::Display for Rom {
     }
 }
 
+/// Runs the timing-critical part of a slot, `f`, exactly once, with interrupts held off
+/// (see [`OneWire::with_slot_lock`]); e.g. `|f| critical_section::with(|_| f())`.
+pub type SlotLock = fn(&mut dyn FnMut());
+
 /// A 1-Wire bus master on one open-drain pin.
 #[derive(Debug)]
 pub struct OneWire<P, D> {
@@ -198,6 +218,7 @@ pub struct OneWire<P, D> {
     delay: D,
     resets: u32,
     elapsed_us: u32,
+    lock: Option<SlotLock>,
 }
 
 impl<P, D> OneWire<P, D>
@@ -207,7 +228,17 @@ where
 {
     /// A bus on `pin` (open drain, externally pulled up). Does no I/O.
     pub const fn new(pin: P, delay: D) -> Self {
-        Self { pin, delay, resets: 0, elapsed_us: 0 }
+        Self { pin, delay, resets: 0, elapsed_us: 0, lock: None }
+    }
+
+    /// Run the timing-critical part of every read slot and write-1 slot inside `lock`, so
+    /// an interrupt cannot stretch it (see [Interrupts](self#interrupts)): at most 10 µs
+    /// of delay and three pin calls per slot. `lock` must call its argument once; one that
+    /// does not is bypassed (the part then runs unlocked).
+    #[must_use]
+    pub const fn with_slot_lock(mut self, lock: SlotLock) -> Self {
+        self.lock = Some(lock);
+        self
     }
 
     /// Give back the pin and the delay.
@@ -247,6 +278,20 @@ where
         self.pin.is_low().map_err(|_| Error::Pin)
     }
 
+    /// Run `part` inside the slot lock, if there is one.
+    fn locked(&mut self, part: fn(&mut Self) -> Result<bool, Error>) -> Result<bool, Error> {
+        let Some(lock) = self.lock else {
+            return part(self);
+        };
+        let mut out = None;
+        lock(&mut || out = Some(part(self)));
+        match out {
+            Some(r) => r,
+            // A lock that did not call its argument: run the part rather than skip the slot.
+            None => part(self),
+        }
+    }
+
     /// Reset pulse and presence detection.
     ///
     /// # Errors
@@ -278,12 +323,19 @@ where
     /// # Errors
     /// [`Error::Pin`].
     pub fn write_bit(&mut self, bit: bool) -> Result<(), Error> {
-        self.low()?;
         if bit {
-            self.delay_us(WRITE_1_LOW_US);
-            self.release()?;
+            // A 1 is a low time of at most 15 µs: locked.
+            self.locked(|bus| {
+                bus.low()?;
+                bus.delay_us(WRITE_1_LOW_US);
+                bus.release()?;
+                Ok(true)
+            })?;
             self.delay_us(WRITE_1_RELEASE_US);
         } else {
+            // A 0 is a low time of 60–120 µs, written with 60: an interrupt stretching it
+            // by up to 60 µs still writes 0, so it is not locked.
+            self.low()?;
             self.delay_us(WRITE_0_LOW_US);
             self.release()?;
             self.delay_us(WRITE_0_RECOVERY_US);
@@ -296,11 +348,14 @@ where
     /// # Errors
     /// [`Error::Pin`].
     pub fn read_bit(&mut self) -> Result<bool, Error> {
-        self.low()?;
-        self.delay_us(READ_LOW_US);
-        self.release()?;
-        self.delay_us(READ_SAMPLE_US);
-        let bit = !self.line_is_low()?;
+        // The sample must fall within 15 µs of the falling edge: locked.
+        let bit = self.locked(|bus| {
+            bus.low()?;
+            bus.delay_us(READ_LOW_US);
+            bus.release()?;
+            bus.delay_us(READ_SAMPLE_US);
+            Ok(!bus.line_is_low()?)
+        })?;
         self.delay_us(READ_RELEASE_US);
         Ok(bit)
     }

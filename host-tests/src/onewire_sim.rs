@@ -14,9 +14,16 @@
 //! Faults: a flipped transmitted bit ([`Device::flip_bit`]), no presence
 //! ([`Device::present`]), a stuck-low bus ([`World::stuck_low_at_ns`]), a brown-out
 //! back to the power-on scratchpad ([`Device::brown_out_at_ns`]), pin errors
-//! ([`World::pin_error`]).
+//! ([`World::pin_error`]), a lost Convert T ([`Device::drop_convert_t`]: the command
+//! never starts a conversion, so the scratchpad keeps the previous one).
+//!
+//! Interrupts: [`World::interrupt`] is a periodic handler on the simulated CPU. Outside a
+//! slot lock it holds the master up (a delay or a pin call ends when the handler does, as
+//! a busy-wait delay would); inside [`sim_slot_lock`] (given to
+//! [`OneWire::with_slot_lock`]) it waits for the lock to end. A read slot sampled later
+//! than 15 µs after its falling edge is recorded in [`World::violations`].
 
-use std::cell::RefCell;
+use std::cell::{Cell, RefCell};
 use std::rc::Rc;
 
 use embedded_hal::delay::DelayNs;
@@ -72,6 +79,12 @@ pub struct Device {
     /// Brown-out at this simulated time: the scratchpad returns to the power-on
     /// value and the EEPROM configuration, a conversion is lost.
     pub brown_out_at_ns: Option<u64>,
+    /// Lose this many of the next Convert T (44h) commands: the device goes idle instead
+    /// of converting (a corrupted command byte, or a sensor that browned out and came
+    /// back between the reset and the command). The scratchpad keeps the previous
+    /// conversion with a good CRC, and read slots after the command read 1 (nothing
+    /// drives the line), as from a real part that did not take the command.
+    pub drop_convert_t: u32,
     /// How long a transmitted 0 is held after the falling edge (datasheet ≥ 15 µs).
     pub hold_ns: u64,
     /// Presence pulse start after reset release (15–60 µs) and length (60–240 µs).
@@ -115,6 +128,7 @@ impl Device {
             flip_bit: 0,
             flip_times: 0,
             brown_out_at_ns: None,
+            drop_convert_t: 0,
             hold_ns: 15 * US,
             presence_ns: (60 * US, 60 * US),
             eeprom,
@@ -295,6 +309,10 @@ impl Device {
                 self.rx = 0;
                 self.rx_n = 0;
                 match cmd {
+                    0x44 if self.drop_convert_t > 0 => {
+                        self.drop_convert_t -= 1;
+                        self.phase = Phase::Idle;
+                    }
                     0x44 => {
                         let max = u64::from(self.resolution().max_conversion_us()) * US;
                         self.conv_end_ns = Some(now + (max as f64 * self.conversion_fraction) as u64);
@@ -324,6 +342,30 @@ impl Device {
     }
 }
 
+/// A periodic interrupt on the simulated CPU.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Interrupt {
+    /// When it next fires, ns.
+    pub next_ns: u64,
+    /// Its period, ns.
+    pub period_ns: u64,
+    /// How long its handler runs, ns.
+    pub duration_ns: u64,
+}
+
+thread_local! {
+    /// Inside [`sim_slot_lock`] on this thread (each test runs on its own thread).
+    static SLOT_LOCKED: Cell<bool> = const { Cell::new(false) };
+}
+
+/// A [`qfa_thermal::onewire::SlotLock`] for the simulation: while it runs `f`, interrupts
+/// wait, as in a critical section.
+pub fn sim_slot_lock(f: &mut dyn FnMut()) {
+    SLOT_LOCKED.set(true);
+    f();
+    SLOT_LOCKED.set(false);
+}
+
 /// The shared simulated bus state.
 #[derive(Debug)]
 pub struct World {
@@ -339,6 +381,14 @@ pub struct World {
     pub devices: Vec<Device>,
     /// Master timing outside the datasheet limits, as found.
     pub violations: Vec<String>,
+    /// A periodic interrupt, if any.
+    pub interrupt: Option<Interrupt>,
+    /// Interrupts that held the master up (outside a slot lock).
+    pub interrupts_stretching: u64,
+    /// Interrupts that came during a slot lock and waited for it.
+    pub interrupts_deferred: u64,
+    /// Simulated time at the end of the last advance inside a slot lock.
+    locked_end_ns: u64,
     master_low: bool,
     fall_ns: u64,
     prev_fall_ns: Option<u64>,
@@ -347,6 +397,40 @@ pub struct World {
 }
 
 impl World {
+    /// Let `ns` pass for the master (a delay or a pin call's own time), and run the
+    /// interrupts that came due: outside a slot lock, each holds the master up until its
+    /// handler ends; inside one, they wait until the lock ends.
+    fn advance(&mut self, ns: u64) {
+        self.now_ns += ns;
+        if SLOT_LOCKED.get() {
+            self.locked_end_ns = self.now_ns;
+            return;
+        }
+        let Some(mut irq) = self.interrupt else { return };
+        while irq.next_ns <= self.now_ns {
+            let start = irq.next_ns.max(self.locked_end_ns);
+            if start > irq.next_ns {
+                self.interrupts_deferred += 1;
+            }
+            if start + irq.duration_ns > self.now_ns {
+                self.interrupts_stretching += u64::from(start == irq.next_ns);
+                self.now_ns = start + irq.duration_ns;
+            }
+            irq.next_ns += irq.period_ns;
+        }
+        self.interrupt = Some(irq);
+    }
+
+    /// The line as the master reads it; a read slot sampled after the device's data
+    /// window (15 µs from the falling edge, before the 60 µs slot end) is a violation.
+    fn sample(&mut self) -> bool {
+        let since_fall = self.now_ns - self.fall_ns;
+        if !self.master_low && self.reset_release_ns.is_none() && since_fall > 15 * US && since_fall < 60 * US {
+            self.violations.push(format!("read sampled {since_fall} ns after the falling edge, > 15 µs"));
+        }
+        self.line_low()
+    }
+
     fn line_low(&self) -> bool {
         let t = self.now_ns;
         self.master_low
@@ -427,6 +511,10 @@ impl Sim {
             pin_error: false,
             devices,
             violations: Vec::new(),
+            interrupt: None,
+            interrupts_stretching: 0,
+            interrupts_deferred: 0,
+            locked_end_ns: 0,
             master_low: false,
             fall_ns: 0,
             prev_fall_ns: None,
@@ -460,7 +548,7 @@ impl Sim {
 
     /// Let simulated time pass with the bus idle (the application doing other work).
     pub fn idle_us(&self, us: u64) {
-        self.0.borrow_mut().now_ns += us * US;
+        self.0.borrow_mut().advance(us * US);
     }
 
     /// The timing violations recorded so far.
@@ -487,7 +575,8 @@ pub struct SimPin(Sim);
 impl SimPin {
     fn call<R>(&mut self, f: impl FnOnce(&mut World) -> R) -> Result<R, SimPinError> {
         let mut w = self.0 .0.borrow_mut();
-        w.now_ns += w.pin_overhead_ns;
+        let overhead = w.pin_overhead_ns;
+        w.advance(overhead);
         if w.pin_error {
             return Err(SimPinError);
         }
@@ -511,11 +600,11 @@ impl OutputPin for SimPin {
 
 impl InputPin for SimPin {
     fn is_high(&mut self) -> Result<bool, SimPinError> {
-        self.call(|w| !w.line_low())
+        self.call(|w| !w.sample())
     }
 
     fn is_low(&mut self) -> Result<bool, SimPinError> {
-        self.call(|w| w.line_low())
+        self.call(World::sample)
     }
 }
 
@@ -525,7 +614,7 @@ pub struct SimDelay(Sim);
 
 impl DelayNs for SimDelay {
     fn delay_ns(&mut self, ns: u32) {
-        self.0 .0.borrow_mut().now_ns += u64::from(ns);
+        self.0 .0.borrow_mut().advance(u64::from(ns));
     }
 }
 

@@ -2,7 +2,7 @@
 //! datasheet limits, SEARCH ROM, resolutions, the non-blocking state machine, and
 //! every injected fault giving a typed error, never a wrong temperature.
 
-use host_tests::onewire_sim::{Device, Sim};
+use host_tests::onewire_sim::{sim_slot_lock, Device, Interrupt, Sim, SimDelay, SimPin};
 use qfa_thermal::ds18b20::{self, Resolution};
 use qfa_thermal::ds18b20_driver::{self as drv, Ds18b20, PowerSupply, Sample};
 use qfa_thermal::onewire::{self as ow, Rom};
@@ -191,6 +191,196 @@ fn convert_all_then_read_each() {
 }
 
 // ---------- Faults ----------
+
+/// Start, poll every millisecond (the driver's non-blocking recipe), read.
+fn convert_and_read(
+    sim: &Sim,
+    bus: &mut ow::OneWire<SimPin, SimDelay>,
+    sensor: &mut Ds18b20,
+) -> Result<Sample, drv::Error> {
+    sensor.start(bus, sim.now_us())?;
+    for _ in 0..2_000 {
+        if sensor.is_ready(bus, sim.now_us())? {
+            return sensor.read(bus);
+        }
+        sim.idle_us(1_000);
+    }
+    panic!("not ready after 2 s");
+}
+
+/// Scenario 5, a frozen sensor: a Convert T the sensor never took (dropped here by the
+/// simulator) leaves the previous conversion in the scratchpad, CRC good. Read after it,
+/// that conversion came back as a new sample with a fresh timestamp, and so on for every
+/// lost command: the status stayed OK on a value that no longer moved. With read slots,
+/// the slot right after Convert T must read 0 (converting); a 1 means the command was
+/// not taken, and the driver says so instead of reading.
+#[test]
+fn frozen_sensor_lost_convert_t_is_a_typed_error_not_the_previous_sample() {
+    let sim = Sim::new(vec![Device::ds18b20(1, 0x0191)]);
+    let mut bus = sim.bus();
+    let mut sensor = Ds18b20::single();
+    assert_eq!(sensor.use_read_slots(&mut bus), Ok(PowerSupply::External));
+    assert_eq!(convert_and_read(&sim, &mut bus, &mut sensor).map(|s| s.reading.raw), Ok(0x0191));
+
+    // The case warms by 1 °C, and the next Convert T is lost.
+    sim.with(|w| {
+        w.devices[0].temp_raw = 0x01A1;
+        w.devices[0].drop_convert_t = 1;
+    });
+    sim.idle_us(200_000);
+    assert_eq!(convert_and_read(&sim, &mut bus, &mut sensor), Err(drv::Error::ConversionNotStarted));
+    // Nothing is left to read: the lost conversion is never delivered later either.
+    assert_eq!(sensor.read(&mut bus), Err(drv::Error::NotStarted));
+    // The next command is taken: the new temperature.
+    assert_eq!(convert_and_read(&sim, &mut bus, &mut sensor).map(|s| s.reading.raw), Ok(0x01A1));
+
+    // `measure` starts again within its retry budget (1 retry), and gives up past it.
+    sim.with(|w| {
+        w.devices[0].temp_raw = 0x01B1;
+        w.devices[0].drop_convert_t = 1;
+    });
+    assert_eq!(sensor.measure(&mut bus, sim.now_us()).map(|s| s.reading.raw), Ok(0x01B1));
+    sim.with(|w| w.devices[0].drop_convert_t = 2);
+    assert_eq!(sensor.measure(&mut bus, sim.now_us()), Err(drv::Error::ConversionNotStarted));
+    assert_no_violations(&sim);
+}
+
+/// `start_all` on externally powered sensors: every command lost is seen (the slot after
+/// it reads 1); one lost among three is not (the others drive it to 0), as documented.
+#[test]
+fn frozen_sensor_start_all_sees_only_every_command_lost() {
+    let sim = Sim::new((1..=3).map(|i| Device::ds18b20(i, 0x0191)).collect());
+    let mut bus = sim.bus();
+    let mut sensors = Ds18b20::search::<_, _, 4>(&mut bus).unwrap();
+    for s in &mut sensors {
+        assert_eq!(s.use_read_slots(&mut bus), Ok(PowerSupply::External));
+    }
+    sim.with(|w| w.devices.iter_mut().for_each(|d| d.drop_convert_t = 1));
+    assert_eq!(Ds18b20::start_all(&mut bus, &mut sensors, sim.now_us()), Err(drv::Error::ConversionNotStarted));
+    assert!(sensors.iter_mut().all(|s| s.read(&mut bus) == Err(drv::Error::NotStarted)));
+    sim.with(|w| w.devices[1].drop_convert_t = 1);
+    assert_eq!(Ds18b20::start_all(&mut bus, &mut sensors, sim.now_us()), Ok(()));
+    assert_no_violations(&sim);
+}
+
+/// Scenario 5, the other way to freeze: a conversion that starts and never ends (here
+/// five times the datasheet maximum). Judged by the timer, the read after 750 ms returned
+/// the previous conversion. Judged by the read slot, the sensor is still converting past
+/// the maximum, which is a typed error.
+#[test]
+fn frozen_sensor_conversion_that_never_ends_is_overdue_not_the_previous_sample() {
+    let sim = Sim::new(vec![Device::ds18b20(1, 0x0191)]);
+    let mut bus = sim.bus();
+    let mut sensor = Ds18b20::single();
+    assert_eq!(sensor.use_read_slots(&mut bus), Ok(PowerSupply::External));
+    assert_eq!(convert_and_read(&sim, &mut bus, &mut sensor).map(|s| s.reading.raw), Ok(0x0191));
+    sim.with(|w| {
+        w.devices[0].temp_raw = 0x01A1;
+        w.devices[0].conversion_fraction = 5.0;
+    });
+    let start = sim.now_us();
+    assert_eq!(convert_and_read(&sim, &mut bus, &mut sensor), Err(drv::Error::ConversionOverdue));
+    let waited = sim.now_us() - start;
+    // Not before the datasheet maximum and its margin, and not much after.
+    assert!((825_000..830_000).contains(&waited), "overdue after {waited} µs");
+    assert_eq!(sensor.read(&mut bus), Err(drv::Error::NotStarted));
+    // `measure` waits the maximum, sees the sensor still converting, and does not read.
+    assert_eq!(sensor.measure(&mut bus, sim.now_us()), Err(drv::Error::ConversionOverdue));
+    assert_no_violations(&sim);
+}
+
+/// A parasite-powered sensor cannot tell a lost conversion (it does not drive read
+/// slots while converting), so `use_read_slots` leaves it on the timer, and a lost
+/// Convert T still gives the previous value: why the board refuses such a sensor.
+#[test]
+fn parasite_sensor_cannot_see_a_lost_convert_t() {
+    let sim = Sim::new(vec![Device::ds18b20(1, 0x0191)]);
+    sim.with(|w| w.devices[0].parasite = true);
+    let mut bus = sim.bus();
+    let mut sensor = Ds18b20::single();
+    assert_eq!(sensor.use_read_slots(&mut bus), Ok(PowerSupply::Parasite));
+    assert_eq!(convert_and_read(&sim, &mut bus, &mut sensor).map(|s| s.reading.raw), Ok(0x0191));
+    sim.with(|w| {
+        w.devices[0].temp_raw = 0x01A1;
+        w.devices[0].drop_convert_t = 1;
+    });
+    assert_eq!(convert_and_read(&sim, &mut bus, &mut sensor).map(|s| s.reading.raw), Ok(0x0191));
+}
+
+/// `read_keeping_bytes` gives back a scratchpad that failed decoding, so the caller can
+/// hand it to the compensator (which rejects it with the same typed error), and no bytes
+/// when nothing was read.
+#[test]
+fn read_keeping_bytes_gives_the_failed_scratchpad_and_only_that() {
+    let sim = Sim::new(vec![Device::ds18b20(1, 0x0191)]);
+    let mut bus = sim.bus();
+    let mut sensor = Ds18b20::single().with_retries(1);
+    // The CRC byte's lowest bit, flipped on the read and on its retry.
+    sim.with(|w| {
+        w.devices[0].flip_bit = 64;
+        w.devices[0].flip_times = 2;
+    });
+    sensor.start(&mut bus, sim.now_us()).unwrap();
+    sim.idle_us(750_000);
+    assert!(sensor.is_ready(&mut bus, sim.now_us()).unwrap());
+    let f = sensor.read_keeping_bytes(&mut bus).unwrap_err();
+    let sp = f.scratchpad.expect("the bytes that failed");
+    assert_eq!(f.error, drv::Error::Scratchpad(ds18b20::decode_scratchpad(&sp).unwrap_err()));
+    assert!(matches!(f.error, drv::Error::Scratchpad(ds18b20::Error::Crc { .. })), "{f:?}");
+    assert_eq!(sp[..8], sim.with(|w| w.devices[0].scratchpad()));
+
+    // No presence: an error without bytes.
+    sensor.start(&mut bus, sim.now_us()).unwrap();
+    sim.idle_us(750_000);
+    assert!(sensor.is_ready(&mut bus, sim.now_us()).unwrap());
+    sim.with(|w| w.devices[0].present = false);
+    let f = sensor.read_keeping_bytes(&mut bus).unwrap_err();
+    assert_eq!(f, drv::ReadFailure { error: drv::Error::Bus(ow::Error::NoPresence), scratchpad: None });
+}
+
+/// Scenario 8(c): an interrupt inside a slot. A 12 µs handler every 997 µs (a period that
+/// walks across every slot phase) lands between some slots' falling edge and their sample:
+/// without the slot lock the sample comes after the device's 15 µs window (a 0 reads 1)
+/// and a write-1 is held low past 15 µs (written as 0). With the lock, the interrupt waits
+/// for the locked part of the slot (at most 10 µs of delay) and then runs.
+#[test]
+fn interrupt_cannot_stretch_a_slot_under_the_slot_lock() {
+    let reads = |locked: bool| {
+        let sim = Sim::new(vec![Device::ds18b20(1, 0x0191)]);
+        let bus = sim.bus();
+        let mut bus = if locked { bus.with_slot_lock(sim_slot_lock) } else { bus };
+        let mut sensor = Ds18b20::single().with_retries(0);
+        sensor.measure(&mut bus, sim.now_us()).unwrap();
+        sim.with(|w| w.interrupt = Some(Interrupt { next_ns: w.now_ns, period_ns: 997_000, duration_ns: 12_000 }));
+        let mut bad = 0;
+        for _ in 0..300 {
+            match sensor.read_scratchpad(&mut bus) {
+                Ok((_, r)) if r.raw == 0x0191 => {}
+                _ => bad += 1,
+            }
+        }
+        let (stretching, deferred) = sim.with(|w| (w.interrupts_stretching, w.interrupts_deferred));
+        (bad, sim.violations(), stretching, deferred)
+    };
+    // Without the lock (the bus as it was): wrong bits and late samples.
+    let (bad, violations, stretching, deferred) = reads(false);
+    println!(
+        "without the lock: {bad} bad reads of 300, {} violations, {stretching} interrupts held the master up",
+        violations.len()
+    );
+    assert!(bad >= 10, "{bad} bad reads of 300");
+    assert!(violations.iter().any(|v| v.starts_with("read sampled")), "{violations:?}");
+    assert!(violations.iter().any(|v| v.starts_with("write low")), "{violations:?}");
+    assert_eq!(deferred, 0);
+    // With it: every read right, every slot in time, and interrupts did come inside locked
+    // parts (and waited), while others still ran between slots.
+    let (bad, violations, stretching, deferred) = reads(true);
+    assert_eq!((bad, violations), (0, Vec::<String>::new()));
+    println!(
+        "with the lock: {deferred} interrupts waited for a locked part, {stretching} held the master up elsewhere"
+    );
+    assert!(deferred >= 50 && stretching >= 50, "{deferred} deferred, {stretching} in between");
+}
 
 /// Without retries, a flip of any of the 72 scratchpad bits is a typed error.
 #[test]

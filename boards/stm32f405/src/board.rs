@@ -3,11 +3,10 @@
 use core::cell::RefCell;
 use core::sync::atomic::{AtomicU32, Ordering};
 
+use cortex_m::peripheral::DWT;
 use critical_section::Mutex;
 use defmt_rtt as _;
 use panic_probe as _;
-use qfa_thermal::ds18b20::Resolution;
-use qfa_thermal::ds18b20_driver::Ds18b20;
 use qfa_thermal::onewire::OneWire;
 use qfa_thermal::time::MsClock;
 use qfa_thermal::{Applier, Compensator, Config, Status, Table, Updater};
@@ -20,6 +19,8 @@ use stm32f4xx_hal::rcc::Config as RccConfig;
 use stm32f4xx_hal::timer::{CounterUs, Event, FTimerUs, Timer};
 
 use crate::calibration;
+use crate::cycle::{self, PERIOD_US};
+use crate::poll::{self, Event as SensorEvent};
 use crate::widen::Widen16;
 
 /// The recommended configuration: 3 axes, a 32-sample rate window, one DS18B20 per
@@ -28,12 +29,8 @@ type Comp = Compensator<3, 32, 3, &'static Table>;
 type Slow = Updater<'static, 3, 32, 3, &'static Table>;
 type OneWirePin = PartiallyErasedPin<'B', Output<OpenDrain>>;
 
-/// IMU cycle: TIM7 update at 400 Hz.
-const PERIOD_US: u32 = 2_500;
 /// IMU cycles per logged summary (1 s).
 const CYCLES_PER_SUMMARY: u32 = 1_000_000 / PERIOD_US;
-/// Temperature cycle: a conversion on every sensor once a second.
-const TEMP_PERIOD_US: u32 = 1_000_000;
 
 /// The compensator; `split` borrows it for `'static`.
 static COMP: StaticCell<Comp> = StaticCell::new();
@@ -50,9 +47,14 @@ struct Fast {
     widen: [Widen16; 3],
     /// TIM7 count (µs after the update event) at the previous read.
     last_lat: u32,
+    /// DWT cycle counter at the previous read: tells how many periods passed.
+    last_cyc: u32,
     sum: [f32; 3],
     status: Status,
+    /// TIM7 periods in the summary being summed (runs and lost ones).
     cycles: u32,
+    /// Update events lost in the summary being summed.
+    lost: u32,
 }
 
 /// The one-time handoff of [`Fast`] from `main` to the interrupt. The lock is taken once:
@@ -63,17 +65,23 @@ struct Fast {
 static FAST_HANDOFF: Mutex<RefCell<Option<Fast>>> = Mutex::new(RefCell::new(None));
 
 /// What the interrupt publishes once a second for the main loop's log: Δv sums (f32 bits),
-/// the OR of the status words, and a sequence number. Written only by the interrupt; the
-/// main loop reads it inside a critical section, where the interrupt cannot run, so it
-/// sees one whole second.
+/// the OR of the status words, the TIM7 cycles lost (update events that found the
+/// interrupt still pending, held off past a whole period), and a sequence number. Written
+/// only by the interrupt; the main loop reads it inside a critical section, where the
+/// interrupt cannot run, so it sees one whole second.
 struct Summary {
     dv: [AtomicU32; 3],
     status: AtomicU32,
+    lost: AtomicU32,
     seq: AtomicU32,
 }
 
-static SUMMARY: Summary =
-    Summary { dv: [const { AtomicU32::new(0) }; 3], status: AtomicU32::new(0), seq: AtomicU32::new(0) };
+static SUMMARY: Summary = Summary {
+    dv: [const { AtomicU32::new(0) }; 3],
+    status: AtomicU32::new(0),
+    lost: AtomicU32::new(0),
+    seq: AtomicU32::new(0),
+};
 
 /// Program TIM3/TIM4 (`tim3::RegisterBlock`) or TIM8 (`tim1::RegisterBlock`) as a free-running
 /// 16-bit up-counter of rising edges on its ETR pin: external clock mode 2 (ECE = 1), no
@@ -102,41 +110,48 @@ fn cnt16_tim8(t: &TIM8) -> u16 {
 }
 
 impl Fast {
-    /// One IMU cycle, in the TIM7 interrupt.
+    /// One IMU cycle, in the TIM7 interrupt. Never logs: a log call takes defmt-rtt's
+    /// critical section and copies into the RTT buffer, time the cycle does not have.
     #[inline(always)]
     fn cycle(&mut self) {
         // Clear the update flag first (clearing it last can re-enter the handler).
         let _ = self.tick.wait();
-        // µs since this cycle's update event; the counters are read right after it.
+        // µs since this cycle's update event, and the second clock that tells whether whole
+        // periods passed unseen; the counters are read right after them.
         let lat = self.tick.now().ticks();
+        let cyc = DWT::cycle_count();
         let counters = [
             self.widen[0].update(cnt16_tim3(&self.x)),
             self.widen[1].update(cnt16_tim4(&self.y)),
             self.widen[2].update(cnt16_tim8(&self.z)),
         ];
-        // The time between two reads: one period plus the change in latency, in µs ticks
-        // (Config::tick_s = 1 µs), exact however late the interrupt runs within its period.
-        // A whole missed period (the interrupt masked for over 2.5 ms) would make it one
-        // period short; keep every critical section far below that.
-        let dt = PERIOD_US.wrapping_add(lat).wrapping_sub(self.last_lat);
+        // The time between two reads in µs ticks (Config::tick_s = 1 µs), exact however late
+        // the interrupt runs, and the update events it missed when held off past a whole
+        // period (cycle::timing): counted, not silent. The counts stay exact too (widen.rs).
+        let t = cycle::timing(lat, self.last_lat, cyc.wrapping_sub(self.last_cyc));
         self.last_lat = lat;
+        self.last_cyc = cyc;
+        self.lost = self.lost.saturating_add(t.lost);
 
-        let out = self.applier.cycle_counters(counters, dt);
+        let out = self.applier.cycle_counters(counters, t.dt_us);
         // The navigation filter would take `out` here. The example sums it for the log.
         for (s, v) in self.sum.iter_mut().zip(out.dv_mps) {
             *s += v;
         }
         self.status |= out.status;
-        self.cycles += 1;
-        if self.cycles == CYCLES_PER_SUMMARY {
+        // A summary is 1 s of periods, the lost ones included.
+        self.cycles = self.cycles.saturating_add(1 + t.lost);
+        if self.cycles >= CYCLES_PER_SUMMARY {
             for (d, s) in SUMMARY.dv.iter().zip(self.sum) {
                 d.store(s.to_bits(), Ordering::Relaxed);
             }
             SUMMARY.status.store(u32::from(self.status.bits()), Ordering::Relaxed);
+            SUMMARY.lost.store(self.lost, Ordering::Relaxed);
             SUMMARY.seq.store(SUMMARY.seq.load(Ordering::Relaxed).wrapping_add(1), Ordering::Relaxed);
             self.sum = [0.0; 3];
             self.status = Status::empty();
             self.cycles = 0;
+            self.lost = 0;
         }
     }
 }
@@ -162,76 +177,76 @@ fn now_us(tim2: &pac::TIM2) -> u32 {
 }
 
 /// One DS18B20 on its own open-drain pin.
-struct Channel {
-    bus: OneWire<OneWirePin, Delay>,
-    sensor: Ds18b20,
-    converting: bool,
+type Channel = poll::Channel<OneWirePin, Delay>;
+
+/// The 1-Wire slot lock: the timing-critical part of each read slot and write-1 slot (pull
+/// low, release, sample) runs with interrupts masked. A read slot samples 10 µs after its
+/// falling edge and the sensor's data is valid only until 15 µs, so a TIM7 run landing in
+/// between (the handler plus its entry and exit) could push the sample out of the window
+/// and read a 0 as 1; a write-1 held low past 15 µs is written as 0.
+///
+/// Safe for the IMU interrupt: the locked part is at most 10 µs of delay and three pin
+/// calls (register writes and a read, tens of ns at 168 MHz), so a TIM7 update that comes
+/// during it stays pending for at most about 11 µs and then runs. That is far inside its
+/// budget: the fast path measures its own dt, so a late run costs nothing, and a cycle is
+/// lost only when held off a whole 2.5 ms period (and then counted, `cycle::timing`). The
+/// rest of each slot (the write-0 low time, the recovery, the reset) stays open to
+/// interrupts; see `qfa_thermal::onewire` for why it tolerates them.
+fn slot_lock(f: &mut dyn FnMut()) {
+    critical_section::with(|_| f());
 }
 
-/// The slow path, in thread mode: start conversions at 1 Hz, read them when done, feed the
-/// updater. Every call is bounded (delays alone, SKIP ROM: start 2.1 ms, poll 70 µs, read
-/// ≤ 2 × 7.1 ms with the default retry); the IMU interrupt preempts all of it. A 1-Wire read
-/// slot samples 10 µs after its falling edge and the sensor's data is valid until 15 µs, so
-/// the IMU interrupt must stay well under 5 µs (its handler is straight-line code, a few
-/// hundred cycles at 168 MHz; not measured on hardware).
+/// The slow path, in thread mode: each sensor's [`poll::Channel::step`] (1 Hz conversions,
+/// checked on the bus, read when done; every reading, good or failed, reaches the updater),
+/// and the log. Every call is bounded (delays alone, SKIP ROM: start 2.2 ms with its check
+/// slot, poll 70 µs, read ≤ 2 × 7.1 ms with the default retry, setup ≤ 35 ms); the IMU
+/// interrupt preempts all of it except each slot's few locked µs ([`slot_lock`]).
 fn slow_path(mut updater: Slow, mut chans: [Channel; 3], tim2: &pac::TIM2) -> ! {
     let mut clock = MsClock::new();
-    let mut next_start = now_us(tim2);
     let mut seen = SUMMARY.seq.load(Ordering::Relaxed);
     loop {
-        let now = now_us(tim2);
-        if now.wrapping_sub(next_start) as i32 >= 0 {
-            next_start = next_start.wrapping_add(TEMP_PERIOD_US);
-            // Keep the ms clock fed even if every sensor is failing (it must see the µs
-            // clock at least every 35.8 min to count its wraps).
-            let _ = clock.ms(now);
-            for (axis, ch) in chans.iter_mut().enumerate() {
-                if ch.converting {
-                    defmt::error!("axis {}: conversion not read within 1 s, restarted", axis);
-                }
-                ch.converting = match ch.sensor.start(&mut ch.bus, now_us(tim2)) {
-                    Ok(()) => true,
-                    Err(e) => {
-                        defmt::error!("axis {}: DS18B20 start: {}", axis, e);
-                        false
-                    }
-                };
-            }
-        }
+        // Keep the ms clock fed even if every sensor is failing (it must see the µs clock
+        // at least every 35.8 min to count its wraps).
+        let _ = clock.ms(now_us(tim2));
         for (axis, ch) in chans.iter_mut().enumerate() {
-            if !ch.converting {
-                continue;
-            }
-            match ch.sensor.is_ready(&mut ch.bus, now_us(tim2)) {
-                Ok(false) => continue,
-                Ok(true) => ch.converting = false,
-                Err(e) => {
-                    defmt::error!("axis {}: DS18B20 poll: {}", axis, e);
-                    ch.converting = false;
-                    continue;
-                }
-            }
-            match ch.sensor.read(&mut ch.bus) {
-                Ok(s) => {
-                    // One time base for every sensor, wrap-safe (never completed_us / 1000).
-                    let t_ms = clock.ms(s.completed_us);
-                    if let Err(e) = updater.on_scratchpad_from(axis, t_ms, &s.scratchpad) {
-                        defmt::error!("axis {}: reading refused: {}", axis, e);
-                    }
-                }
-                Err(e) => defmt::error!("axis {}: DS18B20 read: {}", axis, e),
-            }
+            let event = ch.step(&mut updater, &mut clock, axis, now_us(tim2));
+            log_event(axis, event);
         }
         // Look without a critical section; take one (a few cycles of masked interrupts) only
         // once a second, to copy a whole summary.
         if SUMMARY.seq.load(Ordering::Relaxed) != seen {
-            let (seq, dv, status) = critical_section::with(|_| {
+            let (seq, dv, status, lost) = critical_section::with(|_| {
                 let dv = SUMMARY.dv.each_ref().map(|d| f32::from_bits(d.load(Ordering::Relaxed)));
                 let status = Status::from_bits_retain(SUMMARY.status.load(Ordering::Relaxed) as u16);
-                (SUMMARY.seq.load(Ordering::Relaxed), dv, status)
+                (SUMMARY.seq.load(Ordering::Relaxed), dv, status, SUMMARY.lost.load(Ordering::Relaxed))
             });
             seen = seq;
-            defmt::println!("1 s: dv_mps={} status={} temp_c={}", dv, status, temps(&updater));
+            defmt::println!("1 s: dv_mps={} status={} temp_c={} lost_cycles={}", dv, status, temps(&updater), lost);
+            if lost > 0 {
+                defmt::error!("IMU: {} TIM7 cycles lost (interrupt held off past 2.5 ms); dt covers them", lost);
+            }
+        }
+    }
+}
+
+/// Log what a sensor's step did that a person should see. Thread mode only: the IMU
+/// interrupt never logs.
+fn log_event(axis: usize, event: SensorEvent) {
+    match event {
+        SensorEvent::Idle | SensorEvent::Started | SensorEvent::Accepted(_) => {}
+        SensorEvent::Configured => {
+            defmt::println!("axis {}: DS18B20 at 12 bits, externally powered: conversions checked on the bus", axis)
+        }
+        SensorEvent::Missed { cause: poll::Cause::Parasite, .. } => defmt::error!(
+            "axis {}: DS18B20 is parasite-powered: a lost conversion cannot be seen, so it is refused; \
+             axis flagged TEMP_INVALID and TEMP_STALE",
+            axis
+        ),
+        SensorEvent::Rejected { cause, error } => {
+            defmt::error!("axis {}: reading refused: {} (driver: {})", axis, error, cause)
+        }
+        SensorEvent::Missed { cause, result } => {
+            defmt::error!("axis {}: reading missed: {}; updater: {}", axis, cause, result)
         }
     }
 }
@@ -285,14 +300,10 @@ fn main() -> ! {
         gpiob.pb7.into_open_drain_output_in_state(PinState::High).erase_number(),
         gpiob.pb8.into_open_drain_output_in_state(PinState::High).erase_number(),
     ];
-    let mut chans =
-        pins.map(|pin| Channel { bus: OneWire::new(pin, delay), sensor: Ds18b20::single(), converting: false });
-    for (axis, ch) in chans.iter_mut().enumerate() {
-        // 12 bits (0.0625 °C, 750 ms); the driver re-checks it in every scratchpad.
-        if let Err(e) = ch.sensor.set_resolution(&mut ch.bus, Resolution::Bits12) {
-            defmt::error!("axis {}: DS18B20 setup: {}; its axis stays TEMP_STALE until it answers", axis, e);
-        }
-    }
+    // Each channel's first step sets 12 bits and reads the power supply (a parasite-powered
+    // sensor is refused); a sensor that does not answer is set up again every second.
+    let first_us = now_us(&tim2);
+    let chans = pins.map(|pin| Channel::new(OneWire::new(pin, delay).with_slot_lock(slot_lock), first_us));
 
     // Pulse counters: TIM3 ETR on PD2 (AF2), TIM4 ETR on PE0 (AF2), TIM8 ETR on PA0 (AF3).
     // The HAL's typed ETR pins check the pin/AF pairs at compile time.
@@ -319,9 +330,23 @@ fn main() -> ! {
     // gives real increments (no NO_COUNTER_BASE) over a real dt.
     let _ = tick.wait();
     let last_lat = tick.now().ticks();
+    let last_cyc = DWT::cycle_count();
     let widen = [Widen16::new(cnt16_tim3(&x)), Widen16::new(cnt16_tim4(&y)), Widen16::new(cnt16_tim8(&z))];
     applier.prime_counters(widen.map(|w| w.total()));
-    let fast = Fast { applier, tick, x, y, z, widen, last_lat, sum: [0.0; 3], status: Status::empty(), cycles: 0 };
+    let fast = Fast {
+        applier,
+        tick,
+        x,
+        y,
+        z,
+        widen,
+        last_lat,
+        last_cyc,
+        sum: [0.0; 3],
+        status: Status::empty(),
+        cycles: 0,
+        lost: 0,
+    };
     critical_section::with(|cs| *FAST_HANDOFF.borrow_ref_mut(cs) = Some(fast));
     // Unmasking is unsafe because it can break a critical section built on masking this
     // interrupt; this program's only critical sections disable all interrupts (PRIMASK),

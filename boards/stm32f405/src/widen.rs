@@ -15,7 +15,7 @@
 //! high, 4 low) passes at most f_CK_INT/8: 10.5 MHz on TIM3/TIM4 (84 MHz), 21 MHz on TIM8
 //! (168 MHz). The counts of a cycle whose interrupt was missed altogether (masked for a
 //! full 2.5 ms) still come out right at 3.2 MHz: 8 000 pulses per cycle, 8 cycles before
-//! 65 536. (That cycle's `dt` is one period short; see `Fast::cycle`.)
+//! 65 536. (That cycle's `dt` covers the missed period too; see `cycle.rs`.)
 
 /// One axis: the last 16-bit counter value seen and the widened total.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
