@@ -41,7 +41,7 @@
 //!   the fast path counts its own ticks, and the slow path keeps a saturating age per
 //!   stream that no clock wrap resets (see [`crate::time`]).
 //! * A reading that jumps further than `max_step_raw` plus `max_slew_raw_per_min` times the
-//!   elapsed time (the slew counted at most up to the stale threshold) is used only once
+//!   elapsed time (counted at most up to the rate window's gap) is used only once
 //!   [`Config::confirm_samples`] readings agree. The DS18B20's power-on value 0550h
 //!   (+85 °C) is used only as the continuation of a stream already there (within one step,
 //!   no gap); after a dropout or as a jump it is refused, whether or not the scratchpad's
@@ -1106,16 +1106,18 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
         }
     }
 
-    /// |raw − last.raw| within step + slew·elapsed, the slew term capped at the stale
-    /// threshold: after a longer gap only a step within `max_step_raw` is taken at once,
-    /// anything larger waits for `confirm_samples` readings that agree.
+    /// |raw − last.raw| within step + slew·elapsed, the elapsed time counted at most up to
+    /// the rate window's gap (`rate.max_gap_ms`, 30 s: 1 + 5 °C by default). Beyond it the
+    /// bound stops growing, so after a long dropout a step larger than that waits for
+    /// `confirm_samples` readings that agree (the bound used to grow without limit, taking
+    /// any value after a long enough gap).
     ///
     /// `step + ⌊slew·d/60 000⌋ ≥ |Δ|` is tested as `(|Δ| − step)·60 000 ≤ slew·d` in u64:
     /// the same integer rule without a 64-bit division (about 1 KB of library code on a
     /// Cortex-M4, which has no such instruction).
     fn plausible(&self, last: Timed, elapsed_ms: u32, raw: i16) -> bool {
         let c = &self.slow.config;
-        let d_ms = u64::from(elapsed_ms.min(self.slow.config.stale_after_ms()));
+        let d_ms = u64::from(elapsed_ms.min(u32::from(self.slow.config.rate.max_gap_ms)));
         // Both validated ≥ 0.
         let (step, slew) = (c.max_step_raw as u32, c.max_slew_raw_per_min as u32);
         let Some(excess) = i32::from(raw).abs_diff(i32::from(last.raw)).checked_sub(step) else {

@@ -22,7 +22,7 @@ const MAX_GAP_MS: i64 = 30_000;
 const MAX_STEP: i64 = 16;
 const MAX_SLEW_PER_MIN: i64 = 160;
 const CONFIRM: u32 = 3;
-/// `stale_after_ticks · tick`, ms: also where the slew allowance stops growing.
+/// `stale_after_ticks · tick`, ms.
 const STALE_MS: i64 = 3_000;
 /// The DS18B20's range, −55…+125 °C, in 1/16 °C.
 const RAW_MIN: i64 = -55 * 16;
@@ -385,7 +385,7 @@ impl Reference {
     }
 
     fn allowed(from_t: i64, to_t: i64) -> i64 {
-        MAX_STEP + MAX_SLEW_PER_MIN * (to_t - from_t).min(STALE_MS) / 60_000
+        MAX_STEP + MAX_SLEW_PER_MIN * (to_t - from_t).min(MAX_GAP_MS) / 60_000
     }
 
     /// Count a rejected reading towards a confirmed restart: consecutive rejected readings,
