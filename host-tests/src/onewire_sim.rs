@@ -14,7 +14,8 @@
 //! Faults: a flipped transmitted bit ([`Device::flip_bit`]), no presence
 //! ([`Device::present`]), a stuck-low bus ([`World::stuck_low_at_ns`]), a brown-out
 //! back to the power-on scratchpad ([`Device::brown_out_at_ns`]), pin errors
-//! ([`World::pin_error`]).
+//! ([`World::pin_error`]), a lost Convert T ([`Device::drop_convert_t`]: the command
+//! never starts a conversion, so the scratchpad keeps the previous one).
 
 use std::cell::RefCell;
 use std::rc::Rc;
@@ -72,6 +73,12 @@ pub struct Device {
     /// Brown-out at this simulated time: the scratchpad returns to the power-on
     /// value and the EEPROM configuration, a conversion is lost.
     pub brown_out_at_ns: Option<u64>,
+    /// Lose this many of the next Convert T (44h) commands: the device goes idle instead
+    /// of converting (a corrupted command byte, or a sensor that browned out and came
+    /// back between the reset and the command). The scratchpad keeps the previous
+    /// conversion with a good CRC, and read slots after the command read 1 (nothing
+    /// drives the line), as from a real part that did not take the command.
+    pub drop_convert_t: u32,
     /// How long a transmitted 0 is held after the falling edge (datasheet ≥ 15 µs).
     pub hold_ns: u64,
     /// Presence pulse start after reset release (15–60 µs) and length (60–240 µs).
@@ -115,6 +122,7 @@ impl Device {
             flip_bit: 0,
             flip_times: 0,
             brown_out_at_ns: None,
+            drop_convert_t: 0,
             hold_ns: 15 * US,
             presence_ns: (60 * US, 60 * US),
             eeprom,
@@ -295,6 +303,10 @@ impl Device {
                 self.rx = 0;
                 self.rx_n = 0;
                 match cmd {
+                    0x44 if self.drop_convert_t > 0 => {
+                        self.drop_convert_t -= 1;
+                        self.phase = Phase::Idle;
+                    }
                     0x44 => {
                         let max = u64::from(self.resolution().max_conversion_us()) * US;
                         self.conv_end_ns = Some(now + (max as f64 * self.conversion_fraction) as u64);
