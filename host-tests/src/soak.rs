@@ -280,7 +280,9 @@ pub fn truth_c(s: usize, t_s: f64) -> f64 {
 }
 
 /// A cycle is checked against the fault windows it may belong to, as `[start, end]` in ns
-/// of simulated time: from the first cycle after the fault's first read (the reads come
+/// of schedule time (`second · 10⁹ + the cycle's place in it`: the simulated seconds run a
+/// little over 1 s, by the bus time's sub-µs rest, so the simulated clock drifts from the
+/// schedule by seconds over weeks): from the first cycle after the fault's first read (the reads come
 /// 0.78-0.82 s into a second, so from +0.9 s) to the last cycle before the first read after
 /// it (+0.75 s), so a fault must be flagged on every cycle from when it can be seen until it
 /// is gone. `settle_s` delays the start (TEMP_STALE needs the 3-s limit to pass).
@@ -294,12 +296,11 @@ struct Check {
 }
 
 impl Check {
-    fn new(name: &str, w: &Window, origin_ns: u64, settle_s: u64, want: Status) -> Self {
+    fn new(name: &str, w: &Window, settle_s: u64, want: Status) -> Self {
         Self {
             name: name.to_owned(),
-            from_ns: (w.start_s.saturating_add(settle_s).saturating_mul(NS_PER_S))
-                .saturating_add(origin_ns + 900 * NS_PER_MS),
-            to_ns: w.end_s.saturating_mul(NS_PER_S).saturating_add(origin_ns + 750 * NS_PER_MS),
+            from_ns: (w.start_s.saturating_add(settle_s).saturating_mul(NS_PER_S)).saturating_add(900 * NS_PER_MS),
+            to_ns: w.end_s.saturating_mul(NS_PER_S).saturating_add(750 * NS_PER_MS),
             want,
             cycles: 0,
             flagged: 0,
@@ -380,22 +381,22 @@ pub fn run(set: &Settings, mut progress: impl FnMut(f64)) -> Figures {
     let mut checks: Vec<Check> = Vec::new();
     if let Some(f) = &faults {
         let either = Status::TEMP_INVALID | Status::TEMP_STALE;
-        checks.push(Check::new("dead", &f.dead, origin_ns, 0, either));
-        checks.push(Check::new("dead_stale", &f.dead, origin_ns, 3, Status::TEMP_STALE));
+        checks.push(Check::new("dead", &f.dead, 0, either));
+        checks.push(Check::new("dead_stale", &f.dead, 3, Status::TEMP_STALE));
         if let Some(w) = &f.frozen {
-            checks.push(Check::new("frozen", w, origin_ns, 0, either));
+            checks.push(Check::new("frozen", w, 0, either));
         }
         for (i, w) in f.brown_outs.iter().enumerate() {
-            checks.push(Check::new(&format!("brown_out_{i}"), w, origin_ns, 0, either));
+            checks.push(Check::new(&format!("brown_out_{i}"), w, 0, either));
         }
         for (i, w) in f.clone_brown_outs.iter().enumerate() {
-            checks.push(Check::new(&format!("clone_brown_out_{i}"), w, origin_ns, 0, either));
+            checks.push(Check::new(&format!("clone_brown_out_{i}"), w, 0, either));
         }
         for (i, w) in f.dropouts.iter().enumerate() {
-            checks.push(Check::new(&format!("dropout_{i}"), w, origin_ns, 0, either));
+            checks.push(Check::new(&format!("dropout_{i}"), w, 0, either));
         }
         for (i, w) in f.bus_dropouts.iter().enumerate() {
-            checks.push(Check::new(&format!("bus_dropout_{i}"), w, origin_ns, 3, Status::TEMP_STALE));
+            checks.push(Check::new(&format!("bus_dropout_{i}"), w, 3, Status::TEMP_STALE));
         }
     }
     let names = flag_names();
@@ -467,6 +468,7 @@ pub fn run(set: &Settings, mut progress: impl FnMut(f64)) -> Figures {
                               f: &mut Figures| {
             while next_cycle < imu_hz && t0_ns + u64::from(next_cycle) * period_ns <= upto_ns {
                 let vt_ns = t0_ns + u64::from(next_cycle) * period_ns;
+                let schedule_ns = second * NS_PER_S + u64::from(next_cycle) * period_ns;
                 next_cycle += 1;
                 let out = if per_axis { ap3.cycle(pulses, dt_ticks) } else { ap1.cycle(pulses, dt_ticks) };
                 f.cycles += 1;
@@ -477,7 +479,7 @@ pub fn run(set: &Settings, mut progress: impl FnMut(f64)) -> Figures {
                     f.healthy_cycles += 1;
                     stale_cycles += u64::from(out.status.contains(Status::TEMP_STALE));
                 }
-                for c in checks.iter_mut().filter(|c| (c.from_ns..=c.to_ns).contains(&vt_ns)) {
+                for c in checks.iter_mut().filter(|c| (c.from_ns..=c.to_ns).contains(&schedule_ns)) {
                     c.cycles += 1;
                     c.flagged += u64::from(out.status.intersects(c.want));
                 }
