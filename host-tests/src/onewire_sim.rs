@@ -13,7 +13,8 @@
 //!
 //! Faults: a flipped transmitted bit ([`Device::flip_bit`]), no presence
 //! ([`Device::present`]), a stuck-low bus ([`World::stuck_low_at_ns`]), a brown-out
-//! back to the power-on scratchpad ([`Device::brown_out_at_ns`]), pin errors
+//! back to the power-on scratchpad ([`Device::brown_out_at_ns`], with a clone part's byte 6:
+//! [`Device::power_on_byte6`]), pin errors
 //! ([`World::pin_error`]), a lost Convert T ([`Device::drop_convert_t`]: the command
 //! never starts a conversion, so the scratchpad keeps the previous one).
 //!
@@ -79,6 +80,10 @@ pub struct Device {
     /// Brown-out at this simulated time: the scratchpad returns to the power-on
     /// value and the EEPROM configuration, a conversion is lost.
     pub brown_out_at_ns: Option<u64>,
+    /// Byte 6 of the power-on scratchpad: 0Ch on a genuine DS18B20 (the decoder's power-on
+    /// rule), something else on some clone parts, whose brown-out then decodes as a real
+    /// +85 °C reading and only the compensator can refuse it.
+    pub power_on_byte6: u8,
     /// Lose this many of the next Convert T (44h) commands: the device goes idle instead
     /// of converting (a corrupted command byte, or a sensor that browned out and came
     /// back between the reset and the command). The scratchpad keeps the previous
@@ -128,6 +133,7 @@ impl Device {
             flip_bit: 0,
             flip_times: 0,
             brown_out_at_ns: None,
+            power_on_byte6: 0x0C,
             drop_convert_t: 0,
             hold_ns: 15 * US,
             presence_ns: (60 * US, 60 * US),
@@ -150,7 +156,7 @@ impl Device {
 
     fn power_on(&mut self) {
         let t = POWER_ON_RAW.to_le_bytes();
-        self.scratch = [t[0], t[1], self.eeprom[0], self.eeprom[1], self.eeprom[2], 0xFF, 0x0C, 0x10];
+        self.scratch = [t[0], t[1], self.eeprom[0], self.eeprom[1], self.eeprom[2], 0xFF, self.power_on_byte6, 0x10];
         self.conv_end_ns = None;
         self.phase = Phase::Idle;
     }
