@@ -127,7 +127,17 @@ impl BiasGrid {
         // does to x: a validated grid bounds K0 by its own values.
         let frac = (x - i as f32).clamp(0.0, 1.0);
         let (a, b) = (branch[i], branch[i + 1]);
-        a + (b - a) * frac
+        // Rounding of `a + (b − a)·1` can land one ulp past b; held to the two nodes, so a
+        // validated grid bounds K0 by its own values exactly.
+        let (lo, hi) = if a <= b { (a, b) } else { (b, a) };
+        let k0 = a + (b - a) * frac;
+        if k0 > hi {
+            hi
+        } else if k0 < lo {
+            lo
+        } else {
+            k0
+        }
     }
 
     /// K0 (g) at `t_c` on `branch`.
@@ -340,7 +350,10 @@ impl AxisModel {
             let lo = te - h.half_width_c;
             let hi = te + h.half_width_c;
             state.play_c = clamp(state.play_c, lo, hi).0;
-            k0 += h.weight_g * ((te - state.play_c) / h.half_width_c);
+            // Te ± r rounds to Te's ulp, so the fraction can reach 1.0002 with the smallest
+            // half-width: held to ±1, the term never exceeds its weight.
+            let fraction = (te - state.play_c) / h.half_width_c;
+            k0 += h.weight_g * if fraction > 1.0 { 1.0 } else if fraction < -1.0 { -1.0 } else { fraction };
         }
         if let Some(c) = self.ext.bias_creep {
             if dt_s > 0.0 {

@@ -284,10 +284,9 @@ proptest! {
 /// Te, so it should never exceed |weight| (model docs: "+weight after sustained heating").
 /// In f32, Te − r and Te + r round to the ulp of Te (7.6e-6 °C at 90 °C), so with the
 /// smallest half-width the table allows (0.01 °C) the fraction reaches 1.0002 and K0
-/// overshoots by 2e-6 g. Minor (0.02 % of the weight); the fix is to clamp the fraction to
-/// ±1 in `AxisModel::evaluate_with_deadband`. Found by `validated_tables_bound_k0_and_k1_everywhere`.
+/// overshot by 2e-6 g (0.02 % of the weight) until the fraction was clamped to ±1 in
+/// `AxisModel::evaluate_with_deadband`. Found by `validated_tables_bound_k0_and_k1_everywhere`.
 #[test]
-#[ignore = "root-crate bug (minor): the play fraction is not clamped to ±1 after f32 rounding"]
 fn play_term_can_exceed_its_weight() {
     let h = BranchHysteresis { half_width_c: 0.01, weight_g: 0.009_255_718 };
     let a = AxisModel {
@@ -309,11 +308,10 @@ fn play_term_can_exceed_its_weight() {
 /// `BiasGrid::interpolate` promises that K0 "never leaves the two nodes it lies between,
 /// whatever rounding does to x", so a validated grid bounds |K0| by `BIAS_G`. At the top
 /// node `a + (b − a)·1` rounds: with nodes −0.048831895 and 0.1 g it gives 0.10000001 g,
-/// one ulp above the node and above `BIAS_G`. Harmless in size (7e-9 g); the fix is to
-/// clamp the interpolated value to `[min(a, b), max(a, b)]`. Found by
+/// one ulp above the node and above `BIAS_G` (7e-9 g), until the interpolated value was
+/// held to `[min(a, b), max(a, b)]`. Found by
 /// `validated_tables_bound_k0_and_k1_everywhere` (its minimal case, kept here).
 #[test]
-#[ignore = "root-crate bug (minor): the interpolated K0 can pass its node by one f32 ulp"]
 fn grid_interpolation_can_leave_its_nodes_by_one_ulp() {
     let mut bias = BiasGrid::single_valued(-17.964_062, 0.1, &[0.0, 0.0]);
     bias.cooling_g = heapless::Vec::from_slice(&[-0.048_831_895, 0.1]).unwrap();
