@@ -43,7 +43,9 @@ pub const MAX_AXES: usize = 3;
 pub mod limits {
     /// Temperature range any grid may span, °C (DS18B20: −55..125).
     pub const TEMP_C: (f32, f32) = (-60.0, 130.0);
-    /// Largest |K0| on the grid, g.
+    /// Largest |K0| anywhere, g: the grid's largest value plus the largest the extension
+    /// terms can add (the play weight, the creep gain times the grid's span) must stay
+    /// within it.
     pub const BIAS_G: f32 = 0.1;
     /// Largest calibrated |Ṫ|, °C/min.
     pub const RATE_C_PER_MIN: f32 = 20.0;
@@ -306,6 +308,14 @@ fn validate_axis(a: &AxisModel) -> Result<()> {
         within(c.tau_ref_s, limits::CREEP_TAU_S, "bias_creep.tau_ref_s")?;
         within(c.t_ref_c, limits::TEMP_C, "bias_creep.t_ref_c")?;
         within(c.activation_k, (0.0, limits::CREEP_ACTIVATION_K), "bias_creep.activation_k")?;
+    }
+    // The whole K0, not the grid alone: the play term reaches its weight, and the creep
+    // term its gain times Te − x, both of which stay on the grid's span.
+    let grid_max = b.heating_g.iter().chain(b.cooling_g.iter()).fold(0.0f32, |m, &k| libm::fmaxf(m, libm::fabsf(k)));
+    let play = a.ext.bias_branch_hysteresis.map_or(0.0, |h| libm::fabsf(h.weight_g));
+    let creep = a.ext.bias_creep.map_or(0.0, |c| libm::fabsf(c.gain_g_per_c) * (b.t_end_c() - b.t_start_c));
+    if grid_max + play + creep > limits::BIAS_G {
+        return Err(Error::OutOfRange("bias with its extension terms"));
     }
     Ok(())
 }
