@@ -947,7 +947,7 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
 }
 
 // loom's atomics work only inside `loom::model`: under `--cfg loom` only the seqlock's
-// model runs.
+// model runs (`cargo xtask loom`).
 #[cfg(all(test, not(loom)))]
 mod tests {
     use super::*;

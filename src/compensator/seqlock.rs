@@ -15,15 +15,19 @@
 //! writer thread and one reader thread through every execution loom finds: every
 //! interleaving, and every store each load may read under loom's memory model (with one
 //! publication against the reader: all of them, 89 453 executions; with two: those with at
-//! most 3 preemptions, 77 800).
+//! most 3 preemptions, 77 800). `cargo xtask loom` runs them, then runs them again on each
+//! mutant (`--cfg qfa_mutant="NAME"`, one ordering or step of this file weakened or removed)
+//! and fails unless the model fails on every one; `cargo xtask test` runs the clean model.
+//! Normal builds contain none of the mutants' code.
 //!
 //! What loom does not cover (its docs, "Limitations and Caveats"): it does not reorder a
 //! thread's own operations, so a load reads only a store already made in the execution (no
 //! load buffering), and each atomic keeps only its last 7 stores. This protocol's argument
 //! (Boehm, "Can seqlocks get along with programming language memory models?", 2012, the
 //! fence version) rests only on the Release/Acquire synchronisation of its fences and
-//! stores with the loads that read them, which loom models. The sequence, the most-stored
-//! word, gets 7 stores in the largest test, so no store a load could read is forgotten.
+//! stores with the loads that read them, which loom models; each mutant breaks one such
+//! pairing, and each is caught. The sequence, the most-stored word, gets 7 stores in the
+//! largest test, so no store a load could read is forgotten.
 
 #[cfg(not(loom))]
 use core::sync::atomic::{fence, AtomicU32, Ordering};
@@ -151,6 +155,7 @@ impl<const AXES: usize> Published<AXES> {
         self.seq.store(seq.wrapping_add(1), Ordering::Relaxed);
         // The odd sequence is visible before any value changes: a reader's Acquire fence
         // after loading any value stored below makes its re-check see this odd sequence.
+        #[cfg(not(qfa_mutant = "writer_no_release_fence"))]
         fence(Ordering::Release);
         after_store();
         for i in 0..AXES {
@@ -175,7 +180,10 @@ impl<const AXES: usize> Published<AXES> {
         self.flags.store(flags, Ordering::Relaxed);
         after_store();
         // Release: every value above is visible to a reader that loads the even sequence.
+        #[cfg(not(qfa_mutant = "writer_relaxed_even_store"))]
         self.seq.store(seq.wrapping_add(2), Ordering::Release);
+        #[cfg(qfa_mutant = "writer_relaxed_even_store")]
+        self.seq.store(seq.wrapping_add(2), Ordering::Relaxed);
         after_store();
     }
 
@@ -186,7 +194,11 @@ impl<const AXES: usize> Published<AXES> {
     #[inline(always)]
     pub(super) fn read_with(&self, mid: impl FnOnce()) -> Option<Snapshot<AXES>> {
         // Acquire: the values of the publication that made this sequence even are visible.
+        #[cfg(not(qfa_mutant = "reader_relaxed_seq_load"))]
         let seq = self.seq.load(Ordering::Acquire);
+        #[cfg(qfa_mutant = "reader_relaxed_seq_load")]
+        let seq = self.seq.load(Ordering::Relaxed);
+        #[cfg(not(qfa_mutant = "reader_accepts_odd"))]
         if seq & 1 == 1 {
             return None;
         }
@@ -203,7 +215,9 @@ impl<const AXES: usize> Published<AXES> {
         mid();
         // The loads above happen before the re-check, and a value of a later publication
         // among them makes the re-check see that publication's odd sequence.
+        #[cfg(not(qfa_mutant = "reader_no_acquire_fence"))]
         fence(Ordering::Acquire);
+        #[cfg(not(qfa_mutant = "reader_no_recheck"))]
         if self.seq.load(Ordering::Relaxed) != seq {
             return None;
         }
@@ -211,8 +225,8 @@ impl<const AXES: usize> Published<AXES> {
     }
 }
 
-/// The loom model of the seqlock: `RUSTFLAGS="--cfg loom" cargo test -p qfa-thermal --lib
-/// seqlock::model`.
+/// The loom model of the seqlock: `RUSTFLAGS="--cfg loom"`, run by `cargo xtask loom` (with
+/// the mutants) and `cargo xtask test` (clean only).
 ///
 /// The main thread makes publication 0, starts a writer thread that makes publications
 /// 1..=`publications`, reads twice meanwhile, joins the writer and reads once more. Every
