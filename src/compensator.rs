@@ -14,18 +14,32 @@
 //! # Interrupt-safe split
 //! [`Compensator::split`] gives an [`Updater`] (slow path, thread mode or a 1 Hz task) and
 //! an [`Applier`] (fast path, the IMU interrupt). They share only a [`Published`]
-//! coefficient set: two buffers of atomics and a sequence number. The updater writes the
-//! inactive buffer, then flips the sequence with a release store; the applier reads the
-//! sequence (acquire) and the buffer it names. The applier never blocks and never waits.
-//! Contract: the updater never preempts the applier (the usual wiring: the applier in the
-//! IMU interrupt, the updater in thread mode or a lower-priority task, on one core). Then
-//! the buffer being read is never the one being written, so no set is ever seen half
-//! written; `compensator::tests::reader_preempting_the_writer_at_every_store_sees_whole_sets`
-//! runs the reader after every single store of a publication and checks it. A seqlock
-//! re-check would also cover an updater that preempts the applier, but it costs 6 of the
-//! fast path's 40-instruction budget for a wiring this crate documents against. Only
-//! 32-bit atomic loads and stores are used, which every Cortex-M has (no compare-and-swap,
-//! so no `portable-atomic` is needed).
+//! coefficient set: one buffer of 32-bit atomics behind a sequence number, a seqlock. The
+//! updater makes the sequence odd, writes the set and makes the sequence even again. The
+//! applier keeps its own copy of the last whole set; per cycle it loads the sequence (one
+//! Relaxed load and a compare), and when it has moved (once per publication) it copies the
+//! set and loads the sequence again, in a `#[cold]` function. It never blocks and never
+//! waits, and no half-written set is ever used, whichever context preempts which, on one
+//! core or several:
+//! * the updater preempts the applier in the middle of its copy: the sequence has moved at
+//!   the re-check, the torn copy is dropped, the previous whole set is used for that cycle,
+//!   and the copy is tried again on the next cycle;
+//! * the applier preempts the updater in the middle of a publication: it sees an odd
+//!   sequence and keeps its last set, for every cycle until the publication is finished.
+//!
+//! There is one updater: the slow path is `&mut`, so two publications never overlap.
+//! `compensator::tests::reader_preempting_the_writer_at_every_store_sees_whole_sets` runs the
+//! applier after every single store of a publication, and
+//! `a_copy_torn_by_the_writer_is_dropped` runs a publication in the middle of the applier's
+//! copy. The memory orderings are checked by loom (`compensator::seqlock::model`, run by
+//! `cargo xtask loom` and `cargo xtask test`): one writer thread and one reader thread
+//! through every interleaving and every store each load may read under loom's memory model
+//! (three tests, 256 706 executions, 12 s; up to 3 preemptions in the one with two
+//! publications), with the sequence wrapping past `u32::MAX` in one of them.
+//! `cargo xtask loom` also checks that the model fails on each of six mutants that weaken
+//! one ordering or drop one step of the seqlock (`mutants_caught=6 of 6`). Only 32-bit
+//! atomic loads and stores are used, which every Cortex-M has (no compare-and-swap, so no
+//! `portable-atomic` is needed).
 //!
 //! # Sensors
 //! `SENSORS` is 1 (one temperature stream for every axis) or `AXES` (one DS18B20 per
