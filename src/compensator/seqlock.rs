@@ -225,6 +225,20 @@ impl<const AXES: usize> Published<AXES> {
     }
 }
 
+#[cfg(all(test, not(loom)))]
+mod tests {
+    use super::*;
+
+    /// Needs `Published::new` to be `const`, as a board's `static` does.
+    static SHARED: Published<3> = Published::new();
+
+    #[test]
+    fn a_published_set_is_a_static_of_80_bytes_for_3_axes() {
+        assert_eq!(core::mem::size_of_val(&SHARED), 80);
+        assert_eq!(SHARED.read_with(|| {}).map(|s| (s.seq, s.set, s.count)), Some((0, Set::EMPTY, 0)));
+    }
+}
+
 /// The loom model of the seqlock: `RUSTFLAGS="--cfg loom"`, run by `cargo xtask loom` (with
 /// the mutants) and `cargo xtask test` (clean only).
 ///
