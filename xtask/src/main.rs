@@ -1,4 +1,4 @@
-//! Build and test commands: `cargo xtask test | demo-qemu | bench-target | panic-check`.
+//! Build and test commands: `cargo xtask test | demo-qemu | bench-target | panic-check | loom`.
 //!
 //! Every step prints the command it runs and stops the whole run on the first failure.
 //! Nothing is skipped silently: a missing tool is installed (as root with apt) or the run
@@ -22,16 +22,33 @@ const RUN_BINS: [&str; 4] = ["qemu-vectors", "bench", "demo", "size-baseline"];
 const QEMU_TIMEOUT: Duration = Duration::from_secs(300);
 /// The undefined symbol panic-check's panic handler calls.
 const PANIC_SYMBOL: &str = "qfa_panic_is_reachable_from_the_core";
+/// The seqlock's loom model: the test-name filter of its tests in qfa-thermal's unit tests.
+const LOOM_MODEL: &str = "compensator::seqlock::model::";
+/// Where a failure of the model's own assertions panics (not loom, not the harness).
+const LOOM_MODEL_FILE: &str = "src/compensator/seqlock.rs";
+/// The seqlock's mutants (`--cfg qfa_mutant="NAME"`, in src/compensator/seqlock.rs): each
+/// must make the loom model fail.
+const MUTANTS: [(&str, &str); 6] = [
+    ("writer_no_release_fence", "writer: no Release fence after the odd sequence store"),
+    ("writer_relaxed_even_store", "writer: the even sequence stored Relaxed, not Release"),
+    ("reader_relaxed_seq_load", "reader: the first sequence load Relaxed, not Acquire"),
+    ("reader_no_acquire_fence", "reader: no Acquire fence before the re-check"),
+    ("reader_no_recheck", "reader: no re-check of the sequence"),
+    ("reader_accepts_odd", "reader: copies under an odd sequence"),
+];
 
 const USAGE: &str = "usage: cargo xtask <command>
 
 commands:
-  test          rustup target, clippy (host and target, -D warnings), host tests, target build,
-                reference vectors on QEMU mps2-an386, panic-check, STM32F405 board build
+  test          rustup target, clippy (host and target, -D warnings), host tests, the seqlock's
+                loom model, target build, reference vectors on QEMU mps2-an386, panic-check,
+                STM32F405 board build
   demo-qemu     run the demo firmware on QEMU
   bench-target  instruction counts (QEMU -icount shift=0, SysTick), flash/RAM of the core and
                 of the STM32F405 board example
-  panic-check   link-time proof that no panic is reachable from the core's paths";
+  panic-check   link-time proof that no panic is reachable from the core's paths
+  loom          the seqlock's loom model (clippy and tests under --cfg loom), then each seqlock
+                mutant, which the model must fail: prints mutants_caught=N of M";
 
 /// A failed step: what failed, and why.
 struct Failure(String);
@@ -55,6 +72,7 @@ fn main() {
         Some("demo-qemu") => demo_qemu(),
         Some("bench-target") => bench_target(),
         Some("panic-check") => panic_check(),
+        Some("loom") => loom(),
         Some("-h" | "--help" | "help") => {
             println!("{USAGE}");
             Ok(())
@@ -81,8 +99,17 @@ fn cargo() -> Command {
     c
 }
 
+/// The command line, with the variables it sets in front (`RUSTFLAGS="--cfg loom" cargo ...`).
 fn show(c: &Command) -> String {
-    let mut s = c.get_program().to_string_lossy().into_owned();
+    let mut s = String::new();
+    for (k, v) in c.get_envs() {
+        if let Some(v) = v {
+            let v = v.to_string_lossy();
+            let v = if v.contains(' ') { format!("\"{v}\"") } else { v.into_owned() };
+            s.push_str(&format!("{}={v} ", k.to_string_lossy()));
+        }
+    }
+    s.push_str(&c.get_program().to_string_lossy());
     for a in c.get_args() {
         s.push(' ');
         s.push_str(&a.to_string_lossy());
@@ -303,6 +330,9 @@ fn test() -> Result {
     c.arg("test");
     run(c)?;
 
+    step("loom model of the seqlock (clean; `cargo xtask loom` adds the mutants)");
+    loom_model_passes(&target_dir()?.join("loom"))?;
+
     step(&format!("target build, release ({})", RUN_BINS.join(", ")));
     build_firmware(&RUN_BINS)?;
 
@@ -445,5 +475,111 @@ fn panic_check() -> Result {
         "panic-check: OK, no panic reachable from Compensator::load_table, on_scratchpad, on_raw, \
          cycle, cycle_counters (all inputs through black_box)"
     );
+    Ok(())
+}
+
+/// A cargo command for the loom build: `--cfg loom` on every crate, in `dir` (its own
+/// target directory, so the normal build cache keeps its flags).
+fn loom_cargo(dir: &Path) -> Command {
+    let mut c = cargo();
+    c.env("CARGO_TARGET_DIR", dir).env("RUSTFLAGS", "--cfg loom").env_remove("CARGO_ENCODED_RUSTFLAGS");
+    c
+}
+
+/// Build qfa-thermal's unit tests under `--cfg loom`, with `--cfg qfa_mutant="NAME"` on
+/// qfa-thermal alone for a mutant (`cargo rustc`: a RUSTFLAGS change would rebuild every
+/// dependency for each mutant); the test binary. The test profile: this workspace builds
+/// qfa-thermal and every dependency at opt-level 2 there, without the release profile's
+/// fat LTO on each of the seven builds, and with overflow checks on.
+fn build_loom_model(dir: &Path, mutant: Option<&str>) -> Result<PathBuf> {
+    let mut c = loom_cargo(dir);
+    c.args(["rustc", "-p", "qfa-thermal", "--lib", "--profile", "test", "--message-format", "json-render-diagnostics"]);
+    if let Some(m) = mutant {
+        c.args(["--", "--cfg", &format!("qfa_mutant=\"{m}\"")]);
+    }
+    let line = show(&c);
+    println!("$ {line}");
+    // stdout is JSON, read for the test binary; stderr (progress, diagnostics) is shown.
+    let out = c.stderr(Stdio::inherit()).output().map_err(|e| Failure(format!("`{line}` could not start: {e}")))?;
+    if !out.status.success() {
+        return fail(format!("`{line}` exited with {}", out.status));
+    }
+    let json = String::from_utf8_lossy(&out.stdout);
+    let key = "\"executable\":\"";
+    let exe = json.lines().find_map(|l| {
+        let start = l.find(key)? + key.len();
+        Some(PathBuf::from(&l[start..start + l[start..].find('"')?]))
+    });
+    exe.map_or_else(|| fail(format!("`{line}` reported no test executable")), Ok)
+}
+
+/// Run the model's tests in `exe`: exit status, whole output (stdout then stderr) and run time.
+fn run_loom_model(exe: &Path) -> Result<(ExitStatus, String, Duration)> {
+    let mut c = Command::new(exe);
+    c.args([LOOM_MODEL, "--nocapture"]).env("RUST_BACKTRACE", "0");
+    println!("$ {}", show(&c));
+    let start = Instant::now();
+    let (status, out, err) = capture(c)?;
+    Ok((status, out + &err, start.elapsed()))
+}
+
+/// `N` of the harness's `test result: ... N passed; M failed` line.
+fn count(out: &str, what: &str) -> Option<usize> {
+    let result = out.lines().find(|l| l.starts_with("test result:"))?;
+    result.split(';').find_map(|part| part.trim().strip_suffix(what)?.split_whitespace().last()?.parse().ok())
+}
+
+/// The clean model: built, run, and every one of its tests passed.
+fn loom_model_passes(dir: &Path) -> Result {
+    let exe = build_loom_model(dir, None)?;
+    let (status, out, took) = run_loom_model(&exe)?;
+    print!("{out}");
+    let passed = count(&out, "passed").unwrap_or(0);
+    if !status.success() || passed == 0 || count(&out, "failed") != Some(0) {
+        return fail(format!("the seqlock's loom model failed or ran no test ({status}, {passed} passed)"));
+    }
+    println!("loom model: {passed} tests passed in {:.1} s (run only)", took.as_secs_f64());
+    Ok(())
+}
+
+fn loom() -> Result {
+    let start = Instant::now();
+    let dir = target_dir()?.join("loom");
+
+    step("clippy, --cfg loom (qfa-thermal, all targets)");
+    let mut c = loom_cargo(&dir);
+    c.args(["clippy", "-p", "qfa-thermal", "--all-targets", "--", "-D", "warnings"]);
+    run(c)?;
+
+    step("loom model of the seqlock, clean: must pass");
+    loom_model_passes(&dir)?;
+
+    let mut caught = 0;
+    for (name, what) in MUTANTS {
+        step(&format!("mutant {name} ({what}): the model must fail"));
+        let exe = build_loom_model(&dir, Some(name))?;
+        let (status, out, took) = run_loom_model(&exe)?;
+        let failed = count(&out, "failed").unwrap_or(0);
+        let tests = failed + count(&out, "passed").unwrap_or(0);
+        // The model's own assertion, not loom or the harness, must be what failed.
+        let own = format!("panicked at {LOOM_MODEL_FILE}");
+        let message = out.lines().skip_while(|l| !l.contains(&own)).nth(1);
+        match message {
+            Some(m) if !status.success() && failed > 0 => {
+                caught += 1;
+                println!("caught by {failed} of {tests} tests in {:.1} s: {m}", took.as_secs_f64());
+            }
+            _ => {
+                print!("{out}");
+                println!("NOT caught ({status}, {failed} of {tests} tests failed, none at {LOOM_MODEL_FILE})");
+            }
+        }
+    }
+
+    println!("\nmutants_caught={caught} of {}", MUTANTS.len());
+    println!("xtask loom: {:.0} s", start.elapsed().as_secs_f64());
+    if caught < MUTANTS.len() {
+        return fail(format!("the loom model missed {} of {} seqlock mutants", MUTANTS.len() - caught, MUTANTS.len()));
+    }
     Ok(())
 }

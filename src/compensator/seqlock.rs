@@ -1,0 +1,366 @@
+//! The seqlock behind [`Published`]: one buffer of 32-bit atomics and a sequence number.
+//!
+//! Writer ([`Published::publish_with`], the updater only): sequence to odd (Relaxed), a
+//! Release fence, every value (Relaxed), sequence to even (Release). Reader
+//! ([`Published::read_with`], the applier only): sequence (Acquire), and if it is even every
+//! value (Relaxed), an Acquire fence, the sequence again (Relaxed); the copy is whole only
+//! if the two sequences are equal. The fences pair up: a reader that saw any value of a
+//! publication that had begun after its first load also sees that publication's odd
+//! sequence at the re-check, so it drops the copy.
+//!
+//! Only loads and stores are used, no read-modify-write: every Cortex-M has them.
+//!
+//! # Checked by loom
+//! With `--cfg loom` the atomics and the fence are loom's, and the `model` tests run one
+//! writer thread and one reader thread through every execution loom finds: every
+//! interleaving, and every store each load may read under loom's memory model (with one
+//! publication against the reader: all of them, 89 453 executions; with two: those with at
+//! most 3 preemptions, 77 800). `cargo xtask loom` runs them, then runs them again on each
+//! mutant (`--cfg qfa_mutant="NAME"`, one ordering or step of this file weakened or removed)
+//! and fails unless the model fails on every one; `cargo xtask test` runs the clean model.
+//! Normal builds contain none of the mutants' code.
+//!
+//! What loom does not cover (its docs, "Limitations and Caveats"): it does not reorder a
+//! thread's own operations, so a load reads only a store already made in the execution (no
+//! load buffering), and each atomic keeps only its last 7 stores. This protocol's argument
+//! (Boehm, "Can seqlocks get along with programming language memory models?", 2012, the
+//! fence version) rests only on the Release/Acquire synchronisation of its fences and
+//! stores with the loads that read them, which loom models; each mutant breaks one such
+//! pairing, and each is caught. The sequence, the most-stored word, gets 7 stores in the
+//! largest test, so no store a load could read is forgotten.
+
+#[cfg(not(loom))]
+use core::sync::atomic::{fence, AtomicU32, Ordering};
+#[cfg(loom)]
+use loom::sync::atomic::{fence, AtomicU32, Ordering};
+
+use super::Status;
+
+/// Flag in a published flags word: the set has a misalignment matrix.
+pub(super) const HAS_MISALIGN: u32 = 1 << 16;
+/// The good-sample count sits in the flags word's top bits (wrapping), so one word carries
+/// status, misalignment and freshness.
+pub(super) const COUNT_SHIFT: u32 = 17;
+
+/// The coefficient set shared by an [`Updater`](super::Updater) and an
+/// [`Applier`](super::Applier), behind a sequence number (a seqlock): odd while the updater
+/// writes, even when the set is whole. Const-constructible, so it can live in a `static`
+/// (except under `--cfg loom`, whose atomics are not). 80 bytes for 3 axes.
+#[derive(Debug)]
+pub struct Published<const AXES: usize> {
+    /// Odd while a publication is being written; +2 per publication (wrapping: 2³¹
+    /// publications, 68 years at 1 Hz, before a sequence repeats).
+    pub(super) seq: AtomicU32,
+    /// g0/K1, m/s per pulse (m/s² per LSB for samples).
+    scale: [AtomicU32; AXES],
+    /// K0·g0·tick, m/s per tick.
+    bias_tick: [AtomicU32; AXES],
+    /// K0·g0, m/s².
+    bias_acc: [AtomicU32; AXES],
+    /// Row-major misalignment matrix (valid when the flags have [`HAS_MISALIGN`]).
+    misalign: [[AtomicU32; AXES]; AXES],
+    /// Status bits (low 16), [`HAS_MISALIGN`], good-sample count from [`COUNT_SHIFT`] up.
+    pub(super) flags: AtomicU32,
+}
+
+impl<const AXES: usize> Default for Published<AXES> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// One coefficient set as plain values: built by the updater at each publication, and
+/// the applier's own copy of the last whole set it read.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Set<const AXES: usize> {
+    pub(super) scale: [f32; AXES],
+    pub(super) bias_tick: [f32; AXES],
+    pub(super) bias_acc: [f32; AXES],
+    pub(super) misalign: Option<[[f32; AXES]; AXES]>,
+    pub(super) status: Status,
+}
+
+impl<const AXES: usize> Set<AXES> {
+    pub(super) const EMPTY: Self = Self {
+        scale: [0.0; AXES],
+        bias_tick: [0.0; AXES],
+        bias_acc: [0.0; AXES],
+        misalign: None,
+        status: Status::empty(),
+    };
+}
+
+/// A whole set as read by [`Published::read_with`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Snapshot<const AXES: usize> {
+    /// The (even) sequence the set was published under.
+    pub(super) seq: u32,
+    pub(super) set: Set<AXES>,
+    /// Good-sample count carried by the set's flags word (wrapping, 15 bits).
+    pub(super) count: u32,
+}
+
+#[cfg(not(loom))]
+impl<const AXES: usize> Published<AXES> {
+    /// Empty: every coefficient zero and no status until the first publication (the
+    /// compensator publishes at construction).
+    #[must_use]
+    pub const fn new() -> Self {
+        Self::starting_at(0)
+    }
+
+    /// Empty, with the sequence at `seq` (the tests start near `u32::MAX` to wrap it).
+    const fn starting_at(seq: u32) -> Self {
+        Self {
+            seq: AtomicU32::new(seq),
+            scale: [const { AtomicU32::new(0) }; AXES],
+            bias_tick: [const { AtomicU32::new(0) }; AXES],
+            bias_acc: [const { AtomicU32::new(0) }; AXES],
+            misalign: [const { [const { AtomicU32::new(0) }; AXES] }; AXES],
+            flags: AtomicU32::new(0),
+        }
+    }
+}
+
+// loom's `AtomicU32::new` registers the atomic with the running model, so it is not `const`.
+#[cfg(loom)]
+impl<const AXES: usize> Published<AXES> {
+    /// Empty: every coefficient zero and no status until the first publication (the
+    /// compensator publishes at construction). Not `const` under loom.
+    #[must_use]
+    pub fn new() -> Self {
+        Self::starting_at(0)
+    }
+
+    /// Empty, with the sequence at `seq` (the tests start near `u32::MAX` to wrap it).
+    fn starting_at(seq: u32) -> Self {
+        let zeros = || core::array::from_fn(|_| AtomicU32::new(0));
+        Self {
+            seq: AtomicU32::new(seq),
+            scale: zeros(),
+            bias_tick: zeros(),
+            bias_acc: zeros(),
+            misalign: core::array::from_fn(|_| zeros()),
+            flags: AtomicU32::new(0),
+        }
+    }
+}
+
+impl<const AXES: usize> Published<AXES> {
+    /// A word-for-word copy. Only for [`Compensator::clone`](super::Compensator): `&self` there means no split is
+    /// alive, so no publication is in progress and the words are one whole set.
+    pub(super) fn snapshot(&self) -> Self {
+        let copy = |a: &AtomicU32| AtomicU32::new(a.load(Ordering::Relaxed));
+        Self {
+            seq: copy(&self.seq),
+            scale: core::array::from_fn(|i| copy(&self.scale[i])),
+            bias_tick: core::array::from_fn(|i| copy(&self.bias_tick[i])),
+            bias_acc: core::array::from_fn(|i| copy(&self.bias_acc[i])),
+            misalign: core::array::from_fn(|r| core::array::from_fn(|c| copy(&self.misalign[r][c]))),
+            flags: copy(&self.flags),
+        }
+    }
+
+    /// Write `set` (seqlock writer); `good_sample` advances the good-sample count.
+    /// `after_store` runs after every single store (a test hook that preempts the writer
+    /// there; a no-op closure otherwise). Only the updater calls this: one writer at a time.
+    pub(super) fn publish_with(&self, set: &Set<AXES>, good_sample: bool, mut after_store: impl FnMut()) {
+        let seq = self.seq.load(Ordering::Relaxed);
+        self.seq.store(seq.wrapping_add(1), Ordering::Relaxed);
+        // The odd sequence is visible before any value changes: a reader's Acquire fence
+        // after loading any value stored below makes its re-check see this odd sequence.
+        #[cfg(not(qfa_mutant = "writer_no_release_fence"))]
+        fence(Ordering::Release);
+        after_store();
+        for i in 0..AXES {
+            self.scale[i].store(set.scale[i].to_bits(), Ordering::Relaxed);
+            after_store();
+            self.bias_tick[i].store(set.bias_tick[i].to_bits(), Ordering::Relaxed);
+            after_store();
+            self.bias_acc[i].store(set.bias_acc[i].to_bits(), Ordering::Relaxed);
+            after_store();
+        }
+        let count = (self.flags.load(Ordering::Relaxed) >> COUNT_SHIFT).wrapping_add(u32::from(good_sample));
+        let mut flags = u32::from(set.status.bits()) | (count << COUNT_SHIFT);
+        if let Some(m) = &set.misalign {
+            for (dst, src) in self.misalign.iter().zip(m.iter()) {
+                for (d, s) in dst.iter().zip(src.iter()) {
+                    d.store(s.to_bits(), Ordering::Relaxed);
+                    after_store();
+                }
+            }
+            flags |= HAS_MISALIGN;
+        }
+        self.flags.store(flags, Ordering::Relaxed);
+        after_store();
+        // Release: every value above is visible to a reader that loads the even sequence.
+        #[cfg(not(qfa_mutant = "writer_relaxed_even_store"))]
+        self.seq.store(seq.wrapping_add(2), Ordering::Release);
+        #[cfg(qfa_mutant = "writer_relaxed_even_store")]
+        self.seq.store(seq.wrapping_add(2), Ordering::Relaxed);
+        after_store();
+    }
+
+    /// Copy the set if it is whole (seqlock reader): `None` when the sequence is odd (a
+    /// publication under way) or moved during the copy (the copy may mix two sets). Never
+    /// waits. `mid` runs between the copy and the re-check (a test hook: the updater
+    /// preempting the reader there; a no-op closure otherwise).
+    #[inline(always)]
+    pub(super) fn read_with(&self, mid: impl FnOnce()) -> Option<Snapshot<AXES>> {
+        // Acquire: the values of the publication that made this sequence even are visible.
+        #[cfg(not(qfa_mutant = "reader_relaxed_seq_load"))]
+        let seq = self.seq.load(Ordering::Acquire);
+        #[cfg(qfa_mutant = "reader_relaxed_seq_load")]
+        let seq = self.seq.load(Ordering::Relaxed);
+        #[cfg(not(qfa_mutant = "reader_accepts_odd"))]
+        if seq & 1 == 1 {
+            return None;
+        }
+        let load = |a: &AtomicU32| f32::from_bits(a.load(Ordering::Relaxed));
+        let flags = self.flags.load(Ordering::Relaxed);
+        let set = Set {
+            scale: core::array::from_fn(|i| load(&self.scale[i])),
+            bias_tick: core::array::from_fn(|i| load(&self.bias_tick[i])),
+            bias_acc: core::array::from_fn(|i| load(&self.bias_acc[i])),
+            misalign: (flags & HAS_MISALIGN != 0)
+                .then(|| core::array::from_fn(|r| core::array::from_fn(|c| load(&self.misalign[r][c])))),
+            status: Status::from_bits_retain(flags as u16),
+        };
+        mid();
+        // The loads above happen before the re-check, and a value of a later publication
+        // among them makes the re-check see that publication's odd sequence.
+        #[cfg(not(qfa_mutant = "reader_no_acquire_fence"))]
+        fence(Ordering::Acquire);
+        #[cfg(not(qfa_mutant = "reader_no_recheck"))]
+        if self.seq.load(Ordering::Relaxed) != seq {
+            return None;
+        }
+        Some(Snapshot { seq, set, count: flags >> COUNT_SHIFT })
+    }
+}
+
+#[cfg(all(test, not(loom)))]
+mod tests {
+    use super::*;
+
+    /// Needs `Published::new` to be `const`, as a board's `static` does.
+    static SHARED: Published<3> = Published::new();
+
+    #[test]
+    fn a_published_set_is_a_static_of_80_bytes_for_3_axes() {
+        assert_eq!(core::mem::size_of_val(&SHARED), 80);
+        assert_eq!(SHARED.read_with(|| {}).map(|s| (s.seq, s.set, s.count)), Some((0, Set::EMPTY, 0)));
+    }
+}
+
+/// The loom model of the seqlock: `RUSTFLAGS="--cfg loom"`, run by `cargo xtask loom` (with
+/// the mutants) and `cargo xtask test` (clean only).
+///
+/// The main thread makes publication 0, starts a writer thread that makes publications
+/// 1..=`publications`, reads twice meanwhile, joins the writer and reads once more. Every
+/// value of publication `i` is derived from `i`, so a copy that mixes two publications, or
+/// whose sequence names another publication than its values, fails an assertion.
+///
+/// One axis and no misalignment matrix: four words per set (scale, two biases, flags), so a
+/// copy has four Relaxed loads that can each come from a different publication. The 1×1
+/// matrix would be a fifth word loaded and stored the same way; it multiplies the
+/// executions by 9 (785 362 instead of 89 453 for one publication) and checks nothing the
+/// other words do not.
+#[cfg(all(test, loom))]
+mod model {
+    use super::*;
+    use loom::sync::Arc;
+    use std::sync::atomic::{AtomicUsize, Ordering as StdOrdering};
+
+    /// Reads by the main thread while the writer runs: 2, so the order of two accepted
+    /// copies is checked.
+    const READS: usize = 2;
+
+    /// Publication `i`: word `w` of the set holds `8·i + w` (exact in f32), the status bits
+    /// hold `i`, and the good-sample count is `i` (publication 0 is not a sample).
+    fn set_of(i: u32) -> Set<1> {
+        let word = |w: u32| (8 * i + w) as f32;
+        Set {
+            scale: [word(1)],
+            bias_tick: [word(2)],
+            bias_acc: [word(3)],
+            misalign: None,
+            status: Status::from_bits_retain(i as u16),
+        }
+    }
+
+    /// The publication a copy comes from; panics unless every word, the status, the count
+    /// and the sequence name the same one.
+    fn publication_of(start: u32, s: &Snapshot<1>) -> u32 {
+        let i = u32::from(s.set.status.bits());
+        assert_eq!(s.set, set_of(i), "copy mixes publications: status says {i}, {s:?}");
+        assert_eq!(s.count, i, "copy mixes publications: status says {i}, count {}", s.count);
+        // Publication i leaves the sequence at start + 2·(i + 1).
+        assert_eq!(s.seq.wrapping_sub(start), 2 * (i + 1), "sequence names another publication: {s:?}");
+        i
+    }
+
+    /// Every execution loom finds of one writer making `publications` after publication 0,
+    /// and one reader, with the sequence starting at `start` and at most `preemptions`
+    /// preemptions (`None`: no bound, every execution).
+    fn check(start: u32, publications: u32, preemptions: Option<usize>) {
+        // A std counter: loom's primitives exist only inside the model.
+        let executions = std::sync::Arc::new(AtomicUsize::new(0));
+        let counter = executions.clone();
+        let mut builder = loom::model::Builder::new();
+        builder.preemption_bound = preemptions;
+        // No cap from the environment: LOOM_MAX_PERMUTATIONS or LOOM_MAX_DURATION would end
+        // the search early, and the test would pass on what it had seen.
+        builder.max_permutations = None;
+        builder.max_duration = None;
+        builder.check(move || {
+            counter.fetch_add(1, StdOrdering::Relaxed);
+            let p = Arc::new(Published::<1>::starting_at(start));
+            p.publish_with(&set_of(0), false, || {});
+            let writer = {
+                let p = p.clone();
+                loom::thread::spawn(move || {
+                    for i in 1..=publications {
+                        p.publish_with(&set_of(i), true, || {});
+                    }
+                })
+            };
+            let mut last = 0;
+            for _ in 0..READS {
+                if let Some(s) = p.read_with(|| {}) {
+                    let i = publication_of(start, &s);
+                    assert!(i >= last, "went back from publication {last} to {i}");
+                    last = i;
+                }
+            }
+            writer.join().unwrap();
+            // The writer has stopped: the read succeeds and gives its last publication.
+            let s = p.read_with(|| {}).expect("no publication under way, yet the read failed");
+            assert_eq!(publication_of(start, &s), publications);
+        });
+        let n = executions.load(StdOrdering::Relaxed);
+        println!("seqlock model: sequence from {start:#010x}, {publications} publication(s), bound {preemptions:?}: {n} executions");
+    }
+
+    /// One publication against two reads, no preemption bound: every execution (89 453).
+    #[test]
+    fn one_publication_every_execution() {
+        check(0, 1, None);
+    }
+
+    /// The same with the sequence wrapping during the writer's publication: odd `u32::MAX`,
+    /// then even 0.
+    #[test]
+    fn one_publication_every_execution_across_the_sequence_wrap() {
+        check(u32::MAX - 3, 1, None);
+    }
+
+    /// Two publications (a read can straddle both), at most 3 preemptions: 77 800
+    /// executions (a bound of 5 gives 939 864, 17 times the time). The sequence's 7 stores are loom's
+    /// whole history per atomic (`MAX_ATOMIC_HISTORY` in loom 0.7), so no store a load
+    /// could return is forgotten.
+    #[test]
+    fn two_publications_up_to_three_preemptions() {
+        check(0, 2, Some(3));
+    }
+}
