@@ -82,7 +82,7 @@ use crate::table::{self, Table};
 mod seqlock;
 
 pub use seqlock::Published;
-use seqlock::{Set, COUNT_SHIFT};
+use seqlock::{Set, AGE_STALE, AGE_STEPS};
 
 /// Standard gravity, m/s² (the unit the tables' g refers to).
 pub const G0: f32 = 9.806_65;
@@ -331,14 +331,15 @@ pub struct Output<const AXES: usize> {
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct FastState<const AXES: usize> {
     stale_after_ticks: u32,
-    /// Ticks left before the set is stale: `stale_after_ticks + 1` at each new sample,
-    /// counted down and held at 0. A countdown costs two instructions per cycle less than
-    /// counting up and comparing.
+    /// Ticks per age unit (`stale_after_ticks / AGE_STEPS`): turns a set's age into ticks.
+    ticks_per_age: f32,
+    /// Ticks left before the set is stale, counted down and held at 0. At each copy, the
+    /// budget `stale_after_ticks + 1` less the oldest stream's age: taken when a good
+    /// reading came since the last copy, otherwise only if shorter. A countdown costs two
+    /// instructions per cycle less than counting up and comparing.
     ticks_left: u32,
     /// Sequence of the set copied into `set`.
     seen_seq: u32,
-    /// Good-sample count of that set.
-    seen_count: u32,
     set: Set<AXES>,
     /// The set's status as each entry sees it, `[pulses, samples]`: the entry that does not
     /// match [`Config::input`] carries [`Status::WRONG_INPUT`] from construction on (the
@@ -382,12 +383,21 @@ impl<const AXES: usize> Applier<'_, AXES> {
         let f = &mut *self.fast;
         let [pulses, samples] = f.path_status.map(|st| st & Status::WRONG_INPUT);
         f.path_status = [s.set.status | pulses, s.set.status | samples];
+        let budget = if s.set.age >= AGE_STALE {
+            0
+        } else {
+            // Rounded down, like the age: the countdown ends at most one age unit late (0.09 ms
+            // at the 3-s default), never early.
+            let age_ticks = (f32::from(s.set.age) * f.ticks_per_age) as u32;
+            f.stale_after_ticks.saturating_add(1).saturating_sub(age_ticks)
+        };
+        // A good reading since the last copy restarts the countdown; any other publication
+        // (a rejection, a missed reading: the slow path's clock moved; a table load) can only
+        // shorten it, so its own tick count and the slow path's clock never make a stale set
+        // fresh between them.
+        f.ticks_left = if s.set.epoch != f.set.epoch { budget } else { f.ticks_left.min(budget) };
         f.set = s.set;
         f.seen_seq = s.seq;
-        if s.count != f.seen_count {
-            f.seen_count = s.count;
-            f.ticks_left = f.stale_after_ticks.saturating_add(1);
-        }
     }
 
     /// Refresh the copy if a publication happened; advance the staleness clock; the
@@ -517,6 +527,8 @@ struct SlowState<const AXES: usize, const N: usize, const SENSORS: usize, T> {
     /// clock that advances every stream's `age_ms`. Starts at 0: ages before a stream's
     /// first good reading do not matter, since it is stale until then.
     clock_ms: u32,
+    /// Good readings published, wrapping (see `Set::epoch`).
+    epoch: u8,
     /// Smallest branch deadband, °C/min: the flicker floor of `N` and the sample period.
     deadband_floor: f32,
     table: Option<T>,
@@ -561,6 +573,18 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
     /// publication (three divisions, in the slow path) rather than kept beside the
     /// published one: that copy would cost 80 B of RAM.
     fn set(&self) -> Set<AXES> {
+        // In 1/AGE_STEPS of the stale threshold, rounded down, in f32 (a 64-bit integer
+        // division would link 900 B of library code): within one unit, 0.09 ms at 3 s.
+        let stale_ms = self.config.stale_after_ms().max(1);
+        let units_per_ms = f32::from(AGE_STEPS) / stale_ms as f32;
+        let age = self.streams.iter().fold(0u16, |oldest, s| {
+            let age = if !s.has_good || s.age_ms > stale_ms {
+                AGE_STALE
+            } else {
+                ((s.age_ms as f32 * units_per_ms) as u16).min(AGE_STEPS)
+            };
+            oldest.max(age)
+        });
         let Some(t) = &self.table else {
             let nominal = G0 / self.config.nominal_k1;
             return Set {
@@ -569,6 +593,8 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
                 bias_acc: [0.0; AXES],
                 misalign: None,
                 status: self.status,
+                age,
+                epoch: self.epoch,
             };
         };
         let table: &Table = t.borrow();
@@ -579,6 +605,8 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
             // Validation allows a matrix only with 3 axes, so AXES == 3 here.
             misalign: table.misalignment.map(|m| core::array::from_fn(|r| core::array::from_fn(|c| m[r * 3 + c]))),
             status: self.status,
+            age,
+            epoch: self.epoch,
         }
     }
 }
@@ -651,6 +679,7 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
             slow: SlowState {
                 config,
                 clock_ms: 0,
+                epoch: 0,
                 deadband_floor: rate::flicker_deadband_c_per_min(N, config.sample_period_ms),
                 table: None,
                 streams: core::array::from_fn(|_| stream.clone()),
@@ -661,9 +690,9 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
             shared: Published::new(),
             fast: FastState {
                 stale_after_ticks: config.stale_after_ticks,
+                ticks_per_age: config.stale_after_ticks as f32 / f32::from(AGE_STEPS),
                 ticks_left: 0,
                 seen_seq: 0,
-                seen_count: 0,
                 set: Set::EMPTY,
                 // Until the first set is copied, nothing is calibrated.
                 path_status: match config.input {
@@ -1038,7 +1067,10 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
     #[inline(never)]
     fn publish(&mut self, good_sample: bool) {
         self.slow.status = self.slow.status();
-        self.shared.publish_with(&self.slow.set(), good_sample, || {});
+        if good_sample {
+            self.slow.epoch = self.slow.epoch.wrapping_add(1);
+        }
+        self.shared.publish_with(&self.slow.set(), || {});
     }
 
     fn refresh_all(&mut self, dt_s: f32) {
@@ -1429,7 +1461,7 @@ mod tests {
         let pulses = [800, -7, 3];
         let reference = |s: &Set<3>| {
             let shared = Published::new();
-            shared.publish_with(s, false, || {});
+            shared.publish_with(s, || {});
             // An odd `seen_seq` never matches a whole set's sequence: the reference copies it.
             let mut fast = FastState { seen_seq: 1, ..c.fast };
             let mut ap = Applier { fast: &mut fast, shared: &shared };
@@ -1440,7 +1472,7 @@ mod tests {
         let mut fast = c.fast;
         let mut stores = 0;
         let mut seen_new = false;
-        c.shared.publish_with(&new, true, || {
+        c.shared.publish_with(&new, || {
             stores += 1;
             let mut ap = Applier { fast: &mut fast, shared: &c.shared };
             let got = (ap.cycle(pulses, 2500), ap.cycle_samples(pulses, 2500));
@@ -1470,12 +1502,12 @@ mod tests {
         let old_scale = c.fast.set.scale;
         let mut new = c.slow.set();
         new.scale = [1.0, 2.0, 3.0];
-        c.shared.publish_with(&new, false, || {});
+        c.shared.publish_with(&new, || {});
         let shared = &c.shared;
         let mut fast = c.fast;
         let mut ap = Applier { fast: &mut fast, shared };
         let old_seq = ap.fast.seen_seq;
-        ap.refresh_with(|| shared.publish_with(&new, false, || {}));
+        ap.refresh_with(|| shared.publish_with(&new, || {}));
         assert_eq!(ap.fast.seen_seq, old_seq, "torn copy dropped");
         assert_eq!(ap.fast.set.scale, old_scale, "old set kept");
         let after = ap.cycle([800, -7, 3], 2500);

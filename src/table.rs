@@ -280,8 +280,10 @@ fn validate_axis(a: &AxisModel) -> Result<()> {
     within(b.t_start_c, limits::TEMP_C, "bias.t_start_c")?;
     within(b.t_end_c(), limits::TEMP_C, "bias grid end")?;
     within(b.deadband_c_per_min, (0.0, limits::DEADBAND_C_PER_MIN), "bias.deadband_c_per_min")?;
+    let mut grid_max = 0.0f32;
     for &k0 in b.heating_g.iter().chain(b.cooling_g.iter()) {
         within(k0, (-limits::BIAS_G, limits::BIAS_G), "bias value")?;
+        grid_max = libm::fmaxf(grid_max, libm::fabsf(k0));
     }
     within(a.rate_limit_c_per_min, (0.0, limits::RATE_C_PER_MIN), "rate_limit_c_per_min")?;
     if a.rate_limit_c_per_min <= 0.0 {
@@ -311,7 +313,6 @@ fn validate_axis(a: &AxisModel) -> Result<()> {
     }
     // The whole K0, not the grid alone: the play term reaches its weight, and the creep
     // term its gain times Te − x, both of which stay on the grid's span.
-    let grid_max = b.heating_g.iter().chain(b.cooling_g.iter()).fold(0.0f32, |m, &k| libm::fmaxf(m, libm::fabsf(k)));
     let play = a.ext.bias_branch_hysteresis.map_or(0.0, |h| libm::fabsf(h.weight_g));
     let creep = a.ext.bias_creep.map_or(0.0, |c| libm::fabsf(c.gain_g_per_c) * (b.t_end_c() - b.t_start_c));
     if grid_max + play + creep > limits::BIAS_G {

@@ -575,23 +575,20 @@ proptest! {
     #![proptest_config(ProptestConfig { cases: 128, failure_persistence: None, ..ProptestConfig::default() })]
 
     /// The documented rule without the slow-path lag: a stream whose true age exceeds the
-    /// limit gives TEMP_STALE on the next cycle. Fails on the current crate with three
-    /// streams: the fast path's tick count restarts at any stream's accepted reading, and the
-    /// slow path learns a stream's age only when it is called, so a dead stream is flagged
-    /// up to one slow-path call interval late (see `lag_dead_stream_flagged_late` and the
-    /// branch report). Run with `--ignored`.
+    /// limit gives TEMP_STALE on the next cycle. It failed with three streams while the fast
+    /// path's tick count restarted at any stream's accepted reading (a dead stream was then
+    /// flagged up to one slow-path call interval late, `lag_dead_stream_flagged_late`);
+    /// each set now carries the oldest stream's age, which starts the countdown.
     #[test]
-    #[ignore = "root-crate bug: per-stream staleness lags by up to one slow-path call interval"]
     fn staleness_strict_three_streams(h in history(3)) {
         run_checked::<3>(&h, true)?;
     }
 }
 
-/// The smallest history that shows the lag: sensors 0 and 2 read every second, sensor 1
+/// The smallest history that showed the lag: sensors 0 and 2 read every second, sensor 1
 /// dies. At 3.5 s after its last reading, with the latest slow-path call at 3.0 s (when its
-/// age, 3.0 s, was not yet above the limit), the cycle is not flagged; at 4.0 s it is.
+/// age, 3.0 s, was not yet above the limit), the cycle was not flagged; it must be.
 #[test]
-#[ignore = "root-crate bug: per-stream staleness lags by up to one slow-path call interval"]
 fn lag_dead_stream_flagged_late() {
     let mut c = Comp::<3>::new(Config::default()).unwrap();
     c.load_table(&tables(Input::PulseCounts)[0]).unwrap();

@@ -38,9 +38,19 @@ use super::Status;
 
 /// Flag in a published flags word: the set has a misalignment matrix.
 pub(super) const HAS_MISALIGN: u32 = 1 << 16;
-/// The good-sample count sits in the flags word's top bits (wrapping), so one word carries
-/// status, misalignment and freshness.
-pub(super) const COUNT_SHIFT: u32 = 17;
+/// The status flags take bits 0–7 of the flags word (checked at compile time).
+const STATUS_BITS: u32 = 0xFF;
+const _: () = assert!(Status::all().bits() as u32 & !STATUS_BITS == 0, "Status outgrew its byte");
+/// The epoch of good readings (a wrapping `u8`) sits in flags bits 8–15.
+const EPOCH_SHIFT: u32 = 8;
+/// The oldest stream's age, in [`AGE_STEPS`]ths of the stale threshold, sits in the flags
+/// word's top 15 bits, so one word carries status, epoch, misalignment and freshness.
+const AGE_SHIFT: u32 = 17;
+/// The age of a stream older than the stale threshold, or with no reading: the largest
+/// value the 15 bits hold.
+pub(super) const AGE_STALE: u16 = (1 << (32 - AGE_SHIFT)) - 1;
+/// The stale threshold in age units: ages up to it are `0..=AGE_STEPS`.
+pub(super) const AGE_STEPS: u16 = AGE_STALE - 1;
 
 /// The coefficient set shared by an [`Updater`](super::Updater) and an
 /// [`Applier`](super::Applier), behind a sequence number (a seqlock): odd while the updater
@@ -59,7 +69,8 @@ pub struct Published<const AXES: usize> {
     bias_acc: [AtomicU32; AXES],
     /// Row-major misalignment matrix (valid when the flags have [`HAS_MISALIGN`]).
     misalign: [[AtomicU32; AXES]; AXES],
-    /// Status bits (low 16), [`HAS_MISALIGN`], good-sample count from [`COUNT_SHIFT`] up.
+    /// Status bits (0–7), the epoch (8–15), [`HAS_MISALIGN`] (16), the oldest stream's age
+    /// (17–31).
     pub(super) flags: AtomicU32,
 }
 
@@ -78,6 +89,19 @@ pub(super) struct Set<const AXES: usize> {
     pub(super) bias_acc: [f32; AXES],
     pub(super) misalign: Option<[[f32; AXES]; AXES]>,
     pub(super) status: Status,
+    /// Age of the oldest stream's last good reading as of the latest reading's time, in
+    /// `1/AGE_STEPS` of the stale threshold, rounded down; [`AGE_STALE`] when older than
+    /// the threshold or while a stream has none. The applier's staleness countdown restarts from the
+    /// threshold less this, so a stream that stops reporting is stale on time even while
+    /// the others keep publishing.
+    pub(super) age: u16,
+    /// Counts (wrapping) the publications of good readings. The applier restarts its
+    /// countdown when the epoch moved since its last copy, even if a later set (a
+    /// rejection, a table load) superseded the good reading's before it was copied; other
+    /// sets can only shorten the countdown. 256 good readings between two copies would
+    /// alias (at 400 Hz and 1 Hz per sensor the applier copies every one): the countdown
+    /// then only shortens, so the error is an early stale flag, never a late one.
+    pub(super) epoch: u8,
 }
 
 impl<const AXES: usize> Set<AXES> {
@@ -87,6 +111,8 @@ impl<const AXES: usize> Set<AXES> {
         bias_acc: [0.0; AXES],
         misalign: None,
         status: Status::empty(),
+        age: AGE_STALE,
+        epoch: 0,
     };
 }
 
@@ -96,8 +122,6 @@ pub(super) struct Snapshot<const AXES: usize> {
     /// The (even) sequence the set was published under.
     pub(super) seq: u32,
     pub(super) set: Set<AXES>,
-    /// Good-sample count carried by the set's flags word (wrapping, 15 bits).
-    pub(super) count: u32,
 }
 
 #[cfg(not(loom))]
@@ -161,10 +185,9 @@ impl<const AXES: usize> Published<AXES> {
         }
     }
 
-    /// Write `set` (seqlock writer); `good_sample` advances the good-sample count.
-    /// `after_store` runs after every single store (a test hook that preempts the writer
+    /// Write `set` (seqlock writer). `after_store` runs after every single store (a test hook that preempts the writer
     /// there; a no-op closure otherwise). Only the updater calls this: one writer at a time.
-    pub(super) fn publish_with(&self, set: &Set<AXES>, good_sample: bool, mut after_store: impl FnMut()) {
+    pub(super) fn publish_with(&self, set: &Set<AXES>, mut after_store: impl FnMut()) {
         let seq = self.seq.load(Ordering::Relaxed);
         self.seq.store(seq.wrapping_add(1), Ordering::Relaxed);
         // The odd sequence is visible before any value changes: a reader's Acquire fence
@@ -180,8 +203,9 @@ impl<const AXES: usize> Published<AXES> {
             self.bias_acc[i].store(set.bias_acc[i].to_bits(), Ordering::Relaxed);
             after_store();
         }
-        let count = (self.flags.load(Ordering::Relaxed) >> COUNT_SHIFT).wrapping_add(u32::from(good_sample));
-        let mut flags = u32::from(set.status.bits()) | (count << COUNT_SHIFT);
+        let mut flags = u32::from(set.status.bits())
+            | (u32::from(set.epoch) << EPOCH_SHIFT)
+            | (u32::from(set.age.min(AGE_STALE)) << AGE_SHIFT);
         if let Some(m) = &set.misalign {
             for (dst, src) in self.misalign.iter().zip(m.iter()) {
                 for (d, s) in dst.iter().zip(src.iter()) {
@@ -224,7 +248,9 @@ impl<const AXES: usize> Published<AXES> {
             bias_acc: core::array::from_fn(|i| load(&self.bias_acc[i])),
             misalign: (flags & HAS_MISALIGN != 0)
                 .then(|| core::array::from_fn(|r| core::array::from_fn(|c| load(&self.misalign[r][c])))),
-            status: Status::from_bits_retain(flags as u16),
+            status: Status::from_bits_retain((flags & STATUS_BITS) as u16),
+            age: (flags >> AGE_SHIFT) as u16,
+            epoch: (flags >> EPOCH_SHIFT) as u8,
         };
         mid();
         // The loads above happen before the re-check, and a value of a later publication
@@ -235,7 +261,7 @@ impl<const AXES: usize> Published<AXES> {
         if self.seq.load(Ordering::Relaxed) != seq {
             return None;
         }
-        Some(Snapshot { seq, set, count: flags >> COUNT_SHIFT })
+        Some(Snapshot { seq, set })
     }
 }
 
@@ -249,7 +275,8 @@ mod tests {
     #[test]
     fn a_published_set_is_a_static_of_80_bytes_for_3_axes() {
         assert_eq!(core::mem::size_of_val(&SHARED), 80);
-        assert_eq!(SHARED.read_with(|| {}).map(|s| (s.seq, s.set, s.count)), Some((0, Set::EMPTY, 0)));
+        let empty = Set { age: 0, ..Set::EMPTY };
+        assert_eq!(SHARED.read_with(|| {}).map(|s| (s.seq, s.set)), Some((0, empty)));
     }
 }
 
@@ -277,7 +304,7 @@ mod model {
     const READS: usize = 2;
 
     /// Publication `i`: word `w` of the set holds `8·i + w` (exact in f32), the status bits
-    /// hold `i`, and the good-sample count is `i` (publication 0 is not a sample).
+    /// hold `i`, the age is `i + 5` units and the epoch `i + 1`.
     fn set_of(i: u32) -> Set<1> {
         let word = |w: u32| (8 * i + w) as f32;
         Set {
@@ -285,16 +312,17 @@ mod model {
             bias_tick: [word(2)],
             bias_acc: [word(3)],
             misalign: None,
-            status: Status::from_bits_retain(i as u16),
+            status: Status::from_bits_retain(i as u16 & 0xFF),
+            age: i as u16 + 5,
+            epoch: i as u8 + 1,
         }
     }
 
-    /// The publication a copy comes from; panics unless every word, the status, the count
+    /// The publication a copy comes from; panics unless every word, the status, the age
     /// and the sequence name the same one.
     fn publication_of(start: u32, s: &Snapshot<1>) -> u32 {
         let i = u32::from(s.set.status.bits());
         assert_eq!(s.set, set_of(i), "copy mixes publications: status says {i}, {s:?}");
-        assert_eq!(s.count, i, "copy mixes publications: status says {i}, count {}", s.count);
         // Publication i leaves the sequence at start + 2·(i + 1).
         assert_eq!(s.seq.wrapping_sub(start), 2 * (i + 1), "sequence names another publication: {s:?}");
         i
@@ -316,12 +344,12 @@ mod model {
         builder.check(move || {
             counter.fetch_add(1, StdOrdering::Relaxed);
             let p = Arc::new(Published::<1>::starting_at(start));
-            p.publish_with(&set_of(0), false, || {});
+            p.publish_with(&set_of(0), || {});
             let writer = {
                 let p = p.clone();
                 loom::thread::spawn(move || {
                     for i in 1..=publications {
-                        p.publish_with(&set_of(i), true, || {});
+                        p.publish_with(&set_of(i), || {});
                     }
                 })
             };
