@@ -353,14 +353,7 @@ impl AxisModel {
             // Te ± r rounds to Te's ulp, so the fraction can reach 1.0002 with the smallest
             // half-width: held to ±1, the term never exceeds its weight.
             let fraction = (te - state.play_c) / h.half_width_c;
-            k0 += h.weight_g
-                * if fraction > 1.0 {
-                    1.0
-                } else if fraction < -1.0 {
-                    -1.0
-                } else {
-                    fraction
-                };
+            k0 += h.weight_g * fraction.clamp(-1.0, 1.0);
         }
         if let Some(c) = self.ext.bias_creep {
             if dt_s > 0.0 {
