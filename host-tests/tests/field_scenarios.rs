@@ -255,3 +255,23 @@ fn missed_reading_raises_temp_invalid() {
     assert!(out.status.contains(Status::TEMP_INVALID), "{out:?}");
     assert_eq!(out.dv_mps, good.dv_mps);
 }
+
+/// Scenario 9. The compensator's module doc, the first page a firmware engineer reads,
+/// described two buffers and the rule "the updater never preempts the applier", while the
+/// code is one seqlock that is safe whichever context preempts which. The page must state
+/// the contract the code has; the loom model (`cargo xtask loom`) checks the code side.
+#[test]
+fn compensator_doc_states_the_seqlock_contract() {
+    let doc: String = include_str!("../../src/compensator.rs")
+        .lines()
+        .take_while(|l| l.starts_with("//!"))
+        .map(|l| l.trim_start_matches("//!").trim())
+        .collect::<Vec<_>>()
+        .join(" ");
+    for gone in ["two buffers", "never preempts the applier", "inactive buffer"] {
+        assert!(!doc.contains(gone), "the module doc still says {gone:?}");
+    }
+    for stated in ["seqlock", "whichever context preempts which", "the torn copy is dropped", "odd sequence"] {
+        assert!(doc.contains(stated), "the module doc does not say {stated:?}");
+    }
+}
