@@ -41,13 +41,16 @@ struct StaticFlags {
     /// Unit of the acceleration columns: g, mg or m/s2.
     #[arg(long)]
     accel_unit: Option<String>,
+    /// Numbers use a decimal comma (`20,5`); the file must be `;`- or tab-separated.
+    #[arg(long)]
+    decimal_comma: bool,
 }
 
 impl StaticFlags {
     /// The reader options, or `None` for a cycling log.
     fn options(&self, log: &std::path::Path) -> Result<Option<qfa_lab::data::static_log::StaticOptions>, String> {
         use qfa_lab::data::static_log::{looks_static, StaticOptions};
-        let any = self.columns.is_some() || self.time_unit.is_some() || self.accel_unit.is_some();
+        let any = self.columns.is_some() || self.time_unit.is_some() || self.accel_unit.is_some() || self.decimal_comma;
         if !any {
             let f = std::fs::File::open(log).map_err(|e| format!("{}: {e}", log.display()))?;
             let mut first = String::new();
@@ -62,6 +65,7 @@ impl StaticFlags {
             columns: self.columns.as_deref().map(str::parse).transpose().map_err(e)?.unwrap_or_default(),
             time_unit: self.time_unit.as_deref().map(str::parse).transpose().map_err(e)?,
             accel_unit: self.accel_unit.as_deref().map(str::parse).transpose().map_err(e)?,
+            decimal_comma: self.decimal_comma,
         }))
     }
 }
