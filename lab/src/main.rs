@@ -239,7 +239,23 @@ fn parse_shard(s: &str) -> Result<(u64, u64), String> {
     Ok((k, n))
 }
 
+/// Every `--out` checked before any work (a log is read, a fit runs).
+fn check_out(cmd: &Cmd) -> Result<(), String> {
+    use qfa_lab::out_path::{check_dir, check_file};
+    match cmd {
+        Cmd::Simulate { out, .. } => check_file(out, "simulate"),
+        Cmd::Calibrate { out, .. } => check_dir(out, "calibrate"),
+        Cmd::Discover { out, .. } => check_dir(out, "discover"),
+        Cmd::Compensate { out, .. } => check_file(out, "compensate"),
+        Cmd::Demo { out, .. } => check_dir(out, "demo"),
+        Cmd::Navigate { out: Some(out), sub: None, .. } => check_dir(out, "navigate"),
+        Cmd::Navigate { .. } => Ok(()),
+    }
+    .map_err(|e| e.to_string())
+}
+
 fn run(cli: Cli) -> Result<(), String> {
+    check_out(&cli.cmd)?;
     match cli.cmd {
         Cmd::Simulate { out, unit, truth, effects, profile, profile_file, rates, row_s, seed, threads, noiseless } => {
             let mut t = match truth {

@@ -14,6 +14,7 @@
 //! | time unit 1000× too fine (µs read as ns, ms as µs) | error `wrong unit? read with --time-unit ... °C/min` with the implied slew and the unit that fits | – |
 //! | decimal commas (`20,5` with `;`) | error `... a decimal comma? ... pass --decimal-comma`; read with `--decimal-comma` | – |
 //! | CRLF line ends, blank lines | line numbers as an editor shows them | same |
+//! | `--out` unusable (a file where a directory goes, a directory where a file goes, a missing directory) | error naming `--out`, before the log is read | same |
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -129,6 +130,9 @@ fn static_log_bad_inputs_get_their_exact_errors() {
         text.push_str(&format!("{}\t{tc:.4}\t0.05\t-0.1\t-9.8\n", i * 1000));
     }
     std::fs::write(&slew, text).unwrap();
+    let a_file = d.join("a_file");
+    std::fs::write(&a_file, "").unwrap();
+    let missing_log = d.join("no-such-log.tsv");
 
     for cmd in ["calibrate", "compensate", "discover"] {
         let g = good.to_str().unwrap();
@@ -189,6 +193,43 @@ fn static_log_bad_inputs_get_their_exact_errors() {
             "--decimal-comma needs a `;` or tab delimiter: this header is comma-separated, so a decimal comma cannot \
              be told from a field separator",
         );
+        // An unusable --out is refused before the log is read (the log here does not exist).
+        let (out_arg, want) = if cmd == "compensate" {
+            (
+                d.to_str().unwrap().to_string(),
+                format!("--out {}: a directory; compensate writes one CSV file", d.display()),
+            )
+        } else {
+            (
+                a_file.to_str().unwrap().to_string(),
+                format!(
+                    "--out {}: a file of that name exists; {cmd} writes a directory of files there",
+                    a_file.display()
+                ),
+            )
+        };
+        fails_with(&static_args(cmd, missing_log.to_str().unwrap(), &out_arg, table_s, &FLAGS), &want);
+        let nested = d.join("no-such-dir").join("x.csv");
+        if cmd == "compensate" {
+            fails_with(
+                &static_args(cmd, missing_log.to_str().unwrap(), nested.to_str().unwrap(), table_s, &FLAGS),
+                &format!(
+                    "--out {}: the directory {} does not exist",
+                    nested.display(),
+                    d.join("no-such-dir").display()
+                ),
+            );
+        } else {
+            let under_file = a_file.join("cal");
+            fails_with(
+                &static_args(cmd, missing_log.to_str().unwrap(), under_file.to_str().unwrap(), table_s, &FLAGS),
+                &format!(
+                    "--out {}: {} is a file, so the directory cannot be created",
+                    under_file.display(),
+                    a_file.display()
+                ),
+            );
+        }
         // NaN fields: skipped and reported, with their lines.
         let (ok, text) = lab(&static_args(cmd, nan_fields.to_str().unwrap(), &o, table_s, &FLAGS));
         assert!(ok, "{text}");
