@@ -15,6 +15,7 @@
 //! | decimal commas (`20,5` with `;`) | error `... a decimal comma? ... pass --decimal-comma`; read with `--decimal-comma` | – |
 //! | CRLF line ends, blank lines | line numbers as an editor shows them | same |
 //! | `--out` unusable (a file where a directory goes, a directory where a file goes, a missing directory) | error naming `--out`, before the log is read | same |
+//! | a table of the other kind (samples vs pulse counts) | compensate: error naming both kinds | same |
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -387,5 +388,44 @@ fn single_channel_logs_still_reach_discover() {
     let (ok, text) = lab(&["discover", "--log", log.to_str().unwrap(), "--out", d.join("out").to_str().unwrap()]);
     assert!(ok, "{text}");
     assert!(d.join("out").join("report.json").is_file());
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// A table records what it converts (format 2): a static log's table converts samples, a
+/// cycling log's pulse counts. `compensate` refuses the other kind, naming both.
+#[test]
+fn compensate_refuses_a_table_of_the_other_kind() {
+    let d = dir().join("kinds");
+    std::fs::create_dir_all(&d).unwrap();
+    let st = d.join("static.tsv");
+    static_log(&st, |_, r| r);
+    let (ok, text) = lab(&static_args("calibrate", st.to_str().unwrap(), d.join("st").to_str().unwrap(), "", &FLAGS));
+    assert!(ok, "{text}");
+    let cy = d.join("cycling.csv");
+    let (ok, text) = lab(&["simulate", "--out", cy.to_str().unwrap(), "--row-s", "10", "--rates", "0.3,0.9"]);
+    assert!(ok, "{text}");
+    let (ok, text) =
+        lab(&["calibrate", "--log", cy.to_str().unwrap(), "--out", d.join("cy").to_str().unwrap(), "--no-plots"]);
+    assert!(ok, "{text}");
+    let out = d.join("out.csv");
+    let out_s = out.to_str().unwrap();
+    let st_table = d.join("st").join("table.bin");
+    let cy_table = d.join("cy").join("table.bin");
+    fails_with(
+        &["compensate", "--log", cy.to_str().unwrap(), "--table", st_table.to_str().unwrap(), "--out", out_s],
+        "table refused: it converts samples (calibrated on a static multi-axis log), and this cycling log gives pulse \
+         counts: compensate it with a table calibrated on a cycling log",
+    );
+    fails_with(
+        &static_args("compensate", st.to_str().unwrap(), out_s, cy_table.to_str().unwrap(), &FLAGS),
+        "table refused: it converts pulse counts (calibrated on a cycling log), and this static multi-axis log gives \
+         samples: compensate it with a table calibrated on a static log",
+    );
+    // Each table on its own kind of log works (the refusals are about the kind).
+    let (ok, text) =
+        lab(&["compensate", "--log", cy.to_str().unwrap(), "--table", cy_table.to_str().unwrap(), "--out", out_s]);
+    assert!(ok, "{text}");
+    let (ok, text) = lab(&static_args("compensate", st.to_str().unwrap(), out_s, st_table.to_str().unwrap(), &FLAGS));
+    assert!(ok, "{text}");
     let _ = std::fs::remove_dir_all(&d);
 }
