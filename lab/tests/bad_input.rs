@@ -236,6 +236,16 @@ fn static_log_bad_inputs_get_their_exact_errors() {
         assert!(ok, "{text}");
         assert!(text.contains("2 NaN/empty field row(s) skipped (line 52, 72)"), "{text}");
     }
+    // Static discovery writes one flashable table for all axes; the per-axis directories
+    // hold the named model for reading, not a table `compensate` would refuse (1 axis vs 3).
+    let disc = d.join("out-discover");
+    assert!(disc.join("table.bin").is_file());
+    for axis in ["ax", "ay", "az"] {
+        assert!(!disc.join(axis).join("table.bin").exists() && !disc.join(axis).join("model.bin").exists(), "{axis}");
+        let md = std::fs::read_to_string(disc.join(axis).join("report.md")).unwrap();
+        assert!(md.contains("not a table to flash; the flashable table of all axes is `../table.bin`"), "{md}");
+        assert!(!md.contains("compensate --table DIR/table.bin"), "{md}");
+    }
     // The compensated output leaves the NaN rows out and says so in the count of rows.
     let rows = std::fs::read_to_string(&out).unwrap().lines().count();
     let good_rows = std::fs::read_to_string(&good).unwrap().lines().count();
