@@ -10,6 +10,7 @@
 //! The staleness limit is at least 1.5 rows (see [`compensate_run`]).
 
 use qfa_thermal::compensator::{Compensator, Config, Status, G0};
+use qfa_thermal::table::Input;
 use qfa_thermal::Table;
 
 use crate::data::cycling::{Log, Run};
@@ -26,9 +27,46 @@ pub enum Error {
     Config(qfa_thermal::ConfigError),
 }
 
+/// What kind of log gives `input`, and the table of which kind of calibration converts it.
+fn log_kind(input: Input) -> (&'static str, &'static str) {
+    match input {
+        Input::PulseCounts => ("cycling log", "a cycling log"),
+        Input::Samples => ("static multi-axis log", "a static multi-axis log"),
+    }
+}
+
+/// The refusal of a table of the other kind, naming both (`table` is what it converts,
+/// `log` what the log gives).
+fn wrong_input(f: &mut std::fmt::Formatter<'_>, table: Input, log: Input) -> std::fmt::Result {
+    let (log_name, _) = log_kind(log);
+    let (_, table_from) = log_kind(table);
+    let want = match log {
+        Input::PulseCounts => "a cycling log",
+        Input::Samples => "a static log",
+    };
+    write!(
+        f,
+        "table refused: it converts {table} (calibrated on {table_from}), and this {log_name} gives {log}: compensate \
+         it with a table calibrated on {want}"
+    )
+}
+
+/// The kind check, before any other: a table of the other kind may also differ in its
+/// axis count, and "3 axes, expected 1" would hide the real mistake.
+fn check_input(table: &Table, log: Input) -> Result<(), qfa_thermal::table::Error> {
+    if table.input == log {
+        Ok(())
+    } else {
+        Err(qfa_thermal::table::Error::Input { table: table.input, compensator: log })
+    }
+}
+
 impl std::fmt::Display for Error {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
+            Self::Table(qfa_thermal::table::Error::Input { table, compensator }) => {
+                wrong_input(f, *table, *compensator)
+            }
             Self::Table(e) => write!(f, "table refused: {e}"),
             Self::Config(e) => write!(f, "rows too long for the firmware's settings: {e}"),
         }
@@ -51,8 +89,10 @@ pub struct Compensated {
 /// Compensate one run with `table`.
 ///
 /// # Errors
-/// The table does not load into a `Compensator<1, 32>`, or the rows are too long for it.
+/// A table of the other kind (samples, from a static log), a table that does not load into
+/// a `Compensator<1, 32>`, or rows too long for it.
 pub fn compensate_run(table: &Table, run: &Run) -> Result<Compensated, Error> {
+    check_input(table, Input::PulseCounts).map_err(Error::Table)?;
     // One row is one fast-path cycle; a log's rows may be longer than the default 3-s
     // staleness limit (the project's 10-s rows), although each row carries a fresh reading.
     // The sample period is then one row and staleness means "no reading for 1.5 rows", else
@@ -141,6 +181,9 @@ impl std::fmt::Display for StaticCompensateError {
             Self::AxisCount { table, log } => {
                 write!(f, "the table has {table} axis(es), the log {log}: use the table calibrated on this kind of log")
             }
+            Self::Table(qfa_thermal::table::Error::Input { table, compensator }) => {
+                wrong_input(f, *table, *compensator)
+            }
             Self::Table(e) => write!(f, "table refused: {e}"),
             Self::Config(e) => write!(f, "rows too far apart for the firmware's settings: {e}"),
             Self::Io(e) => write!(f, "{e}"),
@@ -174,13 +217,14 @@ pub fn static_status(status: Status) -> String {
 /// OR-ed over the axes.
 ///
 /// # Errors
-/// A table whose axis count differs from the log's, a table or row spacing the firmware
-/// refuses, or a write failure.
+/// A table of the other kind (pulse counts) or whose axis count differs from the log's, a
+/// table or row spacing the firmware refuses, or a write failure.
 pub fn compensate_static<W: std::io::Write>(
     table: &Table,
     log: &crate::data::static_log::StaticLog,
     w: W,
 ) -> Result<(), StaticCompensateError> {
+    check_input(table, Input::Samples).map_err(StaticCompensateError::Table)?;
     if table.axes.len() != log.axes.len() {
         return Err(StaticCompensateError::AxisCount { table: table.axes.len(), log: log.axes.len() });
     }

@@ -106,6 +106,7 @@ pub fn run(
                 title: truth.name.clone(),
                 progress: opts.progress,
                 axis: None,
+                exports: crate::calibrate::peers::ExportOptions::default(),
             },
         )?;
         let calibrate_s = t.elapsed().as_secs_f64();

@@ -23,4 +23,5 @@ pub mod data;
 pub mod demo;
 pub mod discover;
 pub mod navigate;
+pub mod out_path;
 pub mod simulate;

@@ -41,13 +41,16 @@ struct StaticFlags {
     /// Unit of the acceleration columns: g, mg or m/s2.
     #[arg(long)]
     accel_unit: Option<String>,
+    /// Numbers use a decimal comma (`20,5`); the file must be `;`- or tab-separated.
+    #[arg(long)]
+    decimal_comma: bool,
 }
 
 impl StaticFlags {
     /// The reader options, or `None` for a cycling log.
     fn options(&self, log: &std::path::Path) -> Result<Option<qfa_lab::data::static_log::StaticOptions>, String> {
         use qfa_lab::data::static_log::{looks_static, StaticOptions};
-        let any = self.columns.is_some() || self.time_unit.is_some() || self.accel_unit.is_some();
+        let any = self.columns.is_some() || self.time_unit.is_some() || self.accel_unit.is_some() || self.decimal_comma;
         if !any {
             let f = std::fs::File::open(log).map_err(|e| format!("{}: {e}", log.display()))?;
             let mut first = String::new();
@@ -62,6 +65,7 @@ impl StaticFlags {
             columns: self.columns.as_deref().map(str::parse).transpose().map_err(e)?.unwrap_or_default(),
             time_unit: self.time_unit.as_deref().map(str::parse).transpose().map_err(e)?,
             accel_unit: self.accel_unit.as_deref().map(str::parse).transpose().map_err(e)?,
+            decimal_comma: self.decimal_comma,
         }))
     }
 }
@@ -119,9 +123,18 @@ enum Cmd {
         #[arg(long)]
         no_plots: bool,
         /// Cycling log: the IMU axis this accelerometer is, for the PX4 / ArduPilot
-        /// parameter files (px4_tc.params, ardupilot_tcal.parm).
+        /// parameter files (a one-axis export: needs --export-range).
         #[arg(long, default_value = "x", value_parser = ["x", "y", "z"])]
         axis: String,
+        /// PX4 TC_A0_ID: the device ID of the accelerometer (CAL_ACC0_ID, or device_id in
+        /// `listener sensor_accel`); without it no px4_tc.params is written.
+        #[arg(long, value_name = "ID", value_parser = parse_device_id)]
+        px4_device_id: Option<i32>,
+        /// TMIN,TMAX (°C) for the fields the axes share (PX4 TC_A0_TREF/TMIN/TMAX, ArduPilot
+        /// INS_TCAL1_TMIN/TMAX), the same for every axis exported; needed for a one-axis
+        /// export, inside the training temperatures.
+        #[arg(long, value_name = "TMIN,TMAX", allow_hyphen_values = true, value_parser = parse_range)]
+        export_range: Option<(f64, f64)>,
         #[command(flatten)]
         fmt: StaticFlags,
     },
@@ -235,7 +248,61 @@ fn parse_shard(s: &str) -> Result<(u64, u64), String> {
     Ok((k, n))
 }
 
+/// A PX4 device ID: PX4 keeps the (unsigned) ID in an int32 parameter; `listener` prints it
+/// unsigned, a ground station may show it signed: either is taken, the int32 is written.
+fn parse_device_id(s: &str) -> Result<i32, String> {
+    let v: i64 = s.trim().parse().map_err(|e| format!("{e}: expected the accelerometer's device ID, e.g. 1310988"))?;
+    if v == 0 {
+        return Err("0 matches no accelerometer: pass the vehicle's CAL_ACC0_ID (or device_id in `listener \
+                    sensor_accel`)"
+            .to_string());
+    }
+    if !(i64::from(i32::MIN)..=i64::from(u32::MAX)).contains(&v) {
+        return Err(format!("{v} is not a 32-bit device ID"));
+    }
+    // Two's complement: the bits PX4 compares (`device_id == (uint32_t)ID`).
+    Ok(v as u32 as i32)
+}
+
+fn parse_range(s: &str) -> Result<(f64, f64), String> {
+    let (a, b) = s.split_once(',').ok_or_else(|| format!("`{s}`: expected TMIN,TMAX in °C"))?;
+    let lo: f64 = a.trim().parse().map_err(|e| format!("`{s}`: TMIN: {e}"))?;
+    let hi: f64 = b.trim().parse().map_err(|e| format!("`{s}`: TMAX: {e}"))?;
+    if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+        return Err(format!("`{s}`: need finite TMIN < TMAX"));
+    }
+    Ok((lo, hi))
+}
+
+/// Every `--out` checked before any work (a log is read, a fit runs).
+fn check_out(cmd: &Cmd) -> Result<(), String> {
+    use qfa_lab::out_path::{check_dir, check_file};
+    match cmd {
+        Cmd::Simulate { out, .. } => check_file(out, "simulate"),
+        Cmd::Calibrate { out, .. } => check_dir(out, "calibrate"),
+        Cmd::Discover { out, .. } => check_dir(out, "discover"),
+        Cmd::Compensate { out, .. } => check_file(out, "compensate"),
+        Cmd::Demo { out, .. } => check_dir(out, "demo"),
+        Cmd::Navigate { out: Some(out), sub: None, .. } => check_dir(out, "navigate"),
+        Cmd::Navigate { .. } => Ok(()),
+    }
+    .map_err(|e| e.to_string())
+}
+
+/// Print why export files were left out, and name those written.
+fn exports_line(e: &qfa_lab::calibrate::peers::Exports) -> String {
+    for n in &e.notes {
+        eprintln!("{n}");
+    }
+    if e.written.is_empty() {
+        String::new()
+    } else {
+        format!(", {}", e.written.join(", "))
+    }
+}
+
 fn run(cli: Cli) -> Result<(), String> {
+    check_out(&cli.cmd)?;
     match cli.cmd {
         Cmd::Simulate { out, unit, truth, effects, profile, profile_file, rates, row_s, seed, threads, noiseless } => {
             let mut t = match truth {
@@ -278,26 +345,28 @@ fn run(cli: Cli) -> Result<(), String> {
                 truth_path.display()
             );
         }
-        Cmd::Calibrate { log, out, fmt, .. } if fmt.options(&log)?.is_some() => {
+        Cmd::Calibrate { log, out, fmt, px4_device_id, export_range, .. } if fmt.options(&log)?.is_some() => {
             let o = fmt.options(&log)?.unwrap_or_default();
             let l = qfa_lab::data::static_log::read_static(&log, &o).map_err(|e| format!("{}: {e}", log.display()))?;
             eprintln!("{} rows read; {}; {}", l.rows(), l.skipped, l.sampling);
             let opts = qfa_lab::calibrate::static_cal::StaticCalOptions::default();
             let cal = qfa_lab::calibrate::static_cal::calibrate_static(&l, &opts, true).map_err(|e| e.to_string())?;
             qfa_lab::calibrate::static_cal::write_static(&out, &cal).map_err(|e| e.to_string())?;
+            let eo = qfa_lab::calibrate::peers::ExportOptions { px4_device_id, range_c: export_range };
+            let ex =
+                qfa_lab::calibrate::peers::write_exports(&out, &qfa_lab::calibrate::static_cal::export_axes(&cal), &eo)
+                    .map_err(|e| format!("{}: {e}", out.display()))?;
             print!("{}", qfa_lab::calibrate::static_cal::markdown(&cal.report));
-            println!(
-                "wrote {}/table.toml, table.bin, report.json, report.md, px4_tc.params, ardupilot_tcal.parm",
-                out.display()
-            );
+            println!("wrote {}/table.toml, table.bin, report.json, report.md{}", out.display(), exports_line(&ex));
         }
-        Cmd::Calibrate { log, out, fit_programs, no_plots, axis, .. } => {
+        Cmd::Calibrate { log, out, fit_programs, no_plots, axis, px4_device_id, export_range, .. } => {
             let opts = CalibrateOptions {
                 fit_programs: if fit_programs.is_empty() { None } else { Some(fit_programs) },
                 plots: !no_plots,
                 title: log.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default(),
                 progress: true,
                 axis: Some(format!("a{axis}")),
+                exports: qfa_lab::calibrate::peers::ExportOptions { px4_device_id, range_c: export_range },
             };
             let cal = calibrate_file(&log, &out, &opts)?;
             let r = &cal.report;
@@ -306,7 +375,7 @@ fn run(cli: Cli) -> Result<(), String> {
                  sensitivity ppm/degC: none {:.2}, simple {:.2}, hysteresis {:.2}\n\
                  bias residual ug:     none {:.1}, simple {:.1}, hysteresis {:.1}; peers: PX4/tofupilot cubic {:.1}, ArduPilot TCAL {:.1}\n\
                  Eq. 11 condition number {:.1}; timings: read {:.2} s, fit {:.2} s, evaluate {:.2} s, plots {:.2} s, total {:.2} s\n\
-                 wrote {}/table.toml, table.bin, report.json, px4_tc.params, ardupilot_tcal.parm",
+                 wrote {}/table.toml, table.bin, report.json{}",
                 r.eval_programs,
                 r.fit_programs,
                 r.rows,
@@ -324,7 +393,8 @@ fn run(cli: Cli) -> Result<(), String> {
                 r.timings_s.evaluate,
                 r.timings_s.plots,
                 r.timings_s.total,
-                out.display()
+                out.display(),
+                exports_line(&cal.exports)
             );
         }
         Cmd::Discover { log, start, out, fmt } if fmt.options(&log)?.is_some() => {

@@ -11,6 +11,11 @@
 //! | a single run / no ±1 g pair | – | calibrate: error `no +1 g / −1 g pair`; compensate: each run compensated |
 //! | empty file | error `empty log: no header line` | error `line 1: header is ``` |
 //! | NaN fields | rows skipped, counted with line numbers on stderr and in report.json | error `bad temp_c `NaN`` |
+//! | time unit 1000× too fine (µs read as ns, ms as µs) | error `wrong unit? read with --time-unit ... °C/min` with the implied slew and the unit that fits | – |
+//! | decimal commas (`20,5` with `;`) | error `... a decimal comma? ... pass --decimal-comma`; read with `--decimal-comma` | – |
+//! | CRLF line ends, blank lines | line numbers as an editor shows them | same |
+//! | `--out` unusable (a file where a directory goes, a directory where a file goes, a missing directory) | error naming `--out`, before the log is read | same |
+//! | a table of the other kind (samples vs pulse counts) | compensate: error naming both kinds | same |
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -98,6 +103,37 @@ fn static_log_bad_inputs_get_their_exact_errors() {
     });
     let empty = d.join("empty.tsv");
     std::fs::write(&empty, "").unwrap();
+    // The backwards row again, with CRLF line ends, and with a blank line before it (line 103).
+    let backwards_crlf = d.join("backwards_crlf.tsv");
+    std::fs::write(&backwards_crlf, std::fs::read_to_string(&backwards).unwrap().replace('\n', "\r\n")).unwrap();
+    let backwards_blank = d.join("backwards_blank.tsv");
+    static_log(&backwards_blank, |i, r| match i {
+        50 => format!("\n{r}"),
+        100 => r.replacen("100000\t", "98500\t", 1),
+        _ => r,
+    });
+    // Decimal commas with `;` (a spreadsheet export in many locales).
+    let comma = d.join("comma.csv");
+    let good_text = std::fs::read_to_string(&good).unwrap();
+    let (head, rows) = good_text.split_once('\n').unwrap();
+    std::fs::write(&comma, format!("{}\n{}", head.replace('\t', ";"), rows.replace('.', ",").replace('\t', ";")))
+        .unwrap();
+    let comma_rows = std::fs::read_to_string(&good).unwrap().lines().count() - 1;
+    let good_commas = d.join("good_commas.csv");
+    std::fs::write(&good_commas, std::fs::read_to_string(&good).unwrap().replace('\t', ",")).unwrap();
+    // 20 °C for 50 rows, +0.05 °C per 1-s row to 30 °C, 30 °C for 50 rows, ms timestamps.
+    // Read as µs the 300 rows span 0.299 s: 10 °C in 0.299 s is 2007 °C/min. Read as ms
+    // (right) the fastest 60 s holds 3.0 °C: 3.0 °C/min.
+    let slew = d.join("slew.tsv");
+    let mut text = String::from("time_ms\timu.temperature\tacc_x\tacc_y\tacc_z\n");
+    for i in 0..300i32 {
+        let tc = 20.0 + 0.05 * f64::from((i - 50).clamp(0, 200));
+        text.push_str(&format!("{}\t{tc:.4}\t0.05\t-0.1\t-9.8\n", i * 1000));
+    }
+    std::fs::write(&slew, text).unwrap();
+    let a_file = d.join("a_file");
+    std::fs::write(&a_file, "").unwrap();
+    let missing_log = d.join("no-such-log.tsv");
 
     for cmd in ["calibrate", "compensate", "discover"] {
         let g = good.to_str().unwrap();
@@ -121,12 +157,94 @@ fn static_log_bad_inputs_get_their_exact_errors() {
             &static_args(cmd, backwards.to_str().unwrap(), &o, table_s, &FLAGS),
             "1 malformed row(s)\n  line 102: time goes backwards (98500 after 99000)",
         );
+        // CRLF line ends and a blank line: line numbers as an editor shows them.
+        fails_with(
+            &static_args(cmd, backwards_crlf.to_str().unwrap(), &o, table_s, &FLAGS),
+            "1 malformed row(s)\n  line 102: time goes backwards (98500 after 99000)",
+        );
+        fails_with(
+            &static_args(cmd, backwards_blank.to_str().unwrap(), &o, table_s, &FLAGS),
+            "1 malformed row(s)\n  line 103: time goes backwards (98500 after 99000)",
+        );
         // Empty file.
         fails_with(&static_args(cmd, empty.to_str().unwrap(), &o, table_s, &FLAGS), "empty log: no header line");
+        // A time unit 1000x too fine: the implied temperature slew, and the unit that fits.
+        fails_with(
+            &static_args(cmd, slew.to_str().unwrap(), &o, table_s, &["--time-unit", "us", "--accel-unit", "m/s2"]),
+            "wrong unit? read with --time-unit us the temperature changes by 2007 °C/min (10.00 °C within 0.299 s: \
+             from 20.00 °C at line 52 to 30.00 °C at line 252); a board in a climate chamber changes by at most 30 \
+             °C/min: check --time-unit (ms gives 3.0 °C/min)",
+        );
+        // Decimal commas: recognised, with the flag that reads them.
+        fails_with(
+            &static_args(cmd, comma.to_str().unwrap(), &o, table_s, &FLAGS),
+            &format!(
+                "column `imu.temperature` holds `20,0000` at line 2: a decimal comma? {comma_rows} row(s) have \
+                 numbers like it; pass --decimal-comma to read them"
+            ),
+        );
+        let mut f = FLAGS.to_vec();
+        f.push("--decimal-comma");
+        let (ok, text) = lab(&static_args(cmd, comma.to_str().unwrap(), &o, table_s, &f));
+        assert!(ok, "{cmd} --decimal-comma: {text}");
+        let mut f = FLAGS.to_vec();
+        f.push("--decimal-comma");
+        fails_with(
+            &static_args(cmd, good_commas.to_str().unwrap(), &o, table_s, &f),
+            "--decimal-comma needs a `;` or tab delimiter: this header is comma-separated, so a decimal comma cannot \
+             be told from a field separator",
+        );
+        // An unusable --out is refused before the log is read (the log here does not exist).
+        let (out_arg, want) = if cmd == "compensate" {
+            (
+                d.to_str().unwrap().to_string(),
+                format!("--out {}: a directory; compensate writes one CSV file", d.display()),
+            )
+        } else {
+            (
+                a_file.to_str().unwrap().to_string(),
+                format!(
+                    "--out {}: a file of that name exists; {cmd} writes a directory of files there",
+                    a_file.display()
+                ),
+            )
+        };
+        fails_with(&static_args(cmd, missing_log.to_str().unwrap(), &out_arg, table_s, &FLAGS), &want);
+        let nested = d.join("no-such-dir").join("x.csv");
+        if cmd == "compensate" {
+            fails_with(
+                &static_args(cmd, missing_log.to_str().unwrap(), nested.to_str().unwrap(), table_s, &FLAGS),
+                &format!(
+                    "--out {}: the directory {} does not exist",
+                    nested.display(),
+                    d.join("no-such-dir").display()
+                ),
+            );
+        } else {
+            let under_file = a_file.join("cal");
+            fails_with(
+                &static_args(cmd, missing_log.to_str().unwrap(), under_file.to_str().unwrap(), table_s, &FLAGS),
+                &format!(
+                    "--out {}: {} is a file, so the directory cannot be created",
+                    under_file.display(),
+                    a_file.display()
+                ),
+            );
+        }
         // NaN fields: skipped and reported, with their lines.
         let (ok, text) = lab(&static_args(cmd, nan_fields.to_str().unwrap(), &o, table_s, &FLAGS));
         assert!(ok, "{text}");
         assert!(text.contains("2 NaN/empty field row(s) skipped (line 52, 72)"), "{text}");
+    }
+    // Static discovery writes one flashable table for all axes; the per-axis directories
+    // hold the named model for reading, not a table `compensate` would refuse (1 axis vs 3).
+    let disc = d.join("out-discover");
+    assert!(disc.join("table.bin").is_file());
+    for axis in ["ax", "ay", "az"] {
+        assert!(!disc.join(axis).join("table.bin").exists() && !disc.join(axis).join("model.bin").exists(), "{axis}");
+        let md = std::fs::read_to_string(disc.join(axis).join("report.md")).unwrap();
+        assert!(md.contains("not a table to flash; the flashable table of all axes is `../table.bin`"), "{md}");
+        assert!(!md.contains("compensate --table DIR/table.bin"), "{md}");
     }
     // The compensated output leaves the NaN rows out and says so in the count of rows.
     let rows = std::fs::read_to_string(&out).unwrap().lines().count();
@@ -158,18 +276,23 @@ fn cycling_log_bad_inputs_get_their_exact_errors() {
         p.to_str().unwrap().to_string()
     };
     let out = d.join("out").to_str().unwrap().to_string();
+    // compensate writes a file, calibrate and discover a directory.
+    let out_csv = d.join("out.csv").to_str().unwrap().to_string();
     let single = w("single.csv", &cycling(&[("rate0.3", "rate0.3_pos0", 1.0)], 50));
     let no_pair = w("nopair.csv", &cycling(&[("rate0.3", "pos1", 0.0), ("rate0.3", "pos3", 0.0)], 50));
     let bad_header = w("header.csv", "program,run,time,input_g,temp_c,pulses,interval_s\np,0,1,1,,1,1\n");
     let backwards = w("backwards.csv", &format!("{CYCLING_HEADER}p,a,10,1,20,1,10\np,a,5,1,20,1,10\n"));
     let nan = w("nan.csv", &format!("{CYCLING_HEADER}p,a,10,1,NaN,1,10\n"));
     let empty = w("empty.csv", "");
+    let backwards_crlf =
+        w("backwards_crlf.csv", &format!("{CYCLING_HEADER}p,a,10,1,20,1,10\np,a,5,1,20,1,10\n").replace('\n', "\r\n"));
     // Named runs are runs: calibrate fails for the missing pair, not for the names.
     fails_with(&["calibrate", "--log", &single, "--out", &out], "program `rate0.3` has no +1 g / −1 g pair of runs");
     fails_with(&["calibrate", "--log", &no_pair, "--out", &out], "program `rate0.3` has no +1 g / −1 g pair of runs");
     for cmd in ["calibrate", "compensate", "discover"] {
         let args = |log: &str| -> Vec<String> {
-            let mut v: Vec<String> = [cmd, "--log", log, "--out", &out].iter().map(|s| s.to_string()).collect();
+            let o = if cmd == "compensate" { &out_csv } else { &out };
+            let mut v: Vec<String> = [cmd, "--log", log, "--out", o].iter().map(|s| s.to_string()).collect();
             if cmd == "compensate" {
                 v.extend(["--table".to_string(), "missing.bin".to_string()]);
             }
@@ -181,6 +304,7 @@ fn cycling_log_bad_inputs_get_their_exact_errors() {
         };
         run(&bad_header, "line 1: header is `program,run,time,input_g,temp_c,pulses,interval_s`");
         run(&backwards, "line 3: time_s not after the run's previous row");
+        run(&backwards_crlf, "line 3: time_s not after the run's previous row");
         run(&nan, "line 2: bad temp_c `NaN`");
         run(&empty, "line 1: header is ``");
     }
@@ -220,24 +344,7 @@ fn ten_second_rows_give_real_figures_and_missing_bins_are_an_error() {
         "z",
     ]);
     assert!(ok, "{text}");
-    // The cubic peer as PX4 and ArduPilot parameters, for the axis asked for. The
-    // simulated unit (JB-KT8 #1 preset) has bias 120 µg + 12 µg/°C·ΔT + 0.02 µg/°C²·ΔT²
-    // about 22 °C, so the cubic's slope at its TREF is 12 + 0.04·(TREF − 22) µg/°C
-    // (× g0 in m/s²); 10 % covers the log's noise and its heating/cooling split.
-    let params = std::fs::read_to_string(out.join("px4_tc.params")).unwrap();
-    let value = |name: &str| -> f64 {
-        let line = params
-            .lines()
-            .find(|l| l.split('\t').nth(2) == Some(name))
-            .unwrap_or_else(|| panic!("{name} in\n{params}"));
-        line.split('\t').nth(3).unwrap().parse().unwrap()
-    };
-    let tref = value("TC_A0_TREF");
-    let want = (12e-6 + 0.04e-6 * (tref - 22.0)) * 9.806_65;
-    let got = value("TC_A0_X1_2");
-    assert!((got - want).abs() < 0.1 * want, "TC_A0_X1_2 {got} vs {want} (TREF {tref})");
-    let parm = std::fs::read_to_string(out.join("ardupilot_tcal.parm")).unwrap();
-    assert!(parm.contains("INS_TCAL1_ACC1_Z,") && !parm.contains("_X,"), "{parm}");
+    // The PX4 / ArduPilot exports of this run are checked in tests/exports.rs.
     let r: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
     // Before the staleness fix every compensated row was flagged stale: sensitivity null and
@@ -274,5 +381,44 @@ fn single_channel_logs_still_reach_discover() {
     let (ok, text) = lab(&["discover", "--log", log.to_str().unwrap(), "--out", d.join("out").to_str().unwrap()]);
     assert!(ok, "{text}");
     assert!(d.join("out").join("report.json").is_file());
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// A table records what it converts (format 2): a static log's table converts samples, a
+/// cycling log's pulse counts. `compensate` refuses the other kind, naming both.
+#[test]
+fn compensate_refuses_a_table_of_the_other_kind() {
+    let d = dir().join("kinds");
+    std::fs::create_dir_all(&d).unwrap();
+    let st = d.join("static.tsv");
+    static_log(&st, |_, r| r);
+    let (ok, text) = lab(&static_args("calibrate", st.to_str().unwrap(), d.join("st").to_str().unwrap(), "", &FLAGS));
+    assert!(ok, "{text}");
+    let cy = d.join("cycling.csv");
+    let (ok, text) = lab(&["simulate", "--out", cy.to_str().unwrap(), "--row-s", "10", "--rates", "0.3,0.9"]);
+    assert!(ok, "{text}");
+    let (ok, text) =
+        lab(&["calibrate", "--log", cy.to_str().unwrap(), "--out", d.join("cy").to_str().unwrap(), "--no-plots"]);
+    assert!(ok, "{text}");
+    let out = d.join("out.csv");
+    let out_s = out.to_str().unwrap();
+    let st_table = d.join("st").join("table.bin");
+    let cy_table = d.join("cy").join("table.bin");
+    fails_with(
+        &["compensate", "--log", cy.to_str().unwrap(), "--table", st_table.to_str().unwrap(), "--out", out_s],
+        "table refused: it converts samples (calibrated on a static multi-axis log), and this cycling log gives pulse \
+         counts: compensate it with a table calibrated on a cycling log",
+    );
+    fails_with(
+        &static_args("compensate", st.to_str().unwrap(), out_s, cy_table.to_str().unwrap(), &FLAGS),
+        "table refused: it converts pulse counts (calibrated on a cycling log), and this static multi-axis log gives \
+         samples: compensate it with a table calibrated on a static log",
+    );
+    // Each table on its own kind of log works (the refusals are about the kind).
+    let (ok, text) =
+        lab(&["compensate", "--log", cy.to_str().unwrap(), "--table", cy_table.to_str().unwrap(), "--out", out_s]);
+    assert!(ok, "{text}");
+    let (ok, text) = lab(&static_args("compensate", st.to_str().unwrap(), out_s, st_table.to_str().unwrap(), &FLAGS));
+    assert!(ok, "{text}");
     let _ = std::fs::remove_dir_all(&d);
 }

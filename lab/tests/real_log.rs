@@ -7,6 +7,8 @@
 //! `$QFA_REAL_IMU_LOG`, else at `<repo>/../shared/real/tofupilot-imu-thermal-cycle/imu_raw_data.tsv`.
 //! Missing, it prints a SKIPPED line; with `CI=true` a missing file fails.
 
+mod common;
+
 use std::path::PathBuf;
 use std::process::Command;
 
@@ -68,11 +70,13 @@ fn calibrate_beats_the_cubic_on_every_axis_and_compensate_agrees() {
         // The issue's acceptance rule (fixed before the result): ours beats the cubic.
         assert!(ours > 0.0 && ours < cubic, "{}: ours {ours:.2} mg vs cubic {cubic:.2} mg", a["axis"]);
     }
-    for file in ["table.bin", "table.toml", "report.md", "px4_tc.params", "ardupilot_tcal.parm"] {
+    for file in ["table.bin", "table.toml", "report.md", "ardupilot_tcal_1_enable.parm", "ardupilot_tcal_2_values.parm"]
+    {
         assert!(out_dir.join(file).is_file(), "{file}");
     }
-    let params = std::fs::read_to_string(out_dir.join("px4_tc.params")).unwrap();
-    assert!(params.contains("\tTC_A0_X3_2\t") && params.contains("\tTC_A_ENABLE\t1\t6"), "{params}");
+    // Without --px4-device-id no PX4 file: PX4 would ignore it (TC_A0_ID 0 matches no
+    // accelerometer). With it: `exported_parameter_files_reproduce_the_report_peer_figures`.
+    assert!(!out_dir.join("px4_tc.params").exists());
 
     // Compensate with the flashed table; the held-out rows of the output, measured from each
     // axis's reference, give back the report's figure (an independent path: CSV text).
@@ -184,4 +188,67 @@ fn discovery_beats_the_cubic_on_every_axis() {
     }
     let _ = std::fs::remove_dir_all(&dir);
     assert!(worse.is_empty(), "discovery's flashed model not better than the cubic: {worse:?}");
+}
+
+/// Issue 13's acceptance rule for the exports, fixed before the result: with
+/// `--px4-device-id 1310988` the PX4 file carries `TC_A0_ID 1310988` (int32), and the
+/// coefficients of `px4_tc.params` and of the two ArduPilot files, applied to the log with
+/// each stack's own formula (`tests/common`, written from the stacks' sources, not from the
+/// exporter), give the report's held-out cubic and ArduPilot figures within 3 % on every
+/// axis. The log is read here from the TSV text, not through the lab's reader; only the
+/// rows the reader dropped (listed with their lines in `report.json`) are left out.
+#[test]
+fn exported_parameter_files_reproduce_the_report_peer_figures() {
+    let Some(log) = real_log() else { return };
+    let dir = std::env::temp_dir().join(format!("qfa-real-export-{}", std::process::id()));
+    let out_dir = dir.join("cal");
+    let mut args = vec![
+        "calibrate",
+        "--log",
+        log.to_str().unwrap(),
+        "--out",
+        out_dir.to_str().unwrap(),
+        "--px4-device-id",
+        "1310988",
+    ];
+    args.extend(FLAGS);
+    lab(&args);
+    let params = std::fs::read_to_string(out_dir.join("px4_tc.params")).unwrap();
+    let p = common::read_px4_params(&params);
+    assert_eq!(p["TC_A0_ID"], ("1310988".to_string(), 6), "{params}");
+    assert_eq!(p["TC_A_ENABLE"], ("1".to_string(), 6), "{params}");
+
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out_dir.join("report.json")).unwrap()).unwrap();
+    let mut dropped: Vec<u64> = Vec::new();
+    for kind in ["nan", "duplicate", "glitch"] {
+        let s = &report["skipped"][kind];
+        let lines = s["lines"].as_array().unwrap();
+        // Every dropped row is listed (the report keeps 20 lines per kind).
+        assert_eq!(s["count"].as_u64().unwrap(), lines.len() as u64, "{s}");
+        dropped.extend(lines.iter().map(|l| l.as_u64().unwrap()));
+    }
+    let mut rdr = csv::ReaderBuilder::new().delimiter(b'\t').from_path(&log).unwrap();
+    let head: Vec<String> = rdr.headers().unwrap().iter().map(str::to_string).collect();
+    let col = |n: &str| head.iter().position(|h| h == n).unwrap();
+    let (c_time, c_temp) = (col("timestamp"), col("imu.temperature"));
+    let ca = [col("imu.acc.x"), col("imu.acc.y"), col("imu.acc.z")];
+    let (mut t_us, mut temp, mut acc) = (Vec::new(), Vec::new(), vec![Vec::new(); 3]);
+    for (i, r) in rdr.records().enumerate() {
+        let r = r.unwrap();
+        if dropped.contains(&(i as u64 + 2)) {
+            continue;
+        }
+        t_us.push(r[c_time].parse::<f64>().unwrap());
+        temp.push(r[c_temp].parse::<f64>().unwrap());
+        for k in 0..3 {
+            acc[k].push(r[ca[k]].parse::<f64>().unwrap());
+        }
+    }
+    assert_eq!(t_us.len() as u64, report["rows"].as_u64().unwrap());
+    let time_s: Vec<f64> = t_us.iter().map(|t| (t - t_us[0]) * 1e-6).collect();
+    for line in common::check_exports_against_report(&out_dir, &time_s, &temp, &acc, 0.03) {
+        println!("{line}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }

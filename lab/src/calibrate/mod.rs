@@ -4,8 +4,10 @@
 //! `table.toml` / `table.bin` (the hysteresis model, the table to flash),
 //! `table_simple.toml` / `table_simple.bin` (the simple model, for comparison),
 //! `report.json`, `sf_vs_temp.png`, `residual_vs_time.png`, and the cubic peer fitted on
-//! the same training pairs as PX4 (`px4_tc.params`) and ArduPilot (`ardupilot_tcal.parm`)
-//! parameters, written for the IMU axis [`CalibrateOptions::axis`] names.
+//! the same training pairs as PX4 (`px4_tc.params`) and ArduPilot
+//! (`ardupilot_tcal_1_enable.parm`, `ardupilot_tcal_2_values.parm`) parameters for the IMU
+//! axis [`CalibrateOptions::axis`] names, when they can be loaded as written (see
+//! [`peers::write_exports`]: a one-axis export needs [`peers::ExportOptions::range_c`]).
 //! The table written is the one fitted on the fit programs only, so the report's held-out
 //! figures describe exactly the flashed table.
 
@@ -39,6 +41,8 @@ pub struct CalibrateOptions {
     /// IMU axis this accelerometer is (`ax`, `ay` or `az`) in the PX4 / ArduPilot
     /// parameter files; `None` is `ax`.
     pub axis: Option<String>,
+    /// How to write those files.
+    pub exports: peers::ExportOptions,
 }
 
 /// Result of a calibration.
@@ -52,6 +56,8 @@ pub struct Calibration {
     pub report: Report,
     /// The peers fitted on the same training pairs.
     pub peers: crate::calibrate::peers::Peers,
+    /// The PX4 / ArduPilot files written, and why others were not.
+    pub exports: peers::Exports,
 }
 
 fn bar(len: u64, msg: &str, show: bool) -> indicatif::ProgressBar {
@@ -115,7 +121,7 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
         rejected_readings: eval.rejected_readings,
         timings_s: Timings { fit: t_fit, evaluate: t_eval, ..Timings::default() },
     };
-    Ok(Calibration { fitted, eval, report, peers: peer_fits })
+    Ok(Calibration { fitted, eval, report, peers: peer_fits, exports: peers::Exports::default() })
 }
 
 /// Every held-out figure must exist: a figure with no bins behind it is an error with its
@@ -185,13 +191,14 @@ pub fn calibrate_into(log: &Log, out: &Path, opts: &CalibrateOptions, read_s: f6
     if !["ax", "ay", "az"].contains(&axis.as_str()) {
         return Err(format!("axis `{axis}`: expected ax, ay or az"));
     }
-    let cubic = [(axis.clone(), cal.peers.cubic.clone())];
-    let ardupilot = [(axis, cal.peers.ardupilot.clone())];
-    let w = |name: &str, text: String| {
-        std::fs::write(out.join(name), text).map_err(|e| format!("{}: {e}", out.join(name).display()))
+    // One accelerometer: a one-axis export, so the shared fields need opts.exports.range_c.
+    let one = peers::ExportAxis {
+        source: format!("accelerometer (--axis {})", axis.trim_start_matches('a')),
+        axis,
+        cubic: cal.peers.cubic.clone(),
+        ardupilot: cal.peers.ardupilot.clone(),
     };
-    w("px4_tc.params", crate::calibrate::peers::px4_params(&cubic))?;
-    w("ardupilot_tcal.parm", crate::calibrate::peers::ardupilot_params(&ardupilot))?;
+    cal.exports = peers::write_exports(out, &[one], &opts.exports).map_err(|e| format!("{}: {e}", out.display()))?;
     let t = Instant::now();
     if opts.plots {
         let title = if opts.title.is_empty() { "held-out".to_string() } else { format!("{} (held out)", opts.title) };

@@ -160,54 +160,289 @@ pub fn fit_peers(t: &[f64], y: &[f64]) -> Result<Peers, FitError> {
     Ok(Peers { cubic, ardupilot, ardupilot_points: ardupilot_points(t, y).0.len(), simple })
 }
 
-/// A PX4 parameter file (QGroundControl `.params` format: vehicle, component, name, value,
-/// type 9 = float, 6 = int32) with `TC_A_ENABLE` and `TC_A0_*` from the cubics of axes x, y,
-/// z (m/s²). `X0` is 0 as PX4's own calibration writes it ("zero at the reference
-/// temperature"): the ordinary accelerometer calibration holds the offset.
-#[must_use]
-pub fn px4_params(cubics: &[(String, Poly)]) -> String {
-    let mut s = String::from(
-        "# Onboard parameters for Vehicle 1\n# qfa-lab: cubic thermal compensation fitted on the training rows\n\
-         # Vehicle-Id\tComponent-Id\tName\tValue\tType\n",
-    );
-    let _ = writeln!(s, "1\t1\tTC_A_ENABLE\t1\t6");
-    let Some((_, first)) = cubics.first() else { return s };
-    for (name, v) in [("TREF", first.tref_c), ("TMIN", first.tmin_c), ("TMAX", first.tmax_c)] {
-        let _ = writeln!(s, "1\t1\tTC_A0_{name}\t{v:.6}\t9");
+/// The first ArduPilot file: only `INS_TCAL1_ENABLE` (see [`write_exports`]).
+pub const ARDUPILOT_ENABLE_FILE: &str = "ardupilot_tcal_1_enable.parm";
+/// The second ArduPilot file: the range and the coefficients.
+pub const ARDUPILOT_VALUES_FILE: &str = "ardupilot_tcal_2_values.parm";
+/// The PX4 file.
+pub const PX4_FILE: &str = "px4_tc.params";
+/// Every file [`write_exports`] manages in an output directory (older names included, so a
+/// file from an earlier run never sits beside this run's as if it were current).
+pub const EXPORT_FILES: [&str; 4] = [PX4_FILE, ARDUPILOT_ENABLE_FILE, ARDUPILOT_VALUES_FILE, "ardupilot_tcal.parm"];
+
+/// The range ArduPilot accepts for `INS_TCALn_TMIN` / `TMAX`, °C (their `@Range: -70 80`
+/// in `AP_InertialSensor_tempcal.cpp`).
+pub const ARDUPILOT_T_RANGE_C: (f64, f64) = (-70.0, 80.0);
+
+impl Poly {
+    /// The same polynomial about `tref_c`, clamped to `tmin_c..tmax_c`: the coefficients
+    /// of `Σ cₖ (T − r₀)ᵏ` re-expanded in powers of `T − r₁` (binomial theorem), so inside
+    /// the clamp range it is the same function.
+    #[must_use]
+    pub fn about(&self, tref_c: f64, tmin_c: f64, tmax_c: f64) -> Self {
+        let h = tref_c - self.tref_c;
+        let binom = |n: usize, k: usize| -> f64 { (0..k).fold(1.0, |acc, i| acc * (n - i) as f64 / (i + 1) as f64) };
+        let coef = (0..self.coef.len())
+            .map(|j| (j..self.coef.len()).map(|k| self.coef[k] * binom(k, j) * h.powi((k - j) as i32)).sum())
+            .collect();
+        Self { tref_c, tmin_c, tmax_c, coef }
     }
-    for (axis_name, p) in cubics {
-        let i = match axis_name.as_str() {
-            "ax" => 0,
-            "ay" => 1,
-            _ => 2,
-        };
-        for k in 0..4 {
-            let v = if k == 0 { 0.0 } else { p.coef[k] * G0_MPS2 };
-            let _ = writeln!(s, "1\t1\tTC_A0_X{k}_{i}\t{v:.9e}\t9");
-        }
-    }
-    s
 }
 
-/// ArduPilot `INS_TCAL1_*` parameters (Mission Planner `name,value` lines): coefficients of
-/// dT¹..dT³ about 35 °C in m/s² × 10⁶, and the range.
+/// One IMU axis of an export.
+#[derive(Clone, Debug)]
+pub struct ExportAxis {
+    /// Role: `ax`, `ay` or `az` (PX4 index 0–2, ArduPilot `X`/`Y`/`Z`).
+    pub axis: String,
+    /// Where it came from, for the files' comments (a log column, or the cycling log's
+    /// accelerometer).
+    pub source: String,
+    /// The PX4 / tofupilot cubic.
+    pub cubic: Poly,
+    /// The ArduPilot cubic about 35 °C.
+    pub ardupilot: Poly,
+}
+
+/// How to write the exports.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ExportOptions {
+    /// PX4 `TC_A0_ID`: the device ID of the accelerometer the file is for. Without it no
+    /// PX4 file is written (PX4 would match it to no accelerometer).
+    pub px4_device_id: Option<i32>,
+    /// Temperature range of the shared fields (PX4 `TC_A0_TREF` = its middle, `TMIN`,
+    /// `TMAX`; ArduPilot `INS_TCAL1_TMIN`/`TMAX`), °C. Needed when the export has fewer than
+    /// three axes, so every axis's file carries the same shared values.
+    pub range_c: Option<(f64, f64)>,
+}
+
+/// What [`write_exports`] wrote and why it left files out.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Exports {
+    /// File names written.
+    pub written: Vec<&'static str>,
+    /// Why a file was not written, one sentence each.
+    pub notes: Vec<String>,
+}
+
+fn px4_index(axis: &str) -> usize {
+    match axis {
+        "ax" => 0,
+        "ay" => 1,
+        _ => 2,
+    }
+}
+
+fn ardupilot_axis(axis: &str) -> &'static str {
+    ["X", "Y", "Z"][px4_index(axis)]
+}
+
+/// The export files' texts (name, text) and the notes for those left out; see
+/// [`write_exports`].
 #[must_use]
-pub fn ardupilot_params(cubics: &[(String, Poly)]) -> String {
-    let mut s = String::from("# qfa-lab: ArduPilot TCAL fitted on the training rows\nINS_TCAL1_ENABLE,1\n");
-    let Some((_, first)) = cubics.first() else { return s };
-    let _ = writeln!(s, "INS_TCAL1_TMIN,{:.2}", first.tmin_c);
-    let _ = writeln!(s, "INS_TCAL1_TMAX,{:.2}", first.tmax_c);
-    for k in 1..4 {
-        for (axis_name, p) in cubics {
-            let a = match axis_name.as_str() {
-                "ax" => "X",
-                "ay" => "Y",
-                _ => "Z",
-            };
-            let _ = writeln!(s, "INS_TCAL1_ACC{k}_{a},{:.6}", p.coef[k] * G0_MPS2 * ARDUPILOT_SCALE);
+pub fn export_texts(axes: &[ExportAxis], opts: &ExportOptions) -> (Vec<(&'static str, String)>, Vec<String>) {
+    let mut notes = Vec::new();
+    let Some(first) = axes.first() else { return (Vec::new(), notes) };
+    let mut roles: Vec<&str> = axes.iter().map(|a| a.axis.as_str()).collect();
+    roles.sort_unstable();
+    roles.dedup();
+    let complete = roles == ["ax", "ay", "az"];
+    // The training temperatures every axis saw (the same rows for a static log).
+    let lo = axes.iter().map(|a| a.cubic.tmin_c).fold(f64::NEG_INFINITY, f64::max);
+    let hi = axes.iter().map(|a| a.cubic.tmax_c).fold(f64::INFINITY, f64::min);
+    let same = axes.iter().all(|a| a.cubic.tmin_c == first.cubic.tmin_c && a.cubic.tmax_c == first.cubic.tmax_c);
+    let names = || axes.iter().map(|a| a.axis.as_str()).collect::<Vec<_>>().join(", ");
+    let (polys, partial_note): (Vec<(Poly, Poly)>, Option<String>) = match opts.range_c {
+        None if complete && same => (axes.iter().map(|a| (a.cubic.clone(), a.ardupilot.clone())).collect(), None),
+        None => {
+            notes.push(format!(
+                "PX4 and ArduPilot files not written: this export has {} of the 3 axes ({}), and TC_A0_TREF/TMIN/TMAX \
+                 (PX4) and INS_TCAL1_TMIN/TMAX (ArduPilot) are shared by all three; pass --export-range TMIN,TMAX, the \
+                 same for every axis you export, inside each axis's training temperatures (here {lo:.2}..{hi:.2} °C)",
+                roles.len(),
+                names()
+            ));
+            return (Vec::new(), notes);
+        }
+        Some((rlo, rhi)) => {
+            // Exported about a range inside the training temperatures only: outside them
+            // the cubic would be extrapolated.
+            if let Some(a) = axes.iter().find(|a| rlo < a.cubic.tmin_c || rhi > a.cubic.tmax_c) {
+                notes.push(format!(
+                    "PX4 and ArduPilot files not written: --export-range {rlo}..{rhi} °C is not inside the training \
+                     temperatures {:.2}..{:.2} °C of {} (a cubic is not to be extrapolated)",
+                    a.cubic.tmin_c, a.cubic.tmax_c, a.axis
+                ));
+                return (Vec::new(), notes);
+            }
+            let mid = 0.5 * (rlo + rhi);
+            let polys = axes
+                .iter()
+                .map(|a| {
+                    let ap = Poly { tmin_c: rlo, tmax_c: rhi, ..a.ardupilot.clone() };
+                    (a.cubic.about(mid, rlo, rhi), ap)
+                })
+                .collect();
+            let note = (!complete).then(|| {
+                format!(
+                    "This file sets the fields the three axes share for {} only: load onto one vehicle only qfa-lab \
+                     files exported with the same --export-range {rlo},{rhi}.",
+                    names()
+                )
+            });
+            (polys, note)
+        }
+    };
+    let sources = axes.iter().map(|a| a.source.as_str()).collect::<Vec<_>>().join(", ");
+    let mut files = Vec::new();
+    let cubic0 = &polys[0].0;
+
+    // PX4: `TemperatureCompensation::calc_thermal_offsets_3D` (PX4-Autopilot,
+    // src/modules/temperature_compensation) computes offset = X0 + X1·dT + X2·dT² + X3·dT³
+    // with dT = T clipped to TMIN..TMAX minus TREF, for the accelerometer whose device ID
+    // equals TC_A0_ID; `calibration::Accelerometer::Correct` subtracts it in the sensor
+    // frame, before the rotation. TC_A_ENABLE is read at startup (`reboot_required`).
+    match opts.px4_device_id {
+        None => notes.push(
+            "px4_tc.params not written: PX4 applies TC_A0_* only to the accelerometer whose device ID equals \
+             TC_A0_ID (with 0 nothing matches and compensation is silently off); pass --px4-device-id ID, the \
+             vehicle's CAL_ACC0_ID parameter (or device_id in `listener sensor_accel` on the PX4 console)"
+                .to_string(),
+        ),
+        Some(id) => {
+            let mut s = String::from("# Onboard parameters for Vehicle 1\n");
+            let _ = writeln!(
+                s,
+                "# qfa-lab: PX4 thermal compensation of accelerometer 0 (TC_A0_*), the cubic of the bias in \
+                 temperature fitted on the training rows.\n\
+                 # TC_A0_ID = {id}: PX4 applies TC_A0_* only to the accelerometer with this device ID (its CAL_ACC0_ID \
+                 parameter, or device_id in `listener sensor_accel`).\n\
+                 # TC_A0_Xk_0/1/2 are the sensor's own x, y, z (PX4 subtracts the offset before the board rotation): \
+                 here from the log's {sources}; m/s2 per degC^k of T - TC_A0_TREF, T clamped to TC_A0_TMIN..TC_A0_TMAX."
+            );
+            if let Some(n) = &partial_note {
+                let _ = writeln!(s, "# {n}");
+            }
+            s.push_str(
+                "# After loading (QGroundControl: Vehicle Setup > Parameters > Tools > Load from file):\n\
+                 #  1. Reboot: TC_A_ENABLE is read only at startup.\n\
+                 #  2. Run the ordinary accelerometer calibration: TC_A0_X0_* are 0 here, so its offsets take up the \
+                 constant bias at the calibration temperature.\n\
+                 #  3. Reboot again before flying: PX4 reads the thermal compensation parameters at startup.\n\
+                 # Vehicle-Id\tComponent-Id\tName\tValue\tType\n",
+            );
+            let _ = writeln!(s, "1\t1\tTC_A_ENABLE\t1\t6");
+            let _ = writeln!(s, "1\t1\tTC_A0_ID\t{id}\t6");
+            for (name, v) in [("TREF", cubic0.tref_c), ("TMIN", cubic0.tmin_c), ("TMAX", cubic0.tmax_c)] {
+                let _ = writeln!(s, "1\t1\tTC_A0_{name}\t{v:.6}\t9");
+            }
+            for (a, (p, _)) in axes.iter().zip(&polys) {
+                let i = px4_index(&a.axis);
+                for k in 0..4 {
+                    // X0 = 0 as PX4's own calibration writes it ("zero at the reference
+                    // temperature"): the ordinary accelerometer calibration holds the offset.
+                    let v = if k == 0 { 0.0 } else { p.coef[k] * G0_MPS2 };
+                    let _ = writeln!(s, "1\t1\tTC_A0_X{k}_{i}\t{v:.9e}\t9");
+                }
+            }
+            files.push((PX4_FILE, s));
         }
     }
-    s
+
+    // ArduPilot: `AP_InertialSensor::TCal::correct_sensor` (ArduPilot,
+    // libraries/AP_InertialSensor/AP_InertialSensor_tempcal.cpp) clips T and the
+    // accelerometer calibration temperature to TMIN..TMAX and corrects by
+    // −p(T − 35) + p(CALTEMP − 35), p(d) = (ACC1·d + ACC2·d² + ACC3·d³)·10⁻⁶. ENABLE
+    // carries AP_PARAM_FLAG_ENABLE (the group's other parameters are hidden until it is
+    // set) and @RebootRequired; TMIN/TMAX have @Range -70 80.
+    let (tmin, tmax) = (polys[0].1.tmin_c, polys[0].1.tmax_c);
+    let (rmin, rmax) = ARDUPILOT_T_RANGE_C;
+    // As written (two decimals, as ArduPilot prints them), so the check is on the file's values.
+    let (wmin, wmax) = ((tmin * 100.0).round() / 100.0, (tmax * 100.0).round() / 100.0);
+    if wmin < rmin || wmax > rmax {
+        let what = match opts.range_c {
+            Some((a, b)) => format!("--export-range {a}..{b} °C is"),
+            None => format!("the training temperatures span {tmin:.2}..{tmax:.2} °C,"),
+        };
+        notes.push(format!(
+            "ArduPilot files not written: {what} outside the {rmin}..{rmax} °C that INS_TCAL1_TMIN/TMAX accept; pass \
+             --export-range TMIN,TMAX inside both"
+        ));
+        return (files, notes);
+    }
+    let n_values = 2 + 3 * axes.len();
+    let enable = format!(
+        "# qfa-lab: ArduPilot temperature calibration of IMU 1 (INS_TCAL1_*), file 1 of 2.\n\
+         # INS_TCAL1_ENABLE hides every other INS_TCAL1_* parameter until it is set, and a ground station loads only\n\
+         # the names the vehicle already lists, so the values come in a second file:\n\
+         #  1. Load this file and write it (Mission Planner: Config > Full Parameter List > Load from file, then Write Params).\n\
+         #  2. Reboot (INS_TCAL1_ENABLE takes effect at boot), then refresh the parameter list: INS_TCAL1_TMIN, _TMAX,\n\
+         #     _ACC* and _GYR* appear.\n\
+         #  3. Load {ARDUPILOT_VALUES_FILE} the same way and write it: all {n_values} values must be written.\n\
+         #  4. Reboot, then run the accelerometer calibration: it records INS_ACC1_CALTEMP, and ArduPilot corrects by\n\
+         #     p(CALTEMP - 35) - p(T - 35), so the calibration's offsets hold the constant bias.\n\
+         INS_TCAL1_ENABLE,1\n"
+    );
+    let mut values = format!(
+        "# qfa-lab: ArduPilot temperature calibration of IMU 1 (INS_TCAL1_*), file 2 of 2: load it after\n\
+         # {ARDUPILOT_ENABLE_FILE}, a reboot and a parameter refresh (the steps are in that file).\n\
+         # INS_TCAL1_ACCk_X/Y/Z: coefficients of (T - 35 degC)^k in m/s2 x 10^6 for the log's {sources}.\n\
+         # TMIN/TMAX clamp T (ArduPilot accepts -70..80 degC); they also clamp the gyro terms INS_TCAL1_GYR*,\n\
+         # which this file leaves as they are.\n"
+    );
+    if let Some(n) = &partial_note {
+        let _ = writeln!(values, "# {n}");
+    }
+    let _ = writeln!(values, "INS_TCAL1_TMIN,{tmin:.2}");
+    let _ = writeln!(values, "INS_TCAL1_TMAX,{tmax:.2}");
+    for k in 1..4 {
+        for (a, (_, p)) in axes.iter().zip(&polys) {
+            let _ = writeln!(
+                values,
+                "INS_TCAL1_ACC{k}_{},{:.6}",
+                ardupilot_axis(&a.axis),
+                p.coef[k] * G0_MPS2 * ARDUPILOT_SCALE
+            );
+        }
+    }
+    files.push((ARDUPILOT_ENABLE_FILE, enable));
+    files.push((ARDUPILOT_VALUES_FILE, values));
+    (files, notes)
+}
+
+/// Write the PX4 and ArduPilot parameter files of `axes` into `dir`, each only when the
+/// stack will load and apply every value in it (issue 13):
+///
+/// * `px4_tc.params` (QGroundControl format: vehicle, component, name, value, type 9 =
+///   float, 6 = int32): `TC_A_ENABLE`, `TC_A0_ID`, `TC_A0_TREF/TMIN/TMAX`, `TC_A0_X0..3_i`
+///   in m/s² (X0 = 0: the ordinary calibration holds the offset), and comment lines with
+///   the steps after loading. Only with [`ExportOptions::px4_device_id`].
+/// * `ardupilot_tcal_1_enable.parm` (`INS_TCAL1_ENABLE,1` and the steps), then
+///   `ardupilot_tcal_2_values.parm` (`INS_TCAL1_TMIN/TMAX`, `INS_TCAL1_ACC1..3_X/Y/Z` about
+///   35 °C, ×10⁶): two files because ENABLE hides the others until it is set and a ground
+///   station loads only names the vehicle lists. Only when TMIN/TMAX lie in −70…80 °C.
+/// * The fields an accelerometer's three axes share are written only for a complete
+///   export (all three axes from one fit) or about [`ExportOptions::range_c`] (then the
+///   cubic re-expanded about its middle, [`Poly::about`], the range inside every axis's
+///   training temperatures). So a one-axis file never re-references the other axes.
+///
+/// Older export files in `dir` are removed first, so what is there is this run's.
+///
+/// # Errors
+/// A file could not be removed or written.
+pub fn write_exports(dir: &std::path::Path, axes: &[ExportAxis], opts: &ExportOptions) -> std::io::Result<Exports> {
+    for f in EXPORT_FILES {
+        match std::fs::remove_file(dir.join(f)) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(e),
+            _ => {}
+        }
+    }
+    let (files, notes) = export_texts(axes, opts);
+    let mut written = Vec::new();
+    for (name, text) in files {
+        std::fs::write(dir.join(name), text)?;
+        written.push(name);
+    }
+    Ok(Exports { written, notes })
 }
 
 #[cfg(test)]
@@ -224,6 +459,20 @@ mod tests {
             assert!((p.coef[k] - want).abs() < 1e-12 + 1e-6 * want.abs(), "{k}: {}", p.coef[k]);
         }
         assert!((p.eval(100.0) - f(39.0)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn re_expansion_keeps_the_function() {
+        let p = Poly { tref_c: 28.2, tmin_c: -17.6, tmax_c: 74.0, coef: vec![1e-3, 2e-5, -3e-7, 4e-9] };
+        let q = p.about(10.0, -5.0, 55.0);
+        assert_eq!((q.tref_c, q.tmin_c, q.tmax_c), (10.0, -5.0, 55.0));
+        for t in [-5.0, 0.0, 10.0, 33.3, 55.0] {
+            // The direct sum, not Poly::eval, on both sides.
+            let direct = |c: &[f64], r: f64| c.iter().enumerate().map(|(k, c)| c * (t - r).powi(k as i32)).sum::<f64>();
+            assert!((direct(&q.coef, 10.0) - direct(&p.coef, 28.2)).abs() < 1e-15, "{t}");
+        }
+        // Clamped at the new range.
+        assert_eq!(q.eval(70.0), q.eval(55.0));
     }
 
     #[test]

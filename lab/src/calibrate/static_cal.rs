@@ -33,7 +33,7 @@ use crate::calibrate::fit::{
     encode, fit_static_axis, table_of_axes, BranchMode, FitError, StaticFit, StaticSeries, StaticStructure,
 };
 use crate::calibrate::metrics::rms;
-use crate::calibrate::peers::{ardupilot_params, fit_peers, px4_params, Peers, Poly};
+use crate::calibrate::peers::{fit_peers, Peers, Poly};
 use crate::data::static_log::{Sampling, Skipped, StaticLog};
 
 /// Contiguous cross-validation blocks in the training rows.
@@ -431,8 +431,8 @@ pub fn markdown(r: &StaticReport) -> String {
     s
 }
 
-/// Write `table.toml`, `table.bin`, `report.json`, `report.md`, `px4_tc.params` and
-/// `ardupilot_tcal.parm` into `out`.
+/// Write `table.toml`, `table.bin`, `report.json` and `report.md` into `out` (the PX4 /
+/// ArduPilot files: [`crate::calibrate::peers::write_exports`] with [`export_axes`]).
 ///
 /// # Errors
 /// I/O or encoding errors.
@@ -447,13 +447,23 @@ pub fn write_static(out: &Path, cal: &StaticCalibration) -> Result<(), StaticCal
     let json = serde_json::to_string_pretty(&cal.report).map_err(|e| io(&e))?;
     std::fs::write(out.join("report.json"), json).map_err(|e| io(&e))?;
     std::fs::write(out.join("report.md"), markdown(&cal.report)).map_err(|e| io(&e))?;
-    let cubics: Vec<(String, Poly)> =
-        cal.report.axes.iter().zip(&cal.peers).map(|(a, p)| (a.axis.clone(), p.cubic.clone())).collect();
-    std::fs::write(out.join("px4_tc.params"), px4_params(&cubics)).map_err(|e| io(&e))?;
-    let ap: Vec<(String, Poly)> =
-        cal.report.axes.iter().zip(&cal.peers).map(|(a, p)| (a.axis.clone(), p.ardupilot.clone())).collect();
-    std::fs::write(out.join("ardupilot_tcal.parm"), ardupilot_params(&ap)).map_err(|e| io(&e))?;
     Ok(())
+}
+
+/// The axes of a static calibration as PX4 / ArduPilot exports see them.
+#[must_use]
+pub fn export_axes(cal: &StaticCalibration) -> Vec<crate::calibrate::peers::ExportAxis> {
+    cal.report
+        .axes
+        .iter()
+        .zip(&cal.peers)
+        .map(|(a, p)| crate::calibrate::peers::ExportAxis {
+            axis: a.axis.clone(),
+            source: a.column.clone(),
+            cubic: p.cubic.clone(),
+            ardupilot: p.ardupilot.clone(),
+        })
+        .collect()
 }
 
 #[cfg(test)]

@@ -5,5 +5,6 @@
 
 pub mod channels;
 pub mod cycling;
+pub mod lines;
 pub mod pairing;
 pub mod static_log;

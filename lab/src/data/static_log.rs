@@ -27,8 +27,18 @@
 //!   root crate's estimator handles irregular spacing by design.
 //!
 //! Whole-log checks (errors): no header, no data rows, an unknown or missing column, a
-//! unit that makes the data implausible (median |a| over the axes above 1.5 g, or a
-//! median row interval outside 10 µs…60 s), fewer than [`MIN_ROWS`] rows left.
+//! unit that makes the data implausible (median |a| over the axes above 1.5 g, a median
+//! row interval outside 10 µs…60 s, or a temperature changing faster than
+//! [`MAX_SLEW_C_PER_MIN`]: see [`max_slew`]; the message gives the figure and the time
+//! unit that would fit), fewer than [`MIN_ROWS`] rows left.
+//!
+//! Decimal commas (`20,5` in a `;`- or tab-separated file, a spreadsheet export in many
+//! locales) are read with [`StaticOptions::decimal_comma`]; without it, a log whose first
+//! bad field is such a number is refused with [`StaticError::DecimalComma`], which says
+//! so, rather than as thousands of rows that are "not a number".
+//!
+//! Line numbers are as an editor shows them (CRLF, CR-only and blank lines counted, see
+//! [`super::lines`]).
 
 use std::fmt;
 use std::io::Read;
@@ -52,6 +62,19 @@ pub const GLITCH_MIN_ACCEL_G: f64 = 0.002;
 
 /// Fewest good rows a static log must keep.
 pub const MIN_ROWS: usize = 16;
+
+/// Fastest temperature change a board in a climate chamber can show, °C/min; a log whose
+/// time unit implies more is refused. 30 °C/min is the figure issue 13 gives for chambers;
+/// it is about 4× the steepest ramp of the real tofupilot log (−8 °C/min, its SOURCE.md)
+/// and 3–30× the 1–10 °C/min a chamber program uses (the paper's programs run at
+/// 0.3–0.9 °C/min). The mistake it catches is a factor of 1 000 (µs read as ns, ms as µs),
+/// so the bound needs no precision. It was chosen before any run of the check.
+pub const MAX_SLEW_C_PER_MIN: f64 = 30.0;
+
+/// Window over which [`max_slew`] measures a temperature change, s: one minute, so the
+/// figure is a per-minute change and quantisation (1/16 °C for a DS18B20, 0.01 °C for an
+/// IMU's own sensor) adds at most 0.06 °C/min to it.
+pub const SLEW_WINDOW_S: f64 = 60.0;
 
 /// Line numbers kept per kind of skip or error (all are counted).
 pub const KEPT_LINES: usize = 20;
@@ -121,6 +144,22 @@ impl TimeUnit {
             .into_iter()
             .find(|(s, _)| c.ends_with(s))
             .map(|(_, u)| u)
+    }
+}
+
+impl TimeUnit {
+    /// Every unit, coarse to fine.
+    pub const ALL: [TimeUnit; 4] = [TimeUnit::S, TimeUnit::Ms, TimeUnit::Us, TimeUnit::Ns];
+
+    /// The name `--time-unit` takes.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::S => "s",
+            Self::Ms => "ms",
+            Self::Us => "us",
+            Self::Ns => "ns",
+        }
     }
 }
 
@@ -215,6 +254,8 @@ pub struct StaticOptions {
     pub time_unit: Option<TimeUnit>,
     /// Acceleration unit (else from the column names' suffix).
     pub accel_unit: Option<AccelUnit>,
+    /// Numbers use a decimal comma (`20,5`); needs a `;` or tab delimiter.
+    pub decimal_comma: bool,
 }
 
 /// Rows skipped, per reason: count and the first [`KEPT_LINES`] line numbers (1-based; the
@@ -290,6 +331,8 @@ pub struct Sampling {
     pub gaps_over_30s: usize,
     /// Longest interval, s.
     pub max_interval_s: f64,
+    /// Fastest temperature change, °C/min: [`max_slew`] over the kept rows.
+    pub max_slew_c_per_min: f64,
 }
 
 /// One acceleration axis.
@@ -326,8 +369,13 @@ impl fmt::Display for Sampling {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "median row interval {:.3} s, {} interval(s) outside 0.5..2x the median, {} gap(s) over 30 s (longest {:.1} s)",
-            self.median_interval_s, self.irregular_intervals, self.gaps_over_30s, self.max_interval_s
+            "median row interval {:.3} s, {} interval(s) outside 0.5..2x the median, {} gap(s) over 30 s (longest {:.1} s), \
+             fastest temperature change {:.1} °C/min",
+            self.median_interval_s,
+            self.irregular_intervals,
+            self.gaps_over_30s,
+            self.max_interval_s,
+            self.max_slew_c_per_min
         )
     }
 }
@@ -426,6 +474,30 @@ pub enum StaticError {
     },
     /// The data are implausible in the units given.
     ImplausibleUnit(String),
+    /// The temperature changes faster than a chamber can move it in the time unit given.
+    ImplausibleSlew {
+        /// The time unit the log was read with.
+        unit: TimeUnit,
+        /// The change, °C/min ([`max_slew`]).
+        slew: Slew,
+        /// Line and temperature (as filtered) where the change starts and ends.
+        ends: [(u64, f64); 2],
+        /// Other time units that give a plausible row interval and slew, with their slew.
+        fits: Vec<(TimeUnit, f64)>,
+    },
+    /// Numbers with a decimal comma, read without [`StaticOptions::decimal_comma`].
+    DecimalComma {
+        /// Line of the first such field.
+        line: u64,
+        /// Its column.
+        column: String,
+        /// Its text.
+        text: String,
+        /// Rows with such a field.
+        rows: usize,
+    },
+    /// [`StaticOptions::decimal_comma`] with a comma-separated header.
+    DecimalCommaDelimiter,
     /// Malformed rows: the first [`KEPT_LINES`] with line numbers, and the count.
     Rows {
         /// `(line, fault)`.
@@ -464,6 +536,37 @@ impl fmt::Display for StaticError {
                 write!(f, "the unit of column `{column}` is not known: pass {flag}")
             }
             Self::ImplausibleUnit(s) => write!(f, "wrong unit? {s}"),
+            Self::ImplausibleSlew { unit, slew, ends, fits } => {
+                write!(
+                    f,
+                    "wrong unit? read with --time-unit {} the temperature changes by {:.0} °C/min ({:.2} °C within \
+                     {:.3} s: from {:.2} °C at line {} to {:.2} °C at line {}); a board in a climate chamber changes \
+                     by at most {MAX_SLEW_C_PER_MIN:.0} °C/min: check --time-unit",
+                    unit.name(),
+                    slew.c_per_min,
+                    slew.range_c,
+                    slew.window_s,
+                    ends[0].1,
+                    ends[0].0,
+                    ends[1].1,
+                    ends[1].0
+                )?;
+                if !fits.is_empty() {
+                    let f2: Vec<String> =
+                        fits.iter().map(|(u, x)| format!("{} gives {x:.1} °C/min", u.name())).collect();
+                    write!(f, " ({})", f2.join(", "))?;
+                }
+                Ok(())
+            }
+            Self::DecimalComma { line, column, text, rows } => write!(
+                f,
+                "column `{column}` holds `{text}` at line {line}: a decimal comma? {rows} row(s) have numbers like it; \
+                 pass --decimal-comma to read them"
+            ),
+            Self::DecimalCommaDelimiter => f.write_str(
+                "--decimal-comma needs a `;` or tab delimiter: this header is comma-separated, so a decimal comma \
+                 cannot be told from a field separator",
+            ),
             Self::Rows { first, total } => {
                 write!(f, "{total} malformed row(s)")?;
                 for (line, fault) in first {
@@ -502,13 +605,21 @@ fn find_column(header: &[String], role: &str, opts: &StaticOptions) -> Result<Op
     Ok(names.iter().find_map(|n| header.iter().position(|h| matches_common(h, n))))
 }
 
+/// Whether `s` is a number written with a decimal comma (`-20,5`, `1,5e-3`).
+fn is_decimal_comma(s: &str) -> bool {
+    s.matches(',').count() == 1 && s.replacen(',', ".", 1).parse::<f64>().is_ok()
+}
+
 /// Field text → value: `Ok(None)` for an empty or NaN field, `Err` for text that is no number.
-fn parse_field(b: &[u8], column: &str) -> Result<Option<f64>, StaticRowFault> {
+/// With `decimal_comma` the one comma of a field is its decimal point.
+fn parse_field(b: &[u8], column: &str, decimal_comma: bool) -> Result<Option<f64>, StaticRowFault> {
     let s = std::str::from_utf8(b).unwrap_or("").trim();
     if s.is_empty() || s.eq_ignore_ascii_case("nan") {
         return Ok(None);
     }
-    match s.parse::<f64>() {
+    let parsed =
+        if decimal_comma && s.contains(',') { s.replacen(',', ".", 1).parse::<f64>() } else { s.parse::<f64>() };
+    match parsed {
         Ok(x) if x.is_finite() => Ok(Some(x)),
         Ok(_) => Ok(None),
         Err(_) => Err(StaticRowFault::NotANumber { column: column.to_string(), text: s.to_string() }),
@@ -523,6 +634,13 @@ fn median(v: &[f64]) -> f64 {
     let mut s = v.to_vec();
     s.sort_by(f64::total_cmp);
     s[s.len() / 2]
+}
+
+/// Median of the up-to-5 values centred on `v[i]` (fewer at the ends, always an odd count,
+/// so a monotone sequence is its own median).
+fn centred_median(v: &[f64], i: usize) -> f64 {
+    let h = 2.min(i).min(v.len() - 1 - i);
+    median(&v[i - h..=i + h])
 }
 
 /// Rows (indices into `v`) that deviate from their ±5-row neighbourhood by more than
@@ -548,6 +666,70 @@ fn glitches(v: &[f64], floor: f64) -> Vec<usize> {
     (0..n).filter(|&i| dev[i] > thr).collect()
 }
 
+/// The fastest temperature change of a log, see [`max_slew`].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Slew {
+    /// The change, °C/min: `range_c` per `window_s`, scaled to a minute.
+    pub c_per_min: f64,
+    /// Largest temperature range inside one window, °C.
+    pub range_c: f64,
+    /// Window length, s: [`SLEW_WINDOW_S`], or the whole log when it is shorter.
+    pub window_s: f64,
+    /// Index of the row where that range starts (its earlier end, the min or the max).
+    pub from: usize,
+    /// Index of the row where it ends.
+    pub to: usize,
+}
+
+/// The fastest temperature change in `temp_c` at times `time_s` (increasing): the largest
+/// range (max − min) of the temperatures inside any window of [`SLEW_WINDOW_S`] (the whole
+/// log if it is shorter), per minute. It is a lower bound of the steepest slope, so a
+/// refusal on it is never an overstatement. The temperatures are first passed through a
+/// 5-row running median so two bad readings in a row (a DS18B20's 85 °C power-on value)
+/// do not make a log look 1000× too fast; a monotone ramp or a hold passes unchanged.
+#[must_use]
+pub fn max_slew(time_s: &[f64], temp_c: &[f64]) -> Slew {
+    let n = time_s.len().min(temp_c.len());
+    let none = Slew { c_per_min: 0.0, range_c: 0.0, window_s: SLEW_WINDOW_S, from: 0, to: 0 };
+    if n < 2 {
+        return none;
+    }
+    let m: Vec<f64> = (0..n).map(|i| centred_median(&temp_c[..n], i)).collect();
+    let window = SLEW_WINDOW_S.min(time_s[n - 1] - time_s[0]);
+    if window <= 0.0 {
+        return none;
+    }
+    // Sliding window [l, r] with t[r] − t[l] ≤ window; monotone deques of the max and min.
+    let (mut hi, mut lo) = (std::collections::VecDeque::new(), std::collections::VecDeque::new());
+    let mut best = none;
+    let mut l = 0;
+    for r in 0..n {
+        while hi.back().is_some_and(|&j: &usize| m[j] <= m[r]) {
+            hi.pop_back();
+        }
+        hi.push_back(r);
+        while lo.back().is_some_and(|&j: &usize| m[j] >= m[r]) {
+            lo.pop_back();
+        }
+        lo.push_back(r);
+        while time_s[r] - time_s[l] > window {
+            l += 1;
+        }
+        while hi.front().is_some_and(|&j| j < l) {
+            hi.pop_front();
+        }
+        while lo.front().is_some_and(|&j| j < l) {
+            lo.pop_front();
+        }
+        let range = m[hi[0]] - m[lo[0]];
+        if range > best.range_c {
+            let (from, to) = (hi[0].min(lo[0]), hi[0].max(lo[0]));
+            best = Slew { c_per_min: range / window * 60.0, range_c: range, window_s: window, from, to };
+        }
+    }
+    best
+}
+
 /// Read a static log from text.
 ///
 /// # Errors
@@ -563,7 +745,11 @@ pub fn read_static_from<R: Read>(reader: R, opts: &StaticOptions) -> Result<Stat
     // The delimiter is the most frequent of tab, comma and semicolon in the header.
     let delim =
         [b'\t', b',', b';'].into_iter().max_by_key(|d| first_line.iter().filter(|c| *c == d).count()).unwrap_or(b',');
+    if opts.decimal_comma && delim == b',' {
+        return Err(StaticError::DecimalCommaDelimiter);
+    }
     let mut rdr = csv::ReaderBuilder::new().delimiter(delim).has_headers(false).flexible(true).from_reader(&text[..]);
+    let mut lines_of = super::lines::LineCounter::new(&text);
     let mut rec = csv::ByteRecord::new();
     if !rdr.read_byte_record(&mut rec).map_err(|e| StaticError::Io(e.to_string()))? {
         return Err(StaticError::Empty);
@@ -614,6 +800,9 @@ pub fn read_static_from<R: Read>(reader: R, opts: &StaticOptions) -> Result<Stat
     let mut skipped = Skipped::default();
     let mut faults: Vec<(u64, StaticRowFault)> = Vec::new();
     let mut n_faults = 0usize;
+    // Rows whose bad field is a decimal-comma number, and the first of them.
+    let mut comma_rows = 0usize;
+    let mut first_comma: Option<(u64, String, String)> = None;
     let mut any_row = false;
     let mut line: u64 = 1;
     let mut fault = |faults: &mut Vec<(u64, StaticRowFault)>, line: u64, f: StaticRowFault| {
@@ -630,7 +819,7 @@ pub fn read_static_from<R: Read>(reader: R, opts: &StaticOptions) -> Result<Stat
             Err(e) => return Err(StaticError::Io(format!("line {line}: {e}"))),
         }
         if let Some(p) = rec.position() {
-            line = p.line();
+            line = lines_of.line_of(p.byte());
         }
         if rec.len() == 1 && rec.get(0).is_some_and(|b| b.iter().all(u8::is_ascii_whitespace)) {
             continue; // a blank line
@@ -645,9 +834,15 @@ pub fn read_static_from<R: Read>(reader: R, opts: &StaticOptions) -> Result<Stat
         let mut vals = Vec::with_capacity(cols.len());
         let mut bad = false;
         for &c in &cols {
-            match parse_field(rec.get(c).unwrap_or(b""), &header[c]) {
+            match parse_field(rec.get(c).unwrap_or(b""), &header[c], opts.decimal_comma) {
                 Ok(v) => vals.push(v),
                 Err(f) => {
+                    if let StaticRowFault::NotANumber { column, text } = &f {
+                        if delim != b',' && is_decimal_comma(text) {
+                            comma_rows += 1;
+                            first_comma.get_or_insert_with(|| (line, column.clone(), text.clone()));
+                        }
+                    }
                     fault(&mut faults, line, f);
                     bad = true;
                     break;
@@ -685,6 +880,10 @@ pub fn read_static_from<R: Read>(reader: R, opts: &StaticOptions) -> Result<Stat
         lines.push(line);
     }
     if n_faults > 0 {
+        // The first bad field a decimal-comma number: say that, not "not a number" rows.
+        if let Some((line, column, text)) = first_comma.filter(|(l, _, _)| faults.first().is_some_and(|f| f.0 == *l)) {
+            return Err(StaticError::DecimalComma { line, column, text, rows: comma_rows });
+        }
         return Err(StaticError::Rows { first: faults, total: n_faults });
     }
     if !any_row {
@@ -716,11 +915,31 @@ pub fn read_static_from<R: Read>(reader: R, opts: &StaticOptions) -> Result<Stat
             "the median row interval is {med:.3e} s in {time_unit:?}, outside 10 µs..60 s: check --time-unit"
         )));
     }
+    let kept_temp: Vec<f64> = keep.iter().map(|&k| temp[k]).collect();
+    let slew = max_slew(&time_s, &kept_temp);
+    if slew.c_per_min > MAX_SLEW_C_PER_MIN {
+        // Which other units would make both the interval and the slew plausible.
+        let fits = TimeUnit::ALL
+            .into_iter()
+            .filter(|&u| u != time_unit)
+            .filter_map(|u| {
+                let k = u.seconds() / time_unit.seconds();
+                let t: Vec<f64> = time_s.iter().map(|x| x * k).collect();
+                let s = max_slew(&t, &kept_temp).c_per_min;
+                ((1e-5..=60.0).contains(&(med * k)) && s <= MAX_SLEW_C_PER_MIN).then_some((u, s))
+            })
+            .collect();
+        // The filtered values are the ones the range is of; at these rows they are the
+        // readings themselves unless a neighbour was a bad one.
+        let at = |i: usize| -> (u64, f64) { (lines[keep[i]], centred_median(&kept_temp, i)) };
+        return Err(StaticError::ImplausibleSlew { unit: time_unit, slew, ends: [at(slew.from), at(slew.to)], fits });
+    }
     let sampling = Sampling {
         median_interval_s: med,
         irregular_intervals: intervals.iter().filter(|&&d| d < 0.5 * med || d > 2.0 * med).count(),
         gaps_over_30s: intervals.iter().filter(|&&d| d > 30.0).count(),
         max_interval_s: intervals.iter().copied().fold(0.0, f64::max),
+        max_slew_c_per_min: slew.c_per_min,
     };
     let axes: Vec<AxisColumn> = axes_idx
         .iter()
@@ -750,7 +969,7 @@ pub fn read_static_from<R: Read>(reader: R, opts: &StaticOptions) -> Result<Stat
     }
     Ok(StaticLog {
         time_s,
-        temp_c: keep.iter().map(|&k| temp[k]).collect(),
+        temp_c: kept_temp,
         axes,
         line: keep.iter().map(|&k| lines[k]).collect(),
         columns,
@@ -795,6 +1014,44 @@ mod tests {
         assert_eq!(log.rows(), 39);
         assert_eq!(log.time_s[0], 0.0);
         assert!((log.axes[0].accel_g[0] - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn slew_is_the_largest_range_in_a_minute_and_ignores_two_bad_rows() {
+        // 1-s rows: hold 20 °C, ramp at 6 °C/min (0.1 °C per row) to 40 °C, hold. The
+        // fastest minute holds 61 rows, 6.0 °C.
+        let temp: Vec<f64> = (0..600).map(|i| 20.0 + 0.1 * f64::from((i - 100).clamp(0, 200))).collect();
+        let time: Vec<f64> = (0..600).map(f64::from).collect();
+        let s = max_slew(&time, &temp);
+        assert!((s.c_per_min - 6.0).abs() < 1e-9 && (s.range_c - 6.0).abs() < 1e-9, "{s:?}");
+        assert_eq!((s.window_s, s.to - s.from), (60.0, 60));
+        // Two 85 °C readings in a row (a DS18B20's power-on value) do not count.
+        let mut spiked = temp.clone();
+        spiked[50] = 85.0;
+        spiked[51] = 85.0;
+        assert!((max_slew(&time, &spiked).c_per_min - 6.0).abs() < 1e-9);
+        // Shorter than a minute: the whole log is the window. 20 K in 0.6 s.
+        let fast: Vec<f64> = time.iter().map(|t| t * 1e-3).collect();
+        let s = max_slew(&fast, &temp);
+        assert!((s.c_per_min - 20.0 / 0.599 * 60.0).abs() < 1e-6, "{s:?}");
+    }
+
+    #[test]
+    fn decimal_commas_are_named_or_read() {
+        let text = "time;temp;az\n".to_string() + &(0..40).map(|i| format!("{i};20,{i:02};-1,0\n")).collect::<String>();
+        let o = StaticOptions { time_unit: Some(TimeUnit::S), accel_unit: Some(AccelUnit::G), ..Default::default() };
+        let e = read_static_from(text.as_bytes(), &o).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "column `temp` holds `20,00` at line 2: a decimal comma? 40 row(s) have numbers like it; pass \
+             --decimal-comma to read them"
+        );
+        let log = read_static_from(text.as_bytes(), &StaticOptions { decimal_comma: true, ..o.clone() }).unwrap();
+        assert_eq!(log.temp_c[..2], [20.0, 20.01]);
+        assert_eq!(log.axes[0].accel_g[0], -1.0);
+        // A comma-separated file cannot carry decimal commas.
+        let e = read_static_from("time,temp,az\n".as_bytes(), &StaticOptions { decimal_comma: true, ..o }).unwrap_err();
+        assert_eq!(e, StaticError::DecimalCommaDelimiter);
     }
 
     #[test]

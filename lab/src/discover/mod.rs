@@ -672,7 +672,7 @@ pub fn localize(ch: &Channels, r: &Residuals, top: usize) -> Vec<Where> {
 /// Output files could not be written.
 pub fn discover(input: &Channels, start: Start, out_dir: &Path) -> Result<Report> {
     let report = analyze(input, start);
-    output::write(input, &report, out_dir)?;
+    output::write(input, &report, out_dir, true)?;
     Ok(report)
 }
 

@@ -2,6 +2,11 @@
 //! window 32, new slots on: what `qfa-lab compensate --table DIR/table.bin` loads, so
 //! "discover, then compensate" is the workflow), the same bytes as `model.bin` (older
 //! name), `model.toml`, `residuals.csv` and residual plots (PNG).
+//!
+//! The per-axis directories of a static log's discovery ([`super::static_axes`]) get no
+//! `table.bin`/`model.bin`: their model is the named one in the axis's own units (K1 = 1,
+//! `bias_drift` without a slot), and `compensate` takes a table of all the log's axes, the
+//! one in the parent directory. Their `model.toml` is for reading and says so.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -38,11 +43,12 @@ pub fn table(report: &Report, input: Input) -> Option<Table> {
     Some(t)
 }
 
-/// Write every output into `dir`.
+/// Write every output into `dir`; `flashable` false leaves out `table.bin`/`model.bin`
+/// (a static log's per-axis directory, see the module docs) and removes older ones there.
 ///
 /// # Errors
 /// A file could not be written.
-pub fn write(ch: &Channels, report: &Report, dir: &Path) -> Result<()> {
+pub fn write(ch: &Channels, report: &Report, dir: &Path, flashable: bool) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     std::fs::write(dir.join("report.json"), serde_json::to_string_pretty(report)? + "\n")?;
     let mut notes = String::new();
@@ -50,8 +56,18 @@ pub fn write(ch: &Channels, report: &Report, dir: &Path) -> Result<()> {
         LogKind::Cycling => Input::PulseCounts,
         LogKind::Single => Input::Samples,
     };
+    if !flashable {
+        for f in ["table.bin", "model.bin"] {
+            match std::fs::remove_file(dir.join(f)) {
+                Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(e.into()),
+                _ => {}
+            }
+        }
+    }
     if let Some(t) = table(report, input) {
         std::fs::write(dir.join("model.toml"), toml::to_string(&t)?)?;
+    }
+    if let Some(t) = table(report, input).filter(|_| flashable) {
         let mut buf = [0u8; MAX_TABLE_BYTES];
         match t.encode(&mut buf) {
             Ok(b) => {
@@ -67,11 +83,11 @@ pub fn write(ch: &Channels, report: &Report, dir: &Path) -> Result<()> {
     if let Err(e) = plots(ch, report, dir) {
         let _ = writeln!(notes, "\nPlots failed: {e:#}");
     }
-    std::fs::write(dir.join("report.md"), markdown(ch, report) + &notes)?;
+    std::fs::write(dir.join("report.md"), markdown(ch, report, flashable) + &notes)?;
     Ok(())
 }
 
-fn markdown(ch: &Channels, r: &Report) -> String {
+fn markdown(ch: &Channels, r: &Report, flashable: bool) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "# Discovery report\n");
     let _ = writeln!(s, "Start model: `{}`. Held-out rule: {}.\n", r.start.name(), r.heldout_rule);
@@ -119,7 +135,11 @@ fn markdown(ch: &Channels, r: &Report) -> String {
     if r.effects.is_empty() {
         let _ = writeln!(s, "## Effects added: none\n\nNo candidate improved the held-out fit significantly.\n");
     } else {
-        let _ = writeln!(s, "## Effects added\n\n| # | effect | channel | parameters (95 % interval) | held-out gain ± block-bootstrap SE | held-out gap before → after | in table.bin |\n|---|---|---|---|---|---|---|");
+        let _ = writeln!(
+            s,
+            "## Effects added\n\n| # | effect | channel | parameters (95 % interval) | held-out gain ± block-bootstrap SE | held-out gap before → after | {} |\n|---|---|---|---|---|---|---|",
+            if flashable { "in table.bin" } else { "root-crate slot" }
+        );
         for (i, e) in r.effects.iter().enumerate() {
             let p: Vec<String> = e
                 .params_ci
@@ -211,7 +231,11 @@ fn markdown(ch: &Channels, r: &Report) -> String {
         }
         let _ = writeln!(s);
     }
-    let _ = writeln!(s, "Files: `report.json`, `table.bin` (root-crate table, 1 axis, rate window 32: `qfa-lab compensate --table DIR/table.bin`), `model.bin` (same bytes), `model.toml`, `residuals.csv`, `residual_*.png`.");
+    if flashable {
+        let _ = writeln!(s, "Files: `report.json`, `table.bin` (root-crate table, 1 axis, rate window 32: `qfa-lab compensate --table DIR/table.bin`), `model.bin` (same bytes), `model.toml`, `residuals.csv`, `residual_*.png`.");
+    } else {
+        let _ = writeln!(s, "Files: `report.json`, `model.toml` (the named model, for reading: its K1 is 1 and `bias_drift` has no slot, so it is not a table to flash; the flashable table of all axes is `../table.bin`), `residuals.csv`, `residual_*.png`.");
+    }
     s
 }
 

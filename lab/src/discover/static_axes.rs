@@ -342,7 +342,7 @@ pub fn markdown(d: &StaticDiscovery) -> String {
         let _ =
             writeln!(s, "\nNamed but with no root-crate slot (not in any flashed structure): {}.", missing.join("; "));
     }
-    s.push_str("\nPer-axis discovery reports (candidates, tests, intervals): `ax/`, `ay/`, `az/`. `table.bin`: `qfa-lab compensate --table DIR/table.bin`.\n");
+    s.push_str("\nPer-axis discovery reports (candidates, tests, intervals): `ax/`, `ay/`, `az/` (their `model.toml` is the named model, for reading, not a table to flash). `table.bin` (all axes): `qfa-lab compensate --table DIR/table.bin`.\n");
     s
 }
 
@@ -355,7 +355,8 @@ pub fn run(log: &StaticLog, start: Start, dir: &Path) -> Result<StaticDiscovery>
     let d = discover_static(log, start)?;
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     for ((a, r), ch) in d.axes.iter().zip(&d.reports).zip(&d.channels) {
-        super::output::write(ch, r, &dir.join(&a.axis))?;
+        // Not flashable: the table of all axes is DIR/table.bin (see `output`'s docs).
+        super::output::write(ch, r, &dir.join(&a.axis), false)?;
     }
     std::fs::write(dir.join("table.bin"), encode(&d.table).map_err(|e| anyhow::anyhow!("{e}"))?)?;
     std::fs::write(dir.join("report.json"), serde_json::to_string_pretty(&d)? + "\n")?;

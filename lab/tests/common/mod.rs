@@ -1,0 +1,127 @@
+//! Helpers shared by the CLI tests: run `qfa-lab`, read the exported parameter files, and
+//! apply each stack's published compensation formula to a log. The formulas are written
+//! here from the stacks' sources, independently of `qfa_lab::calibrate::peers` (the fitter
+//! and the exporter), so a test that compares their result with the report checks the
+//! exported file, not the code that wrote it.
+
+#![allow(dead_code)]
+
+use std::collections::BTreeMap;
+use std::process::Command;
+
+/// Standard gravity, m/s² (both stacks work in m/s²; the report is in mg).
+pub const G0: f64 = 9.806_65;
+
+/// Run qfa-lab; (success, stdout + stderr).
+pub fn lab(args: &[&str]) -> (bool, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_qfa-lab")).args(args).output().expect("run qfa-lab");
+    let text = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    (out.status.success(), text)
+}
+
+/// A QGroundControl `.params` file (tab-separated: vehicle, component, name, value, type;
+/// `#` comment lines): name → (value text, type).
+pub fn read_px4_params(text: &str) -> BTreeMap<String, (String, u32)> {
+    text.lines()
+        .filter(|l| !l.starts_with('#') && !l.trim().is_empty())
+        .map(|l| {
+            let f: Vec<&str> = l.split('\t').collect();
+            assert_eq!(f.len(), 5, "not a .params line: {l:?}");
+            (f[2].to_string(), (f[3].to_string(), f[4].parse().expect("type")))
+        })
+        .collect()
+}
+
+/// A Mission Planner `.parm` file (`NAME,VALUE`, `#` comment lines): name → value.
+pub fn read_parm(text: &str) -> BTreeMap<String, f64> {
+    text.lines()
+        .filter(|l| !l.starts_with('#') && !l.trim().is_empty())
+        .map(|l| {
+            let (n, v) = l.split_once(',').unwrap_or_else(|| panic!("not a .parm line: {l:?}"));
+            (n.to_string(), v.trim().parse().unwrap_or_else(|_| panic!("value of {l:?}")))
+        })
+        .collect()
+}
+
+/// PX4's thermal offset of accelerometer 0, axis `i` (0 = X), m/s², at temperature `t`:
+/// `TemperatureCompensation::calc_thermal_offsets_3D` (PX4-Autopilot,
+/// src/modules/temperature_compensation): dT = T clipped to [TMIN, TMAX] minus TREF, offset
+/// = X0 + X1·dT + X2·dT² + X3·dT³; `calibration::Accelerometer::Correct` subtracts it (and
+/// the ordinary calibration's offset) from the raw sensor-frame reading.
+pub fn px4_offset(p: &BTreeMap<String, (String, u32)>, i: usize, t: f64) -> f64 {
+    let f = |n: &str| -> f64 { p[n].0.parse().unwrap_or_else(|_| panic!("{n} = {}", p[n].0)) };
+    let d = t.clamp(f("TC_A0_TMIN"), f("TC_A0_TMAX")) - f("TC_A0_TREF");
+    (0..4).map(|k: i32| f(&format!("TC_A0_X{k}_{i}")) * d.powi(k)).sum()
+}
+
+/// ArduPilot's correction subtracted from accelerometer axis `a` (`X`, `Y`, `Z`) of IMU 1,
+/// m/s², at temperature `t`, for an accelerometer calibrated at `cal_temp`:
+/// `AP_InertialSensor::TCal::correct_sensor` (ArduPilot,
+/// libraries/AP_InertialSensor/AP_InertialSensor_tempcal.cpp): both temperatures clipped to
+/// [TMIN, TMAX]; p(d) = (ACC1·d + ACC2·d² + ACC3·d³)·10⁻⁶ about the fixed 35 °C; the reading
+/// is corrected by −p(T − 35) + p(CALTEMP − 35).
+pub fn ardupilot_correction(p: &BTreeMap<String, f64>, a: &str, t: f64, cal_temp: f64) -> f64 {
+    let (lo, hi) = (p["INS_TCAL1_TMIN"], p["INS_TCAL1_TMAX"]);
+    let poly = |x: f64| -> f64 {
+        let d = x.clamp(lo, hi) - 35.0;
+        (1..=3).map(|k| p[&format!("INS_TCAL1_ACC{k}_{a}")] * d.powi(k)).sum::<f64>() * 1e-6
+    };
+    poly(t) - poly(cal_temp)
+}
+
+/// Held-out RMS, mg, of `corrected` (m/s²) after the constant the ordinary accelerometer
+/// calibration would take up: the mean over the training rows (`time_s <= split_s`), as the
+/// report scores every peer. Rows after `split_s` are held out.
+pub fn heldout_rms_mg(time_s: &[f64], corrected: &[f64], split_s: f64) -> f64 {
+    let train: Vec<f64> =
+        time_s.iter().zip(corrected).filter(|(t, _)| **t <= split_s + 1e-9).map(|(_, c)| *c).collect();
+    let c = train.iter().sum::<f64>() / train.len() as f64;
+    let ho: Vec<f64> = time_s.iter().zip(corrected).filter(|(t, _)| **t > split_s + 1e-9).map(|(_, x)| x - c).collect();
+    assert!(!ho.is_empty() && !train.is_empty(), "split at {split_s} s leaves a side empty");
+    (ho.iter().map(|x| x * x).sum::<f64>() / ho.len() as f64).sqrt() / G0 * 1e3
+}
+
+/// Check the exported files in `dir` against `report.json` there: apply PX4's and
+/// ArduPilot's formula to the log (`time_s` from its first kept row, `temp_c`, `acc` per
+/// axis in m/s²) and compare the held-out RMS with the report's `cubic` / `ardupilot`
+/// figures of each axis. Returns the lines of a table (axis, PX4 formula vs report,
+/// ArduPilot formula vs report) and asserts each within `tol` (relative).
+pub fn check_exports_against_report(
+    dir: &std::path::Path,
+    time_s: &[f64],
+    temp_c: &[f64],
+    acc: &[Vec<f64>],
+    tol: f64,
+) -> Vec<String> {
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap();
+    let split = report["split_time_s"].as_f64().unwrap();
+    let px4 = read_px4_params(&std::fs::read_to_string(dir.join("px4_tc.params")).expect("px4_tc.params"));
+    let mut ap = read_parm(&std::fs::read_to_string(dir.join("ardupilot_tcal_1_enable.parm")).expect("enable file"));
+    ap.extend(read_parm(&std::fs::read_to_string(dir.join("ardupilot_tcal_2_values.parm")).expect("values file")));
+    let mut lines = Vec::new();
+    for (k, a) in report["axes"].as_array().unwrap().iter().enumerate() {
+        let (i, name) = match a["axis"].as_str().unwrap() {
+            "ax" => (0, "X"),
+            "ay" => (1, "Y"),
+            _ => (2, "Z"),
+        };
+        let corr_px4: Vec<f64> = (0..time_s.len()).map(|r| acc[k][r] - px4_offset(&px4, i, temp_c[r])).collect();
+        // Any calibration temperature: its term is a constant, which the training mean takes up.
+        let corr_ap: Vec<f64> =
+            (0..time_s.len()).map(|r| acc[k][r] - ardupilot_correction(&ap, name, temp_c[r], 25.0)).collect();
+        let (got_px4, got_ap) = (heldout_rms_mg(time_s, &corr_px4, split), heldout_rms_mg(time_s, &corr_ap, split));
+        let want_px4 = a["cubic"]["rms_mg"].as_f64().unwrap();
+        let want_ap = a["ardupilot"]["rms_mg"].as_f64().unwrap();
+        lines.push(format!(
+            "{}: PX4 formula {got_px4:.4} mg vs report cubic {want_px4:.4} mg ({:+.2} %); ArduPilot formula \
+             {got_ap:.4} mg vs report {want_ap:.4} mg ({:+.2} %)",
+            a["axis"].as_str().unwrap(),
+            100.0 * (got_px4 / want_px4 - 1.0),
+            100.0 * (got_ap / want_ap - 1.0)
+        ));
+        assert!((got_px4 - want_px4).abs() <= tol * want_px4, "{}", lines.last().unwrap());
+        assert!((got_ap - want_ap).abs() <= tol * want_ap, "{}", lines.last().unwrap());
+    }
+    lines
+}
