@@ -111,7 +111,8 @@ fn board_cargo(args: &[&str]) -> Result<Command> {
     let target = target_dir()?;
     let mut c = cargo();
     c.current_dir(root().join(BOARD_DIR));
-    c.args(args).arg("--target-dir").arg(target);
+    let (sub, rest) = args.split_first().map_or((None, args), |(s, r)| (Some(s), r));
+    c.args(sub).arg("--target-dir").arg(target).args(rest);
     Ok(c)
 }
 
