@@ -9,7 +9,7 @@
 //!   for MEMS samples, [`Compensator::cycle_samples`]: `a = raw·(g0/K1) − K0·g0`, the
 //!   paper's `a = E/K1 − K0` with the division done in the slow path.
 //!   No division, no transcendental function, no search, loops bounded by `AXES`.
-//!   Measured cost under QEMU (`cargo xtask bench-target`) is in the README.
+//!   Measured cost under QEMU (`cargo xtask bench-target`) is in the repository's `docs/measurements.md`.
 //!
 //! # Interrupt-safe split
 //! [`Compensator::split`] gives an [`Updater`] (slow path, thread mode or a 1 Hz task) and
@@ -204,6 +204,22 @@ impl core::error::Error for ConfigError {}
 
 /// Compensator settings. Checked by [`Config::validate`]; [`Compensator::new`] refuses a
 /// config that fails it.
+///
+/// Start from [`Config::default`] (1 µs ticks, 1 Hz readings, stale after 3 s, pulse
+/// counts, a JB-KT8-class nominal scale) and change what your hardware differs in:
+///
+/// ```
+/// use qfa_thermal::{Compensator, Config, ConfigError, Input};
+///
+/// // A MEMS accelerometer at 2²⁰ LSB/g nominal, read on a 100 ns timer.
+/// let config = Config { input: Input::Samples, nominal_k1: 1_048_576.0, tick_s: 1e-7, stale_after_ticks: 30_000_000, ..Config::default() };
+/// assert_eq!(config.validate(), Ok(()));
+///
+/// // One reading confirming itself would switch the plausibility checks off: refused.
+/// let bad = Config { confirm_samples: 1, ..Config::default() };
+/// assert_eq!(bad.validate(), Err(ConfigError::OutOfRange("confirm_samples")));
+/// assert!(Compensator::<3>::new(bad).is_err());
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Config {
@@ -359,6 +375,39 @@ struct FastState<const AXES: usize> {
 /// changed sequence) is dropped, the previous whole set stays in use for this cycle, and
 /// the copy is tried again on the next. It never waits and never uses a half-written set,
 /// whichever context preempts which, on one core or several.
+///
+/// Here the two halves run on two threads, as they would in thread mode and an interrupt
+/// on a multi-core part; the applier never waits for the updater:
+///
+/// ```
+/// use qfa_thermal::{AxisModel, BiasGrid, Compensator, Config, Extensions, Input, ScaleFactor, Table};
+///
+/// let bias = BiasGrid::single_valued(-40.0, 10.0, &[1e-4; 13]);
+/// let axis = AxisModel { scale: ScaleFactor::JB_KT8_1, bias, rate_limit_c_per_min: 2.0, ext: Extensions::default() };
+/// let table = Table { input: Input::PulseCounts, rate_window: 32, axes: core::iter::repeat_n(axis, 3).collect(), misalignment: None };
+/// let mut comp = Compensator::<3, 32, 3>::new(Config::default()).unwrap();
+/// comp.set_table(table).unwrap();
+/// let (mut updater, mut applier) = comp.split();
+/// applier.prime_counters([0; 3]);
+///
+/// std::thread::scope(|s| {
+///     s.spawn(move || {
+///         for t in 0..20u32 {
+///             for sensor in 0..3 {
+///                 updater.on_raw_from(sensor, t * 1_000, 352 + (t / 4) as i16).unwrap(); // a slow ramp
+///             }
+///         }
+///     });
+///     s.spawn(move || {
+///         let mut counters = [0u32; 3];
+///         for _ in 0..10_000 {
+///             counters[2] = counters[2].wrapping_add(1_601);
+///             let out = applier.cycle_counters(counters, 5_000);
+///             assert!(out.dv_mps.iter().all(|v| v.is_finite())); // always, whatever it raced
+///         }
+///     });
+/// });
+/// ```
 #[derive(Debug)]
 pub struct Applier<'a, const AXES: usize> {
     fast: &'a mut FastState<AXES>,
@@ -613,6 +662,25 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
 
 /// The slow path of a split compensator: temperature readings and tables. Never runs in
 /// the IMU interrupt.
+///
+/// Every reading reaches it, good or not: a scratchpad as read
+/// ([`on_scratchpad_from`](Self::on_scratchpad_from)), or a read that failed on the bus
+/// ([`on_missed_reading`](Self::on_missed_reading)).
+///
+/// ```
+/// use qfa_thermal::ds18b20::{encode_scratchpad, Resolution};
+/// use qfa_thermal::{Compensator, Config, SampleError, Status};
+///
+/// let mut comp = Compensator::<3, 32, 3>::new(Config::default()).unwrap();
+/// let (mut updater, _applier) = comp.split();
+/// let sp = encode_scratchpad(400, Resolution::Bits12, 0x10); // 25.0 °C, CRC good
+/// assert!(updater.on_scratchpad_from(0, 1_000, &sp).is_ok());
+/// assert_eq!(updater.on_missed_reading(1, 1_000), Err(SampleError::Missed));
+/// assert!(updater.status().contains(Status::TEMP_INVALID));
+/// let mut corrupt = sp;
+/// corrupt[0] ^= 1; // a flipped bit on the bus: the CRC refuses it
+/// assert!(matches!(updater.on_scratchpad_from(2, 1_000, &corrupt), Err(SampleError::Decode(_))));
+/// ```
 #[derive(Debug)]
 pub struct Updater<'a, const AXES: usize, const N: usize, const SENSORS: usize, T> {
     slow: &'a mut SlowState<AXES, N, SENSORS, T>,
@@ -625,6 +693,30 @@ pub struct Updater<'a, const AXES: usize, const N: usize, const SENSORS: usize, 
 ///
 /// Unsplit, it is one value with both paths (`&mut self` each); [`split`](Self::split)
 /// hands the two paths to two execution contexts.
+///
+/// Unsplit, one value with both paths; here one axis whose temperature steps from 22 to
+/// 40 °C, with every reading and every refusal visible in the status:
+///
+/// ```
+/// use qfa_thermal::{AxisModel, BiasGrid, Compensator, Config, Extensions, Input, SampleError, ScaleFactor, Status, Table};
+///
+/// let bias = BiasGrid::single_valued(-40.0, 10.0, &[0.0; 13]);
+/// let axis = AxisModel { scale: ScaleFactor::JB_KT8_1, bias, rate_limit_c_per_min: 2.0, ext: Extensions::default() };
+/// let table = Table { input: Input::PulseCounts, rate_window: 32, axes: [axis].into_iter().collect(), misalignment: None };
+///
+/// let mut comp = Compensator::<1, 32>::new(Config::default()).unwrap();
+/// // Before a table: raw pass-through at the nominal scale, flagged.
+/// assert!(comp.cycle([1_600], 5_000).status.contains(Status::NO_TABLE));
+/// comp.set_table(table).unwrap();
+/// for s in 0..8 {
+///     comp.on_raw(s * 1_000, 352).unwrap(); // 22.0 °C at 1 Hz
+/// }
+/// assert!(comp.cycle([1_600], 5_000).status.is_ok());
+/// // A jump of 18 °C in one second is refused (a glitch, until confirmed by more readings);
+/// // the last good compensation stays in force and the status says so.
+/// assert!(matches!(comp.on_raw(8_000, 640), Err(SampleError::Implausible { .. })));
+/// assert!(comp.cycle([1_600], 5_000).status.contains(Status::TEMP_INVALID));
+/// ```
 #[derive(Debug)]
 pub struct Compensator<const AXES: usize = 3, const N: usize = 32, const SENSORS: usize = 1, T = Table> {
     slow: SlowState<AXES, N, SENSORS, T>,

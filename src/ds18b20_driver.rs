@@ -258,6 +258,39 @@ enum State {
 }
 
 /// One DS18B20 on a 1-Wire bus.
+///
+/// A handle holds no bus: pass the [`OneWire`] to each call. Every failure is a typed
+/// [`Error`], never a stale temperature. Here the bus has no sensor on it (the line stays
+/// pulled up), and the worst case of the blocking [`Ds18b20::measure`] at 12 bits:
+///
+/// ```
+/// use core::convert::Infallible;
+/// use embedded_hal::delay::DelayNs;
+/// use embedded_hal::digital::{ErrorType, InputPin, OutputPin};
+/// use qfa_thermal::ds18b20::Resolution;
+/// use qfa_thermal::ds18b20_driver::{Ds18b20, Error};
+/// use qfa_thermal::onewire::{self, OneWire};
+///
+/// /// An open-drain pin with a pull-up and nothing else on the line.
+/// struct PulledUp;
+/// impl ErrorType for PulledUp { type Error = Infallible; }
+/// impl InputPin for PulledUp {
+///     fn is_high(&mut self) -> Result<bool, Infallible> { Ok(true) }
+///     fn is_low(&mut self) -> Result<bool, Infallible> { Ok(false) }
+/// }
+/// impl OutputPin for PulledUp {
+///     fn set_low(&mut self) -> Result<(), Infallible> { Ok(()) }
+///     fn set_high(&mut self) -> Result<(), Infallible> { Ok(()) }
+/// }
+/// struct NoDelay;
+/// impl DelayNs for NoDelay { fn delay_ns(&mut self, _: u32) {} }
+///
+/// let mut bus = OneWire::new(PulledUp, NoDelay);
+/// let mut sensor = Ds18b20::single(); // the only sensor on its pin, SKIP ROM
+/// assert_eq!(sensor.start(&mut bus, 0), Err(Error::Bus(onewire::Error::NoPresence)));
+/// // A blocking measure at 12 bits with one retry can take 1.54 s: use start / is_ready / read.
+/// assert_eq!(Ds18b20::max_blocking_measure_us(Resolution::Bits12, 1), 1_536_600);
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Ds18b20 {

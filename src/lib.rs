@@ -1,4 +1,72 @@
-#![doc = include_str!("../README.md")]
+//! Temperature and thermal-hysteresis compensation for quartz-flexure (and MEMS)
+//! accelerometers: `no_std`, no heap, no `unsafe`.
+//!
+//! The scale factor K1 of an accelerometer follows its temperature T and the rate Ṫ at
+//! which it changes (Zhang et al., Sensors 2021, 21, 294, Eq. 11:
+//! `K1 = α·Ṫ² + β·ΔT² + η·Ṫ·ΔT + ε·Ṫ + μ·ΔT + γ`); the bias K0 follows a temperature grid
+//! with heating and cooling branches. A [`Compensator`] takes temperature readings (about
+//! 1 Hz, from DS18B20s: [`ds18b20_driver`]), estimates Ṫ ([`rate`]), evaluates the model of
+//! each axis ([`model`]) from a validated coefficient [`Table`], and corrects every IMU cycle
+//! with two multiplies and a subtraction per axis.
+//!
+//! # Quick start
+//!
+//! ```
+//! use qfa_thermal::{AxisModel, BiasGrid, Compensator, Config, Extensions, Input, ScaleFactor, Table};
+//!
+//! // One axis: the paper's unit #1, a flat 50 µg bias from −40 to 80 °C.
+//! let bias = BiasGrid::single_valued(-40.0, 10.0, &[5e-5; 13]);
+//! let axis = AxisModel { scale: ScaleFactor::JB_KT8_1, bias, rate_limit_c_per_min: 2.0, ext: Extensions::default() };
+//! let table = Table { input: Input::PulseCounts, rate_window: 32, axes: [axis].into_iter().collect(), misalignment: None };
+//!
+//! let mut comp = Compensator::<1, 32>::new(Config::default()).unwrap();
+//! comp.set_table(table).unwrap();
+//! for s in 0..8 {
+//!     comp.on_raw(s * 1_000, 352).unwrap(); // 352/16 = 22.0 °C, one reading a second
+//! }
+//! let out = comp.cycle([1_601], 5_000); // 1 601 pulses in 5 ms (5 000 ticks of 1 µs)
+//! assert!(out.status.is_ok());
+//! let g = out.dv_mps[0] / 0.005 / qfa_thermal::G0;
+//! assert!((g - 0.99948).abs() < 1e-4, "{g}"); // 1 601 / (γ·5 ms) − K0, in g
+//! ```
+//!
+//! # Wiring
+//!
+//! In firmware the two paths run in two contexts: [`Compensator::split`] gives an
+//! [`Updater`] for the temperature loop (thread mode or a low-priority task) and an
+//! [`Applier`] for the IMU interrupt. Keep the compensator in a `static` (a
+//! `static_cell::StaticCell`) so that both halves are `'static`, hand the applier to the
+//! interrupt once, and hold the table as `&'static Table` in flash. Time stamps go through
+//! one [`time::MsClock`] (never `now_us / 1000`, which wraps every 71.6 min); every failed
+//! sensor read is reported with [`Updater::on_missed_reading`]. The repository's
+//! `docs/firmware.md` is the full wiring guide, with what an INS does with each [`Status`]
+//! flag and an STM32F405 board example.
+//!
+//! # Concurrency contract
+//!
+//! * One [`Updater`], one [`Applier`]; the slow path is `&mut`, so two publications never
+//!   overlap.
+//! * The applier never blocks and never waits: the halves share one [`Published`] set
+//!   behind a sequence number (a seqlock of 32-bit atomics, so any Cortex-M works). A set
+//!   being written, or written during the applier's copy, is dropped and the previous
+//!   whole set is used for that cycle, whichever context preempts which, on one core or
+//!   several. The orderings are model-checked with loom (see [`compensator`]).
+//! * Faults never give a silent wrong answer: a refused or missed reading keeps the last
+//!   good compensation and raises a [`Status`] flag; outputs are always finite.
+//!
+//! # Modules
+//!
+//! * [`compensator`]: [`Compensator`], [`Updater`], [`Applier`], [`Config`], [`Status`];
+//! * [`table`]: the coefficient [`Table`], its wire format (version 2) and validation;
+//! * [`model`]: Eq. 11, the bias grid, the extension slots;
+//! * [`rate`]: the Ṫ estimator; [`time`]: the slow path's time base and [`time::MsClock`];
+//! * [`ds18b20`]: scratchpad decoding; [`onewire`] and [`ds18b20_driver`]: the 1-Wire bus
+//!   and a non-blocking DS18B20 driver on embedded-hal 1.0.
+//!
+//! # Features
+//!
+//! `defmt`: `defmt::Format` for the public types. Measured figures (instruction counts,
+//! RAM, flash) are in the repository's `docs/measurements.md`.
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
@@ -15,3 +83,9 @@ pub mod time;
 pub use compensator::{Applier, Compensator, Config, ConfigError, Output, Published, SampleError, Status, Updater, G0};
 pub use model::{AxisModel, BiasGrid, Extensions, ScaleFactor};
 pub use table::{Input, Table};
+
+/// The README's example, compiled and run as a doctest, so the code a user copies with the
+/// README's dependency line is known to build.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeExample;

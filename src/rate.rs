@@ -16,7 +16,7 @@
 //! first-order smoother after the slope trades lag for noise.
 //!
 //! Figures (`cargo run --release -p host-tests --bin rate-bench`, N = 32, 1 Hz, 12-bit
-//! quantization plus 0.02 °C noise) are in the README.
+//! quantization plus 0.02 °C noise) are in the repository's `docs/measurements.md`.
 //!
 //! # Bounds
 //! `N` is 3..=128 and a gap between samples above [`RateConfig::max_gap_ms`] (at most

@@ -184,6 +184,28 @@ pub type Result<T> = core::result::Result<T, Error>;
 
 /// A full coefficient table: one [`AxisModel`] per axis, the rate window it was fitted
 /// with, and an optional misalignment / cross-axis matrix (3 axes only).
+///
+/// Calibration writes a table's wire bytes ([`Table::encode`]); the firmware takes them
+/// back with [`Table::decode`], which refuses anything that does not validate fully:
+///
+/// ```
+/// use qfa_thermal::table::{self, MAX_TABLE_BYTES};
+/// use qfa_thermal::{AxisModel, BiasGrid, Extensions, Input, ScaleFactor, Table};
+///
+/// let bias = BiasGrid::single_valued(-40.0, 10.0, &[1e-4; 13]);
+/// let axis = AxisModel { scale: ScaleFactor::JB_KT8_1, bias, rate_limit_c_per_min: 2.0, ext: Extensions::default() };
+/// let t = Table { input: Input::PulseCounts, rate_window: 32, axes: [axis].into_iter().collect(), misalignment: None };
+///
+/// let mut buf = [0u8; MAX_TABLE_BYTES];
+/// let bytes = t.encode(&mut buf).unwrap();
+/// assert_eq!(&bytes[..4], b"QFAT");
+/// assert_eq!(u16::from_le_bytes([bytes[4], bytes[5]]), table::FORMAT_VERSION); // 2
+/// assert_eq!(Table::decode(bytes), Ok(t));
+///
+/// let mut corrupt = bytes.to_vec();
+/// corrupt[20] ^= 0x01; // one flipped payload bit
+/// assert_eq!(Table::decode(&corrupt), Err(table::Error::Crc));
+/// ```
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Table {

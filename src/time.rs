@@ -48,6 +48,25 @@
 ///
 /// 16 bytes. Times older than the newest one seen (a conversion that completed before the
 /// last poll) convert correctly within ±35.8 min of it.
+///
+/// One clock for every sensor, fed the wrapping µs timer each time a conversion completes:
+///
+/// ```
+/// use qfa_thermal::time::MsClock;
+///
+/// let mut clock = MsClock::new();
+/// let mut us: u32 = 0;
+/// let mut last = clock.ms(us);
+/// // Two hours of 1 Hz readings: the µs timer wraps at 71.6 min, the ms time never steps back.
+/// for _ in 0..7_200 {
+///     us = us.wrapping_add(1_000_000);
+///     let ms = clock.ms(us);
+///     assert_eq!(ms.wrapping_sub(last), 1_000);
+///     last = ms;
+/// }
+/// assert_eq!(last, 7_200_000);
+/// assert_eq!(u64::from(us), 7_200_000_000 % (1 << 32)); // while the µs timer wrapped
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct MsClock {

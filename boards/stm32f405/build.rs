@@ -1,5 +1,5 @@
-//! The coefficient table as a `static` in flash, the STM32F405 memory map and the link
-//! scripts (the last two for the bare-metal target only).
+//! The coefficient table as a `static` in flash, and the link scripts with this board's
+//! `memory.x` (the last two for the bare-metal target only).
 //!
 //! `QFA_BOARD_TABLE=path/to/table.bin` builds a calibrated table in (the wire bytes
 //! `qfa-lab` writes, checked with the root crate's `Table::decode`); without it, a fixture
@@ -15,16 +15,6 @@ use std::{env, fs, path::PathBuf};
 
 use qfa_thermal::table::{MAX_AXES, MAX_TABLE_BYTES};
 use qfa_thermal::{AxisModel, BiasGrid, Extensions, Input, ScaleFactor, Table};
-
-/// STM32F405xG: 1 MiB of flash and 128 KiB of contiguous SRAM (SRAM1 112 KiB + SRAM2
-/// 16 KiB; the 64 KiB CCM is not used).
-const MEMORY_X: &str = "\
-MEMORY
-{
-  FLASH : ORIGIN = 0x08000000, LENGTH = 1024K
-  RAM : ORIGIN = 0x20000000, LENGTH = 128K
-}
-";
 
 /// The rate window the board's compensator is built with (`Compensator<3, 32, 3, _>`).
 const RATE_WINDOW: u16 = 32;
@@ -59,8 +49,12 @@ fn main() {
     if env::var("CARGO_CFG_TARGET_OS").as_deref() != Ok("none") {
         return;
     }
-    // cortex-m-rt's link.x does `INCLUDE memory.x`: this board's map, on the link path.
-    fs::write(out.join("memory.x"), MEMORY_X).expect("write memory.x");
+    // cortex-m-rt's link.x does `INCLUDE memory.x`. This board is its own workspace, so the
+    // linker's working directory is this directory and finds this board's memory.x there
+    // first; it is also put on the link path, for a build from anywhere else.
+    println!("cargo:rerun-if-changed=memory.x");
+    let manifest = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").expect("CARGO_MANIFEST_DIR"));
+    fs::copy(manifest.join("memory.x"), out.join("memory.x")).expect("copy memory.x");
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rustc-link-arg-bins=--nmagic");
     println!("cargo:rustc-link-arg-bins=-Tlink.x");

@@ -1,18 +1,18 @@
-//! Firmware for qfa-thermal on a Cortex-M4F (QEMU `mps2-an386`): shared fixtures, the demo,
-//! and the semihosting runtime the binaries use.
+//! Firmware for qfa-thermal on a Cortex-M4F (QEMU `mps2-an386`): shared fixtures and the
+//! semihosting runtime the binaries use. The demo is the root crate's example
+//! `examples/qemu_demo.rs`.
 //!
 //! Binaries (run them with `cargo xtask …`, which builds for `thumbv7em-none-eabihf`):
 //! * `qemu-vectors`: replays the reference vectors, prints `N vectors bit-exact on thumbv7em`;
 //! * `bench`: instruction counts of both paths under `-icount shift=0` (`cargo xtask bench-target`);
-//! * `demo`: a JB-KT8 #1 table and a few minutes of simulated readings (`cargo xtask demo-qemu`);
 //! * `panic-check`: links only if no panic is reachable from the core (`cargo xtask panic-check`);
 //! * `size-baseline`: the same runtime without the core, the baseline of `core_flash_bytes`.
 //!
 //! On the host every binary builds as a plain std program, so workspace-wide host commands
-//! stay clean; `demo` and `qemu-vectors` even run there.
+//! stay clean; `qemu-vectors` even runs there. The memory map is the repository's root
+//! `memory.x`, which the linker finds in its working directory, the workspace root.
 #![no_std]
 
-pub mod demo;
 pub mod fixtures;
 
 #[cfg(target_os = "none")]

@@ -22,7 +22,7 @@
 //! sensor is its last real conversion) or more than 0.5 °C from the simulated case
 //! temperature at the cycle. It must be 0.
 //!
-//! Figures (README; release build on the shared 2-core machine):
+//! Figures (docs/measurements.md; release build on the shared 2-core machine):
 //! `cargo run --release -p host-tests --bin soak -- --hours 1200` (healthy):
 //! `silent_wrong_cycles=0 stale_fraction=0 max_temp_error_c=0.0437`, 69 s;
 //! `-- --faults` (1 320 h, [`Faults::field`]): `silent_wrong_cycles=863981`, all in the frozen

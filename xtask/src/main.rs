@@ -12,13 +12,17 @@ use std::{env, fmt, thread};
 
 const TARGET: &str = "thumbv7em-none-eabihf";
 const FIRMWARE: &str = "qfa-firmware";
-/// The STM32F405 board example (built, not run: no hardware in CI).
+/// The STM32F405 board example (built, not run: no hardware in CI), its own workspace.
 const BOARD: &str = "qfa-board-stm32f405";
+/// The board's workspace, relative to the repository root.
+const BOARD_DIR: &str = "boards/stm32f405";
+/// The root crate's example that runs under QEMU (examples/qemu_demo.rs).
+const DEMO_EXAMPLE: &str = "qemu_demo";
 const QEMU: &str = "qemu-system-arm";
 const QEMU_INSTALL: &str = "apt-get update && apt-get install -y qemu-system-arm";
 const SIZE_INSTALL: &str = "apt-get update && apt-get install -y binutils-arm-none-eabi";
 /// Firmware binaries built by `test` (panic-check is built by its own step).
-const RUN_BINS: [&str; 4] = ["qemu-vectors", "bench", "demo", "size-baseline"];
+const RUN_BINS: [&str; 3] = ["qemu-vectors", "bench", "size-baseline"];
 const QEMU_TIMEOUT: Duration = Duration::from_secs(300);
 /// The undefined symbol panic-check's panic handler calls.
 const PANIC_SYMBOL: &str = "qfa_panic_is_reachable_from_the_core";
@@ -40,10 +44,11 @@ const MUTANTS: [(&str, &str); 6] = [
 const USAGE: &str = "usage: cargo xtask <command>
 
 commands:
-  test          rustup target, clippy (host and target, -D warnings), host tests, the seqlock's
-                loom model, target build, reference vectors on QEMU mps2-an386, panic-check,
-                STM32F405 board build
-  demo-qemu     run the demo firmware on QEMU
+  test          rustup target, rustfmt, clippy (host and target, -D warnings), host tests and
+                doctests, rustdoc -D warnings, the seqlock's loom model, target build, reference
+                vectors and the demo example on QEMU mps2-an386, panic-check, the STM32F405
+                board (its own workspace: host tests and firmware build), publish dry run
+  demo-qemu     run the demo example (examples/qemu_demo.rs) on QEMU
   bench-target  instruction counts (QEMU -icount shift=0, SysTick), flash/RAM of the core and
                 of the STM32F405 board example
   panic-check   link-time proof that no panic is reachable from the core's paths
@@ -97,6 +102,18 @@ fn cargo() -> Command {
     let mut c = Command::new(env::var_os("CARGO").unwrap_or_else(|| "cargo".into()));
     c.current_dir(root());
     c
+}
+
+/// Cargo in the board's own workspace: run from its directory, so its `.cargo/config.toml`
+/// and `memory.x` apply, with the repository's target directory (shared build cache, and
+/// the ELF where `elf` looks for it).
+fn board_cargo(args: &[&str]) -> Result<Command> {
+    let target = target_dir()?;
+    let mut c = cargo();
+    c.current_dir(root().join(BOARD_DIR));
+    let (sub, rest) = args.split_first().map_or((None, args), |(s, r)| (Some(s), r));
+    c.args(sub).arg("--target-dir").arg(target).args(rest);
+    Ok(c)
 }
 
 /// The command line, with the variables it sets in front (`RUSTFLAGS="--cfg loom" cargo ...`).
@@ -310,24 +327,35 @@ fn run_qemu(kernel: &Path, icount: bool) -> Result<(ExitStatus, String)> {
 fn test() -> Result {
     ensure_target()?;
 
-    step("rustfmt --check (rustfmt.toml: 120 columns)");
+    step("rustfmt --check (rustfmt.toml: 120 columns), workspace and board");
     let mut c = cargo();
     c.args(["fmt", "--all", "--check"]);
     run(c)?;
+    let mut c = cargo();
+    c.current_dir(root().join(BOARD_DIR)).args(["fmt", "--all", "--check"]);
+    run(c)?;
 
-    step("clippy, host (workspace, all targets)");
+    step("clippy, host (workspace and board, all targets)");
     let mut c = cargo();
     c.args(["clippy", "--workspace", "--all-targets", "--", "-D", "warnings"]);
     run(c)?;
+    run(board_cargo(&["clippy", "--all-targets", "--", "-D", "warnings"])?)?;
 
-    step(&format!("clippy, {TARGET} (core, firmware, board example)"));
+    step(&format!("clippy, {TARGET} (core and its examples, firmware, board example)"));
     let mut c = cargo();
-    c.args(["clippy", "-p", "qfa-thermal", "-p", FIRMWARE, "-p", BOARD, "--target", TARGET, "--", "-D", "warnings"]);
+    c.args(["clippy", "-p", "qfa-thermal", "-p", FIRMWARE, "--lib", "--bins", "--examples", "--target", TARGET]);
+    c.args(["--", "-D", "warnings"]);
     run(c)?;
+    run(board_cargo(&["clippy", "--target", TARGET, "--", "-D", "warnings"])?)?;
 
-    step("host tests (default members)");
+    step("host tests and doctests (default members; the README's example is a doctest)");
     let mut c = cargo();
     c.arg("test");
+    run(c)?;
+
+    step("rustdoc of the crate, -D warnings");
+    let mut c = cargo();
+    c.args(["doc", "-p", "qfa-thermal", "--no-deps"]).env("RUSTDOCFLAGS", "-D warnings");
     run(c)?;
 
     step("loom model of the seqlock (clean; `cargo xtask loom` adds the mutants)");
@@ -348,13 +376,19 @@ fn test() -> Result {
     };
     println!("qemu-vectors: {n} vectors bit-exact on thumbv7em, exit 0");
 
+    step(&format!("demo example ({DEMO_EXAMPLE}) on QEMU mps2-an386, the root memory.x"));
+    run_demo_example()?;
+
     panic_check()?;
 
-    step("board example (STM32F405): host tests, then the firmware build (no hardware needed)");
-    let mut c = cargo();
-    c.args(["test", "-p", BOARD]);
-    run(c)?;
+    step("board example (STM32F405, its own workspace): host tests, then the firmware build");
+    run(board_cargo(&["test"])?)?;
     build_board()?;
+
+    step("publish dry run of qfa-thermal (needs the crates.io index)");
+    let mut c = cargo();
+    c.args(["publish", "--dry-run", "-p", "qfa-thermal", "--allow-dirty"]);
+    run(c)?;
 
     println!("\nxtask test: all steps passed");
     Ok(())
@@ -362,20 +396,29 @@ fn test() -> Result {
 
 fn demo_qemu() -> Result {
     ensure_target()?;
-    step("demo firmware");
-    build_firmware(&["demo"])?;
-    let (status, _) = run_qemu(&elf("demo")?, false)?;
-    if status.success() {
-        Ok(())
-    } else {
-        fail(format!("demo exited with {status}"))
+    step(&format!("demo example ({DEMO_EXAMPLE})"));
+    run_demo_example()
+}
+
+/// Build the root crate's demo example for the target and run it under QEMU: it must exit 0
+/// and print its closing line.
+fn run_demo_example() -> Result {
+    let mut c = cargo();
+    c.args(["build", "-p", "qfa-thermal", "--release", "--target", TARGET, "--example", DEMO_EXAMPLE]);
+    run(c)?;
+    let kernel = target_dir()?.join(TARGET).join("release").join("examples").join(DEMO_EXAMPLE);
+    let (status, out) = run_qemu(&kernel, false)?;
+    if !status.success() {
+        return fail(format!("{DEMO_EXAMPLE} exited with {status}"));
     }
+    if !out.lines().any(|l| l.starts_with("demo done: final status")) {
+        return fail(format!("{DEMO_EXAMPLE} printed no `demo done` line"));
+    }
+    Ok(())
 }
 
 fn build_board() -> Result {
-    let mut c = cargo();
-    c.args(["build", "-p", BOARD, "--release", "--target", TARGET]);
-    run(c)
+    run(board_cargo(&["build", "--release", "--target", TARGET])?)
 }
 
 /// Berkeley `text data bss` of an ELF.
