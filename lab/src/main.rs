@@ -210,6 +210,10 @@ enum Cmd {
         /// 2 °C/min ramps, covers the built-in flight) or `paper` (the four staircases).
         #[arg(long, default_value = "covering")]
         lab_program: qfa_lab::navigate::calib::LabProgram,
+        /// Experiment only: every table's rate limit, °C/min, in place of the fitted one
+        /// (the tables then extrapolate above the fitted rates, unflagged).
+        #[arg(long)]
+        rate_limit_override: Option<f32>,
     },
     /// The temperature and rate coverage a lab program must reach for a mission (the
     /// scenario's thermal profile) and whether a lab program reaches it; exit code 1 when
@@ -425,6 +429,7 @@ fn run(cli: Cli) -> Result<(), String> {
             no_plots,
             no_mc_discovered,
             lab_program,
+            rate_limit_override,
         } => {
             let out = out.ok_or("navigate: --out DIR is required")?;
             let discovered_tables = discovered_tables.map(|v| [v[0].clone(), v[1].clone(), v[2].clone()]);
@@ -441,6 +446,7 @@ fn run(cli: Cli) -> Result<(), String> {
                 shard,
                 no_mc_discovered,
                 lab_program,
+                rate_limit_override,
                 ..Default::default()
             };
             if shard.is_some() {

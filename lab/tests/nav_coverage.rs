@@ -74,9 +74,8 @@ fn nav_paper_program_flight_reports_clamped_rate_share() {
 fn nav_flown_table_uses_every_program() {
     let truth = Truth::jb_kt8(1);
     let seed = 7;
-    let u =
-        calibrate_unit_on(&truth, seed, 2, &CalibOptions { discover: false, validate: false, lab: LabProgram::Paper })
-            .unwrap();
+    let u = calibrate_unit_on(&truth, seed, 2, &CalibOptions { lab: LabProgram::Paper, ..CalibOptions::default() })
+        .unwrap();
     let want_ids = ["paper-0.3", "paper-0.5", "paper-0.7", "paper-0.9"];
     assert_eq!(u.report.flown_fit_programs, want_ids);
     let programs = LabProgram::Paper.programs();
@@ -126,4 +125,27 @@ fn plan_judges_lab_programs_against_the_default_flight() {
     assert!(paper.shortfalls.iter().any(|s| s.contains("rate")), "{:?}", paper.shortfalls);
     assert!(covering.shortfalls.is_empty(), "{:?}", covering.shortfalls);
     assert!(covering.shortfalls_mc_extreme.is_empty(), "{:?}", covering.shortfalls_mc_extreme);
+}
+
+/// The rate policy (lab/README.md, "Coverage"): a table's rate limit is at most 1.25 × the
+/// fastest case rate its programs covered, so `RATE_OUT_OF_RANGE` marks every rate beyond
+/// the calibrated range plus the stated margin. The coverage is measured by replaying
+/// the log through the estimator (`Coverage::of_log`), not by the fit's own bookkeeping.
+/// On the paper's staircases the former 0.5 °C/min floor claimed more than that.
+#[test]
+fn nav_table_rate_limit_is_the_covered_rate_plus_margin() {
+    let u = calibrate_unit_on(
+        &Truth::jb_kt8(1),
+        2019 + 1000,
+        2,
+        &CalibOptions { lab: LabProgram::Paper, ..CalibOptions::default() },
+    )
+    .unwrap();
+    let c = &u.report.coverage;
+    let covered = c.covered.max_abs_rate();
+    let lim = c.table.rate_limit_c_per_min;
+    println!("covered {covered:.3} °C/min, table limit {lim:.3} °C/min");
+    assert!(covered > 0.0);
+    // 1e-3 °C/min: f32 rounding of the limit.
+    assert!(lim <= 1.25 * covered + 1e-3, "limit {lim} beyond 1.25 × covered {covered}");
 }

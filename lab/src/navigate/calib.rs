@@ -154,7 +154,7 @@ pub fn calibrate_unit_with(truth: &Truth, seed: u64, threads: usize, discover: b
 }
 
 /// How a unit is calibrated.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct CalibOptions {
     /// Run the discovery workflow on the log.
     pub discover: bool,
@@ -162,6 +162,10 @@ pub struct CalibOptions {
     pub validate: bool,
     /// The lab program simulated.
     pub lab: LabProgram,
+    /// Experiment only: replace every table's rate limit (°C/min) after the fit. Above the
+    /// fitted rate range the tables then extrapolate Eq. 11 instead of clamping, and
+    /// `RATE_OUT_OF_RANGE` no longer marks rates beyond what the table was fitted on.
+    pub rate_limit_override: Option<f32>,
 }
 
 /// Simulate unit `truth` on `opts.lab`'s programs, validate (with `opts.validate`) and fit
@@ -191,7 +195,16 @@ pub fn calibrate_unit_on(truth: &Truth, seed: u64, threads: usize, opts: &CalibO
         Validation::NotComputed("validation off (Monte Carlo runs and tests skip it)".into())
     };
     // The flown table: the chosen structure refitted on every program of the log.
-    let f = fit(&log, &FitOptions::new(ids.clone()), None).map_err(|e| anyhow::anyhow!("{}: fit: {e}", truth.name))?;
+    let mut f =
+        fit(&log, &FitOptions::new(ids.clone()), None).map_err(|e| anyhow::anyhow!("{}: fit: {e}", truth.name))?;
+    if let Some(l) = opts.rate_limit_override {
+        for t in [&mut f.simple, &mut f.hysteresis] {
+            for a in &mut t.axes {
+                a.rate_limit_c_per_min = l;
+            }
+            t.validate().map_err(|e| anyhow::anyhow!("rate limit {l}: {e}"))?;
+        }
+    }
     let mut none = axis(&f.simple)?.clone();
     none.scale.mu = 0.0;
     let k0 = f.bias_simple.coef[0] as f32;

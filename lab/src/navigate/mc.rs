@@ -40,7 +40,7 @@ use super::{mc_variants, share, thermal_ceps, truths_seeded, units, NavigateArgs
 use crate::simulate::truth::Truth;
 
 /// What to run.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Plan {
     /// Runs in the whole study.
     pub runs: u64,
@@ -55,6 +55,8 @@ pub struct Plan {
     pub discover: bool,
     /// The lab program each run's units are calibrated on.
     pub lab: super::calib::LabProgram,
+    /// Experiment only: every table's rate limit, °C/min, in place of the fitted one.
+    pub rate_limit_override: Option<f32>,
 }
 
 impl Plan {
@@ -68,6 +70,7 @@ impl Plan {
             shard,
             discover: !args.no_mc_discovered,
             lab: args.lab_program,
+            rate_limit_override: args.rate_limit_override,
         }
     }
 
@@ -304,16 +307,15 @@ pub fn draw(sc: &Scenario, seed: u64, i: u64) -> Draw {
 /// # Errors
 /// Calibration.
 pub fn tables_of(d: &Draw, discover: bool) -> anyhow::Result<Tables> {
-    tables_on(d, discover, super::calib::LabProgram::default())
+    tables_on(d, &super::calib::CalibOptions { discover, ..super::calib::CalibOptions::default() })
 }
 
-/// [`tables_of`] on the lab program `lab`.
+/// [`tables_of`] with the calibration options `opts`.
 ///
 /// # Errors
 /// Calibration.
-pub fn tables_on(d: &Draw, discover: bool, lab: super::calib::LabProgram) -> anyhow::Result<Tables> {
-    let opts = super::calib::CalibOptions { discover, validate: false, lab };
-    let mut tables = super::calibrate_opts(&d.units, d.seed, 1, &opts)?;
+pub fn tables_on(d: &Draw, opts: &super::calib::CalibOptions) -> anyhow::Result<Tables> {
+    let mut tables = super::calibrate_opts(&d.units, d.seed, 1, opts)?;
     tables.misalignment = d.scenario.imu.accel.carried_misalignment();
     Ok(tables)
 }
@@ -334,23 +336,17 @@ pub fn hysteresis_share(d: &Draw, tables: &Tables) -> anyhow::Result<f64> {
 /// # Errors
 /// Calibration, flight, or a share that cannot be computed.
 pub fn one(sc: &Scenario, seed: u64, i: u64, discover: bool) -> anyhow::Result<Outcome> {
-    one_on(sc, seed, i, discover, super::calib::LabProgram::default())
+    one_on(sc, seed, i, &super::calib::CalibOptions { discover, ..super::calib::CalibOptions::default() })
 }
 
-/// [`one`] with the units calibrated on the lab program `lab`.
+/// [`one`] with the units calibrated with `opts` (validation is never run here).
 ///
 /// # Errors
 /// Calibration, flight, or a share that cannot be computed.
-pub fn one_on(
-    sc: &Scenario,
-    seed: u64,
-    i: u64,
-    discover: bool,
-    lab: super::calib::LabProgram,
-) -> anyhow::Result<Outcome> {
+pub fn one_on(sc: &Scenario, seed: u64, i: u64, opts: &super::calib::CalibOptions) -> anyhow::Result<Outcome> {
     let t0 = Instant::now();
     let d = draw(sc, seed, i);
-    let tables = tables_on(&d, discover, lab).with_context(|| format!("run {i}: calibration"))?;
+    let tables = tables_on(&d, opts).with_context(|| format!("run {i}: calibration"))?;
     let Draw { scenario: s, units: us, seed: rs, temp_offset_c: off, temp_scale: scale } = d;
     let res =
         run::fly(&s, &mut truths_seeded(&us, rs), mc_variants(&tables)?).with_context(|| format!("run {i}: flight"))?;
@@ -411,7 +407,13 @@ pub fn run(sc: &Scenario, plan: &Plan, progress: bool) -> anyhow::Result<Partial
     let outcomes: Vec<anyhow::Result<Outcome>> = pool.install(|| {
         idx.par_iter()
             .map(|&i| {
-                let r = one_on(sc, plan.seed, i, plan.discover, plan.lab);
+                let opts = super::calib::CalibOptions {
+                    discover: plan.discover,
+                    validate: false,
+                    lab: plan.lab,
+                    rate_limit_override: plan.rate_limit_override,
+                };
+                let r = one_on(sc, plan.seed, i, &opts);
                 pb.inc(1);
                 r
             })

@@ -114,6 +114,9 @@ pub struct NavigateArgs {
     pub no_mc_discovered: bool,
     /// The lab program each unit is calibrated on (default: the one covering the flight).
     pub lab_program: calib::LabProgram,
+    /// Experiment only: every table's rate limit, °C/min, in place of the fitted one
+    /// ([`calib::CalibOptions::rate_limit_override`]).
+    pub rate_limit_override: Option<f32>,
 }
 
 /// The paper's flight figures (Table 7 and §3.2).
@@ -229,7 +232,7 @@ pub fn calibrate(units: &[Truth; 3], sc: &Scenario) -> anyhow::Result<Tables> {
         units,
         sc.seed,
         2,
-        &calib::CalibOptions { discover: true, validate: true, lab: calib::LabProgram::default() },
+        &calib::CalibOptions { discover: true, validate: true, ..calib::CalibOptions::default() },
     )
 }
 
@@ -237,8 +240,13 @@ pub fn calibrate(units: &[Truth; 3], sc: &Scenario) -> anyhow::Result<Tables> {
 ///
 /// # Errors
 /// A fit or validation failure.
-pub fn calibrate_on(units: &[Truth; 3], sc: &Scenario, lab: calib::LabProgram) -> anyhow::Result<Tables> {
-    calibrate_opts(units, sc.seed, 2, &calib::CalibOptions { discover: true, validate: true, lab })
+pub fn calibrate_on(
+    units: &[Truth; 3],
+    sc: &Scenario,
+    lab: calib::LabProgram,
+    rate_limit_override: Option<f32>,
+) -> anyhow::Result<Tables> {
+    calibrate_opts(units, sc.seed, 2, &calib::CalibOptions { discover: true, validate: true, lab, rate_limit_override })
 }
 
 /// Calibrate each unit (seeds `seed + 1000 + i`) on `threads` threads; `discover` runs
@@ -511,7 +519,7 @@ pub fn scenario_of(args: &NavigateArgs) -> anyhow::Result<Scenario> {
 pub fn nominal(args: &NavigateArgs, sc: &Scenario) -> anyhow::Result<Report> {
     let units = units();
     let t0 = Instant::now();
-    let mut tables = calibrate_on(&units, sc, args.lab_program)?;
+    let mut tables = calibrate_on(&units, sc, args.lab_program, args.rate_limit_override)?;
     tables.misalignment = sc.imu.accel.carried_misalignment();
     let t_cal = t0.elapsed().as_secs_f64();
     let (disc, source) = match &args.discovered_tables {
