@@ -818,6 +818,7 @@ mod tests {
                     shard: (k, 3),
                     discover: false,
                     lab: super::super::calib::LabProgram::Paper,
+                    rate_limit_override: None,
                 }
                 .indices(),
             );
