@@ -219,6 +219,28 @@ enum Cmd {
         /// half the cost).
         #[arg(long)]
         no_mc_discovered: bool,
+        /// Lab program the units are calibrated on: `covering` (paper 0.3/0.9 + 1 and
+        /// 2 °C/min ramps, covers the built-in flight) or `paper` (the four staircases).
+        #[arg(long, default_value = "covering")]
+        lab_program: qfa_lab::navigate::calib::LabProgram,
+        /// Experiment only: every table's rate limit, °C/min, in place of the fitted one
+        /// (the tables then extrapolate above the fitted rates, unflagged).
+        #[arg(long)]
+        rate_limit_override: Option<f32>,
+    },
+    /// The temperature and rate coverage a lab program must reach for a mission (the
+    /// scenario's thermal profile) and whether a lab program reaches it; exit code 1 when
+    /// it does not cover the nominal mission.
+    Plan {
+        /// Scenario TOML (default: the built-in §3.2 flight).
+        #[arg(long)]
+        scenario: Option<PathBuf>,
+        /// Lab program judged: `covering` or `paper`.
+        #[arg(long, default_value = "covering")]
+        lab_program: qfa_lab::navigate::calib::LabProgram,
+        /// Also write the plan as JSON here.
+        #[arg(long)]
+        json: Option<PathBuf>,
     },
 }
 
@@ -443,6 +465,21 @@ fn run(cli: Cli) -> Result<(), String> {
             // Issue 4 (discovery, on unit #1) and issue 5 (navigation) run inside the demo.
             qfa_lab::demo::run(&opts, Some(qfa_lab::discover::demo_hook), Some(qfa_lab::navigate::demo_hook))?;
         }
+        Cmd::Plan { scenario, lab_program, json } => {
+            let sc = match scenario {
+                Some(p) => qfa_lab::navigate::scenario::Scenario::load(&p).map_err(|e| format!("{e:#}"))?,
+                None => qfa_lab::navigate::scenario::Scenario::builtin(),
+            };
+            let p = qfa_lab::navigate::plan::plan(&sc, lab_program).map_err(|e| format!("{e:#}"))?;
+            print!("{}", qfa_lab::navigate::plan::text(&p));
+            if let Some(j) = json {
+                std::fs::write(&j, serde_json::to_string_pretty(&p).map_err(|e| e.to_string())?)
+                    .map_err(|e| format!("{}: {e}", j.display()))?;
+            }
+            if !p.shortfalls.is_empty() {
+                return Err(format!("lab program `{}` does not cover the mission", p.lab_program));
+            }
+        }
         Cmd::Navigate { sub: Some(NavCmd::Merge { dirs, out, no_plots }), .. } => {
             let out = out.unwrap_or_else(|| dirs[0].clone());
             let sum = qfa_lab::navigate::mc::merge(&dirs, &out, !no_plots).map_err(|e| format!("{e:#}"))?;
@@ -461,6 +498,8 @@ fn run(cli: Cli) -> Result<(), String> {
             shard,
             no_plots,
             no_mc_discovered,
+            lab_program,
+            rate_limit_override,
         } => {
             let out = out.ok_or("navigate: --out DIR is required")?;
             let discovered_tables = discovered_tables.map(|v| [v[0].clone(), v[1].clone(), v[2].clone()]);
@@ -476,6 +515,8 @@ fn run(cli: Cli) -> Result<(), String> {
                 jobs,
                 shard,
                 no_mc_discovered,
+                lab_program,
+                rate_limit_override,
                 ..Default::default()
             };
             if shard.is_some() {

@@ -11,6 +11,7 @@
 //! The table written is the one fitted on the fit programs only, so the report's held-out
 //! figures describe exactly the flashed table.
 
+pub mod coverage;
 pub mod fit;
 pub mod metrics;
 pub mod peers;
@@ -98,7 +99,14 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
     check_figures(&eval)?;
     let (peers, peer_fits) = crate::calibrate::report::peer_bias(log, &fit_p, &eval_p, &fitted.hysteresis)?;
     let h = &fitted.sf_hysteresis.coef;
+    let deadband = crate::data::pairing::branch_deadband_c_per_min();
+    let coverage = crate::calibrate::coverage::CalCoverage {
+        covered: crate::calibrate::coverage::Coverage::of_log(log, &fit_p, deadband).map_err(|e| format!("{e:#}"))?,
+        table: crate::calibrate::coverage::TableLimits::of(&fitted.hysteresis).map_err(|e| format!("{e:#}"))?,
+        programs: fit_p.clone(),
+    };
     let report = Report {
+        coverage,
         rows: log.rows(),
         held_out: fit_p.iter().all(|p| !eval_p.contains(p)),
         fit_programs: fit_p,

@@ -190,6 +190,9 @@ pub struct Report {
     pub fit: FitSummary,
     /// Readings the compensator rejected in the held-out runs.
     pub rejected_readings: usize,
+    /// Temperature and rate ranges the fit programs cover (heating, cooling) and the
+    /// limits `table.bin` clamps to: beyond them the firmware clamps and flags.
+    pub coverage: crate::calibrate::coverage::CalCoverage,
     /// Step timings, s.
     pub timings_s: Timings,
 }

@@ -16,6 +16,7 @@ use qfa_thermal::compensator::{self, Compensator};
 use qfa_thermal::table::Table;
 use rand::Rng;
 use rand_distr::{Distribution, StandardNormal};
+use serde::{Deserialize, Serialize};
 
 use super::earth::G0;
 use crate::simulate::thermal::Temps;
@@ -49,7 +50,111 @@ pub trait AccelCompensation {
     /// Fast path: pulses of the three axes over `dt_ticks` µs; `truth` carries each axis's
     /// true (K1, K0) for the oracle and is ignored by real compensations.
     fn compensate(&mut self, pulses: [i32; 3], dt_ticks: u32, truth: &[(f64, f64); 3]) -> Vector3<f64>;
+    /// Every status flag the compensation raised so far, counted per cycle; `None` for a
+    /// compensation without a status word (the oracle).
+    fn flags(&self) -> Option<FlagCounts> {
+        None
+    }
 }
+
+/// Per-flag cycle counts of a `Compensator`'s status word: `counts[b]` is the number of
+/// fast-path cycles whose status had bit `b` set. `TableCompensation` used to keep only
+/// the last status, so a flight compensated with a clamped rate most of the time looked
+/// clean in every report.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct FlagCounts {
+    /// Fast-path cycles counted.
+    pub cycles: u64,
+    /// Cycles with any flag set.
+    pub any: u64,
+    /// Cycles per status bit (bit 0 = `TEMP_STALE` … bit 7 = `WRONG_INPUT`).
+    pub counts: [u64; 8],
+}
+
+/// The status bits in [`FlagCounts::counts`] order, by name.
+pub const FLAG_NAMES: [&str; 8] = [
+    "TEMP_STALE",
+    "TEMP_INVALID",
+    "RATE_NOT_READY",
+    "TEMP_OUT_OF_RANGE",
+    "RATE_OUT_OF_RANGE",
+    "NO_TABLE",
+    "NO_COUNTER_BASE",
+    "WRONG_INPUT",
+];
+
+impl FlagCounts {
+    /// Count one cycle's status.
+    pub fn add(&mut self, st: compensator::Status) {
+        self.cycles += 1;
+        if !st.is_ok() {
+            self.any += 1;
+        }
+        for (b, c) in self.counts.iter_mut().enumerate() {
+            if st.bits() & (1 << b) != 0 {
+                *c += 1;
+            }
+        }
+    }
+
+    /// The counts since `earlier` (a snapshot of the same counter).
+    #[must_use]
+    pub fn since(&self, earlier: &Self) -> Self {
+        let mut c = [0u64; 8];
+        for (b, x) in c.iter_mut().enumerate() {
+            *x = self.counts[b] - earlier.counts[b];
+        }
+        Self { cycles: self.cycles - earlier.cycles, any: self.any - earlier.any, counts: c }
+    }
+
+    /// Share of cycles with `flag` set.
+    ///
+    /// # Errors
+    /// No cycle counted: the share is not computed.
+    pub fn share(&self, flag: compensator::Status) -> anyhow::Result<f64> {
+        anyhow::ensure!(self.cycles > 0, "no compensated cycle counted: flag share not computed");
+        let b = flag.bits().trailing_zeros() as usize;
+        Ok(self.counts[b] as f64 / self.cycles as f64)
+    }
+
+    /// The shares the reports carry.
+    ///
+    /// # Errors
+    /// No cycle counted.
+    pub fn shares(&self) -> anyhow::Result<FlagShares> {
+        Ok(FlagShares {
+            cycles: self.cycles,
+            rate_clamped: self.share(compensator::Status::RATE_OUT_OF_RANGE)?,
+            temp_clamped: self.share(compensator::Status::TEMP_OUT_OF_RANGE)?,
+            any_flag: self.any as f64 / self.cycles as f64,
+            by_flag: FLAG_NAMES
+                .iter()
+                .zip(self.counts)
+                .filter(|(_, c)| *c > 0)
+                .map(|(n, c)| ((*n).to_string(), c as f64 / self.cycles as f64))
+                .collect(),
+        })
+    }
+}
+
+/// Shares of a flight's IMU cycles on which the firmware raised a flag.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct FlagShares {
+    /// Cycles counted (the flight's, alignment excluded).
+    pub cycles: u64,
+    /// Share with `RATE_OUT_OF_RANGE`: Ṫ beyond the table's limit, clamped.
+    pub rate_clamped: f64,
+    /// Share with `TEMP_OUT_OF_RANGE`: T̂ outside the table's grid, clamped.
+    pub temp_clamped: f64,
+    /// Share with any flag.
+    pub any_flag: f64,
+    /// Share per flag that was raised at least once.
+    pub by_flag: std::collections::BTreeMap<String, f64>,
+}
+
+/// Above this share of clamped cycles the console, `report.json` and `mc_runs.csv` say
+/// the compensation ran out of its calibrated range most of the time ("most": a half).
+pub const CLAMPED_WARN_SHARE: f64 = 0.5;
 
 /// [`AccelTruth`] from the lab's truth model: [`crate::simulate::truth::TruthModel`] (Eq. 11 scale
 /// factor, cubic bias, extension effects, on the case temperature and its rate) and
@@ -130,6 +235,8 @@ pub struct TableCompensation {
     pub rejected: u32,
     /// Status of the last IMU cycle.
     pub last_status: compensator::Status,
+    /// Every cycle's status, counted per flag.
+    pub flag_counts: FlagCounts,
 }
 
 impl TableCompensation {
@@ -151,7 +258,7 @@ impl TableCompensation {
             ImuCompensator::new(compensator::Config::default()).map_err(|e| anyhow::anyhow!("config: {e}"))?;
         comp.set_table(super::calib::table3_with(tables, misalignment)?)
             .map_err(|e| anyhow::anyhow!("table refused: {e}"))?;
-        Ok(Self { comp, rejected: 0, last_status: compensator::Status::empty() })
+        Ok(Self { comp, rejected: 0, last_status: compensator::Status::empty(), flag_counts: FlagCounts::default() })
     }
 
     /// The compensator.
@@ -177,7 +284,12 @@ impl AccelCompensation for TableCompensation {
     fn compensate(&mut self, pulses: [i32; 3], dt_ticks: u32, _truth: &[(f64, f64); 3]) -> Vector3<f64> {
         let out = self.comp.cycle(pulses, dt_ticks);
         self.last_status = out.status;
+        self.flag_counts.add(out.status);
         Vector3::from_fn(|i, _| f64::from(out.dv_mps[i]))
+    }
+
+    fn flags(&self) -> Option<FlagCounts> {
+        Some(self.flag_counts)
     }
 }
 

@@ -3,13 +3,17 @@
 //! into the root crate's tables, plus the "none" table derived from the simple fit.
 //!
 //! Only the +1 g and −1 g positions are simulated (the 0 g positions carry no K1 or K0
-//! information: the fit pairs ±1 g by time), and only the fit programs of the lab's
-//! held-out rule ([`crate::calibrate::fit::split_programs`]: the extreme rates 0.3 and 0.9 °C/min),
-//! so the tables are exactly the ones the lab's `calibrate` would flash for that log.
+//! information: the fit pairs ±1 g by time). Every program of the lab program
+//! ([`LabProgram`]) is simulated. With validation on, the structure is first fitted on the
+//! fit programs of the lab's held-out rule ([`crate::calibrate::fit::split_programs`]) and
+//! evaluated on the held-out ones through the `Compensator` ([`Validation`]); the table
+//! that flies is then refitted on **every** program, so no part of the lab log is
+//! thrown away (`CalReport::flown_fit_programs` lists them).
 
 use qfa_thermal::model::AxisModel;
 use qfa_thermal::table::Table;
 
+use crate::calibrate::coverage::{CalCoverage, Coverage, TableLimits};
 use crate::calibrate::fit::{fit, split_programs, FitOptions};
 use crate::data::cycling::{write_log_to, Log};
 use crate::discover::{analyze, Channels, Start};
@@ -39,6 +43,70 @@ pub struct UnitTables {
     pub report: CalReport,
 }
 
+/// The lab program each unit is calibrated on.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum LabProgram {
+    /// [`Program::covering`]: the paper's staircase at 0.3 and 0.9 °C/min plus 1 and
+    /// 2 °C/min triangles, which reach the built-in flight's case rates.
+    #[default]
+    Covering,
+    /// The paper's four staircases (0.3, 0.5, 0.7, 0.9 °C/min): case rates up to about
+    /// 0.45 °C/min, a third of the flight's; kept as the comparison.
+    Paper,
+}
+
+impl LabProgram {
+    /// Its programs, in the order the held-out rule reads them.
+    #[must_use]
+    pub fn programs(self) -> Vec<Program> {
+        match self {
+            Self::Covering => Program::covering(),
+            Self::Paper => PAPER_RATES.iter().map(|&r| Program::paper(r)).collect(),
+        }
+    }
+
+    /// Its name on the command line and in the reports.
+    #[must_use]
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Covering => "covering",
+            Self::Paper => "paper",
+        }
+    }
+}
+
+impl std::str::FromStr for LabProgram {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "covering" => Ok(Self::Covering),
+            "paper" => Ok(Self::Paper),
+            _ => Err(format!("lab program `{s}`: expected covering or paper")),
+        }
+    }
+}
+
+/// The held-out validation of the chosen structure: fitted on the held-out rule's fit
+/// programs, compensated through `Compensator<1, 32>` on the others.
+#[derive(Clone, Debug, serde::Serialize)]
+pub enum Validation {
+    /// Figures of the held-out evaluation.
+    Computed {
+        /// Programs the validation table was fitted on.
+        fit_programs: Vec<String>,
+        /// Programs it was evaluated on.
+        held_out_programs: Vec<String>,
+        /// Table-4 sensitivity, ppm/°C, held out.
+        sensitivity_ppm_per_c: crate::calibrate::report::Variants,
+        /// Bias residual, µg RMS, held out.
+        bias_residual_ug: crate::calibrate::report::Variants,
+    },
+    /// Not run, with the reason (the Monte Carlo runs skip it: it costs a second fit and
+    /// a compensation pass per unit, and it does not change the flown table).
+    NotComputed(String),
+}
+
 /// Fit figures of one unit.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct CalReport {
@@ -50,8 +118,16 @@ pub struct CalReport {
     pub eq11_condition: f64,
     /// RMS K1 residual of the Eq. 11 fit, ppm of γ.
     pub k1_rms_ppm_hysteresis: f64,
-    /// Eq. 11 coefficients [γ, μ, β, ε, η, α].
+    /// Eq. 11 coefficients [γ, μ, β, ε, η, α] of the flown table.
     pub eq11: Vec<f64>,
+    /// The lab program simulated.
+    pub lab_program: LabProgram,
+    /// Programs the flown table was fitted on: every program of the lab program.
+    pub flown_fit_programs: Vec<String>,
+    /// Held-out validation of the structure before the refit on every program.
+    pub validation: Validation,
+    /// What the flown table's programs cover and what the table clamps to.
+    pub coverage: CalCoverage,
 }
 
 fn axis(t: &Table) -> anyhow::Result<&AxisModel> {
@@ -66,21 +142,69 @@ pub fn calibrate_unit(truth: &Truth, seed: u64, threads: usize) -> anyhow::Resul
     calibrate_unit_with(truth, seed, threads, true)
 }
 
-/// Simulate and fit unit `truth`; `discover` runs the discovery workflow on its log
-/// (without it, `discovered` is the hysteresis table and `discovered_effects` is
-/// `["not run"]`; the Monte Carlo runs skip it, it costs several seconds per unit).
+/// Simulate and fit unit `truth` on the default lab program without validation;
+/// `discover` runs the discovery workflow on its log (without it, `discovered` is the
+/// hysteresis table and `discovered_effects` is `["not run"]`; the Monte Carlo runs skip
+/// it, it costs several seconds per unit).
 ///
 /// # Errors
 /// A fit or table validation failure.
 pub fn calibrate_unit_with(truth: &Truth, seed: u64, threads: usize, discover: bool) -> anyhow::Result<UnitTables> {
-    let programs: Vec<Program> = PAPER_RATES.iter().map(|&r| Program::paper(r)).collect();
+    calibrate_unit_on(truth, seed, threads, &CalibOptions { discover, ..CalibOptions::default() })
+}
+
+/// How a unit is calibrated.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CalibOptions {
+    /// Run the discovery workflow on the log.
+    pub discover: bool,
+    /// Validate the structure on the held-out programs before the refit on all.
+    pub validate: bool,
+    /// The lab program simulated.
+    pub lab: LabProgram,
+    /// Experiment only: replace every table's rate limit (°C/min) after the fit. Above the
+    /// fitted rate range the tables then extrapolate Eq. 11 instead of clamping, and
+    /// `RATE_OUT_OF_RANGE` no longer marks rates beyond what the table was fitted on.
+    pub rate_limit_override: Option<f32>,
+}
+
+/// Simulate unit `truth` on `opts.lab`'s programs, validate (with `opts.validate`) and fit
+/// the flown tables on every program.
+///
+/// # Errors
+/// A fit, evaluation or table validation failure.
+pub fn calibrate_unit_on(truth: &Truth, seed: u64, threads: usize, opts: &CalibOptions) -> anyhow::Result<UnitTables> {
+    let programs = opts.lab.programs();
     let ids: Vec<String> = programs.iter().map(|p| p.id.clone()).collect();
-    let (fit_ids, _) = split_programs(&ids);
-    let used: Vec<Program> = programs.into_iter().filter(|p| fit_ids.contains(&p.id)).collect();
     let positions: Vec<_> = paper_positions().into_iter().filter(|p| p.input_g != 0.0).collect();
-    let log = simulate(truth, &used, &positions, ROW_S, seed, threads, None);
-    let f =
-        fit(&log, &FitOptions::new(fit_ids.clone()), None).map_err(|e| anyhow::anyhow!("{}: fit: {e}", truth.name))?;
+    let log = simulate(truth, &programs, &positions, ROW_S, seed, threads, None);
+    let validation = if opts.validate {
+        let (fit_ids, held) = split_programs(&ids);
+        let v = fit(&log, &FitOptions::new(fit_ids.clone()), None)
+            .map_err(|e| anyhow::anyhow!("{}: validation fit: {e}", truth.name))?;
+        let ev = crate::calibrate::report::evaluate(&log, &held, &v.simple, &v.hysteresis, None)
+            .map_err(|e| anyhow::anyhow!("{}: held-out evaluation: {e}", truth.name))?;
+        crate::calibrate::check_figures(&ev).map_err(|e| anyhow::anyhow!("{}: {e}", truth.name))?;
+        Validation::Computed {
+            fit_programs: fit_ids,
+            held_out_programs: held,
+            sensitivity_ppm_per_c: ev.sensitivity_ppm_per_c,
+            bias_residual_ug: ev.bias_residual_ug,
+        }
+    } else {
+        Validation::NotComputed("validation off (Monte Carlo runs and tests skip it)".into())
+    };
+    // The flown table: the chosen structure refitted on every program of the log.
+    let mut f =
+        fit(&log, &FitOptions::new(ids.clone()), None).map_err(|e| anyhow::anyhow!("{}: fit: {e}", truth.name))?;
+    if let Some(l) = opts.rate_limit_override {
+        for t in [&mut f.simple, &mut f.hysteresis] {
+            for a in &mut t.axes {
+                a.rate_limit_c_per_min = l;
+            }
+            t.validate().map_err(|e| anyhow::anyhow!("rate limit {l}: {e}"))?;
+        }
+    }
     let mut none = axis(&f.simple)?.clone();
     none.scale.mu = 0.0;
     let k0 = f.bias_simple.coef[0] as f32;
@@ -90,10 +214,15 @@ pub fn calibrate_unit_with(truth: &Truth, seed: u64, threads: usize, discover: b
     let mut none_t = f.simple.clone();
     none_t.axes[0] = none;
     none_t.validate().map_err(|e| anyhow::anyhow!("none table: {e}"))?;
-    let (discovered, discovered_effects) = if discover {
-        discover_on(&log, &fit_ids, &f.hysteresis)?
+    let (discovered, discovered_effects) = if opts.discover {
+        discover_on(&log, &ids, &f.hysteresis)?
     } else {
         (f.hysteresis.clone(), vec!["not run".to_string()])
+    };
+    let coverage = CalCoverage {
+        covered: Coverage::of_log(&log, &ids, crate::data::pairing::branch_deadband_c_per_min())?,
+        table: TableLimits::of(&f.hysteresis)?,
+        programs: ids.clone(),
     };
     Ok(UnitTables {
         none: none_t,
@@ -107,6 +236,10 @@ pub fn calibrate_unit_with(truth: &Truth, seed: u64, threads: usize, discover: b
             eq11_condition: f.sf_hysteresis.cond,
             k1_rms_ppm_hysteresis: f.sf_hysteresis.rms / f.sf_hysteresis.coef[0] * 1e6,
             eq11: f.sf_hysteresis.coef.clone(),
+            lab_program: opts.lab,
+            flown_fit_programs: ids,
+            validation,
+            coverage,
         },
     })
 }

@@ -36,11 +36,11 @@ use serde::{Deserialize, Serialize};
 use super::align::AlignErrors;
 use super::run::{self, Figures};
 use super::scenario::{Scenario, Variation};
-use super::{calibrate_with, mc_variants, share, thermal_ceps, truths_seeded, units, NavigateArgs, Tables};
+use super::{mc_variants, share, thermal_ceps, truths_seeded, units, NavigateArgs, Tables};
 use crate::simulate::truth::Truth;
 
 /// What to run.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Plan {
     /// Runs in the whole study.
     pub runs: u64,
@@ -53,6 +53,10 @@ pub struct Plan {
     /// Run the discovery workflow on each unit's calibration log and fly `discovered`
     /// (about doubles a run's cost).
     pub discover: bool,
+    /// The lab program each run's units are calibrated on.
+    pub lab: super::calib::LabProgram,
+    /// Experiment only: every table's rate limit, °C/min, in place of the fitted one.
+    pub rate_limit_override: Option<f32>,
 }
 
 impl Plan {
@@ -65,6 +69,8 @@ impl Plan {
             jobs: args.jobs,
             shard,
             discover: !args.no_mc_discovered,
+            lab: args.lab_program,
+            rate_limit_override: args.rate_limit_override,
         }
     }
 
@@ -98,6 +104,12 @@ pub struct Outcome {
     pub share_removed_total_cep: BTreeMap<String, f64>,
     /// Alignment errors per variant (empty: alignment off).
     pub alignment: BTreeMap<String, AlignErrors>,
+    /// Share of the flight's IMU cycles with `RATE_OUT_OF_RANGE`, per table variant.
+    #[serde(default)]
+    pub rate_clamped_share: BTreeMap<String, f64>,
+    /// Share of the flight's IMU cycles with `TEMP_OUT_OF_RANGE`, per table variant.
+    #[serde(default)]
+    pub temp_clamped_share: BTreeMap<String, f64>,
     /// Wall time of the run (calibration and flight), s.
     pub wall_s: f64,
 }
@@ -215,6 +227,12 @@ pub struct Summary {
     pub share_removed_total_cep: BTreeMap<String, Stats>,
     /// Alignment errors (absolute) per variant.
     pub alignment: BTreeMap<String, AlignStats>,
+    /// Share of the flight's IMU cycles with the rate clamped, per table variant.
+    #[serde(default)]
+    pub rate_clamped_share: BTreeMap<String, Stats>,
+    /// Share of the flight's IMU cycles with the temperature clamped, per table variant.
+    #[serde(default)]
+    pub temp_clamped_share: BTreeMap<String, Stats>,
     /// The variation bounds flown.
     pub variation: Variation,
     /// Timing per shard (one entry when not sharded).
@@ -289,7 +307,15 @@ pub fn draw(sc: &Scenario, seed: u64, i: u64) -> Draw {
 /// # Errors
 /// Calibration.
 pub fn tables_of(d: &Draw, discover: bool) -> anyhow::Result<Tables> {
-    let mut tables = calibrate_with(&d.units, d.seed, 1, discover)?;
+    tables_on(d, &super::calib::CalibOptions { discover, ..super::calib::CalibOptions::default() })
+}
+
+/// [`tables_of`] with the calibration options `opts`.
+///
+/// # Errors
+/// Calibration.
+pub fn tables_on(d: &Draw, opts: &super::calib::CalibOptions) -> anyhow::Result<Tables> {
+    let mut tables = super::calibrate_opts(&d.units, d.seed, 1, opts)?;
     tables.misalignment = d.scenario.imu.accel.carried_misalignment();
     Ok(tables)
 }
@@ -310,9 +336,17 @@ pub fn hysteresis_share(d: &Draw, tables: &Tables) -> anyhow::Result<f64> {
 /// # Errors
 /// Calibration, flight, or a share that cannot be computed.
 pub fn one(sc: &Scenario, seed: u64, i: u64, discover: bool) -> anyhow::Result<Outcome> {
+    one_on(sc, seed, i, &super::calib::CalibOptions { discover, ..super::calib::CalibOptions::default() })
+}
+
+/// [`one`] with the units calibrated with `opts` (validation is never run here).
+///
+/// # Errors
+/// Calibration, flight, or a share that cannot be computed.
+pub fn one_on(sc: &Scenario, seed: u64, i: u64, opts: &super::calib::CalibOptions) -> anyhow::Result<Outcome> {
     let t0 = Instant::now();
     let d = draw(sc, seed, i);
-    let tables = tables_of(&d, discover).with_context(|| format!("run {i}: calibration"))?;
+    let tables = tables_on(&d, opts).with_context(|| format!("run {i}: calibration"))?;
     let Draw { scenario: s, units: us, seed: rs, temp_offset_c: off, temp_scale: scale } = d;
     let res =
         run::fly(&s, &mut truths_seeded(&us, rs), mc_variants(&tables)?).with_context(|| format!("run {i}: flight"))?;
@@ -330,7 +364,10 @@ pub fn one(sc: &Scenario, seed: u64, i: u64, discover: bool) -> anyhow::Result<O
     }
     let lo = res.temps.iter().map(|t| t[1]).fold(f64::INFINITY, f64::min);
     let hi = res.temps.iter().map(|t| t[1]).fold(f64::NEG_INFINITY, f64::max);
+    let flags = super::flag_shares(&res).with_context(|| format!("run {i}"))?;
     Ok(Outcome {
+        rate_clamped_share: flags.iter().map(|(n, f)| (n.clone(), f.rate_clamped)).collect(),
+        temp_clamped_share: flags.iter().map(|(n, f)| (n.clone(), f.temp_clamped)).collect(),
         run: i,
         seed: rs,
         temp_offset_c: off,
@@ -370,7 +407,13 @@ pub fn run(sc: &Scenario, plan: &Plan, progress: bool) -> anyhow::Result<Partial
     let outcomes: Vec<anyhow::Result<Outcome>> = pool.install(|| {
         idx.par_iter()
             .map(|&i| {
-                let r = one(sc, plan.seed, i, plan.discover);
+                let opts = super::calib::CalibOptions {
+                    discover: plan.discover,
+                    validate: false,
+                    lab: plan.lab,
+                    rate_limit_override: plan.rate_limit_override,
+                };
+                let r = one_on(sc, plan.seed, i, &opts);
                 pb.inc(1);
                 r
             })
@@ -460,6 +503,8 @@ pub fn summarize(parts: &[Partial]) -> anyhow::Result<(Summary, Vec<Outcome>)> {
         thermal_cep_nmi_per_h: stats_by(&refs, |o| &o.thermal_cep_nmi_per_h)?,
         share_removed_total_cep: stats_by(&refs, |o| &o.share_removed_total_cep)?,
         alignment,
+        rate_clamped_share: stats_by(&refs, |o| &o.rate_clamped_share)?,
+        temp_clamped_share: stats_by(&refs, |o| &o.temp_clamped_share)?,
         variation: sc.monte_carlo,
         timing: parts
             .iter()
@@ -486,8 +531,9 @@ pub fn write_outputs(out: &Path, parts: &[Partial], plots: bool) -> anyhow::Resu
     let names: Vec<String> = sum.cep_nmi_per_h.keys().cloned().collect();
     let mut s = String::from("run,seed,temp_offset_c,temp_scale,case_min_c,case_max_c");
     for n in &names {
-        let _ = write!(s, ",{n}_cep_nmi_per_h,{n}_thermal_cep_nmi_per_h,{n}_thermal_share,{n}_share_total_cep,{n}_roll_arcsec,{n}_pitch_arcsec,{n}_heading_mrad");
+        let _ = write!(s, ",{n}_cep_nmi_per_h,{n}_thermal_cep_nmi_per_h,{n}_thermal_share,{n}_share_total_cep,{n}_roll_arcsec,{n}_pitch_arcsec,{n}_heading_mrad,{n}_rate_clamped_share,{n}_temp_clamped_share");
     }
+    s.push_str(",clamped_warning");
     s.push_str(",wall_s\n");
     for o in &outs {
         let _ = write!(
@@ -508,7 +554,27 @@ pub fn write_outputs(out: &Path, parts: &[Partial], plots: bool) -> anyhow::Resu
                 a.pitch_arcsec,
                 a.heading_mrad
             );
+            // The oracle has no status word: "n/a", not a 0 that reads as "never clamped".
+            for m in [&o.rate_clamped_share, &o.temp_clamped_share] {
+                match m.get(n) {
+                    Some(x) => {
+                        let _ = write!(s, ",{x:.4}");
+                    }
+                    None => s.push_str(",n/a"),
+                }
+            }
         }
+        // Variants clamped on most of the flight, `;`-separated (empty: none).
+        let warn: Vec<String> = names
+            .iter()
+            .filter(|n| {
+                [&o.rate_clamped_share, &o.temp_clamped_share]
+                    .iter()
+                    .any(|m| m.get(*n).is_some_and(|x| *x > super::accel::CLAMPED_WARN_SHARE))
+            })
+            .map(|n| format!("{n} clamped"))
+            .collect();
+        let _ = write!(s, ",{}", warn.join(";"));
         let _ = writeln!(s, ",{:.2}", o.wall_s);
     }
     std::fs::write(out.join("mc_runs.csv"), s)?;
@@ -621,6 +687,27 @@ pub fn table(s: &Summary) -> String {
             100.0 * sh.p90
         );
     }
+    for (n, r) in &s.rate_clamped_share {
+        let tc = s.temp_clamped_share.get(n);
+        let _ = writeln!(
+            t,
+            "clamped {n:<11} rate {:.1}% [{:.1}, {:.1}]  temperature {} of the flight's cycles{}",
+            100.0 * r.median,
+            100.0 * r.p10,
+            100.0 * r.p90,
+            tc.map_or("not computed".to_string(), |x| format!(
+                "{:.1}% [{:.1}, {:.1}]",
+                100.0 * x.median,
+                100.0 * x.p10,
+                100.0 * x.p90
+            )),
+            if r.median > super::accel::CLAMPED_WARN_SHARE {
+                "  WARNING: rate clamped on most of the flight in most runs"
+            } else {
+                ""
+            }
+        );
+    }
     for (n, a) in &s.alignment {
         let _ = writeln!(
             t,
@@ -675,6 +762,8 @@ mod tests {
             thermal_share_removed: m(share),
             share_removed_total_cep: m(share),
             alignment: BTreeMap::new(),
+            rate_clamped_share: m(0.5),
+            temp_clamped_share: m(0.0),
             wall_s: 1.0,
         }
     }
@@ -721,7 +810,18 @@ mod tests {
     fn shards_partition_the_runs() {
         let mut all = Vec::new();
         for k in 0..3 {
-            all.extend(Plan { runs: 10, seed: 1, jobs: 1, shard: (k, 3), discover: false }.indices());
+            all.extend(
+                Plan {
+                    runs: 10,
+                    seed: 1,
+                    jobs: 1,
+                    shard: (k, 3),
+                    discover: false,
+                    lab: super::super::calib::LabProgram::Paper,
+                    rate_limit_override: None,
+                }
+                .indices(),
+            );
         }
         all.sort_unstable();
         assert_eq!(all, (0..10).collect::<Vec<_>>());

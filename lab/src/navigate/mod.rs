@@ -58,6 +58,7 @@ pub mod earth;
 pub mod errors;
 pub mod faults;
 pub mod mc;
+pub mod plan;
 pub mod plot;
 pub mod run;
 pub mod scenario;
@@ -111,6 +112,11 @@ pub struct NavigateArgs {
     pub shard: Option<(u64, u64)>,
     /// Leave the `discovered` variant out of the Monte Carlo runs (no discovery per run).
     pub no_mc_discovered: bool,
+    /// The lab program each unit is calibrated on (default: the one covering the flight).
+    pub lab_program: calib::LabProgram,
+    /// Experiment only: every table's rate limit, °C/min, in place of the fitted one
+    /// ([`calib::CalibOptions::rate_limit_override`]).
+    pub rate_limit_override: Option<f32>,
 }
 
 /// The paper's flight figures (Table 7 and §3.2).
@@ -155,8 +161,17 @@ pub struct Meta {
     pub share_removed_thermal: BTreeMap<String, f64>,
     /// Same for RMS East and North velocity error (mean of the two shares).
     pub share_removed_rms_v: BTreeMap<String, f64>,
+    /// Share of the flight's IMU cycles on which each table variant's compensator raised
+    /// a flag (`rate_clamped`: `RATE_OUT_OF_RANGE`, `temp_clamped`: `TEMP_OUT_OF_RANGE`);
+    /// the oracle has no status word and no entry.
+    pub compensation_flags: BTreeMap<String, accel::FlagShares>,
+    /// One line per variant whose rate or temperature was clamped on more than
+    /// [`accel::CLAMPED_WARN_SHARE`] of the flight's cycles (empty: none).
+    pub clamped_warnings: Vec<String>,
     /// Where the discovered table came from.
     pub discovered_source: String,
+    /// The lab program the tables were calibrated on (`covering` or `paper`).
+    pub lab_program: String,
     /// Calibration fit figures per axis.
     pub calibration: Vec<calib::CalReport>,
     /// The paper's figures.
@@ -213,7 +228,25 @@ pub fn units() -> [Truth; 3] {
 /// # Errors
 /// A fit or validation failure.
 pub fn calibrate(units: &[Truth; 3], sc: &Scenario) -> anyhow::Result<Tables> {
-    calibrate_with(units, sc.seed, 2, true)
+    calibrate_opts(
+        units,
+        sc.seed,
+        2,
+        &calib::CalibOptions { discover: true, validate: true, ..calib::CalibOptions::default() },
+    )
+}
+
+/// [`calibrate`] on the lab program `lab`.
+///
+/// # Errors
+/// A fit or validation failure.
+pub fn calibrate_on(
+    units: &[Truth; 3],
+    sc: &Scenario,
+    lab: calib::LabProgram,
+    rate_limit_override: Option<f32>,
+) -> anyhow::Result<Tables> {
+    calibrate_opts(units, sc.seed, 2, &calib::CalibOptions { discover: true, validate: true, lab, rate_limit_override })
 }
 
 /// Calibrate each unit (seeds `seed + 1000 + i`) on `threads` threads; `discover` runs
@@ -222,9 +255,22 @@ pub fn calibrate(units: &[Truth; 3], sc: &Scenario) -> anyhow::Result<Tables> {
 /// # Errors
 /// A fit or validation failure.
 pub fn calibrate_with(units: &[Truth; 3], seed: u64, threads: usize, discover: bool) -> anyhow::Result<Tables> {
+    calibrate_opts(units, seed, threads, &calib::CalibOptions { discover, ..calib::CalibOptions::default() })
+}
+
+/// Calibrate each unit with `opts` (lab program, validation, discovery).
+///
+/// # Errors
+/// A fit or validation failure.
+pub fn calibrate_opts(
+    units: &[Truth; 3],
+    seed: u64,
+    threads: usize,
+    opts: &calib::CalibOptions,
+) -> anyhow::Result<Tables> {
     let mut out = Vec::new();
     for (i, u) in units.iter().enumerate() {
-        out.push(calib::calibrate_unit_with(u, seed.wrapping_add(1000 + i as u64), threads, discover)?);
+        out.push(calib::calibrate_unit_on(u, seed.wrapping_add(1000 + i as u64), threads, opts)?);
     }
     let reports = out.iter().map(|u| u.report.clone()).collect();
     let hysteresis = calib::table3([&out[0].hysteresis, &out[1].hysteresis, &out[2].hysteresis])?;
@@ -328,6 +374,40 @@ pub fn thermal_ceps(res: &FlightResult) -> anyhow::Result<BTreeMap<String, f64>>
         .collect())
 }
 
+/// The flag shares of every variant that has a status word.
+///
+/// # Errors
+/// A variant that counted no cycle (the shares cannot be computed).
+pub fn flag_shares(res: &FlightResult) -> anyhow::Result<BTreeMap<String, accel::FlagShares>> {
+    let mut m = BTreeMap::new();
+    for (n, f) in res.names.iter().zip(&res.flags) {
+        if let Some(f) = f {
+            m.insert(n.clone(), f.shares().with_context(|| format!("variant {n}"))?);
+        }
+    }
+    Ok(m)
+}
+
+/// A warning per variant clamped on more than [`accel::CLAMPED_WARN_SHARE`] of the cycles.
+#[must_use]
+pub fn clamped_warnings(flags: &BTreeMap<String, accel::FlagShares>) -> Vec<String> {
+    let mut w = Vec::new();
+    for (n, f) in flags {
+        for (what, x) in
+            [("rate (RATE_OUT_OF_RANGE)", f.rate_clamped), ("temperature (TEMP_OUT_OF_RANGE)", f.temp_clamped)]
+        {
+            if x > accel::CLAMPED_WARN_SHARE {
+                w.push(format!(
+                    "WARNING: {n}: {what} clamped on {:.1}% of the flight's IMU cycles: the flight leaves the table's \
+                     calibrated range",
+                    100.0 * x
+                ));
+            }
+        }
+    }
+    w
+}
+
 /// Assemble the report from a flight.
 ///
 /// # Errors
@@ -361,6 +441,7 @@ pub fn report(
     let hi = res.temps.iter().map(|t| t[1]).fold(f64::NEG_INFINITY, f64::max);
     let mut alignment_config = sc.alignment;
     alignment_config.ground_temp_c = Some(sc.ground_temp_c());
+    let compensation_flags = flag_shares(res)?;
     Ok(Report {
         variants,
         meta: Meta {
@@ -376,7 +457,10 @@ pub fn report(
             share_removed_rms_v: share_v,
             thermal_cep_nmi_per_h: thermal,
             share_removed_thermal: share_thermal,
+            clamped_warnings: clamped_warnings(&compensation_flags),
+            compensation_flags,
             discovered_source,
+            lab_program: tables.reports.first().map_or("none", |r| r.lab_program.name()).to_string(),
             calibration: tables.reports.clone(),
             paper: PaperFigures { cep_nmi_per_h: [1.54, 1.29], rms_ve_mps: [1.36, 1.09], rms_vn_mps: [1.40, 1.19] },
             runtime_s,
@@ -435,7 +519,7 @@ pub fn scenario_of(args: &NavigateArgs) -> anyhow::Result<Scenario> {
 pub fn nominal(args: &NavigateArgs, sc: &Scenario) -> anyhow::Result<Report> {
     let units = units();
     let t0 = Instant::now();
-    let mut tables = calibrate(&units, sc)?;
+    let mut tables = calibrate_on(&units, sc, args.lab_program, args.rate_limit_override)?;
     tables.misalignment = sc.imu.accel.carried_misalignment();
     let t_cal = t0.elapsed().as_secs_f64();
     let (disc, source) = match &args.discovered_tables {
@@ -555,6 +639,19 @@ pub fn summary(r: &Report) -> String {
                 100.0 * r.meta.share_removed_thermal.get(n).copied().unwrap_or(f64::NAN)
             );
         }
+    }
+    for (n, f) in &r.meta.compensation_flags {
+        let _ = writeln!(
+            s,
+            "flags {n:<11} over {} cycles: rate clamped {:.1}%, temperature clamped {:.1}%, any flag {:.1}%",
+            f.cycles,
+            100.0 * f.rate_clamped,
+            100.0 * f.temp_clamped,
+            100.0 * f.any_flag
+        );
+    }
+    for w in &r.meta.clamped_warnings {
+        let _ = writeln!(s, "{w}");
     }
     for (n, a) in &r.meta.alignment {
         let _ = writeln!(

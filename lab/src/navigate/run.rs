@@ -60,6 +60,9 @@ pub struct FlightResult {
     pub gyro_bias_dph: [f64; 3],
     /// Alignment errors per variant (empty when alignment is off).
     pub alignment: Vec<AlignErrors>,
+    /// Status flags each variant's compensation raised over the flight's IMU cycles
+    /// (alignment excluded), per variant; `None`: no status word (the oracle).
+    pub flags: Vec<Option<super::accel::FlagCounts>>,
 }
 
 /// Navigation figures of one variant.
@@ -221,6 +224,9 @@ pub fn fly(
         }
     }
     let mut navs: Vec<Strapdown> = starts.into_iter().map(Strapdown::new).collect();
+    // The flags are counted over the flight only: the alignment's first cycles are flagged
+    // RATE_NOT_READY by construction (the estimator's window is filling).
+    let flags_at_takeoff: Vec<_> = variants.iter().map(|v| v.comp.flags()).collect();
     for k in 1..=steps {
         clock += 1;
         let prev = flight.state;
@@ -248,6 +254,11 @@ pub fn fly(
             }
         }
     }
+    res.flags = variants
+        .iter()
+        .zip(&flags_at_takeoff)
+        .map(|(v, f0)| v.comp.flags().map(|f| f0.as_ref().map_or(f, |f0| f.since(f0))))
+        .collect();
     Ok(res)
 }
 

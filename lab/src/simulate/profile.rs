@@ -37,6 +37,9 @@ pub fn paper_positions() -> Vec<Position> {
 /// The paper's ramp rates, °C/min (Step 6).
 pub const PAPER_RATES: [f64; 4] = [0.3, 0.5, 0.7, 0.9];
 
+/// Program ids of [`Program::covering`].
+pub const COVERING_IDS: [&str; 4] = ["paper-0.3", "paper-0.9", "ramp-1.0", "ramp-2.0"];
+
 /// Program id of the paper's program at `rate`, e.g. `paper-0.3`.
 #[must_use]
 pub fn paper_id(rate: f64) -> String {
@@ -95,6 +98,33 @@ impl Program {
     #[must_use]
     pub fn paper(rate: f64) -> Self {
         Self::staircase(&paper_id(rate), rate, 120.0, 3.0, -60, 70)
+    }
+
+    /// A continuous triangle at `rate` °C/min (no dwells): hold 22 °C for 30 min, then
+    /// 22 → −60 → +70 → 22 °C. The case lags the air by τ = 600 s, so after about half an
+    /// hour of each ramp the case moves at nearly `rate`: unlike the staircase, whose
+    /// dwells keep the case below about half the ramp rate, this reaches the case rates of
+    /// a flight (the built-in flight's reach 1.6 °C/min). Id `ramp-{rate:.1}`.
+    #[must_use]
+    pub fn triangle(rate: f64) -> Self {
+        let mut pts = vec![(0.0, 22.0), (1800.0, 22.0)];
+        let mut t = 1800.0;
+        let mut temp: f64 = 22.0;
+        for target in [-60.0f64, 70.0, 22.0] {
+            t += (target - temp).abs() / rate * 60.0;
+            temp = target;
+            pts.push((t, temp));
+        }
+        Self { id: format!("ramp-{rate:.1}"), points: pts }
+    }
+
+    /// The lab program that covers the built-in flight ([`COVERING_IDS`]): the paper's
+    /// staircase at 0.3 and 0.9 °C/min and continuous 1 and 2 °C/min triangles, in that
+    /// order (the held-out rule then fits on `paper-0.3` and `ramp-2.0` and holds out
+    /// `paper-0.9` and `ramp-1.0`, both inside the fitted rate range).
+    #[must_use]
+    pub fn covering() -> Vec<Self> {
+        vec![Self::paper(0.3), Self::paper(0.9), Self::triangle(1.0), Self::triangle(2.0)]
     }
 
     /// A flight-like chamber profile after the paper's §3.2 (about 2.3 h): 30 min start-up
@@ -159,6 +189,20 @@ impl Program {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn triangle_ramps_continuously_at_its_rate() {
+        let p = Program::triangle(2.0);
+        assert_eq!(p.id, "ramp-2.0");
+        // 30 min hold + (82 + 130 + 48) °C at 2 °C/min = 130 min.
+        assert!((p.duration_s() - (30.0 + 130.0) * 60.0).abs() < 1e-6);
+        // Mid-ramp: 1 °C every 30 s, no dwell.
+        let t = 1800.0 + 600.0;
+        assert!((p.temp_at(t) - (22.0 - 20.0)).abs() < 1e-9);
+        assert!((p.temp_at(t + 30.0) - p.temp_at(t) + 1.0).abs() < 1e-9);
+        let ids: Vec<String> = Program::covering().into_iter().map(|p| p.id).collect();
+        assert_eq!(ids, COVERING_IDS);
+    }
 
     #[test]
     fn paper_program_duration_matches_hand_count() {
