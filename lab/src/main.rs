@@ -307,6 +307,8 @@ fn check_out(cmd: &Cmd) -> Result<(), String> {
         Cmd::Demo { out, .. } => check_dir(out, "demo"),
         Cmd::Navigate { out: Some(out), sub: None, .. } => check_dir(out, "navigate"),
         Cmd::Navigate { .. } => Ok(()),
+        Cmd::Plan { json: Some(j), .. } => check_file(j, "plan"),
+        Cmd::Plan { .. } => Ok(()),
     }
     .map_err(|e| e.to_string())
 }
