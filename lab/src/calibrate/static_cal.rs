@@ -30,7 +30,7 @@ use serde::Serialize;
 use qfa_thermal::{Input, Table};
 
 use crate::calibrate::fit::{
-    encode, fit_static_axis, table_of_axes, BranchMode, FitError, StaticFit, StaticSeries, StaticStructure,
+    encode, fit_static_axis, table_of_axes, BranchMode, CurveShape, FitError, StaticFit, StaticSeries, StaticStructure,
 };
 use crate::calibrate::metrics::rms;
 use crate::calibrate::peers::{ardupilot_params, fit_peers, px4_params, Peers, Poly};
@@ -101,7 +101,13 @@ pub fn candidates() -> Vec<StaticStructure> {
     for branches in [BranchMode::Single, BranchMode::Offset, BranchMode::Free] {
         for lag in [None, Some(30.0), Some(60.0), Some(120.0), Some(240.0), Some(480.0)] {
             for creep in [None, Some(60.0), Some(180.0), Some(600.0)] {
-                out.push(StaticStructure { branches, lag_tau_s: lag, creep_tau_s: creep, play_half_width_c: None });
+                out.push(StaticStructure {
+                    shape: CurveShape::Nodes,
+                    branches,
+                    lag_tau_s: lag,
+                    creep_tau_s: creep,
+                    play_half_width_c: None,
+                });
             }
         }
     }

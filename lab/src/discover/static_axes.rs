@@ -38,7 +38,7 @@ use qfa_thermal::model::{AxisModel, AxisState};
 use serde::Serialize;
 
 use super::{analyze, start_model, Channels, LogKind, Report, Start};
-use crate::calibrate::fit::{encode, BranchMode, StaticStructure};
+use crate::calibrate::fit::{encode, BranchMode, CurveShape, StaticStructure};
 use crate::calibrate::peers::{PeerKind, Poly};
 use crate::calibrate::static_cal::{calibrate_static, StaticCalOptions};
 use crate::calibrate::static_cal::{score, split_index, Score};
@@ -129,6 +129,7 @@ pub struct StaticDiscovery {
 #[must_use]
 pub fn structure_of(m: &AxisModel) -> StaticStructure {
     StaticStructure {
+        shape: CurveShape::Nodes,
         branches: BranchMode::Single,
         lag_tau_s: m.ext.sensor_lag.map(|l| l.tau_s),
         creep_tau_s: m.ext.bias_creep.map(|c| c.tau_ref_s),
