@@ -58,6 +58,10 @@ fn calibrate_beats_the_cubic_on_every_axis_and_compensate_agrees() {
     assert_eq!(report["rows"], 8399);
     assert_eq!(report["skipped"]["glitch"]["count"], 1);
     assert_eq!(report["skipped"]["glitch"]["lines"][0], 2);
+    // The log has a later leg: `auto` holds it out (rows after the first row at 74.0 °C).
+    let ho = &report["holdout"];
+    assert_eq!((ho["requested"].as_str(), ho["scheme"].as_str()), (Some("auto"), Some("after-max")), "{ho}");
+    assert_eq!(ho["folds"][0]["heldout_rows"], serde_json::json!([6195, 8399]));
     let axes = report["axes"].as_array().unwrap();
     assert_eq!(axes.len(), 3);
     let f = |a: &serde_json::Value, k: &str| a[k]["rms_mg"].as_f64().unwrap();
@@ -71,11 +75,26 @@ fn calibrate_beats_the_cubic_on_every_axis_and_compensate_agrees() {
     for file in ["table.bin", "table.toml", "report.md", "px4_tc.params", "ardupilot_tcal.parm"] {
         assert!(out_dir.join(file).is_file(), "{file}");
     }
+    // The exported cubic is fitted on every row: its z coefficients are those of a cubic
+    // fitted here (nalgebra SVD) on all 8 399 rows about the middle of their range.
     let params = std::fs::read_to_string(out_dir.join("px4_tc.params")).unwrap();
     assert!(params.contains("\tTC_A0_X3_2\t") && params.contains("\tTC_A_ENABLE\t1\t6"), "{params}");
+    let value = |name: &str| -> f64 {
+        let line = params.lines().find(|l| l.split('\t').nth(2) == Some(name)).unwrap_or_else(|| panic!("{name}"));
+        line.split('\t').nth(3).unwrap().parse().unwrap()
+    };
+    let rows = kept_rows(&std::fs::read_to_string(&log).unwrap());
+    let c = cubic_of(&rows, 0..rows.len(), 2);
+    for k in 1..4 {
+        let (got, want) = (value(&format!("TC_A0_X{k}_2")), c.coef[k] * 9.806_65);
+        assert!((got - want).abs() <= 1e-5 * want.abs(), "TC_A0_X{k}_2 {got} vs all-rows cubic {want}");
+    }
 
-    // Compensate with the flashed table; the held-out rows of the output, measured from each
-    // axis's reference, give back the report's figure (an independent path: CSV text).
+    // Compensate with the flashed table, fitted on every row: over every row, measured from
+    // each axis's reference, the output gives back the report's in-sample `table_rms_mg`
+    // (an independent path: CSV text). Before this change the table was fitted on rows
+    // 1..=6194 and this check read the held-out figure back from the last leg; on that leg
+    // the all-rows table is now an in-sample fit, printed beside the held-out figure.
     let comp = dir.join("comp.csv");
     let table = out_dir.join("table.bin");
     let mut args =
@@ -85,22 +104,32 @@ fn calibrate_beats_the_cubic_on_every_axis_and_compensate_agrees() {
     let mut rdr = csv::Reader::from_path(&comp).unwrap();
     let head: Vec<String> = rdr.headers().unwrap().iter().map(str::to_string).collect();
     assert_eq!(head, ["time_s", "temp_c", "ax", "ay", "az", "status"]);
-    let rows: Vec<csv::StringRecord> = rdr.records().map(Result::unwrap).collect();
-    assert_eq!(rows.len(), 8399);
-    let split_t = report["split_time_s"].as_f64().unwrap();
+    let comp_rows: Vec<csv::StringRecord> = rdr.records().map(Result::unwrap).collect();
+    assert_eq!(comp_rows.len(), 8399);
     for (k, a) in axes.iter().enumerate() {
-        let got = heldout_rms_mg(&rows, k, a["reference_g"].as_f64().unwrap(), split_t);
-        let want = f(a, "ours");
+        let reference = a["reference_g"].as_f64().unwrap();
+        let got = rms_mg(&comp_rows, k, reference, 0);
+        let want = a["table_rms_mg"].as_f64().unwrap();
         assert!((got - want).abs() < 0.01 * want, "{}: compensate {got:.3} mg vs report {want:.3} mg", a["axis"]);
+        let leg = rms_mg(&comp_rows, k, reference, 6194);
+        println!(
+            "{}: last leg (rows 6195..=8399): held out {:.2} mg (models fitted on rows 1..=6194, what table.bin was \
+             before); the all-rows table {leg:.2} mg there (in-sample), {got:.2} mg over every row ({})",
+            a["axis"],
+            f(a, "ours"),
+            a["structure"]
+        );
+        // It was fitted on that leg too: it must do better there than a model that was not.
+        assert!(leg < f(a, "ours"), "{}: {leg} vs {}", a["axis"], f(a, "ours"));
     }
 
     // Discovery on each axis (a static log's axis is a single-channel bias log for it), on
-    // the same split: its peer figures are calibrate's, formed by a different path.
+    // the same scheme: its peer figures are calibrate's, formed by a different path.
     let disc = dir.join("disc");
     let drep = discover_real(log_s, &disc);
     let daxes = drep["axes"].as_array().unwrap();
     assert_eq!(daxes.len(), 3);
-    assert_eq!(drep["split_time_s"], report["split_time_s"]);
+    assert_eq!(drep["holdout"], report["holdout"]);
     for (d, a) in daxes.iter().zip(axes) {
         for peer in ["cubic", "ardupilot", "simple", "none"] {
             let (got, want) = (f(d, peer), f(a, peer));
@@ -111,32 +140,61 @@ fn calibrate_beats_the_cubic_on_every_axis_and_compensate_agrees() {
         }
         assert!(disc.join(d["axis"].as_str().unwrap()).join("report.json").is_file());
     }
-    // Discover, then compensate: the flashed table gives back the report's held-out figure
-    // of the flashed model on every axis.
+    // Discover, then compensate: the flashed table (fitted on every row) gives back its
+    // in-sample figure on every axis.
     let comp = dir.join("comp-disc.csv");
     let table = disc.join("table.bin");
     let mut args =
         vec!["compensate", "--log", log_s, "--table", table.to_str().unwrap(), "--out", comp.to_str().unwrap()];
     args.extend(FLAGS);
     lab(&args);
-    let rows: Vec<csv::StringRecord> = csv::Reader::from_path(&comp).unwrap().records().map(Result::unwrap).collect();
+    let comp_rows: Vec<csv::StringRecord> =
+        csv::Reader::from_path(&comp).unwrap().records().map(Result::unwrap).collect();
     for (k, d) in daxes.iter().enumerate() {
-        let got = heldout_rms_mg(&rows, k, d["reference_g"].as_f64().unwrap(), split_t);
-        let want = f(d, "final_model");
+        let got = rms_mg(&comp_rows, k, d["reference_g"].as_f64().unwrap(), 0);
+        let want = d["final_table_rms_mg"].as_f64().unwrap();
         assert!((got - want).abs() < 0.01 * want, "{}: compensate {got:.3} mg vs discover {want:.3} mg", d["axis"]);
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// RMS (mg) of axis `k` of `compensate`'s output rows after the split, less `reference` g:
-/// computed here from the CSV, independently of the report it is compared with.
-fn heldout_rms_mg(rows: &[csv::StringRecord], k: usize, reference: f64, split_t: f64) -> f64 {
-    let r: Vec<f64> = rows
+/// RMS (mg) of axis `k` of `compensate`'s output rows from row index `from` on, less
+/// `reference` g: computed here from the CSV, independently of the report it is compared with.
+fn rms_mg(rows: &[csv::StringRecord], k: usize, reference: f64, from: usize) -> f64 {
+    let r: Vec<f64> = rows[from..]
         .iter()
-        .filter(|r| r[0].parse::<f64>().unwrap() > split_t + 1e-3 && &r[5] != "no_temperature")
+        .filter(|r| &r[5] != "no_temperature")
         .map(|r| r[2 + k].parse::<f64>().unwrap() - reference)
         .collect();
     (r.iter().map(|x| x * x).sum::<f64>() / r.len() as f64).sqrt() * 1e3
+}
+
+/// A cubic of axis `k` (g) in the temperature over `rows[range]`, fitted here with nalgebra's
+/// SVD, independently of the lab's fitter: about the middle of the range, clamped to it,
+/// with its own constant (as PX4's and the tofupilot template's).
+struct Cubic {
+    tref: f64,
+    tmin: f64,
+    tmax: f64,
+    coef: nalgebra::DVector<f64>,
+}
+
+impl Cubic {
+    fn eval(&self, t: f64) -> f64 {
+        let d = t.clamp(self.tmin, self.tmax) - self.tref;
+        self.coef[0] + d * (self.coef[1] + d * (self.coef[2] + d * self.coef[3]))
+    }
+}
+
+fn cubic_of(rows: &[(f64, [f64; 3])], range: std::ops::Range<usize>, k: usize) -> Cubic {
+    let tmin = rows[range.clone()].iter().map(|r| r.0).fold(f64::INFINITY, f64::min);
+    let tmax = rows[range.clone()].iter().map(|r| r.0).fold(f64::NEG_INFINITY, f64::max);
+    let tref = 0.5 * (tmin + tmax);
+    let n = range.len();
+    let m = nalgebra::DMatrix::from_fn(n, 4, |r, c| (rows[range.start + r].0 - tref).powi(c as i32));
+    let y = nalgebra::DVector::from_fn(n, |r, _| rows[range.start + r].1[k]);
+    let coef = m.svd(true, true).solve(&y, 1e-12).unwrap();
+    Cubic { tref, tmin, tmax, coef }
 }
 
 /// Run `qfa-lab discover` on the real log into `out`; its `report.json`.
@@ -184,34 +242,6 @@ fn discovery_beats_the_cubic_on_every_axis() {
     }
     let _ = std::fs::remove_dir_all(&dir);
     assert!(worse.is_empty(), "discovery's flashed model not better than the cubic: {worse:?}");
-}
-
-/// A cubic of axis `k` (g) in the temperature over `rows[range]`, fitted here with nalgebra's
-/// SVD, independently of the lab's fitter: about the middle of the range, clamped to it,
-/// with its own constant (as PX4's and the tofupilot template's).
-struct Cubic {
-    tref: f64,
-    tmin: f64,
-    tmax: f64,
-    coef: nalgebra::DVector<f64>,
-}
-
-impl Cubic {
-    fn eval(&self, t: f64) -> f64 {
-        let d = t.clamp(self.tmin, self.tmax) - self.tref;
-        self.coef[0] + d * (self.coef[1] + d * (self.coef[2] + d * self.coef[3]))
-    }
-}
-
-fn cubic_of(rows: &[(f64, [f64; 3])], range: std::ops::Range<usize>, k: usize) -> Cubic {
-    let tmin = rows[range.clone()].iter().map(|r| r.0).fold(f64::INFINITY, f64::min);
-    let tmax = rows[range.clone()].iter().map(|r| r.0).fold(f64::NEG_INFINITY, f64::max);
-    let tref = 0.5 * (tmin + tmax);
-    let n = range.len();
-    let m = nalgebra::DMatrix::from_fn(n, 4, |r, c| (rows[range.start + r].0 - tref).powi(c as i32));
-    let y = nalgebra::DVector::from_fn(n, |r, _| rows[range.start + r].1[k]);
-    let coef = m.svd(true, true).solve(&y, 1e-12).unwrap();
-    Cubic { tref, tmin, tmax, coef }
 }
 
 /// Kept rows (1-based, after the reader skips the glitch on line 2) from the temperature
