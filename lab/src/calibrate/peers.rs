@@ -1,5 +1,6 @@
 //! What users pick today, fitted on the same training rows as the project's model and
-//! scored on the same held-out rows, and the cubic exported in the formats those stacks load.
+//! scored on the same held-out rows, and the cubic exported in the formats those stacks load
+//! (the exports refitted on every row of the log, as the flashed table is).
 //!
 //! * **Cubic** (PX4 thermal compensation, the tofupilot template): bias =
 //!   `X0 + X1·dT + X2·dT² + X3·dT³`, `dT = clamp(T, TMIN, TMAX) − TREF`, least squares over
@@ -167,7 +168,7 @@ pub fn fit_peers(t: &[f64], y: &[f64]) -> Result<Peers, FitError> {
 #[must_use]
 pub fn px4_params(cubics: &[(String, Poly)]) -> String {
     let mut s = String::from(
-        "# Onboard parameters for Vehicle 1\n# qfa-lab: cubic thermal compensation fitted on the training rows\n\
+        "# Onboard parameters for Vehicle 1\n# qfa-lab: cubic thermal compensation fitted on every row of the log\n\
          # Vehicle-Id\tComponent-Id\tName\tValue\tType\n",
     );
     let _ = writeln!(s, "1\t1\tTC_A_ENABLE\t1\t6");
@@ -193,7 +194,7 @@ pub fn px4_params(cubics: &[(String, Poly)]) -> String {
 /// dT¹..dT³ about 35 °C in m/s² × 10⁶, and the range.
 #[must_use]
 pub fn ardupilot_params(cubics: &[(String, Poly)]) -> String {
-    let mut s = String::from("# qfa-lab: ArduPilot TCAL fitted on the training rows\nINS_TCAL1_ENABLE,1\n");
+    let mut s = String::from("# qfa-lab: ArduPilot TCAL fitted on every row of the log\nINS_TCAL1_ENABLE,1\n");
     let Some((_, first)) = cubics.first() else { return s };
     let _ = writeln!(s, "INS_TCAL1_TMIN,{:.2}", first.tmin_c);
     let _ = writeln!(s, "INS_TCAL1_TMAX,{:.2}", first.tmax_c);
