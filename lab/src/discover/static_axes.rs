@@ -381,7 +381,7 @@ pub fn markdown(d: &StaticDiscovery) -> String {
          held-out rule inside them); every figure below is on the held-out rows, RMS over rows / over 60-s means, \
          mg. Peers fitted on the same training rows, as `calibrate` fits them. Effects named: on every row.\n\n",
     );
-    s.push_str("| axis | effects named | start model | discovered | model in `table.bin` (structure) | PX4/tofupilot cubic | ArduPilot TCAL | paper simple | none |\n");
+    s.push_str("| axis | effects named (every row) | start model | discovered | workflow model, held out (`table.bin` structure, chosen on every row) | PX4/tofupilot cubic | ArduPilot TCAL | paper simple | none |\n");
     s.push_str("|---|---|---|---|---|---|---|---|---|\n");
     for a in &d.axes {
         let mut names = if a.effects.is_empty() { "none".to_string() } else { a.effects.join(", ") };
