@@ -1146,6 +1146,23 @@ mod tests {
     }
 
     #[test]
+    fn several_cycles_hold_out_everything_after_the_first_maximum() {
+        // Two cycles 20 → 50 → 20 °C, the second peaking 0.5 °C lower: the later leg is
+        // everything after the first peak (the second cycle included).
+        let mut t: Vec<f64> = Vec::new();
+        for peak in [50.0, 49.5] {
+            t.extend((0..300).map(|i| 20.0 + (peak - 20.0) * f64::from(i) / 300.0));
+            t.extend((0..300).map(|i| peak - (peak - 20.0) * f64::from(i) / 300.0));
+        }
+        let log = log_of(&t);
+        let (scheme, rule) = resolve_holdout(&log, Holdout::Auto, 10).unwrap();
+        assert_eq!(scheme, Scheme::AfterMax { last: 300 });
+        assert!(rule.contains("evaluate on rows 302..=1200"), "{rule}");
+        assert_eq!(scheme.selection_folds(), CV_FOLDS);
+        assert_eq!(Scheme::Blocks { k: 7 }.selection_folds(), 7);
+    }
+
+    #[test]
     fn holdout_values_parse_and_bad_ones_say_what_is_allowed() {
         assert_eq!("auto".parse::<Holdout>().unwrap(), Holdout::Auto);
         assert_eq!("after-max".parse::<Holdout>().unwrap(), Holdout::AfterMax);
