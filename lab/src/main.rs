@@ -135,6 +135,9 @@ enum Cmd {
         /// export, inside the training temperatures.
         #[arg(long, value_name = "TMIN,TMAX", allow_hyphen_values = true, value_parser = parse_range)]
         export_range: Option<(f64, f64)>,
+        /// Static logs: the held-out scheme, auto | after-max | blocks:K | none (lab/README.md).
+        #[arg(long, default_value = "auto")]
+        holdout: qfa_lab::calibrate::static_cal::Holdout,
         #[command(flatten)]
         fmt: StaticFlags,
     },
@@ -149,6 +152,9 @@ enum Cmd {
         /// Output directory (a static log: one subdirectory per axis).
         #[arg(long)]
         out: PathBuf,
+        /// Static logs: the held-out scheme, auto | after-max | blocks:K | none (lab/README.md).
+        #[arg(long, default_value = "auto")]
+        holdout: qfa_lab::calibrate::static_cal::Holdout,
         #[command(flatten)]
         fmt: StaticFlags,
     },
@@ -369,11 +375,16 @@ fn run(cli: Cli) -> Result<(), String> {
                 truth_path.display()
             );
         }
-        Cmd::Calibrate { log, out, fmt, px4_device_id, export_range, .. } if fmt.options(&log)?.is_some() => {
+        Cmd::Calibrate { ref log, ref fmt, holdout, .. } | Cmd::Discover { ref log, ref fmt, holdout, .. }
+            if holdout != Default::default() && fmt.options(log)?.is_none() =>
+        {
+            return Err(format!("--holdout {holdout}: static logs only (a cycling log is held out by program)"));
+        }
+        Cmd::Calibrate { log, out, fmt, holdout, px4_device_id, export_range, .. } if fmt.options(&log)?.is_some() => {
             let o = fmt.options(&log)?.unwrap_or_default();
             let l = qfa_lab::data::static_log::read_static(&log, &o).map_err(|e| format!("{}: {e}", log.display()))?;
             eprintln!("{} rows read; {}; {}", l.rows(), l.skipped, l.sampling);
-            let opts = qfa_lab::calibrate::static_cal::StaticCalOptions::default();
+            let opts = qfa_lab::calibrate::static_cal::StaticCalOptions { holdout, ..Default::default() };
             let cal = qfa_lab::calibrate::static_cal::calibrate_static(&l, &opts, true).map_err(|e| e.to_string())?;
             qfa_lab::calibrate::static_cal::write_static(&out, &cal).map_err(|e| e.to_string())?;
             let eo = qfa_lab::calibrate::peers::ExportOptions { px4_device_id, range_c: export_range };
@@ -421,12 +432,12 @@ fn run(cli: Cli) -> Result<(), String> {
                 exports_line(&cal.exports)
             );
         }
-        Cmd::Discover { log, start, out, fmt } if fmt.options(&log)?.is_some() => {
+        Cmd::Discover { log, start, out, fmt, holdout } if fmt.options(&log)?.is_some() => {
             // A static log: each axis is a single-channel (bias) log, on static calibration's split.
             let o = fmt.options(&log)?.unwrap_or_default();
             let l = qfa_lab::data::static_log::read_static(&log, &o).map_err(|e| format!("{}: {e}", log.display()))?;
             eprintln!("{} rows read; {}", l.rows(), l.skipped);
-            let d = qfa_lab::discover::static_axes::run(&l, start, &out).map_err(|e| format!("{e:#}"))?;
+            let d = qfa_lab::discover::static_axes::run(&l, start, holdout, &out).map_err(|e| format!("{e:#}"))?;
             for a in &d.axes {
                 println!(
                     "{} ({}): effects found: {}",

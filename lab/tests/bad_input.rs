@@ -16,6 +16,11 @@
 //! | CRLF line ends, blank lines | line numbers as an editor shows them | same |
 //! | `--out` unusable (a file where a directory goes, a directory where a file goes, a missing directory) | error naming `--out`, before the log is read | same |
 //! | a table of the other kind (samples vs pulse counts) | compensate: error naming both kinds | same |
+//! | temperature span under the grid's need (25.0 → 25.3 °C) | calibrate, discover: error `the temperature span is too small: ...` (found and needed) | – |
+//! | a part of the span with too few rows (a jump) | calibrate, discover: error `too few rows per degree: ...` (where, found and needed) | – |
+//! | heating only, no later leg | calibrate, discover: held out by blocks (`--holdout after-max` asked for: error `held-out split: ...`) | – |
+//! | `--holdout` not a scheme | error `--holdout `...`: expected auto, after-max, blocks:K (K ≥ 2) or none` | error `--holdout ...: static logs only` |
+//! | `--holdout none` | calibrate: table written, every held-out figure `not_computed` with the reason | – |
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -42,14 +47,24 @@ fn fails_with(args: &[&str], want: &str) {
 /// A static 3-axis log, 1-s rows in ms, m/s²: 20 → −10 → 60 → 30 °C at 3 °C/min, bias
 /// quadratic in T. `edit` may change rows (index, text).
 fn static_log(path: &Path, edit: impl Fn(usize, String) -> String) {
+    static_log_of(path, &ramps(20.0, &[(-10.0, -0.05), (60.0, 0.05), (30.0, -0.05)]), edit);
+}
+
+/// Temperatures from `t0` through each `(target, step per row)`.
+fn ramps(t0: f64, legs: &[(f64, f64)]) -> Vec<f64> {
     let mut temps = Vec::new();
-    let mut t = 20.0f64;
-    for (target, step) in [(-10.0, -0.05), (60.0, 0.05), (30.0, -0.05)] {
+    let mut t = t0;
+    for &(target, step) in legs {
         while (step < 0.0 && t > target) || (step > 0.0 && t < target) {
             temps.push(t);
             t += step;
         }
     }
+    temps
+}
+
+/// [`static_log`] with these temperatures, one per row.
+fn static_log_of(path: &Path, temps: &[f64], edit: impl Fn(usize, String) -> String) {
     let mut s = String::from("time_ms\timu.temperature\tacc_x\tacc_y\tacc_z\n");
     for (i, &tc) in temps.iter().enumerate() {
         let b = 1e-3 * (tc - 20.0) / 40.0 + 2e-6 * (tc - 20.0).powi(2);
@@ -246,6 +261,67 @@ fn static_log_bad_inputs_get_their_exact_errors() {
         assert!(md.contains("not a table to flash; the flashable table of all axes is `../table.bin`"), "{md}");
         assert!(!md.contains("compensate --table DIR/table.bin"), "{md}");
     }
+    // Logs refused for a cause in the log itself, each with its exact message, and logs
+    // with no later leg, which calibrate (held out by blocks).
+    let small = d.join("small_span.tsv");
+    static_log_of(&small, &(0..300).map(|i| 25.0 + 0.001 * f64::from(i)).collect::<Vec<_>>(), |_, r| r);
+    let mut jump = ramps(20.0, &[(30.0, 0.05)]);
+    jump.extend(ramps(50.0, &[(60.0, 0.05)]));
+    let gap = d.join("jump.tsv");
+    static_log_of(&gap, &jump, |_, r| r);
+    let heating = d.join("heating.tsv");
+    static_log_of(&heating, &ramps(-10.0, &[(60.0, 0.05)]), |_, r| r);
+    let cooling = d.join("cooling.tsv");
+    static_log_of(&cooling, &ramps(60.0, &[(-10.0, -0.05)]), |_, r| r);
+    for cmd in ["calibrate", "discover"] {
+        let o = d.join(format!("out-{cmd}"));
+        let o = o.to_str().unwrap();
+        fails_with(
+            &static_args(cmd, small.to_str().unwrap(), o, "", &FLAGS),
+            "the temperature span is too small: 0.30 °C (25.00..25.30 °C); the model needs at least 1.50 °C (16 \
+             bias-grid nodes at least 0.1 °C apart, the root crate's smallest grid step)",
+        );
+        fails_with(
+            &static_args(cmd, gap.to_str().unwrap(), o, "", &FLAGS),
+            "too few rows per degree: 0 row(s) between 30.67 and 33.33 °C (0.00 per °C); the model needs 10 there \
+             (3.75 per °C): one 10-row averaged equation in each of the 15 bias-grid intervals over 20.00..60.00 °C",
+        );
+        let mut f = FLAGS.to_vec();
+        f.extend(["--holdout", "after-max"]);
+        fails_with(
+            &static_args(cmd, heating.to_str().unwrap(), o, "", &f),
+            "held-out split: the highest temperature (60.00 °C) is at row 1401 of 1401: fewer than a tenth of the \
+             rows lie after it, no later leg to evaluate on",
+        );
+        let mut f = FLAGS.to_vec();
+        f.extend(["--holdout", "blocks:1"]);
+        fails_with(
+            &static_args(cmd, good.to_str().unwrap(), o, "", &f),
+            "--holdout `blocks:1`: expected auto, after-max, blocks:K (K ≥ 2) or none",
+        );
+    }
+    for log in [&heating, &cooling] {
+        let o = d.join("one-leg");
+        let (ok, text) = lab(&static_args("calibrate", log.to_str().unwrap(), o.to_str().unwrap(), "", &FLAGS));
+        assert!(ok, "{text}");
+        assert!(text.contains("Held-out scheme: `blocks:5` (asked: `auto`): auto: the highest temperature"), "{text}");
+    }
+    let none = d.join("none");
+    let mut f = FLAGS.to_vec();
+    f.extend(["--holdout", "none"]);
+    let (ok, text) = lab(&static_args("calibrate", good.to_str().unwrap(), none.to_str().unwrap(), "", &f));
+    assert!(ok, "{text}");
+    assert!(text.contains("Held-out bias RMS: not computed (--holdout none: no row is held out)."), "{text}");
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(none.join("report.json")).unwrap()).unwrap();
+    for a in r["axes"].as_array().unwrap() {
+        for k in ["ours", "cubic", "ardupilot", "simple", "none"] {
+            assert_eq!(a[k], serde_json::json!({"not_computed": "--holdout none: no row is held out"}), "{k}");
+        }
+        assert!(a["table_rms_mg"].as_f64().unwrap() > 0.0, "{a}");
+    }
+    assert!(none.join("table.bin").is_file());
+
     // The compensated output leaves the NaN rows out and says so in the count of rows.
     let rows = std::fs::read_to_string(&out).unwrap().lines().count();
     let good_rows = std::fs::read_to_string(&good).unwrap().lines().count();
@@ -289,6 +365,12 @@ fn cycling_log_bad_inputs_get_their_exact_errors() {
     // Named runs are runs: calibrate fails for the missing pair, not for the names.
     fails_with(&["calibrate", "--log", &single, "--out", &out], "program `rate0.3` has no +1 g / −1 g pair of runs");
     fails_with(&["calibrate", "--log", &no_pair, "--out", &out], "program `rate0.3` has no +1 g / −1 g pair of runs");
+    for cmd in ["calibrate", "discover"] {
+        fails_with(
+            &[cmd, "--log", &single, "--out", &out, "--holdout", "blocks:3"],
+            "--holdout blocks:3: static logs only (a cycling log is held out by program)",
+        );
+    }
     for cmd in ["calibrate", "compensate", "discover"] {
         let args = |log: &str| -> Vec<String> {
             let o = if cmd == "compensate" { &out_csv } else { &out };

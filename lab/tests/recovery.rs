@@ -135,4 +135,11 @@ fn held_out_hysteresis_beats_simple() {
     assert!(s.hysteresis * 4.0 < s.simple, "{s:?}");
     assert!(s.hysteresis < 4.0, "{s:?}");
     assert!(cal.report.bias_residual_ug.hysteresis < cal.report.bias_residual_ug.simple);
+    // What is written is refitted on every program (the held-out ones too), with the
+    // branch tie the fit programs chose; the held-out figures above are of the fit on two.
+    let all: Vec<String> = ["ramp-0.5", "ramp-0.8", "ramp-1.1", "ramp-1.5"].map(String::from).to_vec();
+    assert_eq!(cal.report.table_programs, all);
+    assert!(cal.table.pairs > cal.fitted.pairs, "{} vs {}", cal.table.pairs, cal.fitted.pairs);
+    assert_eq!(cal.table.branch.mode, cal.fitted.branch.mode);
+    assert_ne!(cal.table.hysteresis, cal.fitted.hysteresis);
 }

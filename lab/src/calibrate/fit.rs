@@ -59,6 +59,17 @@ pub enum FitError {
     Table(qfa_thermal::table::Error),
     /// A cross-validation figure could not be formed.
     Cv(String),
+    /// A heating/cooling step fitted on rows that hold (almost) one branch only: it would be
+    /// set by a handful of rows, or split arbitrarily from the curve it is collinear with,
+    /// and then applied to the whole other branch.
+    BranchUnidentified {
+        /// Heating rows fitted.
+        heating: usize,
+        /// Cooling rows fitted.
+        cooling: usize,
+        /// Rows each branch needs (one averaged equation).
+        needed: usize,
+    },
 }
 
 impl fmt::Display for FitError {
@@ -69,6 +80,11 @@ impl fmt::Display for FitError {
             Self::TooManyAxes => write!(f, "more axes than a table holds"),
             Self::Table(e) => write!(f, "table rejected: {e}"),
             Self::Cv(s) => write!(f, "cross-validation: {s}"),
+            Self::BranchUnidentified { heating, cooling, needed } => write!(
+                f,
+                "heating/cooling step not identified: {heating} heating and {cooling} cooling rows fitted; a step \
+                 needs at least {needed} on each branch"
+            ),
         }
     }
 }
@@ -673,11 +689,35 @@ impl BranchMode {
     }
 }
 
+/// The shape of a static bias curve over its grid nodes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub enum CurveShape {
+    /// Every node free (`g` unknowns per curve): any shape the grid can hold.
+    Nodes,
+    /// The nodes on a cubic in temperature (4 unknowns per curve): the peers' own shape,
+    /// stored in the same grid. Across a temperature range with no rows (a held-out block of
+    /// a single ramp) it bridges smoothly where free nodes fall back to a straight line.
+    Cubic,
+}
+
+impl CurveShape {
+    /// Unknowns of one curve on `g` nodes.
+    #[must_use]
+    pub fn unknowns(self, g: usize) -> usize {
+        match self {
+            Self::Nodes => g,
+            Self::Cubic => 4.min(g),
+        }
+    }
+}
+
 /// The structure of a static bias model: which firmware slots are on, with their fixed
-/// nonlinear parameters (the linear weights — grid nodes, creep gain, play weight — are
-/// fitted).
+/// nonlinear parameters (the linear weights — grid nodes or the cubic's coefficients,
+/// creep gain, play weight — are fitted).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct StaticStructure {
+    /// Shape of each bias curve.
+    pub shape: CurveShape,
     /// Branch tie.
     pub branches: BranchMode,
     /// `sensor_lag` τ, s.
@@ -690,17 +730,27 @@ pub struct StaticStructure {
 
 impl StaticStructure {
     /// Grid only, one branch.
-    pub const PLAIN: Self =
-        Self { branches: BranchMode::Single, lag_tau_s: None, creep_tau_s: None, play_half_width_c: None };
+    pub const PLAIN: Self = Self {
+        shape: CurveShape::Nodes,
+        branches: BranchMode::Single,
+        lag_tau_s: None,
+        creep_tau_s: None,
+        play_half_width_c: None,
+    };
 
-    /// Short name for reports, e.g. `offset+lag120+creep600`.
+    /// Short name for reports, e.g. `grid+branch-step+lag120s+creep600s` (`cubic…` for the
+    /// cubic shape).
     #[must_use]
     pub fn name(&self) -> String {
-        let mut s = match self.branches {
-            BranchMode::Single => "grid".to_string(),
-            BranchMode::Offset => "grid+branch-step".to_string(),
-            BranchMode::Free => "grid-2-branches".to_string(),
+        let mut s = match self.shape {
+            CurveShape::Nodes => "grid".to_string(),
+            CurveShape::Cubic => "cubic".to_string(),
         };
+        s.push_str(match self.branches {
+            BranchMode::Single => "",
+            BranchMode::Offset => "+branch-step",
+            BranchMode::Free => "-2-branches",
+        });
         if let Some(t) = self.lag_tau_s {
             s.push_str(&format!("+lag{t}s"));
         }
@@ -716,7 +766,7 @@ impl StaticStructure {
     /// Linear unknowns for `g` grid nodes.
     #[must_use]
     pub fn unknowns(&self, g: usize) -> usize {
-        self.branches.unknowns(g)
+        self.branches.unknowns(self.shape.unknowns(g))
             + usize::from(self.creep_tau_s.is_some())
             + usize::from(self.play_half_width_c.is_some())
     }
@@ -820,7 +870,9 @@ pub const STATIC_LSB_PER_G: f32 = 1_048_576.0;
 /// few data reach defined.
 ///
 /// # Errors
-/// Too few training rows, or a table the root crate refuses.
+/// Too few training rows, a heating/cooling step ([`BranchMode::Offset`]) on rows with
+/// fewer than `block` rows on either branch ([`FitError::BranchUnidentified`]), or a table
+/// the root crate refuses.
 pub fn fit_static_axis(
     series: &StaticSeries<'_>,
     train: &[bool],
@@ -829,14 +881,69 @@ pub fn fit_static_axis(
     deadband: f32,
     block: usize,
 ) -> Result<StaticFit, FitError> {
-    let base = series.trace(&structure.ext(0.0, 0.0), deadband);
-    let creep = structure.creep_tau_s.map(|_| series.trace(&structure.ext(1.0, 0.0), deadband));
-    let play = structure.play_half_width_c.map(|_| series.trace(&structure.ext(0.0, 1.0), deadband));
+    let traces = StaticTraces::new(series, structure, deadband);
+    fit_static_traced(series, &traces, train, grid_points, block)
+}
+
+/// The firmware's view of a static series under one structure at unit gains: what
+/// [`fit_static_traced`] regresses on. It depends on the rows' times and temperatures and
+/// the structure only (not on the axis output, nor on which rows are fitted), so a caller
+/// that fits one structure many times (cross-validation folds, several axes) computes it once.
+#[derive(Clone, Debug)]
+pub struct StaticTraces {
+    /// The structure.
+    pub structure: StaticStructure,
+    /// Branch deadband, °C/min.
+    pub deadband: f32,
+    base: Trace,
+    creep: Option<Trace>,
+    play: Option<Trace>,
+}
+
+impl StaticTraces {
+    /// Replay `series`' temperatures through the root crate under `structure`.
+    #[must_use]
+    pub fn new(series: &StaticSeries<'_>, structure: &StaticStructure, deadband: f32) -> Self {
+        Self {
+            structure: *structure,
+            deadband,
+            base: series.trace(&structure.ext(0.0, 0.0), deadband),
+            creep: structure.creep_tau_s.map(|_| series.trace(&structure.ext(1.0, 0.0), deadband)),
+            play: structure.play_half_width_c.map(|_| series.trace(&structure.ext(0.0, 1.0), deadband)),
+        }
+    }
+}
+
+/// [`fit_static_axis`] on traces computed beforehand (same series' times and temperatures).
+///
+/// # Errors
+/// As [`fit_static_axis`].
+pub fn fit_static_traced(
+    series: &StaticSeries<'_>,
+    traces: &StaticTraces,
+    train: &[bool],
+    grid_points: usize,
+    block: usize,
+) -> Result<StaticFit, FitError> {
+    let structure = &traces.structure;
+    let deadband = traces.deadband;
+    let (base, creep, play) = (&traces.base, &traces.creep, &traces.play);
     let idx: Vec<usize> = (0..train.len()).filter(|&i| train[i] && base.valid[i]).collect();
     let g = grid_points.clamp(2, MAX_BIAS_POINTS);
     let p = structure.unknowns(g);
     if idx.len() < 2 * p {
         return Err(FitError::TooFewRows { rows: idx.len(), unknowns: p });
+    }
+    if structure.branches == BranchMode::Offset {
+        // The step is the contrast between branches: without `block` rows (one averaged
+        // equation) on each, it is noise or a split of the curve's own constant, and the
+        // table would apply it to every row of the branch the fit never saw. (Free needs no
+        // such rule: its weak ties make an unseen branch follow the seen one.)
+        let count = |b: Branch| idx.iter().filter(|&&i| base.branch[i] == b).count();
+        let (heating, cooling) = (count(Branch::Heating), count(Branch::Cooling));
+        if heating.min(cooling) < block.max(1) {
+            return Err(FitError::BranchUnidentified { heating, cooling, needed: block.max(1) });
+        }
     }
     let reference_g = idx.iter().map(|&i| series.accel_g[i]).sum::<f64>() / idx.len() as f64;
     let tmin = idx.iter().map(|&i| base.model_temp_c[i]).fold(f64::INFINITY, f64::min);
@@ -844,32 +951,58 @@ pub fn fit_static_axis(
     let start = tmin.floor().max(-60.0);
     let end = tmax.ceil().min(130.0).max(start + 1.0);
     let step = (end - start) / (g - 1) as f64;
-    let nb = structure.branches.unknowns(g);
+    let c = structure.shape.unknowns(g);
+    let nb = structure.branches.unknowns(c);
+    // Node values of the curve's unknowns: the identity for free nodes; for the cubic,
+    // powers 0..=3 of the node temperature scaled to −1..1 (conditioning).
+    let basis: Vec<Vec<f64>> = (0..g)
+        .map(|j| match structure.shape {
+            CurveShape::Nodes => (0..g).map(|k| f64::from(u8::from(j == k))).collect(),
+            CurveShape::Cubic => {
+                let u = (2.0 * j as f64 / (g - 1) as f64) - 1.0;
+                (0..c).map(|k| u.powi(k as i32)).collect()
+            }
+        })
+        .collect();
+    let mut h = vec![0.0; 2 * g];
     let mut x = vec![0.0; idx.len() * p];
     let mut y = Vec::with_capacity(idx.len());
     let mut max_rate: f64 = 0.0;
     for (k, &i) in idx.iter().enumerate() {
         let row = &mut x[k * p..(k + 1) * p];
         let (t, b) = (base.model_temp_c[i], base.branch[i]);
+        // Hat weights on the nodes (heating curve at 0, cooling at g), then onto the curves'
+        // unknowns through the basis.
+        h.iter_mut().for_each(|v| *v = 0.0);
         match structure.branches {
-            BranchMode::Single => hat(row, 0, t, start, step, g, 1.0),
-            BranchMode::Offset => {
-                hat(row, 0, t, start, step, g, 1.0);
-                row[g] = match b {
-                    Branch::Heating => 1.0,
-                    Branch::Cooling => -1.0,
-                    Branch::Unknown => 0.0,
-                };
+            BranchMode::Single | BranchMode::Offset => hat(&mut h, 0, t, start, step, g, 1.0),
+            BranchMode::Free => grid_row(&mut h, t, b, start, step, g, 1.0),
+        }
+        let curves = if structure.branches == BranchMode::Free { 2 } else { 1 };
+        for cv in 0..curves {
+            for (j, bj) in basis.iter().enumerate() {
+                let w = h[cv * g + j];
+                if w != 0.0 {
+                    for (kk, v) in bj.iter().enumerate() {
+                        row[cv * c + kk] += w * v;
+                    }
+                }
             }
-            BranchMode::Free => grid_row(row, t, b, start, step, g, 1.0),
         }
-        let mut c = nb;
-        if let Some(tr) = &creep {
-            row[c] = tr.ext_k0_g[i];
-            c += 1;
+        if structure.branches == BranchMode::Offset {
+            row[c] = match b {
+                Branch::Heating => 1.0,
+                Branch::Cooling => -1.0,
+                Branch::Unknown => 0.0,
+            };
         }
-        if let Some(tr) = &play {
-            row[c] = tr.ext_k0_g[i];
+        let mut col = nb;
+        if let Some(tr) = creep {
+            row[col] = tr.ext_k0_g[i];
+            col += 1;
+        }
+        if let Some(tr) = play {
+            row[col] = tr.ext_k0_g[i];
         }
         y.push(series.accel_g[i] - reference_g);
         max_rate = max_rate.max(base.rate_c_per_min[i].abs());
@@ -882,18 +1015,26 @@ pub fn fit_static_axis(
         }
     }
     let (mut xb, mut yb) = block_average(&x, &y, p, block, &starts);
-    structure.branches.push_regularisers(&mut xb, &mut yb, p, g);
+    match structure.shape {
+        CurveShape::Nodes => structure.branches.push_regularisers(&mut xb, &mut yb, p, g),
+        // A cubic needs no smoothing rows; two branches are tied coefficient by coefficient
+        // (weakly, as the nodes are), so a branch no row reaches follows the other.
+        CurveShape::Cubic if structure.branches == BranchMode::Free => push_branch_ties(&mut xb, &mut yb, p, c),
+        CurveShape::Cubic => {}
+    }
     let ls = lstsq(&xb, p, &yb)?;
-    let c = &ls.coef;
-    let (heating, cooling) = structure.branches.expand(c, g);
+    let coef = &ls.coef;
+    let (hc, cc) = structure.branches.expand(coef, c);
+    let nodes = |u: &[f64]| -> Vec<f64> { basis.iter().map(|bj| bj.iter().zip(u).map(|(a, b)| a * b).sum()).collect() };
+    let (heating, cooling) = (nodes(&hc), nodes(&cc));
     let mut k = nb;
     let creep_gain = if structure.creep_tau_s.is_some() {
         k += 1;
-        c[k - 1] as f32
+        coef[k - 1] as f32
     } else {
         0.0
     };
-    let play_weight = if structure.play_half_width_c.is_some() { c[k] as f32 } else { 0.0 };
+    let play_weight = if structure.play_half_width_c.is_some() { coef[k] as f32 } else { 0.0 };
     let axis = AxisModel {
         scale: ScaleFactor::simple(T0_C as f32, STATIC_LSB_PER_G, 0.0),
         bias: BiasGrid {

@@ -3,13 +3,17 @@
 //! Files written to the output directory:
 //! `table.toml` / `table.bin` (the hysteresis model, the table to flash),
 //! `table_simple.toml` / `table_simple.bin` (the simple model, for comparison),
-//! `report.json`, `sf_vs_temp.png`, `residual_vs_time.png`, and the cubic peer fitted on
-//! the same training pairs as PX4 (`px4_tc.params`) and ArduPilot
-//! (`ardupilot_tcal_1_enable.parm`, `ardupilot_tcal_2_values.parm`) parameters for the IMU
-//! axis [`CalibrateOptions::axis`] names, when they can be loaded as written (see
-//! [`peers::write_exports`]: a one-axis export needs [`peers::ExportOptions::range_c`]).
-//! The table written is the one fitted on the fit programs only, so the report's held-out
-//! figures describe exactly the flashed table.
+//! `report.json`, `sf_vs_temp.png`, `residual_vs_time.png`, and the cubic peer as PX4
+//! (`px4_tc.params`) and ArduPilot (`ardupilot_tcal_1_enable.parm`,
+//! `ardupilot_tcal_2_values.parm`) parameters for the IMU axis [`CalibrateOptions::axis`]
+//! names, when they can be loaded as written (see [`peers::write_exports`]: a one-axis
+//! export needs [`peers::ExportOptions::range_c`]).
+//!
+//! Which rows each comes from: the held-out figures (and the plots) from tables fitted on
+//! the fit programs and compensated on the others; the tables and parameters written from
+//! the same models refitted on **every** program with a ±1 g pair, with the bias grid's
+//! branch tie the fit programs chose ([`FitOptions::branch_mode`]), so no program's rows are
+//! left out of what is flashed. With one program, both are the same fit.
 
 pub mod coverage;
 pub mod fit;
@@ -27,6 +31,7 @@ use crate::calibrate::report::{
     evaluate, plot_residual_vs_time, plot_sf_vs_temp, Evaluation, FitSummary, Report, Timings, METRIC_TEXT,
 };
 use crate::data::cycling::{read_log, Log};
+use crate::data::pairing::pair_program;
 
 /// Calibration settings.
 #[derive(Clone, Debug, Default)]
@@ -49,13 +54,15 @@ pub struct CalibrateOptions {
 /// Result of a calibration.
 #[derive(Clone, Debug)]
 pub struct Calibration {
-    /// Fits and tables.
+    /// Fits and tables on the fit programs (what the held-out figures are of).
     pub fitted: Fitted,
+    /// Fits and tables on every program (what is written and flashed).
+    pub table: Fitted,
     /// Held-out evaluation.
     pub eval: Evaluation,
     /// The report as written.
     pub report: Report,
-    /// The peers fitted on the same training pairs.
+    /// The peers fitted on every program's pairs (what the parameter files hold).
     pub peers: crate::calibrate::peers::Peers,
     /// The PX4 / ArduPilot files written, and why others were not.
     pub exports: peers::Exports,
@@ -89,7 +96,7 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
     let pb = bar(fit_p.len() as u64, "fitting", opts.progress);
     let fitted = fit(log, &FitOptions::new(fit_p.clone()), Some(&pb)).map_err(|e| e.to_string())?;
     pb.finish_and_clear();
-    let t_fit = t.elapsed().as_secs_f64();
+    let mut t_fit = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let n_eval = log.runs.iter().filter(|r| eval_p.contains(&r.program)).count();
     let pb = bar(n_eval as u64, "held-out compensation", opts.progress);
@@ -97,7 +104,21 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
     pb.finish_and_clear();
     let t_eval = t.elapsed().as_secs_f64();
     check_figures(&eval)?;
-    let (peers, peer_fits) = crate::calibrate::report::peer_bias(log, &fit_p, &eval_p, &fitted.hysteresis)?;
+    let (peers, fit_peers) = crate::calibrate::report::peer_bias(log, &fit_p, &eval_p, &fitted.hysteresis)?;
+    // What is written: the same models on every program with a pair (the branch tie as
+    // the fit programs chose it), and the peers on the same pairs.
+    let table_p: Vec<String> = programs.iter().filter(|p| pair_program(log, p).is_some()).cloned().collect();
+    let (table, peer_fits) = if table_p.iter().all(|p| fit_p.contains(p)) {
+        (fitted.clone(), fit_peers)
+    } else {
+        let t = Instant::now();
+        let o = FitOptions { branch_mode: Some(fitted.branch.mode), ..FitOptions::new(table_p.clone()) };
+        let table = fit(log, &o, None).map_err(|e| e.to_string())?;
+        let deadband = table.hysteresis.axes[0].bias.deadband_c_per_min;
+        let p = crate::calibrate::report::peer_fit(log, &table_p, deadband)?;
+        t_fit += t.elapsed().as_secs_f64();
+        (table, p)
+    };
     let h = &fitted.sf_hysteresis.coef;
     let deadband = crate::data::pairing::branch_deadband_c_per_min();
     let coverage = crate::calibrate::coverage::CalCoverage {
@@ -109,6 +130,12 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
         coverage,
         rows: log.rows(),
         held_out: fit_p.iter().all(|p| !eval_p.contains(p)),
+        figures: format!(
+            "held-out figures and plots: tables fitted on {fit_p:?}, compensated on {eval_p:?}; table.*, \
+             table_simple.*, px4_tc.params, ardupilot_tcal.parm: fitted on {table_p:?} (every program with a +1 g / -1 g \
+             pair), the bias grid's branch tie as chosen on {fit_p:?}"
+        ),
+        table_programs: table_p,
         fit_programs: fit_p,
         eval_programs: eval_p,
         sensitivity_ppm_per_c: eval.sensitivity_ppm_per_c,
@@ -129,7 +156,7 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
         rejected_readings: eval.rejected_readings,
         timings_s: Timings { fit: t_fit, evaluate: t_eval, ..Timings::default() },
     };
-    Ok(Calibration { fitted, eval, report, peers: peer_fits, exports: peers::Exports::default() })
+    Ok(Calibration { fitted, table, eval, report, peers: peer_fits, exports: peers::Exports::default() })
 }
 
 /// Every held-out figure must exist: a figure with no bins behind it is an error with its
@@ -193,8 +220,8 @@ pub fn calibrate_into(log: &Log, out: &Path, opts: &CalibrateOptions, read_s: f6
     let t0 = Instant::now();
     std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
     let mut cal = calibrate_log(log, opts)?;
-    write_table(out, "table", &cal.fitted.hysteresis)?;
-    write_table(out, "table_simple", &cal.fitted.simple)?;
+    write_table(out, "table", &cal.table.hysteresis)?;
+    write_table(out, "table_simple", &cal.table.simple)?;
     let axis = opts.axis.clone().unwrap_or_else(|| "ax".to_string());
     if !["ax", "ay", "az"].contains(&axis.as_str()) {
         return Err(format!("axis `{axis}`: expected ax, ay or az"));
@@ -204,7 +231,7 @@ pub fn calibrate_into(log: &Log, out: &Path, opts: &CalibrateOptions, read_s: f6
         source: format!("accelerometer (--axis {})", axis.trim_start_matches('a')),
         axis,
         cubic: cal.peers.cubic.clone(),
-        ardupilot: cal.peers.ardupilot.clone(),
+        ardupilot: Ok(cal.peers.ardupilot.clone()),
     };
     cal.exports = peers::write_exports(out, &[one], &opts.exports).map_err(|e| format!("{}: {e}", out.display()))?;
     let t = Instant::now();

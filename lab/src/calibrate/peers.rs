@@ -1,5 +1,6 @@
 //! What users pick today, fitted on the same training rows as the project's model and
-//! scored on the same held-out rows, and the cubic exported in the formats those stacks load.
+//! scored on the same held-out rows, and the cubic exported in the formats those stacks load
+//! (the exports refitted on every row of the log, as the flashed table is).
 //!
 //! * **Cubic** (PX4 thermal compensation, the tofupilot template): bias =
 //!   `X0 + X1·dT + X2·dT² + X3·dT³`, `dT = clamp(T, TMIN, TMAX) − TREF`, least squares over
@@ -199,8 +200,9 @@ pub struct ExportAxis {
     pub source: String,
     /// The PX4 / tofupilot cubic.
     pub cubic: Poly,
-    /// The ArduPilot cubic about 35 °C.
-    pub ardupilot: Poly,
+    /// The ArduPilot cubic about 35 °C, or why its learner formed none (it learns on rises
+    /// only: a cooling-only log has none).
+    pub ardupilot: Result<Poly, String>,
 }
 
 /// How to write the exports.
@@ -232,6 +234,12 @@ fn px4_index(axis: &str) -> usize {
     }
 }
 
+/// The axis's ArduPilot cubic; the PX4 cubic stands in where there is none, and is never
+/// written: the ArduPilot files are then left out with the reason.
+fn ardupilot_or_cubic(a: &ExportAxis) -> Poly {
+    a.ardupilot.clone().unwrap_or_else(|_| a.cubic.clone())
+}
+
 fn ardupilot_axis(axis: &str) -> &'static str {
     ["X", "Y", "Z"][px4_index(axis)]
 }
@@ -252,7 +260,7 @@ pub fn export_texts(axes: &[ExportAxis], opts: &ExportOptions) -> (Vec<(&'static
     let same = axes.iter().all(|a| a.cubic.tmin_c == first.cubic.tmin_c && a.cubic.tmax_c == first.cubic.tmax_c);
     let names = || axes.iter().map(|a| a.axis.as_str()).collect::<Vec<_>>().join(", ");
     let (polys, partial_note): (Vec<(Poly, Poly)>, Option<String>) = match opts.range_c {
-        None if complete && same => (axes.iter().map(|a| (a.cubic.clone(), a.ardupilot.clone())).collect(), None),
+        None if complete && same => (axes.iter().map(|a| (a.cubic.clone(), ardupilot_or_cubic(a))).collect(), None),
         None => {
             notes.push(format!(
                 "PX4 and ArduPilot files not written: this export has {} of the 3 axes ({}), and TC_A0_TREF/TMIN/TMAX \
@@ -278,7 +286,7 @@ pub fn export_texts(axes: &[ExportAxis], opts: &ExportOptions) -> (Vec<(&'static
             let polys = axes
                 .iter()
                 .map(|a| {
-                    let ap = Poly { tmin_c: rlo, tmax_c: rhi, ..a.ardupilot.clone() };
+                    let ap = Poly { tmin_c: rlo, tmax_c: rhi, ..ardupilot_or_cubic(a) };
                     (a.cubic.about(mid, rlo, rhi), ap)
                 })
                 .collect();
@@ -313,7 +321,7 @@ pub fn export_texts(axes: &[ExportAxis], opts: &ExportOptions) -> (Vec<(&'static
             let _ = writeln!(
                 s,
                 "# qfa-lab: PX4 thermal compensation of accelerometer 0 (TC_A0_*), the cubic of the bias in \
-                 temperature fitted on the training rows.\n\
+                 temperature fitted on every row of the log.\n\
                  # TC_A0_ID = {id}: PX4 applies TC_A0_* only to the accelerometer with this device ID (its CAL_ACC0_ID \
                  parameter, or device_id in `listener sensor_accel`).\n\
                  # TC_A0_Xk_0/1/2 are the sensor's own x, y, z (PX4 subtracts the offset before the board rotation): \
@@ -354,6 +362,10 @@ pub fn export_texts(axes: &[ExportAxis], opts: &ExportOptions) -> (Vec<(&'static
     // −p(T − 35) + p(CALTEMP − 35), p(d) = (ACC1·d + ACC2·d² + ACC3·d³)·10⁻⁶. ENABLE
     // carries AP_PARAM_FLAG_ENABLE (the group's other parameters are hidden until it is
     // set) and @RebootRequired; TMIN/TMAX have @Range -70 80.
+    if let Some(why) = axes.iter().find_map(|a| a.ardupilot.as_ref().err()) {
+        notes.push(format!("ArduPilot files not written: its learner formed no fit: {why}"));
+        return (files, notes);
+    }
     let (tmin, tmax) = (polys[0].1.tmin_c, polys[0].1.tmax_c);
     let (rmin, rmax) = ARDUPILOT_T_RANGE_C;
     // As written (two decimals, as ArduPilot prints them), so the check is on the file's values.

@@ -172,8 +172,13 @@ pub struct FitSummary {
 pub struct Report {
     /// Log rows.
     pub rows: usize,
-    /// Programs fitted.
+    /// Programs the held-out figures' tables were fitted on.
     pub fit_programs: Vec<String>,
+    /// Programs the written tables (`table.*`, `table_simple.*`) and the PX4 / ArduPilot
+    /// parameters were fitted on: every program with a ±1 g pair.
+    pub table_programs: Vec<String>,
+    /// Which rows each figure and output comes from, in words.
+    pub figures: String,
     /// Programs the figures come from.
     pub eval_programs: Vec<String>,
     /// Whether the figures are held out (false only for a one-program log).
@@ -356,21 +361,7 @@ pub fn peer_bias(
 ) -> Result<(PeerBias, crate::calibrate::peers::Peers), String> {
     let ext = qfa_thermal::Extensions::default();
     let deadband = hysteresis.axes[0].bias.deadband_c_per_min;
-    let (mut t, mut k0) = (Vec::new(), Vec::new());
-    for prog in fit_programs {
-        let Some(pp) = pair_program(log, prog) else { continue };
-        let (tp, tm) = (trace_run(&log.runs[pp.plus], &ext, deadband), trace_run(&log.runs[pp.minus], &ext, deadband));
-        for (k, &(i, j)) in pp.rows.iter().enumerate() {
-            if tp.valid[i] && tm.valid[j] {
-                t.push(0.5 * (tp.temp_c[i] + tm.temp_c[j]));
-                k0.push(pp.k1_k0(log, k).1);
-            }
-        }
-    }
-    if t.is_empty() {
-        return Err("peers: no +1 g / -1 g pair with temperatures in the fit programs".to_string());
-    }
-    let peers = crate::calibrate::peers::fit_peers(&t, &k0).map_err(|e| format!("peers: {e}"))?;
+    let peers = peer_fit(log, fit_programs, deadband)?;
     let gamma = f64::from(hysteresis.axes[0].scale.gamma);
     let mut bins: [Vec<Bin>; 2] = [Vec::new(), Vec::new()];
     let polys = [&peers.cubic, &peers.ardupilot];
@@ -412,4 +403,28 @@ pub fn peer_bias(
     }
     let r = |b: &[Bin]| rms(&b.iter().map(|x| x.value * 1e6).collect::<Vec<_>>());
     Ok((PeerBias { cubic: r(&bins[0]), ardupilot: r(&bins[1]) }, peers))
+}
+
+/// The bias-only peers fitted on the ±1 g pairs of `programs` (K0 against the pair's mean
+/// T̂, branch deadband `deadband` °C/min), as [`peer_bias`] fits them.
+///
+/// # Errors
+/// No pair with temperatures in `programs`, or a failed fit.
+pub fn peer_fit(log: &Log, programs: &[String], deadband: f32) -> Result<crate::calibrate::peers::Peers, String> {
+    let ext = qfa_thermal::Extensions::default();
+    let (mut t, mut k0) = (Vec::new(), Vec::new());
+    for prog in programs {
+        let Some(pp) = pair_program(log, prog) else { continue };
+        let (tp, tm) = (trace_run(&log.runs[pp.plus], &ext, deadband), trace_run(&log.runs[pp.minus], &ext, deadband));
+        for (k, &(i, j)) in pp.rows.iter().enumerate() {
+            if tp.valid[i] && tm.valid[j] {
+                t.push(0.5 * (tp.temp_c[i] + tm.temp_c[j]));
+                k0.push(pp.k1_k0(log, k).1);
+            }
+        }
+    }
+    if t.is_empty() {
+        return Err("peers: no +1 g / -1 g pair with temperatures in the fit programs".to_string());
+    }
+    crate::calibrate::peers::fit_peers(&t, &k0).map_err(|e| format!("peers: {e}"))
 }

@@ -1,34 +1,42 @@
 //! Discovery on a static multi-axis log (a board at rest in a chamber): each axis is a
-//! single-channel bias log, on the same documented split as static calibration.
+//! single-channel bias log, on the same held-out scheme as static calibration.
 //!
-//! # Split (the one of [`crate::calibrate::static_cal`])
-//! Fit on every row up to the first row at the log's highest temperature, hold out the
-//! rest. Everything discovery decides (start-model fit, candidates, block tests, the final
-//! fit) sees only the training rows: the training rows are cut out as their own
-//! single-channel log and run through [`super::analyze`], whose own held-out rule (time
-//! blocks inside that log) drives the selection. The model and the estimator are causal,
-//! so cutting the log at the split is the same as masking the later rows.
+//! # Held-out scheme (the one of [`crate::calibrate::static_cal`], `--holdout`)
+//! `after-max` (fit up to the first row at the highest temperature, hold out the later
+//! leg), `blocks:K` (K contiguous blocks in time, each held out from a fit to the others),
+//! or `none`; `auto` picks `after-max` when the log has a later leg, else `blocks:5`.
+//! Everything discovery decides for a held-out figure (start-model fit, candidates, block
+//! tests, the final fit) sees only that fold's training rows: they are cut out as their
+//! own single-channel log and run through [`super::analyze`], whose own held-out rule (time
+//! blocks inside that log) drives the selection. Under `after-max` the training rows are a
+//! prefix, and the model and the estimator are causal, so cutting is the same as masking
+//! the later rows; under `blocks:K` a middle block leaves a gap in time, which the rate
+//! estimator treats as any gap in a log (it restarts its window after 30 s).
 //!
 //! # Figures
-//! Per axis, on the held-out rows, in mg (RMS over rows, and over 60-s means): the start
-//! model and the discovered model (both fitted on every training bin, run through the root
-//! crate's `AxisModel::evaluate` on every row, `bias_drift` added when it was named), and
-//! beside them the peers of [`crate::calibrate::peers`] fitted on the same training rows
-//! and scored on the same held-out rows, exactly as `calibrate` scores them. A figure that
-//! cannot be formed is an error.
+//! Per axis, on the held-out rows of every fold, in mg (RMS over rows, and over 60-s
+//! means): the start model and the discovered model (both fitted on the fold's training
+//! bins, run through the root crate's `AxisModel::evaluate` on every row, `bias_drift` added
+//! when it was named), and beside them the peers of [`crate::calibrate::peers`] fitted on
+//! the same training rows and scored on the same held-out rows, exactly as `calibrate`
+//! scores them. A figure that cannot be formed is an error, or (`none`, an ArduPilot
+//! learner with no rise to learn from) a [`Figure::NotComputed`] with its reason.
 //!
 //! # Table: what is named and what is flashed
 //! The block test decides what is *named*: a claim about the physics, made only when it is
-//! significant, with the false-discovery rate the README states. What is *flashed*
-//! (`DIR/table.bin`, what `qfa-lab compensate` loads) is a prediction: static
-//! calibration's cross-validated choice (the same 5-fold blocked CV inside the training
-//! rows, the same one fitter) among its candidates plus every structure discovery named
-//! on any axis ([`structure_of`]). On a short log the two differ: the tofupilot log's
+//! significant, with the false-discovery rate the README states. The names in the report
+//! are discovery's on **every row** (those of each fold's training rows are listed too).
+//! What is *flashed* (`DIR/table.bin`, what `qfa-lab compensate` loads) is a prediction:
+//! static calibration's cross-validated choice (the same blocked CV, the same one fitter)
+//! among its candidates plus every structure discovery named on any axis
+//! ([`structure_of`]), chosen and fitted on every row, as `calibrate` writes its table; its
+//! held-out figure is the same procedure on each fold's training rows, with the structures
+//! discovery named on them. On a short log the named and the flashed differ: the tofupilot log's
 //! 52-min training leg gives the block test 8 blocks, too few to name effects that still
 //! predict better. The report gives both, and says which structure was flashed and
 //! whether discovery named it. Static tables have K1 = 2²⁰ LSB/g
-//! ([`crate::calibrate::fit::STATIC_LSB_PER_G`]) and the bias in g from the axis's
-//! training mean.
+//! ([`crate::calibrate::fit::STATIC_LSB_PER_G`]) and the bias in g from the axis's mean
+//! over every row.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -38,10 +46,12 @@ use qfa_thermal::model::{AxisModel, AxisState};
 use serde::Serialize;
 
 use super::{analyze, start_model, Channels, LogKind, Report, Start};
-use crate::calibrate::fit::{encode, BranchMode, StaticStructure};
-use crate::calibrate::peers::{PeerKind, Poly};
-use crate::calibrate::static_cal::{calibrate_static, StaticCalOptions};
-use crate::calibrate::static_cal::{score, split_index, Score};
+use crate::calibrate::fit::{encode, BranchMode, CurveShape, StaticStructure};
+use crate::calibrate::peers::PeerKind;
+use crate::calibrate::static_cal::{
+    calibrate_static_with, check_coverage, resolve_holdout, score, ExtraCandidates, Figure, Holdout, HoldoutReport,
+    StaticCalOptions, NO_HOLDOUT,
+};
 use crate::data::channels::Trace;
 use crate::data::static_log::StaticLog;
 
@@ -57,46 +67,51 @@ pub fn bin_width_s(duration_s: f64) -> f64 {
     (duration_s / 400.0).round().clamp(10.0, 60.0)
 }
 
-/// One axis on the documented split.
+/// One axis under the held-out scheme.
 #[derive(Clone, Debug, Serialize)]
 pub struct AxisDiscovery {
     /// Role (`ax`, `ay`, `az`).
     pub axis: String,
     /// Column in the file.
     pub column: String,
-    /// Training mean the bias is measured from, g.
+    /// Mean over every row the table's bias is measured from, g.
     pub reference_g: f64,
-    /// Effects named, `name (channel)`, in order (empty: none).
+    /// Effects named on every row, `name (channel)`, in order (empty: none).
     pub effects: Vec<String>,
-    /// Effects named but not in `table.bin` (no root-crate slot).
+    /// Effects named on each fold's training rows.
+    pub effects_per_fold: Vec<Vec<String>>,
+    /// Effects named on every row but not in `table.bin` (no root-crate slot).
     pub not_in_table: Vec<String>,
-    /// Unexplained structure left in the training residual, in words.
+    /// Unexplained structure left in the residual on every row, in words.
     pub unexplained: Vec<String>,
-    /// Start model on the held-out rows.
-    pub before: Score,
-    /// Discovered model on the held-out rows.
-    pub after: Score,
-    /// The structure discovery named, as the one static fitter writes it (`bias_drift`,
-    /// which has no slot, and a creep's activation energy dropped).
+    /// Start model, held out.
+    pub before: Figure,
+    /// Discovered model, held out.
+    pub after: Figure,
+    /// The structure discovery named on every row, as the one static fitter writes it
+    /// (`bias_drift`, which has no slot, and a creep's activation energy dropped).
     pub named_structure: String,
-    /// The workflow's model, the one in `table.bin`: the lowest cross-validation RMS inside
-    /// the training rows among static calibration's candidates and every axis's named
-    /// structure (see the module docs).
+    /// The workflow's model, the one in `table.bin`: the lowest cross-validation RMS over
+    /// every row among static calibration's candidates and every axis's named structure
+    /// (see the module docs).
     pub final_structure: String,
-    /// Whether that is a structure discovery named (else one of calibration's candidates).
+    /// Whether that is the structure discovery named on this axis (else one of
+    /// calibration's candidates or another axis's).
     pub final_is_named: bool,
-    /// Its cross-validation RMS on the training rows, mg.
+    /// Its cross-validation RMS over every row, mg.
     pub final_cv_rms_mg: f64,
-    /// The workflow's model on the held-out rows.
-    pub final_model: Score,
-    /// PX4 / tofupilot cubic.
-    pub cubic: Score,
-    /// ArduPilot TCAL.
-    pub ardupilot: Score,
-    /// The paper's simple model (linear in T).
-    pub simple: Score,
-    /// No compensation (training mean removed).
-    pub none: Score,
+    /// The workflow's model, held out (chosen and fitted on each fold's training rows).
+    pub final_model: Figure,
+    /// RMS over every row of the table in `table.bin` (fitted on every row: in-sample), mg.
+    pub final_table_rms_mg: f64,
+    /// PX4 / tofupilot cubic, held out.
+    pub cubic: Figure,
+    /// ArduPilot TCAL, held out.
+    pub ardupilot: Figure,
+    /// The paper's simple model (linear in T), held out.
+    pub simple: Figure,
+    /// No compensation (training mean removed), held out.
+    pub none: Figure,
 }
 
 /// `DIR/report.json` of a static discovery.
@@ -104,21 +119,21 @@ pub struct AxisDiscovery {
 pub struct StaticDiscovery {
     /// Start model.
     pub start: Start,
-    /// The split, in words.
-    pub split: String,
-    /// Time of the last training row, s.
-    pub split_time_s: f64,
+    /// The held-out scheme (calibration's own).
+    pub holdout: HoldoutReport,
+    /// Which rows each figure comes from, in words.
+    pub figures: String,
     /// Bin width of the discovery channels, s.
     pub bin_s: f64,
     /// Per axis.
     pub axes: Vec<AxisDiscovery>,
-    /// Each axis's full discovery report (selection inside the training rows).
+    /// Each axis's full discovery report on every row.
     #[serde(skip)]
     pub reports: Vec<Report>,
-    /// Each axis's training channels (what its report was formed from).
+    /// Each axis's channels on every row (what its report was formed from).
     #[serde(skip)]
     pub channels: Vec<Channels>,
-    /// The workflow's table (one axis per log axis).
+    /// The workflow's table (one axis per log axis), fitted on every row.
     #[serde(skip)]
     pub table: qfa_thermal::Table,
 }
@@ -129,6 +144,7 @@ pub struct StaticDiscovery {
 #[must_use]
 pub fn structure_of(m: &AxisModel) -> StaticStructure {
     StaticStructure {
+        shape: CurveShape::Nodes,
         branches: BranchMode::Single,
         lag_tau_s: m.ext.sensor_lag.map(|l| l.tau_s),
         creep_tau_s: m.ext.bias_creep.map(|c| c.tau_ref_s),
@@ -149,8 +165,8 @@ fn scale_bias(m: &mut AxisModel, k: f32) {
     }
 }
 
-fn rows_of(log: &StaticLog, end: usize) -> Vec<(f64, f32)> {
-    log.time_s[..end].iter().zip(&log.temp_c[..end]).map(|(&t, &c)| (t, c as f32)).collect()
+fn rows_of(log: &StaticLog, rows: &[usize]) -> Vec<(f64, f32)> {
+    rows.iter().map(|&i| (log.time_s[i], log.temp_c[i] as f32)).collect()
 }
 
 /// Per-row K0 (g) of `model` over the whole log, plus `drift_per_h`·(hours since the first
@@ -158,7 +174,8 @@ fn rows_of(log: &StaticLog, end: usize) -> Vec<(f64, f32)> {
 fn row_bias(log: &StaticLog, model: &AxisModel, drift_per_h: f64, bin_s: f64) -> Vec<Option<f64>> {
     let n = log.rows();
     let zeros = vec![0.0; n];
-    let tr = Trace::new(String::new(), &rows_of(log, n), None, &zeros, bin_s);
+    let all: Vec<usize> = (0..n).collect();
+    let tr = Trace::new(String::new(), &rows_of(log, &all), None, &zeros, bin_s);
     let mut out = vec![None; n];
     let mut st = AxisState::default();
     let t0 = tr.time_s.first().copied().unwrap_or(0.0);
@@ -176,57 +193,115 @@ fn row_bias(log: &StaticLog, model: &AxisModel, drift_per_h: f64, bin_s: f64) ->
     out
 }
 
-/// Discover each axis of `log` on the documented split; see the module docs.
+/// Discovery of one axis on the rows `rows` (ascending): its report (models in g), its
+/// channels, the start model (g) and the reference (the rows' mean, g).
+fn discover_rows(
+    log: &StaticLog,
+    axis: usize,
+    rows: &[usize],
+    start: Start,
+    bin_s: f64,
+) -> (Report, Channels, AxisModel, f64) {
+    let ax = &log.axes[axis];
+    let reference = rows.iter().map(|&i| ax.accel_g[i]).sum::<f64>() / rows.len() as f64;
+    // Discovery runs in µg, so its per-axis reports read in µg; the models go back to g.
+    let value_ug: Vec<f64> = rows.iter().map(|&i| (ax.accel_g[i] - reference) * 1e6).collect();
+    let ch = Channels {
+        kind: LogKind::Single,
+        traces: vec![Trace::new(ax.name.clone(), &rows_of(log, rows), None, &value_ug, bin_s)],
+    };
+    let mut r = analyze(&ch, start);
+    if let Some(m) = r.model.as_mut() {
+        scale_bias(m, 1e-6);
+    }
+    let mut base = start_model(&ch, start);
+    scale_bias(&mut base, 1e-6);
+    (r, ch, base, reference)
+}
+
+/// Discover each axis of `log` under the held-out scheme `holdout`; see the module docs.
 ///
 /// # Errors
-/// A split that leaves nothing to evaluate, a peer that cannot be fitted, or a figure that
-/// cannot be formed.
-pub fn discover_static(log: &StaticLog, start: Start) -> Result<StaticDiscovery> {
-    let last = split_index(log)?;
+/// A log static calibration refuses, a held-out scheme the log cannot hold, a discovery
+/// that gives no model, or a figure that cannot be formed.
+#[allow(clippy::too_many_lines)]
+pub fn discover_static(log: &StaticLog, start: Start, holdout: Holdout) -> Result<StaticDiscovery> {
+    let mut opts = StaticCalOptions { holdout, ..StaticCalOptions::default() };
+    check_coverage(&log.temp_c, opts.grid_points, opts.block)?;
+    let (scheme, _) = resolve_holdout(log, holdout, opts.block)?;
     let n = log.rows();
+    let folds = scheme.folds(n);
     let duration = log.time_s[n - 1] - log.time_s[0];
     let bin_s = bin_width_s(duration);
-    let ho: Vec<usize> = (last + 1..n).collect();
-    let ho_t: Vec<f64> = ho.iter().map(|&i| log.time_s[i]).collect();
+    let all: Vec<usize> = (0..n).collect();
     let mut axes = Vec::new();
     let mut reports = Vec::new();
     let mut channels = Vec::new();
-    for ax in &log.axes {
-        let reference = ax.accel_g[..=last].iter().sum::<f64>() / (last + 1) as f64;
-        let value: Vec<f64> = ax.accel_g[..=last].iter().map(|a| a - reference).collect();
-        // Discovery runs in µg, so its per-axis reports read in µg; the models go back to g.
-        let value_ug: Vec<f64> = value.iter().map(|v| v * 1e6).collect();
-        let ch = Channels {
-            kind: LogKind::Single,
-            traces: vec![Trace::new(ax.name.clone(), &rows_of(log, last + 1), None, &value_ug, bin_s)],
-        };
-        let mut r = analyze(&ch, start);
-        if let Some(m) = r.model.as_mut() {
-            scale_bias(m, 1e-6);
+    // Named structures: on every row, and per fold on its training rows.
+    let mut named_all: Vec<StaticStructure> = Vec::new();
+    let mut named_fold: Vec<Vec<StaticStructure>> = vec![Vec::new(); folds.len()];
+    let add = |v: &mut Vec<StaticStructure>, st: StaticStructure| {
+        if !v.contains(&st) {
+            v.push(st);
         }
-        let mut base = start_model(&ch, start);
-        scale_bias(&mut base, 1e-6);
-        let disc = r.model.clone().context("discovery gave no model")?;
-        let drift = 1e-6 * r.effects.iter().find_map(|e| e.params.get("drift_g_per_h").copied()).unwrap_or(0.0);
+    };
+    for (a, ax) in log.axes.iter().enumerate() {
         let name = |w: &str| format!("{} {w}", ax.name);
-        let ours = |m: &AxisModel, d: f64, what: &str| -> Result<Score> {
-            let b = row_bias(log, m, d, bin_s);
-            let (res, t): (Vec<f64>, Vec<f64>) =
-                ho.iter().filter_map(|&i| b[i].map(|k0| (ax.accel_g[i] - reference - k0, log.time_s[i]))).unzip();
-            Ok(score(&res, &t, &name(what))?)
+        let (r, ch, _, reference) = discover_rows(log, a, &all, start, bin_s);
+        let disc_all = r.model.clone().with_context(|| format!("{}: discovery gave no model", ax.name))?;
+        add(&mut named_all, structure_of(&disc_all));
+        // Held-out residuals, pooled over the folds in time order.
+        let (mut before, mut after, mut t_before, mut t_after) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let mut peers: [Vec<f64>; 3] = [Vec::new(), Vec::new(), Vec::new()];
+        let mut peer_err: [Option<String>; 3] = [None, None, None];
+        let (mut none, mut ho_t) = (Vec::new(), Vec::new());
+        let mut effects_per_fold = Vec::new();
+        for (f, held) in folds.iter().enumerate() {
+            let train: Vec<usize> = (0..n).filter(|i| !held.contains(i)).collect();
+            let (rf, _, base, r0) = discover_rows(log, a, &train, start, bin_s);
+            let disc =
+                rf.model.clone().with_context(|| format!("{}: discovery gave no model in fold {}", ax.name, f + 1))?;
+            add(&mut named_fold[f], structure_of(&disc));
+            effects_per_fold.push(rf.effect_labels());
+            let drift = 1e-6 * rf.effects.iter().find_map(|e| e.params.get("drift_g_per_h").copied()).unwrap_or(0.0);
+            for (m, d, res, t) in [(&base, 0.0, &mut before, &mut t_before), (&disc, drift, &mut after, &mut t_after)] {
+                let b = row_bias(log, m, d, bin_s);
+                for i in held.clone() {
+                    if let Some(k0) = b[i] {
+                        res.push(ax.accel_g[i] - r0 - k0);
+                        t.push(log.time_s[i]);
+                    }
+                }
+            }
+            let tt: Vec<f64> = train.iter().map(|&i| log.temp_c[i]).collect();
+            let value: Vec<f64> = train.iter().map(|&i| ax.accel_g[i] - r0).collect();
+            for (k, kind) in PeerKind::ALL.iter().enumerate() {
+                match kind.fit(&tt, &value) {
+                    Ok(p) => peers[k].extend(held.clone().map(|i| ax.accel_g[i] - r0 - p.eval(log.temp_c[i]))),
+                    Err(e) if peer_err[k].is_none() => {
+                        peer_err[k] = Some(format!("fold {} of {}: {}: {e}", f + 1, folds.len(), kind.label()));
+                    }
+                    Err(_) => {}
+                }
+            }
+            none.extend(held.clone().map(|i| ax.accel_g[i] - r0));
+            ho_t.extend(held.clone().map(|i| log.time_s[i]));
+        }
+        let fig = |res: &[f64], t: &[f64], what: &str, err: &Option<String>| -> Result<Figure> {
+            if folds.is_empty() {
+                return Ok(Figure::not_computed(NO_HOLDOUT));
+            }
+            if let Some(e) = err {
+                return Ok(Figure::not_computed(e.clone()));
+            }
+            Ok(Figure::Score(score(res, t, &name(what))?))
         };
-        let tt = &log.temp_c[..=last];
-        let peer = |k: PeerKind| -> Result<Score> {
-            let p: Poly = k.fit(tt, &value).map_err(|e| anyhow::anyhow!("{}: {e}", name(k.label())))?;
-            let res: Vec<f64> = ho.iter().map(|&i| ax.accel_g[i] - reference - p.eval(log.temp_c[i])).collect();
-            Ok(score(&res, &ho_t, &name(k.label()))?)
-        };
-        let none: Vec<f64> = ho.iter().map(|&i| ax.accel_g[i] - reference).collect();
         axes.push(AxisDiscovery {
             axis: ax.name.clone(),
             column: ax.column.clone(),
             reference_g: reference,
             effects: r.effect_labels(),
+            effects_per_fold,
             not_in_table: r.effects.iter().filter(|e| !e.in_table).map(|e| e.name.clone()).collect(),
             unexplained: r
                 .unexplained
@@ -239,47 +314,47 @@ pub fn discover_static(log: &StaticLog, start: Start) -> Result<StaticDiscovery>
                     s
                 })
                 .collect(),
-            before: ours(&base, 0.0, "start model")?,
-            after: ours(&disc, drift, "discovered model")?,
-            named_structure: structure_of(&disc).name(),
+            before: fig(&before, &t_before, "start model", &None)?,
+            after: fig(&after, &t_after, "discovered model", &None)?,
+            named_structure: structure_of(&disc_all).name(),
             // Filled in below, once every axis's named structure is known.
             final_structure: String::new(),
             final_is_named: false,
-            final_cv_rms_mg: 0.0,
-            final_model: Score { rms_mg: 0.0, binned_mg: 0.0 },
-            cubic: peer(PeerKind::Cubic)?,
-            ardupilot: peer(PeerKind::Ardupilot)?,
-            simple: peer(PeerKind::Simple)?,
-            none: score(&none, &ho_t, &name("none"))?,
+            final_cv_rms_mg: f64::NAN,
+            final_model: Figure::not_computed("not yet chosen"),
+            final_table_rms_mg: f64::NAN,
+            cubic: fig(&peers[0], &ho_t, PeerKind::Cubic.label(), &peer_err[0])?,
+            ardupilot: fig(&peers[1], &ho_t, PeerKind::Ardupilot.label(), &peer_err[1])?,
+            simple: fig(&peers[2], &ho_t, PeerKind::Simple.label(), &peer_err[2])?,
+            none: fig(&none, &ho_t, "none", &None)?,
         });
         reports.push(r);
         channels.push(ch);
     }
     // The model: static calibration's cross-validated choice, with every structure
-    // discovery named on any axis added to its candidates. The block test decides what is
-    // *named* (a claim about the physics, with a known false-discovery rate); the
-    // cross-validation decides what is *flashed* (a prediction). On a short log the two
-    // differ: the test may lack the power to name what still predicts better.
-    let mut opts = StaticCalOptions::default();
-    for r in &reports {
-        let st = structure_of(r.model.as_ref().context("discovery gave no model")?);
-        if !opts.candidates.contains(&st) {
-            opts.candidates.push(st);
-        }
-    }
-    let cal = calibrate_static(log, &opts, false).map_err(|e| anyhow::anyhow!("{e}"))?;
+    // discovery named on any axis added to its candidates (on every row for the table, on
+    // each fold's training rows for that fold). The block test decides what is *named* (a
+    // claim about the physics, with a known false-discovery rate); the cross-validation
+    // decides what is *flashed* (a prediction). On a short log the two differ: the test may
+    // lack the power to name what still predicts better.
+    let na = log.axes.len();
+    let extra =
+        ExtraCandidates { all_rows: vec![named_all; na], folds: named_fold.into_iter().map(|v| vec![v; na]).collect() };
+    opts.holdout = holdout;
+    let cal = calibrate_static_with(log, &opts, &extra, false).map_err(|e| anyhow::anyhow!("{e}"))?;
     for (a, c) in axes.iter_mut().zip(&cal.report.axes) {
         a.final_is_named = c.structure == a.named_structure;
         a.final_structure.clone_from(&c.structure);
         a.final_cv_rms_mg = c.cv_rms_mg;
-        a.final_model = c.ours;
+        a.final_model = c.ours.clone();
+        a.final_table_rms_mg = c.table_rms_mg;
     }
     Ok(StaticDiscovery {
         table: cal.table,
         start,
-        // The split is calibration's own (same `split_index`), so its words are too.
-        split: cal.report.split.clone(),
-        split_time_s: cal.report.split_time_s,
+        // The scheme is calibration's own (same `resolve_holdout`), so its words are too.
+        holdout: cal.report.holdout.clone(),
+        figures: cal.report.figures.clone(),
         bin_s,
         axes,
         reports,
@@ -293,19 +368,21 @@ pub fn markdown(d: &StaticDiscovery) -> String {
     let mut s = String::from("# Discovery on a static log\n\n");
     let _ = writeln!(
         s,
-        "Split: {}. Start model `{}`; {}-s bins; the per-axis reports are in µg.\n",
-        d.split,
+        "Held-out scheme: `{}` (asked: `{}`): {}. Start model `{}`; {}-s bins; the per-axis reports are in µg.\n",
+        d.holdout.scheme,
+        d.holdout.requested,
+        d.holdout.rule,
         d.start.name(),
         d.bin_s
     );
+    let _ = writeln!(s, "Which rows each figure comes from: {}.\n", d.figures);
     s.push_str(
-        "Selection sees only the training rows (its own time-block held-out rule inside them); every figure \
-         below is on the held-out rows, RMS over rows / over 60-s means, mg. Peers fitted on the same training \
-         rows, as `calibrate` fits them.\n\n",
+        "For each held-out figure, selection sees only that fold's training rows (discovery's own time-block \
+         held-out rule inside them); every figure below is on the held-out rows, RMS over rows / over 60-s means, \
+         mg. Peers fitted on the same training rows, as `calibrate` fits them. Effects named: on every row.\n\n",
     );
-    s.push_str("| axis | effects named | start model | discovered | model in `table.bin` (structure) | PX4/tofupilot cubic | ArduPilot TCAL | paper simple | none |\n");
+    s.push_str("| axis | effects named (every row) | start model | discovered | workflow model, held out (`table.bin` structure, chosen on every row) | PX4/tofupilot cubic | ArduPilot TCAL | paper simple | none |\n");
     s.push_str("|---|---|---|---|---|---|---|---|---|\n");
-    let f = |x: &Score| format!("{:.2} / {:.2}", x.rms_mg, x.binned_mg);
     for a in &d.axes {
         let mut names = if a.effects.is_empty() { "none".to_string() } else { a.effects.join(", ") };
         if !a.unexplained.is_empty() {
@@ -316,21 +393,22 @@ pub fn markdown(d: &StaticDiscovery) -> String {
             "| {} | {} | {} | {} | {} ({}{}) | {} | {} | {} | {} |",
             a.axis,
             names,
-            f(&a.before),
-            f(&a.after),
-            f(&a.final_model),
+            a.before.cell(),
+            a.after.cell(),
+            a.final_model.cell(),
             a.final_structure,
             if a.final_is_named { ", the named structure" } else { "" },
-            f(&a.cubic),
-            f(&a.ardupilot),
-            f(&a.simple),
-            f(&a.none)
+            a.cubic.cell(),
+            a.ardupilot.cell(),
+            a.simple.cell(),
+            a.none.cell()
         );
     }
     s.push_str(
-        "\nNamed: the block test inside the training rows (a claim about the physics). Flashed (`table.bin`): the \
-         lowest 5-fold cross-validation RMS inside the training rows among static calibration's candidates and the \
-         named structures (a prediction).\n",
+        "\nNamed: the block test (a claim about the physics). Flashed (`table.bin`): the lowest blocked \
+         cross-validation RMS among static calibration's candidates and the named structures (a prediction), \
+         chosen and fitted on every row; its held-out figure is the same choice made inside each fold's training \
+         rows.\n",
     );
     let missing: Vec<String> = d
         .axes
@@ -351,8 +429,8 @@ pub fn markdown(d: &StaticDiscovery) -> String {
 ///
 /// # Errors
 /// As [`discover_static`], or a file could not be written.
-pub fn run(log: &StaticLog, start: Start, dir: &Path) -> Result<StaticDiscovery> {
-    let d = discover_static(log, start)?;
+pub fn run(log: &StaticLog, start: Start, holdout: Holdout, dir: &Path) -> Result<StaticDiscovery> {
+    let d = discover_static(log, start, holdout)?;
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     for ((a, r), ch) in d.axes.iter().zip(&d.reports).zip(&d.channels) {
         // Not flashable: the table of all axes is DIR/table.bin (see `output`'s docs).
