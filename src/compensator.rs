@@ -34,7 +34,7 @@
 //! copy. The memory orderings are checked by loom (`compensator::seqlock::model`, run by
 //! `cargo xtask loom` and `cargo xtask test`): one writer thread and one reader thread
 //! through every interleaving and every store each load may read under loom's memory model
-//! (three tests, 256 706 executions, 12 s; up to 3 preemptions in the one with two
+//! (three tests, 627 592 executions, 33 s under CI load; up to 3 preemptions in the one with two
 //! publications), with the sequence wrapping past `u32::MAX` in one of them.
 //! `cargo xtask loom` also checks that the model fails on each of six mutants that weaken
 //! one ordering or drop one step of the seqlock (`mutants_caught=6 of 6`). Only 32-bit

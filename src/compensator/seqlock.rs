@@ -14,8 +14,8 @@
 //! With `--cfg loom` the atomics and the fence are loom's, and the `model` tests run one
 //! writer thread and one reader thread through every execution loom finds: every
 //! interleaving, and every store each load may read under loom's memory model (with one
-//! publication against the reader: all of them, 89 453 executions; with two: those with at
-//! most 3 preemptions, 77 800). `cargo xtask loom` runs them, then runs them again on each
+//! publication against the reader: all of them, 231 252 executions; with two: those with at
+//! most 3 preemptions, 165 088). `cargo xtask loom` runs them, then runs them again on each
 //! mutant (`--cfg qfa_mutant="NAME"`, one ordering or step of this file weakened or removed)
 //! and fails unless the model fails on every one; `cargo xtask test` runs the clean model.
 //! Normal builds contain none of the mutants' code.
@@ -291,7 +291,8 @@ mod tests {
 /// One axis and no misalignment matrix: four words per set (scale, two biases, flags), so a
 /// copy has four Relaxed loads that can each come from a different publication. The 1×1
 /// matrix would be a fifth word loaded and stored the same way; it multiplies the
-/// executions by 9 (785 362 instead of 89 453 for one publication) and checks nothing the
+/// executions by about 9 (measured as 785 362 against 89 453 for one publication, before the
+/// flags word carried the age and the epoch) and checks nothing the
 /// other words do not.
 #[cfg(all(test, loom))]
 mod model {
@@ -370,7 +371,7 @@ mod model {
         println!("seqlock model: sequence from {start:#010x}, {publications} publication(s), bound {preemptions:?}: {n} executions");
     }
 
-    /// One publication against two reads, no preemption bound: every execution (89 453).
+    /// One publication against two reads, no preemption bound: every execution (231 252).
     #[test]
     fn one_publication_every_execution() {
         check(0, 1, None);
@@ -383,8 +384,8 @@ mod model {
         check(u32::MAX - 3, 1, None);
     }
 
-    /// Two publications (a read can straddle both), at most 3 preemptions: 77 800
-    /// executions (a bound of 5 gives 939 864, 17 times the time). The sequence's 7 stores are loom's
+    /// Two publications (a read can straddle both), at most 3 preemptions: 165 088
+    /// executions (a bound of 5 gave 939 864 with the earlier flags word, 17 times the time). The sequence's 7 stores are loom's
     /// whole history per atomic (`MAX_ATOMIC_HISTORY` in loom 0.7), so no store a load
     /// could return is forgotten.
     #[test]
