@@ -1,0 +1,214 @@
+//! The fast path: the applier's own copy of the coefficients, refreshed through the seqlock,
+//! and the per-IMU-cycle correction.
+
+#[cfg(doc)]
+use super::Compensator;
+use core::sync::atomic::Ordering;
+
+use super::seqlock::{Published, Set, AGE_STALE};
+use super::Status;
+
+/// Output of one IMU cycle.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Output<const AXES: usize> {
+    /// Compensated velocity increment per axis, m/s ([`Compensator::cycle`]), or
+    /// acceleration, m/s² ([`Compensator::cycle_samples`]).
+    pub dv_mps: [f32; AXES],
+    /// Conditions in force.
+    pub status: Status,
+}
+
+/// Fast-path state: the applier's own copy of the last whole coefficient set, its
+/// staleness clock and its counter base. Never touched by the updater.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct FastState<const AXES: usize> {
+    pub(super) stale_after_ticks: u32,
+    /// Ticks per age unit (`stale_after_ticks / AGE_STEPS`): turns a set's age into ticks.
+    pub(super) ticks_per_age: f32,
+    /// Ticks left before the set is stale, counted down and held at 0. At each copy, the
+    /// budget `stale_after_ticks + 1` less the oldest stream's age: taken when a good
+    /// reading came since the last copy, otherwise only if shorter. A countdown costs two
+    /// instructions per cycle less than counting up and comparing.
+    pub(super) ticks_left: u32,
+    /// Sequence of the set copied into `set`.
+    pub(super) seen_seq: u32,
+    pub(super) set: Set<AXES>,
+    /// The set's status as each entry sees it, `[pulses, samples]`: the entry that does not
+    /// match [`Config::input`] carries [`Status::WRONG_INPUT`] from construction on (the
+    /// bit is kept at each copy, so it needs no field of its own). Formed when a set is
+    /// copied, so the per-cycle path only picks a field.
+    pub(super) path_status: [Status; 2],
+    pub(super) counters: Option<[u32; AXES]>,
+}
+
+/// The fast path of a split compensator: owns the IMU-cycle state and a copy of the
+/// coefficients, refreshed from the [`Published`] set when its sequence changes. Put it
+/// where the IMU interrupt can reach it.
+///
+/// Per cycle it loads one shared word (the sequence) and otherwise reads only its own
+/// memory. When the sequence has moved (once per temperature reading), it copies the set
+/// and checks the sequence again: a set read while the updater was writing it (an odd or
+/// changed sequence) is dropped, the previous whole set stays in use for this cycle, and
+/// the copy is tried again on the next. It never waits and never uses a half-written set,
+/// whichever context preempts which, on one core or several.
+///
+/// Here the two halves run on two threads, as they would in thread mode and an interrupt
+/// on a multi-core part; the applier never waits for the updater:
+///
+/// ```
+/// use qfa_thermal::{AxisModel, BiasGrid, Compensator, Config, Extensions, Input, ScaleFactor, Table};
+///
+/// let bias = BiasGrid::single_valued(-40.0, 10.0, &[1e-4; 13]);
+/// let axis = AxisModel { scale: ScaleFactor::JB_KT8_1, bias, rate_limit_c_per_min: 2.0, ext: Extensions::default() };
+/// let table = Table { input: Input::PulseCounts, rate_window: 32, axes: core::iter::repeat_n(axis, 3).collect(), misalignment: None };
+/// let mut comp = Compensator::<3, 32, 3>::new(Config::default()).unwrap();
+/// comp.set_table(table).unwrap();
+/// let (mut updater, mut applier) = comp.split();
+/// applier.prime_counters([0; 3]);
+///
+/// std::thread::scope(|s| {
+///     s.spawn(move || {
+///         for t in 0..20u32 {
+///             for sensor in 0..3 {
+///                 updater.on_raw_from(sensor, t * 1_000, 352 + (t / 4) as i16).unwrap(); // a slow ramp
+///             }
+///         }
+///     });
+///     s.spawn(move || {
+///         let mut counters = [0u32; 3];
+///         for _ in 0..10_000 {
+///             counters[2] = counters[2].wrapping_add(1_601);
+///             let out = applier.cycle_counters(counters, 5_000);
+///             assert!(out.dv_mps.iter().all(|v| v.is_finite())); // always, whatever it raced
+///         }
+///     });
+/// });
+/// ```
+#[derive(Debug)]
+pub struct Applier<'a, const AXES: usize> {
+    pub(super) fast: &'a mut FastState<AXES>,
+    pub(super) shared: &'a Published<AXES>,
+}
+
+impl<const AXES: usize> Applier<'_, AXES> {
+    /// Copy the published set if it is whole (seqlock reader); the rare path.
+    #[cold]
+    #[inline(never)]
+    fn refresh(&mut self) {
+        self.refresh_with(|| {});
+    }
+
+    /// [`Self::refresh`] with `mid` run between the copy and the re-check (a test hook:
+    /// the updater preempting the applier there).
+    #[inline(always)]
+    pub(super) fn refresh_with(&mut self, mid: impl FnOnce()) {
+        let Some(s) = self.shared.read_with(mid) else {
+            return; // being written, or written meanwhile: keep the last whole set this cycle
+        };
+        let f = &mut *self.fast;
+        let [pulses, samples] = f.path_status.map(|st| st & Status::WRONG_INPUT);
+        f.path_status = [s.set.status | pulses, s.set.status | samples];
+        let budget = if s.set.age >= AGE_STALE {
+            0
+        } else {
+            // Rounded down, like the age: the countdown ends at most one age unit late (0.09 ms
+            // at the 3-s default), never early.
+            let age_ticks = (f32::from(s.set.age) * f.ticks_per_age) as u32;
+            f.stale_after_ticks.saturating_add(1).saturating_sub(age_ticks)
+        };
+        // A good reading since the last copy restarts the countdown; any other publication
+        // (a rejection, a missed reading: the slow path's clock moved; a table load) can only
+        // shorten it, so its own tick count and the slow path's clock never make a stale set
+        // fresh between them.
+        f.ticks_left = if s.set.epoch != f.set.epoch { budget } else { f.ticks_left.min(budget) };
+        f.set = s.set;
+        f.seen_seq = s.seq;
+    }
+
+    /// Refresh the copy if a publication happened; advance the staleness clock; the
+    /// status of this cycle for the pulse (`SAMPLES = false`) or sample entry.
+    #[inline(always)]
+    fn begin<const SAMPLES: bool>(&mut self, dt_ticks: u32) -> Status {
+        if self.shared.seq.load(Ordering::Relaxed) != self.fast.seen_seq {
+            self.refresh();
+        }
+        let f = &mut *self.fast;
+        f.ticks_left = f.ticks_left.saturating_sub(dt_ticks);
+        // TEMP_STALE (bit 0) exactly when ticks_left == 0: `validate` keeps it ≤ 2³¹, so
+        // `ticks_left − 1` has its top bit set only at 0. Two instructions, no branch.
+        let stale = (f.ticks_left.wrapping_sub(1) >> 31) as u16;
+        Status::from_bits_retain(f.path_status[usize::from(SAMPLES)].bits() | stale)
+    }
+
+    /// Fast path: signed pulse counts of this cycle and its length in ticks.
+    ///
+    /// `Δv[i] = N[i]·(g0/K1[i]) − (K0[i]·g0·tick)·dt`, then `Δv = M·Δv` with a
+    /// misalignment matrix. Always finite. Never blocks.
+    #[inline]
+    pub fn cycle(&mut self, pulses: [i32; AXES], dt_ticks: u32) -> Output<AXES> {
+        let status = self.begin::<false>(dt_ticks);
+        let s = &self.fast.set;
+        let dt = dt_ticks as f32;
+        let mut dv = [0.0f32; AXES];
+        for i in 0..AXES {
+            dv[i] = pulses[i] as f32 * s.scale[i] - s.bias_tick[i] * dt;
+        }
+        if let Some(m) = &s.misalign {
+            dv = misalign(m, dv);
+        }
+        Output { dv_mps: dv, status }
+    }
+
+    /// Fast path for MEMS samples: raw readings (LSB) of this cycle and the ticks since
+    /// the previous one (for staleness only).
+    ///
+    /// `a[i] = raw[i]·(g0/K1[i]) − K0[i]·g0`, m/s², then `a = M·a` with a misalignment
+    /// matrix: the paper's `a = E/K1 − K0`, with `1/K1` formed in the slow path.
+    #[inline]
+    pub fn cycle_samples(&mut self, raw: [i32; AXES], dt_ticks: u32) -> Output<AXES> {
+        let status = self.begin::<true>(dt_ticks);
+        let s = &self.fast.set;
+        let mut a = [0.0f32; AXES];
+        for i in 0..AXES {
+            a[i] = raw[i] as f32 * s.scale[i] - s.bias_acc[i];
+        }
+        if let Some(m) = &s.misalign {
+            a = misalign(m, a);
+        }
+        Output { dv_mps: a, status }
+    }
+
+    /// Fast path from wrapping cumulative u32 counters. The first call has no base: it
+    /// returns zero increments with [`Status::NO_COUNTER_BASE`]; call
+    /// [`prime_counters`](Self::prime_counters) to avoid it.
+    #[inline]
+    pub fn cycle_counters(&mut self, counters: [u32; AXES], dt_ticks: u32) -> Output<AXES> {
+        let Some(prev) = self.fast.counters.replace(counters) else {
+            let mut out = self.cycle([0; AXES], dt_ticks);
+            out.dv_mps = [0.0; AXES];
+            out.status |= Status::NO_COUNTER_BASE;
+            return out;
+        };
+        let pulses: [i32; AXES] = core::array::from_fn(|i| counters[i].wrapping_sub(prev[i]) as i32);
+        self.cycle(pulses, dt_ticks)
+    }
+
+    /// Set the cumulative counters' base without producing output.
+    pub fn prime_counters(&mut self, counters: [u32; AXES]) {
+        self.fast.counters = Some(counters);
+    }
+}
+
+#[inline(always)]
+fn misalign<const AXES: usize>(m: &[[f32; AXES]; AXES], v: [f32; AXES]) -> [f32; AXES] {
+    let mut out = [0.0f32; AXES];
+    for (o, row) in out.iter_mut().zip(m.iter()) {
+        let mut acc = 0.0f32;
+        for (a, b) in row.iter().zip(v.iter()) {
+            acc += a * b;
+        }
+        *o = acc;
+    }
+    out
+}

@@ -1,0 +1,171 @@
+//! Compensator settings and their validation.
+
+#[cfg(doc)]
+use super::{Compensator, Status};
+use core::fmt;
+
+use crate::rate::RateConfig;
+use crate::table;
+
+/// Why a [`Config`] was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum ConfigError {
+    /// A field is NaN or infinite.
+    NonFinite(&'static str),
+    /// A field is outside its allowed range (the field's doc gives the range).
+    OutOfRange(&'static str),
+    /// `stale_after_ticks` is not longer than one sample period: every cycle would be stale.
+    StaleShorterThanSamplePeriod,
+    /// The rate window restarts after a gap shorter than one sample period.
+    GapShorterThanSamplePeriod,
+    /// `rate.min_samples` exceeds the window `N`: the rate would never be ready.
+    MinSamplesAboveWindow,
+    /// `SENSORS` is neither 1 nor `AXES`.
+    SensorCount,
+}
+
+impl fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::NonFinite(what) => write!(f, "{what} is not finite"),
+            Self::OutOfRange(what) => write!(f, "{what} is out of range"),
+            Self::StaleShorterThanSamplePeriod => f.write_str("stale threshold not longer than one sample period"),
+            Self::GapShorterThanSamplePeriod => f.write_str("rate max_gap_ms shorter than one sample period"),
+            Self::MinSamplesAboveWindow => f.write_str("rate min_samples above the window length"),
+            Self::SensorCount => f.write_str("SENSORS must be 1 or AXES"),
+        }
+    }
+}
+
+impl core::error::Error for ConfigError {}
+
+/// Compensator settings. Checked by [`Config::validate`]; [`Compensator::new`] refuses a
+/// config that fails it.
+///
+/// Start from [`Config::default`] (1 µs ticks, 1 Hz readings, stale after 3 s, pulse
+/// counts, a JB-KT8-class nominal scale) and change what your hardware differs in:
+///
+/// ```
+/// use qfa_thermal::{Compensator, Config, ConfigError, Input};
+///
+/// // A MEMS accelerometer at 2²⁰ LSB/g nominal, read on a 100 ns timer.
+/// let config = Config { input: Input::Samples, nominal_k1: 1_048_576.0, tick_s: 1e-7, stale_after_ticks: 30_000_000, ..Config::default() };
+/// assert_eq!(config.validate(), Ok(()));
+///
+/// // One reading confirming itself would switch the plausibility checks off: refused.
+/// let bad = Config { confirm_samples: 1, ..Config::default() };
+/// assert_eq!(bad.validate(), Err(ConfigError::OutOfRange("confirm_samples")));
+/// assert!(Compensator::<3>::new(bad).is_err());
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Config {
+    /// Length of one fast-path tick, s (default 1 µs; 1 ns..1 s).
+    pub tick_s: f32,
+    /// Ticks without a good temperature before [`Status::TEMP_STALE`] (default 3 s); must
+    /// be longer than [`sample_period_ms`](Self::sample_period_ms) and below 2³¹ − 1.
+    pub stale_after_ticks: u32,
+    /// Nominal period of each sensor's readings, ms (default 1 000; 1..=60 000).
+    pub sample_period_ms: u32,
+    /// The input the fast path is given (default pulse counts). A table fitted for another
+    /// input is refused ([`table::Error::Input`]), and a fast-path call of the other kind
+    /// raises [`Status::WRONG_INPUT`].
+    pub input: table::Input,
+    /// Rate estimator settings.
+    pub rate: RateConfig,
+    /// Step allowed between good readings regardless of time, 1/16 °C (default 16 = 1 °C; ≥ 0).
+    pub max_step_raw: i16,
+    /// Slew allowed between good readings, 1/16 °C per minute (default 160 = 10 °C/min; ≥ 0).
+    pub max_slew_raw_per_min: i32,
+    /// Consecutive mutually consistent readings that are accepted as a real step or a
+    /// restarted clock (default 3; 2..=16: one reading confirming itself would switch off
+    /// both the plausibility and the restart checks).
+    pub confirm_samples: u8,
+    /// Scale factor used while no table is loaded, in the sensor's own unit: pulses/(g·s)
+    /// for pulse counts, LSB/g for samples. Default 320 000, a JB-KT8-class QFA (Zhang et
+    /// al. 2021, Eq. 15–17: γ = 308 000…328 000); set the nominal of your own sensor.
+    pub nominal_k1: f32,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Self {
+            tick_s: 1e-6,
+            stale_after_ticks: 3_000_000,
+            sample_period_ms: 1_000,
+            input: table::Input::PulseCounts,
+            rate: RateConfig::default(),
+            max_step_raw: 16,
+            max_slew_raw_per_min: 160,
+            confirm_samples: 3,
+            nominal_k1: 320_000.0,
+        }
+    }
+}
+
+impl Config {
+    /// Check every field and their relations.
+    ///
+    /// # Errors
+    /// The first [`ConfigError`] found.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        if !self.tick_s.is_finite() {
+            return Err(ConfigError::NonFinite("tick_s"));
+        }
+        if !(1e-9..=1.0).contains(&self.tick_s) {
+            return Err(ConfigError::OutOfRange("tick_s"));
+        }
+        if !self.nominal_k1.is_finite() {
+            return Err(ConfigError::NonFinite("nominal_k1"));
+        }
+        if !(table::limits::GAMMA.0..=table::limits::GAMMA.1).contains(&self.nominal_k1) {
+            return Err(ConfigError::OutOfRange("nominal_k1"));
+        }
+        let a = self.rate.smoothing_alpha;
+        if !a.is_finite() {
+            return Err(ConfigError::NonFinite("rate.smoothing_alpha"));
+        }
+        if !(a > 0.0 && a <= 1.0) {
+            return Err(ConfigError::OutOfRange("rate.smoothing_alpha"));
+        }
+        if self.rate.min_samples < 3 {
+            return Err(ConfigError::OutOfRange("rate.min_samples"));
+        }
+        if !(1..=60_000).contains(&self.sample_period_ms) {
+            return Err(ConfigError::OutOfRange("sample_period_ms"));
+        }
+        if u32::from(self.rate.max_gap_ms) <= self.sample_period_ms {
+            return Err(ConfigError::GapShorterThanSamplePeriod);
+        }
+        if self.stale_after_ticks >= i32::MAX as u32 {
+            // The fast path's countdown starts at stale_after_ticks + 1 and needs it ≤ 2³¹.
+            return Err(ConfigError::OutOfRange("stale_after_ticks"));
+        }
+        let stale_s = self.stale_after_ticks as f32 * self.tick_s;
+        if stale_s * 1000.0 <= self.sample_period_ms as f32 {
+            return Err(ConfigError::StaleShorterThanSamplePeriod);
+        }
+        if self.max_step_raw < 0 {
+            return Err(ConfigError::OutOfRange("max_step_raw"));
+        }
+        if self.max_slew_raw_per_min < 0 {
+            return Err(ConfigError::OutOfRange("max_slew_raw_per_min"));
+        }
+        if !(2..=16).contains(&self.confirm_samples) {
+            return Err(ConfigError::OutOfRange("confirm_samples"));
+        }
+        Ok(())
+    }
+
+    /// The stale threshold in ms (for comparing sensors' timestamps in the slow path).
+    pub(super) fn stale_after_ms(&self) -> u32 {
+        let ms = self.stale_after_ticks as f32 * self.tick_s * 1000.0;
+        if ms >= u32::MAX as f32 {
+            u32::MAX
+        } else {
+            ms as u32
+        }
+    }
+}

@@ -1,0 +1,351 @@
+//! The compensator: a per-temperature-sample path and a per-IMU-cycle path.
+//!
+//! * **Slow path** ([`Compensator::on_scratchpad`], [`Compensator::on_raw`], about 1 Hz per
+//!   sensor): validate the reading, update that sensor's rate estimator, evaluate the
+//!   models of the axes it serves and publish `g0/K1` (m/s per pulse), `K0·g0·tick` (m/s
+//!   per tick) and `K0·g0` (m/s²) for the fast path.
+//! * **Fast path** ([`Compensator::cycle`], 200 Hz–2 kHz): per axis
+//!   `Δv = N·(g0/K1) − (K0·g0·tick)·dt_ticks`, then the optional misalignment matrix; or,
+//!   for MEMS samples, [`Compensator::cycle_samples`]: `a = raw·(g0/K1) − K0·g0`, the
+//!   paper's `a = E/K1 − K0` with the division done in the slow path.
+//!   No division, no transcendental function, no search, loops bounded by `AXES`.
+//!   Measured cost under QEMU (`cargo xtask bench-target`) is in the repository's `docs/measurements.md`.
+//!
+//! # Interrupt-safe split
+//! [`Compensator::split`] gives an [`Updater`] (slow path, thread mode or a 1 Hz task) and
+//! an [`Applier`] (fast path, the IMU interrupt). They share only a [`Published`]
+//! coefficient set: one buffer of 32-bit atomics behind a sequence number, a seqlock. The
+//! updater makes the sequence odd, writes the set and makes the sequence even again. The
+//! applier keeps its own copy of the last whole set; per cycle it loads the sequence (one
+//! Relaxed load and a compare), and when it has moved (once per publication) it copies the
+//! set and loads the sequence again, in a `#[cold]` function. It never blocks and never
+//! waits, and no half-written set is ever used, whichever context preempts which, on one
+//! core or several:
+//! * the updater preempts the applier in the middle of its copy: the sequence has moved at
+//!   the re-check, the torn copy is dropped, the previous whole set is used for that cycle,
+//!   and the copy is tried again on the next cycle;
+//! * the applier preempts the updater in the middle of a publication: it sees an odd
+//!   sequence and keeps its last set, for every cycle until the publication is finished.
+//!
+//! There is one updater: the slow path is `&mut`, so two publications never overlap.
+//! `compensator::tests::reader_preempting_the_writer_at_every_store_sees_whole_sets` runs the
+//! applier after every single store of a publication, and
+//! `a_copy_torn_by_the_writer_is_dropped` runs a publication in the middle of the applier's
+//! copy. The memory orderings are checked by loom (`compensator::seqlock::model`, run by
+//! `cargo xtask loom` and `cargo xtask test`): one writer thread and one reader thread
+//! through every interleaving and every store each load may read under loom's memory model
+//! (three tests, 627 592 executions, 33 s under CI load; up to 3 preemptions in the one with two
+//! publications), with the sequence wrapping past `u32::MAX` in one of them.
+//! `cargo xtask loom` also checks that the model fails on each of six mutants that weaken
+//! one ordering or drop one step of the seqlock (`mutants_caught=6 of 6`). Only 32-bit
+//! atomic loads and stores are used, which every Cortex-M has (no compare-and-swap, so no
+//! `portable-atomic` is needed).
+//!
+//! # Sensors
+//! `SENSORS` is 1 (one temperature stream for every axis) or `AXES` (one DS18B20 per
+//! accelerometer case, as in the paper): each stream has its own rate estimator,
+//! plausibility rules and staleness, and one misalignment matrix still spans the axes.
+//!
+//! # Faults
+//! Faults never produce a silent wrong answer:
+//! * A rejected reading returns a typed [`SampleError`], raises [`Status::TEMP_INVALID`]
+//!   and keeps the last good compensation. So does a reading that never arrived, reported
+//!   with [`Compensator::on_missed_reading`]: report every failed read.
+//! * A stream with no good reading for the stale threshold raises [`Status::TEMP_STALE`]:
+//!   the fast path counts its own ticks, and the slow path keeps a saturating age per
+//!   stream that no clock wrap resets (see [`crate::time`]).
+//! * A reading that jumps further than `max_step_raw` plus `max_slew_raw_per_min` times the
+//!   elapsed time (counted at most up to the rate window's gap) is used only once
+//!   [`Config::confirm_samples`] readings agree. The DS18B20's power-on value 0550h
+//!   (+85 °C) is used only as the continuation of a stream already there (within one step,
+//!   no gap); after a dropout or as a jump it is refused, whether or not the scratchpad's
+//!   byte 6 gives it away. Values outside −55…+125 °C are refused.
+//! * A table records the [`Input`](table::Input) it converts; [`Config::input`] names the
+//!   compensator's, a table of the other kind is refused, and the fast-path entry of the
+//!   other kind raises [`Status::WRONG_INPUT`].
+//! * With no table the raw input passes through at the nominal scale
+//!   [`Config::nominal_k1`], flagged [`Status::NO_TABLE`], so an INS that ignores the
+//!   status still sees gravity, not free fall.
+//! * Outputs are always finite and bounded: table validation bounds `g0/K1` and `K0` (the
+//!   bias grid never extrapolates), [`Config::validate`] bounds the nominal scale, and the
+//!   inputs are integers.
+
+use core::borrow::Borrow;
+
+use crate::model::{AxisState, Evaluation};
+use crate::rate::{self, Estimate, RateEstimator};
+use crate::table::{self, Table};
+
+mod applier;
+mod config;
+mod seqlock;
+mod slow_path;
+mod status;
+#[cfg(all(test, not(loom)))]
+mod tests;
+
+use applier::FastState;
+pub use applier::{Applier, Output};
+pub use config::{Config, ConfigError};
+pub use seqlock::Published;
+use seqlock::{Set, AGE_STEPS};
+pub use slow_path::{SampleError, Updater};
+use slow_path::{SlowState, Stream, Timed};
+pub use status::Status;
+
+/// Standard gravity, m/s² (the unit the tables' g refers to).
+pub const G0: f32 = 9.806_65;
+
+/// Temperature compensation for `AXES` accelerometers with an `N`-sample rate window and
+/// `SENSORS` temperature streams (1, or one per axis). The table is held as `T`: an owned
+/// [`Table`] (708 B, loadable from bytes at run time) or a `&'static Table` in flash.
+///
+/// Unsplit, it is one value with both paths (`&mut self` each); [`split`](Self::split)
+/// hands the two paths to two execution contexts.
+///
+/// Unsplit, one value with both paths; here one axis whose temperature steps from 22 to
+/// 40 °C, with every reading and every refusal visible in the status:
+///
+/// ```
+/// use qfa_thermal::{AxisModel, BiasGrid, Compensator, Config, Extensions, Input, SampleError, ScaleFactor, Status, Table};
+///
+/// let bias = BiasGrid::single_valued(-40.0, 10.0, &[0.0; 13]);
+/// let axis = AxisModel { scale: ScaleFactor::JB_KT8_1, bias, rate_limit_c_per_min: 2.0, ext: Extensions::default() };
+/// let table = Table { input: Input::PulseCounts, rate_window: 32, axes: [axis].into_iter().collect(), misalignment: None };
+///
+/// let mut comp = Compensator::<1, 32>::new(Config::default()).unwrap();
+/// // Before a table: raw pass-through at the nominal scale, flagged.
+/// assert!(comp.cycle([1_600], 5_000).status.contains(Status::NO_TABLE));
+/// comp.set_table(table).unwrap();
+/// for s in 0..8 {
+///     comp.on_raw(s * 1_000, 352).unwrap(); // 22.0 °C at 1 Hz
+/// }
+/// assert!(comp.cycle([1_600], 5_000).status.is_ok());
+/// // A jump of 18 °C in one second is refused (a glitch, until confirmed by more readings);
+/// // the last good compensation stays in force and the status says so.
+/// assert!(matches!(comp.on_raw(8_000, 640), Err(SampleError::Implausible { .. })));
+/// assert!(comp.cycle([1_600], 5_000).status.contains(Status::TEMP_INVALID));
+/// ```
+#[derive(Debug)]
+pub struct Compensator<const AXES: usize = 3, const N: usize = 32, const SENSORS: usize = 1, T = Table> {
+    slow: SlowState<AXES, N, SENSORS, T>,
+    shared: Published<AXES>,
+    fast: FastState<AXES>,
+}
+
+impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Clone + Borrow<Table>> Clone
+    for Compensator<AXES, N, SENSORS, T>
+{
+    /// An independent copy in the same state: its own [`Published`] set holds every word
+    /// of the original's, the sequence included, so its applier sees exactly what the
+    /// original's sees (a publication it has not copied yet included).
+    fn clone(&self) -> Self {
+        Self { slow: self.slow.clone(), shared: self.shared.snapshot(), fast: self.fast }
+    }
+}
+
+/// The status before the applier's first copy of a set.
+const NOT_YET: Status = Status::NO_TABLE.union(Status::TEMP_STALE);
+
+const NO_EVAL: Evaluation = Evaluation { k1: 0.0, k0: 0.0, temp_clamped: false, rate_clamped: false };
+
+impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> Compensator<AXES, N, SENSORS, T> {
+    const BOUNDS: () = assert!(AXES >= 1 && AXES <= table::MAX_AXES, "AXES must be 1..=3");
+
+    /// A compensator with no table: the raw input passes through at
+    /// [`Config::nominal_k1`] with [`Status::NO_TABLE`] until a table is set.
+    ///
+    /// # Errors
+    /// [`Config::validate`]'s error, [`ConfigError::MinSamplesAboveWindow`] or
+    /// [`ConfigError::SensorCount`].
+    pub fn new(config: Config) -> Result<Self, ConfigError> {
+        let () = Self::BOUNDS;
+        config.validate()?;
+        if usize::from(config.rate.min_samples) > N {
+            return Err(ConfigError::MinSamplesAboveWindow);
+        }
+        if SENSORS != 1 && SENSORS != AXES {
+            return Err(ConfigError::SensorCount);
+        }
+        let stream = Stream {
+            rate: RateEstimator::new(config.rate),
+            last: Timed { t_ms: 0, raw: 0 },
+            has_good: false,
+            pending: Timed { t_ms: 0, raw: 0 },
+            pending_count: 0,
+            invalid: false,
+            age_ms: 0,
+        };
+        let mut c = Self {
+            slow: SlowState {
+                config,
+                clock_ms: 0,
+                epoch: 0,
+                deadband_floor: rate::flicker_deadband_c_per_min(N, config.sample_period_ms),
+                table: None,
+                streams: core::array::from_fn(|_| stream.clone()),
+                states: [AxisState::default(); AXES],
+                evals: [NO_EVAL; AXES],
+                status: Status::empty(),
+            },
+            shared: Published::new(),
+            fast: FastState {
+                stale_after_ticks: config.stale_after_ticks,
+                ticks_per_age: config.stale_after_ticks as f32 / f32::from(AGE_STEPS),
+                ticks_left: 0,
+                seen_seq: 0,
+                set: Set::EMPTY,
+                // Until the first set is copied, nothing is calibrated.
+                path_status: match config.input {
+                    table::Input::PulseCounts => [NOT_YET, NOT_YET | Status::WRONG_INPUT],
+                    table::Input::Samples => [NOT_YET | Status::WRONG_INPUT, NOT_YET],
+                },
+                counters: None,
+            },
+        };
+        c.updater().refresh_all(0.0);
+        Ok(c)
+    }
+
+    fn updater(&mut self) -> Updater<'_, AXES, N, SENSORS, T> {
+        Updater { slow: &mut self.slow, shared: &self.shared }
+    }
+
+    fn applier(&mut self) -> Applier<'_, AXES> {
+        Applier { fast: &mut self.fast, shared: &self.shared }
+    }
+
+    /// The two paths, for two execution contexts: the [`Updater`] for thread mode or a
+    /// task, the [`Applier`] for the IMU interrupt. With a `&'static mut Compensator`
+    /// (from a `static_cell::StaticCell`, say) both halves are `'static`.
+    pub fn split(&mut self) -> (Updater<'_, AXES, N, SENSORS, T>, Applier<'_, AXES>) {
+        (Updater { slow: &mut self.slow, shared: &self.shared }, Applier { fast: &mut self.fast, shared: &self.shared })
+    }
+
+    /// Validate and activate a table. Atomic: on any error the active table and every
+    /// state are unchanged; on success the fast path switches to the new coefficients in
+    /// one publication.
+    ///
+    /// # Errors
+    /// Any [`table::Error`], including an axis count other than `AXES` and a rate window
+    /// other than `N`.
+    pub fn set_table(&mut self, t: T) -> table::Result<()> {
+        self.updater().set_table(t)
+    }
+
+    /// The active table.
+    #[must_use]
+    pub fn table(&self) -> Option<&Table> {
+        self.slow.table.as_ref().map(Borrow::borrow)
+    }
+
+    /// Settings.
+    #[must_use]
+    pub const fn config(&self) -> &Config {
+        &self.slow.config
+    }
+
+    /// Sensor 0's current estimate; `None` before its first good reading.
+    #[must_use]
+    pub fn estimate(&self) -> Option<Estimate> {
+        self.slow.streams[0].rate.estimate()
+    }
+
+    /// Sensor `sensor`'s current estimate; `None` before its first good reading or for an
+    /// index ≥ `SENSORS`.
+    #[must_use]
+    pub fn estimate_of(&self, sensor: usize) -> Option<Estimate> {
+        self.slow.streams.get(sensor).and_then(|s| s.rate.estimate())
+    }
+
+    /// The model evaluated at each axis's last good sample (K1 in pulses/(g·s), K0 in g).
+    #[must_use]
+    pub const fn evaluations(&self) -> &[Evaluation; AXES] {
+        &self.slow.evals
+    }
+
+    /// Status as of the last slow-path call (the fast path adds its own staleness).
+    #[must_use]
+    pub const fn status(&self) -> Status {
+        self.slow.status
+    }
+
+    /// Slow path, sensor 0: a 9-byte scratchpad read at `t_ms` (the time base of
+    /// [`crate::time`], taken when the conversion completed).
+    ///
+    /// # Errors
+    /// A [`SampleError`]; the last good compensation stays in force and
+    /// [`Status::TEMP_INVALID`] is raised.
+    pub fn on_scratchpad(&mut self, t_ms: u32, scratchpad: &[u8; 9]) -> Result<Status, SampleError> {
+        self.updater().on_scratchpad_from(0, t_ms, scratchpad)
+    }
+
+    /// Slow path, sensor 0: a raw reading (1/16 °C, already masked) taken at `t_ms`.
+    ///
+    /// # Errors
+    /// As [`on_scratchpad`](Self::on_scratchpad).
+    pub fn on_raw(&mut self, t_ms: u32, raw: i16) -> Result<Status, SampleError> {
+        self.updater().on_raw_from(0, t_ms, raw)
+    }
+
+    /// Slow path for sensor `sensor` (0..`SENSORS`): a scratchpad read at `t_ms`.
+    ///
+    /// # Errors
+    /// As [`on_scratchpad`](Self::on_scratchpad), and [`SampleError::NoSuchSensor`].
+    pub fn on_scratchpad_from(&mut self, sensor: usize, t_ms: u32, sp: &[u8; 9]) -> Result<Status, SampleError> {
+        self.updater().on_scratchpad_from(sensor, t_ms, sp)
+    }
+
+    /// Slow path: a reading of sensor `sensor` that never arrived; see
+    /// [`Updater::on_missed_reading`].
+    ///
+    /// # Errors
+    /// As [`Updater::on_missed_reading`].
+    pub fn on_missed_reading(&mut self, sensor: usize, t_ms: u32) -> Result<Status, SampleError> {
+        self.updater().on_missed_reading(sensor, t_ms)
+    }
+
+    /// Slow path for sensor `sensor` (0..`SENSORS`): a raw reading at `t_ms`.
+    ///
+    /// # Errors
+    /// As [`on_scratchpad_from`](Self::on_scratchpad_from).
+    pub fn on_raw_from(&mut self, sensor: usize, t_ms: u32, raw: i16) -> Result<Status, SampleError> {
+        self.updater().on_raw_from(sensor, t_ms, raw)
+    }
+
+    /// Fast path: see [`Applier::cycle`].
+    #[inline]
+    pub fn cycle(&mut self, pulses: [i32; AXES], dt_ticks: u32) -> Output<AXES> {
+        self.applier().cycle(pulses, dt_ticks)
+    }
+
+    /// Fast path for MEMS samples: see [`Applier::cycle_samples`].
+    #[inline]
+    pub fn cycle_samples(&mut self, raw: [i32; AXES], dt_ticks: u32) -> Output<AXES> {
+        self.applier().cycle_samples(raw, dt_ticks)
+    }
+
+    /// Fast path from cumulative counters: see [`Applier::cycle_counters`].
+    #[inline]
+    pub fn cycle_counters(&mut self, counters: [u32; AXES], dt_ticks: u32) -> Output<AXES> {
+        self.applier().cycle_counters(counters, dt_ticks)
+    }
+
+    /// Set the cumulative counters' base without producing output.
+    pub fn prime_counters(&mut self, counters: [u32; AXES]) {
+        self.applier().prime_counters(counters);
+    }
+}
+
+impl<const AXES: usize, const N: usize, const SENSORS: usize> Compensator<AXES, N, SENSORS, Table> {
+    /// Decode, validate and activate a table from its wire bytes. Atomic: on any error
+    /// the active table and every state are unchanged.
+    ///
+    /// # Errors
+    /// Any [`table::Error`], including an axis count other than `AXES` and a rate window
+    /// other than `N`.
+    pub fn load_table(&mut self, bytes: &[u8]) -> table::Result<()> {
+        let t = Table::decode(bytes)?;
+        self.set_table(t)
+    }
+}

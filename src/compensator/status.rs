@@ -1,0 +1,44 @@
+//! The status word: one flag per condition in force, on every output.
+
+#[cfg(doc)]
+use super::{Compensator, Config};
+
+bitflags::bitflags! {
+    /// Status word: one flag per condition. [`Status::is_ok`] when none is set.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Hash)]
+    pub struct Status: u16 {
+        /// No good temperature for longer than `stale_after_ticks`, or none yet (any sensor).
+        const TEMP_STALE = 1 << 0;
+        /// A sensor's latest reading was rejected; the last good compensation is in use.
+        const TEMP_INVALID = 1 << 1;
+        /// A rate estimator has too few samples; Ṫ = 0 is used.
+        const RATE_NOT_READY = 1 << 2;
+        /// Temperature outside the calibrated range: clamped.
+        const TEMP_OUT_OF_RANGE = 1 << 3;
+        /// |Ṫ| above the calibrated limit: clamped.
+        const RATE_OUT_OF_RANGE = 1 << 4;
+        /// No table loaded: the raw input passes through at [`Config::nominal_k1`], no bias.
+        const NO_TABLE = 1 << 5;
+        /// Cumulative counters had no previous value: increments of this cycle are zero.
+        const NO_COUNTER_BASE = 1 << 6;
+        /// The fast-path call does not match [`Config::input`] (pulse counts through
+        /// [`Compensator::cycle_samples`], or samples through [`Compensator::cycle`]): the
+        /// output is in the wrong unit and must not be used.
+        const WRONG_INPUT = 1 << 7;
+    }
+}
+
+impl Status {
+    /// No condition at all: fully compensated from a fresh, calibrated temperature.
+    #[must_use]
+    pub const fn is_ok(self) -> bool {
+        self.is_empty()
+    }
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for Status {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        defmt::write!(f, "Status({=u16:#06x})", self.bits());
+    }
+}

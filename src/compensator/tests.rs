@@ -1,0 +1,405 @@
+//! The compensator's unit tests: both paths, their faults and the seqlock between them.
+//!
+//! loom's atomics work only inside `loom::model`: under `--cfg loom` only the seqlock's
+//! model runs (`cargo xtask loom`), so this module is left out there.
+
+use core::sync::atomic::Ordering;
+
+use super::*;
+use crate::ds18b20;
+use crate::model::{AxisModel, BiasGrid, Extensions, ScaleFactor};
+use crate::rate::RateConfig;
+
+fn table(axes: usize, window: u16) -> Table {
+    let mut t =
+        Table { input: table::Input::PulseCounts, rate_window: window, axes: heapless::Vec::new(), misalignment: None };
+    for i in 0..axes {
+        let a = AxisModel {
+            scale: ScaleFactor {
+                t0_c: 22.0,
+                gamma: 320_320.0 + 100.0 * i as f32,
+                mu: -32.76,
+                beta: 0.1008,
+                epsilon: 88.14,
+                eta: -0.02409,
+                alpha: 273.0,
+            },
+            bias: BiasGrid::single_valued(-60.0, 65.0, &[1e-4, 1.5e-4, 3e-4]),
+            rate_limit_c_per_min: 2.0,
+            ext: Extensions::default(),
+        };
+        t.axes.push(a).unwrap();
+    }
+    t
+}
+
+fn comp3() -> Compensator<3, 32> {
+    Compensator::new(Config::default()).unwrap()
+}
+
+fn warm(c: &mut Compensator<3, 32>, n: u32) {
+    for k in 0..n {
+        c.on_raw(1000 * k, 352).unwrap();
+    }
+}
+
+/// At rest on a code edge the DS18B20 flickers by one LSB; with the table's 0.05 °C/min
+/// deadband the branch would flip (the plain `AxisModel::evaluate` path shows it does),
+/// but the compensator's flicker floor keeps it: K0 stays the mean of the branches.
+#[test]
+fn flicker_at_rest_does_not_flip_the_branch() {
+    let mut t = table(1, 32);
+    t.axes[0].bias.cooling_g = heapless::Vec::from_slice(&[2e-4, 2.5e-4, 4e-4]).unwrap();
+    assert_eq!(t.axes[0].bias.deadband_c_per_min, 0.05);
+    let mut c: Compensator<1, 32> = Compensator::new(Config::default()).unwrap();
+    c.set_table(t.clone()).unwrap();
+    let mut est = RateEstimator::<32>::new(RateConfig::default());
+    let mut plain = AxisState::default();
+    let mut x: u64 = 0x2545_F491_4F6C_DD1D;
+    let (mut plain_flips, mut k0s) = (0u32, [f32::INFINITY, f32::NEG_INFINITY]);
+    let mut last = None;
+    for k in 0..7200u32 {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        let raw = 352 + (x >> 63) as i16;
+        c.on_raw(1000 * k, raw).unwrap();
+        est.push(1000 * k, raw).unwrap();
+        let e = est.estimate().unwrap();
+        t.axes[0].evaluate(&mut plain, e.temp_c, e.rate_c_per_min, 1.0);
+        if e.ready {
+            plain_flips += u32::from(last.is_some_and(|b| b != plain.branch));
+            last = Some(plain.branch);
+            let k0 = c.evaluations()[0].k0;
+            k0s = [k0s[0].min(k0), k0s[1].max(k0)];
+        }
+    }
+    assert!(plain_flips > 10, "the 0.05 °C/min deadband flips on flicker: {plain_flips}");
+    // Unknown branch at T̂ ≈ 22.0–22.06 °C (±0.1 °C for the fitted line's scatter): the
+    // mean of the branches, which are 1e-4 g apart, so one flip would leave the band.
+    let mean = |t: f32| 0.5 * ((1.5e-4 + 1.5e-4 * (t - 5.0) / 65.0) + (2.5e-4 + 1.5e-4 * (t - 5.0) / 65.0));
+    assert!(k0s[0] >= mean(21.9) && k0s[1] <= mean(22.2), "{k0s:?}");
+}
+
+#[test]
+fn recovers_the_applied_specific_force() {
+    let mut c = comp3();
+    c.set_table(table(3, 32)).unwrap();
+    warm(&mut c, 20);
+    let s = c.on_raw(20_000, 352).unwrap();
+    assert!(s.is_ok(), "{s:?}");
+    // 22 °C, Ṫ = 0: K1 = γ, K0 = grid at 22 °C. Pulses for a = 0.5 g over 1 s (1e6 ticks).
+    // Grid points at −60, 5, 70 °C: 22 °C is 17/65 of the way from 1.5e-4 to 3e-4 g.
+    let k0 = 1.5e-4 + (3e-4 - 1.5e-4) * (17.0 / 65.0);
+    let n = (320_320.0f64 * (k0 + 0.5)).round() as i32;
+    let out = c.cycle([n, n, n], 1_000_000);
+    let a = f64::from(out.dv_mps[0]) / 9.806_65;
+    assert!((a - 0.5).abs() < 5e-6, "{a}");
+    assert!(out.status.is_ok());
+    // Samples through the pulse compensator: flagged, never status OK.
+    assert!(c.cycle_samples([n, n, n], 1_000_000).status.contains(Status::WRONG_INPUT));
+    // The same model on samples: raw = K1·(K0 + a) LSB gives a in m/s².
+    let mut m = Compensator::<3, 32>::new(Config { input: table::Input::Samples, ..Config::default() }).unwrap();
+    m.set_table(Table { input: table::Input::Samples, ..table(3, 32) }).unwrap();
+    warm(&mut m, 21);
+    let samples = m.cycle_samples([n, n, n], 1_000_000);
+    let a = f64::from(samples.dv_mps[0]) / 9.806_65;
+    assert!((a - 0.5).abs() < 5e-6, "{a}");
+    assert!(samples.status.is_ok(), "{samples:?}");
+    assert!(m.cycle([n, n, n], 1_000_000).status.contains(Status::WRONG_INPUT));
+}
+
+#[test]
+fn stale_after_timeout_keeps_last_compensation() {
+    let mut c = comp3();
+    c.set_table(table(3, 32)).unwrap();
+    warm(&mut c, 12);
+    let fresh = c.cycle([800, 800, 800], 2500);
+    assert!(!fresh.status.contains(Status::TEMP_STALE));
+    let mut last = fresh;
+    for _ in 0..1300 {
+        last = c.cycle([800, 800, 800], 2500);
+    }
+    assert!(last.status.contains(Status::TEMP_STALE), "3.25 s without a reading");
+    assert_eq!(last.dv_mps, fresh.dv_mps, "same compensation, only flagged");
+    c.on_raw(12_000 + 3_250, 352).unwrap();
+    assert!(!c.cycle([800, 800, 800], 2500).status.contains(Status::TEMP_STALE));
+}
+
+#[test]
+fn rejected_reading_flags_and_keeps_state() {
+    let mut c = comp3();
+    c.set_table(table(3, 32)).unwrap();
+    warm(&mut c, 12);
+    let before = c.cycle([800, 800, 800], 2500);
+    let est = c.estimate();
+    assert_eq!(c.on_raw(12_000, 352 + 200), Err(SampleError::Implausible { raw: 552 }));
+    assert_eq!(c.on_scratchpad(12_500, &[0u8; 9]), Err(SampleError::Decode(ds18b20::Error::AllZero)));
+    let after = c.cycle([800, 800, 800], 2500);
+    assert!(after.status.contains(Status::TEMP_INVALID));
+    assert_eq!(after.dv_mps, before.dv_mps);
+    assert_eq!(c.estimate(), est);
+    c.on_raw(13_000, 352).unwrap();
+    assert!(!c.status().contains(Status::TEMP_INVALID));
+}
+
+#[test]
+fn table_load_is_atomic() {
+    let mut c = comp3();
+    c.set_table(table(3, 32)).unwrap();
+    warm(&mut c, 12);
+    let before = c.cycle([800, 800, 800], 2500);
+    let mut buf = [0u8; table::MAX_TABLE_BYTES];
+    let mut other = table(3, 32);
+    other.axes[0].scale.gamma = 300_000.0;
+    let len = other.encode(&mut buf).unwrap().len();
+    buf[len - 2] ^= 0x40;
+    assert_eq!(c.load_table(&buf[..len]), Err(table::Error::Crc));
+    assert_eq!(c.set_table(table(3, 64)), Err(table::Error::RateWindow { table: 64, firmware: 32 }));
+    assert!(matches!(c.set_table(table(2, 32)), Err(table::Error::AxisCount { .. })));
+    let mut nan = table(3, 32);
+    nan.axes[2].bias.cooling_g[1] = f32::NAN;
+    assert!(matches!(c.set_table(nan), Err(table::Error::NonFinite(_))));
+    assert_eq!(c.cycle([800, 800, 800], 2500).dv_mps, before.dv_mps);
+    assert_eq!(c.table().unwrap().axes[0].scale.gamma, 320_320.0);
+}
+
+#[test]
+fn a_table_in_flash_is_held_by_reference() {
+    static TABLE: std::sync::OnceLock<Table> = std::sync::OnceLock::new();
+    let t: &'static Table = TABLE.get_or_init(|| table(3, 32));
+    let mut flash = Compensator::<3, 32, 1, &'static Table>::new(Config::default()).unwrap();
+    let mut owned = comp3();
+    flash.set_table(t).unwrap();
+    owned.set_table(t.clone()).unwrap();
+    for k in 0..12 {
+        flash.on_raw(1000 * k, 352).unwrap();
+        owned.on_raw(1000 * k, 352).unwrap();
+    }
+    assert_eq!(flash.cycle([800, 1, -3], 2500), owned.cycle([800, 1, -3], 2500));
+    assert!(core::mem::size_of_val(&flash) + 600 < core::mem::size_of_val(&owned));
+}
+
+/// No table: the counts pass through at the nominal scale, never as zero (free fall).
+#[test]
+fn no_table_passes_raw_through_at_nominal_scale_flagged() {
+    let mut c = comp3();
+    let out = c.cycle([320_000, -320_000, 5], 2500);
+    assert!(out.status.contains(Status::NO_TABLE));
+    assert!(out.status.contains(Status::TEMP_STALE));
+    // 320 000 pulses at the default nominal 320 000 pulses/(g·s) is 1 g·s = g0 m/s.
+    assert!((out.dv_mps[0] - 9.806_65).abs() < 1e-5, "{out:?}");
+    assert!((out.dv_mps[1] + 9.806_65).abs() < 1e-5, "{out:?}");
+    let s = c.cycle_samples([160_000, 0, 0], 2500);
+    assert!((s.dv_mps[0] - 4.903_325).abs() < 1e-5, "{s:?}");
+}
+
+#[test]
+fn bad_configs_are_refused_with_their_reason() {
+    let d = Config::default();
+    let cases = [
+        (Config { tick_s: f32::NAN, ..d }, ConfigError::NonFinite("tick_s")),
+        (Config { tick_s: 0.0, ..d }, ConfigError::OutOfRange("tick_s")),
+        (Config { nominal_k1: f32::INFINITY, ..d }, ConfigError::NonFinite("nominal_k1")),
+        (Config { nominal_k1: -1.0, ..d }, ConfigError::OutOfRange("nominal_k1")),
+        (
+            Config { rate: RateConfig { smoothing_alpha: f32::NAN, ..d.rate }, ..d },
+            ConfigError::NonFinite("rate.smoothing_alpha"),
+        ),
+        (
+            Config { rate: RateConfig { smoothing_alpha: 0.0, ..d.rate }, ..d },
+            ConfigError::OutOfRange("rate.smoothing_alpha"),
+        ),
+        (Config { rate: RateConfig { min_samples: 2, ..d.rate }, ..d }, ConfigError::OutOfRange("rate.min_samples")),
+        (Config { confirm_samples: 0, ..d }, ConfigError::OutOfRange("confirm_samples")),
+        (Config { stale_after_ticks: 999_999, ..d }, ConfigError::StaleShorterThanSamplePeriod),
+        (Config { stale_after_ticks: i32::MAX as u32, ..d }, ConfigError::OutOfRange("stale_after_ticks")),
+        (Config { confirm_samples: 1, ..d }, ConfigError::OutOfRange("confirm_samples")),
+        (Config { rate: RateConfig { max_gap_ms: 1000, ..d.rate }, ..d }, ConfigError::GapShorterThanSamplePeriod),
+        (Config { sample_period_ms: 0, ..d }, ConfigError::OutOfRange("sample_period_ms")),
+        (Config { max_step_raw: -1, ..d }, ConfigError::OutOfRange("max_step_raw")),
+        (Config { max_slew_raw_per_min: -1, ..d }, ConfigError::OutOfRange("max_slew_raw_per_min")),
+    ];
+    for (cfg, want) in cases {
+        assert_eq!(cfg.validate(), Err(want), "{cfg:?}");
+        assert_eq!(Compensator::<3, 32>::new(cfg).err(), Some(want));
+    }
+    assert_eq!(d.validate(), Ok(()));
+    let min40 = Config { rate: RateConfig { min_samples: 40, ..d.rate }, ..d };
+    assert_eq!(Compensator::<3, 32>::new(min40).err(), Some(ConfigError::MinSamplesAboveWindow));
+    assert_eq!(Compensator::<3, 32, 2>::new(d).err(), Some(ConfigError::SensorCount));
+}
+
+#[test]
+fn extreme_inputs_stay_finite() {
+    let mut c = comp3();
+    let mut t = table(3, 32);
+    t.misalignment = Some([1.049, 0.049, -0.049, -0.049, 0.951, 0.049, 0.049, -0.049, 1.049]);
+    c.set_table(t).unwrap();
+    warm(&mut c, 12);
+    for (p, dt) in [([i32::MAX, i32::MIN, 0], u32::MAX), ([i32::MIN; 3], 0), ([0; 3], u32::MAX)] {
+        let out = c.cycle(p, dt);
+        assert!(out.dv_mps.iter().all(|v| v.is_finite()), "{out:?}");
+        let out = c.cycle_samples(p, dt);
+        assert!(out.dv_mps.iter().all(|v| v.is_finite()), "{out:?}");
+    }
+}
+
+#[test]
+fn wrapping_counters_give_signed_increments() {
+    let mut c = Compensator::<1, 32>::new(Config::default()).unwrap();
+    c.set_table(table(1, 32)).unwrap();
+    for k in 0..12 {
+        c.on_raw(1000 * k, 352).unwrap();
+    }
+    let first = c.cycle_counters([u32::MAX - 99], 2500);
+    assert!(first.status.contains(Status::NO_COUNTER_BASE));
+    assert_eq!(first.dv_mps, [0.0]);
+    let wrapped = c.cycle_counters([700], 2500);
+    let direct = c.cycle([800], 2500);
+    assert_eq!(wrapped.dv_mps, direct.dv_mps);
+}
+
+/// A clock that jumps back (a reset time source) is refused, then accepted as a restart
+/// once `confirm_samples` readings agree: never stuck for half a wrap.
+#[test]
+fn a_restarted_clock_is_confirmed_not_rejected_forever() {
+    let mut c = comp3();
+    c.set_table(table(3, 32)).unwrap();
+    warm(&mut c, 20);
+    let err = Err(SampleError::Time(rate::Error::NonMonotonic));
+    assert_eq!(c.on_raw(500, 352), err);
+    assert_eq!(c.on_raw(1_500, 353), err);
+    assert!(c.on_raw(2_500, 353).is_ok(), "third consistent reading: restart");
+    assert_eq!(c.estimate().map(|e| e.ready), Some(false), "window restarted");
+    assert!(c.on_raw(3_500, 353).is_ok());
+}
+
+/// One sensor per axis: each axis follows its own stream; a dead sensor is flagged stale
+/// by the others' timestamps, and its axis keeps its last good compensation.
+#[test]
+fn one_sensor_per_axis() {
+    let mut c = Compensator::<3, 32, 3>::new(Config::default()).unwrap();
+    c.set_table(table(3, 32)).unwrap();
+    let mut one = Compensator::<1, 32>::new(Config::default()).unwrap();
+    let mut t1 = table(1, 32);
+    t1.axes[0] = table(3, 32).axes[2].clone();
+    one.set_table(t1).unwrap();
+    for k in 0..20u32 {
+        for s in 0..3 {
+            c.on_raw_from(s, 1000 * k + 10 * s as u32, 320 + 16 * s as i16 + (k / 4) as i16).unwrap();
+        }
+        one.on_raw(1000 * k + 20, 352 + (k / 4) as i16).unwrap();
+    }
+    let e: [f32; 3] = core::array::from_fn(|s| c.estimate_of(s).unwrap().temp_c);
+    assert!((e[1] - e[0] - 1.0).abs() < 1e-4 && (e[2] - e[0] - 2.0).abs() < 1e-4, "{e:?}");
+    let out = c.cycle([800, 800, 800], 2500);
+    assert!(out.status.is_ok(), "{out:?}");
+    // Axis 2 equals a one-axis compensator fed axis 2's stream alone.
+    assert_eq!(out.dv_mps[2], one.cycle([800], 2500).dv_mps[0]);
+    // Sensor 1 dies: after 3 s of the others' readings it is stale; axis 1 unchanged.
+    for k in 20..25u32 {
+        c.on_raw_from(0, 1000 * k, 320 + (k / 4) as i16).unwrap();
+        c.on_raw_from(2, 1000 * k + 20, 352 + (k / 4) as i16).unwrap();
+    }
+    let later = c.cycle([800, 800, 800], 2500);
+    assert!(later.status.contains(Status::TEMP_STALE), "{later:?}");
+    assert_eq!(later.dv_mps[1], out.dv_mps[1]);
+    assert_eq!(c.on_raw_from(3, 0, 0), Err(SampleError::NoSuchSensor { sensor: 3 }));
+}
+
+/// The split halves give the same outputs as the unsplit compensator.
+#[test]
+fn split_halves_match_the_whole() {
+    let mut a = comp3();
+    let mut b = comp3();
+    a.set_table(table(3, 32)).unwrap();
+    b.set_table(table(3, 32)).unwrap();
+    let (mut up, mut ap) = b.split();
+    for k in 0..40u32 {
+        let raw = 352 + (k / 4) as i16;
+        assert_eq!(a.on_raw(1000 * k, raw), up.on_raw_from(0, 1000 * k, raw));
+        for _ in 0..3 {
+            assert_eq!(a.cycle([800, -7, 3], 2500), ap.cycle([800, -7, 3], 2500));
+        }
+    }
+}
+
+/// Deterministic interleaving: the writer is preempted after every single store, and
+/// the reader runs there. Every output must equal the output of the old set or of the
+/// new set, never a mixture.
+#[test]
+fn reader_preempting_the_writer_at_every_store_sees_whole_sets() {
+    let mut c = comp3();
+    let mut t = table(3, 32);
+    t.misalignment = Some([1.049, 0.049, -0.049, -0.049, 0.951, 0.049, 0.049, -0.049, 1.049]);
+    c.set_table(t).unwrap();
+    warm(&mut c, 12);
+    // The applier holds the old set before the new publication starts.
+    c.cycle([0; 3], 2500);
+    let old = c.slow.set();
+    let mut new = old;
+    new.scale = [1.0, 2.0, 3.0];
+    new.bias_tick = [0.5, 0.25, 0.125];
+    new.bias_acc = [4.0, 5.0, 6.0];
+    new.status = Status::TEMP_OUT_OF_RANGE;
+    let pulses = [800, -7, 3];
+    let reference = |s: &Set<3>| {
+        let shared = Published::new();
+        shared.publish_with(s, || {});
+        // An odd `seen_seq` never matches a whole set's sequence: the reference copies it.
+        let mut fast = FastState { seen_seq: 1, ..c.fast };
+        let mut ap = Applier { fast: &mut fast, shared: &shared };
+        (ap.cycle(pulses, 2500), ap.cycle_samples(pulses, 2500))
+    };
+    let (want_old, want_new) = (reference(&old), reference(&new));
+    assert_ne!(want_old.0.dv_mps, want_new.0.dv_mps);
+    let mut fast = c.fast;
+    let mut stores = 0;
+    let mut seen_new = false;
+    c.shared.publish_with(&new, || {
+        stores += 1;
+        let mut ap = Applier { fast: &mut fast, shared: &c.shared };
+        let got = (ap.cycle(pulses, 2500), ap.cycle_samples(pulses, 2500));
+        let strip = |o: Output<3>| (o.dv_mps, o.status - Status::TEMP_STALE);
+        let same = |a: &(Output<3>, Output<3>), b: &(Output<3>, Output<3>)| {
+            strip(a.0) == strip(b.0) && strip(a.1) == strip(b.1)
+        };
+        if same(&got, &want_new) {
+            seen_new = true;
+        } else {
+            assert!(!seen_new, "went back to the old set after store {stores}");
+            assert!(same(&got, &want_old), "mixed set after store {stores}: {got:?}");
+        }
+    });
+    assert_eq!(stores, 1 + 3 * 3 + 9 + 1 + 1, "every store was preempted");
+    assert!(seen_new, "the last store publishes the new set");
+}
+
+/// The other direction: the updater preempts the applier in the middle of its copy.
+/// The copy is dropped, the old set stays in force, and the next cycle takes the new one.
+#[test]
+fn a_copy_torn_by_the_writer_is_dropped() {
+    let mut c = comp3();
+    c.set_table(table(3, 32)).unwrap();
+    warm(&mut c, 12);
+    let before = c.cycle([800, -7, 3], 2500);
+    let old_scale = c.fast.set.scale;
+    let mut new = c.slow.set();
+    new.scale = [1.0, 2.0, 3.0];
+    c.shared.publish_with(&new, || {});
+    let shared = &c.shared;
+    let mut fast = c.fast;
+    let mut ap = Applier { fast: &mut fast, shared };
+    let old_seq = ap.fast.seen_seq;
+    ap.refresh_with(|| shared.publish_with(&new, || {}));
+    assert_eq!(ap.fast.seen_seq, old_seq, "torn copy dropped");
+    assert_eq!(ap.fast.set.scale, old_scale, "old set kept");
+    let after = ap.cycle([800, -7, 3], 2500);
+    assert_eq!(after.dv_mps[0], 800.0 * 1.0 - new.bias_tick[0] * 2500.0);
+    // A sequence left odd (a writer stopped mid-publication) keeps the old set too.
+    shared.seq.store(shared.seq.load(Ordering::Relaxed) + 1, Ordering::Relaxed);
+    let mut fast2 = c.fast;
+    let mut ap2 = Applier { fast: &mut fast2, shared };
+    assert_eq!(ap2.cycle([800, -7, 3], 2500).dv_mps, before.dv_mps);
+}
