@@ -53,8 +53,13 @@ use core::fmt::{self, Write};
 use qfa_thermal::ds18b20::{encode_scratchpad, Resolution};
 use qfa_thermal::model::AxisState;
 use qfa_thermal::table::MAX_TABLE_BYTES;
-use qfa_thermal::{AxisModel, BiasGrid, Compensator, Config, Extensions, Input, ScaleFactor, Status, Table, G0};
+use qfa_thermal::{
+    AxisModel, BiasGrid, Config, Extensions, Input, ScaleFactor, Status, Table, ThreeAxisSharedSensor, G0,
+};
 
+/// Unit JB-KT8 #1 of Zhang et al. (2021), Eq. 15: pulses/(g·s), T0 = 22 °C, Ṫ in °C/min.
+const JB_KT8_1: ScaleFactor =
+    ScaleFactor { t0_c: 22.0, gamma: 320_320.0, mu: -32.76, beta: 0.1008, epsilon: 88.14, eta: -0.02409, alpha: 273.0 };
 /// Seconds simulated.
 const DURATION_S: u32 = 300;
 /// IMU cycles per second.
@@ -105,8 +110,7 @@ fn table() -> Table {
             *h = k0(i) + 4e-6;
             *c = k0(i) - 4e-6;
         }
-        let model =
-            AxisModel { scale: ScaleFactor::JB_KT8_1, bias, rate_limit_c_per_min: 2.0, ext: Extensions::default() };
+        let model = AxisModel { scale: JB_KT8_1, bias, rate_limit_c_per_min: 2.0, ext: Extensions::default() };
         // Capacity is 3 and the loop pushes 3.
         let _ = axes.push(model);
     }
@@ -121,7 +125,8 @@ fn run(out: &mut dyn Write) -> fmt::Result {
     let table = table();
     let mut buf = [0u8; MAX_TABLE_BYTES];
     let bytes = table.encode(&mut buf).map_err(|_| fmt::Error)?;
-    let mut comp = Compensator::<3, 32>::new(Config::default()).map_err(|_| fmt::Error)?;
+    // One sensor for the three axes; the table, loaded from bytes, is owned.
+    let mut comp = ThreeAxisSharedSensor::<Table>::new(Config::default()).map_err(|_| fmt::Error)?;
     comp.load_table(bytes).map_err(|_| fmt::Error)?;
     writeln!(
         out,
@@ -157,7 +162,7 @@ fn run(out: &mut dyn Write) -> fmt::Result {
             let raw = libm::round(temp * 16.0) as i16;
             let sp = encode_scratchpad(raw, Resolution::Bits12, 0x10);
             // A rejected reading raises TEMP_INVALID, which the status column shows.
-            let _ = comp.on_scratchpad(cycle / IMU_HZ * 1000, &sp);
+            let _ = comp.on_scratchpad(0, cycle / IMU_HZ * 1000, &sp);
         }
         let mut pulses = [0i32; 3];
         for i in 0..3 {

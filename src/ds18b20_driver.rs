@@ -90,18 +90,18 @@
 //!     Ok(true) => match sensor.read_keeping_bytes(&mut bus) {
 //!         Ok(s) => {
 //!             let t_ms = clock.ms(s.completed_us);
-//!             let status = updater.on_scratchpad_from(axis, t_ms, &s.scratchpad);
+//!             let status = updater.on_scratchpad(axis, t_ms, &s.scratchpad);
 //!         }
 //!         // Every failure reaches the compensator, which raises TEMP_INVALID: the bytes
 //!         // that failed decoding (a typed decode error), or a reading that never came.
-//!         Err(ReadFailure { scratchpad: Some(sp), .. }) => { updater.on_scratchpad_from(axis, due_ms, &sp); }
+//!         Err(ReadFailure { scratchpad: Some(sp), .. }) => { updater.on_scratchpad(axis, due_ms, &sp); }
 //!         Err(_) => { updater.on_missed_reading(axis, due_ms); }
 //!     },
 //!     Err(_) => { updater.on_missed_reading(axis, due_ms); }  // bus, ConversionOverdue
 //! }
 //! ```
 //!
-//! `updater.on_raw_from(axis, t_ms, s.reading.raw)` is the path for an already
+//! `updater.on_raw(axis, t_ms, s.reading.raw)` is the path for an already
 //! validated reading; both return the compensator's own `Result`. The soak benchmark
 //! (`cargo run --release -p host-tests --bin soak -- --hours 1200`) runs the non-blocking
 //! recipe across 1 200 simulated hours, past the ms wrap. The STM32F405 board's
@@ -243,7 +243,7 @@ pub struct ReadFailure {
     /// The error, as [`Ds18b20::read`] returns it.
     pub error: Error,
     /// For [`Error::Scratchpad`], the last scratchpad read, which failed
-    /// [`decode_scratchpad`]: `Updater::on_scratchpad_from` rejects these bytes with the
+    /// [`decode_scratchpad`]: `Updater::on_scratchpad` rejects these bytes with the
     /// same typed decode error. `None` for every other error (bus, not ready, changed
     /// resolution): nothing usable was read.
     pub scratchpad: Option<[u8; 9]>,
@@ -601,7 +601,7 @@ impl Ds18b20 {
 
     /// [`Self::read`], keeping the bytes of a scratchpad that failed decoding, so a caller
     /// can hand every failed read to the compensator: the bytes to
-    /// `Updater::on_scratchpad_from` (a typed decode error), or, with no bytes,
+    /// `Updater::on_scratchpad` (a typed decode error), or, with no bytes,
     /// `Updater::on_missed_reading`.
     ///
     /// # Errors

@@ -16,13 +16,14 @@
 //!
 //! // One axis: the paper's unit #1, a flat 50 µg bias from −40 to 80 °C.
 //! let bias = BiasGrid::single_valued(-40.0, 10.0, &[5e-5; 13]);
-//! let axis = AxisModel { scale: ScaleFactor::JB_KT8_1, bias, rate_limit_c_per_min: 2.0, ext: Extensions::default() };
+//! let scale = ScaleFactor { t0_c: 22.0, gamma: 320_320.0, mu: -32.76, beta: 0.1008, epsilon: 88.14, eta: -0.02409, alpha: 273.0 }; // JB-KT8 #1, Eq. 15
+//! let axis = AxisModel { scale, bias, rate_limit_c_per_min: 2.0, ext: Extensions::default() };
 //! let table = Table { input: Input::PulseCounts, rate_window: 32, axes: [axis].into_iter().collect(), misalignment: None };
 //!
 //! let mut comp = Compensator::<1, 32>::new(Config::default()).unwrap();
 //! comp.set_table(table).unwrap();
 //! for s in 0..8 {
-//!     comp.on_raw(s * 1_000, 352).unwrap(); // 352/16 = 22.0 °C, one reading a second
+//!     comp.on_raw(0, s * 1_000, 352).unwrap(); // 352/16 = 22.0 °C, one reading a second
 //! }
 //! let out = comp.cycle([1_601], 5_000); // 1 601 pulses in 5 ms (5 000 ticks of 1 µs)
 //! assert!(out.status.is_ok());
@@ -46,7 +47,7 @@
 //!
 //! * One [`Updater`], one [`Applier`]; the slow path is `&mut`, so two publications never
 //!   overlap.
-//! * The applier never blocks and never waits: the halves share one [`Published`] set
+//! * The applier never blocks and never waits: the halves share one coefficient set
 //!   behind a sequence number (a seqlock of 32-bit atomics, so any Cortex-M works). A set
 //!   being written, or written during the applier's copy, is dropped and the previous
 //!   whole set is used for that cycle, whichever context preempts which, on one core or
@@ -56,7 +57,9 @@
 //!
 //! # Modules
 //!
-//! * [`compensator`]: [`Compensator`], [`Updater`], [`Applier`], [`Config`], [`Status`];
+//! * [`compensator`]: [`Compensator`] and its recommended configurations
+//!   [`ThreeAxisSensorPerAxis`] and [`ThreeAxisSharedSensor`], [`Updater`], [`Applier`]
+//!   with its [`PulseOutput`] (Δv, m/s) and [`SampleOutput`] (m/s²), [`Config`], [`Status`];
 //! * [`table`]: the coefficient [`Table`], its wire format (version 2) and validation;
 //! * [`model`]: Eq. 11, the bias grid, the extension slots;
 //! * [`rate`]: the Ṫ estimator; [`time`]: the slow path's time base and [`time::MsClock`];
@@ -65,8 +68,10 @@
 //!
 //! # Features
 //!
-//! `defmt`: `defmt::Format` for the public types. Measured figures (instruction counts,
-//! RAM, flash) are in the repository's `docs/measurements.md`.
+//! `defmt`: `defmt::Format` for the public types. `fixtures`: the `fixtures` module, published
+//! coefficients for tests and placeholder tables (the paper's JB-KT8 #1), not a calibration.
+//! Measured figures (instruction counts, RAM, flash) are in the repository's
+//! `docs/measurements.md`.
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
@@ -74,13 +79,21 @@
 pub mod compensator;
 pub mod ds18b20;
 pub mod ds18b20_driver;
+#[cfg(any(test, feature = "fixtures"))]
+pub mod fixtures;
 pub mod model;
 pub mod onewire;
 pub mod rate;
 pub mod table;
 pub mod time;
 
-pub use compensator::{Applier, Compensator, Config, ConfigError, Output, Published, SampleError, Status, Updater, G0};
+#[cfg(feature = "bench-internals")]
+#[doc(hidden)]
+pub use compensator::Published;
+pub use compensator::{
+    Applier, Compensator, Config, ConfigError, PulseOutput, SampleError, SampleOutput, Status, ThreeAxisSensorPerAxis,
+    ThreeAxisSharedSensor, Updater, DEFAULT_RATE_WINDOW, G0,
+};
 pub use model::{AxisModel, BiasGrid, Extensions, ScaleFactor};
 pub use table::{Input, Table};
 

@@ -36,12 +36,6 @@ pub struct ScaleFactor {
 }
 
 impl ScaleFactor {
-    /// Unit JB-KT8 #1 of Zhang et al. (2021), Eq. 15: pulses/(g·s), T0 = 22 °C, Ṫ in
-    /// °C/min. For fixtures, examples and tests (the demo, the benchmark, the board's
-    /// placeholder table, the soak); it is not a calibration of any other unit.
-    pub const JB_KT8_1: Self =
-        Self { t0_c: 22.0, gamma: 320_320.0, mu: -32.76, beta: 0.1008, epsilon: 88.14, eta: -0.02409, alpha: 273.0 };
-
     /// The simple linear model of Eq. 3: `K1 = μ·ΔT + γ`.
     #[must_use]
     pub const fn simple(t0_c: f32, gamma: f32, mu: f32) -> Self {
@@ -371,7 +365,7 @@ mod tests {
 
     fn kt8_1() -> ScaleFactor {
         // The test below checks it against the paper's Eq. 15 written out in literals.
-        ScaleFactor::JB_KT8_1
+        crate::fixtures::JB_KT8_1
     }
 
     fn axis(ext: Extensions) -> AxisModel {

@@ -1,7 +1,7 @@
 //! Filtered differentiator: temperature T̂ and rate Ṫ (°C/min) from timestamped readings.
 //!
 //! # Design
-//! A least-squares line over a sliding window of the last `N` readings. Readings are
+//! A least-squares line over a sliding window of the last `RATE_WINDOW` readings. Readings are
 //! integers (1/16 °C) and timestamps are integer milliseconds, so the five running sums
 //! (n, Σt, Σt², Σy, Σty) are kept **exactly** in `i64`, with times relative to the oldest
 //! sample in the window. Adding a sample and evicting the oldest (then moving the time
@@ -12,14 +12,14 @@
 //! Why this and not an IIR differentiator: least squares with the real timestamps handles
 //! irregular spacing and missing samples without special cases, its noise is the
 //! Cramér–Rao bound of a slope fit over the window for white noise, and its response is
-//! finite (a rate step is fully seen after `N` samples, no long tail). An optional
+//! finite (a rate step is fully seen after `RATE_WINDOW` samples, no long tail). An optional
 //! first-order smoother after the slope trades lag for noise.
 //!
-//! Figures (`cargo run --release -p host-tests --bin rate-bench`, N = 32, 1 Hz, 12-bit
+//! Figures (`cargo run --release -p host-tests --bin rate-bench`, a 32-sample window, 1 Hz, 12-bit
 //! quantization plus 0.02 °C noise) are in the repository's `docs/measurements.md`.
 //!
 //! # Bounds
-//! `N` is 3..=128 and a gap between samples above [`RateConfig::max_gap_ms`] (at most
+//! `RATE_WINDOW` is 3..=128 and a gap between samples above [`RateConfig::max_gap_ms`] (at most
 //! 65 535 ms) restarts the window, so relative times stay below 2²³ ms and every product
 //! in the sums stays below 2⁶⁰: no overflow is possible.
 
@@ -138,13 +138,13 @@ fn sqrt(x: f32) -> f32 {
     y
 }
 
-/// Sliding-window least-squares differentiator over `N` samples (3..=128).
+/// Sliding-window least-squares differentiator over `RATE_WINDOW` samples (3..=128).
 #[derive(Clone, Debug)]
-pub struct RateEstimator<const N: usize> {
+pub struct RateEstimator<const RATE_WINDOW: usize> {
     config: RateConfig,
     /// `gap[i]`: ms from the previous sample to sample `i`.
-    gap: [u16; N],
-    raw: [i16; N],
+    gap: [u16; RATE_WINDOW],
+    raw: [i16; RATE_WINDOW],
     /// Index of the oldest sample.
     head: usize,
     len: usize,
@@ -162,8 +162,8 @@ pub struct RateEstimator<const N: usize> {
 /// Raw units per ms → °C/min: 60 000 ms/min ÷ 16 raw/°C.
 const RAW_PER_MS_TO_C_PER_MIN: f32 = 3750.0;
 
-impl<const N: usize> RateEstimator<N> {
-    const BOUNDS: () = assert!(N >= 3 && N <= 128, "window N must be 3..=128");
+impl<const RATE_WINDOW: usize> RateEstimator<RATE_WINDOW> {
+    const BOUNDS: () = assert!(RATE_WINDOW >= 3 && RATE_WINDOW <= 128, "RATE_WINDOW must be 3..=128");
 
     /// Empty estimator.
     #[must_use]
@@ -171,8 +171,8 @@ impl<const N: usize> RateEstimator<N> {
         let () = Self::BOUNDS;
         Self {
             config,
-            gap: [0; N],
-            raw: [0; N],
+            gap: [0; RATE_WINDOW],
+            raw: [0; RATE_WINDOW],
             head: 0,
             len: 0,
             last_ms: 0,
@@ -229,12 +229,12 @@ impl<const N: usize> RateEstimator<N> {
                 self.reset();
                 outcome = Accepted::Restarted;
             } else {
-                if self.len == N {
+                if self.len == RATE_WINDOW {
                     self.evict_oldest();
                 }
                 // d <= max_gap_ms <= u16::MAX, checked above.
                 let d16 = d as u16;
-                let idx = (self.head + self.len) % N;
+                let idx = (self.head + self.len) % RATE_WINDOW;
                 self.gap[idx] = d16;
                 self.raw[idx] = raw;
                 self.len += 1;
@@ -245,9 +245,9 @@ impl<const N: usize> RateEstimator<N> {
                 return Ok(outcome);
             }
         }
-        // First sample: it is the time origin. `head < N` always; `% N` shows the compiler,
+        // First sample: it is the time origin. `head < RATE_WINDOW` always; `% RATE_WINDOW` shows the compiler,
         // so no bounds check (and no panic path) is emitted.
-        let head = self.head % N;
+        let head = self.head % RATE_WINDOW;
         self.gap[head] = 0;
         self.raw[head] = raw;
         self.len = 1;
@@ -267,8 +267,8 @@ impl<const N: usize> RateEstimator<N> {
 
     /// Remove the oldest sample (at relative time 0) and move the origin to the next one.
     fn evict_oldest(&mut self) {
-        self.s_y -= i64::from(self.raw[self.head % N]);
-        self.head = (self.head + 1) % N;
+        self.s_y -= i64::from(self.raw[self.head % RATE_WINDOW]);
+        self.head = (self.head + 1) % RATE_WINDOW;
         self.len -= 1;
         let d = i64::from(self.gap[self.head]);
         let n = self.len as i64;
@@ -309,7 +309,7 @@ impl<const N: usize> RateEstimator<N> {
             return None;
         }
         if !self.ready() {
-            let newest = self.raw[(self.head + self.len - 1) % N];
+            let newest = self.raw[(self.head + self.len - 1) % RATE_WINDOW];
             return Some(Estimate {
                 temp_c: crate::ds18b20::raw_to_celsius(newest),
                 rate_c_per_min: 0.0,

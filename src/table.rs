@@ -193,7 +193,8 @@ pub type Result<T> = core::result::Result<T, Error>;
 /// use qfa_thermal::{AxisModel, BiasGrid, Extensions, Input, ScaleFactor, Table};
 ///
 /// let bias = BiasGrid::single_valued(-40.0, 10.0, &[1e-4; 13]);
-/// let axis = AxisModel { scale: ScaleFactor::JB_KT8_1, bias, rate_limit_c_per_min: 2.0, ext: Extensions::default() };
+/// let scale = ScaleFactor { t0_c: 22.0, gamma: 320_320.0, mu: -32.76, beta: 0.1008, epsilon: 88.14, eta: -0.02409, alpha: 273.0 }; // JB-KT8 #1, Eq. 15
+/// let axis = AxisModel { scale, bias, rate_limit_c_per_min: 2.0, ext: Extensions::default() };
 /// let t = Table { input: Input::PulseCounts, rate_window: 32, axes: [axis].into_iter().collect(), misalignment: None };
 ///
 /// let mut buf = [0u8; MAX_TABLE_BYTES];

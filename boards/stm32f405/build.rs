@@ -14,16 +14,16 @@
 use std::{env, fs, path::PathBuf};
 
 use qfa_thermal::table::{MAX_AXES, MAX_TABLE_BYTES};
-use qfa_thermal::{AxisModel, BiasGrid, Extensions, Input, ScaleFactor, Table};
+use qfa_thermal::{AxisModel, BiasGrid, Extensions, Input, Table, DEFAULT_RATE_WINDOW};
 
-/// The rate window the board's compensator is built with (`Compensator<3, 32, 3, _>`).
-const RATE_WINDOW: u16 = 32;
+/// The rate window the board's compensator is built with (`ThreeAxisSensorPerAxis`).
+const RATE_WINDOW: u16 = DEFAULT_RATE_WINDOW as u16;
 
 /// A placeholder 3-axis table: JB-KT8 #1's scale factor (Zhang et al. 2021, Eq. 15) and a
 /// plausible bias (about 100 µg at 22 °C, 1.5 µg/°C) on a −40..80 °C grid. It validates,
 /// so the board runs compensated out of the box; it is not a calibration of any sensor.
 fn fixture() -> Table {
-    let scale = ScaleFactor::JB_KT8_1;
+    let scale = qfa_thermal::fixtures::JB_KT8_1;
     let mut table =
         Table { input: Input::PulseCounts, rate_window: RATE_WINDOW, axes: Default::default(), misalignment: None };
     for axis in 0..MAX_AXES {

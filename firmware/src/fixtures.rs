@@ -7,7 +7,7 @@ use qfa_thermal::{AxisModel, BiasGrid, Extensions, ScaleFactor, Table};
 /// Scale factor of JB-KT8 #1 (paper Eq. 15), pulses/(g·s), T0 = 22 °C, Ṫ in °C/min.
 #[must_use]
 pub const fn kt8_1() -> ScaleFactor {
-    ScaleFactor::JB_KT8_1
+    qfa_thermal::fixtures::JB_KT8_1
 }
 
 /// First grid point, °C.

@@ -73,7 +73,7 @@ fn probe(c: &Compensator<3, 32>) -> Probe {
     let s = c2.cycle_samples([1 << 20, -(1 << 18), 12_345], 2500);
     Probe {
         pulses: p.dv_mps.map(f32::to_bits),
-        samples: s.dv_mps.map(f32::to_bits),
+        samples: s.accel_mps2.map(f32::to_bits),
         status: p.status - (Status::TEMP_INVALID | Status::TEMP_STALE),
         stale: p.status.contains(Status::TEMP_STALE),
         estimate: c.estimate(),
@@ -122,7 +122,7 @@ pub fn compensator_stream(data: &[u8]) {
                     _ => raw.wrapping_add(i16::from(arg as i8 % 3)),
                 };
                 let before = probe(&c);
-                match c.on_raw(t_ms, raw) {
+                match c.on_raw(0, t_ms, raw) {
                     Ok(_) => (since_good, rejected_since_good, good_since_cycle) = (0, false, good_since_cycle + 1),
                     Err(_) => {
                         rejected_since_good = true;
@@ -139,7 +139,7 @@ pub fn compensator_stream(data: &[u8]) {
                     sp[usize::from(arg >> 1) % 9] ^= 1 << (arg % 8);
                 }
                 let before = probe(&c);
-                match c.on_scratchpad(t_ms, &sp) {
+                match c.on_scratchpad(0, t_ms, &sp) {
                     Ok(_) => (since_good, rejected_since_good, good_since_cycle) = (0, false, good_since_cycle + 1),
                     Err(_) => {
                         rejected_since_good = true;

@@ -4,7 +4,7 @@
 //!
 //! The firmware recipe under test, exactly as the driver docs give it:
 //! `t_ms = clock.ms(sample.completed_us)` with one [`MsClock`] for the system, then
-//! `updater.on_scratchpad_from(sensor, t_ms, &sample.scratchpad)`; a read that fails
+//! `updater.on_scratchpad(sensor, t_ms, &sample.scratchpad)`; a read that fails
 //! (no presence, pin error, CRC, the power-on value, a lost conversion) is reported with
 //! `updater.on_missed_reading(sensor, clock.ms(now_us))`, as the board does. The IMU
 //! interrupt calls `applier.cycle(pulses, dt_ticks)` `imu_hz` times per simulated second,
@@ -549,9 +549,9 @@ pub fn run(set: &Settings, mut progress: impl FnMut(f64)) -> Figures {
             }
             last_ms = Some(t_ms);
             let res = if per_axis {
-                up3.on_scratchpad_from(j, t_ms, &sample.scratchpad)
+                up3.on_scratchpad(j, t_ms, &sample.scratchpad)
             } else {
-                up1.on_scratchpad_from(j, t_ms, &sample.scratchpad)
+                up1.on_scratchpad(j, t_ms, &sample.scratchpad)
             };
             // A good reading: a real conversion this second, delivered as measured.
             let good = !frozen[s] && !brown[s] && sample.reading.raw == sim.with(|w| w.devices[s].temp_raw);

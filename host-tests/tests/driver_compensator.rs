@@ -1,5 +1,5 @@
 //! The DS18B20 driver on the simulated bus feeding `Compensator::<3, 32>` through
-//! `on_scratchpad(completed_ms, &scratchpad)`, as the driver's module docs describe,
+//! `on_scratchpad(0, completed_ms, &scratchpad)`, as the driver's module docs describe,
 //! over a long run with every fault the simulation supports injected again and again.
 //!
 //! Issue 6: "The driver plus the compensator must come through every injected fault with
@@ -228,7 +228,7 @@ fn driver_and_compensator_come_through_every_fault() {
                             assert_eq!(s.reading.raw, measured, "driver returned a value the sensor did not measure");
                             spike_pending = false;
                             let t_ms = clock.ms(s.completed_us);
-                            match comp.on_scratchpad(t_ms, &s.scratchpad) {
+                            match comp.on_scratchpad(0, t_ms, &s.scratchpad) {
                                 Ok(_) => {
                                     assert_ne!(measured, truth_raw(now_us) + 48, "a spike was accepted");
                                     good += 1;

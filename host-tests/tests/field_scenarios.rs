@@ -41,10 +41,10 @@ fn dead_sensor_stays_stale_across_the_ms_wrap() {
         // window's 30-s gap) to keep the test fast.
         let near = t < 120_000 || (WRAP_MS - 60_000..end).contains(&t);
         for s in [0usize, 2] {
-            c.on_raw_from(s, (t + 10 * s as u64) as u32, raw_at(t)).unwrap();
+            c.on_raw(s, (t + 10 * s as u64) as u32, raw_at(t)).unwrap();
         }
         if t <= 60_000 {
-            c.on_raw_from(1, (t + 10) as u32, raw_at(t)).unwrap();
+            c.on_raw(1, (t + 10) as u32, raw_at(t)).unwrap();
         }
         let out = c.cycle_samples([1 << 20, 0, 0], 2_500);
         if t > 60_000 + stale_ms + 20 {
@@ -66,7 +66,7 @@ fn returning_sensor_after_a_whole_wrap_restarts_its_window() {
     let mut c = comp(Input::Samples);
     for k in 0..40u64 {
         for s in 0..3 {
-            c.on_raw_from(s, (1_000 * k + 10 * s as u64) as u32, 352).unwrap();
+            c.on_raw(s, (1_000 * k + 10 * s as u64) as u32, 352).unwrap();
         }
     }
     assert!(c.estimate_of(1).unwrap().ready);
@@ -74,21 +74,21 @@ fn returning_sensor_after_a_whole_wrap_restarts_its_window() {
     let mut t = 40_000u64;
     while t < WRAP_MS + 41_000 {
         for s in [0usize, 2] {
-            c.on_raw_from(s, (t + 10 * s as u64) as u32, 352).unwrap();
+            c.on_raw(s, (t + 10 * s as u64) as u32, 352).unwrap();
         }
         t += 20_000;
     }
     // Back at 2³² ms + 41 s, 2 s after its last reading modulo the wrap, at the same
     // temperature: taken, in a new window (the old one would give a rate over "2 s").
     let back = (WRAP_MS + 41_010) as u32;
-    c.on_raw_from(1, back, 353).unwrap();
+    c.on_raw(1, back, 353).unwrap();
     let e = c.estimate_of(1).unwrap();
     assert!(!e.ready, "the window restarted: {e:?}");
     assert_eq!(e.temp_c, 22.0625);
     // A 5 °C step after the same gap is confirmed first.
     let mut d = c.clone();
-    let _ = d.on_raw_from(1, back + 1, 353 + 80);
-    assert!(d.on_raw_from(1, back + 1_000, 353 + 80).is_err(), "within 1 s: the slew bound is 1.5 °C");
+    let _ = d.on_raw(1, back + 1, 353 + 80);
+    assert!(d.on_raw(1, back + 1_000, 353 + 80).is_err(), "within 1 s: the slew bound is 1.5 °C");
 }
 
 /// Scenario 2. A clone made after the applier has seen a publication and a table load has
@@ -102,7 +102,7 @@ fn clone_after_a_table_load_applies_the_table() {
     a.set_table(t).unwrap();
     for k in 0..12u32 {
         for s in 0..3 {
-            a.on_raw_from(s, 1_000 * k + s as u32, 352).unwrap();
+            a.on_raw(s, 1_000 * k + s as u32, 352).unwrap();
         }
     }
     let mut b = a.clone();
@@ -135,7 +135,7 @@ fn samples_table_on_a_pulse_compensator_is_refused() {
     let mut s = comp(Input::Samples);
     for k in 0..12u32 {
         for j in 0..3 {
-            s.on_raw_from(j, 1_000 * k + j as u32, 352).unwrap();
+            s.on_raw(j, 1_000 * k + j as u32, 352).unwrap();
         }
     }
     assert!(s.cycle_samples([1 << 20, 0, 0], 2_500).status.is_ok());
@@ -168,24 +168,24 @@ fn power_on_value_after_a_dropout_is_refused() {
     for gap_min in [1u32, 7, 60, 24 * 60] {
         let mut c = comp(Input::Samples);
         for k in 0..20u32 {
-            c.on_raw_from(0, 1_000 * k, 352).unwrap();
+            c.on_raw(0, 1_000 * k, 352).unwrap();
         }
         let back = 19_000 + gap_min * 60_000;
-        assert_eq!(c.on_raw_from(0, back, POWER_ON_RAW), Err(SampleError::PowerOnJump), "gap {gap_min} min");
+        assert_eq!(c.on_raw(0, back, POWER_ON_RAW), Err(SampleError::PowerOnJump), "gap {gap_min} min");
         // Through the scratchpad, from a clone part whose byte 6 does not give it away.
         let sp = ds18b20::encode_scratchpad(POWER_ON_RAW, Resolution::Bits12, 0x10);
-        assert!(c.on_scratchpad_from(0, back + 1_000, &sp).is_err(), "gap {gap_min} min");
+        assert!(c.on_scratchpad(0, back + 1_000, &sp).is_err(), "gap {gap_min} min");
         assert_eq!(c.estimate_of(0).unwrap().temp_c, 22.0);
     }
     let mut c = comp(Input::Samples);
     for k in 0..20u32 {
-        c.on_raw_from(0, 1_000 * k, 352).unwrap();
+        c.on_raw(0, 1_000 * k, 352).unwrap();
     }
     // 10 min later the case is 20 °C warmer: a real step, used once three readings agree.
     let back = 19_000 + 600_000;
-    assert!(matches!(c.on_raw_from(0, back, 672), Err(SampleError::Implausible { raw: 672 })));
-    assert!(c.on_raw_from(0, back + 1_000, 672).is_err());
-    c.on_raw_from(0, back + 2_000, 672).unwrap();
+    assert!(matches!(c.on_raw(0, back, 672), Err(SampleError::Implausible { raw: 672 })));
+    assert!(c.on_raw(0, back + 1_000, 672).is_err());
+    c.on_raw(0, back + 2_000, 672).unwrap();
     assert_eq!(c.estimate_of(0).unwrap().temp_c, 42.0);
 }
 
@@ -228,8 +228,8 @@ fn reading_outside_the_sensor_range_is_refused() {
         let sp = ds18b20::encode_scratchpad(raw, Resolution::Bits12, 0x10);
         assert_eq!(ds18b20::decode_scratchpad(&sp), Err(ds18b20::Error::OutOfRange { raw }), "{raw}");
         let mut c = comp(Input::Samples);
-        assert!(c.on_scratchpad_from(0, 0, &sp).is_err());
-        assert_eq!(c.on_raw_from(0, 1_000, raw), Err(SampleError::Decode(ds18b20::Error::OutOfRange { raw })));
+        assert!(c.on_scratchpad(0, 0, &sp).is_err());
+        assert_eq!(c.on_raw(0, 1_000, raw), Err(SampleError::Decode(ds18b20::Error::OutOfRange { raw })));
         assert!(c.estimate_of(0).is_none());
     }
     for raw in [-880i16, 2_000] {
@@ -245,7 +245,7 @@ fn missed_reading_raises_temp_invalid() {
     let mut c = comp(Input::Samples);
     for k in 0..12u32 {
         for s in 0..3 {
-            c.on_raw_from(s, 1_000 * k + s as u32, 352).unwrap();
+            c.on_raw(s, 1_000 * k + s as u32, 352).unwrap();
         }
     }
     let good = c.cycle_samples([1 << 20, 0, 0], 2_500);
@@ -253,7 +253,7 @@ fn missed_reading_raises_temp_invalid() {
     assert_eq!(c.on_missed_reading(1, 12_001), Err(SampleError::Missed));
     let out = c.cycle_samples([1 << 20, 0, 0], 2_500);
     assert!(out.status.contains(Status::TEMP_INVALID), "{out:?}");
-    assert_eq!(out.dv_mps, good.dv_mps);
+    assert_eq!(out.accel_mps2, good.accel_mps2);
 }
 
 /// Scenario 9. The compensator's module doc, the first page a firmware engineer reads,
@@ -262,7 +262,7 @@ fn missed_reading_raises_temp_invalid() {
 /// the contract the code has; the loom model (`cargo xtask loom`) checks the code side.
 #[test]
 fn compensator_doc_states_the_seqlock_contract() {
-    let doc: String = include_str!("../../src/compensator.rs")
+    let doc: String = include_str!("../../src/compensator/mod.rs")
         .lines()
         .take_while(|l| l.starts_with("//!"))
         .map(|l| l.trim_start_matches("//!").trim())

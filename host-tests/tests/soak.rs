@@ -1,5 +1,5 @@
 //! A shortened soak that still crosses the µs wrap (twice) and the ms wrap (once):
-//! the firmware recipe (`MsClock` → `on_scratchpad_from`, split applier) must reject no
+//! the firmware recipe (`MsClock` → `on_scratchpad`, split applier) must reject no
 //! good reading and flag no healthy cycle stale; and the fault schedule, compressed. The
 //! 1 200-h figure comes from the release binary (`cargo run --release -p host-tests --bin
 //! soak -- --hours 1200`), the field-fault one from `-- --faults` (README). The file takes
@@ -53,7 +53,7 @@ fn the_old_recipe_fails_the_soak_figures() {
     let mut not_ready_after_wrap = 0;
     for k in 0..120u32 {
         let us = start_us.wrapping_add(k * 1_000_000);
-        if c.on_raw(us / 1000, 352).is_err() {
+        if c.on_raw(0, us / 1000, 352).is_err() {
             rejected += 1;
         }
         let out = c.cycle([800], 1_000_000);
@@ -66,7 +66,7 @@ fn the_old_recipe_fails_the_soak_figures() {
 }
 
 fn one_axis_table() -> Vec<u8> {
-    use qfa_thermal::model::{AxisModel, BiasGrid, Extensions, ScaleFactor};
+    use qfa_thermal::model::{AxisModel, BiasGrid, Extensions};
     use qfa_thermal::table::{Table, MAX_TABLE_BYTES};
     let mut t = Table {
         input: qfa_thermal::Input::PulseCounts,
@@ -74,7 +74,7 @@ fn one_axis_table() -> Vec<u8> {
         axes: heapless::Vec::new(),
         misalignment: None,
     };
-    let scale = ScaleFactor::JB_KT8_1;
+    let scale = qfa_thermal::fixtures::JB_KT8_1;
     let bias = BiasGrid::single_valued(-60.0, 65.0, &[1e-4, 1.5e-4, 3e-4]);
     t.axes.push(AxisModel { scale, bias, rate_limit_c_per_min: 2.0, ext: Extensions::default() }).unwrap();
     let mut buf = [0u8; MAX_TABLE_BYTES];

@@ -1,6 +1,6 @@
 //! Compensation of a log through the root crate's `Compensator<1, 32>`, as the firmware runs it.
 //!
-//! Per row, in order: if the row has a reading, `on_raw(time_s·1000 ms, round(temp_c·16))`
+//! Per row, in order: if the row has a reading, `on_raw(0, time_s·1000 ms, round(temp_c·16))`
 //! (a rejected reading leaves the last good compensation in force, as on target); then
 //! `cycle([pulses], interval_s·10⁶ ticks)` with the default 1-µs tick. The reading is
 //! applied before the row's pulses because it was taken inside that interval (the same
@@ -117,7 +117,7 @@ pub fn compensate_run(table: &Table, run: &Run) -> Result<Compensated, Error> {
     for s in &run.samples {
         if let Some(t) = s.temp_c {
             let raw = (t * 16.0).round() as i16;
-            if c.on_raw((s.time_s * 1000.0).round() as u32, raw).is_err() {
+            if c.on_raw(0, (s.time_s * 1000.0).round() as u32, raw).is_err() {
                 out.rejected += 1;
             }
         }
@@ -269,11 +269,11 @@ pub fn compensate_static<W: std::io::Write>(
         let mut status = Status::empty();
         for (c, ax) in comps.iter_mut().zip(&log.axes) {
             // A refused reading raises TEMP_INVALID in the output's status: nothing is lost.
-            let _ = c.on_raw(t_ms, raw_t);
+            let _ = c.on_raw(0, t_ms, raw_t);
             let raw = (ax.accel_g[i] * lsb).round().clamp(f64::from(i32::MIN), f64::from(i32::MAX)) as i32;
             let out = c.cycle_samples([raw], dt_ticks);
             status |= out.status;
-            rec.push(format!("{:.9}", f64::from(out.dv_mps[0]) / f64::from(G0)));
+            rec.push(format!("{:.9}", f64::from(out.accel_mps2[0]) / f64::from(G0)));
         }
         rec.push(static_status(status));
         wr.write_record(&rec).map_err(|e| io(&e))?;

@@ -45,7 +45,7 @@ fn three_axis_per_sensor_equals_three_one_axis_compensators() {
                 core::array::from_fn(|i| 320 + (i as i16) * 40 + ((k / 200) as i16) * (i as i16 + 1) / 4);
             three.on_temperatures(k * 5, raw);
             for (c, r) in ones.iter_mut().zip(raw) {
-                c.on_raw(k * 5, r).unwrap();
+                c.on_raw(0, k * 5, r).unwrap();
             }
         }
         let pulses = [1_602 + (k % 7) as i32, -3_203, 320_320 / 200];

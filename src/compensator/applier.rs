@@ -8,13 +8,24 @@ use core::sync::atomic::Ordering;
 use super::seqlock::{Published, Set, AGE_STALE};
 use super::Status;
 
-/// Output of one IMU cycle.
+/// Output of one IMU cycle from pulse counts ([`Compensator::cycle`],
+/// [`Compensator::cycle_counters`]): velocity increments.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Output<const AXES: usize> {
-    /// Compensated velocity increment per axis, m/s ([`Compensator::cycle`]), or
-    /// acceleration, m/s² ([`Compensator::cycle_samples`]).
+pub struct PulseOutput<const AXES: usize> {
+    /// Compensated velocity increment over the cycle per axis, m/s.
     pub dv_mps: [f32; AXES],
+    /// Conditions in force.
+    pub status: Status,
+}
+
+/// Output of one IMU cycle from MEMS samples ([`Compensator::cycle_samples`]):
+/// accelerations, not increments.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SampleOutput<const AXES: usize> {
+    /// Compensated specific force per axis, m/s².
+    pub accel_mps2: [f32; AXES],
     /// Conditions in force.
     pub status: Status,
 }
@@ -43,7 +54,7 @@ pub(super) struct FastState<const AXES: usize> {
 }
 
 /// The fast path of a split compensator: owns the IMU-cycle state and a copy of the
-/// coefficients, refreshed from the [`Published`] set when its sequence changes. Put it
+/// coefficients, refreshed from the shared set when its sequence changes. Put it
 /// where the IMU interrupt can reach it.
 ///
 /// Per cycle it loads one shared word (the sequence) and otherwise reads only its own
@@ -57,12 +68,13 @@ pub(super) struct FastState<const AXES: usize> {
 /// on a multi-core part; the applier never waits for the updater:
 ///
 /// ```
-/// use qfa_thermal::{AxisModel, BiasGrid, Compensator, Config, Extensions, Input, ScaleFactor, Table};
+/// use qfa_thermal::{AxisModel, BiasGrid, Config, Extensions, Input, ScaleFactor, Table, ThreeAxisSensorPerAxis};
 ///
 /// let bias = BiasGrid::single_valued(-40.0, 10.0, &[1e-4; 13]);
-/// let axis = AxisModel { scale: ScaleFactor::JB_KT8_1, bias, rate_limit_c_per_min: 2.0, ext: Extensions::default() };
+/// let scale = ScaleFactor { t0_c: 22.0, gamma: 320_320.0, mu: -32.76, beta: 0.1008, epsilon: 88.14, eta: -0.02409, alpha: 273.0 }; // JB-KT8 #1, Eq. 15
+/// let axis = AxisModel { scale, bias, rate_limit_c_per_min: 2.0, ext: Extensions::default() };
 /// let table = Table { input: Input::PulseCounts, rate_window: 32, axes: core::iter::repeat_n(axis, 3).collect(), misalignment: None };
-/// let mut comp = Compensator::<3, 32, 3>::new(Config::default()).unwrap();
+/// let mut comp = ThreeAxisSensorPerAxis::<Table>::new(Config::default()).unwrap(); // owns its table
 /// comp.set_table(table).unwrap();
 /// let (mut updater, mut applier) = comp.split();
 /// applier.prime_counters([0; 3]);
@@ -71,7 +83,7 @@ pub(super) struct FastState<const AXES: usize> {
 ///     s.spawn(move || {
 ///         for t in 0..20u32 {
 ///             for sensor in 0..3 {
-///                 updater.on_raw_from(sensor, t * 1_000, 352 + (t / 4) as i16).unwrap(); // a slow ramp
+///                 updater.on_raw(sensor, t * 1_000, 352 + (t / 4) as i16).unwrap(); // a slow ramp
 ///             }
 ///         }
 ///     });
@@ -146,7 +158,7 @@ impl<const AXES: usize> Applier<'_, AXES> {
     /// `Δv[i] = N[i]·(g0/K1[i]) − (K0[i]·g0·tick)·dt`, then `Δv = M·Δv` with a
     /// misalignment matrix. Always finite. Never blocks.
     #[inline]
-    pub fn cycle(&mut self, pulses: [i32; AXES], dt_ticks: u32) -> Output<AXES> {
+    pub fn cycle(&mut self, pulses: [i32; AXES], dt_ticks: u32) -> PulseOutput<AXES> {
         let status = self.begin::<false>(dt_ticks);
         let s = &self.fast.set;
         let dt = dt_ticks as f32;
@@ -157,7 +169,7 @@ impl<const AXES: usize> Applier<'_, AXES> {
         if let Some(m) = &s.misalign {
             dv = misalign(m, dv);
         }
-        Output { dv_mps: dv, status }
+        PulseOutput { dv_mps: dv, status }
     }
 
     /// Fast path for MEMS samples: raw readings (LSB) of this cycle and the ticks since
@@ -166,7 +178,7 @@ impl<const AXES: usize> Applier<'_, AXES> {
     /// `a[i] = raw[i]·(g0/K1[i]) − K0[i]·g0`, m/s², then `a = M·a` with a misalignment
     /// matrix: the paper's `a = E/K1 − K0`, with `1/K1` formed in the slow path.
     #[inline]
-    pub fn cycle_samples(&mut self, raw: [i32; AXES], dt_ticks: u32) -> Output<AXES> {
+    pub fn cycle_samples(&mut self, raw: [i32; AXES], dt_ticks: u32) -> SampleOutput<AXES> {
         let status = self.begin::<true>(dt_ticks);
         let s = &self.fast.set;
         let mut a = [0.0f32; AXES];
@@ -176,14 +188,14 @@ impl<const AXES: usize> Applier<'_, AXES> {
         if let Some(m) = &s.misalign {
             a = misalign(m, a);
         }
-        Output { dv_mps: a, status }
+        SampleOutput { accel_mps2: a, status }
     }
 
     /// Fast path from wrapping cumulative u32 counters. The first call has no base: it
     /// returns zero increments with [`Status::NO_COUNTER_BASE`]; call
     /// [`prime_counters`](Self::prime_counters) to avoid it.
     #[inline]
-    pub fn cycle_counters(&mut self, counters: [u32; AXES], dt_ticks: u32) -> Output<AXES> {
+    pub fn cycle_counters(&mut self, counters: [u32; AXES], dt_ticks: u32) -> PulseOutput<AXES> {
         let Some(prev) = self.fast.counters.replace(counters) else {
             let mut out = self.cycle([0; AXES], dt_ticks);
             out.dv_mps = [0.0; AXES];

@@ -20,10 +20,8 @@ pub enum ConfigError {
     StaleShorterThanSamplePeriod,
     /// The rate window restarts after a gap shorter than one sample period.
     GapShorterThanSamplePeriod,
-    /// `rate.min_samples` exceeds the window `N`: the rate would never be ready.
+    /// `rate.min_samples` exceeds the window `RATE_WINDOW`: the rate would never be ready.
     MinSamplesAboveWindow,
-    /// `SENSORS` is neither 1 nor `AXES`.
-    SensorCount,
 }
 
 impl fmt::Display for ConfigError {
@@ -34,7 +32,6 @@ impl fmt::Display for ConfigError {
             Self::StaleShorterThanSamplePeriod => f.write_str("stale threshold not longer than one sample period"),
             Self::GapShorterThanSamplePeriod => f.write_str("rate max_gap_ms shorter than one sample period"),
             Self::MinSamplesAboveWindow => f.write_str("rate min_samples above the window length"),
-            Self::SensorCount => f.write_str("SENSORS must be 1 or AXES"),
         }
     }
 }

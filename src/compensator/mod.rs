@@ -13,7 +13,7 @@
 //!
 //! # Interrupt-safe split
 //! [`Compensator::split`] gives an [`Updater`] (slow path, thread mode or a 1 Hz task) and
-//! an [`Applier`] (fast path, the IMU interrupt). They share only a [`Published`]
+//! an [`Applier`] (fast path, the IMU interrupt). They share only one
 //! coefficient set: one buffer of 32-bit atomics behind a sequence number, a seqlock. The
 //! updater makes the sequence odd, writes the set and makes the sequence even again. The
 //! applier keeps its own copy of the last whole set; per cycle it loads the sequence (one
@@ -85,9 +85,14 @@ mod status;
 mod tests;
 
 use applier::FastState;
-pub use applier::{Applier, Output};
+pub use applier::{Applier, PulseOutput, SampleOutput};
 pub use config::{Config, ConfigError};
+// Crate-private unless the benchmark's feature asks for it (its size is a figure there).
+#[cfg(feature = "bench-internals")]
+#[doc(hidden)]
 pub use seqlock::Published;
+#[cfg(not(feature = "bench-internals"))]
+use seqlock::Published;
 use seqlock::{Set, AGE_STEPS};
 pub use slow_path::{SampleError, Updater};
 use slow_path::{SlowState, Stream, Timed};
@@ -96,9 +101,25 @@ pub use status::Status;
 /// Standard gravity, m/s² (the unit the tables' g refers to).
 pub const G0: f32 = 9.806_65;
 
-/// Temperature compensation for `AXES` accelerometers with an `N`-sample rate window and
-/// `SENSORS` temperature streams (1, or one per axis). The table is held as `T`: an owned
-/// [`Table`] (708 B, loadable from bytes at run time) or a `&'static Table` in flash.
+/// The rate window of the recommended configurations: Ṫ from the last 32 readings (32 s at
+/// 1 Hz). A table records the window it was fitted for ([`Table::rate_window`]).
+pub const DEFAULT_RATE_WINDOW: usize = 32;
+
+/// The recommended configuration: three axes, one temperature sensor (DS18B20) per
+/// accelerometer case as in the paper, the default rate window, and the table in flash
+/// (`&'static Table`). `ThreeAxisSensorPerAxis<Table>` owns its table instead, loadable from
+/// bytes at run time ([`Compensator::load_table`]).
+pub type ThreeAxisSensorPerAxis<T = &'static Table> = Compensator<3, DEFAULT_RATE_WINDOW, 3, T>;
+
+/// Three axes sharing one temperature sensor (temperature stream 0 serves every axis), the
+/// default rate window, and the table in flash; `ThreeAxisSharedSensor<Table>` owns it.
+pub type ThreeAxisSharedSensor<T = &'static Table> = Compensator<3, DEFAULT_RATE_WINDOW, 1, T>;
+
+/// Temperature compensation for `AXES` accelerometers with a `RATE_WINDOW`-reading rate
+/// window and `SENSORS` temperature streams (1, or one per axis). The table is held as `T`:
+/// an owned [`Table`] (708 B, loadable from bytes at run time) or a `&'static Table` in
+/// flash. [`ThreeAxisSensorPerAxis`] and [`ThreeAxisSharedSensor`] name the recommended
+/// configurations.
 ///
 /// Unsplit, it is one value with both paths (`&mut self` each); [`split`](Self::split)
 /// hands the two paths to two execution contexts.
@@ -110,7 +131,8 @@ pub const G0: f32 = 9.806_65;
 /// use qfa_thermal::{AxisModel, BiasGrid, Compensator, Config, Extensions, Input, SampleError, ScaleFactor, Status, Table};
 ///
 /// let bias = BiasGrid::single_valued(-40.0, 10.0, &[0.0; 13]);
-/// let axis = AxisModel { scale: ScaleFactor::JB_KT8_1, bias, rate_limit_c_per_min: 2.0, ext: Extensions::default() };
+/// let scale = ScaleFactor { t0_c: 22.0, gamma: 320_320.0, mu: -32.76, beta: 0.1008, epsilon: 88.14, eta: -0.02409, alpha: 273.0 }; // JB-KT8 #1, Eq. 15
+/// let axis = AxisModel { scale, bias, rate_limit_c_per_min: 2.0, ext: Extensions::default() };
 /// let table = Table { input: Input::PulseCounts, rate_window: 32, axes: [axis].into_iter().collect(), misalignment: None };
 ///
 /// let mut comp = Compensator::<1, 32>::new(Config::default()).unwrap();
@@ -118,25 +140,30 @@ pub const G0: f32 = 9.806_65;
 /// assert!(comp.cycle([1_600], 5_000).status.contains(Status::NO_TABLE));
 /// comp.set_table(table).unwrap();
 /// for s in 0..8 {
-///     comp.on_raw(s * 1_000, 352).unwrap(); // 22.0 °C at 1 Hz
+///     comp.on_raw(0, s * 1_000, 352).unwrap(); // 22.0 °C at 1 Hz
 /// }
 /// assert!(comp.cycle([1_600], 5_000).status.is_ok());
 /// // A jump of 18 °C in one second is refused (a glitch, until confirmed by more readings);
 /// // the last good compensation stays in force and the status says so.
-/// assert!(matches!(comp.on_raw(8_000, 640), Err(SampleError::Implausible { .. })));
+/// assert!(matches!(comp.on_raw(0, 8_000, 640), Err(SampleError::Implausible { .. })));
 /// assert!(comp.cycle([1_600], 5_000).status.contains(Status::TEMP_INVALID));
 /// ```
 #[derive(Debug)]
-pub struct Compensator<const AXES: usize = 3, const N: usize = 32, const SENSORS: usize = 1, T = Table> {
-    slow: SlowState<AXES, N, SENSORS, T>,
+pub struct Compensator<
+    const AXES: usize = 3,
+    const RATE_WINDOW: usize = DEFAULT_RATE_WINDOW,
+    const SENSORS: usize = 1,
+    T = Table,
+> {
+    slow: SlowState<AXES, RATE_WINDOW, SENSORS, T>,
     shared: Published<AXES>,
     fast: FastState<AXES>,
 }
 
-impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Clone + Borrow<Table>> Clone
-    for Compensator<AXES, N, SENSORS, T>
+impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Clone + Borrow<Table>> Clone
+    for Compensator<AXES, RATE_WINDOW, SENSORS, T>
 {
-    /// An independent copy in the same state: its own [`Published`] set holds every word
+    /// An independent copy in the same state: its own shared set holds every word
     /// of the original's, the sequence included, so its applier sees exactly what the
     /// original's sees (a publication it has not copied yet included).
     fn clone(&self) -> Self {
@@ -149,23 +176,34 @@ const NOT_YET: Status = Status::NO_TABLE.union(Status::TEMP_STALE);
 
 const NO_EVAL: Evaluation = Evaluation { k1: 0.0, k0: 0.0, temp_clamped: false, rate_clamped: false };
 
-impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> Compensator<AXES, N, SENSORS, T> {
-    const BOUNDS: () = assert!(AXES >= 1 && AXES <= table::MAX_AXES, "AXES must be 1..=3");
+impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borrow<Table>>
+    Compensator<AXES, RATE_WINDOW, SENSORS, T>
+{
+    /// Checked at compile time (evaluated in [`new`](Self::new)): a wrong count does not build.
+    const BOUNDS: () = {
+        assert!(AXES >= 1 && AXES <= table::MAX_AXES, "AXES must be 1..=3");
+        assert!(SENSORS == 1 || SENSORS == AXES, "SENSORS must be 1 (one shared sensor) or AXES (one per axis)");
+    };
 
     /// A compensator with no table: the raw input passes through at
     /// [`Config::nominal_k1`] with [`Status::NO_TABLE`] until a table is set.
     ///
+    /// `AXES` (1..=3) and `SENSORS` (1 or `AXES`) are checked at compile time; two
+    /// temperature sensors for three axes does not build:
+    ///
+    /// ```compile_fail,E0080
+    /// use qfa_thermal::{Compensator, Config};
+    ///
+    /// let comp = Compensator::<3, 32, 2>::new(Config::default());
+    /// ```
+    ///
     /// # Errors
-    /// [`Config::validate`]'s error, [`ConfigError::MinSamplesAboveWindow`] or
-    /// [`ConfigError::SensorCount`].
+    /// [`Config::validate`]'s error or [`ConfigError::MinSamplesAboveWindow`].
     pub fn new(config: Config) -> Result<Self, ConfigError> {
         let () = Self::BOUNDS;
         config.validate()?;
-        if usize::from(config.rate.min_samples) > N {
+        if usize::from(config.rate.min_samples) > RATE_WINDOW {
             return Err(ConfigError::MinSamplesAboveWindow);
-        }
-        if SENSORS != 1 && SENSORS != AXES {
-            return Err(ConfigError::SensorCount);
         }
         let stream = Stream {
             rate: RateEstimator::new(config.rate),
@@ -181,7 +219,7 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
                 config,
                 clock_ms: 0,
                 epoch: 0,
-                deadband_floor: rate::flicker_deadband_c_per_min(N, config.sample_period_ms),
+                deadband_floor: rate::flicker_deadband_c_per_min(RATE_WINDOW, config.sample_period_ms),
                 table: None,
                 streams: core::array::from_fn(|_| stream.clone()),
                 states: [AxisState::default(); AXES],
@@ -207,7 +245,7 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
         Ok(c)
     }
 
-    fn updater(&mut self) -> Updater<'_, AXES, N, SENSORS, T> {
+    fn updater(&mut self) -> Updater<'_, AXES, RATE_WINDOW, SENSORS, T> {
         Updater { slow: &mut self.slow, shared: &self.shared }
     }
 
@@ -218,7 +256,7 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
     /// The two paths, for two execution contexts: the [`Updater`] for thread mode or a
     /// task, the [`Applier`] for the IMU interrupt. With a `&'static mut Compensator`
     /// (from a `static_cell::StaticCell`, say) both halves are `'static`.
-    pub fn split(&mut self) -> (Updater<'_, AXES, N, SENSORS, T>, Applier<'_, AXES>) {
+    pub fn split(&mut self) -> (Updater<'_, AXES, RATE_WINDOW, SENSORS, T>, Applier<'_, AXES>) {
         (Updater { slow: &mut self.slow, shared: &self.shared }, Applier { fast: &mut self.fast, shared: &self.shared })
     }
 
@@ -228,7 +266,7 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
     ///
     /// # Errors
     /// Any [`table::Error`], including an axis count other than `AXES` and a rate window
-    /// other than `N`.
+    /// other than `RATE_WINDOW`.
     pub fn set_table(&mut self, t: T) -> table::Result<()> {
         self.updater().set_table(t)
     }
@@ -270,30 +308,24 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
         self.slow.status
     }
 
-    /// Slow path, sensor 0: a 9-byte scratchpad read at `t_ms` (the time base of
-    /// [`crate::time`], taken when the conversion completed).
+    /// Slow path: the 9-byte scratchpad of temperature sensor `sensor` (0..`SENSORS`), read
+    /// at `t_ms` (the time base of [`crate::time`], taken when the conversion completed).
     ///
     /// # Errors
     /// A [`SampleError`]; the last good compensation stays in force and
-    /// [`Status::TEMP_INVALID`] is raised.
-    pub fn on_scratchpad(&mut self, t_ms: u32, scratchpad: &[u8; 9]) -> Result<Status, SampleError> {
-        self.updater().on_scratchpad_from(0, t_ms, scratchpad)
+    /// [`Status::TEMP_INVALID`] is raised. [`SampleError::NoSuchSensor`] for
+    /// `sensor ≥ SENSORS`.
+    pub fn on_scratchpad(&mut self, sensor: usize, t_ms: u32, scratchpad: &[u8; 9]) -> Result<Status, SampleError> {
+        self.updater().on_scratchpad(sensor, t_ms, scratchpad)
     }
 
-    /// Slow path, sensor 0: a raw reading (1/16 °C, already masked) taken at `t_ms`.
+    /// Slow path: a raw reading of temperature sensor `sensor` (1/16 °C, already masked),
+    /// taken at `t_ms`.
     ///
     /// # Errors
     /// As [`on_scratchpad`](Self::on_scratchpad).
-    pub fn on_raw(&mut self, t_ms: u32, raw: i16) -> Result<Status, SampleError> {
-        self.updater().on_raw_from(0, t_ms, raw)
-    }
-
-    /// Slow path for sensor `sensor` (0..`SENSORS`): a scratchpad read at `t_ms`.
-    ///
-    /// # Errors
-    /// As [`on_scratchpad`](Self::on_scratchpad), and [`SampleError::NoSuchSensor`].
-    pub fn on_scratchpad_from(&mut self, sensor: usize, t_ms: u32, sp: &[u8; 9]) -> Result<Status, SampleError> {
-        self.updater().on_scratchpad_from(sensor, t_ms, sp)
+    pub fn on_raw(&mut self, sensor: usize, t_ms: u32, raw: i16) -> Result<Status, SampleError> {
+        self.updater().on_raw(sensor, t_ms, raw)
     }
 
     /// Slow path: a reading of sensor `sensor` that never arrived; see
@@ -305,29 +337,21 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
         self.updater().on_missed_reading(sensor, t_ms)
     }
 
-    /// Slow path for sensor `sensor` (0..`SENSORS`): a raw reading at `t_ms`.
-    ///
-    /// # Errors
-    /// As [`on_scratchpad_from`](Self::on_scratchpad_from).
-    pub fn on_raw_from(&mut self, sensor: usize, t_ms: u32, raw: i16) -> Result<Status, SampleError> {
-        self.updater().on_raw_from(sensor, t_ms, raw)
-    }
-
     /// Fast path: see [`Applier::cycle`].
     #[inline]
-    pub fn cycle(&mut self, pulses: [i32; AXES], dt_ticks: u32) -> Output<AXES> {
+    pub fn cycle(&mut self, pulses: [i32; AXES], dt_ticks: u32) -> PulseOutput<AXES> {
         self.applier().cycle(pulses, dt_ticks)
     }
 
     /// Fast path for MEMS samples: see [`Applier::cycle_samples`].
     #[inline]
-    pub fn cycle_samples(&mut self, raw: [i32; AXES], dt_ticks: u32) -> Output<AXES> {
+    pub fn cycle_samples(&mut self, raw: [i32; AXES], dt_ticks: u32) -> SampleOutput<AXES> {
         self.applier().cycle_samples(raw, dt_ticks)
     }
 
     /// Fast path from cumulative counters: see [`Applier::cycle_counters`].
     #[inline]
-    pub fn cycle_counters(&mut self, counters: [u32; AXES], dt_ticks: u32) -> Output<AXES> {
+    pub fn cycle_counters(&mut self, counters: [u32; AXES], dt_ticks: u32) -> PulseOutput<AXES> {
         self.applier().cycle_counters(counters, dt_ticks)
     }
 
@@ -337,13 +361,13 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
     }
 }
 
-impl<const AXES: usize, const N: usize, const SENSORS: usize> Compensator<AXES, N, SENSORS, Table> {
+impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize> Compensator<AXES, RATE_WINDOW, SENSORS, Table> {
     /// Decode, validate and activate a table from its wire bytes. Atomic: on any error
     /// the active table and every state are unchanged.
     ///
     /// # Errors
     /// Any [`table::Error`], including an axis count other than `AXES` and a rate window
-    /// other than `N`.
+    /// other than `RATE_WINDOW`.
     pub fn load_table(&mut self, bytes: &[u8]) -> table::Result<()> {
         let t = Table::decode(bytes)?;
         self.set_table(t)

@@ -62,8 +62,8 @@ pub(super) struct Timed {
 
 /// One temperature stream: its estimator, plausibility state and flags.
 #[derive(Clone, Debug)]
-pub(super) struct Stream<const N: usize> {
-    pub(super) rate: RateEstimator<N>,
+pub(super) struct Stream<const RATE_WINDOW: usize> {
+    pub(super) rate: RateEstimator<RATE_WINDOW>,
     /// The last good reading, meaningful once `has_good` (no `Option`: with the rate
     /// window's 8-byte alignment it would cost 8 B per stream).
     pub(super) last: Timed,
@@ -80,7 +80,7 @@ pub(super) struct Stream<const N: usize> {
     pub(super) age_ms: u32,
 }
 
-impl<const N: usize> Stream<N> {
+impl<const RATE_WINDOW: usize> Stream<RATE_WINDOW> {
     fn last_good(&self) -> Option<Timed> {
         self.has_good.then_some(self.last)
     }
@@ -88,7 +88,7 @@ impl<const N: usize> Stream<N> {
 
 /// Slow-path state (the updater's own, never touched by the applier).
 #[derive(Clone, Debug)]
-pub(super) struct SlowState<const AXES: usize, const N: usize, const SENSORS: usize, T> {
+pub(super) struct SlowState<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T> {
     pub(super) config: Config,
     /// The latest slow-path time seen (readings, rejections and missed readings alike): the
     /// clock that advances every stream's `age_ms`. Starts at 0: ages before a stream's
@@ -96,17 +96,19 @@ pub(super) struct SlowState<const AXES: usize, const N: usize, const SENSORS: us
     pub(super) clock_ms: u32,
     /// Good readings published, wrapping (see `Set::epoch`).
     pub(super) epoch: u8,
-    /// Smallest branch deadband, °C/min: the flicker floor of `N` and the sample period.
+    /// Smallest branch deadband, °C/min: the flicker floor of `RATE_WINDOW` and the sample period.
     pub(super) deadband_floor: f32,
     pub(super) table: Option<T>,
-    pub(super) streams: [Stream<N>; SENSORS],
+    pub(super) streams: [Stream<RATE_WINDOW>; SENSORS],
     pub(super) states: [AxisState; AXES],
     pub(super) evals: [Evaluation; AXES],
     /// The status last published.
     pub(super) status: Status,
 }
 
-impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> SlowState<AXES, N, SENSORS, T> {
+impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borrow<Table>>
+    SlowState<AXES, RATE_WINDOW, SENSORS, T>
+{
     /// The status of the streams, the table and the evaluations as they stand.
     pub(super) fn status(&self) -> Status {
         let mut st = Status::empty();
@@ -182,30 +184,32 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
 /// the IMU interrupt.
 ///
 /// Every reading reaches it, good or not: a scratchpad as read
-/// ([`on_scratchpad_from`](Self::on_scratchpad_from)), or a read that failed on the bus
+/// ([`on_scratchpad`](Self::on_scratchpad)), or a read that failed on the bus
 /// ([`on_missed_reading`](Self::on_missed_reading)).
 ///
 /// ```
 /// use qfa_thermal::ds18b20::{encode_scratchpad, Resolution};
-/// use qfa_thermal::{Compensator, Config, SampleError, Status};
+/// use qfa_thermal::{Config, SampleError, Status, Table, ThreeAxisSensorPerAxis};
 ///
-/// let mut comp = Compensator::<3, 32, 3>::new(Config::default()).unwrap();
+/// let mut comp = ThreeAxisSensorPerAxis::<&'static Table>::new(Config::default()).unwrap();
 /// let (mut updater, _applier) = comp.split();
 /// let sp = encode_scratchpad(400, Resolution::Bits12, 0x10); // 25.0 °C, CRC good
-/// assert!(updater.on_scratchpad_from(0, 1_000, &sp).is_ok());
+/// assert!(updater.on_scratchpad(0, 1_000, &sp).is_ok());
 /// assert_eq!(updater.on_missed_reading(1, 1_000), Err(SampleError::Missed));
 /// assert!(updater.status().contains(Status::TEMP_INVALID));
 /// let mut corrupt = sp;
 /// corrupt[0] ^= 1; // a flipped bit on the bus: the CRC refuses it
-/// assert!(matches!(updater.on_scratchpad_from(2, 1_000, &corrupt), Err(SampleError::Decode(_))));
+/// assert!(matches!(updater.on_scratchpad(2, 1_000, &corrupt), Err(SampleError::Decode(_))));
 /// ```
 #[derive(Debug)]
-pub struct Updater<'a, const AXES: usize, const N: usize, const SENSORS: usize, T> {
-    pub(super) slow: &'a mut SlowState<AXES, N, SENSORS, T>,
+pub struct Updater<'a, const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T> {
+    pub(super) slow: &'a mut SlowState<AXES, RATE_WINDOW, SENSORS, T>,
     pub(super) shared: &'a Published<AXES>,
 }
 
-impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> Updater<'_, AXES, N, SENSORS, T> {
+impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borrow<Table>>
+    Updater<'_, AXES, RATE_WINDOW, SENSORS, T>
+{
     /// The stream serving axis `axis`.
     const fn sensor_of(axis: usize) -> usize {
         if SENSORS == 1 {
@@ -241,8 +245,8 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
         if tb.input != self.slow.config.input {
             return Err(table::Error::Input { table: tb.input, compensator: self.slow.config.input });
         }
-        if usize::from(tb.rate_window) != N {
-            return Err(table::Error::RateWindow { table: tb.rate_window, firmware: N as u16 });
+        if usize::from(tb.rate_window) != RATE_WINDOW {
+            return Err(table::Error::RateWindow { table: tb.rate_window, firmware: RATE_WINDOW as u16 });
         }
         self.slow.table = Some(t);
         self.slow.states = [AxisState::default(); AXES];
@@ -250,17 +254,17 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
         Ok(())
     }
 
-    /// Slow path: see [`Compensator::on_scratchpad_from`].
+    /// Slow path: see [`Compensator::on_scratchpad`].
     ///
     /// # Errors
-    /// As [`Compensator::on_scratchpad_from`].
-    pub fn on_scratchpad_from(&mut self, sensor: usize, t_ms: u32, sp: &[u8; 9]) -> Result<Status, SampleError> {
+    /// As [`Compensator::on_scratchpad`].
+    pub fn on_scratchpad(&mut self, sensor: usize, t_ms: u32, sp: &[u8; 9]) -> Result<Status, SampleError> {
         if sensor >= SENSORS {
             return Err(SampleError::NoSuchSensor { sensor: sensor as u8 });
         }
         self.advance_clock(t_ms);
         match ds18b20::decode_scratchpad(sp) {
-            Ok(r) => self.on_raw_from(sensor, t_ms, r.raw),
+            Ok(r) => self.on_raw(sensor, t_ms, r.raw),
             Err(e) => self.reject(sensor, SampleError::Decode(e)),
         }
     }
@@ -283,11 +287,11 @@ impl<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>> 
         self.reject(sensor, SampleError::Missed)
     }
 
-    /// Slow path: see [`Compensator::on_raw_from`].
+    /// Slow path: see [`Compensator::on_raw`].
     ///
     /// # Errors
-    /// As [`Compensator::on_raw_from`].
-    pub fn on_raw_from(&mut self, sensor: usize, t_ms: u32, raw: i16) -> Result<Status, SampleError> {
+    /// As [`Compensator::on_raw`].
+    pub fn on_raw(&mut self, sensor: usize, t_ms: u32, raw: i16) -> Result<Status, SampleError> {
         let Some(s) = self.slow.streams.get(sensor) else {
             return Err(SampleError::NoSuchSensor { sensor: sensor as u8 });
         };

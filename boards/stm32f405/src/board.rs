@@ -9,7 +9,7 @@ use defmt_rtt as _;
 use panic_probe as _;
 use qfa_thermal::onewire::OneWire;
 use qfa_thermal::time::MsClock;
-use qfa_thermal::{Applier, Compensator, Config, Status, Table, Updater};
+use qfa_thermal::{Applier, Config, Status, Table, ThreeAxisSensorPerAxis, Updater, DEFAULT_RATE_WINDOW};
 use static_cell::StaticCell;
 use stm32f4xx_hal::dwt::{Delay, DwtExt};
 use stm32f4xx_hal::gpio::{alt, OpenDrain, Output, PartiallyErasedPin, PinState};
@@ -23,10 +23,10 @@ use crate::cycle::{self, PERIOD_US};
 use crate::poll::{self, Event as SensorEvent};
 use crate::widen::Widen16;
 
-/// The recommended configuration: 3 axes, a 32-sample rate window, one DS18B20 per
-/// accelerometer case, the table held by reference.
-type Comp = Compensator<3, 32, 3, &'static Table>;
-type Slow = Updater<'static, 3, 32, 3, &'static Table>;
+/// The recommended configuration: 3 axes, one DS18B20 per accelerometer case, the default
+/// rate window, the table held by reference.
+type Comp = ThreeAxisSensorPerAxis;
+type Slow = Updater<'static, 3, DEFAULT_RATE_WINDOW, 3, &'static Table>;
 type OneWirePin = PartiallyErasedPin<'B', Output<OpenDrain>>;
 
 /// IMU cycles per logged summary (1 s).
@@ -61,7 +61,7 @@ struct Fast {
 /// the handler moves `Fast` into its own `static mut` local on its first run and owns it
 /// from then on, so each later cycle runs with no lock (no critical section to add to
 /// other interrupts' latency, nothing to fail); it shares only the compensator's lock-free
-/// `Published` set and the log's [`SUMMARY`] atomics.
+/// shared coefficient set and the log's [`SUMMARY`] atomics.
 static FAST_HANDOFF: Mutex<RefCell<Option<Fast>>> = Mutex::new(RefCell::new(None));
 
 /// What the interrupt publishes once a second for the main loop's log: Δv sums (f32 bits),

@@ -12,7 +12,7 @@ include!(concat!(env!("OUT_DIR"), "/table.rs"));
 #[cfg(test)]
 mod tests {
     use super::*;
-    use qfa_thermal::{Compensator, Config, Status};
+    use qfa_thermal::{Config, Status, ThreeAxisSensorPerAxis};
 
     /// The wire bytes build.rs generated the `static` from.
     const BYTES: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/table.bin"));
@@ -25,7 +25,7 @@ mod tests {
 
     #[test]
     fn the_static_table_loads_into_the_boards_compensator_by_reference() {
-        let mut comp = Compensator::<3, 32, 3, &'static Table>::new(Config::default()).expect("default config");
+        let mut comp = ThreeAxisSensorPerAxis::<&'static Table>::new(Config::default()).expect("default config");
         assert!(comp.status().contains(Status::NO_TABLE));
         comp.set_table(&TABLE).expect("rate window, input and axis count match the board");
         assert!(!comp.status().contains(Status::NO_TABLE));

@@ -8,8 +8,8 @@
 //!
 //! | what happened | updater call | event |
 //! |---|---|---|
-//! | a good reading | `on_scratchpad_from(completed)` | [`Event::Accepted`] (or [`Event::Rejected`]: a jump, a time error) |
-//! | bytes that failed decoding (CRC after the retry, power-on value, reserved bytes) | `on_scratchpad_from(due, bytes)`: a typed `Decode` error | [`Event::Rejected`] |
+//! | a good reading | `on_scratchpad(completed)` | [`Event::Accepted`] (or [`Event::Rejected`]: a jump, a time error) |
+//! | bytes that failed decoding (CRC after the retry, power-on value, reserved bytes) | `on_scratchpad(due, bytes)`: a typed `Decode` error | [`Event::Rejected`] |
 //! | nothing usable: bus error, lost or overdue conversion, changed resolution, setup failed, parasite-powered sensor, conversion not read within its period | `on_missed_reading(due)` | [`Event::Missed`] |
 //!
 //! `due` is when the period's reading was due: its start plus the 12-bit conversion time.
@@ -212,7 +212,7 @@ where
             Ok(s) => {
                 // One time base for every sensor, wrap-safe (never completed_us / 1000).
                 let t_ms = clock.ms(s.completed_us);
-                match updater.on_scratchpad_from(axis, t_ms, &s.scratchpad) {
+                match updater.on_scratchpad(axis, t_ms, &s.scratchpad) {
                     Ok(status) => Event::Accepted(status),
                     Err(error) => Event::Rejected { cause: None, error },
                 }
@@ -220,7 +220,7 @@ where
             // The bytes that failed the driver's decoding fail the updater's the same way:
             // a typed decode error there, and TEMP_INVALID.
             Err(ReadFailure { error, scratchpad: Some(sp) }) => {
-                match updater.on_scratchpad_from(axis, clock.ms(due_us), &sp) {
+                match updater.on_scratchpad(axis, clock.ms(due_us), &sp) {
                     Ok(status) => Event::Accepted(status),
                     Err(e) => Event::Rejected { cause: Some(error), error: e },
                 }
@@ -242,9 +242,9 @@ mod tests {
     use super::*;
     use host_tests::onewire_sim::{sim_slot_lock, Device, Sim, SimDelay, SimPin};
     use qfa_thermal::onewire as ow;
-    use qfa_thermal::{ds18b20, Compensator, Config};
+    use qfa_thermal::{ds18b20, Config, ThreeAxisSensorPerAxis};
 
-    type Comp = Compensator<3, 32, 3, Table>;
+    type Comp = ThreeAxisSensorPerAxis<Table>;
 
     /// One sensor on the simulated bus as axis `AXIS` of the board's compensator type.
     const AXIS: usize = 1;
@@ -298,7 +298,7 @@ mod tests {
 
     /// Scenario 7: a scratchpad whose CRC fails on the read and on its retry. The board
     /// logged the driver's error and never told the updater, so TEMP_INVALID never rose.
-    /// Now the bytes read go to `on_scratchpad_from`, which rejects them with the typed
+    /// Now the bytes read go to `on_scratchpad`, which rejects them with the typed
     /// decode error and raises the flag.
     #[test]
     fn crc_failure_reaches_the_updater_as_a_typed_decode_error() {

@@ -17,7 +17,7 @@ mod target {
     use cortex_m::peripheral::{syst::SystClkSource, SYST};
     use cortex_m_rt::{entry, exception, ExceptionFrame};
     use qfa_firmware::{fixtures, rt};
-    use qfa_thermal::{Compensator, Config, Extensions, Output, Status};
+    use qfa_thermal::{Config, Extensions, PulseOutput, Status, Table, ThreeAxisSensorPerAxis, ThreeAxisSharedSensor};
 
     const CALLS: u32 = 10_000;
     const BATCH: u32 = 500;
@@ -72,12 +72,12 @@ mod target {
         (k.wrapping_mul(1000), 320 + tri as i16)
     }
 
-    fn compensator(ext: Extensions, misalignment: bool) -> Compensator<3, 32> {
-        let mut c = Compensator::<3, 32>::new(Config::default()).expect("the default config is valid");
+    fn compensator(ext: Extensions, misalignment: bool) -> ThreeAxisSharedSensor<Table> {
+        let mut c = ThreeAxisSharedSensor::<Table>::new(Config::default()).expect("the default config is valid");
         c.set_table(fixtures::table(ext, misalignment, 32)).expect("fixture table validates");
         for k in 0..64 {
             let (t, raw) = sample(k);
-            c.on_raw(t, raw).expect("warm-up readings are plausible");
+            c.on_raw(0, t, raw).expect("warm-up readings are plausible");
         }
         c
     }
@@ -104,7 +104,7 @@ mod target {
         let fast_empty = time_calls(|_| {
             black_box(black_box(PULSES));
             black_box(black_box(DT));
-            black_box(Output { dv_mps: black_box([0.0f32; 3]), status: Status::from_bits_retain(black_box(0)) });
+            black_box(PulseOutput { dv_mps: black_box([0.0f32; 3]), status: Status::from_bits_retain(black_box(0)) });
         });
         // The fast path is measured through the split applier, as the IMU interrupt runs it.
         let mut c = compensator(Extensions::default(), false);
@@ -155,13 +155,13 @@ mod target {
         let mut c = compensator(Extensions::default(), false);
         let slow_off = time_calls(|k| {
             let (t, raw) = sample(k + 64);
-            let _ = black_box(black_box(&mut c).on_raw(black_box(t), black_box(raw)));
+            let _ = black_box(black_box(&mut c).on_raw(0, black_box(t), black_box(raw)));
         });
         let off_status = c.status();
         let mut c = compensator(fixtures::all_slots_on(), false);
         let slow_on = time_calls(|k| {
             let (t, raw) = sample(k + 64);
-            let _ = black_box(black_box(&mut c).on_raw(black_box(t), black_box(raw)));
+            let _ = black_box(black_box(&mut c).on_raw(0, black_box(t), black_box(raw)));
         });
         let on_status = c.status();
 
@@ -180,20 +180,12 @@ mod target {
         let _ = writeln!(out, "slow_path_status_all_on={:#06x}", on_status.bits());
         // The core has no statics: its RAM is the compensator it is given. The recommended
         // configuration: one sensor per axis, the table in flash (`&'static Table`).
-        let _ = writeln!(
-            out,
-            "core_ram_bytes={}",
-            core::mem::size_of::<Compensator<3, 32, 3, &'static qfa_thermal::Table>>()
-        );
-        let _ = writeln!(
-            out,
-            "core_ram_bytes_one_sensor={}",
-            core::mem::size_of::<Compensator<3, 32, 1, &'static qfa_thermal::Table>>()
-        );
-        let _ = writeln!(out, "core_ram_bytes_table_in_ram={}", core::mem::size_of::<Compensator<3, 32, 3>>());
+        let _ = writeln!(out, "core_ram_bytes={}", core::mem::size_of::<ThreeAxisSensorPerAxis>());
+        let _ = writeln!(out, "core_ram_bytes_one_sensor={}", core::mem::size_of::<ThreeAxisSharedSensor>());
+        let _ = writeln!(out, "core_ram_bytes_table_in_ram={}", core::mem::size_of::<ThreeAxisSensorPerAxis<Table>>());
         let _ = writeln!(out, "core_ram_published_bytes={}", core::mem::size_of::<qfa_thermal::Published<3>>());
         // Of which: the active table's copy and the rate estimator's window.
-        let _ = writeln!(out, "core_ram_table_bytes={}", core::mem::size_of::<Option<qfa_thermal::Table>>());
+        let _ = writeln!(out, "core_ram_table_bytes={}", core::mem::size_of::<Option<Table>>());
         let _ = writeln!(out, "core_ram_rate_bytes={}", core::mem::size_of::<qfa_thermal::rate::RateEstimator<32>>());
         rt::exit(0)
     }

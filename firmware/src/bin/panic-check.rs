@@ -24,14 +24,14 @@ mod target {
         let _ = black_box(c.load_table(table));
         loop {
             let sp: [u8; 9] = black_box([0; 9]);
-            let _ = black_box(c.on_scratchpad(black_box(0), &sp));
-            let _ = black_box(c.on_raw(black_box(0), black_box(0)));
+            let _ = black_box(c.on_scratchpad(0, black_box(0), &sp));
+            let _ = black_box(c.on_raw(0, black_box(0), black_box(0)));
             black_box(c.cycle(black_box([0; 3]), black_box(0)));
             black_box(c.cycle_counters(black_box([0; 3]), black_box(0)));
             black_box(c.cycle_samples(black_box([0; 3]), black_box(0)));
             {
                 let (mut up, mut ap) = c.split();
-                let _ = black_box(up.on_raw_from(black_box(0), black_box(0), black_box(0)));
+                let _ = black_box(up.on_raw(black_box(0), black_box(0), black_box(0)));
                 black_box(ap.cycle(black_box([0; 3]), black_box(0)));
             }
             c.prime_counters(black_box([0; 3]));

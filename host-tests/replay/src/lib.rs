@@ -214,7 +214,7 @@ fn step(comp: &mut Comp, input: &str, out: &mut heapless::Vec<u32, MAX_WORDS>) -
         "raw" => {
             let t: u32 = it.next()?.parse().ok()?;
             let raw: i16 = it.next()?.parse().ok()?;
-            let r = comp.on_raw(t, raw).map(|_| ());
+            let r = comp.on_raw(0, t, raw).map(|_| ());
             sample_words(comp, r, out);
             Kind::Raw
         }
@@ -223,19 +223,29 @@ fn step(comp: &mut Comp, input: &str, out: &mut heapless::Vec<u32, MAX_WORDS>) -
             let mut sp = [0u8; 9];
             let bytes = hex_bytes(it.next()?, &mut sp)?;
             let sp: [u8; 9] = bytes.try_into().ok()?;
-            let r = comp.on_scratchpad(t, &sp).map(|_| ());
+            let r = comp.on_scratchpad(0, t, &sp).map(|_| ());
             sample_words(comp, r, out);
             Kind::Scratchpad
         }
         "cycle" | "count" | "samp" => {
             let dt: u32 = it.next()?.parse().ok()?;
-            let (o, k) = match kind {
-                "cycle" => (comp.cycle(three::<i32>(&mut it)?, dt), Kind::Cycle),
-                "count" => (comp.cycle_counters(three::<u32>(&mut it)?, dt), Kind::Counters),
-                _ => (comp.cycle_samples(three::<i32>(&mut it)?, dt), Kind::Samples),
+            // Δv in m/s from pulses, a in m/s² from samples: recorded alike, as bit patterns.
+            let (status, values, k) = match kind {
+                "cycle" => {
+                    let o = comp.cycle(three::<i32>(&mut it)?, dt);
+                    (o.status, o.dv_mps, Kind::Cycle)
+                }
+                "count" => {
+                    let o = comp.cycle_counters(three::<u32>(&mut it)?, dt);
+                    (o.status, o.dv_mps, Kind::Counters)
+                }
+                _ => {
+                    let o = comp.cycle_samples(three::<i32>(&mut it)?, dt);
+                    (o.status, o.accel_mps2, Kind::Samples)
+                }
             };
-            let _ = out.push(u32::from(o.status.bits()));
-            for v in o.dv_mps {
+            let _ = out.push(u32::from(status.bits()));
+            for v in values {
                 let _ = out.push(v.to_bits());
             }
             k

@@ -275,7 +275,7 @@ impl AccelCompensation for TableCompensation {
 
     fn on_temperatures(&mut self, t_ms: u32, raw: [i16; 3]) {
         for (axis, r) in raw.into_iter().enumerate() {
-            if self.comp.on_raw_from(axis, t_ms, r).is_err() {
+            if self.comp.on_raw(axis, t_ms, r).is_err() {
                 self.rejected += 1;
             }
         }

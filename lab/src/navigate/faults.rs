@@ -45,7 +45,7 @@ use std::fmt::Write as _;
 use std::rc::Rc;
 
 use nalgebra::Vector3;
-use qfa_thermal::compensator::{Compensator, Output, SampleError, Status};
+use qfa_thermal::compensator::{Compensator, PulseOutput, SampleError, Status};
 use qfa_thermal::ds18b20::{self, encode_scratchpad, Resolution, POWER_ON_RAW};
 use qfa_thermal::table::{self, Table, MAX_TABLE_BYTES};
 
@@ -78,10 +78,10 @@ impl ThermalCompensator for ImuCompensator {
         Compensator::load_table(self, bytes)
     }
     fn on_scratchpad(&mut self, axis: usize, t_ms: u32, sp: &[u8; 9]) -> Result<Status, SampleError> {
-        Compensator::on_scratchpad_from(self, axis, t_ms, sp)
+        Compensator::on_scratchpad(self, axis, t_ms, sp)
     }
     fn cycle(&mut self, pulses: [i32; 3], dt_ticks: u32) -> ([f32; 3], Status) {
-        let Output { dv_mps, status } = Compensator::cycle(self, pulses, dt_ticks);
+        let PulseOutput { dv_mps, status } = Compensator::cycle(self, pulses, dt_ticks);
         (dv_mps, status)
     }
     fn table(&self) -> Option<&Table> {
