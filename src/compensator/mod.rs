@@ -122,10 +122,8 @@ pub type ThreeAxisSharedSensor<T = &'static Table> = Compensator<3, DEFAULT_RATE
 /// configurations.
 ///
 /// Unsplit, it is one value with both paths (`&mut self` each); [`split`](Self::split)
-/// hands the two paths to two execution contexts.
-///
-/// Unsplit, one value with both paths; here one axis whose temperature steps from 22 to
-/// 40 °C, with every reading and every refusal visible in the status:
+/// hands the two paths to two execution contexts. Here one axis, unsplit, whose temperature
+/// steps from 22 to 40 °C, with every reading and every refusal visible in the status:
 ///
 /// ```
 /// use qfa_thermal::{AxisModel, BiasGrid, Compensator, Config, Extensions, Input, SampleError, ScaleFactor, Status, Table};
