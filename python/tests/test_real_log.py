@@ -10,12 +10,21 @@ from pathlib import Path
 import numpy as np
 import qfa_thermal as q
 
+import pytest
+
 from conftest import REAL_LOG_FLAGS, REAL_LOG_READER, run_lab
 
 
-def test_calibrate_matches_the_cli_exactly(real_log: Path, lab_bin: Path, tmp_path: Path) -> None:
-    out = tmp_path / "cal"
+@pytest.fixture(scope="module")
+def cli_calibration(real_log: Path, lab_bin: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """`qfa-lab calibrate` on the real log, once for the module: its output directory."""
+    out = tmp_path_factory.mktemp("real") / "cal"
     run_lab(lab_bin, ["calibrate", "--log", str(real_log), "--out", str(out), *REAL_LOG_FLAGS])
+    return out
+
+
+def test_calibrate_matches_the_cli_exactly(real_log: Path, cli_calibration: Path) -> None:
+    out = cli_calibration
     cli = json.loads((out / "report.json").read_text())
 
     table = q.calibrate(real_log, **REAL_LOG_READER)
@@ -35,9 +44,8 @@ def test_calibrate_matches_the_cli_exactly(real_log: Path, lab_bin: Path, tmp_pa
     assert "px4_tc.params" not in files and notes, notes
 
 
-def test_compensate_matches_the_cli_csv(real_log: Path, lab_bin: Path, tmp_path: Path) -> None:
-    out = tmp_path / "cal"
-    run_lab(lab_bin, ["calibrate", "--log", str(real_log), "--out", str(out), *REAL_LOG_FLAGS])
+def test_compensate_matches_the_cli_csv(real_log: Path, lab_bin: Path, cli_calibration: Path, tmp_path: Path) -> None:
+    out = cli_calibration
     comp_csv = tmp_path / "comp.csv"
     run_lab(
         lab_bin,
