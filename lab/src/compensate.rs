@@ -233,8 +233,9 @@ pub struct StaticCompensated {
 /// `Compensator<1, 32>` with that axis's model, fed each row's reading (`on_raw`) and the
 /// row's acceleration as pseudo-LSB (`cycle_samples([round(a·2²⁰)])`, see
 /// [`crate::calibrate::fit::STATIC_LSB_PER_G`]). What [`compensate_static`] writes, before
-/// formatting; the Python package returns it as arrays. A 3-axis million-row log takes
-/// the time [measured](../../docs/measurements.md#python-package) (about 0.1 s).
+/// formatting; the Python package returns it as arrays. A million three-axis rows took
+/// 0.69 s in release on the project's 2-core machine (docs/measurements.md, "Python
+/// package", with the command).
 ///
 /// # Errors
 /// A table of the other kind (pulse counts) or whose axis count differs from the columns',

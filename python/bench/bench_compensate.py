@@ -84,7 +84,8 @@ def main() -> int:
     if args.rust:
         result.update(rust_side())
         result["ratio"] = f"{float(result['python_best_s']) / float(result['rust_best_s']):.3f}"
-        result["same_checksum"] = str(result["python_checksum"] == result["rust_checksum"]).lower()
+        same = float(result["python_checksum"]) == float(result["rust_checksum"])
+        result["same_checksum"] = str(same).lower()
     for k, v in result.items():
         print(f"{k}={v}")
     return 0
