@@ -167,6 +167,15 @@ pub enum StaticCompensateError {
         /// Log axes.
         log: usize,
     },
+    /// The columns differ in length.
+    Length {
+        /// Rows of the time column.
+        time: usize,
+        /// Rows of the temperature column.
+        temp: usize,
+        /// Rows of each acceleration column.
+        accel: Vec<usize>,
+    },
     /// The firmware refuses the table.
     Table(qfa_thermal::table::Error),
     /// The log's row spacing gives a configuration the firmware refuses.
@@ -180,6 +189,9 @@ impl std::fmt::Display for StaticCompensateError {
         match self {
             Self::AxisCount { table, log } => {
                 write!(f, "the table has {table} axis(es), the log {log}: use the table calibrated on this kind of log")
+            }
+            Self::Length { time, temp, accel } => {
+                write!(f, "columns of unequal length: time {time}, temperature {temp}, acceleration {accel:?} rows")
             }
             Self::Table(qfa_thermal::table::Error::Input { table, compensator }) => {
                 wrong_input(f, *table, *compensator)
@@ -207,31 +219,49 @@ pub fn static_status(status: Status) -> String {
     shown.iter_names().map(|(n, _)| n).collect::<Vec<_>>().join("|")
 }
 
-/// Compensate a static log with a table of the same axes, through the firmware's own
-/// sample path: per axis a `Compensator<1, 32>` with that axis's model, fed each row's
-/// reading (`on_raw`) and the row's acceleration as pseudo-LSB
-/// (`cycle_samples([round(a·2²⁰)])`, see [`crate::calibrate::fit::STATIC_LSB_PER_G`]); the output
-/// `a = raw·(g0/K1) − K0·g0` is written back in g. Writes `time_s,temp_c,<axes…>,status`;
-/// `status` is `ok`, `no_temperature` (no reading yet: compensated at T0 and flagged
-/// stale), or the firmware's flags joined by `|` (`TEMP_OUT_OF_RANGE`, `TEMP_INVALID`, …),
-/// OR-ed over the axes.
+/// A static log's rows compensated by [`compensate_samples`].
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct StaticCompensated {
+    /// Per axis, per row: the firmware's output `a = raw·(g0/K1) − K0·g0` back in g.
+    pub accel_g: Vec<Vec<f64>>,
+    /// Per row: the firmware's status flags, OR-ed over the axes.
+    pub status: Vec<Status>,
+}
+
+/// Compensate rows of a static log given as columns (time, temperature, one acceleration
+/// column per table axis), through the firmware's own sample path: per axis a
+/// `Compensator<1, 32>` with that axis's model, fed each row's reading (`on_raw`) and the
+/// row's acceleration as pseudo-LSB (`cycle_samples([round(a·2²⁰)])`, see
+/// [`crate::calibrate::fit::STATIC_LSB_PER_G`]). What [`compensate_static`] writes, before
+/// formatting; the Python package returns it as arrays. A million three-axis rows took
+/// 0.69 s in release on the project's 2-core machine (docs/measurements.md, "Python
+/// package", with the command).
 ///
 /// # Errors
-/// A table of the other kind (pulse counts) or whose axis count differs from the log's, a
-/// table or row spacing the firmware refuses, or a write failure.
-pub fn compensate_static<W: std::io::Write>(
+/// A table of the other kind (pulse counts) or whose axis count differs from the columns',
+/// columns of unequal lengths, or a table or row spacing the firmware refuses.
+pub fn compensate_samples(
     table: &Table,
-    log: &crate::data::static_log::StaticLog,
-    w: W,
-) -> Result<(), StaticCompensateError> {
+    time_s: &[f64],
+    temp_c: &[f64],
+    accel_g: &[&[f64]],
+) -> Result<StaticCompensated, StaticCompensateError> {
     check_input(table, Input::Samples).map_err(StaticCompensateError::Table)?;
-    if table.axes.len() != log.axes.len() {
-        return Err(StaticCompensateError::AxisCount { table: table.axes.len(), log: log.axes.len() });
+    if table.axes.len() != accel_g.len() {
+        return Err(StaticCompensateError::AxisCount { table: table.axes.len(), log: accel_g.len() });
+    }
+    let rows = time_s.len();
+    if temp_c.len() != rows || accel_g.iter().any(|a| a.len() != rows) {
+        return Err(StaticCompensateError::Length {
+            time: rows,
+            temp: temp_c.len(),
+            accel: accel_g.iter().map(|a| a.len()).collect(),
+        });
     }
     // Rows may be slower than 1 Hz: the sample period is the longest row spacing, and
     // staleness means no reading for 1.5 of them (as for cycling logs).
     let default = Config::default();
-    let max_dt_s = log.time_s.windows(2).map(|w| w[1] - w[0]).fold(0.0, f64::max);
+    let max_dt_s = time_s.windows(2).map(|w| w[1] - w[0]).fold(0.0, f64::max);
     let config = Config {
         stale_after_ticks: default
             .stale_after_ticks
@@ -240,8 +270,12 @@ pub fn compensate_static<W: std::io::Write>(
         input: qfa_thermal::Input::Samples,
         ..default
     };
-    let mut comps = Vec::with_capacity(table.axes.len());
-    for axis in &table.axes {
+    let mut out = StaticCompensated { accel_g: Vec::with_capacity(accel_g.len()), status: vec![Status::empty(); rows] };
+    let lsb = f64::from(crate::calibrate::fit::STATIC_LSB_PER_G);
+    let tick_s = f64::from(config.tick_s);
+    // Axis after axis: each axis has its own compensator, so the order of the calls within
+    // one compensator (reading, then sample, row after row) is the firmware's either way.
+    for (axis, column) in table.axes.iter().zip(accel_g) {
         let mut c = Compensator::<1, RATE_WINDOW>::new(config).map_err(StaticCompensateError::Config)?;
         let mut one = Table {
             input: table.input,
@@ -251,31 +285,47 @@ pub fn compensate_static<W: std::io::Write>(
         };
         let _ = one.axes.push(axis.clone());
         c.set_table(one).map_err(StaticCompensateError::Table)?;
-        comps.push(c);
+        let mut axis_g = Vec::with_capacity(rows);
+        for i in 0..rows {
+            let t_ms = (time_s[i] * 1000.0).round() as u32;
+            let raw_t = (temp_c[i] * 16.0).round().clamp(-32768.0, 32767.0) as i16;
+            let dt_ticks = if i == 0 { 0 } else { ((time_s[i] - time_s[i - 1]) / tick_s).round() as u32 };
+            // A refused reading raises TEMP_INVALID in the output's status: nothing is lost.
+            let _ = c.on_raw(0, t_ms, raw_t);
+            let raw = (column[i] * lsb).round().clamp(f64::from(i32::MIN), f64::from(i32::MAX)) as i32;
+            let o = c.cycle_samples([raw], dt_ticks);
+            out.status[i] |= o.status;
+            axis_g.push(f64::from(o.accel_mps2[0]) / f64::from(G0));
+        }
+        out.accel_g.push(axis_g);
     }
+    Ok(out)
+}
+
+/// Compensate a static log with a table of the same axes ([`compensate_samples`]) and
+/// write `time_s,temp_c,<axes…>,status` in g; `status` is `ok`, `no_temperature` (no
+/// reading yet: compensated at T0 and flagged stale), or the firmware's flags joined by
+/// `|` (`TEMP_OUT_OF_RANGE`, `TEMP_INVALID`, …), OR-ed over the axes ([`static_status`]).
+///
+/// # Errors
+/// As [`compensate_samples`], or a write failure.
+pub fn compensate_static<W: std::io::Write>(
+    table: &Table,
+    log: &crate::data::static_log::StaticLog,
+    w: W,
+) -> Result<(), StaticCompensateError> {
+    let columns: Vec<&[f64]> = log.axes.iter().map(|a| a.accel_g.as_slice()).collect();
+    let out = compensate_samples(table, &log.time_s, &log.temp_c, &columns)?;
     let io = |e: &dyn std::fmt::Display| StaticCompensateError::Io(e.to_string());
     let mut wr = csv::Writer::from_writer(w);
     let mut head = vec!["time_s".to_string(), "temp_c".to_string()];
     head.extend(log.axes.iter().map(|a| a.name.clone()));
     head.push("status".to_string());
     wr.write_record(&head).map_err(|e| io(&e))?;
-    let lsb = f64::from(crate::calibrate::fit::STATIC_LSB_PER_G);
-    let tick_s = f64::from(config.tick_s);
     for i in 0..log.rows() {
         let mut rec = vec![format!("{:.6}", log.time_s[i]), format!("{:.4}", log.temp_c[i])];
-        let t_ms = (log.time_s[i] * 1000.0).round() as u32;
-        let raw_t = (log.temp_c[i] * 16.0).round().clamp(-32768.0, 32767.0) as i16;
-        let dt_ticks = if i == 0 { 0 } else { ((log.time_s[i] - log.time_s[i - 1]) / tick_s).round() as u32 };
-        let mut status = Status::empty();
-        for (c, ax) in comps.iter_mut().zip(&log.axes) {
-            // A refused reading raises TEMP_INVALID in the output's status: nothing is lost.
-            let _ = c.on_raw(0, t_ms, raw_t);
-            let raw = (ax.accel_g[i] * lsb).round().clamp(f64::from(i32::MIN), f64::from(i32::MAX)) as i32;
-            let out = c.cycle_samples([raw], dt_ticks);
-            status |= out.status;
-            rec.push(format!("{:.9}", f64::from(out.accel_mps2[0]) / f64::from(G0)));
-        }
-        rec.push(static_status(status));
+        rec.extend(out.accel_g.iter().map(|a| format!("{:.9}", a[i])));
+        rec.push(static_status(out.status[i]));
         wr.write_record(&rec).map_err(|e| io(&e))?;
     }
     wr.flush().map_err(|e| io(&e))

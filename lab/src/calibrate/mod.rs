@@ -200,14 +200,40 @@ pub fn check_figures(ev: &crate::calibrate::report::Evaluation) -> Result<(), St
     Ok(())
 }
 
+/// The text of a cycling calibration's `table.toml`: a comment line with the units, then
+/// the table as TOML.
+///
+/// # Errors
+/// The table does not serialize.
+pub fn table_toml(table: &qfa_thermal::Table) -> Result<String, String> {
+    let toml = toml::to_string_pretty(table).map_err(|e| e.to_string())?;
+    let header = "# qfa-thermal coefficient table (K1 pulses/(g*s), K0 g, T degC, rate degC/min)\n";
+    Ok(format!("{header}{toml}"))
+}
+
+/// The accelerometer of a cycling calibration as the PX4 / ArduPilot exports see it: IMU
+/// axis `axis` (`ax`, `ay` or `az`), a one-axis export.
+///
+/// # Errors
+/// An axis other than `ax`, `ay` or `az`.
+pub fn cycling_export_axis(cal: &Calibration, axis: &str) -> Result<peers::ExportAxis, String> {
+    if !["ax", "ay", "az"].contains(&axis) {
+        return Err(format!("axis `{axis}`: expected ax, ay or az"));
+    }
+    Ok(peers::ExportAxis {
+        source: format!("accelerometer (--axis {})", axis.trim_start_matches('a')),
+        axis: axis.to_string(),
+        cubic: cal.peers.cubic.clone(),
+        ardupilot: Ok(cal.peers.ardupilot.clone()),
+    })
+}
+
 /// Write a table as TOML and postcard `.bin` under `dir/stem.{toml,bin}`.
 ///
 /// # Errors
 /// Encoding or I/O errors.
 pub fn write_table(dir: &Path, stem: &str, table: &qfa_thermal::Table) -> Result<(), String> {
-    let toml = toml::to_string_pretty(table).map_err(|e| e.to_string())?;
-    let header = "# qfa-thermal coefficient table (K1 pulses/(g*s), K0 g, T degC, rate degC/min)\n";
-    std::fs::write(dir.join(format!("{stem}.toml")), format!("{header}{toml}")).map_err(|e| e.to_string())?;
+    std::fs::write(dir.join(format!("{stem}.toml")), table_toml(table)?).map_err(|e| e.to_string())?;
     let bin = encode(table).map_err(|e| e.to_string())?;
     std::fs::write(dir.join(format!("{stem}.bin")), bin).map_err(|e| e.to_string())
 }
@@ -222,17 +248,8 @@ pub fn calibrate_into(log: &Log, out: &Path, opts: &CalibrateOptions, read_s: f6
     let mut cal = calibrate_log(log, opts)?;
     write_table(out, "table", &cal.table.hysteresis)?;
     write_table(out, "table_simple", &cal.table.simple)?;
-    let axis = opts.axis.clone().unwrap_or_else(|| "ax".to_string());
-    if !["ax", "ay", "az"].contains(&axis.as_str()) {
-        return Err(format!("axis `{axis}`: expected ax, ay or az"));
-    }
     // One accelerometer: a one-axis export, so the shared fields need opts.exports.range_c.
-    let one = peers::ExportAxis {
-        source: format!("accelerometer (--axis {})", axis.trim_start_matches('a')),
-        axis,
-        cubic: cal.peers.cubic.clone(),
-        ardupilot: Ok(cal.peers.ardupilot.clone()),
-    };
+    let one = cycling_export_axis(&cal, opts.axis.as_deref().unwrap_or("ax"))?;
     cal.exports = peers::write_exports(out, &[one], &opts.exports).map_err(|e| format!("{}: {e}", out.display()))?;
     let t = Instant::now();
     if opts.plots {

@@ -1084,6 +1084,22 @@ pub fn markdown(r: &StaticReport) -> String {
     s
 }
 
+/// The text of `table.toml`: a comment line saying what the table was fitted on, then the
+/// table as TOML.
+///
+/// # Errors
+/// The table does not serialize.
+pub fn static_table_toml(cal: &StaticCalibration) -> Result<String, toml::ser::Error> {
+    let toml = toml::to_string_pretty(&cal.table)?;
+    let header = format!(
+        "# qfa-thermal coefficient table from a static log, fitted on all {} rows (per axis: bias K0 in g relative \
+         to the axis's mean over all rows; scale factor 2^20 LSB/g, the pseudo-LSB `compensate` feeds the firmware's \
+         sample path)\n",
+        cal.report.rows
+    );
+    Ok(format!("{header}{toml}"))
+}
+
 /// Write `table.toml`, `table.bin`, `report.json` and `report.md` into `out` (the PX4 /
 /// ArduPilot files: [`crate::calibrate::peers::write_exports`] with [`export_axes`]).
 ///
@@ -1092,14 +1108,7 @@ pub fn markdown(r: &StaticReport) -> String {
 pub fn write_static(out: &Path, cal: &StaticCalibration) -> Result<(), StaticCalError> {
     let io = |e: &dyn fmt::Display| StaticCalError::Io(format!("{}: {e}", out.display()));
     std::fs::create_dir_all(out).map_err(|e| io(&e))?;
-    let toml = toml::to_string_pretty(&cal.table).map_err(|e| io(&e))?;
-    let header = format!(
-        "# qfa-thermal coefficient table from a static log, fitted on all {} rows (per axis: bias K0 in g relative \
-         to the axis's mean over all rows; scale factor 2^20 LSB/g, the pseudo-LSB `compensate` feeds the firmware's \
-         sample path)\n",
-        cal.report.rows
-    );
-    std::fs::write(out.join("table.toml"), format!("{header}{toml}")).map_err(|e| io(&e))?;
+    std::fs::write(out.join("table.toml"), static_table_toml(cal).map_err(|e| io(&e))?).map_err(|e| io(&e))?;
     std::fs::write(out.join("table.bin"), encode(&cal.table).map_err(|e| io(&e))?).map_err(|e| io(&e))?;
     let json = serde_json::to_string_pretty(&cal.report).map_err(|e| io(&e))?;
     std::fs::write(out.join("report.json"), json).map_err(|e| io(&e))?;

@@ -1,0 +1,311 @@
+"""qfa_thermal: the lab (`qfa-lab`) and the firmware's compensator from Python, bit-exact.
+
+Everything here calls the project's Rust code through the ``_native`` extension: the lab's
+log readers, calibration, compensation and discovery, and the root crate's
+``Compensator``. Nothing is re-implemented in Python; this module adds type hints,
+dataclasses and the optional pandas view. Columns are numpy arrays, one copy each way.
+"""
+
+from __future__ import annotations
+
+import enum
+import json
+import os
+from dataclasses import dataclass, field
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+from . import _native
+from ._native import (
+    CalibrationError,
+    CompensationError,
+    Compensator,
+    ConfigError,
+    DiscoveryError,
+    LogError,
+    QfaError,
+    SampleError,
+    Table,
+)
+
+__all__ = [
+    "Log",
+    "Table",
+    "Compensator",
+    "Compensated",
+    "Status",
+    "read_log",
+    "log_from_arrays",
+    "calibrate",
+    "compensate",
+    "discover",
+    "status_text",
+    "QfaError",
+    "LogError",
+    "CalibrationError",
+    "TableError",
+    "CompensationError",
+    "DiscoveryError",
+    "ConfigError",
+    "SampleError",
+    "RATE_WINDOW",
+    "G0",
+]
+
+TableError = _native.TableError
+
+#: Rate window (samples) of every ``Compensator`` here, as in the lab and the vectors.
+RATE_WINDOW: int = _native.RATE_WINDOW
+#: Standard gravity, m/s², as the firmware's f32 constant.
+G0: float = _native.G0
+
+PathLike = Union[str, "os.PathLike[str]"]
+FloatArray = npt.NDArray[np.float64]
+
+#: The firmware's status word, one flag per condition (names and bits from the Rust
+#: definition itself). ``Status(0)`` is fully compensated.
+Status = enum.IntFlag("Status", dict(_native.status_flags()))  # type: ignore[misc]
+Status.__doc__ = "The firmware's status flags (qfa_thermal::Status), from its own definition."
+
+
+@dataclass(frozen=True)
+class Log:
+    """A log as the lab's reader read it: a static multi-axis log or a cycling log.
+
+    ``columns`` holds numpy arrays by name (static: ``time_s``, ``temp_c``, one array per
+    axis in g, ``line``; cycling: ``program``, ``run``, ``time_s``, ``input_g``,
+    ``temp_c`` with NaN before the first reading, ``pulses``, ``interval_s``). ``reader``
+    says what the static reader skipped and how the log is sampled.
+    """
+
+    native: Any = field(repr=False)
+    kind: str
+    rows: int
+    axes: List[str]
+    columns: Dict[str, Any]
+    reader: Dict[str, Any]
+
+    @classmethod
+    def _of(cls, native: Any) -> "Log":
+        return cls(
+            native=native,
+            kind=native.kind,
+            rows=native.rows,
+            axes=list(native.axes),
+            columns=dict(native.columns()),
+            reader=json.loads(native.reader_json()),
+        )
+
+    @property
+    def path(self) -> Optional[str]:
+        """The file read, or ``None`` for a log made from arrays."""
+        p = self.native.path
+        return None if p is None else str(p)
+
+    def to_pandas(self) -> Any:
+        """The columns as a pandas DataFrame (pandas is needed for this call only)."""
+        try:
+            import pandas as pd
+        except ImportError as e:  # pragma: no cover - depends on the environment
+            raise ImportError("Log.to_pandas needs pandas: pip install pandas") from e
+        return pd.DataFrame(self.columns)
+
+
+def read_log(
+    path: PathLike,
+    *,
+    columns: Optional[str] = None,
+    time_unit: Optional[str] = None,
+    accel_unit: Optional[str] = None,
+    decimal_comma: bool = False,
+) -> Log:
+    """Read a log file with the lab's reader, choosing it as ``qfa-lab`` does.
+
+    Any reader option, or a header without a ``pulses`` column, selects the static reader
+    (``columns`` as ``--columns``, e.g. ``"time=timestamp,temp=imu.temperature,ax=imu.acc.x"``;
+    ``time_unit`` s/ms/us/ns; ``accel_unit`` g/mg/m/s2); otherwise the cycling reader.
+
+    Raises:
+        LogError: with the CLI's message (bad rows with their line numbers, unknown
+            columns, implausible units, ...).
+    """
+    return Log._of(
+        _native.read_log(
+            os.fspath(path),
+            columns=columns,
+            time_unit=time_unit,
+            accel_unit=accel_unit,
+            decimal_comma=decimal_comma,
+        )
+    )
+
+
+def _f64(a: npt.ArrayLike) -> FloatArray:
+    return np.ascontiguousarray(a, dtype=np.float64)
+
+
+def log_from_arrays(
+    time: npt.ArrayLike,
+    temp_c: npt.ArrayLike,
+    accel: Mapping[str, npt.ArrayLike],
+    *,
+    time_unit: str = "s",
+    accel_unit: str = "g",
+) -> Log:
+    """A static log from columns, passed through the static reader's own checks.
+
+    ``accel`` maps axis roles (``ax``, ``ay``, ``az``) to columns. Rows with a NaN are
+    skipped and glitch rows dropped exactly as for a file; time going backwards and
+    implausible units raise ``LogError``.
+    """
+    pairs = [(name, _f64(col)) for name, col in accel.items()]
+    return Log._of(
+        _native.log_from_arrays(_f64(time), _f64(temp_c), pairs, time_unit=time_unit, accel_unit=accel_unit)
+    )
+
+
+def _as_log(log: Union[Log, PathLike], reader: Mapping[str, Any]) -> Log:
+    if isinstance(log, Log):
+        if reader:
+            raise TypeError("reader options apply to a path, not to a Log already read")
+        return log
+    return read_log(log, **reader)
+
+
+def calibrate(
+    log: Union[Log, PathLike],
+    *,
+    holdout: str = "auto",
+    fit_programs: Optional[Sequence[str]] = None,
+    axis: str = "x",
+    px4_device_id: Optional[int] = None,
+    export_range: Optional[Tuple[float, float]] = None,
+    **reader: Any,
+) -> Table:
+    """``qfa-lab calibrate``: fit a table to a log (a ``Log``, or a path read with ``reader``
+    options as in ``read_log``).
+
+    Static logs take ``holdout`` (auto, after-max, blocks:K, none); cycling logs take
+    ``fit_programs`` and ``axis`` (the IMU axis of its parameter files). The returned
+    ``Table`` has ``to_bytes()`` (flash it), ``to_toml()``, ``report()`` (the report as a
+    dict), ``exports()`` (PX4 / ArduPilot files) and ``write(dir)``.
+
+    Raises:
+        LogError: the log is refused by the reader.
+        CalibrationError: the fit or a held-out figure cannot be formed (CLI's message).
+    """
+    lg = _as_log(log, reader)
+    return _native.calibrate(
+        lg.native,
+        holdout=holdout,
+        fit_programs=None if fit_programs is None else list(fit_programs),
+        axis=axis,
+        px4_device_id=px4_device_id,
+        export_range=export_range,
+    )
+
+
+@dataclass(frozen=True)
+class Compensated:
+    """Compensated rows, as ``qfa-lab compensate`` computes them before formatting.
+
+    ``columns``: static logs ``time_s``, ``temp_c`` and one array per axis in g; cycling
+    logs the log's columns and ``accel_g``. ``status``: the firmware's flags per row
+    (uint16, OR-ed over the axes of a static log; see ``Status`` and ``status_text``).
+    """
+
+    kind: str
+    columns: Dict[str, Any]
+    status: npt.NDArray[np.uint16]
+
+    def status_text(self) -> List[str]:
+        """The CLI's ``status`` column text for a static log (``ok``, ``no_temperature``,
+        flags joined by ``|``)."""
+        return status_text(self.status)
+
+    def to_pandas(self) -> Any:
+        """The rows as a pandas DataFrame with the ``status`` flags (pandas needed)."""
+        try:
+            import pandas as pd
+        except ImportError as e:  # pragma: no cover - depends on the environment
+            raise ImportError("Compensated.to_pandas needs pandas: pip install pandas") from e
+        frame = pd.DataFrame(self.columns)
+        frame["status"] = self.status
+        return frame
+
+
+def status_text(status: npt.ArrayLike) -> List[str]:
+    """The text ``qfa-lab compensate`` writes in a static log's ``status`` column for each
+    flags word."""
+    return list(_native.status_texts(np.ascontiguousarray(status, dtype=np.uint16)))
+
+
+def compensate(
+    table: Table,
+    log: Union[Log, PathLike, None] = None,
+    *,
+    time_s: Optional[npt.ArrayLike] = None,
+    temp_c: Optional[npt.ArrayLike] = None,
+    accel: Optional[Union[Mapping[str, npt.ArrayLike], npt.ArrayLike]] = None,
+    **reader: Any,
+) -> Compensated:
+    """``qfa-lab compensate``: run rows through the firmware's compensator with ``table``.
+
+    Either a log (``Log`` or a path with ``reader`` options), or static columns:
+    ``time_s`` (s), ``temp_c`` and ``accel`` (g) as a mapping ``{role: column}`` or a
+    2-D array with one column per table axis. Columns go straight to the compensation
+    (no reader), as the benchmark measures it; one copy in, one out.
+
+    Raises:
+        CompensationError: a table of the other kind or axis count, unequal columns, or
+            rows the firmware's settings refuse (CLI's message).
+    """
+    if log is not None:
+        if time_s is not None or temp_c is not None or accel is not None:
+            raise TypeError("pass a log or columns, not both")
+        lg = _as_log(log, reader)
+        if lg.kind == "cycling":
+            accel_g, status = _native.compensate_cycling(table, lg.native)
+            cols = dict(lg.columns)
+            cols["accel_g"] = accel_g
+            return Compensated("cycling", cols, status)
+        names = lg.axes
+        t, temp = lg.columns["time_s"], lg.columns["temp_c"]
+        axes = [lg.columns[n] for n in names]
+    else:
+        if time_s is None or temp_c is None or accel is None:
+            raise TypeError("compensate needs a log, or time_s, temp_c and accel")
+        t, temp = _f64(time_s), _f64(temp_c)
+        if isinstance(accel, Mapping):
+            names = list(accel.keys())
+            axes = [_f64(a) for a in accel.values()]
+        else:
+            arr = np.asarray(accel, dtype=np.float64)
+            arr = arr.reshape(-1, 1) if arr.ndim == 1 else arr
+            names = ["ax", "ay", "az"][: arr.shape[1]]
+            axes = [np.ascontiguousarray(arr[:, k]) for k in range(arr.shape[1])]
+    outputs, status = _native.compensate_columns(table, t, temp, axes)
+    cols: Dict[str, Any] = {"time_s": t, "temp_c": temp}
+    cols.update(zip(names, outputs))
+    return Compensated("static", cols, status)
+
+
+def discover(
+    log: Union[Log, PathLike],
+    *,
+    start: str = "simple",
+    holdout: str = "auto",
+    out: Optional[PathLike] = None,
+    **reader: Any,
+) -> Dict[str, Any]:
+    """``qfa-lab discover``: name the effects the start model (``simple`` or ``paper``)
+    misses; returns ``report.json`` as a dict. The files go to ``out`` when given.
+
+    Raises:
+        DiscoveryError: the run failed (CLI's message).
+    """
+    lg = _as_log(log, reader)
+    text = _native.discover(lg.native, start=start, holdout=holdout, out=None if out is None else os.fspath(out))
+    return json.loads(text)

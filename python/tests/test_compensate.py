@@ -1,0 +1,87 @@
+"""Calibration and compensation of a synthetic static log from Python give the CLI's
+table bytes and compensated CSV, on every machine (no real log needed)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import qfa_thermal as q
+
+from conftest import run_lab
+from static_log import write_static_log
+from test_real_log import assert_same_as_cli_csv
+
+
+@pytest.fixture(scope="module")
+def static_log(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    p = tmp_path_factory.mktemp("static") / "board.csv"
+    write_static_log(p)
+    return p
+
+
+def test_static_calibrate_and_compensate_match_the_cli(static_log: Path, lab_bin: Path, tmp_path: Path) -> None:
+    out = tmp_path / "cal"
+    run_lab(lab_bin, ["calibrate", "--log", str(static_log), "--out", str(out)])
+    table = q.calibrate(static_log)
+    assert table.input == "samples" and table.axes == 3
+    assert table.to_bytes() == (out / "table.bin").read_bytes()
+    report = table.report()
+    assert report["axes"][0]["ours"]["rms_mg"] > 0
+
+    comp_csv = tmp_path / "comp.csv"
+    run_lab(lab_bin, ["compensate", "--log", str(static_log), "--table", str(out / "table.bin"), "--out", str(comp_csv)])
+    got = q.compensate(table, static_log)
+    assert got.status.dtype == np.uint16
+    assert_same_as_cli_csv(got, comp_csv)
+    # The first row has a reading but no rate yet: compensated, and the CLI says `ok`.
+    assert got.status_text()[0] == "ok"
+
+    written = table.write(tmp_path / "py")
+    assert "table.bin" in written
+    assert (tmp_path / "py" / "table.bin").read_bytes() == (out / "table.bin").read_bytes()
+
+
+def test_arrays_go_through_the_reader(static_log: Path) -> None:
+    log = q.read_log(static_log)
+    again = q.log_from_arrays(
+        log.columns["time_s"], log.columns["temp_c"], {a: log.columns[a] for a in log.axes}
+    )
+    assert again.rows == log.rows and again.axes == ["ax", "ay", "az"]
+    for name in ["time_s", "temp_c", "ax", "ay", "az"]:
+        assert np.array_equal(again.columns[name], log.columns[name])
+    # A NaN row is skipped and counted, as in a file.
+    temp = log.columns["temp_c"].copy()
+    temp[100] = np.nan
+    skipped = q.log_from_arrays(log.columns["time_s"], temp, {"ax": log.columns["ax"]})
+    assert skipped.rows == log.rows - 1
+    assert skipped.reader["skipped"]["nan"]["count"] == 1
+
+
+def test_cycling_log_compensates_as_the_cli(lab_bin: Path, tmp_path: Path) -> None:
+    log_csv = tmp_path / "log.csv"
+    run_lab(lab_bin, ["simulate", "--out", str(log_csv), "--unit", "kt8-1", "--rates", "0.3,0.9", "--row-s", "10"])
+    out = tmp_path / "cal"
+    run_lab(lab_bin, ["calibrate", "--log", str(log_csv), "--out", str(out), "--no-plots"])
+    table = q.calibrate(log_csv)
+    assert table.input == "pulse_counts"
+    assert table.to_bytes() == (out / "table.bin").read_bytes()
+
+    comp_csv = tmp_path / "comp.csv"
+    run_lab(lab_bin, ["compensate", "--log", str(log_csv), "--table", str(out / "table.bin"), "--out", str(comp_csv)])
+    got = q.compensate(table, log_csv)
+    lines = comp_csv.read_text().splitlines()
+    assert lines[0].endswith(",accel_g")
+    accel = got.columns["accel_g"]
+    assert len(lines) - 1 == len(accel) == got.status.size
+    for i, line in enumerate(lines[1:]):
+        assert line.rsplit(",", 1)[1] == f"{accel[i]:.9f}", f"line {i + 2}"
+    frame_cols = got.columns
+    assert list(frame_cols)[:7] == ["program", "run", "time_s", "input_g", "temp_c", "pulses", "interval_s"]
+
+
+def test_discover_returns_the_report(static_log: Path, tmp_path: Path) -> None:
+    report = q.discover(static_log, start="paper", out=tmp_path / "disc")
+    assert [a["axis"] for a in report["axes"]] == ["ax", "ay", "az"]
+    assert (tmp_path / "disc" / "report.json").is_file()

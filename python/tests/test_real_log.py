@@ -1,0 +1,84 @@
+"""The real IMU log from Python gives the CLI's calibration, byte for byte and figure for
+figure, and the CLI's compensated CSV."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import numpy as np
+import qfa_thermal as q
+
+import pytest
+
+from conftest import REAL_LOG_FLAGS, REAL_LOG_READER, run_lab
+
+
+@pytest.fixture(scope="module")
+def cli_calibration(real_log: Path, lab_bin: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """`qfa-lab calibrate` on the real log, once for the module: its output directory."""
+    out = tmp_path_factory.mktemp("real") / "cal"
+    run_lab(lab_bin, ["calibrate", "--log", str(real_log), "--out", str(out), *REAL_LOG_FLAGS])
+    return out
+
+
+def test_calibrate_matches_the_cli_exactly(real_log: Path, cli_calibration: Path) -> None:
+    out = cli_calibration
+    cli = json.loads((out / "report.json").read_text())
+
+    table = q.calibrate(real_log, **REAL_LOG_READER)
+    report = table.report()
+    assert report == cli, "the report differs from the CLI's"
+    assert report["rows"] == 8399
+    for axis in report["axes"]:
+        ours, cubic = axis["ours"]["rms_mg"], axis["cubic"]["rms_mg"]
+        print(f"{axis['axis']}: held out ours {ours:.4f} mg, cubic {cubic:.4f} mg, structure {axis['structure']}")
+        assert 0 < ours < cubic
+    assert table.to_bytes() == (out / "table.bin").read_bytes()
+    assert table.to_toml() == (out / "table.toml").read_text()
+    assert table.report_markdown() == (out / "report.md").read_text()
+    files, notes = table.exports()
+    for name, text in files.items():
+        assert text == (out / name).read_text(), name
+    assert "px4_tc.params" not in files and notes, notes
+
+
+def test_compensate_matches_the_cli_csv(real_log: Path, lab_bin: Path, cli_calibration: Path, tmp_path: Path) -> None:
+    out = cli_calibration
+    comp_csv = tmp_path / "comp.csv"
+    run_lab(
+        lab_bin,
+        ["compensate", "--log", str(real_log), "--table", str(out / "table.bin"), "--out", str(comp_csv), *REAL_LOG_FLAGS],
+    )
+    log = q.read_log(real_log, **REAL_LOG_READER)
+    got = q.compensate(q.Table.load(out / "table.bin"), log)
+    assert_same_as_cli_csv(got, comp_csv)
+
+    # The same rows as plain numpy columns (no reader in between) give the same arrays.
+    cols = got.columns
+    again = q.compensate(
+        q.Table.load(out / "table.bin"),
+        time_s=cols["time_s"],
+        temp_c=cols["temp_c"],
+        accel=np.column_stack([log.columns[a] for a in log.axes]),
+    )
+    for name in log.axes:
+        assert np.array_equal(again.columns[name], cols[name])
+    assert np.array_equal(again.status, got.status)
+
+
+def assert_same_as_cli_csv(got: q.Compensated, path: Path) -> None:
+    """Every field of the CLI's static `compensate` CSV, formatted as the CLI formats it."""
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    head, body = rows[0], rows[1:]
+    axes = head[2:-1]
+    assert head == ["time_s", "temp_c", *axes, "status"]
+    assert len(body) == len(got.status)
+    text = got.status_text()
+    for i, row in enumerate(body):
+        want = [f"{got.columns['time_s'][i]:.6f}", f"{got.columns['temp_c'][i]:.4f}"]
+        want += [f"{got.columns[a][i]:.9f}" for a in axes]
+        want.append(text[i])
+        assert row == want, f"row {i + 2}: CLI {row} vs Python {want}"
