@@ -102,7 +102,8 @@ fn discover_temp_quadratic_bias() {
         let r = run(&quick(seed), simple_scale(), [1e-4, 3e-6, b2], Extensions::default(), Start::Simple);
         assert_eq!(names(&r), ["temp_quadratic"]);
         assert_eq!(r.effects[0].channel, "bias");
-        within(param(&r, "temp_quadratic", "beta_g_per_c2"), f64::from(b2), 0.25);
+        // Reported in µg/°C² (the model holds g).
+        within(param(&r, "temp_quadratic", "beta_ug_per_c2"), 1e6 * f64::from(b2), 0.25);
         assert_shrinks(&r, "bias");
     }
 }
@@ -149,7 +150,7 @@ fn discover_bias_branch_hysteresis_not_creep() {
         };
         let r = run(&quick(seed), kt8_1_scale(), paper_bias(), ext, Start::Paper);
         assert_eq!(names(&r), ["bias_branch_hysteresis"]);
-        within(param(&r, "bias_branch_hysteresis", "weight_g"), f64::from(w), 0.25);
+        within(param(&r, "bias_branch_hysteresis", "weight_ug"), 1e6 * f64::from(w), 0.25);
         within(param(&r, "bias_branch_hysteresis", "half_width_c"), f64::from(r_c), 0.25);
         assert_shrinks(&r, "bias");
     }
@@ -164,7 +165,7 @@ fn discover_bias_creep_not_branch_hysteresis() {
         };
         let r = run(&quick(seed), kt8_1_scale(), paper_bias(), ext, Start::Paper);
         assert_eq!(names(&r), ["bias_creep"]);
-        within(param(&r, "bias_creep", "gain_g_per_c"), f64::from(gain), 0.25);
+        within(param(&r, "bias_creep", "gain_ug_per_c"), 1e6 * f64::from(gain), 0.25);
         within(param(&r, "bias_creep", "tau_ref_s"), f64::from(tau), 0.25);
         assert_shrinks(&r, "bias");
     }
@@ -208,8 +209,8 @@ fn discover_single_channel_log_and_outputs() {
     let dir = std::env::temp_dir().join(format!("qfa-discover-single-{}", std::process::id()));
     let r = discover(&ch, Start::Paper, &dir).unwrap();
     assert_eq!(names(&r), ["bias_branch_hysteresis"]);
-    // value in µg: the weight comes out in the value's unit.
-    within(param(&r, "bias_branch_hysteresis", "weight_g"), 15.0, 0.25);
+    // A single-channel log's unit is its own (here µg): the weight carries no unit name.
+    within(param(&r, "bias_branch_hysteresis", "weight"), 15.0, 0.25);
     assert_shrinks(&r, "value");
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap();
@@ -353,8 +354,8 @@ fn discover_bias_drift_not_creep_on_a_cycling_log() {
         let r = analyze(&ch, Start::Paper);
         eprintln!("seed {seed}: {:?}", r.effect_labels());
         assert_eq!(names(&r), ["bias_drift"], "seed {seed}");
-        // The report's drift is in the bias channel's unit, g/h.
-        within(param(&r, "bias_drift", "drift_g_per_h") * 1e6, d_ug_per_h, 0.25);
+        // A cycling log's drift is reported in µg/h (the model's bias is in g).
+        within(param(&r, "bias_drift", "drift_ug_per_h"), d_ug_per_h, 0.25);
         assert_shrinks(&r, "bias");
     }
 }

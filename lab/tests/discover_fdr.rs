@@ -20,8 +20,9 @@ use qfa_lab::simulate::simulate;
 use qfa_lab::simulate::truth::Truth;
 use rayon::prelude::*;
 
-/// One clean log's discovery: (effects added, unexplained channels).
-fn one(i: usize) -> (Vec<String>, Vec<String>) {
+/// One clean log's discovery: (effects added, unexplained channels, the largest held-out
+/// RMS / noise floor over its channels and the largest lower end of its 95 % interval).
+fn one(i: usize) -> (Vec<String>, Vec<String>, f64, f64) {
     let truth = Truth::jb_kt8((i % 3) as u8 + 1);
     let programs: Vec<Program> =
         PAPER_RATES.iter().map(|&r| Program::staircase(&format!("paper-{r:.1}"), r, 40.0, 3.0, 5, 40)).collect();
@@ -31,7 +32,9 @@ fn one(i: usize) -> (Vec<String>, Vec<String>) {
     write_log_to(&mut csv, &log).expect("in-memory CSV");
     let ch = Channels::parse(std::str::from_utf8(&csv).expect("utf-8"), 60.0).expect("parse");
     let r = analyze(&ch, Start::Paper);
-    (r.effect_labels(), r.unexplained.iter().map(|u| u.channel.clone()).collect())
+    let ratio = r.residual_vs_floor.iter().map(|f| f.ratio).fold(0.0, f64::max);
+    let lower = r.residual_vs_floor.iter().map(|f| f.ratio_ci95[0]).fold(0.0, f64::max);
+    (r.effect_labels(), r.unexplained.iter().map(|u| u.channel.clone()).collect(), ratio, lower)
 }
 
 /// Exact (Clopper–Pearson) one-sided 95 % upper bound of a binomial rate, by bisection
@@ -74,7 +77,7 @@ fn false_discovery_rate_on_clean_simulator_logs() {
     let t0 = std::time::Instant::now();
     let done = AtomicUsize::new(0);
     let pb = indicatif::ProgressBar::new(n as u64);
-    let results: Vec<(Vec<String>, Vec<String>)> = (0..n)
+    let results: Vec<(Vec<String>, Vec<String>, f64, f64)> = (0..n)
         .into_par_iter()
         .map(|i| {
             let r = one(i);
@@ -96,6 +99,8 @@ fn false_discovery_rate_on_clean_simulator_logs() {
     println!("false_discovery_rate={rate:.4}");
     println!("false_discovery_rate_upper95={:.4}", upper_bound(false_logs.len(), n));
     println!("unexplained_rate={:.4}", unexpl as f64 / n as f64);
+    println!("floor_ratio_max={:.2}", results.iter().map(|r| r.2).fold(0.0, f64::max));
+    println!("floor_ratio_lower95_max={:.2}", results.iter().map(|r| r.3).fold(0.0, f64::max));
     println!("elapsed_s={:.1}", t0.elapsed().as_secs_f64());
     assert!(rate <= 0.05, "false-discovery rate {rate} over {n} clean logs");
 }

@@ -92,13 +92,13 @@ fn discovery_names_each_effect_hidden_in_the_lab_simulator() {
     println!("nothing hidden (JB-KT8 #1): added {none:?}, gaps {:?}", gaps(&reports[0].heldout_gap_after));
     assert!(none.is_empty(), "nothing hidden must give none, got {none:?}");
 
-    check("bias_creep", &reports[1], &reports[0], &[("gain_g_per_c", 3e-6), ("tau_ref_s", 3000.0)], false, true);
+    check("bias_creep", &reports[1], &reports[0], &[("gain_ug_per_c", 3.0), ("tau_ref_s", 3000.0)], false, true);
     check("sensor_lag", &reports[3], &reports[2], &[("tau_s", 240.0)], true, true);
     check(
         "bias_branch_hysteresis",
         &reports[5],
         &reports[4],
-        &[("half_width_c", 1.5), ("weight_g", -15e-6)],
+        &[("half_width_c", 1.5), ("weight_ug", -15.0)],
         false,
         true,
     );

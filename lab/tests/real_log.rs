@@ -202,7 +202,7 @@ fn discover_real(log_s: &str, out: &std::path::Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap()
 }
 
-/// Issue 12's acceptance rule for the real log, fixed before the result: on the held-out
+/// The acceptance rule for the real log, fixed before the result: on the held-out
 /// leg the workflow's model (the one `discover` flashes into `DIR/table.bin`) beats the
 /// PX4/tofupilot cubic on every axis. The named model alone does not (measured: x 1.99 mg
 /// vs 1.08, z 6.45 vs 5.94; y 1.45 vs 3.47): the 52-min training leg leaves the block test
@@ -232,11 +232,24 @@ fn discovery_beats_the_cubic_on_every_axis() {
             worse.push(format!("{}: {flashed:.2} mg vs cubic {cubic:.2} mg", a["axis"]));
         }
     }
+    // One held-out figure per model per axis, in mg, at the top of each axis's report; the
+    // named model called worse when it is; no unit-less "value" or g/h drift anywhere.
+    for a in d["axes"].as_array().unwrap() {
+        let axis = a["axis"].as_str().unwrap();
+        let md = std::fs::read_to_string(dir.join(axis).join("report.md")).expect("per-axis report.md");
+        assert!(md.starts_with(&format!("# Discovery report: axis {axis}")), "{md}");
+        assert!(md.contains("the only held-out figures of this axis"), "{md}");
+        let named_worse = a["after"]["rms_mg"].as_f64().unwrap() > a["before"]["rms_mg"].as_f64().unwrap();
+        assert_eq!(md.contains("worse than the start held out"), named_worse, "{md}");
+        assert!(!md.contains("value units") && !md.contains("Held-out gap before"), "{md}");
+        let json = std::fs::read_to_string(dir.join(axis).join("report.json")).expect("per-axis report.json");
+        assert!(!json.contains("_g_per_h") && !json.contains("\"weight_g\""), "{json}");
+    }
     let _ = std::fs::remove_dir_all(&dir);
     assert!(worse.is_empty(), "discovery's flashed model not better than the cubic: {worse:?}");
 }
 
-/// Issue 13's acceptance rule for the exports, fixed before the result: with
+/// The acceptance rule for the exports, fixed before the result: with
 /// `--px4-device-id 1310988` the PX4 file carries `TC_A0_ID 1310988` (int32), and the
 /// coefficients of `px4_tc.params` and of the two ArduPilot files, applied to the log with
 /// each stack's own formula (`tests/common`, written from the stacks' sources, not from the

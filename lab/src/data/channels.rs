@@ -12,6 +12,10 @@ use std::path::Path;
 use anyhow::{bail, Context, Result};
 use qfa_thermal::rate::{RateConfig, RateEstimator};
 
+/// Rows further apart than this (s) get the firmware's 1-s readings filled in between them
+/// (see [`Trace::new`]).
+pub const FILL_FROM_S: f64 = 1.5;
+
 /// Kind of log the channels came from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LogKind {
@@ -19,6 +23,48 @@ pub enum LogKind {
     Cycling,
     /// `time_s,temp_c,value`: one output in any unit, treated as the bias channel.
     Single,
+}
+
+/// Unit of the bias channel's values as the channels hold them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BiasUnit {
+    /// g: a cycling log's K0 (reported in µg).
+    G,
+    /// µg: a static axis, converted by the lab.
+    Ug,
+    /// A single-channel log's own unit, which the lab does not know.
+    Value,
+}
+
+impl BiasUnit {
+    /// Unit of the bias in reports.
+    #[must_use]
+    pub fn label(self) -> &'static str {
+        match self {
+            Self::G | Self::Ug => "µg",
+            Self::Value => "value units",
+        }
+    }
+
+    /// Factor from the held value to the reported one.
+    #[must_use]
+    pub fn to_report(self) -> f64 {
+        if self == Self::G {
+            1e6
+        } else {
+            1.0
+        }
+    }
+
+    /// A bias parameter's report name: `stem`, the unit, then `per` (`weight_ug`,
+    /// `drift_ug_per_h`; `drift_per_h` when the unit is the log's own).
+    #[must_use]
+    pub fn param(self, stem: &str, per: &str) -> String {
+        match self {
+            Self::G | Self::Ug => format!("{stem}_ug{per}"),
+            Self::Value => format!("{stem}{per}"),
+        }
+    }
 }
 
 /// One averaging bin: rows `lo..hi` of its trace.
@@ -70,13 +116,42 @@ impl Trace {
         let mut dt_s = Vec::with_capacity(n);
         let mut keep = Vec::with_capacity(n);
         let mut last: Option<f64> = None;
+        // The previous row the estimator took: its time and raw reading.
+        let mut prev: Option<(f64, i16)> = None;
         for (i, &(t, temp)) in rows.iter().enumerate() {
             let raw = (f64::from(temp) * 16.0).round().clamp(-32768.0, 32767.0) as i16;
+            // The firmware reads its DS18B20 once a second and its estimator's window is 32
+            // readings (32 s). A log keeps fewer rows: at 10-s rows the same window would
+            // span 320 s and bend every ramp corner into a temperature error that a rate
+            // term then absorbs (a phantom ε of several ppm on a lag log with no rate term).
+            // So the readings the firmware would have taken between two rows are filled in
+            // at 1 s, linearly between the rows' readings, in 1/16-°C steps.
+            let mut centre: Option<qfa_thermal::rate::Estimate> = None;
+            if let Some((tp, rp)) = prev {
+                let gap = t - tp;
+                if gap > FILL_FROM_S && gap * 1000.0 <= f64::from(RateConfig::default().max_gap_ms) {
+                    // A cycling row's pulses are counted over the interval that ends at
+                    // `t`: its model value is taken at the interval's centre.
+                    let mid = (gap / 2.0).round().max(1.0);
+                    let mut k = 1.0;
+                    while k < gap - 0.5 {
+                        let x = f64::from(rp) + (f64::from(raw) - f64::from(rp)) * k / gap;
+                        if est.push(((tp + k) * 1000.0).round() as u32, x.round() as i16).is_ok()
+                            && sf.is_some()
+                            && k == mid
+                        {
+                            centre = est.estimate();
+                        }
+                        k += 1.0;
+                    }
+                }
+            }
             let t_ms = (t * 1000.0).round() as u32;
             if est.push(t_ms, raw).is_err() {
                 continue; // non-monotonic time: the firmware rejects it too
             }
-            let Some(e) = est.estimate() else { continue };
+            prev = Some((t, raw));
+            let Some(e) = centre.or_else(|| est.estimate()) else { continue };
             time_s.push(t);
             temp_raw.push(raw);
             est_t.push(e.temp_c);
@@ -135,6 +210,8 @@ impl Trace {
 pub struct Channels {
     /// Which kind of log.
     pub kind: LogKind,
+    /// Unit of the bias channel.
+    pub bias_unit: BiasUnit,
     /// One trace per program.
     pub traces: Vec<Trace>,
 }
@@ -178,7 +255,7 @@ impl Channels {
         if traces.is_empty() {
             bail!("no program has paired +1 g and -1 g runs with at least 8 rows");
         }
-        Ok(Self { kind: LogKind::Cycling, traces })
+        Ok(Self { kind: LogKind::Cycling, bias_unit: BiasUnit::G, traces })
     }
 
     /// Read a log, detecting its format from the header.
@@ -244,7 +321,11 @@ impl Channels {
             if rows.len() < 8 {
                 bail!("too few rows");
             }
-            Ok(Self { kind: LogKind::Single, traces: vec![Trace::new("log".into(), &rows, None, &vals, bin_s)] })
+            Ok(Self {
+                kind: LogKind::Single,
+                bias_unit: BiasUnit::Value,
+                traces: vec![Trace::new("log".into(), &rows, None, &vals, bin_s)],
+            })
         } else {
             bail!(
                 "unknown header {header:?}: expected program,run,time_s,input_g,temp_c,pulses,interval_s \

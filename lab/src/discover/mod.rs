@@ -78,6 +78,7 @@ pub mod fit;
 pub mod output;
 pub mod static_axes;
 pub mod stats;
+pub mod unexplained;
 
 use std::path::Path;
 
@@ -85,10 +86,11 @@ use anyhow::Result;
 use qfa_thermal::model::AxisModel;
 use serde::Serialize;
 
-pub use crate::data::channels::{Channels, LogKind};
+pub use crate::data::channels::{BiasUnit, Channels, LogKind};
 pub use fit::Effect;
 use fit::{golden, nelder_mead2, Fitted, Nonlinear, Residuals, Setup, Structure};
 pub use stats::GainStat;
+pub use unexplained::{FloorRatio, TimeScales, Unexplained};
 
 use crate::calibrate::metrics::rms_of_finite as rms;
 
@@ -161,28 +163,6 @@ pub struct EffectReport {
     pub heldout_gap_before: f64,
     /// The same gap after.
     pub heldout_gap_after: f64,
-}
-
-/// Residual structure no catalog effect explains.
-#[derive(Clone, Debug, Serialize)]
-pub struct Unexplained {
-    /// `scale_factor`, `bias` or `value`.
-    pub channel: String,
-    /// Segment where the final held-out residual is largest.
-    #[serde(rename = "where")]
-    pub where_: String,
-    /// Held-out RMS of the channel's final residual (ppm, µg or value units).
-    pub rms: f64,
-    /// RMS of the part that follows the strongest driver (cross-fitted), same unit;
-    /// absent when only a pinned candidate flagged the channel.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub structure_rms: Option<f64>,
-    /// Drivers the leftover follows significantly, strongest first: `time_since_start`,
-    /// `temperature`, `temperature_rate`, `time_since_reversal`, `branch` (direction of
-    /// the last ramp, kept through dwells).
-    pub correlates_with: Vec<String>,
-    /// Catalog effects that would fit only with a parameter at a search limit.
-    pub pinned: Vec<String>,
 }
 
 /// Held-out gaps: RMS residuals.
@@ -264,6 +244,29 @@ pub struct PeerGap {
     pub error: Option<String>,
 }
 
+/// What `table.bin` holds.
+#[derive(Clone, Debug, Serialize)]
+pub struct Flashed {
+    /// `named model` or `start model`: whichever predicts better held out (Σ over
+    /// channels of (held-out RMS / noise floor)²).
+    pub model: String,
+    /// Its held-out gaps.
+    pub heldout: Gaps,
+    /// A peer whose bias figure on the same folds beats it (a cycling table needs a
+    /// scale-factor model, which the peers have not, so it is not flashed: said instead).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub peer_better: Option<PeerBetter>,
+}
+
+/// A peer that predicts the bias better than the flashed model, held out.
+#[derive(Clone, Debug, Serialize)]
+pub struct PeerBetter {
+    /// Peer name.
+    pub peer: String,
+    /// Its held-out RMS of the bias (µg, or the log's value unit).
+    pub heldout_rms: f64,
+}
+
 /// The discovery report; `report.json` is its serialization.
 #[derive(Clone, Debug, Serialize)]
 pub struct Report {
@@ -280,6 +283,9 @@ pub struct Report {
     pub where_: Vec<Where>,
     /// Structure left in the final held-out residual that no catalog effect explains.
     pub unexplained: Vec<Unexplained>,
+    /// Each channel's final held-out residual against its noise floor (the test that
+    /// reports structure left even when no driver explains it).
+    pub residual_vs_floor: Vec<FloorRatio>,
     /// Noise floors of the final held-out residual (bin-to-bin part).
     pub noise_floor: Gaps,
     /// Peers on the same held-out split, bias channel (cycling logs: the bias channel
@@ -293,9 +299,13 @@ pub struct Report {
     /// Where the final model disagrees most.
     #[serde(skip)]
     pub where_after: Vec<Where>,
-    /// The final model.
+    /// The model flashed (`table.bin`): the named model, or the start model when that
+    /// predicts better held out.
     #[serde(skip)]
     pub model: Option<AxisModel>,
+    /// Which model is flashed, its held-out figure, and a peer that predicts the bias
+    /// better, if any.
+    pub flashed: Flashed,
     /// Held-out residuals before and after.
     #[serde(skip)]
     pub residuals: (Residuals, Residuals),
@@ -388,7 +398,7 @@ fn folds(ch: &Channels) -> (Vec<Vec<bool>>, Vec<Vec<bool>>, String) {
 }
 
 /// Robust noise floor of a per-bin residual from consecutive-bin differences.
-fn noise_floor(ch: &Channels, v: &[f64]) -> f64 {
+pub(crate) fn noise_floor(ch: &Channels, v: &[f64]) -> f64 {
     let mut d = Vec::new();
     let mut o = 0;
     for t in &ch.traces {
@@ -536,10 +546,32 @@ fn search(setup: &Setup, s: &Structure, nl: &Nonlinear, e: Effect, train: &[bool
     }
 }
 
-fn effect_params(e: Effect, f: &Fitted) -> std::collections::BTreeMap<String, f64> {
+/// Report name of the weight an effect is tested on ([`WeightZ`]); `None` for a lag and a
+/// creep, which answer to the held-out test alone.
+fn weight_key(e: Effect, unit: BiasUnit) -> Option<String> {
+    Some(match e {
+        Effect::TempQuadSf => "beta".into(),
+        Effect::TempQuadBias => unit.param("beta", "_per_c2"),
+        Effect::RateHysteresis => "epsilon".into(),
+        Effect::RateSquared => "alpha".into(),
+        Effect::RateTempCoupling => "eta".into(),
+        Effect::BiasBranchHysteresis => unit.param("weight", ""),
+        // The creep's gain trades off against its τ (a long τ with a large gain looks like a
+        // short one with a small gain; its interval was [0.5, 43] µg/°C on a two-τ creep
+        // log), so the gain is not a weight to test; like the lag, the creep answers to
+        // the held-out test alone.
+        Effect::SensorLag | Effect::BiasCreep => return None,
+        Effect::BiasDrift => unit.param("drift", "_per_h"),
+    })
+}
+
+/// An effect's parameters by report name, bias terms in the report's unit
+/// ([`BiasUnit::param`]: µg for a cycling log, whose model holds g).
+fn effect_params(e: Effect, f: &Fitted, unit: BiasUnit) -> std::collections::BTreeMap<String, f64> {
     let mut p = std::collections::BTreeMap::new();
     let m = &f.model;
     let s = &m.scale;
+    let k = unit.to_report();
     match e {
         Effect::TempQuadSf => {
             p.insert("beta".into(), f64::from(s.beta));
@@ -551,7 +583,7 @@ fn effect_params(e: Effect, f: &Fitted) -> std::collections::BTreeMap<String, f6
             let n = g.len();
             let c: f64 =
                 (1..n - 1).map(|i| f64::from(g[i + 1] - 2.0 * g[i] + g[i - 1])).sum::<f64>() / ((n - 2) as f64 * h * h);
-            p.insert("beta_g_per_c2".into(), c / 2.0);
+            p.insert(unit.param("beta", "_per_c2"), k * c / 2.0);
         }
         Effect::RateHysteresis => {
             p.insert("epsilon".into(), f64::from(s.epsilon));
@@ -570,12 +602,12 @@ fn effect_params(e: Effect, f: &Fitted) -> std::collections::BTreeMap<String, f6
         Effect::BiasBranchHysteresis => {
             if let Some(h) = m.ext.bias_branch_hysteresis {
                 p.insert("half_width_c".into(), f64::from(h.half_width_c));
-                p.insert("weight_g".into(), f64::from(h.weight_g));
+                p.insert(unit.param("weight", ""), k * f64::from(h.weight_g));
             }
         }
         Effect::BiasCreep => {
             if let Some(c) = m.ext.bias_creep {
-                p.insert("gain_g_per_c".into(), f64::from(c.gain_g_per_c));
+                p.insert(unit.param("gain", "_per_c"), k * f64::from(c.gain_g_per_c));
                 p.insert("tau_ref_s".into(), f64::from(c.tau_ref_s));
                 p.insert("t_ref_c".into(), f64::from(c.t_ref_c));
                 p.insert("activation_k".into(), f64::from(c.activation_k));
@@ -583,7 +615,7 @@ fn effect_params(e: Effect, f: &Fitted) -> std::collections::BTreeMap<String, f6
         }
         Effect::BiasDrift => {
             if let Some(d) = f.drift_per_h {
-                p.insert("drift_g_per_h".into(), d);
+                p.insert(unit.param("drift", "_per_h"), k * d);
             }
         }
     }
@@ -672,7 +704,7 @@ pub fn localize(ch: &Channels, r: &Residuals, top: usize) -> Vec<Where> {
 /// Output files could not be written.
 pub fn discover(input: &Channels, start: Start, out_dir: &Path) -> Result<Report> {
     let report = analyze(input, start);
-    output::write(input, &report, out_dir, true)?;
+    output::write(input, &report, out_dir, true, None)?;
     Ok(report)
 }
 
@@ -752,135 +784,6 @@ fn selection_rule_text() -> String {
          (backward step), else it is removed",
         Effect::ALL.len()
     )
-}
-
-/// Per-bin drivers the leftover residual is tested against.
-fn drivers(ch: &Channels) -> Vec<(&'static str, Vec<f64>)> {
-    let n = ch.n_bins();
-    let (mut since, mut temp, mut rate, mut rev, mut branch) = (
-        Vec::with_capacity(n),
-        Vec::with_capacity(n),
-        Vec::with_capacity(n),
-        Vec::with_capacity(n),
-        Vec::with_capacity(n),
-    );
-    for t in &ch.traces {
-        let t0 = t.time_s.first().copied().unwrap_or(0.0);
-        let (mut last_rev, mut dir, mut row) = (t0, 0i8, 0);
-        for b in &t.bins {
-            while row < b.hi {
-                let r = t.est_rate[row];
-                let d = if r > 0.05 {
-                    1
-                } else if r < -0.05 {
-                    -1
-                } else {
-                    0
-                };
-                if d != 0 && d != dir {
-                    if dir != 0 {
-                        last_rev = t.time_s[row];
-                    }
-                    dir = d;
-                }
-                row += 1;
-            }
-            let m = (b.hi - b.lo) as f64;
-            since.push((b.time_s - t0) / 3600.0);
-            temp.push(t.est_t[b.lo..b.hi].iter().map(|&x| f64::from(x)).sum::<f64>() / m);
-            rate.push(t.est_rate[b.lo..b.hi].iter().map(|&x| f64::from(x)).sum::<f64>() / m);
-            rev.push((b.time_s - last_rev) / 3600.0);
-            branch.push(f64::from(dir));
-        }
-    }
-    vec![
-        ("time_since_start", since),
-        ("temperature", temp),
-        ("temperature_rate", rate),
-        ("time_since_reversal", rev),
-        ("branch", branch),
-    ]
-}
-
-/// Cross-fitted quadratic in `x` of the residual `r`: each fold's bins predicted from a
-/// fit on the other fold. NaN where `r` is NaN.
-fn cross_fit(r: &[f64], x: &[f64], masks: &[Vec<bool>], trains: &[Vec<bool>]) -> Vec<f64> {
-    let fin: Vec<usize> = (0..r.len()).filter(|&i| r[i].is_finite() && x[i].is_finite()).collect();
-    let mean = fin.iter().map(|&i| x[i]).sum::<f64>() / fin.len().max(1) as f64;
-    let sd = (fin.iter().map(|&i| (x[i] - mean).powi(2)).sum::<f64>() / fin.len().max(1) as f64).sqrt().max(1e-12);
-    let z = |i: usize| (x[i] - mean) / sd;
-    let mut out = vec![f64::NAN; r.len()];
-    for (test, train) in masks.iter().zip(trains) {
-        let rows: Vec<usize> = fin.iter().copied().filter(|&i| train[i]).collect();
-        if rows.len() < 4 {
-            continue;
-        }
-        let a = nalgebra::DMatrix::from_fn(rows.len(), 3, |k, j| z(rows[k]).powi(j as i32));
-        let y = nalgebra::DVector::from_fn(rows.len(), |k, _| r[rows[k]]);
-        let Ok(c) = a.svd(true, true).solve(&y, 1e-12) else { continue };
-        for &i in fin.iter().filter(|&&i| test[i]) {
-            out[i] = c[0] + c[1] * z(i) + c[2] * z(i).powi(2);
-        }
-    }
-    out
-}
-
-/// Leftover structure per channel: the drivers the final held-out residual follows
-/// (cross-fitted, same block test at level ALPHA shared over drivers and channels), plus
-/// the candidates that would fit only at a search limit.
-fn find_unexplained(
-    ch: &Channels,
-    cur: &Residuals,
-    masks: &[Vec<bool>],
-    trains: &[Vec<bool>],
-    pinned: &[(Effect, Vec<String>)],
-) -> Vec<Unexplained> {
-    let cyc = ch.kind == LogKind::Cycling;
-    let drv = drivers(ch);
-    let chans: Vec<(&str, &Vec<f64>, bool)> = if cyc {
-        vec![("scale_factor", &cur.sf, true), ("bias", &cur.bias, false)]
-    } else {
-        vec![("value", &cur.bias, false)]
-    };
-    let len = stats::block_len(ch, &[&cur.sf, &cur.bias]);
-    let blocks = stats::blocks(ch, len);
-    let alpha = ALPHA / (drv.len() * chans.len()) as f64;
-    let after = localize(ch, cur, 1);
-    let mut out = Vec::new();
-    for (name, r, is_sf) in chans {
-        let var = rms(r).powi(2).max(1e-300);
-        let mut hits: Vec<(f64, &str, f64)> = Vec::new();
-        for (dn, x) in &drv {
-            let f = cross_fit(r, x, masks, trains);
-            let d: Vec<f64> = r
-                .iter()
-                .zip(&f)
-                .map(|(&a, &b)| if b.is_finite() { (a * a - (a - b).powi(2)) / var } else { 0.0 })
-                .collect();
-            let g = stats::gain_stat(&blocks, &d, alpha);
-            if g.gain > 0.0 && g.t > g.critical {
-                hits.push((g.t, dn, rms(&f)));
-            }
-        }
-        hits.sort_by(|a, b| b.0.total_cmp(&a.0));
-        let pins: Vec<String> = pinned
-            .iter()
-            .filter(|(e, _)| if is_sf { e.touches_sf() } else { e.touches_bias() })
-            .map(|(e, p)| format!("{} ({} at a search limit)", e.name(), p.join(", ")))
-            .collect();
-        if hits.is_empty() && pins.is_empty() {
-            continue;
-        }
-        out.push(Unexplained {
-            channel: name.into(),
-            where_: after.iter().find(|w| w.channel == name).map_or_else(String::new, |w| w.segment.clone()),
-            rms: rms(r),
-            structure_rms: hits.first().map(|h| h.2),
-            correlates_with: hits.iter().map(|h| h.1.to_string()).collect(),
-            pinned: pins,
-        });
-    }
-    out
 }
 
 /// Transformed coordinate of each nonlinear parameter of `e` for the profile: getter,
@@ -997,7 +900,8 @@ fn profile(
         }
         ends[k] = inside;
     }
-    let at_ends = ends.iter().map(|&x| effect_params(e, &setup.fit(s, &best_at(x).1, &all))).collect();
+    let at_ends =
+        ends.iter().map(|&x| effect_params(e, &setup.fit(s, &best_at(x).1, &all), setup.ch.bias_unit)).collect();
     ([(c.5)(ends[0]), (c.5)(ends[1])], at_ends)
 }
 
@@ -1014,32 +918,18 @@ fn profile(
 /// spread; the weight passes when |value|/SE > z(1 − α/(2m)), two-sided, m as in the gain
 /// test.
 fn weight_z(setup: &Setup, s: &Structure, nl: &Nonlinear, e: Effect, heldout: &Residuals) -> Option<WeightZ> {
-    let key = match e {
-        Effect::TempQuadSf => "beta",
-        Effect::TempQuadBias => "beta_g_per_c2",
-        Effect::RateHysteresis => "epsilon",
-        Effect::RateSquared => "alpha",
-        Effect::RateTempCoupling => "eta",
-        Effect::SensorLag => return None,
-        Effect::BiasBranchHysteresis => "weight_g",
-        // The creep's gain trades off against its τ (a long τ with a large gain looks like a
-        // short one with a small gain; its interval was [0.5, 43] µg/°C on a two-τ creep
-        // log), so the gain is not a weight to test; like the lag, the creep answers to
-        // the held-out test alone.
-        Effect::BiasCreep => return None,
-        Effect::BiasDrift => "drift_g_per_h",
-    };
+    let key = weight_key(e, setup.ch.bias_unit)?;
     let all = vec![true; setup.ch.n_bins()];
     let f = setup.fit(s, nl, &all);
-    let value = *effect_params(e, &f).get(key)?;
+    let value = *effect_params(e, &f, setup.ch.bias_unit).get(&key)?;
     // The noise to resample: the held-out residuals. The all-bin fit's own residuals have
     // lost the slow noise its 16 grid nodes and the effect absorbed. Measured during
     // development on 60 drift logs with a play tried on top (no play in the truth), the
     // play's z spread with SD 1.8 from the fit's own residuals, 1.5 from the held-out ones
     // with r fixed, and 0.84 with r searched again per resample, as here.
     let len = stats::block_len(setup.ch, &[&heldout.sf, &heldout.bias]);
-    let se = search_bootstrap_se(setup, s, nl, e, &f, heldout, len, key)?;
-    Some(WeightZ { param: key.into(), value, se, z: value.abs() / se.max(1e-300) })
+    let se = search_bootstrap_se(setup, s, nl, e, &f, heldout, len, &key)?;
+    Some(WeightZ { param: key, value, se, z: value.abs() / se.max(1e-300) })
 }
 
 /// Moving-block bootstrap SD of parameter `key` of effect `e`, its nonlinear parameters
@@ -1074,7 +964,7 @@ fn search_bootstrap_se(
         st2.sigma_b = setup.sigma_b;
         let nl2 = search(&st2, s, &base, e, &all);
         let f2 = st2.fit(s, &nl2, &all);
-        if let Some(&v) = effect_params(e, &f2).get(key) {
+        if let Some(&v) = effect_params(e, &f2, setup.ch.bias_unit).get(key) {
             xs.push(v);
         }
     }
@@ -1142,7 +1032,7 @@ fn bootstrap_linear(
         let y = block_resample(setup.ch, &fit.pred, &res, len, &mut rng);
         let f = setup.fit_y(s, nl, &all, Some(&y));
         for (k, &e) in eff.iter().enumerate() {
-            samples[k].push(effect_params(e, &f));
+            samples[k].push(effect_params(e, &f, setup.ch.bias_unit));
         }
     }
     samples
@@ -1329,7 +1219,7 @@ pub fn analyze(ch: &Channels, start: Start) -> Report {
         .into_iter()
         .enumerate()
         .map(|(k, (e, gb, ga, g, confusable_with))| {
-            let params = effect_params(e, &final_fit);
+            let params = effect_params(e, &final_fit, ch.bias_unit);
             let mut params_ci = std::collections::BTreeMap::new();
             let bound = at_bound(e, &nl_all);
             let cs = coords(e, &nl_all);
@@ -1390,8 +1280,40 @@ pub fn analyze(ch: &Channels, start: Start) -> Report {
         }
         LogKind::Single => Gaps::Single { value_rms: noise_floor(ch, &cur.bias) },
     };
-    let unexplained = find_unexplained(ch, &cur, &masks, &trains, &pinned);
+    // What is flashed: the named model, unless the start model predicts better held out
+    // (Σ over channels of (held-out RMS / noise floor)², on the residuals the selection
+    // used). The block test only adds an effect that gains, but the backward step and the
+    // joint re-fit can still leave a model that does worse; then the start is flashed.
+    let floors = [noise_floor(ch, &cur.sf), noise_floor(ch, &cur.bias)];
+    let score = |r: &Residuals| {
+        let b = (rms(&r.bias) / floors[1]).powi(2);
+        if cyc {
+            b + (rms(&r.sf) / floors[0]).powi(2)
+        } else {
+            b
+        }
+    };
     let peers = peer_gaps(ch, &masks, &trains);
+    let named_flashed = score(&cur) <= score(&before);
+    let flashed_gaps = gaps(ch.kind, if named_flashed { &cur } else { &before });
+    let flashed_bias = match flashed_gaps {
+        Gaps::Cycling { bias_ug, .. } => bias_ug,
+        Gaps::Single { value_rms } => value_rms,
+    };
+    let best_peer =
+        peers.iter().filter_map(|p| p.heldout_rms.map(|x| (p.peer.clone(), x))).min_by(|a, b| a.1.total_cmp(&b.1));
+    let flashed = Flashed {
+        model: if named_flashed { "named model" } else { "start model" }.into(),
+        heldout: flashed_gaps,
+        peer_better: best_peer.filter(|p| p.1 < flashed_bias).map(|(peer, x)| PeerBetter { peer, heldout_rms: x }),
+    };
+    let flashed_model = if named_flashed {
+        final_fit.model
+    } else {
+        setup.fit(&Structure::start(start), &Nonlinear::default(), &all).model
+    };
+    let residual_vs_floor = unexplained::floor_ratios(ch, &cur);
+    let unexplained = unexplained::find_unexplained(ch, &cur, &masks, &trains, &pinned, &residual_vs_floor);
     Report {
         start,
         effects,
@@ -1399,12 +1321,14 @@ pub fn analyze(ch: &Channels, start: Start) -> Report {
         heldout_gap_after: gaps(ch.kind, &cur),
         where_: localize(ch, &before, 5),
         unexplained,
+        residual_vs_floor,
         noise_floor: floor,
         peers,
         selection_rule: selection_rule_text(),
         rounds,
         where_after: localize(ch, &cur, 5),
-        model: Some(final_fit.model),
+        model: Some(flashed_model),
+        flashed,
         residuals: (before, cur),
         heldout_rule: rule,
     }

@@ -15,14 +15,26 @@ use anyhow::{Context, Result};
 use plotters::prelude::*;
 use qfa_thermal::table::{Input, Table, MAX_TABLE_BYTES};
 
-use super::{Channels, Gaps, LogKind, Report};
+use super::{BiasUnit, Channels, Gaps, LogKind, Report};
+use crate::calibrate::metrics::rms_of_finite;
 
-fn gaps_text(g: &Gaps) -> String {
+/// The named model's held-out gap is above the start model's on some channel.
+fn worse(r: &Report) -> bool {
+    match (&r.heldout_gap_before, &r.heldout_gap_after) {
+        (Gaps::Cycling { scale_factor_ppm: s0, bias_ug: b0 }, Gaps::Cycling { scale_factor_ppm: s1, bias_ug: b1 }) => {
+            s1 > s0 || b1 > b0
+        }
+        (Gaps::Single { value_rms: a }, Gaps::Single { value_rms: b }) => b > a,
+        _ => false,
+    }
+}
+
+fn gaps_text(unit: BiasUnit, g: &Gaps) -> String {
     match g {
         Gaps::Cycling { scale_factor_ppm, bias_ug } => {
             format!("scale factor {scale_factor_ppm:.2} ppm, bias {bias_ug:.2} µg")
         }
-        Gaps::Single { value_rms } => format!("value {value_rms:.4}"),
+        Gaps::Single { value_rms } => format!("value {value_rms:.4} {}", unit.label()),
     }
 }
 
@@ -45,10 +57,13 @@ pub fn table(report: &Report, input: Input) -> Option<Table> {
 
 /// Write every output into `dir`; `flashable` false leaves out `table.bin`/`model.bin`
 /// (a static log's per-axis directory, see the module docs) and removes older ones there.
+/// `held_out`, for one axis of a static log, is that axis's figures on the log's own
+/// held-out scheme: the report opens with them, and its own gaps are then labelled as what
+/// they are, the selection's folds inside the rows discovery saw.
 ///
 /// # Errors
 /// A file could not be written.
-pub fn write(ch: &Channels, report: &Report, dir: &Path, flashable: bool) -> Result<()> {
+pub fn write(ch: &Channels, report: &Report, dir: &Path, flashable: bool, held_out: Option<&str>) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     std::fs::write(dir.join("report.json"), serde_json::to_string_pretty(report)? + "\n")?;
     let mut notes = String::new();
@@ -83,25 +98,77 @@ pub fn write(ch: &Channels, report: &Report, dir: &Path, flashable: bool) -> Res
     if let Err(e) = plots(ch, report, dir) {
         let _ = writeln!(notes, "\nPlots failed: {e:#}");
     }
-    std::fs::write(dir.join("report.md"), markdown(ch, report, flashable) + &notes)?;
+    let head = held_out.map_or_else(String::new, |h| format!("{h}\n"));
+    std::fs::write(dir.join("report.md"), head + &markdown(ch, report, flashable, held_out.is_some()) + &notes)?;
     Ok(())
 }
 
-fn markdown(ch: &Channels, r: &Report, flashable: bool) -> String {
+/// The line saying what `table.bin` holds and what it scores held out.
+fn flashed_line(s: &mut String, ch: &Channels, r: &Report) {
+    let _ = writeln!(
+        s,
+        "Flashed (`table.bin`): the {}, held out {}{}.\n",
+        r.flashed.model,
+        gaps_text(ch.bias_unit, &r.flashed.heldout),
+        r.flashed.peer_better.as_ref().map_or_else(String::new, |p| format!(
+            "; **{} predicts the bias better held out ({:.3} {})**{}",
+            p.peer,
+            p.heldout_rms,
+            ch.bias_unit.label(),
+            if ch.kind == LogKind::Cycling { ", but has no scale-factor model to flash" } else { "" }
+        ))
+    );
+}
+
+fn markdown(ch: &Channels, r: &Report, flashable: bool, selection_only: bool) -> String {
     let mut s = String::new();
-    let _ = writeln!(s, "# Discovery report\n");
+    if selection_only {
+        let _ = writeln!(s, "## How discovery chose (selection folds)\n");
+        let _ = writeln!(
+            s,
+            "The gaps in this section come from discovery's own folds inside the rows it saw (they decide what is \
+             named); the held-out figures of the axis are the ones above.\n"
+        );
+    } else {
+        let _ = writeln!(s, "# Discovery report\n");
+    }
     let _ = writeln!(s, "Start model: `{}`. Held-out rule: {}.\n", r.start.name(), r.heldout_rule);
-    let _ = writeln!(s, "- Held-out gap before: {}", gaps_text(&r.heldout_gap_before));
-    let _ = writeln!(s, "- Held-out gap after: {}", gaps_text(&r.heldout_gap_after));
-    let _ =
-        writeln!(s, "- Noise floor (bin-to-bin part of the final held-out residual): {}\n", gaps_text(&r.noise_floor));
+    let what = if selection_only { "Selection-fold gap" } else { "Held-out gap" };
+    let _ = writeln!(s, "- {what}, start model: {}", gaps_text(ch.bias_unit, &r.heldout_gap_before));
+    let _ = writeln!(
+        s,
+        "- {what}, named model{}: {}",
+        if worse(r) { " (worse than the start)" } else { "" },
+        gaps_text(ch.bias_unit, &r.heldout_gap_after)
+    );
+    let _ = writeln!(
+        s,
+        "- Noise floor (bin-to-bin part of the final held-out residual): {}\n",
+        gaps_text(ch.bias_unit, &r.noise_floor)
+    );
     let labels = r.effect_labels();
     let _ = writeln!(
         s,
         "Summary: added {}; {}.\n",
         if labels.is_empty() { "none".to_string() } else { labels.join(", ") },
         if r.unexplained.is_empty() {
-            "no structure left that the catalog fails to explain".to_string()
+            let ratios = r
+                .residual_vs_floor
+                .iter()
+                .map(|f| format!("{} {:.1}× [{:.1}, {:.1}]", f.channel, f.ratio, f.ratio_ci95[0], f.ratio_ci95[1]))
+                .collect::<Vec<_>>()
+                .join(", ");
+            if r.residual_vs_floor.iter().any(|f| f.ratio > 2.0) {
+                format!(
+                    "the held-out residual is {ratios} its bin-to-bin noise floor, but follows none of the drivers \
+                     tested and its run levels agree with noise: slow noise (bias instability) can explain it, the \
+                     catalog's effects cannot be told from it"
+                )
+            } else {
+                format!(
+                    "no structure left that the catalog fails to explain (held-out residual {ratios} its noise floor)"
+                )
+            }
         } else {
             format!(
                 "unexplained structure left on {}",
@@ -109,8 +176,11 @@ fn markdown(ch: &Channels, r: &Report, flashable: bool) -> String {
             )
         }
     );
+    if !selection_only {
+        flashed_line(&mut s, ch, r);
+    }
     let _ = writeln!(s, "Selection: {}.\n", r.selection_rule);
-    let unit = if ch.kind == LogKind::Cycling { "µg" } else { "value units" };
+    let unit = ch.bias_unit.label();
     let _ = writeln!(
         s,
         "## Peers on the same held-out split (bias channel, {unit})\n\nEach fitted per fold on the training bins (bin means of the raw temperature reading) and scored on the held-out bins.\n\n| model | held-out RMS |\n|---|---|"
@@ -120,7 +190,7 @@ fn markdown(ch: &Channels, r: &Report, flashable: bool) -> String {
         Gaps::Single { value_rms } => *value_rms,
     };
     let _ = writeln!(s, "| start model (`{}`) | {:.4} |", r.start.name(), bias_gap(&r.heldout_gap_before));
-    let _ = writeln!(s, "| discovered model | {:.4} |", bias_gap(&r.heldout_gap_after));
+    let _ = writeln!(s, "| named model | {:.4} |", bias_gap(&r.heldout_gap_after));
     for p in &r.peers {
         match (&p.heldout_rms, &p.error) {
             (Some(x), _) => {
@@ -177,12 +247,33 @@ fn markdown(ch: &Channels, r: &Report, flashable: bool) -> String {
                 "- The {} channel keeps structure that no catalog effect explains (held-out RMS {:.3}",
                 u.channel, u.rms
             );
+            let _ = write!(
+                line,
+                ", {:.1}× its noise floor of {:.3}, 95 % interval [{:.1}, {:.1}]",
+                u.floor.ratio, u.floor.floor, u.floor.ratio_ci95[0], u.floor.ratio_ci95[1]
+            );
+            if let Some(l) = u.run_levels.as_ref().filter(|l| l.significant) {
+                let _ = write!(
+                    line,
+                    "; its mean differs between runs more than noise allows (χ² {:.1} on {} runs, critical {:.1})",
+                    l.q, l.runs, l.critical
+                );
+            }
             match u.structure_rms {
                 Some(x) if !u.correlates_with.is_empty() => {
                     let _ = write!(line, "; about {x:.3} of it follows {}).", u.correlates_with.join(", then "));
                 }
-                _ => line.push_str(")."),
+                _ => line.push_str("; it follows none of the drivers tested)."),
             }
+            let ts = &u.time_scales;
+            let _ = write!(
+                line,
+                " It lives mostly {} (RMS across runs {:.3}, slow within runs {:.3}, fast {:.3}).",
+                ts.dominant(),
+                ts.across_runs,
+                ts.within_run_slow,
+                ts.fast
+            );
             if !u.where_.is_empty() {
                 let _ = write!(line, " It is largest on {}.", u.where_);
             }
@@ -197,7 +288,7 @@ fn markdown(ch: &Channels, r: &Report, flashable: bool) -> String {
         }
         let _ = writeln!(s);
     }
-    let unit = if ch.kind == LogKind::Cycling { "ppm / µg" } else { "value units" };
+    let unit = if ch.kind == LogKind::Cycling { "ppm / µg".to_string() } else { ch.bias_unit.label().to_string() };
     let _ = writeln!(
         s,
         "## Where the start model disagrees (held-out RMS, {unit})\n\n| channel | segment | RMS |\n|---|---|---|"
@@ -226,7 +317,7 @@ fn markdown(ch: &Channels, r: &Report, flashable: bool) -> String {
                 t.gain.block_bins,
                 if t.significant { "yes" } else { "no" },
                 if t.at_bound.is_empty() { "-".to_string() } else { t.at_bound.join(", ") },
-                gaps_text(&t.gaps)
+                gaps_text(ch.bias_unit, &t.gaps)
             );
         }
         let _ = writeln!(s);
@@ -290,7 +381,12 @@ fn plots(ch: &Channels, r: &Report, dir: &Path) -> Result<()> {
         chans.push(("scale_factor", "scale-factor residual, ppm", &b.sf, &a.sf));
         chans.push(("bias", "bias residual, µg", &b.bias, &a.bias));
     } else {
-        chans.push(("value", "residual, value units", &b.bias, &a.bias));
+        chans.push((
+            "value",
+            if ch.bias_unit == BiasUnit::Ug { "residual, µg" } else { "residual, value units" },
+            &b.bias,
+            &a.bias,
+        ));
     }
     // Program offsets so time runs on across programs.
     let mut off = vec![0.0; ch.traces.len()];
@@ -310,11 +406,19 @@ fn plots(ch: &Channels, r: &Report, dir: &Path) -> Result<()> {
                 (0..rows.len()).map(x_of).fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| (l.min(x), h.max(x)));
             let ymax =
                 before.iter().chain(after.iter()).filter(|v| v.is_finite()).fold(1e-12f64, |m, v| m.max(v.abs()));
-            for (p, (title, v)) in
-                panels.iter().zip([("before (start model)", before), ("after (discovered model)", after)])
-            {
+            let named = if worse(r) { "named model, worse than the start held out" } else { "named model" };
+            let titles = [
+                format!("start model `{}`: held-out RMS {:.3}", r.start.name(), rms_of_finite(before)),
+                format!("{named}: held-out RMS {:.3}", rms_of_finite(after)),
+            ];
+            for (p, (title, v)) in panels.iter().zip([(&titles[0], before), (&titles[1], after)]) {
                 let mut chart = ChartBuilder::on(p)
-                    .caption(format!("{name} {title}: red heating, blue cooling, grey hold"), ("sans-serif", 18))
+                    .caption(
+                        format!(
+                            "{name}, every bin from a fit that never saw it: {title}; red heating, blue cooling, grey hold"
+                        ),
+                        ("sans-serif", 16),
+                    )
                     .margin(8)
                     .x_label_area_size(30)
                     .y_label_area_size(60)

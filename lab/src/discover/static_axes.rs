@@ -52,7 +52,7 @@ use crate::calibrate::static_cal::{
     calibrate_static_with, check_coverage, resolve_holdout, score, ExtraCandidates, Figure, Holdout, HoldoutReport,
     StaticCalOptions, NO_HOLDOUT,
 };
-use crate::data::channels::Trace;
+use crate::data::channels::{BiasUnit, Trace};
 use crate::data::static_log::StaticLog;
 
 /// Bin width for a static log, s: about 400 bins over the log, between 10 and 60 s. A
@@ -86,7 +86,7 @@ pub struct AxisDiscovery {
     pub unexplained: Vec<String>,
     /// Start model, held out.
     pub before: Figure,
-    /// Discovered model, held out.
+    /// Named model (what discovery named on the fold's training rows), held out.
     pub after: Figure,
     /// The structure discovery named on every row, as the one static fitter writes it
     /// (`bias_drift`, which has no slot, and a creep's activation energy dropped).
@@ -208,6 +208,7 @@ fn discover_rows(
     let value_ug: Vec<f64> = rows.iter().map(|&i| (ax.accel_g[i] - reference) * 1e6).collect();
     let ch = Channels {
         kind: LogKind::Single,
+        bias_unit: BiasUnit::Ug,
         traces: vec![Trace::new(ax.name.clone(), &rows_of(log, rows), None, &value_ug, bin_s)],
     };
     let mut r = analyze(&ch, start);
@@ -263,7 +264,7 @@ pub fn discover_static(log: &StaticLog, start: Start, holdout: Holdout) -> Resul
                 rf.model.clone().with_context(|| format!("{}: discovery gave no model in fold {}", ax.name, f + 1))?;
             add(&mut named_fold[f], structure_of(&disc));
             effects_per_fold.push(rf.effect_labels());
-            let drift = 1e-6 * rf.effects.iter().find_map(|e| e.params.get("drift_g_per_h").copied()).unwrap_or(0.0);
+            let drift = 1e-6 * rf.effects.iter().find_map(|e| e.params.get("drift_ug_per_h").copied()).unwrap_or(0.0);
             for (m, d, res, t) in [(&base, 0.0, &mut before, &mut t_before), (&disc, drift, &mut after, &mut t_after)] {
                 let b = row_bias(log, m, d, bin_s);
                 for i in held.clone() {
@@ -362,6 +363,35 @@ pub fn discover_static(log: &StaticLog, start: Start, holdout: Holdout) -> Resul
     })
 }
 
+/// Whether the named model is worse than the start model held out.
+fn named_is_worse(a: &AxisDiscovery) -> bool {
+    matches!((a.before.score(), a.after.score()), (Some(b), Some(n)) if n.rms_mg > b.rms_mg)
+}
+
+/// The top of one axis's report: its held-out figures on the log's scheme, one per model.
+fn axis_heading(d: &StaticDiscovery, a: &AxisDiscovery) -> String {
+    let mut s = format!("# Discovery report: axis {} (column `{}`)\n\n", a.axis, a.column);
+    let _ = writeln!(
+        s,
+        "Held-out figures of this axis, scheme `{}` ({}), RMS over rows / over 60-s means, mg: the only held-out \
+         figures of this axis.\n",
+        d.holdout.scheme, d.figures
+    );
+    s.push_str("| model | held-out, mg |\n|---|---|\n");
+    let _ = writeln!(s, "| start model `{}` | {} |", d.start.name(), a.before.cell());
+    let _ = writeln!(
+        s,
+        "| named model ({}){} | {} |",
+        if a.effects.is_empty() { "nothing named".to_string() } else { a.effects.join(", ") },
+        if named_is_worse(a) { ", **worse than the start held out**" } else { "" },
+        a.after.cell()
+    );
+    let _ = writeln!(s, "| flashed (`../table.bin`, structure {}) | {} |", a.final_structure, a.final_model.cell());
+    let _ = writeln!(s, "| PX4/tofupilot cubic | {} |", a.cubic.cell());
+    let _ = writeln!(s, "| ArduPilot TCAL | {} |", a.ardupilot.cell());
+    s
+}
+
 /// The per-axis table in Markdown (mg).
 #[must_use]
 pub fn markdown(d: &StaticDiscovery) -> String {
@@ -381,7 +411,7 @@ pub fn markdown(d: &StaticDiscovery) -> String {
          held-out rule inside them); every figure below is on the held-out rows, RMS over rows / over 60-s means, \
          mg. Peers fitted on the same training rows, as `calibrate` fits them. Effects named: on every row.\n\n",
     );
-    s.push_str("| axis | effects named (every row) | start model | discovered | workflow model, held out (`table.bin` structure, chosen on every row) | PX4/tofupilot cubic | ArduPilot TCAL | paper simple | none |\n");
+    s.push_str("| axis | effects named (every row) | start model | named model | workflow model, held out (`table.bin` structure, chosen on every row) | PX4/tofupilot cubic | ArduPilot TCAL | paper simple | none |\n");
     s.push_str("|---|---|---|---|---|---|---|---|---|\n");
     for a in &d.axes {
         let mut names = if a.effects.is_empty() { "none".to_string() } else { a.effects.join(", ") };
@@ -394,7 +424,7 @@ pub fn markdown(d: &StaticDiscovery) -> String {
             a.axis,
             names,
             a.before.cell(),
-            a.after.cell(),
+            if named_is_worse(a) { format!("{} (worse than the start)", a.after.cell()) } else { a.after.cell() },
             a.final_model.cell(),
             a.final_structure,
             if a.final_is_named { ", the named structure" } else { "" },
@@ -434,7 +464,7 @@ pub fn run(log: &StaticLog, start: Start, holdout: Holdout, dir: &Path) -> Resul
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     for ((a, r), ch) in d.axes.iter().zip(&d.reports).zip(&d.channels) {
         // Not flashable: the table of all axes is DIR/table.bin (see `output`'s docs).
-        super::output::write(ch, r, &dir.join(&a.axis), false)?;
+        super::output::write(ch, r, &dir.join(&a.axis), false, Some(&axis_heading(&d, a)))?;
     }
     std::fs::write(dir.join("table.bin"), encode(&d.table).map_err(|e| anyhow::anyhow!("{e}"))?)?;
     std::fs::write(dir.join("report.json"), serde_json::to_string_pretty(&d)? + "\n")?;

@@ -6,14 +6,14 @@
 //! converter, the DS18B20 timing and the bias instability; the discovery's FDR runs on it.
 //!
 //! Chamber → case (first-order lag, the DS18B20 is on the case) → 12-bit reading with
-//! noise. By default the truth is evaluated on the firmware's own T and Ṫ (the
-//! `RateEstimator<32>` on the readings); `true_rate_truth` evaluates it on the true case
-//! temperature and its exact derivative instead, as a physical simulator would.
+//! noise. The truth is evaluated on the true case temperature and its exact derivative at
+//! every sub-step and averaged over each row's interval, as a physical unit and an I/F
+//! counter would give it: never on the firmware's own estimate, whose window artefacts
+//! would then be part of the truth and invisible to the tests.
 
 use std::fmt::Write as _;
 
 use qfa_thermal::model::{AxisModel, AxisState, BiasGrid, Extensions, ScaleFactor};
-use qfa_thermal::rate::{RateConfig, RateEstimator};
 
 use crate::data::channels::{Channels, LogKind, Trace};
 use crate::simulate::profile::Program;
@@ -72,8 +72,6 @@ pub struct SynthConfig {
     pub bias_noise_ug: f64,
     /// Seed.
     pub seed: u64,
-    /// Evaluate the truth on the true case temperature and derivative.
-    pub true_rate_truth: bool,
 }
 
 impl Default for SynthConfig {
@@ -91,7 +89,6 @@ impl Default for SynthConfig {
             sf_noise_ppm: 5.0,
             bias_noise_ug: 5.0,
             seed: 1,
-            true_rate_truth: false,
         }
     }
 }
@@ -144,32 +141,35 @@ fn program_rows(c: &SynthConfig, rate: f64, model: &AxisModel, rng: &mut Rng) ->
     let sub = 10usize;
     let h = c.dt_s / sub as f64;
     let mut case = Lag::new(c.case_tau_s, h, 22.0);
-    let mut est = RateEstimator::<32>::new(RateConfig::default());
     let mut st = AxisState::default();
     let mut out = Vec::new();
     let mut t = 0.0;
-    let mut last_t = None::<f64>;
+    // The truth at the end of the previous sub-step (K1, K0).
+    let mut prev = (0.0f64, 0.0f64);
     while t <= end {
+        // The truth over the row's interval: the model on the true case temperature and its
+        // exact derivative at every sub-step, averaged (a row's pulses are counted over the
+        // interval that ends at `t`, as the cycling log's format says).
+        // Trapezoids over the sub-steps: the interval's mean, centred on its middle.
+        let (mut k1, mut k0) = (0.0f64, 0.0f64);
         if t > 0.0 {
             for k in 0..sub {
                 let t0 = t - c.dt_s + h * k as f64;
                 case.step(prog.temp_at(t0), prog.temp_at(t0 + h));
+                let rate = case.rate_per_s(prog.temp_at(t0 + h)) * 60.0;
+                let e = model.evaluate(&mut st, case.y as f32, rate as f32, h as f32);
+                k1 += 0.5 * (prev.0 + f64::from(e.k1)) / sub as f64;
+                k0 += 0.5 * (prev.1 + f64::from(e.k0)) / sub as f64;
+                prev = (f64::from(e.k1), f64::from(e.k0));
             }
+        } else {
+            let e = model.evaluate(&mut st, case.y as f32, 0.0, 0.0);
+            (k1, k0) = (f64::from(e.k1), f64::from(e.k0));
+            prev = (k1, k0);
         }
         let raw = ((case.y + c.temp_noise_c * rng.normal()) * 16.0).round() as i16;
         let reading = f32::from(raw) / 16.0;
-        let _ = est.push((t * 1000.0).round() as u32, raw);
-        let dt = last_t.map_or(0.0, |p| (t - p) as f32);
-        let e = if c.true_rate_truth {
-            // The exact derivative of the case temperature, °C/min.
-            let true_rate = case.rate_per_s(prog.temp_at(t)) * 60.0;
-            model.evaluate(&mut st, case.y as f32, true_rate as f32, dt)
-        } else {
-            let es = est.estimate().expect("a sample was pushed before");
-            model.evaluate(&mut st, es.temp_c, es.rate_c_per_min, dt)
-        };
-        out.push((t, reading, f64::from(e.k1), f64::from(e.k0)));
-        last_t = Some(t);
+        out.push((t, reading, k1, k0));
         t += c.dt_s;
     }
     out
@@ -187,7 +187,7 @@ pub fn cycling_channels(c: &SynthConfig, model: &AxisModel, bin_s: f64) -> Chann
         let bias: Vec<f64> = rows.iter().map(|r| r.3 + c.bias_noise_ug * 1e-6 * rng.normal()).collect();
         traces.push(Trace::new(format!("paper-{rate:.1}"), &temps, Some(&sf), &bias, bin_s));
     }
-    Channels { kind: LogKind::Cycling, traces }
+    Channels { kind: LogKind::Cycling, bias_unit: crate::data::channels::BiasUnit::G, traces }
 }
 
 /// A single-channel log (`time_s,temp_c,value`) of the first program: value = K0 in µg.
