@@ -24,4 +24,5 @@ pub mod demo;
 pub mod discover;
 pub mod navigate;
 pub mod out_path;
+pub mod plot_font;
 pub mod simulate;

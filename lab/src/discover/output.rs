@@ -282,7 +282,7 @@ fn write_csv(ch: &Channels, r: &Report, path: &Path) -> Result<()> {
 }
 
 fn plots(ch: &Channels, r: &Report, dir: &Path) -> Result<()> {
-    let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular());
+    crate::plot_font::register();
     let rows = rows(ch);
     let (b, a) = &r.residuals;
     let mut chans: Vec<(&str, &str, &Vec<f64>, &Vec<f64>)> = Vec::new();
