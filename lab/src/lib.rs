@@ -22,6 +22,7 @@ pub mod compensate;
 pub mod data;
 pub mod demo;
 pub mod discover;
+pub mod html_report;
 pub mod navigate;
 pub mod out_path;
 pub mod plot_font;

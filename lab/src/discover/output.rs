@@ -84,6 +84,7 @@ pub fn write(ch: &Channels, report: &Report, dir: &Path, flashable: bool) -> Res
         let _ = writeln!(notes, "\nPlots failed: {e:#}");
     }
     std::fs::write(dir.join("report.md"), markdown(ch, report, flashable) + &notes)?;
+    super::page::page(ch, report, dir)?.write(dir)?;
     Ok(())
 }
 
