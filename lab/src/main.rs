@@ -522,8 +522,9 @@ fn run(cli: Cli) -> Result<(), String> {
         Cmd::Navigate { sub: Some(NavCmd::Merge { dirs, out, no_plots }), .. } => {
             let out = out.unwrap_or_else(|| dirs[0].clone());
             let sum = qfa_lab::navigate::mc::merge(&dirs, &out, !no_plots).map_err(|e| format!("{e:#}"))?;
+            qfa_lab::navigate::merge_page(&out, &sum).and_then(|p| Ok(p.write(&out)?)).map_err(|e| format!("{e:#}"))?;
             eprintln!("{}", qfa_lab::navigate::mc::table(&sum));
-            eprintln!("wrote {}/report.json, mc_runs.csv", out.display());
+            eprintln!("wrote {}/report.json, report.html, mc_runs.csv", out.display());
         }
         Cmd::Navigate {
             sub: None,

@@ -750,6 +750,24 @@ pub fn summary(r: &Report) -> String {
     s
 }
 
+/// `navigate merge`'s `report.html`: the merged Monte Carlo table and every plot in `out`
+/// (the nominal run's figures are in `report.json`; its page is the one shard 0's
+/// `navigate` run would write).
+///
+/// # Errors
+/// A plot that cannot be read.
+pub fn merge_page(out: &Path, sum: &mc::Summary) -> anyhow::Result<crate::html_report::Page> {
+    let mut p = crate::html_report::Page::new("Navigation Monte Carlo study (merged shards)");
+    p.section("Held-out scheme").para(
+        "Each run's tables are fitted on that run's own simulated lab program and scored on that run's own flight: \
+         no flight row is fitted on.",
+    );
+    p.section("Monte Carlo").pre(&mc::table(sum));
+    p.section("Plots");
+    p.images_in(out, |name| format!("Monte Carlo plot {name}"))?;
+    Ok(p)
+}
+
 /// The variants flown in the Monte Carlo runs: `none`, `simple`, `hysteresis`,
 /// `discovered` (each unit's own discovery run on its calibration log, when the tables
 /// were calibrated with discovery; otherwise it is the hysteresis table and is left out)
