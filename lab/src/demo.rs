@@ -1,9 +1,11 @@
 //! The main demo: the paper's full test for JB-KT8 #1–#3, calibrated and compensated
 //! through the root crate, with a Table-4-style comparison.
 //!
-//! Per unit `N` it writes `out/kt8-N/`: `log.csv` (1-s rows, about 1.355 M), `truth.toml`,
-//! `table.toml`, `table.bin`, `table_simple.*`, `report.json` and the plots; and
-//! `out/table4.json` with all three units beside the paper's numbers.
+//! Per unit `N` it writes `out/kt8-N/`: `truth.toml`, `table.toml`, `table.bin`,
+//! `table_simple.*`, `report.json`, `report.html` and the plots (and, with
+//! [`DemoOptions::full_logs`], `log.csv`: 1-s rows, about 1.355 M, 47 MB per unit; without
+//! it the log is deleted once calibrated and discovered); `out/table4.json` with all three
+//! units beside the paper's numbers; and `out/report.html`, the page that ties them together.
 
 use std::path::Path;
 use std::time::Instant;
@@ -32,6 +34,10 @@ pub struct DemoOptions {
     pub threads: usize,
     /// Progress bars.
     pub progress: bool,
+    /// Keep each unit's `log.csv` (about 47 MB each at 1-s rows).
+    pub full_logs: bool,
+    /// Fly only the first this many seconds of the navigation flight (a quicker demo).
+    pub nav_duration_s: Option<f64>,
 }
 
 /// One unit's demo result.
@@ -55,17 +61,50 @@ pub struct UnitResult {
     pub calibrate_s: f64,
 }
 
-/// Where the discovery workflow (issue 4) plugs in: called with each unit's log and
-/// output directory after calibration. Returns a one-line summary to print, if any.
-pub type DiscoveryHook = fn(log: &Path, out: &Path) -> Option<String>;
-/// Where the navigation study (issue 5) plugs in: called once with the demo's output
-/// directory after all units are calibrated. Returns a one-line summary to print.
-pub type NavigationHook = fn(out: &Path) -> Option<String>;
+/// Where the discovery workflow plugs in: called with a unit's log and output directory
+/// after calibration. Returns a one-line summary to print; an error fails the demo.
+pub type DiscoveryHook = fn(log: &Path, out: &Path) -> Result<String, String>;
+/// Where the navigation study plugs in: called once with its output directory after all
+/// units are calibrated, and the flight's length limit, s. Returns a one-line summary to
+/// print; an error fails the demo.
+pub type NavigationHook = fn(out: &Path, duration_s: Option<f64>) -> Result<String, String>;
 
-/// Run the demo. `discovery` and `navigation` are the hooks for issues 4 and 5.
+/// A spinner on stderr for a step that runs longer than a few seconds (hidden when
+/// `show` is false or stderr is not a terminal).
+#[must_use]
+pub fn spinner(msg: &str, show: bool) -> indicatif::ProgressBar {
+    if !show {
+        return indicatif::ProgressBar::hidden();
+    }
+    let pb = indicatif::ProgressBar::new_spinner();
+    pb.set_style(
+        indicatif::ProgressStyle::with_template("{spinner} {msg} {elapsed}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+    );
+    pb.set_message(msg.to_string());
+    pb.enable_steady_tick(std::time::Duration::from_millis(200));
+    pb
+}
+
+/// Bytes of every file under `dir`.
 ///
 /// # Errors
-/// A message describing the failure.
+/// A directory that cannot be read.
+pub fn dir_bytes(dir: &Path) -> std::io::Result<u64> {
+    let mut n = 0;
+    for e in std::fs::read_dir(dir)? {
+        let e = e?;
+        let m = e.metadata()?;
+        n += if m.is_dir() { dir_bytes(&e.path())? } else { m.len() };
+    }
+    Ok(n)
+}
+
+/// Run the demo. `discovery` and `navigation` are the hooks for the discovery workflow and
+/// the navigation study.
+///
+/// # Errors
+/// A message describing the failure (a failed hook included).
 pub fn run(
     opts: &DemoOptions,
     discovery: Option<DiscoveryHook>,
@@ -74,6 +113,7 @@ pub fn run(
     let t_all = Instant::now();
     std::fs::create_dir_all(&opts.out).map_err(|e| e.to_string())?;
     let mut results = Vec::new();
+    let mut pages: Vec<UnitPage> = Vec::new();
     for unit in 1..=3u8 {
         let truth = Truth::jb_kt8(unit);
         let dir = opts.out.join(format!("kt8-{unit}"));
@@ -121,11 +161,19 @@ pub fn run(
         );
         // One discovery run, on the first unit: enough to show the workflow, and it keeps
         // the demo well inside its two minutes.
+        let mut discovery_line = None;
         if let Some(hook) = discovery.filter(|_| unit == 1) {
-            if let Some(s) = hook(&log_path, &dir.join("discover")) {
-                eprintln!("   discovery: {s}");
-            }
+            let pb = spinner("discovery on unit #1's log", opts.progress);
+            let s = hook(&log_path, &dir.join("discover")).map_err(|e| format!("discovery on {}: {e}", truth.name));
+            pb.finish_and_clear();
+            let s = s?;
+            eprintln!("   discovery: {s}");
+            discovery_line = Some(s);
         }
+        if !opts.full_logs {
+            std::fs::remove_file(&log_path).map_err(|e| format!("{}: {e}", log_path.display()))?;
+        }
+        pages.push(UnitPage { dir: dir.clone(), coverage: cal.report.coverage.clone(), discovery: discovery_line });
         results.push(UnitResult {
             unit: truth.name.clone(),
             ours: cal.report.sensitivity_ppm_per_c,
@@ -137,16 +185,120 @@ pub fn run(
             calibrate_s,
         });
     }
+    let mut navigation_line = None;
     if let Some(hook) = navigation {
-        if let Some(s) = hook(&opts.out.join("navigation")) {
-            eprintln!("navigation: {s}");
-        }
+        let pb = spinner("navigation study (calibrate, align, fly)", opts.progress);
+        let s = hook(&opts.out.join("navigation"), opts.nav_duration_s).map_err(|e| format!("navigation: {e}"));
+        pb.finish_and_clear();
+        let s = s?;
+        eprintln!("navigation: {s}");
+        navigation_line = Some(s);
     }
     println!("{}", table4_text(&results));
-    println!("demo total {:.1} s; outputs in {}", t_all.elapsed().as_secs_f64(), opts.out.display());
     let json = serde_json::to_string_pretty(&results).map_err(|e| e.to_string())?;
     std::fs::write(opts.out.join("table4.json"), json).map_err(|e| e.to_string())?;
+    let bytes = dir_bytes(&opts.out).map_err(|e| format!("{}: {e}", opts.out.display()))?;
+    let total_s = t_all.elapsed().as_secs_f64();
+    page(opts, &results, &pages, navigation_line.as_deref(), bytes, total_s)
+        .and_then(|p| p.write(&opts.out))
+        .map_err(|e| format!("{}: {e}", opts.out.display()))?;
+    let bytes = dir_bytes(&opts.out).map_err(|e| format!("{}: {e}", opts.out.display()))?;
+    println!(
+        "demo total {total_s:.1} s; outputs in {}: {:.2} MB{}",
+        opts.out.display(),
+        bytes as f64 / 1e6,
+        if opts.full_logs { " (with the logs)" } else { " (logs deleted; --full-logs keeps them)" }
+    );
     Ok(results)
+}
+
+/// What the demo's page shows of one unit besides its [`UnitResult`].
+struct UnitPage {
+    dir: std::path::PathBuf,
+    coverage: crate::calibrate::coverage::CalCoverage,
+    discovery: Option<String>,
+}
+
+/// The demo's `report.html`.
+fn page(
+    opts: &DemoOptions,
+    results: &[UnitResult],
+    units: &[UnitPage],
+    navigation: Option<&str>,
+    bytes: u64,
+    total_s: f64,
+) -> std::io::Result<crate::html_report::Page> {
+    let mut p = crate::html_report::Page::new("Demo: the paper's thermal test for JB-KT8 #1–#3");
+    p.section("Held-out scheme").para(
+        "Each unit's tables are fitted on the 0.3 and 0.9 °C/min programs and every figure is of the 0.5 and \
+         0.7 °C/min programs, compensated through the root crate's compensator; the navigation flight is never \
+         fitted on.",
+    );
+    let rows: Vec<Vec<String>> = results
+        .iter()
+        .map(|r| {
+            vec![
+                r.unit.clone(),
+                format!("{:.2} / {:.2}", r.paper.none, r.ours.none),
+                format!("{:.2} / {:.2}", r.paper.simple, r.ours.simple),
+                format!("{:.2} / {:.2}", r.paper.hysteresis, r.ours.hysteresis),
+                format!("{:.1} / {:.1}", r.bias_residual_ug.simple, r.bias_residual_ug.hysteresis),
+                r.rows.to_string(),
+                format!("{:.1} / {:.1} / {:.1}", r.simulate_s, r.write_s, r.calibrate_s),
+            ]
+        })
+        .collect();
+    p.section("Scale-factor temperature sensitivity, ppm/°C (Table 4: paper / ours, held out)").table(
+        &[
+            "unit",
+            "none",
+            "simple",
+            "hysteresis",
+            "bias residual, µg (simple / hysteresis)",
+            "log rows",
+            "simulate / write / calibrate, s",
+        ],
+        &rows,
+    );
+    p.section("Run").kv(&[
+        ("row length", format!("{} s", opts.row_s)),
+        ("seed", opts.seed.to_string()),
+        ("total time", format!("{total_s:.1} s")),
+        (
+            "outputs before this page",
+            format!(
+                "{:.2} MB{}",
+                bytes as f64 / 1e6,
+                if opts.full_logs {
+                    " (logs kept: --full-logs)"
+                } else {
+                    " (each log.csv deleted once used; --full-logs keeps them)"
+                }
+            ),
+        ),
+        ("navigation flight", opts.nav_duration_s.map_or("full".to_string(), |d| format!("first {d:.0} s"))),
+    ]);
+    for (r, u) in results.iter().zip(units) {
+        let name = u.dir.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+        p.section(&format!("{} (its own page: {name}/report.html)", r.unit));
+        u.coverage.to_page(&mut p);
+        p.image(
+            &u.dir.join("sf_vs_temp.png"),
+            &format!("{}: compensated scale factor against temperature, held-out bins", r.unit),
+        )?;
+        if let Some(d) = &u.discovery {
+            p.para(&format!("Discovery (its page: {name}/discover/report.html): {d}"));
+        }
+    }
+    if let Some(n) = navigation {
+        p.section("Navigation (its page: navigation/report.html)").para(n);
+        let png = opts.out.join("navigation").join("nav_errors.png");
+        if png.is_file() {
+            p.image(&png, "pure-inertial errors of each variant on the flight")?;
+        }
+    }
+    p.section("Console table").pre(&table4_text(results));
+    Ok(p)
 }
 
 /// The Table-4-style comparison as text.

@@ -22,6 +22,8 @@ pub mod compensate;
 pub mod data;
 pub mod demo;
 pub mod discover;
+pub mod html_report;
 pub mod navigate;
 pub mod out_path;
+pub mod plot_font;
 pub mod simulate;

@@ -186,6 +186,13 @@ enum Cmd {
         /// Simulation threads.
         #[arg(long, default_value_t = 2)]
         threads: usize,
+        /// Keep each unit's log.csv (about 47 MB each at 1-s rows); without it the logs are
+        /// deleted once used and the outputs stay under 20 MB.
+        #[arg(long)]
+        full_logs: bool,
+        /// Fly only the first this many seconds of the navigation flight (a quicker demo).
+        #[arg(long)]
+        nav_duration_s: Option<f64>,
     },
     /// Pure-inertial navigation error of each compensation variant (issues 5, 13), with
     /// alignment and an optional Monte Carlo study; `navigate merge DIR…` combines shards.
@@ -380,7 +387,9 @@ fn run(cli: Cli) -> Result<(), String> {
         {
             return Err(format!("--holdout {holdout}: static logs only (a cycling log is held out by program)"));
         }
-        Cmd::Calibrate { log, out, fmt, holdout, px4_device_id, export_range, .. } if fmt.options(&log)?.is_some() => {
+        Cmd::Calibrate { log, out, fmt, holdout, px4_device_id, export_range, no_plots, .. }
+            if fmt.options(&log)?.is_some() =>
+        {
             let o = fmt.options(&log)?.unwrap_or_default();
             let l = qfa_lab::data::static_log::read_static(&log, &o).map_err(|e| format!("{}: {e}", log.display()))?;
             eprintln!("{} rows read; {}; {}", l.rows(), l.skipped, l.sampling);
@@ -391,8 +400,15 @@ fn run(cli: Cli) -> Result<(), String> {
             let ex =
                 qfa_lab::calibrate::peers::write_exports(&out, &qfa_lab::calibrate::static_cal::export_axes(&cal), &eo)
                     .map_err(|e| format!("{}: {e}", out.display()))?;
+            qfa_lab::calibrate::static_cal::write_static_page(&out, &cal, !no_plots, &ex.notes)
+                .map_err(|e| e.to_string())?;
             print!("{}", qfa_lab::calibrate::static_cal::markdown(&cal.report));
-            println!("wrote {}/table.toml, table.bin, report.json, report.md{}", out.display(), exports_line(&ex));
+            println!(
+                "wrote {}/table.toml, table.bin, report.json, report.md, report.html{}{}",
+                out.display(),
+                if no_plots { "" } else { ", bias_vs_temp.png" },
+                exports_line(&ex)
+            );
         }
         Cmd::Calibrate { log, out, fit_programs, no_plots, axis, px4_device_id, export_range, .. } => {
             let opts = CalibrateOptions {
@@ -410,7 +426,7 @@ fn run(cli: Cli) -> Result<(), String> {
                  sensitivity ppm/degC: none {:.2}, simple {:.2}, hysteresis {:.2}\n\
                  bias residual ug:     none {:.1}, simple {:.1}, hysteresis {:.1}; peers: PX4/tofupilot cubic {:.1}, ArduPilot TCAL {:.1}\n\
                  Eq. 11 condition number {:.1}; timings: read {:.2} s, fit {:.2} s, evaluate {:.2} s, plots {:.2} s, total {:.2} s\n\
-                 wrote {}/table.toml, table.bin, report.json{}",
+                 wrote {}/table.toml, table.bin, report.json, report.html{}",
                 r.eval_programs,
                 r.fit_programs,
                 r.rows,
@@ -437,7 +453,10 @@ fn run(cli: Cli) -> Result<(), String> {
             let o = fmt.options(&log)?.unwrap_or_default();
             let l = qfa_lab::data::static_log::read_static(&log, &o).map_err(|e| format!("{}: {e}", log.display()))?;
             eprintln!("{} rows read; {}", l.rows(), l.skipped);
-            let d = qfa_lab::discover::static_axes::run(&l, start, holdout, &out).map_err(|e| format!("{e:#}"))?;
+            let pb = qfa_lab::demo::spinner("discovery on each axis", true);
+            let d = qfa_lab::discover::static_axes::run(&l, start, holdout, &out).map_err(|e| format!("{e:#}"));
+            pb.finish_and_clear();
+            let d = d?;
             for a in &d.axes {
                 println!(
                     "{} ({}): effects found: {}",
@@ -446,11 +465,17 @@ fn run(cli: Cli) -> Result<(), String> {
                     if a.effects.is_empty() { "none".to_string() } else { a.effects.join(", ") }
                 );
             }
+            qfa_lab::discover::page::static_page(&d, &out)
+                .and_then(|p| Ok(p.write(&out)?))
+                .map_err(|e| format!("{e:#}"))?;
             print!("{}", qfa_lab::discover::static_axes::markdown(&d));
-            println!("wrote {}/report.json, report.md, table.bin", out.display());
+            println!("wrote {}/report.json, report.md, report.html, table.bin", out.display());
         }
         Cmd::Discover { log, start, out, .. } => {
-            qfa_lab::discover::run_cli(&log, start, &out).map_err(|e| format!("{e:#}"))?;
+            let pb = qfa_lab::demo::spinner("discovery", true);
+            let r = qfa_lab::discover::run_cli(&log, start, &out).map_err(|e| format!("{e:#}"));
+            pb.finish_and_clear();
+            r?;
         }
         Cmd::Compensate { log, table, out, fmt } if fmt.options(&log)?.is_some() => {
             let o = fmt.options(&log)?.unwrap_or_default();
@@ -473,8 +498,9 @@ fn run(cli: Cli) -> Result<(), String> {
             write_compensated(f, &l, &acc).map_err(|e| e.to_string())?;
             eprintln!("{} rows → {}", l.rows(), out.display());
         }
-        Cmd::Demo { out, row_s, seed, threads } => {
-            let opts = qfa_lab::demo::DemoOptions { out, row_s, seed, threads, progress: true };
+        Cmd::Demo { out, row_s, seed, threads, full_logs, nav_duration_s } => {
+            let opts =
+                qfa_lab::demo::DemoOptions { out, row_s, seed, threads, progress: true, full_logs, nav_duration_s };
             // Issue 4 (discovery, on unit #1) and issue 5 (navigation) run inside the demo.
             qfa_lab::demo::run(&opts, Some(qfa_lab::discover::demo_hook), Some(qfa_lab::navigate::demo_hook))?;
         }
@@ -496,8 +522,9 @@ fn run(cli: Cli) -> Result<(), String> {
         Cmd::Navigate { sub: Some(NavCmd::Merge { dirs, out, no_plots }), .. } => {
             let out = out.unwrap_or_else(|| dirs[0].clone());
             let sum = qfa_lab::navigate::mc::merge(&dirs, &out, !no_plots).map_err(|e| format!("{e:#}"))?;
+            qfa_lab::navigate::merge_page(&out, &sum).and_then(|p| Ok(p.write(&out)?)).map_err(|e| format!("{e:#}"))?;
             eprintln!("{}", qfa_lab::navigate::mc::table(&sum));
-            eprintln!("wrote {}/report.json, mc_runs.csv", out.display());
+            eprintln!("wrote {}/report.json, report.html, mc_runs.csv", out.display());
         }
         Cmd::Navigate {
             sub: None,
@@ -536,7 +563,10 @@ fn run(cli: Cli) -> Result<(), String> {
                 let p = qfa_lab::navigate::navigate_shard(&args).map_err(|e| format!("{e:#}"))?;
                 eprintln!("wrote {}", p.display());
             } else {
-                qfa_lab::navigate::navigate(&args).map_err(|e| format!("{e:#}"))?;
+                let pb = qfa_lab::demo::spinner("navigation (calibrate, align, fly)", runs == 0);
+                let r = qfa_lab::navigate::navigate(&args).map_err(|e| format!("{e:#}"));
+                pb.finish_and_clear();
+                r?;
             }
         }
     }

@@ -74,8 +74,15 @@ fn calibrate_beats_the_cubic_on_every_axis_and_compensate_agrees() {
         // The acceptance rule (fixed before the result): ours beats the cubic.
         assert!(ours > 0.0 && ours < cubic, "{}: ours {ours:.2} mg vs cubic {cubic:.2} mg", a["axis"]);
     }
-    for file in ["table.bin", "table.toml", "report.md", "ardupilot_tcal_1_enable.parm", "ardupilot_tcal_2_values.parm"]
-    {
+    common::browser::assert_page(&out_dir.join("report.html"), 1);
+    for file in [
+        "table.bin",
+        "table.toml",
+        "report.md",
+        "bias_vs_temp.png",
+        "ardupilot_tcal_1_enable.parm",
+        "ardupilot_tcal_2_values.parm",
+    ] {
         assert!(out_dir.join(file).is_file(), "{file}");
     }
     // Without --px4-device-id no PX4 file: PX4 would ignore it (TC_A0_ID 0 matches no

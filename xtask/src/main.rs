@@ -2,7 +2,8 @@
 //!
 //! Every step prints the command it runs and stops the whole run on the first failure.
 //! Nothing is skipped silently: a missing tool is installed (as root with apt) or the run
-//! fails with the exact command that installs it.
+//! fails with the exact command that installs it. The one exception is Chromium outside CI
+//! without root: the lab's page checks then print SKIPPED, and this says so first.
 
 use std::io::{BufRead, BufReader, Read};
 use std::path::{Path, PathBuf};
@@ -21,6 +22,9 @@ const DEMO_EXAMPLE: &str = "qemu_demo";
 const QEMU: &str = "qemu-system-arm";
 const QEMU_INSTALL: &str = "apt-get update && apt-get install -y qemu-system-arm";
 const SIZE_INSTALL: &str = "apt-get update && apt-get install -y binutils-arm-none-eabi";
+/// The headless browser the lab's `report.html` tests open each page in.
+const CHROMIUM: &str = "chromium";
+const CHROMIUM_INSTALL: &str = "apt-get update && apt-get install -y chromium";
 /// Firmware binaries built by `test` (panic-check is built by its own step).
 const RUN_BINS: [&str; 3] = ["qemu-vectors", "bench", "size-baseline"];
 const QEMU_TIMEOUT: Duration = Duration::from_secs(300);
@@ -45,7 +49,7 @@ const USAGE: &str = "usage: cargo xtask <command>
 
 commands:
   test          rustup target, rustfmt, clippy (host and target, -D warnings), host tests and
-                doctests, rustdoc -D warnings, the seqlock's loom model, target build, reference
+                doctests (the lab's report.html opened in headless Chromium), rustdoc -D warnings, the seqlock's loom model, target build, reference
                 vectors and the demo example on QEMU mps2-an386, panic-check, the STM32F405
                 board (its own workspace: host tests and firmware build), publish dry run
   demo-qemu     run the demo example (examples/qemu_demo.rs) on QEMU
@@ -211,6 +215,28 @@ fn ensure_qemu() -> Result {
     }
 }
 
+/// Chromium for the lab's page tests (`lab/tests/report_html.rs`): installed as root with
+/// apt; otherwise missing is a failure under `CI=true`, and elsewhere those tests print
+/// SKIPPED (said here too, loudly).
+fn ensure_chromium() -> Result {
+    if found(CHROMIUM, "--version") || env::var_os("QFA_CHROMIUM").is_some() {
+        return Ok(());
+    }
+    if is_root_with_apt() || env::var("CI").as_deref() == Ok("true") {
+        apt_install(CHROMIUM, CHROMIUM_INSTALL)?;
+        return if found(CHROMIUM, "--version") {
+            Ok(())
+        } else {
+            fail(format!("{CHROMIUM} still missing after `{CHROMIUM_INSTALL}`"))
+        };
+    }
+    println!(
+        "\n*** {CHROMIUM} is missing: the lab's report.html browser checks will print SKIPPED; install it with:\n    \
+         {CHROMIUM_INSTALL} ***\n"
+    );
+    Ok(())
+}
+
 /// A size tool printing Berkeley format: llvm-size, arm-none-eabi-size, or rustup's llvm-tools.
 fn ensure_size_tool() -> Result<PathBuf> {
     for t in ["llvm-size", "arm-none-eabi-size"] {
@@ -349,6 +375,7 @@ fn test() -> Result {
     run(board_cargo(&["clippy", "--target", TARGET, "--", "-D", "warnings"])?)?;
 
     step("host tests and doctests (default members; the README's example is a doctest)");
+    ensure_chromium()?;
     let mut c = cargo();
     c.arg("test");
     run(c)?;

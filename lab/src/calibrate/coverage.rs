@@ -119,6 +119,54 @@ impl Coverage {
     }
 }
 
+impl Coverage {
+    /// The coverage as name/value rows for a report: rows, temperature span, each leg's
+    /// rows, span and fastest rate.
+    #[must_use]
+    pub fn rows(&self) -> Vec<(String, String)> {
+        let leg = |b: Option<BranchRange>| {
+            b.map_or_else(
+                || "none".to_string(),
+                |b| {
+                    format!(
+                        "{} rows, {:.1}…{:.1} °C, up to {:.2} °C/min",
+                        b.rows, b.temp_c[0], b.temp_c[1], b.max_abs_rate_c_per_min
+                    )
+                },
+            )
+        };
+        vec![
+            ("rows with a temperature".to_string(), self.rows.to_string()),
+            ("temperature span".to_string(), format!("{:.1}…{:.1} °C", self.temp_c[0], self.temp_c[1])),
+            (format!("heating leg (Ṫ > {:.2} °C/min)", self.deadband_c_per_min), leg(self.heating)),
+            (format!("cooling leg (Ṫ < −{:.2} °C/min)", self.deadband_c_per_min), leg(self.cooling)),
+        ]
+    }
+
+    /// What a model with heating and cooling branches needs that these rows lack, and what
+    /// to record next: each branch must hold at least a tenth of the rows on a branch (the
+    /// rule under which static calibration falls back to one curve,
+    /// [`crate::calibrate::static_cal::is_one_branch`]). Empty when nothing is missing.
+    #[must_use]
+    pub fn record_next(&self) -> Vec<String> {
+        let rows = |b: Option<BranchRange>| b.map_or(0, |b| b.rows);
+        let (h, c) = (rows(self.heating), rows(self.cooling));
+        let mut out = Vec::new();
+        for (name, have, other, o) in [("heating", h, c, self.cooling), ("cooling", c, h, self.heating)] {
+            if have * 10 < have + other {
+                let rate = o.map_or(0.0, |b| b.max_abs_rate_c_per_min);
+                out.push(format!(
+                    "the {name} leg holds {have} rows of {}: the heating/cooling branch terms cannot be fitted or                      tested; record a {name} leg over {:.1}…{:.1} °C at about {rate:.2} °C/min (the rate the other                      leg reached)",
+                    have + other,
+                    self.temp_c[0],
+                    self.temp_c[1]
+                ));
+            }
+        }
+        out
+    }
+}
+
 /// The limits a table clamps to (first axis).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct TableLimits {
@@ -151,6 +199,33 @@ pub struct CalCoverage {
     pub covered: Coverage,
     /// What the table clamps to.
     pub table: TableLimits,
+}
+
+impl CalCoverage {
+    /// Coverage, the table's limits, and what to record next, as a report section.
+    pub fn to_page(&self, page: &mut crate::html_report::Page) {
+        page.section("What the fit rows cover, against what the model needs");
+        let mut rows = vec![("fit programs".to_string(), format!("{:?}", self.programs))];
+        rows.extend(self.covered.rows());
+        rows.push((
+            "table clamps to".to_string(),
+            format!(
+                "{:.1}…{:.1} °C (beyond: TEMP_OUT_OF_RANGE), |Ṫ| ≤ {:.2} °C/min (beyond: RATE_OUT_OF_RANGE)",
+                self.table.temp_c[0], self.table.temp_c[1], self.table.rate_limit_c_per_min
+            ),
+        ));
+        page.kv(&rows);
+        page.para(
+            "The hysteresis model (Eq. 11 plus heating and cooling bias grids) needs both legs, over the temperatures              and at the rates the unit will see: outside them the firmware clamps and flags. Compare the limits with              a mission (`qfa-lab plan`).",
+        );
+        let next = self.covered.record_next();
+        if next.is_empty() {
+            page.para("Both legs are present: nothing is missing for the model's branch terms.");
+        }
+        for n in next {
+            page.warning(&format!("What to record next: {n}."));
+        }
+    }
 }
 
 #[cfg(test)]

@@ -253,7 +253,12 @@ pub fn calibrate_into(log: &Log, out: &Path, opts: &CalibrateOptions, read_s: f6
     cal.exports = peers::write_exports(out, &[one], &opts.exports).map_err(|e| format!("{}: {e}", out.display()))?;
     let t = Instant::now();
     if opts.plots {
-        let title = if opts.title.is_empty() { "held-out".to_string() } else { format!("{} (held out)", opts.title) };
+        let held = format!(
+            "held out: programs {} (tables fitted on {})",
+            cal.report.eval_programs.join(", "),
+            cal.report.fit_programs.join(", ")
+        );
+        let title = if opts.title.is_empty() { held } else { format!("{}, {held}", opts.title) };
         plot_sf_vs_temp(&out.join("sf_vs_temp.png"), &title, &cal.eval).map_err(|e| e.to_string())?;
         plot_residual_vs_time(&out.join("residual_vs_time.png"), &title, &cal.eval).map_err(|e| e.to_string())?;
     }
@@ -262,7 +267,94 @@ pub fn calibrate_into(log: &Log, out: &Path, opts: &CalibrateOptions, read_s: f6
     cal.report.timings_s.total = read_s + t0.elapsed().as_secs_f64();
     let json = serde_json::to_string_pretty(&cal.report).map_err(|e| e.to_string())?;
     std::fs::write(out.join("report.json"), json).map_err(|e| e.to_string())?;
+    page(&cal, out, opts).map_err(|e| e.to_string())?.write(out).map_err(|e| e.to_string())?;
     Ok(cal)
+}
+
+/// The calibration's `report.html` (see [`crate::html_report`]).
+///
+/// # Errors
+/// A plot that cannot be read.
+pub fn page(cal: &Calibration, out: &Path, opts: &CalibrateOptions) -> std::io::Result<crate::html_report::Page> {
+    let r = &cal.report;
+    let mut p = crate::html_report::Page::new(&if opts.title.is_empty() {
+        "Calibration report".to_string()
+    } else {
+        format!("Calibration report: {}", opts.title)
+    });
+    p.section("Held-out scheme").kv(&[
+        ("fitted on (programs)", r.fit_programs.join(", ")),
+        ("held out, figures from (programs)", r.eval_programs.join(", ")),
+        ("written tables fitted on (programs)", r.table_programs.join(", ")),
+        ("which rows each output comes from", r.figures.clone()),
+        ("log rows", r.rows.to_string()),
+    ]);
+    if !r.held_out {
+        p.warning("one program only: the figures are in-sample, not held out");
+    }
+    if r.rejected_readings > 0 {
+        p.warning(&format!(
+            "the compensator rejected {} temperature readings in the held-out runs",
+            r.rejected_readings
+        ));
+    }
+    for n in &cal.exports.notes {
+        p.warning(n);
+    }
+    let (s, b, pb) = (r.sensitivity_ppm_per_c, r.bias_residual_ug, r.peers_bias_residual_ug);
+    p.section("Held-out figures").table(
+        &["model", "scale-factor sensitivity, ppm/°C", "bias residual, µg RMS"],
+        &[
+            vec!["no compensation".to_string(), format!("{:.2}", s.none), format!("{:.1}", b.none)],
+            vec!["simple (Eq. 3–4)".to_string(), format!("{:.2}", s.simple), format!("{:.1}", b.simple)],
+            vec![
+                "hysteresis (Eq. 11 + branched bias), table.bin".to_string(),
+                format!("{:.2}", s.hysteresis),
+                format!("{:.1}", b.hysteresis),
+            ],
+            vec!["PX4 / tofupilot cubic (bias only)".to_string(), "-".to_string(), format!("{:.1}", pb.cubic)],
+            vec!["ArduPilot TCAL (bias only)".to_string(), "-".to_string(), format!("{:.1}", pb.ardupilot)],
+        ],
+    );
+    p.para(&format!("Metric: {}.", r.metric));
+    r.coverage.to_page(&mut p);
+    let f = &r.fit;
+    p.section("Fit").kv(&[
+        ("paired rows", f.pairs.to_string()),
+        (
+            "condition numbers (simple, Eq. 11, bias grid)",
+            format!("{:.1}, {:.1}, {:.1}", f.cond_sf_simple, f.cond_sf_hysteresis, f.cond_bias_grid),
+        ),
+        ("Eq. 11 [γ, μ, β, ε, η, α]", format!("{:?}", f.eq11)),
+        ("bias grid branch tie", format!("{:?}: {}", f.branch.mode, f.branch.rule)),
+    ]);
+    let branch_rows: Vec<Vec<String>> = f
+        .branch
+        .candidates
+        .iter()
+        .map(|c| {
+            vec![
+                format!("{:?}", c.mode),
+                c.unknowns.to_string(),
+                format!("{:.2}", c.cv_rms_ug),
+                format!("{:.3}", c.cv_mse_ug2),
+                format!("{:.3}", c.cv_se_ug2),
+            ]
+        })
+        .collect();
+    p.table(&["branch tie", "unknowns", "CV RMS, µg", "CV MSE, µg²", "SE, µg²"], &branch_rows);
+    p.para(&format!("Limit (best CV MSE + its SE): {:.3} µg² over {} folds.", f.branch.limit_ug2, f.branch.folds));
+    if opts.plots {
+        p.section("Plots (held-out bins only: the fit programs are not drawn)");
+        p.image(&out.join("sf_vs_temp.png"), "compensated scale factor against temperature, per model")?;
+        p.image(&out.join("residual_vs_time.png"), "held-out residuals against time since each program's start")?;
+    }
+    let t = r.timings_s;
+    p.section("Timings").para(&format!(
+        "read {:.2} s, fit {:.2} s, held-out compensation {:.2} s, plots {:.2} s",
+        t.read, t.fit, t.evaluate, t.plots
+    ));
+    Ok(p)
 }
 
 /// `qfa-lab calibrate --log LOG --out DIR`.

@@ -222,15 +222,6 @@ pub const METRIC_TEXT: &str = "Table-4 sensitivity (max-min)/(mean*span)*1e6 ppm
 (program, branch segment, 1 degC of T-hat; bins >= 60 s); compensated scale factor (a+ - a-)/2 from the root \
 crate's Compensator<1,32>; bias residual = RMS of binned (a+ + a-)/2 and 0 g outputs, ug";
 
-fn register_font() {
-    use std::sync::Once;
-    static ONCE: Once = Once::new();
-    ONCE.call_once(|| {
-        let _ =
-            plotters::style::register_font("sans-serif", plotters::style::FontStyle::Normal, dejavu::sans::regular());
-    });
-}
-
 fn branch_color(b: Branch) -> plotters::style::RGBColor {
     match b {
         Branch::Heating => plotters::style::RGBColor(200, 30, 30),
@@ -242,13 +233,14 @@ fn branch_color(b: Branch) -> plotters::style::RGBColor {
 type PlotResult = Result<(), Box<dyn std::error::Error>>;
 
 /// Scale factor (ppm from its mean) against temperature, before and after, heating red,
-/// cooling blue, hold grey.
+/// cooling blue, hold grey, with a legend; only held-out bins are drawn (the title says
+/// which programs they come from).
 ///
 /// # Errors
 /// Drawing or file errors.
 pub fn plot_sf_vs_temp(path: &Path, title: &str, ev: &Evaluation) -> PlotResult {
     use plotters::prelude::*;
-    register_font();
+    crate::plot_font::register();
     let root = BitMapBackend::new(path, (1500, 500)).into_drawing_area();
     root.fill(&WHITE)?;
     let (top, body) = root.split_vertically(30);
@@ -273,10 +265,27 @@ pub fn plot_sf_vs_temp(path: &Path, title: &str, ev: &Evaluation) -> PlotResult 
             .x_label_area_size(35)
             .y_label_area_size(60)
             .build_cartesian_2d(tmin..tmax, (lo - pad)..(hi + pad))?;
-        chart.configure_mesh().x_desc("T (degC, DS18B20)").y_desc("scale factor - mean (ppm)").draw()?;
-        chart.draw_series(
-            bins.iter().zip(&ppm).map(|(b, &y)| Circle::new((b.temp_c, y), 2, branch_color(b.branch).filled())),
-        )?;
+        chart.configure_mesh().x_desc("T (°C, DS18B20)").y_desc("scale factor − mean (ppm)").draw()?;
+        for (branch, label) in
+            [(Branch::Heating, "heating"), (Branch::Cooling, "cooling"), (Branch::Unknown, "hold / not known")]
+        {
+            let c = branch_color(branch);
+            let pts: Vec<(f64, f64)> =
+                bins.iter().zip(&ppm).filter(|(b, _)| b.branch == branch).map(|(b, &y)| (b.temp_c, y)).collect();
+            if pts.is_empty() {
+                continue;
+            }
+            chart
+                .draw_series(pts.into_iter().map(|p| Circle::new(p, 2, c.filled())))?
+                .label(format!("{label}, held-out bins"))
+                .legend(move |(x, y)| Circle::new((x, y), 4, c.filled()));
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperMiddle)
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()?;
     }
     root.present()?;
     Ok(())
@@ -289,7 +298,7 @@ pub fn plot_sf_vs_temp(path: &Path, title: &str, ev: &Evaluation) -> PlotResult 
 /// Drawing or file errors.
 pub fn plot_residual_vs_time(path: &Path, title: &str, ev: &Evaluation) -> PlotResult {
     use plotters::prelude::*;
-    register_font();
+    crate::plot_font::register();
     let root = BitMapBackend::new(path, (1400, 800)).into_drawing_area();
     root.fill(&WHITE)?;
     let (top, body) = root.split_vertically(30);
@@ -323,7 +332,7 @@ pub fn plot_residual_vs_time(path: &Path, title: &str, ev: &Evaluation) -> PlotR
         let ydesc = if k == 0 { "scale-factor residual (ppm)" } else { "bias residual (ug)" };
         chart.configure_mesh().x_desc("time since program start (h)").y_desc(ydesc).draw()?;
         for (s, (pts, c)) in series.iter().zip(colors).enumerate() {
-            let label = if s == 0 { "simple" } else { "hysteresis" };
+            let label = if s == 0 { "simple, held-out bins" } else { "hysteresis, held-out bins" };
             chart
                 .draw_series(pts.iter().map(|&p| Circle::new(p, 2, c.filled())))?
                 .label(label)

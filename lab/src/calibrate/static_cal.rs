@@ -552,8 +552,31 @@ pub struct StaticReport {
     pub figures: String,
     /// How the structure was chosen, in words.
     pub selection: String,
+    /// What the log's rows cover (temperature span, heating and cooling legs, rates as the
+    /// firmware's estimator sees them).
+    pub coverage: crate::calibrate::coverage::Coverage,
+    /// What the chosen models need that the log lacks, and what to record next (empty:
+    /// nothing missing).
+    pub record_next: Vec<String>,
     /// Per axis.
     pub axes: Vec<AxisReport>,
+}
+
+/// Per-row residuals for the plots: each axis before and after compensation, with each
+/// row's branch and whether it is held out.
+#[derive(Clone, Debug, Default)]
+pub struct PlotRows {
+    /// Temperature reading, °C.
+    pub temp_c: Vec<f64>,
+    /// Branch in force (the firmware's branch logic).
+    pub branch: Vec<Branch>,
+    /// The row is held out by the scheme (scored on a model that never saw it).
+    pub heldout: Vec<bool>,
+    /// Per axis: name, `a − reference` in mg (the axis's mean over every row removed), and
+    /// the residual after the model in mg (NaN before the first temperature): under
+    /// `after-max` the one fold's model on every row (in-sample on its training rows),
+    /// under `blocks:K` each row's own fold's model, under `none` the table's.
+    pub axes: Vec<(String, Vec<f64>, Vec<f64>)>,
 }
 
 /// The peers of one axis fitted on every row, for the exported parameter files.
@@ -576,6 +599,8 @@ pub struct StaticCalibration {
     pub peers: Vec<ExportedPeers>,
     /// The report.
     pub report: StaticReport,
+    /// Per-row residuals for the plots.
+    pub plot: PlotRows,
 }
 
 fn range(v: &[f64]) -> (f64, f64) {
@@ -772,6 +797,12 @@ pub fn calibrate_static_with(
     let mut fits = Vec::new();
     let mut peers = Vec::new();
     let mut axes = Vec::new();
+    let mut plot = PlotRows {
+        temp_c: log.temp_c.clone(),
+        branch: plain.branch.clone(),
+        heldout: (0..n).map(|i| folds.iter().any(|f| f.contains(&i))).collect(),
+        axes: Vec::new(),
+    };
     for (a, ax) in log.axes.iter().enumerate() {
         let series = series_of(a);
         let chosen = |s: usize| {
@@ -797,6 +828,15 @@ pub fn calibrate_static_with(
         let all: Vec<f64> =
             (0..n).filter(|&i| tr.valid[i]).map(|i| ax.accel_g[i] - reference - tr.ext_k0_g[i]).collect();
         let table_rms_mg = rms(&all) * 1e3;
+        let resid_mg = |tr: &crate::data::pairing::Trace, r0: f64, i: usize| {
+            if tr.valid[i] {
+                (ax.accel_g[i] - r0 - tr.ext_k0_g[i]) * 1e3
+            } else {
+                f64::NAN
+            }
+        };
+        let before_mg: Vec<f64> = ax.accel_g.iter().map(|a| (a - reference) * 1e3).collect();
+        let mut after_mg: Vec<f64> = (0..n).map(|i| resid_mg(&tr, reference, i)).collect();
         let (t_all, y_all): (Vec<f64>, Vec<f64>) =
             (log.temp_c.clone(), ax.accel_g.iter().map(|v| v - reference).collect());
         let exported = ExportedPeers {
@@ -828,6 +868,10 @@ pub fn calibrate_static_with(
             let fit = fit_on(s, &st)?;
             let tr = series.model_trace(&fit.axis);
             let r0 = fit.reference_g;
+            let drawn = if folds.len() == 1 { 0..n } else { rows.clone() };
+            for i in drawn {
+                after_mg[i] = resid_mg(&tr, r0, i);
+            }
             for i in rows.clone().filter(|&i| tr.valid[i]) {
                 ho.ours.push(ax.accel_g[i] - r0 - tr.ext_k0_g[i]);
                 ho.ours_t.push(log.time_s[i]);
@@ -884,6 +928,7 @@ pub fn calibrate_static_with(
         });
         fits.push(fit);
         peers.push(exported);
+        plot.axes.push((ax.name.clone(), before_mg, after_mg));
     }
     let table = table_of_axes(Input::Samples, fits.iter().map(|f| f.axis.clone()))
         .map_err(|e| StaticCalError::Fit("table".to_string(), e))?;
@@ -902,7 +947,30 @@ pub fn calibrate_static_with(
             }
         })
         .collect();
+    let coverage = crate::calibrate::coverage::Coverage::of_samples(
+        (0..n).filter(|&i| plain.valid[i]).map(|i| (plain.temp_c[i], plain.rate_c_per_min[i])),
+        f64::from(opts.deadband_c_per_min),
+    )
+    .map_err(|e| StaticCalError::Figure(format!("coverage: {e}")))?;
+    let mut record_next = coverage.record_next();
+    if one_branch[0] {
+        record_next.push(format!(
+            "with one leg the table is `{}` (one rate-even curve), and a mission that runs the other way is \
+             compensated by a curve fitted on this leg only",
+            ONE_BRANCH.name()
+        ));
+    }
+    if matches!(scheme, Scheme::Blocks { .. }) && opts.holdout == Holdout::Auto {
+        record_next.push(
+            "the log has no later leg after its highest temperature, so the held-out figures come from blocks in \
+             time, each inside the range its neighbours saw; record a cooling leg after the maximum to score the \
+             model on a leg it was not fitted on (`after-max`)"
+                .to_string(),
+        );
+    }
     let report = StaticReport {
+        coverage,
+        record_next,
         kind: "static multi-axis",
         columns: log.columns.clone(),
         rows: n,
@@ -939,7 +1007,7 @@ pub fn calibrate_static_with(
         ),
         axes,
     };
-    Ok(StaticCalibration { table, fits, peers, report })
+    Ok(StaticCalibration { table, fits, peers, report, plot })
 }
 
 /// The model on rows that hold one branch ([`is_one_branch`]): one rate-even bias curve,
@@ -1113,6 +1181,228 @@ pub fn write_static(out: &Path, cal: &StaticCalibration) -> Result<(), StaticCal
     let json = serde_json::to_string_pretty(&cal.report).map_err(|e| io(&e))?;
     std::fs::write(out.join("report.json"), json).map_err(|e| io(&e))?;
     std::fs::write(out.join("report.md"), markdown(&cal.report)).map_err(|e| io(&e))?;
+    Ok(())
+}
+
+/// File name of the static calibration's plot.
+pub const BIAS_PLOT: &str = "bias_vs_temp.png";
+
+/// `bias_vs_temp.png`: per axis (a row), the bias against temperature before compensation
+/// (the axis's mean removed) and after (see [`PlotRows::axes`]), mg; heating red, cooling
+/// blue, hold grey; training rows as dots, held-out rows as crosses.
+///
+/// # Errors
+/// Drawing or file errors.
+pub fn plot_bias_vs_temp(path: &Path, title: &str, rows: &PlotRows) -> Result<(), Box<dyn std::error::Error>> {
+    use plotters::prelude::*;
+    crate::plot_font::register();
+    let na = rows.axes.len().max(1);
+    let root = BitMapBackend::new(path, (1400, 40 + 360 * na as u32)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let (top, body) = root.split_vertically(40);
+    top.titled(title, ("sans-serif", 20))?;
+    let panels = body.split_evenly((na, 2));
+    let n = rows.temp_c.len();
+    // Every row up to 6 000 per panel: a denser cloud draws the same picture.
+    let step = n.div_ceil(6000).max(1);
+    let (tlo, thi) = range(&rows.temp_c);
+    for (a, (name, before, after)) in rows.axes.iter().enumerate() {
+        for (k, (what, y)) in
+            [("before compensation: a − mean", before), ("after: a − mean − model bias", after)].into_iter().enumerate()
+        {
+            let finite = y.iter().copied().filter(|v| v.is_finite());
+            let lo = finite.clone().fold(f64::INFINITY, f64::min);
+            let hi = finite.fold(f64::NEG_INFINITY, f64::max);
+            if !(lo.is_finite() && hi.is_finite()) {
+                continue;
+            }
+            let pad = ((hi - lo) * 0.05).max(1e-3);
+            let mut chart = ChartBuilder::on(&panels[2 * a + k])
+                .caption(format!("{name}, {what}"), ("sans-serif", 16))
+                .margin(10)
+                .x_label_area_size(35)
+                .y_label_area_size(65)
+                .build_cartesian_2d((tlo - 1.0)..(thi + 1.0), (lo - pad)..(hi + pad))?;
+            chart.configure_mesh().x_desc("temperature (°C, the log's sensor)").y_desc("bias (mg)").draw()?;
+            for (branch, bname, c) in [
+                (Branch::Heating, "heating", RGBColor(200, 30, 30)),
+                (Branch::Cooling, "cooling", RGBColor(30, 60, 200)),
+                (Branch::Unknown, "hold", RGBColor(120, 120, 120)),
+            ] {
+                for held in [false, true] {
+                    let pts: Vec<(f64, f64)> = (0..n)
+                        .step_by(step)
+                        .filter(|&i| rows.branch[i] == branch && rows.heldout[i] == held && y[i].is_finite())
+                        .map(|i| (rows.temp_c[i], y[i]))
+                        .collect();
+                    if pts.is_empty() {
+                        continue;
+                    }
+                    let label = format!("{bname}, {}", if held { "held out" } else { "training" });
+                    if held {
+                        chart
+                            .draw_series(pts.into_iter().map(|p| Cross::new(p, 3, c.mix(0.7))))?
+                            .label(label)
+                            .legend(move |(x, y)| Cross::new((x, y), 4, c));
+                    } else {
+                        chart
+                            .draw_series(pts.into_iter().map(|p| Circle::new(p, 1, c.mix(0.5).filled())))?
+                            .label(label)
+                            .legend(move |(x, y)| Circle::new((x, y), 3, c.filled()));
+                    }
+                }
+            }
+            chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw()?;
+        }
+    }
+    root.present()?;
+    Ok(())
+}
+
+/// Write `bias_vs_temp.png` (with `plots`) and `report.html` into `out`; `notes` are shown
+/// as warnings (e.g. why an export file was left out).
+///
+/// # Errors
+/// Drawing, encoding or I/O errors.
+pub fn write_static_page(
+    out: &Path,
+    cal: &StaticCalibration,
+    plots: bool,
+    notes: &[String],
+) -> Result<(), StaticCalError> {
+    let io = |e: &dyn fmt::Display| StaticCalError::Io(format!("{}: {e}", out.display()));
+    let r = &cal.report;
+    let h = &r.holdout;
+    if plots {
+        let title = format!("bias against temperature per axis; held-out scheme {}", h.scheme);
+        plot_bias_vs_temp(&out.join(BIAS_PLOT), &title, &cal.plot).map_err(|e| io(&e))?;
+    }
+    let mut p = crate::html_report::Page::new("Static calibration report");
+    p.section("Held-out scheme").kv(&[
+        ("asked (--holdout)", h.requested.clone()),
+        ("ran", h.scheme.clone()),
+        ("rule", h.rule.clone()),
+        ("rows held out", format!("{} of {}", h.heldout_rows, r.rows)),
+        ("which rows each figure comes from", r.figures.clone()),
+        ("model choice", r.selection.clone()),
+    ]);
+    if !h.folds.is_empty() {
+        let folds: Vec<Vec<String>> = h
+            .folds
+            .iter()
+            .enumerate()
+            .map(|(f, x)| {
+                vec![
+                    (f + 1).to_string(),
+                    format!("{}..={}", x.heldout_rows.0, x.heldout_rows.1),
+                    format!("{:.1}..{:.1}", x.heldout_temp_c.0, x.heldout_temp_c.1),
+                    x.train_rows.to_string(),
+                    format!("{} / {}", x.train_branch_rows.0, x.train_branch_rows.1),
+                    format!("{:.1}..{:.1}", x.train_temp_c.0, x.train_temp_c.1),
+                ]
+            })
+            .collect();
+        p.table(&["fold", "held-out rows", "held-out °C", "training rows", "heating / cooling", "training °C"], &folds);
+    }
+    for n in notes {
+        p.warning(n);
+    }
+    p.section("The log").kv(&[
+        ("columns (role, column, unit)", format!("{:?}", r.columns)),
+        ("rows kept", r.rows.to_string()),
+        ("reader", r.skipped.to_string()),
+        ("sampling", r.sampling.to_string()),
+    ]);
+    p.section("What the log covers, against what the model needs");
+    p.kv(&r.coverage.rows());
+    p.para(&format!(
+        "The model's bias grid needs the span cut into {} intervals with rows in each (checked before the fit); its \
+         heating/cooling terms (branch step, two branches, sensor_lag, bias_creep) need both legs, each at least a \
+         tenth of the rows on a leg; the held-out figure of the later leg (`after-max`) needs a leg after the \
+         highest temperature.",
+        StaticCalOptions::default().grid_points - 1
+    ));
+    if r.record_next.is_empty() {
+        p.para("Nothing the model needs is missing from this log.");
+    }
+    for n in &r.record_next {
+        p.warning(&format!("What to record next: {n}."));
+    }
+    p.section("Held-out bias RMS, mg (rows / 60-s means)");
+    if h.folds.is_empty() {
+        p.warning(&format!("not computed ({NO_HOLDOUT})"));
+    } else {
+        let t: Vec<Vec<String>> = r
+            .axes
+            .iter()
+            .map(|a| {
+                vec![
+                    a.axis.clone(),
+                    a.ours.cell(),
+                    a.cubic.cell(),
+                    a.ardupilot.cell(),
+                    a.simple.cell(),
+                    a.none.cell(),
+                    a.heldout_structures.join(", "),
+                ]
+            })
+            .collect();
+        p.table(
+            &[
+                "axis",
+                "ours",
+                "PX4/tofupilot cubic",
+                "ArduPilot TCAL",
+                "paper simple (linear)",
+                "none",
+                "our structure per fold",
+            ],
+            &t,
+        );
+    }
+    for a in &r.axes {
+        if a.clamped_rows > 0 {
+            p.warning(&format!(
+                "{}: {} held-out rows clamped (T or Ṫ outside what the fold's training rows calibrated)",
+                a.axis, a.clamped_rows
+            ));
+        }
+    }
+    p.section(&format!("Table (table.bin), fitted on all {} rows", r.rows));
+    let t: Vec<Vec<String>> = r
+        .axes
+        .iter()
+        .map(|a| {
+            vec![
+                a.axis.clone(),
+                a.column.clone(),
+                a.structure.clone(),
+                format!("{:.2}", a.cv_rms_mg),
+                format!("{:.2}", a.table_rms_mg),
+                a.refused_candidates.len().to_string(),
+            ]
+        })
+        .collect();
+    p.table(
+        &[
+            "axis",
+            "column",
+            "structure",
+            "CV RMS, mg (its choice)",
+            "RMS on all rows, mg (in-sample)",
+            "candidates refused",
+        ],
+        &t,
+    );
+    if plots {
+        p.section("Plots");
+        p.image(
+            &out.join(BIAS_PLOT),
+            "bias against temperature per axis, before and after compensation: dots training rows, crosses held-out rows",
+        )
+        .map_err(|e| io(&e))?;
+    }
+    p.write(out).map_err(|e| io(&e))?;
     Ok(())
 }
 

@@ -76,6 +76,7 @@
 
 pub mod fit;
 pub mod output;
+pub mod page;
 pub mod static_axes;
 pub mod stats;
 pub mod unexplained;
@@ -1345,32 +1346,30 @@ pub fn run_cli(log: &Path, start: Start, out_dir: &Path) -> Result<Report> {
     Ok(r)
 }
 
-/// Demo hook (issue 3's demo runs one discovery): start `simple` on a unit's cycling log.
+/// Demo hook (the demo runs one discovery): start `simple` on a unit's cycling log.
 /// With the simulator's Eq. 11 truth this should rediscover the paper's structure
 /// (`temp_quadratic` and the rate terms). Returns a one-line summary.
-#[must_use]
-pub fn demo_hook(log: &Path, out: &Path) -> Option<String> {
+///
+/// # Errors
+/// The discovery's failure, as text (the demo fails with it).
+pub fn demo_hook(log: &Path, out: &Path) -> std::result::Result<String, String> {
     let run = || -> Result<Report> {
         let ch = Channels::read(log, 60.0)?;
         discover(&ch, Start::Simple, out)
     };
-    match run() {
-        Ok(r) => {
-            let names = r.effect_labels();
-            let gap = |g: &Gaps| match g {
-                Gaps::Cycling { scale_factor_ppm, bias_ug } => format!("{scale_factor_ppm:.1} ppm / {bias_ug:.1} µg"),
-                Gaps::Single { value_rms } => format!("{value_rms:.3}"),
-            };
-            Some(format!(
-                "start simple → added [{}]; held-out gap (scale factor / bias) {} → {}; {}",
-                if names.is_empty() { "none".to_string() } else { names.join(", ") },
-                gap(&r.heldout_gap_before),
-                gap(&r.heldout_gap_after),
-                out.join("report.md").display()
-            ))
-        }
-        Err(e) => Some(format!("failed: {e:#}")),
-    }
+    let r = run().map_err(|e| format!("{e:#}"))?;
+    let names = r.effect_labels();
+    let gap = |g: &Gaps| match g {
+        Gaps::Cycling { scale_factor_ppm, bias_ug } => format!("{scale_factor_ppm:.1} ppm / {bias_ug:.1} µg"),
+        Gaps::Single { value_rms } => format!("{value_rms:.3}"),
+    };
+    Ok(format!(
+        "start simple → added [{}]; held-out gap (scale factor / bias) {} → {}; {}",
+        if names.is_empty() { "none".to_string() } else { names.join(", ") },
+        gap(&r.heldout_gap_before),
+        gap(&r.heldout_gap_after),
+        out.join("report.md").display()
+    ))
 }
 
 #[cfg(test)]

@@ -100,6 +100,7 @@ pub fn write(ch: &Channels, report: &Report, dir: &Path, flashable: bool, held_o
     }
     let head = held_out.map_or_else(String::new, |h| format!("{h}\n"));
     std::fs::write(dir.join("report.md"), head + &markdown(ch, report, flashable, held_out.is_some()) + &notes)?;
+    super::page::page(ch, report, dir)?.write(dir)?;
     Ok(())
 }
 
@@ -373,7 +374,7 @@ fn write_csv(ch: &Channels, r: &Report, path: &Path) -> Result<()> {
 }
 
 fn plots(ch: &Channels, r: &Report, dir: &Path) -> Result<()> {
-    let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular());
+    crate::plot_font::register();
     let rows = rows(ch);
     let (b, a) = &r.residuals;
     let mut chans: Vec<(&str, &str, &Vec<f64>, &Vec<f64>)> = Vec::new();

@@ -9,14 +9,6 @@ use super::run::FlightResult;
 
 type PlotResult = Result<(), Box<dyn std::error::Error>>;
 
-fn register_font() {
-    use std::sync::Once;
-    static ONCE: Once = Once::new();
-    ONCE.call_once(|| {
-        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular());
-    });
-}
-
 const COLORS: [RGBColor; 5] = [
     RGBColor(120, 120, 120),
     RGBColor(230, 140, 0),
@@ -59,7 +51,7 @@ fn panel(
 /// # Errors
 /// Drawing or file errors.
 pub fn plot_flight(path: &Path, title: &str, res: &FlightResult) -> PlotResult {
-    register_font();
+    crate::plot_font::register();
     let root = BitMapBackend::new(path, (1600, 1200)).into_drawing_area();
     root.fill(&WHITE)?;
     let (top, body) = root.split_vertically(30);
@@ -91,7 +83,7 @@ pub fn plot_flight(path: &Path, title: &str, res: &FlightResult) -> PlotResult {
 /// # Errors
 /// Drawing or file errors, or no values.
 pub fn plot_distributions(path: &Path, title: &str, x_desc: &str, series: &[(String, Vec<f64>)]) -> PlotResult {
-    register_font();
+    crate::plot_font::register();
     let all = series.iter().flat_map(|s| s.1.iter()).copied();
     let lo = all.clone().fold(f64::INFINITY, f64::min);
     let hi = all.fold(f64::NEG_INFINITY, f64::max);

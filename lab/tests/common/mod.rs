@@ -120,3 +120,5 @@ pub fn check_exports_against_report(
     }
     lines
 }
+
+pub mod browser;

@@ -1,0 +1,253 @@
+//! `report.html`: the one page each run writes into its output folder, self-contained
+//! (plots inline as base64 PNG data URIs, no script, no external file), built from sections,
+//! key/value tables, tables, warnings, preformatted text and images.
+//!
+//! Every command that writes a page (`calibrate`, `discover`, `navigate`, `demo`) goes
+//! through [`Page`]; the page always opens with the command line that produced it.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// File name of the page in an output folder.
+pub const FILE: &str = "report.html";
+
+const STYLE: &str = "body{font-family:sans-serif;max-width:1700px;margin:1em auto;padding:0 1em;color:#222}\
+h1{font-size:1.5em}h2{font-size:1.2em;border-bottom:1px solid #ccc;margin-top:1.6em}\
+table{border-collapse:collapse;margin:.5em 0}td,th{border:1px solid #bbb;padding:2px 8px;text-align:left;\
+vertical-align:top}th{background:#eee}pre{background:#f6f6f6;padding:.5em;overflow-x:auto;white-space:pre-wrap}\
+.warn{background:#fff3cd;border:1px solid #e0b000;padding:.4em .8em;margin:.4em 0}\
+figure{margin:1em 0}img{max-width:100%;border:1px solid #ddd}figcaption{font-size:.9em;color:#555}\
+code{background:#f0f0f0}";
+
+/// A page under construction.
+#[derive(Clone, Debug)]
+pub struct Page {
+    title: String,
+    body: String,
+}
+
+impl Page {
+    /// A page titled `title`, opening with the process's command line ([`command_line`]).
+    #[must_use]
+    pub fn new(title: &str) -> Self {
+        let mut p = Self { title: title.to_string(), body: String::new() };
+        let _ =
+            write!(p.body, "<h1>{}</h1>\n<p>Command: <code>{}</code></p>\n", escape(title), escape(&command_line()));
+        p
+    }
+
+    /// A section heading.
+    pub fn section(&mut self, heading: &str) -> &mut Self {
+        let _ = writeln!(self.body, "<h2>{}</h2>", escape(heading));
+        self
+    }
+
+    /// A paragraph of text.
+    pub fn para(&mut self, text: &str) -> &mut Self {
+        let _ = writeln!(self.body, "<p>{}</p>", escape(text));
+        self
+    }
+
+    /// A warning, set off from the text.
+    pub fn warning(&mut self, text: &str) -> &mut Self {
+        let _ = writeln!(self.body, "<div class=\"warn\"><b>Warning:</b> {}</div>", escape(text));
+        self
+    }
+
+    /// Preformatted text (a Markdown report, a console summary).
+    pub fn pre(&mut self, text: &str) -> &mut Self {
+        let _ = writeln!(self.body, "<pre>{}</pre>", escape(text));
+        self
+    }
+
+    /// Preformatted text folded under `summary` (long detail).
+    pub fn details(&mut self, summary: &str, text: &str) -> &mut Self {
+        let _ =
+            writeln!(self.body, "<details><summary>{}</summary><pre>{}</pre></details>", escape(summary), escape(text));
+        self
+    }
+
+    /// A two-column table of names and values.
+    pub fn kv<K: AsRef<str>, V: AsRef<str>>(&mut self, rows: &[(K, V)]) -> &mut Self {
+        self.body.push_str("<table>\n");
+        for (k, v) in rows {
+            let _ = writeln!(self.body, "<tr><th>{}</th><td>{}</td></tr>", escape(k.as_ref()), escape(v.as_ref()));
+        }
+        self.body.push_str("</table>\n");
+        self
+    }
+
+    /// A table with a header row.
+    pub fn table<H: AsRef<str>, C: AsRef<str>>(&mut self, header: &[H], rows: &[Vec<C>]) -> &mut Self {
+        self.body.push_str("<table>\n<tr>");
+        for h in header {
+            let _ = write!(self.body, "<th>{}</th>", escape(h.as_ref()));
+        }
+        self.body.push_str("</tr>\n");
+        for r in rows {
+            self.body.push_str("<tr>");
+            for c in r {
+                let _ = write!(self.body, "<td>{}</td>", escape(c.as_ref()));
+            }
+            self.body.push_str("</tr>\n");
+        }
+        self.body.push_str("</table>\n");
+        self
+    }
+
+    /// A PNG embedded as a data URI, with its caption (the file name is added).
+    ///
+    /// # Errors
+    /// The file cannot be read or is not a PNG.
+    pub fn image(&mut self, png: &Path, caption: &str) -> std::io::Result<&mut Self> {
+        let bytes = std::fs::read(png).map_err(|e| std::io::Error::new(e.kind(), format!("{}: {e}", png.display())))?;
+        if !bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::InvalidData,
+                format!("{}: not a PNG file", png.display()),
+            ));
+        }
+        let name = png.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+        let _ = writeln!(
+            self.body,
+            "<figure><img alt=\"{}\" src=\"data:image/png;base64,{}\"><figcaption>{} (<code>{}</code>)</figcaption></figure>",
+            escape(&name),
+            base64(&bytes),
+            escape(caption),
+            escape(&name)
+        );
+        Ok(self)
+    }
+
+    /// Every `*.png` directly in `dir`, by name, each captioned by `caption(name)`.
+    ///
+    /// # Errors
+    /// The directory or a file cannot be read.
+    pub fn images_in(&mut self, dir: &Path, caption: impl Fn(&str) -> String) -> std::io::Result<&mut Self> {
+        for p in pngs_in(dir)? {
+            let name = p.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+            self.image(&p, &caption(&name))?;
+        }
+        Ok(self)
+    }
+
+    /// The complete document.
+    #[must_use]
+    pub fn html(&self) -> String {
+        format!(
+            "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>{}</title>\n\
+             <style>{STYLE}</style>\n</head>\n<body>\n{}</body>\n</html>\n",
+            escape(&self.title),
+            self.body
+        )
+    }
+
+    /// Write the page as `dir/report.html`; returns its path.
+    ///
+    /// # Errors
+    /// I/O.
+    pub fn write(&self, dir: &Path) -> std::io::Result<PathBuf> {
+        let p = dir.join(FILE);
+        std::fs::write(&p, self.html()).map_err(|e| std::io::Error::new(e.kind(), format!("{}: {e}", p.display())))?;
+        Ok(p)
+    }
+}
+
+/// The `*.png` files directly in `dir`, sorted by name.
+///
+/// # Errors
+/// The directory cannot be read.
+pub fn pngs_in(dir: &Path) -> std::io::Result<Vec<PathBuf>> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(dir)?
+        .filter_map(Result::ok)
+        .map(|e| e.path())
+        .filter(|p| p.is_file() && p.extension().is_some_and(|x| x.eq_ignore_ascii_case("png")))
+        .collect();
+    v.sort();
+    Ok(v)
+}
+
+/// `text` with `&`, `<`, `>`, `"` and `'` escaped, for element text and attribute values.
+#[must_use]
+pub fn escape(text: &str) -> String {
+    let mut s = String::with_capacity(text.len());
+    for c in text.chars() {
+        match c {
+            '&' => s.push_str("&amp;"),
+            '<' => s.push_str("&lt;"),
+            '>' => s.push_str("&gt;"),
+            '"' => s.push_str("&quot;"),
+            '\'' => s.push_str("&#39;"),
+            c => s.push(c),
+        }
+    }
+    s
+}
+
+/// Standard base64 (RFC 4648, with padding).
+#[must_use]
+pub fn base64(bytes: &[u8]) -> String {
+    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut s = String::with_capacity(bytes.len().div_ceil(3) * 4);
+    for c in bytes.chunks(3) {
+        let n =
+            (u32::from(c[0]) << 16) | (u32::from(*c.get(1).unwrap_or(&0)) << 8) | u32::from(*c.get(2).unwrap_or(&0));
+        for k in 0..4 {
+            if k <= c.len() {
+                s.push(char::from(A[((n >> (18 - 6 * k)) & 63) as usize]));
+            } else {
+                s.push('=');
+            }
+        }
+    }
+    s
+}
+
+/// The process's command line, each argument quoted for a POSIX shell when it needs it.
+#[must_use]
+pub fn command_line() -> String {
+    let plain = |a: &str| !a.is_empty() && a.chars().all(|c| c.is_ascii_alphanumeric() || "-_./=,:+@%".contains(c));
+    std::env::args()
+        .map(|a| if plain(&a) { a } else { format!("'{}'", a.replace('\'', "'\\''")) })
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn base64_matches_rfc4648_vectors() {
+        for (i, o) in
+            [("", ""), ("f", "Zg=="), ("fo", "Zm8="), ("foo", "Zm9v"), ("foob", "Zm9vYg=="), ("fooba", "Zm9vYmE=")]
+        {
+            assert_eq!(base64(i.as_bytes()), o, "{i:?}");
+        }
+        assert_eq!(base64(&[0xff, 0xfe, 0xfd]), "//79");
+    }
+
+    #[test]
+    fn text_is_escaped_everywhere() {
+        let mut p = Page::new("a <b> & \"c\"");
+        p.section("<h>").para("x < y").warning("'w'").kv(&[("k&", "v>")]).table(&["<t>"], &[vec!["&"]]);
+        let h = p.html();
+        assert!(h.contains("<title>a &lt;b&gt; &amp; &quot;c&quot;</title>"), "{h}");
+        for s in ["<h2>&lt;h&gt;</h2>", "x &lt; y", "&#39;w&#39;", "<th>k&amp;</th><td>v&gt;</td>", "<td>&amp;</td>"] {
+            assert!(h.contains(s), "{s} in {h}");
+        }
+        assert!(!h.contains("<script"), "no script in a report");
+    }
+
+    #[test]
+    fn an_image_that_is_not_a_png_is_refused() {
+        let d = std::env::temp_dir().join(format!("qfa-html-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        let f = d.join("x.png");
+        std::fs::write(&f, b"not a png").unwrap();
+        let e = Page::new("t").image(&f, "c").map(|_| ()).unwrap_err();
+        assert!(e.to_string().contains("not a PNG"), "{e}");
+        assert!(Page::new("t").image(&d.join("missing.png"), "c").is_err());
+        let _ = std::fs::remove_dir_all(&d);
+    }
+}

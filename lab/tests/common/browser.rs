@@ -1,0 +1,172 @@
+//! Open a page in a real headless Chromium and check it: it loads without a console
+//! message or error, and every `<img>` decodes (`naturalWidth > 0`).
+//!
+//! How: a copy of the page (in a fresh temporary folder, so anything it does not embed
+//! breaks) gets a small probe script as the first thing in `<head>`; it records script and
+//! resource errors and `console.error`, and on `load` writes the image results into the
+//! DOM, which `--dump-dom` prints. The reports themselves carry no script, so any
+//! `CONSOLE` line Chromium logs to stderr (`--enable-logging=stderr`) is a failure too.
+//!
+//! Chromium missing: with `CI=true` a failure; otherwise a loud SKIPPED line.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// How to install it (Debian).
+pub const INSTALL: &str = "apt-get install chromium";
+
+const PROBE: &str = r#"<script>
+window.__qfaErrors = [];
+window.addEventListener('error', function (e) {
+  var t = e.target;
+  window.__qfaErrors.push(e.message ? 'error: ' + e.message : 'resource failed: ' + ((t && (t.src || t.href)) || '?').slice(0, 80));
+}, true);
+(function () { var ce = console.error; console.error = function () {
+  window.__qfaErrors.push('console.error: ' + Array.prototype.join.call(arguments, ' ')); ce.apply(console, arguments); }; })();
+window.addEventListener('load', function () {
+  var imgs = Array.prototype.slice.call(document.images);
+  var bad = imgs.filter(function (i) { return !(i.complete && i.naturalWidth > 0); })
+    .map(function (i) { return i.alt || i.src.slice(0, 60); });
+  var d = document.createElement('pre');
+  // The markers are split so that the script's own text (also in the dump) never holds them.
+  d.textContent = 'QFA' + '-PROBE images=' + imgs.length + ' broken=' + JSON.stringify(bad) + ' errors=' +
+    JSON.stringify(window.__qfaErrors) + ' QFA' + '-END';
+  document.body.appendChild(d);
+});
+</script>"#;
+
+/// The Chromium binary: `$QFA_CHROMIUM`, else the first of `chromium`, `chromium-browser`,
+/// `google-chrome` that runs.
+pub fn chromium() -> Option<PathBuf> {
+    let names: Vec<PathBuf> = match std::env::var_os("QFA_CHROMIUM") {
+        Some(p) => vec![PathBuf::from(p)],
+        None => ["chromium", "chromium-browser", "google-chrome"].iter().map(PathBuf::from).collect(),
+    };
+    names.into_iter().find(|n| {
+        Command::new(n).arg("--version").stdout(Stdio::null()).stderr(Stdio::null()).status().is_ok_and(|s| s.success())
+    })
+}
+
+/// Chromium, or `None` after printing SKIPPED; with `CI=true` a missing Chromium panics.
+pub fn chromium_or_skip(what: &str) -> Option<PathBuf> {
+    let c = chromium();
+    if c.is_none() {
+        let msg = format!(
+            "SKIPPED: {what}: headless Chromium not found (chromium, chromium-browser, google-chrome or \
+             $QFA_CHROMIUM); install it with `{INSTALL}`"
+        );
+        assert!(std::env::var("CI").as_deref() != Ok("true"), "{msg}");
+        eprintln!("\n*** {msg} ***\n");
+    }
+    c
+}
+
+/// Open `page` in `chromium`; `Ok(images)` when it loads with no console message or error
+/// and every one of its `images` decodes, else what went wrong.
+pub fn check(chromium: &Path, page: &Path) -> Result<usize, String> {
+    let html = std::fs::read_to_string(page).map_err(|e| format!("{}: {e}", page.display()))?;
+    let probed = match html.find("<head>") {
+        Some(i) => format!("{}{PROBE}{}", &html[..i + 6], &html[i + 6..]),
+        None => format!("{PROBE}{html}"),
+    };
+    static N: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let dir = std::env::temp_dir().join(format!(
+        "qfa-chromium-{}-{}",
+        std::process::id(),
+        N.fetch_add(1, std::sync::atomic::Ordering::SeqCst)
+    ));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(dir.join("profile")).map_err(|e| e.to_string())?;
+    let copy = dir.join("page.html");
+    std::fs::write(&copy, probed).map_err(|e| e.to_string())?;
+    let mut child = Command::new(chromium)
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-quic",
+            "--no-first-run",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--enable-logging=stderr",
+            "--v=0",
+        ])
+        .arg(format!("--user-data-dir={}", dir.join("profile").display()))
+        .arg("--dump-dom")
+        .arg(format!("file://{}", copy.display()))
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .map_err(|e| format!("{}: {e}", chromium.display()))?;
+    // Read both pipes on threads (a full pipe would stall Chromium), with a time limit.
+    let mut so = child.stdout.take().ok_or("no stdout")?;
+    let mut se = child.stderr.take().ok_or("no stderr")?;
+    let t_out = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = std::io::Read::read_to_string(&mut so, &mut s);
+        s
+    });
+    let t_err = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = std::io::Read::read_to_string(&mut se, &mut s);
+        s
+    });
+    let deadline = Instant::now() + Duration::from_secs(90);
+    let status = loop {
+        match child.try_wait() {
+            Ok(Some(s)) => break s,
+            Ok(None) if Instant::now() < deadline => std::thread::sleep(Duration::from_millis(50)),
+            Ok(None) => {
+                let _ = child.kill();
+                let _ = child.wait();
+                return Err(format!("chromium timed out after 90 s on {}", page.display()));
+            }
+            Err(e) => return Err(e.to_string()),
+        }
+    };
+    let (out, err) = (t_out.join().unwrap_or_default(), t_err.join().unwrap_or_default());
+    let _ = std::fs::remove_dir_all(&dir);
+    if !status.success() {
+        return Err(format!("chromium exited with {status} on {}:\n{err}", page.display()));
+    }
+    let console: Vec<&str> = err.lines().filter(|l| l.contains(":CONSOLE")).collect();
+    let Some(probe) = out.split("QFA-PROBE ").nth(1).and_then(|s| s.split(" QFA-END").next()) else {
+        return Err(format!("{}: the page never finished loading (no probe output); stderr:\n{err}", page.display()));
+    };
+    let field = |k: &str| probe.split(&format!("{k}=")).nth(1).map(|s| s.split(' ').next().unwrap_or(""));
+    let images: usize = field("images").and_then(|s| s.parse().ok()).ok_or_else(|| format!("probe: {probe}"))?;
+    let broken = probe.split("broken=").nth(1).and_then(|s| s.split(" errors=").next()).unwrap_or("?");
+    let errors = probe.split("errors=").nth(1).unwrap_or("?");
+    let mut why = Vec::new();
+    if broken != "[]" {
+        why.push(format!("images that do not decode: {broken}"));
+    }
+    if errors != "[]" {
+        why.push(format!("errors: {errors}"));
+    }
+    if !console.is_empty() {
+        why.push(format!("console messages:\n{}", console.join("\n")));
+    }
+    if why.is_empty() {
+        Ok(images)
+    } else {
+        Err(format!("{}: {}", page.display(), why.join("; ")))
+    }
+}
+
+/// [`check`] when Chromium is installed (else SKIPPED, see [`chromium_or_skip`]), asserting
+/// the page holds at least `min_images` images; prints what it checked.
+pub fn assert_page(page: &Path, min_images: usize) {
+    assert!(page.is_file(), "{} not written", page.display());
+    let Some(c) = chromium_or_skip(&format!("browser check of {}", page.display())) else { return };
+    match check(&c, page) {
+        Ok(n) => {
+            println!("chromium: {} loaded, no console message, {n} image(s) decoded", page.display());
+            assert!(n >= min_images, "{}: {n} image(s), expected at least {min_images}", page.display());
+        }
+        Err(e) => panic!("browser check failed: {e}"),
+    }
+}

@@ -1,0 +1,240 @@
+//! Every command's `report.html` (calibrate cycling and static, discover cycling and
+//! static, navigate, demo), opened in a real headless Chromium: it loads with no console
+//! message or error and every image decodes ([`common::browser`]). The check itself is
+//! shown to fail on a broken image and on a console error. The demo runs reduced (10-s
+//! rows, the first 20 min of the flight) and must stay under 20 MB of outputs.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use common::browser;
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("qfa-report-html-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn lab_ok(args: &[&str]) -> String {
+    let (ok, text) = common::lab(args);
+    assert!(ok, "qfa-lab {args:?} failed:\n{text}");
+    text
+}
+
+/// A 1×1 PNG (RFC 2083 minimal: one grey pixel).
+const PNG_1X1: &str = "iVBORw0KGgoAAAANSUhEUgAAAAEAAAABCAAAAAA6fptVAAAACklEQVR4nGNgAAAAAgABSK+kcQAAAABJRU5ErkJggg==";
+
+fn decode_b64(s: &str) -> Vec<u8> {
+    let val = |c: u8| match c {
+        b'A'..=b'Z' => c - b'A',
+        b'a'..=b'z' => c - b'a' + 26,
+        b'0'..=b'9' => c - b'0' + 52,
+        b'+' => 62,
+        _ => 63,
+    };
+    let b: Vec<u8> = s.bytes().filter(|&c| c != b'=').map(val).collect();
+    let mut out = Vec::new();
+    for c in b.chunks(4) {
+        let n = c.iter().enumerate().fold(0u32, |n, (i, &v)| n | (u32::from(v) << (18 - 6 * i)));
+        for k in 0..c.len() - 1 {
+            out.push((n >> (16 - 8 * k)) as u8);
+        }
+    }
+    out
+}
+
+#[test]
+fn the_browser_check_fails_on_a_broken_image_and_on_a_console_error() {
+    let Some(c) = browser::chromium_or_skip("the browser check's own test") else { return };
+    let d = tmp("probe");
+    let png = d.join("dot.png");
+    std::fs::write(&png, decode_b64(PNG_1X1)).unwrap();
+    let mut p = qfa_lab::html_report::Page::new("probe");
+    p.image(&png, "a dot").unwrap();
+    let good = p.write(&d).unwrap();
+    assert_eq!(browser::check(&c, &good), Ok(1), "a page with one good image passes");
+    // The same page with the image's data cut short: it no longer decodes.
+    let html = std::fs::read_to_string(&good).unwrap();
+    let b64 = qfa_lab::html_report::base64(&std::fs::read(&png).unwrap());
+    let broken = d.join("broken.html");
+    std::fs::write(&broken, html.replace(&b64, &b64[..12])).unwrap();
+    let e = browser::check(&c, &broken).unwrap_err();
+    assert!(e.contains("images that do not decode"), "{e}");
+    // A console error (the reports carry no script; this page does).
+    let noisy = d.join("noisy.html");
+    std::fs::write(&noisy, html.replace("</body>", "<script>console.error('boom')</script></body>")).unwrap();
+    let e = browser::check(&c, &noisy).unwrap_err();
+    assert!(e.contains("boom"), "{e}");
+    // A script error.
+    let thrown = d.join("thrown.html");
+    std::fs::write(&thrown, html.replace("</body>", "<script>undefinedFunction()</script></body>")).unwrap();
+    let e = browser::check(&c, &thrown).unwrap_err();
+    assert!(e.contains("undefinedFunction"), "{e}");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn calibrate_and_discover_on_a_cycling_log_write_pages_that_load() {
+    let d = tmp("cycling");
+    let log = d.join("log.csv");
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    lab_ok(&["simulate", "--out", &s(&log), "--row-s", "10", "--seed", "5"]);
+    let cal = d.join("cal");
+    lab_ok(&["calibrate", "--log", &s(&log), "--out", &s(&cal)]);
+    let html = std::fs::read_to_string(cal.join("report.html")).unwrap();
+    for want in
+        ["Held-out scheme", "paper-0.5", "What the fit rows cover", "heating leg", "cooling leg", "table clamps to"]
+    {
+        assert!(html.contains(want), "calibrate's page lacks {want:?}");
+    }
+    browser::assert_page(&cal.join("report.html"), 2);
+    let disc = d.join("disc");
+    lab_ok(&["discover", "--log", &s(&log), "--out", &s(&disc)]);
+    let html = std::fs::read_to_string(disc.join("report.html")).unwrap();
+    for want in ["Held-out scheme", "Effects added", "What the log covers", "report.md"] {
+        assert!(html.contains(want), "discover's page lacks {want:?}");
+    }
+    browser::assert_page(&disc.join("report.html"), 1);
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// A static three-axis log, 1-s rows for 2 h: 25 → 60 → −10 → 40 °C, each axis's bias a
+/// different curve in T with a small branch split, and deterministic noise.
+fn static_log(path: &Path) {
+    let mut s = String::from("time\ttemp\tax\tay\taz\n");
+    let mut x: u64 = 7;
+    let mut noise = || {
+        x = x.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+        ((x >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 2e-4
+    };
+    let legs = [(25.0, 60.0, 1800), (60.0, -10.0, 3600), (-10.0, 40.0, 1800)];
+    let mut t = 0;
+    for (a, b, n) in legs {
+        for i in 0..n {
+            let temp: f64 = a + (b - a) * f64::from(i) / f64::from(n);
+            let dir: f64 = if b > a { 1.0 } else { -1.0 };
+            let dt = temp - 25.0;
+            let ax = 1e-4 * dt + 2e-7 * dt * dt + 1e-4 * dir + noise();
+            let ay = -5e-5 * dt + 3e-5 * dir + noise();
+            let az = -1.0 + 2e-7 * dt * dt * dt / 10.0 + noise();
+            s.push_str(&format!("{t}\t{:.4}\t{ax:.7}\t{ay:.7}\t{az:.7}\n", (temp * 16.0).round() / 16.0));
+            t += 1;
+        }
+    }
+    std::fs::write(path, s).unwrap();
+}
+
+#[test]
+fn static_calibrate_and_discover_write_pages_that_load() {
+    let d = tmp("static");
+    let log = d.join("static.tsv");
+    static_log(&log);
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let flags = ["--columns", "time=time,temp=temp,ax=ax,ay=ay,az=az", "--time-unit", "s", "--accel-unit", "g"];
+    let cal = d.join("cal");
+    let mut args = vec!["calibrate".to_string(), "--log".into(), s(&log), "--out".into(), s(&cal)];
+    args.extend(flags.iter().map(|f| (*f).to_string()));
+    lab_ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(cal.join("bias_vs_temp.png").is_file(), "static calibrate writes its plot");
+    let html = std::fs::read_to_string(cal.join("report.html")).unwrap();
+    for want in ["Held-out scheme", "after-max", "What the log covers", "heating leg", "bias_vs_temp.png"] {
+        assert!(html.contains(want), "static calibrate's page lacks {want:?}");
+    }
+    browser::assert_page(&cal.join("report.html"), 1);
+    let disc = d.join("disc");
+    let mut args = vec!["discover".to_string(), "--log".into(), s(&log), "--out".into(), s(&disc)];
+    args.extend(flags.iter().map(|f| (*f).to_string()));
+    lab_ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    browser::assert_page(&disc.join("report.html"), 3);
+    for a in ["ax", "ay", "az"] {
+        browser::assert_page(&disc.join(a).join("report.html"), 1);
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn a_heating_only_static_log_says_what_to_record_next() {
+    let d = tmp("heating");
+    let log = d.join("heat.tsv");
+    let mut s = String::from("time\ttemp\taz\n");
+    for i in 0..3000 {
+        let temp = 20.0 + 30.0 * f64::from(i) / 3000.0;
+        s.push_str(&format!("{i}\t{:.4}\t{:.7}\n", (temp * 16.0).round() / 16.0, -1.0 + 1e-4 * (temp - 20.0)));
+    }
+    std::fs::write(&log, s).unwrap();
+    let cal = d.join("cal");
+    lab_ok(&[
+        "calibrate",
+        "--log",
+        log.to_str().unwrap(),
+        "--out",
+        cal.to_str().unwrap(),
+        "--columns",
+        "time=time,temp=temp,az=az",
+        "--time-unit",
+        "s",
+        "--accel-unit",
+        "g",
+    ]);
+    let html = std::fs::read_to_string(cal.join("report.html")).unwrap();
+    assert!(html.contains("What to record next: the cooling leg holds 0 rows"), "no advice in:\n{html}");
+    assert!(html.contains("record a cooling leg after the maximum"), "no later-leg advice");
+    browser::assert_page(&cal.join("report.html"), 1);
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn the_demo_fails_when_a_hook_fails() {
+    let d = tmp("demo-fails");
+    let opts = qfa_lab::demo::DemoOptions {
+        out: d.clone(),
+        row_s: 10,
+        seed: 1,
+        threads: 1,
+        progress: false,
+        full_logs: false,
+        nav_duration_s: None,
+    };
+    let e = qfa_lab::demo::run(&opts, Some(|_: &Path, _: &Path| Err("the hook failed".to_string())), None).unwrap_err();
+    assert!(e.contains("the hook failed"), "{e}");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn the_reduced_demo_writes_pages_that_load_and_stays_under_20_mb() {
+    let d = tmp("demo");
+    let out = d.join("out");
+    let t = std::time::Instant::now();
+    let text = lab_ok(&["demo", "--out", out.to_str().unwrap(), "--row-s", "10", "--nav-duration-s", "1200"]);
+    let secs = t.elapsed().as_secs_f64();
+    let bytes = qfa_lab::demo::dir_bytes(&out).unwrap();
+    println!("reduced demo (10-s rows, 1200 s of flight): {secs:.1} s, {:.2} MB", bytes as f64 / 1e6);
+    assert!(bytes < 20_000_000, "demo outputs {bytes} B, over 20 MB:\n{text}");
+    for u in 1..=3 {
+        assert!(!out.join(format!("kt8-{u}/log.csv")).exists(), "log.csv kept without --full-logs");
+        browser::assert_page(&out.join(format!("kt8-{u}/report.html")), 2);
+    }
+    browser::assert_page(&out.join("kt8-1/discover/report.html"), 1);
+    browser::assert_page(&out.join("navigation/report.html"), 1);
+    browser::assert_page(&out.join("report.html"), 4);
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn navigate_writes_a_page_that_loads() {
+    let d = tmp("nav");
+    let args = qfa_lab::navigate::NavigateArgs {
+        out: d.clone(),
+        duration_s: Some(900.0),
+        ..qfa_lab::navigate::NavigateArgs::default()
+    };
+    qfa_lab::navigate::navigate(&args).unwrap();
+    let html = std::fs::read_to_string(d.join("report.html")).unwrap();
+    for want in ["Held-out scheme", "Figures per variant", "What the lab program covers"] {
+        assert!(html.contains(want), "navigate's page lacks {want:?}");
+    }
+    browser::assert_page(&d.join("report.html"), 1);
+    let _ = std::fs::remove_dir_all(&d);
+}
