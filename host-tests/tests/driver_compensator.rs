@@ -2,7 +2,7 @@
 //! `on_scratchpad(0, completed_ms, &scratchpad)`, as the driver's module docs describe,
 //! over a long run with every fault the simulation supports injected again and again.
 //!
-//! Issue 6: "The driver plus the compensator must come through every injected fault with
+//! The requirement: "The driver plus the compensator must come through every injected fault with
 //! a typed error or flag, never a wrong temperature." Checked here:
 //!
 //! * every fault event gives a typed driver error or a compensator `SampleError` (or,

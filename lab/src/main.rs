@@ -141,7 +141,7 @@ enum Cmd {
         #[command(flatten)]
         fmt: StaticFlags,
     },
-    /// Discovery workflow (issue 4): name the missing effect, add it, show the held-out gap shrink.
+    /// Discovery workflow: name the missing effect, add it, show the held-out gap shrink.
     Discover {
         /// Cycling log or single-channel log (time_s,temp_c,value).
         #[arg(long)]
@@ -194,7 +194,7 @@ enum Cmd {
         #[arg(long)]
         nav_duration_s: Option<f64>,
     },
-    /// Pure-inertial navigation error of each compensation variant (issues 5, 13), with
+    /// Pure-inertial navigation error of each compensation variant, with
     /// alignment and an optional Monte Carlo study; `navigate merge DIR…` combines shards.
     #[command(args_conflicts_with_subcommands = true)]
     Navigate {
@@ -501,7 +501,7 @@ fn run(cli: Cli) -> Result<(), String> {
         Cmd::Demo { out, row_s, seed, threads, full_logs, nav_duration_s } => {
             let opts =
                 qfa_lab::demo::DemoOptions { out, row_s, seed, threads, progress: true, full_logs, nav_duration_s };
-            // Issue 4 (discovery, on unit #1) and issue 5 (navigation) run inside the demo.
+            // Discovery (on unit #1) and navigation run inside the demo.
             qfa_lab::demo::run(&opts, Some(qfa_lab::discover::demo_hook), Some(qfa_lab::navigate::demo_hook))?;
         }
         Cmd::Plan { scenario, lab_program, json } => {

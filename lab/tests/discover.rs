@@ -1,4 +1,4 @@
-//! Discovery workflow (issue 4) on synthetic data made by the root crate's AxisModel with
+//! Discovery workflow on synthetic data made by the root crate's AxisModel with
 //! hidden slots on: each catalog effect is named, its parameter recovered within 25 %,
 //! and the held-out gap of its channel shrinks ≥ 3× or to within 1.5× the noise floor.
 

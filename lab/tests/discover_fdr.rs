@@ -1,4 +1,4 @@
-//! False-discovery calibration of the discovery selection rule (issue 12). Not a timed
+//! False-discovery calibration of the discovery selection rule. Not a timed
 //! test: run it in release,
 //! `cargo test --release -p qfa-lab --test discover_fdr -- --ignored --nocapture`
 //! (`QFA_FDR_LOGS=N` changes the number of logs, default 120).

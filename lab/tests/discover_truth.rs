@@ -1,4 +1,4 @@
-//! Discovery on data the fitter did not make (issue 12).
+//! Discovery on data the fitter did not make.
 //!
 //! The truth generator below shares no code with the fitter or the lab simulator: its own
 //! temperature program, its own exact integration of the thermal lags (1-s steps), the

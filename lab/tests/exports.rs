@@ -1,5 +1,5 @@
 //! The PX4 and ArduPilot exports of `calibrate` on synthetic logs: what each file must
-//! carry so the stack loads and applies it (issue 13), and that applying each stack's own
+//! carry so the stack loads and applies it, and that applying each stack's own
 //! formula (`tests/common`, independent of the exporter) to the log gives the report's
 //! peer figures.
 

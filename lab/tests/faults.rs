@@ -1,4 +1,4 @@
-//! Fault scenarios on the navigation run (issues 7, 13): the §3.2 flight (with its
+//! Fault scenarios on the navigation run: the §3.2 flight (with its
 //! alignment) flown once with the calibrated `hysteresis` unit tables (one
 //! `Compensator<1, 32>` per axis, each fed by its own case DS18B20, as the nav's
 //! `hysteresis` variant) in a fault-free twin, the oracle, one compensation per fault set
@@ -6,7 +6,7 @@
 //!
 //! Expectations ([`faults::check`]), on the **thermal-only** error (row − oracle): 5 % CRC
 //! errors add < 1 % and a 2-minute dropout mid-cruise < 5 % of `simple`'s thermal-only
-//! CEP rate (issue 7's limits, moved from total CEP; the denominator was chosen after
+//! CEP rate (the fault limits, moved from total CEP; the denominator was chosen after
 //! seeing that the twin's own thermal-only rate moves ×4 with the IMU rate, see
 //! faults.rs); no non-finite output, no corrupted
 //! table applied, no intact reading refused, every detectable fault flagged every time

@@ -1,4 +1,4 @@
-//! A 10-hour flight across the firmware's clock wraps (issue 13).
+//! A 10-hour flight across the firmware's clock wraps.
 //!
 //! The built-in flight stretched to 10 h ([`clock::ten_hour_flight`]: cruise legs and
 //! temperature cycles −16…+30 °C) flies, in lock-step on the same sensor data, the oracle,

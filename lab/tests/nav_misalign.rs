@@ -1,4 +1,4 @@
-//! The accelerometer triad's misalignment matrix in flight (issue 13).
+//! The accelerometer triad's misalignment matrix in flight.
 //!
 //! The built-in scenario gives the triad a known non-orthogonality `I + K`
 //! (`[imu.accel] triad_arcsec`, 20–45″ per term), and every table variant carries

@@ -422,7 +422,7 @@ pub fn export_texts(axes: &[ExportAxis], opts: &ExportOptions) -> (Vec<(&'static
 }
 
 /// Write the PX4 and ArduPilot parameter files of `axes` into `dir`, each only when the
-/// stack will load and apply every value in it (issue 13):
+/// stack will load and apply every value in it:
 ///
 /// * `px4_tc.params` (QGroundControl format: vehicle, component, name, value, type 9 =
 ///   float, 6 = int32): `TC_A_ENABLE`, `TC_A0_ID`, `TC_A0_TREF/TMIN/TMAX`, `TC_A0_X0..3_i`

@@ -64,7 +64,7 @@ pub const GLITCH_MIN_ACCEL_G: f64 = 0.002;
 pub const MIN_ROWS: usize = 16;
 
 /// Fastest temperature change a board in a climate chamber can show, °C/min; a log whose
-/// time unit implies more is refused. 30 °C/min is the figure issue 13 gives for chambers;
+/// time unit implies more is refused. 30 °C/min is the figure taken for chambers;
 /// it is about 4× the steepest ramp of the real tofupilot log (−8 °C/min, its SOURCE.md)
 /// and 3–30× the 1–10 °C/min a chamber program uses (the paper's programs run at
 /// 0.3–0.9 °C/min). The mistake it catches is a factor of 1 000 (µs read as ns, ms as µs),

@@ -1,4 +1,4 @@
-//! Discovery workflow (issue 4): find where the model and a thermal-test log disagree,
+//! Discovery workflow: find where the model and a thermal-test log disagree,
 //! name the missing physical effect from the catalog, add it in the form the firmware
 //! runs (a root-crate extension slot or Eq. 11 term), and show on held-out data that the
 //! gap shrank. Says `none` when nothing significant is missing.
@@ -7,7 +7,9 @@
 //! 1. **Channels** ([`crate::data::channels`]): pair the ±1 g runs of each program by time,
 //!    `K1 = (A₊ − A₋)/2`, `K0 = (A₊ + A₋)/(2·K1)`, average into 60-s bins; T and Ṫ come
 //!    from the root crate's `RateEstimator<32>` on raw = round(16·T), the mean of the two
-//!    runs' readings. A single-channel log `time_s,temp_c,value` is the bias channel.
+//!    runs' readings, fed at the firmware's 1-s reading period (readings between rows
+//!    filled in) and taken at the middle of each cycling row's counting interval. A
+//!    single-channel log `time_s,temp_c,value` is the bias channel.
 //! 2. **Start model** ([`Start`]): `simple` = K1 and K0 linear in ΔT (Eq. 3–4, the bias
 //!    on a 16-point grid with equal branches); `paper` = Eq. 11 and a single-valued bias
 //!    grid fitted by least squares with a gentle smoothness penalty.
@@ -26,7 +28,7 @@
 //!    coarse log-grid then golden section (τ, r; 20 steps) or Nelder–Mead (creep τ_ref,
 //!    E; T_ref fixed at 22 °C); linear coefficients re-fitted by least squares for every
 //!    trial; every trial scored by running the root crate's `AxisModel::evaluate`.
-//! 6. **Selection** ([`stats`], issue 12): the per-bin held-out gain (drop of
+//! 6. **Selection** ([`stats`]): the per-bin held-out gain (drop of
 //!    (residual/RMS)², summed over the channels) is summed over blocks of consecutive
 //!    bins, four times the residual's 1/e autocorrelation lag long (≥ 10 bins, ≥ 8
 //!    blocks), so the block sums are close to independent even under the Gauss–Markov
@@ -50,15 +52,18 @@
 //!    interval; nonlinear parameters a profile interval (all-data Σ(residual/RMS)² rising
 //!    by 3.84·N/N_eff, N/N_eff from the residual autocorrelation), linear ones a
 //!    moving-block bootstrap interval; `at_bound` flags a search limit.
-//! 8. **Unexplained**: the final held-out residual of each channel is cross-fitted on
-//!    time since start, temperature, Ṫ, time since the last reversal and the ramp branch
-//!    (a quadratic in each); drivers it follows significantly (same block test, level
-//!    0.05 shared over drivers and channels) and catalog effects pinned at a search limit
-//!    are reported as `unexplained`, not given a name.
+//! 8. **Unexplained** ([`unexplained`]): each channel's final held-out residual against its
+//!    noise floor (always reported); drivers it follows significantly (cross-fitted on
+//!    time since start, temperature, Ṫ, time since the last reversal and the ramp branch,
+//!    same block test, level 0.05 shared over drivers and channels), run means that differ
+//!    beyond noise and slow noise, and catalog effects pinned at a search limit are
+//!    reported as `unexplained`, with where in time they live, not given a name.
+//! 9. **Flashed** ([`Flashed`]): the named model, or the start model when that predicts
+//!    better held out; a peer that predicts the bias better is named in the report.
 //!
-//! 9. **Peers** ([`PeerGap`]): the PX4/tofupilot cubic, ArduPilot TCAL and the paper's
-//!    simple model ([`crate::calibrate::peers`]) on the same folds, bias channel only, so
-//!    every report shows what the discovered model is worth against what users pick.
+//! 10. **Peers** ([`PeerGap`]): the PX4/tofupilot cubic, ArduPilot TCAL and the paper's
+//!     simple model ([`crate::calibrate::peers`]) on the same folds, bias channel only, so
+//!     every report shows what the discovered model is worth against what users pick.
 //!
 //! A static multi-axis log goes through [`static_axes`]: each axis a single-channel log,
 //! on static calibration's split (fit up to the temperature maximum, hold out the rest).
@@ -75,10 +80,13 @@
 //! with the effective τ).
 
 pub mod fit;
+mod folds;
 pub mod output;
 pub mod page;
+pub mod report;
 pub mod static_axes;
 pub mod stats;
+mod uncertainty;
 pub mod unexplained;
 
 use std::path::Path;
@@ -90,335 +98,13 @@ use serde::Serialize;
 pub use crate::data::channels::{BiasUnit, Channels, LogKind};
 pub use fit::Effect;
 use fit::{golden, nelder_mead2, Fitted, Nonlinear, Residuals, Setup, Structure};
+use folds::*;
+pub use report::*;
 pub use stats::GainStat;
+use uncertainty::*;
 pub use unexplained::{FloorRatio, TimeScales, Unexplained};
 
 use crate::calibrate::metrics::rms_of_finite as rms;
-
-/// Start model.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Start {
-    /// K1 and K0 linear in ΔT (paper Eq. 3–4).
-    Simple,
-    /// Eq. 11 scale factor, single-valued smooth bias.
-    Paper,
-}
-
-impl std::str::FromStr for Start {
-    type Err = anyhow::Error;
-    fn from_str(s: &str) -> Result<Self> {
-        match s {
-            "simple" => Ok(Start::Simple),
-            "paper" => Ok(Start::Paper),
-            _ => anyhow::bail!("start must be simple or paper, not {s:?}"),
-        }
-    }
-}
-
-impl Start {
-    /// Name as in the CLI and report.
-    #[must_use]
-    pub fn name(self) -> &'static str {
-        match self {
-            Start::Simple => "simple",
-            Start::Paper => "paper",
-        }
-    }
-}
-
-/// A fitted parameter with its 95 % confidence interval.
-#[derive(Clone, Debug, Serialize)]
-pub struct ParamCi {
-    /// Estimate (fit on all data).
-    pub value: f64,
-    /// 95 % interval.
-    pub ci95: [f64; 2],
-    /// The estimate sits at a search limit (the limit, not the data, decided it).
-    pub at_bound: bool,
-    /// How the interval was formed.
-    pub method: String,
-}
-
-/// An effect added by the workflow.
-#[derive(Clone, Debug, Serialize)]
-pub struct EffectReport {
-    /// Catalog name.
-    pub name: String,
-    /// `scale_factor`, `bias` or `both`.
-    pub channel: String,
-    /// Fitted parameters (from the fit on all data).
-    pub params: std::collections::BTreeMap<String, f64>,
-    /// The same parameters with 95 % intervals and the search-limit flag.
-    pub params_ci: std::collections::BTreeMap<String, ParamCi>,
-    /// Held-out gain when it was added, with its block-bootstrap uncertainty.
-    pub gain: GainStat,
-    /// Whether the flashed table (`table.bin`) carries it (`bias_drift` has no root-crate
-    /// slot yet: reported, not flashed).
-    pub in_table: bool,
-    /// Significant candidates it did not beat by one standard error (one-SE rule: the
-    /// one with fewest parameters was added); empty when the name is clear.
-    pub confusable_with: Vec<String>,
-    /// Held-out gap of its channel before it was added (for `both`: the channel it
-    /// improved more, relative to its held-out RMS).
-    pub heldout_gap_before: f64,
-    /// The same gap after.
-    pub heldout_gap_after: f64,
-}
-
-/// Held-out gaps: RMS residuals.
-#[derive(Clone, Debug, Serialize, PartialEq)]
-#[serde(untagged)]
-pub enum Gaps {
-    /// Cycling log.
-    Cycling {
-        /// Scale factor, ppm.
-        scale_factor_ppm: f64,
-        /// Bias, µg.
-        bias_ug: f64,
-    },
-    /// Single-channel log, value units.
-    Single {
-        /// RMS of the value residual.
-        value_rms: f64,
-    },
-}
-
-/// A localized disagreement.
-#[derive(Clone, Debug, Serialize)]
-pub struct Where {
-    /// Channel.
-    pub channel: String,
-    /// Human-readable segment.
-    pub segment: String,
-    /// Held-out RMS there (ppm, µg or value units).
-    pub rms: f64,
-}
-
-/// One candidate tried in one round.
-#[derive(Clone, Debug, Serialize)]
-pub struct CandidateTrial {
-    /// Catalog name.
-    pub name: String,
-    /// Channel.
-    pub channel: String,
-    /// Held-out gain and its block test.
-    pub gain: GainStat,
-    /// The effect's own weight against its block-bootstrap standard error, on all bins
-    /// (tested only after the block test passed; `None` for a lag, which has no weight).
-    pub weight: Option<WeightZ>,
-    /// Passed the block test, and the weight test where there is one.
-    pub significant: bool,
-    /// Parameters at a search limit (`name=value`); such a candidate is not added.
-    pub at_bound: Vec<String>,
-    /// Held-out gaps with it.
-    pub gaps: Gaps,
-}
-
-/// A candidate's own weight (drift rate, play weight, Eq. 11 term) against its
-/// moving-block bootstrap standard error.
-#[derive(Clone, Debug, Serialize)]
-pub struct WeightZ {
-    /// Parameter name.
-    pub param: String,
-    /// Fitted value on all bins, the other nonlinear parameters as in the first fold.
-    pub value: f64,
-    /// Moving-block bootstrap standard error.
-    pub se: f64,
-    /// |value| / se.
-    pub z: f64,
-}
-
-/// A peer (what users pick today) on the report's own held-out split, bias channel: per
-/// fold fitted on the training bins (bin means of the raw temperature reading and of the
-/// bias or value) and scored on the held-out bins, as the model's gaps are.
-#[derive(Clone, Debug, Serialize)]
-pub struct PeerGap {
-    /// Peer name.
-    pub peer: String,
-    /// Held-out RMS of the bias channel (µg for a cycling log, value units for a
-    /// single-channel log); absent when the peer could not be fitted (then `error` says why).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub heldout_rms: Option<f64>,
-    /// Why no figure could be formed.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub error: Option<String>,
-}
-
-/// What `table.bin` holds.
-#[derive(Clone, Debug, Serialize)]
-pub struct Flashed {
-    /// `named model` or `start model`: whichever predicts better held out (Σ over
-    /// channels of (held-out RMS / noise floor)²).
-    pub model: String,
-    /// Its held-out gaps.
-    pub heldout: Gaps,
-    /// A peer whose bias figure on the same folds beats it (a cycling table needs a
-    /// scale-factor model, which the peers have not, so it is not flashed: said instead).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub peer_better: Option<PeerBetter>,
-}
-
-/// A peer that predicts the bias better than the flashed model, held out.
-#[derive(Clone, Debug, Serialize)]
-pub struct PeerBetter {
-    /// Peer name.
-    pub peer: String,
-    /// Its held-out RMS of the bias (µg, or the log's value unit).
-    pub heldout_rms: f64,
-}
-
-/// The discovery report; `report.json` is its serialization.
-#[derive(Clone, Debug, Serialize)]
-pub struct Report {
-    /// Start model.
-    pub start: Start,
-    /// Effects added, in order.
-    pub effects: Vec<EffectReport>,
-    /// Held-out gaps of the start model.
-    pub heldout_gap_before: Gaps,
-    /// Held-out gaps of the final model.
-    pub heldout_gap_after: Gaps,
-    /// Where the start model disagrees most (held out).
-    #[serde(rename = "where")]
-    pub where_: Vec<Where>,
-    /// Structure left in the final held-out residual that no catalog effect explains.
-    pub unexplained: Vec<Unexplained>,
-    /// Each channel's final held-out residual against its noise floor (the test that
-    /// reports structure left even when no driver explains it).
-    pub residual_vs_floor: Vec<FloorRatio>,
-    /// Noise floors of the final held-out residual (bin-to-bin part).
-    pub noise_floor: Gaps,
-    /// Peers on the same held-out split, bias channel (cycling logs: the bias channel
-    /// only; the peers have no scale-factor model).
-    pub peers: Vec<PeerGap>,
-    /// The selection rule, in words.
-    pub selection_rule: String,
-    /// Every candidate of every round (for the Markdown report).
-    #[serde(skip)]
-    pub rounds: Vec<Vec<CandidateTrial>>,
-    /// Where the final model disagrees most.
-    #[serde(skip)]
-    pub where_after: Vec<Where>,
-    /// The model flashed (`table.bin`): the named model, or the start model when that
-    /// predicts better held out.
-    #[serde(skip)]
-    pub model: Option<AxisModel>,
-    /// Which model is flashed, its held-out figure, and a peer that predicts the bias
-    /// better, if any.
-    pub flashed: Flashed,
-    /// Held-out residuals before and after.
-    #[serde(skip)]
-    pub residuals: (Residuals, Residuals),
-    /// The held-out rule applied.
-    #[serde(skip)]
-    pub heldout_rule: String,
-}
-
-impl Report {
-    /// Added effects as `name (channel)`: `temp_quadratic` can be added once per channel,
-    /// and a summary must say which.
-    #[must_use]
-    pub fn effect_labels(&self) -> Vec<String> {
-        self.effects
-            .iter()
-            .map(|e| {
-                if e.confusable_with.is_empty() {
-                    format!("{} ({})", e.name, e.channel)
-                } else {
-                    format!("{} ({}; not identified: as good as {})", e.name, e.channel, e.confusable_with.join(", "))
-                }
-            })
-            .collect()
-    }
-}
-
-/// Bins per time block of the single-trace held-out split (20 min at 60-s bins): short
-/// enough that every fold sees every temperature region on heating and cooling.
-const TIME_BLOCK_BINS: usize = 20;
-/// Folds of the single-trace split (blocks dealt round-robin).
-const TIME_FOLDS: usize = 2;
-/// Bins on each side of a held-out block that its training set leaves out. Tried: 3
-/// folds of 60-bin blocks with a 30-bin buffer (so noise slower than the blocks cannot
-/// leak from training into held-out bins); the training folds then miss whole
-/// temperature regions and the held-out gap of a clean log grew 5× (1.7 → 8.3 µg), so
-/// the buffer is off and slow noise is left to the block test.
-const BUFFER_BINS: usize = 0;
-
-/// Held-out folds: per fold, the mask of its test bins and the mask of its training bins.
-fn folds(ch: &Channels) -> (Vec<Vec<bool>>, Vec<Vec<bool>>, String) {
-    let n = ch.n_bins();
-    let mut offs = Vec::new();
-    let mut o = 0;
-    for t in &ch.traces {
-        offs.push(o);
-        o += t.bins.len();
-    }
-    if ch.kind == LogKind::Cycling && ch.traces.len() >= 2 {
-        let mut masks = vec![vec![false; n]; 2];
-        let mut order: Vec<usize> = (0..ch.traces.len()).collect();
-        order.sort_by(|&a, &b| ch.traces[a].ramp_rate().total_cmp(&ch.traces[b].ramp_rate()).then(a.cmp(&b)));
-        let mut desc = [Vec::new(), Vec::new()];
-        for (rank, &ti) in order.iter().enumerate() {
-            let k = rank % 2;
-            let t = &ch.traces[ti];
-            for b in 0..t.bins.len() {
-                masks[k][offs[ti] + b] = true;
-            }
-            desc[k].push(format!("{} ({:.1} °C/min)", t.program, t.ramp_rate()));
-        }
-        let rule = format!(
-            "leave-programs-out, 2 folds by ramp-rate rank: fold A = {}; fold B = {}; each fold fitted on the other",
-            desc[0].join(", "),
-            desc[1].join(", ")
-        );
-        let trains = masks.iter().map(|m| m.iter().map(|&t| !t).collect()).collect();
-        (masks, trains, rule)
-    } else {
-        let mut masks = vec![vec![false; n]; TIME_FOLDS];
-        let mut trains = vec![vec![false; n]; TIME_FOLDS];
-        for (ti, t) in ch.traces.iter().enumerate() {
-            let m = t.bins.len();
-            for b in 0..m {
-                masks[(b / TIME_BLOCK_BINS) % TIME_FOLDS][offs[ti] + b] = true;
-            }
-            for k in 0..TIME_FOLDS {
-                for b in 0..m {
-                    let lo = b.saturating_sub(BUFFER_BINS);
-                    let hi = (b + BUFFER_BINS + 1).min(m);
-                    trains[k][offs[ti] + b] = (lo..hi).all(|j| !masks[k][offs[ti] + j]);
-                }
-            }
-        }
-        let rule = format!(
-            "split in time: blocks of {TIME_BLOCK_BINS} bins dealt round-robin into {TIME_FOLDS} folds; each fold \
-             fitted on the others less {BUFFER_BINS} bins either side of its blocks"
-        );
-        (masks, trains, rule)
-    }
-}
-
-/// Robust noise floor of a per-bin residual from consecutive-bin differences.
-pub(crate) fn noise_floor(ch: &Channels, v: &[f64]) -> f64 {
-    let mut d = Vec::new();
-    let mut o = 0;
-    for t in &ch.traces {
-        let m = t.bins.len();
-        for i in o + 1..o + m {
-            let x = v[i] - v[i - 1];
-            if x.is_finite() {
-                d.push(x.abs());
-            }
-        }
-        o += m;
-    }
-    if d.is_empty() {
-        return 1.0;
-    }
-    d.sort_by(f64::total_cmp);
-    let med = d[d.len() / 2];
-    (1.4826 * med / std::f64::consts::SQRT_2).max(1e-12)
-}
 
 fn gaps(kind: LogKind, r: &Residuals) -> Gaps {
     match kind {
@@ -785,276 +471,6 @@ fn selection_rule_text() -> String {
          (backward step), else it is removed",
         Effect::ALL.len()
     )
-}
-
-/// Transformed coordinate of each nonlinear parameter of `e` for the profile: getter,
-/// setter, limits (ln τ, ln r; E in kK).
-type Coord = (&'static str, f64, f64, f64, Box<dyn Fn(&Nonlinear, f64) -> Nonlinear>, Box<dyn Fn(f64) -> f64>);
-
-fn coords(e: Effect, nl: &Nonlinear) -> Vec<Coord> {
-    match (e, nl.lag_tau_s, nl.play_r_c, nl.creep) {
-        (Effect::SensorLag, Some(t), _, _) => vec![(
-            "tau_s",
-            f64::from(t).ln(),
-            LAG_LIMITS.0.ln(),
-            LAG_LIMITS.1.ln(),
-            Box::new(|n: &Nonlinear, x: f64| Nonlinear { lag_tau_s: Some(x.exp() as f32), ..*n }),
-            Box::new(f64::exp),
-        )],
-        (Effect::BiasBranchHysteresis, _, Some(r), _) => vec![(
-            "half_width_c",
-            f64::from(r).ln(),
-            PLAY_LIMITS.0.ln(),
-            PLAY_LIMITS.1.ln(),
-            Box::new(|n: &Nonlinear, x: f64| Nonlinear { play_r_c: Some(x.exp() as f32), ..*n }),
-            Box::new(f64::exp),
-        )],
-        (Effect::BiasCreep, _, _, Some((t, ek))) => vec![
-            (
-                "tau_ref_s",
-                f64::from(t).ln(),
-                CREEP_TAU_LIMITS.0.ln(),
-                CREEP_TAU_LIMITS.1.ln(),
-                Box::new(|n: &Nonlinear, x: f64| Nonlinear { creep: n.creep.map(|c| (x.exp() as f32, c.1)), ..*n }),
-                Box::new(f64::exp),
-            ),
-            (
-                "activation_k",
-                f64::from(ek) / 1000.0,
-                0.0,
-                CREEP_E_MAX / 1000.0,
-                Box::new(|n: &Nonlinear, x: f64| Nonlinear {
-                    creep: n.creep.map(|c| (c.0, (x * 1000.0) as f32)),
-                    ..*n
-                }),
-                Box::new(|x| x * 1000.0),
-            ),
-        ],
-        _ => Vec::new(),
-    }
-}
-
-/// 95 % profile interval of one coordinate: where the all-data Σ(residual/RMS)² rises by
-/// 3.84·κ (κ = N/N_eff of the residual); the effect's other nonlinear coordinate (creep:
-/// τ_ref and E) is re-optimised at every point (golden section), the linear coefficients
-/// refitted. Stops at the search limits. Also returns the effect's parameters at the two
-/// ends, which widen the linear coefficients' intervals.
-fn profile(
-    setup: &Setup,
-    s: &Structure,
-    nl: &Nonlinear,
-    c: &Coord,
-    other: Option<&Coord>,
-    e: Effect,
-    thresh: f64,
-) -> ([f64; 2], Vec<std::collections::BTreeMap<String, f64>>) {
-    let all = vec![true; setup.ch.n_bins()];
-    let score = |n: &Nonlinear| setup.score(&setup.residuals(&setup.fit(s, n, &all).pred), &all);
-    let best_at = |x: f64| -> (f64, Nonlinear) {
-        let n1 = (c.4)(nl, x);
-        match other {
-            None => (score(&n1), n1),
-            Some(o) => {
-                let (lo, hi) = ((o.1 - 1.5).max(o.2), (o.1 + 1.5).min(o.3));
-                let (y, f) = golden(|y| score(&(o.4)(&n1, y)), lo, hi, 10);
-                let f0 = score(&(o.4)(&n1, o.1));
-                if f0 <= f {
-                    (f0, (o.4)(&n1, o.1))
-                } else {
-                    (f, (o.4)(&n1, y))
-                }
-            }
-        }
-    };
-    let obj = |x: f64| best_at(x).0;
-    let s0 = score(nl);
-    let mut ends = [c.1; 2];
-    for (k, dir) in [-1.0f64, 1.0].into_iter().enumerate() {
-        let limit = if dir < 0.0 { c.2 } else { c.3 };
-        let (mut inside, mut step, mut outside) = (c.1, 0.05, None);
-        for _ in 0..10 {
-            let x = c.1 + dir * step;
-            if (x - limit) * dir >= 0.0 {
-                if obj(limit) - s0 <= thresh {
-                    inside = limit;
-                } else {
-                    outside = Some(limit);
-                }
-                break;
-            }
-            if obj(x) - s0 > thresh {
-                outside = Some(x);
-                break;
-            }
-            inside = x;
-            step *= 2.0;
-        }
-        if let Some(mut out) = outside {
-            for _ in 0..6 {
-                let m = 0.5 * (inside + out);
-                if obj(m) - s0 > thresh {
-                    out = m;
-                } else {
-                    inside = m;
-                }
-            }
-        }
-        ends[k] = inside;
-    }
-    let at_ends =
-        ends.iter().map(|&x| effect_params(e, &setup.fit(s, &best_at(x).1, &all), setup.ch.bias_unit)).collect();
-    ([(c.5)(ends[0]), (c.5)(ends[1])], at_ends)
-}
-
-/// Linear parameters' spread by a moving-block bootstrap of the all-data residual
-/// (nonlinear parameters fixed): per effect and parameter, the bootstrap SD.
-/// The weight test of candidate `e` in structure `s` (see [`WeightZ`]). Why a second test
-/// besides the held-out gain: an effect whose regressor is global in time (a drift, or a
-/// play's heating/cooling offset) shares the noise's realised trend or leg offsets between
-/// every training and held-out block, so its held-out gain is real on this log even when
-/// the effect is not; its weight against a bootstrap that resamples that slow noise says
-/// whether the log could show such a weight without the effect. The bootstrap resamples
-/// the held-out residuals in moving blocks around the fit and searches the effect's
-/// nonlinear parameters again on every resample, so a play's free half-width is in the
-/// spread; the weight passes when |value|/SE > z(1 − α/(2m)), two-sided, m as in the gain
-/// test.
-fn weight_z(setup: &Setup, s: &Structure, nl: &Nonlinear, e: Effect, heldout: &Residuals) -> Option<WeightZ> {
-    let key = weight_key(e, setup.ch.bias_unit)?;
-    let all = vec![true; setup.ch.n_bins()];
-    let f = setup.fit(s, nl, &all);
-    let value = *effect_params(e, &f, setup.ch.bias_unit).get(&key)?;
-    // The noise to resample: the held-out residuals. The all-bin fit's own residuals have
-    // lost the slow noise its 16 grid nodes and the effect absorbed. Measured during
-    // development on 60 drift logs with a play tried on top (no play in the truth), the
-    // play's z spread with SD 1.8 from the fit's own residuals, 1.5 from the held-out ones
-    // with r fixed, and 0.84 with r searched again per resample, as here.
-    let len = stats::block_len(setup.ch, &[&heldout.sf, &heldout.bias]);
-    let se = search_bootstrap_se(setup, s, nl, e, &f, heldout, len, &key)?;
-    Some(WeightZ { param: key, value, se, z: value.abs() / se.max(1e-300) })
-}
-
-/// Moving-block bootstrap SD of parameter `key` of effect `e`, its nonlinear parameters
-/// searched again on every resample (so the search's own freedom is in the spread).
-#[allow(clippy::too_many_arguments)]
-fn search_bootstrap_se(
-    setup: &Setup,
-    s: &Structure,
-    nl: &Nonlinear,
-    e: Effect,
-    fit: &Fitted,
-    noise: &Residuals,
-    len: usize,
-    key: &str,
-) -> Option<f64> {
-    // 30 resamples: the SE to about ±13 %, at 30 parameter searches per tested candidate.
-    let b_n: usize = 30;
-    let ch = setup.ch;
-    let all = vec![true; ch.n_bins()];
-    let res = noise_of(setup, fit, Some(noise));
-    let mut rng = stats_rng();
-    let base = nl.without(e);
-    let mut xs = Vec::with_capacity(b_n);
-    for _ in 0..b_n {
-        let y = block_resample(ch, &fit.pred, &res, len, &mut rng);
-        let mut ch2 = ch.clone();
-        for (b, v) in ch2.traces.iter_mut().flat_map(|t| t.bins.iter_mut()).zip(y) {
-            (b.sf, b.bias) = v;
-        }
-        let mut st2 = Setup::new(&ch2);
-        st2.sigma_sf = setup.sigma_sf;
-        st2.sigma_b = setup.sigma_b;
-        let nl2 = search(&st2, s, &base, e, &all);
-        let f2 = st2.fit(s, &nl2, &all);
-        if let Some(&v) = effect_params(e, &f2, setup.ch.bias_unit).get(key) {
-            xs.push(v);
-        }
-    }
-    if xs.len() < 2 {
-        return None;
-    }
-    let m = xs.iter().sum::<f64>() / xs.len() as f64;
-    Some((xs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (xs.len() - 1) as f64).sqrt())
-}
-
-/// The noise a bootstrap resamples, in the fit's K1 and K0 units: `noise` (ppm and µg or
-/// value units) when given, else the fit's own residuals.
-fn noise_of(setup: &Setup, fit: &Fitted, noise: Option<&Residuals>) -> Vec<(f64, f64)> {
-    let bins = setup.ch.traces.iter().flat_map(|t| t.bins.iter());
-    match noise {
-        Some(r) => {
-            (0..fit.pred.len()).map(|i| (r.sf[i] * fit.pred[i].0 * 1e-6, r.bias[i] / setup.bias_unit())).collect()
-        }
-        None => bins.zip(&fit.pred).map(|(b, p)| (b.sf - p.0, b.bias - p.1)).collect(),
-    }
-}
-
-/// One moving-block resample: per bin, the prediction plus the noise of a bin in a block
-/// of `len` consecutive bins of the same trace, each block starting at a random bin.
-fn block_resample(
-    ch: &Channels,
-    pred: &[(f64, f64)],
-    res: &[(f64, f64)],
-    len: usize,
-    rng: &mut crate::simulate::synth::Rng,
-) -> Vec<(f64, f64)> {
-    let mut y = Vec::with_capacity(pred.len());
-    let mut o = 0;
-    for t in &ch.traces {
-        let m = t.bins.len();
-        let mut i = 0;
-        while i < m {
-            let start = if m > len { (rng.uniform() * (m - len + 1) as f64) as usize } else { 0 };
-            for k in 0..len.min(m - i) {
-                let j = o + (start + k).min(m - 1);
-                let (p, r) = (pred[o + i + k], res[j]);
-                y.push((p.0 + if r.0.is_finite() { r.0 } else { 0.0 }, p.1 + r.1));
-            }
-            i += len;
-        }
-        o += m;
-    }
-    y
-}
-
-fn bootstrap_linear(
-    setup: &Setup,
-    s: &Structure,
-    nl: &Nonlinear,
-    fit: &Fitted,
-    eff: &[Effect],
-    len: usize,
-) -> Vec<std::collections::BTreeMap<String, f64>> {
-    const B: usize = 40;
-    let res = noise_of(setup, fit, None);
-    let all = vec![true; setup.ch.n_bins()];
-    let mut rng = stats_rng();
-    let mut samples: Vec<Vec<std::collections::BTreeMap<String, f64>>> = vec![Vec::new(); eff.len()];
-    for _ in 0..B {
-        let y = block_resample(setup.ch, &fit.pred, &res, len, &mut rng);
-        let f = setup.fit_y(s, nl, &all, Some(&y));
-        for (k, &e) in eff.iter().enumerate() {
-            samples[k].push(effect_params(e, &f, setup.ch.bias_unit));
-        }
-    }
-    samples
-        .into_iter()
-        .map(|v| {
-            let mut sd = std::collections::BTreeMap::new();
-            if let Some(first) = v.first() {
-                for key in first.keys() {
-                    let xs: Vec<f64> = v.iter().filter_map(|m| m.get(key).copied()).collect();
-                    let mean = xs.iter().sum::<f64>() / xs.len() as f64;
-                    let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (xs.len() - 1).max(1) as f64;
-                    sd.insert(key.clone(), var.sqrt());
-                }
-            }
-            sd
-        })
-        .collect()
-}
-
-fn stats_rng() -> crate::simulate::synth::Rng {
-    crate::simulate::synth::Rng::new(0x5EED_B007)
 }
 
 /// The start model fitted on every bin of `ch` (no held-out split): the "before" of a

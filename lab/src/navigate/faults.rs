@@ -763,8 +763,8 @@ pub fn check(row: &FaultRow) -> Vec<String> {
     v
 }
 
-/// The fault sets of issue 7 on a flight whose cruise runs from `cruise_s.0` to
-/// `cruise_s.1`, with issue 7's limits now on the thermal-only error: 5 % CRC errors may
+/// The fault sets on a flight whose cruise runs from `cruise_s.0` to
+/// `cruise_s.1`, with the fault limits now on the thermal-only error: 5 % CRC errors may
 /// add 1 %, a 2-minute dropout 5 % of `simple`'s thermal-only CEP rate.
 #[must_use]
 pub fn standard_sets(cruise_s: (f64, f64)) -> Vec<RowSpec> {

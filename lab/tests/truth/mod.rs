@@ -184,7 +184,7 @@ pub fn desk(hours: f64, seed: u64) -> String {
         for g in &mut gm {
             *g = phi * *g + 50e-6 * (1.0 - phi * phi).sqrt() * rng.normal();
         }
-        if (t as u64) % 10 == 0 {
+        if (t as u64).is_multiple_of(10) {
             let d = board - 24.0;
             let mut line = format!("{t:.1},{:.4}", ds18b20(board, &mut rng));
             for (c, g) in coeff.iter().zip(gm) {
