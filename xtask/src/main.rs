@@ -57,7 +57,10 @@ commands:
                 of the STM32F405 board example
   panic-check   link-time proof that no panic is reachable from the core's paths
   loom          the seqlock's loom model (clippy and tests under --cfg loom), then each seqlock
-                mutant, which the model must fail: prints mutants_caught=N of M";
+                mutant, which the model must fail: prints mutants_caught=N of M
+  experiment NAME [ARGS]
+                a lab study that asserts nothing (lab/examples/NAME.rs: nav_deadband,
+                nav_branches [tally]), in release, printing its figures";
 
 /// A failed step: what failed, and why.
 struct Failure(String);
@@ -82,6 +85,7 @@ fn main() {
         Some("bench-target") => bench_target(),
         Some("panic-check") => panic_check(),
         Some("loom") => loom(),
+        Some("experiment") => experiment(&args[1..]),
         Some("-h" | "--help" | "help") => {
             println!("{USAGE}");
             Ok(())
@@ -95,6 +99,16 @@ fn main() {
         eprintln!("\nxtask: FAILED: {e}");
         exit(1);
     }
+}
+
+/// `cargo xtask experiment NAME [ARGS]`: run the lab's example NAME in release.
+fn experiment(args: &[String]) -> Result {
+    let Some(name) = args.first() else {
+        return fail("experiment: which one? (the files in lab/examples/: nav_deadband, nav_branches)");
+    };
+    let mut c = cargo();
+    c.args(["run", "--release", "-p", "qfa-lab", "--example", name, "--"]).args(&args[1..]);
+    run(c)
 }
 
 fn root() -> PathBuf {

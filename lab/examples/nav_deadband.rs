@@ -1,10 +1,9 @@
-//! Experiment (not a timed test): the hysteresis tables' bias-branch deadband against the
+//! Experiment (asserts nothing; run with `cargo xtask experiment nav_deadband`): the hysteresis tables' bias-branch deadband against the
 //! DS18B20 flicker during the ground alignment. Flies the first 16 runs of the default
 //! Monte Carlo study (base seed = the scenario's) with the derived deadband (the
 //! compensator's flicker floor, `qfa_thermal::rate::flicker_deadband_c_per_min`,
 //! 0.182 °C/min, which the fit now writes into every table) and with larger ones, and
-//! prints each run's thermal share removed by `hysteresis`:
-//! `cargo test --release -p qfa-lab --test nav_deadband -- --ignored --nocapture`.
+//! prints each run's thermal share removed by `hysteresis`.
 //!
 //! Smaller deadbands cannot be flown any more: the compensator raises any table's deadband
 //! to its floor. Before the floor existed, the same 16 runs gave a median of 70.3 %
@@ -17,9 +16,7 @@
 use qfa_lab::navigate::{mc, scenario::Scenario};
 use rayon::prelude::*;
 
-#[test]
-#[ignore = "experiment: run with --ignored"]
-fn nav_deadband_experiment() {
+fn main() {
     let sc = Scenario::builtin();
     let derived = qfa_lab::data::pairing::branch_deadband_c_per_min();
     let deadbands = [derived, 0.3, 0.5];
