@@ -37,7 +37,7 @@
 //! flicker moves it by ×4 between 20 and 200 Hz on the same seed (0.085 and 0.021
 //! nmile/h), while the fault's absolute cost stays put; this choice was made after seeing
 //! that. `added_vs_twin` keeps the other ratio for the table.
-//! [`check`] lists every violated expectation; [`Broken`] rows fly a deliberately broken
+//! [`check`] lists every violated expectation; [`Replacement`] rows fly a deliberately broken
 //! compensation to show each expectation can fail.
 
 use std::cell::RefCell;
@@ -90,7 +90,8 @@ impl ThermalCompensator for ImuCompensator {
 }
 
 /// A fresh [`ImuCompensator`] with the firmware's default settings.
-fn imu_compensator() -> ImuCompensator {
+#[must_use]
+pub fn imu_compensator() -> ImuCompensator {
     Compensator::new(qfa_thermal::Config::default()).expect("the default config is valid")
 }
 
@@ -508,25 +509,19 @@ impl<C: ThermalCompensator> AccelCompensation for FaultyCompensation<C> {
     }
 }
 
-/// A deliberately broken compensation, to show that [`check`] can fail.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Broken {
-    /// The real compensation.
-    #[default]
-    No,
-    /// Every thermal coefficient zeroed: μ, β, ε, η, α and both bias grids (K1 = γ, K0 = 0).
-    ZeroedCoefficients,
-    /// The rate the model sees pinned at zero: the table's rate limit set to 1e-4 °C/min,
-    /// so the Eq. 11 rate terms and the heating / cooling branch never see Ṫ.
-    RatePinned,
-    /// Flags scrambled: every refused reading reports `SampleError::Time` and the fast
-    /// path never raises `TEMP_STALE` (the compensation itself is intact).
-    WrongFlags,
+/// What a row flies in place of the real compensation: the fault test's deliberately
+/// broken compensations, which show that [`check`] can fail, live in that test.
+#[derive(Clone, Copy, Debug)]
+pub struct Replacement {
+    /// The compensator, fresh.
+    pub compensator: fn() -> Box<dyn ThermalCompensator>,
+    /// The per-axis tables it loads (x, y, z), made from the real ones.
+    pub tables: fn([&Table; 3]) -> anyhow::Result<[Table; 3]>,
 }
 
-/// One row to fly: a named fault set, a limit on its `added` share, and whether the
-/// compensation is broken.
-#[derive(Clone, Debug, PartialEq)]
+/// One row to fly: a named fault set, a limit on its `added` share, and what it flies in
+/// place of the real compensation, if anything.
+#[derive(Clone, Debug)]
 pub struct RowSpec {
     /// Name.
     pub name: String,
@@ -535,8 +530,8 @@ pub struct RowSpec {
     /// Largest `added` share allowed (0.01 = the fault may add 1 % of the fault-free
     /// twin's thermal-only CEP rate); `None`: measured, not asserted.
     pub limit: Option<f64>,
-    /// Broken compensation (proofs that [`check`] can fail).
-    pub broken: Broken,
+    /// A compensation flown in place of the real one (`None`: the real one).
+    pub replaced: Option<Replacement>,
 }
 
 /// One row of the fault table.
@@ -590,51 +585,6 @@ impl ThermalCompensator for Box<dyn ThermalCompensator> {
     }
 }
 
-/// [`Broken::WrongFlags`]: the real compensator with its flags scrambled.
-struct WrongFlags(ImuCompensator);
-
-impl ThermalCompensator for WrongFlags {
-    fn load_table(&mut self, bytes: &[u8]) -> table::Result<()> {
-        self.0.load_table(bytes)
-    }
-    fn on_scratchpad(&mut self, axis: usize, t_ms: u32, sp: &[u8; 9]) -> Result<Status, SampleError> {
-        ThermalCompensator::on_scratchpad(&mut self.0, axis, t_ms, sp)
-            .map_err(|_| SampleError::Time(qfa_thermal::rate::Error::NonMonotonic))
-    }
-    fn cycle(&mut self, pulses: [i32; 3], dt_ticks: u32) -> ([f32; 3], Status) {
-        let (v, st) = ThermalCompensator::cycle(&mut self.0, pulses, dt_ticks);
-        (v, st - Status::TEMP_STALE)
-    }
-    fn table(&self) -> Option<&Table> {
-        self.0.table()
-    }
-}
-
-/// The tables a [`Broken`] row loads, from the real ones.
-///
-/// # Errors
-/// A broken table that does not validate.
-pub fn broken_tables(tables: [&Table; 3], b: Broken) -> anyhow::Result<[Table; 3]> {
-    let mut out = [tables[0].clone(), tables[1].clone(), tables[2].clone()];
-    for t in &mut out {
-        for a in &mut t.axes {
-            match b {
-                Broken::ZeroedCoefficients => {
-                    let s = &mut a.scale;
-                    (s.mu, s.beta, s.epsilon, s.eta, s.alpha) = (0.0, 0.0, 0.0, 0.0, 0.0);
-                    for v in a.bias.heating_g.iter_mut().chain(a.bias.cooling_g.iter_mut()) {
-                        *v = 0.0;
-                    }
-                }
-                Broken::RatePinned => a.rate_limit_c_per_min = 1e-4,
-                Broken::No | Broken::WrongFlags => {}
-            }
-        }
-        t.validate().map_err(|e| anyhow::anyhow!("broken table ({b:?}) invalid: {e}"))?;
-    }
-    Ok(out)
-}
-
 fn encode(t: &Table) -> anyhow::Result<Vec<u8>> {
     let mut buf = [0u8; MAX_TABLE_BYTES];
     Ok(t.encode(&mut buf).map_err(|e| anyhow::anyhow!("table: {e}"))?.to_vec())
@@ -642,11 +592,11 @@ fn encode(t: &Table) -> anyhow::Result<Vec<u8>> {
 
 /// Fly `sc` once with each axis's table (`tables`, x, y, z: the `hysteresis` variant's
 /// 1-axis unit tables, usually) loaded into a fault-free twin and into one compensation
-/// per row (broken as the row says), beside the oracle and the `simple` tables (`simple`,
+/// per row (or the row's [`Replacement`]), beside the oracle and the `simple` tables (`simple`,
 /// fault-free), all in lock-step on the same sensor data.
 ///
 /// # Errors
-/// A table the compensator refuses, a broken table that does not validate, the
+/// A table the compensator refuses, a replacement table that does not validate, the
 /// flight's errors, or a thermal-only error of `simple` too small to divide by.
 pub fn fly_with_faults(
     sc: &Scenario,
@@ -657,14 +607,7 @@ pub fn fly_with_faults(
     // One 3-axis table for the IMU's compensator, as the firmware flies it.
     let m = sc.imu.accel.carried_misalignment();
     let good = encode(&crate::navigate::calib::table3_with(tables, m)?)?;
-    let fresh = |b: Broken| -> Box<dyn ThermalCompensator> {
-        if b == Broken::WrongFlags {
-            Box::new(WrongFlags(imu_compensator()))
-        } else {
-            Box::new(imu_compensator())
-        }
-    };
-    let (clean, clean_log) = FaultyCompensation::new(fresh(Broken::No), &FaultSet::none(), &good);
+    let (clean, clean_log) = FaultyCompensation::new(imu_compensator(), &FaultSet::none(), &good);
     anyhow::ensure!(clean_log.borrow().table_loaded, "a table was refused");
     let mut variants = vec![
         Variant { name: "oracle".into(), comp: Box::new(OracleCompensation::carrying(sc.imu.accel.triad_inverse())) },
@@ -673,16 +616,21 @@ pub fn fly_with_faults(
     ];
     let mut logs = Vec::new();
     for r in rows {
-        let bytes = match r.broken {
-            Broken::ZeroedCoefficients | Broken::RatePinned => {
-                let bt = broken_tables(tables, r.broken)?;
-                encode(&crate::navigate::calib::table3_with([&bt[0], &bt[1], &bt[2]], m)?)?
-            }
-            Broken::No | Broken::WrongFlags => good.clone(),
-        };
         let set = FaultSet { takeoff_s: sc.align_steps() as f64 / sc.imu_rate_hz, ..r.set.clone() };
-        let (c, log) = FaultyCompensation::new(fresh(r.broken), &set, &bytes);
-        variants.push(Variant { name: r.name.clone(), comp: Box::new(c) });
+        let log = if let Some(rep) = r.replaced {
+            let bt = (rep.tables)(tables)?;
+            for t in &bt {
+                t.validate().map_err(|e| anyhow::anyhow!("{}: replaced table invalid: {e}", r.name))?;
+            }
+            let bytes = encode(&crate::navigate::calib::table3_with([&bt[0], &bt[1], &bt[2]], m)?)?;
+            let (c, log) = FaultyCompensation::new((rep.compensator)(), &set, &bytes);
+            variants.push(Variant { name: r.name.clone(), comp: Box::new(c) });
+            log
+        } else {
+            let (c, log) = FaultyCompensation::new(imu_compensator(), &set, &good);
+            variants.push(Variant { name: r.name.clone(), comp: Box::new(c) });
+            log
+        };
         logs.push(log);
     }
     let units = crate::navigate::units();
@@ -775,7 +723,7 @@ pub fn standard_sets(cruise_s: (f64, f64)) -> Vec<RowSpec> {
         name: name.into(),
         set: s(set),
         limit,
-        broken: Broken::No,
+        replaced: None,
     };
     vec![
         row("CRC errors 5 %", FaultSet::crc(0.05), Some(0.01)),
@@ -800,7 +748,9 @@ pub fn standard_sets(cruise_s: (f64, f64)) -> Vec<RowSpec> {
     ]
 }
 
-fn all_faults(mid: f64, seed: u64) -> FaultSet {
+/// Every fault at once, around the cruise's middle `mid` (s).
+#[must_use]
+pub fn all_faults(mid: f64, seed: u64) -> FaultSet {
     FaultSet {
         crc_error_rate: 0.05,
         brown_outs_s: (1..=10).map(|k| f64::from(k) * 700.0).collect(),
@@ -813,31 +763,6 @@ fn all_faults(mid: f64, seed: u64) -> FaultSet {
         seed,
         takeoff_s: 0.0,
     }
-}
-
-/// The broken rows: each must make [`check`] fail. Zeroed coefficients and a pinned rate
-/// with 5 % CRC errors and with a 2-minute dropout (the two limited rows); scrambled flags
-/// with every fault at once.
-#[must_use]
-pub fn broken_sets(cruise_s: (f64, f64)) -> Vec<RowSpec> {
-    let std = standard_sets(cruise_s);
-    let pick = |name: &str| std.iter().find(|r| r.name == name).cloned();
-    let mut v = Vec::new();
-    for b in [Broken::ZeroedCoefficients, Broken::RatePinned] {
-        for n in ["CRC errors 5 %", "dropout 2 min mid-cruise"] {
-            if let Some(r) = pick(n) {
-                v.push(RowSpec { name: format!("BROKEN {b:?}: {n}"), broken: b, ..r });
-            }
-        }
-    }
-    let mid = 0.5 * (cruise_s.0 + cruise_s.1);
-    v.push(RowSpec {
-        name: "BROKEN WrongFlags: all faults".into(),
-        set: all_faults(mid, 0x7_0001),
-        limit: None,
-        broken: Broken::WrongFlags,
-    });
-    v
 }
 
 /// The fault table as Markdown.
