@@ -13,7 +13,7 @@ use std::path::Path;
 
 use anyhow::{Context, Result};
 use plotters::prelude::*;
-use qfa_thermal::table::{Input, Table, MAX_TABLE_BYTES};
+use qfa_thermal::table::{Input, Table};
 
 use super::{BiasUnit, Channels, Gaps, LogKind, Report};
 use crate::calibrate::metrics::rms_of_finite;
@@ -83,11 +83,10 @@ pub fn write(ch: &Channels, report: &Report, dir: &Path, flashable: bool, held_o
         std::fs::write(dir.join("model.toml"), toml::to_string(&t)?)?;
     }
     if let Some(t) = table(report, input).filter(|_| flashable) {
-        let mut buf = [0u8; MAX_TABLE_BYTES];
-        match t.encode(&mut buf) {
+        match crate::calibrate::fit::encode(&t) {
             Ok(b) => {
-                std::fs::write(dir.join("table.bin"), b)?;
-                std::fs::write(dir.join("model.bin"), b)?;
+                std::fs::write(dir.join("table.bin"), &b)?;
+                std::fs::write(dir.join("model.bin"), &b)?;
             }
             Err(e) => {
                 let _ = writeln!(notes, "\nThe table did not validate ({e:?}); no `table.bin` was written.");

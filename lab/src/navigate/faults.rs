@@ -47,7 +47,7 @@ use std::rc::Rc;
 use nalgebra::Vector3;
 use qfa_thermal::compensator::{Compensator, PulseOutput, SampleError, Status};
 use qfa_thermal::ds18b20::{self, encode_scratchpad, Resolution, POWER_ON_RAW};
-use qfa_thermal::table::{self, Table, MAX_TABLE_BYTES};
+use qfa_thermal::table::{self, Table};
 
 use crate::navigate::accel::{AccelCompensation, ImuCompensator, OracleCompensation, TableCompensation};
 use crate::navigate::run::{self, Figures, Variant};
@@ -586,8 +586,7 @@ impl ThermalCompensator for Box<dyn ThermalCompensator> {
 }
 
 fn encode(t: &Table) -> anyhow::Result<Vec<u8>> {
-    let mut buf = [0u8; MAX_TABLE_BYTES];
-    Ok(t.encode(&mut buf).map_err(|e| anyhow::anyhow!("table: {e}"))?.to_vec())
+    crate::calibrate::fit::encode(t).map_err(|e| anyhow::anyhow!("table: {e}"))
 }
 
 /// Fly `sc` once with each axis's table (`tables`, x, y, z: the `hysteresis` variant's
