@@ -21,7 +21,9 @@ pub mod metrics;
 pub mod peers;
 pub mod report;
 pub mod select;
+pub mod solver;
 pub mod static_cal;
+pub mod static_fit;
 
 use std::path::Path;
 use std::time::Instant;

@@ -1,0 +1,62 @@
+//! The lab's one least-squares solver: nalgebra SVD of the column-scaled design matrix
+//! (each column divided by its norm); the condition number reported is the scaled
+//! matrix's, the unscaled one is given too.
+
+use nalgebra::{DMatrix, DVector};
+use serde::Serialize;
+
+use super::fit::FitError;
+
+/// A least-squares solution.
+#[derive(Clone, Debug, Serialize)]
+pub struct LsResult {
+    /// Coefficients.
+    pub coef: Vec<f64>,
+    /// Condition number of the column-scaled design matrix.
+    pub cond: f64,
+    /// Condition number of the unscaled design matrix.
+    pub cond_unscaled: f64,
+    /// RMS residual of the (block-averaged) equations.
+    pub rms: f64,
+    /// Equations.
+    pub rows: usize,
+}
+
+/// Solve `min ‖X·c − y‖` with `X` row-major (`p` columns) by SVD with column scaling.
+///
+/// # Errors
+/// [`FitError::TooFewRows`].
+pub fn lstsq(x: &[f64], p: usize, y: &[f64]) -> Result<LsResult, FitError> {
+    let n = y.len();
+    if n < p || p == 0 {
+        return Err(FitError::TooFewRows { rows: n, unknowns: p });
+    }
+    lstsq_matrix(DMatrix::from_row_slice(n, p, x), &DVector::from_column_slice(y))
+}
+
+/// The lab's one least-squares solver: `min ‖A·c − y‖` by nalgebra SVD of `A` with each
+/// column divided by its norm (singular values below 10⁻¹² of the largest are cut).
+/// Never the normal equations, which square the condition number.
+///
+/// # Errors
+/// [`FitError::TooFewRows`] when `A` has fewer rows than columns or none.
+pub fn lstsq_matrix(mut m: DMatrix<f64>, y: &DVector<f64>) -> Result<LsResult, FitError> {
+    let (n, p) = m.shape();
+    if n < p || p == 0 {
+        return Err(FitError::TooFewRows { rows: n, unknowns: p });
+    }
+    let sv_raw = m.clone().singular_values();
+    let cond_unscaled = sv_raw.max() / sv_raw.min();
+    let norms: Vec<f64> = (0..p).map(|j| m.column(j).norm().max(f64::MIN_POSITIVE)).collect();
+    for (j, nj) in norms.iter().enumerate() {
+        m.column_mut(j).scale_mut(1.0 / nj);
+    }
+    let svd = m.clone().svd(true, true);
+    let cond = svd.singular_values.max() / svd.singular_values.min();
+    let c =
+        svd.solve(y, 1e-12 * svd.singular_values.max()).map_err(|_| FitError::TooFewRows { rows: n, unknowns: p })?;
+    let resid = &m * &c - y;
+    let rms = (resid.norm_squared() / n as f64).sqrt();
+    let coef = c.iter().zip(&norms).map(|(ci, nj)| ci / nj).collect();
+    Ok(LsResult { coef, cond, cond_unscaled, rms, rows: n })
+}
