@@ -24,6 +24,8 @@ pub mod select;
 pub mod solver;
 pub mod static_cal;
 pub mod static_fit;
+pub mod static_holdout;
+pub mod static_output;
 
 use std::path::Path;
 use std::time::Instant;
