@@ -7,4 +7,6 @@ pub mod channels;
 pub mod cycling;
 pub mod lines;
 pub mod pairing;
+pub mod static_checks;
+pub mod static_columns;
 pub mod static_log;
