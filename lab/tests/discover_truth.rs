@@ -1,6 +1,7 @@
 //! Discovery on data the fitter did not make.
 //!
-//! The truth generator below shares no code with the fitter or the lab simulator: its own
+//! The truth generator (its RNG and chamber in `truth/`, the single-channel program below)
+//! shares no code with the fitter or the lab simulator: its own
 //! temperature program, its own exact integration of the thermal lags (1-s steps), the
 //! bias evaluated on the true interior temperature (not on the firmware's estimate), its
 //! own noise (white plus a first-order Gauss–Markov part, own RNG) and its own DS18B20
@@ -35,28 +36,11 @@
 //! Every named case must shrink its held-out gap. The table printed with `--nocapture`
 //! is the one in the README.
 
+mod truth;
+
 use qfa_lab::discover::{analyze, Channels, Gaps, Report, Start};
 use rayon::prelude::*;
-
-/// xorshift64* with Box–Muller normals: this file's own generator.
-struct Xs(u64);
-
-impl Xs {
-    fn new(seed: u64) -> Self {
-        Self(seed.wrapping_mul(0x2545_F491_4F6C_DD1D) | 1)
-    }
-    fn uniform(&mut self) -> f64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        let v = self.0.wrapping_mul(0x2545_F491_4F6C_DD1D);
-        ((v >> 11) as f64 + 0.5) / 9_007_199_254_740_992.0
-    }
-    fn normal(&mut self) -> f64 {
-        let (u, v) = (self.uniform(), self.uniform());
-        (-2.0 * u.ln()).sqrt() * (2.0 * std::f64::consts::PI * v).cos()
-    }
-}
+use truth::{chamber, Xs};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Hidden {
@@ -102,17 +86,6 @@ fn program() -> Vec<(f64, f64)> {
         k.push((t, temp));
     }
     k
-}
-
-fn chamber(k: &[(f64, f64)], t_min: f64) -> f64 {
-    match k.iter().position(|p| p.0 > t_min) {
-        Some(0) => k[0].1,
-        Some(i) => {
-            let (a, b) = (k[i - 1], k[i]);
-            a.1 + (b.1 - a.1) * (t_min - a.0) / (b.0 - a.0)
-        }
-        None => k[k.len() - 1].1,
-    }
 }
 
 /// The log as CSV text and the true bias scale (µg).

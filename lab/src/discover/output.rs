@@ -211,19 +211,7 @@ fn markdown(ch: &Channels, r: &Report, flashable: bool, selection_only: bool) ->
             if flashable { "in table.bin" } else { "root-crate slot" }
         );
         for (i, e) in r.effects.iter().enumerate() {
-            let p: Vec<String> = e
-                .params_ci
-                .iter()
-                .map(|(k, c)| {
-                    format!(
-                        "{k} = {:.4e} [{:.3e}, {:.3e}]{}",
-                        c.value,
-                        c.ci95[0],
-                        c.ci95[1],
-                        if c.at_bound { " **at search limit**" } else { "" }
-                    )
-                })
-                .collect();
+            let p: Vec<String> = e.params_text(" **at search limit**");
             let _ = writeln!(
                 s,
                 "| {} | `{}` | {} | {} | {:.1} ± {:.1} | {:.3} → {:.3} | {} |",

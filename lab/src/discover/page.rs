@@ -68,19 +68,7 @@ pub fn page(ch: &Channels, r: &Report, dir: &Path) -> Result<Page> {
         .effects
         .iter()
         .map(|e| {
-            let params: Vec<String> = e
-                .params_ci
-                .iter()
-                .map(|(k, c)| {
-                    format!(
-                        "{k} = {:.4e} [{:.3e}, {:.3e}]{}",
-                        c.value,
-                        c.ci95[0],
-                        c.ci95[1],
-                        if c.at_bound { " at search limit" } else { "" }
-                    )
-                })
-                .collect();
+            let params: Vec<String> = e.params_text(" at search limit");
             vec![
                 e.name.clone(),
                 e.channel.clone(),

@@ -239,3 +239,23 @@ impl Report {
             .collect()
     }
 }
+
+impl EffectReport {
+    /// Each parameter as `name = value [low, high]`, followed by `limit_mark` when it sits at
+    /// a search limit.
+    #[must_use]
+    pub fn params_text(&self, limit_mark: &str) -> Vec<String> {
+        self.params_ci
+            .iter()
+            .map(|(k, c)| {
+                format!(
+                    "{k} = {:.4e} [{:.3e}, {:.3e}]{}",
+                    c.value,
+                    c.ci95[0],
+                    c.ci95[1],
+                    if c.at_bound { limit_mark } else { "" }
+                )
+            })
+            .collect()
+    }
+}

@@ -4,7 +4,8 @@
 //! The discovery tests read its logs through the lab's readers, as a user's logs are read.
 //!
 //! Three log shapes:
-//! - [`single_channel`]: `time_s,temp_c,value` (a bias in µg), one 12.9-h program;
+//! - single-channel `time_s,temp_c,value` logs (a bias in µg), written by
+//!   `discover_truth.rs` with this module's RNG and chamber;
 //! - [`cycling`]: the four-position test's `program,run,time_s,input_g,temp_c,pulses,interval_s`
 //!   at the paper's four ramp rates, +1 g and −1 g runs of each;
 //! - [`desk`]: a static three-axis MEMS log of a board on a desk, days of slow room cycles.
