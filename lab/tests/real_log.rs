@@ -379,6 +379,20 @@ fn heating_only_cut_calibrates_and_its_table_holds_on_the_cooling_leg() {
     assert_eq!(report["rows"], 3503);
     // No later leg: `auto` holds out contiguous time blocks, and says so.
     assert_eq!(report["holdout"]["scheme"], "blocks:5", "{}", report["holdout"]);
+    // Discovery takes the same cut on the same scheme, with a held-out figure per axis.
+    let disc = dir.join("disc");
+    let mut args = vec!["discover", "--start", "paper", "--log", cut_path.to_str().unwrap(), "--out"];
+    args.push(disc.to_str().unwrap());
+    args.extend(FLAGS);
+    let d = lab(&args);
+    assert!(d.status.success(), "{}", String::from_utf8_lossy(&d.stderr));
+    let d: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(disc.join("report.json")).unwrap()).unwrap();
+    assert_eq!(d["holdout"]["scheme"], "blocks:5", "{}", d["holdout"]);
+    for a in d["axes"].as_array().unwrap() {
+        assert!(a["final_model"]["rms_mg"].as_f64().is_some_and(|x| x > 0.0), "{a}");
+        println!("discover, heating cut, {}: flashed {} mg held out", a["axis"], a["final_model"]["rms_mg"]);
+    }
     let comp = dir.join("comp.csv");
     let table = cal.join("table.bin");
     let mut args = vec![
