@@ -26,6 +26,7 @@ pub mod static_cal;
 pub mod static_fit;
 pub mod static_holdout;
 pub mod static_output;
+pub mod static_report;
 
 use std::path::Path;
 use std::time::Instant;
