@@ -56,6 +56,7 @@ pub mod calib;
 pub mod clock;
 pub mod earth;
 pub mod errors;
+pub mod fault_injection;
 pub mod faults;
 pub mod mc;
 pub mod plan;
