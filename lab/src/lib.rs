@@ -26,4 +26,5 @@ pub mod html_report;
 pub mod navigate;
 pub mod out_path;
 pub mod plot_font;
+pub mod rng;
 pub mod simulate;

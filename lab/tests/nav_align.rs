@@ -30,7 +30,7 @@ fn stationary(seed: u64, align_s: f64) -> Scenario {
 /// The alignment errors a stationary alignment cannot avoid, from the biases `fly` draws
 /// first from the scenario seed.
 fn expected(sc: &Scenario) -> AlignErrors {
-    let mut rng = <rand::rngs::Xoshiro256PlusPlus as rand::SeedableRng>::seed_from_u64(sc.seed);
+    let mut rng = qfa_lab::rng::seeded(sc.seed);
     let d = qfa_lab::navigate::errors::ImuDraw::draw(&sc.imu, &mut rng);
     let q = Flight::new(sc).state.q;
     let lat = sc.start.lat_deg.to_radians();

@@ -11,7 +11,7 @@
 use serde::Serialize;
 
 use crate::data::channels::Channels;
-use crate::simulate::synth::Rng;
+use crate::rng::{seeded, uniform};
 
 /// Blocks of consecutive bins within each trace (a block never spans two programs).
 #[derive(Clone, Debug)]
@@ -155,9 +155,9 @@ pub fn gain_stat(b: &Blocks, d: &[f64], alpha: f64) -> GainStat {
     let var = g.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
     let se = (n * var).sqrt().max(1e-300);
     // Block bootstrap of the sum (fixed seed: the report is reproducible).
-    let mut rng = Rng::new(0xB007_5742);
+    let mut rng = seeded(0xB007_5742);
     let mut boot: Vec<f64> =
-        (0..2000).map(|_| (0..g.len()).map(|_| g[((rng.uniform() * n) as usize).min(g.len() - 1)]).sum()).collect();
+        (0..2000).map(|_| (0..g.len()).map(|_| g[((uniform(&mut rng) * n) as usize).min(g.len() - 1)]).sum()).collect();
     boot.sort_by(f64::total_cmp);
     let bm = boot.iter().sum::<f64>() / boot.len() as f64;
     let bse = (boot.iter().map(|x| (x - bm).powi(2)).sum::<f64>() / (boot.len() - 1) as f64).sqrt();

@@ -218,7 +218,7 @@ pub(super) fn block_resample(
     pred: &[(f64, f64)],
     res: &[(f64, f64)],
     len: usize,
-    rng: &mut crate::simulate::synth::Rng,
+    rng: &mut crate::rng::LabRng,
 ) -> Vec<(f64, f64)> {
     let mut y = Vec::with_capacity(pred.len());
     let mut o = 0;
@@ -226,7 +226,7 @@ pub(super) fn block_resample(
         let m = t.bins.len();
         let mut i = 0;
         while i < m {
-            let start = if m > len { (rng.uniform() * (m - len + 1) as f64) as usize } else { 0 };
+            let start = if m > len { crate::rng::below(rng, m - len + 1) } else { 0 };
             for k in 0..len.min(m - i) {
                 let j = o + (start + k).min(m - 1);
                 let (p, r) = (pred[o + i + k], res[j]);
@@ -276,6 +276,6 @@ pub(super) fn bootstrap_linear(
         .collect()
 }
 
-pub(super) fn stats_rng() -> crate::simulate::synth::Rng {
-    crate::simulate::synth::Rng::new(0x5EED_B007)
+pub(super) fn stats_rng() -> crate::rng::LabRng {
+    crate::rng::seeded(0x5EED_B007)
 }

@@ -14,8 +14,6 @@
 use nalgebra::Vector3;
 use qfa_thermal::compensator::{self, Compensator};
 use qfa_thermal::table::Table;
-use rand::Rng;
-use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
 use super::earth::G0;
@@ -319,12 +317,4 @@ impl AccelCompensation for OracleCompensation {
         let v = Vector3::from_fn(|i, _| G0 * (f64::from(pulses[i]) / truth[i].0 - truth[i].1 * dt));
         self.misalignment.map_or(v, |m| m * v)
     }
-}
-
-/// A DS18B20 on a case: 12-bit raw (1/16 °C) of the case temperature plus the unit's
-/// sensor offset and noise (the lab's [`SensorTruth`]), as the lab simulator reads it.
-pub fn ds18b20_raw<R: Rng + ?Sized>(s: &SensorTruth, case_c: f64, rng: &mut R) -> i16 {
-    let z: f64 = if s.noise_c > 0.0 { StandardNormal.sample(rng) } else { 0.0 };
-    let t = case_c + s.offset_c + s.noise_c * z;
-    (t * 16.0).round().clamp(-880.0, 2000.0) as i16
 }

@@ -23,7 +23,6 @@
 
 use nalgebra::{Matrix3, Vector3};
 use rand::Rng;
-use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
 use super::earth::G0;
@@ -174,7 +173,7 @@ pub struct ImuDraw {
 }
 
 fn z<R: Rng + ?Sized>(rng: &mut R) -> f64 {
-    StandardNormal.sample(rng)
+    crate::rng::normal(rng)
 }
 
 fn matrix<R: Rng + ?Sized>(sf_ppm: f64, mis_arcsec: f64, rng: &mut R) -> Matrix3<f64> {
@@ -243,11 +242,10 @@ impl ImuDraw {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rand::SeedableRng;
 
     #[test]
     fn none_is_the_identity_and_defaults_are_the_documented_class() {
-        let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(1);
+        let mut rng = crate::rng::seeded(1);
         let mut d = ImuDraw::draw(&ImuErrors::none(), &mut rng);
         let v = Vector3::new(1e-3, -2e-3, 3e-3);
         assert_eq!(d.gyro(&v, 0.005, &mut rng), v);

@@ -12,6 +12,7 @@ use qfa_thermal::table::Table;
 
 use super::faults::*;
 use crate::navigate::accel::AccelCompensation;
+use crate::rng::{below, seeded, uniform, LabRng};
 
 /// Which faults to inject. Times are seconds since the start of the flight.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -136,33 +137,11 @@ impl FaultLog {
     }
 }
 
-/// xorshift64*: the injector's own reproducible draws.
-#[derive(Clone, Debug)]
-struct Rng(u64);
-
-impl Rng {
-    fn new(seed: u64) -> Self {
-        Self(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1)
-    }
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-    fn uniform(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn below(&mut self, n: u64) -> u64 {
-        self.next() % n
-    }
-}
-
 /// Turns the clean streams into faulty ones, per a [`FaultSet`].
 #[derive(Clone, Debug)]
 pub struct Injector {
     set: FaultSet,
-    rng: Rng,
+    rng: LabRng,
     brown_outs_done: usize,
     /// The last value delivered intact, repeated while stuck.
     last_raw: Option<i16>,
@@ -183,7 +162,7 @@ impl Injector {
     /// An injector of `set`.
     #[must_use]
     pub fn new(set: FaultSet) -> Self {
-        let rng = Rng::new(set.seed ^ 0xFA17);
+        let rng = seeded(set.seed ^ 0xFA17);
         Self { set, rng, brown_outs_done: 0, last_raw: None, stuck_raw: None, in_stuck: None }
     }
 
@@ -232,14 +211,14 @@ impl Injector {
             None => self.in_stuck = None,
         }
         self.last_raw = Some(raw);
-        if self.set.spike_rate > 0.0 && self.rng.uniform() < self.set.spike_rate {
-            let sign = if self.rng.below(2) == 0 { 1.0 } else { -1.0 };
+        if self.set.spike_rate > 0.0 && uniform(&mut self.rng) < self.set.spike_rate {
+            let sign = if below(&mut self.rng, 2) == 0 { 1.0 } else { -1.0 };
             let r = raw.saturating_add((sign * self.set.spike_c * 16.0).round() as i16);
             return Injected { delivered: Delivered::Scratchpad(intact(r)), fault: Some(Kind::Spike) };
         }
         let mut sp = intact(raw);
-        if self.set.crc_error_rate > 0.0 && self.rng.uniform() < self.set.crc_error_rate {
-            let bit = self.rng.below(72) as usize;
+        if self.set.crc_error_rate > 0.0 && uniform(&mut self.rng) < self.set.crc_error_rate {
+            let bit = below(&mut self.rng, 72);
             sp[bit / 8] ^= 1 << (bit % 8);
             return Injected { delivered: Delivered::Scratchpad(sp), fault: Some(Kind::Crc) };
         }
@@ -252,7 +231,7 @@ impl Injector {
         if j == 0 {
             return (dt_ticks, false);
         }
-        let off = self.rng.below(2 * u64::from(j) + 1) as i64 - i64::from(j);
+        let off = below(&mut self.rng, 2 * j as usize + 1) as i64 - i64::from(j);
         (u32::try_from((i64::from(dt_ticks) + off).max(0)).unwrap_or(0), true)
     }
 

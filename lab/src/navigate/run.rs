@@ -9,10 +9,9 @@
 //! drives its own mechanisation. Errors are sampled once a second.
 
 use nalgebra::Vector3;
-use rand::SeedableRng;
 use serde::{Deserialize, Serialize};
 
-use super::accel::{ds18b20_raw, AccelCompensation, AccelTruth};
+use super::accel::{AccelCompensation, AccelTruth};
 use super::align::{AlignErrors, Aligner, FilterNoise};
 use super::earth::{self, NMI_M};
 use super::errors::ImuDraw;
@@ -112,7 +111,7 @@ struct Imu<'a> {
     truths: &'a mut [Box<dyn AccelTruth>; 3],
     sensors: [SensorTruth; 3],
     draw: ImuDraw,
-    rng: rand::rngs::Xoshiro256PlusPlus,
+    rng: crate::rng::LabRng,
 }
 
 /// One cycle of IMU output.
@@ -137,7 +136,7 @@ impl Imu<'_> {
 
     fn ds18b20(&mut self, case_c: f64) -> [i16; 3] {
         let s = self.sensors;
-        [0, 1, 2].map(|i| ds18b20_raw(&s[i], case_c, &mut self.rng))
+        [0, 1, 2].map(|i| s[i].raw(&mut self.rng, case_c))
     }
 
     /// Each case's DS18B20 conversion completes once a second (the first at t = 1 s):
@@ -180,7 +179,7 @@ pub fn fly(
     let ground_c = sc.ground_temp_c();
     let mut chain =
         sc.thermal.start(if align_steps > 0 { ground_c } else { profile.at(0.0) }, dt, sc.thermal.element_tau_s);
-    let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(sc.seed);
+    let mut rng = crate::rng::seeded(sc.seed);
     let draw = ImuDraw::draw(&sc.imu, &mut rng);
     let mut imu = Imu { truths, sensors, draw, rng };
     let mut flight = Flight::new(sc);

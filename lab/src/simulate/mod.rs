@@ -15,18 +15,15 @@ pub mod synth;
 pub mod thermal;
 pub mod truth;
 
-use rand::rngs::StdRng;
-use rand::{RngExt, SeedableRng};
-use rand_distr::StandardNormal;
-
 use crate::data::cycling::{Log, Run, Sample};
+use crate::rng::{normal, seeded, LabRng};
 use crate::simulate::profile::{Position, Program};
 use crate::simulate::truth::{NoiseTruth, Truth, TruthModel};
 
 /// Accelerometer noise generator (white + Gauss–Markov), g.
 #[derive(Debug)]
 pub struct NoiseGen {
-    rng: StdRng,
+    rng: LabRng,
     cfg: NoiseTruth,
     bias_g: f64,
 }
@@ -35,8 +32,8 @@ impl NoiseGen {
     /// Seeded generator; the bias-instability state starts from its stationary law.
     #[must_use]
     pub fn new(cfg: NoiseTruth, seed: u64) -> Self {
-        let mut rng = StdRng::seed_from_u64(seed);
-        let z: f64 = rng.sample(StandardNormal);
+        let mut rng = seeded(seed);
+        let z = normal(&mut rng);
         Self { rng, cfg, bias_g: z * cfg.bias_instability_ug * 1e-6 }
     }
 
@@ -45,11 +42,11 @@ impl NoiseGen {
         let c = self.cfg;
         if c.bias_instability_ug > 0.0 {
             let phi = (-dt_s / c.bias_instability_tau_s).exp();
-            let z: f64 = self.rng.sample(StandardNormal);
+            let z = normal(&mut self.rng);
             self.bias_g = phi * self.bias_g + c.bias_instability_ug * 1e-6 * (1.0 - phi * phi).sqrt() * z;
         }
         let white = if c.white_ug_per_rthz > 0.0 {
-            let z: f64 = self.rng.sample(StandardNormal);
+            let z = normal(&mut self.rng);
             z * c.white_ug_per_rthz * 1e-6 / dt_s.sqrt()
         } else {
             0.0
@@ -91,22 +88,9 @@ impl Accelerometer {
     }
 }
 
-/// DS18B20 reading of `temp_c`: offset, noise, 12-bit quantization, limited to
-/// −60..+125 °C. The datasheet specifies −55..+125 °C, but the register reads on below
-/// −55 (the paper's chamber goes to −60 °C); clamping at −55 would freeze T̂ and Ṫ at the
-/// cold turnaround and break the fit there.
-fn ds18b20(truth: &Truth, rng: &mut StdRng, temp_c: f64) -> f64 {
-    let z: f64 = if truth.sensor.noise_c > 0.0 { rng.sample(StandardNormal) } else { 0.0 };
-    let v = temp_c + truth.sensor.offset_c + truth.sensor.noise_c * z;
-    (v * 16.0).round().clamp(-960.0, 2000.0) / 16.0
-}
-
+/// The noise seed of one (program, run): its own stream of the base seed.
 fn run_seed(seed: u64, program: usize, run: u32) -> u64 {
-    let mut x = seed ^ 0x9E37_79B9_7F4A_7C15u64.wrapping_mul(program as u64 + 1) ^ (u64::from(run) << 40);
-    // splitmix64 finaliser
-    x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    x ^ (x >> 31)
+    crate::rng::splitmix64(seed ^ ((program as u64 + 1) << 32) ^ u64::from(run))
 }
 
 /// Simulate one run of `program` at `pos`.
@@ -117,7 +101,7 @@ pub fn simulate_run(truth: &Truth, program: &Program, pos: Position, row_s: u32,
     let start_air = program.temp_at(0.0);
     let mut chain = truth.thermal.start(start_air, dt, truth.element_tau_s());
     let mut acc = Accelerometer::new(truth, seed);
-    let mut srng = StdRng::seed_from_u64(seed ^ 0xD518_B20D_518B_20D5);
+    let mut srng = seeded(seed ^ 0xD518_B20D_518B_20D5);
     let steps = program.duration_s().floor() as u64;
     let rows = steps / u64::from(row_s);
     let mut samples = Vec::with_capacity(rows as usize);
@@ -134,7 +118,7 @@ pub fn simulate_run(truth: &Truth, program: &Program, pos: Position, row_s: u32,
             // Case temperature at the conversion instant, linear within the step.
             let frac = (next_conv - (t1 - dt)) / dt;
             let c = case_prev + (temps.case_c - case_prev) * frac;
-            reading = Some(ds18b20(truth, &mut srng, c));
+            reading = Some(truth.sensor.read(&mut srng, c));
             next_conv += truth.sensor.period_s;
         }
         case_prev = temps.case_c;

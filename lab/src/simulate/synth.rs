@@ -16,34 +16,10 @@ use std::fmt::Write as _;
 use qfa_thermal::model::{AxisModel, AxisState, BiasGrid, Extensions, ScaleFactor};
 
 use crate::data::channels::{Channels, LogKind, Trace};
+use crate::rng::{normal, seeded, LabRng};
 use crate::simulate::profile::Program;
 use crate::simulate::thermal::Lag;
-
-/// SplitMix64 with Box–Muller normals (small, seedable, no dependency).
-#[derive(Clone, Debug)]
-pub struct Rng(u64);
-
-impl Rng {
-    /// Seeded generator.
-    #[must_use]
-    pub fn new(seed: u64) -> Self {
-        Self(seed ^ 0x9E37_79B9_7F4A_7C15)
-    }
-    /// Uniform in (0, 1).
-    pub fn uniform(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        ((z >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-    }
-    /// Standard normal.
-    pub fn normal(&mut self) -> f64 {
-        let (u, v) = (self.uniform(), self.uniform());
-        (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
-    }
-}
+use crate::simulate::truth::SensorTruth;
 
 /// Test-program and noise configuration.
 #[derive(Clone, Debug)]
@@ -135,12 +111,14 @@ fn program(c: &SynthConfig, rate: f64) -> Program {
 /// One program's rows: (time s, DS18B20 °C, true K1, true K0). The case follows the
 /// chamber through the simulator's first-order [`Lag`] (exact for the piecewise-linear
 /// program, 10 sub-steps per row so the knots fall close to step edges).
-fn program_rows(c: &SynthConfig, rate: f64, model: &AxisModel, rng: &mut Rng) -> Vec<(f64, f32, f64, f64)> {
+fn program_rows(c: &SynthConfig, rate: f64, model: &AxisModel, rng: &mut LabRng) -> Vec<(f64, f32, f64, f64)> {
     let prog = program(c, rate);
     let end = prog.duration_s();
     let sub = 10usize;
     let h = c.dt_s / sub as f64;
     let mut case = Lag::new(c.case_tau_s, h, 22.0);
+    // The simulator's one DS18B20, on the case, without offset, read at every row.
+    let sensor = SensorTruth { offset_c: 0.0, noise_c: c.temp_noise_c, period_s: c.dt_s, first_s: 0.0 };
     let mut st = AxisState::default();
     let mut out = Vec::new();
     let mut t = 0.0;
@@ -167,8 +145,7 @@ fn program_rows(c: &SynthConfig, rate: f64, model: &AxisModel, rng: &mut Rng) ->
             (k1, k0) = (f64::from(e.k1), f64::from(e.k0));
             prev = (k1, k0);
         }
-        let raw = ((case.y + c.temp_noise_c * rng.normal()) * 16.0).round() as i16;
-        let reading = f32::from(raw) / 16.0;
+        let reading = sensor.read(rng, case.y) as f32;
         out.push((t, reading, k1, k0));
         t += c.dt_s;
     }
@@ -178,13 +155,13 @@ fn program_rows(c: &SynthConfig, rate: f64, model: &AxisModel, rng: &mut Rng) ->
 /// Channels of a simulated cycling test (K1, K0 per row with noise, binned to `bin_s`).
 #[must_use]
 pub fn cycling_channels(c: &SynthConfig, model: &AxisModel, bin_s: f64) -> Channels {
-    let mut rng = Rng::new(c.seed);
+    let mut rng = seeded(c.seed);
     let mut traces = Vec::new();
     for &rate in &c.rates {
         let rows = program_rows(c, rate, model, &mut rng);
         let temps: Vec<(f64, f32)> = rows.iter().map(|r| (r.0, r.1)).collect();
-        let sf: Vec<f64> = rows.iter().map(|r| r.2 * (1.0 + c.sf_noise_ppm * 1e-6 * rng.normal())).collect();
-        let bias: Vec<f64> = rows.iter().map(|r| r.3 + c.bias_noise_ug * 1e-6 * rng.normal()).collect();
+        let sf: Vec<f64> = rows.iter().map(|r| r.2 * (1.0 + c.sf_noise_ppm * 1e-6 * normal(&mut rng))).collect();
+        let bias: Vec<f64> = rows.iter().map(|r| r.3 + c.bias_noise_ug * 1e-6 * normal(&mut rng)).collect();
         traces.push(Trace::new(format!("paper-{rate:.1}"), &temps, Some(&sf), &bias, bin_s));
     }
     Channels { kind: LogKind::Cycling, bias_unit: crate::data::channels::BiasUnit::G, traces }
@@ -193,12 +170,12 @@ pub fn cycling_channels(c: &SynthConfig, model: &AxisModel, bin_s: f64) -> Chann
 /// A single-channel log (`time_s,temp_c,value`) of the first program: value = K0 in µg.
 #[must_use]
 pub fn single_csv(c: &SynthConfig, model: &AxisModel) -> String {
-    let mut rng = Rng::new(c.seed);
+    let mut rng = seeded(c.seed);
     let mut s = String::from("time_s,temp_c,value\n");
     if let Some(&rate) = c.rates.first() {
         let rows = program_rows(c, rate, model, &mut rng);
         for r in rows {
-            let v = r.3 * 1e6 + c.bias_noise_ug * rng.normal();
+            let v = r.3 * 1e6 + c.bias_noise_ug * normal(&mut rng);
             let _ = writeln!(s, "{:.1},{:.4},{:.4}", r.0, r.1, v);
         }
     }
@@ -209,7 +186,7 @@ pub fn single_csv(c: &SynthConfig, model: &AxisModel) -> String {
 /// pulses with carry; `accel_noise_ug` is white noise per row.
 #[must_use]
 pub fn cycling_csv(c: &SynthConfig, model: &AxisModel, accel_noise_ug: f64) -> String {
-    let mut rng = Rng::new(c.seed);
+    let mut rng = seeded(c.seed);
     let mut s = String::with_capacity(1 << 20);
     s.push_str("program,run,time_s,input_g,temp_c,pulses,interval_s\n");
     for &rate in &c.rates {
@@ -224,7 +201,7 @@ pub fn cycling_csv(c: &SynthConfig, model: &AxisModel, accel_noise_ug: f64) -> S
                 };
                 let iv = r.0 - p0;
                 prev = Some(r.0);
-                let a = r.2 * (r.3 + g + accel_noise_ug * 1e-6 * rng.normal());
+                let a = r.2 * (r.3 + g + accel_noise_ug * 1e-6 * normal(&mut rng));
                 carry += a * iv;
                 let pulses = carry.floor();
                 carry -= pulses;

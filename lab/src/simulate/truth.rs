@@ -77,6 +77,24 @@ pub struct SensorTruth {
     pub first_s: f64,
 }
 
+impl SensorTruth {
+    /// A DS18B20 reading of `temp_c`, °C: [`SensorTruth::raw`] over 16.
+    pub fn read<R: rand::Rng + ?Sized>(&self, rng: &mut R, temp_c: f64) -> f64 {
+        f64::from(self.raw(rng, temp_c)) / 16.0
+    }
+
+    /// The 12-bit register (1/16 °C) a DS18B20 reads at `temp_c`: offset, noise,
+    /// quantization, limited to −60..+125 °C. The datasheet specifies −55..+125 °C, but
+    /// the register reads on below −55 (the paper's chamber goes to −60 °C); clamping at
+    /// −55 would freeze T̂ and Ṫ at the cold turnaround and break the fit there. Draws one
+    /// normal only when there is noise.
+    pub fn raw<R: rand::Rng + ?Sized>(&self, rng: &mut R, temp_c: f64) -> i16 {
+        let z = if self.noise_c > 0.0 { crate::rng::normal(rng) } else { 0.0 };
+        let v = temp_c + self.offset_c + self.noise_c * z;
+        (v * 16.0).round().clamp(-960.0, 2000.0) as i16
+    }
+}
+
 /// Everything the simulator needs about one unit.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Truth {
