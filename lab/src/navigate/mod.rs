@@ -59,6 +59,7 @@ pub mod errors;
 pub mod fault_injection;
 pub mod faults;
 pub mod mc;
+pub mod mc_summary;
 pub mod plan;
 pub mod plot;
 pub mod run;
