@@ -23,6 +23,8 @@ pub mod report;
 pub mod select;
 pub mod solver;
 pub mod static_cal;
+pub mod static_choice;
+pub mod static_error;
 pub mod static_fit;
 pub mod static_holdout;
 pub mod static_output;

@@ -63,98 +63,22 @@
 //!   the bias measured from the axis's mean over every row. `table_rms_mg` is that
 //!   table's RMS over every row (in-sample: not a held-out figure).
 
-use std::fmt;
-
 use qfa_thermal::model::Branch;
-use qfa_thermal::table::limits::MIN_GRID_STEP_C;
 use qfa_thermal::Input;
 
-use crate::calibrate::fit::{
-    fit_static_traced, table_of_axes, BranchMode, CurveShape, FitError, StaticSeries, StaticStructure, StaticTraces,
-};
+use crate::calibrate::fit::{fit_static_traced, table_of_axes, FitError, StaticSeries, StaticStructure, StaticTraces};
 use crate::calibrate::metrics::rms;
 use crate::calibrate::peers::{PeerKind, Poly};
 use crate::data::static_log::StaticLog;
 
+pub use super::static_choice::*;
+pub use super::static_error::*;
 pub use super::static_holdout::*;
 pub use super::static_output::*;
 pub use super::static_report::*;
 
-/// Contiguous cross-validation blocks of the model choice (`blocks:K` uses K), and the
-/// blocks of `--holdout auto` when the log has no later leg.
-pub const CV_FOLDS: usize = 5;
-
 /// Length of the averaging window of `binned_mg`, s.
 pub const BIN_S: f64 = 60.0;
-
-/// Why a static calibration failed.
-#[derive(Clone, Debug, PartialEq)]
-#[non_exhaustive]
-pub enum StaticCalError {
-    /// `--holdout after-max` on a log without a later leg.
-    Split(String),
-    /// A `--holdout` value that is not one of the schemes, or one the log cannot hold.
-    Holdout(String),
-    /// The temperature span is below what the bias grid needs.
-    SpanTooSmall {
-        /// Lowest reading, °C.
-        lo_c: f64,
-        /// Highest reading, °C.
-        hi_c: f64,
-        /// Span needed, °C.
-        needed_c: f64,
-        /// Grid nodes.
-        nodes: usize,
-    },
-    /// A part of the span holds too few rows for the grid.
-    TooFewRowsPerDegree {
-        /// The sparsest grid interval, °C.
-        interval_c: (f64, f64),
-        /// Rows in it.
-        rows: usize,
-        /// Rows it needs.
-        needed: usize,
-        /// The log's span, °C.
-        span_c: (f64, f64),
-        /// Intervals the span is cut into.
-        intervals: usize,
-    },
-    /// A fit failed.
-    Fit(String, FitError),
-    /// A figure could not be computed.
-    Figure(String),
-    /// Writing an output failed.
-    Io(String),
-}
-
-impl fmt::Display for StaticCalError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::Split(s) => write!(f, "held-out split: {s}"),
-            Self::Holdout(s) => write!(f, "--holdout {s}"),
-            Self::SpanTooSmall { lo_c, hi_c, needed_c, nodes } => write!(
-                f,
-                "the temperature span is too small: {:.2} °C ({lo_c:.2}..{hi_c:.2} °C); the model needs at least \
-                 {needed_c:.2} °C ({nodes} bias-grid nodes at least {MIN_GRID_STEP_C} °C apart, the root crate's \
-                 smallest grid step)",
-                hi_c - lo_c
-            ),
-            Self::TooFewRowsPerDegree { interval_c: (a, b), rows, needed, span_c: (lo, hi), intervals } => write!(
-                f,
-                "too few rows per degree: {rows} row(s) between {a:.2} and {b:.2} °C ({:.2} per °C); the model needs \
-                 {needed} there ({:.2} per °C): one {needed}-row averaged equation in each of the {intervals} \
-                 bias-grid intervals over {lo:.2}..{hi:.2} °C",
-                *rows as f64 / (b - a),
-                *needed as f64 / (b - a)
-            ),
-            Self::Fit(axis, e) => write!(f, "fit of {axis}: {e}"),
-            Self::Figure(s) => write!(f, "figure not computable: {s}"),
-            Self::Io(s) => write!(f, "{s}"),
-        }
-    }
-}
-
-impl std::error::Error for StaticCalError {}
 
 /// Settings.
 #[derive(Clone, Debug)]
@@ -181,27 +105,6 @@ impl Default for StaticCalOptions {
             holdout: Holdout::Auto,
         }
     }
-}
-
-/// The candidate structures: branch tie (single, constant step, free) × `sensor_lag` τ
-/// (none, 30…480 s) × `bias_creep` τ (none, 60…600 s).
-#[must_use]
-pub fn candidates() -> Vec<StaticStructure> {
-    let mut out = Vec::new();
-    for branches in [BranchMode::Single, BranchMode::Offset, BranchMode::Free] {
-        for lag in [None, Some(30.0), Some(60.0), Some(120.0), Some(240.0), Some(480.0)] {
-            for creep in [None, Some(60.0), Some(180.0), Some(600.0)] {
-                out.push(StaticStructure {
-                    shape: CurveShape::Nodes,
-                    branches,
-                    lag_tau_s: lag,
-                    creep_tau_s: creep,
-                    play_half_width_c: None,
-                });
-            }
-        }
-    }
-    out
 }
 
 pub(crate) fn range(v: &[f64]) -> (f64, f64) {
@@ -238,54 +141,6 @@ pub fn score(resid: &[f64], time_s: &[f64], what: &str) -> Result<Score, StaticC
         return Err(StaticCalError::Figure(format!("{what}: non-finite residual")));
     }
     Ok(out)
-}
-
-/// Blocked cross-validation RMS (g) of one structure (its `traces`) on the rows `rows`
-/// (ascending): they are cut into `k` contiguous chunks, each predicted by a fit to the
-/// other rows of `rows`.
-fn cv_rms(
-    series: &StaticSeries<'_>,
-    traces: &StaticTraces,
-    rows: &[usize],
-    k: usize,
-    opts: &StaticCalOptions,
-) -> Result<f64, FitError> {
-    let (n, m) = (series.time_s.len(), rows.len());
-    let mut sum = 0.0;
-    let mut count = 0usize;
-    for f in 0..k {
-        let chunk = &rows[m * f / k..m * (f + 1) / k];
-        let mut train = vec![false; n];
-        for &i in rows {
-            train[i] = true;
-        }
-        for &i in chunk {
-            train[i] = false;
-        }
-        let fit = fit_static_traced(series, traces, &train, opts.grid_points, opts.block)?;
-        let tr = series.model_trace(&fit.axis);
-        for &i in chunk {
-            if tr.valid[i] {
-                let r = series.accel_g[i] - fit.reference_g - tr.ext_k0_g[i];
-                sum += r * r;
-                count += 1;
-            }
-        }
-    }
-    if count == 0 {
-        return Err(FitError::TooFewRows { rows: 0, unknowns: traces.structure.unknowns(opts.grid_points) });
-    }
-    Ok((sum / count as f64).sqrt())
-}
-
-/// Structures discovery adds to the candidates: for the table (chosen over every row) and
-/// for each fold (chosen inside its training rows). Empty for calibration alone.
-#[derive(Clone, Debug, Default)]
-pub struct ExtraCandidates {
-    /// Added to the table's choice.
-    pub all_rows: Vec<Vec<StaticStructure>>,
-    /// Added to fold f's choice, per axis: `folds[f][axis]`.
-    pub folds: Vec<Vec<Vec<StaticStructure>>>,
 }
 
 /// One set of rows a structure is chosen and fitted on: every row (the table), or one
@@ -611,35 +466,6 @@ pub fn calibrate_static_with(
     Ok(StaticCalibration { table, fits, peers, report, plot })
 }
 
-/// The model on rows that hold one branch ([`is_one_branch`]): one rate-even bias curve,
-/// shaped as a cubic in T. Every other candidate has a term that flips with the branch
-/// (branch step, two branches, `sensor_lag`, `bias_creep`, play), which rows of one branch
-/// cannot test. Measured on the simulator (JB-KT8 #1, the chamber cycle of `static_sim`,
-/// seeds 11–13, nothing hidden / `sensor_lag` / `bias_creep` / play; heating leg alone and
-/// first cooling leg alone, each scored on the other leg): the lowest 5-fold
-/// cross-validation RMS among [`candidates`] on one branch left the other leg worse than a
-/// cubic on the same rows in 18 of 24 cases (up to 2.0×; better in 6, down to 0.25×).
-/// Between the two rate-even shapes the cubic is taken, not chosen: a free-node grid
-/// fitted to one branch also takes up that branch's own shape, and on the other leg it was
-/// worse than the cubic shape in 22 of those 24 cases and on all three axes of the real
-/// log's heating leg. These measurements were made while designing this rule (the lab's
-/// `static_sim` test `one_branch_rule_on_the_simulator` repeats the simulator's).
-pub const ONE_BRANCH: StaticStructure = StaticStructure {
-    shape: CurveShape::Cubic,
-    branches: BranchMode::Single,
-    lag_tau_s: None,
-    creep_tau_s: None,
-    play_half_width_c: None,
-};
-
-/// Whether rows with `(heating, cooling)` rows on each branch hold one branch only: the
-/// smaller branch has fewer than a tenth of the rows on a branch (the tenth `after-max`
-/// asks of a leg).
-#[must_use]
-pub fn is_one_branch((heating, cooling): (usize, usize)) -> bool {
-    heating.min(cooling) * 10 < heating + cooling
-}
-
 /// What stands in every held-out figure's place under `--holdout none`.
 pub const NO_HOLDOUT: &str = "--holdout none: no row is held out";
 
@@ -689,95 +515,4 @@ fn figures_text(scheme: &Scheme, n: usize) -> String {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::data::static_log::{read_static_from, AccelUnit, StaticOptions, TimeUnit};
-
-    /// A static log of `temps` at 1-s rows, one axis `az` = −1 g + 0.1 mg/°C.
-    fn log_of(temps: &[f64]) -> StaticLog {
-        let mut text = String::from("time,temp,az\n");
-        for (i, t) in temps.iter().enumerate() {
-            text.push_str(&format!("{i},{t},{}\n", -1.0 + 1e-4 * t));
-        }
-        let opts = StaticOptions { time_unit: Some(TimeUnit::S), accel_unit: Some(AccelUnit::G), ..Default::default() };
-        read_static_from(text.as_bytes(), &opts).unwrap()
-    }
-
-    #[test]
-    fn a_log_that_ends_at_its_hottest_is_held_out_by_blocks() {
-        // Heating only: the maximum is the last row. `after-max` asked for is refused with
-        // that reason; `auto` resolves to blocks and names it.
-        let log = log_of(&(0..400).map(|i| 20.0 + 0.05 * f64::from(i)).collect::<Vec<_>>());
-        let e = resolve_holdout(&log, Holdout::AfterMax, 10).unwrap_err();
-        assert_eq!(
-            e.to_string(),
-            "held-out split: the highest temperature (39.95 °C) is at row 400 of 400: fewer than a tenth of the \
-             rows lie after it, no later leg to evaluate on"
-        );
-        let (scheme, rule) = resolve_holdout(&log, Holdout::Auto, 10).unwrap();
-        assert_eq!(scheme, Scheme::Blocks { k: CV_FOLDS });
-        assert!(rule.starts_with("auto: the highest temperature (39.95 °C) is at row 400 of 400"), "{rule}");
-        assert_eq!(scheme.folds(400), vec![0..80, 80..160, 160..240, 240..320, 320..400]);
-    }
-
-    #[test]
-    fn a_log_with_a_later_leg_is_held_out_after_its_maximum() {
-        let mut t: Vec<f64> = (0..300).map(|i| 20.0 + 0.1 * f64::from(i)).collect();
-        t.extend((0..100).map(|i| 49.9 - 0.1 * f64::from(i)));
-        let log = log_of(&t);
-        assert_eq!(resolve_holdout(&log, Holdout::Auto, 10).unwrap().0, Scheme::AfterMax { last: 299 });
-        assert_eq!(Scheme::AfterMax { last: 299 }.folds(400), vec![300..400]);
-        // Blocks too large for the log are refused with the reason.
-        let e = resolve_holdout(&log, Holdout::Blocks(50), 10).unwrap_err();
-        assert_eq!(
-            e.to_string(),
-            "--holdout blocks:50: 400 rows make blocks of 8 rows; a held-out block needs at least 10 (one averaged \
-             equation)"
-        );
-    }
-
-    #[test]
-    fn several_cycles_hold_out_everything_after_the_first_maximum() {
-        // Two cycles 20 → 50 → 20 °C, the second peaking 0.5 °C lower: the later leg is
-        // everything after the first peak (the second cycle included).
-        let mut t: Vec<f64> = Vec::new();
-        for peak in [50.0, 49.5] {
-            t.extend((0..300).map(|i| 20.0 + (peak - 20.0) * f64::from(i) / 300.0));
-            t.extend((0..300).map(|i| peak - (peak - 20.0) * f64::from(i) / 300.0));
-        }
-        let log = log_of(&t);
-        let (scheme, rule) = resolve_holdout(&log, Holdout::Auto, 10).unwrap();
-        assert_eq!(scheme, Scheme::AfterMax { last: 300 });
-        assert!(rule.contains("evaluate on rows 302..=1200"), "{rule}");
-        assert_eq!(scheme.selection_folds(), CV_FOLDS);
-        assert_eq!(Scheme::Blocks { k: 7 }.selection_folds(), 7);
-    }
-
-    #[test]
-    fn holdout_values_parse_and_bad_ones_say_what_is_allowed() {
-        assert_eq!("auto".parse::<Holdout>().unwrap(), Holdout::Auto);
-        assert_eq!("after-max".parse::<Holdout>().unwrap(), Holdout::AfterMax);
-        assert_eq!("blocks:7".parse::<Holdout>().unwrap(), Holdout::Blocks(7));
-        assert_eq!("none".parse::<Holdout>().unwrap(), Holdout::None);
-        for bad in ["blocks:1", "blocks:x", "ramps", ""] {
-            let e = bad.parse::<Holdout>().unwrap_err().to_string();
-            assert_eq!(e, format!("--holdout `{bad}`: expected auto, after-max, blocks:K (K ≥ 2) or none"));
-        }
-    }
-
-    #[test]
-    fn coverage_refuses_a_small_span_and_a_sparse_part_of_the_span() {
-        let e = check_coverage(&(0..300).map(|i| 25.0 + 0.001 * f64::from(i)).collect::<Vec<_>>(), 16, 10);
-        assert_eq!(
-            e.unwrap_err().to_string(),
-            "the temperature span is too small: 0.30 °C (25.00..25.30 °C); the model needs at least 1.50 °C (16 \
-             bias-grid nodes at least 0.1 °C apart, the root crate's smallest grid step)"
-        );
-        // 20 → 50 °C with a jump over 30..40 °C: the intervals there hold no row.
-        let mut t: Vec<f64> = (0..1000).map(|i| 20.0 + 0.01 * f64::from(i)).collect();
-        t.extend((0..1000).map(|i| 40.0 + 0.01 * f64::from(i)));
-        let e = check_coverage(&t, 16, 10).unwrap_err();
-        assert!(matches!(e, StaticCalError::TooFewRowsPerDegree { rows: 0, needed: 10, intervals: 15, .. }), "{e}");
-        assert!(check_coverage(&(0..2000).map(|i| 20.0 + 0.015 * f64::from(i)).collect::<Vec<_>>(), 16, 10).is_ok());
-    }
-}
+mod tests;

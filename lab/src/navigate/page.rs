@@ -1,0 +1,99 @@
+//! The `report.html` pages of `navigate` and of `navigate merge`.
+
+use std::collections::BTreeMap;
+
+use super::*;
+
+/// `navigate`'s `report.html` ([`crate::html_report`]): the figures per variant, the
+/// warnings, what the lab program covers against what the flight needs, and every plot in
+/// `args.out`.
+///
+/// # Errors
+/// The plan cannot be formed, or a plot cannot be read.
+pub fn page(args: &NavigateArgs, sc: &Scenario, r: &Report) -> anyhow::Result<crate::html_report::Page> {
+    let mut p = crate::html_report::Page::new(&format!("Navigation report: {}", r.meta.scenario));
+    p.section("Held-out scheme").para(&format!(
+        "Every table is fitted on the lab program `{}` (simulated chamber logs of each unit) and scored on the flight \
+         `{}` ({:.2} h at {} Hz, case {:.1}…{:.1} °C): no flight row is fitted on. Discovered tables: {}.",
+        r.meta.lab_program,
+        r.meta.scenario,
+        r.meta.duration_h,
+        r.meta.imu_rate_hz,
+        r.meta.case_temp_range_c[0],
+        r.meta.case_temp_range_c[1],
+        r.meta.discovered_source
+    ));
+    for w in &r.meta.clamped_warnings {
+        p.warning(w.trim_start_matches("WARNING: "));
+    }
+    let rows: Vec<Vec<String>> = VARIANTS
+        .iter()
+        .filter_map(|n| r.get(n).map(|f| (n, f)))
+        .map(|(n, f)| {
+            let pct = |m: &BTreeMap<String, f64>| format!("{:.0}%", 100.0 * m.get(*n).copied().unwrap_or(f64::NAN));
+            vec![
+                (*n).to_string(),
+                format!("{:.3}", f.cep_nmi_per_h),
+                format!("{:.3}", f.rms_ve_mps),
+                format!("{:.3}", f.rms_vn_mps),
+                format!("{:.3}", f.end_radial_nmi_per_h),
+                pct(&r.meta.share_removed_cep),
+                format!("{:.4}", r.meta.thermal_cep_nmi_per_h.get(*n).copied().unwrap_or(f64::NAN)),
+            ]
+        })
+        .collect();
+    p.section("Figures per variant").table(
+        &[
+            "variant",
+            "CEP, nmile/h",
+            "RMS vE, m/s",
+            "RMS vN, m/s",
+            "end radial, nmile/h",
+            "of simple − oracle removed",
+            "thermal CEP, nmile/h",
+        ],
+        &rows,
+    );
+    let pf = &r.meta.paper;
+    p.para(&format!(
+        "The paper (flight, Table 7): CEP {} → {} nmile/h; RMS vE {} → {} m/s; RMS vN {} → {} m/s (simple → \
+         hysteresis).",
+        pf.cep_nmi_per_h[0],
+        pf.cep_nmi_per_h[1],
+        pf.rms_ve_mps[0],
+        pf.rms_ve_mps[1],
+        pf.rms_vn_mps[0],
+        pf.rms_vn_mps[1]
+    ));
+    p.section("What the lab program covers, against what the flight needs");
+    let plan = plan::plan(sc, args.lab_program)?;
+    p.pre(&plan::text(&plan));
+    for s in &plan.shortfalls {
+        p.warning(&format!("the lab program does not cover the flight: {s}; record it before flying the table"));
+    }
+    p.section("Console summary").pre(&summary(r));
+    if let Some(mc) = &r.monte_carlo {
+        p.section("Monte Carlo").pre(&mc::table(mc));
+    }
+    p.section("Plots (the flight: held out from every fit)");
+    p.images_in(&args.out, |name| format!("navigation plot {name}"))?;
+    Ok(p)
+}
+
+/// `navigate merge`'s `report.html`: the merged Monte Carlo table and every plot in `out`
+/// (the nominal run's figures are in `report.json`; its page is the one shard 0's
+/// `navigate` run would write).
+///
+/// # Errors
+/// A plot that cannot be read.
+pub fn merge_page(out: &Path, sum: &mc::Summary) -> anyhow::Result<crate::html_report::Page> {
+    let mut p = crate::html_report::Page::new("Navigation Monte Carlo study (merged shards)");
+    p.section("Held-out scheme").para(
+        "Each run's tables are fitted on that run's own simulated lab program and scored on that run's own flight: \
+         no flight row is fitted on.",
+    );
+    p.section("Monte Carlo").pre(&mc::table(sum));
+    p.section("Plots");
+    p.images_in(out, |name| format!("Monte Carlo plot {name}"))?;
+    Ok(p)
+}
