@@ -1,8 +1,8 @@
 //! Monte Carlo study: N seeds of the same scenario, in parallel, summarized by median and
 //! 10th / 90th percentiles.
 //!
-//! Run `i` of base seed `S` uses the seed `splitmix64(S + i)`, whatever the shard or
-//! thread that flies it, so a study split into shards and merged gives the same numbers
+//! Run `i` of base seed `S` uses the lab's stream `crate::rng::stream(S, i)` (seeded
+//! `splitmix64(S + i)`), whatever the shard or thread that flies it, so a study split into shards and merged gives the same numbers
 //! as one process. Each run draws, from its seed:
 //!
 //! * the temperature variation within the scenario's `[monte_carlo]` bounds: the drive
@@ -29,8 +29,7 @@ use std::collections::BTreeMap;
 use std::time::Instant;
 
 use anyhow::Context;
-use rand::{Rng, RngExt, SeedableRng};
-use rand_distr::{Distribution, StandardNormal};
+use rand::{Rng, RngExt};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -141,18 +140,11 @@ pub struct Partial {
     pub nominal: Option<serde_json::Value>,
 }
 
-fn splitmix64(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
 /// The three units with their unit-to-unit spread drawn from `rng`.
 pub fn varied_units<R: Rng + ?Sized>(v: &Variation, rng: &mut R) -> [Truth; 3] {
     let mut us = units();
     let mut f = |x: &mut f64| {
-        let z: f64 = StandardNormal.sample(rng);
+        let z = crate::rng::normal(rng);
         *x *= 1.0 + v.unit_spread * z;
     };
     for u in &mut us {
@@ -168,7 +160,7 @@ pub fn varied_units<R: Rng + ?Sized>(v: &Variation, rng: &mut R) -> [Truth; 3] {
         }
     }
     for u in &mut us {
-        let z: f64 = StandardNormal.sample(rng);
+        let z = crate::rng::normal(rng);
         u.sensor.offset_c += v.sensor_offset_c * z;
     }
     us
@@ -192,8 +184,8 @@ pub struct Draw {
 /// The draws of run `i` of base seed `seed` (see the module doc).
 #[must_use]
 pub fn draw(sc: &Scenario, seed: u64, i: u64) -> Draw {
-    let rs = splitmix64(seed.wrapping_add(i));
-    let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(rs);
+    let rs = crate::rng::splitmix64(seed.wrapping_add(i));
+    let mut rng = crate::rng::stream(seed, i);
     let v = sc.monte_carlo;
     let off = if v.temp_offset_c > 0.0 { rng.random_range(-v.temp_offset_c..=v.temp_offset_c) } else { 0.0 };
     let scale = if v.temp_scale > 0.0 { 1.0 + rng.random_range(-v.temp_scale..=v.temp_scale) } else { 1.0 };
