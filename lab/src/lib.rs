@@ -14,7 +14,7 @@
 //!   [`calibrate::fit::fit`] with [`calibrate::fit::FitOptions::ext`];
 //! * compensation: [`compensate::compensate_run`];
 //! * static multi-axis logs (a board at one orientation, CSV/TSV):
-//!   [`data::static_log::read_static`] → [`calibrate::static_cal::calibrate_static`]
+//!   [`data::open::open`] → [`calibrate::static_cal::calibrate_static`]
 //!   (per-axis [`calibrate::fit::fit_static_axis`], peers in [`calibrate::peers`]) → [`compensate::compensate_static`].
 
 pub mod calibrate;

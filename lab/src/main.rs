@@ -1,14 +1,23 @@
 //! `qfa-lab`: simulate thermal tests, calibrate tables, compensate logs, run the demo.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
 use clap::{Parser, Subcommand, ValueEnum};
 
-use qfa_lab::calibrate::{calibrate_file, CalibrateOptions};
+use qfa_lab::calibrate::peers::{write_exports, ExportOptions, Exports};
+use qfa_lab::calibrate::static_cal::{self, Holdout};
+use qfa_lab::calibrate::{calibrate_into, CalibrateOptions};
 use qfa_lab::compensate::compensate_log;
-use qfa_lab::data::cycling::{read_log, write_compensated, write_log};
+use qfa_lab::data::channels::Channels;
+use qfa_lab::data::cycling::{write_compensated, write_log};
+use qfa_lab::data::open::{open, LogFormat, OpenError, OpenedLog, ReadFlags};
+use qfa_lab::data::static_columns::{AccelUnit, ColumnMap, TimeUnit};
+use qfa_lab::discover::{static_axes, Start};
+use qfa_lab::navigate::calib::LabProgram;
+use qfa_lab::navigate::scenario::Scenario;
+use qfa_lab::out_path::OutError;
 use qfa_lab::simulate::profile::{paper_positions, Program, PAPER_RATES};
 use qfa_lab::simulate::simulate;
 use qfa_lab::simulate::truth::Truth;
@@ -29,118 +38,40 @@ enum ProfileKind {
 }
 
 /// How to read a static multi-axis log (CSV/TSV with a header); any flag, or a header
-/// without a `pulses` column, selects the static-log path.
+/// without a `pulses` column, selects the static-log path (`qfa_lab::data::open`).
 #[derive(clap::Args, Clone, Default)]
 struct StaticFlags {
     /// Column choices, e.g. `time=timestamp,temp=imu.temperature,ax=imu.acc.x,ay=imu.acc.y,az=imu.acc.z`.
-    #[arg(long)]
-    columns: Option<String>,
+    #[arg(long, value_parser = str::parse::<ColumnMap>)]
+    columns: Option<ColumnMap>,
     /// Unit of the time column: s, ms, us or ns.
-    #[arg(long)]
-    time_unit: Option<String>,
+    #[arg(long, value_parser = str::parse::<TimeUnit>)]
+    time_unit: Option<TimeUnit>,
     /// Unit of the acceleration columns: g, mg or m/s2.
-    #[arg(long)]
-    accel_unit: Option<String>,
+    #[arg(long, value_parser = str::parse::<AccelUnit>)]
+    accel_unit: Option<AccelUnit>,
     /// Numbers use a decimal comma (`20,5`); the file must be `;`- or tab-separated.
     #[arg(long)]
     decimal_comma: bool,
 }
 
 impl StaticFlags {
-    /// The reader options, or `None` for a cycling log.
-    fn options(&self, log: &std::path::Path) -> Result<Option<qfa_lab::data::static_log::StaticOptions>, String> {
-        use qfa_lab::data::static_log::{looks_static, StaticOptions};
-        let any = self.columns.is_some() || self.time_unit.is_some() || self.accel_unit.is_some() || self.decimal_comma;
-        if !any {
-            let f = std::fs::File::open(log).map_err(|e| format!("{}: {e}", log.display()))?;
-            let mut first = String::new();
-            std::io::BufRead::read_line(&mut std::io::BufReader::new(f), &mut first)
-                .map_err(|e| format!("{}: {e}", log.display()))?;
-            if first.trim().is_empty() || !looks_static(&first) {
-                return Ok(None);
-            }
-        }
-        let e = |e: qfa_lab::data::static_log::StaticError| e.to_string();
-        Ok(Some(StaticOptions {
-            columns: self.columns.as_deref().map(str::parse).transpose().map_err(e)?.unwrap_or_default(),
-            time_unit: self.time_unit.as_deref().map(str::parse).transpose().map_err(e)?,
-            accel_unit: self.accel_unit.as_deref().map(str::parse).transpose().map_err(e)?,
+    fn flags(&self) -> ReadFlags {
+        ReadFlags {
+            columns: self.columns.clone(),
+            time_unit: self.time_unit,
+            accel_unit: self.accel_unit,
             decimal_comma: self.decimal_comma,
-        }))
+        }
     }
 }
 
 #[derive(Subcommand)]
 enum Cmd {
     /// Simulate a cycling log (CSV) and write its truth (TOML) next to it.
-    Simulate {
-        /// Output log, e.g. log.csv; the truth goes to log.truth.toml.
-        #[arg(long)]
-        out: PathBuf,
-        /// Unit preset: kt8-1, kt8-2 or kt8-3.
-        #[arg(long, default_value = "kt8-1")]
-        unit: String,
-        /// A truth TOML instead of a preset.
-        #[arg(long)]
-        truth: Option<PathBuf>,
-        /// Extension effects to switch on (sensor_lag, bias_branch_hysteresis, bias_creep).
-        #[arg(long, value_delimiter = ',')]
-        effects: Vec<String>,
-        /// Built-in profile.
-        #[arg(long, value_enum, default_value = "paper")]
-        profile: ProfileKind,
-        /// Chamber-air profile file (`time_s,temp_c`) instead of the built-in one.
-        #[arg(long)]
-        profile_file: Option<PathBuf>,
-        /// Only these paper rates, °C/min (default all four).
-        #[arg(long, value_delimiter = ',')]
-        rates: Vec<f64>,
-        /// Row length, s (integer).
-        #[arg(long, default_value_t = 1)]
-        row_s: u32,
-        /// Noise seed.
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
-        /// Simulation threads.
-        #[arg(long, default_value_t = 2)]
-        threads: usize,
-        /// No noise (accelerometer and DS18B20).
-        #[arg(long)]
-        noiseless: bool,
-    },
+    Simulate(SimulateArgs),
     /// Fit the simple and hysteresis models; write table.toml, table.bin, report.json, plots.
-    Calibrate {
-        /// Cycling log.
-        #[arg(long)]
-        log: PathBuf,
-        /// Output directory.
-        #[arg(long)]
-        out: PathBuf,
-        /// Programs to fit on (default: first and last; the rest are held out).
-        #[arg(long, value_delimiter = ',')]
-        fit_programs: Vec<String>,
-        /// Skip the plots.
-        #[arg(long)]
-        no_plots: bool,
-        /// Cycling log: the IMU axis this accelerometer is, for the PX4 / ArduPilot
-        /// parameter files (a one-axis export: needs --export-range).
-        #[arg(long, default_value = "x", value_parser = ["x", "y", "z"])]
-        axis: String,
-        /// PX4 TC_A0_ID: the device ID of the accelerometer (CAL_ACC0_ID, or device_id in
-        /// `listener sensor_accel`); without it no px4_tc.params is written.
-        #[arg(long, value_name = "ID", value_parser = parse_device_id)]
-        px4_device_id: Option<i32>,
-        /// TMIN,TMAX (°C) for the fields the axes share (PX4 TC_A0_TREF/TMIN/TMAX, ArduPilot
-        /// INS_TCAL1_TMIN/TMAX), the same for every axis exported; needed for a one-axis
-        /// export, inside the training temperatures.
-        #[arg(long, value_name = "TMIN,TMAX", allow_hyphen_values = true, value_parser = parse_range)]
-        export_range: Option<(f64, f64)>,
-        /// Static logs: the held-out scheme, auto | after-max | blocks:K | none (lab/README.md).
-        #[arg(long, default_value = "auto")]
-        holdout: qfa_lab::calibrate::static_cal::Holdout,
-        #[command(flatten)]
-        fmt: StaticFlags,
-    },
+    Calibrate(CalibrateArgs),
     /// Discovery workflow: name the missing effect, add it, show the held-out gap shrink.
     Discover {
         /// Cycling log or single-channel log (time_s,temp_c,value).
@@ -148,13 +79,13 @@ enum Cmd {
         log: PathBuf,
         /// Start model: simple or paper.
         #[arg(long, default_value = "simple")]
-        start: qfa_lab::discover::Start,
+        start: Start,
         /// Output directory (a static log: one subdirectory per axis).
         #[arg(long)]
         out: PathBuf,
         /// Static logs: the held-out scheme, auto | after-max | blocks:K | none (lab/README.md).
         #[arg(long, default_value = "auto")]
-        holdout: qfa_lab::calibrate::static_cal::Holdout,
+        holdout: Holdout,
         #[command(flatten)]
         fmt: StaticFlags,
     },
@@ -196,51 +127,7 @@ enum Cmd {
     },
     /// Pure-inertial navigation error of each compensation variant, with
     /// alignment and an optional Monte Carlo study; `navigate merge DIR…` combines shards.
-    #[command(args_conflicts_with_subcommands = true)]
-    Navigate {
-        #[command(subcommand)]
-        sub: Option<NavCmd>,
-        /// Scenario TOML (default: the built-in §3.2 flight).
-        #[arg(long)]
-        scenario: Option<PathBuf>,
-        /// Output directory.
-        #[arg(long)]
-        out: Option<PathBuf>,
-        /// Discovered tables for x,y,z (three files, .bin or .toml).
-        #[arg(long, value_delimiter = ',', num_args = 3)]
-        discovered_tables: Option<Vec<PathBuf>>,
-        /// IMU rate override, Hz.
-        #[arg(long)]
-        imu_rate_hz: Option<f64>,
-        /// Monte Carlo runs (0: the nominal run only).
-        #[arg(long, default_value_t = 0)]
-        runs: u64,
-        /// Monte Carlo base seed (default: the scenario's seed).
-        #[arg(long)]
-        seed: Option<u64>,
-        /// Worker threads for the Monte Carlo runs (0: all cores).
-        #[arg(long, default_value_t = 0)]
-        jobs: usize,
-        /// Run only shard K of N (0 ≤ K < N: runs i with i mod N = K) and write
-        /// DIR/mc_partial_K_of_N.json; shard 0 also flies the nominal run.
-        #[arg(long, value_parser = parse_shard)]
-        shard: Option<(u64, u64)>,
-        /// Skip the plots.
-        #[arg(long)]
-        no_plots: bool,
-        /// Leave `discovered` out of the Monte Carlo runs (skips discovery per run, about
-        /// half the cost).
-        #[arg(long)]
-        no_mc_discovered: bool,
-        /// Lab program the units are calibrated on: `covering` (paper 0.3/0.9 + 1 and
-        /// 2 °C/min ramps, covers the built-in flight) or `paper` (the four staircases).
-        #[arg(long, default_value = "covering")]
-        lab_program: qfa_lab::navigate::calib::LabProgram,
-        /// Experiment only: every table's rate limit, °C/min, in place of the fitted one
-        /// (the tables then extrapolate above the fitted rates, unflagged).
-        #[arg(long)]
-        rate_limit_override: Option<f32>,
-    },
+    Navigate(NavigateCli),
     /// The temperature and rate coverage a lab program must reach for a mission (the
     /// scenario's thermal profile) and whether a lab program reaches it; exit code 1 when
     /// it does not cover the nominal mission.
@@ -250,11 +137,132 @@ enum Cmd {
         scenario: Option<PathBuf>,
         /// Lab program judged: `covering` or `paper`.
         #[arg(long, default_value = "covering")]
-        lab_program: qfa_lab::navigate::calib::LabProgram,
+        lab_program: LabProgram,
         /// Also write the plan as JSON here.
         #[arg(long)]
         json: Option<PathBuf>,
     },
+}
+
+/// `qfa-lab simulate`'s arguments.
+#[derive(clap::Args)]
+struct SimulateArgs {
+    /// Output log, e.g. log.csv; the truth goes to log.truth.toml.
+    #[arg(long)]
+    out: PathBuf,
+    /// Unit preset: kt8-1, kt8-2 or kt8-3.
+    #[arg(long, default_value = "kt8-1")]
+    unit: String,
+    /// A truth TOML instead of a preset.
+    #[arg(long)]
+    truth: Option<PathBuf>,
+    /// Extension effects to switch on (sensor_lag, bias_branch_hysteresis, bias_creep).
+    #[arg(long, value_delimiter = ',')]
+    effects: Vec<String>,
+    /// Built-in profile.
+    #[arg(long, value_enum, default_value = "paper")]
+    profile: ProfileKind,
+    /// Chamber-air profile file (`time_s,temp_c`) instead of the built-in one.
+    #[arg(long)]
+    profile_file: Option<PathBuf>,
+    /// Only these paper rates, °C/min (default all four).
+    #[arg(long, value_delimiter = ',')]
+    rates: Vec<f64>,
+    /// Row length, s (integer).
+    #[arg(long, default_value_t = 1)]
+    row_s: u32,
+    /// Noise seed.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Simulation threads.
+    #[arg(long, default_value_t = 2)]
+    threads: usize,
+    /// No noise (accelerometer and DS18B20).
+    #[arg(long)]
+    noiseless: bool,
+}
+
+/// `qfa-lab calibrate`'s arguments.
+#[derive(clap::Args)]
+struct CalibrateArgs {
+    /// Cycling log.
+    #[arg(long)]
+    log: PathBuf,
+    /// Output directory.
+    #[arg(long)]
+    out: PathBuf,
+    /// Programs to fit on (default: first and last; the rest are held out).
+    #[arg(long, value_delimiter = ',')]
+    fit_programs: Vec<String>,
+    /// Skip the plots.
+    #[arg(long)]
+    no_plots: bool,
+    /// Cycling log: the IMU axis this accelerometer is, for the PX4 / ArduPilot
+    /// parameter files (a one-axis export: needs --export-range).
+    #[arg(long, default_value = "x", value_parser = ["x", "y", "z"])]
+    axis: String,
+    /// PX4 TC_A0_ID: the device ID of the accelerometer (CAL_ACC0_ID, or device_id in
+    /// `listener sensor_accel`); without it no px4_tc.params is written.
+    #[arg(long, value_name = "ID", value_parser = parse_device_id)]
+    px4_device_id: Option<i32>,
+    /// TMIN,TMAX (°C) for the fields the axes share (PX4 TC_A0_TREF/TMIN/TMAX, ArduPilot
+    /// INS_TCAL1_TMIN/TMAX), the same for every axis exported; needed for a one-axis
+    /// export, inside the training temperatures.
+    #[arg(long, value_name = "TMIN,TMAX", allow_hyphen_values = true, value_parser = parse_range)]
+    export_range: Option<(f64, f64)>,
+    /// Static logs: the held-out scheme, auto | after-max | blocks:K | none (lab/README.md).
+    #[arg(long, default_value = "auto")]
+    holdout: Holdout,
+    #[command(flatten)]
+    fmt: StaticFlags,
+}
+
+/// `qfa-lab navigate`'s arguments.
+#[derive(clap::Args)]
+#[command(args_conflicts_with_subcommands = true)]
+struct NavigateCli {
+    #[command(subcommand)]
+    sub: Option<NavCmd>,
+    /// Scenario TOML (default: the built-in §3.2 flight).
+    #[arg(long)]
+    scenario: Option<PathBuf>,
+    /// Output directory.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Discovered tables for x,y,z (three files, .bin or .toml).
+    #[arg(long, value_delimiter = ',', num_args = 3)]
+    discovered_tables: Option<Vec<PathBuf>>,
+    /// IMU rate override, Hz.
+    #[arg(long)]
+    imu_rate_hz: Option<f64>,
+    /// Monte Carlo runs (0: the nominal run only).
+    #[arg(long, default_value_t = 0)]
+    runs: u64,
+    /// Monte Carlo base seed (default: the scenario's seed).
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Worker threads for the Monte Carlo runs (0: all cores).
+    #[arg(long, default_value_t = 0)]
+    jobs: usize,
+    /// Run only shard K of N (0 ≤ K < N: runs i with i mod N = K) and write
+    /// DIR/mc_partial_K_of_N.json; shard 0 also flies the nominal run.
+    #[arg(long, value_parser = parse_shard)]
+    shard: Option<(u64, u64)>,
+    /// Skip the plots.
+    #[arg(long)]
+    no_plots: bool,
+    /// Leave `discovered` out of the Monte Carlo runs (skips discovery per run, about
+    /// half the cost).
+    #[arg(long)]
+    no_mc_discovered: bool,
+    /// Lab program the units are calibrated on: `covering` (paper 0.3/0.9 + 1 and
+    /// 2 °C/min ramps, covers the built-in flight) or `paper` (the four staircases).
+    #[arg(long, default_value = "covering")]
+    lab_program: LabProgram,
+    /// Experiment only: every table's rate limit, °C/min, in place of the fitted one
+    /// (the tables then extrapolate above the fitted rates, unflagged).
+    #[arg(long)]
+    rate_limit_override: Option<f32>,
 }
 
 #[derive(Subcommand)]
@@ -309,25 +317,81 @@ fn parse_range(s: &str) -> Result<(f64, f64), String> {
     Ok((lo, hi))
 }
 
+/// Why a command failed: printed as `error: …`, exit code 1.
+#[derive(Debug)]
+enum CliError {
+    /// The command line asks for what cannot be done.
+    Usage(String),
+    /// An output that would overwrite something, or cannot be written.
+    Out(OutError),
+    /// A log that cannot be read (the file, and its reader's error).
+    Open(OpenError),
+    /// A log of a kind the command does not take.
+    WrongLog {
+        /// The command.
+        command: &'static str,
+        /// What the log is.
+        format: LogFormat,
+        /// What the command takes.
+        takes: &'static str,
+    },
+    /// The work failed (a fit, a simulation, a write), with its cause.
+    Failed(String),
+}
+
+impl std::fmt::Display for CliError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Usage(m) | Self::Failed(m) => f.write_str(m),
+            Self::Out(e) => write!(f, "{e}"),
+            Self::Open(e) => write!(f, "{e}"),
+            Self::WrongLog { command, format, takes } => write!(f, "{command} takes {takes}, not a {format}"),
+        }
+    }
+}
+
+impl From<OutError> for CliError {
+    fn from(e: OutError) -> Self {
+        Self::Out(e)
+    }
+}
+
+impl From<OpenError> for CliError {
+    fn from(e: OpenError) -> Self {
+        Self::Open(e)
+    }
+}
+
+impl From<String> for CliError {
+    fn from(e: String) -> Self {
+        Self::Failed(e)
+    }
+}
+
+impl From<anyhow::Error> for CliError {
+    fn from(e: anyhow::Error) -> Self {
+        Self::Failed(format!("{e:#}"))
+    }
+}
+
 /// Every `--out` checked before any work (a log is read, a fit runs).
-fn check_out(cmd: &Cmd) -> Result<(), String> {
+fn check_out(cmd: &Cmd) -> Result<(), OutError> {
     use qfa_lab::out_path::{check_dir, check_file};
     match cmd {
-        Cmd::Simulate { out, .. } => check_file(out, "simulate"),
-        Cmd::Calibrate { out, .. } => check_dir(out, "calibrate"),
+        Cmd::Simulate(a) => check_file(&a.out, "simulate"),
+        Cmd::Calibrate(a) => check_dir(&a.out, "calibrate"),
         Cmd::Discover { out, .. } => check_dir(out, "discover"),
         Cmd::Compensate { out, .. } => check_file(out, "compensate"),
         Cmd::Demo { out, .. } => check_dir(out, "demo"),
-        Cmd::Navigate { out: Some(out), sub: None, .. } => check_dir(out, "navigate"),
-        Cmd::Navigate { .. } => Ok(()),
+        Cmd::Navigate(NavigateCli { out: Some(out), sub: None, .. }) => check_dir(out, "navigate"),
+        Cmd::Navigate(_) => Ok(()),
         Cmd::Plan { json: Some(j), .. } => check_file(j, "plan"),
         Cmd::Plan { .. } => Ok(()),
     }
-    .map_err(|e| e.to_string())
 }
 
 /// Print why export files were left out, and name those written.
-fn exports_line(e: &qfa_lab::calibrate::peers::Exports) -> String {
+fn exports_line(e: &Exports) -> String {
     for n in &e.notes {
         eprintln!("{n}");
     }
@@ -338,239 +402,271 @@ fn exports_line(e: &qfa_lab::calibrate::peers::Exports) -> String {
     }
 }
 
-fn run(cli: Cli) -> Result<(), String> {
-    check_out(&cli.cmd)?;
-    match cli.cmd {
-        Cmd::Simulate { out, unit, truth, effects, profile, profile_file, rates, row_s, seed, threads, noiseless } => {
-            let mut t = match truth {
-                Some(p) => {
-                    Truth::from_toml(&std::fs::read_to_string(&p).map_err(|e| format!("{}: {e}", p.display()))?)?
-                }
-                None => Truth::preset(&unit).ok_or_else(|| format!("unknown unit `{unit}` (kt8-1, kt8-2, kt8-3)"))?,
-            };
-            for e in &effects {
-                t = t.with_effect(e)?;
+/// A cycling log's programs are its held-out scheme: `--holdout` is for static logs.
+fn cycling_holdout(holdout: Holdout) -> Result<(), CliError> {
+    if holdout == Holdout::default() {
+        Ok(())
+    } else {
+        Err(CliError::Usage(format!("--holdout {holdout}: static logs only (a cycling log is held out by program)")))
+    }
+}
+
+fn io_at(path: &Path) -> impl Fn(std::io::Error) -> CliError + '_ {
+    move |e| CliError::Failed(format!("{}: {e}", path.display()))
+}
+
+fn read_table(path: &Path) -> Result<qfa_thermal::Table, CliError> {
+    let bytes = std::fs::read(path).map_err(io_at(path))?;
+    qfa_thermal::Table::decode(&bytes).map_err(|e| CliError::Failed(format!("{}: {e}", path.display())))
+}
+
+fn simulate_cmd(a: SimulateArgs) -> Result<(), CliError> {
+    let mut t = match &a.truth {
+        Some(p) => Truth::from_toml(&std::fs::read_to_string(p).map_err(io_at(p))?)?,
+        None => Truth::preset(&a.unit)
+            .ok_or_else(|| CliError::Usage(format!("unknown unit `{}` (kt8-1, kt8-2, kt8-3)", a.unit)))?,
+    };
+    for e in &a.effects {
+        t = t.with_effect(e)?;
+    }
+    if a.noiseless {
+        t = t.noiseless();
+    }
+    let programs: Vec<Program> = if let Some(f) = &a.profile_file {
+        let id = f.file_stem().map_or("user".to_string(), |s| s.to_string_lossy().into_owned());
+        vec![Program::from_file(f, &id)?]
+    } else {
+        match a.profile {
+            ProfileKind::Paper => {
+                let rs: &[f64] = if a.rates.is_empty() { &PAPER_RATES } else { &a.rates };
+                rs.iter().map(|&r| Program::paper(r)).collect()
             }
-            if noiseless {
-                t = t.noiseless();
-            }
-            let programs: Vec<Program> = if let Some(f) = profile_file {
-                let id = f.file_stem().map_or("user".to_string(), |s| s.to_string_lossy().into_owned());
-                vec![Program::from_file(&f, &id)?]
-            } else {
-                match profile {
-                    ProfileKind::Paper => {
-                        let rs: Vec<f64> = if rates.is_empty() { PAPER_RATES.to_vec() } else { rates };
-                        rs.iter().map(|&r| Program::paper(r)).collect()
-                    }
-                    ProfileKind::Flight => vec![Program::flight()],
-                }
-            };
-            let pb = indicatif::ProgressBar::new((programs.len() * 4) as u64);
-            pb.set_message("simulating runs");
-            let t0 = Instant::now();
-            let log = simulate(&t, &programs, &paper_positions(), row_s, seed, threads, Some(&pb));
-            pb.finish_and_clear();
-            write_log(&out, &log).map_err(|e| format!("{}: {e}", out.display()))?;
-            let truth_path = out.with_extension("truth.toml");
-            std::fs::write(&truth_path, t.to_toml()?).map_err(|e| e.to_string())?;
-            eprintln!(
-                "{} rows in {:.1} s → {} (truth: {})",
-                log.rows(),
-                t0.elapsed().as_secs_f64(),
-                out.display(),
-                truth_path.display()
-            );
+            ProfileKind::Flight => vec![Program::flight()],
         }
-        Cmd::Calibrate { ref log, ref fmt, holdout, .. } | Cmd::Discover { ref log, ref fmt, holdout, .. }
-            if holdout != Default::default() && fmt.options(log)?.is_none() =>
-        {
-            return Err(format!("--holdout {holdout}: static logs only (a cycling log is held out by program)"));
-        }
-        Cmd::Calibrate { log, out, fmt, holdout, px4_device_id, export_range, no_plots, .. }
-            if fmt.options(&log)?.is_some() =>
-        {
-            let o = fmt.options(&log)?.unwrap_or_default();
-            let l = qfa_lab::data::static_log::read_static(&log, &o).map_err(|e| format!("{}: {e}", log.display()))?;
+    };
+    let pb = indicatif::ProgressBar::new((programs.len() * 4) as u64);
+    pb.set_message("simulating runs");
+    let t0 = Instant::now();
+    let log = simulate(&t, &programs, &paper_positions(), a.row_s, a.seed, a.threads, Some(&pb));
+    pb.finish_and_clear();
+    write_log(&a.out, &log).map_err(io_at(&a.out))?;
+    let truth_path = a.out.with_extension("truth.toml");
+    std::fs::write(&truth_path, t.to_toml()?).map_err(io_at(&truth_path))?;
+    eprintln!(
+        "{} rows in {:.1} s → {} (truth: {})",
+        log.rows(),
+        t0.elapsed().as_secs_f64(),
+        a.out.display(),
+        truth_path.display()
+    );
+    Ok(())
+}
+
+fn calibrate_cmd(a: CalibrateArgs) -> Result<(), CliError> {
+    let t0 = Instant::now();
+    let exports = ExportOptions { px4_device_id: a.px4_device_id, range_c: a.export_range };
+    match open(&a.log, &a.fmt.flags())? {
+        OpenedLog::Static(l) => {
             eprintln!("{} rows read; {}; {}", l.rows(), l.skipped, l.sampling);
-            let opts = qfa_lab::calibrate::static_cal::StaticCalOptions { holdout, ..Default::default() };
-            let cal = qfa_lab::calibrate::static_cal::calibrate_static(&l, &opts, true).map_err(|e| e.to_string())?;
-            qfa_lab::calibrate::static_cal::write_static(&out, &cal).map_err(|e| e.to_string())?;
-            let eo = qfa_lab::calibrate::peers::ExportOptions { px4_device_id, range_c: export_range };
-            let ex =
-                qfa_lab::calibrate::peers::write_exports(&out, &qfa_lab::calibrate::static_cal::export_axes(&cal), &eo)
-                    .map_err(|e| format!("{}: {e}", out.display()))?;
-            qfa_lab::calibrate::static_cal::write_static_page(&out, &cal, !no_plots, &ex.notes)
-                .map_err(|e| e.to_string())?;
-            print!("{}", qfa_lab::calibrate::static_cal::markdown(&cal.report));
+            let opts = static_cal::StaticCalOptions { holdout: a.holdout, ..Default::default() };
+            let cal = static_cal::calibrate_static(&l, &opts, true).map_err(|e| e.to_string())?;
+            static_cal::write_static(&a.out, &cal).map_err(|e| e.to_string())?;
+            let ex = write_exports(&a.out, &static_cal::export_axes(&cal), &exports).map_err(io_at(&a.out))?;
+            static_cal::write_static_page(&a.out, &cal, !a.no_plots, &ex.notes).map_err(|e| e.to_string())?;
+            print!("{}", static_cal::markdown(&cal.report));
             println!(
                 "wrote {}/table.toml, table.bin, report.json, report.md, report.html{}{}",
-                out.display(),
-                if no_plots { "" } else { ", bias_vs_temp.png" },
+                a.out.display(),
+                if a.no_plots { "" } else { ", bias_vs_temp.png" },
                 exports_line(&ex)
             );
         }
-        Cmd::Calibrate { log, out, fit_programs, no_plots, axis, px4_device_id, export_range, .. } => {
+        OpenedLog::Cycling(l) => {
+            cycling_holdout(a.holdout)?;
             let opts = CalibrateOptions {
-                fit_programs: if fit_programs.is_empty() { None } else { Some(fit_programs) },
-                plots: !no_plots,
-                title: log.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default(),
+                fit_programs: if a.fit_programs.is_empty() { None } else { Some(a.fit_programs) },
+                plots: !a.no_plots,
+                title: a.log.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default(),
                 progress: true,
-                axis: Some(format!("a{axis}")),
-                exports: qfa_lab::calibrate::peers::ExportOptions { px4_device_id, range_c: export_range },
+                axis: Some(format!("a{}", a.axis)),
+                exports,
             };
-            let cal = calibrate_file(&log, &out, &opts)?;
-            let r = &cal.report;
-            println!(
-                "held out on {:?} (fitted on {:?}), {} rows\n\
-                 sensitivity ppm/degC: none {:.2}, simple {:.2}, hysteresis {:.2}\n\
-                 bias residual ug:     none {:.1}, simple {:.1}, hysteresis {:.1}; peers: PX4/tofupilot cubic {:.1}, ArduPilot TCAL {:.1}\n\
-                 Eq. 11 condition number {:.1}; timings: read {:.2} s, fit {:.2} s, evaluate {:.2} s, plots {:.2} s, total {:.2} s\n\
-                 wrote {}/table.toml, table.bin, report.json, report.html{}",
-                r.eval_programs,
-                r.fit_programs,
-                r.rows,
-                r.sensitivity_ppm_per_c.none,
-                r.sensitivity_ppm_per_c.simple,
-                r.sensitivity_ppm_per_c.hysteresis,
-                r.bias_residual_ug.none,
-                r.bias_residual_ug.simple,
-                r.bias_residual_ug.hysteresis,
-                r.peers_bias_residual_ug.cubic,
-                r.peers_bias_residual_ug.ardupilot,
-                r.fit.cond_sf_hysteresis,
-                r.timings_s.read,
-                r.timings_s.fit,
-                r.timings_s.evaluate,
-                r.timings_s.plots,
-                r.timings_s.total,
-                out.display(),
-                exports_line(&cal.exports)
-            );
+            let cal = calibrate_into(&l, &a.out, &opts, t0.elapsed().as_secs_f64())?;
+            println!("{}", cycling_summary(&cal.report, &a.out, &exports_line(&cal.exports)));
         }
-        Cmd::Discover { log, start, out, fmt, holdout } if fmt.options(&log)?.is_some() => {
+        OpenedLog::Single(_) => {
+            return Err(CliError::WrongLog {
+                command: "calibrate",
+                format: LogFormat::Single,
+                takes: "a cycling or a static log",
+            })
+        }
+    }
+    Ok(())
+}
+
+/// What `calibrate` prints for a cycling log.
+fn cycling_summary(r: &qfa_lab::calibrate::report::Report, out: &Path, exports: &str) -> String {
+    format!(
+        "held out on {:?} (fitted on {:?}), {} rows\n\
+         sensitivity ppm/degC: none {:.2}, simple {:.2}, hysteresis {:.2}\n\
+         bias residual ug:     none {:.1}, simple {:.1}, hysteresis {:.1}; peers: PX4/tofupilot cubic {:.1}, ArduPilot TCAL {:.1}\n\
+         Eq. 11 condition number {:.1}; timings: read {:.2} s, fit {:.2} s, evaluate {:.2} s, plots {:.2} s, total {:.2} s\n\
+         wrote {}/table.toml, table.bin, report.json, report.html{exports}",
+        r.eval_programs,
+        r.fit_programs,
+        r.rows,
+        r.sensitivity_ppm_per_c.none,
+        r.sensitivity_ppm_per_c.simple,
+        r.sensitivity_ppm_per_c.hysteresis,
+        r.bias_residual_ug.none,
+        r.bias_residual_ug.simple,
+        r.bias_residual_ug.hysteresis,
+        r.peers_bias_residual_ug.cubic,
+        r.peers_bias_residual_ug.ardupilot,
+        r.fit.cond_sf_hysteresis,
+        r.timings_s.read,
+        r.timings_s.fit,
+        r.timings_s.evaluate,
+        r.timings_s.plots,
+        r.timings_s.total,
+        out.display(),
+    )
+}
+
+fn discover_cmd(log: &Path, start: Start, out: &Path, fmt: &StaticFlags, holdout: Holdout) -> Result<(), CliError> {
+    match open(log, &fmt.flags())? {
+        OpenedLog::Static(l) => {
             // A static log: each axis is a single-channel (bias) log, on static calibration's split.
-            let o = fmt.options(&log)?.unwrap_or_default();
-            let l = qfa_lab::data::static_log::read_static(&log, &o).map_err(|e| format!("{}: {e}", log.display()))?;
             eprintln!("{} rows read; {}", l.rows(), l.skipped);
             let pb = qfa_lab::demo::spinner("discovery on each axis", true);
-            let d = qfa_lab::discover::static_axes::run(&l, start, holdout, &out).map_err(|e| format!("{e:#}"));
+            let d = static_axes::run(&l, start, holdout, out);
             pb.finish_and_clear();
             let d = d?;
             for a in &d.axes {
-                println!(
-                    "{} ({}): effects found: {}",
-                    a.axis,
-                    a.column,
-                    if a.effects.is_empty() { "none".to_string() } else { a.effects.join(", ") }
-                );
+                let found = if a.effects.is_empty() { "none".to_string() } else { a.effects.join(", ") };
+                println!("{} ({}): effects found: {found}", a.axis, a.column);
             }
-            qfa_lab::discover::page::static_page(&d, &out)
-                .and_then(|p| Ok(p.write(&out)?))
-                .map_err(|e| format!("{e:#}"))?;
-            print!("{}", qfa_lab::discover::static_axes::markdown(&d));
+            qfa_lab::discover::page::static_page(&d, out).and_then(|p| Ok(p.write(out)?))?;
+            print!("{}", static_axes::markdown(&d));
             println!("wrote {}/report.json, report.md, report.html, table.bin", out.display());
         }
-        Cmd::Discover { log, start, out, .. } => {
+        opened => {
+            cycling_holdout(holdout)?;
+            let ch = Channels::from_opened(&opened, 60.0)?;
             let pb = qfa_lab::demo::spinner("discovery", true);
-            let r = qfa_lab::discover::run_cli(&log, start, &out).map_err(|e| format!("{e:#}"));
+            let r = qfa_lab::discover::discover(&ch, start, out);
             pb.finish_and_clear();
-            r?;
+            println!("{}", serde_json::to_string_pretty(&r?).map_err(|e| e.to_string())?);
         }
-        Cmd::Compensate { log, table, out, fmt } if fmt.options(&log)?.is_some() => {
-            let o = fmt.options(&log)?.unwrap_or_default();
-            let l = qfa_lab::data::static_log::read_static(&log, &o).map_err(|e| format!("{}: {e}", log.display()))?;
-            let bytes = std::fs::read(&table).map_err(|e| format!("{}: {e}", table.display()))?;
-            let t = qfa_thermal::Table::decode(&bytes).map_err(|e| format!("{}: {e}", table.display()))?;
-            let f = std::fs::File::create(&out).map_err(|e| format!("{}: {e}", out.display()))?;
+    }
+    Ok(())
+}
+
+fn compensate_cmd(log: &Path, table: &Path, out: &Path, fmt: &StaticFlags) -> Result<(), CliError> {
+    // The table is read and the output created only for a log compensate takes.
+    let table_and_out = || -> Result<_, CliError> {
+        let t = read_table(table)?;
+        Ok((t, std::fs::File::create(out).map_err(io_at(out))?))
+    };
+    match open(log, &fmt.flags())? {
+        OpenedLog::Static(l) => {
+            let (t, f) = table_and_out()?;
             qfa_lab::compensate::compensate_static(&t, &l, std::io::BufWriter::new(f)).map_err(|e| e.to_string())?;
             eprintln!("{} rows ({}) → {}", l.rows(), l.skipped, out.display());
         }
-        Cmd::Compensate { log, table, out, .. } => {
-            let l = read_log(&log).map_err(|e| e.to_string())?;
-            let bytes = std::fs::read(&table).map_err(|e| format!("{}: {e}", table.display()))?;
-            let t = qfa_thermal::Table::decode(&bytes).map_err(|e| format!("{}: {e}", table.display()))?;
+        OpenedLog::Cycling(l) => {
+            let (t, f) = table_and_out()?;
             let pb = indicatif::ProgressBar::new(l.runs.len() as u64);
             let c = compensate_log(&t, &l, Some(&pb)).map_err(|e| e.to_string())?;
             pb.finish_and_clear();
             let acc: Vec<Vec<f64>> = c.into_iter().map(|c| c.accel_g).collect();
-            let f = std::fs::File::create(&out).map_err(|e| format!("{}: {e}", out.display()))?;
-            write_compensated(f, &l, &acc).map_err(|e| e.to_string())?;
+            write_compensated(f, &l, &acc).map_err(io_at(out))?;
             eprintln!("{} rows → {}", l.rows(), out.display());
         }
+        OpenedLog::Single(_) => {
+            return Err(CliError::WrongLog {
+                command: "compensate",
+                format: LogFormat::Single,
+                takes: "a cycling or a static log",
+            })
+        }
+    }
+    Ok(())
+}
+
+fn plan_cmd(scenario: Option<PathBuf>, lab_program: LabProgram, json: Option<PathBuf>) -> Result<(), CliError> {
+    let sc = match scenario {
+        Some(p) => Scenario::load(&p)?,
+        None => Scenario::builtin(),
+    };
+    let p = qfa_lab::navigate::plan::plan(&sc, lab_program)?;
+    print!("{}", qfa_lab::navigate::plan::text(&p));
+    if let Some(j) = json {
+        std::fs::write(&j, serde_json::to_string_pretty(&p).map_err(|e| e.to_string())?).map_err(io_at(&j))?;
+    }
+    if p.shortfalls.is_empty() {
+        Ok(())
+    } else {
+        Err(CliError::Failed(format!("lab program `{}` does not cover the mission", p.lab_program)))
+    }
+}
+
+fn navigate_cmd(a: NavigateCli) -> Result<(), CliError> {
+    let out = a.out.ok_or_else(|| CliError::Usage("navigate: --out DIR is required".to_string()))?;
+    let args = qfa_lab::navigate::NavigateArgs {
+        scenario: a.scenario,
+        out,
+        discovered_tables: a.discovered_tables.map(|v| [v[0].clone(), v[1].clone(), v[2].clone()]),
+        imu_rate_hz: a.imu_rate_hz,
+        verbose: true,
+        no_plots: a.no_plots,
+        runs: a.runs,
+        mc_seed: a.seed,
+        jobs: a.jobs,
+        shard: a.shard,
+        no_mc_discovered: a.no_mc_discovered,
+        lab_program: a.lab_program,
+        rate_limit_override: a.rate_limit_override,
+        ..Default::default()
+    };
+    if a.shard.is_some() {
+        let p = qfa_lab::navigate::navigate_shard(&args)?;
+        eprintln!("wrote {}", p.display());
+    } else {
+        let pb = qfa_lab::demo::spinner("navigation (calibrate, align, fly)", a.runs == 0);
+        let r = qfa_lab::navigate::navigate(&args);
+        pb.finish_and_clear();
+        r?;
+    }
+    Ok(())
+}
+
+fn run(cli: Cli) -> Result<(), CliError> {
+    check_out(&cli.cmd)?;
+    match cli.cmd {
+        Cmd::Simulate(a) => simulate_cmd(a),
+        Cmd::Calibrate(a) => calibrate_cmd(a),
+        Cmd::Discover { log, start, out, fmt, holdout } => discover_cmd(&log, start, &out, &fmt, holdout),
+        Cmd::Compensate { log, table, out, fmt } => compensate_cmd(&log, &table, &out, &fmt),
         Cmd::Demo { out, row_s, seed, threads, full_logs, nav_duration_s } => {
             let opts =
                 qfa_lab::demo::DemoOptions { out, row_s, seed, threads, progress: true, full_logs, nav_duration_s };
             // Discovery (on unit #1) and navigation run inside the demo.
             qfa_lab::demo::run(&opts, Some(qfa_lab::discover::demo_hook), Some(qfa_lab::navigate::demo_hook))?;
+            Ok(())
         }
-        Cmd::Plan { scenario, lab_program, json } => {
-            let sc = match scenario {
-                Some(p) => qfa_lab::navigate::scenario::Scenario::load(&p).map_err(|e| format!("{e:#}"))?,
-                None => qfa_lab::navigate::scenario::Scenario::builtin(),
-            };
-            let p = qfa_lab::navigate::plan::plan(&sc, lab_program).map_err(|e| format!("{e:#}"))?;
-            print!("{}", qfa_lab::navigate::plan::text(&p));
-            if let Some(j) = json {
-                std::fs::write(&j, serde_json::to_string_pretty(&p).map_err(|e| e.to_string())?)
-                    .map_err(|e| format!("{}: {e}", j.display()))?;
-            }
-            if !p.shortfalls.is_empty() {
-                return Err(format!("lab program `{}` does not cover the mission", p.lab_program));
-            }
-        }
-        Cmd::Navigate { sub: Some(NavCmd::Merge { dirs, out, no_plots }), .. } => {
+        Cmd::Plan { scenario, lab_program, json } => plan_cmd(scenario, lab_program, json),
+        Cmd::Navigate(NavigateCli { sub: Some(NavCmd::Merge { dirs, out, no_plots }), .. }) => {
             let out = out.unwrap_or_else(|| dirs[0].clone());
-            let sum = qfa_lab::navigate::mc::merge(&dirs, &out, !no_plots).map_err(|e| format!("{e:#}"))?;
-            qfa_lab::navigate::merge_page(&out, &sum).and_then(|p| Ok(p.write(&out)?)).map_err(|e| format!("{e:#}"))?;
+            let sum = qfa_lab::navigate::mc::merge(&dirs, &out, !no_plots)?;
+            qfa_lab::navigate::merge_page(&out, &sum).and_then(|p| Ok(p.write(&out)?))?;
             eprintln!("{}", qfa_lab::navigate::mc::table(&sum));
             eprintln!("wrote {}/report.json, report.html, mc_runs.csv", out.display());
+            Ok(())
         }
-        Cmd::Navigate {
-            sub: None,
-            scenario,
-            out,
-            discovered_tables,
-            imu_rate_hz,
-            runs,
-            seed,
-            jobs,
-            shard,
-            no_plots,
-            no_mc_discovered,
-            lab_program,
-            rate_limit_override,
-        } => {
-            let out = out.ok_or("navigate: --out DIR is required")?;
-            let discovered_tables = discovered_tables.map(|v| [v[0].clone(), v[1].clone(), v[2].clone()]);
-            let args = qfa_lab::navigate::NavigateArgs {
-                scenario,
-                out,
-                discovered_tables,
-                imu_rate_hz,
-                verbose: true,
-                no_plots,
-                runs,
-                mc_seed: seed,
-                jobs,
-                shard,
-                no_mc_discovered,
-                lab_program,
-                rate_limit_override,
-                ..Default::default()
-            };
-            if shard.is_some() {
-                let p = qfa_lab::navigate::navigate_shard(&args).map_err(|e| format!("{e:#}"))?;
-                eprintln!("wrote {}", p.display());
-            } else {
-                let pb = qfa_lab::demo::spinner("navigation (calibrate, align, fly)", runs == 0);
-                let r = qfa_lab::navigate::navigate(&args).map_err(|e| format!("{e:#}"));
-                pb.finish_and_clear();
-                r?;
-            }
-        }
+        Cmd::Navigate(a) => navigate_cmd(a),
     }
-    Ok(())
 }
 
 fn main() -> ExitCode {

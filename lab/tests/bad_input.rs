@@ -466,6 +466,40 @@ fn single_channel_logs_still_reach_discover() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
+/// The single-channel format goes through the same opening as the others: one sniff of the
+/// header, its own `csv` reader (editor line numbers on CRLF too), and a command that does
+/// not take it says so instead of reading it as something else.
+#[test]
+fn single_channel_logs_get_their_exact_errors() {
+    let d = dir().join("single_bad");
+    std::fs::create_dir_all(&d).unwrap();
+    let w = |name: &str, text: String| {
+        let p = d.join(name);
+        std::fs::write(&p, text).unwrap();
+        p.to_str().unwrap().to_string()
+    };
+    let rows: String = (0..20).map(|i| format!("{},{}.5,{}\n", i * 10, 20 + i, i)).collect();
+    let good = w("good.csv", format!("time_s,temp_c,value\n{rows}"));
+    let bad = w("bad.csv", format!("time_s,temp_c,value\n{rows}x,20,1\n\n5,20,NaN\n").replace('\n', "\r\n"));
+    let short = w("short.csv", "time_s,temp_c,value\n0,20,1\n".to_string());
+    let out = d.join("out").to_str().unwrap().to_string();
+    let out_csv = d.join("out.csv").to_str().unwrap().to_string();
+    fails_with(
+        &["calibrate", "--log", &good, "--out", &out],
+        "calibrate takes a cycling or a static log, not a single-channel log (time_s,temp_c,value)",
+    );
+    fails_with(
+        &["compensate", "--log", &good, "--table", "missing.bin", "--out", &out_csv],
+        "compensate takes a cycling or a static log, not a single-channel log (time_s,temp_c,value)",
+    );
+    fails_with(
+        &["discover", "--log", &bad, "--out", &out],
+        "2 malformed row(s):\nline 22: time_s: invalid float literal\nline 24: value: not finite",
+    );
+    fails_with(&["discover", "--log", &short, "--out", &out], "too few rows: 1 with a reading, 8 needed");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
 /// A table records what it converts (format 2): a static log's table converts samples, a
 /// cycling log's pulse counts. `compensate` refuses the other kind, naming both.
 #[test]

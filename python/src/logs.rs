@@ -9,8 +9,9 @@ use numpy::{PyArray1, PyReadonlyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use qfa_lab::data::cycling::{read_log as read_cycling, Log as CyclingLog};
-use qfa_lab::data::static_log::{looks_static, read_static, read_static_from, StaticLog, StaticOptions};
+use qfa_lab::data::cycling::Log as CyclingLog;
+use qfa_lab::data::open::{open, OpenedLog, ReadFlags};
+use qfa_lab::data::static_log::{read_static_from, StaticLog};
 
 use crate::errors::LogError;
 
@@ -31,24 +32,24 @@ pub struct Log {
     pub path: Option<PathBuf>,
 }
 
-/// The static reader's options from the CLI's flags, with the CLI's messages.
-pub fn static_options(
+/// The reader flags from the CLI's flag strings, with the CLI's messages.
+pub fn read_flags(
     columns: Option<&str>,
     time_unit: Option<&str>,
     accel_unit: Option<&str>,
     decimal_comma: bool,
-) -> PyResult<StaticOptions> {
+) -> PyResult<ReadFlags> {
     let e = |e: qfa_lab::data::static_log::StaticError| LogError::new_err(e.to_string());
-    Ok(StaticOptions {
-        columns: columns.map(str::parse).transpose().map_err(e)?.unwrap_or_default(),
+    Ok(ReadFlags {
+        columns: columns.map(str::parse).transpose().map_err(e)?,
         time_unit: time_unit.map(str::parse).transpose().map_err(e)?,
         accel_unit: accel_unit.map(str::parse).transpose().map_err(e)?,
         decimal_comma,
     })
 }
 
-/// Read a log file the way `qfa-lab` does: any reader flag, or a header without a `pulses`
-/// (or `value`) column, selects the static reader; otherwise the cycling reader.
+/// Read a log file the way `qfa-lab` does (`qfa_lab::data::open`: any reader flag, or a
+/// header without a `pulses` or `value` column, selects the static reader).
 pub fn read(
     path: PathBuf,
     columns: Option<&str>,
@@ -56,19 +57,17 @@ pub fn read(
     accel_unit: Option<&str>,
     decimal_comma: bool,
 ) -> PyResult<Log> {
-    let any_flag = columns.is_some() || time_unit.is_some() || accel_unit.is_some() || decimal_comma;
-    let is_static = any_flag || {
-        let text = std::fs::read(&path).map_err(|e| LogError::new_err(format!("{}: {e}", path.display())))?;
-        let first = text.split(|b| *b == b'\n').next().unwrap_or_default();
-        let first = String::from_utf8_lossy(first);
-        !first.trim().is_empty() && looks_static(&first)
-    };
-    let data = if is_static {
-        let opts = static_options(columns, time_unit, accel_unit, decimal_comma)?;
-        let log = read_static(&path, &opts).map_err(|e| LogError::new_err(format!("{}: {e}", path.display())))?;
-        LogData::Static(Box::new(log))
-    } else {
-        LogData::Cycling(read_cycling(&path).map_err(|e| LogError::new_err(e.to_string()))?)
+    let flags = read_flags(columns, time_unit, accel_unit, decimal_comma)?;
+    let data = match open(&path, &flags).map_err(|e| LogError::new_err(e.to_string()))? {
+        OpenedLog::Static(l) => LogData::Static(l),
+        OpenedLog::Cycling(l) => LogData::Cycling(l),
+        OpenedLog::Single(_) => {
+            return Err(LogError::new_err(format!(
+                "{}: a single-channel log (time_s,temp_c,value): discover reads it, read_log takes cycling and \
+                 static logs",
+                path.display()
+            )))
+        }
     };
     Ok(Log { data, path: Some(path) })
 }
@@ -225,7 +224,7 @@ pub fn from_arrays(
         }
         text.push('\n');
     }
-    let opts = static_options(Some(&spec), Some(time_unit), Some(accel_unit), false)?;
+    let opts = read_flags(Some(&spec), Some(time_unit), Some(accel_unit), false)?.static_options();
     let log = read_static_from(text.as_bytes(), &opts).map_err(|e| LogError::new_err(e.to_string()))?;
     Ok(Log { data: LogData::Static(Box::new(log)), path: None })
 }

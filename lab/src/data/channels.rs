@@ -9,8 +9,11 @@
 
 use std::path::Path;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use qfa_thermal::rate::{RateConfig, RateEstimator};
+
+use crate::data::open::{open, open_bytes, OpenedLog, ReadFlags};
+use crate::data::single::SingleLog;
 
 /// Rows further apart than this (s) get the firmware's 1-s readings filled in between them
 /// (see [`Trace::new`]).
@@ -258,13 +261,39 @@ impl Channels {
         Ok(Self { kind: LogKind::Cycling, bias_unit: BiasUnit::G, traces })
     }
 
-    /// Read a log, detecting its format from the header.
+    /// Channels of a single-channel log: its value is the bias channel, in its own unit.
+    #[must_use]
+    pub fn from_single(log: &SingleLog, bin_s: f64) -> Self {
+        let rows: Vec<(f64, f32)> = log.time_s.iter().copied().zip(log.temp_c.iter().copied()).collect();
+        Self {
+            kind: LogKind::Single,
+            bias_unit: BiasUnit::Value,
+            traces: vec![Trace::new("log".into(), &rows, None, &log.value, bin_s)],
+        }
+    }
+
+    /// Channels of an opened log (cycling or single-channel; a static log's axes are
+    /// formed per axis by `crate::discover::static_axes`).
     ///
     /// # Errors
-    /// Unreadable file, unknown header, or malformed rows (each listed with its line).
+    /// A static log, or a cycling log without paired ±1 g runs.
+    pub fn from_opened(log: &OpenedLog, bin_s: f64) -> Result<Self> {
+        match log {
+            OpenedLog::Cycling(l) => Self::from_cycling(l, bin_s),
+            OpenedLog::Single(l) => Ok(Self::from_single(l, bin_s)),
+            OpenedLog::Static(_) => bail!(
+                "a static multi-axis log: its channels are formed per axis (discover reads it with the static \
+                 reader's flags); expected program,run,time_s,input_g,temp_c,pulses,interval_s or time_s,temp_c,value"
+            ),
+        }
+    }
+
+    /// Read a cycling or single-channel log ([`crate::data::open`] decides which).
+    ///
+    /// # Errors
+    /// The reader's error (each malformed row with its line), or as [`Channels::from_opened`].
     pub fn read(path: &Path, bin_s: f64) -> Result<Self> {
-        let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-        Self::parse(&text, bin_s).with_context(|| format!("in {}", path.display()))
+        Self::from_opened(&open(path, &ReadFlags::default())?, bin_s)
     }
 
     /// Parse log text (see [`Channels::read`]).
@@ -272,65 +301,6 @@ impl Channels {
     /// # Errors
     /// As [`Channels::read`].
     pub fn parse(text: &str, bin_s: f64) -> Result<Self> {
-        let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
-        let cycling = |text: &str| -> Result<Self> {
-            let log = crate::data::cycling::read_log_from(text.as_bytes()).map_err(|e| anyhow::anyhow!("{e}"))?;
-            Self::from_cycling(&log, bin_s)
-        };
-        // An empty file and a cycling header with a wrong column get the cycling reader's
-        // own message, as `calibrate` and `compensate` give it.
-        let Some((_, header)) = lines.next() else { return cycling(text) };
-        let cols: Vec<String> = header.split(',').map(|c| c.trim().to_ascii_lowercase()).collect();
-        let idx = |name: &str| cols.iter().position(|c| c == name);
-        if idx("program").is_some() || idx("pulses").is_some() {
-            // The cycling log has one reader (every malformed row reported, NaN refused)
-            // and one ±1 g pairing; the channels are formed from what they return.
-            cycling(text)
-        } else if let (Some(ti), Some(tc), Some(v)) = (idx("time_s"), idx("temp_c"), idx("value")) {
-            let mut errors = Vec::new();
-            let (mut rows, mut vals) = (Vec::new(), Vec::new());
-            for (ln, line) in lines {
-                let f: Vec<&str> = line.split(',').map(str::trim).collect();
-                let get = |i: usize| f.get(i).copied().unwrap_or("");
-                let parsed = (|| -> Result<Option<(f64, f32, f64)>> {
-                    let t: f64 = get(ti).parse().context("time_s")?;
-                    if get(tc).is_empty() {
-                        return Ok(None); // no reading yet
-                    }
-                    let temp: f32 = get(tc).parse().context("temp_c")?;
-                    let val: f64 = get(v).parse().context("value")?;
-                    if !t.is_finite() || !val.is_finite() || !temp.is_finite() {
-                        bail!("non-finite value");
-                    }
-                    Ok(Some((t, temp, val)))
-                })();
-                match parsed {
-                    Ok(Some((t, temp, val))) => {
-                        rows.push((t, temp));
-                        vals.push(val);
-                    }
-                    Ok(None) => {}
-                    Err(e) => errors.push(format!("line {}: {e:#}", ln + 1)),
-                }
-            }
-            if !errors.is_empty() {
-                let n = errors.len();
-                errors.truncate(20);
-                bail!("{n} malformed row(s):\n{}", errors.join("\n"));
-            }
-            if rows.len() < 8 {
-                bail!("too few rows");
-            }
-            Ok(Self {
-                kind: LogKind::Single,
-                bias_unit: BiasUnit::Value,
-                traces: vec![Trace::new("log".into(), &rows, None, &vals, bin_s)],
-            })
-        } else {
-            bail!(
-                "unknown header {header:?}: expected program,run,time_s,input_g,temp_c,pulses,interval_s \
-                 or time_s,temp_c,value"
-            )
-        }
+        Self::from_opened(&open_bytes(text.as_bytes(), &ReadFlags::default())?, bin_s)
     }
 }

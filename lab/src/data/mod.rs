@@ -6,7 +6,10 @@
 pub mod channels;
 pub mod cycling;
 pub mod lines;
+pub mod open;
 pub mod pairing;
+pub mod single;
 pub mod static_checks;
 pub mod static_columns;
+pub mod static_error;
 pub mod static_log;

@@ -42,13 +42,13 @@
 
 use std::fmt;
 use std::io::Read;
-use std::path::Path;
 
 use serde::Serialize;
 
 use super::static_checks::{centred_median, glitches, median};
 pub use super::static_checks::{max_slew, Slew};
 pub use super::static_columns::*;
+pub use super::static_error::*;
 
 /// Standard gravity, m/s², to convert m/s² to g.
 pub const G0_MPS2: f64 = 9.806_65;
@@ -224,204 +224,6 @@ impl StaticLog {
         self.time_s.len()
     }
 }
-
-/// A row-level error of a static log.
-#[derive(Clone, Debug, PartialEq)]
-#[non_exhaustive]
-pub enum StaticRowFault {
-    /// A field is not a number (names the column and the text).
-    NotANumber {
-        /// Column.
-        column: String,
-        /// Text.
-        text: String,
-    },
-    /// Temperature outside −60…130 °C.
-    TempOutOfRange(f64),
-    /// Time earlier than the previous row's.
-    TimeBackwards {
-        /// Previous row's time, file units.
-        previous: f64,
-        /// This row's time, file units.
-        time: f64,
-    },
-    /// Wrong number of fields.
-    FieldCount {
-        /// Fields found.
-        got: usize,
-        /// Header fields.
-        want: usize,
-    },
-}
-
-impl fmt::Display for StaticRowFault {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::NotANumber { column, text } => write!(f, "column `{column}`: `{text}` is not a number"),
-            Self::TempOutOfRange(t) => write!(f, "temperature {t} °C outside -60..130 °C"),
-            Self::TimeBackwards { previous, time } => write!(f, "time goes backwards ({time} after {previous})"),
-            Self::FieldCount { got, want } => write!(f, "{got} fields, the header has {want}"),
-        }
-    }
-}
-
-/// Why a static log cannot be used.
-#[derive(Clone, Debug, PartialEq)]
-#[non_exhaustive]
-pub enum StaticError {
-    /// The file could not be read.
-    Io(String),
-    /// No header line (an empty file).
-    Empty,
-    /// A header but no data rows.
-    NoRows,
-    /// `--columns` names a column the header lacks.
-    UnknownColumn {
-        /// Role.
-        role: String,
-        /// Column asked for.
-        column: String,
-        /// The header's columns.
-        header: Vec<String>,
-    },
-    /// No column for a role, by common name or `--columns`.
-    MissingColumn {
-        /// Role (`time`, `temp`, or `ax/ay/az`).
-        role: String,
-        /// The header's columns.
-        header: Vec<String>,
-    },
-    /// A `--columns` item that is not `role=column` with a known role.
-    BadColumnSpec(String),
-    /// A unit flag value that is not one of the allowed ones.
-    BadUnit {
-        /// Flag.
-        flag: &'static str,
-        /// Value given.
-        value: String,
-        /// Allowed values.
-        allowed: &'static str,
-    },
-    /// No unit given and none in the column name.
-    UnitUnknown {
-        /// Flag to pass.
-        flag: &'static str,
-        /// Column.
-        column: String,
-    },
-    /// The data are implausible in the units given.
-    ImplausibleUnit(String),
-    /// The temperature changes faster than a chamber can move it in the time unit given.
-    ImplausibleSlew {
-        /// The time unit the log was read with.
-        unit: TimeUnit,
-        /// The change, °C/min ([`max_slew`]).
-        slew: Slew,
-        /// Line and temperature (as filtered) where the change starts and ends.
-        ends: [(u64, f64); 2],
-        /// Other time units that give a plausible row interval and slew, with their slew.
-        fits: Vec<(TimeUnit, f64)>,
-    },
-    /// Numbers with a decimal comma, read without [`StaticOptions::decimal_comma`].
-    DecimalComma {
-        /// Line of the first such field.
-        line: u64,
-        /// Its column.
-        column: String,
-        /// Its text.
-        text: String,
-        /// Rows with such a field.
-        rows: usize,
-    },
-    /// [`StaticOptions::decimal_comma`] with a comma-separated header.
-    DecimalCommaDelimiter,
-    /// Malformed rows: the first [`KEPT_LINES`] with line numbers, and the count.
-    Rows {
-        /// `(line, fault)`.
-        first: Vec<(u64, StaticRowFault)>,
-        /// All malformed rows.
-        total: usize,
-    },
-    /// Too few rows left after the skips.
-    TooFewRows {
-        /// Rows kept.
-        kept: usize,
-        /// What was skipped.
-        skipped: Skipped,
-    },
-}
-
-impl fmt::Display for StaticError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::Io(e) => write!(f, "cannot read the log: {e}"),
-            Self::Empty => f.write_str("empty log: no header line"),
-            Self::NoRows => f.write_str("the log has a header but no data rows"),
-            Self::UnknownColumn { role, column, header } => {
-                write!(f, "unknown column `{column}` for {role}; the header has: {}", header.join(", "))
-            }
-            Self::MissingColumn { role, header } => write!(
-                f,
-                "no {role} column found by common names; pass --columns {role}=NAME (the header has: {})",
-                header.join(", ")
-            ),
-            Self::BadColumnSpec(s) => {
-                write!(f, "bad --columns item `{s}`: expected role=column with role time, temp, ax, ay or az")
-            }
-            Self::BadUnit { flag, value, allowed } => write!(f, "{flag} `{value}`: expected {allowed}"),
-            Self::UnitUnknown { flag, column } => {
-                write!(f, "the unit of column `{column}` is not known: pass {flag}")
-            }
-            Self::ImplausibleUnit(s) => write!(f, "wrong unit? {s}"),
-            Self::ImplausibleSlew { unit, slew, ends, fits } => {
-                write!(
-                    f,
-                    "wrong unit? read with --time-unit {} the temperature changes by {:.0} °C/min ({:.2} °C within \
-                     {:.3} s: from {:.2} °C at line {} to {:.2} °C at line {}); a board in a climate chamber changes \
-                     by at most {MAX_SLEW_C_PER_MIN:.0} °C/min: check --time-unit",
-                    unit.name(),
-                    slew.c_per_min,
-                    slew.range_c,
-                    slew.window_s,
-                    ends[0].1,
-                    ends[0].0,
-                    ends[1].1,
-                    ends[1].0
-                )?;
-                if !fits.is_empty() {
-                    let f2: Vec<String> =
-                        fits.iter().map(|(u, x)| format!("{} gives {x:.1} °C/min", u.name())).collect();
-                    write!(f, " ({})", f2.join(", "))?;
-                }
-                Ok(())
-            }
-            Self::DecimalComma { line, column, text, rows } => write!(
-                f,
-                "column `{column}` holds `{text}` at line {line}: a decimal comma? {rows} row(s) have numbers like it; \
-                 pass --decimal-comma to read them"
-            ),
-            Self::DecimalCommaDelimiter => f.write_str(
-                "--decimal-comma needs a `;` or tab delimiter: this header is comma-separated, so a decimal comma \
-                 cannot be told from a field separator",
-            ),
-            Self::Rows { first, total } => {
-                write!(f, "{total} malformed row(s)")?;
-                for (line, fault) in first {
-                    write!(f, "\n  line {line}: {fault}")?;
-                }
-                if *total > first.len() {
-                    write!(f, "\n  ... and {} more", total - first.len())?;
-                }
-                Ok(())
-            }
-            Self::TooFewRows { kept, skipped } => {
-                write!(f, "only {kept} usable row(s), need {MIN_ROWS}: {skipped}")
-            }
-        }
-    }
-}
-
-impl std::error::Error for StaticError {}
 
 /// Whether a header column matches a common name.
 fn matches_common(col: &str, name: &str) -> bool {
@@ -711,22 +513,6 @@ pub fn read_static_from<R: Read>(reader: R, opts: &StaticOptions) -> Result<Stat
     })
 }
 
-/// Read a static log file.
-///
-/// # Errors
-/// As [`read_static_from`], or the file cannot be opened.
-pub fn read_static(path: &Path, opts: &StaticOptions) -> Result<StaticLog, StaticError> {
-    let f = std::fs::File::open(path).map_err(|e| StaticError::Io(format!("{}: {e}", path.display())))?;
-    read_static_from(std::io::BufReader::new(f), opts)
-}
-
-/// Whether a header line is a static log's: neither a cycling log's (a `pulses` column) nor
-/// a single-channel `time_s,temp_c,value` log's (a `value` column).
-#[must_use]
-pub fn looks_static(header_line: &str) -> bool {
-    !header_line.split([',', '\t', ';']).any(|c| matches!(c.trim(), "pulses" | "value"))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -785,13 +571,6 @@ mod tests {
         // A comma-separated file cannot carry decimal commas.
         let e = read_static_from("time,temp,az\n".as_bytes(), &StaticOptions { decimal_comma: true, ..o }).unwrap_err();
         assert_eq!(e, StaticError::DecimalCommaDelimiter);
-    }
-
-    #[test]
-    fn log_kind_from_the_header() {
-        assert!(looks_static("timestamp\timu.acc.x\timu.temperature"));
-        assert!(!looks_static("program,run,time_s,input_g,temp_c,pulses,interval_s"));
-        assert!(!looks_static("time_s,temp_c,value"));
     }
 
     #[test]
