@@ -60,3 +60,39 @@ pub fn lstsq_matrix(mut m: DMatrix<f64>, y: &DVector<f64>) -> Result<LsResult, F
     let coef = c.iter().zip(&norms).map(|(ci, nj)| ci / nj).collect();
     Ok(LsResult { coef, cond, cond_unscaled, rms, rows: n })
 }
+
+/// The lab's one smoothness regulariser of a bias grid, for every fitter that has one
+/// (the cycling and static fits, discovery): one row per interior node,
+/// `weight·(c[off+i−1] − 2·c[off+i] + c[off+i+1]) = 0`, over the `g` nodes at column `off`
+/// of a `p`-column design. The weight is the caller's: 1 against unit-weight rows in the
+/// calibration fits, scaled to the column norms in discovery's bin-averaged problem.
+pub fn second_difference_rows(p: usize, off: usize, g: usize, weight: f64) -> impl Iterator<Item = Vec<f64>> {
+    (1..g.saturating_sub(1)).map(move |i| {
+        let mut row = vec![0.0; p];
+        for (d, c) in [1.0, -2.0, 1.0].into_iter().enumerate() {
+            row[off + i - 1 + d] = weight * c;
+        }
+        row
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The rows vanish on a straight grid and measure a bend: second differences of
+    /// `c = i²` are 2 at every interior node, times the weight.
+    #[test]
+    fn second_differences_vanish_on_lines_and_measure_curvature() {
+        let (p, off, g) = (9, 2, 6);
+        let rows: Vec<Vec<f64>> = second_difference_rows(p, off, g, 0.5).collect();
+        assert_eq!(rows.len(), g - 2);
+        let apply = |c: &dyn Fn(usize) -> f64| -> Vec<f64> {
+            rows.iter()
+                .map(|r| (0..p).map(|j| r[j] * if (off..off + g).contains(&j) { c(j - off) } else { 7.0 }).sum())
+                .collect()
+        };
+        assert!(apply(&|i| 3.0 - 0.25 * i as f64).iter().all(|v| v.abs() < 1e-12));
+        assert_eq!(apply(&|i| (i * i) as f64), vec![1.0; g - 2]);
+    }
+}

@@ -51,7 +51,10 @@ impl BranchMode {
         }
         let curves = if self == Self::Free { 2 } else { 1 };
         for off in (0..curves).map(|b| b * g) {
-            push_second_differences(xb, yb, p, off, g);
+            for row in super::solver::second_difference_rows(p, off, g, 1.0) {
+                xb.extend(row);
+                yb.push(0.0);
+            }
         }
     }
 }
@@ -194,19 +197,6 @@ impl StaticSeries<'_> {
     #[must_use]
     pub fn model_trace(&self, axis: &AxisModel) -> Trace {
         crate::data::pairing::trace_axis(self.rows(), self.time_s.len(), axis)
-    }
-}
-
-/// Weak (weight 1) rows `c[off+i−1] − 2·c[off+i] + c[off+i+1] = 0` over the `g` grid
-/// nodes at `off` of a `p`-column design: they keep nodes that few data reach defined.
-fn push_second_differences(xb: &mut Vec<f64>, yb: &mut Vec<f64>, p: usize, off: usize, g: usize) {
-    for i in 1..g.saturating_sub(1) {
-        let mut row = vec![0.0; p];
-        row[off + i - 1] = 1.0;
-        row[off + i] = -2.0;
-        row[off + i + 1] = 1.0;
-        xb.extend(row);
-        yb.push(0.0);
     }
 }
 

@@ -15,8 +15,9 @@ use qfa_thermal::model::{AxisModel, AxisState, BiasGrid, BranchHysteresis, Creep
 use super::Start;
 use crate::data::channels::{Channels, LogKind};
 
-/// Reference temperature of ΔT (the paper's 22 °C program start).
-pub const T0_C: f32 = 22.0;
+/// Reference temperature of ΔT: the lab's one [`crate::calibrate::fit::T0_C`], as the
+/// model's f32.
+pub const T0_C: f32 = crate::calibrate::fit::T0_C as f32;
 /// Fixed reference temperature of the creep time constant, °C.
 pub const CREEP_T_REF_C: f32 = 22.0;
 /// Bias grid points.
@@ -583,10 +584,8 @@ fn solve(a: &DMatrix<f64>, y: &DVector<f64>, pen: Option<(usize, usize)>) -> Vec
         let mut sorted: Vec<f64> = norm[lo..hi].to_vec();
         sorted.sort_by(f64::total_cmp);
         let w = 1e-2 * sorted[sorted.len() / 2];
-        for (i, j) in (lo..hi.saturating_sub(2)).enumerate() {
-            for (d, c) in [1.0, -2.0, 1.0].into_iter().enumerate() {
-                m[(n + k + i, j + d)] = w * c;
-            }
+        for (i, row) in crate::calibrate::solver::second_difference_rows(k, lo, hi - lo, w).enumerate() {
+            m.row_mut(n + k + i).copy_from_slice(&row);
         }
     }
     let mut yy = DVector::zeros(n + k + pen_rows);
