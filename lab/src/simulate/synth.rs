@@ -1,9 +1,10 @@
-//! Fast channels for the discovery tests and benchmark: the simulator's paper program
-//! ([`Program::staircase`]: hold at 22 °C, ramp down, up and back to 22 °C at a given rate
-//! with a dwell at each integer °C, then a final hold) and its case [`Lag`], with the root
-//! crate's `AxisModel` (hidden slots on) as the truth, written straight to channels or to
-//! a cycling / single-channel log. The full simulator (`crate::simulate`) adds the I/F
-//! converter, the DS18B20 timing and the bias instability; the discovery's FDR runs on it.
+//! The simulator's channel stage: the same program ([`Program::staircase`]: hold at 22 °C,
+//! ramp down, up and back to 22 °C at a given rate with a dwell at each integer °C, then a
+//! final hold), thermal chain, truth model ([`TruthModel`]), DS18B20 ([`SensorTruth`]) and
+//! random streams as [`crate::simulate::simulate_run`], written straight to discovery's
+//! channels or to a cycling / single-channel log, with white noise per row in place of
+//! the I/F converter, the DS18B20's conversion timing and the bias instability. Fast: the
+//! discovery tests and benchmark run on it; the discovery's FDR runs on the pulse stage.
 //!
 //! Chamber → case (first-order lag, the DS18B20 is on the case) → 12-bit reading with
 //! noise. The truth is evaluated on the true case temperature and its exact derivative at
@@ -13,13 +14,12 @@
 
 use std::fmt::Write as _;
 
-use qfa_thermal::model::{AxisModel, AxisState, BiasGrid, Extensions, ScaleFactor};
+use qfa_thermal::model::{Extensions, ScaleFactor};
 
 use crate::data::channels::{Channels, LogKind, Trace};
 use crate::rng::{normal, seeded, LabRng};
 use crate::simulate::profile::Program;
-use crate::simulate::thermal::Lag;
-use crate::simulate::truth::SensorTruth;
+use crate::simulate::truth::{BiasTruth, SensorTruth, Truth, TruthModel};
 
 /// Test-program and noise configuration.
 #[derive(Clone, Debug)]
@@ -84,18 +84,17 @@ pub fn kt8_1_scale() -> ScaleFactor {
     crate::simulate::truth::Truth::jb_kt8(1).scale
 }
 
-/// A truth model: `scale`, bias `b0 + b1·ΔT + b2·ΔT²` (g) on a 16-point grid over
-/// −62..72 °C, and `ext`.
+/// A truth: `scale`, bias `b0 + b1·ΔT + b2·ΔT²` (g, ΔT from the scale factor's 22 °C)
+/// and `ext`, on JB-KT8 #1's thermal chain; its noise is the [`SynthConfig`]'s.
 #[must_use]
-pub fn truth(scale: ScaleFactor, b: [f32; 3], ext: Extensions) -> AxisModel {
-    let step = 134.0 / 15.0;
-    let grid: Vec<f32> = (0..16)
-        .map(|i| {
-            let d = -62.0 + step * i as f32 - 22.0;
-            b[0] + b[1] * d + b[2] * d * d
-        })
-        .collect();
-    AxisModel { scale, bias: BiasGrid::single_valued(-62.0, step, &grid), rate_limit_c_per_min: 20.0, ext }
+pub fn truth(scale: ScaleFactor, b: [f32; 3], ext: Extensions) -> Truth {
+    let bias = BiasTruth {
+        k0_g: f64::from(b[0]),
+        b1_g_per_c: f64::from(b[1]),
+        b2_g_per_c2: f64::from(b[2]),
+        b3_g_per_c3: 0.0,
+    };
+    Truth { name: "synth".into(), scale, bias, ext, ..Truth::jb_kt8(1).noiseless() }
 }
 
 /// The chamber program: the simulator's paper staircase ([`Program::staircase`]) between
@@ -109,17 +108,18 @@ fn program(c: &SynthConfig, rate: f64) -> Program {
 }
 
 /// One program's rows: (time s, DS18B20 °C, true K1, true K0). The case follows the
-/// chamber through the simulator's first-order [`Lag`] (exact for the piecewise-linear
-/// program, 10 sub-steps per row so the knots fall close to step edges).
-fn program_rows(c: &SynthConfig, rate: f64, model: &AxisModel, rng: &mut LabRng) -> Vec<(f64, f32, f64, f64)> {
+/// chamber through the simulator's thermal chain with the config's case τ (exact for the
+/// piecewise-linear program, 10 sub-steps per row so the knots fall close to step edges).
+fn program_rows(c: &SynthConfig, rate: f64, truth: &Truth, rng: &mut LabRng) -> Vec<(f64, f32, f64, f64)> {
     let prog = program(c, rate);
     let end = prog.duration_s();
     let sub = 10usize;
     let h = c.dt_s / sub as f64;
-    let mut case = Lag::new(c.case_tau_s, h, 22.0);
+    let thermal = crate::simulate::thermal::ThermalChain { case_tau_s: c.case_tau_s, ..truth.thermal };
+    let mut chain = thermal.start(prog.temp_at(0.0), h, truth.element_tau_s());
+    let mut model: TruthModel = truth.model();
     // The simulator's one DS18B20, on the case, without offset, read at every row.
     let sensor = SensorTruth { offset_c: 0.0, noise_c: c.temp_noise_c, period_s: c.dt_s, first_s: 0.0 };
-    let mut st = AxisState::default();
     let mut out = Vec::new();
     let mut t = 0.0;
     // The truth at the end of the previous sub-step (K1, K0).
@@ -133,19 +133,18 @@ fn program_rows(c: &SynthConfig, rate: f64, model: &AxisModel, rng: &mut LabRng)
         if t > 0.0 {
             for k in 0..sub {
                 let t0 = t - c.dt_s + h * k as f64;
-                case.step(prog.temp_at(t0), prog.temp_at(t0 + h));
-                let rate = case.rate_per_s(prog.temp_at(t0 + h)) * 60.0;
-                let e = model.evaluate(&mut st, case.y as f32, rate as f32, h as f32);
-                k1 += 0.5 * (prev.0 + f64::from(e.k1)) / sub as f64;
-                k0 += 0.5 * (prev.1 + f64::from(e.k0)) / sub as f64;
-                prev = (f64::from(e.k1), f64::from(e.k0));
+                let temps = chain.step(prog.temp_at(t0 + h));
+                let e = model.step(temps.case_c, temps.case_rate_c_per_min, h);
+                k1 += 0.5 * (prev.0 + e.k1) / sub as f64;
+                k0 += 0.5 * (prev.1 + e.k0) / sub as f64;
+                prev = (e.k1, e.k0);
             }
         } else {
-            let e = model.evaluate(&mut st, case.y as f32, 0.0, 0.0);
-            (k1, k0) = (f64::from(e.k1), f64::from(e.k0));
+            let e = model.step(chain.case.y, 0.0, 0.0);
+            (k1, k0) = (e.k1, e.k0);
             prev = (k1, k0);
         }
-        let reading = sensor.read(rng, case.y) as f32;
+        let reading = sensor.read(rng, chain.case.y) as f32;
         out.push((t, reading, k1, k0));
         t += c.dt_s;
     }
@@ -154,11 +153,11 @@ fn program_rows(c: &SynthConfig, rate: f64, model: &AxisModel, rng: &mut LabRng)
 
 /// Channels of a simulated cycling test (K1, K0 per row with noise, binned to `bin_s`).
 #[must_use]
-pub fn cycling_channels(c: &SynthConfig, model: &AxisModel, bin_s: f64) -> Channels {
+pub fn cycling_channels(c: &SynthConfig, truth: &Truth, bin_s: f64) -> Channels {
     let mut rng = seeded(c.seed);
     let mut traces = Vec::new();
     for &rate in &c.rates {
-        let rows = program_rows(c, rate, model, &mut rng);
+        let rows = program_rows(c, rate, truth, &mut rng);
         let temps: Vec<(f64, f32)> = rows.iter().map(|r| (r.0, r.1)).collect();
         let sf: Vec<f64> = rows.iter().map(|r| r.2 * (1.0 + c.sf_noise_ppm * 1e-6 * normal(&mut rng))).collect();
         let bias: Vec<f64> = rows.iter().map(|r| r.3 + c.bias_noise_ug * 1e-6 * normal(&mut rng)).collect();
@@ -169,11 +168,11 @@ pub fn cycling_channels(c: &SynthConfig, model: &AxisModel, bin_s: f64) -> Chann
 
 /// A single-channel log (`time_s,temp_c,value`) of the first program: value = K0 in µg.
 #[must_use]
-pub fn single_csv(c: &SynthConfig, model: &AxisModel) -> String {
+pub fn single_csv(c: &SynthConfig, truth: &Truth) -> String {
     let mut rng = seeded(c.seed);
     let mut s = String::from("time_s,temp_c,value\n");
     if let Some(&rate) = c.rates.first() {
-        let rows = program_rows(c, rate, model, &mut rng);
+        let rows = program_rows(c, rate, truth, &mut rng);
         for r in rows {
             let v = r.3 * 1e6 + c.bias_noise_ug * normal(&mut rng);
             let _ = writeln!(s, "{:.1},{:.4},{:.4}", r.0, r.1, v);
@@ -185,12 +184,12 @@ pub fn single_csv(c: &SynthConfig, model: &AxisModel) -> String {
 /// A cycling log in the lab's CSV format: per program four runs (+1, 0, −1, 0 g), I/F
 /// pulses with carry; `accel_noise_ug` is white noise per row.
 #[must_use]
-pub fn cycling_csv(c: &SynthConfig, model: &AxisModel, accel_noise_ug: f64) -> String {
+pub fn cycling_csv(c: &SynthConfig, truth: &Truth, accel_noise_ug: f64) -> String {
     let mut rng = seeded(c.seed);
     let mut s = String::with_capacity(1 << 20);
     s.push_str("program,run,time_s,input_g,temp_c,pulses,interval_s\n");
     for &rate in &c.rates {
-        let rows = program_rows(c, rate, model, &mut rng);
+        let rows = program_rows(c, rate, truth, &mut rng);
         for (run, g) in [1.0f64, 0.0, -1.0, 0.0].into_iter().enumerate() {
             let mut carry = 0.0f64;
             let mut prev = None::<f64>;
