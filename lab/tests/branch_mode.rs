@@ -12,7 +12,8 @@
 //! thermal chain. Not `recovery.rs`'s pure ramps at 0.5 and 1.5 °C/min: there the
 //! accelerometer's interior lags the DS18B20 on the case enough that even a single-valued
 //! bias splits by branch against the reading, and the cross-validation rightly keeps Free
-//! (measured, seed 31: CV MSE Single 33.6 ± 7.8, Offset 36.0 ± 7.8, Free 23.2 ± 4.8 µg²).
+//! (measured, seed 31, on the lab's earlier random streams: CV MSE Single 33.6 ± 7.8,
+//! Offset 36.0 ± 7.8, Free 23.2 ± 4.8 µg²).
 
 use qfa_lab::calibrate::fit::{fit, BranchMode, FitOptions, Fitted};
 use qfa_lab::data::cycling::Log;

@@ -210,9 +210,9 @@ fn truth_generator_is_what_it_says() {
 /// Three seeds of every case, at least 90 % honest (19 of 21), the bound of the 20-seed
 /// run below. Every seed was honest until the lab began filling in the firmware's 1-s
 /// readings between rows (the cure for a phantom rate term on cycling logs); since then
-/// seed 2's drift log also gets a creep at its τ limit's edge and seed 1's Preisach log a
-/// lag that is not listed as confusable with a play, while the 20-seed rate stayed at 132
-/// of 140 with every case's count unchanged. Before, seed 2's drift log got a play
+/// seed 2's drift log also gets a creep at its τ limit's edge (20 of 21 on the lab's one
+/// random stream; 19 of 21 on the earlier streams, where seed 1's Preisach lag was not
+/// listed as confusable with a play). Before, seed 2's drift log got a play
 /// operator (0.78 µg, held-out t = 3.7) until the weight test's search bootstrap (SE
 /// 0.58 µg with r searched again per resample, against 0.18 µg with r fixed), and seed 3's
 /// one-stage lag was named a play until a blown-up grid node was fixed in the fitter's
