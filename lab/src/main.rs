@@ -350,6 +350,14 @@ impl std::fmt::Display for CliError {
     }
 }
 
+impl CliError {
+    /// `calibrate` and `compensate` take cycling and static logs; a single-channel log is
+    /// discovery's.
+    fn single_not_taken(command: &'static str) -> Self {
+        Self::WrongLog { command, format: LogFormat::Single, takes: "a cycling or a static log" }
+    }
+}
+
 impl From<OutError> for CliError {
     fn from(e: OutError) -> Self {
         Self::Out(e)
@@ -494,13 +502,7 @@ fn calibrate_cmd(a: CalibrateArgs) -> Result<(), CliError> {
             let cal = calibrate_into(&l, &a.out, &opts, t0.elapsed().as_secs_f64())?;
             println!("{}", cycling_summary(&cal.report, &a.out, &exports_line(&cal.exports)));
         }
-        OpenedLog::Single(_) => {
-            return Err(CliError::WrongLog {
-                command: "calibrate",
-                format: LogFormat::Single,
-                takes: "a cycling or a static log",
-            })
-        }
+        OpenedLog::Single(_) => return Err(CliError::single_not_taken("calibrate")),
     }
     Ok(())
 }
@@ -584,13 +586,7 @@ fn compensate_cmd(log: &Path, table: &Path, out: &Path, fmt: &StaticFlags) -> Re
             write_compensated(f, &l, &acc).map_err(io_at(out))?;
             eprintln!("{} rows → {}", l.rows(), out.display());
         }
-        OpenedLog::Single(_) => {
-            return Err(CliError::WrongLog {
-                command: "compensate",
-                format: LogFormat::Single,
-                takes: "a cycling or a static log",
-            })
-        }
+        OpenedLog::Single(_) => return Err(CliError::single_not_taken("compensate")),
     }
     Ok(())
 }
