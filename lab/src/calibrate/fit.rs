@@ -128,7 +128,7 @@ pub struct FitOptions {
     /// Bias grid nodes (2..=16).
     pub grid_points: usize,
     /// `None` (the default): the branch tie is chosen by cross-validation
-    /// ([`choose_branch_mode`]). `Some(mode)` forces it (the CV figures are still
+    /// (`choose_branch_mode`). `Some(mode)` forces it (the CV figures are still
     /// reported, the rule says it was forced): for tests that must show a wrong tie fails.
     pub branch_mode: Option<BranchMode>,
 }
@@ -179,7 +179,7 @@ pub struct Fitted {
     /// Bias grid in the chosen branch mode's unknowns ([`BranchMode::expand`]): Single the
     /// nodes, Offset the nodes then the half-step, Free heating nodes then cooling nodes.
     pub bias_hysteresis: LsResult,
-    /// How the grid's branches are tied, chosen by cross-validation ([`choose_branch_mode`]).
+    /// How the grid's branches are tied, chosen by cross-validation (`choose_branch_mode`).
     pub branch: BranchChoice,
     /// Paired rows used.
     pub pairs: usize,

@@ -95,14 +95,14 @@ pub enum StaticError {
     ImplausibleSlew {
         /// The time unit the log was read with.
         unit: TimeUnit,
-        /// The change, °C/min ([`max_slew`]).
+        /// The change, °C/min ([`crate::data::static_checks::max_slew`]).
         slew: Slew,
         /// Line and temperature (as filtered) where the change starts and ends.
         ends: [(u64, f64); 2],
         /// Other time units that give a plausible row interval and slew, with their slew.
         fits: Vec<(TimeUnit, f64)>,
     },
-    /// Numbers with a decimal comma, read without [`StaticOptions::decimal_comma`].
+    /// Numbers with a decimal comma, read without [`crate::data::static_log::StaticOptions::decimal_comma`].
     DecimalComma {
         /// Line of the first such field.
         line: u64,
@@ -113,9 +113,9 @@ pub enum StaticError {
         /// Rows with such a field.
         rows: usize,
     },
-    /// [`StaticOptions::decimal_comma`] with a comma-separated header.
+    /// [`crate::data::static_log::StaticOptions::decimal_comma`] with a comma-separated header.
     DecimalCommaDelimiter,
-    /// Malformed rows: the first [`KEPT_LINES`] with line numbers, and the count.
+    /// Malformed rows: the first [`crate::data::static_log::KEPT_LINES`] with line numbers, and the count.
     Rows {
         /// `(line, fault)`.
         first: Vec<(u64, StaticRowFault)>,

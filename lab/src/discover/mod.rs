@@ -70,7 +70,7 @@
 //!
 //! The catalog's `bias_drift` (bias linear in time since the program start: ageing or a
 //! long turn-on settling) has no root-crate slot yet, so it is reported but not flashed
-//! (`in_table: false`). Left out of the catalog, as the issue allows: a thermal-gradient
+//! (`in_table: false`). Left out of the catalog, on purpose: a thermal-gradient
 //! term in Ṫ on the bias (on the paper's test Ṫ is the same program signal that
 //! `sensor_lag` and, on the scale factor, `rate_hysteresis` already use: ε·Ṫ and a lag's
 //! −τ·Ṫ·∂b/∂T cannot be told apart without a second sensor or a gradient that changes

@@ -119,7 +119,7 @@ pub struct Unexplained {
     pub pinned: Vec<String>,
 }
 
-/// Each channel's residual against its floor, in the order of [`channels_of`].
+/// Each channel's residual against its floor, in the order of `channels_of`.
 #[must_use]
 pub fn floor_ratios(ch: &Channels, cur: &Residuals) -> Vec<FloorRatio> {
     let len = stats::block_len(ch, &[&cur.sf, &cur.bias]);
