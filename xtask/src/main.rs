@@ -394,10 +394,12 @@ fn test() -> Result {
     c.arg("test");
     run(c)?;
 
-    step("rustdoc of the crate, -D warnings");
-    let mut c = cargo();
-    c.args(["doc", "-p", "qfa-thermal", "--no-deps"]).env("RUSTDOCFLAGS", "-D warnings");
-    run(c)?;
+    step("rustdoc of the crate and the lab, -D warnings");
+    for package in ["qfa-thermal", "qfa-lab"] {
+        let mut c = cargo();
+        c.args(["doc", "-p", package, "--no-deps"]).env("RUSTDOCFLAGS", "-D warnings");
+        run(c)?;
+    }
 
     step("loom model of the seqlock (clean; `cargo xtask loom` adds the mutants)");
     loom_model_passes(&target_dir()?.join("loom"))?;
