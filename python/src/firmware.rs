@@ -268,6 +268,7 @@ impl Compensator {
 }
 
 /// The status word's flags as `(name, bit)`, from the firmware's own definition.
+#[pyfunction]
 pub fn status_flags() -> Vec<(&'static str, u16)> {
     Status::all().iter_names().map(|(n, s)| (n, s.bits())).collect()
 }

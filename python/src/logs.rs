@@ -50,6 +50,8 @@ pub fn read_flags(
 
 /// Read a log file the way `qfa-lab` does (`qfa_lab::data::open`: any reader flag, or a
 /// header without a `pulses` or `value` column, selects the static reader).
+#[pyfunction]
+#[pyo3(name = "read_log", signature = (path, *, columns = None, time_unit = None, accel_unit = None, decimal_comma = false))]
 pub fn read(
     path: PathBuf,
     columns: Option<&str>,
@@ -189,6 +191,8 @@ impl Log {
 /// a file gets (NaN rows and glitches skipped, time going backwards refused, unit
 /// plausibility): the columns are written as CSV text with Rust's shortest round-trip
 /// formatting (every f64 read back bit for bit) and read with `time=time,temp=temp,<axes>`.
+#[pyfunction]
+#[pyo3(name = "log_from_arrays", signature = (time, temp_c, accel, *, time_unit = "s", accel_unit = "g"))]
 pub fn from_arrays(
     time: PyReadonlyArray1<'_, f64>,
     temp_c: PyReadonlyArray1<'_, f64>,

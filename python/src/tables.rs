@@ -215,6 +215,8 @@ fn export_options(px4_device_id: Option<i64>, export_range: Option<(f64, f64)>) 
 }
 
 /// `qfa-lab calibrate` on a log already read.
+#[pyfunction]
+#[pyo3(signature = (log, *, holdout = "auto", fit_programs = None, axis = "x", px4_device_id = None, export_range = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn calibrate(
     py: Python<'_>,
@@ -266,6 +268,7 @@ pub type ColumnAndStatus<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<
 
 /// Compensate static columns (`compensate_samples`): per axis the output in g, and the
 /// status flags per row.
+#[pyfunction]
 pub fn compensate_columns<'py>(
     py: Python<'py>,
     table: &Table,
@@ -286,6 +289,7 @@ pub fn compensate_columns<'py>(
 
 /// Compensate a cycling log (`compensate_log`): per row, run after run, `accel_g` and the
 /// status flags.
+#[pyfunction]
 pub fn compensate_cycling<'py>(py: Python<'py>, table: &Table, log: &Log) -> PyResult<ColumnAndStatus<'py>> {
     let LogData::Cycling(l) = &log.data else {
         return Err(CompensationError::new_err("not a cycling log"));
@@ -303,6 +307,7 @@ pub fn compensate_cycling<'py>(py: Python<'py>, table: &Table, log: &Log) -> PyR
 
 /// The text `qfa-lab compensate` writes in a static log's `status` column for each flags
 /// word (`ok`, `no_temperature`, or flags joined by `|`).
+#[pyfunction]
 pub fn status_texts(status: PyReadonlyArray1<'_, u16>) -> PyResult<Vec<String>> {
     Ok(status.as_array().iter().map(|&s| qfa_lab::compensate::static_status(Status::from_bits_retain(s))).collect())
 }
@@ -320,6 +325,8 @@ fn scratch_dir() -> PathBuf {
 
 /// `qfa-lab discover`: the report as JSON text; the files go to `out` (or a scratch
 /// directory removed afterwards).
+#[pyfunction]
+#[pyo3(signature = (log, *, start = "simple", holdout = "auto", out = None))]
 pub fn discover(py: Python<'_>, log: &Log, start: &str, holdout: &str, out: Option<PathBuf>) -> PyResult<String> {
     let start: qfa_lab::discover::Start =
         start.parse().map_err(|e: anyhow::Error| DiscoveryError::new_err(format!("{e:#}")))?;
