@@ -31,7 +31,7 @@ use std::sync::OnceLock;
 use host_tests::scenarios;
 use proptest::prelude::*;
 use proptest::strategy::ValueTree;
-use proptest::test_runner::{Config as RunnerConfig, TestRunner};
+use proptest::test_runner::{Config as RunnerConfig, RngSeed, TestRunner};
 use qfa_thermal::ds18b20::{encode_scratchpad, Resolution, POWER_ON_RAW, RAW_RANGE};
 use qfa_thermal::model::Evaluation;
 use qfa_thermal::rate::Estimate;
@@ -624,10 +624,13 @@ fn lag_dead_stream_flagged_late() {
 /// The generator reaches every situation the properties speak of, on a fixed seed: fresh
 /// cycles, stale ones each compensator path knows of, the lag window, several ms wraps per
 /// history, 0550h taken as a continuation and refused after a gap or as a jump, reloads, and
-/// the keep-alive the precondition asks for.
+/// the keep-alive the precondition asks for. The seed is fixed in the runner's config: with
+/// proptest's default (a random seed per run) the one-stream count of 0550h readings taken as
+/// a continuation ran 17–34 over 24 seeds and a CI run once drew 10, under the bound of 11.
 #[test]
 fn histories_reach_every_situation() {
-    let mut runner = TestRunner::new(RunnerConfig { cases: 64, ..RunnerConfig::default() });
+    let mut runner =
+        TestRunner::new(RunnerConfig { cases: 64, rng_seed: RngSeed::Fixed(1), ..RunnerConfig::default() });
     let mut total = [Coverage::default(); 2];
     let mut histories = 0u64;
     for (i, sensors) in [1usize, 3].into_iter().enumerate() {
