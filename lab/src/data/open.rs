@@ -8,7 +8,6 @@
 //! single-channel log; any other header is a static multi-axis log.
 
 use std::fmt;
-use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 
 use crate::data::cycling::{read_log_from, Log, LogError};
@@ -93,7 +92,8 @@ impl OpenedLog {
     }
 }
 
-/// Why a log was not opened: the file, and the reader's own error.
+/// Why a log was not opened: the file, and why it could not be read or what its reader
+/// refused.
 #[derive(Debug)]
 pub enum OpenError {
     /// The file cannot be read.
@@ -103,26 +103,12 @@ pub enum OpenError {
         /// The system's message.
         error: std::io::Error,
     },
-    /// The cycling reader's errors (every malformed row counted, the first 20 listed).
-    Cycling {
+    /// Its reader refused it.
+    Read {
         /// The file.
         path: PathBuf,
-        /// The reader's error.
-        error: LogError,
-    },
-    /// The static reader's error.
-    Static {
-        /// The file.
-        path: PathBuf,
-        /// The reader's error (boxed: it is the largest).
-        error: Box<StaticError>,
-    },
-    /// The single-channel reader's error.
-    Single {
-        /// The file.
-        path: PathBuf,
-        /// The reader's error.
-        error: SingleError,
+        /// The reader's own error.
+        error: ReadError,
     },
 }
 
@@ -130,9 +116,7 @@ impl fmt::Display for OpenError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Self::Io { path, error } => write!(f, "{}: {error}", path.display()),
-            Self::Cycling { path, error } => write!(f, "{}: {error}", path.display()),
-            Self::Static { path, error } => write!(f, "{}: {error}", path.display()),
-            Self::Single { path, error } => write!(f, "{}: {error}", path.display()),
+            Self::Read { path, error } => write!(f, "{}: {error}", path.display()),
         }
     }
 }
@@ -156,20 +140,6 @@ pub fn format_of_header(header: &str, flags: &ReadFlags) -> LogFormat {
     }
 }
 
-/// The format of the log at `path` (its first line and `flags`), without reading the rest.
-///
-/// # Errors
-/// [`OpenError::Io`].
-pub fn format_of(path: &Path, flags: &ReadFlags) -> Result<LogFormat, OpenError> {
-    if flags.any() {
-        return Ok(LogFormat::Static);
-    }
-    let io = |error| OpenError::Io { path: path.to_path_buf(), error };
-    let mut first = Vec::new();
-    BufReader::new(std::fs::File::open(path).map_err(io)?).read_until(b'\n', &mut first).map_err(io)?;
-    Ok(format_of_header(&String::from_utf8_lossy(&first), flags))
-}
-
 /// Open the log at `path`: its format from [`format_of_header`], read by that format's
 /// reader.
 ///
@@ -177,10 +147,10 @@ pub fn format_of(path: &Path, flags: &ReadFlags) -> Result<LogFormat, OpenError>
 /// [`OpenError`]: the file, and the reader's own error.
 pub fn open(path: &Path, flags: &ReadFlags) -> Result<OpenedLog, OpenError> {
     let bytes = std::fs::read(path).map_err(|error| OpenError::Io { path: path.to_path_buf(), error })?;
-    open_bytes(&bytes, flags).map_err(|e| e.at(path))
+    open_bytes(&bytes, flags).map_err(|error| OpenError::Read { path: path.to_path_buf(), error })
 }
 
-/// Why bytes were not read as a log (an [`OpenError`] without its file).
+/// Why a reader refused a log: each reader's own typed error.
 #[derive(Debug)]
 pub enum ReadError {
     /// The cycling reader's error.
@@ -189,19 +159,6 @@ pub enum ReadError {
     Static(Box<StaticError>),
     /// The single-channel reader's error.
     Single(SingleError),
-}
-
-impl ReadError {
-    /// The error of the file at `path`.
-    #[must_use]
-    pub fn at(self, path: &Path) -> OpenError {
-        let path = path.to_path_buf();
-        match self {
-            Self::Cycling(error) => OpenError::Cycling { path, error },
-            Self::Static(error) => OpenError::Static { path, error },
-            Self::Single(error) => OpenError::Single { path, error },
-        }
-    }
 }
 
 impl fmt::Display for ReadError {

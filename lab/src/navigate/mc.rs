@@ -1,9 +1,9 @@
 //! Monte Carlo study: N seeds of the same scenario, in parallel, summarized by median and
 //! 10th / 90th percentiles.
 //!
-//! Run `i` of base seed `S` uses the lab's stream `crate::rng::stream(S, i)` (seeded
-//! `splitmix64(S + i)`), whatever the shard or thread that flies it, so a study split into shards and merged gives the same numbers
-//! as one process. Each run draws, from its seed:
+//! Run `i` of base seed `S` draws from the lab's generator seeded
+//! `crate::rng::stream_seed(S, i)` = `splitmix64(S + i)`, whatever the shard or thread that
+//! flies it, so a study split into shards and merged gives the same numbers as one process. Each run draws, from its seed:
 //!
 //! * the temperature variation within the scenario's `[monte_carlo]` bounds: the drive
 //!   profile and ground temperature shifted by U(−`temp_offset_c`, +`temp_offset_c`), the
@@ -184,8 +184,8 @@ pub struct Draw {
 /// The draws of run `i` of base seed `seed` (see the module doc).
 #[must_use]
 pub fn draw(sc: &Scenario, seed: u64, i: u64) -> Draw {
-    let rs = crate::rng::splitmix64(seed.wrapping_add(i));
-    let mut rng = crate::rng::stream(seed, i);
+    let rs = crate::rng::stream_seed(seed, i);
+    let mut rng = crate::rng::seeded(rs);
     let v = sc.monte_carlo;
     let off = if v.temp_offset_c > 0.0 { rng.random_range(-v.temp_offset_c..=v.temp_offset_c) } else { 0.0 };
     let scale = if v.temp_scale > 0.0 { 1.0 + rng.random_range(-v.temp_scale..=v.temp_scale) } else { 1.0 };
