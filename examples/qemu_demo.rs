@@ -105,7 +105,7 @@ fn table() -> Table {
             let d = -40.0 + 10.0 * i as f32 - 22.0;
             offset + 1.5e-6 * d + 8.0e-9 * d * d
         };
-        let mut bias = BiasGrid::single_valued(-40.0, 10.0, &[0.0; 13]);
+        let mut bias = BiasGrid::single_valued(-40.0, 10.0, &[0.0; 13]).expect("2 to 16 grid values");
         for (i, (h, c)) in bias.heating_g.iter_mut().zip(bias.cooling_g.iter_mut()).enumerate() {
             *h = k0(i) + 4e-6;
             *c = k0(i) - 4e-6;

@@ -15,7 +15,7 @@
 //! use qfa_thermal::{AxisModel, BiasGrid, Compensator, Config, Extensions, Input, ScaleFactor, Table};
 //!
 //! // One axis: the paper's unit #1, a flat 50 µg bias from −40 to 80 °C.
-//! let bias = BiasGrid::single_valued(-40.0, 10.0, &[5e-5; 13]);
+//! let bias = BiasGrid::single_valued(-40.0, 10.0, &[5e-5; 13]).expect("2 to 16 grid values");
 //! let scale = ScaleFactor { t0_c: 22.0, gamma: 320_320.0, mu: -32.76, beta: 0.1008, epsilon: 88.14, eta: -0.02409, alpha: 273.0 }; // JB-KT8 #1, Eq. 15
 //! let axis = AxisModel { scale, bias, rate_limit_c_per_min: 2.0, ext: Extensions::default() };
 //! let table = Table { input: Input::PulseCounts, rate_window: 32, axes: [axis].into_iter().collect(), misalignment: None };
@@ -91,8 +91,8 @@ pub mod time;
 #[doc(hidden)]
 pub use compensator::Published;
 pub use compensator::{
-    Applier, Compensator, Config, ConfigError, PulseOutput, SampleError, SampleOutput, Status, ThreeAxisSensorPerAxis,
-    ThreeAxisSharedSensor, Updater, DEFAULT_RATE_WINDOW, G0,
+    Applier, Compensator, Config, ConfigError, CountingApplier, PulseOutput, SampleError, SampleOutput, Status,
+    ThreeAxisSensorPerAxis, ThreeAxisSharedSensor, Updater, DEFAULT_RATE_WINDOW, G0,
 };
 pub use model::{AxisModel, BiasGrid, Extensions, ScaleFactor};
 pub use table::{Input, Table};

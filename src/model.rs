@@ -8,10 +8,36 @@
 //! call `libm::expf` and index the bias grid. The per-IMU-cycle path only sees the cached
 //! `g0/K1` and `K0·g0` per axis.
 
+use core::fmt;
+
 use serde::{Deserialize, Serialize};
 
 /// Largest number of bias grid points per branch.
 pub const MAX_BIAS_POINTS: usize = 16;
+
+/// Why a model could not be built.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum Error {
+    /// A bias grid needs 2..=[`MAX_BIAS_POINTS`] values per branch.
+    GridPoints {
+        /// The number of values given.
+        given: usize,
+    },
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::GridPoints { given } => {
+                write!(f, "a bias grid takes 2 to {MAX_BIAS_POINTS} values per branch, {given} given")
+            }
+        }
+    }
+}
+
+impl core::error::Error for Error {}
 
 /// Scale factor model, paper Eq. 11:
 /// `K1 = α·Ṫ² + β·ΔT² + η·Ṫ·ΔT + ε·Ṫ + μ·ΔT + γ` (pulses/(g·s), Ṫ in °C/min).
@@ -89,15 +115,18 @@ pub struct BiasGrid {
 }
 
 impl BiasGrid {
-    /// A grid whose branches are both `f(T)` sampled at `n` points from `t_start` by `step`.
-    #[must_use]
-    pub fn single_valued(t_start_c: f32, t_step_c: f32, values_g: &[f32]) -> Self {
-        let mut v = heapless::Vec::new();
-        for &x in values_g.iter().take(MAX_BIAS_POINTS) {
-            // Capacity is MAX_BIAS_POINTS and take() bounds the count.
-            let _ = v.push(x);
-        }
-        Self { t_start_c, t_step_c, deadband_c_per_min: 0.05, heating_g: v.clone(), cooling_g: v }
+    /// A grid whose branches are both `f(T)`, given at `values_g.len()` points from
+    /// `t_start_c` by `t_step_c`.
+    ///
+    /// # Errors
+    /// [`Error::GridPoints`] unless 2..=[`MAX_BIAS_POINTS`] values are given: a longer list
+    /// is refused, never cut short (that would end the calibrated range early).
+    pub fn single_valued(t_start_c: f32, t_step_c: f32, values_g: &[f32]) -> Result<Self, Error> {
+        let v = heapless::Vec::from_slice(values_g)
+            .ok()
+            .filter(|v: &heapless::Vec<f32, MAX_BIAS_POINTS>| v.len() >= 2)
+            .ok_or(Error::GridPoints { given: values_g.len() })?;
+        Ok(Self { t_start_c, t_step_c, deadband_c_per_min: 0.05, heating_g: v.clone(), cooling_g: v })
     }
 
     /// Top of the grid, °C: the top of the calibrated range.
@@ -256,6 +285,9 @@ pub struct AxisModel {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct AxisState {
     initialized: bool,
+    /// Slots whose state restarts from the next temperature ([`RESTART_LAG`] and the
+    /// others): set when a reloaded table changed them.
+    restart: u8,
     /// Bias branch in force.
     pub branch: Branch,
     /// Element temperature (sensor_lag), °C.
@@ -264,6 +296,72 @@ pub struct AxisState {
     pub play_c: f32,
     /// Creep state x (bias_creep), °C.
     pub creep_c: f32,
+    /// How far `element_c` may be from what the unit's whole history gives, °C: the grid's
+    /// span when the lag starts without that history, shrinking by `e^(−dt/τ)` per step.
+    lag_unknown_c: f32,
+    /// The same for `play_c`: the half-width at a start, shrinking by each move the play
+    /// output makes (the play operator never widens a difference and the history's state
+    /// is pushed along with it), never below the lag's.
+    play_unknown_c: f32,
+    /// The same for `creep_c`: the grid's span at a start, shrinking like the lag's.
+    creep_unknown_c: f32,
+}
+
+const RESTART_LAG: u8 = 1;
+const RESTART_PLAY: u8 = 2;
+const RESTART_CREEP: u8 = 4;
+#[cfg(qfa_mutant = "reload_drops_state")]
+const RESTART_SILENTLY: u8 = 0x80;
+
+/// A lag state is settled when it is within this of the history's, °C (a quarter of a
+/// DS18B20 LSB).
+pub const SETTLED_LAG_C: f32 = 1.0 / 64.0;
+/// A play or creep state is settled when its bias term is within this of the history's, g.
+pub const SETTLED_BIAS_G: f32 = 1e-6;
+
+impl AxisState {
+    /// This state carried from the table `old` into the reloaded table `new`.
+    ///
+    /// The states are temperatures of the unit's own history (the element's, the play
+    /// operator's, the creep's) and the branch is the direction it was last seen moving:
+    /// none of them belongs to a table. A slot whose parameters and bias grid are the same
+    /// in both tables keeps its state, so reloading the table in force changes nothing; a
+    /// slot that is new or changed restarts from the next temperature, as at power-up, and
+    /// is [`settling`](Self::settling) until it has converged. A changed lag restarts play
+    /// and creep too: they follow the element temperature it gives. The branch is kept.
+    #[must_use]
+    pub fn carried_over(self, old: &AxisModel, new: &AxisModel) -> Self {
+        if !self.initialized {
+            return Self::default();
+        }
+        let same_range = old.bias.t_start_c == new.bias.t_start_c && old.bias.t_end_c() == new.bias.t_end_c();
+        let mut restart = self.restart;
+        if !same_range || old.ext.sensor_lag != new.ext.sensor_lag {
+            restart |= RESTART_LAG | RESTART_PLAY | RESTART_CREEP;
+        }
+        if !same_range || old.ext.bias_branch_hysteresis != new.ext.bias_branch_hysteresis {
+            restart |= RESTART_PLAY;
+        }
+        if !same_range || old.ext.bias_creep != new.ext.bias_creep {
+            restart |= RESTART_CREEP;
+        }
+        // The mutant restarts every state on any reload, silently (as before the fix).
+        #[cfg(qfa_mutant = "reload_drops_state")]
+        let restart = RESTART_LAG | RESTART_PLAY | RESTART_CREEP | RESTART_SILENTLY;
+        Self { restart, ..self }
+    }
+
+    /// A history state may still be off by more than [`SETTLED_LAG_C`] (lag) or its bias
+    /// term by more than [`SETTLED_BIAS_G`] (play, creep) for `model`.
+    #[must_use]
+    pub fn settling(&self, model: &AxisModel) -> bool {
+        let play = model
+            .ext
+            .bias_branch_hysteresis
+            .is_some_and(|h| abs(h.weight_g) * self.play_unknown_c > SETTLED_BIAS_G * h.half_width_c);
+        let creep = model.ext.bias_creep.is_some_and(|c| abs(c.gain_g_per_c) * self.creep_unknown_c > SETTLED_BIAS_G);
+        self.lag_unknown_c > SETTLED_LAG_C || play || creep
+    }
 }
 
 /// The model evaluated at one temperature sample.
@@ -278,6 +376,8 @@ pub struct Evaluation {
     pub temp_clamped: bool,
     /// |Ṫ| exceeded the calibrated limit and was clamped.
     pub rate_clamped: bool,
+    /// A history state is still settling ([`AxisState::settling`]).
+    pub settling: bool,
 }
 
 /// `1 − exp(−dt/τ)`: the first-order lag's step weight, exact for a held input.
@@ -327,23 +427,67 @@ impl AxisModel {
         let lim = self.rate_limit_c_per_min;
         let (r, rate_clamped) = clamp(rate, -lim, lim);
         if !state.initialized {
-            *state = AxisState { initialized: true, branch: Branch::Unknown, element_c: t, play_c: t, creep_c: t };
+            state.initialized = true;
+            state.branch = Branch::Unknown;
+            state.restart = RESTART_LAG | RESTART_PLAY | RESTART_CREEP;
         }
+        if state.restart != 0 {
+            // Started without the history (power-up, or a reload that changed these slots):
+            // from the temperature now, with what the history could have made of them. The
+            // element lies within the grid's span of the (clamped) temperature; the play
+            // output within its half-width of the element temperature.
+            let span = self.bias.t_end_c() - self.bias.t_start_c;
+            if state.restart & RESTART_LAG != 0 {
+                state.element_c = t;
+                state.lag_unknown_c = if self.ext.sensor_lag.is_some() { span } else { 0.0 };
+            }
+            let te0 = if self.ext.sensor_lag.is_some() { state.element_c } else { t };
+            if state.restart & RESTART_PLAY != 0 {
+                state.play_c = te0;
+                state.play_unknown_c = self.ext.bias_branch_hysteresis.map_or(0.0, |h| h.half_width_c);
+            }
+            if state.restart & RESTART_CREEP != 0 {
+                state.creep_c = te0;
+                state.creep_unknown_c = if self.ext.bias_creep.is_some() { span } else { 0.0 };
+            }
+            #[cfg(qfa_mutant = "reload_drops_state")]
+            if state.restart & RESTART_SILENTLY != 0 {
+                (state.lag_unknown_c, state.play_unknown_c, state.creep_unknown_c) = (0.0, 0.0, 0.0);
+            }
+            state.restart = 0;
+        }
+        #[cfg(qfa_mutant = "clamp_after_state_update")]
+        let t = t_c;
         let te = match self.ext.sensor_lag {
             Some(lag) if dt_s > 0.0 => {
-                state.element_c += lag_weight(dt_s, lag.tau_s) * (t - state.element_c);
+                let w = lag_weight(dt_s, lag.tau_s);
+                state.element_c += w * (t - state.element_c);
+                state.lag_unknown_c *= 1.0 - w;
                 state.element_c
             }
             Some(_) => state.element_c,
             None => t,
         };
+        #[cfg(qfa_mutant = "clamp_after_state_update")]
+        let te = clamp(te, self.bias.t_start_c, self.bias.t_end_c()).0;
         state.branch = state.branch.next(r, deadband);
         let k1 = self.scale.k1(te, r);
-        let mut k0 = self.bias.k0(te, state.branch);
+        // Before a decisive rate the branch is unknown: the mean of the two, within half
+        // their difference of either, which settling counts.
+        let (mut k0, branch_unknown_g) = match state.branch {
+            Branch::Unknown => {
+                let h = self.bias.k0(te, Branch::Heating);
+                let c = self.bias.k0(te, Branch::Cooling);
+                ((h + c) * 0.5, abs(h - c) * 0.5)
+            }
+            known => (self.bias.k0(te, known), 0.0),
+        };
         if let Some(h) = self.ext.bias_branch_hysteresis {
             let lo = te - h.half_width_c;
             let hi = te + h.half_width_c;
+            let before = state.play_c;
             state.play_c = clamp(state.play_c, lo, hi).0;
+            state.play_unknown_c = (state.play_unknown_c - abs(state.play_c - before)).max(state.lag_unknown_c);
             // Te ± r rounds to Te's ulp, so the fraction can reach 1.0002 with the smallest
             // half-width: held to ±1, the term never exceeds its weight.
             let fraction = (te - state.play_c) / h.half_width_c;
@@ -351,11 +495,16 @@ impl AxisModel {
         }
         if let Some(c) = self.ext.bias_creep {
             if dt_s > 0.0 {
-                state.creep_c += lag_weight(dt_s, c.tau_s(te)) * (te - state.creep_c);
+                let w = lag_weight(dt_s, c.tau_s(te));
+                state.creep_c += w * (te - state.creep_c);
+                state.creep_unknown_c = (1.0 - w) * state.creep_unknown_c + w * state.lag_unknown_c;
             }
             k0 += c.gain_g_per_c * (te - state.creep_c);
         }
-        Evaluation { k1, k0, temp_clamped, rate_clamped }
+        let settling = state.settling(self) || branch_unknown_g > SETTLED_BIAS_G;
+        #[cfg(qfa_mutant = "settling_never_flagged")]
+        let settling = false;
+        Evaluation { k1, k0, temp_clamped, rate_clamped, settling }
     }
 }
 
@@ -370,7 +519,12 @@ mod tests {
 
     fn axis(ext: Extensions) -> AxisModel {
         let grid: [f32; 14] = core::array::from_fn(|i| 1e-4 + 2e-7 * i as f32);
-        AxisModel { scale: kt8_1(), bias: BiasGrid::single_valued(-60.0, 10.0, &grid), rate_limit_c_per_min: 2.0, ext }
+        AxisModel {
+            scale: kt8_1(),
+            bias: BiasGrid::single_valued(-60.0, 10.0, &grid).unwrap(),
+            rate_limit_c_per_min: 2.0,
+            ext,
+        }
     }
 
     #[test]
@@ -400,7 +554,7 @@ mod tests {
 
     #[test]
     fn bias_grid_interpolates_and_selects_branch() {
-        let mut g = BiasGrid::single_valued(0.0, 10.0, &[0.0, 1.0, 3.0]);
+        let mut g = BiasGrid::single_valued(0.0, 10.0, &[0.0, 1.0, 3.0]).unwrap();
         g.cooling_g = heapless::Vec::from_slice(&[1.0, 2.0, 4.0]).unwrap();
         assert_eq!(g.k0(5.0, Branch::Heating), 0.5);
         assert_eq!(g.k0(15.0, Branch::Cooling), 3.0);
@@ -466,5 +620,26 @@ mod tests {
         let want = 3600.0 * (5000.0 * (1.0 / 358.15 - 1.0 / 298.15f64)).exp();
         assert!((f64::from(c.tau_s(85.0)) - want).abs() / want < 1e-5);
         assert!(c.tau_s(85.0) < c.tau_s(-55.0));
+    }
+
+    /// After power-up a lag state is flagged until its error bound, the grid's span at the
+    /// start, has shrunk by e^(−t/τ) below ¼ LSB: t = τ·ln(span·64), 9.03 τ for a 130-°C
+    /// grid, checked here against that formula to the second.
+    #[test]
+    fn a_lag_started_without_its_history_settles_when_its_bound_says() {
+        let m = axis(Extensions { sensor_lag: Some(SensorLag { tau_s: 600.0 }), ..Default::default() });
+        let span = f64::from(m.bias.t_end_c() - m.bias.t_start_c);
+        let want_s = 600.0 * (span * 64.0).ln();
+        let mut s = AxisState::default();
+        let mut settled_at = None;
+        for k in 0..20_000u32 {
+            let e = m.evaluate(&mut s, 20.0, 0.0, if k == 0 { 0.0 } else { 1.0 });
+            if !e.settling && settled_at.is_none() {
+                settled_at = Some(f64::from(k));
+            }
+            assert_eq!(e.settling, settled_at.is_none(), "the flag never comes back at rest");
+        }
+        let got = settled_at.expect("settles");
+        assert!((got - want_s).abs() <= 2.0, "settled after {got} s, the bound says {want_s:.0} s");
     }
 }

@@ -310,11 +310,11 @@ impl<const RATE_WINDOW: usize> RateEstimator<RATE_WINDOW> {
         }
         if !self.ready() {
             let newest = self.raw[(self.head + self.len - 1) % RATE_WINDOW];
-            return Some(Estimate {
-                temp_c: crate::ds18b20::raw_to_celsius(newest),
-                rate_c_per_min: 0.0,
-                ready: false,
-            });
+            #[cfg(qfa_mutant = "branch_on_unready_rate")]
+            let rate_c_per_min = self.slope_raw_per_ms() * RAW_PER_MS_TO_C_PER_MIN;
+            #[cfg(not(qfa_mutant = "branch_on_unready_rate"))]
+            let rate_c_per_min = 0.0;
+            return Some(Estimate { temp_c: crate::ds18b20::raw_to_celsius(newest), rate_c_per_min, ready: false });
         }
         let n = self.len as i64;
         let slope = self.slope_raw_per_ms();

@@ -192,7 +192,7 @@ pub type Result<T> = core::result::Result<T, Error>;
 /// use qfa_thermal::table::{self, MAX_TABLE_BYTES};
 /// use qfa_thermal::{AxisModel, BiasGrid, Extensions, Input, ScaleFactor, Table};
 ///
-/// let bias = BiasGrid::single_valued(-40.0, 10.0, &[1e-4; 13]);
+/// let bias = BiasGrid::single_valued(-40.0, 10.0, &[1e-4; 13]).expect("2 to 16 grid values");
 /// let scale = ScaleFactor { t0_c: 22.0, gamma: 320_320.0, mu: -32.76, beta: 0.1008, epsilon: 88.14, eta: -0.02409, alpha: 273.0 }; // JB-KT8 #1, Eq. 15
 /// let axis = AxisModel { scale, bias, rate_limit_c_per_min: 2.0, ext: Extensions::default() };
 /// let t = Table { input: Input::PulseCounts, rate_window: 32, axes: [axis].into_iter().collect(), misalignment: None };
@@ -446,7 +446,7 @@ mod tests {
     fn small() -> Table {
         let axis = AxisModel {
             scale: ScaleFactor::simple(22.0, 320_000.0, -32.0),
-            bias: BiasGrid::single_valued(-60.0, 130.0, &[1e-4, 2e-4]),
+            bias: BiasGrid::single_valued(-60.0, 130.0, &[1e-4, 2e-4]).expect("2 to 16 grid values"),
             rate_limit_c_per_min: 1.0,
             ext: Extensions::default(),
         };

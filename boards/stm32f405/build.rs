@@ -31,7 +31,7 @@ fn fixture() -> Table {
         let k0: Vec<f32> = (0..13).map(|i| offset + 1.5e-6 * (-40.0 + 10.0 * i as f32 - 22.0)).collect();
         let model = AxisModel {
             scale,
-            bias: BiasGrid::single_valued(-40.0, 10.0, &k0),
+            bias: BiasGrid::single_valued(-40.0, 10.0, &k0).expect("2 to 16 grid values"),
             rate_limit_c_per_min: 2.0,
             ext: Extensions::default(),
         };

@@ -28,7 +28,7 @@ pub fn bias_grid(axis: usize) -> BiasGrid {
         let d = GRID_START_C + GRID_STEP_C * i as f32 - 22.0;
         offset + 1.5e-6 * d + 8.0e-9 * d * d
     };
-    let mut g = BiasGrid::single_valued(GRID_START_C, GRID_STEP_C, &[0.0; GRID_POINTS]);
+    let mut g = BiasGrid::single_valued(GRID_START_C, GRID_STEP_C, &[0.0; GRID_POINTS]).expect("2 to 16 grid values");
     for (i, (h, c)) in g.heating_g.iter_mut().zip(g.cooling_g.iter_mut()).enumerate() {
         *h = k0(i) + 0.5 * BRANCH_SPLIT_G;
         *c = k0(i) - 0.5 * BRANCH_SPLIT_G;

@@ -1,7 +1,9 @@
 //! Host tests for qfa-thermal.
 
+pub mod field;
 pub mod fuzzing;
 pub mod onewire_sim;
+pub mod oracle;
 pub mod reference;
 pub mod scenarios;
 pub mod soak;

@@ -48,6 +48,8 @@ pub mod flag {
     pub const NO_COUNTER_BASE: u16 = 1 << 6;
     /// Fast-path entry of the other input kind than configured (pulse counts by default).
     pub const WRONG_INPUT: u16 = 1 << 7;
+    /// A history state (lag, play, creep) started without the history, not yet settled.
+    pub const MODEL_SETTLING: u16 = 1 << 8;
 }
 use flag as Status;
 
@@ -112,10 +114,42 @@ pub enum Predicted {
 #[derive(Clone, Copy, Default)]
 struct AxisRef {
     init: bool,
+    /// Slots to restart at the next evaluation: 1 lag, 2 play, 4 creep.
+    restart: u8,
     branch: i8, // 0 unknown, 1 heating, -1 cooling
     te: f64,
     play: f64,
     creep: f64,
+    /// How far each state may be from the whole history's (the documented settling rule).
+    lag_unknown: f64,
+    play_unknown: f64,
+    creep_unknown: f64,
+}
+
+/// The documented thresholds of `MODEL_SETTLING`: a quarter LSB for the lag, 1 µg for the
+/// play and creep terms.
+const SETTLED_LAG_C: f64 = 1.0 / 64.0;
+const SETTLED_BIAS_G: f64 = 1e-6;
+
+/// The documented reload rule: a slot whose parameters and grid range are unchanged keeps
+/// its state; a changed lag restarts all three, a changed play or creep restarts itself.
+fn carried_over(s: AxisRef, old: &AxisModel, new: &AxisModel) -> AxisRef {
+    if !s.init {
+        return AxisRef::default();
+    }
+    let range = |m: &AxisModel| (m.bias.t_start_c, m.bias.t_end_c());
+    let same = range(old) == range(new);
+    let mut restart = s.restart;
+    if !same || old.ext.sensor_lag != new.ext.sensor_lag {
+        restart |= 7;
+    }
+    if !same || old.ext.bias_branch_hysteresis != new.ext.bias_branch_hysteresis {
+        restart |= 2;
+    }
+    if !same || old.ext.bias_creep != new.ext.bias_creep {
+        restart |= 4;
+    }
+    AxisRef { restart, ..s }
 }
 
 /// The f64 reference compensator (3 axes, window 32, default config).
@@ -211,8 +245,8 @@ fn flicker_floor() -> f64 {
     sigma * (2.0 * (3600.0f64 / 0.01).ln()).sqrt()
 }
 
-/// Evaluate one axis in f64: (K1, K0, temp clamped, rate clamped).
-fn eval_axis(m: &AxisModel, s: &mut AxisRef, t: f64, r: f64, dt: f64) -> (f64, f64, bool, bool) {
+/// Evaluate one axis in f64: (K1, K0, temp clamped, rate clamped, settling).
+fn eval_axis(m: &AxisModel, s: &mut AxisRef, t: f64, r: f64, dt: f64) -> (f64, f64, bool, bool, bool) {
     let lo = f64::from(m.bias.t_start_c);
     let step = f64::from(m.bias.t_step_c);
     let hi = lo + step * (m.bias.heating_g.len() - 1) as f64;
@@ -220,12 +254,31 @@ fn eval_axis(m: &AxisModel, s: &mut AxisRef, t: f64, r: f64, dt: f64) -> (f64, f
     let lim = f64::from(m.rate_limit_c_per_min);
     let rc = r.clamp(-lim, lim);
     if !s.init {
-        *s = AxisRef { init: true, branch: 0, te: tc, play: tc, creep: tc };
+        *s = AxisRef { init: true, restart: 7, ..AxisRef::default() };
+    }
+    if s.restart != 0 {
+        let span = hi - lo;
+        if s.restart & 1 != 0 {
+            s.te = tc;
+            s.lag_unknown = if m.ext.sensor_lag.is_some() { span } else { 0.0 };
+        }
+        let te0 = if m.ext.sensor_lag.is_some() { s.te } else { tc };
+        if s.restart & 2 != 0 {
+            s.play = te0;
+            s.play_unknown = m.ext.bias_branch_hysteresis.map_or(0.0, |h| f64::from(h.half_width_c));
+        }
+        if s.restart & 4 != 0 {
+            s.creep = te0;
+            s.creep_unknown = if m.ext.bias_creep.is_some() { span } else { 0.0 };
+        }
+        s.restart = 0;
     }
     let te = match m.ext.sensor_lag {
         Some(l) => {
             if dt > 0.0 {
-                s.te += (1.0 - (-dt / f64::from(l.tau_s)).exp()) * (tc - s.te);
+                let w = 1.0 - (-dt / f64::from(l.tau_s)).exp();
+                s.te += w * (tc - s.te);
+                s.lag_unknown *= 1.0 - w;
             }
             s.te
         }
@@ -254,18 +307,28 @@ fn eval_axis(m: &AxisModel, s: &mut AxisRef, t: f64, r: f64, dt: f64) -> (f64, f
     };
     if let Some(p) = m.ext.bias_branch_hysteresis {
         let r = f64::from(p.half_width_c);
+        let before = s.play;
         s.play = s.play.clamp(te - r, te + r);
+        s.play_unknown = (s.play_unknown - (s.play - before).abs()).max(s.lag_unknown);
         k0 += f64::from(p.weight_g) * (te - s.play) / r;
     }
     if let Some(cr) = m.ext.bias_creep {
         let tau = f64::from(cr.tau_ref_s)
             * (f64::from(cr.activation_k) * (1.0 / (te + 273.15) - 1.0 / (f64::from(cr.t_ref_c) + 273.15))).exp();
         if dt > 0.0 {
-            s.creep += (1.0 - (-dt / tau).exp()) * (te - s.creep);
+            let w = 1.0 - (-dt / tau).exp();
+            s.creep += w * (te - s.creep);
+            s.creep_unknown = (1.0 - w) * s.creep_unknown + w * s.lag_unknown;
         }
         k0 += f64::from(cr.gain_g_per_c) * (te - s.creep);
     }
-    (k1, k0, tc != t, rc != r)
+    let settling = (s.branch == 0 && (h - c).abs() * 0.5 > SETTLED_BIAS_G)
+        || s.lag_unknown > SETTLED_LAG_C
+        || m.ext
+            .bias_branch_hysteresis
+            .is_some_and(|h| f64::from(h.weight_g).abs() * s.play_unknown > SETTLED_BIAS_G * f64::from(h.half_width_c))
+        || m.ext.bias_creep.is_some_and(|c| f64::from(c.gain_g_per_c).abs() * s.creep_unknown > SETTLED_BIAS_G);
+    (k1, k0, tc != t, rc != r, settling)
 }
 
 impl Reference {
@@ -321,7 +384,7 @@ impl Reference {
         };
         let have = self.last_good.is_some();
         for (i, m) in table.axes.iter().enumerate() {
-            let (k1, k0, tcl, rcl) = if have {
+            let (k1, k0, tcl, rcl, settling) = if have {
                 eval_axis(m, &mut self.axes[i], temp, rate, dt)
             } else {
                 eval_axis(m, &mut AxisRef::default(), f64::from(m.scale.t0_c), 0.0, 0.0)
@@ -331,6 +394,9 @@ impl Reference {
             }
             if rcl {
                 st |= Status::RATE_OUT_OF_RANGE;
+            }
+            if settling {
+                st |= Status::MODEL_SETTLING;
             }
             self.k1[i] = k1;
             self.k0[i] = k0;
@@ -345,8 +411,15 @@ impl Reference {
     pub fn table(&mut self, bytes: &[u8]) -> Predicted {
         match Table::decode(bytes) {
             Ok(t) if t.axes.len() == 3 && t.rate_window == 32 => {
+                match &self.table {
+                    Some(old) => {
+                        for i in 0..3 {
+                            self.axes[i] = carried_over(self.axes[i], &old.axes[i], &t.axes[i]);
+                        }
+                    }
+                    None => self.axes = [AxisRef::default(); 3],
+                }
                 self.table = Some(t);
-                self.axes = [AxisRef::default(); 3];
                 self.refresh(0.0);
                 Predicted::Table(true)
             }

@@ -30,7 +30,7 @@ pub fn bias_grid(b0: f32, b1: f32, b2: f32, split: f32) -> BiasGrid {
             b0 + b1 * d + b2 * d * d
         })
         .collect();
-    let mut g = BiasGrid::single_valued(-60.0, 10.0, &pts);
+    let mut g = BiasGrid::single_valued(-60.0, 10.0, &pts).expect("2 to 16 grid values");
     for (h, c) in g.heating_g.iter_mut().zip(g.cooling_g.iter_mut()) {
         *h += split;
         *c -= split;
@@ -290,7 +290,8 @@ pub fn faults() -> Vec<String> {
     l.push("# narrow table (0..25 °C, |Ṫ| ≤ 0.5): heating at 3 °C/min leaves both ranges".into());
     let mut narrow = good.clone();
     for a in &mut narrow.axes {
-        a.bias = BiasGrid::single_valued(0.0, 5.0, &[1e-4, 1.1e-4, 1.2e-4, 1.3e-4, 1.4e-4, 1.5e-4]);
+        a.bias = BiasGrid::single_valued(0.0, 5.0, &[1e-4, 1.1e-4, 1.2e-4, 1.3e-4, 1.4e-4, 1.5e-4])
+            .expect("2 to 16 grid values");
         a.rate_limit_c_per_min = 0.5;
     }
     l.push(format!("table {}", table_hex(&narrow)));

@@ -291,7 +291,7 @@ fn play_term_can_exceed_its_weight() {
     let h = BranchHysteresis { half_width_c: 0.01, weight_g: 0.009_255_718 };
     let a = AxisModel {
         scale: ScaleFactor::simple(22.0, 320_000.0, 0.0),
-        bias: BiasGrid::single_valued(0.0, 10.0, &[0.0; 14]),
+        bias: BiasGrid::single_valued(0.0, 10.0, &[0.0; 14]).expect("2 to 16 grid values"),
         rate_limit_c_per_min: 20.0,
         ext: Extensions { bias_branch_hysteresis: Some(h), ..Extensions::default() },
     };
@@ -313,7 +313,7 @@ fn play_term_can_exceed_its_weight() {
 /// `validated_tables_bound_k0_and_k1_everywhere` (its minimal case, kept here).
 #[test]
 fn grid_interpolation_can_leave_its_nodes_by_one_ulp() {
-    let mut bias = BiasGrid::single_valued(-17.964_062, 0.1, &[0.0, 0.0]);
+    let mut bias = BiasGrid::single_valued(-17.964_062, 0.1, &[0.0, 0.0]).expect("2 to 16 grid values");
     bias.cooling_g = heapless::Vec::from_slice(&[-0.048_831_895, 0.1]).unwrap();
     bias.deadband_c_per_min = 0.0;
     let a = AxisModel {

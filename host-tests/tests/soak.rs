@@ -75,7 +75,7 @@ fn one_axis_table() -> Vec<u8> {
         misalignment: None,
     };
     let scale = qfa_thermal::fixtures::JB_KT8_1;
-    let bias = BiasGrid::single_valued(-60.0, 65.0, &[1e-4, 1.5e-4, 3e-4]);
+    let bias = BiasGrid::single_valued(-60.0, 65.0, &[1e-4, 1.5e-4, 3e-4]).expect("2 to 16 grid values");
     t.axes.push(AxisModel { scale, bias, rate_limit_c_per_min: 2.0, ext: Extensions::default() }).unwrap();
     let mut buf = [0u8; MAX_TABLE_BYTES];
     t.encode(&mut buf).unwrap().to_vec()

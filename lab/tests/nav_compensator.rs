@@ -16,7 +16,7 @@ fn one_axis(gamma: f32, b0: f32) -> Table {
     };
     let axis = AxisModel {
         scale: ScaleFactor { t0_c: 22.0, gamma, mu: -32.76, beta: 0.1008, epsilon: 88.14, eta: -0.02409, alpha: 273.0 },
-        bias: BiasGrid::single_valued(-60.0, 65.0, &[b0, 1.5e-4, 3e-4]),
+        bias: BiasGrid::single_valued(-60.0, 65.0, &[b0, 1.5e-4, 3e-4]).expect("2 to 16 grid values"),
         rate_limit_c_per_min: 2.0,
         ext: Extensions::default(),
     };

@@ -98,7 +98,7 @@ fn compensator_with_exact_table_returns_the_input() {
     let nodes: Vec<f32> = (0..16).map(|i| truth.bias.at(-40.0 + 7.0 * f64::from(i) - T0_C) as f32).collect();
     let axis = qfa_thermal::AxisModel {
         scale: truth.scale,
-        bias: qfa_thermal::BiasGrid::single_valued(-40.0, 7.0, &nodes),
+        bias: qfa_thermal::BiasGrid::single_valued(-40.0, 7.0, &nodes).expect("2 to 16 grid values"),
         rate_limit_c_per_min: 3.0,
         ext: truth.ext,
     };

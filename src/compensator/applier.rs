@@ -9,7 +9,7 @@ use super::seqlock::{Published, Set, AGE_STALE};
 use super::Status;
 
 /// Output of one IMU cycle from pulse counts ([`Compensator::cycle`],
-/// [`Compensator::cycle_counters`]): velocity increments.
+/// [`Compensator::cycle_counters`], [`CountingApplier::cycle`]): velocity increments.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct PulseOutput<const AXES: usize> {
@@ -50,6 +50,8 @@ pub(super) struct FastState<const AXES: usize> {
     /// bit is kept at each copy, so it needs no field of its own). Formed when a set is
     /// copied, so the per-cycle path only picks a field.
     pub(super) path_status: [Status; 2],
+    /// The unsplit compensator's counter base ([`Compensator::cycle_counters`]); `None`
+    /// before the first counter cycle and after any other kind of cycle.
     pub(super) counters: Option<[u32; AXES]>,
 }
 
@@ -70,14 +72,14 @@ pub(super) struct FastState<const AXES: usize> {
 /// ```
 /// use qfa_thermal::{AxisModel, BiasGrid, Config, Extensions, Input, ScaleFactor, Table, ThreeAxisSensorPerAxis};
 ///
-/// let bias = BiasGrid::single_valued(-40.0, 10.0, &[1e-4; 13]);
+/// let bias = BiasGrid::single_valued(-40.0, 10.0, &[1e-4; 13]).expect("2 to 16 grid values");
 /// let scale = ScaleFactor { t0_c: 22.0, gamma: 320_320.0, mu: -32.76, beta: 0.1008, epsilon: 88.14, eta: -0.02409, alpha: 273.0 }; // JB-KT8 #1, Eq. 15
 /// let axis = AxisModel { scale, bias, rate_limit_c_per_min: 2.0, ext: Extensions::default() };
 /// let table = Table { input: Input::PulseCounts, rate_window: 32, axes: core::iter::repeat_n(axis, 3).collect(), misalignment: None };
 /// let mut comp = ThreeAxisSensorPerAxis::<Table>::new(Config::default()).unwrap(); // owns its table
 /// comp.set_table(table).unwrap();
 /// let (mut updater, mut applier) = comp.split();
-/// applier.prime_counters([0; 3]);
+/// let mut applier = applier.counting([0; 3]); // the counters' base
 ///
 /// std::thread::scope(|s| {
 ///     s.spawn(move || {
@@ -91,7 +93,7 @@ pub(super) struct FastState<const AXES: usize> {
 ///         let mut counters = [0u32; 3];
 ///         for _ in 0..10_000 {
 ///             counters[2] = counters[2].wrapping_add(1_601);
-///             let out = applier.cycle_counters(counters, 5_000);
+///             let out = applier.cycle(counters, 5_000);
 ///             assert!(out.dv_mps.iter().all(|v| v.is_finite())); // always, whatever it raced
 ///         }
 ///     });
@@ -103,11 +105,11 @@ pub struct Applier<'a, const AXES: usize> {
     pub(super) shared: &'a Published<AXES>,
 }
 
-impl<const AXES: usize> Applier<'_, AXES> {
+impl<'a, const AXES: usize> Applier<'a, AXES> {
     /// Copy the published set if it is whole (seqlock reader); the rare path.
     #[cold]
     #[inline(never)]
-    fn refresh(&mut self) {
+    pub(super) fn refresh(&mut self) {
         self.refresh_with(|| {});
     }
 
@@ -124,7 +126,7 @@ impl<const AXES: usize> Applier<'_, AXES> {
         let budget = if s.set.age >= AGE_STALE {
             0
         } else {
-            // Rounded down, like the age: the countdown ends at most one age unit late (0.09 ms
+            // Rounded down, like the age: the countdown ends at most one age unit late (0.18 ms
             // at the 3-s default), never early.
             let age_ticks = (f32::from(s.set.age) * f.ticks_per_age) as u32;
             f.stale_after_ticks.saturating_add(1).saturating_sub(age_ticks)
@@ -191,24 +193,46 @@ impl<const AXES: usize> Applier<'_, AXES> {
         SampleOutput { accel_mps2: a, status }
     }
 
-    /// Fast path from wrapping cumulative u32 counters. The first call has no base: it
-    /// returns zero increments with [`Status::NO_COUNTER_BASE`]; call
-    /// [`prime_counters`](Self::prime_counters) to avoid it.
+    /// This applier for wrapping cumulative u32 counters, from `counters` as their base.
+    ///
+    /// It takes the applier by value, so once an interrupt counts pulses with counters it
+    /// cannot also report increments through [`cycle`](Self::cycle): the two would count the
+    /// same pulses twice.
+    ///
+    /// ```compile_fail,E0382
+    /// # use qfa_thermal::{Config, Table, ThreeAxisSensorPerAxis};
+    /// let mut comp = ThreeAxisSensorPerAxis::<Table>::new(Config::default()).unwrap();
+    /// let (_updater, applier) = comp.split();
+    /// let mut counting = applier.counting([0; 3]);
+    /// counting.cycle([1_601, 0, 0], 5_000);
+    /// applier.cycle([1_601, 0, 0], 5_000); // moved into `counting`: does not build
+    /// ```
+    #[must_use]
+    pub fn counting(self, counters: [u32; AXES]) -> CountingApplier<'a, AXES> {
+        CountingApplier { applier: self, base: counters }
+    }
+}
+
+/// The fast path from wrapping cumulative u32 counters ([`Applier::counting`]): each cycle's
+/// increments are the counters' advance since the previous cycle, as signed counts.
+#[derive(Debug)]
+pub struct CountingApplier<'a, const AXES: usize> {
+    applier: Applier<'a, AXES>,
+    base: [u32; AXES],
+}
+
+impl<const AXES: usize> CountingApplier<'_, AXES> {
+    /// Fast path: the counters now and the cycle's length in ticks; see [`Applier::cycle`].
     #[inline]
-    pub fn cycle_counters(&mut self, counters: [u32; AXES], dt_ticks: u32) -> PulseOutput<AXES> {
-        let Some(prev) = self.fast.counters.replace(counters) else {
-            let mut out = self.cycle([0; AXES], dt_ticks);
-            out.dv_mps = [0.0; AXES];
-            out.status |= Status::NO_COUNTER_BASE;
-            return out;
-        };
+    pub fn cycle(&mut self, counters: [u32; AXES], dt_ticks: u32) -> PulseOutput<AXES> {
+        let prev = core::mem::replace(&mut self.base, counters);
         let pulses: [i32; AXES] = core::array::from_fn(|i| counters[i].wrapping_sub(prev[i]) as i32);
-        self.cycle(pulses, dt_ticks)
+        self.applier.cycle(pulses, dt_ticks)
     }
 
-    /// Set the cumulative counters' base without producing output.
-    pub fn prime_counters(&mut self, counters: [u32; AXES]) {
-        self.fast.counters = Some(counters);
+    /// A new base without output: the counters were reset or reloaded.
+    pub fn rebase(&mut self, counters: [u32; AXES]) {
+        self.base = counters;
     }
 }
 

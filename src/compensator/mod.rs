@@ -85,7 +85,7 @@ mod status;
 mod tests;
 
 use applier::FastState;
-pub use applier::{Applier, PulseOutput, SampleOutput};
+pub use applier::{Applier, CountingApplier, PulseOutput, SampleOutput};
 pub use config::{Config, ConfigError};
 // Crate-private unless the benchmark's feature asks for it (its size is a figure there).
 #[cfg(feature = "bench-internals")]
@@ -128,7 +128,7 @@ pub type ThreeAxisSharedSensor<T = &'static Table> = Compensator<3, DEFAULT_RATE
 /// ```
 /// use qfa_thermal::{AxisModel, BiasGrid, Compensator, Config, Extensions, Input, SampleError, ScaleFactor, Status, Table};
 ///
-/// let bias = BiasGrid::single_valued(-40.0, 10.0, &[0.0; 13]);
+/// let bias = BiasGrid::single_valued(-40.0, 10.0, &[0.0; 13]).expect("2 to 16 grid values");
 /// let scale = ScaleFactor { t0_c: 22.0, gamma: 320_320.0, mu: -32.76, beta: 0.1008, epsilon: 88.14, eta: -0.02409, alpha: 273.0 }; // JB-KT8 #1, Eq. 15
 /// let axis = AxisModel { scale, bias, rate_limit_c_per_min: 2.0, ext: Extensions::default() };
 /// let table = Table { input: Input::PulseCounts, rate_window: 32, axes: [axis].into_iter().collect(), misalignment: None };
@@ -172,7 +172,7 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Clone
 /// The status before the applier's first copy of a set.
 const NOT_YET: Status = Status::NO_TABLE.union(Status::TEMP_STALE);
 
-const NO_EVAL: Evaluation = Evaluation { k1: 0.0, k0: 0.0, temp_clamped: false, rate_clamped: false };
+const NO_EVAL: Evaluation = Evaluation { k1: 0.0, k0: 0.0, temp_clamped: false, rate_clamped: false, settling: false };
 
 impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borrow<Table>>
     Compensator<AXES, RATE_WINDOW, SENSORS, T>
@@ -223,6 +223,8 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
                 states: [AxisState::default(); AXES],
                 evals: [NO_EVAL; AXES],
                 status: Status::empty(),
+                #[cfg(qfa_mutant = "one_reading_delay")]
+                delayed: None,
             },
             shared: Published::new(),
             fast: FastState {
@@ -240,6 +242,9 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
             },
         };
         c.updater().refresh_all(0.0);
+        // The applier starts from that whole set, never from an empty one: a first
+        // publication torn by the IMU interrupt then leaves it the pass-through set.
+        c.applier().refresh();
         Ok(c)
     }
 
@@ -254,7 +259,12 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
     /// The two paths, for two execution contexts: the [`Updater`] for thread mode or a
     /// task, the [`Applier`] for the IMU interrupt. With a `&'static mut Compensator`
     /// (from a `static_cell::StaticCell`, say) both halves are `'static`.
+    ///
+    /// The applier leaves with a copy of the set in force (the compensator is borrowed
+    /// whole here, so no publication can tear it): whatever the first IMU interrupt
+    /// preempts, it has a whole set to use.
     pub fn split(&mut self) -> (Updater<'_, AXES, RATE_WINDOW, SENSORS, T>, Applier<'_, AXES>) {
+        self.applier().refresh();
         (Updater { slow: &mut self.slow, shared: &self.shared }, Applier { fast: &mut self.fast, shared: &self.shared })
     }
 
@@ -335,27 +345,43 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
         self.updater().on_missed_reading(sensor, t_ms)
     }
 
-    /// Fast path: see [`Applier::cycle`].
+    /// Fast path: see [`Applier::cycle`]. Forgets the counter base of
+    /// [`cycle_counters`](Self::cycle_counters), whose pulses this cycle may have reported.
     #[inline]
     pub fn cycle(&mut self, pulses: [i32; AXES], dt_ticks: u32) -> PulseOutput<AXES> {
+        self.fast.counters = None;
         self.applier().cycle(pulses, dt_ticks)
     }
 
-    /// Fast path for MEMS samples: see [`Applier::cycle_samples`].
+    /// Fast path for MEMS samples: see [`Applier::cycle_samples`]. Forgets the counter
+    /// base, as [`cycle`](Self::cycle) does.
     #[inline]
     pub fn cycle_samples(&mut self, raw: [i32; AXES], dt_ticks: u32) -> SampleOutput<AXES> {
+        self.fast.counters = None;
         self.applier().cycle_samples(raw, dt_ticks)
     }
 
-    /// Fast path from cumulative counters: see [`Applier::cycle_counters`].
+    /// Fast path from wrapping cumulative u32 counters: the increments are their advance
+    /// since the previous `cycle_counters`. With no base (the first call, or the first after
+    /// a [`cycle`](Self::cycle) or [`cycle_samples`](Self::cycle_samples), which may have
+    /// reported some of those pulses already) it returns zero increments with
+    /// [`Status::NO_COUNTER_BASE`]; [`prime_counters`](Self::prime_counters) sets a base.
+    /// A split compensator counts with [`Applier::counting`].
     #[inline]
     pub fn cycle_counters(&mut self, counters: [u32; AXES], dt_ticks: u32) -> PulseOutput<AXES> {
-        self.applier().cycle_counters(counters, dt_ticks)
+        let Some(prev) = self.fast.counters.replace(counters) else {
+            let mut out = self.applier().cycle([0; AXES], dt_ticks);
+            out.dv_mps = [0.0; AXES];
+            out.status |= Status::NO_COUNTER_BASE;
+            return out;
+        };
+        let pulses: [i32; AXES] = core::array::from_fn(|i| counters[i].wrapping_sub(prev[i]) as i32);
+        self.applier().cycle(pulses, dt_ticks)
     }
 
     /// Set the cumulative counters' base without producing output.
     pub fn prime_counters(&mut self, counters: [u32; AXES]) {
-        self.applier().prime_counters(counters);
+        self.fast.counters = Some(counters);
     }
 }
 

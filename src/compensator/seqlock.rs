@@ -37,17 +37,17 @@ use loom::sync::atomic::{fence, AtomicU32, Ordering};
 use super::Status;
 
 /// Flag in a published flags word: the set has a misalignment matrix.
-pub(super) const HAS_MISALIGN: u32 = 1 << 16;
-/// The status flags take bits 0–7 of the flags word (checked at compile time).
-const STATUS_BITS: u32 = 0xFF;
-const _: () = assert!(Status::all().bits() as u32 & !STATUS_BITS == 0, "Status outgrew its byte");
-/// The epoch of good readings (a wrapping `u8`) sits in flags bits 8–15.
-const EPOCH_SHIFT: u32 = 8;
+pub(super) const HAS_MISALIGN: u32 = 1 << 17;
+/// The status flags take bits 0–8 of the flags word (checked at compile time).
+const STATUS_BITS: u32 = 0x1FF;
+const _: () = assert!(Status::all().bits() as u32 & !STATUS_BITS == 0, "Status outgrew its 9 bits");
+/// The epoch of good readings (a wrapping `u8`) sits in flags bits 9–16.
+const EPOCH_SHIFT: u32 = 9;
 /// The oldest stream's age, in [`AGE_STEPS`]ths of the stale threshold, sits in the flags
-/// word's top 15 bits, so one word carries status, epoch, misalignment and freshness.
-const AGE_SHIFT: u32 = 17;
+/// word's top 14 bits, so one word carries status, epoch, misalignment and freshness.
+const AGE_SHIFT: u32 = 18;
 /// The age of a stream older than the stale threshold, or with no reading: the largest
-/// value the 15 bits hold.
+/// value the 14 bits hold.
 pub(super) const AGE_STALE: u16 = (1 << (32 - AGE_SHIFT)) - 1;
 /// The stale threshold in age units: ages up to it are `0..=AGE_STEPS`.
 pub(super) const AGE_STEPS: u16 = AGE_STALE - 1;
@@ -69,8 +69,8 @@ pub struct Published<const AXES: usize> {
     bias_acc: [AtomicU32; AXES],
     /// Row-major misalignment matrix (valid when the flags have [`HAS_MISALIGN`]).
     misalign: [[AtomicU32; AXES]; AXES],
-    /// Status bits (0–7), the epoch (8–15), [`HAS_MISALIGN`] (16), the oldest stream's age
-    /// (17–31).
+    /// Status bits (0–8), the epoch (9–16), [`HAS_MISALIGN`] (17), the oldest stream's age
+    /// (18–31).
     pub(super) flags: AtomicU32,
 }
 

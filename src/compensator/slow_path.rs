@@ -34,8 +34,8 @@ pub enum SampleError {
     Missed,
     /// No temperature stream with this index (`SENSORS` streams exist).
     NoSuchSensor {
-        /// The index given.
-        sensor: u8,
+        /// The index given, as given.
+        sensor: usize,
     },
 }
 
@@ -104,6 +104,9 @@ pub(super) struct SlowState<const AXES: usize, const RATE_WINDOW: usize, const S
     pub(super) evals: [Evaluation; AXES],
     /// The status last published.
     pub(super) status: Status,
+    /// The estimate before the newest reading (the one-reading-delay mutant only).
+    #[cfg(qfa_mutant = "one_reading_delay")]
+    pub(super) delayed: Option<Estimate>,
 }
 
 impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borrow<Table>>
@@ -133,6 +136,9 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
                 if e.rate_clamped {
                     st |= Status::RATE_OUT_OF_RANGE;
                 }
+                if e.settling {
+                    st |= Status::MODEL_SETTLING;
+                }
             }
         }
         st
@@ -143,7 +149,7 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
     /// published one: that copy would cost 80 B of RAM.
     pub(super) fn set(&self) -> Set<AXES> {
         // In 1/AGE_STEPS of the stale threshold, rounded down, in f32 (a 64-bit integer
-        // division would link 900 B of library code): within one unit, 0.09 ms at 3 s.
+        // division would link 900 B of library code): within one unit, 0.18 ms at 3 s.
         let stale_ms = self.config.stale_after_ms().max(1);
         let units_per_ms = f32::from(AGE_STEPS) / stale_ms as f32;
         let age = self.streams.iter().fold(0u16, |oldest, s| {
@@ -248,8 +254,17 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
         if usize::from(tb.rate_window) != RATE_WINDOW {
             return Err(table::Error::RateWindow { table: tb.rate_window, firmware: RATE_WINDOW as u16 });
         }
+        // The model's running states carry over (`AxisState::carried_over`): a reload of the
+        // table in force is a no-op, a changed slot restarts alone.
+        if let Some(old) = &self.slow.table {
+            let old: &Table = old.borrow();
+            for (i, state) in self.slow.states.iter_mut().enumerate() {
+                *state = state.carried_over(&old.axes[i], &tb.axes[i]);
+            }
+        } else {
+            self.slow.states = [AxisState::default(); AXES];
+        }
         self.slow.table = Some(t);
-        self.slow.states = [AxisState::default(); AXES];
         self.refresh_all(0.0);
         Ok(())
     }
@@ -260,7 +275,7 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
     /// As [`Compensator::on_scratchpad`].
     pub fn on_scratchpad(&mut self, sensor: usize, t_ms: u32, sp: &[u8; 9]) -> Result<Status, SampleError> {
         if sensor >= SENSORS {
-            return Err(SampleError::NoSuchSensor { sensor: sensor as u8 });
+            return Err(SampleError::NoSuchSensor { sensor });
         }
         self.advance_clock(t_ms);
         match ds18b20::decode_scratchpad(sp) {
@@ -281,7 +296,7 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
     /// flag raised.
     pub fn on_missed_reading(&mut self, sensor: usize, t_ms: u32) -> Result<Status, SampleError> {
         if sensor >= SENSORS {
-            return Err(SampleError::NoSuchSensor { sensor: sensor as u8 });
+            return Err(SampleError::NoSuchSensor { sensor });
         }
         self.advance_clock(t_ms);
         self.reject(sensor, SampleError::Missed)
@@ -293,7 +308,7 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
     /// As [`Compensator::on_raw`].
     pub fn on_raw(&mut self, sensor: usize, t_ms: u32, raw: i16) -> Result<Status, SampleError> {
         let Some(s) = self.slow.streams.get(sensor) else {
-            return Err(SampleError::NoSuchSensor { sensor: sensor as u8 });
+            return Err(SampleError::NoSuchSensor { sensor });
         };
         let (last_good, age_ms) = (s.last_good(), s.age_ms);
         self.advance_clock(t_ms);
@@ -341,6 +356,8 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
                 elapsed_ms = (!clock_restart).then_some(elapsed);
             }
         }
+        #[cfg(qfa_mutant = "one_reading_delay")]
+        let delayed = self.slow.streams[sensor].rate.estimate();
         let s = &mut self.slow.streams[sensor];
         if restart {
             s.rate.reset();
@@ -355,6 +372,10 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
         s.has_good = true;
         // Across a restarted clock the elapsed time is unknown: the slot states hold.
         let dt_s = elapsed_ms.map_or(0.0, |ms| ms as f32 * 1e-3);
+        #[cfg(qfa_mutant = "one_reading_delay")]
+        {
+            self.slow.delayed = delayed;
+        }
         self.refresh(Some(sensor), dt_s, true);
         Ok(self.slow.status)
     }
@@ -448,6 +469,10 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
                 // seven 64-bit → f32 conversions, about 250 instructions on a Cortex-M4.
                 let estimates: [Option<Estimate>; SENSORS] = core::array::from_fn(|j| {
                     let s = &slow.streams[j];
+                    #[cfg(qfa_mutant = "one_reading_delay")]
+                    if sensor == Some(j) && slow.delayed.is_some() {
+                        return slow.delayed;
+                    }
                     (s.has_good && sensor.is_none_or(|k| k == j)).then(|| s.rate.estimate()).flatten()
                 });
                 for (i, axis) in table.axes.iter().take(AXES).enumerate() {

@@ -25,6 +25,14 @@ bitflags::bitflags! {
         /// [`Compensator::cycle_samples`], or samples through [`Compensator::cycle`]): the
         /// output is in the wrong unit and must not be used.
         const WRONG_INPUT = 1 << 7;
+        /// A model state that depends on the unit's thermal history was started without it,
+        /// at power-up or by a reload that added or changed its slot, and may still be off
+        /// by more than a sixty-fourth of a degree (sensor lag) or 1 µg (play, creep, or the
+        /// bias branch before the first decisive rate, where the branches differ by more
+        /// than 2 µg): the output is compensated, but not yet to the table's accuracy.
+        /// Cleared as the states converge (`model::AxisState::settling`) and at the first
+        /// decisive rate.
+        const MODEL_SETTLING = 1 << 8;
     }
 }
 

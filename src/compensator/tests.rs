@@ -24,7 +24,7 @@ fn table(axes: usize, window: u16) -> Table {
                 eta: -0.02409,
                 alpha: 273.0,
             },
-            bias: BiasGrid::single_valued(-60.0, 65.0, &[1e-4, 1.5e-4, 3e-4]),
+            bias: BiasGrid::single_valued(-60.0, 65.0, &[1e-4, 1.5e-4, 3e-4]).expect("2 to 16 grid values"),
             rate_limit_c_per_min: 2.0,
             ext: Extensions::default(),
         };
@@ -402,4 +402,32 @@ fn a_copy_torn_by_the_writer_is_dropped() {
     let mut fast2 = c.fast;
     let mut ap2 = Applier { fast: &mut fast2, shared };
     assert_eq!(ap2.cycle([800, -7, 3], 2500).dv_mps, before.dv_mps);
+}
+
+/// The first IMU cycle after `split` preempts the updater's first publication at every
+/// store: it must use the whole set in force at the split, never an empty one. Before the
+/// applier took a copy at the split, its first copy could be torn, and it returned
+/// Δv = 0 (free fall) flagged `NO_TABLE` with a table loaded.
+#[test]
+fn the_first_cycle_after_split_has_a_whole_set_whatever_it_preempts() {
+    let mut c = comp3();
+    c.set_table(table(3, 32)).unwrap();
+    let pulses = [1_601, -7, 3];
+    let want = c.clone().cycle(pulses, 2500);
+    assert!(!want.status.contains(Status::NO_TABLE), "{want:?}");
+    let (up, ap) = c.split();
+    let set = up.slow.set();
+    let shared = up.shared;
+    let mut stores = 0;
+    // A copy of the applier's state per store: each interrupt is the applier's first cycle.
+    let fast = *ap.fast;
+    shared.publish_with(&set, || {
+        stores += 1;
+        let mut first = fast;
+        let mut ap = Applier { fast: &mut first, shared };
+        let got = ap.cycle(pulses, 2500);
+        assert_eq!(got.dv_mps, want.dv_mps, "store {stores}");
+        assert!(!got.status.contains(Status::NO_TABLE), "store {stores}: {got:?}");
+    });
+    assert!(stores > 10, "{stores}");
 }

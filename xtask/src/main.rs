@@ -58,6 +58,10 @@ commands:
   panic-check   link-time proof that no panic is reachable from the core's paths
   loom          the seqlock's loom model (clippy and tests under --cfg loom), then each seqlock
                 mutant, which the model must fail: prints mutants_caught=N of M
+  oracle [--histories N] [--seed S] [--mutants]
+                the firmware against its f64 oracle over N random field histories (default
+                2 000), release: prints silent_wrong_cycles=… cycles=… histories=…; with
+                --mutants, each compensator mutant must make it fail: mutants_caught=K of M
   experiment NAME [ARGS]
                 a lab study that asserts nothing (lab/examples/NAME.rs: nav_deadband,
                 nav_branches [tally]), in release, printing its figures";
@@ -85,6 +89,7 @@ fn main() {
         Some("bench-target") => bench_target(),
         Some("panic-check") => panic_check(),
         Some("loom") => loom(),
+        Some("oracle") => oracle(&args[1..]),
         Some("experiment") => experiment(&args[1..]),
         Some("-h" | "--help" | "help") => {
             println!("{USAGE}");
@@ -480,14 +485,53 @@ fn berkeley(tool: &Path, file: &Path) -> Result<(u64, u64, u64)> {
     }
 }
 
+/// The budgets file (`name = limit` lines), relative to the repository root.
+const BUDGETS: &str = "xtask/budgets.txt";
+
+/// `name = limit` lines; `#` starts a comment.
+fn parse_budgets(text: &str) -> Result<Vec<(String, u64)>> {
+    let mut out = Vec::new();
+    for (n, line) in text.lines().enumerate() {
+        let line = line.split('#').next().unwrap_or("").trim();
+        if line.is_empty() {
+            continue;
+        }
+        let parsed = line.split_once('=').and_then(|(k, v)| Some((k.trim().to_string(), v.trim().parse().ok()?)));
+        match parsed {
+            Some(b) => out.push(b),
+            None => return fail(format!("{BUDGETS}:{}: not `name = limit`: {line}", n + 1)),
+        }
+    }
+    Ok(out)
+}
+
+/// Every budget against the `name=value` lines of `printed`: the lines over budget, or an
+/// error for a budget whose figure was not printed (a budget nobody measures enforces nothing).
+fn over_budget(budgets: &[(String, u64)], printed: &str) -> Result<Vec<String>> {
+    let mut over = Vec::new();
+    for (name, limit) in budgets {
+        let value = printed.lines().find_map(|l| l.strip_prefix(&format!("{name}="))?.trim().parse::<f64>().ok());
+        match value {
+            Some(v) if v > *limit as f64 => over.push(format!("{name}={v} is over its budget {limit}")),
+            Some(_) => {}
+            None => return fail(format!("no {name}= figure was printed to check against its budget")),
+        }
+    }
+    Ok(over)
+}
+
 fn bench_target() -> Result {
     ensure_target()?;
+    let budgets =
+        parse_budgets(&std::fs::read_to_string(root().join(BUDGETS)).map_err(|e| Failure(format!("{BUDGETS}: {e}")))?)?;
+    let mut printed = String::new();
     step("bench firmware, QEMU -icount shift=0");
     build_firmware(&["bench", "size-baseline"])?;
     let (status, out) = run_qemu(&elf("bench")?, true)?;
     if !status.success() {
         return fail(format!("bench exited with {status}"));
     }
+    printed.push_str(&out);
     for name in [
         "fast_path_insns_3axis",
         "fast_path_insns_3axis_misalign",
@@ -507,8 +551,13 @@ fn bench_target() -> Result {
     let (ct, cd, cb) = berkeley(&tool, &elf("panic-check")?)?;
     let (bt, bd, bb) = berkeley(&tool, &elf("size-baseline")?)?;
     println!("panic-check: text={ct} data={cd} bss={cb}; size-baseline: text={bt} data={bd} bss={bb}");
-    println!("core_flash_bytes={}", (ct + cd).saturating_sub(bt + bd));
-    println!("core_static_ram_bytes={}", (cd + cb).saturating_sub(bd + bb));
+    let core = format!(
+        "core_flash_bytes={}\ncore_static_ram_bytes={}\n",
+        (ct + cd).saturating_sub(bt + bd),
+        (cd + cb).saturating_sub(bd + bb)
+    );
+    print!("{core}");
+    printed.push_str(&core);
 
     step("flash and RAM of the STM32F405 board example (whole image, release)");
     build_board()?;
@@ -516,6 +565,13 @@ fn bench_target() -> Result {
     println!("{BOARD}: text={t} data={d} bss={b}");
     println!("board_flash_bytes={}", t + d);
     println!("board_ram_bytes={}", d + b);
+
+    step(&format!("budgets ({BUDGETS})"));
+    let over = over_budget(&budgets, &printed)?;
+    if !over.is_empty() {
+        return fail(format!("over budget:\n{}", over.join("\n")));
+    }
+    println!("budgets: all {} figures within their budgets", budgets.len());
     Ok(())
 }
 
@@ -562,6 +618,69 @@ fn panic_check() -> Result {
          cycle, cycle_counters (all inputs through black_box)"
     );
     Ok(())
+}
+
+/// The compensator's mutants (`--cfg qfa_mutant="NAME"`, in src/): each must make the oracle
+/// property (host-tests/tests/oracle_property.rs) fail.
+const ORACLE_MUTANTS: [(&str, &str); 5] = [
+    ("reload_drops_state", "a reload restarts every model state, as before the fix"),
+    ("branch_on_unready_rate", "the branch follows the slope of an unready rate window"),
+    ("clamp_after_state_update", "the lag state follows the temperature before the clamp"),
+    ("one_reading_delay", "each reading is evaluated with the window before it"),
+    ("settling_never_flagged", "states started without their history are never flagged MODEL_SETTLING"),
+];
+
+/// The oracle property, long: `QFA_ORACLE_HISTORIES` histories in release.
+fn oracle_property(histories: &str, seed: &str, mutant: Option<&str>) -> Result<(ExitStatus, String)> {
+    let mut c = cargo();
+    c.args(["test", "--release", "-p", "host-tests", "--test", "oracle_property", "--", "--nocapture"]);
+    c.env("QFA_ORACLE_HISTORIES", histories).env("QFA_ORACLE_SEED", seed);
+    if let Some(m) = mutant {
+        // Its own target directory: RUSTFLAGS changes every crate's fingerprint.
+        c.env("CARGO_TARGET_DIR", target_dir()?.join("oracle-mutants"))
+            .env("RUSTFLAGS", format!("--cfg qfa_mutant=\"{m}\""))
+            .env_remove("CARGO_ENCODED_RUSTFLAGS");
+    }
+    let (status, out, err) = capture(c)?;
+    Ok((status, format!("{out}{err}")))
+}
+
+fn oracle(args: &[String]) -> Result {
+    let value = |flag: &str, default: &str| {
+        args.iter().position(|a| a == flag).and_then(|i| args.get(i + 1)).map_or(default.to_string(), Clone::clone)
+    };
+    let (histories, seed) = (value("--histories", "2000"), value("--seed", "1"));
+    step(&format!("oracle property: {histories} histories, seed {seed}"));
+    let start = Instant::now();
+    let (status, out) = oracle_property(&histories, &seed, None)?;
+    for l in out.lines().filter(|l| l.starts_with("silent_wrong_cycles=") || l.contains("first:")) {
+        println!("{l}");
+    }
+    println!("seconds={:.1}", start.elapsed().as_secs_f64());
+    if !status.success() {
+        return fail(format!("the oracle property failed:\n{out}"));
+    }
+    if !args.iter().any(|a| a == "--mutants") {
+        return Ok(());
+    }
+    let mut caught = 0;
+    for (m, what) in ORACLE_MUTANTS {
+        step(&format!("mutant {m}: {what}"));
+        let (status, out) = oracle_property(&histories, &seed, Some(m))?;
+        let first = out.lines().find(|l| l.contains("first:")).unwrap_or("(no failing cycle printed)");
+        if status.success() {
+            println!("NOT caught: the property held on {m}");
+        } else {
+            caught += 1;
+            println!("caught: {}", first.trim());
+        }
+    }
+    println!("mutants_caught={caught} of {}", ORACLE_MUTANTS.len());
+    if caught == ORACLE_MUTANTS.len() {
+        Ok(())
+    } else {
+        fail("a mutant of the compensator passed the oracle property")
+    }
 }
 
 /// A cargo command for the loom build: `--cfg loom` on every crate, in `dir` (its own
@@ -668,4 +787,43 @@ fn loom() -> Result {
         return fail(format!("the loom model missed {} of {} seqlock mutants", MUTANTS.len() - caught, MUTANTS.len()));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn budgets() -> Vec<(String, u64)> {
+        match parse_budgets(include_str!("../budgets.txt")) {
+            Ok(b) => b,
+            Err(e) => panic!("{e}"),
+        }
+    }
+
+    /// The checked-in budgets parse and name the four figures the firmware promises.
+    #[test]
+    fn the_budgets_file_names_the_promised_figures() {
+        let names: Vec<String> = budgets().into_iter().map(|b| b.0).collect();
+        for n in ["fast_path_insns_3axis", "slow_path_insns_3axis_all_on", "core_flash_bytes", "core_ram_bytes"] {
+            assert!(names.iter().any(|m| m == n), "{n} missing from {names:?}");
+        }
+    }
+
+    /// A figure one over its budget fails the check; at the budget it passes; a budget with
+    /// no printed figure is an error, not a pass.
+    #[test]
+    fn a_figure_over_its_budget_fails() {
+        let b = budgets();
+        let at: String = b.iter().map(|(n, l)| format!("{n}={l}\n")).collect();
+        assert!(matches!(over_budget(&b, &at), Ok(v) if v.is_empty()));
+        for (name, limit) in &b {
+            let broken: String =
+                b.iter().map(|(n, l)| format!("{n}={}\n", if n == name { limit + 1 } else { *l })).collect();
+            match over_budget(&b, &broken) {
+                Ok(v) => assert_eq!(v.len(), 1, "{name}: {v:?}"),
+                Err(e) => panic!("{e}"),
+            }
+        }
+        assert!(over_budget(&b, "fast_path_insns_3axis=1\n").is_err());
+    }
 }

@@ -9,7 +9,7 @@ use defmt_rtt as _;
 use panic_probe as _;
 use qfa_thermal::onewire::OneWire;
 use qfa_thermal::time::MsClock;
-use qfa_thermal::{Applier, Config, Status, Table, ThreeAxisSensorPerAxis, Updater, DEFAULT_RATE_WINDOW};
+use qfa_thermal::{Config, CountingApplier, Status, Table, ThreeAxisSensorPerAxis, Updater, DEFAULT_RATE_WINDOW};
 use static_cell::StaticCell;
 use stm32f4xx_hal::dwt::{Delay, DwtExt};
 use stm32f4xx_hal::gpio::{alt, OpenDrain, Output, PartiallyErasedPin, PinState};
@@ -38,7 +38,7 @@ static COMP: StaticCell<Comp> = StaticCell::new();
 /// Everything the IMU interrupt owns. Built in `main`, handed over once through
 /// [`FAST_HANDOFF`].
 struct Fast {
-    applier: Applier<'static, 3>,
+    applier: CountingApplier<'static, 3>,
     /// TIM7: the 400 Hz cycle; its counter (1 MHz) also times each read.
     tick: CounterUs<TIM7>,
     x: TIM3,
@@ -133,7 +133,7 @@ impl Fast {
         self.last_cyc = cyc;
         self.lost = self.lost.saturating_add(t.lost);
 
-        let out = self.applier.cycle_counters(counters, t.dt_us);
+        let out = self.applier.cycle(counters, t.dt_us);
         // The navigation filter would take `out` here. The example sums it for the log.
         for (s, v) in self.sum.iter_mut().zip(out.dv_mps) {
             *s += v;
@@ -289,7 +289,7 @@ fn main() -> ! {
         Ok(()) => defmt::println!("table: validated in flash, {} axes", calibration::TABLE.axes.len()),
         Err(e) => defmt::error!("table: refused: {}; raw pass-through at the nominal scale (NO_TABLE)", e),
     }
-    let (updater, mut applier) = comp.split();
+    let (updater, applier) = comp.split();
 
     // Three DS18B20s, each alone on an open-drain pin with a 4.7 kΩ pull-up to 3.3 V.
     let gpiob = dp.GPIOB.split(&mut rcc);
@@ -332,7 +332,7 @@ fn main() -> ! {
     let last_lat = tick.now().ticks();
     let last_cyc = DWT::cycle_count();
     let widen = [Widen16::new(cnt16_tim3(&x)), Widen16::new(cnt16_tim4(&y)), Widen16::new(cnt16_tim8(&z))];
-    applier.prime_counters(widen.map(|w| w.total()));
+    let applier = applier.counting(widen.map(|w| w.total()));
     let fast = Fast {
         applier,
         tick,

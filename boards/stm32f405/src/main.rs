@@ -5,7 +5,7 @@
 //! | DS18B20, axis X / Y / Z (one per accelerometer case) | PB6 / PB7 / PB8, open drain, 4.7 kΩ pull-up to 3.3 V, sensors on V_DD (a parasite-powered one is refused and its axis flagged) |
 //! | accelerometer pulses X / Y / Z | TIM3 ETR PD2 (AF2) / TIM4 ETR PE0 (AF2) / TIM8 ETR PA0 (AF3), rising edges |
 //! | µs clock | TIM2, 32-bit, 1 MHz, free-running (wraps every 71.6 min) |
-//! | IMU cycle | TIM7 update interrupt, 400 Hz: the fast path (`Applier::cycle_counters`); cycles lost to a held-off interrupt counted (`cycle.rs`, DWT cycle counter) and logged from the main loop |
+//! | IMU cycle | TIM7 update interrupt, 400 Hz: the fast path (`CountingApplier::cycle`); cycles lost to a held-off interrupt counted (`cycle.rs`, DWT cycle counter) and logged from the main loop |
 //! | slow path | thread mode, `poll.rs`: 1 Hz conversions checked on the bus (read slots), every reading to the updater: `on_scratchpad`, or `on_missed_reading` when none came |
 //! | table | a `static` in flash built in by build.rs (`QFA_BOARD_TABLE=table.bin`), validated in place at boot |
 //! | log | RTT (defmt) |

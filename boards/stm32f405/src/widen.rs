@@ -1,12 +1,12 @@
 //! 16-bit hardware pulse counters widened to the wrapping `u32` cumulative counts that
-//! `Applier::cycle_counters` takes.
+//! `CountingApplier::cycle` takes.
 //!
 //! # Why not pass `CNT as u32`
-//! `cycle_counters` forms each cycle's pulses as `counters[i].wrapping_sub(previous[i])`,
+//! `CountingApplier::cycle` forms each cycle's pulses as `counters[i].wrapping_sub(previous[i])`,
 //! modulo 2³². A 16-bit counter wraps at 2¹⁶: passed as it is, the step 0xFFF0 → 0x0010
 //! (32 pulses) would read as `0x10 − 0xFFF0 = −65 504` pulses. [`Widen16`] instead adds each
 //! cycle's 16-bit difference (`now.wrapping_sub(last)`, exact modulo 2¹⁶) to a `u32`
-//! total, which then wraps at 2³² exactly as `cycle_counters` expects.
+//! total, which then wraps at 2³² exactly as `CountingApplier::cycle` expects.
 //!
 //! # The one bound
 //! The 16-bit difference is exact while fewer than 65 536 pulses arrive between two reads:
@@ -50,7 +50,7 @@ impl Widen16 {
 mod tests {
     use super::*;
 
-    /// Per-cycle pulses as `cycle_counters` forms them from two cumulative counts.
+    /// Per-cycle pulses as `CountingApplier::cycle` forms them from two cumulative counts.
     fn pulses(now: u32, prev: u32) -> i32 {
         now.wrapping_sub(prev) as i32
     }

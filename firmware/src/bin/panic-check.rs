@@ -33,6 +33,8 @@ mod target {
                 let (mut up, mut ap) = c.split();
                 let _ = black_box(up.on_raw(black_box(0), black_box(0), black_box(0)));
                 black_box(ap.cycle(black_box([0; 3]), black_box(0)));
+                let mut counting = ap.counting(black_box([0; 3]));
+                black_box(counting.cycle(black_box([0; 3]), black_box(0)));
             }
             c.prime_counters(black_box([0; 3]));
             if black_box(true) {

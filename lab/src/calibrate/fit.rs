@@ -360,7 +360,8 @@ pub fn fit(log: &Log, opts: &FitOptions, progress: Option<&indicatif::ProgressBa
     let b = &bias_simple.coef;
     let nodes: Vec<f64> = (0..g).map(|i| b[0] + b[1] * (start + step * i as f64 - T0_C)).collect();
     let mut grid_simple =
-        BiasGrid::single_valued(start as f32, step as f32, &nodes.iter().map(|&x| x as f32).collect::<Vec<_>>());
+        BiasGrid::single_valued(start as f32, step as f32, &nodes.iter().map(|&x| x as f32).collect::<Vec<_>>())
+            .expect("2 to 16 grid values");
     grid_simple.deadband_c_per_min = opts.deadband_c_per_min;
     let simple = table_of(AxisModel {
         scale: scale_simple,

@@ -72,7 +72,7 @@ pub fn trace_readings(
     deadband: f32,
 ) -> Trace {
     let zeros = [0.0f32; 16];
-    let mut bias = BiasGrid::single_valued(-60.0, 190.0 / 15.0, &zeros);
+    let mut bias = BiasGrid::single_valued(-60.0, 190.0 / 15.0, &zeros).expect("2 to 16 grid values");
     bias.deadband_c_per_min = deadband;
     let axis = AxisModel { scale: ScaleFactor::simple(22.0, 1.0, 0.0), bias, rate_limit_c_per_min: 20.0, ext: *ext };
     trace_axis(rows, n, &axis)

@@ -324,7 +324,7 @@ impl Setup<'_> {
         let zeros = [0.0f32; GRID_POINTS];
         AxisModel {
             scale: ScaleFactor::simple(T0_C, 1.0, 0.0),
-            bias: BiasGrid::single_valued(self.grid_start, self.grid_step, &zeros),
+            bias: BiasGrid::single_valued(self.grid_start, self.grid_step, &zeros).expect("2 to 16 grid values"),
             rate_limit_c_per_min: self.rate_limit,
             ext: Extensions {
                 sensor_lag: nl.lag_tau_s.map(|tau_s| SensorLag { tau_s }),
@@ -527,7 +527,7 @@ impl Setup<'_> {
         }
         let model = AxisModel {
             scale,
-            bias: BiasGrid::single_valued(self.grid_start, self.grid_step, &grid),
+            bias: BiasGrid::single_valued(self.grid_start, self.grid_step, &grid).expect("2 to 16 grid values"),
             rate_limit_c_per_min: self.rate_limit,
             ext,
         };

@@ -65,12 +65,12 @@ pub struct FlagCounts {
     pub cycles: u64,
     /// Cycles with any flag set.
     pub any: u64,
-    /// Cycles per status bit (bit 0 = `TEMP_STALE` … bit 7 = `WRONG_INPUT`).
-    pub counts: [u64; 8],
+    /// Cycles per status bit (bit 0 = `TEMP_STALE` … bit 8 = `MODEL_SETTLING`).
+    pub counts: [u64; 9],
 }
 
 /// The status bits in [`FlagCounts::counts`] order, by name.
-pub const FLAG_NAMES: [&str; 8] = [
+pub const FLAG_NAMES: [&str; 9] = [
     "TEMP_STALE",
     "TEMP_INVALID",
     "RATE_NOT_READY",
@@ -79,6 +79,7 @@ pub const FLAG_NAMES: [&str; 8] = [
     "NO_TABLE",
     "NO_COUNTER_BASE",
     "WRONG_INPUT",
+    "MODEL_SETTLING",
 ];
 
 impl FlagCounts {
@@ -98,7 +99,7 @@ impl FlagCounts {
     /// The counts since `earlier` (a snapshot of the same counter).
     #[must_use]
     pub fn since(&self, earlier: &Self) -> Self {
-        let mut c = [0u64; 8];
+        let mut c = [0u64; 9];
         for (b, x) in c.iter_mut().enumerate() {
             *x = self.counts[b] - earlier.counts[b];
         }

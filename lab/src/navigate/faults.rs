@@ -401,7 +401,7 @@ mod tests {
     fn table_bytes() -> Vec<u8> {
         let a = AxisModel {
             scale: crate::simulate::truth::Truth::jb_kt8(1).scale,
-            bias: BiasGrid::single_valued(-60.0, 65.0, &[1e-4, 1.5e-4, 3e-4]),
+            bias: BiasGrid::single_valued(-60.0, 65.0, &[1e-4, 1.5e-4, 3e-4]).expect("2 to 16 grid values"),
             rate_limit_c_per_min: 2.0,
             ext: Extensions::default(),
         };

@@ -334,7 +334,7 @@ mod tests {
         let grid: Vec<f32> = (0..14).map(|i| t.bias.at(-82.0 + 10.0 * f64::from(i)) as f32).collect();
         let axis = AxisModel {
             scale: t.scale,
-            bias: BiasGrid::single_valued(-60.0, 10.0, &grid),
+            bias: BiasGrid::single_valued(-60.0, 10.0, &grid).expect("2 to 16 grid values"),
             rate_limit_c_per_min: 5.0,
             ext: t.ext,
         };

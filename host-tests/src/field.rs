@@ -1,0 +1,425 @@
+//! Random field histories, run through the compensator and judged by the [`oracle`].
+//!
+//! A [`History`] composes what a navigation computer sees in service: power-up at any
+//! temperature, at rest or ramping (rates past the table's limit included), excursions
+//! past the table's grid and back, readings quantized to 1/16 °C with flicker on code
+//! edges, missed readings, dead sensors, CRC errors, the DS18B20's power-on value as a
+//! glitch, table loads at any moment (the same table, another one, a refused one),
+//! `clone()`, and the µs clock wrapping under [`MsClock`]. [`run`] drives the public API
+//! with it and counts the cycles whose status is OK while their output is further from
+//! the oracle's ideal than its tolerance: `silent_wrong_cycles`.
+//!
+//! The history starts before power-up (up to an hour of it): the oracle's states follow it,
+//! the firmware's cannot, so it must flag `MODEL_SETTLING` until they have converged.
+//!
+//! The strategies shrink: a failing history reduces to a short one with few events, which
+//! `tests/oracle_property.rs` prints and which becomes a named regression test there.
+
+use proptest::prelude::*;
+use qfa_thermal::ds18b20::{encode_scratchpad, Resolution, POWER_ON_RAW};
+use qfa_thermal::model::{BiasGrid, BranchHysteresis, Creep, Extensions, SensorLag};
+use qfa_thermal::table::{Table, MAX_TABLE_BYTES};
+use qfa_thermal::time::MsClock;
+use qfa_thermal::{Compensator, Config};
+
+use crate::oracle::{Oracle, LSB_C};
+use crate::scenarios;
+
+const AXES: usize = 3;
+type Comp = Compensator<AXES, 32, AXES, Table>;
+
+/// One axis's extension slots, drawn.
+#[derive(Clone, Copy, Debug)]
+pub struct Slots {
+    /// Sensor lag τ, s.
+    pub lag_s: Option<f32>,
+    /// Play half-width °C and weight g.
+    pub play: Option<(f32, f32)>,
+    /// Creep gain g/°C, τ_ref s, activation K.
+    pub creep: Option<(f32, f32, f32)>,
+}
+
+impl Slots {
+    fn ext(self) -> Extensions {
+        Extensions {
+            sensor_lag: self.lag_s.map(|tau_s| SensorLag { tau_s }),
+            bias_branch_hysteresis: self
+                .play
+                .map(|(half_width_c, weight_g)| BranchHysteresis { half_width_c, weight_g }),
+            bias_creep: self.creep.map(|(gain_g_per_c, tau_ref_s, activation_k)| Creep {
+                gain_g_per_c,
+                tau_ref_s,
+                t_ref_c: 25.0,
+                activation_k,
+            }),
+        }
+    }
+}
+
+/// A table, drawn: one of the paper's units, a grid, a rate limit and slots per axis.
+#[derive(Clone, Debug)]
+pub struct TableSpec {
+    /// JB-KT8 unit 0..3.
+    pub unit: usize,
+    /// Bottom of the grid, °C, and its step.
+    pub grid: (f32, f32),
+    /// Heating/cooling split of the bias, g.
+    pub split_g: f32,
+    /// Rate limit, °C/min.
+    pub rate_limit: f32,
+    /// Slots per axis.
+    pub slots: [Slots; AXES],
+}
+
+impl TableSpec {
+    /// The table.
+    #[must_use]
+    pub fn table(&self) -> Table {
+        let mut t = scenarios::table(self.unit, self.slots.map(Slots::ext), None);
+        for (i, a) in t.axes.iter_mut().enumerate() {
+            let pts: Vec<f32> = (0..12)
+                .map(|k| {
+                    let d = self.grid.0 + self.grid.1 * k as f32 - 22.0;
+                    1e-4 - 3e-5 * i as f32 + 6e-6 * d + 3e-8 * d * d
+                })
+                .collect();
+            let mut g = BiasGrid::single_valued(self.grid.0, self.grid.1, &pts).expect("12 values");
+            for (h, c) in g.heating_g.iter_mut().zip(g.cooling_g.iter_mut()) {
+                *h += self.split_g;
+                *c -= self.split_g;
+            }
+            a.bias = g;
+            a.rate_limit_c_per_min = self.rate_limit;
+        }
+        t
+    }
+}
+
+/// Something that happens to one sensor's reading or to the compensator, at a second.
+#[derive(Clone, Copy, Debug)]
+pub enum Event {
+    /// The reading never arrives, reported with `on_missed_reading`.
+    Missed,
+    /// Silent for this many seconds, every read reported missed.
+    Dead(u16),
+    /// A bit flipped on the bus: the scratchpad's CRC fails.
+    Crc,
+    /// The power-on value 0550h (+85 °C) instead of the temperature.
+    PowerOnGlitch,
+    /// The same table set again.
+    ReloadSame,
+    /// The other table set.
+    LoadOther,
+    /// The table's bytes with one byte flipped: refused, nothing changes.
+    LoadCorrupt,
+    /// The compensator replaced by its clone.
+    Clone,
+}
+
+/// A field history.
+#[derive(Clone, Debug)]
+pub struct History {
+    /// Temperature at the history's start, °C (at rest for ever before it).
+    pub start_c: f64,
+    /// Seconds of history before power-up.
+    pub before_power_up_s: u32,
+    /// Segments: (seconds, rate °C/min), from the history's start.
+    pub segments: Vec<(u32, f64)>,
+    /// Each sensor's offset from the common temperature, °C.
+    pub offsets_c: [f64; AXES],
+    /// Seed of the flicker on code edges.
+    pub flicker_seed: u64,
+    /// The µs counter at power-up (the clock wraps every 71.6 min).
+    pub clock_start_us: u32,
+    /// The table loaded at power-up and the other one.
+    pub tables: [TableSpec; 2],
+    /// Events: (second, sensor, event); the sensor is ignored for table events and clones.
+    pub events: Vec<(u32, usize, Event)>,
+    /// IMU cycles per second (1..=4).
+    pub cycles_per_s: u32,
+}
+
+impl History {
+    /// Seconds covered after power-up.
+    #[must_use]
+    pub fn seconds(&self) -> u32 {
+        self.segments.iter().map(|s| s.0).sum::<u32>().saturating_sub(self.before_power_up_s)
+    }
+
+    /// The common true rate at `t_s` seconds after the history's start, °C/min.
+    #[must_use]
+    pub fn rate(&self, t_s: f64) -> f64 {
+        let mut t0 = 0.0;
+        for &(len, rate) in &self.segments {
+            t0 += f64::from(len);
+            if t_s < t0 {
+                return rate;
+            }
+        }
+        0.0
+    }
+
+    /// The common true temperature at `t_s` seconds after the history's start, °C.
+    #[must_use]
+    pub fn temperature(&self, t_s: f64) -> f64 {
+        let mut temp = self.start_c;
+        let mut t0 = 0.0;
+        for &(len, rate) in &self.segments {
+            let len = f64::from(len);
+            let dt = (t_s - t0).clamp(0.0, len);
+            temp += rate / 60.0 * dt;
+            if t_s < t0 + len {
+                break;
+            }
+            t0 += len;
+        }
+        temp
+    }
+}
+
+fn slots() -> impl Strategy<Value = Slots> {
+    (
+        prop::option::weighted(0.4, 30.0f32..600.0),
+        prop::option::weighted(0.3, (0.3f32..3.0, -5e-5f32..5e-5)),
+        prop::option::weighted(0.3, (-1e-5f32..1e-5, 300.0f32..1_200.0, 0.0f32..3_000.0)),
+    )
+        .prop_map(|(lag_s, play, creep)| Slots { lag_s, play, creep })
+}
+
+fn table_spec() -> impl Strategy<Value = TableSpec> {
+    // Half the tables have no history slot at all; the others the same slots on every axis.
+    (0usize..3, -45.0f32..0.0, 7.0f32..11.0, 0.0f32..3e-5, 1.0f32..4.0, prop::option::weighted(0.5, slots()))
+        .prop_map(|(unit, start, step, split_g, rate_limit, slots)| {
+            let slots = slots.unwrap_or(Slots { lag_s: None, play: None, creep: None });
+            TableSpec { unit, grid: (start, step), split_g, rate_limit, slots: [slots; AXES] }
+        })
+        // The tables a calibration could write: valid ones (the refused load is its own event).
+        .prop_filter("a valid table", |t| t.table().validate().is_ok())
+}
+
+fn event() -> impl Strategy<Value = Event> {
+    prop_oneof![
+        4 => Just(Event::Missed),
+        1 => (5u16..90).prop_map(Event::Dead),
+        2 => Just(Event::Crc),
+        1 => Just(Event::PowerOnGlitch),
+        1 => Just(Event::ReloadSame),
+        1 => Just(Event::LoadOther),
+        1 => Just(Event::LoadCorrupt),
+        1 => Just(Event::Clone),
+    ]
+}
+
+/// Histories of up to `max_segments` segments of up to 20 min each.
+pub fn history(max_segments: usize) -> impl Strategy<Value = History> {
+    (
+        (
+            -20.0f64..60.0,
+            prop::collection::vec((60u32..1_800, prop_oneof![1 => Just(0.0), 2 => -3.0f64..3.0]), 1..=max_segments),
+            0u32..3_600,
+        ),
+        [-0.5f64..0.5, -0.5f64..0.5, -0.5f64..0.5],
+        any::<u64>(),
+        any::<u32>(),
+        [table_spec(), table_spec()],
+        prop::collection::vec((0u32..7_200, 0usize..AXES, event()), 0..12),
+        1u32..=4,
+    )
+        .prop_map(
+            |(
+                (start_c, mut segments, before),
+                offsets_c,
+                flicker_seed,
+                clock_start_us,
+                tables,
+                events,
+                cycles_per_s,
+            )| {
+                // Power-up within the history, with at least a minute after it.
+                let total: u32 = segments.iter().map(|s| s.0).sum();
+                let before_power_up_s = before.min(total.saturating_sub(60));
+                // Kept within −40…80 °C (the truth stays clear of the power-on value's 85 °C): a
+                // segment that would leave it runs the other way.
+                let mut temp = start_c;
+                for seg in &mut segments {
+                    let end = temp + seg.1 / 60.0 * f64::from(seg.0);
+                    if !(-40.0..=80.0).contains(&end) {
+                        seg.1 = -seg.1;
+                    }
+                    temp += seg.1 / 60.0 * f64::from(seg.0);
+                }
+                History {
+                    start_c,
+                    before_power_up_s,
+                    segments,
+                    offsets_c,
+                    flicker_seed,
+                    clock_start_us,
+                    tables,
+                    events,
+                    cycles_per_s,
+                }
+            },
+        )
+}
+
+/// What a run found.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Verdict {
+    /// Cycles run.
+    pub cycles: u64,
+    /// Cycles with status OK.
+    pub ok_cycles: u64,
+    /// Cycles with status OK and an output outside the oracle's tolerance, or OK where the
+    /// oracle has no ideal.
+    pub silent_wrong_cycles: u64,
+    /// The first such cycle, described.
+    pub first: Option<String>,
+    /// Cycles per status bit (bit 0 `TEMP_STALE` … bit 8 `MODEL_SETTLING`).
+    pub flagged: [u64; 9],
+}
+
+/// A reading of `true_c`, quantized to 1/16 °C; near a code edge it may land one code
+/// either way (flicker), as a DS18B20 at rest does.
+fn quantize(true_c: f64, coin: u64) -> i16 {
+    let x = true_c * 16.0;
+    let frac = x - x.floor();
+    let raw = if (frac - 0.5).abs() < 0.15 && !coin.is_multiple_of(3) {
+        if coin.is_multiple_of(2) {
+            x.floor()
+        } else {
+            x.ceil()
+        }
+    } else {
+        x.round()
+    };
+    raw as i16
+}
+
+fn splitmix(x: u64) -> u64 {
+    let mut z = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// Run `h` through the compensator and the oracle.
+#[must_use]
+pub fn run(h: &History) -> Verdict {
+    let tables = [h.tables[0].table(), h.tables[1].table()];
+    let mut comp = Comp::new(Config::default()).expect("default config");
+    let mut oracle = Oracle::new(AXES, &tables, 1e-6);
+    let before = h.before_power_up_s;
+    for j in 0..AXES {
+        // One step a second, at the instants (ms from power-up) the sensor would have read.
+        let steps: Vec<(i64, f64, f64)> = (0..before)
+            .map(|t| {
+                let t_ms = (i64::from(t) - i64::from(before)) * 1_000 + 100 + 150 * j as i64;
+                let t_s = f64::from(before) + t_ms as f64 * 1e-3;
+                (t_ms, h.temperature(t_s) + h.offsets_c[j], h.rate(t_s))
+            })
+            .collect();
+        oracle.before_power_up(j, &steps);
+    }
+    let mut current = 0usize;
+    comp.set_table(tables[0].clone()).expect("drawn tables are valid");
+    oracle.load(0);
+    let mut clock = MsClock::new();
+    let mut verdict = Verdict::default();
+    let mut dead_until = [0u32; AXES];
+    for s in 0..h.seconds() {
+        for &(_, sensor, ev) in h.events.iter().filter(|e| e.0 == s) {
+            match ev {
+                Event::ReloadSame => {
+                    comp.set_table(tables[current].clone()).expect("valid");
+                    oracle.load(current);
+                }
+                Event::LoadOther => {
+                    current = 1 - current;
+                    comp.set_table(tables[current].clone()).expect("valid");
+                    oracle.load(current);
+                }
+                Event::LoadCorrupt => {
+                    let mut buf = [0u8; MAX_TABLE_BYTES];
+                    let mut bytes = tables[1 - current].encode(&mut buf).expect("encodes").to_vec();
+                    let k = (splitmix(u64::from(s)) as usize) % bytes.len();
+                    bytes[k] ^= 0x5A;
+                    assert!(comp.load_table(&bytes).is_err(), "a flipped byte is refused (CRC)");
+                }
+                Event::Clone => comp = comp.clone(),
+                Event::Dead(secs) => dead_until[sensor] = dead_until[sensor].max(s + u32::from(secs)),
+                _ => {}
+            }
+        }
+        #[allow(clippy::needless_range_loop)] // j is the sensor index the API takes
+        for j in 0..AXES {
+            // Each sensor's conversion completes at its own ms within the second.
+            let t_ms_true = i64::from(s) * 1_000 + 100 + 150 * j as i64;
+            let us = h.clock_start_us.wrapping_add((t_ms_true * 1_000) as u32);
+            let t_ms = clock.ms(us);
+            let true_c = h.temperature(f64::from(before) + t_ms_true as f64 * 1e-3) + h.offsets_c[j];
+            let here = h.events.iter().find(|e| e.0 == s && e.1 == j).map(|e| e.2);
+            if s < dead_until[j] || matches!(here, Some(Event::Missed)) {
+                let _ = comp.on_missed_reading(j, t_ms);
+                continue;
+            }
+            let coin = splitmix(h.flicker_seed ^ (u64::from(s) << 8) ^ j as u64);
+            let raw = quantize(true_c, coin);
+            match here {
+                Some(Event::Crc) => {
+                    let mut sp = encode_scratchpad(raw, Resolution::Bits12, 0x10);
+                    sp[1] ^= 0x04;
+                    assert!(comp.on_scratchpad(j, t_ms, &sp).is_err(), "a CRC error is refused");
+                }
+                Some(Event::PowerOnGlitch) => {
+                    // Refused unless the stream was already at 85 °C; the truth stays below 80.
+                    let _ = comp.on_raw(j, t_ms, POWER_ON_RAW);
+                }
+                _ => {
+                    if comp.on_raw(j, t_ms, raw).is_ok() {
+                        oracle.reading(j, t_ms_true, true_c, f64::from(raw) * LSB_C);
+                    } else {
+                        // A refused true reading (a step the plausibility rules hold back)
+                        // is flagged; the oracle does not count it as good either.
+                    }
+                }
+            }
+        }
+        for c in 0..h.cycles_per_s {
+            let pulses: [i32; AXES] = core::array::from_fn(|i| {
+                let r = splitmix(h.flicker_seed ^ (u64::from(s) << 20) ^ (u64::from(c) << 4) ^ i as u64);
+                1_601 - (r % 3_203) as i32
+            });
+            let dt = 5_000;
+            let out = comp.cycle(pulses, dt);
+            verdict.cycles += 1;
+            for (b, n) in verdict.flagged.iter_mut().enumerate() {
+                *n += u64::from(out.status.bits() >> b & 1);
+            }
+            if !out.status.is_ok() {
+                continue;
+            }
+            verdict.ok_cycles += 1;
+            #[allow(clippy::needless_range_loop)] // i is the axis, in three arrays and the oracle
+            for i in 0..AXES {
+                let wrong = match oracle.dv(i, i64::from(pulses[i]), dt) {
+                    None => Some("status OK where the oracle has no ideal (no table or rate not ready)".to_string()),
+                    Some((want, tol)) => {
+                        let got = f64::from(out.dv_mps[i]);
+                        ((got - want).abs() > tol).then(|| {
+                            format!("dv {got:.9e} vs ideal {want:.9e}, |Δ| {:.3e} > tol {tol:.3e}", (got - want).abs())
+                        })
+                    }
+                };
+                if let Some(why) = wrong {
+                    verdict.silent_wrong_cycles += 1;
+                    if verdict.first.is_none() {
+                        verdict.first =
+                            Some(format!("t = {s} s, cycle {c}, axis {i}: {why} (status {:?})", out.status));
+                    }
+                }
+            }
+        }
+    }
+    verdict
+}
