@@ -601,7 +601,11 @@ fn compensate_cmd(log: &Path, table: &Path, out: &Path, fmt: &StaticFlags) -> Re
             eprintln!("{} rows → {}", l.rows(), out.display());
         }
         OpenedLog::Autopilot(l) => {
-            return Err(CliError::WrongLog { command: "compensate", format: LogFormat::Autopilot(l.stack), takes: "a cycling or a static log" })
+            return Err(CliError::WrongLog {
+                command: "compensate",
+                format: LogFormat::Autopilot(l.stack),
+                takes: "a cycling or a static log",
+            })
         }
         OpenedLog::Single(_) => return Err(CliError::single_not_taken("compensate")),
     }

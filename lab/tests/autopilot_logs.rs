@@ -128,7 +128,9 @@ fn ulog_every_instance_its_id_and_px4_formula() {
     let p = read_px4_params(&std::fs::read_to_string(out.join("px4_tc.params")).unwrap());
     assert_eq!(p["TC_A_ENABLE"].0, "1");
     let slot_of = |id: u32| -> Vec<usize> {
-        (0..4).filter(|k| p.get(&format!("TC_A{k}_ID")).is_some_and(|v| v.0.parse::<i64>().unwrap() as u32 == id)).collect()
+        (0..4)
+            .filter(|k| p.get(&format!("TC_A{k}_ID")).is_some_and(|v| v.0.parse::<i64>().unwrap() as u32 == id))
+            .collect()
     };
     assert!(slot_of(truth[2].0).is_empty(), "the refused instance has no slot");
     let slots: Vec<usize> = (0..2)

@@ -53,7 +53,9 @@ fn calibrate(inst: &AccelInstance, rebuild: bool) -> StaticCalibration {
 fn whole_degree_temperature_calibrates_within_ten_percent_of_the_unrounded_log() {
     let Some(path) = real_log() else { return };
     let opts = StaticOptions {
-        columns: "time=timestamp,temp=imu.temperature,ax=imu.acc.x,ay=imu.acc.y,az=imu.acc.z".parse::<ColumnMap>().unwrap(),
+        columns: "time=timestamp,temp=imu.temperature,ax=imu.acc.x,ay=imu.acc.y,az=imu.acc.z"
+            .parse::<ColumnMap>()
+            .unwrap(),
         time_unit: Some(TimeUnit::Us),
         accel_unit: Some(AccelUnit::Mps2),
         decimal_comma: false,

@@ -22,7 +22,9 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use crate::calibrate::peers::{export_texts, ExportOptions, ARDUPILOT_ENABLE_FILE, ARDUPILOT_VALUES_FILE, EXPORT_FILES, PX4_FILE};
+use crate::calibrate::peers::{
+    export_texts, ExportOptions, ARDUPILOT_ENABLE_FILE, ARDUPILOT_VALUES_FILE, EXPORT_FILES, PX4_FILE,
+};
 use crate::calibrate::static_cal::{self, Figure, StaticCalOptions};
 use crate::data::autopilot::{check, AutopilotLog, Stack, Temperature};
 
@@ -83,7 +85,9 @@ pub enum AutopilotCalError {
 impl fmt::Display for AutopilotCalError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Self::NothingCalibrated(r) => write!(f, "no accelerometer instance could be calibrated:\n  {}", r.join("\n  ")),
+            Self::NothingCalibrated(r) => {
+                write!(f, "no accelerometer instance could be calibrated:\n  {}", r.join("\n  "))
+            }
             Self::Io(e) => f.write_str(e),
         }
     }
@@ -189,7 +193,9 @@ pub fn calibrate_autopilot(
                 let Some(id) = id else { continue };
                 let eo = ExportOptions { px4_device_id: Some(*id as i32), px4_slot: slot, ..ExportOptions::default() };
                 let (texts, notes) = export_texts(axes, &eo);
-                export_notes.extend(notes.into_iter().filter(|n| !n.starts_with("ArduPilot")).map(|n| format!("instance {index}: {n}")));
+                export_notes.extend(
+                    notes.into_iter().filter(|n| !n.starts_with("ArduPilot")).map(|n| format!("instance {index}: {n}")),
+                );
                 let Some((_, t)) = texts.into_iter().find(|(n, _)| *n == PX4_FILE) else { continue };
                 ids.push(*id);
                 outcomes[*k].exported_as = Some(format!("TC_A{slot}_* (TC_A{slot}_ID = {id})"));
@@ -208,7 +214,11 @@ pub fn calibrate_autopilot(
                     let name = format!("TC_A{m}_ID");
                     if let Some(&v) = log.params.get(&name) {
                         if ids.contains(&(v as i64 as i32 as u32)) {
-                            let _ = writeln!(text, "# {name} named device {} in the log: cleared so it cannot shadow the slot above", v as i64 as i32 as u32);
+                            let _ = writeln!(
+                                text,
+                                "# {name} named device {} in the log: cleared so it cannot shadow the slot above",
+                                v as i64 as i32 as u32
+                            );
                             let _ = writeln!(text, "1\t1\t{name}\t0\t6");
                         }
                     }
@@ -222,7 +232,9 @@ pub fn calibrate_autopilot(
             for (index, id, axes, k) in &calibrated {
                 let eo = ExportOptions { ardupilot_instance: *index, ..ExportOptions::default() };
                 let (texts, notes) = export_texts(axes, &eo);
-                export_notes.extend(notes.into_iter().filter(|n| !n.starts_with("px4")).map(|n| format!("instance {index}: {n}")));
+                export_notes.extend(
+                    notes.into_iter().filter(|n| !n.starts_with("px4")).map(|n| format!("instance {index}: {n}")),
+                );
                 let get = |f: &str| texts.iter().find(|(n, _)| *n == f).map(|(_, t)| t.clone());
                 let (Some(e), Some(v)) = (get(ARDUPILOT_ENABLE_FILE), get(ARDUPILOT_VALUES_FILE)) else { continue };
                 let n = u16::from(*index) + 1;
@@ -283,7 +295,10 @@ pub fn markdown(c: &AutopilotCalibration) -> String {
         let id = o.device_id.map_or("no device ID".to_string(), |d| format!("device ID {d}"));
         let temp = match o.temp_step_c {
             None => "no temperature".to_string(),
-            Some(st) => format!("temperature in {st:.3} °C steps{}", if o.temp_dequantized { ", rebuilt between steps" } else { "" }),
+            Some(st) => format!(
+                "temperature in {st:.3} °C steps{}",
+                if o.temp_dequantized { ", rebuilt between steps" } else { "" }
+            ),
         };
         let _ = writeln!(s, "\n## Instance {} ({id}, {} samples, {temp})\n", o.index, o.samples);
         match &o.refused {
@@ -307,7 +322,11 @@ pub fn markdown(c: &AutopilotCalibration) -> String {
             let _ = writeln!(s, "* warning: {w}");
         }
     }
-    let _ = writeln!(s, "\nFiles: {}", if c.written.is_empty() { "no parameter file".to_string() } else { c.written.join(", ") });
+    let _ = writeln!(
+        s,
+        "\nFiles: {}",
+        if c.written.is_empty() { "no parameter file".to_string() } else { c.written.join(", ") }
+    );
     for n in &c.export_notes {
         let _ = writeln!(s, "* {n}");
     }

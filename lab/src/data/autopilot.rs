@@ -277,8 +277,8 @@ pub fn check(log: &AutopilotLog) -> Vec<InstanceCheck> {
                 }
                 Stack::ArduPilot => {
                     let p = format!("INS_TCAL{}_ENABLE", u16::from(inst.index) + 1);
-                    match log.params.get(&p).copied() {
-                        Some(v) if v == 1.0 => {
+                    match log.params.get(&p).map(|&v| v.round() as i64) {
+                        Some(1) => {
                             c.refused = c.refused.take().or_else(|| {
                                 Some(format!(
                                     "{name} was logged with {p} = 1: ArduPilot applies INS_TCAL{n}_* in the IMU backend, \
@@ -289,7 +289,7 @@ pub fn check(log: &AutopilotLog) -> Vec<InstanceCheck> {
                                 ))
                             });
                         }
-                        Some(v) if v == 2.0 => c.warnings.push(format!(
+                        Some(2) => c.warnings.push(format!(
                             "{name} was logged with {p} = 2 (ArduPilot learning): samples are uncompensated while it \
                              learns, and are calibrated; ArduPilot overwrites INS_TCAL{}_* when its learner finishes",
                             u16::from(inst.index) + 1
@@ -361,8 +361,8 @@ impl AccelInstance {
             *sum = [0.0; 5];
             *n = 0;
         };
-        for i in 0..self.time_s.len() {
-            let v = [self.time_s[i], temp[i], self.accel_mps2[0][i], self.accel_mps2[1][i], self.accel_mps2[2][i]];
+        for (i, (&t, &tc)) in self.time_s.iter().zip(&temp).enumerate() {
+            let v = [t, tc, self.accel_mps2[0][i], self.accel_mps2[1][i], self.accel_mps2[2][i]];
             if v.iter().any(|x| !x.is_finite()) {
                 continue;
             }
@@ -377,8 +377,11 @@ impl AccelInstance {
             n += 1;
         }
         flush(&mut text, &mut sum, &mut n);
-        let opts =
-            StaticOptions { time_unit: Some(TimeUnit::S), accel_unit: Some(AccelUnit::Mps2), ..StaticOptions::default() };
+        let opts = StaticOptions {
+            time_unit: Some(TimeUnit::S),
+            accel_unit: Some(AccelUnit::Mps2),
+            ..StaticOptions::default()
+        };
         read_static_from(text.as_bytes(), &opts)
             .map_err(|e| AutopilotError::Static { index: self.index, error: Box::new(e) })
     }
@@ -391,10 +394,15 @@ mod tests {
     #[test]
     fn resolution_names_whole_degrees_and_missing_temperature() {
         // A ramp read at 0.01 °C, the same ramp rounded to 1 °C, NaN, all zero.
-        let fine: Vec<f64> = (0..200).map(|i| 20.0 + 0.013 * f64::from(i)).map(|t| (t * 100.0).round() / 100.0).collect();
+        let fine: Vec<f64> =
+            (0..200).map(|i| 20.0 + 0.013 * f64::from(i)).map(|t| (t * 100.0).round() / 100.0).collect();
         let whole: Vec<f64> = fine.iter().map(|t| t.round()).collect();
-        assert!(matches!(resolution(&fine), Temperature::Resolution { coarse: false, step_c } if (step_c - 0.01).abs() < 1e-9));
-        assert!(matches!(resolution(&whole), Temperature::Resolution { coarse: true, step_c } if (step_c - 1.0).abs() < 1e-9));
+        assert!(
+            matches!(resolution(&fine), Temperature::Resolution { coarse: false, step_c } if (step_c - 0.01).abs() < 1e-9)
+        );
+        assert!(
+            matches!(resolution(&whole), Temperature::Resolution { coarse: true, step_c } if (step_c - 1.0).abs() < 1e-9)
+        );
         assert_eq!(resolution(&[f64::NAN; 100]), Temperature::Missing { finite: 0 });
         assert_eq!(resolution(&[0.0; 100]), Temperature::Missing { finite: 0 });
     }

@@ -108,8 +108,7 @@ pub fn read_dataflash(bytes: &[u8]) -> Result<AutopilotLog, DataflashError> {
     }
     // Bytes the reader handed over as records, against the file.
     let formats = reader.formats();
-    let read: usize =
-        record_bytes.iter().map(|(t, n)| n * formats.get(t).map_or(0, |f| usize::from(f.msg_len))).sum();
+    let read: usize = record_bytes.iter().map(|(t, n)| n * formats.get(t).map_or(0, |f| usize::from(f.msg_len))).sum();
     if by_i.is_empty() {
         return Err(DataflashError::NoImu { messages });
     }

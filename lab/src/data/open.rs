@@ -15,10 +15,10 @@ use std::path::{Path, PathBuf};
 use crate::data::autopilot::{AutopilotLog, Stack};
 use crate::data::cycling::{read_log_from, Log, LogError};
 use crate::data::dataflash::{read_dataflash, DataflashError};
-use crate::data::ulog::{read_ulog, UlogError};
 use crate::data::single::{read_single_from, SingleError, SingleLog};
 use crate::data::static_columns::{AccelUnit, ColumnMap, TimeUnit};
 use crate::data::static_log::{read_static_from, StaticError, StaticLog, StaticOptions};
+use crate::data::ulog::{read_ulog, UlogError};
 
 /// The kinds of log the lab reads.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
