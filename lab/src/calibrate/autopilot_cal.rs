@@ -295,6 +295,7 @@ pub fn markdown(c: &AutopilotCalibration) -> String {
         let id = o.device_id.map_or("no device ID".to_string(), |d| format!("device ID {d}"));
         let temp = match o.temp_step_c {
             None => "no temperature".to_string(),
+            Some(st) if st < 0.001 => "temperature finer than 0.001 °C".to_string(),
             Some(st) => format!(
                 "temperature in {st:.3} °C steps{}",
                 if o.temp_dequantized { ", rebuilt between steps" } else { "" }

@@ -328,7 +328,7 @@ pub fn export_texts(axes: &[ExportAxis], opts: &ExportOptions) -> (Vec<(&'static
                 s,
                 "# qfa-lab: PX4 thermal compensation of accelerometer slot {slot} (TC_A{slot}_*), the cubic of the bias in \
                  temperature fitted on every row of the log.\n\
-                 # TC_A{slot}_ID = {id}: PX4 applies TC_A{slot}_* only to the accelerometer with this device ID (its CAL_ACCn_ID \
+                 # TC_A{slot}_ID = {id}: PX4 applies TC_A{slot}_* only to the accelerometer with this device ID (its CAL_ACCn_ID, CAL_ACC0_ID for the first, \
                  parameter, or device_id in `listener sensor_accel`).\n\
                  # TC_A{slot}_Xk_0/1/2 are the sensor's own x, y, z (PX4 subtracts the offset before the board rotation): \
                  here from the log's {sources}; m/s2 per degC^k of T - TC_A{slot}_TREF, T clamped to TC_A{slot}_TMIN..TC_A{slot}_TMAX."

@@ -43,7 +43,8 @@ pub const BIN_S: f64 = 1.0;
 /// change for 30 s at 0.5 °C/min.
 pub const COARSE_STEP_C: f64 = 0.25;
 
-/// Fewest finite temperature readings an instance needs.
+/// Fewest samples, and finite nonzero temperature readings, an instance needs (the
+/// static reader's `MIN_ROWS`).
 pub const MIN_TEMP_SAMPLES: usize = 16;
 
 /// Which autopilot wrote the log.
@@ -148,9 +149,9 @@ impl InstanceCheck {
 #[must_use]
 pub fn resolution(temp_c: &[f64]) -> Temperature {
     let finite: Vec<f64> = temp_c.iter().copied().filter(|t| t.is_finite()).collect();
-    if finite.len() < MIN_TEMP_SAMPLES || finite.iter().all(|&t| t == 0.0) {
-        let n = finite.iter().filter(|&&t| t != 0.0).count();
-        return Temperature::Missing { finite: n };
+    let nonzero = finite.iter().filter(|&&t| t != 0.0).count();
+    if nonzero == 0 || (temp_c.len() >= MIN_TEMP_SAMPLES && nonzero < MIN_TEMP_SAMPLES) {
+        return Temperature::Missing { finite: nonzero };
     }
     let step = finite.windows(2).map(|w| (w[1] - w[0]).abs()).filter(|&d| d > 1e-6).fold(f64::INFINITY, f64::min);
     if !step.is_finite() {
@@ -238,13 +239,21 @@ pub fn check(log: &AutopilotLog) -> Vec<InstanceCheck> {
                 warnings: Vec::new(),
             };
             let name = c.name();
+            if c.samples < MIN_TEMP_SAMPLES {
+                c.refused = Some(format!(
+                    "{name} has only {} sample(s) in the log: PX4's default logging profile records sensor_accel a few \
+                     times per log; record the chamber run with SDLOG_PROFILE bit 2 (thermal calibration), ArduPilot \
+                     with IMU logging on",
+                    c.samples
+                ));
+            }
             match temperature {
                 Temperature::Missing { finite } => {
-                    c.refused = Some(format!(
+                    c.refused = c.refused.take().or(Some(format!(
                         "{name} has no temperature ({finite} nonzero finite reading(s) of {}): a thermal calibration \
                          needs the sensor's own temperature; PX4 logs NaN and ArduPilot 0 for a part without one",
                         c.samples
-                    ));
+                    )));
                 }
                 Temperature::Resolution { step_c, coarse: true } => c.warnings.push(format!(
                     "{name} reports temperature in {step_c:.3} °C steps: the temperature is rebuilt between its steps \
@@ -405,6 +414,8 @@ mod tests {
         );
         assert_eq!(resolution(&[f64::NAN; 100]), Temperature::Missing { finite: 0 });
         assert_eq!(resolution(&[0.0; 100]), Temperature::Missing { finite: 0 });
+        // Few samples with a temperature are not "no temperature" (check refuses them as few).
+        assert!(matches!(resolution(&[20.0, 20.5, 21.0]), Temperature::Resolution { .. }));
     }
 
     #[test]
