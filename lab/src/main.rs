@@ -472,7 +472,7 @@ fn simulate_cmd(a: SimulateArgs) -> Result<(), CliError> {
 
 fn calibrate_cmd(a: CalibrateArgs) -> Result<(), CliError> {
     let t0 = Instant::now();
-    let exports = ExportOptions { px4_device_id: a.px4_device_id, range_c: a.export_range };
+    let exports = ExportOptions { px4_device_id: a.px4_device_id, range_c: a.export_range, ..ExportOptions::default() };
     match open(&a.log, &a.fmt.flags())? {
         OpenedLog::Static(l) => {
             eprintln!("{} rows read; {}; {}", l.rows(), l.skipped, l.sampling);
@@ -501,6 +501,20 @@ fn calibrate_cmd(a: CalibrateArgs) -> Result<(), CliError> {
             };
             let cal = calibrate_into(&l, &a.out, &opts, t0.elapsed().as_secs_f64())?;
             println!("{}", cycling_summary(&cal.report, &a.out, &exports_line(&cal.exports)));
+        }
+        OpenedLog::Autopilot(l) => {
+            if a.px4_device_id.is_some() || a.export_range.is_some() {
+                return Err(CliError::Usage(format!(
+                    "--px4-device-id and --export-range are not taken for a {}: the log holds each accelerometer's \
+                     device ID and instance, and each instance is exported over its own range",
+                    l.stack
+                )));
+            }
+            let opts = static_cal::StaticCalOptions { holdout: a.holdout, ..Default::default() };
+            let cal = qfa_lab::calibrate::autopilot_cal::calibrate_autopilot(&l, &a.out, &opts, !a.no_plots, true)
+                .map_err(|e| e.to_string())?;
+            print!("{}", qfa_lab::calibrate::autopilot_cal::markdown(&cal));
+            println!("wrote {}/report.json, report.md, instance*/", a.out.display());
         }
         OpenedLog::Single(_) => return Err(CliError::single_not_taken("calibrate")),
     }
@@ -585,6 +599,13 @@ fn compensate_cmd(log: &Path, table: &Path, out: &Path, fmt: &StaticFlags) -> Re
             let acc: Vec<Vec<f64>> = c.into_iter().map(|c| c.accel_g).collect();
             write_compensated(f, &l, &acc).map_err(io_at(out))?;
             eprintln!("{} rows → {}", l.rows(), out.display());
+        }
+        OpenedLog::Autopilot(l) => {
+            return Err(CliError::WrongLog {
+                command: "compensate",
+                format: LogFormat::Autopilot(l.stack),
+                takes: "a cycling or a static log",
+            })
         }
         OpenedLog::Single(_) => return Err(CliError::single_not_taken("compensate")),
     }

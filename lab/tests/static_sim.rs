@@ -209,7 +209,7 @@ fn one_branch_logs_calibrate_and_hold_on_the_other_leg() {
                         &dir,
                         &qfa_lab::calibrate::static_cal::export_axes(&cal),
                         // One axis: the shared fields need a range inside its temperatures.
-                        &qfa_lab::calibrate::peers::ExportOptions { px4_device_id: None, range_c: Some((0.0, 20.0)) },
+                        &qfa_lab::calibrate::peers::ExportOptions { range_c: Some((0.0, 20.0)), ..Default::default() },
                     )
                     .unwrap();
                     let written_ap = ex.written.iter().any(|f| f.starts_with("ardupilot"));

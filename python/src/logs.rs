@@ -63,6 +63,13 @@ pub fn read(
     let data = match open(&path, &flags).map_err(|e| LogError::new_err(e.to_string()))? {
         OpenedLog::Static(l) => LogData::Static(l),
         OpenedLog::Cycling(l) => LogData::Cycling(l),
+        OpenedLog::Autopilot(l) => {
+            return Err(LogError::new_err(format!(
+                "{}: a {}: `qfa-lab calibrate --log` reads it, read_log takes cycling and static logs",
+                path.display(),
+                l.stack
+            )))
+        }
         OpenedLog::Single(_) => {
             return Err(LogError::new_err(format!(
                 "{}: a single-channel log (time_s,temp_c,value): discover reads it, read_log takes cycling and \

@@ -211,7 +211,7 @@ fn export_options(px4_device_id: Option<i64>, export_range: Option<(f64, f64)>) 
             return Err(CalibrationError::new_err(format!("`{lo},{hi}`: need finite TMIN < TMAX")));
         }
     }
-    Ok(ExportOptions { px4_device_id, range_c: export_range })
+    Ok(ExportOptions { px4_device_id, range_c: export_range, ..ExportOptions::default() })
 }
 
 /// `qfa-lab calibrate` on a log already read.

@@ -215,6 +215,11 @@ pub struct ExportOptions {
     /// `TMAX`; ArduPilot `INS_TCAL1_TMIN`/`TMAX`), °C. Needed when the export has fewer than
     /// three axes, so every axis's file carries the same shared values.
     pub range_c: Option<(f64, f64)>,
+    /// PX4 thermal-compensation slot `n` of `TC_An_*` (0 for a one-accelerometer export).
+    pub px4_slot: u8,
+    /// ArduPilot IMU instance (0-based, the log's `IMU.I`): the file sets
+    /// `INS_TCAL{instance + 1}_*`.
+    pub ardupilot_instance: u8,
 }
 
 /// What [`write_exports`] wrote and why it left files out.
@@ -301,6 +306,7 @@ pub fn export_texts(axes: &[ExportAxis], opts: &ExportOptions) -> (Vec<(&'static
         }
     };
     let sources = axes.iter().map(|a| a.source.as_str()).collect::<Vec<_>>().join(", ");
+    let (slot, imu) = (opts.px4_slot, u16::from(opts.ardupilot_instance) + 1);
     let mut files = Vec::new();
     let cubic0 = &polys[0].0;
 
@@ -320,28 +326,29 @@ pub fn export_texts(axes: &[ExportAxis], opts: &ExportOptions) -> (Vec<(&'static
             let mut s = String::from("# Onboard parameters for Vehicle 1\n");
             let _ = writeln!(
                 s,
-                "# qfa-lab: PX4 thermal compensation of accelerometer 0 (TC_A0_*), the cubic of the bias in \
+                "# qfa-lab: PX4 thermal compensation of accelerometer slot {slot} (TC_A{slot}_*), the cubic of the bias in \
                  temperature fitted on every row of the log.\n\
-                 # TC_A0_ID = {id}: PX4 applies TC_A0_* only to the accelerometer with this device ID (its CAL_ACC0_ID \
+                 # TC_A{slot}_ID = {id}: PX4 applies TC_A{slot}_* only to the accelerometer with this device ID (its CAL_ACCn_ID, CAL_ACC0_ID for the first, \
                  parameter, or device_id in `listener sensor_accel`).\n\
-                 # TC_A0_Xk_0/1/2 are the sensor's own x, y, z (PX4 subtracts the offset before the board rotation): \
-                 here from the log's {sources}; m/s2 per degC^k of T - TC_A0_TREF, T clamped to TC_A0_TMIN..TC_A0_TMAX."
+                 # TC_A{slot}_Xk_0/1/2 are the sensor's own x, y, z (PX4 subtracts the offset before the board rotation): \
+                 here from the log's {sources}; m/s2 per degC^k of T - TC_A{slot}_TREF, T clamped to TC_A{slot}_TMIN..TC_A{slot}_TMAX."
             );
             if let Some(n) = &partial_note {
                 let _ = writeln!(s, "# {n}");
             }
-            s.push_str(
+            let _ = write!(
+                s,
                 "# After loading (QGroundControl: Vehicle Setup > Parameters > Tools > Load from file):\n\
                  #  1. Reboot: TC_A_ENABLE is read only at startup.\n\
-                 #  2. Run the ordinary accelerometer calibration: TC_A0_X0_* are 0 here, so its offsets take up the \
+                 #  2. Run the ordinary accelerometer calibration: TC_A{slot}_X0_* are 0 here, so its offsets take up the \
                  constant bias at the calibration temperature.\n\
                  #  3. Reboot again before flying: PX4 reads the thermal compensation parameters at startup.\n\
                  # Vehicle-Id\tComponent-Id\tName\tValue\tType\n",
             );
             let _ = writeln!(s, "1\t1\tTC_A_ENABLE\t1\t6");
-            let _ = writeln!(s, "1\t1\tTC_A0_ID\t{id}\t6");
+            let _ = writeln!(s, "1\t1\tTC_A{slot}_ID\t{id}\t6");
             for (name, v) in [("TREF", cubic0.tref_c), ("TMIN", cubic0.tmin_c), ("TMAX", cubic0.tmax_c)] {
-                let _ = writeln!(s, "1\t1\tTC_A0_{name}\t{v:.6}\t9");
+                let _ = writeln!(s, "1\t1\tTC_A{slot}_{name}\t{v:.6}\t9");
             }
             for (a, (p, _)) in axes.iter().zip(&polys) {
                 let i = px4_index(&a.axis);
@@ -349,7 +356,7 @@ pub fn export_texts(axes: &[ExportAxis], opts: &ExportOptions) -> (Vec<(&'static
                     // X0 = 0 as PX4's own calibration writes it ("zero at the reference
                     // temperature"): the ordinary accelerometer calibration holds the offset.
                     let v = if k == 0 { 0.0 } else { p.coef[k] * G0_MPS2 };
-                    let _ = writeln!(s, "1\t1\tTC_A0_X{k}_{i}\t{v:.9e}\t9");
+                    let _ = writeln!(s, "1\t1\tTC_A{slot}_X{k}_{i}\t{v:.9e}\t9");
                 }
             }
             files.push((PX4_FILE, s));
@@ -376,41 +383,41 @@ pub fn export_texts(axes: &[ExportAxis], opts: &ExportOptions) -> (Vec<(&'static
             None => format!("the training temperatures span {tmin:.2}..{tmax:.2} °C,"),
         };
         notes.push(format!(
-            "ArduPilot files not written: {what} outside the {rmin}..{rmax} °C that INS_TCAL1_TMIN/TMAX accept; pass \
+            "ArduPilot files not written: {what} outside the {rmin}..{rmax} °C that INS_TCAL{imu}_TMIN/TMAX accept; pass \
              --export-range TMIN,TMAX inside both"
         ));
         return (files, notes);
     }
     let n_values = 2 + 3 * axes.len();
     let enable = format!(
-        "# qfa-lab: ArduPilot temperature calibration of IMU 1 (INS_TCAL1_*), file 1 of 2.\n\
-         # INS_TCAL1_ENABLE hides every other INS_TCAL1_* parameter until it is set, and a ground station loads only\n\
+        "# qfa-lab: ArduPilot temperature calibration of IMU {imu} (INS_TCAL{imu}_*), file 1 of 2.\n\
+         # INS_TCAL{imu}_ENABLE hides every other INS_TCAL{imu}_* parameter until it is set, and a ground station loads only\n\
          # the names the vehicle already lists, so the values come in a second file:\n\
          #  1. Load this file and write it (Mission Planner: Config > Full Parameter List > Load from file, then Write Params).\n\
-         #  2. Reboot (INS_TCAL1_ENABLE takes effect at boot), then refresh the parameter list: INS_TCAL1_TMIN, _TMAX,\n\
+         #  2. Reboot (INS_TCAL{imu}_ENABLE takes effect at boot), then refresh the parameter list: INS_TCAL{imu}_TMIN, _TMAX,\n\
          #     _ACC* and _GYR* appear.\n\
          #  3. Load {ARDUPILOT_VALUES_FILE} the same way and write it: all {n_values} values must be written.\n\
-         #  4. Reboot, then run the accelerometer calibration: it records INS_ACC1_CALTEMP, and ArduPilot corrects by\n\
+         #  4. Reboot, then run the accelerometer calibration: it records INS_ACC{imu}_CALTEMP, and ArduPilot corrects by\n\
          #     p(CALTEMP - 35) - p(T - 35), so the calibration's offsets hold the constant bias.\n\
-         INS_TCAL1_ENABLE,1\n"
+         INS_TCAL{imu}_ENABLE,1\n"
     );
     let mut values = format!(
-        "# qfa-lab: ArduPilot temperature calibration of IMU 1 (INS_TCAL1_*), file 2 of 2: load it after\n\
+        "# qfa-lab: ArduPilot temperature calibration of IMU {imu} (INS_TCAL{imu}_*), file 2 of 2: load it after\n\
          # {ARDUPILOT_ENABLE_FILE}, a reboot and a parameter refresh (the steps are in that file).\n\
-         # INS_TCAL1_ACCk_X/Y/Z: coefficients of (T - 35 degC)^k in m/s2 x 10^6 for the log's {sources}.\n\
-         # TMIN/TMAX clamp T (ArduPilot accepts -70..80 degC); they also clamp the gyro terms INS_TCAL1_GYR*,\n\
+         # INS_TCAL{imu}_ACCk_X/Y/Z: coefficients of (T - 35 degC)^k in m/s2 x 10^6 for the log's {sources}.\n\
+         # TMIN/TMAX clamp T (ArduPilot accepts -70..80 degC); they also clamp the gyro terms INS_TCAL{imu}_GYR*,\n\
          # which this file leaves as they are.\n"
     );
     if let Some(n) = &partial_note {
         let _ = writeln!(values, "# {n}");
     }
-    let _ = writeln!(values, "INS_TCAL1_TMIN,{tmin:.2}");
-    let _ = writeln!(values, "INS_TCAL1_TMAX,{tmax:.2}");
+    let _ = writeln!(values, "INS_TCAL{imu}_TMIN,{tmin:.2}");
+    let _ = writeln!(values, "INS_TCAL{imu}_TMAX,{tmax:.2}");
     for k in 1..4 {
         for (a, (_, p)) in axes.iter().zip(&polys) {
             let _ = writeln!(
                 values,
-                "INS_TCAL1_ACC{k}_{},{:.6}",
+                "INS_TCAL{imu}_ACC{k}_{},{:.6}",
                 ardupilot_axis(&a.axis),
                 p.coef[k] * G0_MPS2 * ARDUPILOT_SCALE
             );

@@ -285,6 +285,10 @@ impl Channels {
                 "a static multi-axis log: its channels are formed per axis (discover reads it with the static \
                  reader's flags); expected program,run,time_s,input_g,temp_c,pulses,interval_s or time_s,temp_c,value"
             ),
+            OpenedLog::Autopilot(l) => bail!(
+                "a {}: calibrate reads it (one calibration per accelerometer instance); discover does not",
+                l.stack
+            ),
         }
     }
 

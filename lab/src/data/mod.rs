@@ -3,8 +3,10 @@
 //! ([`pairing`] for the ±1 g runs of a cycling log, [`channels`] for discovery's binned
 //! series) → a fit (`crate::calibrate`) → a table → compensation and evaluation.
 
+pub mod autopilot;
 pub mod channels;
 pub mod cycling;
+pub mod dataflash;
 pub mod lines;
 pub mod open;
 pub mod pairing;
@@ -13,3 +15,4 @@ pub mod static_checks;
 pub mod static_columns;
 pub mod static_error;
 pub mod static_log;
+pub mod ulog;

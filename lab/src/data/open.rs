@@ -2,7 +2,9 @@
 //! reader flags and the header line, and reads it with that kind's one reader. The CLI,
 //! discovery and the Python package all open logs here.
 //!
-//! The rule, in order: any static-reader flag means a static log; an empty first line is
+//! The rule, in order: a file that starts with the PX4 ULog magic or an ArduPilot
+//! DataFlash `FMT` record is that autopilot's log (`ulog`, `dataflash`); any static-reader
+//! flag means a static log; an empty first line is
 //! left to the cycling reader (whose message names the header it expects); a header with
 //! a `pulses` or `program` column is a cycling log, one with a `value` column a
 //! single-channel log; any other header is a static multi-axis log.
@@ -10,10 +12,13 @@
 use std::fmt;
 use std::path::{Path, PathBuf};
 
+use crate::data::autopilot::{AutopilotLog, Stack};
 use crate::data::cycling::{read_log_from, Log, LogError};
+use crate::data::dataflash::{read_dataflash, DataflashError};
 use crate::data::single::{read_single_from, SingleError, SingleLog};
 use crate::data::static_columns::{AccelUnit, ColumnMap, TimeUnit};
 use crate::data::static_log::{read_static_from, StaticError, StaticLog, StaticOptions};
+use crate::data::ulog::{read_ulog, UlogError};
 
 /// The kinds of log the lab reads.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -24,6 +29,8 @@ pub enum LogFormat {
     Static,
     /// Single-channel log (`time_s,temp_c,value`), for discovery.
     Single,
+    /// An autopilot's own log (PX4 ULog, ArduPilot DataFlash).
+    Autopilot(Stack),
 }
 
 impl fmt::Display for LogFormat {
@@ -32,6 +39,8 @@ impl fmt::Display for LogFormat {
             Self::Cycling => "cycling log",
             Self::Static => "static multi-axis log",
             Self::Single => "single-channel log (time_s,temp_c,value)",
+            Self::Autopilot(Stack::Px4) => "PX4 ULog",
+            Self::Autopilot(Stack::ArduPilot) => "ArduPilot DataFlash log",
         })
     }
 }
@@ -78,6 +87,8 @@ pub enum OpenedLog {
     Static(Box<StaticLog>),
     /// A single-channel log.
     Single(SingleLog),
+    /// A PX4 ULog or an ArduPilot DataFlash log.
+    Autopilot(Box<AutopilotLog>),
 }
 
 impl OpenedLog {
@@ -88,6 +99,7 @@ impl OpenedLog {
             Self::Cycling(_) => LogFormat::Cycling,
             Self::Static(_) => LogFormat::Static,
             Self::Single(_) => LogFormat::Single,
+            Self::Autopilot(l) => LogFormat::Autopilot(l.stack),
         }
     }
 }
@@ -159,6 +171,10 @@ pub enum ReadError {
     Static(Box<StaticError>),
     /// The single-channel reader's error.
     Single(SingleError),
+    /// The ULog reader's error.
+    Ulog(UlogError),
+    /// The DataFlash reader's error.
+    Dataflash(DataflashError),
 }
 
 impl fmt::Display for ReadError {
@@ -167,6 +183,8 @@ impl fmt::Display for ReadError {
             Self::Cycling(e) => write!(f, "{e}"),
             Self::Static(e) => write!(f, "{e}"),
             Self::Single(e) => write!(f, "{e}"),
+            Self::Ulog(e) => write!(f, "{e}"),
+            Self::Dataflash(e) => write!(f, "{e}"),
         }
     }
 }
@@ -180,7 +198,18 @@ impl std::error::Error for ReadError {}
 pub fn open_bytes(bytes: &[u8], flags: &ReadFlags) -> Result<OpenedLog, ReadError> {
     let first = bytes.split(|b| *b == b'\n').find(|l| !l.iter().all(u8::is_ascii_whitespace));
     let header = String::from_utf8_lossy(first.unwrap_or_default());
-    Ok(match format_of_header(&header, flags) {
+    let format = if bytes.starts_with(&crate::data::ulog::MAGIC) {
+        LogFormat::Autopilot(Stack::Px4)
+    } else if bytes.starts_with(&crate::data::dataflash::MAGIC) {
+        LogFormat::Autopilot(Stack::ArduPilot)
+    } else {
+        format_of_header(&header, flags)
+    };
+    Ok(match format {
+        LogFormat::Autopilot(Stack::Px4) => OpenedLog::Autopilot(Box::new(read_ulog(bytes).map_err(ReadError::Ulog)?)),
+        LogFormat::Autopilot(Stack::ArduPilot) => {
+            OpenedLog::Autopilot(Box::new(read_dataflash(bytes).map_err(ReadError::Dataflash)?))
+        }
         LogFormat::Cycling => OpenedLog::Cycling(read_log_from(bytes).map_err(ReadError::Cycling)?),
         LogFormat::Static => OpenedLog::Static(Box::new(
             read_static_from(bytes, &flags.static_options()).map_err(|e| ReadError::Static(Box::new(e)))?,

@@ -49,9 +49,14 @@ pub fn read_parm(text: &str) -> BTreeMap<String, f64> {
 /// = X0 + X1·dT + X2·dT² + X3·dT³; `calibration::Accelerometer::Correct` subtracts it (and
 /// the ordinary calibration's offset) from the raw sensor-frame reading.
 pub fn px4_offset(p: &BTreeMap<String, (String, u32)>, i: usize, t: f64) -> f64 {
+    px4_offset_slot(p, 0, i, t)
+}
+
+/// [`px4_offset`] of thermal-compensation slot `slot` (`TC_A{slot}_*`).
+pub fn px4_offset_slot(p: &BTreeMap<String, (String, u32)>, slot: usize, i: usize, t: f64) -> f64 {
     let f = |n: &str| -> f64 { p[n].0.parse().unwrap_or_else(|_| panic!("{n} = {}", p[n].0)) };
-    let d = t.clamp(f("TC_A0_TMIN"), f("TC_A0_TMAX")) - f("TC_A0_TREF");
-    (0..4).map(|k: i32| f(&format!("TC_A0_X{k}_{i}")) * d.powi(k)).sum()
+    let d = t.clamp(f(&format!("TC_A{slot}_TMIN")), f(&format!("TC_A{slot}_TMAX"))) - f(&format!("TC_A{slot}_TREF"));
+    (0..4).map(|k: i32| f(&format!("TC_A{slot}_X{k}_{i}")) * d.powi(k)).sum()
 }
 
 /// ArduPilot's correction subtracted from accelerometer axis `a` (`X`, `Y`, `Z`) of IMU 1,
@@ -61,10 +66,15 @@ pub fn px4_offset(p: &BTreeMap<String, (String, u32)>, i: usize, t: f64) -> f64 
 /// [TMIN, TMAX]; p(d) = (ACC1·d + ACC2·d² + ACC3·d³)·10⁻⁶ about the fixed 35 °C; the reading
 /// is corrected by −p(T − 35) + p(CALTEMP − 35).
 pub fn ardupilot_correction(p: &BTreeMap<String, f64>, a: &str, t: f64, cal_temp: f64) -> f64 {
-    let (lo, hi) = (p["INS_TCAL1_TMIN"], p["INS_TCAL1_TMAX"]);
+    ardupilot_correction_imu(p, 1, a, t, cal_temp)
+}
+
+/// [`ardupilot_correction`] of IMU `n` (1-based: `INS_TCAL{n}_*`, IMU instance n − 1).
+pub fn ardupilot_correction_imu(p: &BTreeMap<String, f64>, n: usize, a: &str, t: f64, cal_temp: f64) -> f64 {
+    let (lo, hi) = (p[&format!("INS_TCAL{n}_TMIN")], p[&format!("INS_TCAL{n}_TMAX")]);
     let poly = |x: f64| -> f64 {
         let d = x.clamp(lo, hi) - 35.0;
-        (1..=3).map(|k| p[&format!("INS_TCAL1_ACC{k}_{a}")] * d.powi(k)).sum::<f64>() * 1e-6
+        (1..=3).map(|k| p[&format!("INS_TCAL{n}_ACC{k}_{a}")] * d.powi(k)).sum::<f64>() * 1e-6
     };
     poly(t) - poly(cal_temp)
 }
