@@ -166,13 +166,19 @@ impl BiasGrid {
     /// K0 (g) at `t_c` on `branch`.
     #[must_use]
     pub fn k0(&self, t_c: f32, branch: Branch) -> f32 {
+        self.k0_and_doubt(t_c, branch).0
+    }
+
+    /// K0 (g) at `t_c` on `branch`, and how far it may be from the branch in force, g: half
+    /// the branches' difference while the branch is unknown (the mean is used), else 0.
+    fn k0_and_doubt(&self, t_c: f32, branch: Branch) -> (f32, f32) {
         match branch {
-            Branch::Heating => self.interpolate(&self.heating_g, t_c),
-            Branch::Cooling => self.interpolate(&self.cooling_g, t_c),
+            Branch::Heating => (self.interpolate(&self.heating_g, t_c), 0.0),
+            Branch::Cooling => (self.interpolate(&self.cooling_g, t_c), 0.0),
             Branch::Unknown => {
                 let h = self.interpolate(&self.heating_g, t_c);
                 let c = self.interpolate(&self.cooling_g, t_c);
-                (h + c) * 0.5
+                ((h + c) * 0.5, abs(h - c) * 0.5)
             }
         }
     }
@@ -285,8 +291,8 @@ pub struct AxisModel {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct AxisState {
     initialized: bool,
-    /// Slots whose state restarts from the next temperature ([`RESTART_LAG`] and the
-    /// others): set when a reloaded table changed them.
+    /// The history states restart from the next temperature: at power-up, and when a
+    /// reloaded table changed the slots or the range.
     restart: u8,
     /// Bias branch in force.
     pub branch: Branch,
@@ -299,17 +305,17 @@ pub struct AxisState {
     /// How far `element_c` may be from what the unit's whole history gives, °C: the grid's
     /// span when the lag starts without that history, shrinking by `e^(−dt/τ)` per step.
     lag_unknown_c: f32,
-    /// The same for `play_c`: the half-width at a start, shrinking by each move the play
-    /// output makes (the play operator never widens a difference and the history's state
-    /// is pushed along with it), never below the lag's.
-    play_unknown_c: f32,
-    /// The same for `creep_c`: the grid's span at a start, shrinking like the lag's.
-    creep_unknown_c: f32,
+    /// How far the play term may be from the history's, g: the play output may be anywhere
+    /// within its half-width at a start, and every move it makes pushes the history's
+    /// along with it (the play operator never widens a difference), so the bound shrinks
+    /// by each move, never below what the lag's bound makes of it.
+    play_unknown_g: f32,
+    /// How far the creep term may be from the history's, g: the grid's span times the gain
+    /// at a start, shrinking like the lag's.
+    creep_unknown_g: f32,
 }
 
-const RESTART_LAG: u8 = 1;
-const RESTART_PLAY: u8 = 2;
-const RESTART_CREEP: u8 = 4;
+const RESTART: u8 = 1;
 #[cfg(qfa_mutant = "reload_drops_state")]
 const RESTART_SILENTLY: u8 = 0x80;
 
@@ -319,48 +325,67 @@ pub const SETTLED_LAG_C: f32 = 1.0 / 64.0;
 /// A play or creep state is settled when its bias term is within this of the history's, g.
 pub const SETTLED_BIAS_G: f32 = 1e-6;
 
+/// What the history states depend on, as bits: the slots, with a word saying which are on,
+/// and the calibrated range. Compared as one array: field by field, with the `Option`s and
+/// the float comparisons, it took 390 B of Cortex-M4 flash.
+fn history_bits(m: &AxisModel) -> [u32; 11] {
+    let e = &m.ext;
+    let lag = e.sensor_lag.map_or(0, |l| l.tau_s.to_bits());
+    let (half, weight) = e.bias_branch_hysteresis.map_or((0, 0), |h| (h.half_width_c.to_bits(), h.weight_g.to_bits()));
+    let (gain, tau, t_ref, act) = e.bias_creep.map_or((0, 0, 0, 0), |c| {
+        (c.gain_g_per_c.to_bits(), c.tau_ref_s.to_bits(), c.t_ref_c.to_bits(), c.activation_k.to_bits())
+    });
+    let on = u32::from(e.sensor_lag.is_some())
+        | u32::from(e.bias_branch_hysteresis.is_some()) << 1
+        | u32::from(e.bias_creep.is_some()) << 2;
+    [
+        on,
+        lag,
+        half,
+        weight,
+        gain,
+        tau,
+        t_ref,
+        act,
+        m.bias.t_start_c.to_bits(),
+        m.bias.t_step_c.to_bits(),
+        m.bias.heating_g.len() as u32,
+    ]
+}
+
 impl AxisState {
     /// This state carried from the table `old` into the reloaded table `new`.
     ///
     /// The states are temperatures of the unit's own history (the element's, the play
     /// operator's, the creep's) and the branch is the direction it was last seen moving:
     /// none of them belongs to a table. A slot whose parameters and bias grid are the same
-    /// in both tables keeps its state, so reloading the table in force changes nothing; a
-    /// slot that is new or changed restarts from the next temperature, as at power-up, and
-    /// is [`settling`](Self::settling) until it has converged. A changed lag restarts play
-    /// and creep too: they follow the element temperature it gives. The branch is kept.
+    /// in both tables keeps its state, so reloading the table in force changes nothing; when
+    /// any slot or the range changed, the three states restart from the next temperature,
+    /// as at power-up, and are [`settling`](Self::settling) until they have converged (play
+    /// and creep follow the element temperature the lag gives, so a changed lag moves them
+    /// too). The branch is kept.
     #[must_use]
     pub fn carried_over(self, old: &AxisModel, new: &AxisModel) -> Self {
         if !self.initialized {
             return Self::default();
         }
-        let same_range = old.bias.t_start_c == new.bias.t_start_c && old.bias.t_end_c() == new.bias.t_end_c();
-        let mut restart = self.restart;
-        if !same_range || old.ext.sensor_lag != new.ext.sensor_lag {
-            restart |= RESTART_LAG | RESTART_PLAY | RESTART_CREEP;
-        }
-        if !same_range || old.ext.bias_branch_hysteresis != new.ext.bias_branch_hysteresis {
-            restart |= RESTART_PLAY;
-        }
-        if !same_range || old.ext.bias_creep != new.ext.bias_creep {
-            restart |= RESTART_CREEP;
-        }
+        // Any change restarts the three history states, which then say so.
+        // Compared word by word: `==` on the arrays links a 116-B memcmp.
+        let same = history_bits(old).iter().zip(history_bits(new)).all(|(a, b)| *a == b);
+        let restart = if same { self.restart } else { RESTART };
         // The mutant restarts every state on any reload, silently (as before the fix).
         #[cfg(qfa_mutant = "reload_drops_state")]
-        let restart = RESTART_LAG | RESTART_PLAY | RESTART_CREEP | RESTART_SILENTLY;
+        let restart = RESTART | RESTART_SILENTLY;
         Self { restart, ..self }
     }
 
     /// A history state may still be off by more than [`SETTLED_LAG_C`] (lag) or its bias
-    /// term by more than [`SETTLED_BIAS_G`] (play, creep) for `model`.
+    /// term by more than [`SETTLED_BIAS_G`] (play, creep).
     #[must_use]
-    pub fn settling(&self, model: &AxisModel) -> bool {
-        let play = model
-            .ext
-            .bias_branch_hysteresis
-            .is_some_and(|h| abs(h.weight_g) * self.play_unknown_c > SETTLED_BIAS_G * h.half_width_c);
-        let creep = model.ext.bias_creep.is_some_and(|c| abs(c.gain_g_per_c) * self.creep_unknown_c > SETTLED_BIAS_G);
-        self.lag_unknown_c > SETTLED_LAG_C || play || creep
+    pub fn settling(&self) -> bool {
+        self.lag_unknown_c > SETTLED_LAG_C
+            || self.play_unknown_g > SETTLED_BIAS_G
+            || self.creep_unknown_g > SETTLED_BIAS_G
     }
 }
 
@@ -429,30 +454,22 @@ impl AxisModel {
         if !state.initialized {
             state.initialized = true;
             state.branch = Branch::Unknown;
-            state.restart = RESTART_LAG | RESTART_PLAY | RESTART_CREEP;
+            state.restart = RESTART;
         }
         if state.restart != 0 {
-            // Started without the history (power-up, or a reload that changed these slots):
+            // Started without the history (power-up, or a reload that changed the slots):
             // from the temperature now, with what the history could have made of them. The
             // element lies within the grid's span of the (clamped) temperature; the play
-            // output within its half-width of the element temperature.
+            // output within its half-width of the element temperature, which bounds the play
+            // term by its weight.
             let span = self.bias.t_end_c() - self.bias.t_start_c;
-            if state.restart & RESTART_LAG != 0 {
-                state.element_c = t;
-                state.lag_unknown_c = if self.ext.sensor_lag.is_some() { span } else { 0.0 };
-            }
-            let te0 = if self.ext.sensor_lag.is_some() { state.element_c } else { t };
-            if state.restart & RESTART_PLAY != 0 {
-                state.play_c = te0;
-                state.play_unknown_c = self.ext.bias_branch_hysteresis.map_or(0.0, |h| h.half_width_c);
-            }
-            if state.restart & RESTART_CREEP != 0 {
-                state.creep_c = te0;
-                state.creep_unknown_c = if self.ext.bias_creep.is_some() { span } else { 0.0 };
-            }
+            (state.element_c, state.play_c, state.creep_c) = (t, t, t);
+            state.lag_unknown_c = if self.ext.sensor_lag.is_some() { span } else { 0.0 };
+            state.play_unknown_g = self.ext.bias_branch_hysteresis.map_or(0.0, |h| abs(h.weight_g));
+            state.creep_unknown_g = self.ext.bias_creep.map_or(0.0, |c| abs(c.gain_g_per_c) * span);
             #[cfg(qfa_mutant = "reload_drops_state")]
             if state.restart & RESTART_SILENTLY != 0 {
-                (state.lag_unknown_c, state.play_unknown_c, state.creep_unknown_c) = (0.0, 0.0, 0.0);
+                (state.lag_unknown_c, state.play_unknown_g, state.creep_unknown_g) = (0.0, 0.0, 0.0);
             }
             state.restart = 0;
         }
@@ -474,20 +491,15 @@ impl AxisModel {
         let k1 = self.scale.k1(te, r);
         // Before a decisive rate the branch is unknown: the mean of the two, within half
         // their difference of either, which settling counts.
-        let (mut k0, branch_unknown_g) = match state.branch {
-            Branch::Unknown => {
-                let h = self.bias.k0(te, Branch::Heating);
-                let c = self.bias.k0(te, Branch::Cooling);
-                ((h + c) * 0.5, abs(h - c) * 0.5)
-            }
-            known => (self.bias.k0(te, known), 0.0),
-        };
+        let (mut k0, branch_unknown_g) = self.bias.k0_and_doubt(te, state.branch);
         if let Some(h) = self.ext.bias_branch_hysteresis {
             let lo = te - h.half_width_c;
             let hi = te + h.half_width_c;
             let before = state.play_c;
             state.play_c = clamp(state.play_c, lo, hi).0;
-            state.play_unknown_c = (state.play_unknown_c - abs(state.play_c - before)).max(state.lag_unknown_c);
+            let g_per_c = abs(h.weight_g) / h.half_width_c;
+            state.play_unknown_g =
+                (state.play_unknown_g - abs(state.play_c - before) * g_per_c).max(state.lag_unknown_c * g_per_c);
             // Te ± r rounds to Te's ulp, so the fraction can reach 1.0002 with the smallest
             // half-width: held to ±1, the term never exceeds its weight.
             let fraction = (te - state.play_c) / h.half_width_c;
@@ -497,11 +509,12 @@ impl AxisModel {
             if dt_s > 0.0 {
                 let w = lag_weight(dt_s, c.tau_s(te));
                 state.creep_c += w * (te - state.creep_c);
-                state.creep_unknown_c = (1.0 - w) * state.creep_unknown_c + w * state.lag_unknown_c;
+                state.creep_unknown_g =
+                    (1.0 - w) * state.creep_unknown_g + w * abs(c.gain_g_per_c) * state.lag_unknown_c;
             }
             k0 += c.gain_g_per_c * (te - state.creep_c);
         }
-        let settling = state.settling(self) || branch_unknown_g > SETTLED_BIAS_G;
+        let settling = state.settling() || branch_unknown_g > SETTLED_BIAS_G;
         #[cfg(qfa_mutant = "settling_never_flagged")]
         let settling = false;
         Evaluation { k1, k0, temp_clamped, rate_clamped, settling }

@@ -319,8 +319,11 @@ impl<const RATE_WINDOW: usize> RateEstimator<RATE_WINDOW> {
         let n = self.len as i64;
         let slope = self.slope_raw_per_ms();
         // T̂(t_new) = (Σy + slope·(n·t_new − Σt)) / n, the fitted line at the newest time.
-        let lever = (n * self.newest_rel - self.s_t) as f32;
-        let raw_fit = (self.s_y as f32 + slope * lever) / n as f32;
+        // Through i32, which is exact here (the bounds in the module doc: the lever is at most
+        // n·2²³ ≤ 2³⁰ and |Σy| at most n·2¹⁵ ≤ 2²²), so each is one `vcvt` on a Cortex-M4
+        // instead of a 64-bit conversion call (about 30 instructions), with the same bits.
+        let lever = (n * self.newest_rel - self.s_t) as i32 as f32;
+        let raw_fit = (self.s_y as i32 as f32 + slope * lever) / self.len as f32;
         Some(Estimate { temp_c: raw_fit * 0.0625, rate_c_per_min: self.smoothed, ready: true })
     }
 }

@@ -131,24 +131,14 @@ struct AxisRef {
 const SETTLED_LAG_C: f64 = 1.0 / 64.0;
 const SETTLED_BIAS_G: f64 = 1e-6;
 
-/// The documented reload rule: a slot whose parameters and grid range are unchanged keeps
-/// its state; a changed lag restarts all three, a changed play or creep restarts itself.
+/// The documented reload rule: with the same slots and grid range every state is kept;
+/// otherwise the three history states restart (and settle again); the branch is kept.
 fn carried_over(s: AxisRef, old: &AxisModel, new: &AxisModel) -> AxisRef {
     if !s.init {
         return AxisRef::default();
     }
     let range = |m: &AxisModel| (m.bias.t_start_c, m.bias.t_end_c());
-    let same = range(old) == range(new);
-    let mut restart = s.restart;
-    if !same || old.ext.sensor_lag != new.ext.sensor_lag {
-        restart |= 7;
-    }
-    if !same || old.ext.bias_branch_hysteresis != new.ext.bias_branch_hysteresis {
-        restart |= 2;
-    }
-    if !same || old.ext.bias_creep != new.ext.bias_creep {
-        restart |= 4;
-    }
+    let restart = if range(old) == range(new) && old.ext == new.ext { s.restart } else { 7 };
     AxisRef { restart, ..s }
 }
 

@@ -369,14 +369,15 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
     /// A split compensator counts with [`Applier::counting`].
     #[inline]
     pub fn cycle_counters(&mut self, counters: [u32; AXES], dt_ticks: u32) -> PulseOutput<AXES> {
-        let Some(prev) = self.fast.counters.replace(counters) else {
-            let mut out = self.applier().cycle([0; AXES], dt_ticks);
+        // One call of the fast path for both outcomes (two inlined copies cost flash).
+        let prev = self.fast.counters.replace(counters);
+        let pulses: [i32; AXES] = core::array::from_fn(|i| prev.map_or(0, |p| counters[i].wrapping_sub(p[i]) as i32));
+        let mut out = self.applier().cycle(pulses, dt_ticks);
+        if prev.is_none() {
             out.dv_mps = [0.0; AXES];
             out.status |= Status::NO_COUNTER_BASE;
-            return out;
-        };
-        let pulses: [i32; AXES] = core::array::from_fn(|i| counters[i].wrapping_sub(prev[i]) as i32);
-        self.applier().cycle(pulses, dt_ticks)
+        }
+        out
     }
 
     /// Set the cumulative counters' base without producing output.

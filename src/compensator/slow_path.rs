@@ -258,8 +258,9 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
         // table in force is a no-op, a changed slot restarts alone.
         if let Some(old) = &self.slow.table {
             let old: &Table = old.borrow();
-            for (i, state) in self.slow.states.iter_mut().enumerate() {
-                *state = state.carried_over(&old.axes[i], &tb.axes[i]);
+            // Zipped, not indexed: validation made both AXES long, but no index may panic here.
+            for ((state, o), n) in self.slow.states.iter_mut().zip(&old.axes).zip(&tb.axes) {
+                *state = state.carried_over(o, n);
             }
         } else {
             self.slow.states = [AxisState::default(); AXES];
