@@ -14,6 +14,7 @@ use qfa_lab::data::channels::Channels;
 use qfa_lab::data::cycling::{write_compensated, write_log};
 use qfa_lab::data::open::{open, LogFormat, OpenError, OpenedLog, ReadFlags};
 use qfa_lab::data::static_columns::{AccelUnit, ColumnMap, TimeUnit};
+use qfa_lab::data::units::TempUnit;
 use qfa_lab::discover::{static_axes, Start};
 use qfa_lab::navigate::calib::LabProgram;
 use qfa_lab::navigate::scenario::Scenario;
@@ -50,6 +51,9 @@ struct StaticFlags {
     /// Unit of the acceleration columns: g, mg or m/s2.
     #[arg(long, value_parser = str::parse::<AccelUnit>)]
     accel_unit: Option<AccelUnit>,
+    /// Unit of the temperature column: C, F or K (default: from the column name, else C).
+    #[arg(long, value_parser = str::parse::<TempUnit>)]
+    temp_unit: Option<TempUnit>,
     /// Numbers use a decimal comma (`20,5`); the file must be `;`- or tab-separated.
     #[arg(long)]
     decimal_comma: bool,
@@ -61,6 +65,7 @@ impl StaticFlags {
             columns: self.columns.clone(),
             time_unit: self.time_unit,
             accel_unit: self.accel_unit,
+            temp_unit: self.temp_unit,
             decimal_comma: self.decimal_comma,
         }
     }

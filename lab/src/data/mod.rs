@@ -13,3 +13,4 @@ pub mod static_checks;
 pub mod static_columns;
 pub mod static_error;
 pub mod static_log;
+pub mod units;
