@@ -222,8 +222,8 @@ pub const STATIC_LSB_PER_G: f32 = 1_048_576.0;
 ///
 /// Equations: `a − reference = grid(Te, branch) [+ creep gain·(Te − x)] [+ play weight·(Te − p)/r]`
 /// per training row, with Te, branch, x and p from the root crate (unit gains), averaged in
-/// blocks of `block` consecutive rows; the grid spans the training range of Te and the
-/// whole series' T̂ (so compensating the series never leaves the grid) with `grid_points` nodes. Weak second-difference rows (weight 1, as in [`fit`]) keep nodes
+/// blocks of `block` consecutive rows; the grid spans the training rows' T̂ and Te (so a
+/// table fitted on every row never flags its own log out of range) with `grid_points` nodes. Weak second-difference rows (weight 1, as in [`fit`]) keep nodes
 /// few data reach defined.
 ///
 /// # Errors
@@ -303,15 +303,14 @@ pub fn fit_static_traced(
         }
     }
     let reference_g = idx.iter().map(|&i| series.accel_g[i]).sum::<f64>() / idx.len() as f64;
-    // The grid spans every temperature the firmware will clamp on this log: T̂ of every
-    // valid row, training or not (the firmware clamps T̂, and flags TEMP_OUT_OF_RANGE
-    // beyond the grid), and the model temperature Te of the training rows (with
-    // `sensor_lag` Te lags T̂). Nodes beyond the training rows' Te follow the smoothing rows
-    // (a straight continuation), as nodes few data reach always do.
-    let valid = (0..base.valid.len()).filter(|&i| base.valid[i]);
-    let (tmin, tmax) = valid
-        .map(|i| base.temp_c[i])
-        .chain(idx.iter().map(|&i| base.model_temp_c[i]))
+    // The grid spans every temperature the firmware clamps on the rows fitted: T̂ (the
+    // firmware clamps T̂ to the grid and flags TEMP_OUT_OF_RANGE beyond it) as well as the
+    // model temperature Te (with `sensor_lag` Te stays inside T̂'s extremes). A table fitted
+    // on every row of a log therefore covers that log; a fold's table is not widened to its
+    // held-out rows (their temperatures are not the fit's to know), so there it clamps.
+    let (tmin, tmax) = idx
+        .iter()
+        .flat_map(|&i| [base.temp_c[i], base.model_temp_c[i]])
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), t| (lo.min(t), hi.max(t)));
     let start = tmin.floor().max(-60.0);
     let end = tmax.ceil().min(130.0).max(start + 1.0);
