@@ -222,8 +222,9 @@ pub const STATIC_LSB_PER_G: f32 = 1_048_576.0;
 ///
 /// Equations: `a − reference = grid(Te, branch) [+ creep gain·(Te − x)] [+ play weight·(Te − p)/r]`
 /// per training row, with Te, branch, x and p from the root crate (unit gains), averaged in
-/// blocks of `block` consecutive rows; the grid spans the training rows' T̂ and Te (so a
-/// table fitted on every row never flags its own log out of range) with `grid_points` nodes. Weak second-difference rows (weight 1, as in [`fit`]) keep nodes
+/// blocks of `block` consecutive rows; the grid spans the training rows' Te, and, when every
+/// row is fitted (the table written), their readings T̂ too, so a table never flags its own
+/// log out of range; `grid_points` nodes. Weak second-difference rows (weight 1, as in [`fit`]) keep nodes
 /// few data reach defined.
 ///
 /// # Errors
@@ -303,14 +304,16 @@ pub fn fit_static_traced(
         }
     }
     let reference_g = idx.iter().map(|&i| series.accel_g[i]).sum::<f64>() / idx.len() as f64;
-    // The grid spans every temperature the firmware clamps on the rows fitted: T̂ (the
-    // firmware clamps T̂ to the grid and flags TEMP_OUT_OF_RANGE beyond it) as well as the
-    // model temperature Te (with `sensor_lag` Te stays inside T̂'s extremes). A table fitted
-    // on every row of a log therefore covers that log; a fold's table is not widened to its
-    // held-out rows (their temperatures are not the fit's to know), so there it clamps.
+    // The grid spans the fitted rows' model temperature Te. A fit of every row of the
+    // series (the table written) also spans their readings T̂: the firmware clamps T̂ to
+    // the grid and flags TEMP_OUT_OF_RANGE beyond it, and with `sensor_lag` Te stays inside
+    // T̂'s extremes, so without this the table would flag its own log. A fit of part of the
+    // rows (a fold, a held-out split) keeps the Te span: its figures and the
+    // cross-validation's choice are those of a grid fitted to what the rows determine.
+    let all_rows = idx.len() == base.valid.iter().filter(|v| **v).count();
     let (tmin, tmax) = idx
         .iter()
-        .flat_map(|&i| [base.temp_c[i], base.model_temp_c[i]])
+        .flat_map(|&i| [base.model_temp_c[i], if all_rows { base.temp_c[i] } else { base.model_temp_c[i] }])
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), t| (lo.min(t), hi.max(t)));
     let start = tmin.floor().max(-60.0);
     let end = tmax.ceil().min(130.0).max(start + 1.0);
