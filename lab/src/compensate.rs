@@ -302,8 +302,68 @@ pub fn compensate_samples(
     Ok(out)
 }
 
+/// How many rows carry each status flag: what `compensate` prints on the console and in
+/// its output's header, so a flag raised on some rows is never left to be found in the
+/// status column.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct FlagSummary {
+    /// Rows compensated.
+    pub rows: usize,
+    /// Rows whose status is not `ok` (RATE_NOT_READY alone, Ṫ = 0 on the first readings,
+    /// is not a fault of the row, see [`static_status`]).
+    pub flagged: usize,
+    /// Every flag of the firmware's status word, in its bit order, with the rows it is on.
+    pub by_flag: Vec<(&'static str, usize)>,
+}
+
+impl FlagSummary {
+    /// Count the flags of `status`, one word per row.
+    #[must_use]
+    pub fn of(status: impl IntoIterator<Item = Status>) -> Self {
+        let mut s = Self { by_flag: Status::all().iter_names().map(|(n, _)| (n, 0)).collect(), ..Self::default() };
+        for st in status {
+            s.rows += 1;
+            if !(st - Status::RATE_NOT_READY).is_empty() {
+                s.flagged += 1;
+            }
+            for (n, f) in Status::all().iter_names() {
+                if st.contains(f) {
+                    if let Some(c) = s.by_flag.iter_mut().find(|(m, _)| *m == n) {
+                        c.1 += 1;
+                    }
+                }
+            }
+        }
+        s
+    }
+
+    /// The rows carrying flag `name` (0 for a name the status word does not have).
+    #[must_use]
+    pub fn count(&self, name: &str) -> usize {
+        self.by_flag.iter().find(|(n, _)| *n == name).map_or(0, |c| c.1)
+    }
+
+    fn share(&self, n: usize) -> f64 {
+        if self.rows == 0 {
+            0.0
+        } else {
+            100.0 * n as f64 / self.rows as f64
+        }
+    }
+
+    /// The summary as lines: `<rows> rows, <n> flagged (<share> %)`, then one line per
+    /// flag `<FLAG>: <n> rows (<share> %)`.
+    #[must_use]
+    pub fn lines(&self) -> Vec<String> {
+        let mut v = vec![format!("{} rows, {} flagged ({:.2} %)", self.rows, self.flagged, self.share(self.flagged))];
+        v.extend(self.by_flag.iter().map(|(n, c)| format!("{n}: {c} rows ({:.2} %)", self.share(*c))));
+        v
+    }
+}
+
 /// Compensate a static log with a table of the same axes ([`compensate_samples`]) and
-/// write `time_s,temp_c,<axes…>,status` in g; `status` is `ok`, `no_temperature` (no
+/// write `time_s,temp_c,<axes…>,status` in g, after header comment lines (`# `) that give
+/// the count and share of rows with each status flag ([`FlagSummary`], returned too); `status` is `ok`, `no_temperature` (no
 /// reading yet: compensated at T0 and flagged stale), or the firmware's flags joined by
 /// `|` (`TEMP_OUT_OF_RANGE`, `TEMP_INVALID`, …), OR-ed over the axes ([`static_status`]).
 ///
@@ -312,11 +372,16 @@ pub fn compensate_samples(
 pub fn compensate_static<W: std::io::Write>(
     table: &Table,
     log: &crate::data::static_log::StaticLog,
-    w: W,
-) -> Result<(), StaticCompensateError> {
+    mut w: W,
+) -> Result<FlagSummary, StaticCompensateError> {
     let columns: Vec<&[f64]> = log.axes.iter().map(|a| a.accel_g.as_slice()).collect();
     let out = compensate_samples(table, &log.time_s, &log.temp_c, &columns)?;
     let io = |e: &dyn std::fmt::Display| StaticCompensateError::Io(e.to_string());
+    let summary = FlagSummary::of(out.status.iter().copied());
+    writeln!(w, "# qfa-lab compensate: status flags (the firmware's), rows with each").map_err(|e| io(&e))?;
+    for l in summary.lines() {
+        writeln!(w, "# {l}").map_err(|e| io(&e))?;
+    }
     let mut wr = csv::Writer::from_writer(w);
     let mut head = vec!["time_s".to_string(), "temp_c".to_string()];
     head.extend(log.axes.iter().map(|a| a.name.clone()));
@@ -328,5 +393,6 @@ pub fn compensate_static<W: std::io::Write>(
         rec.push(static_status(out.status[i]));
         wr.write_record(&rec).map_err(|e| io(&e))?;
     }
-    wr.flush().map_err(|e| io(&e))
+    wr.flush().map_err(|e| io(&e))?;
+    Ok(summary)
 }

@@ -23,6 +23,7 @@ pub mod data;
 pub mod demo;
 pub mod discover;
 pub mod html_report;
+pub mod lint;
 pub mod navigate;
 pub mod out_path;
 pub mod plot_font;

@@ -14,7 +14,9 @@ use qfa_lab::data::channels::Channels;
 use qfa_lab::data::cycling::{write_compensated, write_log};
 use qfa_lab::data::open::{open, LogFormat, OpenError, OpenedLog, ReadFlags};
 use qfa_lab::data::static_columns::{AccelUnit, ColumnMap, TimeUnit};
+use qfa_lab::data::units::TempUnit;
 use qfa_lab::discover::{static_axes, Start};
+use qfa_lab::lint::Severity;
 use qfa_lab::navigate::calib::LabProgram;
 use qfa_lab::navigate::scenario::Scenario;
 use qfa_lab::out_path::OutError;
@@ -50,6 +52,9 @@ struct StaticFlags {
     /// Unit of the acceleration columns: g, mg or m/s2.
     #[arg(long, value_parser = str::parse::<AccelUnit>)]
     accel_unit: Option<AccelUnit>,
+    /// Unit of the temperature column: C, F or K (default: from the column name, else C).
+    #[arg(long, value_parser = str::parse::<TempUnit>)]
+    temp_unit: Option<TempUnit>,
     /// Numbers use a decimal comma (`20,5`); the file must be `;`- or tab-separated.
     #[arg(long)]
     decimal_comma: bool,
@@ -61,6 +66,7 @@ impl StaticFlags {
             columns: self.columns.clone(),
             time_unit: self.time_unit,
             accel_unit: self.accel_unit,
+            temp_unit: self.temp_unit,
             decimal_comma: self.decimal_comma,
         }
     }
@@ -100,6 +106,15 @@ enum Cmd {
         /// Output CSV.
         #[arg(long)]
         out: PathBuf,
+        #[command(flatten)]
+        fmt: StaticFlags,
+    },
+    /// Every check the lab makes on a log before a fit, each with its evidence and fix;
+    /// exit code 1 when the lab would refuse the log.
+    Lint {
+        /// The log (cycling or static).
+        #[arg(long)]
+        log: PathBuf,
         #[command(flatten)]
         fmt: StaticFlags,
     },
@@ -394,7 +409,7 @@ fn check_out(cmd: &Cmd) -> Result<(), OutError> {
         Cmd::Navigate(NavigateCli { out: Some(out), sub: None, .. }) => check_dir(out, "navigate"),
         Cmd::Navigate(_) => Ok(()),
         Cmd::Plan { json: Some(j), .. } => check_file(j, "plan"),
-        Cmd::Plan { .. } => Ok(()),
+        Cmd::Plan { .. } | Cmd::Lint { .. } => Ok(()),
     }
 }
 
@@ -473,7 +488,17 @@ fn simulate_cmd(a: SimulateArgs) -> Result<(), CliError> {
 fn calibrate_cmd(a: CalibrateArgs) -> Result<(), CliError> {
     let t0 = Instant::now();
     let exports = ExportOptions { px4_device_id: a.px4_device_id, range_c: a.export_range, ..ExportOptions::default() };
-    match open(&a.log, &a.fmt.flags())? {
+    // Lint first: its warnings on the console, then the log it read (a refused log is the
+    // error itself).
+    let lint = qfa_lab::lint::lint(&a.log, &a.fmt.flags());
+    let warnings: Vec<String> = lint.at_least(Severity::Warning).map(ToString::to_string).collect();
+    if !warnings.is_empty() && lint.log.is_ok() {
+        eprintln!("lint: {} finding(s) to act on (`qfa-lab lint` lists every check):", warnings.len());
+        for w in &warnings {
+            eprintln!("{w}");
+        }
+    }
+    match lint.log? {
         OpenedLog::Static(l) => {
             eprintln!("{} rows read; {}; {}", l.rows(), l.skipped, l.sampling);
             let opts = static_cal::StaticCalOptions { holdout: a.holdout, ..Default::default() };
@@ -588,17 +613,29 @@ fn compensate_cmd(log: &Path, table: &Path, out: &Path, fmt: &StaticFlags) -> Re
     match open(log, &fmt.flags())? {
         OpenedLog::Static(l) => {
             let (t, f) = table_and_out()?;
-            qfa_lab::compensate::compensate_static(&t, &l, std::io::BufWriter::new(f)).map_err(|e| e.to_string())?;
+            let flags = qfa_lab::compensate::compensate_static(&t, &l, std::io::BufWriter::new(f))
+                .map_err(|e| e.to_string())?;
             eprintln!("{} rows ({}) → {}", l.rows(), l.skipped, out.display());
+            eprintln!("status flags (also in the header of {}):", out.display());
+            for line in flags.lines() {
+                eprintln!("  {line}");
+            }
         }
         OpenedLog::Cycling(l) => {
             let (t, f) = table_and_out()?;
             let pb = indicatif::ProgressBar::new(l.runs.len() as u64);
             let c = compensate_log(&t, &l, Some(&pb)).map_err(|e| e.to_string())?;
             pb.finish_and_clear();
+            let flags = qfa_lab::compensate::FlagSummary::of(
+                c.iter().flat_map(|r| r.status.iter().map(|&s| qfa_thermal::Status::from_bits_retain(s))),
+            );
             let acc: Vec<Vec<f64>> = c.into_iter().map(|c| c.accel_g).collect();
             write_compensated(f, &l, &acc).map_err(io_at(out))?;
             eprintln!("{} rows → {}", l.rows(), out.display());
+            eprintln!("status flags (the firmware's, per row; the output has no status column):");
+            for line in flags.lines() {
+                eprintln!("  {line}");
+            }
         }
         OpenedLog::Autopilot(l) => {
             return Err(CliError::WrongLog {
@@ -610,6 +647,27 @@ fn compensate_cmd(log: &Path, table: &Path, out: &Path, fmt: &StaticFlags) -> Re
         OpenedLog::Single(_) => return Err(CliError::single_not_taken("compensate")),
     }
     Ok(())
+}
+
+fn lint_cmd(log: &Path, fmt: &StaticFlags) -> Result<(), CliError> {
+    let lint = qfa_lab::lint::lint(log, &fmt.flags());
+    println!("lint {}:", log.display());
+    for f in &lint.findings {
+        println!("{f}");
+    }
+    let count = |s: Severity| lint.findings.iter().filter(|f| f.severity == s).count();
+    println!(
+        "{} error(s), {} warning(s), {} note(s), {} ok",
+        count(Severity::Error),
+        count(Severity::Warning),
+        count(Severity::Note),
+        count(Severity::Ok)
+    );
+    if lint.worst() == Severity::Error {
+        Err(CliError::Failed(format!("{}: the lab refuses this log (see the errors above)", log.display())))
+    } else {
+        Ok(())
+    }
 }
 
 fn plan_cmd(scenario: Option<PathBuf>, lab_program: LabProgram, json: Option<PathBuf>) -> Result<(), CliError> {
@@ -674,6 +732,7 @@ fn run(cli: Cli) -> Result<(), CliError> {
             Ok(())
         }
         Cmd::Plan { scenario, lab_program, json } => plan_cmd(scenario, lab_program, json),
+        Cmd::Lint { log, fmt } => lint_cmd(&log, &fmt),
         Cmd::Navigate(NavigateCli { sub: Some(NavCmd::Merge { dirs, out, no_plots }), .. }) => {
             let out = out.unwrap_or_else(|| dirs[0].clone());
             let sum = qfa_lab::navigate::mc::merge(&dirs, &out, !no_plots)?;

@@ -6,12 +6,12 @@
 //! | input | static log (`--columns`/unit flags) | cycling log |
 //! |---|---|---|
 //! | unknown column | error `unknown column ...` | error `header is ...` |
-//! | wrong unit | error `wrong unit? the median |a| ...` / `--time-unit ...: expected s|ms|us|ns` | – |
+//! | wrong unit | error `wrong unit? read with --accel-unit g the median |a| ...: pass --accel-unit m/s2` / `--time-unit ...: expected s|ms|us|ns` (both sides: `tests/units.rs`) | – |
 //! | non-monotonic time | error `line N: time goes backwards` | error `line N: time_s not after ...` |
 //! | a single run / no ±1 g pair | – | calibrate: error `no +1 g / −1 g pair`; compensate: each run compensated |
 //! | empty file | error `empty log: no header line` | error `line 1: header is ``` |
 //! | NaN fields | rows skipped, counted with line numbers on stderr and in report.json | error `bad temp_c `NaN`` |
-//! | time unit 1000× too fine (µs read as ns, ms as µs) | error `wrong unit? read with --time-unit ... °C/min` with the implied slew and the unit that fits | – |
+//! | time unit 1000× too fine (µs read as ns, ms as µs) | error `wrong unit? read with --time-unit ... °C/min ...: pass --time-unit ms (...)` with the implied slew and the unit that fits | – |
 //! | decimal commas (`20,5` with `;`) | error `... a decimal comma? ... pass --decimal-comma`; read with `--decimal-comma` | – |
 //! | CRLF line ends, blank lines | line numbers as an editor shows them | same |
 //! | `--out` unusable (a file where a directory goes, a directory where a file goes, a missing directory) | error naming `--out`, before the log is read | same |
@@ -140,7 +140,9 @@ fn static_log_bad_inputs_get_their_exact_errors() {
     // Read as µs the 300 rows span 0.299 s: 10 °C in 0.299 s is 2007 °C/min. Read as ms
     // (right) the fastest 60 s holds 3.0 °C: 3.0 °C/min.
     let slew = d.join("slew.tsv");
-    let mut text = String::from("time_ms\timu.temperature\tacc_x\tacc_y\tacc_z\n");
+    // No unit in the time column's name: a name's unit that contradicts the flag is refused
+    // before any figure is looked at.
+    let mut text = String::from("timestamp\timu.temperature\tacc_x\tacc_y\tacc_z\n");
     for i in 0..300i32 {
         let tc = 20.0 + 0.05 * f64::from((i - 50).clamp(0, 200));
         text.push_str(&format!("{}\t{tc:.4}\t0.05\t-0.1\t-9.8\n", i * 1000));
@@ -164,7 +166,7 @@ fn static_log_bad_inputs_get_their_exact_errors() {
         // Wrong unit: m/s² data read as g; an unknown unit name.
         fails_with(
             &static_args(cmd, g, &o, table_s, &["--time-unit", "ms", "--accel-unit", "g"]),
-            "wrong unit? the median |a| over acc_x, acc_y, acc_z is 9.",
+            "wrong unit? read with --accel-unit g the median |a| over acc_x, acc_y, acc_z is 9.",
         );
         fails_with(&static_args(cmd, g, &o, table_s, &["--time-unit", "h"]), "--time-unit `h`: expected s|ms|us|ns");
         // Non-monotonic time.
@@ -188,7 +190,7 @@ fn static_log_bad_inputs_get_their_exact_errors() {
             &static_args(cmd, slew.to_str().unwrap(), &o, table_s, &["--time-unit", "us", "--accel-unit", "m/s2"]),
             "wrong unit? read with --time-unit us the temperature changes by 2007 °C/min (10.00 °C within 0.299 s: \
              from 20.00 °C at line 52 to 30.00 °C at line 252); a board in a climate chamber changes by at most 30 \
-             °C/min: check --time-unit (ms gives 3.0 °C/min)",
+             °C/min: pass --time-unit ms (rows 1.00 s apart, 3.0 °C/min)",
         );
         // Decimal commas: recognised, with the flag that reads them.
         fails_with(
@@ -322,8 +324,9 @@ fn static_log_bad_inputs_get_their_exact_errors() {
     }
     assert!(none.join("table.bin").is_file());
 
-    // The compensated output leaves the NaN rows out and says so in the count of rows.
-    let rows = std::fs::read_to_string(&out).unwrap().lines().count();
+    // The compensated output leaves the NaN rows out and says so in the count of rows
+    // (after its `# ` lines: the rows per status flag).
+    let rows = std::fs::read_to_string(&out).unwrap().lines().filter(|l| !l.starts_with('#')).count();
     let good_rows = std::fs::read_to_string(&good).unwrap().lines().count();
     assert_eq!(rows, good_rows - 2);
     let _ = std::fs::remove_dir_all(&d);

@@ -58,6 +58,7 @@ fn whole_degree_temperature_calibrates_within_ten_percent_of_the_unrounded_log()
             .unwrap(),
         time_unit: Some(TimeUnit::Us),
         accel_unit: Some(AccelUnit::Mps2),
+        temp_unit: None,
         decimal_comma: false,
     };
     let log = read_static_from(std::fs::File::open(&path).unwrap(), &opts).unwrap();

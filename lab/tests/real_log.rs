@@ -100,7 +100,7 @@ fn calibrate_beats_the_cubic_on_every_axis_and_compensate_agrees() {
         vec!["compensate", "--log", log_s, "--table", table.to_str().unwrap(), "--out", comp.to_str().unwrap()];
     args.extend(FLAGS);
     lab(&args);
-    let mut rdr = csv::Reader::from_path(&comp).unwrap();
+    let mut rdr = comp_reader(&comp);
     let head: Vec<String> = rdr.headers().unwrap().iter().map(str::to_string).collect();
     assert_eq!(head, ["time_s", "temp_c", "ax", "ay", "az", "status"]);
     let comp_rows: Vec<csv::StringRecord> = rdr.records().map(Result::unwrap).collect();
@@ -147,8 +147,7 @@ fn calibrate_beats_the_cubic_on_every_axis_and_compensate_agrees() {
         vec!["compensate", "--log", log_s, "--table", table.to_str().unwrap(), "--out", comp.to_str().unwrap()];
     args.extend(FLAGS);
     lab(&args);
-    let comp_rows: Vec<csv::StringRecord> =
-        csv::Reader::from_path(&comp).unwrap().records().map(Result::unwrap).collect();
+    let comp_rows: Vec<csv::StringRecord> = comp_reader(&comp).records().map(Result::unwrap).collect();
     for (k, d) in daxes.iter().enumerate() {
         let got = rms_mg(&comp_rows, k, d["reference_g"].as_f64().unwrap(), 0);
         let want = d["final_table_rms_mg"].as_f64().unwrap();
@@ -406,7 +405,7 @@ fn heating_only_cut_calibrates_and_its_table_holds_on_the_cooling_leg() {
     ];
     args.extend(FLAGS);
     lab(&args);
-    let comp: Vec<csv::StringRecord> = csv::Reader::from_path(&comp).unwrap().records().map(Result::unwrap).collect();
+    let comp: Vec<csv::StringRecord> = comp_reader(&comp).records().map(Result::unwrap).collect();
     assert_eq!(comp.len(), rows.len());
 
     let cooling = hi + 1..rows.len();
@@ -451,4 +450,146 @@ fn heating_only_cut_calibrates_and_its_table_holds_on_the_cooling_leg() {
     }
     let _ = std::fs::remove_dir_all(&dir);
     assert!(worse.is_empty(), "on the cooling leg, worse than the cubic on the same heating rows: {worse:?}");
+}
+
+/// `compensate`'s CSV, after its header comment lines (`# ` and the status-flag counts).
+fn comp_reader(path: &std::path::Path) -> csv::Reader<std::fs::File> {
+    csv::ReaderBuilder::new().comment(Some(b'#')).from_path(path).unwrap()
+}
+
+/// Run qfa-lab, which must fail; its stdout + stderr.
+fn lab_fails(args: &[&str]) -> String {
+    let out = Command::new(env!("CARGO_BIN_EXE_qfa-lab")).args(args).output().expect("run qfa-lab");
+    let text = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert!(!out.status.success(), "qfa-lab {args:?} succeeded:\n{text}");
+    text
+}
+
+/// The table `calibrate` writes covers the log it was fitted on: compensating the log with
+/// its own table flags no row `TEMP_OUT_OF_RANGE`, counted here from the status column and
+/// read from the output's header. Fails before the grid spanned every T̂ of the log: the
+/// grid then spanned the fitted model temperature, which `sensor_lag` keeps inside the
+/// readings (x: −17…72 °C for a log of −17.6…74.0 °C), and 556 of 8 399 rows were flagged.
+#[test]
+fn the_table_covers_the_log_it_was_fitted_on() {
+    let Some(log) = real_log() else { return };
+    let dir = std::env::temp_dir().join(format!("qfa-real-cover-{}", std::process::id()));
+    let cal = dir.join("cal");
+    let log_s = log.to_str().unwrap();
+    let mut args = vec!["calibrate", "--no-plots", "--log", log_s, "--out", cal.to_str().unwrap()];
+    args.extend(FLAGS);
+    lab(&args);
+    let comp = dir.join("comp.csv");
+    let mut args = vec!["compensate", "--log", log_s, "--out", comp.to_str().unwrap()];
+    let table = cal.join("table.bin");
+    args.extend(["--table", table.to_str().unwrap()]);
+    args.extend(FLAGS);
+    let out = lab(&args);
+    let console = String::from_utf8_lossy(&out.stderr);
+    let rows: Vec<csv::StringRecord> = comp_reader(&comp).records().map(Result::unwrap).collect();
+    assert_eq!(rows.len(), 8399);
+    let out_of_range = rows.iter().filter(|r| r[5].split('|').any(|f| f == "TEMP_OUT_OF_RANGE")).count();
+    let flagged = rows.iter().filter(|r| &r[5] != "ok").count();
+    println!("{console}TEMP_OUT_OF_RANGE rows (status column): {out_of_range}; rows not ok: {flagged}");
+    assert_eq!(out_of_range, 0);
+    // The counts on the console and in the header are the status column's.
+    let header = std::fs::read_to_string(&comp).unwrap();
+    for want in [format!("8399 rows, {flagged} flagged"), "TEMP_OUT_OF_RANGE: 0 rows (0.00 %)".to_string()] {
+        assert!(console.contains(&want), "console lacks `{want}`:\n{console}");
+        assert!(header.lines().take(12).any(|l| l.starts_with('#') && l.contains(&want)), "header lacks `{want}`");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The real log's unit mistakes: m/s² read as mg (on the code before the two-sided check it
+/// calibrated and wrote `INS_TCAL1_ACC1_X = 12.0` for 1 223.7), the log converted to g read
+/// as m/s² (it calibrated), and the log converted to °F read as °C (refused as malformed
+/// rows naming no unit). Each is refused naming the unit that fits, writes no file, and
+/// `qfa-lab lint` prints the problem and the fix; `--temp-unit F` reads the °F copy. The
+/// copies are written to a temporary folder, never to the repository.
+#[test]
+fn the_real_logs_unit_mistakes_are_refused_and_linted() {
+    let Some(log) = real_log() else { return };
+    let dir = std::env::temp_dir().join(format!("qfa-real-units-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let text = std::fs::read_to_string(&log).unwrap();
+    let head: Vec<&str> = text.lines().next().unwrap().split('\t').collect();
+    let acc: Vec<usize> = head.iter().enumerate().filter(|(_, h)| h.starts_with("imu.acc.")).map(|(i, _)| i).collect();
+    let temp = head.iter().position(|h| *h == "imu.temperature").unwrap();
+    let convert = |f: &dyn Fn(usize, f64) -> f64| -> String {
+        let mut out = String::new();
+        for (k, line) in text.lines().enumerate() {
+            if k == 0 {
+                out.push_str(line);
+            } else {
+                let v: Vec<String> = line
+                    .split('\t')
+                    .enumerate()
+                    .map(|(i, x)| x.parse::<f64>().map_or(x.to_string(), |x| format!("{}", f(i, x))))
+                    .collect();
+                out.push_str(&v.join("\t"));
+            }
+            out.push('\n');
+        }
+        out
+    };
+    let in_g = dir.join("in_g.tsv");
+    std::fs::write(&in_g, convert(&|i, x| if acc.contains(&i) { x / 9.806_65 } else { x })).unwrap();
+    let in_f = dir.join("in_f.tsv");
+    std::fs::write(&in_f, convert(&|i, x| if i == temp { 32.0 + 1.8 * x } else { x })).unwrap();
+    let cols = FLAGS[1];
+    let cal = dir.join("cal");
+    let cases: [(&std::path::Path, [&str; 2], &str, &str); 3] = [
+        (
+            &log,
+            ["--accel-unit", "mg"],
+            "read with --accel-unit mg the median |a| over imu.acc.x, imu.acc.y, imu.acc.z is 0.00955 g",
+            "pass --accel-unit m/s2",
+        ),
+        (
+            &in_g,
+            ["--accel-unit", "m/s2"],
+            "read with --accel-unit m/s2 the median |a| over imu.acc.x, imu.acc.y, imu.acc.z is 0.0993 g",
+            "pass --accel-unit g",
+        ),
+        (
+            &in_f,
+            ["--accel-unit", "m/s2"],
+            "read in C (assumed: no unit given) the temperature spans 0.3..165.1 °C",
+            "pass --temp-unit F",
+        ),
+    ];
+    for (path, unit, problem, fix) in cases {
+        let p = path.to_str().unwrap();
+        let args = ["--log", p, "--columns", cols, "--time-unit", "us", unit[0], unit[1]];
+        let mut c = vec!["calibrate", "--no-plots", "--out", cal.to_str().unwrap()];
+        c.extend(args);
+        let err = lab_fails(&c);
+        assert!(err.contains(problem) && err.contains(fix), "{unit:?}: expected `{problem}` … `{fix}` in\n{err}");
+        assert!(!cal.join("table.bin").exists() && !cal.join("ardupilot_tcal_2_values.parm").exists());
+        let mut l = vec!["lint"];
+        l.extend(args);
+        let lint = lab_fails(&l);
+        println!("{lint}");
+        assert!(lint.contains("[error] units: the reader refuses the log"), "{lint}");
+        assert!(lint.contains(problem) && lint.contains(&format!("fix: {fix}")), "{lint}");
+    }
+    let mut c = vec!["calibrate", "--no-plots", "--log", in_f.to_str().unwrap(), "--out", cal.to_str().unwrap()];
+    c.extend(FLAGS);
+    c.extend(["--temp-unit", "F"]);
+    let out = lab(&c);
+    let report = String::from_utf8_lossy(&out.stdout);
+    assert!(report.contains("Rows: 8399, -17.6..74.0 °C"), "{report}");
+
+    // The real log itself: lint lists every check, and the one thing to act on.
+    let mut l = vec!["lint", "--log", log.to_str().unwrap()];
+    l.extend(FLAGS);
+    let lint = String::from_utf8_lossy(&lab(&l).stdout).to_string();
+    println!("{lint}");
+    for check in ["format", "units", "instances", "resolution", "coverage", "glitches", "gaps", "compensation"] {
+        assert!(lint.contains(&format!("] {check}: ")), "no {check} finding:\n{lint}");
+    }
+    assert!(lint.contains("[warning] units: temperature unit assumed C"), "{lint}");
+    assert!(lint.contains("fix: pass --temp-unit C"), "{lint}");
+    let _ = std::fs::remove_dir_all(&dir);
 }

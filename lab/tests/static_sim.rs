@@ -71,6 +71,7 @@ fn cut(log: &StaticLog, r: std::ops::RangeInclusive<usize>) -> StaticLog {
         columns: log.columns.clone(),
         skipped: log.skipped.clone(),
         sampling: log.sampling,
+        units: log.units.clone(),
     }
 }
 

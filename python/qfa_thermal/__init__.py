@@ -119,17 +119,20 @@ def read_log(
     columns: Optional[str] = None,
     time_unit: Optional[str] = None,
     accel_unit: Optional[str] = None,
+    temp_unit: Optional[str] = None,
     decimal_comma: bool = False,
 ) -> Log:
     """Read a log file with the lab's reader, choosing it as ``qfa-lab`` does.
 
     Any reader option, or a header without a ``pulses`` column, selects the static reader
     (``columns`` as ``--columns``, e.g. ``"time=timestamp,temp=imu.temperature,ax=imu.acc.x"``;
-    ``time_unit`` s/ms/us/ns; ``accel_unit`` g/mg/m/s2); otherwise the cycling reader.
+    ``time_unit`` s/ms/us/ns; ``accel_unit`` g/mg/m/s2; ``temp_unit`` C/F/K, default from
+    the column name, else C); otherwise the cycling reader.
 
     Raises:
-        LogError: with the CLI's message (bad rows with their line numbers, unknown
-            columns, implausible units, ...).
+        LogError: with the CLI's message, reader options named as this function's keywords
+            (``accel_unit="m/s2"``), and ``kind`` the reader's error variant (``Unit`` for
+            a unit the data contradict, ``Rows``, ``UnknownColumn``, ...).
     """
     return Log._of(
         _native.read_log(
@@ -137,6 +140,7 @@ def read_log(
             columns=columns,
             time_unit=time_unit,
             accel_unit=accel_unit,
+            temp_unit=temp_unit,
             decimal_comma=decimal_comma,
         )
     )

@@ -10,10 +10,11 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use qfa_lab::data::cycling::Log as CyclingLog;
-use qfa_lab::data::open::{open, OpenedLog, ReadFlags};
-use qfa_lab::data::static_log::{read_static_from, StaticLog};
+use qfa_lab::data::open::{open, OpenError, OpenedLog, ReadError, ReadFlags};
+use qfa_lab::data::static_log::{read_static_from, StaticError, StaticLog};
+use qfa_lab::data::units::{Spelling, UnitParseError};
 
-use crate::errors::LogError;
+use crate::errors::{variant_name, with_kind, LogError};
 
 /// The lab's structure behind a [`Log`].
 pub enum LogData {
@@ -32,18 +33,44 @@ pub struct Log {
     pub path: Option<PathBuf>,
 }
 
-/// The reader flags from the CLI's flag strings, with the CLI's messages.
+/// A static reader's error as a `LogError`: the CLI's message with every reader option
+/// spelled as this package's keyword (`accel_unit="m/s2"`, not `--accel-unit m/s2`), and
+/// `kind` the error's variant (`Unit`, `Rows`, ...), taken from its type.
+pub fn static_error(py: Python<'_>, e: &StaticError) -> PyErr {
+    with_kind::<LogError>(py, e.message(Spelling::Python), &variant_name(&format!("{e:?}")))
+}
+
+/// [`static_error`] for any log: the static reader's error with its kind, the others'
+/// messages as they are (they take no options).
+pub fn open_error(py: Python<'_>, e: &OpenError) -> PyErr {
+    let kind = match e {
+        OpenError::Read { error: ReadError::Static(s), .. } => variant_name(&format!("{s:?}")),
+        OpenError::Read { error: ReadError::Cycling(_), .. } => "Cycling".to_string(),
+        OpenError::Read { error: ReadError::Single(_), .. } => "Single".to_string(),
+        _ => "Io".to_string(),
+    };
+    with_kind::<LogError>(py, e.message(Spelling::Python), &kind)
+}
+
+fn unit_error(py: Python<'_>, e: &UnitParseError) -> PyErr {
+    with_kind::<LogError>(py, e.message(Spelling::Python), "BadUnit")
+}
+
+/// The reader flags from the keyword arguments' strings.
 pub fn read_flags(
+    py: Python<'_>,
     columns: Option<&str>,
     time_unit: Option<&str>,
     accel_unit: Option<&str>,
+    temp_unit: Option<&str>,
     decimal_comma: bool,
 ) -> PyResult<ReadFlags> {
-    let e = |e: qfa_lab::data::static_log::StaticError| LogError::new_err(e.to_string());
+    let u = |e: UnitParseError| unit_error(py, &e);
     Ok(ReadFlags {
-        columns: columns.map(str::parse).transpose().map_err(e)?,
-        time_unit: time_unit.map(str::parse).transpose().map_err(e)?,
-        accel_unit: accel_unit.map(str::parse).transpose().map_err(e)?,
+        columns: columns.map(str::parse).transpose().map_err(|e: StaticError| static_error(py, &e))?,
+        time_unit: time_unit.map(str::parse).transpose().map_err(u)?,
+        accel_unit: accel_unit.map(str::parse).transpose().map_err(u)?,
+        temp_unit: temp_unit.map(str::parse).transpose().map_err(u)?,
         decimal_comma,
     })
 }
@@ -51,16 +78,18 @@ pub fn read_flags(
 /// Read a log file the way `qfa-lab` does (`qfa_lab::data::open`: any reader flag, or a
 /// header without a `pulses` or `value` column, selects the static reader).
 #[pyfunction]
-#[pyo3(name = "read_log", signature = (path, *, columns = None, time_unit = None, accel_unit = None, decimal_comma = false))]
+#[pyo3(name = "read_log", signature = (path, *, columns = None, time_unit = None, accel_unit = None, temp_unit = None, decimal_comma = false))]
 pub fn read(
+    py: Python<'_>,
     path: PathBuf,
     columns: Option<&str>,
     time_unit: Option<&str>,
     accel_unit: Option<&str>,
+    temp_unit: Option<&str>,
     decimal_comma: bool,
 ) -> PyResult<Log> {
-    let flags = read_flags(columns, time_unit, accel_unit, decimal_comma)?;
-    let data = match open(&path, &flags).map_err(|e| LogError::new_err(e.to_string()))? {
+    let flags = read_flags(py, columns, time_unit, accel_unit, temp_unit, decimal_comma)?;
+    let data = match open(&path, &flags).map_err(|e| open_error(py, &e))? {
         OpenedLog::Static(l) => LogData::Static(l),
         OpenedLog::Cycling(l) => LogData::Cycling(l),
         OpenedLog::Autopilot(l) => {
@@ -201,6 +230,7 @@ impl Log {
 #[pyfunction]
 #[pyo3(name = "log_from_arrays", signature = (time, temp_c, accel, *, time_unit = "s", accel_unit = "g"))]
 pub fn from_arrays(
+    py: Python<'_>,
     time: PyReadonlyArray1<'_, f64>,
     temp_c: PyReadonlyArray1<'_, f64>,
     accel: Vec<(String, PyReadonlyArray1<'_, f64>)>,
@@ -235,7 +265,7 @@ pub fn from_arrays(
         }
         text.push('\n');
     }
-    let opts = read_flags(Some(&spec), Some(time_unit), Some(accel_unit), false)?.static_options();
-    let log = read_static_from(text.as_bytes(), &opts).map_err(|e| LogError::new_err(e.to_string()))?;
+    let opts = read_flags(py, Some(&spec), Some(time_unit), Some(accel_unit), Some("C"), false)?.static_options();
+    let log = read_static_from(text.as_bytes(), &opts).map_err(|e| static_error(py, &e))?;
     Ok(Log { data: LogData::Static(Box::new(log)), path: None })
 }

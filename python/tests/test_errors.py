@@ -89,3 +89,22 @@ def test_firmware_errors_are_typed() -> None:
     assert s.value.kind == "AllZero" and s.value.status & q.Status.TEMP_STALE
     with pytest.raises(ValueError):
         c.cycle([1, 2], 1000)
+
+
+def test_unit_mistakes_name_keywords_not_flags(tmp_path: Path) -> None:
+    """A unit the data contradict is refused with the CLI's message style, the option named
+    as this package's keyword (``accel_unit="m/s2"``) and never as a CLI flag; ``kind`` comes
+    from the error's type. Fails before the two-sided check (m/s² read as mg was read)."""
+    log = tmp_path / "board.csv"
+    with open(log, "w") as f:
+        f.write("time_s,temp_c,acc_x,acc_y,acc_z\n")
+        for i in range(400):
+            f.write(f"{i},{20 + 0.05 * i:.4f},0.01,-0.02,-9.80\n")
+    with pytest.raises(q.LogError) as e:
+        q.read_log(log, accel_unit="mg")
+    assert e.value.kind == "Unit"
+    assert 'pass accel_unit="m/s2"' in str(e.value) and "--" not in str(e.value), str(e.value)
+    with pytest.raises(q.LogError) as e:
+        q.read_log(log, accel_unit="m/s2", temp_unit="X")
+    assert e.value.kind == "BadUnit" and str(e.value) == "temp_unit `X`: expected C|F|K"
+    assert q.read_log(log, accel_unit="m/s2", temp_unit="C").rows == 400

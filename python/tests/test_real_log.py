@@ -71,7 +71,8 @@ def test_compensate_matches_the_cli_csv(real_log: Path, lab_bin: Path, cli_calib
 def assert_same_as_cli_csv(got: q.Compensated, path: Path) -> None:
     """Every field of the CLI's static `compensate` CSV, formatted as the CLI formats it."""
     with open(path, newline="") as f:
-        rows = list(csv.reader(f))
+        # The header comment lines (`# `: the status-flag counts) come before the CSV.
+        rows = list(csv.reader(line for line in f if not line.startswith("#")))
     head, body = rows[0], rows[1:]
     axes = head[2:-1]
     assert head == ["time_s", "temp_c", *axes, "status"]

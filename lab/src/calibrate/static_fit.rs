@@ -222,8 +222,9 @@ pub const STATIC_LSB_PER_G: f32 = 1_048_576.0;
 ///
 /// Equations: `a − reference = grid(Te, branch) [+ creep gain·(Te − x)] [+ play weight·(Te − p)/r]`
 /// per training row, with Te, branch, x and p from the root crate (unit gains), averaged in
-/// blocks of `block` consecutive rows; the grid spans the training range of Te with
-/// `grid_points` nodes. Weak second-difference rows (weight 1, as in [`fit`]) keep nodes
+/// blocks of `block` consecutive rows; the grid spans the training rows' Te, and, when every
+/// row is fitted (the table written), their readings T̂ too, so a table never flags its own
+/// log out of range; `grid_points` nodes. Weak second-difference rows (weight 1, as in [`fit`]) keep nodes
 /// few data reach defined.
 ///
 /// # Errors
@@ -303,8 +304,17 @@ pub fn fit_static_traced(
         }
     }
     let reference_g = idx.iter().map(|&i| series.accel_g[i]).sum::<f64>() / idx.len() as f64;
-    let tmin = idx.iter().map(|&i| base.model_temp_c[i]).fold(f64::INFINITY, f64::min);
-    let tmax = idx.iter().map(|&i| base.model_temp_c[i]).fold(f64::NEG_INFINITY, f64::max);
+    // The grid spans the fitted rows' model temperature Te. A fit of every row of the
+    // series (the table written) also spans their readings T̂: the firmware clamps T̂ to
+    // the grid and flags TEMP_OUT_OF_RANGE beyond it, and with `sensor_lag` Te stays inside
+    // T̂'s extremes, so without this the table would flag its own log. A fit of part of the
+    // rows (a fold, a held-out split) keeps the Te span: its figures and the
+    // cross-validation's choice are those of a grid fitted to what the rows determine.
+    let all_rows = idx.len() == base.valid.iter().filter(|v| **v).count();
+    let (tmin, tmax) = idx
+        .iter()
+        .flat_map(|&i| [base.model_temp_c[i], if all_rows { base.temp_c[i] } else { base.model_temp_c[i] }])
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), t| (lo.min(t), hi.max(t)));
     let start = tmin.floor().max(-60.0);
     let end = tmax.ceil().min(130.0).max(start + 1.0);
     let step = (end - start) / (g - 1) as f64;

@@ -16,3 +16,4 @@ pub mod static_columns;
 pub mod static_error;
 pub mod static_log;
 pub mod ulog;
+pub mod units;

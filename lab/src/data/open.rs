@@ -19,6 +19,7 @@ use crate::data::single::{read_single_from, SingleError, SingleLog};
 use crate::data::static_columns::{AccelUnit, ColumnMap, TimeUnit};
 use crate::data::static_log::{read_static_from, StaticError, StaticLog, StaticOptions};
 use crate::data::ulog::{read_ulog, UlogError};
+use crate::data::units::{Spelling, TempUnit};
 
 /// The kinds of log the lab reads.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -45,7 +46,7 @@ impl fmt::Display for LogFormat {
     }
 }
 
-/// The static reader's flags (`--columns`, `--time-unit`, `--accel-unit`,
+/// The static reader's flags (`--columns`, `--time-unit`, `--accel-unit`, `--temp-unit`,
 /// `--decimal-comma`); any of them selects the static reader.
 #[derive(Clone, Debug, Default)]
 pub struct ReadFlags {
@@ -55,6 +56,8 @@ pub struct ReadFlags {
     pub time_unit: Option<TimeUnit>,
     /// Unit of the acceleration columns.
     pub accel_unit: Option<AccelUnit>,
+    /// Unit of the temperature column.
+    pub temp_unit: Option<TempUnit>,
     /// Numbers use a decimal comma.
     pub decimal_comma: bool,
 }
@@ -63,7 +66,11 @@ impl ReadFlags {
     /// Whether any flag was given.
     #[must_use]
     pub fn any(&self) -> bool {
-        self.columns.is_some() || self.time_unit.is_some() || self.accel_unit.is_some() || self.decimal_comma
+        self.columns.is_some()
+            || self.time_unit.is_some()
+            || self.accel_unit.is_some()
+            || self.temp_unit.is_some()
+            || self.decimal_comma
     }
 
     /// The static reader's options.
@@ -73,6 +80,7 @@ impl ReadFlags {
             columns: self.columns.clone().unwrap_or_default(),
             time_unit: self.time_unit,
             accel_unit: self.accel_unit,
+            temp_unit: self.temp_unit,
             decimal_comma: self.decimal_comma,
         }
     }
@@ -124,12 +132,20 @@ pub enum OpenError {
     },
 }
 
+impl OpenError {
+    /// The message, with every reader option spelled for `sp`.
+    #[must_use]
+    pub fn message(&self, sp: Spelling) -> String {
+        match self {
+            Self::Io { path, error } => format!("{}: {error}", path.display()),
+            Self::Read { path, error } => format!("{}: {}", path.display(), error.message(sp)),
+        }
+    }
+}
+
 impl fmt::Display for OpenError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::Io { path, error } => write!(f, "{}: {error}", path.display()),
-            Self::Read { path, error } => write!(f, "{}: {error}", path.display()),
-        }
+        f.write_str(&self.message(Spelling::Cli))
     }
 }
 
@@ -177,15 +193,24 @@ pub enum ReadError {
     Dataflash(DataflashError),
 }
 
+impl ReadError {
+    /// The message, with every reader option spelled for `sp` (only the static reader
+    /// takes options).
+    #[must_use]
+    pub fn message(&self, sp: Spelling) -> String {
+        match self {
+            Self::Cycling(e) => e.to_string(),
+            Self::Static(e) => e.message(sp),
+            Self::Single(e) => e.to_string(),
+            Self::Ulog(e) => e.to_string(),
+            Self::Dataflash(e) => e.to_string(),
+        }
+    }
+}
+
 impl fmt::Display for ReadError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::Cycling(e) => write!(f, "{e}"),
-            Self::Static(e) => write!(f, "{e}"),
-            Self::Single(e) => write!(f, "{e}"),
-            Self::Ulog(e) => write!(f, "{e}"),
-            Self::Dataflash(e) => write!(f, "{e}"),
-        }
+        f.write_str(&self.message(Spelling::Cli))
     }
 }
 

@@ -6,6 +6,7 @@ use std::str::FromStr;
 use serde::Serialize;
 
 use super::static_log::{StaticError, G0_MPS2};
+use super::units::{ReaderOption, UnitParseError};
 
 /// Common column names, lower case, per role. A header column matches a role when its
 /// lower-cased name equals one of these or ends with `.`/`_` + one of them.
@@ -26,7 +27,22 @@ pub const COMMON_NAMES: [(&str, &[&str]); 5] = [
             "t",
         ],
     ),
-    ("temp", &["temp_c", "temperature", "temp", "temperature_c", "imu_temp"]),
+    (
+        "temp",
+        &[
+            "temp_c",
+            "temperature",
+            "temp",
+            "temperature_c",
+            "imu_temp",
+            "temp_f",
+            "temperature_f",
+            "temp_k",
+            "temperature_k",
+            "temp_degc",
+            "temp_degf",
+        ],
+    ),
     (
         "ax",
         &["ax", "ax_g", "ax_mg", "ax_mps2", "acc.x", "accel.x", "acc_x", "accel_x", "acc_x_g", "acc_x_mps2", "accx"],
@@ -92,14 +108,14 @@ impl TimeUnit {
 }
 
 impl FromStr for TimeUnit {
-    type Err = StaticError;
-    fn from_str(s: &str) -> Result<Self, StaticError> {
+    type Err = UnitParseError;
+    fn from_str(s: &str) -> Result<Self, UnitParseError> {
         match s {
             "s" => Ok(Self::S),
             "ms" => Ok(Self::Ms),
             "us" | "µs" => Ok(Self::Us),
             "ns" => Ok(Self::Ns),
-            _ => Err(StaticError::BadUnit { flag: "--time-unit", value: s.to_string(), allowed: "s|ms|us|ns" }),
+            _ => Err(UnitParseError { option: ReaderOption::TimeUnit, value: s.to_string() }),
         }
     }
 }
@@ -116,6 +132,19 @@ pub enum AccelUnit {
 }
 
 impl AccelUnit {
+    /// Every unit.
+    pub const ALL: [AccelUnit; 3] = [AccelUnit::G, AccelUnit::Mg, AccelUnit::Mps2];
+
+    /// The name `--accel-unit` takes.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::G => "g",
+            Self::Mg => "mg",
+            Self::Mps2 => "m/s2",
+        }
+    }
+
     /// g per unit.
     #[must_use]
     pub fn g(self) -> f64 {
@@ -136,13 +165,13 @@ impl AccelUnit {
 }
 
 impl FromStr for AccelUnit {
-    type Err = StaticError;
-    fn from_str(s: &str) -> Result<Self, StaticError> {
+    type Err = UnitParseError;
+    fn from_str(s: &str) -> Result<Self, UnitParseError> {
         match s {
             "g" => Ok(Self::G),
             "mg" => Ok(Self::Mg),
             "m/s2" | "m/s^2" | "mps2" => Ok(Self::Mps2),
-            _ => Err(StaticError::BadUnit { flag: "--accel-unit", value: s.to_string(), allowed: "g|mg|m/s2" }),
+            _ => Err(UnitParseError { option: ReaderOption::AccelUnit, value: s.to_string() }),
         }
     }
 }

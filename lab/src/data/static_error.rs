@@ -3,7 +3,8 @@
 
 use std::fmt;
 
-use super::static_log::{Skipped, Slew, TimeUnit, MAX_SLEW_C_PER_MIN, MIN_ROWS};
+use super::static_log::{Skipped, MIN_ROWS};
+use super::units::{ReaderOption, Spelling, UnitMismatch, UnitParseError};
 
 /// A row-level error of a static log.
 #[derive(Clone, Debug, PartialEq)]
@@ -73,35 +74,18 @@ pub enum StaticError {
     },
     /// A `--columns` item that is not `role=column` with a known role.
     BadColumnSpec(String),
-    /// A unit flag value that is not one of the allowed ones.
-    BadUnit {
-        /// Flag.
-        flag: &'static str,
-        /// Value given.
-        value: String,
-        /// Allowed values.
-        allowed: &'static str,
-    },
+    /// A unit option's value that is none of its units.
+    BadUnit(UnitParseError),
     /// No unit given and none in the column name.
     UnitUnknown {
-        /// Flag to pass.
-        flag: &'static str,
+        /// The option to pass.
+        option: ReaderOption,
         /// Column.
         column: String,
     },
-    /// The data are implausible in the units given.
-    ImplausibleUnit(String),
-    /// The temperature changes faster than a chamber can move it in the time unit given.
-    ImplausibleSlew {
-        /// The time unit the log was read with.
-        unit: TimeUnit,
-        /// The change, °C/min ([`crate::data::static_checks::max_slew`]).
-        slew: Slew,
-        /// Line and temperature (as filtered) where the change starts and ends.
-        ends: [(u64, f64); 2],
-        /// Other time units that give a plausible row interval and slew, with their slew.
-        fits: Vec<(TimeUnit, f64)>,
-    },
+    /// The data contradict the unit they were read in (the one style of every unit
+    /// mistake: the figure, what it must be, and the unit that fits).
+    Unit(Box<UnitMismatch>),
     /// Numbers with a decimal comma, read without [`crate::data::static_log::StaticOptions::decimal_comma`].
     DecimalComma {
         /// Line of the first such field.
@@ -131,73 +115,60 @@ pub enum StaticError {
     },
 }
 
-impl fmt::Display for StaticError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+impl StaticError {
+    /// The message, with every reader option spelled for `sp` (`--accel-unit` for the
+    /// CLI, `accel_unit=` for Python).
+    #[must_use]
+    pub fn message(&self, sp: Spelling) -> String {
         match self {
-            Self::Io(e) => write!(f, "cannot read the log: {e}"),
-            Self::Empty => f.write_str("empty log: no header line"),
-            Self::NoRows => f.write_str("the log has a header but no data rows"),
+            Self::Io(e) => format!("cannot read the log: {e}"),
+            Self::Empty => "empty log: no header line".to_string(),
+            Self::NoRows => "the log has a header but no data rows".to_string(),
             Self::UnknownColumn { role, column, header } => {
-                write!(f, "unknown column `{column}` for {role}; the header has: {}", header.join(", "))
+                format!("unknown column `{column}` for {role}; the header has: {}", header.join(", "))
             }
-            Self::MissingColumn { role, header } => write!(
-                f,
-                "no {role} column found by common names; pass --columns {role}=NAME (the header has: {})",
+            Self::MissingColumn { role, header } => format!(
+                "no {role} column found by common names; pass {} (the header has: {})",
+                ReaderOption::Columns.with(sp, &format!("{role}=NAME")),
                 header.join(", ")
             ),
-            Self::BadColumnSpec(s) => {
-                write!(f, "bad --columns item `{s}`: expected role=column with role time, temp, ax, ay or az")
-            }
-            Self::BadUnit { flag, value, allowed } => write!(f, "{flag} `{value}`: expected {allowed}"),
-            Self::UnitUnknown { flag, column } => {
-                write!(f, "the unit of column `{column}` is not known: pass {flag}")
-            }
-            Self::ImplausibleUnit(s) => write!(f, "wrong unit? {s}"),
-            Self::ImplausibleSlew { unit, slew, ends, fits } => {
-                write!(
-                    f,
-                    "wrong unit? read with --time-unit {} the temperature changes by {:.0} °C/min ({:.2} °C within \
-                     {:.3} s: from {:.2} °C at line {} to {:.2} °C at line {}); a board in a climate chamber changes \
-                     by at most {MAX_SLEW_C_PER_MIN:.0} °C/min: check --time-unit",
-                    unit.name(),
-                    slew.c_per_min,
-                    slew.range_c,
-                    slew.window_s,
-                    ends[0].1,
-                    ends[0].0,
-                    ends[1].1,
-                    ends[1].0
-                )?;
-                if !fits.is_empty() {
-                    let f2: Vec<String> =
-                        fits.iter().map(|(u, x)| format!("{} gives {x:.1} °C/min", u.name())).collect();
-                    write!(f, " ({})", f2.join(", "))?;
-                }
-                Ok(())
-            }
-            Self::DecimalComma { line, column, text, rows } => write!(
-                f,
-                "column `{column}` holds `{text}` at line {line}: a decimal comma? {rows} row(s) have numbers like it; \
-                 pass --decimal-comma to read them"
+            Self::BadColumnSpec(s) => format!(
+                "bad {} item `{s}`: expected role=column with role time, temp, ax, ay or az",
+                ReaderOption::Columns.name(sp)
             ),
-            Self::DecimalCommaDelimiter => f.write_str(
-                "--decimal-comma needs a `;` or tab delimiter: this header is comma-separated, so a decimal comma \
-                 cannot be told from a field separator",
+            Self::BadUnit(e) => e.message(sp),
+            Self::UnitUnknown { option, column } => {
+                format!("the unit of column `{column}` is not known: pass {}", option.with(sp, option.allowed()))
+            }
+            Self::Unit(m) => m.message(sp),
+            Self::DecimalComma { line, column, text, rows } => format!(
+                "column `{column}` holds `{text}` at line {line}: a decimal comma? {rows} row(s) have numbers like it; \
+                 pass {} to read them",
+                ReaderOption::DecimalComma.with(sp, "")
+            ),
+            Self::DecimalCommaDelimiter => format!(
+                "{} needs a `;` or tab delimiter: this header is comma-separated, so a decimal comma cannot be told \
+                 from a field separator",
+                ReaderOption::DecimalComma.with(sp, "")
             ),
             Self::Rows { first, total } => {
-                write!(f, "{total} malformed row(s)")?;
+                let mut s = format!("{total} malformed row(s)");
                 for (line, fault) in first {
-                    write!(f, "\n  line {line}: {fault}")?;
+                    s.push_str(&format!("\n  line {line}: {fault}"));
                 }
                 if *total > first.len() {
-                    write!(f, "\n  ... and {} more", total - first.len())?;
+                    s.push_str(&format!("\n  ... and {} more", total - first.len()));
                 }
-                Ok(())
+                s
             }
-            Self::TooFewRows { kept, skipped } => {
-                write!(f, "only {kept} usable row(s), need {MIN_ROWS}: {skipped}")
-            }
+            Self::TooFewRows { kept, skipped } => format!("only {kept} usable row(s), need {MIN_ROWS}: {skipped}"),
         }
+    }
+}
+
+impl fmt::Display for StaticError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.message(Spelling::Cli))
     }
 }
 

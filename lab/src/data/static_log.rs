@@ -6,7 +6,9 @@
 //! (comma, tab or semicolon) is taken from the header line. Units come from
 //! [`TimeUnit`] / [`AccelUnit`], or from a column-name suffix (`time_s`, `timestamp_us`,
 //! `ax_g`, `acc_x_mps2`); a unit that is neither given nor in the name is an error, never a
-//! guess. Time is shifted to start at 0 s (logs often count from power-up or the epoch).
+//! guess; the temperature is °C unless [`StaticOptions::temp_unit`] or the name (`temp_f`,
+//! `temp_k`) says otherwise, and an option that contradicts a name's unit is refused. Time is
+//! shifted to start at 0 s (logs often count from power-up or the epoch).
 //!
 //! What the reader does with each kind of bad row, so nothing reaches a fit unnoticed:
 //! * a field that does not parse as a number (`abc`), or a temperature outside
@@ -27,10 +29,13 @@
 //!   root crate's estimator handles irregular spacing by design.
 //!
 //! Whole-log checks (errors): no header, no data rows, an unknown or missing column, a
-//! unit that makes the data implausible (median |a| over the axes above 1.5 g, a median
-//! row interval outside 10 µs…60 s, or a temperature changing faster than
-//! [`MAX_SLEW_C_PER_MIN`]: see [`max_slew`]; the message gives the figure and the time
-//! unit that would fit), fewer than [`MIN_ROWS`] rows left.
+//! unit that makes the data implausible, each from both sides where the data allow it
+//! ([`super::units`]: the median |a| outside [`super::units::REST_G`] with all three axes,
+//! above it with fewer; a median row interval outside 10 µs…60 s, or a temperature
+//! changing faster than [`MAX_SLEW_C_PER_MIN`], see [`max_slew`]; readings outside
+//! −60…130 °C that another temperature unit puts inside), every one refused as
+//! [`StaticError::Unit`] with the figure and the unit that fits; fewer than [`MIN_ROWS`]
+//! rows left.
 //!
 //! Decimal commas (`20,5` in a `;`- or tab-separated file, a spreadsheet export in many
 //! locales) are read with [`StaticOptions::decimal_comma`]; without it, a log whose first
@@ -49,6 +54,7 @@ use super::static_checks::{centred_median, glitches, median};
 pub use super::static_checks::{max_slew, Slew};
 pub use super::static_columns::*;
 pub use super::static_error::*;
+use super::units::{ReaderOption, TempUnit, UnitEvidence, UnitMismatch, UnitSource, REST_G};
 
 /// Standard gravity, m/s², to convert m/s² to g.
 pub const G0_MPS2: f64 = 9.806_65;
@@ -91,6 +97,8 @@ pub struct StaticOptions {
     pub time_unit: Option<TimeUnit>,
     /// Acceleration unit (else from the column names' suffix).
     pub accel_unit: Option<AccelUnit>,
+    /// Temperature unit (else from the column name's suffix, else °C, assumed).
+    pub temp_unit: Option<TempUnit>,
     /// Numbers use a decimal comma (`20,5`); needs a `;` or tab delimiter.
     pub decimal_comma: bool,
 }
@@ -200,6 +208,8 @@ pub struct StaticLog {
     pub skipped: Skipped,
     /// Sampling regularity.
     pub sampling: Sampling,
+    /// How each unit was decided and what the data show in it.
+    pub units: UnitEvidence,
 }
 
 impl fmt::Display for Sampling {
@@ -226,7 +236,7 @@ impl StaticLog {
 }
 
 /// Whether a header column matches a common name.
-fn matches_common(col: &str, name: &str) -> bool {
+pub(crate) fn matches_common(col: &str, name: &str) -> bool {
     let c = col.to_ascii_lowercase();
     c == name || c.ends_with(&format!(".{name}")) || c.ends_with(&format!("_{name}"))
 }
@@ -305,27 +315,26 @@ pub fn read_static_from<R: Read>(reader: R, opts: &StaticOptions) -> Result<Stat
     if axes_idx.is_empty() {
         return Err(StaticError::MissingColumn { role: "ax/ay/az".to_string(), header: header.clone() });
     }
-    let time_unit = match opts.time_unit {
-        Some(u) => u,
-        None => TimeUnit::from_suffix(&header[ti])
-            .ok_or_else(|| StaticError::UnitUnknown { flag: "--time-unit s|ms|us|ns", column: header[ti].clone() })?,
-    };
-    let accel_unit = match opts.accel_unit {
-        Some(u) => u,
-        None => {
-            let us: Vec<Option<AccelUnit>> =
-                axes_idx.iter().map(|(_, i)| AccelUnit::from_suffix(&header[*i])).collect();
-            match us[0] {
-                Some(u) if us.iter().all(|x| *x == Some(u)) => u,
-                _ => {
-                    return Err(StaticError::UnitUnknown {
-                        flag: "--accel-unit g|mg|m/s2",
-                        column: header[axes_idx[0].1].clone(),
-                    })
-                }
-            }
-        }
-    };
+    let (time_unit, time_src) = resolve(
+        opts.time_unit,
+        &[(TimeUnit::from_suffix(&header[ti]), &header[ti])],
+        ReaderOption::TimeUnit,
+        TimeUnit::name,
+    )?
+    .ok_or_else(|| StaticError::UnitUnknown { option: ReaderOption::TimeUnit, column: header[ti].clone() })?;
+    let named: Vec<(Option<AccelUnit>, &String)> =
+        axes_idx.iter().map(|(_, i)| (AccelUnit::from_suffix(&header[*i]), &header[*i])).collect();
+    let (accel_unit, accel_src) =
+        resolve(opts.accel_unit, &named, ReaderOption::AccelUnit, AccelUnit::name)?.ok_or_else(|| {
+            StaticError::UnitUnknown { option: ReaderOption::AccelUnit, column: header[axes_idx[0].1].clone() }
+        })?;
+    let (temp_unit, temp_src) = resolve(
+        opts.temp_unit,
+        &[(TempUnit::from_suffix(&header[tc]), &header[tc])],
+        ReaderOption::TempUnit,
+        TempUnit::name,
+    )?
+    .unwrap_or((TempUnit::C, UnitSource::Assumed));
 
     let ncol = header.len();
     let mut raw_t: Vec<f64> = Vec::new();
@@ -333,6 +342,8 @@ pub fn read_static_from<R: Read>(reader: R, opts: &StaticOptions) -> Result<Stat
     let mut acc: Vec<Vec<f64>> = vec![Vec::new(); axes_idx.len()];
     let mut lines: Vec<u64> = Vec::new();
     let mut skipped = Skipped::default();
+    // Every parsed temperature in the file's unit, for the unit check of out-of-range rows.
+    let mut file_temps: Vec<f64> = Vec::new();
     let mut faults: Vec<(u64, StaticRowFault)> = Vec::new();
     let mut n_faults = 0usize;
     // Rows whose bad field is a decimal-comma number, and the first of them.
@@ -392,8 +403,9 @@ pub fn read_static_from<R: Read>(reader: R, opts: &StaticOptions) -> Result<Stat
             continue;
         }
         let vals: Vec<f64> = vals.into_iter().flatten().collect();
-        let (t, tc_v) = (vals[0], vals[1]);
-        if !(-60.0..=130.0).contains(&tc_v) {
+        let (t, tc_v) = (vals[0], temp_unit.to_c(vals[1]));
+        file_temps.push(vals[1]);
+        if !TEMP_RANGE_C.contains(&tc_v) {
             fault(&mut faults, line, StaticRowFault::TempOutOfRange(tc_v));
             continue;
         }
@@ -418,6 +430,26 @@ pub fn read_static_from<R: Read>(reader: R, opts: &StaticOptions) -> Result<Stat
         // The first bad field a decimal-comma number: say that, not "not a number" rows.
         if let Some((line, column, text)) = first_comma.filter(|(l, _, _)| faults.first().is_some_and(|f| f.0 == *l)) {
             return Err(StaticError::DecimalComma { line, column, text, rows: comma_rows });
+        }
+        // Temperatures out of range in the unit read, and every one in range in another:
+        // the unit is wrong, not the rows.
+        if faults.iter().any(|(_, f)| matches!(f, StaticRowFault::TempOutOfRange(_))) {
+            let fits = temp_fits(&file_temps, temp_unit);
+            if !fits.is_empty() {
+                let (lo, hi) = range_c(&file_temps, temp_unit);
+                let out = file_temps.iter().filter(|&&x| !TEMP_RANGE_C.contains(&temp_unit.to_c(x))).count();
+                return Err(StaticError::Unit(Box::new(UnitMismatch {
+                    option: ReaderOption::TempUnit,
+                    stated: temp_unit.name(),
+                    source: temp_src,
+                    evidence: format!(
+                        "the temperature spans {lo:.1}..{hi:.1} °C ({out} of {} rows outside -60..130 °C)",
+                        file_temps.len()
+                    ),
+                    expected: "a board in a climate chamber reads -60..130 °C".to_string(),
+                    fits: fits.into_iter().map(|(u, (a, b))| (u.name(), format!("{a:.1}..{b:.1} °C"))).collect(),
+                })));
+            }
         }
         return Err(StaticError::Rows { first: faults, total: n_faults });
     }
@@ -445,14 +477,9 @@ pub fn read_static_from<R: Read>(reader: R, opts: &StaticOptions) -> Result<Stat
     let time_s: Vec<f64> = keep.iter().map(|&i| (raw_t[i] - t0) * time_unit.seconds()).collect();
     let intervals: Vec<f64> = time_s.windows(2).map(|w| w[1] - w[0]).collect();
     let med = median(&intervals);
-    if !(1e-5..=60.0).contains(&med) {
-        return Err(StaticError::ImplausibleUnit(format!(
-            "the median row interval is {med:.3e} s in {time_unit:?}, outside 10 µs..60 s: check --time-unit"
-        )));
-    }
     let kept_temp: Vec<f64> = keep.iter().map(|&k| temp[k]).collect();
     let slew = max_slew(&time_s, &kept_temp);
-    if slew.c_per_min > MAX_SLEW_C_PER_MIN {
+    if !INTERVAL_S.contains(&med) || slew.c_per_min > MAX_SLEW_C_PER_MIN {
         // Which other units would make both the interval and the slew plausible.
         let fits = TimeUnit::ALL
             .into_iter()
@@ -461,13 +488,37 @@ pub fn read_static_from<R: Read>(reader: R, opts: &StaticOptions) -> Result<Stat
                 let k = u.seconds() / time_unit.seconds();
                 let t: Vec<f64> = time_s.iter().map(|x| x * k).collect();
                 let s = max_slew(&t, &kept_temp).c_per_min;
-                ((1e-5..=60.0).contains(&(med * k)) && s <= MAX_SLEW_C_PER_MIN).then_some((u, s))
+                (INTERVAL_S.contains(&(med * k)) && s <= MAX_SLEW_C_PER_MIN)
+                    .then(|| (u.name(), format!("rows {} s apart, {s:.1} °C/min", sig3(med * k))))
             })
             .collect();
-        // The filtered values are the ones the range is of; at these rows they are the
-        // readings themselves unless a neighbour was a bad one.
-        let at = |i: usize| -> (u64, f64) { (lines[keep[i]], centred_median(&kept_temp, i)) };
-        return Err(StaticError::ImplausibleSlew { unit: time_unit, slew, ends: [at(slew.from), at(slew.to)], fits });
+        let (evidence, expected) = if INTERVAL_S.contains(&med) {
+            // The filtered values are the ones the range is of; at these rows they are the
+            // readings themselves unless a neighbour was a bad one.
+            let at = |i: usize| -> (u64, f64) { (lines[keep[i]], centred_median(&kept_temp, i)) };
+            let (a, b) = (at(slew.from), at(slew.to));
+            (
+                format!(
+                    "the temperature changes by {:.0} °C/min ({:.2} °C within {:.3} s: from {:.2} °C at line {} to \
+                     {:.2} °C at line {})",
+                    slew.c_per_min, slew.range_c, slew.window_s, a.1, a.0, b.1, b.0
+                ),
+                format!("a board in a climate chamber changes by at most {MAX_SLEW_C_PER_MIN:.0} °C/min"),
+            )
+        } else {
+            (
+                format!("the median row interval is {} s", sig3(med)),
+                "a logger writes a row every 10 µs..60 s".to_string(),
+            )
+        };
+        return Err(StaticError::Unit(Box::new(UnitMismatch {
+            option: ReaderOption::TimeUnit,
+            stated: time_unit.name(),
+            source: time_src,
+            evidence,
+            expected,
+            fits,
+        })));
     }
     let sampling = Sampling {
         median_interval_s: med,
@@ -485,19 +536,66 @@ pub fn read_static_from<R: Read>(reader: R, opts: &StaticOptions) -> Result<Stat
             accel_g: keep.iter().map(|&k| a[k]).collect(),
         })
         .collect();
-    // A board at rest reads |a| ≈ 1 g; far above that the unit is wrong (m/s² read as g).
+    // A board at rest reads |a| = 1 g: with every axis the median |a| is checked from both
+    // sides, with fewer axes (a projection) only from above.
     let mag: Vec<f64> =
         (0..keep.len()).map(|k| axes.iter().map(|a| a.accel_g[k] * a.accel_g[k]).sum::<f64>().sqrt()).collect();
     let med_mag = median(&mag);
-    if med_mag > 1.5 {
-        return Err(StaticError::ImplausibleUnit(format!(
-            "the median |a| over {} is {med_mag:.3} g in {accel_unit:?}; a board at rest reads about 1 g: check --accel-unit",
-            axes.iter().map(|a| a.column.as_str()).collect::<Vec<_>>().join(", ")
-        )));
+    let all_axes = axes.len() == 3;
+    let lo = if all_axes { REST_G.0 } else { 0.0 };
+    if !(lo..=REST_G.1).contains(&med_mag) {
+        let fits = AccelUnit::ALL
+            .into_iter()
+            .filter(|&u| u != accel_unit)
+            .map(|u| (u, med_mag * u.g() / accel_unit.g()))
+            .filter(|(_, m)| (REST_G.0..=REST_G.1).contains(m))
+            .map(|(u, m)| (u.name(), format!("median |a| {} g", sig3(m))))
+            .collect();
+        let cols = axes.iter().map(|a| a.column.as_str()).collect::<Vec<_>>().join(", ");
+        let expected = if all_axes {
+            format!("a board at rest reads |a| = 1 g ({:.2}..{:.2} g)", REST_G.0, REST_G.1)
+        } else {
+            format!("a board at rest reads at most {:.2} g on {} of its axes", REST_G.1, axes.len())
+        };
+        return Err(StaticError::Unit(Box::new(UnitMismatch {
+            option: ReaderOption::AccelUnit,
+            stated: accel_unit.name(),
+            source: accel_src,
+            evidence: format!("the median |a| over {cols} is {} g", sig3(med_mag)),
+            expected,
+            fits,
+        })));
     }
+    let temp_range = range_c(&kept_temp, TempUnit::C);
+    let units = UnitEvidence {
+        units: vec![
+            (
+                ReaderOption::TimeUnit,
+                time_unit.name(),
+                time_src,
+                format!("rows {} s apart, fastest change {:.1} °C/min", sig3(med), slew.c_per_min),
+            ),
+            (
+                ReaderOption::AccelUnit,
+                accel_unit.name(),
+                accel_src,
+                format!("median |a| {} g over {} axis(es)", sig3(med_mag), axes.len()),
+            ),
+            (
+                ReaderOption::TempUnit,
+                temp_unit.name(),
+                temp_src,
+                format!("{:.1}..{:.1} °C", temp_range.0, temp_range.1),
+            ),
+        ],
+        median_abs_g: med_mag,
+        all_axes,
+        temp_range_c: temp_range,
+        temp_also_plausible: temp_fits(&file_temps, temp_unit).into_iter().map(|(u, r)| (u.name(), r)).collect(),
+    };
     let mut columns = vec![
         ("time".to_string(), header[ti].clone(), format!("{time_unit:?}").to_lowercase()),
-        ("temp".to_string(), header[tc].clone(), "degC".to_string()),
+        ("temp".to_string(), header[tc].clone(), format!("deg{}", temp_unit.name()).replace("degK", "K")),
     ];
     for a in &axes {
         columns.push((a.name.clone(), a.column.clone(), format!("{accel_unit:?}").to_lowercase()));
@@ -510,7 +608,68 @@ pub fn read_static_from<R: Read>(reader: R, opts: &StaticOptions) -> Result<Stat
         columns,
         skipped,
         sampling,
+        units,
     })
+}
+
+/// Readings outside this range, °C, are refused.
+pub const TEMP_RANGE_C: std::ops::RangeInclusive<f64> = -60.0..=130.0;
+
+/// Plausible median row intervals, s.
+const INTERVAL_S: std::ops::RangeInclusive<f64> = 1e-5..=60.0;
+
+/// `x` with three significant digits (`0.00957`, `9.57`, `957`).
+fn sig3(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x}");
+    }
+    let digits = (2 - x.abs().log10().floor() as i32).max(0) as usize;
+    format!("{x:.digits$}")
+}
+
+/// Range of `v` (in `unit`), °C.
+fn range_c(v: &[f64], unit: TempUnit) -> (f64, f64) {
+    v.iter().map(|&x| unit.to_c(x)).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x), b.max(x)))
+}
+
+/// The temperature units other than `stated` in which every reading of `v` lies in
+/// [`TEMP_RANGE_C`], with the range each gives, °C.
+fn temp_fits(v: &[f64], stated: TempUnit) -> Vec<(TempUnit, (f64, f64))> {
+    TempUnit::ALL
+        .into_iter()
+        .filter(|&u| u != stated)
+        .map(|u| (u, range_c(v, u)))
+        .filter(|(_, (lo, hi))| TEMP_RANGE_C.contains(lo) && TEMP_RANGE_C.contains(hi))
+        .collect()
+}
+
+/// A column's unit from the option, else from the column names (`(unit in the name, name)`
+/// per column); an option contradicting a name is refused. `None`: neither states it.
+fn resolve<U: Copy + PartialEq>(
+    option: Option<U>,
+    named: &[(Option<U>, &String)],
+    which: ReaderOption,
+    name: fn(U) -> &'static str,
+) -> Result<Option<(U, UnitSource)>, StaticError> {
+    if let Some(u) = option {
+        if let Some((Some(n), col)) = named.iter().find(|(n, _)| n.is_some_and(|n| n != u)) {
+            return Err(StaticError::Unit(Box::new(UnitMismatch {
+                option: which,
+                stated: name(u),
+                source: UnitSource::Option,
+                evidence: format!("the column `{col}` is named for {}", name(*n)),
+                expected: "a unit in a column's name and the one passed must agree".to_string(),
+                fits: vec![(name(*n), "the column name's unit".to_string())],
+            })));
+        }
+        return Ok(Some((u, UnitSource::Option)));
+    }
+    match named.first() {
+        Some((Some(u), col)) if named.iter().all(|(n, _)| *n == Some(*u)) => {
+            Ok(Some((*u, UnitSource::ColumnName((*col).clone()))))
+        }
+        _ => Ok(None),
+    }
 }
 
 #[cfg(test)]
