@@ -68,3 +68,32 @@ fn status_ok_means_within_the_oracles_tolerance() {
     let (c, o) = (cycles.load(Ordering::Relaxed), ok.load(Ordering::Relaxed));
     assert!(o * 5 > c, "only {o} of {c} cycles were OK: the histories test little");
 }
+
+/// A history the oracle found: power-up in the middle of a 1 °C/min ramp, an hour after it
+/// began, with a 600-s sensor lag in the table. The element trails the case by 10 °C then;
+/// the firmware, which starts the lag from the first reading, must flag `MODEL_SETTLING`
+/// until its state is within a quarter LSB of the history's, and be right once it clears.
+/// Before the flag existed this history had silent wrong cycles (the mutant
+/// `settling_never_flagged` still has them).
+#[test]
+fn power_up_mid_ramp_with_a_lag_is_flagged_until_it_has_settled() {
+    use host_tests::field::{History, Slots, TableSpec};
+    let lag = Slots { lag_s: Some(600.0), play: None, creep: None };
+    let table = TableSpec { unit: 0, grid: (-20.0, 10.0), split_g: 0.0, rate_limit: 2.0, slots: [lag; 3] };
+    let h = History {
+        start_c: 0.0,
+        before_power_up_s: 3_600,
+        segments: vec![(3_600 + 600, 1.0), (7_200, 0.0)],
+        offsets_c: [0.0; 3],
+        flicker_seed: 7,
+        clock_start_us: u32::MAX - 5_000_000,
+        tables: [table.clone(), table],
+        events: Vec::new(),
+        cycles_per_s: 1,
+    };
+    let v = run(&h);
+    println!("{v:?}");
+    assert_eq!(v.silent_wrong_cycles, 0, "{:?}", v.first);
+    assert!(v.flagged[8] > 3_000, "MODEL_SETTLING for most of the first hour: {}", v.flagged[8]);
+    assert!(v.ok_cycles > 1_000, "and OK once settled: {}", v.ok_cycles);
+}

@@ -673,6 +673,10 @@ fn oracle(args: &[String]) -> Result {
         } else {
             caught += 1;
             println!("caught: {}", first.trim());
+            // The history proptest shrank the failure to, as a regression test would take it.
+            if let Some(h) = out.lines().find(|l| l.contains("minimal failing input")) {
+                println!("{}", h.trim());
+            }
         }
     }
     println!("mutants_caught={caught} of {}", ORACLE_MUTANTS.len());
