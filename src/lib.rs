@@ -31,6 +31,39 @@
 //! assert!((g - 0.99948).abs() < 1e-4, "{g}"); // 1 601 / (γ·5 ms) − K0, in g
 //! ```
 //!
+//! # MEMS samples
+//!
+//! `qfa-lab calibrate` on a static (MEMS) log writes a table for [`Input::Samples`] in the
+//! lab's own scale, 2²⁰ units per g (K1 ≈ 1 048 576). The compensator is configured in that
+//! scale, and each raw sample is brought to it with one integer multiply: for a ±8 g part at
+//! 4 096 LSB/g, `raw · 256`. A compensator left at the part's 4 096 refuses the table
+//! ([`table::Error::Scale`]) rather than scale every output by 1/256.
+//!
+//! ```
+//! use qfa_thermal::{AxisModel, BiasGrid, Compensator, Config, Extensions, Input, ScaleFactor, Table};
+//!
+//! // What `calibrate` writes for one MEMS axis (`table.bin` → `Table::decode`), here by hand:
+//! // K1 at the lab's 2²⁰ per g, a 2 mg bias.
+//! let bias = BiasGrid::single_valued(-20.0, 10.0, &[2e-3; 10]).expect("10 values fit a branch");
+//! let axis = AxisModel { scale: ScaleFactor::simple(25.0, 1_048_576.0, 0.0), bias, rate_limit_c_per_min: 5.0, ext: Extensions::default() };
+//! let table = Table { input: Input::Samples, rate_window: 32, axes: [axis].into_iter().collect(), misalignment: None };
+//!
+//! let part = Config { input: Input::Samples, nominal_k1: 4_096.0, ..Config::default() };
+//! let mut wrong = Compensator::<1, 32>::new(part).unwrap();
+//! assert!(matches!(wrong.set_table(table.clone()), Err(qfa_thermal::table::Error::Scale { .. })));
+//!
+//! let lab_scale = Config { input: Input::Samples, nominal_k1: 1_048_576.0, ..Config::default() };
+//! let mut comp = Compensator::<1, 32>::new(lab_scale).unwrap();
+//! comp.set_table(table).unwrap();
+//! for s in 0..8 {
+//!     comp.on_raw(0, s * 1_000, 400).unwrap(); // 25.0 °C
+//! }
+//! let raw_lsb = 4_096 + 8; // the part's reading: 1 g plus its 2 mg bias, at 4 096 LSB/g
+//! let out = comp.cycle_samples([raw_lsb * 256], 5_000); // brought to 2²⁰ per g
+//! let g = out.accel_mps2[0] / qfa_thermal::G0;
+//! assert!((g - 1.0).abs() < 1e-4, "{g}");
+//! ```
+//!
 //! # Wiring
 //!
 //! In firmware the two paths run in two contexts: [`Compensator::split`] gives an

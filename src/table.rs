@@ -140,6 +140,16 @@ pub enum Error {
         /// Input the compensator's [`Config`](crate::Config) names.
         compensator: Input,
     },
+    /// The table's K1 at T0 (γ) is more than a factor of 2 from the compensator's
+    /// [`Config::nominal_k1`](crate::Config::nominal_k1): the table is in another unit
+    /// scale (another sensor's LSB per g, or the lab's 2²⁰ units per g), and applying it
+    /// would scale every output by that ratio.
+    Scale {
+        /// γ of the first axis out of scale, rounded.
+        table_k1: u32,
+        /// The compensator's nominal K1, rounded.
+        nominal_k1: u32,
+    },
     /// Table was fitted with another rate-estimator window than this firmware's.
     RateWindow {
         /// Window in the table.
@@ -170,6 +180,11 @@ impl fmt::Display for Error {
             Self::Input { table, compensator } => {
                 write!(f, "table converts {table}, the compensator is configured for {compensator}")
             }
+            Self::Scale { table_k1, nominal_k1 } => write!(
+                f,
+                "table K1 {table_k1} per g is not within a factor of 2 of the compensator's nominal {nominal_k1}: \
+                 another unit scale (set Config::nominal_k1 to the table's scale and feed inputs in it)"
+            ),
             Self::RateWindow { table, firmware } => {
                 write!(f, "table fitted with rate window {table}, firmware uses {firmware}")
             }

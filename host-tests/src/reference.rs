@@ -400,7 +400,12 @@ impl Reference {
     /// Load a table (decoded by the crate's codec; everything after is independent).
     pub fn table(&mut self, bytes: &[u8]) -> Predicted {
         match Table::decode(bytes) {
-            Ok(t) if t.axes.len() == 3 && t.rate_window == 32 => {
+            // γ within a factor of 2 of the nominal scale (the default config's 320 000).
+            Ok(t)
+                if t.axes.len() == 3
+                    && t.rate_window == 32
+                    && t.axes.iter().all(|a| (0.5..=2.0).contains(&(f64::from(a.scale.gamma) / NOMINAL_K1))) =>
+            {
                 match &self.table {
                     Some(old) => {
                         for i in 0..3 {

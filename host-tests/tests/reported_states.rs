@@ -124,3 +124,35 @@ fn a_grid_longer_than_a_branch_is_refused() {
     let fits = BiasGrid::single_valued(-40.0, 8.0, &values[..MAX_BIAS_POINTS]).expect("16 values fit");
     assert_eq!(fits.t_end_c(), 80.0);
 }
+
+/// A MEMS table in the lab's scale (2²⁰ units per g) set on a compensator configured for
+/// the part's own 4 096 LSB/g is refused with both scales named. Before the check it was
+/// accepted, and the part's −4 096 LSB (−1 g) came out as −0.0039 g with the status OK; the
+/// same table with the compensator in its scale and the samples scaled to it gives −1 g.
+#[test]
+fn a_table_in_another_unit_scale_is_refused() {
+    use qfa_thermal::table::{self, Input};
+    let lab_scale = 1_048_576.0f32;
+    let mut t = scenarios::table(0, [Extensions::default(); 3], None);
+    t.input = Input::Samples;
+    for a in &mut t.axes {
+        a.scale = qfa_thermal::ScaleFactor::simple(22.0, lab_scale, 0.0);
+    }
+    let part = Config { input: Input::Samples, nominal_k1: 4_096.0, ..Config::default() };
+    let mut c = Comp::new(part).unwrap();
+    assert_eq!(c.set_table(t.clone()), Err(table::Error::Scale { table_k1: 1_048_576, nominal_k1: 4_096 }));
+    assert!(c.table().is_none(), "nothing changed");
+
+    let lab = Config { input: Input::Samples, nominal_k1: lab_scale, ..Config::default() };
+    let mut c = Comp::new(lab).unwrap();
+    c.set_table(t).unwrap();
+    for t_s in 0..40 {
+        for s in 0..3 {
+            c.on_raw(s, t_s * 1_000, 352 + (t_s / 4) as i16).unwrap();
+        }
+    }
+    let raw_lsb = -4_096i32; // the part at −1 g on z
+    let out = c.cycle_samples([0, 0, raw_lsb * ((1 << 20) / 4_096)], 2_500); // × 256
+    let az_g = f64::from(out.accel_mps2[2]) / 9.806_65;
+    assert!((az_g + 1.0).abs() < 2e-4, "{az_g} g (the bias is about 1e-4 g)");
+}

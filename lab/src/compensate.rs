@@ -268,6 +268,8 @@ pub fn compensate_samples(
             .max((1.5 * max_dt_s / f64::from(default.tick_s)).ceil().min(f64::from(i32::MAX - 1)) as u32),
         sample_period_ms: default.sample_period_ms.max((max_dt_s * 1000.0).ceil().min(60_000.0) as u32),
         input: qfa_thermal::Input::Samples,
+        // The static tables' scale: rows enter as a·2²⁰ pseudo-LSB.
+        nominal_k1: crate::calibrate::fit::STATIC_LSB_PER_G,
         ..default
     };
     let mut out = StaticCompensated { accel_g: Vec::with_capacity(accel_g.len()), status: vec![Status::empty(); rows] };

@@ -80,9 +80,12 @@ pub struct Config {
     /// restarted clock (default 3; 2..=16: one reading confirming itself would switch off
     /// both the plausibility and the restart checks).
     pub confirm_samples: u8,
-    /// Scale factor used while no table is loaded, in the sensor's own unit: pulses/(g·s)
-    /// for pulse counts, LSB/g for samples. Default 320 000, a JB-KT8-class QFA (Zhang et
-    /// al. 2021, Eq. 15–17: γ = 308 000…328 000); set the nominal of your own sensor.
+    /// Scale factor used while no table is loaded, in the unit of the fast path's input:
+    /// pulses/(g·s) for pulse counts, LSB/g for samples. Default 320 000, a JB-KT8-class QFA
+    /// (Zhang et al. 2021, Eq. 15–17: γ = 308 000…328 000); set the nominal of your own
+    /// sensor. A table's γ must be within a factor of 2 of it
+    /// ([`table::Error::Scale`]): the lab's static tables are in 2²⁰ units per g, so a MEMS
+    /// part read through them sets 1 048 576 here and feeds `raw · (2²⁰ / its LSB per g)`.
     pub nominal_k1: f32,
 }
 

@@ -273,8 +273,9 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
     /// one publication.
     ///
     /// # Errors
-    /// Any [`table::Error`], including an axis count other than `AXES` and a rate window
-    /// other than `RATE_WINDOW`.
+    /// Any [`table::Error`], including an axis count other than `AXES`, a rate window
+    /// other than `RATE_WINDOW`, and a K1 scale more than a factor of 2 from
+    /// [`Config::nominal_k1`] ([`table::Error::Scale`]).
     pub fn set_table(&mut self, t: T) -> table::Result<()> {
         self.updater().set_table(t)
     }

@@ -254,6 +254,12 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
         if usize::from(tb.rate_window) != RATE_WINDOW {
             return Err(table::Error::RateWindow { table: tb.rate_window, firmware: RATE_WINDOW as u16 });
         }
+        // Every axis's γ within a factor of 2 of the nominal scale: a table in another unit
+        // scale is refused, never applied 256 (or 9.8) times off with the status OK.
+        let nominal = self.slow.config.nominal_k1;
+        if let Some(a) = tb.axes.iter().find(|a| !(0.5..=2.0).contains(&(a.scale.gamma / nominal))) {
+            return Err(table::Error::Scale { table_k1: a.scale.gamma as u32, nominal_k1: nominal as u32 });
+        }
         // The model's running states carry over (`AxisState::carried_over`): a reload of the
         // table in force is a no-op, a changed slot restarts alone.
         if let Some(old) = &self.slow.table {
