@@ -18,9 +18,10 @@
 use proptest::prelude::*;
 use qfa_thermal::ds18b20::{encode_scratchpad, Resolution, POWER_ON_RAW};
 use qfa_thermal::model::{BiasGrid, BranchHysteresis, Creep, Extensions, SensorLag};
+use qfa_thermal::table::Input;
 use qfa_thermal::table::{Table, MAX_TABLE_BYTES};
 use qfa_thermal::time::MsClock;
-use qfa_thermal::{Compensator, Config};
+use qfa_thermal::{Compensator, Config, PulseOutput};
 
 use crate::oracle::{Oracle, LSB_C};
 use crate::scenarios;
@@ -116,6 +117,17 @@ pub enum Event {
     Clone,
 }
 
+/// The fast-path entry a history drives (the compensator is configured for its input).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Entry {
+    /// `cycle(pulses, dt)`.
+    Pulses,
+    /// `cycle_counters(cumulative counters, dt)`, primed after the table load.
+    Counters,
+    /// `cycle_samples(raw, dt)` with a samples table.
+    Samples,
+}
+
 /// A field history.
 #[derive(Clone, Debug)]
 pub struct History {
@@ -137,6 +149,8 @@ pub struct History {
     pub events: Vec<(u32, usize, Event)>,
     /// IMU cycles per second (1..=4).
     pub cycles_per_s: u32,
+    /// The fast-path entry.
+    pub entry: Entry,
 }
 
 impl History {
@@ -223,7 +237,7 @@ pub fn history(max_segments: usize) -> impl Strategy<Value = History> {
         any::<u32>(),
         [table_spec(), table_spec()],
         prop::collection::vec((0u32..7_200, 0usize..AXES, event()), 0..12),
-        1u32..=4,
+        (1u32..=4, prop_oneof![Just(Entry::Pulses), Just(Entry::Counters), Just(Entry::Samples)]),
     )
         .prop_map(
             |(
@@ -233,20 +247,27 @@ pub fn history(max_segments: usize) -> impl Strategy<Value = History> {
                 clock_start_us,
                 tables,
                 events,
-                cycles_per_s,
+                (cycles_per_s, entry),
             )| {
                 // Power-up within the history, with at least a minute after it.
                 let total: u32 = segments.iter().map(|s| s.0).sum();
                 let before_power_up_s = before.min(total.saturating_sub(60));
-                // Kept within −40…80 °C (the truth stays clear of the power-on value's 85 °C): a
-                // segment that would leave it runs the other way.
+                // Kept within −40…80 °C: the truth stays clear of the power-on value's 85 °C,
+                // which the firmware rightly takes as a reading when the stream is already
+                // there (a 0550h glitch at a true 86 °C cannot be told from a reading). A
+                // segment that would leave the range runs the other way, and if that leaves it
+                // too (a long fast segment), it stops at the bound.
                 let mut temp = start_c;
                 for seg in &mut segments {
-                    let end = temp + seg.1 / 60.0 * f64::from(seg.0);
-                    if !(-40.0..=80.0).contains(&end) {
+                    let len = f64::from(seg.0);
+                    if !(-40.0..=80.0).contains(&(temp + seg.1 / 60.0 * len)) {
                         seg.1 = -seg.1;
                     }
-                    temp += seg.1 / 60.0 * f64::from(seg.0);
+                    let end = temp + seg.1 / 60.0 * len;
+                    if !(-40.0..=80.0).contains(&end) {
+                        seg.1 = (end.clamp(-40.0, 80.0) - temp) * 60.0 / len;
+                    }
+                    temp += seg.1 / 60.0 * len;
                 }
                 History {
                     start_c,
@@ -258,6 +279,7 @@ pub fn history(max_segments: usize) -> impl Strategy<Value = History> {
                     tables,
                     events,
                     cycles_per_s,
+                    entry,
                 }
             },
         )
@@ -306,8 +328,13 @@ fn splitmix(x: u64) -> u64 {
 /// Run `h` through the compensator and the oracle.
 #[must_use]
 pub fn run(h: &History) -> Verdict {
-    let tables = [h.tables[0].table(), h.tables[1].table()];
-    let mut comp = Comp::new(Config::default()).expect("default config");
+    let input = if h.entry == Entry::Samples { Input::Samples } else { Input::PulseCounts };
+    let tables = [h.tables[0].table(), h.tables[1].table()].map(|mut t| {
+        t.input = input;
+        t
+    });
+    let mut comp = Comp::new(Config { input, ..Config::default() }).expect("default config");
+    let mut counters = [0u32; AXES];
     let mut oracle = Oracle::new(AXES, &tables, 1e-6);
     let before = h.before_power_up_s;
     for j in 0..AXES {
@@ -323,6 +350,7 @@ pub fn run(h: &History) -> Verdict {
     }
     let mut current = 0usize;
     comp.set_table(tables[0].clone()).expect("drawn tables are valid");
+    comp.prime_counters(counters);
     oracle.load(0);
     let mut clock = MsClock::new();
     let mut verdict = Verdict::default();
@@ -391,7 +419,26 @@ pub fn run(h: &History) -> Verdict {
                 1_601 - (r % 3_203) as i32
             });
             let dt = 5_000;
-            let out = comp.cycle(pulses, dt);
+            // Samples of about ±1 g, as raw LSB at the table's K1 (≈ 320 000 per g).
+            let raw: [i32; AXES] = pulses.map(|p| p * 200);
+            let (out_v, status) = match h.entry {
+                Entry::Pulses => {
+                    let o = comp.cycle(pulses, dt);
+                    (o.dv_mps, o.status)
+                }
+                Entry::Counters => {
+                    for (n, p) in counters.iter_mut().zip(pulses) {
+                        *n = n.wrapping_add_signed(p);
+                    }
+                    let o = comp.cycle_counters(counters, dt);
+                    (o.dv_mps, o.status)
+                }
+                Entry::Samples => {
+                    let o = comp.cycle_samples(raw, dt);
+                    (o.accel_mps2, o.status)
+                }
+            };
+            let out = PulseOutput { dv_mps: out_v, status };
             verdict.cycles += 1;
             for (b, n) in verdict.flagged.iter_mut().enumerate() {
                 *n += u64::from(out.status.bits() >> b & 1);
@@ -402,7 +449,11 @@ pub fn run(h: &History) -> Verdict {
             verdict.ok_cycles += 1;
             #[allow(clippy::needless_range_loop)] // i is the axis, in three arrays and the oracle
             for i in 0..AXES {
-                let wrong = match oracle.dv(i, i64::from(pulses[i]), dt) {
+                let ideal = match h.entry {
+                    Entry::Samples => oracle.accel(i, i64::from(raw[i])),
+                    _ => oracle.dv(i, i64::from(pulses[i]), dt),
+                };
+                let wrong = match ideal {
                     None => Some("status OK where the oracle has no ideal (no table or rate not ready)".to_string()),
                     Some((want, tol)) => {
                         let got = f64::from(out.dv_mps[i]);

@@ -396,6 +396,19 @@ impl Oracle {
         self.ideal[i]
     }
 
+    /// The ideal specific force (m/s²) of axis `i` for the sample `raw` (LSB), with its
+    /// tolerance: `a = raw·g0/K1 − K0·g0`.
+    #[must_use]
+    pub fn accel(&self, i: usize, raw: i64) -> Option<(f64, f64)> {
+        let id = self.ideal[i]?;
+        let n = raw as f64;
+        let a = n * G0 / id.k1 - id.k0 * G0;
+        let tol = n.abs() * G0 * id.k1_tol / (id.k1 * (id.k1 - id.k1_tol))
+            + id.k0_tol * G0
+            + F32_REL * (n.abs() * G0 / id.k1 + id.k0.abs() * G0);
+        Some((a, tol))
+    }
+
     /// The ideal Δv (m/s) of axis `i` for `pulses` over `dt_ticks`, with its tolerance.
     #[must_use]
     pub fn dv(&self, i: usize, pulses: i64, dt_ticks: u32) -> Option<(f64, f64)> {

@@ -77,7 +77,7 @@ fn status_ok_means_within_the_oracles_tolerance() {
 /// `settling_never_flagged` still has them).
 #[test]
 fn power_up_mid_ramp_with_a_lag_is_flagged_until_it_has_settled() {
-    use host_tests::field::{History, Slots, TableSpec};
+    use host_tests::field::{Entry, History, Slots, TableSpec};
     let lag = Slots { lag_s: Some(600.0), play: None, creep: None };
     let table = TableSpec { unit: 0, grid: (-20.0, 10.0), split_g: 0.0, rate_limit: 2.0, slots: [lag; 3] };
     let h = History {
@@ -90,6 +90,7 @@ fn power_up_mid_ramp_with_a_lag_is_flagged_until_it_has_settled() {
         tables: [table.clone(), table],
         events: Vec::new(),
         cycles_per_s: 1,
+        entry: Entry::Pulses,
     };
     let v = run(&h);
     println!("{v:?}");
