@@ -45,19 +45,11 @@ fn status_ok_means_within_the_oracles_tolerance() {
         cycles.load(Ordering::Relaxed),
         ok.load(Ordering::Relaxed)
     );
-    let names = [
-        "TEMP_STALE",
-        "TEMP_INVALID",
-        "RATE_NOT_READY",
-        "TEMP_OUT_OF_RANGE",
-        "RATE_OUT_OF_RANGE",
-        "NO_TABLE",
-        "NO_COUNTER_BASE",
-        "WRONG_INPUT",
-        "MODEL_SETTLING",
-    ];
-    let per_flag: Vec<String> =
-        names.iter().zip(&flagged).map(|(n, f)| format!("{n}={}", f.load(Ordering::Relaxed))).collect();
+    // The firmware's own flag names, in bit order (bit b is `flagged[b]`).
+    let per_flag: Vec<String> = qfa_thermal::Status::all()
+        .iter_names()
+        .map(|(n, f)| format!("{n}={}", flagged[f.bits().trailing_zeros() as usize].load(Ordering::Relaxed)))
+        .collect();
     println!("flagged_cycles {}", per_flag.join(" "));
     if let Err(e) = result {
         panic!("{e}");

@@ -10,28 +10,11 @@
 //! `$QFA_REAL_IMU_LOG`, else `<repo>/../shared/real/tofupilot-imu-thermal-cycle/imu_raw_data.tsv`.
 //! Missing, the test prints SKIPPED; with `CI=true` it fails.
 
-use std::path::PathBuf;
+mod common;
 
 use qfa_lab::calibrate::static_cal::{calibrate_static, Figure, StaticCalOptions, StaticCalibration};
 use qfa_lab::data::autopilot::{resolution, AccelInstance, Temperature};
 use qfa_lab::data::static_log::{read_static_from, AccelUnit, ColumnMap, StaticOptions, TimeUnit, G0_MPS2};
-
-fn real_log() -> Option<PathBuf> {
-    let p = std::env::var_os("QFA_REAL_IMU_LOG").map(PathBuf::from).unwrap_or_else(|| {
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/real/tofupilot-imu-thermal-cycle/imu_raw_data.tsv")
-    });
-    if p.is_file() {
-        return Some(p);
-    }
-    let msg = format!(
-        "SKIPPED: real IMU log not found at {} (set QFA_REAL_IMU_LOG): fetch it from GitHub tofupilot/examples, \
-         templates/imu_thermal_calibration/data/imu_raw_data.csv at commit fc190f7cd507ec6b53fba4c4368b1a2a0a8e5125",
-        p.display()
-    );
-    assert!(std::env::var("CI").as_deref() != Ok("true"), "{msg}");
-    eprintln!("{msg}");
-    None
-}
 
 fn rms(f: &Figure) -> f64 {
     match f {
@@ -51,7 +34,7 @@ fn calibrate(inst: &AccelInstance, rebuild: bool) -> StaticCalibration {
 /// are printed beside them, not asserted.
 #[test]
 fn whole_degree_temperature_calibrates_within_ten_percent_of_the_unrounded_log() {
-    let Some(path) = real_log() else { return };
+    let Some(path) = common::real_log() else { return };
     let opts = StaticOptions {
         columns: "time=timestamp,temp=imu.temperature,ax=imu.acc.x,ay=imu.acc.y,az=imu.acc.z"
             .parse::<ColumnMap>()

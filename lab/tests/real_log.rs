@@ -9,25 +9,7 @@
 
 mod common;
 
-use std::path::PathBuf;
 use std::process::Command;
-
-fn real_log() -> Option<PathBuf> {
-    let p = std::env::var_os("QFA_REAL_IMU_LOG").map(PathBuf::from).unwrap_or_else(|| {
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/real/tofupilot-imu-thermal-cycle/imu_raw_data.tsv")
-    });
-    if p.is_file() {
-        return Some(p);
-    }
-    let msg = format!(
-        "SKIPPED: real IMU log not found at {} (set QFA_REAL_IMU_LOG): fetch it from GitHub tofupilot/examples, \
-         templates/imu_thermal_calibration/data/imu_raw_data.csv at commit fc190f7cd507ec6b53fba4c4368b1a2a0a8e5125",
-        p.display()
-    );
-    assert!(std::env::var("CI").as_deref() != Ok("true"), "{msg}");
-    eprintln!("{msg}");
-    None
-}
 
 const FLAGS: [&str; 6] = [
     "--columns",
@@ -46,7 +28,7 @@ fn lab(args: &[&str]) -> std::process::Output {
 
 #[test]
 fn calibrate_beats_the_cubic_on_every_axis_and_compensate_agrees() {
-    let Some(log) = real_log() else { return };
+    let Some(log) = common::real_log() else { return };
     let dir = std::env::temp_dir().join(format!("qfa-real-{}", std::process::id()));
     let out_dir = dir.join("cal");
     let log_s = log.to_str().unwrap();
@@ -220,7 +202,7 @@ fn discover_real(log_s: &str, out: &std::path::Path) -> serde_json::Value {
 /// not (x: 0.55 mg flashed, 0.39 mg for the best lag+creep candidate).
 #[test]
 fn discovery_beats_the_cubic_on_every_axis() {
-    let Some(log) = real_log() else { return };
+    let Some(log) = common::real_log() else { return };
     let dir = std::env::temp_dir().join(format!("qfa-real-disc-{}", std::process::id()));
     let d = discover_real(log.to_str().unwrap(), &dir);
     let mut worse = Vec::new();
@@ -264,7 +246,7 @@ fn discovery_beats_the_cubic_on_every_axis() {
 /// rows the reader dropped (listed with their lines in `report.json`) are left out.
 #[test]
 fn exported_parameter_files_reproduce_the_report_peer_figures() {
-    let Some(log) = real_log() else { return };
+    let Some(log) = common::real_log() else { return };
     let dir = std::env::temp_dir().join(format!("qfa-real-export-{}", std::process::id()));
     let out_dir = dir.join("cal");
     let mut args = vec![
@@ -350,7 +332,7 @@ fn kept_rows(text: &str) -> Vec<(f64, [f64; 3])> {
 /// of 3503 ..."), and this test failed there.
 #[test]
 fn heating_only_cut_calibrates_and_its_table_holds_on_the_cooling_leg() {
-    let Some(log) = real_log() else { return };
+    let Some(log) = common::real_log() else { return };
     let dir = std::env::temp_dir().join(format!("qfa-real-heat-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let text = std::fs::read_to_string(&log).unwrap();
@@ -472,7 +454,7 @@ fn lab_fails(args: &[&str]) -> String {
 /// readings (x: −17…72 °C for a log of −17.6…74.0 °C), and 556 of 8 399 rows were flagged.
 #[test]
 fn the_table_covers_the_log_it_was_fitted_on() {
-    let Some(log) = real_log() else { return };
+    let Some(log) = common::real_log() else { return };
     let dir = std::env::temp_dir().join(format!("qfa-real-cover-{}", std::process::id()));
     let cal = dir.join("cal");
     let log_s = log.to_str().unwrap();
@@ -509,7 +491,7 @@ fn the_table_covers_the_log_it_was_fitted_on() {
 /// copies are written to a temporary folder, never to the repository.
 #[test]
 fn the_real_logs_unit_mistakes_are_refused_and_linted() {
-    let Some(log) = real_log() else { return };
+    let Some(log) = common::real_log() else { return };
     let dir = std::env::temp_dir().join(format!("qfa-real-units-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let text = std::fs::read_to_string(&log).unwrap();

@@ -7,6 +7,7 @@
 #![allow(dead_code)]
 
 use std::collections::BTreeMap;
+use std::path::PathBuf;
 use std::process::Command;
 
 /// Standard gravity, m/s² (both stacks work in m/s²; the report is in mg).
@@ -132,3 +133,23 @@ pub fn check_exports_against_report(
 }
 
 pub mod browser;
+
+/// The real chamber log: from `QFA_REAL_IMU_LOG`, else beside the repository in
+/// `shared/real/`; absent, a loud SKIPPED line that says how to get it (and, with `CI=true`,
+/// a failure).
+pub fn real_log() -> Option<PathBuf> {
+    let p = std::env::var_os("QFA_REAL_IMU_LOG").map(PathBuf::from).unwrap_or_else(|| {
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/real/tofupilot-imu-thermal-cycle/imu_raw_data.tsv")
+    });
+    if p.is_file() {
+        return Some(p);
+    }
+    let msg = format!(
+        "SKIPPED: real IMU log not found at {} (set QFA_REAL_IMU_LOG): fetch it from GitHub tofupilot/examples, \
+         templates/imu_thermal_calibration/data/imu_raw_data.csv at commit fc190f7cd507ec6b53fba4c4368b1a2a0a8e5125",
+        p.display()
+    );
+    assert!(std::env::var("CI").as_deref() != Ok("true"), "{msg}");
+    eprintln!("{msg}");
+    None
+}
