@@ -12,6 +12,13 @@
 //! The history starts before power-up (up to an hour of it): the oracle's states follow it,
 //! the firmware's cannot, so it must flag `MODEL_SETTLING` until they have converged.
 //!
+//! Faults reach the compensator as its interface sees them: a frozen or clone DS18B20
+//! (a lost or refused Convert T) is an error from the driver (`ds18b20_driver`), so here a
+//! missed reading or a dead stretch; a sensor that reboots reads 0550h; a bit flipped on the
+//! bus fails the scratchpad's CRC. Not drawn here: the ms counter's own 49.7-day wrap and a
+//! clock that restarts (`tests/clock_properties.rs` and the soak), and the interrupt
+//! preempting a publication (the seqlock's unit tests and its loom model).
+//!
 //! The strategies shrink: a failing history reduces to a short one with few events, which
 //! `tests/oracle_property.rs` prints and which becomes a named regression test there.
 
