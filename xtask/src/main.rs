@@ -653,7 +653,8 @@ fn oracle(args: &[String]) -> Result {
     step(&format!("oracle property: {histories} histories, seed {seed}"));
     let start = Instant::now();
     let (status, out) = oracle_property(&histories, &seed, None)?;
-    for l in out.lines().filter(|l| l.starts_with("silent_wrong_cycles=") || l.contains("first:")) {
+    for l in out.lines().filter(|l| l.starts_with("silent_wrong_cycles=") || l.contains("silent wrong cycles; first:"))
+    {
         println!("{l}");
     }
     println!("seconds={:.1}", start.elapsed().as_secs_f64());
@@ -667,7 +668,8 @@ fn oracle(args: &[String]) -> Result {
     for (m, what) in ORACLE_MUTANTS {
         step(&format!("mutant {m}: {what}"));
         let (status, out) = oracle_property(&histories, &seed, Some(m))?;
-        let first = out.lines().find(|l| l.contains("first:")).unwrap_or("(no failing cycle printed)");
+        let first =
+            out.lines().find(|l| l.contains("silent wrong cycles; first:")).unwrap_or("(no failing cycle printed)");
         if status.success() {
             println!("NOT caught: the property held on {m}");
         } else {
