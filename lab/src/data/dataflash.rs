@@ -1,6 +1,6 @@
 //! ArduPilot DataFlash (`.bin`) reader: every `IMU` instance (`I`, `TimeUS`, `AccX/Y/Z`
 //! m/s², `T` °C) and the `PARM` records, into an
-//! [`AutopilotLog`](super::autopilot::AutopilotLog); the device IDs come from
+//! [`AutopilotLog`]; the device IDs come from
 //! `INS_ACC_ID`, `INS_ACC2_ID`, `INS_ACC3_ID`.
 //!
 //! Parsing is the `ardupilot-binlog` crate's (MIT/Apache-2.0; message layouts from the

@@ -1,6 +1,6 @@
 //! PX4 ULog reader: every `sensor_accel` instance (multi_id, `device_id`, `timestamp` µs,
 //! `x`/`y`/`z` m/s², `temperature` °C) and the parameters, into an
-//! [`AutopilotLog`](super::autopilot::AutopilotLog).
+//! [`AutopilotLog`].
 //!
 //! Parsing is the `px4-ulog` crate's (PX4's own Rust reader, MIT; its streaming parser
 //! reports multi-instance subscriptions, parameters with the section they appear in, and
