@@ -147,6 +147,7 @@ pub fn run(
                 progress: opts.progress,
                 axis: None,
                 exports: crate::calibrate::peers::ExportOptions::default(),
+                limits: crate::verdict::LimitsChoice::default(),
             },
         )?;
         let calibrate_s = t.elapsed().as_secs_f64();

@@ -36,6 +36,13 @@ impl Page {
         p
     }
 
+    /// Markup the caller built and escaped (the verdict's section,
+    /// [`crate::verdict::Verdict::to_page`]).
+    pub fn raw(&mut self, html: &str) -> &mut Self {
+        self.body.push_str(html);
+        self
+    }
+
     /// A section heading.
     pub fn section(&mut self, heading: &str) -> &mut Self {
         let _ = writeln!(self.body, "<h2>{}</h2>", escape(heading));

@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use clap::{Parser, Subcommand, ValueEnum};
 
-use qfa_lab::calibrate::peers::{write_exports, ExportOptions, Exports};
+use qfa_lab::calibrate::peers::{write_exports, ExportOptions};
 use qfa_lab::calibrate::static_cal::{self, Holdout};
 use qfa_lab::calibrate::{calibrate_into, CalibrateOptions};
 use qfa_lab::compensate::compensate_log;
@@ -23,6 +23,7 @@ use qfa_lab::out_path::OutError;
 use qfa_lab::simulate::profile::{paper_positions, Program, PAPER_RATES};
 use qfa_lab::simulate::simulate;
 use qfa_lab::simulate::truth::Truth;
+use qfa_lab::verdict::{LimitsChoice, Verdict, EXIT_LIMIT_FAILED};
 
 #[derive(Parser)]
 #[command(name = "qfa-lab", version, about = "Thermal-test simulator, calibration and compensation for QFA tables")]
@@ -228,6 +229,10 @@ struct CalibrateArgs {
     /// Static logs: the held-out scheme, auto | after-max | blocks:K | none (lab/README.md).
     #[arg(long, default_value = "auto")]
     holdout: Holdout,
+    /// Pass/fail limits (TOML; the lab guide's "Limits" lists the keys and defaults): a
+    /// unit that fails one exits with status 3 after writing every file.
+    #[arg(long, value_name = "FILE")]
+    limits: Option<PathBuf>,
     #[command(flatten)]
     fmt: StaticFlags,
 }
@@ -352,6 +357,9 @@ enum CliError {
     },
     /// The work failed (a fit, a simulation, a write), with its cause.
     Failed(String),
+    /// Every output is written, and the unit fails a limit given with `--limits` (which:
+    /// one line each). Exit status [`EXIT_LIMIT_FAILED`].
+    LimitFailed(Vec<String>),
 }
 
 impl std::fmt::Display for CliError {
@@ -361,6 +369,7 @@ impl std::fmt::Display for CliError {
             Self::Out(e) => write!(f, "{e}"),
             Self::Open(e) => write!(f, "{e}"),
             Self::WrongLog { command, format, takes } => write!(f, "{command} takes {takes}, not a {format}"),
+            Self::LimitFailed(which) => write!(f, "the unit fails {} limit(s): {}", which.len(), which.join("; ")),
         }
     }
 }
@@ -410,18 +419,6 @@ fn check_out(cmd: &Cmd) -> Result<(), OutError> {
         Cmd::Navigate(_) => Ok(()),
         Cmd::Plan { json: Some(j), .. } => check_file(j, "plan"),
         Cmd::Plan { .. } | Cmd::Lint { .. } => Ok(()),
-    }
-}
-
-/// Print why export files were left out, and name those written.
-fn exports_line(e: &Exports) -> String {
-    for n in &e.notes {
-        eprintln!("{n}");
-    }
-    if e.written.is_empty() {
-        String::new()
-    } else {
-        format!(", {}", e.written.join(", "))
     }
 }
 
@@ -487,6 +484,7 @@ fn simulate_cmd(a: SimulateArgs) -> Result<(), CliError> {
 
 fn calibrate_cmd(a: CalibrateArgs) -> Result<(), CliError> {
     let t0 = Instant::now();
+    let limits = LimitsChoice::from_arg(a.limits.as_deref()).map_err(|e| CliError::Usage(e.to_string()))?;
     let exports = ExportOptions { px4_device_id: a.px4_device_id, range_c: a.export_range, ..ExportOptions::default() };
     // Lint first: its warnings on the console, then the log it read (a refused log is the
     // error itself).
@@ -503,16 +501,14 @@ fn calibrate_cmd(a: CalibrateArgs) -> Result<(), CliError> {
             eprintln!("{} rows read; {}; {}", l.rows(), l.skipped, l.sampling);
             let opts = static_cal::StaticCalOptions { holdout: a.holdout, ..Default::default() };
             let cal = static_cal::calibrate_static(&l, &opts, true).map_err(|e| e.to_string())?;
-            static_cal::write_static(&a.out, &cal).map_err(|e| e.to_string())?;
+            static_cal::write_static_table(&a.out, &cal).map_err(|e| e.to_string())?;
             let ex = write_exports(&a.out, &static_cal::export_axes(&cal), &exports).map_err(io_at(&a.out))?;
-            static_cal::write_static_page(&a.out, &cal, !a.no_plots, &ex.notes).map_err(|e| e.to_string())?;
-            print!("{}", static_cal::markdown(&cal.report));
-            println!(
-                "wrote {}/table.toml, table.bin, report.json, report.md, report.html{}{}",
-                a.out.display(),
-                if a.no_plots { "" } else { ", bias_vs_temp.png" },
-                exports_line(&ex)
-            );
+            let files = static_cal::static_files(!a.no_plots, &ex.written);
+            let notes: Vec<String> = lint_notes(&warnings).into_iter().chain(ex.notes.iter().cloned()).collect();
+            let v = qfa_lab::calibrate::verdict::static_verdict(&cal, &limits, &files, &notes);
+            static_cal::write_static(&a.out, &cal, &v).map_err(|e| e.to_string())?;
+            static_cal::write_static_page(&a.out, &cal, !a.no_plots, &v).map_err(|e| e.to_string())?;
+            finish(&v, &limits, &a.out)
         }
         OpenedLog::Cycling(l) => {
             cycling_holdout(a.holdout)?;
@@ -523,9 +519,11 @@ fn calibrate_cmd(a: CalibrateArgs) -> Result<(), CliError> {
                 progress: true,
                 axis: Some(format!("a{}", a.axis)),
                 exports,
+                limits: limits.clone(),
             };
             let cal = calibrate_into(&l, &a.out, &opts, t0.elapsed().as_secs_f64())?;
-            println!("{}", cycling_summary(&cal.report, &a.out, &exports_line(&cal.exports)));
+            let v = cal.verdict.as_ref().ok_or_else(|| CliError::Failed("no verdict written".into()))?;
+            finish(v, &limits, &a.out)
         }
         OpenedLog::Autopilot(l) => {
             if a.px4_device_id.is_some() || a.export_range.is_some() {
@@ -536,43 +534,29 @@ fn calibrate_cmd(a: CalibrateArgs) -> Result<(), CliError> {
                 )));
             }
             let opts = static_cal::StaticCalOptions { holdout: a.holdout, ..Default::default() };
-            let cal = qfa_lab::calibrate::autopilot_cal::calibrate_autopilot(&l, &a.out, &opts, !a.no_plots, true)
-                .map_err(|e| e.to_string())?;
-            print!("{}", qfa_lab::calibrate::autopilot_cal::markdown(&cal));
-            println!("wrote {}/report.json, report.md, instance*/", a.out.display());
+            let cal =
+                qfa_lab::calibrate::autopilot_cal::calibrate_autopilot(&l, &a.out, &opts, !a.no_plots, true, &limits)
+                    .map_err(|e| e.to_string())?;
+            finish(&cal.verdict, &limits, &a.out)
         }
-        OpenedLog::Single(_) => return Err(CliError::single_not_taken("calibrate")),
+        OpenedLog::Single(_) => Err(CliError::single_not_taken("calibrate")),
     }
-    Ok(())
 }
 
-/// What `calibrate` prints for a cycling log.
-fn cycling_summary(r: &qfa_lab::calibrate::report::Report, out: &Path, exports: &str) -> String {
-    format!(
-        "held out on {:?} (fitted on {:?}), {} rows\n\
-         sensitivity ppm/degC: none {:.2}, simple {:.2}, hysteresis {:.2}\n\
-         bias residual ug:     none {:.1}, simple {:.1}, hysteresis {:.1}; peers: PX4/tofupilot cubic {:.1}, ArduPilot TCAL {:.1}\n\
-         Eq. 11 condition number {:.1}; timings: read {:.2} s, fit {:.2} s, evaluate {:.2} s, plots {:.2} s, total {:.2} s\n\
-         wrote {}/table.toml, table.bin, report.json, report.html{exports}",
-        r.eval_programs,
-        r.fit_programs,
-        r.rows,
-        r.sensitivity_ppm_per_c.none,
-        r.sensitivity_ppm_per_c.simple,
-        r.sensitivity_ppm_per_c.hysteresis,
-        r.bias_residual_ug.none,
-        r.bias_residual_ug.simple,
-        r.bias_residual_ug.hysteresis,
-        r.peers_bias_residual_ug.cubic,
-        r.peers_bias_residual_ug.ardupilot,
-        r.fit.cond_sf_hysteresis,
-        r.timings_s.read,
-        r.timings_s.fit,
-        r.timings_s.evaluate,
-        r.timings_s.plots,
-        r.timings_s.total,
-        out.display(),
-    )
+/// The first line of each lint finding, for the verdict (the console printed them whole).
+fn lint_notes(findings: &[String]) -> Vec<String> {
+    findings.iter().filter_map(|f| f.lines().next()).map(|l| format!("lint: {l}")).collect()
+}
+
+/// Print the verdict (the console's summary: the same lines as the reports' verdict) and
+/// where the detail is; a failure against `--limits` ends with [`EXIT_LIMIT_FAILED`].
+fn finish(v: &Verdict, limits: &LimitsChoice, out: &Path) -> Result<(), CliError> {
+    print!("{}", v.console());
+    println!("detail: {}/report.md, report.html, report.json", out.display());
+    if limits.enforced_failure(v) {
+        return Err(CliError::LimitFailed(v.failed()));
+    }
+    Ok(())
 }
 
 fn discover_cmd(log: &Path, start: Start, out: &Path, fmt: &StaticFlags, holdout: Holdout) -> Result<(), CliError> {
@@ -750,7 +734,11 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e}");
-            ExitCode::FAILURE
+            if matches!(e, CliError::LimitFailed(_)) {
+                ExitCode::from(EXIT_LIMIT_FAILED)
+            } else {
+                ExitCode::FAILURE
+            }
         }
     }
 }

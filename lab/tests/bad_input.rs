@@ -306,14 +306,20 @@ fn static_log_bad_inputs_get_their_exact_errors() {
         let o = d.join("one-leg");
         let (ok, text) = lab(&static_args("calibrate", log.to_str().unwrap(), o.to_str().unwrap(), "", &FLAGS));
         assert!(ok, "{text}");
-        assert!(text.contains("Held-out scheme: `blocks:5` (asked: `auto`): auto: the highest temperature"), "{text}");
+        let want = "scheme `blocks:5` (asked `auto`), auto: the highest temperature";
+        assert!(text.contains(&format!("held-out: {want}")), "the console's verdict: {text}");
+        let md = std::fs::read_to_string(Path::new(&o).join("report.md")).unwrap();
+        assert!(md.contains(&format!("**held-out:** {want}")), "report.md's verdict: {md}");
     }
     let none = d.join("none");
     let mut f = FLAGS.to_vec();
     f.extend(["--holdout", "none"]);
     let (ok, text) = lab(&static_args("calibrate", good.to_str().unwrap(), none.to_str().unwrap(), "", &f));
-    assert!(ok, "{text}");
-    assert!(text.contains("Held-out bias RMS: not computed (--holdout none: no row is held out)."), "{text}");
+    assert!(ok, "without --limits a failed verdict does not fail the command: {text}");
+    assert!(text.contains("verdict: FAIL against the default limits"), "no held-out figure, no pass: {text}");
+    assert!(text.contains("held_out_bias_mg ax: not computed"), "{text}");
+    let md = std::fs::read_to_string(none.join("report.md")).unwrap();
+    assert!(md.contains("Held-out bias RMS: not computed (--holdout none: no row is held out)."), "{md}");
     let r: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(none.join("report.json")).unwrap()).unwrap();
     for a in r["axes"].as_array().unwrap() {

@@ -205,7 +205,7 @@ fn one_branch_logs_calibrate_and_hold_on_the_other_leg() {
                     assert!(not_computed.contains("it learns only while the temperature rises"), "{not_computed}");
                     // No ArduPilot file is written for it, and the run says why.
                     let dir = std::env::temp_dir().join(format!("qfa-static-sim-{}", std::process::id()));
-                    qfa_lab::calibrate::static_cal::write_static(&dir, &cal).unwrap();
+                    qfa_lab::calibrate::static_cal::write_static_table(&dir, &cal).unwrap();
                     let ex = qfa_lab::calibrate::peers::write_exports(
                         &dir,
                         &qfa_lab::calibrate::static_cal::export_axes(&cal),

@@ -163,8 +163,10 @@ impl Table {
                 return Ok(vec!["table.bin".into(), "table.toml".into()]);
             }
             Origin::Static(c) => {
-                static_cal::write_static(&out, c).map_err(|e| CalibrationError::new_err(e.to_string()))?;
                 written.extend(["table.toml", "table.bin", "report.json", "report.md"].map(String::from));
+                // The CLI's verdict with the default limits, naming the files this call writes.
+                let v = qfa_lab::calibrate::verdict::static_verdict(c, &Default::default(), &written, &[]);
+                static_cal::write_static(&out, c, &v).map_err(|e| CalibrationError::new_err(e.to_string()))?;
             }
             Origin::Cycling(c, _) => {
                 cal::write_table(&out, "table", &c.table.hysteresis).map_err(|e| io(&e))?;
@@ -252,6 +254,7 @@ pub fn calibrate(
                 progress: false,
                 axis: Some(axis.clone()),
                 exports,
+                limits: qfa_lab::verdict::LimitsChoice::default(),
             };
             let c = py.detach(|| cal::calibrate_log(l, &opts)).map_err(CalibrationError::new_err)?;
             cal::cycling_export_axis(&c, &axis).map_err(CalibrationError::new_err)?;

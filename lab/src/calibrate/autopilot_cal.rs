@@ -26,7 +26,9 @@ use crate::calibrate::peers::{
     export_texts, ExportOptions, ARDUPILOT_ENABLE_FILE, ARDUPILOT_VALUES_FILE, EXPORT_FILES, PX4_FILE,
 };
 use crate::calibrate::static_cal::{self, Figure, StaticCalOptions};
+use crate::calibrate::verdict::static_verdict;
 use crate::data::autopilot::{check, AutopilotLog, Stack, Temperature};
+use crate::verdict::{FileUse, LimitsChoice, Verdict};
 
 /// One instance's outcome.
 #[derive(Clone, Debug, Serialize)]
@@ -56,6 +58,10 @@ pub struct InstanceOutcome {
 /// What [`calibrate_autopilot`] did.
 #[derive(Clone, Debug, Serialize)]
 pub struct AutopilotCalibration {
+    /// The verdict the reports open with (in `report.json` beside these fields, not
+    /// inside them).
+    #[serde(skip)]
+    pub verdict: Verdict,
     /// `PX4 ULog` or `ArduPilot DataFlash log`.
     pub log: String,
     /// The parameters that decide what is refused, as logged.
@@ -128,6 +134,7 @@ pub fn calibrate_autopilot(
     opts: &StaticCalOptions,
     plots: bool,
     progress: bool,
+    limits: &LimitsChoice,
 ) -> Result<AutopilotCalibration, AutopilotCalError> {
     let io = |e: &dyn fmt::Display| AutopilotCalError::Io(format!("{}: {e}", out.display()));
     std::fs::create_dir_all(out).map_err(|e| io(&e))?;
@@ -138,6 +145,7 @@ pub fn calibrate_autopilot(
         }
     }
     let mut outcomes = Vec::new();
+    let mut verdicts = Vec::new();
     // (instance index, device ID, export axes) of each calibrated instance.
     let mut calibrated = Vec::new();
     for (inst, c) in log.instances.iter().zip(check(log)) {
@@ -168,8 +176,11 @@ pub fn calibrate_autopilot(
                 Ok(cal) => {
                     let dir = format!("instance{}", c.index);
                     let d = out.join(&dir);
-                    static_cal::write_static(&d, &cal).map_err(|e| io(&e))?;
-                    static_cal::write_static_page(&d, &cal, plots, &o.warnings).map_err(|e| io(&e))?;
+                    let files = static_cal::static_files(plots, &[]);
+                    let v = static_verdict(&cal, limits, &files, &o.warnings);
+                    static_cal::write_static(&d, &cal, &v).map_err(|e| io(&e))?;
+                    static_cal::write_static_page(&d, &cal, plots, &v).map_err(|e| io(&e))?;
+                    verdicts.push((format!("instance {}", c.index), v));
                     o.heldout_rms_mg =
                         cal.report.axes.iter().map(|a| (a.axis.clone(), figure(&a.ours), figure(&a.cubic))).collect();
                     o.dir = Some(dir);
@@ -265,7 +276,19 @@ pub fn calibrate_autopilot(
         std::fs::write(out.join(name), text).map_err(|e| io(&e))?;
         written.push(name.to_string());
     }
+    let mut all_files: Vec<FileUse> = written.iter().map(|f| FileUse::of(f)).collect();
+    all_files.extend(["report.json", "report.md"].map(FileUse::of));
+    all_files.extend(outcomes.iter().filter_map(|o| o.dir.as_ref()).map(|d| FileUse {
+        file: format!("{d}/"),
+        action: "that instance's table (table.bin: flash this), reports and plot".to_string(),
+    }));
+    let mut verdict = Verdict::merge(&verdicts, &limits.source(), all_files);
+    verdict.warnings.extend(export_notes.iter().cloned());
+    for o in outcomes.iter().filter(|o| o.refused.is_some()) {
+        verdict.warnings.push(format!("instance {} refused: {}", o.index, o.refused.as_deref().unwrap_or("")));
+    }
     let cal = AutopilotCalibration {
+        verdict,
         log: log.stack.to_string(),
         params: deciding_params(log),
         changed_params: log.changed_params.clone(),
@@ -274,9 +297,10 @@ pub fn calibrate_autopilot(
         written,
         export_notes,
     };
-    let json = serde_json::to_string_pretty(&cal).map_err(|e| io(&e))?;
+    let json = crate::verdict::json_with_verdict(&cal.verdict, &cal).map_err(|e| io(&e))?;
     std::fs::write(out.join("report.json"), json).map_err(|e| io(&e))?;
-    std::fs::write(out.join("report.md"), markdown(&cal)).map_err(|e| io(&e))?;
+    std::fs::write(out.join("report.md"), static_cal::with_verdict(&cal.verdict, &markdown(&cal)))
+        .map_err(|e| io(&e))?;
     Ok(cal)
 }
 

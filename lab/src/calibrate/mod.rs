@@ -30,6 +30,7 @@ pub mod static_fit;
 pub mod static_holdout;
 pub mod static_output;
 pub mod static_report;
+pub mod verdict;
 
 use std::path::Path;
 use std::time::Instant;
@@ -57,6 +58,8 @@ pub struct CalibrateOptions {
     pub axis: Option<String>,
     /// How to write those files.
     pub exports: peers::ExportOptions,
+    /// The limits the verdict checks.
+    pub limits: crate::verdict::LimitsChoice,
 }
 
 /// Result of a calibration.
@@ -74,6 +77,8 @@ pub struct Calibration {
     pub peers: crate::calibrate::peers::Peers,
     /// The PX4 / ArduPilot files written, and why others were not.
     pub exports: peers::Exports,
+    /// The verdict the reports open with (`None` until [`calibrate_into`] writes them).
+    pub verdict: Option<crate::verdict::Verdict>,
 }
 
 fn bar(len: u64, msg: &str, show: bool) -> indicatif::ProgressBar {
@@ -164,7 +169,7 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
         rejected_readings: eval.rejected_readings,
         timings_s: Timings { fit: t_fit, evaluate: t_eval, ..Timings::default() },
     };
-    Ok(Calibration { fitted, table, eval, report, peers: peer_fits, exports: peers::Exports::default() })
+    Ok(Calibration { fitted, table, eval, report, peers: peer_fits, exports: peers::Exports::default(), verdict: None })
 }
 
 /// Every held-out figure must exist: a figure with no bins behind it is an error with its
@@ -273,8 +278,22 @@ pub fn calibrate_into(log: &Log, out: &Path, opts: &CalibrateOptions, read_s: f6
     cal.report.timings_s.plots = t.elapsed().as_secs_f64();
     cal.report.timings_s.read = read_s;
     cal.report.timings_s.total = read_s + t0.elapsed().as_secs_f64();
-    let json = serde_json::to_string_pretty(&cal.report).map_err(|e| e.to_string())?;
+    let mut files: Vec<String> = ["table.bin", "table.toml", "table_simple.bin", "table_simple.toml"]
+        .into_iter()
+        .chain(["report.json", "report.md", "report.html"])
+        .map(String::from)
+        .collect();
+    if opts.plots {
+        files.extend(["sf_vs_temp.png".to_string(), "residual_vs_time.png".to_string()]);
+    }
+    files.extend(cal.exports.written.iter().map(|f| (*f).to_string()));
+    let axis = opts.axis.as_deref().unwrap_or("ax");
+    let v = verdict::cycling_verdict(&cal.report, axis, &opts.limits, &files, &cal.exports.notes);
+    let json = crate::verdict::json_with_verdict(&v, &cal.report).map_err(|e| e.to_string())?;
     std::fs::write(out.join("report.json"), json).map_err(|e| e.to_string())?;
+    let md = format!("# Calibration report\n\n{}{}", v.markdown(), report::markdown(&cal.report));
+    std::fs::write(out.join("report.md"), md).map_err(|e| e.to_string())?;
+    cal.verdict = Some(v);
     page(&cal, out, opts).map_err(|e| e.to_string())?.write(out).map_err(|e| e.to_string())?;
     Ok(cal)
 }
@@ -290,6 +309,9 @@ pub fn page(cal: &Calibration, out: &Path, opts: &CalibrateOptions) -> std::io::
     } else {
         format!("Calibration report: {}", opts.title)
     });
+    if let Some(v) = &cal.verdict {
+        v.to_page(&mut p);
+    }
     p.section("Held-out scheme").kv(&[
         ("fitted on (programs)", r.fit_programs.join(", ")),
         ("held out, figures from (programs)", r.eval_programs.join(", ")),
@@ -305,9 +327,6 @@ pub fn page(cal: &Calibration, out: &Path, opts: &CalibrateOptions) -> std::io::
             "the compensator rejected {} temperature readings in the held-out runs",
             r.rejected_readings
         ));
-    }
-    for n in &cal.exports.notes {
-        p.warning(n);
     }
     let (s, b, pb) = (r.sensitivity_ppm_per_c, r.bias_residual_ug, r.peers_bias_residual_ug);
     p.section("Held-out figures").table(

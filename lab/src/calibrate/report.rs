@@ -217,6 +217,34 @@ pub struct Timings {
     pub total: f64,
 }
 
+/// The held-out figures of a cycling calibration in Markdown (after the verdict in
+/// `report.md`).
+#[must_use]
+pub fn markdown(r: &Report) -> String {
+    let (s, b, pb) = (r.sensitivity_ppm_per_c, r.bias_residual_ug, r.peers_bias_residual_ug);
+    format!(
+        "## Held-out figures\n\nTables fitted on programs {}, figures from programs {}; the written tables are \
+         fitted on programs {}.\n\n\
+         | model | scale-factor sensitivity, ppm/°C | bias residual, µg RMS |\n|---|---|---|\n\
+         | no compensation | {:.2} | {:.1} |\n| simple (Eq. 3–4) | {:.2} | {:.1} |\n\
+         | hysteresis (Eq. 11 + branched bias), table.bin | {:.2} | {:.1} |\n\
+         | PX4 / tofupilot cubic (bias only) | - | {:.1} |\n| ArduPilot TCAL (bias only) | - | {:.1} |\n\n\
+         Metric: {}.\n",
+        r.fit_programs.join(", "),
+        r.eval_programs.join(", "),
+        r.table_programs.join(", "),
+        s.none,
+        b.none,
+        s.simple,
+        b.simple,
+        s.hysteresis,
+        b.hysteresis,
+        pb.cubic,
+        pb.ardupilot,
+        r.metric
+    )
+}
+
 /// Metric definition written into the report.
 pub const METRIC_TEXT: &str = "Table-4 sensitivity (max-min)/(mean*span)*1e6 ppm/degC over held-out bins \
 (program, branch segment, 1 degC of T-hat; bins >= 60 s); compensated scale factor (a+ - a-)/2 from the root \

@@ -8,6 +8,7 @@ use qfa_thermal::model::Branch;
 
 use super::static_cal::*;
 use crate::calibrate::fit::encode;
+use crate::verdict::Verdict;
 
 /// The report in Markdown: the scheme, the held-out table (mg, per axis) and the table's
 /// own figures.
@@ -90,20 +91,58 @@ pub fn static_table_toml(cal: &StaticCalibration) -> Result<String, toml::ser::E
     Ok(format!("{header}{toml}"))
 }
 
-/// Write `table.toml`, `table.bin`, `report.json` and `report.md` into `out` (the PX4 /
-/// ArduPilot files: [`crate::calibrate::peers::write_exports`] with [`export_axes`]).
+/// The files [`write_static`] and [`write_static_page`] write, before the plot and the
+/// exports.
+pub const STATIC_FILES: [&str; 5] = ["table.bin", "table.toml", "report.json", "report.md", "report.html"];
+
+/// The files a static calibration writes into its folder, in the verdict's order: the
+/// table, the reports, the plot (with `plots`), then the exports written.
+#[must_use]
+pub fn static_files(plots: bool, exports: &[&str]) -> Vec<String> {
+    let mut f: Vec<String> = STATIC_FILES.iter().map(|s| (*s).to_string()).collect();
+    if plots {
+        f.push(BIAS_PLOT.to_string());
+    }
+    f.extend(exports.iter().map(|s| (*s).to_string()));
+    f
+}
+
+/// Write `table.toml` and `table.bin` into `out`.
 ///
 /// # Errors
 /// I/O or encoding errors.
-pub fn write_static(out: &Path, cal: &StaticCalibration) -> Result<(), StaticCalError> {
+pub fn write_static_table(out: &Path, cal: &StaticCalibration) -> Result<(), StaticCalError> {
     let io = |e: &dyn fmt::Display| StaticCalError::Io(format!("{}: {e}", out.display()));
     std::fs::create_dir_all(out).map_err(|e| io(&e))?;
     std::fs::write(out.join("table.toml"), static_table_toml(cal).map_err(|e| io(&e))?).map_err(|e| io(&e))?;
     std::fs::write(out.join("table.bin"), encode(&cal.table).map_err(|e| io(&e))?).map_err(|e| io(&e))?;
-    let json = serde_json::to_string_pretty(&cal.report).map_err(|e| io(&e))?;
-    std::fs::write(out.join("report.json"), json).map_err(|e| io(&e))?;
-    std::fs::write(out.join("report.md"), markdown(&cal.report)).map_err(|e| io(&e))?;
     Ok(())
+}
+
+/// Write `table.toml`, `table.bin`, `report.json` and `report.md` into `out`, each report
+/// opening with `verdict` (the PX4 / ArduPilot files:
+/// [`crate::calibrate::peers::write_exports`] with [`export_axes`]).
+///
+/// # Errors
+/// I/O or encoding errors.
+pub fn write_static(out: &Path, cal: &StaticCalibration, verdict: &Verdict) -> Result<(), StaticCalError> {
+    let io = |e: &dyn fmt::Display| StaticCalError::Io(format!("{}: {e}", out.display()));
+    write_static_table(out, cal)?;
+    let json = crate::verdict::json_with_verdict(verdict, &cal.report).map_err(|e| io(&e))?;
+    std::fs::write(out.join("report.json"), json).map_err(|e| io(&e))?;
+    std::fs::write(out.join("report.md"), with_verdict(verdict, &markdown(&cal.report))).map_err(|e| io(&e))?;
+    Ok(())
+}
+
+/// A Markdown report with the verdict after its title line.
+#[must_use]
+pub fn with_verdict(verdict: &Verdict, md: &str) -> String {
+    match md.split_once('\n') {
+        Some((title, rest)) if title.starts_with("# ") => {
+            format!("{title}\n\n{}{}", verdict.markdown(), rest.trim_start())
+        }
+        _ => format!("{}{md}", verdict.markdown()),
+    }
 }
 
 /// File name of the static calibration's plot.
@@ -181,8 +220,8 @@ pub fn plot_bias_vs_temp(path: &Path, title: &str, rows: &PlotRows) -> Result<()
     Ok(())
 }
 
-/// Write `bias_vs_temp.png` (with `plots`) and `report.html` into `out`; `notes` are shown
-/// as warnings (e.g. why an export file was left out).
+/// Write `bias_vs_temp.png` (with `plots`) and `report.html` into `out`, the page opening
+/// with `verdict` (which carries every warning in words).
 ///
 /// # Errors
 /// Drawing, encoding or I/O errors.
@@ -190,7 +229,7 @@ pub fn write_static_page(
     out: &Path,
     cal: &StaticCalibration,
     plots: bool,
-    notes: &[String],
+    verdict: &Verdict,
 ) -> Result<(), StaticCalError> {
     let io = |e: &dyn fmt::Display| StaticCalError::Io(format!("{}: {e}", out.display()));
     let r = &cal.report;
@@ -200,6 +239,7 @@ pub fn write_static_page(
         plot_bias_vs_temp(&out.join(BIAS_PLOT), &title, &cal.plot).map_err(|e| io(&e))?;
     }
     let mut p = crate::html_report::Page::new("Static calibration report");
+    verdict.to_page(&mut p);
     p.section("Held-out scheme").kv(&[
         ("asked (--holdout)", h.requested.clone()),
         ("ran", h.scheme.clone()),
@@ -225,9 +265,6 @@ pub fn write_static_page(
             })
             .collect();
         p.table(&["fold", "held-out rows", "held-out °C", "training rows", "heating / cooling", "training °C"], &folds);
-    }
-    for n in notes {
-        p.warning(n);
     }
     p.section("The log").kv(&[
         ("columns (role, column, unit)", format!("{:?}", r.columns)),
