@@ -560,7 +560,9 @@ fn the_real_logs_unit_mistakes_are_refused_and_linted() {
     c.extend(FLAGS);
     c.extend(["--temp-unit", "F"]);
     let out = lab(&c);
-    let report = String::from_utf8_lossy(&out.stdout);
+    let verdict = String::from_utf8_lossy(&out.stdout);
+    assert!(verdict.contains("\ncovers: -17.6..74.0 °C;"), "{verdict}");
+    let report = std::fs::read_to_string(cal.join("report.md")).unwrap();
     assert!(report.contains("Rows: 8399, -17.6..74.0 °C"), "{report}");
 
     // The real log itself: lint lists every check, and the one thing to act on.

@@ -373,8 +373,19 @@ pub fn page(cal: &Calibration, out: &Path, opts: &CalibrateOptions) -> std::io::
     p.para(&format!("Limit (best CV MSE + its SE): {:.3} µg² over {} folds.", f.branch.limit_ug2, f.branch.folds));
     if opts.plots {
         p.section("Plots (held-out bins only: the fit programs are not drawn)");
-        p.image(&out.join("sf_vs_temp.png"), "compensated scale factor against temperature, per model")?;
-        p.image(&out.join("residual_vs_time.png"), "held-out residuals against time since each program's start")?;
+        p.image(
+            &out.join("sf_vs_temp.png"),
+            "Scale factor against temperature on the held-out programs, per model. Left, uncompensated: the \
+             drift and the gap between heating (red) and cooling (blue) are what the table must remove. Right, \
+             the table (hysteresis): the points should lie flat, the two colours on one band; a slope left is \
+             sensitivity, a gap left is hysteresis the model did not carry.",
+        )?;
+        p.image(
+            &out.join("residual_vs_time.png"),
+            "Held-out residuals against time since each program's start, scale factor (top) and bias (bottom): \
+             green (the table) should stay closer to zero than orange (the simple model) and show no trend; a \
+             jump that both models share is in the unit or the log, not in either model.",
+        )?;
     }
     let t = r.timings_s;
     p.section("Timings").para(&format!(

@@ -260,6 +260,13 @@ fn branch_color(b: Branch) -> plotters::style::RGBColor {
 
 type PlotResult = Result<(), Box<dyn std::error::Error>>;
 
+/// Room above the data for a legend of `entries` lines, in data units: the y range grows
+/// by 12 % of the data's span per entry (a legend line is about 20 px of a 370–430 px
+/// panel), so the legend sits in empty space above every point instead of on them.
+fn legend_headroom(lo: f64, hi: f64, entries: u32) -> f64 {
+    ((hi - lo) * (0.05 + 0.12 * f64::from(entries))).max(1.0)
+}
+
 /// Scale factor (ppm from its mean) against temperature, before and after, heating red,
 /// cooling blue, hold grey, with a legend; only held-out bins are drawn (the title says
 /// which programs they come from).
@@ -292,7 +299,7 @@ pub fn plot_sf_vs_temp(path: &Path, title: &str, ev: &Evaluation) -> PlotResult 
             .margin(10)
             .x_label_area_size(35)
             .y_label_area_size(60)
-            .build_cartesian_2d(tmin..tmax, (lo - pad)..(hi + pad))?;
+            .build_cartesian_2d(tmin..tmax, (lo - pad)..(hi + legend_headroom(lo, hi, 3)))?;
         chart.configure_mesh().x_desc("T (°C, DS18B20)").y_desc("scale factor − mean (ppm)").draw()?;
         for (branch, label) in
             [(Branch::Heating, "heating"), (Branch::Cooling, "cooling"), (Branch::Unknown, "hold / not known")]
@@ -310,7 +317,7 @@ pub fn plot_sf_vs_temp(path: &Path, title: &str, ev: &Evaluation) -> PlotResult 
         }
         chart
             .configure_series_labels()
-            .position(SeriesLabelPosition::UpperMiddle)
+            .position(SeriesLabelPosition::UpperRight)
             .background_style(WHITE.mix(0.8))
             .border_style(BLACK)
             .draw()?;
@@ -356,7 +363,7 @@ pub fn plot_residual_vs_time(path: &Path, title: &str, ev: &Evaluation) -> PlotR
             .margin(10)
             .x_label_area_size(35)
             .y_label_area_size(60)
-            .build_cartesian_2d(0.0..xmax, (lo - pad)..(hi + pad))?;
+            .build_cartesian_2d(0.0..xmax, (lo - pad)..(hi + legend_headroom(lo, hi, 2)))?;
         let ydesc = if k == 0 { "scale-factor residual (ppm)" } else { "bias residual (ug)" };
         chart.configure_mesh().x_desc("time since program start (h)").y_desc(ydesc).draw()?;
         for (s, (pts, c)) in series.iter().zip(colors).enumerate() {
@@ -366,7 +373,12 @@ pub fn plot_residual_vs_time(path: &Path, title: &str, ev: &Evaluation) -> PlotR
                 .label(label)
                 .legend(move |(x, y)| Circle::new((x, y), 4, c.filled()));
         }
-        chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw()?;
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()?;
     }
     root.present()?;
     Ok(())

@@ -158,10 +158,27 @@ pub fn plot_bias_vs_temp(path: &Path, title: &str, rows: &PlotRows) -> Result<()
     use plotters::prelude::*;
     crate::plot_font::register();
     let na = rows.axes.len().max(1);
-    let root = BitMapBackend::new(path, (1400, 40 + 360 * na as u32)).into_drawing_area();
+    let root = BitMapBackend::new(path, (1400, 70 + 360 * na as u32)).into_drawing_area();
     root.fill(&WHITE)?;
-    let (top, body) = root.split_vertically(40);
-    top.titled(title, ("sans-serif", 20))?;
+    let (top, body) = root.split_vertically(70);
+    let top = top.titled(title, ("sans-serif", 20))?;
+    // One legend for every panel, above them: a legend inside a panel covers its data.
+    let series =
+        [("heating", RGBColor(200, 30, 30)), ("cooling", RGBColor(30, 60, 200)), ("hold", RGBColor(120, 120, 120))];
+    let mut x = 160;
+    for (name, c) in series {
+        for held in [false, true] {
+            let y = 15;
+            if held {
+                top.draw(&Cross::new((x, y), 5, c.stroke_width(2)))?;
+            } else {
+                top.draw(&Circle::new((x, y), 4, c.filled()))?;
+            }
+            let label = format!("{name}, {}", if held { "held out" } else { "training" });
+            top.draw(&Text::new(label.clone(), (x + 12, y - 8), ("sans-serif", 15)))?;
+            x += 40 + 8 * i32::try_from(label.chars().count()).unwrap_or(20);
+        }
+    }
     let panels = body.split_evenly((na, 2));
     let n = rows.temp_c.len();
     // Every row up to 6 000 per panel: a denser cloud draws the same picture.
@@ -185,10 +202,10 @@ pub fn plot_bias_vs_temp(path: &Path, title: &str, rows: &PlotRows) -> Result<()
                 .y_label_area_size(65)
                 .build_cartesian_2d((tlo - 1.0)..(thi + 1.0), (lo - pad)..(hi + pad))?;
             chart.configure_mesh().x_desc("temperature (°C, the log's sensor)").y_desc("bias (mg)").draw()?;
-            for (branch, bname, c) in [
-                (Branch::Heating, "heating", RGBColor(200, 30, 30)),
-                (Branch::Cooling, "cooling", RGBColor(30, 60, 200)),
-                (Branch::Unknown, "hold", RGBColor(120, 120, 120)),
+            for (branch, c) in [
+                (Branch::Heating, RGBColor(200, 30, 30)),
+                (Branch::Cooling, RGBColor(30, 60, 200)),
+                (Branch::Unknown, RGBColor(120, 120, 120)),
             ] {
                 for held in [false, true] {
                     let pts: Vec<(f64, f64)> = (0..n)
@@ -199,21 +216,13 @@ pub fn plot_bias_vs_temp(path: &Path, title: &str, rows: &PlotRows) -> Result<()
                     if pts.is_empty() {
                         continue;
                     }
-                    let label = format!("{bname}, {}", if held { "held out" } else { "training" });
                     if held {
-                        chart
-                            .draw_series(pts.into_iter().map(|p| Cross::new(p, 3, c.mix(0.7))))?
-                            .label(label)
-                            .legend(move |(x, y)| Cross::new((x, y), 4, c));
+                        chart.draw_series(pts.into_iter().map(|p| Cross::new(p, 3, c.mix(0.7))))?;
                     } else {
-                        chart
-                            .draw_series(pts.into_iter().map(|p| Circle::new(p, 1, c.mix(0.5).filled())))?
-                            .label(label)
-                            .legend(move |(x, y)| Circle::new((x, y), 3, c.filled()));
+                        chart.draw_series(pts.into_iter().map(|p| Circle::new(p, 1, c.mix(0.5).filled())))?;
                     }
                 }
             }
-            chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw()?;
         }
     }
     root.present()?;
@@ -355,14 +364,28 @@ pub fn write_static_page(
     );
     if plots {
         p.section("Plots");
-        p.image(
-            &out.join(BIAS_PLOT),
-            "bias against temperature per axis, before and after compensation: dots training rows, crosses held-out rows",
-        )
-        .map_err(|e| io(&e))?;
+        p.image(&out.join(BIAS_PLOT), &bias_plot_caption(verdict)).map_err(|e| io(&e))?;
     }
     p.write(out).map_err(|e| io(&e))?;
     Ok(())
+}
+
+/// What to look for in `bias_vs_temp.png`, with the verdict's warnings about held-out
+/// steps repeated where the step is drawn.
+fn bias_plot_caption(verdict: &Verdict) -> String {
+    let mut c = "Left, each axis before compensation: the gap between the red (heating) and blue (cooling) \
+                 curves is the hysteresis the model must carry. Right, what is left after the model: held-out \
+                 crosses (rows scored by a model that never saw them) should scatter about zero like the \
+                 training dots; a band of crosses off zero is a held-out step, which the table will carry into use."
+        .to_string();
+    let steps: Vec<&str> =
+        verdict.warnings.iter().filter(|w| w.contains("held-out rows sit")).map(String::as_str).collect();
+    if !steps.is_empty() {
+        c.push_str(" Here: ");
+        c.push_str(&steps.join("; "));
+        c.push('.');
+    }
+    c
 }
 
 /// The axes of a static calibration as PX4 / ArduPilot exports see them.

@@ -33,6 +33,14 @@ window.addEventListener('load', function () {
   d.textContent = 'QFA' + '-PROBE images=' + imgs.length + ' broken=' + JSON.stringify(bad) + ' errors=' +
     JSON.stringify(window.__qfaErrors) + ' QFA' + '-END';
   document.body.appendChild(d);
+  // What a reader sees first: the first section or h2 of the body, and the verdict's items.
+  var first = document.body.querySelector('section, h2');
+  var v = document.getElementById('verdict');
+  var items = v ? Array.prototype.map.call(v.querySelectorAll('li'), function (li) { return li.textContent; }) : [];
+  var e = document.createElement('pre');
+  e.textContent = 'QFA' + '-VERDICT ' + JSON.stringify({ first: first ? (first.id || first.tagName) : '', items: items }) +
+    ' QFA' + '-VEND';
+  document.body.appendChild(e);
 });
 </script>"#;
 
@@ -62,9 +70,25 @@ pub fn chromium_or_skip(what: &str) -> Option<PathBuf> {
     c
 }
 
+/// What the browser showed of a page.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Shown {
+    /// Images that decoded.
+    pub images: usize,
+    /// The id (else the tag) of the body's first `<section>` or `<h2>`.
+    pub first: String,
+    /// The text of each item of `<section id="verdict">`, as rendered.
+    pub verdict: Vec<String>,
+}
+
 /// Open `page` in `chromium`; `Ok(images)` when it loads with no console message or error
 /// and every one of its `images` decodes, else what went wrong.
 pub fn check(chromium: &Path, page: &Path) -> Result<usize, String> {
+    show(chromium, page).map(|s| s.images)
+}
+
+/// [`check`], returning what the page showed first and its verdict's items.
+pub fn show(chromium: &Path, page: &Path) -> Result<Shown, String> {
     let html = std::fs::read_to_string(page).map_err(|e| format!("{}: {e}", page.display()))?;
     let probed = match html.find("<head>") {
         Some(i) => format!("{}{PROBE}{}", &html[..i + 6], &html[i + 6..]),
@@ -150,11 +174,37 @@ pub fn check(chromium: &Path, page: &Path) -> Result<usize, String> {
     if !console.is_empty() {
         why.push(format!("console messages:\n{}", console.join("\n")));
     }
+    let shown = out
+        .split("QFA-VERDICT ")
+        .nth(1)
+        .and_then(|s| s.split(" QFA-VEND").next())
+        // --dump-dom escapes a text node's <, > and &.
+        .map(|s| s.replace("&lt;", "<").replace("&gt;", ">").replace("&amp;", "&"))
+        .ok_or_else(|| format!("{}: no verdict probe output", page.display()))?;
+    let v: serde_json::Value = serde_json::from_str(&shown).map_err(|e| format!("verdict probe: {e}: {shown}"))?;
+    let first = v["first"].as_str().unwrap_or("").to_string();
+    let verdict = v["items"]
+        .as_array()
+        .map_or_else(Vec::new, |a| a.iter().filter_map(|x| x.as_str()).map(String::from).collect());
     if why.is_empty() {
-        Ok(images)
+        Ok(Shown { images, first, verdict })
     } else {
         Err(format!("{}: {}", page.display(), why.join("; ")))
     }
+}
+
+/// [`show`] when Chromium is installed (else SKIPPED and `None`), asserting the page loads
+/// cleanly and opens with its verdict: the body's first section is `<section id="verdict">`
+/// and it has items. Returns the verdict's items as the browser rendered them.
+pub fn assert_verdict_first(page: &Path) -> Option<Vec<String>> {
+    assert!(page.is_file(), "{} not written", page.display());
+    let c = chromium_or_skip(&format!("verdict check of {}", page.display()))?;
+    let s = show(&c, page).unwrap_or_else(|e| panic!("browser check failed: {e}"));
+    assert_eq!(s.first, "verdict", "{}: the first section a reader sees is not the verdict", page.display());
+    assert!(!s.verdict.is_empty(), "{}: an empty verdict", page.display());
+    assert!(s.verdict[0].starts_with("verdict: "), "{}: {:?}", page.display(), s.verdict);
+    println!("chromium: {} opens with its verdict: {}", page.display(), s.verdict[0]);
+    Some(s.verdict)
 }
 
 /// [`check`] when Chromium is installed (else SKIPPED, see [`chromium_or_skip`]), asserting
