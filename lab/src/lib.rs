@@ -29,3 +29,4 @@ pub mod out_path;
 pub mod plot_font;
 pub mod rng;
 pub mod simulate;
+pub mod spelling;

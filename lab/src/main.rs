@@ -505,7 +505,8 @@ fn calibrate_cmd(a: CalibrateArgs) -> Result<(), CliError> {
             let cal = static_cal::calibrate_static(&l, &opts, true).map_err(|e| e.to_string())?;
             static_cal::write_static(&a.out, &cal).map_err(|e| e.to_string())?;
             let ex = write_exports(&a.out, &static_cal::export_axes(&cal), &exports).map_err(io_at(&a.out))?;
-            static_cal::write_static_page(&a.out, &cal, !a.no_plots, &ex.notes).map_err(|e| e.to_string())?;
+            let notes: Vec<String> = ex.notes.iter().map(ToString::to_string).collect();
+            static_cal::write_static_page(&a.out, &cal, !a.no_plots, &notes).map_err(|e| e.to_string())?;
             print!("{}", static_cal::markdown(&cal.report));
             println!(
                 "wrote {}/table.toml, table.bin, report.json, report.md, report.html{}{}",

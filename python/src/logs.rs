@@ -12,7 +12,8 @@ use pyo3::types::PyDict;
 use qfa_lab::data::cycling::Log as CyclingLog;
 use qfa_lab::data::open::{open, OpenError, OpenedLog, ReadError, ReadFlags};
 use qfa_lab::data::static_log::{read_static_from, StaticError, StaticLog};
-use qfa_lab::data::units::{Spelling, UnitParseError};
+use qfa_lab::data::units::UnitParseError;
+use qfa_lab::spelling::Spelling;
 
 use crate::errors::{variant_name, with_kind, LogError};
 

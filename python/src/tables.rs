@@ -147,7 +147,7 @@ impl Table {
         for (name, text) in files {
             d.set_item(name, text)?;
         }
-        Ok((d, notes))
+        Ok((d, notes.iter().map(ToString::to_string).collect()))
     }
 
     /// Write every file `qfa-lab calibrate` writes into `out` (plots aside); returns the

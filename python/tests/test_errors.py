@@ -106,5 +106,5 @@ def test_unit_mistakes_name_keywords_not_flags(tmp_path: Path) -> None:
     assert 'pass accel_unit="m/s2"' in str(e.value) and "--" not in str(e.value), str(e.value)
     with pytest.raises(q.LogError) as e:
         q.read_log(log, accel_unit="m/s2", temp_unit="X")
-    assert e.value.kind == "BadUnit" and str(e.value) == "temp_unit `X`: expected C|F|K"
+    assert e.value.kind == "BadUnit" and str(e.value) == 'temp_unit="X": expected C|F|K'
     assert q.read_log(log, accel_unit="m/s2", temp_unit="C").rows == 400

@@ -307,7 +307,7 @@ pub fn page(cal: &Calibration, out: &Path, opts: &CalibrateOptions) -> std::io::
         ));
     }
     for n in &cal.exports.notes {
-        p.warning(n);
+        p.warning(&n.to_string());
     }
     let (s, b, pb) = (r.sensitivity_ppm_per_c, r.bias_residual_ug, r.peers_bias_residual_ug);
     p.section("Held-out figures").table(
