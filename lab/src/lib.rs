@@ -29,4 +29,5 @@ pub mod out_path;
 pub mod plot_font;
 pub mod rng;
 pub mod simulate;
+pub mod spelling;
 pub mod verdict;

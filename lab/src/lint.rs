@@ -24,7 +24,8 @@ use crate::data::open::{open_bytes, OpenError, OpenedLog, ReadError, ReadFlags};
 use crate::data::pairing::{branch_deadband_c_per_min, trace_readings};
 use crate::data::static_checks::median;
 use crate::data::static_log::{StaticError, StaticLog, COMMON_NAMES};
-use crate::data::units::{ReaderOption, Spelling, UnitSource};
+use crate::data::units::{ReaderOption, UnitSource};
+use crate::spelling::Spelling;
 
 /// How much a finding matters.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize)]

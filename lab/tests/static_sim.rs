@@ -23,7 +23,7 @@
 //! has too few blocks); the model it flashes is calibration's choice in each.
 
 use qfa_lab::calibrate::fit::{fit_static_axis, StaticSeries, StaticStructure};
-use qfa_lab::calibrate::peers::PeerKind;
+use qfa_lab::calibrate::peers::{ExportNote, PeerKind};
 use qfa_lab::calibrate::static_cal::{calibrate_static, candidates, Figure, Holdout, StaticCalOptions, ONE_BRANCH};
 use qfa_lab::data::static_log::{read_static_from, AccelUnit, AxisColumn, StaticLog, StaticOptions, TimeUnit};
 use qfa_lab::simulate::profile::{Position, Program};
@@ -217,7 +217,8 @@ fn one_branch_logs_calibrate_and_hold_on_the_other_leg() {
                     let _ = std::fs::remove_dir_all(&dir);
                     assert!(!written_ap, "{ex:?}");
                     assert!(
-                        ex.notes.iter().any(|n| n.contains("ArduPilot files not written: its learner formed no fit")),
+                        ex.notes.iter().any(|n| matches!(n, ExportNote::NoArdupilotFit(_))
+                            && n.to_string().starts_with("ArduPilot files not written: its learner formed no fit")),
                         "{ex:?}"
                     );
                 }

@@ -6,16 +6,19 @@ log readers, calibration, compensation and discovery, and the root crate's
 dataclasses and the optional pandas view. Columns are numpy arrays, one copy each way.
 """
 
-from __future__ import annotations
+# Every module-level name that is not API is private (`_np`, `_os`, `as _annotations`),
+# so `dir(qfa_thermal)` lists the API alone.
+from __future__ import annotations as _annotations
 
-import enum
-import json
-import os
-from dataclasses import dataclass, field
-from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+import enum as _enum
+import json as _json
+import os as _os
+import typing as _t
+from collections.abc import Mapping as _Mapping
+from dataclasses import dataclass as _dataclass
+from dataclasses import field as _field
 
-import numpy as np
-import numpy.typing as npt
+import numpy as _np
 
 from . import _native
 from ._native import (
@@ -56,21 +59,30 @@ __all__ = [
 
 TableError = _native.TableError
 
+if _t.TYPE_CHECKING:
+    # The annotations' names: type checkers read them; at run time the annotations stay
+    # strings (`from __future__ import annotations`), so the module never holds them.
+    import os
+    from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+
+    import numpy as np
+    import numpy.typing as npt
+
+    PathLike = Union[str, os.PathLike[str]]
+    FloatArray = npt.NDArray[np.float64]
+
 #: Rate window (samples) of every ``Compensator`` here, as in the lab and the vectors.
 RATE_WINDOW: int = _native.RATE_WINDOW
 #: Standard gravity, m/s², as the firmware's f32 constant.
 G0: float = _native.G0
 
-PathLike = Union[str, "os.PathLike[str]"]
-FloatArray = npt.NDArray[np.float64]
-
 #: The firmware's status word, one flag per condition (names and bits from the Rust
 #: definition itself). ``Status(0)`` is fully compensated.
-Status = enum.IntFlag("Status", dict(_native.status_flags()))  # type: ignore[misc]
+Status = _enum.IntFlag("Status", dict(_native.status_flags()))  # type: ignore[misc]
 Status.__doc__ = "The firmware's status flags (qfa_thermal::Status), from its own definition."
 
 
-@dataclass(frozen=True)
+@_dataclass(frozen=True)
 class Log:
     """A log as the lab's reader read it: a static multi-axis log or a cycling log.
 
@@ -80,7 +92,7 @@ class Log:
     says what the static reader skipped and how the log is sampled.
     """
 
-    native: Any = field(repr=False)
+    native: Any = _field(repr=False)
     kind: str
     rows: int
     axes: List[str]
@@ -95,7 +107,7 @@ class Log:
             rows=native.rows,
             axes=list(native.axes),
             columns=dict(native.columns()),
-            reader=json.loads(native.reader_json()),
+            reader=_json.loads(native.reader_json()),
         )
 
     @property
@@ -136,7 +148,7 @@ def read_log(
     """
     return Log._of(
         _native.read_log(
-            os.fspath(path),
+            _os.fspath(path),
             columns=columns,
             time_unit=time_unit,
             accel_unit=accel_unit,
@@ -147,7 +159,7 @@ def read_log(
 
 
 def _f64(a: npt.ArrayLike) -> FloatArray:
-    return np.ascontiguousarray(a, dtype=np.float64)
+    return _np.ascontiguousarray(a, dtype=_np.float64)
 
 
 def log_from_arrays(
@@ -198,7 +210,10 @@ def calibrate(
 
     Raises:
         LogError: the log is refused by the reader.
-        CalibrationError: the fit or a held-out figure cannot be formed (CLI's message).
+        CalibrationError: the fit or a held-out figure cannot be formed, or an option is
+            refused (CLI's message, options named as keywords: ``holdout="blocks:50"``;
+            ``kind`` the Rust variant, ``UnknownHoldout``, ``BlocksTooShort``, ..., or
+            ``None`` for an argument checked here).
     """
     lg = _as_log(log, reader)
     return _native.calibrate(
@@ -211,7 +226,7 @@ def calibrate(
     )
 
 
-@dataclass(frozen=True)
+@_dataclass(frozen=True)
 class Compensated:
     """Compensated rows, as ``qfa-lab compensate`` computes them before formatting.
 
@@ -243,7 +258,7 @@ class Compensated:
 def status_text(status: npt.ArrayLike) -> List[str]:
     """The text ``qfa-lab compensate`` writes in a static log's ``status`` column for each
     flags word."""
-    return list(_native.status_texts(np.ascontiguousarray(status, dtype=np.uint16)))
+    return list(_native.status_texts(_np.ascontiguousarray(status, dtype=_np.uint16)))
 
 
 def compensate(
@@ -264,7 +279,8 @@ def compensate(
 
     Raises:
         CompensationError: a table of the other kind or axis count, unequal columns, or
-            rows the firmware's settings refuse (CLI's message).
+            rows the firmware's settings refuse (CLI's message; ``kind`` ``Table``,
+            ``AxisCount``, ``Length``, ``Config``, ...).
     """
     if log is not None:
         if time_s is not None or temp_c is not None or accel is not None:
@@ -282,14 +298,14 @@ def compensate(
         if time_s is None or temp_c is None or accel is None:
             raise TypeError("compensate needs a log, or time_s, temp_c and accel")
         t, temp = _f64(time_s), _f64(temp_c)
-        if isinstance(accel, Mapping):
+        if isinstance(accel, _Mapping):
             names = list(accel.keys())
             axes = [_f64(a) for a in accel.values()]
         else:
-            arr = np.asarray(accel, dtype=np.float64)
+            arr = _np.asarray(accel, dtype=_np.float64)
             arr = arr.reshape(-1, 1) if arr.ndim == 1 else arr
             names = ["ax", "ay", "az"][: arr.shape[1]]
-            axes = [np.ascontiguousarray(arr[:, k]) for k in range(arr.shape[1])]
+            axes = [_np.ascontiguousarray(arr[:, k]) for k in range(arr.shape[1])]
     outputs, status = _native.compensate_columns(table, t, temp, axes)
     cols: Dict[str, Any] = {"time_s": t, "temp_c": temp}
     cols.update(zip(names, outputs))
@@ -308,8 +324,9 @@ def discover(
     misses; returns ``report.json`` as a dict. The files go to ``out`` when given.
 
     Raises:
-        DiscoveryError: the run failed (CLI's message).
+        DiscoveryError: the run failed (CLI's message, options named as keywords; ``kind``
+            as for ``calibrate`` when calibration's held-out scheme refused the log).
     """
     lg = _as_log(log, reader)
-    text = _native.discover(lg.native, start=start, holdout=holdout, out=None if out is None else os.fspath(out))
-    return json.loads(text)
+    text = _native.discover(lg.native, start=start, holdout=holdout, out=None if out is None else _os.fspath(out))
+    return _json.loads(text)

@@ -16,7 +16,7 @@ use qfa_thermal::compensator::{
 use qfa_thermal::rate::RateConfig;
 use qfa_thermal::{Input, Status};
 
-use crate::errors::{variant_name, with_kind, ConfigError, SampleError, TableError};
+use crate::errors::{with_kind, ConfigError, Kind, SampleError, TableError};
 use crate::tables::Table;
 
 /// The rate window every instance here is built with, samples: the lab's and the
@@ -64,12 +64,7 @@ fn sample_output<'py, const A: usize>(py: Python<'py>, o: SampleOutput<A>) -> (B
 }
 
 fn sample_err(py: Python<'_>, e: FirmwareSampleError, status: Status) -> PyErr {
-    // A scratchpad that failed decoding is tagged by the decoder's reason (`Crc`, `PowerOn`).
-    let kind = match e {
-        FirmwareSampleError::Decode(d) => variant_name(&format!("{d:?}")),
-        e => variant_name(&format!("{e:?}")),
-    };
-    let err = with_kind::<SampleError>(py, e.to_string(), &kind);
+    let err = with_kind::<SampleError>(py, e.to_string(), e.kind());
     let _ = err.value(py).setattr("status", status.bits());
     err
 }
@@ -129,8 +124,7 @@ impl Compensator {
             confirm_samples: confirm_samples.unwrap_or(d.confirm_samples),
             nominal_k1: nominal_k1.unwrap_or(d.nominal_k1),
         };
-        let cfg =
-            |e: qfa_thermal::ConfigError| with_kind::<ConfigError>(py, e.to_string(), &variant_name(&format!("{e:?}")));
+        let cfg = |e: qfa_thermal::ConfigError| with_kind::<ConfigError>(py, e.to_string(), e.kind());
         let inner = match (axes, sensors) {
             (1, 1) => Inner::A1S1(Box::new(Firmware::new(config).map_err(cfg)?)),
             (2, 1) => Inner::A2S1(Box::new(Firmware::new(config).map_err(cfg)?)),
@@ -155,13 +149,13 @@ impl Compensator {
     /// Load `table.bin` bytes (the firmware's `load_table`: decode, validate, install).
     fn load_table(&mut self, py: Python<'_>, data: &[u8]) -> PyResult<()> {
         let r = each!(&mut self.inner, c => c.load_table(data));
-        r.map_err(|e| with_kind::<TableError>(py, e.to_string(), &variant_name(&format!("{e:?}"))))
+        r.map_err(|e| with_kind::<TableError>(py, e.to_string(), e.kind()))
     }
 
     /// Install a `Table` (validated, as `set_table`).
     fn set_table(&mut self, py: Python<'_>, table: &Table) -> PyResult<()> {
         let r = each!(&mut self.inner, c => c.set_table(table.table.clone()));
-        r.map_err(|e| with_kind::<TableError>(py, e.to_string(), &variant_name(&format!("{e:?}"))))
+        r.map_err(|e| with_kind::<TableError>(py, e.to_string(), e.kind()))
     }
 
     /// A DS18B20 reading, raw in 1/16 °C, taken at `t_ms` (wrapping u32 ms), from

@@ -5,8 +5,10 @@
 //!
 //! Columns cross the boundary as numpy arrays, one copy each way (no per-row Python
 //! object); long runs release the GIL. Every failure is a `QfaError` subclass
-//! ([`errors`]) carrying `qfa-lab`'s message; nothing panics across the boundary that
-//! PyO3 would not turn into `PanicException`.
+//! ([`errors`]) carrying `qfa-lab`'s message, with each option named as this package's
+//! keyword (`qfa_lab::spelling::Spelling::Python`) and a `kind` mapped from the Rust
+//! error's type ([`errors::Kind`]); nothing panics across the boundary that PyO3 would not
+//! turn into `PanicException`.
 
 use pyo3::prelude::*;
 use pyo3::types::PyDict;

@@ -10,11 +10,12 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use qfa_lab::data::cycling::Log as CyclingLog;
-use qfa_lab::data::open::{open, OpenError, OpenedLog, ReadError, ReadFlags};
+use qfa_lab::data::open::{open, OpenError, OpenedLog, ReadFlags};
 use qfa_lab::data::static_log::{read_static_from, StaticError, StaticLog};
-use qfa_lab::data::units::{Spelling, UnitParseError};
+use qfa_lab::data::units::UnitParseError;
+use qfa_lab::spelling::Spelling;
 
-use crate::errors::{variant_name, with_kind, LogError};
+use crate::errors::{with_kind, Kind, LogError};
 
 /// The lab's structure behind a [`Log`].
 pub enum LogData {
@@ -35,25 +36,19 @@ pub struct Log {
 
 /// A static reader's error as a `LogError`: the CLI's message with every reader option
 /// spelled as this package's keyword (`accel_unit="m/s2"`, not `--accel-unit m/s2`), and
-/// `kind` the error's variant (`Unit`, `Rows`, ...), taken from its type.
+/// `kind` the error's variant (`Unit`, `Rows`, ...).
 pub fn static_error(py: Python<'_>, e: &StaticError) -> PyErr {
-    with_kind::<LogError>(py, e.message(Spelling::Python), &variant_name(&format!("{e:?}")))
+    with_kind::<LogError>(py, e.message(Spelling::Python), e.kind())
 }
 
-/// [`static_error`] for any log: the static reader's error with its kind, the others'
-/// messages as they are (they take no options).
+/// [`static_error`] for any log: the file and its reader's error (only the static reader
+/// takes options).
 pub fn open_error(py: Python<'_>, e: &OpenError) -> PyErr {
-    let kind = match e {
-        OpenError::Read { error: ReadError::Static(s), .. } => variant_name(&format!("{s:?}")),
-        OpenError::Read { error: ReadError::Cycling(_), .. } => "Cycling".to_string(),
-        OpenError::Read { error: ReadError::Single(_), .. } => "Single".to_string(),
-        _ => "Io".to_string(),
-    };
-    with_kind::<LogError>(py, e.message(Spelling::Python), &kind)
+    with_kind::<LogError>(py, e.message(Spelling::Python), e.kind())
 }
 
 fn unit_error(py: Python<'_>, e: &UnitParseError) -> PyErr {
-    with_kind::<LogError>(py, e.message(Spelling::Python), "BadUnit")
+    with_kind::<LogError>(py, e.message(Spelling::Python), e.kind())
 }
 
 /// The reader flags from the keyword arguments' strings.
@@ -94,15 +89,15 @@ pub fn read(
         OpenedLog::Cycling(l) => LogData::Cycling(l),
         OpenedLog::Autopilot(l) => {
             return Err(LogError::new_err(format!(
-                "{}: a {}: `qfa-lab calibrate --log` reads it, read_log takes cycling and static logs",
+                "{}: a {}: `qfa-lab calibrate` reads it; this package reads cycling and static logs",
                 path.display(),
                 l.stack
             )))
         }
         OpenedLog::Single(_) => {
             return Err(LogError::new_err(format!(
-                "{}: a single-channel log (time_s,temp_c,value): discover reads it, read_log takes cycling and \
-                 static logs",
+                "{}: a single-channel log (time_s,temp_c,value): `qfa-lab discover` reads it; this package reads \
+                 cycling and static logs",
                 path.display()
             )))
         }

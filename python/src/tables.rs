@@ -11,10 +11,11 @@ use pyo3::types::PyDict;
 use qfa_lab::calibrate::peers::{export_texts, write_exports, ExportAxis, ExportOptions};
 use qfa_lab::calibrate::static_cal::{self, Holdout, StaticCalOptions, StaticCalibration};
 use qfa_lab::calibrate::{self as cal, CalibrateOptions, Calibration};
+use qfa_lab::spelling::{CalibrateOption, Spelling};
 use qfa_thermal::table::Input;
 use qfa_thermal::{Status, Table as FirmwareTable};
 
-use crate::errors::{with_kind, CalibrationError, CompensationError, DiscoveryError, TableError};
+use crate::errors::{with_kind, CalibrationError, CompensationError, DiscoveryError, Kind, TableError};
 use crate::logs::{Log, LogData};
 
 /// What a [`Table`] was calibrated from, kept so it can write every file the CLI writes.
@@ -38,15 +39,34 @@ pub struct Table {
 
 fn table_err(py: Python<'_>, e: qfa_thermal::table::Error, prefix: Option<&str>) -> PyErr {
     let msg = prefix.map_or_else(|| e.to_string(), |p| format!("{p}: {e}"));
-    with_kind::<TableError>(py, msg, &crate::errors::variant_name(&format!("{e:?}")))
+    with_kind::<TableError>(py, msg, e.kind())
 }
 
 /// Bytes of a table as `table.bin` holds them (the lab's encoder, the firmware's format).
 pub fn encode(py: Python<'_>, t: &FirmwareTable) -> PyResult<Vec<u8>> {
     qfa_lab::calibrate::fit::encode(t).map_err(|e| match e {
         qfa_lab::calibrate::fit::FitError::Table(e) => table_err(py, e, None),
-        e => TableError::new_err(e.to_string()),
+        e => with_kind::<TableError>(py, e.to_string(), e.kind()),
     })
+}
+
+/// A static calibration's error as an exception of type `E`: its message with the
+/// held-out option spelled `holdout=`, and its kind.
+fn static_cal_err<E: pyo3::PyTypeInfo>(py: Python<'_>, e: &static_cal::StaticCalError) -> PyErr {
+    with_kind::<E>(py, e.message(Spelling::Python), e.kind())
+}
+
+/// A held-out scheme other than the default on a cycling log, refused as the CLI refuses
+/// `--holdout` there.
+fn cycling_holdout(holdout: Holdout) -> Result<(), String> {
+    if holdout == Holdout::default() {
+        Ok(())
+    } else {
+        Err(format!(
+            "{}: static logs only (a cycling log is held out by program)",
+            CalibrateOption::Holdout.with(Spelling::Python, &holdout.to_string())
+        ))
+    }
 }
 
 impl Table {
@@ -140,14 +160,15 @@ impl Table {
     }
 
     /// The PX4 / ArduPilot parameter files as `{file name: text}`, and why others were
-    /// left out (one sentence each), as the CLI decides.
+    /// left out (one sentence each, options named as `calibrate`'s keywords), as the CLI
+    /// decides. The files' text is the CLI's, byte for byte.
     fn exports<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyDict>, Vec<String>)> {
         let (files, notes) = export_texts(&self.export_axes(), &self.exports);
         let d = PyDict::new(py);
         for (name, text) in files {
             d.set_item(name, text)?;
         }
-        Ok((d, notes))
+        Ok((d, notes.iter().map(|n| n.message(Spelling::Python)).collect()))
     }
 
     /// Write every file `qfa-lab calibrate` writes into `out` (plots aside); returns the
@@ -196,21 +217,26 @@ impl Table {
 
 /// The export options, with the CLI's checks of `--px4-device-id` and `--export-range`.
 fn export_options(px4_device_id: Option<i64>, export_range: Option<(f64, f64)>) -> PyResult<ExportOptions> {
-    let px4_device_id =
-        match px4_device_id {
-            None => None,
-            Some(0) => return Err(CalibrationError::new_err(
-                "0 matches no accelerometer: pass the vehicle's CAL_ACC0_ID (or device_id in `listener sensor_accel`)",
-            )),
-            Some(v) if !(i64::from(i32::MIN)..=i64::from(u32::MAX)).contains(&v) => {
-                return Err(CalibrationError::new_err(format!("{v} is not a 32-bit device ID")))
-            }
-            // Two's complement: the bits PX4 compares (`device_id == (uint32_t)ID`).
-            Some(v) => Some(v as u32 as i32),
-        };
+    let id = |v: i64| CalibrateOption::Px4DeviceId.with(Spelling::Python, &v.to_string());
+    let px4_device_id = match px4_device_id {
+        None => None,
+        Some(0) => {
+            return Err(CalibrationError::new_err(format!(
+                "{} matches no accelerometer: pass the vehicle's CAL_ACC0_ID (or device_id in `listener \
+                 sensor_accel`)",
+                id(0)
+            )))
+        }
+        Some(v) if !(i64::from(i32::MIN)..=i64::from(u32::MAX)).contains(&v) => {
+            return Err(CalibrationError::new_err(format!("{}: not a 32-bit device ID", id(v))))
+        }
+        // Two's complement: the bits PX4 compares (`device_id == (uint32_t)ID`).
+        Some(v) => Some(v as u32 as i32),
+    };
     if let Some((lo, hi)) = export_range {
         if !(lo.is_finite() && hi.is_finite() && lo < hi) {
-            return Err(CalibrationError::new_err(format!("`{lo},{hi}`: need finite TMIN < TMAX")));
+            let range = CalibrateOption::ExportRange.with(Spelling::Python, &format!("{lo},{hi}"));
+            return Err(CalibrationError::new_err(format!("{range}: need finite TMIN < TMAX")));
         }
     }
     Ok(ExportOptions { px4_device_id, range_c: export_range, ..ExportOptions::default() })
@@ -230,22 +256,20 @@ pub fn calibrate(
     export_range: Option<(f64, f64)>,
 ) -> PyResult<Table> {
     let exports = export_options(px4_device_id, export_range)?;
-    let holdout: Holdout =
-        holdout.parse().map_err(|e: static_cal::StaticCalError| CalibrationError::new_err(e.to_string()))?;
+    let holdout: Holdout = holdout.parse().map_err(|e| static_cal_err::<CalibrationError>(py, &e))?;
+    if !["x", "y", "z"].contains(&axis) {
+        return Err(CalibrationError::new_err(format!("axis=\"{axis}\": expected \"x\", \"y\" or \"z\"")));
+    }
     match &log.data {
         LogData::Static(l) => {
             let opts = StaticCalOptions { holdout, ..Default::default() };
             let c = py
                 .detach(|| static_cal::calibrate_static(l, &opts, false))
-                .map_err(|e| CalibrationError::new_err(e.to_string()))?;
+                .map_err(|e| static_cal_err::<CalibrationError>(py, &e))?;
             Ok(Table { table: c.table.clone(), origin: Origin::Static(Box::new(c)), exports })
         }
         LogData::Cycling(l) => {
-            if holdout != Holdout::default() {
-                return Err(CalibrationError::new_err(format!(
-                    "--holdout {holdout}: static logs only (a cycling log is held out by program)"
-                )));
-            }
+            cycling_holdout(holdout).map_err(CalibrationError::new_err)?;
             let axis = format!("a{axis}");
             let opts = CalibrateOptions {
                 fit_programs: fit_programs.filter(|f| !f.is_empty()),
@@ -284,7 +308,7 @@ pub fn compensate_columns<'py>(
     let columns: Vec<&[f64]> = accel.iter().map(|a| a.as_slice()).collect::<Result<_, _>>()?;
     let out = py
         .detach(|| qfa_lab::compensate::compensate_samples(&table.table, time_s, temp_c, &columns))
-        .map_err(|e| CompensationError::new_err(e.to_string()))?;
+        .map_err(|e| with_kind::<CompensationError>(py, e.to_string(), e.kind()))?;
     let axes = out.accel_g.into_iter().map(|a| PyArray1::from_vec(py, a)).collect();
     let status = PyArray1::from_vec(py, out.status.iter().map(|s| s.bits()).collect());
     Ok((axes, status))
@@ -299,7 +323,7 @@ pub fn compensate_cycling<'py>(py: Python<'py>, table: &Table, log: &Log) -> PyR
     };
     let runs = py
         .detach(|| qfa_lab::compensate::compensate_log(&table.table, l, None))
-        .map_err(|e| CompensationError::new_err(e.to_string()))?;
+        .map_err(|e| with_kind::<CompensationError>(py, e.to_string(), e.kind()))?;
     let (mut accel, mut status) = (Vec::with_capacity(l.rows()), Vec::with_capacity(l.rows()));
     for r in runs {
         accel.extend(r.accel_g);
@@ -333,8 +357,10 @@ fn scratch_dir() -> PathBuf {
 pub fn discover(py: Python<'_>, log: &Log, start: &str, holdout: &str, out: Option<PathBuf>) -> PyResult<String> {
     let start: qfa_lab::discover::Start =
         start.parse().map_err(|e: anyhow::Error| DiscoveryError::new_err(format!("{e:#}")))?;
-    let holdout: Holdout =
-        holdout.parse().map_err(|e: static_cal::StaticCalError| DiscoveryError::new_err(e.to_string()))?;
+    let holdout: Holdout = holdout.parse().map_err(|e| static_cal_err::<DiscoveryError>(py, &e))?;
+    if let LogData::Cycling(_) = &log.data {
+        cycling_holdout(holdout).map_err(DiscoveryError::new_err)?;
+    }
     let (dir, scratch) = match out {
         Some(d) => (d, false),
         None => (scratch_dir(), true),
@@ -343,25 +369,27 @@ pub fn discover(py: Python<'_>, log: &Log, start: &str, holdout: &str, out: Opti
     if scratch {
         let _ = std::fs::remove_dir_all(&dir);
     }
-    result.map_err(DiscoveryError::new_err)
+    result.map_err(|e| match e.downcast_ref::<static_cal::StaticCalError>() {
+        // Calibration's own refusal (a held-out scheme the log cannot hold): typed, so
+        // its option is spelled for Python and its kind is the variant.
+        Some(s) => static_cal_err::<DiscoveryError>(py, s),
+        None => DiscoveryError::new_err(format!("{e:#}")),
+    })
 }
 
-fn run_discovery(log: &Log, start: qfa_lab::discover::Start, holdout: Holdout, dir: &Path) -> Result<String, String> {
+fn run_discovery(log: &Log, start: qfa_lab::discover::Start, holdout: Holdout, dir: &Path) -> anyhow::Result<String> {
     match &log.data {
         LogData::Static(l) => {
-            let d = qfa_lab::discover::static_axes::run(l, start, holdout, dir).map_err(|e| format!("{e:#}"))?;
-            serde_json::to_string_pretty(&d).map_err(|e| e.to_string())
+            let d = qfa_lab::discover::static_axes::run(l, start, holdout, dir)?;
+            Ok(serde_json::to_string_pretty(&d)?)
         }
         LogData::Cycling(_) => {
-            if holdout != Holdout::default() {
-                return Err(format!("--holdout {holdout}: static logs only (a cycling log is held out by program)"));
-            }
             let Some(path) = &log.path else {
-                return Err("discovery of a cycling log reads its file: read it with read_log(path)".to_string());
+                anyhow::bail!("discovery of a cycling log reads its file: read it with read_log(path)");
             };
-            let ch = qfa_lab::data::channels::Channels::read(path, 60.0).map_err(|e| format!("{e:#}"))?;
-            let r = qfa_lab::discover::discover(&ch, start, dir).map_err(|e| format!("{e:#}"))?;
-            serde_json::to_string_pretty(&r).map_err(|e| e.to_string())
+            let ch = qfa_lab::data::channels::Channels::read(path, 60.0)?;
+            let r = qfa_lab::discover::discover(&ch, start, dir)?;
+            Ok(serde_json::to_string_pretty(&r)?)
         }
     }
 }

@@ -23,7 +23,7 @@ use std::path::Path;
 use serde::Serialize;
 
 use crate::calibrate::peers::{
-    export_texts, ExportOptions, ARDUPILOT_ENABLE_FILE, ARDUPILOT_VALUES_FILE, EXPORT_FILES, PX4_FILE,
+    export_texts, ExportNote, ExportOptions, ARDUPILOT_ENABLE_FILE, ARDUPILOT_VALUES_FILE, EXPORT_FILES, PX4_FILE,
 };
 use crate::calibrate::static_cal::{self, Figure, StaticCalOptions};
 use crate::calibrate::verdict::static_verdict;
@@ -205,7 +205,10 @@ pub fn calibrate_autopilot(
                 let eo = ExportOptions { px4_device_id: Some(*id as i32), px4_slot: slot, ..ExportOptions::default() };
                 let (texts, notes) = export_texts(axes, &eo);
                 export_notes.extend(
-                    notes.into_iter().filter(|n| !n.starts_with("ArduPilot")).map(|n| format!("instance {index}: {n}")),
+                    notes
+                        .into_iter()
+                        .filter(|n| !matches!(n, ExportNote::NoArdupilotFit(_) | ExportNote::ArdupilotRange { .. }))
+                        .map(|n| format!("instance {index}: {n}")),
                 );
                 let Some((_, t)) = texts.into_iter().find(|(n, _)| *n == PX4_FILE) else { continue };
                 ids.push(*id);
@@ -244,7 +247,10 @@ pub fn calibrate_autopilot(
                 let eo = ExportOptions { ardupilot_instance: *index, ..ExportOptions::default() };
                 let (texts, notes) = export_texts(axes, &eo);
                 export_notes.extend(
-                    notes.into_iter().filter(|n| !n.starts_with("px4")).map(|n| format!("instance {index}: {n}")),
+                    notes
+                        .into_iter()
+                        .filter(|n| *n != ExportNote::NoPx4DeviceId)
+                        .map(|n| format!("instance {index}: {n}")),
                 );
                 let get = |f: &str| texts.iter().find(|(n, _)| *n == f).map(|(_, t)| t.clone());
                 let (Some(e), Some(v)) = (get(ARDUPILOT_ENABLE_FILE), get(ARDUPILOT_VALUES_FILE)) else { continue };

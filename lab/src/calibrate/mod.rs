@@ -288,7 +288,8 @@ pub fn calibrate_into(log: &Log, out: &Path, opts: &CalibrateOptions, read_s: f6
     }
     files.extend(cal.exports.written.iter().map(|f| (*f).to_string()));
     let axis = opts.axis.as_deref().unwrap_or("ax");
-    let v = verdict::cycling_verdict(&cal.report, axis, &opts.limits, &files, &cal.exports.notes);
+    let notes: Vec<String> = cal.exports.notes.iter().map(ToString::to_string).collect();
+    let v = verdict::cycling_verdict(&cal.report, axis, &opts.limits, &files, &notes);
     let json = crate::verdict::json_with_verdict(&v, &cal.report).map_err(|e| e.to_string())?;
     std::fs::write(out.join("report.json"), json).map_err(|e| e.to_string())?;
     let md = format!("# Calibration report\n\n{}{}", v.markdown(), report::markdown(&cal.report));

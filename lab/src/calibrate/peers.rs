@@ -25,6 +25,7 @@ use serde::Serialize;
 
 use crate::calibrate::fit::{lstsq, FitError};
 use crate::data::static_log::G0_MPS2;
+use crate::spelling::{CalibrateOption, Spelling};
 
 /// ArduPilot's fixed reference temperature, °C.
 pub const ARDUPILOT_TREF_C: f64 = 35.0;
@@ -223,12 +224,106 @@ pub struct ExportOptions {
 }
 
 /// What [`write_exports`] wrote and why it left files out.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Exports {
     /// File names written.
     pub written: Vec<&'static str>,
-    /// Why a file was not written, one sentence each.
-    pub notes: Vec<String>,
+    /// Why a file was not written, one each.
+    pub notes: Vec<ExportNote>,
+}
+
+/// Why an export file was not written: a note, not an error (the calibration stands).
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum ExportNote {
+    /// Fewer than three axes and no range for the fields all three share.
+    SharedFieldsNeedRange {
+        /// The axes exported (`ax`, ...), in export order.
+        axes: Vec<String>,
+        /// The training temperatures every axis saw, °C.
+        training_c: (f64, f64),
+    },
+    /// The range asked for is not inside an axis's training temperatures.
+    RangeOutsideTraining {
+        /// The range asked for, °C.
+        range_c: (f64, f64),
+        /// The axis's training temperatures, °C.
+        training_c: (f64, f64),
+        /// The axis.
+        axis: String,
+    },
+    /// No PX4 device ID: PX4 would apply the file to no accelerometer.
+    NoPx4DeviceId,
+    /// The ArduPilot learner formed no fit (why, in its terms).
+    NoArdupilotFit(String),
+    /// TMIN/TMAX outside what ArduPilot accepts ([`ARDUPILOT_T_RANGE_C`]).
+    ArdupilotRange {
+        /// The range asked for, °C; `None`: the training temperatures were the range.
+        range_c: Option<(f64, f64)>,
+        /// The training temperatures, °C.
+        training_c: (f64, f64),
+        /// ArduPilot IMU number (1-based, as in `INS_TCAL1_*`).
+        imu: u16,
+    },
+}
+
+impl ExportNote {
+    /// The note, with every option spelled for `sp` (`--export-range TMIN,TMAX` for the
+    /// CLI, `export_range=(TMIN, TMAX)` for Python).
+    #[must_use]
+    pub fn message(&self, sp: Spelling) -> String {
+        let range = CalibrateOption::ExportRange;
+        // A range as given: the CLI's sentence keeps its `lo..hi °C` form.
+        let given = |(lo, hi): (f64, f64)| match sp {
+            Spelling::Cli => format!("{} {lo}..{hi} °C", range.name(sp)),
+            Spelling::Python => range.with(sp, &format!("{lo},{hi}")),
+        };
+        match self {
+            Self::SharedFieldsNeedRange { axes, training_c: (lo, hi) } => {
+                let mut distinct = axes.clone();
+                distinct.sort_unstable();
+                distinct.dedup();
+                format!(
+                "PX4 and ArduPilot files not written: this export has {} of the 3 axes ({}), and TC_A0_TREF/TMIN/TMAX \
+                 (PX4) and INS_TCAL1_TMIN/TMAX (ArduPilot) are shared by all three; pass {}, the same for every axis \
+                 you export, inside each axis's training temperatures (here {lo:.2}..{hi:.2} °C)",
+                distinct.len(),
+                axes.join(", "),
+                range.with(sp, "TMIN,TMAX")
+            )
+            }
+            Self::RangeOutsideTraining { range_c, training_c: (lo, hi), axis } => format!(
+                "PX4 and ArduPilot files not written: {} is not inside the training temperatures {lo:.2}..{hi:.2} °C \
+                 of {axis} (a cubic is not to be extrapolated)",
+                given(*range_c)
+            ),
+            Self::NoPx4DeviceId => format!(
+                "px4_tc.params not written: PX4 applies TC_A0_* only to the accelerometer whose device ID equals \
+                 TC_A0_ID (with 0 nothing matches and compensation is silently off); pass {}, the vehicle's \
+                 CAL_ACC0_ID parameter (or device_id in `listener sensor_accel` on the PX4 console)",
+                CalibrateOption::Px4DeviceId.with(sp, "ID")
+            ),
+            Self::NoArdupilotFit(why) => format!("ArduPilot files not written: its learner formed no fit: {why}"),
+            Self::ArdupilotRange { range_c, training_c: (tmin, tmax), imu } => {
+                let what = match range_c {
+                    Some(r) => format!("{} is", given(*r)),
+                    None => format!("the training temperatures span {tmin:.2}..{tmax:.2} °C,"),
+                };
+                let (rmin, rmax) = ARDUPILOT_T_RANGE_C;
+                format!(
+                    "ArduPilot files not written: {what} outside the {rmin}..{rmax} °C that INS_TCAL{imu}_TMIN/TMAX \
+                     accept; pass {} inside both",
+                    range.with(sp, "TMIN,TMAX")
+                )
+            }
+        }
+    }
+}
+
+impl std::fmt::Display for ExportNote {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.message(Spelling::Cli))
+    }
 }
 
 fn px4_index(axis: &str) -> usize {
@@ -252,7 +347,7 @@ fn ardupilot_axis(axis: &str) -> &'static str {
 /// The export files' texts (name, text) and the notes for those left out; see
 /// [`write_exports`].
 #[must_use]
-pub fn export_texts(axes: &[ExportAxis], opts: &ExportOptions) -> (Vec<(&'static str, String)>, Vec<String>) {
+pub fn export_texts(axes: &[ExportAxis], opts: &ExportOptions) -> (Vec<(&'static str, String)>, Vec<ExportNote>) {
     let mut notes = Vec::new();
     let Some(first) = axes.first() else { return (Vec::new(), notes) };
     let mut roles: Vec<&str> = axes.iter().map(|a| a.axis.as_str()).collect();
@@ -267,24 +362,21 @@ pub fn export_texts(axes: &[ExportAxis], opts: &ExportOptions) -> (Vec<(&'static
     let (polys, partial_note): (Vec<(Poly, Poly)>, Option<String>) = match opts.range_c {
         None if complete && same => (axes.iter().map(|a| (a.cubic.clone(), ardupilot_or_cubic(a))).collect(), None),
         None => {
-            notes.push(format!(
-                "PX4 and ArduPilot files not written: this export has {} of the 3 axes ({}), and TC_A0_TREF/TMIN/TMAX \
-                 (PX4) and INS_TCAL1_TMIN/TMAX (ArduPilot) are shared by all three; pass --export-range TMIN,TMAX, the \
-                 same for every axis you export, inside each axis's training temperatures (here {lo:.2}..{hi:.2} °C)",
-                roles.len(),
-                names()
-            ));
+            notes.push(ExportNote::SharedFieldsNeedRange {
+                axes: axes.iter().map(|a| a.axis.clone()).collect(),
+                training_c: (lo, hi),
+            });
             return (Vec::new(), notes);
         }
         Some((rlo, rhi)) => {
             // Exported about a range inside the training temperatures only: outside them
             // the cubic would be extrapolated.
             if let Some(a) = axes.iter().find(|a| rlo < a.cubic.tmin_c || rhi > a.cubic.tmax_c) {
-                notes.push(format!(
-                    "PX4 and ArduPilot files not written: --export-range {rlo}..{rhi} °C is not inside the training \
-                     temperatures {:.2}..{:.2} °C of {} (a cubic is not to be extrapolated)",
-                    a.cubic.tmin_c, a.cubic.tmax_c, a.axis
-                ));
+                notes.push(ExportNote::RangeOutsideTraining {
+                    range_c: (rlo, rhi),
+                    training_c: (a.cubic.tmin_c, a.cubic.tmax_c),
+                    axis: a.axis.clone(),
+                });
                 return (Vec::new(), notes);
             }
             let mid = 0.5 * (rlo + rhi);
@@ -316,12 +408,7 @@ pub fn export_texts(axes: &[ExportAxis], opts: &ExportOptions) -> (Vec<(&'static
     // equals TC_A0_ID; `calibration::Accelerometer::Correct` subtracts it in the sensor
     // frame, before the rotation. TC_A_ENABLE is read at startup (`reboot_required`).
     match opts.px4_device_id {
-        None => notes.push(
-            "px4_tc.params not written: PX4 applies TC_A0_* only to the accelerometer whose device ID equals \
-             TC_A0_ID (with 0 nothing matches and compensation is silently off); pass --px4-device-id ID, the \
-             vehicle's CAL_ACC0_ID parameter (or device_id in `listener sensor_accel` on the PX4 console)"
-                .to_string(),
-        ),
+        None => notes.push(ExportNote::NoPx4DeviceId),
         Some(id) => {
             let mut s = String::from("# Onboard parameters for Vehicle 1\n");
             let _ = writeln!(
@@ -370,7 +457,7 @@ pub fn export_texts(axes: &[ExportAxis], opts: &ExportOptions) -> (Vec<(&'static
     // carries AP_PARAM_FLAG_ENABLE (the group's other parameters are hidden until it is
     // set) and @RebootRequired; TMIN/TMAX have @Range -70 80.
     if let Some(why) = axes.iter().find_map(|a| a.ardupilot.as_ref().err()) {
-        notes.push(format!("ArduPilot files not written: its learner formed no fit: {why}"));
+        notes.push(ExportNote::NoArdupilotFit(why.clone()));
         return (files, notes);
     }
     let (tmin, tmax) = (polys[0].1.tmin_c, polys[0].1.tmax_c);
@@ -378,14 +465,7 @@ pub fn export_texts(axes: &[ExportAxis], opts: &ExportOptions) -> (Vec<(&'static
     // As written (two decimals, as ArduPilot prints them), so the check is on the file's values.
     let (wmin, wmax) = ((tmin * 100.0).round() / 100.0, (tmax * 100.0).round() / 100.0);
     if wmin < rmin || wmax > rmax {
-        let what = match opts.range_c {
-            Some((a, b)) => format!("--export-range {a}..{b} °C is"),
-            None => format!("the training temperatures span {tmin:.2}..{tmax:.2} °C,"),
-        };
-        notes.push(format!(
-            "ArduPilot files not written: {what} outside the {rmin}..{rmax} °C that INS_TCAL{imu}_TMIN/TMAX accept; pass \
-             --export-range TMIN,TMAX inside both"
-        ));
+        notes.push(ExportNote::ArdupilotRange { range_c: opts.range_c, training_c: (tmin, tmax), imu });
         return (files, notes);
     }
     let n_values = 2 + 3 * axes.len();

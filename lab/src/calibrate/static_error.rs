@@ -6,6 +6,7 @@ use std::fmt;
 use qfa_thermal::table::limits::MIN_GRID_STEP_C;
 
 use crate::calibrate::fit::FitError;
+use crate::spelling::{CalibrateOption, Spelling};
 
 /// Why a static calibration failed.
 #[derive(Clone, Debug, PartialEq)]
@@ -13,8 +14,17 @@ use crate::calibrate::fit::FitError;
 pub enum StaticCalError {
     /// `--holdout after-max` on a log without a later leg.
     Split(String),
-    /// A `--holdout` value that is not one of the schemes, or one the log cannot hold.
-    Holdout(String),
+    /// A `--holdout` value that is none of the schemes (the value given).
+    UnknownHoldout(String),
+    /// `--holdout blocks:K` cuts the log into blocks shorter than a held-out block needs.
+    BlocksTooShort {
+        /// Blocks asked for (K).
+        blocks: usize,
+        /// Rows of the log.
+        rows: usize,
+        /// Rows a held-out block needs (one averaged equation).
+        needed: usize,
+    },
     /// The temperature span is below what the bias grid needs.
     SpanTooSmall {
         /// Lowest reading, °C.
@@ -47,11 +57,32 @@ pub enum StaticCalError {
     Io(String),
 }
 
+impl StaticCalError {
+    /// The message, with the held-out option spelled for `sp` (`--holdout` for the CLI,
+    /// `holdout=` for Python); the other variants name no option and read as `Display`.
+    #[must_use]
+    pub fn message(&self, sp: Spelling) -> String {
+        let holdout = CalibrateOption::Holdout;
+        match self {
+            Self::UnknownHoldout(s) => {
+                format!("{}: expected auto, after-max, blocks:K (K ≥ 2) or none", holdout.refused(sp, s))
+            }
+            Self::BlocksTooShort { blocks, rows, needed } => format!(
+                "{}: {rows} rows make blocks of {} rows; a held-out block needs at least {needed} (one averaged \
+                 equation)",
+                holdout.with(sp, &format!("blocks:{blocks}")),
+                rows / blocks
+            ),
+            e => e.to_string(),
+        }
+    }
+}
+
 impl fmt::Display for StaticCalError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Self::Split(s) => write!(f, "held-out split: {s}"),
-            Self::Holdout(s) => write!(f, "--holdout {s}"),
+            Self::UnknownHoldout(_) | Self::BlocksTooShort { .. } => f.write_str(&self.message(Spelling::Cli)),
             Self::SpanTooSmall { lo_c, hi_c, needed_c, nodes } => write!(
                 f,
                 "the temperature span is too small: {:.2} °C ({lo_c:.2}..{hi_c:.2} °C); the model needs at least \

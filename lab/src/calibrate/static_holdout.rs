@@ -28,7 +28,7 @@ pub enum Holdout {
 impl FromStr for Holdout {
     type Err = StaticCalError;
     fn from_str(s: &str) -> Result<Self, StaticCalError> {
-        let bad = || StaticCalError::Holdout(format!("`{s}`: expected auto, after-max, blocks:K (K ≥ 2) or none"));
+        let bad = || StaticCalError::UnknownHoldout(s.to_string());
         match s {
             "auto" => Ok(Self::Auto),
             "after-max" => Ok(Self::AfterMax),
@@ -138,11 +138,7 @@ pub fn resolve_holdout(log: &StaticLog, h: Holdout, block: usize) -> Result<(Sch
     let n = log.rows();
     let blocks = |k: usize, why: &str| -> Result<(Scheme, String), StaticCalError> {
         if n / k < block {
-            return Err(StaticCalError::Holdout(format!(
-                "blocks:{k}: {n} rows make blocks of {} rows; a held-out block needs at least {block} (one averaged \
-                 equation)",
-                n / k
-            )));
+            return Err(StaticCalError::BlocksTooShort { blocks: k, rows: n, needed: block });
         }
         Ok((
             Scheme::Blocks { k },

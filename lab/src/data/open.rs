@@ -19,7 +19,8 @@ use crate::data::single::{read_single_from, SingleError, SingleLog};
 use crate::data::static_columns::{AccelUnit, ColumnMap, TimeUnit};
 use crate::data::static_log::{read_static_from, StaticError, StaticLog, StaticOptions};
 use crate::data::ulog::{read_ulog, UlogError};
-use crate::data::units::{Spelling, TempUnit};
+use crate::data::units::TempUnit;
+use crate::spelling::Spelling;
 
 /// The kinds of log the lab reads.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -4,7 +4,8 @@
 use std::fmt;
 
 use super::static_log::{Skipped, MIN_ROWS};
-use super::units::{ReaderOption, Spelling, UnitMismatch, UnitParseError};
+use super::units::{ReaderOption, UnitMismatch, UnitParseError};
+use crate::spelling::Spelling;
 
 /// A row-level error of a static log.
 #[derive(Clone, Debug, PartialEq)]

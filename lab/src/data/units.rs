@@ -21,22 +21,14 @@ use std::str::FromStr;
 
 use serde::Serialize;
 
+use crate::spelling::Spelling;
+
 /// Range of the median |a| of a board at rest, g, that a stated unit must give (all three
 /// axes present). The closest pair of units differs by 9.8× (g and m/s²), so any bound
 /// between 1/3 and 3 separates them; 1.5 was the reader's upper bound before the lower one
 /// was added, and the lower one is its mirror (1/1.5). Chosen before the check was run on
 /// any log; the real tofupilot log reads 0.92…0.995 g.
 pub const REST_G: (f64, f64) = (1.0 / 1.5, 1.5);
-
-/// How an option is spelled to the person who passed it.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Spelling {
-    /// `qfa-lab`'s flags: `--accel-unit m/s2`.
-    #[default]
-    Cli,
-    /// The Python package's keyword arguments: `accel_unit="m/s2"`.
-    Python,
-}
 
 /// A reader option: how the person reading a log states columns, units and number format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -81,6 +73,17 @@ impl ReaderOption {
             (Self::DecimalComma, Spelling::Python) => "decimal_comma=True".to_string(),
             (_, Spelling::Cli) => format!("{} {value}", self.name(sp)),
             (_, Spelling::Python) => format!("{}=\"{value}\"", self.name(sp)),
+        }
+    }
+
+    /// As [`Self::with`], for a value the message refuses: the CLI quotes it after the
+    /// flag (``--time-unit `hours` ``), Python writes the keyword as passed
+    /// (`time_unit="hours"`).
+    #[must_use]
+    pub fn refused(self, sp: Spelling, value: &str) -> String {
+        match sp {
+            Spelling::Cli => format!("{} `{value}`", self.name(sp)),
+            Spelling::Python => self.with(sp, value),
         }
     }
 
@@ -166,7 +169,7 @@ impl UnitParseError {
     /// The message, with the option spelled for `sp`.
     #[must_use]
     pub fn message(&self, sp: Spelling) -> String {
-        format!("{} `{}`: expected {}", self.option.name(sp), self.value, self.option.allowed())
+        format!("{}: expected {}", self.option.refused(sp, &self.value), self.option.allowed())
     }
 }
 
@@ -274,6 +277,9 @@ mod tests {
         );
         let py = m.message(Spelling::Python);
         assert!(py.contains("accel_unit=\"m/s2\"") && !py.contains("--"), "{py}");
+        let bad = UnitParseError { option: ReaderOption::TimeUnit, value: "hours".into() };
+        assert_eq!(bad.to_string(), "--time-unit `hours`: expected s|ms|us|ns");
+        assert_eq!(bad.message(Spelling::Python), "time_unit=\"hours\": expected s|ms|us|ns");
         assert_eq!(TempUnit::from_suffix("temp_F"), Some(TempUnit::F));
         assert_eq!(TempUnit::from_suffix("imu.temperature"), None);
         assert!((TempUnit::F.to_c(212.0) - 100.0).abs() < 1e-12);

@@ -3,6 +3,7 @@
 
 use super::*;
 use crate::data::static_log::{read_static_from, AccelUnit, StaticOptions, TimeUnit};
+use crate::spelling::Spelling;
 
 /// A static log of `temps` at 1-s rows, one axis `az` = −1 g + 0.1 mg/°C.
 fn log_of(temps: &[f64]) -> StaticLog {
@@ -45,6 +46,7 @@ fn a_log_with_a_later_leg_is_held_out_after_its_maximum() {
         "--holdout blocks:50: 400 rows make blocks of 8 rows; a held-out block needs at least 10 (one averaged \
          equation)"
     );
+    assert!(e.message(Spelling::Python).starts_with("holdout=\"blocks:50\": 400 rows"), "{e:?}");
 }
 
 #[test]
@@ -74,6 +76,8 @@ fn holdout_values_parse_and_bad_ones_say_what_is_allowed() {
         let e = bad.parse::<Holdout>().unwrap_err().to_string();
         assert_eq!(e, format!("--holdout `{bad}`: expected auto, after-max, blocks:K (K ≥ 2) or none"));
     }
+    let e = "ramps".parse::<Holdout>().unwrap_err();
+    assert_eq!(e.message(Spelling::Python), "holdout=\"ramps\": expected auto, after-max, blocks:K (K ≥ 2) or none");
 }
 
 #[test]
