@@ -122,6 +122,11 @@ fn ulog_every_instance_its_id_and_px4_formula() {
     assert!(inst[1]["refused"].is_null() && warnings(1).contains("1.000 °C steps"), "{}", inst[1]);
     assert_eq!(inst[1]["temp_dequantized"], true);
     assert!(inst[2]["refused"].as_str().unwrap().contains("has no temperature"), "{}", inst[2]);
+    // The log's own page opens with the verdict of every instance, refusals said in words.
+    if let Some(items) = common::browser::assert_verdict_first(&out.join("report.html")) {
+        assert!(items.iter().any(|i| i.starts_with("warning: instance 2 refused: ")), "{items:?}");
+        assert!(items.iter().any(|i| i.starts_with("expect in use: held-out bias RMS: instance 0 ax ")), "{items:?}");
+    }
 
     let truth = truth(&dir.join("thermal.ulg.truth.json"));
     let s = samples(&dir.join("thermal.ulg.samples.csv"));

@@ -307,7 +307,35 @@ pub fn calibrate_autopilot(
     std::fs::write(out.join("report.json"), json).map_err(|e| io(&e))?;
     std::fs::write(out.join("report.md"), static_cal::with_verdict(&cal.verdict, &markdown(&cal)))
         .map_err(|e| io(&e))?;
+    page(&cal).write(out).map_err(|e| io(&e))?;
     Ok(cal)
+}
+
+/// The log's `report.html`: the verdict, then each instance with a link to its own page.
+#[must_use]
+pub fn page(c: &AutopilotCalibration) -> crate::html_report::Page {
+    use crate::html_report::escape;
+    let mut p = crate::html_report::Page::new(&format!("Calibration of a {}", c.log));
+    c.verdict.to_page(&mut p);
+    p.section("Instances");
+    for o in &c.instances {
+        let id = o.device_id.map_or("no device ID".to_string(), |d| format!("device ID {d}"));
+        let what = match (&o.refused, &o.dir) {
+            (Some(r), _) => format!("refused: {r}"),
+            (None, Some(d)) => format!(
+                "calibrated; exported as {}; <a href=\"{}/{}\">its report</a>",
+                escape(o.exported_as.as_deref().unwrap_or("nothing (see the warnings)")),
+                escape(d),
+                crate::html_report::FILE
+            ),
+            (None, None) => "not calibrated".to_string(),
+        };
+        // `what` is escaped piece by piece above (it holds a link); the refusal text here.
+        let what = if o.refused.is_some() { escape(&what) } else { what };
+        p.raw(&format!("<p><b>instance {} ({}, {} samples):</b> {what}</p>\n", o.index, escape(&id), o.samples));
+    }
+    p.details("report.md", &markdown(c));
+    p
 }
 
 /// The report in words: each instance, refused or calibrated, with its warnings and

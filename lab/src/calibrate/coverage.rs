@@ -205,7 +205,7 @@ impl CalCoverage {
     /// Coverage, the table's limits, and what to record next, as a report section.
     pub fn to_page(&self, page: &mut crate::html_report::Page) {
         page.section("What the fit rows cover, against what the model needs");
-        let mut rows = vec![("fit programs".to_string(), format!("{:?}", self.programs))];
+        let mut rows = vec![("fit programs".to_string(), self.programs.join(", "))];
         rows.extend(self.covered.rows());
         rows.push((
             "table clamps to".to_string(),

@@ -353,7 +353,7 @@ pub fn page(cal: &Calibration, out: &Path, opts: &CalibrateOptions) -> std::io::
             "condition numbers (simple, Eq. 11, bias grid)",
             format!("{:.1}, {:.1}, {:.1}", f.cond_sf_simple, f.cond_sf_hysteresis, f.cond_bias_grid),
         ),
-        ("Eq. 11 [γ, μ, β, ε, η, α]", format!("{:?}", f.eq11)),
+        ("Eq. 11 [γ, μ, β, ε, η, α]", f.eq11.iter().map(|c| format!("{c:.6e}")).collect::<Vec<_>>().join(", ")),
         ("bias grid branch tie", format!("{:?}: {}", f.branch.mode, f.branch.rule)),
     ]);
     let branch_rows: Vec<Vec<String>> = f

@@ -276,7 +276,14 @@ pub fn write_static_page(
         p.table(&["fold", "held-out rows", "held-out °C", "training rows", "heating / cooling", "training °C"], &folds);
     }
     p.section("The log").kv(&[
-        ("columns (role, column, unit)", format!("{:?}", r.columns)),
+        (
+            "columns",
+            r.columns
+                .iter()
+                .map(|(role, col, unit)| format!("{role} = `{col}` ({unit})"))
+                .collect::<Vec<_>>()
+                .join(", "),
+        ),
         ("rows kept", r.rows.to_string()),
         ("reader", r.skipped.to_string()),
         ("sampling", r.sampling.to_string()),
