@@ -385,6 +385,8 @@ impl Serialize for Verdict {
             lines: Vec<String>,
             expect: &'a [Expected],
             held_out: &'a str,
+            // A study without a table covers nothing: the key is left out, never null.
+            #[serde(skip_serializing_if = "Option::is_none")]
             covers: &'a Option<Covers>,
             limits_from: &'a str,
             checks: &'a [Check],
