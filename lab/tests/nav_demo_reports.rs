@@ -2,7 +2,7 @@
 //! (from `verdict:` to the `detail:` line), `report.md`'s `- **key:** text` items,
 //! `report.json`'s `verdict.lines` and the `<li>` items of `report.html`'s
 //! `<section id="verdict">` (read with an HTML reader, right after the title) are the same
-//! lines. Every link on the demo's page resolves to a file beside it. The comparison is
+//! lines, and `report.json`'s verdict holds no null. Every link on the demo's page resolves to a file beside it. The comparison is
 //! shown to fail on a page whose verdict differs by one line and on a link to a missing
 //! file.
 //!
@@ -62,6 +62,8 @@ fn json_verdict(json: &str) -> Vec<String> {
     let v: serde_json::Value = serde_json::from_str(json).unwrap();
     let first = v.as_object().and_then(|o| o.keys().next().cloned());
     assert!(v["verdict"].is_object(), "report.json has no verdict (first key {first:?})");
+    let text = v["verdict"].to_string();
+    assert!(!text.contains("null"), "a verdict holds no null (a NaN serializes as null): {text}");
     v["verdict"]["lines"].as_array().unwrap().iter().map(|l| l.as_str().unwrap().to_string()).collect()
 }
 
