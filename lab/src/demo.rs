@@ -419,8 +419,8 @@ fn page(
             &format!(
                 "{}: compensated scale factor against temperature, held-out bins (programs the fit never saw), one \
                  panel per model. Look for: the no-compensation panel's slope ({:.1} ppm/°C held out) gone in the \
-                 hysteresis panel ({:.2} ppm/°C), and heating (red) and cooling (blue) bins on one curve there; \
-                 a gap between them is a rate (hysteresis) effect the model misses.",
+                 hysteresis panel ({:.2} ppm/°C), where heating (red) and cooling (blue) bins lie in one band; their \
+                 split in the simple panel is the rate (hysteresis) effect the simple model lacks.",
                 r.unit, r.ours.none, r.ours.hysteresis
             ),
         )?;
