@@ -5,7 +5,10 @@
 //! `table_simple.*`, `report.json`, `report.html` and the plots (and, with
 //! [`DemoOptions::full_logs`], `log.csv`: 1-s rows, about 1.355 M, 47 MB per unit; without
 //! it the log is deleted once calibrated and discovered); `out/table4.json` with all three
-//! units beside the paper's numbers; and `out/report.html`, the page that ties them together.
+//! units beside the paper's numbers; and `out/report.html`, the page that ties them together
+//! and links every sub-page, with `out/report.md` and `out/report.json`. All three open
+//! with one verdict, the units' calibration verdicts and the navigation verdict merged
+//! ([`Verdict::merge`]); the console ends with the same lines.
 
 use std::path::Path;
 use std::time::Instant;
@@ -17,6 +20,7 @@ use crate::calibrate::{calibrate_file, CalibrateOptions};
 use crate::data::cycling::write_log;
 use crate::simulate::simulate_paper;
 use crate::simulate::truth::Truth;
+use crate::verdict::{FileUse, LimitsChoice, Verdict};
 
 /// The paper's Table 4: (none, simple, hysteresis) ppm/°C for #1, #2, #3.
 pub const PAPER_TABLE4: [[f64; 3]; 3] = [[74.14, 12.78, 2.48], [104.22, 14.14, 4.23], [105.79, 14.46, 5.19]];
@@ -65,9 +69,25 @@ pub struct UnitResult {
 /// after calibration. Returns a one-line summary to print; an error fails the demo.
 pub type DiscoveryHook = fn(log: &Path, out: &Path) -> Result<String, String>;
 /// Where the navigation study plugs in: called once with its output directory after all
-/// units are calibrated, and the flight's length limit, s. Returns a one-line summary to
-/// print; an error fails the demo.
-pub type NavigationHook = fn(out: &Path, duration_s: Option<f64>) -> Result<String, String>;
+/// units are calibrated, and the flight's length limit, s. Returns its verdict and the
+/// caption of its flight plot; an error fails the demo.
+pub type NavigationHook = fn(out: &Path, duration_s: Option<f64>) -> Result<NavigationOutcome, String>;
+
+/// What the navigation study hands the demo.
+#[derive(Clone, Debug)]
+pub struct NavigationOutcome {
+    /// The study's verdict (merged into the demo's).
+    pub verdict: Verdict,
+    /// The caption of `nav_errors.png`: what to look for, and why it may look alarming.
+    pub plot_caption: String,
+}
+
+/// The demo's `report.json`: the verdict (first, [`crate::verdict::json_with_verdict`])
+/// and every unit's Table-4 figures.
+#[derive(Serialize)]
+struct DemoReport<'a> {
+    units: &'a [UnitResult],
+}
 
 /// A spinner on stderr for a step that runs longer than a few seconds (hidden when
 /// `show` is false or stderr is not a terminal).
@@ -147,9 +167,10 @@ pub fn run(
                 progress: opts.progress,
                 axis: None,
                 exports: crate::calibrate::peers::ExportOptions::default(),
-                limits: crate::verdict::LimitsChoice::default(),
+                limits: LimitsChoice::default(),
             },
         )?;
+        let verdict = cal.verdict.clone().ok_or_else(|| format!("{}: calibration wrote no verdict", truth.name))?;
         let calibrate_s = t.elapsed().as_secs_f64();
         let p = PAPER_TABLE4[usize::from(unit) - 1];
         eprintln!(
@@ -174,7 +195,12 @@ pub fn run(
         if !opts.full_logs {
             std::fs::remove_file(&log_path).map_err(|e| format!("{}: {e}", log_path.display()))?;
         }
-        pages.push(UnitPage { dir: dir.clone(), coverage: cal.report.coverage.clone(), discovery: discovery_line });
+        pages.push(UnitPage {
+            dir: dir.clone(),
+            coverage: cal.report.coverage.clone(),
+            discovery: discovery_line,
+            verdict,
+        });
         results.push(UnitResult {
             unit: truth.name.clone(),
             ours: cal.report.sensitivity_ppm_per_c,
@@ -186,21 +212,26 @@ pub fn run(
             calibrate_s,
         });
     }
-    let mut navigation_line = None;
+    let mut nav = None;
     if let Some(hook) = navigation {
         let pb = spinner("navigation study (calibrate, align, fly)", opts.progress);
-        let s = hook(&opts.out.join("navigation"), opts.nav_duration_s).map_err(|e| format!("navigation: {e}"));
+        let s = hook(&opts.out.join(NAVIGATION_DIR), opts.nav_duration_s).map_err(|e| format!("navigation: {e}"));
         pb.finish_and_clear();
         let s = s?;
-        eprintln!("navigation: {s}");
-        navigation_line = Some(s);
+        eprintln!("navigation: {}", s.verdict.answer);
+        nav = Some(s);
     }
     println!("{}", table4_text(&results));
     let json = serde_json::to_string_pretty(&results).map_err(|e| e.to_string())?;
     std::fs::write(opts.out.join("table4.json"), json).map_err(|e| e.to_string())?;
+    let v = verdict(&results, &pages, nav.as_ref());
+    let json = crate::verdict::json_with_verdict(&v, &DemoReport { units: &results }).map_err(|e| e.to_string())?;
+    std::fs::write(opts.out.join("report.json"), json).map_err(|e| e.to_string())?;
+    std::fs::write(opts.out.join("report.md"), markdown(&results, &pages, nav.is_some(), &v))
+        .map_err(|e| e.to_string())?;
     let bytes = dir_bytes(&opts.out).map_err(|e| format!("{}: {e}", opts.out.display()))?;
     let total_s = t_all.elapsed().as_secs_f64();
-    page(opts, &results, &pages, navigation_line.as_deref(), bytes, total_s)
+    page(opts, &results, &pages, nav.as_ref(), &v, bytes, total_s)
         .and_then(|p| p.write(&opts.out))
         .map_err(|e| format!("{}: {e}", opts.out.display()))?;
     let bytes = dir_bytes(&opts.out).map_err(|e| format!("{}: {e}", opts.out.display()))?;
@@ -210,26 +241,117 @@ pub fn run(
         bytes as f64 / 1e6,
         if opts.full_logs { " (with the logs)" } else { " (logs deleted; --full-logs keeps them)" }
     );
+    print!("{}", v.console());
+    println!("detail: {}/report.md, report.html, report.json", opts.out.display());
     Ok(results)
 }
+
+/// The navigation study's folder in the demo's output.
+const NAVIGATION_DIR: &str = "navigation";
+
+/// A unit's folder name (`kt8-1`).
+fn dir_name(u: &UnitPage) -> String {
+    u.dir.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned())
+}
+
+/// The demo's verdict: every unit's calibration verdict and the navigation study's, merged
+/// (a unit that fails a limit fails the demo's verdict), with the demo's own files.
+fn verdict(results: &[UnitResult], units: &[UnitPage], nav: Option<&NavigationOutcome>) -> Verdict {
+    let mut parts: Vec<(String, Verdict)> =
+        results.iter().zip(units).map(|(r, u)| (r.unit.clone(), u.verdict.clone())).collect();
+    if let Some(n) = nav {
+        parts.push(("navigation".to_string(), n.verdict.clone()));
+    }
+    let mut files: Vec<FileUse> = ["report.html", "report.md", "report.json", "table4.json"].map(FileUse::of).to_vec();
+    files[3].action = "keep: the Table-4 comparison, every unit beside the paper".into();
+    for (r, u) in results.iter().zip(units) {
+        let name = dir_name(u);
+        files.push(FileUse::of(&format!("{name}/table.bin")));
+        files.push(FileUse {
+            file: format!("{name}/report.html"),
+            action: format!("read: {}'s calibration, with every file it wrote and what to do with each", r.unit),
+        });
+    }
+    if nav.is_some() {
+        files.push(FileUse {
+            file: format!("{NAVIGATION_DIR}/report.html"),
+            action: "read: the navigation study, every variant's figures and plots".into(),
+        });
+    }
+    Verdict::merge(&parts, &LimitsChoice::default().source(), files)
+}
+
+/// Every sub-page and data file the demo's page links, `(text, path relative to the
+/// demo's folder)`.
+fn links(results: &[UnitResult], units: &[UnitPage], navigation: bool) -> Vec<(String, String)> {
+    let mut l = Vec::new();
+    for (r, u) in results.iter().zip(units) {
+        let name = dir_name(u);
+        l.push((format!("{}: calibration report", r.unit), format!("{name}/{}", crate::html_report::FILE)));
+        if u.discovery.is_some() {
+            l.push((format!("{}: discovery report", r.unit), format!("{name}/discover/{}", crate::html_report::FILE)));
+        }
+    }
+    if navigation {
+        l.push(("Navigation study report".to_string(), format!("{NAVIGATION_DIR}/{}", crate::html_report::FILE)));
+    }
+    l.push(("This report as Markdown".to_string(), "report.md".to_string()));
+    l.push(("This report's figures (JSON, the verdict first)".to_string(), "report.json".to_string()));
+    l.push(("Table 4, every unit beside the paper (JSON)".to_string(), "table4.json".to_string()));
+    l
+}
+
+/// The demo's `report.md`: the title, the verdict, Table 4 and the pages to read next.
+fn markdown(results: &[UnitResult], units: &[UnitPage], navigation: bool, v: &Verdict) -> String {
+    let mut s = format!("# {TITLE}\n\n{}## Table 4 (paper / ours, held out)\n\n", v.markdown());
+    s += "| unit | none, ppm/°C | simple, ppm/°C | hysteresis, ppm/°C | bias residual simple / hysteresis, µg |\n";
+    s += "|---|---|---|---|---|\n";
+    for r in results {
+        s += &format!(
+            "| {} | {:.2} / {:.2} | {:.2} / {:.2} | {:.2} / {:.2} | {:.1} / {:.1} |\n",
+            r.unit,
+            r.paper.none,
+            r.ours.none,
+            r.paper.simple,
+            r.ours.simple,
+            r.paper.hysteresis,
+            r.ours.hysteresis,
+            r.bias_residual_ug.simple,
+            r.bias_residual_ug.hysteresis
+        );
+    }
+    s += "\n## Pages\n\n";
+    for (text, href) in links(results, units, navigation) {
+        s += &format!("- [{text}]({})\n", crate::html_report::percent_encode(&href));
+    }
+    s
+}
+
+/// The demo page's title.
+const TITLE: &str = "Demo: the paper's thermal test for JB-KT8 #1–#3";
 
 /// What the demo's page shows of one unit besides its [`UnitResult`].
 struct UnitPage {
     dir: std::path::PathBuf,
     coverage: crate::calibrate::coverage::CalCoverage,
     discovery: Option<String>,
+    verdict: Verdict,
 }
 
-/// The demo's `report.html`.
+/// The demo's `report.html`: the verdict, links to every sub-page, then each unit and the
+/// navigation study.
 fn page(
     opts: &DemoOptions,
     results: &[UnitResult],
     units: &[UnitPage],
-    navigation: Option<&str>,
+    navigation: Option<&NavigationOutcome>,
+    v: &Verdict,
     bytes: u64,
     total_s: f64,
 ) -> std::io::Result<crate::html_report::Page> {
-    let mut p = crate::html_report::Page::new("Demo: the paper's thermal test for JB-KT8 #1–#3");
+    let mut p = crate::html_report::Page::new(TITLE);
+    v.to_page(&mut p);
+    p.section("Pages of this run").links(&links(results, units, navigation.is_some()));
     p.section("Held-out scheme").para(
         "Each unit's tables are fitted on the 0.3 and 0.9 °C/min programs and every figure is of the 0.5 and \
          0.7 °C/min programs, compensated through the root crate's compensator; the navigation flight is never \
@@ -280,22 +402,39 @@ fn page(
         ("navigation flight", opts.nav_duration_s.map_or("full".to_string(), |d| format!("first {d:.0} s"))),
     ]);
     for (r, u) in results.iter().zip(units) {
-        let name = u.dir.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned());
-        p.section(&format!("{} (its own page: {name}/report.html)", r.unit));
+        let name = dir_name(u);
+        p.section(&r.unit);
+        let mut own = vec![(format!("{}: calibration report", r.unit), format!("{name}/{}", crate::html_report::FILE))];
+        if u.discovery.is_some() {
+            own.push((
+                format!("{}: discovery report", r.unit),
+                format!("{name}/discover/{}", crate::html_report::FILE),
+            ));
+        }
+        p.links(&own);
+        p.para(&format!("{}: {}", u.verdict.outcome, u.verdict.answer));
         u.coverage.to_page(&mut p);
         p.image(
             &u.dir.join("sf_vs_temp.png"),
-            &format!("{}: compensated scale factor against temperature, held-out bins", r.unit),
+            &format!(
+                "{}: compensated scale factor against temperature, held-out bins (programs the fit never saw), one \
+                 panel per model. Look for: the no-compensation panel's slope ({:.1} ppm/°C held out) gone in the \
+                 hysteresis panel ({:.2} ppm/°C), where heating (red) and cooling (blue) bins lie in one band; their \
+                 split in the simple panel is the rate (hysteresis) effect the simple model lacks.",
+                r.unit, r.ours.none, r.ours.hysteresis
+            ),
         )?;
         if let Some(d) = &u.discovery {
-            p.para(&format!("Discovery (its page: {name}/discover/report.html): {d}"));
+            p.para(&format!("Discovery: {d}"));
         }
     }
     if let Some(n) = navigation {
-        p.section("Navigation (its page: navigation/report.html)").para(n);
-        let png = opts.out.join("navigation").join("nav_errors.png");
+        p.section("Navigation");
+        p.links(&[("Navigation study report", format!("{NAVIGATION_DIR}/{}", crate::html_report::FILE))]);
+        p.para(&format!("{}: {}", n.verdict.outcome, n.verdict.answer));
+        let png = opts.out.join(NAVIGATION_DIR).join("nav_errors.png");
         if png.is_file() {
-            p.image(&png, "pure-inertial errors of each variant on the flight")?;
+            p.image(&png, &n.plot_caption)?;
         }
     }
     p.section("Console table").pre(&table4_text(results));

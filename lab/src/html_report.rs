@@ -102,6 +102,22 @@ impl Page {
         self
     }
 
+    /// A list of links, `(text, href)` each; `href` is a path relative to the page's
+    /// folder (`kt8-1/report.html`), percent-encoded and escaped here.
+    pub fn links<T: AsRef<str>, H: AsRef<str>>(&mut self, links: &[(T, H)]) -> &mut Self {
+        self.body.push_str("<ul>\n");
+        for (text, href) in links {
+            let _ = writeln!(
+                self.body,
+                "<li><a href=\"{}\">{}</a></li>",
+                escape(&percent_encode(href.as_ref())),
+                escape(text.as_ref())
+            );
+        }
+        self.body.push_str("</ul>\n");
+        self
+    }
+
     /// A PNG embedded as a data URI, with its caption (the file name is added).
     ///
     /// # Errors
@@ -191,6 +207,21 @@ pub fn escape(text: &str) -> String {
     s
 }
 
+/// A relative path as a URL path: every byte outside RFC 3986's unreserved characters and
+/// `/` percent-encoded (a space, `#` or `?` in a folder name would otherwise end the path).
+#[must_use]
+pub fn percent_encode(path: &str) -> String {
+    let mut s = String::with_capacity(path.len());
+    for b in path.bytes() {
+        if b.is_ascii_alphanumeric() || b"-._~/".contains(&b) {
+            s.push(char::from(b));
+        } else {
+            let _ = write!(s, "%{b:02X}");
+        }
+    }
+    s
+}
+
 /// Standard base64 (RFC 4648, with padding).
 #[must_use]
 pub fn base64(bytes: &[u8]) -> String {
@@ -244,6 +275,9 @@ mod tests {
             assert!(h.contains(s), "{s} in {h}");
         }
         assert!(!h.contains("<script"), "no script in a report");
+        let mut p = Page::new("links");
+        p.links(&[("a & b", "kt8 #1/report.html?x\"")]);
+        assert!(p.html().contains("<li><a href=\"kt8%20%231/report.html%3Fx%22\">a &amp; b</a></li>"), "{}", p.html());
     }
 
     #[test]

@@ -27,6 +27,7 @@ pub mod lint;
 pub mod navigate;
 pub mod out_path;
 pub mod plot_font;
+pub mod plot_legend;
 pub mod rng;
 pub mod simulate;
 pub mod spelling;

@@ -691,15 +691,17 @@ fn navigate_cmd(a: NavigateCli) -> Result<(), CliError> {
         ..Default::default()
     };
     if a.shard.is_some() {
+        // A shard's partial result has no verdict: `navigate merge` judges the whole study.
         let p = qfa_lab::navigate::navigate_shard(&args)?;
-        eprintln!("wrote {}", p.display());
+        eprintln!("wrote {} (`navigate merge` writes the study's report and verdict)", p.display());
+        Ok(())
     } else {
         let pb = qfa_lab::demo::spinner("navigation (calibrate, align, fly)", a.runs == 0);
         let r = qfa_lab::navigate::navigate(&args);
         pb.finish_and_clear();
-        r?;
+        let v = r?.verdict.ok_or_else(|| CliError::Failed("navigate wrote no verdict".into()))?;
+        finish(&v, &LimitsChoice::default(), &args.out)
     }
-    Ok(())
 }
 
 fn run(cli: Cli) -> Result<(), CliError> {
@@ -720,11 +722,10 @@ fn run(cli: Cli) -> Result<(), CliError> {
         Cmd::Lint { log, fmt } => lint_cmd(&log, &fmt),
         Cmd::Navigate(NavigateCli { sub: Some(NavCmd::Merge { dirs, out, no_plots }), .. }) => {
             let out = out.unwrap_or_else(|| dirs[0].clone());
-            let sum = qfa_lab::navigate::mc::merge(&dirs, &out, !no_plots)?;
-            qfa_lab::navigate::merge_page(&out, &sum).and_then(|p| Ok(p.write(&out)?))?;
+            let (sum, v) = qfa_lab::navigate::merge(&dirs, &out, !no_plots)?;
             eprintln!("{}", qfa_lab::navigate::mc::table(&sum));
-            eprintln!("wrote {}/report.json, report.html, mc_runs.csv", out.display());
-            Ok(())
+            // A study: no limit applies, so the defaults never change the exit status.
+            finish(&v, &LimitsChoice::default(), &out)
         }
         Cmd::Navigate(a) => navigate_cmd(a),
     }

@@ -268,7 +268,7 @@ fn legend_headroom(lo: f64, hi: f64, entries: u32) -> f64 {
 }
 
 /// Scale factor (ppm from its mean) against temperature, before and after, heating red,
-/// cooling blue, hold grey, with a legend; only held-out bins are drawn (the title says
+/// cooling blue, hold grey, with a legend above each panel; only held-out bins are drawn (the title says
 /// which programs they come from).
 ///
 /// # Errors
@@ -294,33 +294,28 @@ pub fn plot_sf_vs_temp(path: &Path, title: &str, ev: &Evaluation) -> PlotResult 
         let pad = ((hi - lo) * 0.05).max(1.0);
         let tmin = bins.iter().map(|b| b.temp_c).fold(f64::INFINITY, f64::min) - 2.0;
         let tmax = bins.iter().map(|b| b.temp_c).fold(f64::NEG_INFINITY, f64::max) + 2.0;
-        let mut chart = ChartBuilder::on(area)
-            .caption(names[k], ("sans-serif", 16))
+        let branches =
+            [(Branch::Heating, "heating"), (Branch::Cooling, "cooling"), (Branch::Unknown, "hold / not known")];
+        let drawn: Vec<(Branch, &str)> =
+            branches.into_iter().filter(|(br, _)| bins.iter().any(|b| b.branch == *br)).collect();
+        // The legend in a strip above the chart: in the chart it covered bins.
+        let entries: Vec<crate::plot_legend::Entry> = drawn
+            .iter()
+            .map(|(br, label)| (format!("{label}, held-out bins"), branch_color(*br), crate::plot_legend::Mark::Dot))
+            .collect();
+        let body = crate::plot_legend::heading(area, names[k], &entries)?;
+        let mut chart = ChartBuilder::on(&body)
             .margin(10)
             .x_label_area_size(35)
             .y_label_area_size(60)
-            .build_cartesian_2d(tmin..tmax, (lo - pad)..(hi + legend_headroom(lo, hi, 3)))?;
+            .build_cartesian_2d(tmin..tmax, (lo - pad)..(hi + pad))?;
         chart.configure_mesh().x_desc("T (°C, DS18B20)").y_desc("scale factor − mean (ppm)").draw()?;
-        for (branch, label) in
-            [(Branch::Heating, "heating"), (Branch::Cooling, "cooling"), (Branch::Unknown, "hold / not known")]
-        {
+        for (branch, _) in drawn {
             let c = branch_color(branch);
             let pts: Vec<(f64, f64)> =
                 bins.iter().zip(&ppm).filter(|(b, _)| b.branch == branch).map(|(b, &y)| (b.temp_c, y)).collect();
-            if pts.is_empty() {
-                continue;
-            }
-            chart
-                .draw_series(pts.into_iter().map(|p| Circle::new(p, 2, c.filled())))?
-                .label(format!("{label}, held-out bins"))
-                .legend(move |(x, y)| Circle::new((x, y), 4, c.filled()));
+            chart.draw_series(pts.into_iter().map(|p| Circle::new(p, 2, c.filled())))?;
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .draw()?;
     }
     root.present()?;
     Ok(())

@@ -84,6 +84,10 @@ pub struct Report {
     /// The Monte Carlo study, with `--runs N`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub monte_carlo: Option<mc::Summary>,
+    /// The run's verdict, once [`navigate`] has judged it (`report.json` carries it as its
+    /// first key, [`crate::verdict::json_with_verdict`], not here).
+    #[serde(skip)]
+    pub verdict: Option<crate::verdict::Verdict>,
 }
 
 impl Report {
@@ -224,6 +228,7 @@ pub fn report(
             runtime_s,
         },
         monte_carlo: None,
+        verdict: None,
     })
 }
 

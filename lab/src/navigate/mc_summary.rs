@@ -293,13 +293,13 @@ pub fn write_outputs(out: &Path, parts: &[Partial], plots: bool) -> anyhow::Resu
     Ok(sum)
 }
 
-/// `qfa-lab navigate merge DIR…`: read every `mc_partial_*.json` in `dirs`, combine,
-/// write `report.json` (the nominal run's keys from shard 0 plus `monte_carlo`),
-/// `mc_runs.csv` and the plots to `out`.
+/// Read every `mc_partial_*.json` in `dirs`, combine, write `mc_runs.csv` and the plots
+/// to `out`; returns the study and its report (the nominal run's keys from shard 0 plus
+/// `monte_carlo`), which [`super::merge`] writes as `report.json` with its verdict.
 ///
 /// # Errors
 /// I/O, parse, or [`summarize`]'s checks.
-pub fn merge(dirs: &[PathBuf], out: &Path, plots: bool) -> anyhow::Result<Summary> {
+pub fn merge(dirs: &[PathBuf], out: &Path, plots: bool) -> anyhow::Result<(Summary, serde_json::Value)> {
     let mut parts = Vec::new();
     for d in dirs {
         let mut files: Vec<PathBuf> = if d.is_dir() {
@@ -330,8 +330,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path, plots: bool) -> anyhow::Result<Summar
     };
     let obj = rep.as_object_mut().ok_or_else(|| anyhow::anyhow!("nominal report is not an object"))?;
     obj.insert("monte_carlo".into(), serde_json::to_value(&sum)?);
-    std::fs::write(out.join("report.json"), serde_json::to_string_pretty(&rep)?)?;
-    Ok(sum)
+    Ok((sum, rep))
 }
 
 /// The Monte Carlo table: variant × median [p10, p90] of CEP and of the thermal share.

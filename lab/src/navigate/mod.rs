@@ -71,6 +71,7 @@ pub mod strapdown;
 pub mod tables;
 pub mod thermal;
 pub mod variants;
+pub mod verdict;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -166,8 +167,10 @@ pub fn nominal(args: &NavigateArgs, sc: &Scenario) -> anyhow::Result<Report> {
 }
 
 /// `qfa-lab navigate`: the nominal run ([`nominal`]), then with `args.runs > 0` the Monte
-/// Carlo study ([`mc::run`]); writes `report.json` (and the Monte Carlo outputs) to
-/// `args.out`. With `args.shard` use [`navigate_shard`] instead.
+/// Carlo study ([`mc::run`]); judges it ([`verdict::of_flight`], returned in
+/// [`Report::verdict`]) and writes `report.json` (the verdict first), `report.md`,
+/// `report.html` and the Monte Carlo outputs to `args.out`. With `args.shard` use
+/// [`navigate_shard`] instead.
 ///
 /// # Errors
 /// Scenario, table, Monte Carlo or I/O errors.
@@ -186,9 +189,42 @@ pub fn navigate(args: &NavigateArgs) -> anyhow::Result<Report> {
         }
         rep.monte_carlo = Some(sum);
     }
-    std::fs::write(args.out.join("report.json"), serde_json::to_string_pretty(&rep)?)?;
-    page(args, &sc, &rep)?.write(&args.out)?;
+    let plan = plan::plan(&sc, args.lab_program)?;
+    let v = verdict::of_flight(&rep, &plan, verdict::flight_files(!args.no_plots, args.runs));
+    write_reports(&args.out, &v, &rep, &markdown(&rep, &v), &page(args, &rep, &plan, &v)?)?;
+    rep.verdict = Some(v);
     Ok(rep)
+}
+
+/// `qfa-lab navigate merge DIR…`: combine the shards' partial results ([`mc::merge`]) and
+/// write the study's `report.json` (its verdict first), `report.md` and `report.html` to
+/// `out`; returns the merged study and its verdict.
+///
+/// # Errors
+/// As [`mc::merge`], and I/O.
+pub fn merge(dirs: &[PathBuf], out: &Path, plots: bool) -> anyhow::Result<(mc::Summary, crate::verdict::Verdict)> {
+    let (sum, report) = mc::merge(dirs, out, plots)?;
+    let v = verdict::of_study(&sum, &report, verdict::study_files(plots));
+    write_reports(out, &v, &report, &merge_markdown(&sum, &v), &merge_page(out, &sum, &v)?)?;
+    Ok((sum, v))
+}
+
+/// Write `report.json` (the verdict as its first key, then `report`'s), `report.md` and
+/// `report.html` into `out`.
+fn write_reports<T: serde::Serialize>(
+    out: &Path,
+    v: &crate::verdict::Verdict,
+    report: &T,
+    markdown: &str,
+    page: &crate::html_report::Page,
+) -> anyhow::Result<()> {
+    let json = out.join("report.json");
+    std::fs::write(&json, crate::verdict::json_with_verdict(v, report)?)
+        .with_context(|| format!("writing {}", json.display()))?;
+    let md = out.join("report.md");
+    std::fs::write(&md, markdown).with_context(|| format!("writing {}", md.display()))?;
+    page.write(out)?;
+    Ok(())
 }
 
 /// `qfa-lab navigate --runs N --shard K/N`: the Monte Carlo runs of shard K (and, for
@@ -213,23 +249,15 @@ pub fn navigate_shard(args: &NavigateArgs) -> anyhow::Result<PathBuf> {
 }
 
 /// The lab demo's navigation hook ([`crate::demo::NavigationHook`]): `navigate` on the
-/// built-in flight (its first `duration_s` when given) into `out`; returns the one-line
-/// summary.
+/// built-in flight (its first `duration_s` when given) into `out`; returns its verdict and
+/// the caption of its flight plot.
 ///
 /// # Errors
 /// The study's failure, as text (the demo fails with it).
-pub fn demo_hook(out: &Path, duration_s: Option<f64>) -> Result<String, String> {
+pub fn demo_hook(out: &Path, duration_s: Option<f64>) -> Result<crate::demo::NavigationOutcome, String> {
     let args = NavigateArgs { out: out.to_path_buf(), duration_s, ..NavigateArgs::default() };
     let r = navigate(&args).map_err(|e| format!("{e:#}"))?;
-    let f = |n: &str| r.get(n).map_or(f64::NAN, |x| x.cep_nmi_per_h);
-    Ok(format!(
-        "CEP none {:.2} / simple {:.2} / hysteresis {:.2} / oracle {:.2} nmile/h (paper 1.54 → 1.29); \
-         hysteresis removes {:.0}% of simple − oracle; {}",
-        f("none"),
-        f("simple"),
-        f("hysteresis"),
-        f("oracle"),
-        100.0 * r.meta.share_removed_cep.get("hysteresis").copied().unwrap_or(f64::NAN),
-        out.join("report.json").display()
-    ))
+    let plot_caption = verdict::caption("nav_errors.png", &verdict::alarms(&r));
+    let verdict = r.verdict.ok_or_else(|| "navigate wrote no verdict".to_string())?;
+    Ok(crate::demo::NavigationOutcome { verdict, plot_caption })
 }

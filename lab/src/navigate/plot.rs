@@ -1,11 +1,13 @@
 //! PNG of a flight: temperatures, and per variant the radial, East and North position
-//! errors and the East and North velocity errors against time.
+//! errors and the East and North velocity errors against time; and the Monte Carlo
+//! distributions. Each panel's legend sits in a strip above its chart, off the data.
 
 use std::path::Path;
 
 use plotters::prelude::*;
 
 use super::run::FlightResult;
+use crate::plot_legend::{heading, Entry, Mark};
 
 type PlotResult = Result<(), Box<dyn std::error::Error>>;
 
@@ -16,6 +18,13 @@ const COLORS: [RGBColor; 5] = [
     RGBColor(150, 60, 200),
     RGBColor(30, 60, 200),
 ];
+
+/// A series' colour: a variant's is the same on every plot (its place in
+/// [`super::VARIANTS`]), any other series' its place `k` in the panel.
+fn color_of(name: &str, k: usize) -> RGBColor {
+    let i = super::VARIANTS.iter().position(|v| *v == name).unwrap_or(k);
+    COLORS[i % COLORS.len()]
+}
 
 fn panel(
     area: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>,
@@ -28,21 +37,19 @@ fn panel(
     let hi = series.iter().flat_map(|s| s.1.iter()).copied().fold(f64::NEG_INFINITY, f64::max);
     let pad = ((hi - lo) * 0.05).max(1e-6);
     let xmax = t_h.last().copied().unwrap_or(1.0);
-    let mut chart = ChartBuilder::on(area)
-        .caption(title, ("sans-serif", 16))
+    let entries: Vec<Entry> =
+        series.iter().enumerate().map(|(k, (name, _))| (name.clone(), color_of(name, k), Mark::Line)).collect();
+    let body = heading(area, title, &entries)?;
+    let mut chart = ChartBuilder::on(&body)
         .margin(10)
         .x_label_area_size(35)
         .y_label_area_size(60)
         .build_cartesian_2d(0.0..xmax, (lo - pad)..(hi + pad))?;
     chart.configure_mesh().x_desc("time (h)").y_desc(y_desc).draw()?;
     for (k, (name, y)) in series.iter().enumerate() {
-        let c = COLORS[k % COLORS.len()];
-        chart
-            .draw_series(LineSeries::new(t_h.iter().copied().zip(y.iter().copied()), c.stroke_width(2)))?
-            .label(name.clone())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+        let c = color_of(name, k);
+        chart.draw_series(LineSeries::new(t_h.iter().copied().zip(y.iter().copied()), c.stroke_width(2)))?;
     }
-    chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw()?;
     Ok(())
 }
 
@@ -93,8 +100,11 @@ pub fn plot_distributions(path: &Path, title: &str, x_desc: &str, series: &[(Str
     let pad = ((hi - lo) * 0.05).max(1e-6);
     let root = BitMapBackend::new(path, (1200, 700)).into_drawing_area();
     root.fill(&WHITE)?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 18))
+    let mut entries: Vec<Entry> =
+        series.iter().enumerate().map(|(k, (name, _))| (name.clone(), color_of(name, k), Mark::Line)).collect();
+    entries.push(("dot: the curve's median".to_string(), BLACK, Mark::Dot));
+    let body = heading(&root, title, &entries)?;
+    let mut chart = ChartBuilder::on(&body)
         .margin(15)
         .x_label_area_size(40)
         .y_label_area_size(60)
@@ -104,18 +114,14 @@ pub fn plot_distributions(path: &Path, title: &str, x_desc: &str, series: &[(Str
         let mut s = v.clone();
         s.sort_by(f64::total_cmp);
         let n = s.len() as f64;
-        let c = COLORS[k % COLORS.len()];
+        let c = color_of(name, k);
         let pts: Vec<(f64, f64)> =
             s.iter().enumerate().flat_map(|(i, &x)| [(x, i as f64 / n), (x, (i + 1) as f64 / n)]).collect();
-        chart
-            .draw_series(LineSeries::new(pts, c.stroke_width(2)))?
-            .label(name.clone())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+        chart.draw_series(LineSeries::new(pts, c.stroke_width(2)))?;
         if let Some(&m) = s.get(s.len() / 2) {
             chart.draw_series(std::iter::once(Circle::new((m, 0.5), 5, c.filled())))?;
         }
     }
-    chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw()?;
     root.present()?;
     Ok(())
 }

@@ -133,6 +133,7 @@ pub fn check_exports_against_report(
 }
 
 pub mod browser;
+pub mod html;
 
 /// The real chamber log: from `QFA_REAL_IMU_LOG`, else beside the repository in
 /// `shared/real/`; absent, a loud SKIPPED line that says how to get it (and, with `CI=true`,
