@@ -144,9 +144,12 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
         rows: log.rows(),
         held_out: fit_p.iter().all(|p| !eval_p.contains(p)),
         figures: format!(
-            "held-out figures and plots: tables fitted on {fit_p:?}, compensated on {eval_p:?}; table.*, \
-             table_simple.*, px4_tc.params, ardupilot_tcal.parm: fitted on {table_p:?} (every program with a +1 g / -1 g \
-             pair), the bias grid's branch tie as chosen on {fit_p:?}"
+            "held-out figures and plots: tables fitted on {fit}, compensated on {}; table.*, table_simple.*, \
+             px4_tc.params, ardupilot_tcal_*.parm: fitted on {} (every program with a +1 g / -1 g pair), the bias \
+             grid's branch tie as chosen on {fit}",
+            eval_p.join(", "),
+            table_p.join(", "),
+            fit = fit_p.join(", ")
         ),
         table_programs: table_p,
         fit_programs: fit_p,
@@ -322,12 +325,6 @@ pub fn page(cal: &Calibration, out: &Path, opts: &CalibrateOptions) -> std::io::
     ]);
     if !r.held_out {
         p.warning("one program only: the figures are in-sample, not held out");
-    }
-    if r.rejected_readings > 0 {
-        p.warning(&format!(
-            "the compensator rejected {} temperature readings in the held-out runs",
-            r.rejected_readings
-        ));
     }
     let (s, b, pb) = (r.sensitivity_ppm_per_c, r.bias_residual_ug, r.peers_bias_residual_ug);
     p.section("Held-out figures").table(
