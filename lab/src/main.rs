@@ -23,7 +23,7 @@ use qfa_lab::out_path::OutError;
 use qfa_lab::simulate::profile::{paper_positions, Program, PAPER_RATES};
 use qfa_lab::simulate::simulate;
 use qfa_lab::simulate::truth::Truth;
-use qfa_lab::verdict::{LimitsChoice, Verdict, EXIT_LIMIT_FAILED};
+use qfa_lab::verdict::{json_with_verdict, LimitsChoice, Verdict, EXIT_LIMIT_FAILED};
 
 #[derive(Parser)]
 #[command(name = "qfa-lab", version, about = "Thermal-test simulator, calibration and compensation for QFA tables")]
@@ -93,6 +93,9 @@ enum Cmd {
         /// Static logs: the held-out scheme, auto | after-max | blocks:K | none (lab/README.md).
         #[arg(long, default_value = "auto")]
         holdout: Holdout,
+        /// Print report.json on stdout (the verdict then goes to stderr).
+        #[arg(long)]
+        json: bool,
         #[command(flatten)]
         fmt: StaticFlags,
     },
@@ -552,40 +555,62 @@ fn lint_notes(findings: &[String]) -> Vec<String> {
 /// Print the verdict (the console's summary: the same lines as the reports' verdict) and
 /// where the detail is; a failure against `--limits` ends with [`EXIT_LIMIT_FAILED`].
 fn finish(v: &Verdict, limits: &LimitsChoice, out: &Path) -> Result<(), CliError> {
-    print!("{}", v.console());
-    println!("detail: {}/report.md, report.html, report.json", out.display());
+    print_verdict(v, out, None);
     if limits.enforced_failure(v) {
         return Err(CliError::LimitFailed(v.failed()));
     }
     Ok(())
 }
 
-fn discover_cmd(log: &Path, start: Start, out: &Path, fmt: &StaticFlags, holdout: Holdout) -> Result<(), CliError> {
-    match open(log, &fmt.flags())? {
+/// The verdict's lines and where the detail is, on stdout; with `json` (the report), the
+/// JSON alone on stdout and the lines on stderr, so stdout parses.
+fn print_verdict(v: &Verdict, out: &Path, json: Option<&str>) {
+    let detail = format!("detail: {}/report.md, report.html, report.json", out.display());
+    match json {
+        None => {
+            print!("{}", v.console());
+            println!("{detail}");
+        }
+        Some(j) => {
+            eprint!("{}", v.console());
+            eprintln!("{detail}");
+            println!("{j}");
+        }
+    }
+}
+
+fn discover_cmd(
+    log: &Path,
+    start: Start,
+    out: &Path,
+    fmt: &StaticFlags,
+    holdout: Holdout,
+    json: bool,
+) -> Result<(), CliError> {
+    let to_json = |e: serde_json::Error| CliError::Failed(e.to_string());
+    let (v, report) = match open(log, &fmt.flags())? {
         OpenedLog::Static(l) => {
             // A static log: each axis is a single-channel (bias) log, on static calibration's split.
             eprintln!("{} rows read; {}", l.rows(), l.skipped);
             let pb = qfa_lab::demo::spinner("discovery on each axis", true);
             let d = static_axes::run(&l, start, holdout, out);
             pb.finish_and_clear();
-            let d = d?;
-            for a in &d.axes {
-                let found = if a.effects.is_empty() { "none".to_string() } else { a.effects.join(", ") };
-                println!("{} ({}): effects found: {found}", a.axis, a.column);
-            }
-            qfa_lab::discover::page::static_page(&d, out).and_then(|p| Ok(p.write(out)?))?;
-            print!("{}", static_axes::markdown(&d));
-            println!("wrote {}/report.json, report.md, report.html, table.bin", out.display());
+            let (d, v) = d?;
+            let j = if json { Some(json_with_verdict(&v, &d).map_err(to_json)?) } else { None };
+            (v, j)
         }
         opened => {
             cycling_holdout(holdout)?;
             let ch = Channels::from_opened(&opened, 60.0)?;
             let pb = qfa_lab::demo::spinner("discovery", true);
-            let r = qfa_lab::discover::discover(&ch, start, out);
+            let r = qfa_lab::discover::discover_with_verdict(&ch, start, out);
             pb.finish_and_clear();
-            println!("{}", serde_json::to_string_pretty(&r?).map_err(|e| e.to_string())?);
+            let (r, v) = r?;
+            let j = if json { Some(json_with_verdict(&v, &r).map_err(to_json)?) } else { None };
+            (v, j)
         }
-    }
+    };
+    print_verdict(&v, out, report.as_deref());
     Ok(())
 }
 
@@ -709,7 +734,7 @@ fn run(cli: Cli) -> Result<(), CliError> {
     match cli.cmd {
         Cmd::Simulate(a) => simulate_cmd(a),
         Cmd::Calibrate(a) => calibrate_cmd(a),
-        Cmd::Discover { log, start, out, fmt, holdout } => discover_cmd(&log, start, &out, &fmt, holdout),
+        Cmd::Discover { log, start, out, fmt, holdout, json } => discover_cmd(&log, start, &out, &fmt, holdout, json),
         Cmd::Compensate { log, table, out, fmt } => compensate_cmd(&log, &table, &out, &fmt),
         Cmd::Demo { out, row_s, seed, threads, full_logs, nav_duration_s } => {
             let opts =

@@ -1,27 +1,25 @@
-//! The entry points: the workflow with its outputs written ([`discover`]), the command
-//! line, and the lab demo's hook.
+//! The entry points: the workflow with its outputs written ([`discover`],
+//! [`discover_with_verdict`]) and the lab demo's hook.
 
 use super::*;
+use crate::verdict::Verdict;
 
 /// Run the workflow on `input` from `start` and write the outputs to `out_dir`.
 ///
 /// # Errors
 /// Output files could not be written.
 pub fn discover(input: &Channels, start: Start, out_dir: &Path) -> Result<Report> {
-    let report = analyze(input, start);
-    output::write(input, &report, out_dir, true, None)?;
-    Ok(report)
+    Ok(discover_with_verdict(input, start, out_dir)?.0)
 }
 
-/// CLI entry: `qfa-lab discover --log LOG.csv --start simple|paper --out DIR`.
+/// [`discover`], with the verdict its reports open with (what `qfa-lab discover` prints).
 ///
 /// # Errors
-/// Reading the log or writing the outputs failed.
-pub fn run_cli(log: &Path, start: Start, out_dir: &Path) -> Result<Report> {
-    let ch = Channels::read(log, 60.0)?;
-    let r = discover(&ch, start, out_dir)?;
-    println!("{}", serde_json::to_string_pretty(&r)?);
-    Ok(r)
+/// Output files could not be written.
+pub fn discover_with_verdict(input: &Channels, start: Start, out_dir: &Path) -> Result<(Report, Verdict)> {
+    let report = analyze(input, start);
+    let v = output::write(input, &report, out_dir, output::Scope::Own)?;
+    Ok((report, v))
 }
 
 /// Demo hook (the demo runs one discovery): start `simple` on a unit's cycling log.

@@ -94,6 +94,7 @@ pub mod static_axes;
 pub mod stats;
 mod uncertainty;
 pub mod unexplained;
+pub mod verdict;
 
 use std::path::Path;
 

@@ -7,6 +7,9 @@
 //! `table.bin`/`model.bin`: their model is the named one in the axis's own units (K1 = 1,
 //! `bias_drift` without a slot), and `compensate` takes a table of all the log's axes, the
 //! one in the parent directory. Their `model.toml` is for reading and says so.
+//!
+//! Every `report.md`, `report.json` and `report.html` opens with the run's verdict
+//! ([`super::verdict`]), the same lines in each.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -15,11 +18,14 @@ use anyhow::{Context, Result};
 use plotters::prelude::*;
 use qfa_thermal::table::{Input, Table};
 
+use super::static_axes::{AxisDiscovery, StaticDiscovery};
 use super::{BiasUnit, Channels, Gaps, LogKind, Report};
 use crate::calibrate::metrics::rms_of_finite;
+use crate::verdict::{json_with_verdict, Verdict};
 
 /// The named model's held-out gap is above the start model's on some channel.
-fn worse(r: &Report) -> bool {
+#[must_use]
+pub fn worse(r: &Report) -> bool {
     match (&r.heldout_gap_before, &r.heldout_gap_after) {
         (Gaps::Cycling { scale_factor_ppm: s0, bias_ug: b0 }, Gaps::Cycling { scale_factor_ppm: s1, bias_ug: b1 }) => {
             s1 > s0 || b1 > b0
@@ -29,7 +35,9 @@ fn worse(r: &Report) -> bool {
     }
 }
 
-fn gaps_text(unit: BiasUnit, g: &Gaps) -> String {
+/// A report's gaps in words with their units.
+#[must_use]
+pub fn gaps_text(unit: BiasUnit, g: &Gaps) -> String {
     match g {
         Gaps::Cycling { scale_factor_ppm, bias_ug } => {
             format!("scale factor {scale_factor_ppm:.2} ppm, bias {bias_ug:.2} µg")
@@ -55,23 +63,85 @@ pub fn table(report: &Report, input: Input) -> Option<Table> {
     Some(t)
 }
 
-/// Write every output into `dir`; `flashable` false leaves out `table.bin`/`model.bin`
-/// (a static log's per-axis directory, see the module docs) and removes older ones there.
-/// `held_out`, for one axis of a static log, is that axis's figures on the log's own
-/// held-out scheme: the report opens with them, and its own gaps are then labelled as what
-/// they are, the selection's folds inside the rows discovery saw.
+/// Which run a discovery's outputs belong to.
+#[derive(Clone, Copy)]
+pub enum Scope<'a> {
+    /// A discovery of its own log (cycling or single-channel): its folds give the held-out
+    /// figures, and its `table.bin` is flashable.
+    Own,
+    /// One axis of a static log ([`super::static_axes`]): the held-out figures are the
+    /// log's scheme's (in the axis's record), discovery's own folds only chose what to name
+    /// (their figures are called selection-fold figures), and the table to flash is the
+    /// parent folder's, so this folder gets no `table.bin`/`model.bin`.
+    StaticAxis {
+        /// The whole static discovery.
+        discovery: &'a StaticDiscovery,
+        /// This axis.
+        axis: &'a AxisDiscovery,
+    },
+}
+
+impl Scope<'_> {
+    /// What this run's reports call the figures of discovery's own folds.
+    #[must_use]
+    pub fn folds_word(self) -> &'static str {
+        match self {
+            Self::Own => "held-out",
+            Self::StaticAxis { .. } => "selection-fold",
+        }
+    }
+
+    /// [`Scope::folds_word`] opening a sentence.
+    #[must_use]
+    pub fn folds_word_capital(self) -> &'static str {
+        match self {
+            Self::Own => "Held-out",
+            Self::StaticAxis { .. } => "Selection-fold",
+        }
+    }
+
+    /// The folds this run's own figures come from, by name.
+    #[must_use]
+    pub fn folds_name(self) -> &'static str {
+        match self {
+            Self::Own => "held-out folds",
+            Self::StaticAxis { .. } => "selection folds",
+        }
+    }
+
+    /// A sentence written for a discovery of its own log (the selection rule, the folds'
+    /// rule), in this run's words: on a static axis "held-out" there means selection-fold.
+    #[must_use]
+    pub fn relabel(self, text: &str) -> String {
+        match self {
+            Self::Own => text.to_string(),
+            Self::StaticAxis { .. } => text.replace("held-out", "selection-fold").replace("Held-out", "Selection-fold"),
+        }
+    }
+
+    /// Whether this folder gets a `table.bin` of its own.
+    #[must_use]
+    pub fn flashable(self) -> bool {
+        matches!(self, Self::Own)
+    }
+}
+
+/// Write every output into `dir` and return the verdict they open with. A static axis
+/// ([`Scope::StaticAxis`]) gets no `table.bin`/`model.bin` (see the module docs), and older
+/// ones there are removed.
 ///
 /// # Errors
 /// A file could not be written.
-pub fn write(ch: &Channels, report: &Report, dir: &Path, flashable: bool, held_out: Option<&str>) -> Result<()> {
+pub fn write(ch: &Channels, report: &Report, dir: &Path, scope: Scope<'_>) -> Result<Verdict> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    std::fs::write(dir.join("report.json"), serde_json::to_string_pretty(report)? + "\n")?;
-    let mut notes = String::new();
+    let mut tables: Vec<String> = Vec::new();
+    let mut rest: Vec<String> = Vec::new();
+    let mut notes: Vec<String> = Vec::new();
     let input = match ch.kind {
         LogKind::Cycling => Input::PulseCounts,
         LogKind::Single => Input::Samples,
     };
-    if !flashable {
+    if !scope.flashable() {
         for f in ["table.bin", "model.bin"] {
             match std::fs::remove_file(dir.join(f)) {
                 Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(e.into()),
@@ -79,28 +149,41 @@ pub fn write(ch: &Channels, report: &Report, dir: &Path, flashable: bool, held_o
             }
         }
     }
-    if let Some(t) = table(report, input) {
-        std::fs::write(dir.join("model.toml"), toml::to_string(&t)?)?;
-    }
-    if let Some(t) = table(report, input).filter(|_| flashable) {
+    if let Some(t) = table(report, input).filter(|_| scope.flashable()) {
         match crate::calibrate::fit::encode(&t) {
             Ok(b) => {
                 std::fs::write(dir.join("table.bin"), &b)?;
                 std::fs::write(dir.join("model.bin"), &b)?;
+                tables.extend(["table.bin".to_string(), "model.bin".to_string()]);
             }
-            Err(e) => {
-                let _ = writeln!(notes, "\nThe table did not validate ({e:?}); no `table.bin` was written.");
-            }
+            Err(e) => notes.push(format!("the table did not validate ({e:?}), so no table.bin was written")),
         }
     }
-    write_csv(ch, report, &dir.join("residuals.csv"))?;
-    if let Err(e) = plots(ch, report, dir) {
-        let _ = writeln!(notes, "\nPlots failed: {e:#}");
+    if let Some(t) = table(report, input) {
+        std::fs::write(dir.join("model.toml"), toml::to_string(&t)?)?;
+        tables.push("model.toml".to_string());
     }
-    let head = held_out.map_or_else(String::new, |h| format!("{h}\n"));
-    std::fs::write(dir.join("report.md"), head + &markdown(ch, report, flashable, held_out.is_some()) + &notes)?;
-    super::page::page(ch, report, dir)?.write(dir)?;
-    Ok(())
+    write_csv(ch, report, &dir.join("residuals.csv"))?;
+    rest.push("residuals.csv".to_string());
+    match plots(ch, report, dir, scope) {
+        Ok(names) => rest.extend(names),
+        Err(e) => notes.push(format!("plots failed: {e:#}")),
+    }
+    let files: Vec<String> =
+        tables.into_iter().chain(["report.json", "report.md", "report.html"].map(String::from)).chain(rest).collect();
+    let v = match scope {
+        Scope::Own => super::verdict::discovery_verdict(ch, report, &files, &notes),
+        Scope::StaticAxis { discovery, axis } => {
+            let mut v = super::verdict::axis_verdict(discovery, axis, ch);
+            v.warnings.extend(notes);
+            v.files = super::verdict::axis_files(&files);
+            v
+        }
+    };
+    std::fs::write(dir.join("report.json"), json_with_verdict(&v, report)? + "\n")?;
+    std::fs::write(dir.join("report.md"), markdown(ch, report, scope, &v))?;
+    super::page::page(ch, report, dir, scope, &v)?.write(dir)?;
+    Ok(v)
 }
 
 /// The line saying what `table.bin` holds and what it scores held out.
@@ -120,30 +203,43 @@ fn flashed_line(s: &mut String, ch: &Channels, r: &Report) {
     );
 }
 
-fn markdown(ch: &Channels, r: &Report, flashable: bool, selection_only: bool) -> String {
+#[allow(clippy::too_many_lines)]
+fn markdown(ch: &Channels, r: &Report, scope: Scope<'_>, v: &Verdict) -> String {
+    let (held, held_cap) = (scope.folds_word(), scope.folds_word_capital());
     let mut s = String::new();
-    if selection_only {
-        let _ = writeln!(s, "## How discovery chose (selection folds)\n");
-        let _ = writeln!(
-            s,
-            "The gaps in this section come from discovery's own folds inside the rows it saw (they decide what is \
-             named); the held-out figures of the axis are the ones above.\n"
-        );
-    } else {
-        let _ = writeln!(s, "# Discovery report\n");
+    match scope {
+        Scope::Own => {
+            let _ = write!(s, "# Discovery report\n\n{}", v.markdown());
+            let _ = writeln!(s, "Start model: `{}`. Held-out rule: {}.\n", r.start.name(), r.heldout_rule);
+        }
+        Scope::StaticAxis { discovery, axis } => {
+            let _ = write!(s, "{}\n\n{}", super::static_axes::axis_title(axis), v.markdown());
+            s.push_str(&super::static_axes::axis_figures_markdown(discovery, axis));
+            let _ = writeln!(s, "\n## How discovery chose (selection folds)\n");
+            let _ = writeln!(
+                s,
+                "The figures in this section come from discovery's own folds inside the rows it saw (they decide \
+                 what is named), so they are called selection-fold figures; the held-out figures of the axis are \
+                 the ones above.\n"
+            );
+            let _ = writeln!(
+                s,
+                "Start model: `{}`. Selection folds: {}.\n",
+                r.start.name(),
+                scope.relabel(&r.heldout_rule)
+            );
+        }
     }
-    let _ = writeln!(s, "Start model: `{}`. Held-out rule: {}.\n", r.start.name(), r.heldout_rule);
-    let what = if selection_only { "Selection-fold gap" } else { "Held-out gap" };
-    let _ = writeln!(s, "- {what}, start model: {}", gaps_text(ch.bias_unit, &r.heldout_gap_before));
+    let _ = writeln!(s, "- {held_cap} gap, start model: {}", gaps_text(ch.bias_unit, &r.heldout_gap_before));
     let _ = writeln!(
         s,
-        "- {what}, named model{}: {}",
+        "- {held_cap} gap, named model{}: {}",
         if worse(r) { " (worse than the start)" } else { "" },
         gaps_text(ch.bias_unit, &r.heldout_gap_after)
     );
     let _ = writeln!(
         s,
-        "- Noise floor (bin-to-bin part of the final held-out residual): {}\n",
+        "- Noise floor (bin-to-bin part of the final {held} residual): {}\n",
         gaps_text(ch.bias_unit, &r.noise_floor)
     );
     let labels = r.effect_labels();
@@ -160,13 +256,13 @@ fn markdown(ch: &Channels, r: &Report, flashable: bool, selection_only: bool) ->
                 .join(", ");
             if r.residual_vs_floor.iter().any(|f| f.ratio > 2.0) {
                 format!(
-                    "the held-out residual is {ratios} its bin-to-bin noise floor, but follows none of the drivers \
+                    "the {held} residual is {ratios} its bin-to-bin noise floor, but follows none of the drivers \
                      tested and its run levels agree with noise: slow noise (bias instability) can explain it, the \
                      catalog's effects cannot be told from it"
                 )
             } else {
                 format!(
-                    "no structure left that the catalog fails to explain (held-out residual {ratios} its noise floor)"
+                    "no structure left that the catalog fails to explain ({held} residual {ratios} its noise floor)"
                 )
             }
         } else {
@@ -176,14 +272,14 @@ fn markdown(ch: &Channels, r: &Report, flashable: bool, selection_only: bool) ->
             )
         }
     );
-    if !selection_only {
+    if scope.flashable() {
         flashed_line(&mut s, ch, r);
     }
-    let _ = writeln!(s, "Selection: {}.\n", r.selection_rule);
+    let _ = writeln!(s, "Selection: {}.\n", scope.relabel(&r.selection_rule));
     let unit = ch.bias_unit.label();
     let _ = writeln!(
         s,
-        "## Peers on the same held-out split (bias channel, {unit})\n\nEach fitted per fold on the training bins (bin means of the raw temperature reading) and scored on the held-out bins.\n\n| model | held-out RMS |\n|---|---|"
+        "## Peers on the same {held} split (bias channel, {unit})\n\nEach fitted per fold on the training bins (bin means of the raw temperature reading) and scored on the bins its fold left out.\n\n| model | {held} RMS |\n|---|---|"
     );
     let bias_gap = |g: &Gaps| match g {
         Gaps::Cycling { bias_ug, .. } => *bias_ug,
@@ -203,12 +299,12 @@ fn markdown(ch: &Channels, r: &Report, flashable: bool, selection_only: bool) ->
     }
     let _ = writeln!(s);
     if r.effects.is_empty() {
-        let _ = writeln!(s, "## Effects added: none\n\nNo candidate improved the held-out fit significantly.\n");
+        let _ = writeln!(s, "## Effects added: none\n\nNo candidate improved the {held} fit significantly.\n");
     } else {
         let _ = writeln!(
             s,
-            "## Effects added\n\n| # | effect | channel | parameters (95 % interval) | held-out gain ± block-bootstrap SE | held-out gap before → after | {} |\n|---|---|---|---|---|---|---|",
-            if flashable { "in table.bin" } else { "root-crate slot" }
+            "## Effects added\n\n| # | effect | channel | parameters (95 % interval) | {held} gain ± block-bootstrap SE | {held} gap before → after | {} |\n|---|---|---|---|---|---|---|",
+            if scope.flashable() { "in table.bin" } else { "root-crate slot" }
         );
         for (i, e) in r.effects.iter().enumerate() {
             let p: Vec<String> = e.params_text(" **at search limit**");
@@ -232,7 +328,7 @@ fn markdown(ch: &Channels, r: &Report, flashable: bool, selection_only: bool) ->
         let _ = writeln!(s, "## Unexplained\n");
         for u in &r.unexplained {
             let mut line = format!(
-                "- The {} channel keeps structure that no catalog effect explains (held-out RMS {:.3}",
+                "- The {} channel keeps structure that no catalog effect explains ({held} RMS {:.3}",
                 u.channel, u.rms
             );
             let _ = write!(
@@ -279,43 +375,49 @@ fn markdown(ch: &Channels, r: &Report, flashable: bool, selection_only: bool) ->
     let unit = if ch.kind == LogKind::Cycling { "ppm / µg".to_string() } else { ch.bias_unit.label().to_string() };
     let _ = writeln!(
         s,
-        "## Where the start model disagrees (held-out RMS, {unit})\n\n| channel | segment | RMS |\n|---|---|---|"
+        "## Where the start model disagrees ({held} RMS, {unit})\n\n| channel | segment | RMS |\n|---|---|---|"
     );
     for w in &r.where_ {
         let _ = writeln!(s, "| {} | {} | {:.3} |", w.channel, w.segment, w.rms);
     }
-    let _ = writeln!(s, "\n## Where the final model disagrees\n\n| channel | segment | RMS |\n|---|---|---|");
+    let _ = writeln!(
+        s,
+        "\n## Where the final model disagrees ({held} RMS, {unit})\n\n| channel | segment | RMS |\n|---|---|---|"
+    );
     for w in &r.where_after {
         let _ = writeln!(s, "| {} | {} | {:.3} |", w.channel, w.segment, w.rms);
     }
-    let _ = writeln!(s, "\n## Candidates per round\n\nGain: drop of the held-out Σ(residual/RMS)² (units of one bin's variance); SE from the block sums; significant when gain/SE exceeds the critical value.\n");
+    let _ = writeln!(s, "\n## Candidates per round\n\nGain: drop of the {held} Σ(residual/RMS)² (units of one bin's variance); SE from the block sums; significant when gain/SE exceeds the critical value.\n");
     for (i, round) in r.rounds.iter().enumerate() {
-        let _ = writeln!(s, "### Round {}\n\n| candidate | channel | gain | SE | gain/SE | critical | blocks × bins | significant | at search limit | held-out gaps |\n|---|---|---|---|---|---|---|---|---|---|", i + 1);
+        let _ = writeln!(s, "### Round {}\n\n| candidate | channel | gain | SE | gain/SE | critical | blocks × bins | significant | at search limit | {held} gaps |\n|---|---|---|---|---|---|---|---|---|---|", i + 1);
         for t in round {
-            let _ = writeln!(
-                s,
-                "| `{}` | {} | {:.1} | {:.1} | {:.2} | {:.2} | {} × {} | {} | {} | {} |",
-                t.name,
-                t.channel,
-                t.gain.gain,
-                t.gain.se,
-                t.gain.t,
-                t.gain.critical,
-                t.gain.blocks,
-                t.gain.block_bins,
-                if t.significant { "yes" } else { "no" },
-                if t.at_bound.is_empty() { "-".to_string() } else { t.at_bound.join(", ") },
-                gaps_text(ch.bias_unit, &t.gaps)
-            );
+            let _ = writeln!(s, "| {} |", round_row(ch, t).join(" | "));
         }
         let _ = writeln!(s);
     }
-    if flashable {
+    if scope.flashable() {
         let _ = writeln!(s, "Files: `report.json`, `table.bin` (root-crate table, 1 axis, rate window 32: `qfa-lab compensate --table DIR/table.bin`), `model.bin` (same bytes), `model.toml`, `residuals.csv`, `residual_*.png`.");
     } else {
         let _ = writeln!(s, "Files: `report.json`, `model.toml` (the named model, for reading: its K1 is 1 and `bias_drift` has no slot, so it is not a table to flash; the flashable table of all axes is `../table.bin`), `residuals.csv`, `residual_*.png`.");
     }
     s
+}
+
+/// One candidate trial as the cells of the rounds' tables (Markdown and the page).
+#[must_use]
+pub fn round_row(ch: &Channels, t: &super::CandidateTrial) -> Vec<String> {
+    vec![
+        format!("`{}`", t.name),
+        t.channel.clone(),
+        format!("{:.1}", t.gain.gain),
+        format!("{:.1}", t.gain.se),
+        format!("{:.2}", t.gain.t),
+        format!("{:.2}", t.gain.critical),
+        format!("{} × {}", t.gain.blocks, t.gain.block_bins),
+        if t.significant { "yes" } else { "no" }.to_string(),
+        if t.at_bound.is_empty() { "-".to_string() } else { t.at_bound.join(", ") },
+        gaps_text(ch.bias_unit, &t.gaps),
+    ]
 }
 
 struct Row {
@@ -360,22 +462,36 @@ fn write_csv(ch: &Channels, r: &Report, path: &Path) -> Result<()> {
     Ok(())
 }
 
-fn plots(ch: &Channels, r: &Report, dir: &Path) -> Result<()> {
+/// The channels plotted: `(file stem, name in a title, axis label, unit)`.
+fn plotted(ch: &Channels) -> Vec<(&'static str, &'static str, &'static str, &'static str)> {
+    if ch.kind == LogKind::Cycling {
+        vec![
+            ("scale_factor", "scale factor", "scale-factor residual, ppm", "ppm"),
+            ("bias", "bias", "bias residual, µg", "µg"),
+        ]
+    } else if ch.bias_unit == BiasUnit::Value {
+        vec![("value", "value", "residual, value units", "value units")]
+    } else {
+        vec![("value", "bias", "bias residual, µg", "µg")]
+    }
+}
+
+/// Bins of `ch` on a hold (neither heating nor cooling).
+#[must_use]
+pub fn hold_bins(ch: &Channels) -> usize {
+    rows(ch).iter().filter(|r| r.dir == 0).count()
+}
+
+/// `residual_<channel>_vs_{time,temp}.png`: each channel's residual of every bin, start
+/// model above, named model below, on one shared scale; heating red, cooling blue, hold
+/// grey. The legend sits in a band above the data (the y range runs to 1.6× the largest
+/// residual), so it covers none of it. Returns the file names written.
+fn plots(ch: &Channels, r: &Report, dir: &Path, scope: Scope<'_>) -> Result<Vec<String>> {
     crate::plot_font::register();
     let rows = rows(ch);
     let (b, a) = &r.residuals;
-    let mut chans: Vec<(&str, &str, &Vec<f64>, &Vec<f64>)> = Vec::new();
-    if ch.kind == LogKind::Cycling {
-        chans.push(("scale_factor", "scale-factor residual, ppm", &b.sf, &a.sf));
-        chans.push(("bias", "bias residual, µg", &b.bias, &a.bias));
-    } else {
-        chans.push((
-            "value",
-            if ch.bias_unit == BiasUnit::Ug { "residual, µg" } else { "residual, value units" },
-            &b.bias,
-            &a.bias,
-        ));
-    }
+    let held = scope.folds_word();
+    let mut written = Vec::new();
     // Program offsets so time runs on across programs.
     let mut off = vec![0.0; ch.traces.len()];
     let mut acc = 0.0;
@@ -383,9 +499,11 @@ fn plots(ch: &Channels, r: &Report, dir: &Path) -> Result<()> {
         off[i] = acc;
         acc += t.time_s.last().copied().unwrap_or(0.0) / 3600.0 + 0.5;
     }
-    for (name, label, before, after) in chans {
+    for (stem, name, label, unit) in plotted(ch) {
+        let (before, after) = if stem == "scale_factor" { (&b.sf, &a.sf) } else { (&b.bias, &a.bias) };
         for vs_time in [true, false] {
-            let file = dir.join(format!("residual_{name}_vs_{}.png", if vs_time { "time" } else { "temp" }));
+            let file_name = format!("residual_{stem}_vs_{}.png", if vs_time { "time" } else { "temp" });
+            let file = dir.join(&file_name);
             let root = BitMapBackend::new(&file, (1200, 800)).into_drawing_area();
             root.fill(&WHITE)?;
             let panels = root.split_evenly((2, 1));
@@ -394,39 +512,48 @@ fn plots(ch: &Channels, r: &Report, dir: &Path) -> Result<()> {
                 (0..rows.len()).map(x_of).fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| (l.min(x), h.max(x)));
             let ymax =
                 before.iter().chain(after.iter()).filter(|v| v.is_finite()).fold(1e-12f64, |m, v| m.max(v.abs()));
-            let named = if worse(r) { "named model, worse than the start held out" } else { "named model" };
+            let named = if worse(r) { "named model, worse than the start" } else { "named model" };
             let titles = [
-                format!("start model `{}`: held-out RMS {:.3}", r.start.name(), rms_of_finite(before)),
-                format!("{named}: held-out RMS {:.3}", rms_of_finite(after)),
+                format!("start model `{}`: {held} RMS {:.2} {unit}", r.start.name(), rms_of_finite(before)),
+                format!("{named}: {held} RMS {:.2} {unit}", rms_of_finite(after)),
             ];
             for (p, (title, v)) in panels.iter().zip([(&titles[0], before), (&titles[1], after)]) {
                 let mut chart = ChartBuilder::on(p)
-                    .caption(
-                        format!(
-                            "{name}, every bin from a fit that never saw it: {title}; red heating, blue cooling, grey hold"
-                        ),
-                        ("sans-serif", 16),
-                    )
+                    .caption(format!("{name}, every bin from a fit that never saw it: {title}"), ("sans-serif", 16))
                     .margin(8)
                     .x_label_area_size(30)
                     .y_label_area_size(60)
-                    .build_cartesian_2d(xlo..xhi.max(xlo + 1e-9), -ymax..ymax)?;
+                    .build_cartesian_2d(xlo..xhi.max(xlo + 1e-9), -ymax..1.6 * ymax)?;
                 chart
                     .configure_mesh()
                     .x_desc(if vs_time { "time, h (programs in sequence)" } else { "temperature, °C" })
                     .y_desc(label)
                     .draw()?;
-                chart.draw_series((0..rows.len()).filter(|&i| v[i].is_finite()).map(|i| {
-                    let c = match rows[i].dir {
-                        1 => RED.mix(0.6),
-                        -1 => BLUE.mix(0.6),
-                        _ => BLACK.mix(0.3),
-                    };
-                    Circle::new((x_of(i), v[i]), 1, c.filled())
-                }))?;
+                for (dir, what, c) in
+                    [(1, "heating", RED.mix(0.6)), (-1, "cooling", BLUE.mix(0.6)), (0, "hold", BLACK.mix(0.3))]
+                {
+                    let pts: Vec<(f64, f64)> = (0..rows.len())
+                        .filter(|&i| rows[i].dir == dir && v[i].is_finite())
+                        .map(|i| (x_of(i), v[i]))
+                        .collect();
+                    if pts.is_empty() {
+                        continue;
+                    }
+                    chart
+                        .draw_series(pts.into_iter().map(|p| Circle::new(p, 1, c.filled())))?
+                        .label(what)
+                        .legend(move |(x, y)| Circle::new((x, y), 4, c.filled()));
+                }
+                chart
+                    .configure_series_labels()
+                    .position(SeriesLabelPosition::UpperRight)
+                    .background_style(WHITE.mix(0.9))
+                    .border_style(BLACK)
+                    .draw()?;
             }
             root.present()?;
+            written.push(file_name);
         }
     }
-    Ok(())
+    Ok(written)
 }

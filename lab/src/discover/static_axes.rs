@@ -45,6 +45,8 @@ use anyhow::{Context, Result};
 use qfa_thermal::model::{AxisModel, AxisState};
 use serde::Serialize;
 
+use super::output::Scope;
+use super::verdict::named_is_worse;
 use super::{analyze, start_model, Channels, LogKind, Report, Start};
 use crate::calibrate::fit::{encode, BranchMode, CurveShape, StaticStructure};
 use crate::calibrate::peers::PeerKind;
@@ -54,6 +56,7 @@ use crate::calibrate::static_cal::{
 };
 use crate::data::channels::{BiasUnit, Trace};
 use crate::data::static_log::StaticLog;
+use crate::verdict::{json_with_verdict, Verdict};
 
 /// Bin width for a static log, s: about 400 bins over the log, between 10 and 60 s. A
 /// chamber log of a few hours gets the cycling logs' 60-s bins; the tofupilot log (70.7
@@ -363,39 +366,124 @@ pub fn discover_static(log: &StaticLog, start: Start, holdout: Holdout) -> Resul
     })
 }
 
-/// Whether the named model is worse than the start model held out.
-fn named_is_worse(a: &AxisDiscovery) -> bool {
-    matches!((a.before.score(), a.after.score()), (Some(b), Some(n)) if n.rms_mg > b.rms_mg)
+/// The title line of one axis's report.
+#[must_use]
+pub fn axis_title(a: &AxisDiscovery) -> String {
+    format!("# Discovery report: axis {} (column `{}`)", a.axis, a.column)
 }
 
-/// The top of one axis's report: its held-out figures on the log's scheme, one per model.
-fn axis_heading(d: &StaticDiscovery, a: &AxisDiscovery) -> String {
-    let mut s = format!("# Discovery report: axis {} (column `{}`)\n\n", a.axis, a.column);
-    let _ = writeln!(
-        s,
+/// One axis's held-out figures on the log's scheme, one row per model: `[model, figure]`
+/// (RMS over rows / over 60-s means, mg).
+#[must_use]
+pub fn axis_figures(d: &StaticDiscovery, a: &AxisDiscovery) -> Vec<[String; 2]> {
+    vec![
+        [format!("start model `{}`", d.start.name()), a.before.cell()],
+        [
+            format!(
+                "named model ({}){}",
+                if a.effects.is_empty() { "nothing named".to_string() } else { a.effects.join(", ") },
+                if named_is_worse(a) { ", worse than the start held out" } else { "" }
+            ),
+            a.after.cell(),
+        ],
+        [format!("table.bin of all axes (`../table.bin`, structure {})", a.final_structure), a.final_model.cell()],
+        ["PX4/tofupilot cubic".to_string(), a.cubic.cell()],
+        ["ArduPilot TCAL".to_string(), a.ardupilot.cell()],
+    ]
+}
+
+/// What [`axis_figures`] are, in one sentence.
+#[must_use]
+pub fn axis_figures_intro(d: &StaticDiscovery) -> String {
+    format!(
         "Held-out figures of this axis, scheme `{}` ({}), RMS over rows / over 60-s means, mg: the only held-out \
-         figures of this axis.\n",
+         figures of this axis.",
         d.holdout.scheme, d.figures
-    );
-    s.push_str("| model | held-out, mg |\n|---|---|\n");
-    let _ = writeln!(s, "| start model `{}` | {} |", d.start.name(), a.before.cell());
-    let _ = writeln!(
-        s,
-        "| named model ({}){} | {} |",
-        if a.effects.is_empty() { "nothing named".to_string() } else { a.effects.join(", ") },
-        if named_is_worse(a) { ", **worse than the start held out**" } else { "" },
-        a.after.cell()
-    );
-    let _ = writeln!(s, "| flashed (`../table.bin`, structure {}) | {} |", a.final_structure, a.final_model.cell());
-    let _ = writeln!(s, "| PX4/tofupilot cubic | {} |", a.cubic.cell());
-    let _ = writeln!(s, "| ArduPilot TCAL | {} |", a.ardupilot.cell());
+    )
+}
+
+/// [`axis_figures`] as Markdown, after [`axis_figures_intro`].
+#[must_use]
+pub fn axis_figures_markdown(d: &StaticDiscovery, a: &AxisDiscovery) -> String {
+    let mut s = format!("{}\n\n| model | held-out, mg |\n|---|---|\n", axis_figures_intro(d));
+    for [m, f] in axis_figures(d, a) {
+        let _ = writeln!(s, "| {m} | {f} |");
+    }
     s
 }
 
-/// The per-axis table in Markdown (mg).
+/// The per-axis table's header and rows (mg), for Markdown and the page alike.
+#[must_use]
+pub fn table_rows(d: &StaticDiscovery) -> (Vec<&'static str>, Vec<Vec<String>>) {
+    let header = vec![
+        "axis",
+        "effects named (every row)",
+        "named on the training rows (the named model's)",
+        "start model, held out",
+        "named model, held out",
+        "table.bin, held out (chosen inside the training rows)",
+        "table.bin structure (CV choice on every row)",
+        "CV RMS of that structure, mg",
+        "PX4/tofupilot cubic, held out",
+        "ArduPilot TCAL, held out",
+        "paper simple, held out",
+        "none, held out",
+    ];
+    let rows = d
+        .axes
+        .iter()
+        .map(|a| {
+            let mut names = if a.effects.is_empty() { "none".to_string() } else { a.effects.join(", ") };
+            if !a.unexplained.is_empty() {
+                let _ = write!(names, "; unexplained: {}", a.unexplained.join("; "));
+            }
+            let per_fold = a
+                .effects_per_fold
+                .iter()
+                .map(|f| if f.is_empty() { "none".to_string() } else { f.join(", ") })
+                .collect::<Vec<_>>()
+                .join(" | ");
+            vec![
+                a.axis.clone(),
+                names,
+                per_fold,
+                a.before.cell(),
+                if named_is_worse(a) { format!("{} (worse than the start)", a.after.cell()) } else { a.after.cell() },
+                a.final_model.cell(),
+                format!("{}{}", a.final_structure, if a.final_is_named { " (the named structure)" } else { "" }),
+                format!("{:.2}", a.final_cv_rms_mg),
+                a.cubic.cell(),
+                a.ardupilot.cell(),
+                a.simple.cell(),
+                a.none.cell(),
+            ]
+        })
+        .collect();
+    (header, rows)
+}
+
+/// Which rows each figure comes from and what decides the names and the table, in words.
+#[must_use]
+pub fn how_to_read(d: &StaticDiscovery) -> [String; 3] {
+    [
+        format!("Which rows each figure comes from: {}.", d.figures),
+        "For each held-out figure, discovery sees only that fold's training rows (its own selection folds, time \
+         blocks, inside them); every figure called held out is on the held-out rows, RMS over rows / over 60-s \
+         means, mg. Peers fitted on the same training rows, as `calibrate` fits them. Effects named: on every row."
+            .to_string(),
+        "Named: the block test (a claim about the physics). Flashed (`table.bin`): the lowest blocked \
+         cross-validation (CV) RMS among static calibration's candidates and the named structures (a prediction), \
+         chosen and fitted on every row; its held-out figure is the same choice made inside each fold's training \
+         rows."
+            .to_string(),
+    ]
+}
+
+/// The static discovery's `report.md` after its verdict: the per-axis table (mg) and how
+/// to read it.
 #[must_use]
 pub fn markdown(d: &StaticDiscovery) -> String {
-    let mut s = String::from("# Discovery on a static log\n\n");
+    let mut s = String::new();
     let _ = writeln!(
         s,
         "Held-out scheme: `{}` (asked: `{}`): {}. Start model `{}`; {}-s bins; the per-axis reports are in µg.\n",
@@ -405,41 +493,15 @@ pub fn markdown(d: &StaticDiscovery) -> String {
         d.start.name(),
         d.bin_s
     );
-    let _ = writeln!(s, "Which rows each figure comes from: {}.\n", d.figures);
-    s.push_str(
-        "For each held-out figure, selection sees only that fold's training rows (discovery's own time-block \
-         held-out rule inside them); every figure below is on the held-out rows, RMS over rows / over 60-s means, \
-         mg. Peers fitted on the same training rows, as `calibrate` fits them. Effects named: on every row.\n\n",
-    );
-    s.push_str("| axis | effects named (every row) | start model | named model | workflow model, held out (`table.bin` structure, chosen on every row) | PX4/tofupilot cubic | ArduPilot TCAL | paper simple | none |\n");
-    s.push_str("|---|---|---|---|---|---|---|---|---|\n");
-    for a in &d.axes {
-        let mut names = if a.effects.is_empty() { "none".to_string() } else { a.effects.join(", ") };
-        if !a.unexplained.is_empty() {
-            let _ = write!(names, "; unexplained: {}", a.unexplained.join("; "));
-        }
-        let _ = writeln!(
-            s,
-            "| {} | {} | {} | {} | {} ({}{}) | {} | {} | {} | {} |",
-            a.axis,
-            names,
-            a.before.cell(),
-            if named_is_worse(a) { format!("{} (worse than the start)", a.after.cell()) } else { a.after.cell() },
-            a.final_model.cell(),
-            a.final_structure,
-            if a.final_is_named { ", the named structure" } else { "" },
-            a.cubic.cell(),
-            a.ardupilot.cell(),
-            a.simple.cell(),
-            a.none.cell()
-        );
+    let [rows_from, selection, named_flashed] = how_to_read(d);
+    let _ = writeln!(s, "{rows_from}\n\n{selection}\n");
+    let (header, rows) = table_rows(d);
+    let _ = writeln!(s, "| {} |", header.join(" | "));
+    let _ = writeln!(s, "|{}", "---|".repeat(header.len()));
+    for r in rows {
+        let _ = writeln!(s, "| {} |", r.join(" | "));
     }
-    s.push_str(
-        "\nNamed: the block test (a claim about the physics). Flashed (`table.bin`): the lowest blocked \
-         cross-validation RMS among static calibration's candidates and the named structures (a prediction), \
-         chosen and fitted on every row; its held-out figure is the same choice made inside each fold's training \
-         rows.\n",
-    );
+    let _ = writeln!(s, "\n{named_flashed}");
     let missing: Vec<String> = d
         .axes
         .iter()
@@ -454,20 +516,24 @@ pub fn markdown(d: &StaticDiscovery) -> String {
     s
 }
 
-/// Run on `log` and write `DIR/report.json`, `DIR/report.md`, `DIR/table.bin` and each
-/// axis's discovery outputs under `DIR/<axis>/`.
+/// Run on `log` and write `DIR/report.json`, `DIR/report.md`, `DIR/report.html`,
+/// `DIR/table.bin` and each axis's discovery outputs under `DIR/<axis>/`; returns the
+/// discovery and the verdict its reports open with.
 ///
 /// # Errors
 /// As [`discover_static`], or a file could not be written.
-pub fn run(log: &StaticLog, start: Start, holdout: Holdout, dir: &Path) -> Result<StaticDiscovery> {
+pub fn run(log: &StaticLog, start: Start, holdout: Holdout, dir: &Path) -> Result<(StaticDiscovery, Verdict)> {
     let d = discover_static(log, start, holdout)?;
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     for ((a, r), ch) in d.axes.iter().zip(&d.reports).zip(&d.channels) {
         // Not flashable: the table of all axes is DIR/table.bin (see `output`'s docs).
-        super::output::write(ch, r, &dir.join(&a.axis), false, Some(&axis_heading(&d, a)))?;
+        super::output::write(ch, r, &dir.join(&a.axis), Scope::StaticAxis { discovery: &d, axis: a })?;
     }
     std::fs::write(dir.join("table.bin"), encode(&d.table).map_err(|e| anyhow::anyhow!("{e}"))?)?;
-    std::fs::write(dir.join("report.json"), serde_json::to_string_pretty(&d)? + "\n")?;
-    std::fs::write(dir.join("report.md"), markdown(&d))?;
-    Ok(d)
+    let files: Vec<String> = ["table.bin", "report.json", "report.md", "report.html"].map(String::from).to_vec();
+    let v = super::verdict::static_verdict(&d, &files);
+    std::fs::write(dir.join("report.json"), json_with_verdict(&v, &d)? + "\n")?;
+    std::fs::write(dir.join("report.md"), format!("# Discovery on a static log\n\n{}{}", v.markdown(), markdown(&d)))?;
+    super::page::static_page(&d, &v, dir)?.write(dir)?;
+    Ok((d, v))
 }

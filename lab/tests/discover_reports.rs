@@ -1,0 +1,252 @@
+//! `qfa-lab discover`'s reports tell one story: on a simulated cycling log and a simulated
+//! static log, the verdict lines printed on the console are the `- **key:** text` items of
+//! `report.md`, `verdict.lines` of `report.json` and the `<li>` texts of the page's
+//! `<section id="verdict">`; stdout is those lines and a `detail:` line, never JSON,
+//! unless `--json` asks for the report (then stdout is exactly `report.json`). On the real
+//! chamber log (`--start paper`) every rendering says in words, axis by axis, whether the
+//! named model is worse held out than the start model, as `report.json`'s figures are.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("qfa-discover-reports-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Run qfa-lab; (stdout, stderr), failing the test when it fails.
+fn lab(args: &[&str]) -> (String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_qfa-lab")).args(args).output().expect("run qfa-lab");
+    let (so, se) =
+        (String::from_utf8_lossy(&out.stdout).into_owned(), String::from_utf8_lossy(&out.stderr).into_owned());
+    assert!(out.status.success(), "qfa-lab {args:?} failed:\n{so}\n{se}");
+    (so, se)
+}
+
+/// The `- **key:** text` items of `report.md`'s verdict section, as `key: text`.
+fn markdown_lines(md: &str) -> Vec<String> {
+    let section = md.split_once("## Verdict\n\n").map(|(_, s)| s).unwrap_or_else(|| panic!("no verdict in:\n{md}"));
+    section
+        .lines()
+        .take_while(|l| l.starts_with("- **"))
+        .map(|l| l.trim_start_matches("- **").replacen(":** ", ": ", 1))
+        .collect()
+}
+
+fn unescape(s: &str) -> String {
+    s.replace("&lt;", "<").replace("&gt;", ">").replace("&quot;", "\"").replace("&#39;", "'").replace("&amp;", "&")
+}
+
+/// The text of each `<li>` of the page's `<section id="verdict">` (tags dropped).
+fn page_lines(html: &str) -> Vec<String> {
+    let start = html.find("<section id=\"verdict\"").unwrap_or_else(|| panic!("no verdict section"));
+    let section = &html[start..start + html[start..].find("</section>").expect("section closed")];
+    section
+        .split("<li")
+        .skip(1)
+        .map(|li| {
+            let body = &li[li.find('>').unwrap() + 1..li.find("</li>").expect("li closed")];
+            let mut text = String::new();
+            let mut in_tag = false;
+            for c in body.chars() {
+                match c {
+                    '<' => in_tag = true,
+                    '>' => in_tag = false,
+                    c if !in_tag => text.push(c),
+                    _ => {}
+                }
+            }
+            unescape(&text)
+        })
+        .collect()
+}
+
+/// The verdict as each rendering gives it: (console, report.md, report.json, report.html).
+struct Renderings {
+    console: Vec<String>,
+    markdown: Vec<String>,
+    json: Vec<String>,
+    page: Vec<String>,
+}
+
+/// Run `discover ARGS --out OUT` without and with `--json`, check stdout's shape both
+/// times, and read the verdict back from every rendering.
+fn discover(args: &[&str], out: &Path) -> Renderings {
+    let out_s = out.to_str().unwrap();
+    let mut a = vec!["discover", "--out", out_s];
+    a.extend(args);
+    let (stdout, _) = lab(&a);
+    assert!(serde_json::from_str::<serde_json::Value>(&stdout).is_err(), "stdout is JSON without --json:\n{stdout}");
+    let mut console: Vec<String> = stdout.lines().map(String::from).collect();
+    let detail = console.pop().expect("stdout has lines");
+    assert_eq!(detail, format!("detail: {out_s}/report.md, report.html, report.json"));
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    let json_text = std::fs::read_to_string(out.join("report.json")).unwrap();
+    let json: serde_json::Value = serde_json::from_str(&json_text).unwrap();
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    let lines = json["verdict"]["lines"].as_array().expect("verdict.lines in report.json");
+    let r = Renderings {
+        console,
+        markdown: markdown_lines(&md),
+        json: lines.iter().map(|l| l.as_str().unwrap().to_string()).collect(),
+        page: page_lines(&html),
+    };
+    // With --json: stdout is the report, which parses; the verdict goes to stderr.
+    a.push("--json");
+    let (stdout, stderr) = lab(&a);
+    let printed: serde_json::Value = serde_json::from_str(&stdout).expect("stdout is JSON with --json");
+    let again: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(printed, again, "--json prints report.json");
+    assert!(stderr.contains(&r.console[0]), "the verdict on stderr with --json:\n{stderr}");
+    r
+}
+
+fn assert_one_story(r: &Renderings) {
+    for l in &r.console {
+        println!("{l}");
+    }
+    assert!(r.console.len() >= 4, "{:?}", r.console);
+    assert!(r.console[0].starts_with("verdict: RESULT: "), "{}", r.console[0]);
+    assert!(r.console.iter().any(|l| l.starts_with("expect in use: ")), "{:?}", r.console);
+    assert_eq!(r.console.iter().filter(|l| l.starts_with("held-out: ")).count(), 1, "one definition of held-out");
+    assert_eq!(r.markdown, r.console, "report.md's verdict");
+    assert_eq!(r.json, r.console, "report.json's verdict.lines");
+    assert_eq!(r.page, r.console, "report.html's verdict section");
+}
+
+#[test]
+fn a_cycling_discovery_tells_one_story_on_every_rendering() {
+    let d = tmp("cycling");
+    let log = d.join("lag.csv");
+    let log_s = log.to_str().unwrap();
+    lab(&["simulate", "--out", log_s, "--row-s", "10", "--rates", "0.9", "--effects", "sensor_lag", "--seed", "3"]);
+    let out = d.join("disc");
+    let r = discover(&["--log", log_s], &out);
+    assert_one_story(&r);
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    // The answer states both held-out figures of the bias channel as the report has them.
+    let (start, named) =
+        (json["heldout_gap_before"]["bias_ug"].as_f64(), json["heldout_gap_after"]["bias_ug"].as_f64());
+    let (start, named) = (start.unwrap(), named.unwrap());
+    if json["effects"].as_array().unwrap().is_empty() {
+        assert!(r.console[0].contains("nothing named"), "{}", r.console[0]);
+    } else {
+        let both = format!("bias: named {named:.2} µg, start {start:.2} µg");
+        assert!(r.console[0].contains(&both), "{both} in {}", r.console[0]);
+    }
+    // Every table on the page is a table, not Markdown in a <pre>.
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(!html.contains("<pre") && !html.contains("|---|"), "Markdown on the page");
+    assert!(html.matches("<figcaption>").count() >= 4 && html.contains("Look at the lower panel"), "captions");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// A static three-axis log, 2-s rows for 100 min: 25 → 60 → −10 → 40 °C, each axis's bias a
+/// different curve in T (ax with a heating/cooling split), with deterministic noise.
+fn static_log(path: &Path) {
+    let mut s = String::from("time\ttemp\tax\tay\taz\n");
+    let mut x: u64 = 11;
+    let mut noise = || {
+        x = x.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+        ((x >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 2e-4
+    };
+    let legs = [(25.0, 60.0, 750), (60.0, -10.0, 1500), (-10.0, 40.0, 750)];
+    let mut t = 0;
+    for (a, b, n) in legs {
+        for i in 0..n {
+            let temp: f64 = a + (b - a) * f64::from(i) / f64::from(n);
+            let dir: f64 = if b > a { 1.0 } else { -1.0 };
+            let dt = temp - 25.0;
+            let ax = 1e-4 * dt + 2e-7 * dt * dt + 1e-4 * dir + noise();
+            let ay = -5e-5 * dt + noise();
+            let az = -1.0 + 2e-8 * dt * dt * dt + noise();
+            s.push_str(&format!("{t}\t{:.4}\t{ax:.7}\t{ay:.7}\t{az:.7}\n", (temp * 16.0).round() / 16.0));
+            t += 2;
+        }
+    }
+    std::fs::write(path, s).unwrap();
+}
+
+#[test]
+fn a_static_discovery_tells_one_story_on_every_rendering() {
+    let d = tmp("static");
+    let log = d.join("static.tsv");
+    static_log(&log);
+    let out = d.join("disc");
+    let flags = ["--columns", "time=time,temp=temp,ax=ax,ay=ay,az=az", "--time-unit", "s", "--accel-unit", "g"];
+    let mut args = vec!["--log", log.to_str().unwrap()];
+    args.extend(flags);
+    let r = discover(&args, &out);
+    assert_one_story(&r);
+    // One clause per axis, each naming table.bin's structure.
+    for axis in ["ax", "ay", "az"] {
+        assert!(r.console[0].contains(&format!("{axis}: ")), "{axis} in {}", r.console[0]);
+    }
+    assert_eq!(r.console[0].matches("; table.bin: ").count(), 3, "{}", r.console[0]);
+    // The page: tables as tables, and no figure of another scheme called held-out.
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(!html.contains("<pre") && !html.contains("|---|"), "Markdown on the page");
+    assert!(html.contains("CV RMS"), "the structure choice's figure is called CV");
+    for axis in ["ax", "ay", "az"] {
+        let page = std::fs::read_to_string(out.join(axis).join("report.html")).unwrap();
+        let lines = page_lines(&page);
+        let md = markdown_lines(&std::fs::read_to_string(out.join(axis).join("report.md")).unwrap());
+        assert_eq!(lines, md, "{axis}: page and report.md");
+        for h in ["Held-out gaps", "held-out RMS", "held-out gain", "Peers on the same held-out split"] {
+            assert!(!page.contains(h), "{axis}: a selection-fold figure called {h:?}");
+        }
+        assert!(page.contains("Selection-fold gaps"), "{axis}");
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// The real log: wherever `report.json` has the named model above the start model held
+/// out, the console, `report.md`, `report.json` and the page say so in words on that axis,
+/// and nowhere else.
+#[test]
+fn the_real_log_says_the_named_model_is_worse_held_out() {
+    let Some(log) = common::real_log() else { return };
+    let d = tmp("real");
+    let out = d.join("disc");
+    let args = [
+        "--start",
+        "paper",
+        "--log",
+        log.to_str().unwrap(),
+        "--columns",
+        "time=timestamp,temp=imu.temperature,ax=imu.acc.x,ay=imu.acc.y,az=imu.acc.z",
+        "--time-unit",
+        "us",
+        "--accel-unit",
+        "m/s2",
+    ];
+    let r = discover(&args, &out);
+    assert_one_story(&r);
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let mut worse_axes = 0;
+    for a in json["axes"].as_array().unwrap() {
+        let axis = a["axis"].as_str().unwrap();
+        let (start, named) = (a["before"]["rms_mg"].as_f64().unwrap(), a["after"]["rms_mg"].as_f64().unwrap());
+        let worse = format!("{named:.2}") != format!("{start:.2}") && named > start;
+        worse_axes += usize::from(worse);
+        let clause = r.console[0]
+            .split(&format!("{axis}: "))
+            .nth(1)
+            .and_then(|c| c.split("; table.bin").next())
+            .unwrap_or_else(|| panic!("{axis} in {}", r.console[0]));
+        let says = format!("worse held out than the start model `paper` (named {named:.2} mg, start {start:.2} mg)");
+        assert_eq!(clause.contains(&says), worse, "{axis}: {clause}");
+        let warning = format!("warning: {axis}: the named model is worse held out than the start model");
+        assert_eq!(r.console.iter().any(|l| l.starts_with(&warning)), worse, "{axis}: {:?}", r.console);
+    }
+    // Measured: x 1.15 → 1.99 mg, y 3.56 → 6.14 mg; z the same (6.45 mg).
+    assert!(worse_axes >= 2, "the named model is worse held out on x and y: {}", r.console[0]);
+    let _ = std::fs::remove_dir_all(&d);
+}
