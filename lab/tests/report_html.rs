@@ -55,6 +55,26 @@ fn the_browser_check_fails_on_a_broken_image_and_on_a_console_error() {
     p.image(&png, "a dot").unwrap();
     let good = p.write(&d).unwrap();
     assert_eq!(browser::check(&c, &good), Ok(1), "a page with one good image passes");
+    // The verdict-first check: this page has none; one with a verdict below a section fails
+    // it too, and one that opens with it passes.
+    assert_ne!(browser::show(&c, &good).unwrap().first, "verdict", "a page without a verdict fails the check");
+    let v = qfa_lab::verdict::Verdict::new("a probe", "nothing held out", vec![]);
+    let mut late = qfa_lab::html_report::Page::new("late");
+    late.section("Something else first");
+    v.to_page(&mut late);
+    let late_dir = d.join("late");
+    std::fs::create_dir_all(&late_dir).unwrap();
+    let shown = browser::show(&c, &late.write(&late_dir).unwrap()).unwrap();
+    assert_ne!(shown.first, "verdict", "a verdict below another section is not first");
+    let mut first = qfa_lab::html_report::Page::new("first");
+    v.to_page(&mut first);
+    let first_dir = d.join("first");
+    std::fs::create_dir_all(&first_dir).unwrap();
+    let shown = browser::show(&c, &first.write(&first_dir).unwrap()).unwrap();
+    assert_eq!(
+        (shown.first.as_str(), shown.verdict),
+        ("verdict", v.lines().iter().map(|(k, t)| format!("{k}: {t}")).collect())
+    );
     // The same page with the image's data cut short: it no longer decodes.
     let html = std::fs::read_to_string(&good).unwrap();
     let b64 = qfa_lab::html_report::base64(&std::fs::read(&png).unwrap());

@@ -207,15 +207,28 @@ pub fn assert_verdict_first(page: &Path) -> Option<Vec<String>> {
     Some(s.verdict)
 }
 
-/// [`check`] when Chromium is installed (else SKIPPED, see [`chromium_or_skip`]), asserting
-/// the page holds at least `min_images` images; prints what it checked.
+/// [`show`] when Chromium is installed (else SKIPPED, see [`chromium_or_skip`]), asserting
+/// the page loads cleanly, holds at least `min_images` images, and opens with its verdict
+/// (every report does); prints what it checked.
 pub fn assert_page(page: &Path, min_images: usize) {
     assert!(page.is_file(), "{} not written", page.display());
     let Some(c) = chromium_or_skip(&format!("browser check of {}", page.display())) else { return };
-    match check(&c, page) {
-        Ok(n) => {
-            println!("chromium: {} loaded, no console message, {n} image(s) decoded", page.display());
-            assert!(n >= min_images, "{}: {n} image(s), expected at least {min_images}", page.display());
+    match show(&c, page) {
+        Ok(s) => {
+            println!("chromium: {} loaded, no console message, {} image(s) decoded", page.display(), s.images);
+            assert!(
+                s.images >= min_images,
+                "{}: {} image(s), expected at least {min_images}",
+                page.display(),
+                s.images
+            );
+            assert_eq!(s.first, "verdict", "{}: the first section a reader sees is not the verdict", page.display());
+            assert!(
+                s.verdict.first().is_some_and(|v| v.starts_with("verdict: ")),
+                "{}: {:?}",
+                page.display(),
+                s.verdict
+            );
         }
         Err(e) => panic!("browser check failed: {e}"),
     }
