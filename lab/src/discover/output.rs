@@ -517,39 +517,41 @@ fn plots(ch: &Channels, r: &Report, dir: &Path, scope: Scope<'_>) -> Result<Vec<
                 format!("start model `{}`: {held} RMS {:.2} {unit}", r.start.name(), rms_of_finite(before)),
                 format!("{named}: {held} RMS {:.2} {unit}", rms_of_finite(after)),
             ];
+            let branches = [
+                (1, "heating", RGBColor(230, 60, 60)),
+                (-1, "cooling", RGBColor(60, 60, 230)),
+                (0, "hold", RGBColor(160, 160, 160)),
+            ];
             for (p, (title, v)) in panels.iter().zip([(&titles[0], before), (&titles[1], after)]) {
-                let mut chart = ChartBuilder::on(p)
-                    .caption(format!("{name}, every bin from a fit that never saw it: {title}"), ("sans-serif", 16))
+                // The legend in a strip above the chart: inside, it sat on the hottest bins.
+                let entries: Vec<crate::plot_legend::Entry> = branches
+                    .iter()
+                    .filter(|(dir, _, _)| (0..rows.len()).any(|i| rows[i].dir == *dir && v[i].is_finite()))
+                    .map(|(_, what, c)| ((*what).to_string(), *c, crate::plot_legend::Mark::Dot))
+                    .collect();
+                let area = crate::plot_legend::heading(
+                    p,
+                    &format!("{name}, every bin from a fit that never saw it: {title}"),
+                    &entries,
+                )
+                .map_err(|e| anyhow::anyhow!("{file_name}: {e}"))?;
+                let mut chart = ChartBuilder::on(&area)
                     .margin(8)
                     .x_label_area_size(30)
                     .y_label_area_size(60)
-                    .build_cartesian_2d(xlo..xhi.max(xlo + 1e-9), -ymax..1.6 * ymax)?;
+                    .build_cartesian_2d(xlo..xhi.max(xlo + 1e-9), -ymax..1.1 * ymax)?;
                 chart
                     .configure_mesh()
                     .x_desc(if vs_time { "time, h (programs in sequence)" } else { "temperature, °C" })
                     .y_desc(label)
                     .draw()?;
-                for (dir, what, c) in
-                    [(1, "heating", RED.mix(0.6)), (-1, "cooling", BLUE.mix(0.6)), (0, "hold", BLACK.mix(0.3))]
-                {
+                for (dir, _, c) in branches {
                     let pts: Vec<(f64, f64)> = (0..rows.len())
                         .filter(|&i| rows[i].dir == dir && v[i].is_finite())
                         .map(|i| (x_of(i), v[i]))
                         .collect();
-                    if pts.is_empty() {
-                        continue;
-                    }
-                    chart
-                        .draw_series(pts.into_iter().map(|p| Circle::new(p, 1, c.filled())))?
-                        .label(what)
-                        .legend(move |(x, y)| Circle::new((x, y), 4, c.filled()));
+                    chart.draw_series(pts.into_iter().map(|p| Circle::new(p, 1, c.mix(0.7).filled())))?;
                 }
-                chart
-                    .configure_series_labels()
-                    .position(SeriesLabelPosition::UpperRight)
-                    .background_style(WHITE.mix(0.9))
-                    .border_style(BLACK)
-                    .draw()?;
             }
             root.present()?;
             written.push(file_name);
