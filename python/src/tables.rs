@@ -377,19 +377,20 @@ pub fn discover(py: Python<'_>, log: &Log, start: &str, holdout: &str, out: Opti
     })
 }
 
+/// Run discovery into `dir` and return its `report.json` as written (the verdict first),
+/// so Python's dict is the CLI's file, not a second serialization of it.
 fn run_discovery(log: &Log, start: qfa_lab::discover::Start, holdout: Holdout, dir: &Path) -> anyhow::Result<String> {
     match &log.data {
         LogData::Static(l) => {
-            let d = qfa_lab::discover::static_axes::run(l, start, holdout, dir)?;
-            Ok(serde_json::to_string_pretty(&d)?)
+            qfa_lab::discover::static_axes::run(l, start, holdout, dir)?;
         }
         LogData::Cycling(_) => {
             let Some(path) = &log.path else {
                 anyhow::bail!("discovery of a cycling log reads its file: read it with read_log(path)");
             };
             let ch = qfa_lab::data::channels::Channels::read(path, 60.0)?;
-            let r = qfa_lab::discover::discover(&ch, start, dir)?;
-            Ok(serde_json::to_string_pretty(&r)?)
+            qfa_lab::discover::discover(&ch, start, dir)?;
         }
     }
+    Ok(std::fs::read_to_string(dir.join("report.json"))?)
 }

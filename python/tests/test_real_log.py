@@ -29,7 +29,12 @@ def test_calibrate_matches_the_cli_exactly(real_log: Path, cli_calibration: Path
 
     table = q.calibrate(real_log, **REAL_LOG_READER)
     report = table.report()
+    # The CLI's report.json opens with its verdict (which names the files the CLI wrote and
+    # the limits it checked); the rest is the report, which must be the same.
+    verdict = cli.pop("verdict")
     assert report == cli, "the report differs from the CLI's"
+    expected = [(e["axis"], e["value"]) for e in verdict["expect"]]
+    assert expected == [(a["axis"], a["ours"]["rms_mg"]) for a in report["axes"]], "the verdict's figures are the report's"
     assert report["rows"] == 8399
     for axis in report["axes"]:
         ours, cubic = axis["ours"]["rms_mg"], axis["cubic"]["rms_mg"]
@@ -37,7 +42,10 @@ def test_calibrate_matches_the_cli_exactly(real_log: Path, cli_calibration: Path
         assert 0 < ours < cubic
     assert table.to_bytes() == (out / "table.bin").read_bytes()
     assert table.to_toml() == (out / "table.toml").read_text()
-    assert table.report_markdown() == (out / "report.md").read_text()
+    # report.md: the CLI's is its title, the verdict, then the same report.
+    title, rest = (out / "report.md").read_text().split("\n", 1)
+    assert rest.lstrip().startswith("## Verdict\n")
+    assert table.report_markdown() == title + "\n\n" + rest.split("\n\n", 1)[1].split("\n\n", 1)[1]
     files, notes = table.exports()
     for name, text in files.items():
         assert text == (out / name).read_text(), name
