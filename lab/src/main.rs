@@ -90,7 +90,7 @@ enum Cmd {
         /// Output directory (a static log: one subdirectory per axis).
         #[arg(long)]
         out: PathBuf,
-        /// Static logs: the held-out scheme, auto | after-max | blocks:K | none (lab/README.md).
+        /// Static logs: the held-out scheme, auto | after-max | blocks:K | none (the lab guide's "Static logs").
         #[arg(long, default_value = "auto")]
         holdout: Holdout,
         /// Print report.json on stdout (the verdict then goes to stderr).
@@ -229,7 +229,7 @@ struct CalibrateArgs {
     /// export, inside the training temperatures.
     #[arg(long, value_name = "TMIN,TMAX", allow_hyphen_values = true, value_parser = parse_range)]
     export_range: Option<(f64, f64)>,
-    /// Static logs: the held-out scheme, auto | after-max | blocks:K | none (lab/README.md).
+    /// Static logs: the held-out scheme, auto | after-max | blocks:K | none (the lab guide's "Static logs").
     #[arg(long, default_value = "auto")]
     holdout: Holdout,
     /// Pass/fail limits (TOML; the lab guide's "Limits" lists the keys and defaults): a

@@ -34,7 +34,7 @@
 //! that is reported as identified fails.
 //!
 //! Every named case must shrink its held-out gap. The table printed with `--nocapture`
-//! is the one in the README.
+//! is the one in docs/measurements.md, "Lab: discovery".
 
 mod truth;
 
@@ -363,7 +363,7 @@ fn unexplained_is_reported_in_json_and_in_words() {
 }
 
 /// The honest-answer rate over many seeds per case (seeds 1000…, not the three above):
-/// the table in the README. Run with
+/// the table in docs/measurements.md, "Lab: discovery". Run with
 /// `QFA_HONEST_SEEDS=20 cargo test --release -p qfa-lab --test discover_truth -- --ignored honest_rate --nocapture`.
 /// The bound asserted, 90 % over all cases, was set after the first measurement (132 of 140,
 /// 94 %); with the weight test off the same seeds gave 131 of 140, and with the ramp split

@@ -195,13 +195,15 @@ fn discover_real(log_s: &str, out: &std::path::Path) -> serde_json::Value {
 /// The acceptance rule for the real log, fixed before the result: on the held-out
 /// leg the workflow's model (the one `discover` flashes into `DIR/table.bin`) beats the
 /// PX4/tofupilot cubic on every axis. The named model alone does not (measured: x 1.99 mg
-/// vs 1.08, z 6.45 vs 5.94; y 1.45 vs 3.47): the 52-min training leg leaves the block test
+/// vs the cubic's 1.08, y 6.14 vs 3.47, z 6.45 vs 5.94; docs/measurements.md, "Real data",
+/// where `discover`'s report prints them): the 52-min training leg leaves the block test
 /// 8 blocks, too few to name what still predicts better, which is why the flashed model is
 /// the cross-validated one (module docs of `discover::static_axes`). The test also checks
 /// that the flashed choice was made inside the training rows only: its cross-validation
 /// RMS is reported, and a model scored on the held-out rows would make the held-out
-/// figure of every axis equal the best candidate's, which the README's figures show it is
-/// not (x: 0.55 mg flashed, 0.39 mg for the best lag+creep candidate).
+/// figure of every axis equal the best candidate's, which the figures in
+/// docs/measurements.md show it is not (x: 0.55 mg flashed, 0.39 mg for the best lag+creep
+/// candidate).
 #[test]
 fn discovery_beats_the_cubic_on_every_axis() {
     let Some(log) = common::real_log() else { return };

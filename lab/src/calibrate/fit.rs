@@ -352,7 +352,8 @@ pub fn fit(log: &Log, opts: &FitOptions, progress: Option<&indicatif::ProgressBa
     // of the same program varies run to run), floored only at the branch deadband (below
     // it a rate is not told from the estimator's flicker), so `RATE_OUT_OF_RANGE` marks
     // every rate beyond the calibrated range; the former 0.5 °C/min floor claimed up to
-    // 0.5 for the paper's staircases, which reach only ~0.4 (lab/README.md, "Coverage").
+    // 0.5 for the paper's staircases, which reach only ~0.4 (docs/lab.md, "Rate policy";
+    // figures in docs/measurements.md, "Navigation").
     let rate_limit = (max_rate * 1.25).max(f64::from(opts.deadband_c_per_min)).min(20.0) as f32;
 
     let c = &sf_simple.coef;

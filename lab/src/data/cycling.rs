@@ -1,16 +1,16 @@
 //! Cycling log: CSV reader and writer for `program,run,time_s,input_g,temp_c,pulses,interval_s`.
 //! Static multi-axis logs (a board at one orientation, CSV or TSV) are read by [`super::static_log`].
 //!
-//! One row per counting interval of one index-head position (`run`) under one temperature
-//! program. `temp_c` is the latest valid DS18B20 reading (empty until the first one),
-//! `pulses` the signed I/F count in the interval, `time_s` the end of the interval.
+//! The format (one row per counting interval of one index-head position, and what each
+//! column means) is described once, in docs/lab.md, "The cycling log".
 //!
-//! The reader checks every row and reports **every** malformed one with its 1-based line
-//! number as an editor shows it (the header is line 1; CRLF, CR-only and blank lines
-//! counted, see [`super::lines`]); nothing is dropped silently. It reads the file into
-//! memory (the line numbers are counted from the bytes) and parses through
-//! `csv::ByteRecord` into one reused record, so a row costs no allocation: about 0.6 s per
-//! million rows in release on this machine (`qfa-lab demo` prints the measured figure).
+//! The reader checks every row, counts **every** malformed one and keeps the first
+//! [`LogError::KEPT`] with their 1-based line numbers as an editor shows them (the header is
+//! line 1; CRLF, CR-only and blank lines counted, see [`super::lines`]); nothing is dropped
+//! silently. It reads the file into memory (the line numbers are counted from the bytes)
+//! and parses through `csv::ByteRecord` into one reused record, so a row costs no
+//! allocation (its speed: docs/measurements.md, "Lab: calibration"; `qfa-lab demo` prints
+//! it).
 
 use std::fmt;
 use std::io::{BufWriter, Read, Write};

@@ -46,7 +46,7 @@
 //!    backward step drops any added effect whose removal the block test does not reject
 //!    (a simpler effect picked by the one-SE rule, made redundant by a later addition). Repeat until none is
 //!    left, then re-optimise the nonlinear parameters jointly (cyclic search). Measured
-//!    false-discovery rate on clean simulator logs: see the README and
+//!    false-discovery rate on clean simulator logs: docs/measurements.md ("Lab: discovery") and
 //!    `tests/discover_fdr.rs`.
 //! 7. **Uncertainty**: each added effect's gain carries a block-bootstrap SE and 95 %
 //!    interval; nonlinear parameters a profile interval (all-data Σ(residual/RMS)² rising

@@ -24,8 +24,9 @@
 //!
 //! # Table: what is named and what is flashed
 //! The block test decides what is *named*: a claim about the physics, made only when it is
-//! significant, with the false-discovery rate the README states. The names in the report
-//! are discovery's on **every row** (those of each fold's training rows are listed too).
+//! significant, with the false-discovery rate docs/measurements.md states ("Lab:
+//! discovery"). The names in the report are discovery's on **every row** (those of each
+//! fold's training rows are listed too).
 //! What is *flashed* (`DIR/table.bin`, what `qfa-lab compensate` loads) is a prediction:
 //! static calibration's cross-validated choice (the same blocked CV, the same one fitter)
 //! among its candidates plus every structure discovery named on any axis
@@ -64,7 +65,7 @@ use crate::verdict::{json_with_verdict, Verdict};
 /// and a lag or creep of tens of seconds (what static calibration finds there) would be
 /// averaged away. (This rule was fixed before the first run on the real log; widths of
 /// 5, 20, 30 and 60 s were tried afterwards only to measure how much the answer depends on
-/// it: see the README.)
+/// it: docs/measurements.md, "Real data".)
 #[must_use]
 pub fn bin_width_s(duration_s: f64) -> f64 {
     (duration_s / 400.0).round().clamp(10.0, 60.0)

@@ -51,8 +51,9 @@ pub enum LabProgram {
     /// 2 °C/min triangles, which reach the built-in flight's case rates.
     #[default]
     Covering,
-    /// The paper's four staircases (0.3, 0.5, 0.7, 0.9 °C/min): case rates up to about
-    /// 0.45 °C/min, a third of the flight's; kept as the comparison.
+    /// The paper's four staircases (0.3, 0.5, 0.7, 0.9 °C/min): case rates up to 0.28 °C/min
+    /// against the built-in flight's 1.62 (`qfa-lab plan --lab-program paper`); kept as the
+    /// comparison.
     Paper,
 }
 
