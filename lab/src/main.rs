@@ -504,7 +504,8 @@ fn calibrate_cmd(a: CalibrateArgs) -> Result<(), CliError> {
             static_cal::write_static_table(&a.out, &cal).map_err(|e| e.to_string())?;
             let ex = write_exports(&a.out, &static_cal::export_axes(&cal), &exports).map_err(io_at(&a.out))?;
             let files = static_cal::static_files(!a.no_plots, &ex.written);
-            let notes: Vec<String> = lint_notes(&warnings).into_iter().chain(ex.notes.iter().map(ToString::to_string)).collect();
+            let notes: Vec<String> =
+                lint_notes(&warnings).into_iter().chain(ex.notes.iter().map(ToString::to_string)).collect();
             let v = qfa_lab::calibrate::verdict::static_verdict(&cal, &limits, &files, &notes);
             static_cal::write_static(&a.out, &cal, &v).map_err(|e| e.to_string())?;
             static_cal::write_static_page(&a.out, &cal, !a.no_plots, &v).map_err(|e| e.to_string())?;
