@@ -4,6 +4,17 @@
 //! Nothing is skipped silently: a missing tool is installed (as root with apt) or the run
 //! fails with the exact command that installs it. The one exception is Chromium outside CI
 //! without root: the lab's page checks then print SKIPPED, and this says so first.
+//!
+//! Every program these commands run under QEMU has its expected console output checked in
+//! beside its source, as `NAME.out` next to `NAME.rs` (defmt's `test-snapshot` practice):
+//! the pair is found, reviewed and renamed together, and the diff of a change to a program
+//! shows the change to its output in the same folder. After a run, the output is compared
+//! line by line and the first differing line fails the step; `--overwrite` (on `test`,
+//! `demo-qemu` and `bench-target`) re-records the files instead. The benchmark's figures
+//! are measurements, judged by `budgets.txt`, not behaviour: [`normalise`] masks them, the
+//! one rule by which a checked output differs from the printed one. The programs that are
+//! only linked (`panic-check`, `size-baseline`) print nothing worth a file: their result is
+//! the link and the size.
 
 use std::io::{BufRead, BufReader, Read};
 use std::path::{Path, PathBuf};
@@ -48,13 +59,18 @@ const MUTANTS: [(&str, &str); 6] = [
 const USAGE: &str = "usage: cargo xtask <command>
 
 commands:
-  test          rustup target, rustfmt, clippy (host and target, -D warnings), host tests and
+  test [--overwrite]
+                rustup target, rustfmt, clippy (host and target, -D warnings), host tests and
                 doctests (the lab's report.html opened in headless Chromium), rustdoc -D warnings, the seqlock's loom model, target build, reference
-                vectors and the demo example on QEMU mps2-an386, panic-check, the STM32F405
-                board (its own workspace: host tests and firmware build), publish dry run
-  demo-qemu     run the demo example (examples/qemu_demo.rs) on QEMU
-  bench-target  instruction counts (QEMU -icount shift=0, SysTick), flash/RAM of the core and
-                of the STM32F405 board example
+                vectors, benchmark and demo example on QEMU mps2-an386 (each output checked
+                against its .out file), panic-check, the STM32F405 board (its own workspace:
+                host tests and firmware build), publish dry run
+  demo-qemu [--overwrite]
+                run the demo example (examples/qemu_demo.rs) on QEMU, output checked against
+                examples/qemu_demo.out
+  bench-target [--overwrite]
+                instruction counts (QEMU -icount shift=0, SysTick), flash/RAM of the core and
+                of the STM32F405 board example; the figures against xtask/budgets.txt
   panic-check   link-time proof that no panic is reachable from the core's paths
   loom          the seqlock's loom model (clippy and tests under --cfg loom), then each seqlock
                 mutant, which the model must fail: prints mutants_caught=N of M
@@ -64,7 +80,10 @@ commands:
                 --mutants, each compensator mutant must make it fail: mutants_caught=K of M
   experiment NAME [ARGS]
                 a lab study that asserts nothing (lab/examples/NAME.rs: nav_deadband,
-                nav_branches [tally]), in release, printing its figures";
+                nav_branches [tally]), in release, printing its figures
+
+  --overwrite   re-record the expected output (.out) of each QEMU program the command runs,
+                instead of comparing with it";
 
 /// A failed step: what failed, and why.
 struct Failure(String);
@@ -84,9 +103,9 @@ fn fail<T>(msg: impl Into<String>) -> Result<T> {
 fn main() {
     let args: Vec<String> = env::args().skip(1).collect();
     let result = match args.first().map(String::as_str) {
-        Some("test") => test(),
-        Some("demo-qemu") => demo_qemu(),
-        Some("bench-target") => bench_target(),
+        Some(command @ "test") => overwrite_flag(command, &args[1..]).and_then(test),
+        Some(command @ "demo-qemu") => overwrite_flag(command, &args[1..]).and_then(demo_qemu),
+        Some(command @ "bench-target") => overwrite_flag(command, &args[1..]).and_then(bench_target),
         Some("panic-check") => panic_check(),
         Some("loom") => loom(),
         Some("oracle") => oracle(&args[1..]),
@@ -369,7 +388,137 @@ fn run_qemu(kernel: &Path, icount: bool) -> Result<(ExitStatus, String)> {
     Ok((status, out))
 }
 
-fn test() -> Result {
+/// `--overwrite` or nothing: the one option of the commands that run QEMU programs.
+fn overwrite_flag(command: &str, args: &[String]) -> Result<bool> {
+    match args {
+        [] => Ok(false),
+        [a] if a == "--overwrite" => Ok(true),
+        _ => fail(format!("{command}: unexpected arguments {args:?} (its one option is --overwrite)")),
+    }
+}
+
+/// What a program's output holds besides its behaviour.
+#[derive(Clone, Copy)]
+enum Figures {
+    /// Nothing: every line is compared as printed.
+    None,
+    /// Measurements in `name=value` lines, masked by [`normalise`].
+    Measured,
+}
+
+/// A QEMU program and the file its console output is checked against.
+struct Snapshot {
+    /// The ELF's name: the binary or example.
+    program: &'static str,
+    /// The expected output, relative to the repository root: beside the program's source.
+    expected: &'static str,
+    figures: Figures,
+    /// The single-program command that re-records it with `--overwrite` (`test` re-records all).
+    command: &'static str,
+}
+
+const VECTORS_SNAPSHOT: Snapshot = Snapshot {
+    program: "qemu-vectors",
+    expected: "firmware/src/bin/qemu-vectors.out",
+    figures: Figures::None,
+    command: "test",
+};
+const BENCH_SNAPSHOT: Snapshot = Snapshot {
+    program: "bench",
+    expected: "firmware/src/bin/bench.out",
+    figures: Figures::Measured,
+    command: "bench-target",
+};
+const DEMO_SNAPSHOT: Snapshot = Snapshot {
+    program: DEMO_EXAMPLE,
+    expected: "examples/qemu_demo.out",
+    figures: Figures::None,
+    command: "demo-qemu",
+};
+
+/// What a measured figure reads as in an expected file.
+const MEASURED: &str = "<measured>";
+
+/// The one rule by which a checked output differs from the printed one. With
+/// [`Figures::Measured`], the value of each `name=value` line that is a decimal number
+/// becomes [`MEASURED`]: instruction counts, sizes and errors are deterministic under
+/// `-icount`, but move with any change to the library or the compiler, and
+/// `xtask/budgets.txt` and docs/measurements.md are where they are judged and recorded;
+/// pinned here too, every such change would be re-recorded by reflex. What stays checked:
+/// which figures are printed, in which order, and the non-decimal values (the status words
+/// in hexadecimal). Lines end in `\n`.
+fn normalise(output: &str, figures: Figures) -> String {
+    let mut text = String::new();
+    for line in output.lines() {
+        match (figures, line.split_once('=')) {
+            (Figures::Measured, Some((name, value))) if value.trim().parse::<f64>().is_ok() => {
+                text.push_str(&format!("{name}={MEASURED}"));
+            }
+            _ => text.push_str(line),
+        }
+        text.push('\n');
+    }
+    text
+}
+
+/// The first line where `printed` differs from `expected`, as a diff-style message (one
+/// line of context, `-` expected, `+` printed); `None` when they are equal line by line.
+fn first_difference(expected: &str, printed: &str) -> Option<String> {
+    let (want, got): (Vec<&str>, Vec<&str>) = (expected.lines().collect(), printed.lines().collect());
+    let differs = |i: &usize| want.get(*i) != got.get(*i);
+    let total = want.len().max(got.len());
+    let first = (0..total).find(differs)?;
+    let shown = |lines: &[&str]| {
+        lines.get(first).map_or_else(|| "(none: the text ends before this line)".to_string(), |l| (*l).to_string())
+    };
+    let mut message = format!(
+        "first difference at line {} ({} of {total} lines differ; - expected, + printed):\n",
+        first + 1,
+        (0..total).filter(differs).count()
+    );
+    if let Some(before) = first.checked_sub(1).and_then(|i| want.get(i)) {
+        message.push_str(&format!("  {before}\n"));
+    }
+    message.push_str(&format!("- {}\n+ {}", shown(&want), shown(&got)));
+    Some(message)
+}
+
+/// Compare a run's output with the program's expected file, or re-record the file.
+fn check_snapshot(snapshot: &Snapshot, output: &str, overwrite: bool) -> Result {
+    let path = root().join(snapshot.expected);
+    let checked = normalise(output, snapshot.figures);
+    if overwrite {
+        std::fs::write(&path, &checked).map_err(|e| Failure(format!("{}: {e}", snapshot.expected)))?;
+        println!("{}: recorded {} ({} lines)", snapshot.program, snapshot.expected, checked.lines().count());
+        return Ok(());
+    }
+    let rerecord = format!("cargo xtask {} --overwrite", snapshot.command);
+    let expected = std::fs::read_to_string(&path)
+        .map_err(|e| Failure(format!("{}: {e} (record it with `{rerecord}`)", snapshot.expected)))?;
+    match first_difference(&expected, &checked) {
+        None => {
+            println!("{}: output matches {} ({} lines)", snapshot.program, snapshot.expected, checked.lines().count());
+            Ok(())
+        }
+        Some(diff) => fail(format!(
+            "{}: output differs from {}; {diff}\nIf the change is intended, re-record with `{rerecord}` and \
+             review the diff.",
+            snapshot.program, snapshot.expected
+        )),
+    }
+}
+
+/// Run `kernel` under QEMU; it must exit 0 and print its expected output. Returns the output.
+fn run_snapshot(snapshot: &Snapshot, kernel: &Path, icount: bool, overwrite: bool) -> Result<String> {
+    let (status, out) = run_qemu(kernel, icount)?;
+    if !status.success() {
+        return fail(format!("{} exited with {status} (its output is above)", snapshot.program));
+    }
+    check_snapshot(snapshot, &out, overwrite)?;
+    Ok(out)
+}
+
+fn test(overwrite: bool) -> Result {
     ensure_target()?;
 
     step("rustfmt --check (rustfmt.toml: 120 columns), workspace and board");
@@ -413,19 +562,13 @@ fn test() -> Result {
     build_firmware(&RUN_BINS)?;
 
     step("reference vectors on QEMU mps2-an386 (Cortex-M4F)");
-    let (status, out) = run_qemu(&elf("qemu-vectors")?, false)?;
-    let bit_exact =
-        out.lines().find_map(|l| l.strip_suffix(" vectors bit-exact on thumbv7em")?.trim().parse::<usize>().ok());
-    if !status.success() {
-        return fail(format!("qemu-vectors exited with {status}: the replay failed on the target"));
-    }
-    let Some(n) = bit_exact else {
-        return fail("qemu-vectors printed no `N vectors bit-exact on thumbv7em` line");
-    };
-    println!("qemu-vectors: {n} vectors bit-exact on thumbv7em, exit 0");
+    run_snapshot(&VECTORS_SNAPSHOT, &elf(VECTORS_SNAPSHOT.program)?, false, overwrite)?;
+
+    step("benchmark on QEMU -icount shift=0 (figures masked: bench-target checks their budgets)");
+    run_snapshot(&BENCH_SNAPSHOT, &elf(BENCH_SNAPSHOT.program)?, true, overwrite)?;
 
     step(&format!("demo example ({DEMO_EXAMPLE}) on QEMU mps2-an386, the root memory.x"));
-    run_demo_example()?;
+    run_demo_example(overwrite)?;
 
     panic_check()?;
 
@@ -442,27 +585,20 @@ fn test() -> Result {
     Ok(())
 }
 
-fn demo_qemu() -> Result {
+fn demo_qemu(overwrite: bool) -> Result {
     ensure_target()?;
     step(&format!("demo example ({DEMO_EXAMPLE})"));
-    run_demo_example()
+    run_demo_example(overwrite)
 }
 
 /// Build the root crate's demo example for the target and run it under QEMU: it must exit 0
-/// and print its closing line.
-fn run_demo_example() -> Result {
+/// and print its expected output.
+fn run_demo_example(overwrite: bool) -> Result {
     let mut c = cargo();
     c.args(["build", "-p", "qfa-thermal", "--release", "--target", TARGET, "--example", DEMO_EXAMPLE]);
     run(c)?;
     let kernel = target_dir()?.join(TARGET).join("release").join("examples").join(DEMO_EXAMPLE);
-    let (status, out) = run_qemu(&kernel, false)?;
-    if !status.success() {
-        return fail(format!("{DEMO_EXAMPLE} exited with {status}"));
-    }
-    if !out.lines().any(|l| l.starts_with("demo done: final status")) {
-        return fail(format!("{DEMO_EXAMPLE} printed no `demo done` line"));
-    }
-    Ok(())
+    run_snapshot(&DEMO_SNAPSHOT, &kernel, false, overwrite).map(drop)
 }
 
 fn build_board() -> Result {
@@ -520,30 +656,15 @@ fn over_budget(budgets: &[(String, u64)], printed: &str) -> Result<Vec<String>> 
     Ok(over)
 }
 
-fn bench_target() -> Result {
+fn bench_target(overwrite: bool) -> Result {
     ensure_target()?;
     let budgets =
         parse_budgets(&std::fs::read_to_string(root().join(BUDGETS)).map_err(|e| Failure(format!("{BUDGETS}: {e}")))?)?;
     let mut printed = String::new();
     step("bench firmware, QEMU -icount shift=0");
     build_firmware(&["bench", "size-baseline"])?;
-    let (status, out) = run_qemu(&elf("bench")?, true)?;
-    if !status.success() {
-        return fail(format!("bench exited with {status}"));
-    }
-    printed.push_str(&out);
-    for name in [
-        "fast_path_insns_3axis",
-        "fast_path_insns_3axis_misalign",
-        "fast_path_samples_insns_3axis",
-        "slow_path_insns_3axis_all_off",
-        "slow_path_insns_3axis_all_on",
-        "core_ram_bytes",
-    ] {
-        if !out.lines().any(|l| l.starts_with(&format!("{name}="))) {
-            return fail(format!("bench printed no {name}= line"));
-        }
-    }
+    // The expected file pins which figures are printed; their values are judged below.
+    printed.push_str(&run_snapshot(&BENCH_SNAPSHOT, &elf(BENCH_SNAPSHOT.program)?, true, overwrite)?);
 
     step("flash of the core: panic-check (core paths + runtime) minus size-baseline (runtime)");
     build_panic_check()?;
@@ -831,5 +952,48 @@ mod tests {
             }
         }
         assert!(over_budget(&b, "fast_path_insns_3axis=1\n").is_err());
+    }
+
+    const DEMO_LINES: &str = "demo: 3 axes\n  30 s +0.000012 ok\n  60 s +0.000015 ok\ndemo done\n";
+
+    /// Identical output passes; one changed line fails, and the message names that line and
+    /// shows both versions; a missing or an extra line fails too.
+    #[test]
+    fn a_changed_line_fails_the_comparison() {
+        assert_eq!(first_difference(DEMO_LINES, DEMO_LINES), None);
+        assert_eq!(first_difference(DEMO_LINES, &DEMO_LINES.replace('\n', "\r\n")), None);
+
+        let changed = DEMO_LINES.replace("+0.000015", "+0.000016");
+        let Some(message) = first_difference(DEMO_LINES, &changed) else { panic!("a changed line passed") };
+        println!("{message}");
+        assert!(message.starts_with("first difference at line 3 (1 of 4 lines differ"), "{message}");
+        assert!(message.contains("\n    30 s +0.000012 ok\n"), "context line: {message}");
+        assert!(message.ends_with("\n-   60 s +0.000015 ok\n+   60 s +0.000016 ok"), "{message}");
+
+        let shorter = DEMO_LINES.replace("demo done\n", "");
+        let Some(message) = first_difference(DEMO_LINES, &shorter) else { panic!("a missing line passed") };
+        assert!(
+            message.starts_with("first difference at line 4 ")
+                && message.ends_with("+ (none: the text ends before this line)")
+        );
+        let longer = format!("{DEMO_LINES}panic: oops\n");
+        assert!(first_difference(DEMO_LINES, &longer).is_some_and(|m| m.starts_with("first difference at line 5 ")));
+    }
+
+    /// The benchmark's decimal figures are masked and nothing else: a moved figure still
+    /// matches, a renamed figure or a changed status word does not.
+    #[test]
+    fn only_measured_figures_are_masked() {
+        let printed = "fast_path_insns_3axis=32.0\nexpf_libm_max_rel_err=6.21e-8\nslow_path_status_all_on=0x0100\n";
+        let expected =
+            "fast_path_insns_3axis=<measured>\nexpf_libm_max_rel_err=<measured>\nslow_path_status_all_on=0x0100\n";
+        assert_eq!(normalise(printed, Figures::Measured), expected);
+        assert_eq!(normalise(printed, Figures::None), printed);
+
+        let moved = printed.replace("32.0", "33.0");
+        assert_eq!(first_difference(expected, &normalise(&moved, Figures::Measured)), None);
+        for broken in [printed.replace("fast_path_insns", "fast_insns"), printed.replace("0x0100", "0x0000")] {
+            assert!(first_difference(expected, &normalise(&broken, Figures::Measured)).is_some(), "{broken}");
+        }
     }
 }
