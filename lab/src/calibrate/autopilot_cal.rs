@@ -283,7 +283,7 @@ pub fn calibrate_autopilot(
         written.push(name.to_string());
     }
     let mut all_files: Vec<FileUse> = written.iter().map(|f| FileUse::of(f)).collect();
-    all_files.extend(["report.json", "report.md"].map(FileUse::of));
+    all_files.extend(["report.json", "report.md", "report.html"].map(FileUse::of));
     all_files.extend(outcomes.iter().filter_map(|o| o.dir.as_ref()).map(|d| FileUse {
         file: format!("{d}/"),
         action: "that instance's table (table.bin: flash this), reports and plot".to_string(),
