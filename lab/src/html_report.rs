@@ -16,6 +16,8 @@ h1{font-size:1.5em}h2{font-size:1.2em;border-bottom:1px solid #ccc;margin-top:1.
 table{border-collapse:collapse;margin:.5em 0}td,th{border:1px solid #bbb;padding:2px 8px;text-align:left;\
 vertical-align:top}th{background:#eee}pre{background:#f6f6f6;padding:.5em;overflow-x:auto;white-space:pre-wrap}\
 .warn{background:#fff3cd;border:1px solid #e0b000;padding:.4em .8em;margin:.4em 0}\
+.fail{background:#f8d7da;border:1px solid #c0392b;padding:.4em .8em;margin:.4em 0}\
+.pass{background:#d4edda;border:1px solid #2e7d32;padding:.4em .8em;margin:.4em 0}\
 figure{margin:1em 0}img{max-width:100%;border:1px solid #ddd}figcaption{font-size:.9em;color:#555}\
 code{background:#f0f0f0}";
 

@@ -23,7 +23,7 @@ use qfa_lab::out_path::OutError;
 use qfa_lab::simulate::profile::{paper_positions, Program, PAPER_RATES};
 use qfa_lab::simulate::simulate;
 use qfa_lab::simulate::truth::Truth;
-use qfa_lab::verdict::{json_with_verdict, LimitsChoice, Verdict, EXIT_LIMIT_FAILED};
+use qfa_lab::verdict::{json_with_verdict, LimitsChoice, Verdict, CYCLING_KEYS, EXIT_LIMIT_FAILED, STATIC_KEYS};
 
 #[derive(Parser)]
 #[command(name = "qfa-lab", version, about = "Thermal-test simulator, calibration and compensation for QFA tables")]
@@ -499,7 +499,15 @@ fn calibrate_cmd(a: CalibrateArgs) -> Result<(), CliError> {
             eprintln!("{w}");
         }
     }
-    match lint.log? {
+    let opened = lint.log?;
+    // A limits file must set at least one key this kind of log is checked against.
+    let applies = match &opened {
+        OpenedLog::Static(_) | OpenedLog::Autopilot(_) => limits.check_applies("static", &STATIC_KEYS),
+        OpenedLog::Cycling(_) => limits.check_applies("cycling", &CYCLING_KEYS),
+        OpenedLog::Single(_) => Ok(()),
+    };
+    applies.map_err(|e| CliError::Usage(e.to_string()))?;
+    match opened {
         OpenedLog::Static(l) => {
             eprintln!("{} rows read; {}; {}", l.rows(), l.skipped, l.sampling);
             let opts = static_cal::StaticCalOptions { holdout: a.holdout, ..Default::default() };

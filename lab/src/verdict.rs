@@ -337,8 +337,13 @@ impl Verdict {
         let mut h =
             format!("<section id=\"{SECTION_ID}\" class=\"verdict {}\">\n<h2>Verdict</h2>\n<ul>\n", self.outcome);
         for (k, t) in self.lines() {
-            let alarm = k == "warning" || (k == "limit" && t.ends_with("(FAIL)")) || t.starts_with("FAIL");
-            let class = if alarm { " class=\"warn\"" } else { "" };
+            let class = match k {
+                "verdict" if self.outcome == Outcome::Fail => " class=\"fail\"",
+                "verdict" if self.outcome == Outcome::Pass => " class=\"pass\"",
+                "limit" if t.ends_with("(FAIL)") => " class=\"fail\"",
+                "warning" => " class=\"warn\"",
+                _ => "",
+            };
             h.push_str(&format!("<li{class}><b>{}:</b> {}</li>\n", escape(k), escape(&t)));
         }
         h.push_str("</ul>\n</section>\n");
@@ -450,6 +455,17 @@ pub enum LimitsError {
         /// What the value probably meant.
         hint: &'static str,
     },
+    /// The file sets none of the keys this kind of log is checked against.
+    NoneApply {
+        /// The file.
+        file: String,
+        /// The kind of log (`static`, `cycling`).
+        kind: &'static str,
+        /// The keys it sets.
+        set: Vec<String>,
+        /// The keys this kind of log is checked against.
+        checked: Vec<&'static str>,
+    },
 }
 
 impl fmt::Display for LimitsError {
@@ -457,8 +473,17 @@ impl fmt::Display for LimitsError {
         match self {
             Self::Read(m) | Self::Parse(m) => f.write_str(m),
             Self::OutOfRange { key, value, lo, hi, unit, hint } => {
-                write!(f, "limits: {key} = {value} {unit} is outside {lo}..={hi} {unit}: {hint}")
+                // The unit hint explains a value too large; one at or below zero is no unit mistake.
+                let why = if *value > 0.0 { *hint } else { "a limit is a positive number" };
+                write!(f, "limits: {key} = {value} {unit} is outside {lo}..={hi} {unit}: {why}")
             }
+            Self::NoneApply { file, kind, set, checked } => write!(
+                f,
+                "limits: {file} sets {}, none of the keys a {kind} log is checked against ({}): its verdict would be \
+                 the defaults' under your file's name; add the keys for this kind of log",
+                if set.is_empty() { "no key".to_string() } else { set.join(", ") },
+                checked.join(", ")
+            ),
         }
     }
 }
@@ -578,6 +603,11 @@ impl Limits {
     }
 }
 
+/// The keys a static (MEMS) log is checked against.
+pub const STATIC_KEYS: [&str; 2] = ["held_out_bias_mg", "min_span_c"];
+/// The keys a cycling (QFA) log is checked against.
+pub const CYCLING_KEYS: [&str; 3] = ["held_out_sensitivity_ppm_per_c", "held_out_bias_ug", "min_span_c"];
+
 /// Where a run's limits came from, and whether a failure changes the exit status.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct LimitsChoice {
@@ -586,6 +616,8 @@ pub struct LimitsChoice {
     /// The file they came from (`None`: the defaults, which are reported but never change
     /// the exit status).
     pub file: Option<std::path::PathBuf>,
+    /// The keys the file sets (every other key keeps its default).
+    pub keys_set: Vec<String>,
 }
 
 impl LimitsChoice {
@@ -594,9 +626,28 @@ impl LimitsChoice {
     /// # Errors
     /// See [`Limits::from_file`].
     pub fn from_arg(file: Option<&Path>) -> Result<Self, LimitsError> {
-        match file {
-            None => Ok(Self::default()),
-            Some(p) => Ok(Self { limits: Limits::from_file(p)?, file: Some(p.to_path_buf()) }),
+        let Some(p) = file else { return Ok(Self::default()) };
+        let limits = Limits::from_file(p)?;
+        // Read again as a table only for its keys: `Limits` fills the missing ones.
+        let text = std::fs::read_to_string(p).map_err(|e| LimitsError::Read(format!("{}: {e}", p.display())))?;
+        let table: toml::Table = toml::from_str(&text).map_err(|e| LimitsError::Parse(e.to_string()))?;
+        Ok(Self { limits, file: Some(p.to_path_buf()), keys_set: table.keys().cloned().collect() })
+    }
+
+    /// A file that sets none of the keys a log of this kind is checked against would leave
+    /// only defaults in force under the file's name: refused.
+    ///
+    /// # Errors
+    /// [`LimitsError::NoneApply`].
+    pub fn check_applies(&self, kind: &'static str, keys: &[&'static str]) -> Result<(), LimitsError> {
+        match &self.file {
+            Some(p) if !keys.iter().any(|k| self.keys_set.iter().any(|s| s == k)) => Err(LimitsError::NoneApply {
+                file: p.display().to_string(),
+                kind,
+                set: self.keys_set.clone(),
+                checked: keys.to_vec(),
+            }),
+            _ => Ok(()),
         }
     }
 
@@ -606,6 +657,23 @@ impl LimitsChoice {
         match &self.file {
             None => "default limits (the lab guide's \"Limits\"; --limits FILE sets yours)".to_string(),
             Some(p) => format!("limits in {}", p.display()),
+        }
+    }
+
+    /// How the verdict names the limits behind `checks`: the file's keys, and which of the
+    /// checked keys kept their defaults.
+    #[must_use]
+    pub fn source_for(&self, checks: &[Check]) -> String {
+        if self.file.is_none() {
+            return self.source();
+        }
+        let mut defaults: Vec<&str> =
+            checks.iter().map(|c| c.limit).filter(|k| !self.keys_set.iter().any(|s| s == k)).collect();
+        defaults.dedup();
+        if defaults.is_empty() {
+            self.source()
+        } else {
+            format!("{} (defaults for {})", self.source(), defaults.join(", "))
         }
     }
 
@@ -684,10 +752,32 @@ mod tests {
     }
 
     #[test]
+    fn a_limits_file_for_the_other_kind_of_log_is_refused_and_partial_files_name_their_defaults() {
+        let dir = std::env::temp_dir().join(format!("qfa-limits-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let cyc = dir.join("cyc.toml");
+        std::fs::write(&cyc, "held_out_bias_ug = 20\n").unwrap();
+        let c = LimitsChoice::from_arg(Some(&cyc)).unwrap();
+        assert!(matches!(c.check_applies("static", &STATIC_KEYS), Err(LimitsError::NoneApply { .. })));
+        assert!(c.check_applies("cycling", &CYCLING_KEYS).is_ok());
+        let checks = c.limits.cycling_checks("ax", 0.3, 9.0, 100.0);
+        let from = c.source_for(&checks);
+        assert!(from.ends_with("(defaults for held_out_sensitivity_ppm_per_c, min_span_c)"), "{from}");
+        let empty = dir.join("empty.toml");
+        std::fs::write(&empty, "").unwrap();
+        let e = LimitsChoice::from_arg(Some(&empty)).unwrap().check_applies("static", &STATIC_KEYS).unwrap_err();
+        assert!(e.to_string().contains("sets no key"), "{e}");
+        assert!(LimitsChoice::default().check_applies("static", &STATIC_KEYS).is_ok(), "defaults need no file");
+        let neg = Limits::from_toml("held_out_bias_mg = -1").unwrap_err().to_string();
+        assert!(neg.ends_with("a limit is a positive number") && !neg.contains("µg"), "{neg}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
     fn defaults_never_change_the_exit_status_a_limits_file_does() {
         let v = verdict(&[9.0]);
         assert!(!LimitsChoice::default().enforced_failure(&v));
-        let c = LimitsChoice { limits: Limits::default(), file: Some("l.toml".into()) };
+        let c = LimitsChoice { limits: Limits::default(), file: Some("l.toml".into()), keys_set: vec![] };
         assert!(c.enforced_failure(&v));
         assert!(!c.enforced_failure(&verdict(&[1.0])));
     }

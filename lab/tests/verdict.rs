@@ -151,6 +151,15 @@ fn a_unit_failing_a_limit_exits_with_status_3_and_names_the_limit_everywhere() {
     assert_eq!(code, 1, "{stdout}{stderr}");
     assert!(stderr.contains("held_out_bias_mg = 800 mg is outside"), "{stderr}");
     assert!(!out.join("table.bin").exists(), "nothing written for a refused limits file");
+
+    // A file of cycling-log keys on a static log would check only defaults under its name.
+    let cycling = d.join("cycling.toml");
+    std::fs::write(&cycling, "held_out_bias_ug = 0.5\n").unwrap();
+    let out = d.join("other-kind");
+    let (code, stdout, stderr) = run(&as_str(&args(&out, &cycling)));
+    assert_eq!(code, 1, "{stdout}{stderr}");
+    assert!(stderr.contains("none of the keys a static log is checked against"), "{stderr}");
+    assert!(!out.join("table.bin").exists(), "nothing written for a limits file that does not apply");
     let _ = std::fs::remove_dir_all(&d);
 }
 

@@ -64,7 +64,7 @@ pub fn static_verdict(cal: &StaticCalibration, limits: &LimitsChoice, files: &[S
     };
     let h = &r.holdout;
     let mut v = Verdict::new(answer, format!("scheme `{}` (asked `{}`), {}", h.scheme, h.requested, h.rule), checks);
-    v.limits_from = limits.source();
+    v.limits_from = limits.source_for(&v.checks);
     v.expect = held
         .iter()
         .filter(|(_, x)| x.is_finite())
@@ -129,7 +129,7 @@ pub fn cycling_verdict(r: &Report, axis: &str, limits: &LimitsChoice, files: &[S
         // In-sample figures are not held out: the verdict cannot pass on them.
         v.outcome = crate::verdict::Outcome::Fail;
     }
-    v.limits_from = limits.source();
+    v.limits_from = limits.source_for(&v.checks);
     v.expect = vec![
         Expected {
             axis: axis.into(),
