@@ -147,37 +147,12 @@ fn a_cycling_discovery_tells_one_story_on_every_rendering() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
-/// A static three-axis log, 2-s rows for 100 min: 25 → 60 → −10 → 40 °C, each axis's bias a
-/// different curve in T (ax with a heating/cooling split), with deterministic noise.
-fn static_log(path: &Path) {
-    let mut s = String::from("time\ttemp\tax\tay\taz\n");
-    let mut x: u64 = 11;
-    let mut noise = || {
-        x = x.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
-        ((x >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 2e-4
-    };
-    let legs = [(25.0, 60.0, 750), (60.0, -10.0, 1500), (-10.0, 40.0, 750)];
-    let mut t = 0;
-    for (a, b, n) in legs {
-        for i in 0..n {
-            let temp: f64 = a + (b - a) * f64::from(i) / f64::from(n);
-            let dir: f64 = if b > a { 1.0 } else { -1.0 };
-            let dt = temp - 25.0;
-            let ax = 1e-4 * dt + 2e-7 * dt * dt + 1e-4 * dir + noise();
-            let ay = -5e-5 * dt + noise();
-            let az = -1.0 + 2e-8 * dt * dt * dt + noise();
-            s.push_str(&format!("{t}\t{:.4}\t{ax:.7}\t{ay:.7}\t{az:.7}\n", (temp * 16.0).round() / 16.0));
-            t += 2;
-        }
-    }
-    std::fs::write(path, s).unwrap();
-}
-
 #[test]
 fn a_static_discovery_tells_one_story_on_every_rendering() {
     let d = tmp("static");
     let log = d.join("static.tsv");
-    static_log(&log);
+    // 2-s rows: the same two hours at half the rows, so the debug-build test stays short.
+    common::write_static_log_every(&log, 2);
     let out = d.join("disc");
     let flags = ["--columns", "time=time,temp=temp,ax=ax,ay=ay,az=az", "--time-unit", "s", "--accel-unit", "g"];
     let mut args = vec!["--log", log.to_str().unwrap()];

@@ -159,16 +159,22 @@ pub fn real_log() -> Option<PathBuf> {
 pub const STATIC_FLAGS: [&str; 6] =
     ["--columns", "time=time,temp=temp,ax=ax,ay=ay,az=az", "--time-unit", "s", "--accel-unit", "g"];
 
-/// A static three-axis log (columns `time temp ax ay az`, [`STATIC_FLAGS`]), 1-s rows for 2 h: 25 → 60 → −10 → 40 °C, each axis's bias a
-/// different curve in T with a small branch split, and deterministic noise.
+/// A static three-axis log (columns `time temp ax ay az`, [`STATIC_FLAGS`]), 1-s rows for 2 h:
+/// 25 → 60 → −10 → 40 °C, each axis's bias a different curve in T with a small branch split,
+/// and deterministic noise.
 pub fn write_static_log(path: &std::path::Path) {
+    write_static_log_every(path, 1);
+}
+
+/// [`write_static_log`] with a row every `step_s` seconds (the same 2 h, fewer rows).
+pub fn write_static_log_every(path: &std::path::Path, step_s: u32) {
     let mut s = String::from("time\ttemp\tax\tay\taz\n");
     let mut x: u64 = 7;
     let mut noise = || {
         x = x.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
         ((x >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 2e-4
     };
-    let legs = [(25.0, 60.0, 1800), (60.0, -10.0, 3600), (-10.0, 40.0, 1800)];
+    let legs = [(25.0, 60.0, 1800 / step_s), (60.0, -10.0, 3600 / step_s), (-10.0, 40.0, 1800 / step_s)];
     let mut t = 0;
     for (a, b, n) in legs {
         for i in 0..n {
@@ -179,7 +185,7 @@ pub fn write_static_log(path: &std::path::Path) {
             let ay = -5e-5 * dt + 3e-5 * dir + noise();
             let az = -1.0 + 2e-7 * dt * dt * dt / 10.0 + noise();
             s.push_str(&format!("{t}\t{:.4}\t{ax:.7}\t{ay:.7}\t{az:.7}\n", (temp * 16.0).round() / 16.0));
-            t += 1;
+            t += step_s;
         }
     }
     std::fs::write(path, s).unwrap();
