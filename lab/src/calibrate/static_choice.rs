@@ -55,7 +55,7 @@ pub(super) fn cv_rms(
             train[i] = false;
         }
         let fit = fit_static_traced(series, traces, &train, opts.grid_points, opts.block)?;
-        let tr = series.model_trace(&fit.axis);
+        let tr = series.model_trace_until(&fit.axis, chunk.last().map_or(0, |&i| i + 1));
         for &i in chunk {
             if tr.valid[i] {
                 let r = series.accel_g[i] - fit.reference_g - tr.ext_k0_g[i];

@@ -196,7 +196,16 @@ impl StaticSeries<'_> {
     /// The model's K0 (g) per row through the root crate's `AxisModel::evaluate`.
     #[must_use]
     pub fn model_trace(&self, axis: &AxisModel) -> Trace {
-        crate::data::pairing::trace_axis(self.rows(), self.time_s.len(), axis)
+        self.model_trace_until(axis, self.time_s.len())
+    }
+
+    /// [`Self::model_trace`] of the first `end` rows only: the model's states depend on
+    /// earlier rows alone, so these rows' values are the whole series' (a
+    /// cross-validation block needs no row after it).
+    #[must_use]
+    pub fn model_trace_until(&self, axis: &AxisModel, end: usize) -> Trace {
+        let end = end.min(self.time_s.len());
+        crate::data::pairing::trace_axis(self.rows().take(end), end, axis)
     }
 }
 
@@ -391,9 +400,20 @@ pub fn fit_static_traced(
     }
     let ls = lstsq(&xb, p, &yb)?;
     let coef = &ls.coef;
-    let (hc, cc) = structure.branches.expand(coef, c);
     let nodes = |u: &[f64]| -> Vec<f64> { basis.iter().map(|bj| bj.iter().zip(u).map(|(a, b)| a * b).sum()).collect() };
-    let (heating, cooling) = (nodes(&hc), nodes(&cc));
+    // The branch step `d` is a constant on the curve's values, so it is added to the nodes,
+    // never to the curve's unknowns: on a cubic those are coefficients, and `d` on each of
+    // them would be `d·(1 + u + u² + u³)`, a step that vanishes at the bottom node.
+    let (heating, cooling) = match structure.branches {
+        BranchMode::Offset => {
+            let mid = nodes(&coef[..c]);
+            (mid.iter().map(|v| v + coef[c]).collect(), mid.iter().map(|v| v - coef[c]).collect())
+        }
+        BranchMode::Single | BranchMode::Free => {
+            let (hc, cc) = structure.branches.expand(coef, c);
+            (nodes(&hc), nodes(&cc))
+        }
+    };
     let mut k = nb;
     let creep_gain = if structure.creep_tau_s.is_some() {
         k += 1;
@@ -416,4 +436,43 @@ pub fn fit_static_traced(
     };
     table_of(axis.clone())?;
     Ok(StaticFit { axis, structure: *structure, ls, reference_g })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A cubic with a constant heating/cooling step is fitted back with that step at every
+    /// node (a step added to the cubic's coefficients instead vanished at the bottom node and
+    /// was 4× too large at the top).
+    #[test]
+    fn cubic_with_a_branch_step_keeps_the_step_at_every_node() {
+        // 0 → 60 → 0 °C at 1 °C/min, 1-s rows, 1/16-°C readings; the step is ±0.1 mg.
+        let n = 7200;
+        let time_s: Vec<f64> = (0..n).map(f64::from).collect();
+        let temp_c: Vec<f64> = time_s
+            .iter()
+            .map(|t| {
+                let c = if *t < 3600.0 { t / 60.0 } else { (7200.0 - t) / 60.0 };
+                (c * 16.0).round() / 16.0
+            })
+            .collect();
+        let curve = |t: f64| 1e-4 * (t - 30.0) + 2e-7 * (t - 30.0).powi(3) / 10.0;
+        let accel_g: Vec<f64> =
+            time_s.iter().zip(&temp_c).map(|(s, t)| curve(*t) + if *s < 3600.0 { 1e-4 } else { -1e-4 }).collect();
+        let series = StaticSeries { time_s: &time_s, temp_c: &temp_c, accel_g: &accel_g };
+        let structure = StaticStructure {
+            shape: CurveShape::Cubic,
+            branches: BranchMode::Offset,
+            lag_tau_s: None,
+            creep_tau_s: None,
+            play_half_width_c: None,
+        };
+        let fit = fit_static_axis(&series, &vec![true; n as usize], &structure, 16, 0.05, 10).unwrap();
+        let b = &fit.axis.bias;
+        for (h, c) in b.heating_g.iter().zip(&b.cooling_g) {
+            let split = f64::from(h - c);
+            assert!((split - 2e-4).abs() < 1e-5, "split {split} at a node, want 2e-4");
+        }
+    }
 }
