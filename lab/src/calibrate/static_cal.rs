@@ -231,6 +231,8 @@ pub fn calibrate_static_with(
     // the temperatures only, so each structure's are computed once for every axis and set.
     let mut best: Vec<Vec<Option<(f64, StaticStructure)>>> = vec![vec![None; sets.len()]; na];
     let mut refused: Vec<Vec<String>> = vec![Vec::new(); na];
+    // Each fold's first refusal per axis, so a fold where nothing could be fitted says why.
+    let mut fold_refused: Vec<Vec<Option<String>>> = vec![vec![None; sets.len()]; na];
     for st in &union {
         let traces = StaticTraces::new(&series_of(0), st, opts.deadband_c_per_min);
         for a in 0..na {
@@ -242,7 +244,9 @@ pub fn calibrate_static_with(
                     Ok(r) if best[a][s].is_none_or(|(b, _)| r < b) => best[a][s] = Some((r, *st)),
                     Ok(_) => {}
                     Err(e) if s == 0 => refused[a].push(format!("{}: {e}", st.name())),
-                    Err(_) => {}
+                    Err(e) => {
+                        fold_refused[a][s].get_or_insert_with(|| format!("{}: {e}", st.name()));
+                    }
                 }
             }
             pb.inc(1);
@@ -267,7 +271,8 @@ pub fn calibrate_static_with(
                     "{}: no candidate model could be fitted in cross-validation{} (first refusal: {})",
                     ax.name,
                     if s == 0 { String::new() } else { format!(" inside the training rows of fold {s}") },
-                    refused[a].first().map_or("none", String::as_str)
+                    if s == 0 { refused[a].first() } else { fold_refused[a][s].as_ref() }
+                        .map_or("none", String::as_str)
                 ))
             })
         };

@@ -14,7 +14,8 @@ use crate::data::static_log::StaticLog;
 /// The held-out scheme asked for (`--holdout`); see the module docs.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Holdout {
-    /// `after-max` when the log has a later leg, else `blocks:5`.
+    /// `after-max` when the log has a later leg inside the range of the rows before it (see
+    /// `later_leg_inside`), else `blocks:5`.
     #[default]
     Auto,
     /// Fit up to the first row at the highest temperature, evaluate on the rows after it.
@@ -130,6 +131,32 @@ pub fn split_index(log: &StaticLog) -> Result<usize, StaticCalError> {
     Ok(imax)
 }
 
+/// `auto` holds out the later leg only where that leg is a test of the training rows: they
+/// can hold a grid ([`check_coverage`]) and at most a tenth of the later leg's rows lie
+/// outside their temperature range. A log whose highest reading falls in a hold before
+/// any ramp (a run cut short while it warmed up again) would otherwise be fitted on that
+/// hold alone and fail, or be scored on extrapolation.
+///
+/// # Errors
+/// [`StaticCalError::Split`] saying which condition failed.
+fn later_leg_inside(log: &StaticLog, last: usize) -> Result<(), StaticCalError> {
+    let (train, later) = log.temp_c.split_at(last + 1);
+    let o = StaticCalOptions::default();
+    check_coverage(train, o.grid_points, o.block).map_err(|e| {
+        StaticCalError::Split(format!("the rows up to the highest temperature cannot hold the bias grid ({e})"))
+    })?;
+    let (lo, hi) = range(train);
+    let outside = later.iter().filter(|t| **t < lo || **t > hi).count();
+    if outside * 10 > later.len() {
+        return Err(StaticCalError::Split(format!(
+            "{outside} of the {} rows after the highest temperature lie outside the {lo:.1}..{hi:.1} °C the rows \
+             before it cover: the later leg would score an extrapolation",
+            later.len()
+        )));
+    }
+    Ok(())
+}
+
 /// The scheme `h` gives on `log`, and why, in words.
 ///
 /// # Errors
@@ -166,7 +193,7 @@ pub fn resolve_holdout(log: &StaticLog, h: Holdout, block: usize) -> Result<(Sch
         Holdout::AfterMax => Ok(after(split_index(log)?, "")),
         Holdout::Blocks(k) => blocks(k, ""),
         Holdout::None => Ok((Scheme::None, "none: no row is held out, so no held-out figure exists".to_string())),
-        Holdout::Auto => match split_index(log) {
+        Holdout::Auto => match split_index(log).and_then(|last| later_leg_inside(log, last).map(|()| last)) {
             Ok(last) => Ok(after(last, "auto: the log has a later leg after its highest temperature, so ")),
             Err(StaticCalError::Split(why)) => blocks(CV_FOLDS, &format!("auto: {why}; so ")),
             Err(e) => Err(e),

@@ -49,6 +49,30 @@ fn a_log_with_a_later_leg_is_held_out_after_its_maximum() {
     assert!(e.message(Spelling::Python).starts_with("holdout=\"blocks:50\": 400 rows"), "{e:?}");
 }
 
+/// A run cut short while it warmed up again: its highest reading falls in the first hold
+/// (by a 1/16-°C flicker at row 791), so the rows before it are a hold at one temperature.
+/// `auto` once took `after-max` there and every fold's fit failed on a 0.1-°C span; now it
+/// takes blocks and says why. `after-max` asked for by name is still run as asked.
+#[test]
+fn auto_does_not_hold_out_a_later_leg_its_training_rows_cannot_fit() {
+    let mut t: Vec<f64> = vec![25.0; 900];
+    t[790] = 25.0625;
+    t.extend((1..=1350).map(|i| 25.0 - f64::from(i) / 30.0));
+    t.extend(std::iter::repeat_n(-20.0, 900));
+    t.extend((1..=1125).map(|i| -20.0 + f64::from(i) / 30.0));
+    let log = log_of(&t);
+    let (scheme, rule) = resolve_holdout(&log, Holdout::Auto, 10).unwrap();
+    assert_eq!(scheme, Scheme::Blocks { k: CV_FOLDS }, "{rule}");
+    assert!(rule.contains("cannot hold the bias grid"), "{rule}");
+    assert_eq!(resolve_holdout(&log, Holdout::AfterMax, 10).unwrap().0, Scheme::AfterMax { last: 790 });
+    // A later leg that leaves the training range (25 → 70 → −20) is not scored as one.
+    let mut t: Vec<f64> = (0..450).map(|i| 25.0 + 0.1 * f64::from(i)).collect();
+    t.extend((0..900).map(|i| 70.0 - 0.1 * f64::from(i)));
+    let (scheme, rule) = resolve_holdout(&log_of(&t), Holdout::Auto, 10).unwrap();
+    assert_eq!(scheme, Scheme::Blocks { k: CV_FOLDS }, "{rule}");
+    assert!(rule.contains("extrapolation"), "{rule}");
+}
+
 #[test]
 fn several_cycles_hold_out_everything_after_the_first_maximum() {
     // Two cycles 20 → 50 → 20 °C, the second peaking 0.5 °C lower: the later leg is
