@@ -57,6 +57,7 @@ fn chamber_log(effect: Option<&str>, seed: u64) -> StaticLog {
 fn cut(log: &StaticLog, r: std::ops::RangeInclusive<usize>) -> StaticLog {
     StaticLog {
         time_s: log.time_s[r.clone()].to_vec(),
+        time_origin_s: log.time_origin_s,
         temp_c: log.temp_c[r.clone()].to_vec(),
         axes: log
             .axes

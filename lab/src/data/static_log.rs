@@ -196,6 +196,9 @@ pub struct AxisColumn {
 pub struct StaticLog {
     /// Time since the first kept row, s.
     pub time_s: Vec<f64>,
+    /// The first kept row's time on the log's own clock, s (what `time_s` counts from):
+    /// logs of one chamber run line up on it.
+    pub time_origin_s: f64,
     /// Temperature, °C.
     pub temp_c: Vec<f64>,
     /// Axes, in the order ax, ay, az (those present).
@@ -602,6 +605,7 @@ pub fn read_static_from<R: Read>(reader: R, opts: &StaticOptions) -> Result<Stat
     }
     Ok(StaticLog {
         time_s,
+        time_origin_s: t0 * time_unit.seconds(),
         temp_c: kept_temp,
         axes,
         line: keep.iter().map(|&k| lines[k]).collect(),

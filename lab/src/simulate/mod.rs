@@ -10,6 +10,7 @@
 //! Rows are `row_s` (an integer ≥ 1) seconds long. Every (program, run) gets its own
 //! seeded noise stream, so a log is reproducible from the seed.
 
+pub mod population;
 pub mod profile;
 pub mod synth;
 pub mod thermal;
