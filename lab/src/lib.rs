@@ -17,6 +17,7 @@
 //!   [`data::open::open`] → [`calibrate::static_cal::calibrate_static`]
 //!   (per-axis [`calibrate::fit::fit_static_axis`], peers in [`calibrate::peers`]) → [`compensate::compensate_static`].
 
+pub mod batch;
 pub mod calibrate;
 pub mod compensate;
 pub mod data;

@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use clap::{Parser, Subcommand, ValueEnum};
 
-use qfa_lab::calibrate::peers::{write_exports, ExportOptions};
+use qfa_lab::calibrate::peers::ExportOptions;
 use qfa_lab::calibrate::static_cal::{self, Holdout};
 use qfa_lab::calibrate::{calibrate_into, CalibrateOptions};
 use qfa_lab::compensate::compensate_log;
@@ -144,6 +144,28 @@ enum Cmd {
         #[arg(long)]
         nav_duration_s: Option<f64>,
     },
+    /// Calibrate many units from one chamber run: a certificate per serial and the fleet
+    /// page; `batch merge OUT` forms the fleet of a sharded run.
+    Batch(BatchCli),
+    /// Simulate a production batch of static units (one chamber log and a manifest of
+    /// one-unit logs), with each unit's truth.
+    SimulateBatch {
+        /// Units.
+        #[arg(long, default_value_t = 100)]
+        units: usize,
+        /// Seed.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// No deliberately bad units (default: one of each defect per started 50 units).
+        #[arg(long)]
+        no_bad: bool,
+        /// Good units whose own log (manifest run) is truncated: heating only, or the first half.
+        #[arg(long, default_value_t = 0)]
+        truncated: usize,
+        /// Output directory: chamber.tsv, batch.toml with units/, truth.toml.
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Pure-inertial navigation error of each compensation variant, with
     /// alignment and an optional Monte Carlo study; `navigate merge DIR…` combines shards.
     Navigate(NavigateCli),
@@ -238,6 +260,55 @@ struct CalibrateArgs {
     limits: Option<PathBuf>,
     #[command(flatten)]
     fmt: StaticFlags,
+}
+
+/// `qfa-lab batch`'s arguments.
+#[derive(clap::Args)]
+#[command(args_conflicts_with_subcommands = true)]
+struct BatchCli {
+    #[command(subcommand)]
+    sub: Option<BatchCmd>,
+    /// One chamber log holding every unit: `time`, then SERIAL.temp, SERIAL.ax, SERIAL.ay,
+    /// SERIAL.az per unit.
+    #[arg(long, conflicts_with = "manifest")]
+    log: Option<PathBuf>,
+    /// A manifest naming one log per serial (`batch.toml`; the lab guide's "Production batches").
+    #[arg(long)]
+    manifest: Option<PathBuf>,
+    /// Output directory: one folder per serial, and the fleet page.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Pass/fail limits (TOML, as `calibrate --limits`).
+    #[arg(long)]
+    limits: Option<PathBuf>,
+    /// Worker threads (0: one per core).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Run only shard K of N (0 ≤ K < N: units i with i mod N = K), all shards writing into
+    /// the same --out; then `qfa-lab batch merge OUT`.
+    #[arg(long, value_parser = str::parse::<qfa_lab::batch::Shard>)]
+    shard: Option<qfa_lab::batch::Shard>,
+    /// Draw each unit's bias plot (off: a batch's pages are its certificates and the fleet).
+    #[arg(long)]
+    plots: bool,
+    /// The held-out scheme, as `calibrate --holdout`.
+    #[arg(long, default_value = "auto")]
+    holdout: Holdout,
+    #[command(flatten)]
+    fmt: StaticFlags,
+}
+
+#[derive(Subcommand)]
+enum BatchCmd {
+    /// Form the fleet and the certificates from every SERIAL/unit.json under OUT (the shards
+    /// of one batch).
+    Merge {
+        /// The --out every shard wrote into.
+        out: PathBuf,
+        /// Pass/fail limits (the same file the shards were given).
+        #[arg(long)]
+        limits: Option<PathBuf>,
+    },
 }
 
 /// `qfa-lab navigate`'s arguments.
@@ -363,6 +434,9 @@ enum CliError {
     /// Every output is written, and the unit fails a limit given with `--limits` (which:
     /// one line each). Exit status [`EXIT_LIMIT_FAILED`].
     LimitFailed(Vec<String>),
+    /// Every output of a batch is written, and units FAIL (not calibrated, or a limit given
+    /// with `--limits` failed). Exit status [`EXIT_LIMIT_FAILED`].
+    UnitsFailed(usize),
 }
 
 impl std::fmt::Display for CliError {
@@ -373,6 +447,7 @@ impl std::fmt::Display for CliError {
             Self::Open(e) => write!(f, "{e}"),
             Self::WrongLog { command, format, takes } => write!(f, "{command} takes {takes}, not a {format}"),
             Self::LimitFailed(which) => write!(f, "the unit fails {} limit(s): {}", which.len(), which.join("; ")),
+            Self::UnitsFailed(n) => write!(f, "{n} unit(s) FAIL (each listed above, with why)"),
         }
     }
 }
@@ -420,6 +495,9 @@ fn check_out(cmd: &Cmd) -> Result<(), OutError> {
         Cmd::Demo { out, .. } => check_dir(out, "demo"),
         Cmd::Navigate(NavigateCli { out: Some(out), sub: None, .. }) => check_dir(out, "navigate"),
         Cmd::Navigate(_) => Ok(()),
+        Cmd::Batch(BatchCli { out: Some(out), sub: None, .. }) => check_dir(out, "batch"),
+        Cmd::Batch(_) => Ok(()),
+        Cmd::SimulateBatch { out, .. } => check_dir(out, "simulate-batch"),
         Cmd::Plan { json: Some(j), .. } => check_file(j, "plan"),
         Cmd::Plan { .. } | Cmd::Lint { .. } => Ok(()),
     }
@@ -511,15 +589,15 @@ fn calibrate_cmd(a: CalibrateArgs) -> Result<(), CliError> {
         OpenedLog::Static(l) => {
             eprintln!("{} rows read; {}; {}", l.rows(), l.skipped, l.sampling);
             let opts = static_cal::StaticCalOptions { holdout: a.holdout, ..Default::default() };
-            let cal = static_cal::calibrate_static(&l, &opts, true).map_err(|e| e.to_string())?;
-            static_cal::write_static_table(&a.out, &cal).map_err(|e| e.to_string())?;
-            let ex = write_exports(&a.out, &static_cal::export_axes(&cal), &exports).map_err(io_at(&a.out))?;
-            let files = static_cal::static_files(!a.no_plots, &ex.written);
-            let notes: Vec<String> =
-                lint_notes(&warnings).into_iter().chain(ex.notes.iter().map(ToString::to_string)).collect();
-            let v = qfa_lab::calibrate::verdict::static_verdict(&cal, &limits, &files, &notes);
-            static_cal::write_static(&a.out, &cal, &v).map_err(|e| e.to_string())?;
-            static_cal::write_static_page(&a.out, &cal, !a.no_plots, &v).map_err(|e| e.to_string())?;
+            let notes = lint_notes(&warnings);
+            let run = static_cal::StaticRun {
+                opts: &opts,
+                exports: &exports,
+                limits: &limits,
+                plots: !a.no_plots,
+                progress: true,
+            };
+            let (_, v) = static_cal::calibrate_static_into(&a.out, &l, &run, &notes).map_err(|e| e.to_string())?;
             finish(&v, &limits, &a.out)
         }
         OpenedLog::Cycling(l) => {
@@ -761,6 +839,82 @@ fn run(cli: Cli) -> Result<(), CliError> {
             finish(&v, &LimitsChoice::default(), &out)
         }
         Cmd::Navigate(a) => navigate_cmd(a),
+        Cmd::Batch(a) => batch_cmd(a),
+        Cmd::SimulateBatch { units, seed, no_bad, truncated, out } => {
+            use qfa_lab::simulate::population::{draw, write_chamber, write_manifest_run, PopulationSpec};
+            let t0 = Instant::now();
+            let truth = draw(&PopulationSpec { units, seed, bad: !no_bad, truncated });
+            write_chamber(&out, &truth)?;
+            write_manifest_run(&out, &truth)?;
+            let bad = truth.unit.iter().filter(|u| u.defect.is_some()).count();
+            eprintln!(
+                "{units} units ({bad} deliberately bad, {truncated} truncated in the manifest run) in {:.1} s → {}: \
+                 chamber.tsv (every unit, full run), batch.toml with units/ (one log per unit), truth.toml",
+                t0.elapsed().as_secs_f64(),
+                out.display()
+            );
+            Ok(())
+        }
+    }
+}
+
+fn batch_cmd(a: BatchCli) -> Result<(), CliError> {
+    use qfa_lab::batch::{self, input, unit::UnitOptions, BatchOptions};
+    let limits = LimitsChoice::from_arg(match &a.sub {
+        Some(BatchCmd::Merge { limits, .. }) => limits.as_deref(),
+        None => a.limits.as_deref(),
+    })
+    .map_err(|e| CliError::Usage(e.to_string()))?;
+    limits.check_applies("static", &STATIC_KEYS).map_err(|e| CliError::Usage(e.to_string()))?;
+    let cal = static_cal::StaticCalOptions { holdout: a.holdout, ..Default::default() };
+    let unit = UnitOptions { cal, limits: limits.clone(), plots: a.plots };
+    let fail_status = |fleet: &batch::fleet::Fleet| -> Result<(), CliError> {
+        // As `calibrate`: the default limits are reported but change no exit status; a unit
+        // that could not be calibrated always does.
+        let [_, _, fail] = fleet.counts;
+        let uncalibrated =
+            fleet.unit.iter().filter(|u| u.reasons.iter().any(|r| r.starts_with("not calibrated"))).count();
+        if (fail > 0 && limits.file.is_some()) || uncalibrated > 0 {
+            return Err(CliError::UnitsFailed(if limits.file.is_some() { fail } else { uncalibrated }));
+        }
+        Ok(())
+    };
+    if let Some(BatchCmd::Merge { out, .. }) = &a.sub {
+        let (_, fleet) = batch::merge(out, &unit).map_err(|e| CliError::Failed(e.to_string()))?;
+        print!("{}", batch::console(&fleet, out));
+        return fail_status(&fleet);
+    }
+    let out = a.out.clone().ok_or_else(|| CliError::Usage("batch needs --out DIR".into()))?;
+    let flags = a.fmt.flags();
+    let units = match (&a.log, &a.manifest) {
+        (Some(log), None) => {
+            let bytes = std::fs::read(log).map_err(io_at(log))?;
+            input::from_chamber_log(log, &bytes, &flags)
+        }
+        (None, Some(m)) => input::from_manifest(m, &flags),
+        _ => return Err(CliError::Usage("batch needs --log CHAMBER_LOG or --manifest batch.toml".into())),
+    }
+    .map_err(|e| CliError::Usage(e.to_string()))?;
+    eprintln!("{} units; calibrating into {}", units.len(), out.display());
+    let t0 = Instant::now();
+    let opts = BatchOptions { unit, threads: a.threads, shard: a.shard, progress: true };
+    let run = batch::run(&units, &out, &opts).map_err(|e| CliError::Failed(e.to_string()))?;
+    let secs = t0.elapsed().as_secs_f64();
+    eprintln!("{} units in {secs:.1} s ({:.1} units/min)", run.results.len(), run.results.len() as f64 * 60.0 / secs);
+    match &run.fleet {
+        Some(fleet) => {
+            print!("{}", batch::console(fleet, &out));
+            fail_status(fleet)
+        }
+        None => {
+            println!(
+                "shard done: {} unit(s) in {}; when every shard is done: qfa-lab batch merge {}",
+                run.results.len(),
+                out.display(),
+                out.display()
+            );
+            Ok(())
+        }
     }
 }
 
@@ -769,7 +923,7 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e}");
-            if matches!(e, CliError::LimitFailed(_)) {
+            if matches!(e, CliError::LimitFailed(_) | CliError::UnitsFailed(_)) {
                 ExitCode::from(EXIT_LIMIT_FAILED)
             } else {
                 ExitCode::FAILURE

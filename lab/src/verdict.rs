@@ -26,7 +26,7 @@ pub const EXIT_LIMIT_FAILED: u8 = 3;
 pub const SECTION_ID: &str = "verdict";
 
 /// How a run came out.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Outcome {
     /// Every limit met.
@@ -96,7 +96,7 @@ impl Covers {
 
 /// A measured figure, or why there is none (in JSON: a number or `{"not_computed": why}`,
 /// never NaN or null).
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(untagged)]
 pub enum Measured {
     /// The figure.

@@ -107,6 +107,47 @@ pub fn static_files(plots: bool, exports: &[&str]) -> Vec<String> {
     f
 }
 
+/// What a static calibration into a folder is asked for.
+#[derive(Clone, Copy, Debug)]
+pub struct StaticRun<'a> {
+    /// Calibration settings.
+    pub opts: &'a super::static_cal::StaticCalOptions,
+    /// Which PX4 / ArduPilot files to write, and how.
+    pub exports: &'a crate::calibrate::peers::ExportOptions,
+    /// The limits the verdict checks.
+    pub limits: &'a crate::verdict::LimitsChoice,
+    /// Draw the plot.
+    pub plots: bool,
+    /// Show progress.
+    pub progress: bool,
+}
+
+/// Calibrate a static log into `out`, as `qfa-lab calibrate` does for one and `qfa-lab
+/// batch` for each unit: the table, the PX4 / ArduPilot files `run.exports` allows, the
+/// verdict against `run.limits` (with `notes` in words: the lint's first lines),
+/// `report.json`, `report.md` and `report.html` (with the plot when `run.plots`).
+///
+/// # Errors
+/// A refused log or failed fit ([`calibrate_static`]), or an I/O error.
+pub fn calibrate_static_into(
+    out: &Path,
+    log: &crate::data::static_log::StaticLog,
+    run: &StaticRun<'_>,
+    notes: &[String],
+) -> Result<(StaticCalibration, Verdict), StaticCalError> {
+    let StaticRun { opts, exports, limits, plots, progress } = *run;
+    let cal = super::static_cal::calibrate_static(log, opts, progress)?;
+    write_static_table(out, &cal)?;
+    let ex = crate::calibrate::peers::write_exports(out, &export_axes(&cal), exports)
+        .map_err(|e| StaticCalError::Io(format!("{}: {e}", out.display())))?;
+    let files = static_files(plots, &ex.written);
+    let notes: Vec<String> = notes.iter().cloned().chain(ex.notes.iter().map(ToString::to_string)).collect();
+    let v = crate::calibrate::verdict::static_verdict(&cal, limits, &files, &notes);
+    write_static(out, &cal, &v)?;
+    write_static_page(out, &cal, plots, &v)?;
+    Ok((cal, v))
+}
+
 /// Write `table.toml` and `table.bin` into `out`.
 ///
 /// # Errors
