@@ -32,9 +32,16 @@ impl Page {
     /// A page titled `title`, opening with the process's command line ([`command_line`]).
     #[must_use]
     pub fn new(title: &str) -> Self {
+        Self::with_command(title, &command_line())
+    }
+
+    /// A page titled `title`, opening with `command`: what produced it, when that is not
+    /// this process's command line (a batch's unit pages, written by whichever worker
+    /// ran the unit, name the batch instead, so every worker writes the same bytes).
+    #[must_use]
+    pub fn with_command(title: &str, command: &str) -> Self {
         let mut p = Self { title: title.to_string(), body: String::new() };
-        let _ =
-            write!(p.body, "<h1>{}</h1>\n<p>Command: <code>{}</code></p>\n", escape(title), escape(&command_line()));
+        let _ = write!(p.body, "<h1>{}</h1>\n<p>Command: <code>{}</code></p>\n", escape(title), escape(command));
         p
     }
 

@@ -596,6 +596,7 @@ fn calibrate_cmd(a: CalibrateArgs) -> Result<(), CliError> {
                 limits: &limits,
                 plots: !a.no_plots,
                 progress: true,
+                command: None,
             };
             let (_, v) = static_cal::calibrate_static_into(&a.out, &l, &run, &notes).map_err(|e| e.to_string())?;
             finish(&v, &limits, &a.out)

@@ -10,8 +10,10 @@
 //! under any population's spread, so it acts only when most units agree to the last digit).
 //! A unit is flagged when a figure sits more than [`Z_FLAG`] scales out (held-out RMS:
 //! above only; everything else: either side), with the figure, its value, the median and
-//! the distance. A unit with partial coverage is compared on its held-out figures and its
-//! sensor only: its curve's shape outside its rows is an extrapolation, not a measurement.
+//! the distance. A unit with partial coverage is compared on its sensor only: its curve's
+//! shape outside its rows is an extrapolation, and its held-out figure comes from another
+//! scheme (blocks, not the later leg); its limits still apply, and its table comes from
+//! the population prior ([`super::prior`]).
 //!
 //! # The sensor against the fleet
 //! Units in one chamber see one air temperature. Per minute of the shared clock the fleet's
@@ -72,8 +74,11 @@ pub struct Feature {
     pub floor: f64,
     /// Which way it is bad.
     pub side: Side,
-    /// A figure of the curve's shape (compared only on full-coverage units).
-    pub shape: bool,
+    /// Compared only on units with full coverage: the curve's shape (beyond a partial
+    /// log's rows it is an extrapolation) and the held-out figure (a partial log is held
+    /// out by another scheme, blocks instead of the later leg, so its figure measures
+    /// something else).
+    pub full_coverage_only: bool,
 }
 
 /// The distribution of one figure over the fleet.
@@ -196,12 +201,12 @@ pub struct Fleet {
 /// The figures compared, for axes `axes`.
 #[must_use]
 pub fn features(axes: &[String]) -> Vec<Feature> {
-    let f = |name: String, unit: &str, floor: f64, side: Side, shape: bool| Feature {
+    let f = |name: String, unit: &str, floor: f64, side: Side, full_coverage_only: bool| Feature {
         name,
         unit: unit.to_string(),
         floor,
         side,
-        shape,
+        full_coverage_only,
     };
     let mut out = Vec::new();
     for a in axes {
@@ -209,7 +214,7 @@ pub fn features(axes: &[String]) -> Vec<Feature> {
         out.push(f(format!("{a}.slope_ug_per_c"), "µg/°C", 0.5, Side::Both, true));
         out.push(f(format!("{a}.curvature_ug_per_c2"), "µg/°C²", 0.01, Side::Both, true));
         out.push(f(format!("{a}.split_mg"), "mg", 0.01, Side::Both, true));
-        out.push(f(format!("{a}.held_out_mg"), "mg", 0.02, Side::High, false));
+        out.push(f(format!("{a}.held_out_mg"), "mg", 0.02, Side::High, true));
     }
     out.push(f("sensor.offset_c".into(), "°C", 0.05, Side::Both, false));
     out.push(f("sensor.drift_c_per_h".into(), "°C/h", 0.05, Side::Both, false));
@@ -342,7 +347,7 @@ pub fn fleet(results: &[UnitResult], limits: &Limits) -> Fleet {
         let mut dev: Vec<f64> = reference.iter().map(|v| (v - med).abs()).collect();
         let scale = (1.4826 * median(&mut dev).unwrap_or(0.0)).max(feat.floor);
         for &(i, v) in &values {
-            if feat.shape && partial[i] {
+            if feat.full_coverage_only && partial[i] {
                 continue;
             }
             let z = (v - med) / scale;
@@ -440,11 +445,17 @@ pub fn apply_priors(fleet: &mut Fleet, uses: Vec<Option<super::prior::PriorUse>>
         }
         u.prior = p;
     }
+    fleet.counts = count(&fleet.unit);
+}
+
+/// Units per decision: PASS, REVIEW, FAIL.
+#[must_use]
+pub fn count(units: &[FleetUnit]) -> [usize; 3] {
     let mut counts = [0; 3];
-    for u in &fleet.unit {
+    for u in units {
         counts[u.decision as usize] += 1;
     }
-    fleet.counts = counts;
+    counts
 }
 
 fn capability(cal: &[Option<&Calibrated>], axes: &[String], limits: &Limits) -> Vec<Capability> {

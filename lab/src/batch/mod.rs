@@ -192,6 +192,7 @@ pub fn finish_fleet(out: &Path, results: &[(usize, UnitResult)], opts: &UnitOpti
     // Partial units: the population prior's table beside their own.
     let span = (fleet.span_c[0], fleet.span_c[1]);
     let mut uses = Vec::with_capacity(plain.len());
+    let mut prior_failed: Vec<(String, String)> = Vec::new();
     for (r, f) in plain.iter().zip(&fleet.unit) {
         let use_ = match &r.outcome {
             UnitOutcome::Calibrated(c) if f.partial && !fleet.population.is_empty() => {
@@ -216,7 +217,11 @@ pub fn finish_fleet(out: &Path, results: &[(usize, UnitResult)], opts: &UnitOpti
                             mostly_prior: share < prior::MOSTLY_PRIOR,
                         })
                     }
-                    Err(_) => None,
+                    Err(e) => {
+                        // Never silent: the unit keeps its own table, and says why.
+                        prior_failed.push((r.serial.clone(), e));
+                        None
+                    }
                 }
             }
             _ => None,
@@ -224,6 +229,17 @@ pub fn finish_fleet(out: &Path, results: &[(usize, UnitResult)], opts: &UnitOpti
         uses.push(use_);
     }
     fleet::apply_priors(&mut fleet, uses);
+    for (serial, why) in prior_failed {
+        if let Some(u) = fleet.unit.iter_mut().find(|u| u.serial == serial) {
+            u.reasons.push(format!(
+                "partial coverage, but no prior table could be formed ({why}): table.bin is its own fit"
+            ));
+            if u.decision == Decision::Pass {
+                u.decision = Decision::Review;
+            }
+        }
+    }
+    fleet.counts = fleet::count(&fleet.unit);
     let from = opts.limits.source();
     for (r, f) in plain.iter().zip(&fleet.unit) {
         pages::write_certificate(&out.join(&r.serial), r, f, &from)?;
@@ -272,6 +288,20 @@ pub fn merge(out: &Path, opts: &UnitOptions) -> Result<(Vec<(usize, UnitResult)>
     Ok((found, fleet))
 }
 
+/// Reasons shown where a unit has one line (the console, the fleet's verdict): the first
+/// [`REASONS_SHOWN`] (flags come strongest first), then how many more its certificate lists.
+#[must_use]
+pub fn first_reasons(reasons: &[String]) -> String {
+    let mut s = reasons.iter().take(REASONS_SHOWN).cloned().collect::<Vec<_>>().join("; ");
+    if reasons.len() > REASONS_SHOWN {
+        s.push_str(&format!("; and {} more on its certificate", reasons.len() - REASONS_SHOWN));
+    }
+    s
+}
+
+/// Reasons a one-line summary shows.
+pub const REASONS_SHOWN: usize = 2;
+
 /// The console's summary of a fleet: the verdict line, one line per unit not passed, and
 /// where the detail is.
 #[must_use]
@@ -283,7 +313,19 @@ pub fn console(fleet: &Fleet, out: &Path) -> String {
     );
     for u in fleet.unit.iter().filter(|u| u.decision != Decision::Pass) {
         let key = if u.decision == Decision::Fail { "fail" } else { "review" };
-        s.push_str(&format!("{key}: {}: {}\n", u.serial, u.reasons.join("; ")));
+        s.push_str(&format!("{key}: {}: {}\n", u.serial, first_reasons(&u.reasons)));
+    }
+    for u in &fleet.unit {
+        if let Some(p) = &u.prior {
+            s.push_str(&format!(
+                "prior: {}: partial coverage, flash {} (CRC-32 {}; its own rows cover {:.0} % of the fleet's span × both \
+                 branches)\n",
+                u.serial,
+                p.table,
+                p.table_crc32,
+                100.0 * p.covered_share
+            ));
+        }
     }
     s.push_str(&format!(
         "detail: {}/fleet.html, fleet.json; each unit: {}/SERIAL/certificate.html\n",

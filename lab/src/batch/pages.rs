@@ -77,7 +77,12 @@ pub fn write_certificate(dir: &Path, r: &UnitResult, f: &FleetUnit, limits_from:
     };
     let json = serde_json::to_string_pretty(&cert).map_err(|e| io(&e))?;
     std::fs::write(dir.join("certificate.json"), json + "\n").map_err(|e| io(&e))?;
-    let mut p = Page::new(&format!("Certificate {}", r.serial));
+    // A certificate reads the same however the batch was run (one process, shards, a
+    // cluster): it names the batch, not the command line of the process that merged it.
+    let mut p = Page::with_command(
+        &format!("Certificate {}", r.serial),
+        &format!("qfa-lab batch: certificate of unit {} (the batch's command is on fleet.html)", r.serial),
+    );
     let class = match f.decision {
         Decision::Pass => "pass",
         Decision::Review => "warn",
@@ -137,11 +142,12 @@ pub fn write_certificate(dir: &Path, r: &UnitResult, f: &FleetUnit, limits_from:
     kv.push(("sensor offset against the fleet (°C)".into(), m(&f.sensor_offset_c, 2)));
     kv.push(("sensor drift against the fleet (°C/h)".into(), m(&f.sensor_drift_c_per_h, 3)));
     p.section("Certificate").kv(&kv);
-    p.section("Files").links(&[
-        ("table.bin", "table.bin"),
-        ("report.html", "report.html"),
-        ("certificate.json", "certificate.json"),
-    ]);
+    let mut files =
+        vec![("table.bin", "table.bin"), ("report.html", "report.html"), ("certificate.json", "certificate.json")];
+    if f.prior.is_some() {
+        files.insert(0, ("table_prior.bin (flash this)", "table_prior.bin"));
+    }
+    p.section("Files").links(&files);
     std::fs::write(dir.join("certificate.html"), p.html()).map_err(|e| io(&e))?;
     Ok(())
 }
@@ -176,7 +182,7 @@ pub fn write_fleet(out: &Path, fleet: &Fleet, results: &[UnitResult], limits_fro
             v,
             "<li class=\"{c}\"><a href=\"{s}/certificate.html\">{s}</a> {}: {}</li>",
             u.decision,
-            escape(&u.reasons.join("; ")),
+            escape(&super::first_reasons(&u.reasons)),
             s = escape(&u.serial)
         );
     }
@@ -223,6 +229,33 @@ pub fn write_fleet(out: &Path, fleet: &Fleet, results: &[UnitResult], limits_fro
         })
         .collect();
     p.table(&["figure", "unit", "units", "median", "robust SD"], &rows);
+    let partial: Vec<Vec<String>> = fleet
+        .unit
+        .iter()
+        .filter_map(|u| {
+            u.prior.as_ref().map(|p| {
+                vec![
+                    u.serial.clone(),
+                    format!("{} {}", p.table, p.table_crc32),
+                    format!("{:.0} %", 100.0 * p.covered_share),
+                    if p.mostly_prior { "the prior" } else { "its rows" }.to_string(),
+                ]
+            })
+        })
+        .collect();
+    p.section("Population prior").para(&format!(
+        "Units with partial coverage (one branch, or under 0.8 of the fleet's median span) get a table from their rows \
+         and the population together (empirical Bayes over the units with full coverage: {}), over the fleet's span \
+         {:.1}..{:.1} °C. Under half the span × both branches covered, the prior decided most of it.",
+        fleet.population.iter().map(|p| format!("{} from {} units", p.axis, p.units)).collect::<Vec<_>>().join(", "),
+        fleet.span_c[0],
+        fleet.span_c[1]
+    ));
+    if partial.is_empty() {
+        p.para("No unit has partial coverage.");
+    } else {
+        p.table(&["serial", "table to flash, CRC-32", "own rows cover", "decided mostly by"], &partial);
+    }
     p.section("Units");
     let rows: Vec<Vec<String>> = fleet
         .unit
@@ -257,24 +290,30 @@ fn plot_figures(path: &Path, fleet: &Fleet) -> Result<(), Box<dyn std::error::Er
         .margin(10)
         .x_label_area_size(35)
         .y_label_area_size(230)
-        .build_cartesian_2d(-lim..lim, 0.0..rows as f64)?;
+        .build_cartesian_2d(-lim..lim, (0..rows).into_segmented())?;
     let names: Vec<String> = fleet.stats.iter().map(|s| s.feature.name.clone()).collect();
     chart
         .configure_mesh()
         .x_desc("robust distance z")
         .y_labels(rows)
-        .y_label_formatter(&|y| names.get(y.floor() as usize).cloned().unwrap_or_default())
+        .y_label_formatter(&|y| match y {
+            SegmentValue::CenterOf(k) => names.get(*k).cloned().unwrap_or_default(),
+            _ => String::new(),
+        })
         .disable_y_mesh()
         .draw()?;
     for x in [-fleet.z_flag, fleet.z_flag] {
-        chart.draw_series(LineSeries::new([(x, 0.0), (x, rows as f64)], RED.mix(0.5)))?;
+        chart.draw_series(LineSeries::new(
+            [(x, SegmentValue::Exact(0)), (x, SegmentValue::Exact(rows))],
+            RED.mix(0.5),
+        ))?;
     }
     for (k, s) in fleet.stats.iter().enumerate() {
         for (serial, v) in &s.values {
             let z = ((v - s.median) / s.scale).clamp(-lim, lim);
             let flagged =
                 fleet.unit.iter().any(|u| &u.serial == serial && u.flags.iter().any(|f| f.feature == s.feature.name));
-            let y = k as f64 + 0.5;
+            let y = SegmentValue::CenterOf(k);
             if flagged {
                 chart.draw_series([Circle::new((z, y), 5, RED.filled())])?;
             } else {
@@ -313,20 +352,26 @@ fn plot_held_out(path: &Path, fleet: &Fleet, results: &[UnitResult]) -> Result<(
         .margin(10)
         .x_label_area_size(35)
         .y_label_area_size(60)
-        .build_cartesian_2d(0.0..hi * 1.1, 0.0..caps.len().max(1) as f64)?;
+        .build_cartesian_2d(0.0..hi * 1.1, (0..caps.len().max(1)).into_segmented())?;
     let names: Vec<String> = caps.iter().map(|c| c.axis.clone()).collect();
     chart
         .configure_mesh()
         .x_desc("held-out bias RMS (mg)")
         .y_labels(caps.len().max(1))
-        .y_label_formatter(&|y| names.get(y.floor() as usize).cloned().unwrap_or_default())
+        .y_label_formatter(&|y| match y {
+            SegmentValue::CenterOf(k) => names.get(*k).cloned().unwrap_or_default(),
+            _ => String::new(),
+        })
         .disable_y_mesh()
         .draw()?;
     for (k, c) in caps.iter().enumerate() {
-        chart.draw_series(LineSeries::new([(c.bound, k as f64), (c.bound, k as f64 + 1.0)], RED.stroke_width(2)))?;
+        chart.draw_series(LineSeries::new(
+            [(c.bound, SegmentValue::Exact(k)), (c.bound, SegmentValue::Exact(k + 1))],
+            RED.stroke_width(2),
+        ))?;
     }
     for (k, v, bad) in pts {
-        let y = k as f64 + 0.5;
+        let y = SegmentValue::CenterOf(k);
         if bad {
             chart.draw_series([Circle::new((v, y), 5, RED.filled())])?;
         } else {

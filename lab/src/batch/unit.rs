@@ -137,12 +137,16 @@ fn calibrate(input: &UnitInput, dir: &Path, opts: &UnitOptions) -> Result<Calibr
         .filter_map(|f| f.to_string().lines().next().map(|l| format!("lint: {l}")))
         .collect();
     let exports = crate::calibrate::peers::ExportOptions::default();
+    // The page names the batch, not the worker process that wrote it (a thread, a shard,
+    // a Dask worker), so every way of running the batch writes the same bytes.
+    let command = format!("qfa-lab batch: unit {} (the batch's command is on fleet.html)", input.serial);
     let run = static_cal::StaticRun {
         opts: &opts.cal,
         exports: &exports,
         limits: &opts.limits,
         plots: opts.plots,
         progress: false,
+        command: Some(&command),
     };
     let (cal, v) =
         static_cal::calibrate_static_into(dir, &log, &run, &notes).map_err(|e| BatchError::Unit(e.to_string()))?;

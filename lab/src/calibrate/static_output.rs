@@ -120,6 +120,8 @@ pub struct StaticRun<'a> {
     pub plots: bool,
     /// Show progress.
     pub progress: bool,
+    /// What `report.html` names as its command (`None`: this process's command line).
+    pub command: Option<&'a str>,
 }
 
 /// Calibrate a static log into `out`, as `qfa-lab calibrate` does for one and `qfa-lab
@@ -135,7 +137,7 @@ pub fn calibrate_static_into(
     run: &StaticRun<'_>,
     notes: &[String],
 ) -> Result<(StaticCalibration, Verdict), StaticCalError> {
-    let StaticRun { opts, exports, limits, plots, progress } = *run;
+    let StaticRun { opts, exports, limits, plots, progress, command } = *run;
     let cal = super::static_cal::calibrate_static(log, opts, progress)?;
     write_static_table(out, &cal)?;
     let ex = crate::calibrate::peers::write_exports(out, &export_axes(&cal), exports)
@@ -144,7 +146,7 @@ pub fn calibrate_static_into(
     let notes: Vec<String> = notes.iter().cloned().chain(ex.notes.iter().map(ToString::to_string)).collect();
     let v = crate::calibrate::verdict::static_verdict(&cal, limits, &files, &notes);
     write_static(out, &cal, &v)?;
-    write_static_page(out, &cal, plots, &v)?;
+    write_static_page_as(out, &cal, plots, &v, command)?;
     Ok((cal, v))
 }
 
@@ -281,6 +283,20 @@ pub fn write_static_page(
     plots: bool,
     verdict: &Verdict,
 ) -> Result<(), StaticCalError> {
+    write_static_page_as(out, cal, plots, verdict, None)
+}
+
+/// [`write_static_page`] opening with `command` instead of this process's command line.
+///
+/// # Errors
+/// As [`write_static_page`].
+pub fn write_static_page_as(
+    out: &Path,
+    cal: &StaticCalibration,
+    plots: bool,
+    verdict: &Verdict,
+    command: Option<&str>,
+) -> Result<(), StaticCalError> {
     let io = |e: &dyn fmt::Display| StaticCalError::Io(format!("{}: {e}", out.display()));
     let r = &cal.report;
     let h = &r.holdout;
@@ -288,7 +304,10 @@ pub fn write_static_page(
         let title = format!("bias against temperature per axis; held-out scheme {}", h.scheme);
         plot_bias_vs_temp(&out.join(BIAS_PLOT), &title, &cal.plot).map_err(|e| io(&e))?;
     }
-    let mut p = crate::html_report::Page::new("Static calibration report");
+    let mut p = match command {
+        Some(c) => crate::html_report::Page::with_command("Static calibration report", c),
+        None => crate::html_report::Page::new("Static calibration report"),
+    };
     verdict.to_page(&mut p);
     p.section("Held-out scheme").kv(&[
         ("asked (--holdout)", h.requested.clone()),

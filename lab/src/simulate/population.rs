@@ -271,10 +271,11 @@ pub fn kept_rows(t: Option<Truncation>, air: &[f64]) -> std::ops::Range<usize> {
         None => 0..air.len(),
         Some(Truncation::HeatingOnly) => {
             // From the end of the cold hold (the last row at the minimum) to the first row
-            // at the top: a cold-soaked unit warming up, as PX4 and ArduPilot record it.
+            // at the top: a cold-soaked unit warming up, as PX4 and ArduPilot record it. (The
+            // ramps sum their steps, so the extremes are compared within 1e-6 °C.)
             let (lo, hi) = air.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
-            let top = air.iter().position(|&a| a >= hi).unwrap_or(air.len() - 1);
-            let start = air[..top].iter().rposition(|&a| a <= lo).unwrap_or(0);
+            let top = air.iter().position(|&a| a >= hi - 1e-6).unwrap_or(air.len() - 1);
+            let start = air[..top].iter().rposition(|&a| a <= lo + 1e-6).unwrap_or(0);
             start..top + 1
         }
         Some(Truncation::FirstHalf) => 0..air.len() / 2,
@@ -370,6 +371,7 @@ mod tests {
         let h = kept_rows(Some(Truncation::HeatingOnly), &air);
         assert!((air[h.start] + 20.0).abs() < 1e-9 && (air[h.end - 1] - 70.0).abs() < 1e-9, "{h:?}");
         assert!(air[h.clone()].windows(2).all(|w| w[1] >= w[0]), "heating only");
+        assert!(h.start > 2249 + 800, "the cold hold is before it: {h:?}");
         assert!((air[air.len() - 1] - 40.0).abs() < 1e-9);
     }
 
