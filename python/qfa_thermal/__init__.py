@@ -22,6 +22,7 @@ import numpy as _np
 
 from . import _native
 from ._native import (
+    BatchError,
     CalibrationError,
     CompensationError,
     Compensator,
@@ -44,6 +45,9 @@ __all__ = [
     "calibrate",
     "compensate",
     "discover",
+    "batch",
+    "BatchShard",
+    "calibrate_shard",
     "status_text",
     "QfaError",
     "LogError",
@@ -53,6 +57,7 @@ __all__ = [
     "DiscoveryError",
     "ConfigError",
     "SampleError",
+    "BatchError",
     "RATE_WINDOW",
     "G0",
 ]
@@ -329,4 +334,90 @@ def discover(
     """
     lg = _as_log(log, reader)
     text = _native.discover(lg.native, start=start, holdout=holdout, out=None if out is None else _os.fspath(out))
+    return _json.loads(text)
+
+
+@_dataclass(frozen=True)
+class BatchShard:
+    """One shard of a production batch: the units whose place ``i`` in the batch has
+    ``i % n == k``. Plain data, so it pickles to any executor's workers."""
+
+    out: str
+    k: int
+    n: int
+    log: Optional[str] = None
+    manifest: Optional[str] = None
+    holdout: str = "auto"
+    limits: Optional[str] = None
+    reader: Tuple[Tuple[str, Any], ...] = ()
+
+
+def calibrate_shard(shard: BatchShard) -> int:
+    """Calibrate one shard into ``shard.out`` (``qfa-lab batch --shard K/N``) on one thread;
+    returns the number of units calibrated. A plain module-level function, so executors
+    can pickle it."""
+    return _native.batch_shard(
+        out=shard.out,
+        k=shard.k,
+        n=shard.n,
+        log=shard.log,
+        manifest=shard.manifest,
+        holdout=shard.holdout,
+        limits=shard.limits,
+        threads=1,
+        **dict(shard.reader),
+    )
+
+
+def batch(
+    *,
+    out: PathLike,
+    log: Optional[PathLike] = None,
+    manifest: Optional[PathLike] = None,
+    executor: Any = None,
+    shards: int = 16,
+    holdout: str = "auto",
+    limits: Optional[PathLike] = None,
+    **reader: Any,
+) -> Dict[str, Any]:
+    """``qfa-lab batch``: calibrate every unit of a chamber ``log`` (or of a ``manifest``)
+    into ``out``, a certificate per serial and the fleet page; returns ``fleet.json`` as a
+    dict.
+
+    The units are cut into ``shards`` (``BatchShard``) and mapped with
+    ``executor.map(calibrate_shard, ...)``: any ``concurrent.futures.Executor`` (a
+    ``ProcessPoolExecutor``, Dask's ``Client.get_executor()``, Ray's executor), or one
+    after another in this process when ``executor`` is None. Every worker writes into
+    ``out``, so they must share its file system. The fleet is then formed here from every
+    unit's ``unit.json``; the files are byte-identical to one ``qfa-lab batch`` run.
+
+    Raises:
+        BatchError: the manifest or chamber log cannot be read, or the merge failed
+            (``kind``: ``Manifest``, ``Chamber``, ``Serial``, ``Shard``, ``Merge``, ``Io``,
+            ``Limits``, ``UnknownHoldout``). A unit that cannot be calibrated is not an
+            error: it is FAIL in the fleet, with its reason.
+    """
+    if (log is None) == (manifest is None):
+        raise BatchError("give log= (a chamber log) or manifest= (batch.toml), one of them")
+    if shards < 1:
+        raise BatchError(f"shards={shards}: at least 1")
+    tasks = [
+        BatchShard(
+            out=_os.fspath(out),
+            k=k,
+            n=shards,
+            log=None if log is None else _os.fspath(log),
+            manifest=None if manifest is None else _os.fspath(manifest),
+            holdout=holdout,
+            limits=None if limits is None else _os.fspath(limits),
+            reader=tuple(sorted(reader.items())),
+        )
+        for k in range(shards)
+    ]
+    if executor is None:
+        for t in tasks:
+            calibrate_shard(t)
+    else:
+        list(executor.map(calibrate_shard, tasks))
+    text = _native.batch_merge(_os.fspath(out), limits=None if limits is None else _os.fspath(limits))
     return _json.loads(text)

@@ -25,6 +25,8 @@ class ConfigError(QfaError): ...
 class SampleError(QfaError):
     status: int
 
+class BatchError(QfaError): ...
+
 class Log:
     kind: str
     rows: int
@@ -95,3 +97,20 @@ def compensate_cycling(table: Table, log: Log) -> Tuple[_F64, _U16]: ...
 def status_texts(status: _U16) -> List[str]: ...
 def discover(log: Log, *, start: str = "simple", holdout: str = "auto", out: Optional[str] = None) -> str: ...
 def status_flags() -> List[Tuple[str, int]]: ...
+def batch_shard(
+    *,
+    out: str,
+    k: int,
+    n: int,
+    log: Optional[str] = None,
+    manifest: Optional[str] = None,
+    holdout: str = "auto",
+    limits: Optional[str] = None,
+    threads: int = 1,
+    columns: Optional[str] = None,
+    time_unit: Optional[str] = None,
+    accel_unit: Optional[str] = None,
+    temp_unit: Optional[str] = None,
+    decimal_comma: bool = False,
+) -> int: ...
+def batch_merge(out: str, *, limits: Optional[str] = None) -> str: ...

@@ -21,6 +21,7 @@ create_exception!(_native, CompensationError, QfaError, "A log the table cannot 
 create_exception!(_native, DiscoveryError, QfaError, "A discovery run that failed.");
 create_exception!(_native, ConfigError, QfaError, "A compensator configuration the firmware refuses.");
 create_exception!(_native, SampleError, QfaError, "A temperature reading the firmware's compensator rejected.");
+create_exception!(_native, BatchError, QfaError, "A production batch that cannot be read, run or merged.");
 
 /// Register the classes on the module; `QfaError.kind` is `None` for a failure no Rust
 /// error type stands behind (an argument this package checks itself).
@@ -35,6 +36,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("DiscoveryError", py.get_type::<DiscoveryError>())?;
     m.add("ConfigError", py.get_type::<ConfigError>())?;
     m.add("SampleError", py.get_type::<SampleError>())?;
+    m.add("BatchError", py.get_type::<BatchError>())?;
     Ok(())
 }
 

@@ -13,6 +13,7 @@
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
+pub mod batch;
 pub mod errors;
 pub mod firmware;
 pub mod logs;
@@ -36,6 +37,8 @@ fn native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(tables::status_texts, m)?)?;
     m.add_function(wrap_pyfunction!(tables::discover, m)?)?;
     m.add_function(wrap_pyfunction!(firmware::status_flags, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::batch_shard, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::batch_merge, m)?)?;
     m.add("RATE_WINDOW", firmware::RATE_WINDOW)?;
     m.add("G0", qfa_thermal::G0)?;
     let constants = PyDict::new(m.py());

@@ -1,0 +1,96 @@
+//! Production batches from Python: one shard of a batch (`qfa-lab batch --shard K/N`) and
+//! the merge that forms the fleet (`qfa-lab batch merge`), the same library calls the
+//! command makes. The Python layer (`qfa_thermal.batch`) maps the shards over any
+//! `concurrent.futures.Executor` (a process pool, Dask, Ray) and merges.
+
+use std::path::PathBuf;
+
+use pyo3::prelude::*;
+
+use qfa_lab::batch::unit::UnitOptions;
+use qfa_lab::batch::{self, input, BatchError as LabBatchError, BatchOptions, Shard};
+use qfa_lab::calibrate::static_cal::{Holdout, StaticCalOptions};
+use qfa_lab::verdict::{LimitsChoice, STATIC_KEYS};
+
+use crate::errors::{with_kind, BatchError, Kind};
+use crate::logs::read_flags;
+
+impl Kind for LabBatchError {
+    fn kind(&self) -> &'static str {
+        match self {
+            Self::Manifest(_) => "Manifest",
+            Self::Chamber(_) => "Chamber",
+            Self::Serial(_) => "Serial",
+            Self::Unit(_) => "Unit",
+            Self::Shard(_) => "Shard",
+            Self::Merge(_) => "Merge",
+            Self::Io(_) => "Io",
+            _ => "Other",
+        }
+    }
+}
+
+fn err(py: Python<'_>, e: &LabBatchError) -> PyErr {
+    with_kind::<BatchError>(py, e.to_string(), e.kind())
+}
+
+fn options(py: Python<'_>, holdout: &str, limits: Option<PathBuf>) -> PyResult<UnitOptions> {
+    let holdout: Holdout = holdout.parse().map_err(|e: qfa_lab::calibrate::static_cal::StaticCalError| {
+        with_kind::<BatchError>(py, e.to_string(), "UnknownHoldout")
+    })?;
+    let limits = LimitsChoice::from_arg(limits.as_deref())
+        .and_then(|l| l.check_applies("static", &STATIC_KEYS).map(|()| l))
+        .map_err(|e| with_kind::<BatchError>(py, e.to_string(), "Limits"))?;
+    Ok(UnitOptions { cal: StaticCalOptions { holdout, ..StaticCalOptions::default() }, limits, plots: false })
+}
+
+/// Calibrate shard `k` of `n` of a batch (a chamber `log` or a `manifest`) into `out`, on
+/// `threads` threads (0: one per core); returns the number of units it calibrated. The
+/// units and the files are exactly `qfa-lab batch … --shard k/n`'s.
+#[pyfunction]
+#[pyo3(signature = (*, out, k, n, log = None, manifest = None, holdout = "auto", limits = None, threads = 1, columns = None, time_unit = None, accel_unit = None, temp_unit = None, decimal_comma = false))]
+#[allow(clippy::too_many_arguments)]
+pub fn batch_shard(
+    py: Python<'_>,
+    out: PathBuf,
+    k: usize,
+    n: usize,
+    log: Option<PathBuf>,
+    manifest: Option<PathBuf>,
+    holdout: &str,
+    limits: Option<PathBuf>,
+    threads: usize,
+    columns: Option<&str>,
+    time_unit: Option<&str>,
+    accel_unit: Option<&str>,
+    temp_unit: Option<&str>,
+    decimal_comma: bool,
+) -> PyResult<usize> {
+    let flags = read_flags(py, columns, time_unit, accel_unit, temp_unit, decimal_comma)?;
+    let unit = options(py, holdout, limits)?;
+    if n == 0 || k >= n {
+        return Err(err(py, &LabBatchError::Shard(format!("k={k}, n={n}"))));
+    }
+    let units = match (log, manifest) {
+        (Some(l), None) => {
+            let bytes = std::fs::read(&l).map_err(|e| err(py, &LabBatchError::Io(format!("{}: {e}", l.display()))))?;
+            input::from_chamber_log(&l, &bytes, &flags)
+        }
+        (None, Some(m)) => input::from_manifest(&m, &flags),
+        _ => Err(LabBatchError::Manifest("give log= (a chamber log) or manifest= (batch.toml), one of them".into())),
+    }
+    .map_err(|e| err(py, &e))?;
+    let opts = BatchOptions { unit, threads, shard: Some(Shard { k, n }), progress: false };
+    let run = py.detach(|| batch::run(&units, &out, &opts)).map_err(|e| err(py, &e))?;
+    Ok(run.results.len())
+}
+
+/// Form the fleet and the certificates from every `SERIAL/unit.json` under `out`
+/// (`qfa-lab batch merge`); returns `fleet.json`'s text.
+#[pyfunction]
+#[pyo3(signature = (out, *, limits = None))]
+pub fn batch_merge(py: Python<'_>, out: PathBuf, limits: Option<PathBuf>) -> PyResult<String> {
+    let unit = options(py, "auto", limits)?;
+    let (_, fleet) = py.detach(|| batch::merge(&out, &unit)).map_err(|e| err(py, &e))?;
+    serde_json::to_string_pretty(&fleet).map_err(|e| err(py, &LabBatchError::Io(e.to_string())))
+}

@@ -1,0 +1,90 @@
+"""Production batches from Python: the same files whatever runs the shards (this process,
+a process pool, a Dask cluster), and the fleet read back."""
+
+from __future__ import annotations
+
+import concurrent.futures
+import os
+import hashlib
+from pathlib import Path
+from typing import Dict
+
+import pytest
+
+import qfa_thermal as q
+from conftest import run_lab
+
+READER = {"time_unit": "s", "accel_unit": "g", "temp_unit": "C"}
+
+
+def _tree(root: Path) -> Dict[str, str]:
+    """Every file under ``root``: relative path → SHA-256."""
+    return {
+        str(p.relative_to(root)): hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(root.rglob("*")) if p.is_file()
+    }
+
+
+@pytest.fixture(scope="module")
+def chamber(tmp_path_factory: pytest.TempPathFactory, lab_bin: Path) -> Path:
+    """A simulated chamber run of 12 units (3 deliberately bad), written by the CLI."""
+    d = tmp_path_factory.mktemp("sim")
+    run_lab(lab_bin, ["simulate-batch", "--units", "12", "--seed", "4", "--out", str(d)])
+    return d / "chamber.tsv"
+
+
+@pytest.fixture(scope="module")
+def single(tmp_path_factory: pytest.TempPathFactory, chamber: Path) -> Path:
+    out = tmp_path_factory.mktemp("single")
+    q.batch(log=chamber, out=out, shards=3, **READER)
+    return out
+
+
+def test_a_process_pool_writes_the_same_bytes(tmp_path: Path, chamber: Path, single: Path) -> None:
+    out = tmp_path / "pool"
+    with concurrent.futures.ProcessPoolExecutor(max_workers=2) as ex:
+        fleet = q.batch(log=chamber, out=out, executor=ex, shards=3, **READER)
+    assert _tree(out) == _tree(single)
+    assert fleet["units"] == 12
+    assert sum(fleet["counts"]) == 12
+
+
+def test_a_dask_cluster_writes_the_same_bytes(tmp_path: Path, chamber: Path, single: Path) -> None:
+    """The batch on a ``dask.distributed.LocalCluster`` (two worker processes) through
+    ``Client.get_executor()``: the same files as the single-process run, byte for byte."""
+    if os.environ.get("CI") == "true":
+        import dask.distributed as distributed  # CI installs it: missing is a failure there
+    else:
+        distributed = pytest.importorskip("dask.distributed")
+    out = tmp_path / "dask"
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        with distributed.Client(cluster) as client:
+            fleet = q.batch(log=chamber, out=out, executor=client.get_executor(), shards=3, **READER)
+    assert _tree(out) == _tree(single)
+    assert fleet["units"] == 12
+
+
+def test_the_returned_fleet_is_the_file(single: Path, chamber: Path) -> None:
+    """``batch`` returns ``fleet.json`` itself, and every unit of the log has its
+    certificate naming the CRC of a table that exists. (Which units the fleet flags is
+    judged against the simulator's truth on 60 units in ``lab/tests/batch.rs``: 12 are too
+    few for a robust spread.)"""
+    import json
+
+    fleet = q.batch(log=chamber, out=single, shards=3, **READER)
+    assert fleet == json.loads((single / "fleet.json").read_text())
+    assert [u["serial"] for u in fleet["unit"]] == [f"SN{i:04d}" for i in range(1, 13)]
+    for u in fleet["unit"]:
+        cert = json.loads((single / u["serial"] / "certificate.json").read_text())
+        name, crc = cert["flash"]
+        header = (single / u["serial"] / name).read_bytes()[12:16]
+        assert int.from_bytes(header, "little") == int(crc, 16)
+
+
+def test_mistakes_raise_batch_error(tmp_path: Path, chamber: Path) -> None:
+    with pytest.raises(q.BatchError, match="one of them"):
+        q.batch(out=tmp_path, **READER)
+    bad = tmp_path / "batch.toml"
+    bad.write_text('[[unit]]\nserial = "A"\nlog = "a.tsv"\ntime_units = "s"\n')
+    with pytest.raises(q.BatchError) as e:
+        q.batch(manifest=bad, out=tmp_path / "o", **READER)
+    assert e.value.kind == "Manifest" and "time_units" in str(e.value)
