@@ -227,6 +227,17 @@ fn the_command_refuses_a_users_mistakes_with_what_to_do() {
     assert!(!ok && text.contains("--log CHAMBER_LOG or --manifest"), "{text}");
     let (ok, text) = common::lab(&["batch", "merge", dir.to_str().unwrap()]);
     assert!(!ok && text.contains("--shard K/N"), "{text}");
+    // A flag every unit needs, forgotten: one line for all of them, and a failing status.
+    let sim = dir.join("sim");
+    let (ok, text) = common::lab(&["simulate-batch", "--units", "3", "--no-bad", "--out", sim.to_str().unwrap()]);
+    assert!(ok, "{text}");
+    let chamber = sim.join("chamber.tsv");
+    let (ok, text) = common::lab(&["batch", "--log", chamber.to_str().unwrap(), "--out", dir.join("f").to_str().unwrap()]);
+    assert!(!ok, "{text}");
+    assert!(
+        text.contains("fail: 3 units (SN0001, SN0002, SN0003): not calibrated: the unit of column `time` is not known"),
+        "{text}"
+    );
 }
 
 /// RMS (mg) over the fleet's span in 1-°C steps, both branches, of the truth's curve less

@@ -299,6 +299,32 @@ pub fn first_reasons(reasons: &[String]) -> String {
     s
 }
 
+/// The units not passed, those with the same decision and reasons together (a flag
+/// every unit shares, such as a missing `--time-unit`, is one line, not one per unit), in
+/// batch order of each group's first unit: `(decision, reasons, serials)`.
+#[must_use]
+pub fn grouped(fleet: &Fleet) -> Vec<(Decision, String, Vec<String>)> {
+    let mut out: Vec<(Decision, String, Vec<String>)> = Vec::new();
+    for u in fleet.unit.iter().filter(|u| u.decision != Decision::Pass) {
+        let r = first_reasons(&u.reasons);
+        match out.iter_mut().find(|(d, x, _)| *d == u.decision && *x == r) {
+            Some(g) => g.2.push(u.serial.clone()),
+            None => out.push((u.decision, r, vec![u.serial.clone()])),
+        }
+    }
+    out
+}
+
+/// `SN1`, or `3 units (SN1, SN2, SN3)`, or `40 units (SN1, SN2, SN3, … SN40)`.
+#[must_use]
+pub fn serial_list(serials: &[String]) -> String {
+    match serials {
+        [one] => one.clone(),
+        many if many.len() <= 4 => format!("{} units ({})", many.len(), many.join(", ")),
+        many => format!("{} units ({}, … {})", many.len(), many[..3].join(", "), many[many.len() - 1]),
+    }
+}
+
 /// Reasons a one-line summary shows.
 pub const REASONS_SHOWN: usize = 2;
 
@@ -311,9 +337,9 @@ pub fn console(fleet: &Fleet, out: &Path) -> String {
         "verdict: {} units: {pass} PASS, {review} REVIEW (limits met, outside the population), {fail} FAIL\n",
         fleet.units
     );
-    for u in fleet.unit.iter().filter(|u| u.decision != Decision::Pass) {
-        let key = if u.decision == Decision::Fail { "fail" } else { "review" };
-        s.push_str(&format!("{key}: {}: {}\n", u.serial, first_reasons(&u.reasons)));
+    for (decision, reasons, serials) in grouped(fleet) {
+        let key = if decision == Decision::Fail { "fail" } else { "review" };
+        s.push_str(&format!("{key}: {}: {reasons}\n", serial_list(&serials)));
     }
     for u in &fleet.unit {
         if let Some(p) = &u.prior {
@@ -338,6 +364,15 @@ pub fn console(fleet: &Fleet, out: &Path) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A list of serials reads whole up to four, then the first three and the last.
+    #[test]
+    fn serial_lists_stay_one_line() {
+        let s = |n: usize| (1..=n).map(|i| format!("S{i}")).collect::<Vec<_>>();
+        assert_eq!(serial_list(&s(1)), "S1");
+        assert_eq!(serial_list(&s(3)), "3 units (S1, S2, S3)");
+        assert_eq!(serial_list(&s(40)), "40 units (S1, S2, S3, … S40)");
+    }
 
     /// `K/N` parses for 0 ≤ K < N and nothing else.
     #[test]

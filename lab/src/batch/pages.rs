@@ -176,15 +176,13 @@ pub fn write_fleet(out: &Path, fleet: &Fleet, results: &[UnitResult], limits_fro
          {review} REVIEW (limits met, outside the population), {fail} FAIL</li>",
         fleet.units
     );
-    for u in fleet.unit.iter().filter(|u| u.decision != Decision::Pass) {
-        let c = if u.decision == Decision::Fail { "fail" } else { "warn" };
-        let _ = write!(
-            v,
-            "<li class=\"{c}\"><a href=\"{s}/certificate.html\">{s}</a> {}: {}</li>",
-            u.decision,
-            escape(&super::first_reasons(&u.reasons)),
-            s = escape(&u.serial)
-        );
+    for (decision, reasons, serials) in super::grouped(fleet) {
+        let c = if decision == Decision::Fail { "fail" } else { "warn" };
+        let links: Vec<String> =
+            serials.iter().map(|s| format!("<a href=\"{s}/certificate.html\">{s}</a>", s = escape(s))).collect();
+        let who =
+            if links.len() == 1 { links[0].clone() } else { format!("{} units: {}", links.len(), links.join(", ")) };
+        let _ = write!(v, "<li class=\"{c}\">{who} {decision}: {}</li>", escape(&reasons));
     }
     let _ = writeln!(v, "<li>limits: {}</li></ul></section>", escape(limits_from));
     p.raw(&v);
