@@ -232,12 +232,16 @@ fn the_command_refuses_a_users_mistakes_with_what_to_do() {
     let (ok, text) = common::lab(&["simulate-batch", "--units", "3", "--no-bad", "--out", sim.to_str().unwrap()]);
     assert!(ok, "{text}");
     let chamber = sim.join("chamber.tsv");
-    let (ok, text) = common::lab(&["batch", "--log", chamber.to_str().unwrap(), "--out", dir.join("f").to_str().unwrap()]);
+    let (ok, text) =
+        common::lab(&["batch", "--log", chamber.to_str().unwrap(), "--out", dir.join("f").to_str().unwrap()]);
     assert!(!ok, "{text}");
     assert!(
         text.contains("fail: 3 units (SN0001, SN0002, SN0003): not calibrated: the unit of column `time` is not known"),
         "{text}"
     );
+    // With no unit calibrated the fleet page draws nothing and says so.
+    let page = std::fs::read_to_string(dir.join("f").join("fleet.html")).unwrap();
+    assert!(page.contains("No unit was calibrated") && !dir.join("f").join("fleet_figures.png").exists());
 }
 
 /// RMS (mg) over the fleet's span in 1-°C steps, both branches, of the truth's curve less

@@ -160,8 +160,19 @@ pub fn write_fleet(out: &Path, fleet: &Fleet, results: &[UnitResult], limits_fro
     let io = |e: &dyn std::fmt::Display| BatchError::Io(format!("{}: {e}", out.display()));
     let json = serde_json::to_string_pretty(fleet).map_err(|e| io(&e))?;
     std::fs::write(out.join("fleet.json"), json + "\n").map_err(|e| io(&e))?;
-    plot_figures(&out.join("fleet_figures.png"), fleet).map_err(|e| io(&e))?;
-    plot_held_out(&out.join("fleet_held_out.png"), fleet, results).map_err(|e| io(&e))?;
+    // Without a calibrated unit there is nothing to draw: the plots are not written (an
+    // old batch's plots in the folder are removed, so none is taken for this one's).
+    let plots = !fleet.stats.is_empty();
+    for name in ["fleet_figures.png", "fleet_held_out.png"] {
+        match std::fs::remove_file(out.join(name)) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(io(&e)),
+            _ => {}
+        }
+    }
+    if plots {
+        plot_figures(&out.join("fleet_figures.png"), fleet).map_err(|e| io(&e))?;
+        plot_held_out(&out.join("fleet_held_out.png"), fleet, results).map_err(|e| io(&e))?;
+    }
     let [pass, review, fail] = fleet.counts;
     let mut p = Page::new("Fleet");
     let class = if fail > 0 {
@@ -211,8 +222,13 @@ pub fn write_fleet(out: &Path, fleet: &Fleet, results: &[UnitResult], limits_fro
          ±{} (held-out RMS: above only). Red: flagged.",
         fleet.z_flag
     ));
-    p.image(&out.join("fleet_figures.png"), "each figure's robust distance, one dot per unit").map_err(|e| io(&e))?;
-    p.image(&out.join("fleet_held_out.png"), "held-out bias RMS per axis against its limit").map_err(|e| io(&e))?;
+    if plots {
+        p.image(&out.join("fleet_figures.png"), "each figure's robust distance, one dot per unit")
+            .map_err(|e| io(&e))?;
+        p.image(&out.join("fleet_held_out.png"), "held-out bias RMS per axis against its limit").map_err(|e| io(&e))?;
+    } else {
+        p.warning("No unit was calibrated, so no figure can be compared: the verdict above says why.");
+    }
     let rows: Vec<Vec<String>> = fleet
         .stats
         .iter()
