@@ -100,27 +100,11 @@ pub fn normal_of(time_s: &[f64], temp_c: &[f64], branch: &[Branch], axes: &[(&st
             }
             let theta = pinv * aty;
             // Residual means over NOISE_MEAN_S: their variance × rows per mean.
-            let (mut means, mut key, mut s, mut c) = (Vec::new(), i64::MIN, 0.0, 0usize);
-            let mut rows_per_mean = Vec::new();
-            for (i, x) in xs.iter().enumerate() {
-                let k = (time_s[i] / NOISE_MEAN_S).floor() as i64;
-                if k != key && c > 0 {
-                    means.push(s / c as f64);
-                    rows_per_mean.push(c);
-                    s = 0.0;
-                    c = 0;
-                }
-                key = k;
-                s += y[i] - Vector5::from_row_slice(x).dot(&theta);
-                c += 1;
-            }
-            if c > 0 {
-                means.push(s / c as f64);
-                rows_per_mean.push(c);
-            }
+            let resid = xs.iter().zip(y.iter()).map(|(x, v)| v - Vector5::from_row_slice(x).dot(&theta));
+            let means = crate::calibrate::metrics::time_bin_means(resid, time_s, NOISE_MEAN_S);
             let m = means.len().max(1) as f64;
-            let mean_rows = rows_per_mean.iter().sum::<usize>() as f64 / m;
-            let sigma2 = means.iter().map(|r| r * r).sum::<f64>() / m * mean_rows;
+            let mean_rows = means.iter().map(|b| b.2).sum::<usize>() as f64 / m;
+            let sigma2 = means.iter().map(|b| b.1 * b.1).sum::<f64>() / m * mean_rows;
             AxisNormal { axis: (*name).to_string(), aty: aty.into(), theta: theta.into(), sigma2 }
         })
         .collect();

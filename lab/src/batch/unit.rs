@@ -249,21 +249,9 @@ pub fn normal(log: &StaticLog, deadband: f32) -> super::prior::UnitNormal {
 /// one chamber run line up, whichever row each starts at).
 #[must_use]
 pub fn temp_minutes(log: &StaticLog) -> Vec<(i64, f64)> {
-    let mut out: Vec<(i64, f64)> = Vec::new();
-    let (mut key, mut sum, mut n) = (i64::MIN, 0.0, 0usize);
-    for (&t, &c) in log.time_s.iter().zip(&log.temp_c) {
-        let k = ((t + log.time_origin_s) / TEMP_MEAN_S).floor() as i64;
-        if k != key && n > 0 {
-            out.push((key, sum / n as f64));
-            sum = 0.0;
-            n = 0;
-        }
-        key = k;
-        sum += c;
-        n += 1;
-    }
-    if n > 0 {
-        out.push((key, sum / n as f64));
-    }
-    out
+    let clock: Vec<f64> = log.time_s.iter().map(|t| t + log.time_origin_s).collect();
+    crate::calibrate::metrics::time_bin_means(log.temp_c.iter().copied(), &clock, TEMP_MEAN_S)
+        .into_iter()
+        .map(|(k, m, _)| (k, m))
+        .collect()
 }

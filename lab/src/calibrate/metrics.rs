@@ -43,6 +43,31 @@ pub fn sensitivity_ppm_per_c(sf: &[f64], temps: &[f64]) -> Option<f64> {
     Some((max - min) / (mean * span) * 1e6)
 }
 
+/// Means of `values` over consecutive time bins of `bin_s` (row times `time_s`, s): one
+/// `(bin, mean, rows)` per run of rows whose `floor(t / bin_s)` is the same, in row order.
+/// The one binning of the held-out 60-s figure, the fleet's per-minute temperatures and
+/// the population prior's noise.
+#[must_use]
+pub fn time_bin_means(values: impl IntoIterator<Item = f64>, time_s: &[f64], bin_s: f64) -> Vec<(i64, f64, usize)> {
+    let mut out = Vec::new();
+    let (mut key, mut s, mut n) = (i64::MIN, 0.0, 0usize);
+    for (v, &t) in values.into_iter().zip(time_s) {
+        let k = (t / bin_s).floor() as i64;
+        if k != key && n > 0 {
+            out.push((key, s / n as f64, n));
+            s = 0.0;
+            n = 0;
+        }
+        key = k;
+        s += v;
+        n += 1;
+    }
+    if n > 0 {
+        out.push((key, s / n as f64, n));
+    }
+    out
+}
+
 /// RMS of `v`.
 #[must_use]
 pub fn rms(v: &[f64]) -> f64 {
@@ -143,6 +168,14 @@ pub fn bins_sensitivity(bins: &[Bin]) -> Option<f64> {
 
 #[cfg(test)]
 mod tests {
+
+    /// Bins follow the rows' times, a run of rows per bin, means and counts exact.
+    #[test]
+    fn time_bin_means_cut_where_the_bin_changes() {
+        let b = time_bin_means([1.0, 2.0, 3.0, 4.0, 5.0], &[0.0, 30.0, 60.0, 61.0, 185.0], 60.0);
+        assert_eq!(b, vec![(0, 1.5, 2), (1, 3.5, 2), (3, 5.0, 1)]);
+        assert!(time_bin_means([], &[], 60.0).is_empty());
+    }
     use super::*;
 
     #[test]

@@ -120,22 +120,10 @@ pub fn score(resid: &[f64], time_s: &[f64], what: &str) -> Result<Score, StaticC
     if resid.is_empty() {
         return Err(StaticCalError::Figure(format!("{what}: no held-out row had a model output")));
     }
-    let mut bins: Vec<f64> = Vec::new();
-    let (mut s, mut n, mut key) = (0.0, 0usize, (time_s[0] / BIN_S).floor());
-    for (&r, &t) in resid.iter().zip(time_s) {
-        let k = (t / BIN_S).floor();
-        if k != key && n > 0 {
-            bins.push(s / n as f64);
-            s = 0.0;
-            n = 0;
-        }
-        key = k;
-        s += r;
-        n += 1;
-    }
-    if n > 0 {
-        bins.push(s / n as f64);
-    }
+    let bins: Vec<f64> = crate::calibrate::metrics::time_bin_means(resid.iter().copied(), time_s, BIN_S)
+        .into_iter()
+        .map(|b| b.1)
+        .collect();
     let out = Score { rms_mg: rms(resid) * 1e3, binned_mg: rms(&bins) * 1e3 };
     if !out.rms_mg.is_finite() || !out.binned_mg.is_finite() {
         return Err(StaticCalError::Figure(format!("{what}: non-finite residual")));
