@@ -304,8 +304,7 @@ fn sensor_lag_delays_k1_behind_the_reading() {
         let all = pairs(&rows, &trace);
         for (p, prog) in trace.programs.iter().enumerate() {
             for &ramp_end in &prog.ramp_ends_s {
-                let (a, b, t, _) =
-                    all.iter().filter(|(_, _, t, _)| t.program == p && t.time_s <= ramp_end).last().unwrap();
+                let (a, b, t, _) = all.iter().rfind(|(_, _, t, _)| t.program == p && t.time_s <= ramp_end).unwrap();
                 let seen = a.temp_c - te_from_counts(a, b, &trace);
                 let want = lag.unwrap_or(0.0) * t.rate_c_per_min / 60.0;
                 if p == 0 {
@@ -313,8 +312,7 @@ fn sensor_lag_delays_k1_behind_the_reading() {
                 }
                 // Steady once the ramp has lasted several times the case's and the element's
                 // time constants; before that the lag is still building.
-                let ramp_s =
-                    prog.knots.iter().map(|k| k.0).filter(|&t| t < ramp_end).last().map_or(0.0, |t0| ramp_end - t0);
+                let ramp_s = prog.knots.iter().map(|k| k.0).rfind(|&t| t < ramp_end).map_or(0.0, |t0| ramp_end - t0);
                 let steady = ramp_s > 6.0 * (400.0 + lag.unwrap_or(0.0));
                 match lag {
                     None => assert!(seen.abs() < 0.05, "no lag: {seen}"),
