@@ -47,8 +47,11 @@ fn line(label: &str, seed: u64, r: &Report) -> String {
         .iter()
         .map(|u| format!("{} ({:.1}× floor, {})", u.channel, u.floor.ratio, u.time_scales.dominant()))
         .collect();
+    let offset = r
+        .timing_offset
+        .map_or_else(|| "-".into(), |o| format!("{:+.1} [{:+.1}, {:+.1}]", o.seconds, o.ci95[0], o.ci95[1]));
     format!(
-        "| {label} | {seed} | {} | {} | {} | {} |",
+        "| {label} | {seed} | {} | {} | {offset} | {} | {} |",
         if r.effects.is_empty() { "none".into() } else { r.effect_labels().join(", ") },
         params.join("; "),
         floor.join(", "),
@@ -85,7 +88,7 @@ fn discovery_is_honest_on_independent_cycling_logs() {
     .collect();
     let reports: Vec<Report> = cases.par_iter().map(|&(_, t, s, seed)| cycling_report(t, seed, s)).collect();
     println!(
-        "| case | seed | named | parameters | held-out RMS / noise floor | unexplained |\n|---|---|---|---|---|---|"
+        "| case | seed | named | parameters | timing offset, s | held-out RMS / noise floor | unexplained |\n|---|---|---|---|---|---|---|"
     );
     let mut bad = Vec::new();
     for (&(label, _, _, seed), r) in cases.iter().zip(&reports) {

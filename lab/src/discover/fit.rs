@@ -237,6 +237,32 @@ pub struct Setup<'a> {
     pub sigma_sf: f64,
     /// Noise floor of the bias channel, µg (or value units).
     pub sigma_b: f64,
+    /// Per-bin time derivative of the current model's prediction, (dK1/dt, dK0/dt) per
+    /// second: the direction in which a timing offset between the temperature readings
+    /// and the counts moves the prediction (K(T(t + δ)) ≈ K(T(t)) + δ·dK/dt). When set,
+    /// every fit takes the offset δ as a nuisance shared by both channels
+    /// ([`TimingOffset`]); `None` fits none.
+    pub offset_basis: Option<Vec<(f64, f64)>>,
+    /// Largest |δ| a fit may take, s.
+    pub offset_limit_s: f64,
+    /// δ held at this value instead of fitted (the selection holds it while it tests a
+    /// round's candidates: see `select::analyze`).
+    pub offset_fixed: Option<f64>,
+}
+
+/// The timing offset δ a fit took: the counts at time t follow the model at the temperature
+/// stamped t + δ (δ > 0: the temperature channel is stamped δ early against the counts,
+/// as a reading taken at the start of a counting interval, or a conversion that reports
+/// a temperature δ old, is).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TimingOffset {
+    /// δ, s.
+    pub seconds: f64,
+    /// Its SE from the fit's curvature for white residuals, s (the report widens it by
+    /// the residual's variance inflation).
+    pub se_white_s: f64,
+    /// δ sits at ±`offset_limit_s`.
+    pub at_limit: bool,
 }
 
 impl<'a> Setup<'a> {
@@ -261,7 +287,34 @@ impl<'a> Setup<'a> {
             rate_limit: (rmax * 1.25).clamp(0.1, 20.0),
             sigma_sf: 1.0,
             sigma_b: 1.0,
+            offset_basis: None,
+            offset_limit_s: offset_limit_s(ch),
+            offset_fixed: None,
         }
+    }
+
+    /// The time derivative of `model`'s per-bin prediction along each trace (central
+    /// differences over the bins' times; one-sided at a trace's ends): the basis of the
+    /// timing offset ([`Setup::offset_basis`]).
+    #[must_use]
+    pub fn offset_basis_of(&self, model: &AxisModel) -> Vec<(f64, f64)> {
+        let pred = self.predict(model);
+        let mut out = Vec::with_capacity(pred.len());
+        let mut o = 0;
+        for t in &self.ch.traces {
+            let m = t.bins.len();
+            for i in 0..m {
+                let (a, b) = (i.saturating_sub(1), (i + 1).min(m - 1));
+                let dt = t.bins[b].time_s - t.bins[a].time_s;
+                out.push(if dt > 0.0 {
+                    ((pred[o + b].0 - pred[o + a].0) / dt, (pred[o + b].1 - pred[o + a].1) / dt)
+                } else {
+                    (0.0, 0.0)
+                });
+            }
+            o += m;
+        }
+        out
     }
 
     /// Factor from the bias channel's unit (g for cycling logs) to the reported unit.
@@ -289,6 +342,18 @@ struct Features {
     creep: Vec<f64>,
 }
 
+/// The largest timing offset a fit may take: 1.5 rows (a logger stamps a reading at the
+/// start, the centre or the end of its counting interval, and a conversion adds up to
+/// 0.75 s), at least 2 s. A longer delay is not a timestamp convention: `sensor_lag`.
+fn offset_limit_s(ch: &Channels) -> f64 {
+    let mut dt: Vec<f32> = ch.traces.iter().flat_map(|t| t.dt_s.iter().copied()).filter(|&d| d > 0.0).collect();
+    if dt.is_empty() {
+        return 2.0;
+    }
+    dt.sort_by(f32::total_cmp);
+    (1.5 * f64::from(dt[dt.len() / 2])).max(2.0)
+}
+
 fn clampf(x: f32, lo: f32, hi: f32) -> f32 {
     if x < lo {
         lo
@@ -308,6 +373,8 @@ pub struct Fitted {
     pub pred: Vec<(f64, f64)>,
     /// Bias drift, g/h (value units per hour for single-channel logs), when in the structure.
     pub drift_per_h: Option<f64>,
+    /// The timing offset the fit took, when [`Setup::offset_basis`] is set.
+    pub offset: Option<TimingOffset>,
 }
 
 /// Per-bin residuals: scale factor in ppm (NaN for single-channel), bias in µg (or value).
@@ -455,25 +522,15 @@ impl Setup<'_> {
         let hours = if s.bias_drift { self.bin_hours() } else { Vec::new() };
         let cyc = self.ch.kind == LogKind::Cycling;
         // Scale factor: Eq. 11's columns (`eq11_regressors`' order) 1, d, [d²], [r], [r·d], [r²].
-        let scale = if cyc {
-            let mut cols = vec![0usize, 1];
-            for (on, c) in [(s.sf_quad, 2), (s.sf_eps, 3), (s.sf_eta, 4), (s.sf_alpha, 5)] {
-                if on {
-                    cols.push(c);
-                }
+        let rows: Vec<usize> = (0..bins.len()).filter(|&i| train[i]).collect();
+        let mut cols = vec![0usize, 1];
+        for (on, c) in [(s.sf_quad, 2), (s.sf_eps, 3), (s.sf_eta, 4), (s.sf_alpha, 5)] {
+            if on {
+                cols.push(c);
             }
-            let rows: Vec<usize> = (0..bins.len()).filter(|&i| train[i]).collect();
-            let a = DMatrix::from_fn(rows.len(), cols.len(), |i, j| f.sf[rows[i]][cols[j]]);
-            let y = DVector::from_fn(rows.len(), |i, _| meas(rows[i]).0);
-            let c = solve(&a, &y, None);
-            let mut full = [0.0f64; 6];
-            for (j, &cj) in cols.iter().enumerate() {
-                full[cj] = c[j];
-            }
-            crate::calibrate::fit::scale_of_eq11(&full)
-        } else {
-            ScaleFactor::simple(T0_C, 1.0, 0.0)
-        };
+        }
+        let a_sf = DMatrix::from_fn(if cyc { rows.len() } else { 0 }, cols.len(), |i, j| f.sf[rows[i]][cols[j]]);
+        let y_sf = DVector::from_fn(a_sf.nrows(), |i, _| meas(rows[i]).0);
         // Bias: grid basis B (GRID_POINTS × nb) through the hats, then play, creep.
         let basis: Vec<Vec<f64>> = match s.start {
             Start::Simple => (0..GRID_POINTS)
@@ -494,7 +551,6 @@ impl Setup<'_> {
         let np = usize::from(nl.play_r_c.is_some());
         let nc = usize::from(nl.creep.is_some());
         let nd = usize::from(s.bias_drift);
-        let rows: Vec<usize> = (0..bins.len()).filter(|&i| train[i]).collect();
         let a = DMatrix::from_fn(rows.len(), nb + np + nc + nd, |i, j| {
             let b = rows[i];
             if j < nb {
@@ -510,7 +566,16 @@ impl Setup<'_> {
         let y = DVector::from_fn(rows.len(), |i, _| meas(rows[i]).1);
         // Paper start: a gentle second-difference penalty keeps a sparse grid well posed.
         let pen = (s.start == Start::Paper).then_some((0usize, nb));
-        let c = solve(&a, &y, pen);
+        let (c_sf, c, offset) = self.solve_with_offset(&rows, (&a_sf, &y_sf), (&a, &y, pen));
+        let scale = if cyc {
+            let mut full = [0.0f64; 6];
+            for (j, &cj) in cols.iter().enumerate() {
+                full[cj] = c_sf[j];
+            }
+            crate::calibrate::fit::scale_of_eq11(&full)
+        } else {
+            ScaleFactor::simple(T0_C, 1.0, 0.0)
+        };
         let grid: Vec<f32> =
             (0..GRID_POINTS).map(|g| (0..nb).map(|j| basis[g][j] * c[j]).sum::<f64>() as f32).collect();
         let mut ext = Extensions { sensor_lag: nl.lag_tau_s.map(|tau_s| SensorLag { tau_s }), ..Default::default() };
@@ -539,7 +604,59 @@ impl Setup<'_> {
                 p.1 += d * h;
             }
         }
-        Fitted { model, pred, drift_per_h }
+        if let (Some(o), Some(basis)) = (offset, &self.offset_basis) {
+            for (p, d) in pred.iter_mut().zip(basis) {
+                p.0 += o.seconds * d.0;
+                p.1 += o.seconds * d.1;
+            }
+        }
+        Fitted { model, pred, drift_per_h, offset }
+    }
+
+    /// The two channels' least squares (scale factor: `a_sf`, `y_sf`; bias: `a_b`, `y_b`
+    /// with its penalty), with the timing offset δ shared by both when
+    /// [`Setup::offset_basis`] is set: the data are `y = A·c + δ·p + e`, so with
+    /// `r_y`, `r_p` the residuals of `y` and of the basis `p` on each channel's columns,
+    /// δ = Σ w²·r_y·r_p / Σ w²·r_p² over both channels (w: 1/noise floor, in ppm and the
+    /// bias's unit) and `c = c_y − δ·c_p`: the exact joint least-squares solution, clamped to
+    /// ±[`Setup::offset_limit_s`] (the objective is a parabola in δ, so the clamp is the
+    /// constrained optimum).
+    fn solve_with_offset(
+        &self,
+        rows: &[usize],
+        (a_sf, y_sf): (&DMatrix<f64>, &DVector<f64>),
+        (a_b, y_b, pen): (&DMatrix<f64>, &DVector<f64>, Option<(usize, usize)>),
+    ) -> (Vec<f64>, Vec<f64>, Option<TimingOffset>) {
+        let c_sf = if a_sf.nrows() > 0 { solve(a_sf, y_sf, None) } else { vec![0.0; a_sf.ncols()] };
+        let c_b = solve(a_b, y_b, pen);
+        let Some(basis) = self.offset_basis.as_ref().filter(|_| !rows.is_empty()) else {
+            return (c_sf, c_b, None);
+        };
+        let p_sf = DVector::from_fn(a_sf.nrows(), |i, _| basis[rows[i]].0);
+        let p_b = DVector::from_fn(a_b.nrows(), |i, _| basis[rows[i]].1);
+        let cp_sf = if a_sf.nrows() > 0 { solve(a_sf, &p_sf, None) } else { vec![0.0; a_sf.ncols()] };
+        let cp_b = solve(a_b, &p_b, pen);
+        let resid = |a: &DMatrix<f64>, y: &DVector<f64>, c: &[f64]| -> DVector<f64> {
+            y - a * DVector::from_column_slice(c)
+        };
+        let (ry_sf, rp_sf) = (resid(a_sf, y_sf, &c_sf), resid(a_sf, &p_sf, &cp_sf));
+        let (ry_b, rp_b) = (resid(a_b, y_b, &c_b), resid(a_b, &p_b, &cp_b));
+        let k1 = if y_sf.is_empty() { 1.0 } else { y_sf.mean().abs().max(1e-300) };
+        let w_sf = (1e6 / k1 / self.sigma_sf).powi(2);
+        let w_b = (self.bias_unit() / self.sigma_b).powi(2);
+        let den = w_sf * rp_sf.norm_squared() + w_b * rp_b.norm_squared();
+        if den.is_nan() || den <= 0.0 {
+            return (c_sf, c_b, None);
+        }
+        let raw = self.offset_fixed.unwrap_or_else(|| (w_sf * ry_sf.dot(&rp_sf) + w_b * ry_b.dot(&rp_b)) / den);
+        let lim = self.offset_limit_s;
+        let d = raw.clamp(-lim, lim);
+        let sse = w_sf * (&ry_sf - d * &rp_sf).norm_squared() + w_b * (&ry_b - d * &rp_b).norm_squared();
+        let n = (ry_sf.len() + ry_b.len()).max(2) as f64;
+        let se = (sse / (n - 1.0) / den).sqrt();
+        let sub = |c: Vec<f64>, cp: &[f64]| c.iter().zip(cp).map(|(a, b)| a - d * b).collect::<Vec<f64>>();
+        let offset = TimingOffset { seconds: d, se_white_s: se, at_limit: raw.abs() >= lim && self.offset_fixed.is_none() };
+        (sub(c_sf, &cp_sf), sub(c_b, &cp_b), Some(offset))
     }
 
     /// Normalized sum of squares of `res` over `mask`: Σ(sf/σ_sf)² + Σ(bias/σ_b)².

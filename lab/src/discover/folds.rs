@@ -67,24 +67,8 @@ pub(super) fn folds(ch: &Channels) -> (Vec<Vec<bool>>, Vec<Vec<bool>>, String) {
     }
 }
 
-/// Robust noise floor of a per-bin residual from consecutive-bin differences.
+/// Noise floor of a per-bin residual: the white part of its fitted noise model
+/// ([`super::noise`]), robust to glitches and steps.
 pub(crate) fn noise_floor(ch: &Channels, v: &[f64]) -> f64 {
-    let mut d = Vec::new();
-    let mut o = 0;
-    for t in &ch.traces {
-        let m = t.bins.len();
-        for i in o + 1..o + m {
-            let x = v[i] - v[i - 1];
-            if x.is_finite() {
-                d.push(x.abs());
-            }
-        }
-        o += m;
-    }
-    if d.is_empty() {
-        return 1.0;
-    }
-    d.sort_by(f64::total_cmp);
-    let med = d[d.len() / 2];
-    (1.4826 * med / std::f64::consts::SQRT_2).max(1e-12)
+    super::noise::fit(ch, v).white
 }

@@ -84,6 +84,7 @@ pub mod fit;
 mod folds;
 mod heldout;
 mod localize;
+pub mod noise;
 pub mod output;
 pub mod page;
 mod params;

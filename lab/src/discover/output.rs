@@ -239,9 +239,26 @@ fn markdown(ch: &Channels, r: &Report, scope: Scope<'_>, v: &Verdict) -> String 
     );
     let _ = writeln!(
         s,
-        "- Noise floor (bin-to-bin part of the final {held} residual): {}\n",
+        "- Noise floor (white part of the noise model fitted to the final {held} residual): {}",
         gaps_text(ch.bias_unit, &r.noise_floor)
     );
+    let _ = writeln!(s, "- Noise model: {}; change points: {}", noise_models_text(ch, r), change_point_tests_text(r));
+    if let Some(o) = &r.timing_offset {
+        let _ = writeln!(
+            s,
+            "- Timing offset between the temperature readings and the counts (fitted with every model): {:+.2} s, \
+             95 % interval [{:+.2}, {:+.2}] s{}",
+            o.seconds,
+            o.ci95[0],
+            o.ci95[1],
+            if o.at_limit {
+                format!(", at its limit of ±{:.1} s: a longer delay than any timestamp convention", o.limit_s)
+            } else {
+                String::new()
+            }
+        );
+    }
+    let _ = writeln!(s);
     let labels = r.effect_labels();
     let _ = writeln!(
         s,
@@ -256,9 +273,11 @@ fn markdown(ch: &Channels, r: &Report, scope: Scope<'_>, v: &Verdict) -> String 
                 .join(", ");
             if r.residual_vs_floor.iter().any(|f| f.ratio > 2.0) {
                 format!(
-                    "the {held} residual is {ratios} its bin-to-bin noise floor, but follows none of the drivers \
-                     tested and its run levels agree with noise: slow noise (bias instability) can explain it, the \
-                     catalog's effects cannot be told from it"
+                    "the {held} residual is {ratios} its white-noise floor, and the noise model fitted to it ({}) is \
+                     not rejected: no step inside any run ({}), run levels within its noise, no driver followed; \
+                     slow noise of that size explains it, and the catalog's effects cannot be told from it",
+                    noise_models_text(ch, r),
+                    change_point_tests_text(r)
                 )
             } else {
                 format!(
@@ -341,6 +360,17 @@ fn markdown(ch: &Channels, r: &Report, scope: Scope<'_>, v: &Verdict) -> String 
                     line,
                     "; its mean differs between runs more than noise allows (χ² {:.1} on {} runs, critical {:.1})",
                     l.q, l.runs, l.critical
+                );
+            }
+            if let Some(c) = &u.change_point {
+                let _ = write!(
+                    line,
+                    "; its level steps by {:+.3} at {:.2} h into {}, which the fitted noise model ({}) rejects (|z| {:.1})",
+                    c.size,
+                    c.at_h,
+                    c.run,
+                    noise_model_of(r, &u.channel).map_or_else(String::new, |n| n.model.text(channel_unit(ch, &u.channel))),
+                    c.z
                 );
             }
             match u.structure_rms {
@@ -558,4 +588,46 @@ fn plots(ch: &Channels, r: &Report, dir: &Path, scope: Scope<'_>) -> Result<Vec<
         }
     }
     Ok(written)
+}
+
+/// The residual unit of a channel in words.
+fn channel_unit(ch: &Channels, channel: &str) -> &'static str {
+    if channel == "scale_factor" {
+        "ppm"
+    } else {
+        ch.bias_unit.label()
+    }
+}
+
+/// The noise test of `channel`, if the report has one.
+fn noise_model_of<'a>(r: &'a Report, channel: &str) -> Option<&'a super::noise::NoiseTest> {
+    r.residual_vs_floor.iter().position(|f| f.channel == channel).and_then(|k| r.noise.get(k))
+}
+
+/// Every channel's fitted noise model, in words.
+fn noise_models_text(ch: &Channels, r: &Report) -> String {
+    r.residual_vs_floor
+        .iter()
+        .zip(&r.noise)
+        .map(|(f, n)| format!("{}: {}", f.channel, n.model.text(channel_unit(ch, &f.channel))))
+        .collect::<Vec<_>>()
+        .join("; ")
+}
+
+/// Every channel's change-point search against its critical value, in words.
+fn change_point_tests_text(r: &Report) -> String {
+    r.residual_vs_floor
+        .iter()
+        .zip(&r.noise)
+        .map(|(f, n)| {
+            format!(
+                "{} largest |z| {:.1} against {:.1} from {} series of the model",
+                f.channel,
+                n.max_z,
+                n.critical,
+                super::noise::NULL_DRAWS
+            )
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
 }

@@ -72,9 +72,15 @@ pub fn caption(file: &str, ch: &Channels, r: &Report, scope: Scope<'_>) -> Strin
     if let Some(f) = r.residual_vs_floor.iter().find(|f| f.channel == channel && f.ratio > 2.0) {
         if r.unexplained.iter().all(|u| u.channel != channel) {
             s.push_str(&format!(
-                " The lower panel wanders {:.1}× wider than its bin-to-bin noise yet follows none of the drivers \
-                 tested: slow noise (bias instability) can explain it, and the catalog's effects cannot be told from it.",
-                f.ratio
+                " The lower panel wanders {:.1}× wider than its white noise, and the noise model fitted to it ({}) \
+                 is not rejected (no step inside a run, run levels within its noise, no driver followed): slow \
+                 noise of that size explains it, and the catalog's effects cannot be told from it.",
+                f.ratio,
+                r.residual_vs_floor
+                    .iter()
+                    .position(|x| x.channel == channel)
+                    .and_then(|k| r.noise.get(k))
+                    .map_or_else(String::new, |n| n.model.text(if channel == "scale_factor" { "ppm" } else { ch.bias_unit.label() }))
             ));
         }
     }

@@ -175,6 +175,19 @@ pub struct PeerBetter {
     pub heldout_rms: f64,
 }
 
+/// The timing offset a discovery fitted (see [`super::fit::TimingOffset`]).
+#[derive(Clone, Copy, Debug, Serialize, PartialEq)]
+pub struct TimingOffsetReport {
+    /// δ, s: the counts at time t follow the temperature stamped t + δ.
+    pub seconds: f64,
+    /// 95 % interval (the fit's SE widened by the residual's variance inflation N/N_eff).
+    pub ci95: [f64; 2],
+    /// The largest |δ| a fit may take (1.5 rows, at least 2 s), s.
+    pub limit_s: f64,
+    /// δ sits at the limit: the delay is longer than a timestamp convention.
+    pub at_limit: bool,
+}
+
 /// The discovery report; `report.json` is its serialization.
 #[derive(Clone, Debug, Serialize)]
 pub struct Report {
@@ -194,7 +207,15 @@ pub struct Report {
     /// Each channel's final held-out residual against its noise floor (the test that
     /// reports structure left even when no driver explains it).
     pub residual_vs_floor: Vec<FloorRatio>,
-    /// Noise floors of the final held-out residual (bin-to-bin part).
+    /// The timing offset between the temperature channel and the counts, fitted with every
+    /// model as a nuisance (cycling logs only; see [`super::fit::TimingOffset`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub timing_offset: Option<TimingOffsetReport>,
+    /// Each channel's fitted noise model and its change-point test, in the order of
+    /// `residual_vs_floor` ([`super::noise`]).
+    pub noise: Vec<super::noise::NoiseTest>,
+    /// Noise floors of the final held-out residual (the white part of each channel's
+    /// noise model).
     pub noise_floor: Gaps,
     /// Peers on the same held-out split, bias channel (cycling logs: the bias channel
     /// only; the peers have no scale-factor model).

@@ -35,6 +35,7 @@
 use serde::Serialize;
 
 use super::fit::{Effect, Residuals};
+use super::noise::{self, ChangePoint, NoiseModel, NoiseTest};
 use super::{localize, noise_floor, stats, Channels, LogKind, ALPHA};
 use crate::calibrate::metrics::rms_of_finite as rms;
 
@@ -117,6 +118,9 @@ pub struct Unexplained {
     pub correlates_with: Vec<String>,
     /// Catalog effects that would fit only with a parameter at a search limit.
     pub pinned: Vec<String>,
+    /// A step inside one run that the fitted noise model rejects (see [`noise`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub change_point: Option<ChangePoint>,
 }
 
 /// Each channel's residual against its floor, in the order of `channels_of`.
@@ -138,6 +142,15 @@ pub fn floor_ratios(ch: &Channels, cur: &Residuals) -> Vec<FloorRatio> {
         .collect()
 }
 
+/// Each channel's noise model and its change-point test at level [`ALPHA`] shared over
+/// the channels, in the order of `channels_of`.
+#[must_use]
+pub fn noise_tests(ch: &Channels, cur: &Residuals) -> Vec<NoiseTest> {
+    let chans = channels_of(ch, cur);
+    let alpha = ALPHA / chans.len() as f64;
+    chans.into_iter().enumerate().map(|(k, (_, r, _))| noise::test(ch, r, alpha, 0x006e_6f69_7365 + k as u64)).collect()
+}
+
 /// The channels of a log: name, final residual, and whether it is the scale factor.
 fn channels_of<'a>(ch: &Channels, cur: &'a Residuals) -> Vec<(&'static str, &'a [f64], bool)> {
     if ch.kind == LogKind::Cycling {
@@ -155,32 +168,21 @@ fn chi2_upper(alpha: f64, k: f64) -> f64 {
     k * (1.0 - c + z * c.sqrt()).powi(3)
 }
 
-/// The run-level test of residual `r` at level `alpha`; `None` with fewer than two runs.
+/// The run-level test of residual `r` at level `alpha`, each run's mean (clipped at
+/// [`noise::CLIP_SD`] model SDs, so a glitch cannot pose as a level) against the SE of a
+/// run mean under the fitted noise model `model`; `None` with fewer than two runs.
 #[must_use]
-pub fn run_levels(ch: &Channels, r: &[f64], alpha: f64) -> Option<RunLevels> {
-    let mut demeaned = r.to_vec();
-    let mut runs = Vec::new();
-    let mut o = 0;
-    for t in &ch.traces {
-        let m = t.bins.len();
-        let fin: Vec<usize> = (o..o + m).filter(|&i| r[i].is_finite()).collect();
-        o += m;
-        if fin.len() < 2 {
-            continue;
-        }
-        let n = fin.len() as f64;
-        let mean = fin.iter().map(|&i| r[i]).sum::<f64>() / n;
-        let var = fin.iter().map(|&i| (r[i] - mean).powi(2)).sum::<f64>() / (n - 1.0);
-        for &i in &fin {
-            demeaned[i] = r[i] - mean;
-        }
-        runs.push((mean, var, n));
-    }
+pub fn run_levels(ch: &Channels, r: &[f64], alpha: f64, model: &NoiseModel) -> Option<RunLevels> {
+    let c = noise::CLIP_SD * model.total_sd();
+    let runs: Vec<(f64, usize)> = noise::runs_of(ch, r)
+        .into_iter()
+        .filter(|(_, v, _)| v.len() >= 2)
+        .map(|(_, v, _)| (v.iter().map(|x| x.clamp(-c, c)).sum::<f64>() / v.len() as f64, v.len()))
+        .collect();
     if runs.len() < 2 {
         return None;
     }
-    let kappa = stats::inflation(ch, &demeaned);
-    let q: f64 = runs.iter().map(|&(mean, var, n)| mean * mean / (var.max(1e-300) * kappa / n)).sum();
+    let q: f64 = runs.iter().map(|&(mean, n)| mean * mean / model.var_mean(n).max(1e-300)).sum();
     let critical = chi2_upper(alpha, runs.len() as f64);
     Some(RunLevels { q, runs: runs.len(), critical, significant: q > critical })
 }
@@ -297,6 +299,7 @@ pub fn find_unexplained(
     trains: &[Vec<bool>],
     pinned: &[(Effect, Vec<String>)],
     floors: &[FloorRatio],
+    noise: &[NoiseTest],
 ) -> Vec<Unexplained> {
     let drv = drivers(ch);
     let chans = channels_of(ch, cur);
@@ -305,7 +308,7 @@ pub fn find_unexplained(
     let alpha = ALPHA / (drv.len() * chans.len()) as f64;
     let after = localize(ch, cur, 1);
     let mut out = Vec::new();
-    for ((name, r, is_sf), floor) in chans.into_iter().zip(floors) {
+    for (((name, r, is_sf), floor), nt) in chans.into_iter().zip(floors).zip(noise) {
         let var = rms(r).powi(2).max(1e-300);
         let mut hits: Vec<(f64, &str, f64)> = Vec::new();
         for (dn, x) in &drv {
@@ -326,7 +329,7 @@ pub fn find_unexplained(
             .filter(|(e, _)| if is_sf { e.touches_sf() } else { e.touches_bias() })
             .map(|(e, p)| format!("{} ({} at a search limit)", e.name(), p.join(", ")))
             .collect();
-        let levels = run_levels(ch, r, ALPHA / floors.len().max(1) as f64);
+        let levels = run_levels(ch, r, ALPHA / floors.len().max(1) as f64, &nt.model);
         let scales = time_scales(ch, r);
         // Held-out runs carry their fold's fit error as a level of their own, and slow noise
         // moves whole runs: on clean logs the test alone fires (5 of 12 independent cycling
@@ -336,7 +339,7 @@ pub fn find_unexplained(
         // within-run slow part and the floor.
         let levels_left = levels.as_ref().is_some_and(|l| l.significant)
             && scales.across_runs > 2.0 * floor.floor.max(scales.within_run_slow);
-        if hits.is_empty() && pins.is_empty() && !levels_left {
+        if hits.is_empty() && pins.is_empty() && !levels_left && nt.change_point.is_none() {
             continue;
         }
         out.push(Unexplained {
@@ -349,6 +352,7 @@ pub fn find_unexplained(
             structure_rms: hits.first().map(|h| h.2),
             correlates_with: hits.iter().map(|h| h.1.to_string()).collect(),
             pinned: pins,
+            change_point: nt.change_point.clone(),
         });
     }
     out
