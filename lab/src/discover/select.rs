@@ -54,14 +54,20 @@ pub fn start_model(ch: &Channels, start: Start) -> AxisModel {
     setup.fit(&Structure::start(start), &Nonlinear::default(), &vec![true; ch.n_bins()]).model
 }
 
-/// Fit the timing offset with structure `s` on every bin, hold it there, and return the
-/// held-out residual with it held. A round's candidates are scored with δ held: let free,
-/// δ would follow the bias channel as soon as a rate term took over its part on the scale
-/// factor, and the rate term would then be credited with a bias-only Ṫ term the catalog
-/// leaves out (an ε of 6.3 and an η of −0.05 "found" on a clean log of the independent
-/// generator, δ moving from +0.5 to +12.8 s). Held, a rate term must gain on what the
-/// offset cannot explain.
-fn hold_offset(
+/// Renew the timing offset's basis for structure `s` (the derivative of its all-bin fit's
+/// prediction), fit δ on every bin, hold it there, and return the held-out residual with it
+/// held. A round's candidates are scored with δ held: let free, δ would follow the bias
+/// channel as soon as a rate term took over its part on the scale factor, and the rate
+/// term would then be credited with a bias-only Ṫ term the catalog leaves out (an ε of 6.3
+/// and an η of −0.05 "found" on a clean log of the first independent generator, δ moving
+/// from +0.5 to +12.8 s). Held, a rate term must gain on what the offset cannot explain.
+///
+/// Once `s` holds ε·Ṫ on the scale factor (the `paper` start, or `rate_hysteresis`
+/// named), no offset is fitted: ε and δ are then one signal on the scale factor, and the
+/// bias channel alone cannot tell them apart (its δ term is small and its slow noise
+/// large: a 10-µg Gauss–Markov bias drove δ to its limit on the lab simulator's logs, and
+/// a rate term was then "found" to undo it). ε then carries any offset.
+fn renew_offset(
     setup: &mut Setup<'_>,
     s: &Structure,
     nl_all: &Nonlinear,
@@ -71,7 +77,11 @@ fn hold_offset(
 ) -> Residuals {
     let all = vec![true; setup.ch.n_bins()];
     setup.offset_fixed = None;
-    setup.offset_fixed = setup.fit(s, nl_all, &all).offset.map(|o| o.seconds);
+    setup.offset_basis = None;
+    if setup.ch.kind == LogKind::Cycling && !s.sf_eps {
+        setup.offset_basis = Some(setup.offset_basis_of(&setup.fit(s, nl_all, &all).model));
+        setup.offset_fixed = setup.fit(s, nl_all, &all).offset.map(|o| o.seconds);
+    }
     heldout(setup, s, nls, masks, trains)
 }
 
@@ -87,16 +97,13 @@ pub fn analyze(ch: &Channels, start: Start) -> Report {
     let mut s = Structure::start(start);
     let mut nls = vec![Nonlinear::default(); nf];
     let mut nl_all = Nonlinear::default();
-    // A cycling log's timing offset is a nuisance of every fit (see `Setup::offset_basis`),
-    // on the basis of the start model, renewed after each addition.
-    if cyc {
-        setup.offset_basis = Some(setup.offset_basis_of(&setup.fit(&s, &nl_all, &all).model));
-    }
     let mut cur = heldout(&setup, &s, &nls, &masks, &trains);
     if cyc {
+        // The timing offset is a nuisance of every fit (see `Setup::offset_basis`), weighted
+        // by the start model's noise floors.
         setup.sigma_sf = noise_floor(ch, &cur.sf);
         setup.sigma_b = noise_floor(ch, &cur.bias);
-        cur = hold_offset(&mut setup, &s, &nl_all, &nls, &masks, &trains);
+        cur = renew_offset(&mut setup, &s, &nl_all, &nls, &masks, &trains);
     }
     let before = cur.clone();
     let mut effects: Vec<(Effect, f64, f64, GainStat, Vec<String>)> = Vec::new();
@@ -189,9 +196,7 @@ pub fn analyze(ch: &Channels, start: Start) -> Report {
         effects.push((e, gb, ga, g, conf_names));
         cur = r;
         if cyc {
-            setup.offset_fixed = None;
-            setup.offset_basis = Some(setup.offset_basis_of(&setup.fit(&s, &nl_all, &all).model));
-            cur = hold_offset(&mut setup, &s, &nl_all, &nls, &masks, &trains);
+            cur = renew_offset(&mut setup, &s, &nl_all, &nls, &masks, &trains);
         }
     }
     // Backward step: drop an added effect the others make redundant (its removal costs no
