@@ -131,7 +131,8 @@ fn a_bias_step_in_one_run_is_unexplained_with_its_run_and_time_and_noise_is_not(
             .iter()
             .map(|u| format!("{} {:?} levels {:?}", u.channel, u.change_point, u.run_levels.as_ref().map(|l| l.q)))
             .collect();
-        let n: Vec<String> = r.noise.iter().map(|n| format!("{:?} max z {:.1} / {:.1}", n.model, n.max_z, n.critical)).collect();
+        let n: Vec<String> =
+            r.noise.iter().map(|n| format!("{:?} max z {:.1} / {:.1}", n.model, n.max_z, n.critical)).collect();
         println!("{label}: {:?}; unexplained {u:?}; noise {n:?}", names(r));
     }
     let quiet = |r: &Report| r.unexplained.is_empty() && r.effects.is_empty();
@@ -249,7 +250,8 @@ fn upper_bound(k: usize, n: usize) -> f64 {
     hi
 }
 
-const OTHER_NAMES: [&str; 5] = ["bias step in one run", "scale-factor hysteresis", "temperature-dependent noise", "campaign ageing", "bad run"];
+const OTHER_NAMES: [&str; 5] =
+    ["bias step in one run", "scale-factor hysteresis", "temperature-dependent noise", "campaign ageing", "bad run"];
 
 /// The confusion matrix over random draws of the second generator and the false-discovery
 /// rate over clean logs of both independent generators.

@@ -635,9 +635,8 @@ impl Setup<'_> {
         let p_b = DVector::from_fn(a_b.nrows(), |i, _| basis[rows[i]].1);
         let cp_sf = if a_sf.nrows() > 0 { solve(a_sf, &p_sf, None) } else { vec![0.0; a_sf.ncols()] };
         let cp_b = solve(a_b, &p_b, pen);
-        let resid = |a: &DMatrix<f64>, y: &DVector<f64>, c: &[f64]| -> DVector<f64> {
-            y - a * DVector::from_column_slice(c)
-        };
+        let resid =
+            |a: &DMatrix<f64>, y: &DVector<f64>, c: &[f64]| -> DVector<f64> { y - a * DVector::from_column_slice(c) };
         let (ry_sf, rp_sf) = (resid(a_sf, y_sf, &c_sf), resid(a_sf, &p_sf, &cp_sf));
         // δ is estimated on the scale factor and applied to both channels. The bias's δ term
         // is K0'·Ṫ·δ, 0.4 µg for 9 s at 0.9 °C/min on a 3-µg/°C unit, under slow noise of
@@ -655,7 +654,8 @@ impl Setup<'_> {
         let n = ry_sf.len().max(2) as f64;
         let se = (sse / (n - 1.0) / den).sqrt();
         let sub = |c: Vec<f64>, cp: &[f64]| c.iter().zip(cp).map(|(a, b)| a - d * b).collect::<Vec<f64>>();
-        let offset = TimingOffset { seconds: d, se_white_s: se, at_limit: raw.abs() >= lim && self.offset_fixed.is_none() };
+        let offset =
+            TimingOffset { seconds: d, se_white_s: se, at_limit: raw.abs() >= lim && self.offset_fixed.is_none() };
         (sub(c_sf, &cp_sf), sub(c_b, &cp_b), Some(offset))
     }
 

@@ -76,11 +76,10 @@ pub fn caption(file: &str, ch: &Channels, r: &Report, scope: Scope<'_>) -> Strin
                  is not rejected (no step inside a run, run levels within its noise, no driver followed): slow \
                  noise of that size explains it, and the catalog's effects cannot be told from it.",
                 f.ratio,
-                r.residual_vs_floor
-                    .iter()
-                    .position(|x| x.channel == channel)
-                    .and_then(|k| r.noise.get(k))
-                    .map_or_else(String::new, |n| n.model.text(if channel == "scale_factor" { "ppm" } else { ch.bias_unit.label() }))
+                r.residual_vs_floor.iter().position(|x| x.channel == channel).and_then(|k| r.noise.get(k)).map_or_else(
+                    String::new,
+                    |n| n.model.text(if channel == "scale_factor" { "ppm" } else { ch.bias_unit.label() })
+                )
             ));
         }
     }
