@@ -121,6 +121,10 @@ fn calibrate_beats_the_cubic_on_every_axis_and_compensate_agrees() {
         }
         assert!(disc.join(d["axis"].as_str().unwrap()).join("report.json").is_file());
     }
+    // One model choice: discover flashes the table calibrate wrote, byte for byte.
+    let (cal_bytes, disc_bytes) =
+        (std::fs::read(&table).expect("cal/table.bin"), std::fs::read(disc.join("table.bin")).expect("disc/table.bin"));
+    assert!(cal_bytes == disc_bytes, "discover's table.bin differs from calibrate's");
     // Discover, then compensate: the flashed table (fitted on every row) gives back its
     // in-sample figure on every axis.
     let comp = dir.join("comp-disc.csv");

@@ -143,25 +143,10 @@ struct RowSet {
 /// # Errors
 /// A log refused by [`check_coverage`], a held-out scheme the log cannot hold, a failed
 /// fit, or a figure that cannot be formed.
+#[allow(clippy::too_many_lines)]
 pub fn calibrate_static(
     log: &StaticLog,
     opts: &StaticCalOptions,
-    progress: bool,
-) -> Result<StaticCalibration, StaticCalError> {
-    calibrate_static_with(log, opts, &ExtraCandidates::default(), progress)
-}
-
-/// [`calibrate_static`] with structures added to the candidates (static discovery adds
-/// what it named, per axis: on every row for the table, on each fold's training rows for
-/// that fold).
-///
-/// # Errors
-/// As [`calibrate_static`].
-#[allow(clippy::too_many_lines)]
-pub fn calibrate_static_with(
-    log: &StaticLog,
-    opts: &StaticCalOptions,
-    extra: &ExtraCandidates,
     progress: bool,
 ) -> Result<StaticCalibration, StaticCalError> {
     check_coverage(&log.temp_c, opts.grid_points, opts.block)?;
@@ -185,27 +170,18 @@ pub fn calibrate_static_with(
     };
     let one_branch: Vec<bool> = sets.iter().map(|set| is_one_branch(branch_rows(&set.rows))).collect();
     let log_branches = branch_rows(&sets[0].rows);
-    // The candidates of axis a on set s.
-    let cands = |a: usize, s: usize| -> Vec<StaticStructure> {
+    // The candidates on set s (the same for every axis).
+    let cands = |s: usize| -> Vec<StaticStructure> {
         if one_branch[s] {
             return vec![ONE_BRANCH];
         }
-        let mut c = opts.candidates.clone();
-        let more = if s == 0 { extra.all_rows.get(a) } else { extra.folds.get(s - 1).and_then(|f| f.get(a)) };
-        for st in more.into_iter().flatten() {
-            if !c.contains(st) {
-                c.push(*st);
-            }
-        }
-        c
+        opts.candidates.clone()
     };
     let mut union: Vec<StaticStructure> = Vec::new();
-    for a in 0..na {
-        for s in 0..sets.len() {
-            for st in cands(a, s) {
-                if !union.contains(&st) {
-                    union.push(st);
-                }
+    for s in 0..sets.len() {
+        for st in cands(s) {
+            if !union.contains(&st) {
+                union.push(st);
             }
         }
     }
@@ -225,7 +201,7 @@ pub fn calibrate_static_with(
         let traces = StaticTraces::new(&series_of(0), st, opts.deadband_c_per_min);
         for a in 0..na {
             for (s, set) in sets.iter().enumerate() {
-                if !cands(a, s).contains(st) {
+                if !cands(s).contains(st) {
                     continue;
                 }
                 match cv_rms(&series_of(a), &traces, &set.rows, k_sel, opts) {

@@ -70,16 +70,6 @@ pub(super) fn cv_rms(
     Ok((sum / count as f64).sqrt())
 }
 
-/// Structures discovery adds to the candidates: for the table (chosen over every row) and
-/// for each fold (chosen inside its training rows). Empty for calibration alone.
-#[derive(Clone, Debug, Default)]
-pub struct ExtraCandidates {
-    /// Added to the table's choice.
-    pub all_rows: Vec<Vec<StaticStructure>>,
-    /// Added to fold f's choice, per axis: `folds[f][axis]`.
-    pub folds: Vec<Vec<Vec<StaticStructure>>>,
-}
-
 /// The model on rows that hold one branch ([`is_one_branch`]): one rate-even bias curve,
 /// shaped as a cubic in T. Every other candidate has a term that flips with the branch
 /// (branch step, two branches, `sensor_lag`, `bias_creep`, play), which rows of one branch

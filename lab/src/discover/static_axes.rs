@@ -28,13 +28,12 @@
 //! discovery"). The names in the report are discovery's on **every row** (those of each
 //! fold's training rows are listed too).
 //! What is *flashed* (`DIR/table.bin`, what `qfa-lab compensate` loads) is a prediction:
-//! static calibration's cross-validated choice (the same blocked CV, the same one fitter)
-//! among its candidates plus every structure discovery named on any axis
-//! ([`structure_of`]), chosen and fitted on every row, as `calibrate` writes its table; its
-//! held-out figure is the same procedure on each fold's training rows, with the structures
-//! discovery named on them. On a short log the named and the flashed differ: the tofupilot log's
-//! 52-min training leg gives the block test 8 blocks, too few to name effects that still
-//! predict better. The report gives both, and says which structure was flashed and
+//! static calibration's cross-validated choice among its candidates, by the very call
+//! `calibrate` makes ([`calibrate_static`]), so `discover` and `calibrate` write the same
+//! table for the same log and flags and cannot disagree. The named structure
+//! ([`structure_of`]) is reported beside it with its held-out figure. On a short log the
+//! named and the flashed differ: the tofupilot log's 52-min training leg gives the block
+//! test 8 blocks, too few to name effects that still predict better. The report gives both, and says which structure was flashed and
 //! whether discovery named it. Static tables have K1 = 2²⁰ LSB/g
 //! ([`crate::calibrate::fit::STATIC_LSB_PER_G`]) and the bias in g from the axis's mean
 //! over every row.
@@ -52,7 +51,7 @@ use super::{analyze, start_model, Channels, LogKind, Report, Start};
 use crate::calibrate::fit::{encode, BranchMode, CurveShape, StaticStructure};
 use crate::calibrate::peers::PeerKind;
 use crate::calibrate::static_cal::{
-    calibrate_static_with, check_coverage, resolve_holdout, score, ExtraCandidates, Figure, Holdout, HoldoutReport,
+    calibrate_static, check_coverage, resolve_holdout, score, Figure, Holdout, HoldoutReport,
     StaticCalOptions, NO_HOLDOUT,
 };
 use crate::data::channels::{BiasUnit, Trace};
@@ -242,19 +241,10 @@ pub fn discover_static(log: &StaticLog, start: Start, holdout: Holdout) -> Resul
     let mut axes = Vec::new();
     let mut reports = Vec::new();
     let mut channels = Vec::new();
-    // Named structures: on every row, and per fold on its training rows.
-    let mut named_all: Vec<StaticStructure> = Vec::new();
-    let mut named_fold: Vec<Vec<StaticStructure>> = vec![Vec::new(); folds.len()];
-    let add = |v: &mut Vec<StaticStructure>, st: StaticStructure| {
-        if !v.contains(&st) {
-            v.push(st);
-        }
-    };
     for (a, ax) in log.axes.iter().enumerate() {
         let name = |w: &str| format!("{} {w}", ax.name);
         let (r, ch, _, reference) = discover_rows(log, a, &all, start, bin_s);
         let disc_all = r.model.clone().with_context(|| format!("{}: discovery gave no model", ax.name))?;
-        add(&mut named_all, structure_of(&disc_all));
         // Held-out residuals, pooled over the folds in time order.
         let (mut before, mut after, mut t_before, mut t_after) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let mut peers: [Vec<f64>; 3] = [Vec::new(), Vec::new(), Vec::new()];
@@ -266,7 +256,6 @@ pub fn discover_static(log: &StaticLog, start: Start, holdout: Holdout) -> Resul
             let (rf, _, base, r0) = discover_rows(log, a, &train, start, bin_s);
             let disc =
                 rf.model.clone().with_context(|| format!("{}: discovery gave no model in fold {}", ax.name, f + 1))?;
-            add(&mut named_fold[f], structure_of(&disc));
             effects_per_fold.push(rf.effect_labels());
             let drift = 1e-6 * rf.effects.iter().find_map(|e| e.params.get("drift_ug_per_h").copied()).unwrap_or(0.0);
             for (m, d, res, t) in [(&base, 0.0, &mut before, &mut t_before), (&disc, drift, &mut after, &mut t_after)] {
@@ -336,17 +325,13 @@ pub fn discover_static(log: &StaticLog, start: Start, holdout: Holdout) -> Resul
         reports.push(r);
         channels.push(ch);
     }
-    // The model: static calibration's cross-validated choice, with every structure
-    // discovery named on any axis added to its candidates (on every row for the table, on
-    // each fold's training rows for that fold). The block test decides what is *named* (a
-    // claim about the physics, with a known false-discovery rate); the cross-validation
-    // decides what is *flashed* (a prediction). On a short log the two differ: the test may
-    // lack the power to name what still predicts better.
-    let na = log.axes.len();
-    let extra =
-        ExtraCandidates { all_rows: vec![named_all; na], folds: named_fold.into_iter().map(|v| vec![v; na]).collect() };
+    // The model: static calibration's cross-validated choice, the very call `calibrate`
+    // makes, so `discover` and `calibrate` flash the same table and cannot disagree. The
+    // block test decides what is *named* (a claim about the physics, with a known
+    // false-discovery rate); the cross-validation decides what is *flashed* (a
+    // prediction); the report gives both figures.
     opts.holdout = holdout;
-    let cal = calibrate_static_with(log, &opts, &extra, false).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let cal = calibrate_static(log, &opts, false).map_err(|e| anyhow::anyhow!("{e}"))?;
     for (a, c) in axes.iter_mut().zip(&cal.report.axes) {
         a.final_is_named = c.structure == a.named_structure;
         a.final_structure.clone_from(&c.structure);
@@ -473,9 +458,9 @@ pub fn how_to_read(d: &StaticDiscovery) -> [String; 3] {
          means, mg. Peers fitted on the same training rows, as `calibrate` fits them. Effects named: on every row."
             .to_string(),
         "Named: the block test (a claim about the physics). Flashed (`table.bin`): the lowest blocked \
-         cross-validation (CV) RMS among static calibration's candidates and the named structures (a prediction), \
-         chosen and fitted on every row; its held-out figure is the same choice made inside each fold's training \
-         rows."
+         cross-validation (CV) RMS among static calibration's candidates (a prediction), chosen and fitted on every \
+         row by the same call `calibrate` makes, so both write this table; its held-out figure is the same choice \
+         made inside each fold's training rows."
             .to_string(),
     ]
 }
