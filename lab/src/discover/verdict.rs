@@ -226,7 +226,11 @@ fn axis_answer(d: &StaticDiscovery, a: &AxisDiscovery) -> String {
         }
         _ => s.push_str(", with no held-out figure (see the held-out scheme)"),
     }
-    let how = if a.final_is_named { "CV choice, the named structure" } else { "CV choice, not the named structure" };
+    let how = if a.final_is_named {
+        "calibrate's CV choice, the named structure"
+    } else {
+        "calibrate's CV choice, not the named structure"
+    };
     match rms(&a.final_model) {
         Some(f) => s.push_str(&format!("; table.bin: {} ({how}), held out {f:.2} mg", a.final_structure)),
         None => s.push_str(&format!("; table.bin: {} ({how})", a.final_structure)),
