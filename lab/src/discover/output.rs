@@ -243,20 +243,8 @@ fn markdown(ch: &Channels, r: &Report, scope: Scope<'_>, v: &Verdict) -> String 
         gaps_text(ch.bias_unit, &r.noise_floor)
     );
     let _ = writeln!(s, "- Noise model: {}; change points: {}", noise_models_text(ch, r), change_point_tests_text(r));
-    if let Some(o) = &r.timing_offset {
-        let _ = writeln!(
-            s,
-            "- Timing offset between the temperature readings and the counts (fitted with every model): {:+.2} s, \
-             95 % interval [{:+.2}, {:+.2}] s{}",
-            o.seconds,
-            o.ci95[0],
-            o.ci95[1],
-            if o.at_limit {
-                format!(", at its limit of ±{:.1} s: a longer delay than any timestamp convention", o.limit_s)
-            } else {
-                String::new()
-            }
-        );
+    if let Some(line) = timing_offset_text(ch, r) {
+        let _ = writeln!(s, "- Timing offset between the temperature readings and the counts: {line}");
     }
     let _ = writeln!(s);
     let labels = r.effect_labels();
@@ -605,7 +593,7 @@ fn noise_model_of<'a>(r: &'a Report, channel: &str) -> Option<&'a super::noise::
 }
 
 /// Every channel's fitted noise model, in words.
-fn noise_models_text(ch: &Channels, r: &Report) -> String {
+pub(super) fn noise_models_text(ch: &Channels, r: &Report) -> String {
     r.residual_vs_floor
         .iter()
         .zip(&r.noise)
@@ -615,7 +603,7 @@ fn noise_models_text(ch: &Channels, r: &Report) -> String {
 }
 
 /// Every channel's change-point search against its critical value, in words.
-fn change_point_tests_text(r: &Report) -> String {
+pub(super) fn change_point_tests_text(r: &Report) -> String {
     r.residual_vs_floor
         .iter()
         .zip(&r.noise)
@@ -630,4 +618,27 @@ fn change_point_tests_text(r: &Report) -> String {
         })
         .collect::<Vec<_>>()
         .join(", ")
+}
+
+/// The timing offset in words (cycling logs; `None` for a single-channel log).
+pub(super) fn timing_offset_text(ch: &Channels, r: &Report) -> Option<String> {
+    match &r.timing_offset {
+        Some(o) => Some(format!(
+            "{:+.2} s, 95 % interval [{:+.2}, {:+.2}] s (fitted with every model){}",
+            o.seconds,
+            o.ci95[0],
+            o.ci95[1],
+            if o.at_limit {
+                format!(", at its limit of ±{:.1} s: a longer delay than any timestamp convention", o.limit_s)
+            } else {
+                String::new()
+            }
+        )),
+        None if ch.kind == LogKind::Cycling => Some(
+            "not fitted, since the model holds ε·Ṫ (the `paper` start, or `rate_hysteresis` named): the two are one \
+             signal on the scale factor, and ε carries any offset"
+                .into(),
+        ),
+        None => None,
+    }
 }

@@ -166,9 +166,14 @@ pub fn page(ch: &Channels, r: &Report, dir: &Path, scope: Scope<'_>, v: &Verdict
         ));
     }
     gap_rows.push((
-        format!("noise floor (bin-to-bin part of the final {held} residual)"),
+        format!("noise floor (white part of the noise model of the final {held} residual)"),
         gaps_text(ch.bias_unit, &r.noise_floor),
     ));
+    gap_rows.push(("noise model".to_string(), super::output::noise_models_text(ch, r)));
+    gap_rows.push(("change points".to_string(), super::output::change_point_tests_text(r)));
+    if let Some(t) = super::output::timing_offset_text(ch, r) {
+        gap_rows.push(("timing offset (temperature vs counts)".to_string(), t));
+    }
     gap_rows.push((
         format!("{held} residual / noise floor (95 % interval)"),
         r.residual_vs_floor

@@ -51,8 +51,8 @@ use super::{analyze, start_model, Channels, LogKind, Report, Start};
 use crate::calibrate::fit::{encode, BranchMode, CurveShape, StaticStructure};
 use crate::calibrate::peers::PeerKind;
 use crate::calibrate::static_cal::{
-    calibrate_static, check_coverage, resolve_holdout, score, Figure, Holdout, HoldoutReport,
-    StaticCalOptions, NO_HOLDOUT,
+    calibrate_static, check_coverage, resolve_holdout, score, Figure, Holdout, HoldoutReport, StaticCalOptions,
+    NO_HOLDOUT,
 };
 use crate::data::channels::{BiasUnit, Trace};
 use crate::data::static_log::StaticLog;
