@@ -12,7 +12,10 @@
 //!    single-channel log `time_s,temp_c,value` is the bias channel.
 //! 2. **Start model** ([`Start`]): `simple` = K1 and K0 linear in ΔT (Eq. 3–4, the bias
 //!    on a 16-point grid with equal branches); `paper` = Eq. 11 and a single-valued bias
-//!    grid fitted by least squares with a gentle smoothness penalty.
+//!    grid fitted by least squares with a gentle smoothness penalty. On a cycling log
+//!    whose model has no ε·Ṫ, every fit also takes a timing offset δ between the
+//!    temperature channel and the counts ([`fit::TimingOffset`]): held while a round's
+//!    candidates are scored, reported with its interval.
 //! 3. **Held-out rule** (every figure of merit is held out): a cycling log's programs are
 //!    sorted by ramp rate and dealt alternately into two folds (0.3/0.7 and 0.5/0.9 °C/min
 //!    for the paper's test); each fold is fitted on the other and evaluated on itself,
@@ -53,7 +56,9 @@
 //!    by 3.84·N/N_eff, N/N_eff from the residual autocorrelation), linear ones a
 //!    moving-block bootstrap interval; `at_bound` flags a search limit.
 //! 8. **Unexplained** ([`unexplained`]): each channel's final held-out residual against its
-//!    noise floor (always reported); drivers it follows significantly (cross-fitted on
+//!    noise floor, the white part of the noise model fitted to it ([`noise`]: white plus
+//!    Gauss–Markov, robust to glitches and steps; always reported); a change point inside a
+//!    run that the fitted model rejects; drivers it follows significantly (cross-fitted on
 //!    time since start, temperature, Ṫ, time since the last reversal and the ramp branch,
 //!    same block test, level 0.05 shared over drivers and channels), run means that differ
 //!    beyond noise and slow noise, and catalog effects pinned at a search limit are
