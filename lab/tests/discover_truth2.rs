@@ -132,7 +132,7 @@ fn a_bias_step_in_one_run_is_unexplained_with_its_run_and_time_and_noise_is_not(
             .map(|u| format!("{} {:?} levels {:?}", u.channel, u.change_point, u.run_levels.as_ref().map(|l| l.q)))
             .collect();
         let n: Vec<String> =
-            r.noise.iter().map(|n| format!("{:?} max z {:.1} / {:.1}", n.model, n.max_z, n.critical)).collect();
+            r.noise.iter().map(|n| format!("{:?} max z {:?} / {:?}", n.model, n.max_z, n.critical)).collect();
         println!("{label}: {:?}; unexplained {u:?}; noise {n:?}", names(r));
     }
     let quiet = |r: &Report| r.unexplained.is_empty() && r.effects.is_empty();

@@ -276,10 +276,15 @@ pub struct ChangePoint {
 pub struct NoiseTest {
     /// The fitted model.
     pub model: NoiseModel,
-    /// Largest |z| over every split of every run.
-    pub max_z: f64,
-    /// Its critical value at the test's level, from [`NULL_DRAWS`] series of the model.
-    pub critical: f64,
+    /// Runs long enough to search (2 × [`MIN_SEGMENT_BINS`] bins or more).
+    pub runs_searched: usize,
+    /// Largest |z| over every split of every run searched; absent when none was.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_z: Option<f64>,
+    /// Its critical value at the test's level, from [`NULL_DRAWS`] series of the model;
+    /// absent when no run was searched.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub critical: Option<f64>,
     /// The split that gave `max_z`, when the model is rejected.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub change_point: Option<ChangePoint>,
@@ -300,8 +305,11 @@ pub fn test(ch: &Channels, r: &[f64], alpha: f64, seed: u64) -> NoiseTest {
         }
     }
     let lens: Vec<usize> = runs.iter().map(|(_, v, _)| v.len()).collect();
+    let runs_searched = lens.iter().filter(|&&n| n >= 2 * MIN_SEGMENT_BINS).count();
+    let Some(max_z) = obs.map(|o| o.0) else {
+        return NoiseTest { model, runs_searched, max_z: None, critical: None, change_point: None };
+    };
     let critical = null_quantile(&model, &lens, alpha, seed);
-    let max_z = obs.map_or(0.0, |o| o.0);
     let change_point =
         obs.filter(|o| o.0 > critical && o.3.abs() > STEP_MIN_WHITE * model.white).map(|(z, k, m, size)| {
             let (_, _, time) = &runs[k];
@@ -319,7 +327,7 @@ pub fn test(ch: &Channels, r: &[f64], alpha: f64, seed: u64) -> NoiseTest {
                 z,
             }
         });
-    NoiseTest { model, max_z, critical, change_point }
+    NoiseTest { model, runs_searched, max_z: Some(max_z), critical: Some(critical), change_point }
 }
 
 /// The (1 − `alpha`) quantile of the largest change-point |z| over runs of `lens` bins
@@ -451,6 +459,19 @@ mod tests {
             }
         }
         assert!(test(&ch, &g, 0.05, 5).change_point.is_none());
+    }
+
+    #[test]
+    fn runs_too_short_to_search_give_no_figure() {
+        // Runs of 8 bins cannot hold 5 bins either side of a split: no |z|, no critical
+        // value, and the count of runs searched says why.
+        let ch = channels(3, 8);
+        let t = test(&ch, &series(&ch, 1.0, 0.5, 10.0, 3), 0.05, 3);
+        assert_eq!((t.runs_searched, t.max_z, t.critical, t.change_point), (0, None, None, None));
+        let long = channels(3, 40);
+        let t = test(&long, &series(&long, 1.0, 0.5, 10.0, 3), 0.05, 3);
+        assert_eq!(t.runs_searched, 3);
+        assert!(t.max_z.is_some_and(f64::is_finite) && t.critical.is_some_and(|c| c > 0.0), "{t:?}");
     }
 
     #[test]

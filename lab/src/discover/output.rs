@@ -607,14 +607,14 @@ pub(super) fn change_point_tests_text(r: &Report) -> String {
     r.residual_vs_floor
         .iter()
         .zip(&r.noise)
-        .map(|(f, n)| {
-            format!(
-                "{} largest |z| {:.1} against {:.1} from {} series of the model",
+        .map(|(f, n)| match (n.max_z, n.critical) {
+            (Some(z), Some(c)) => format!(
+                "{} largest |z| {z:.1} against {c:.1} from {} series of the model ({} runs searched)",
                 f.channel,
-                n.max_z,
-                n.critical,
-                super::noise::NULL_DRAWS
-            )
+                super::noise::NULL_DRAWS,
+                n.runs_searched
+            ),
+            _ => format!("{}: not searched, no run of {} bins or more", f.channel, 2 * super::noise::MIN_SEGMENT_BINS),
         })
         .collect::<Vec<_>>()
         .join(", ")
