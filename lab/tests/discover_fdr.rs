@@ -11,6 +11,8 @@
 //! `false_discovery_rate=…` (share of logs with any addition), its exact 95 % upper bound,
 //! and the share of logs that report unexplained structure.
 
+mod common;
+
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use qfa_lab::data::cycling::write_log_to;
@@ -37,37 +39,13 @@ fn one(i: usize) -> (Vec<String>, Vec<String>, f64, f64) {
     (r.effect_labels(), r.unexplained.iter().map(|u| u.channel.clone()).collect(), ratio, lower)
 }
 
-/// Exact (Clopper–Pearson) one-sided 95 % upper bound of a binomial rate, by bisection
-/// on the binomial tail P(X ≤ k | n, p) = 0.05.
-fn upper_bound(k: usize, n: usize) -> f64 {
-    let cdf = |p: f64| {
-        let mut term = (1.0 - p).powi(n as i32);
-        let mut sum = term;
-        for j in 1..=k {
-            term *= (n - j + 1) as f64 / j as f64 * p / (1.0 - p);
-            sum += term;
-        }
-        sum
-    };
-    let (mut lo, mut hi) = (k as f64 / n as f64, 1.0 - 1e-12);
-    for _ in 0..60 {
-        let m = 0.5 * (lo + hi);
-        if cdf(m) > 0.05 {
-            lo = m;
-        } else {
-            hi = m;
-        }
-    }
-    hi
-}
-
 #[test]
 fn upper_bound_matches_the_rule_of_three() {
     // With no events in n trials the 95 % bound is 1 − 0.05^(1/n) ≈ 3/n.
-    let b = upper_bound(0, 100);
+    let b = common::upper_bound(0, 100);
     assert!((b - (1.0 - 0.05f64.powf(0.01))).abs() < 1e-9, "{b}");
     // A worked value: 2 of 120 → 0.05153 (binomial tail summed independently in Python).
-    assert!((upper_bound(2, 120) - 0.05153).abs() < 0.0002, "{}", upper_bound(2, 120));
+    assert!((common::upper_bound(2, 120) - 0.05153).abs() < 0.0002, "{}", common::upper_bound(2, 120));
 }
 
 #[test]
@@ -97,7 +75,7 @@ fn false_discovery_rate_on_clean_simulator_logs() {
     println!("logs={n}");
     println!("false_discoveries={}", false_logs.len());
     println!("false_discovery_rate={rate:.4}");
-    println!("false_discovery_rate_upper95={:.4}", upper_bound(false_logs.len(), n));
+    println!("false_discovery_rate_upper95={:.4}", common::upper_bound(false_logs.len(), n));
     println!("unexplained_rate={:.4}", unexpl as f64 / n as f64);
     println!("floor_ratio_max={:.2}", results.iter().map(|r| r.2).fold(0.0, f64::max));
     println!("floor_ratio_lower95_max={:.2}", results.iter().map(|r| r.3).fold(0.0, f64::max));

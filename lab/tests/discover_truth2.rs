@@ -18,6 +18,7 @@
 //! generator"): `cargo test --release -p qfa-lab --test discover_truth2 -- --ignored
 //! --nocapture` (`QFA_DRAWS`, default 200, and `QFA_CLEAN`, default 100, set the sizes).
 
+mod common;
 mod truth;
 mod truth2;
 
@@ -53,21 +54,37 @@ fn expected_offset(d: &Draw) -> f64 {
     stamp + d.conversion_delay_s
 }
 
-fn lag_draw(stamp: Stamp, delay_s: f64, seed: u64) -> Draw {
-    let mut d = Draw::clean(seed);
-    d.catalog.push(CatalogEffect::SensorLag { tau_s: 480.0 });
-    d.stamp = stamp;
-    d.conversion_delay_s = delay_s;
-    d
+/// The four timestamp conventions (start, centre and end of the interval; end with a
+/// 0.75-s conversion delay), each on `draw(seed_from + k)`.
+fn under_each_convention(seed_from: u64, draw: impl Fn(u64) -> Draw) -> Vec<Draw> {
+    [(Stamp::Start, 0.0), (Stamp::Centre, 0.0), (Stamp::End, 0.0), (Stamp::End, 0.75)]
+        .into_iter()
+        .enumerate()
+        .map(|(k, (stamp, delay))| Draw { stamp, conversion_delay_s: delay, ..draw(seed_from + k as u64) })
+        .collect()
+}
+
+/// A report's timing offset beside its convention's, in one printed line.
+fn offset_line(label: &str, d: &Draw, r: &Report, o: &qfa_lab::discover::TimingOffsetReport) -> String {
+    format!(
+        "{label}, stamp {:?} + {} s: {:?}, offset {:+.2} s [{:+.2}, {:+.2}] (convention {:+.2})",
+        d.stamp,
+        d.conversion_delay_s,
+        names(r),
+        o.seconds,
+        o.ci95[0],
+        o.ci95[1],
+        expected_offset(d)
+    )
 }
 
 #[test]
 fn lag_logs_name_the_lag_and_no_rate_term_under_every_timestamp_convention() {
-    let draws: Vec<Draw> = [(Stamp::Start, 0.0), (Stamp::Centre, 0.0), (Stamp::End, 0.0), (Stamp::End, 0.75)]
-        .into_iter()
-        .enumerate()
-        .map(|(k, (s, delay))| lag_draw(s, delay, 11 + k as u64))
-        .collect();
+    let draws = under_each_convention(11, |seed| {
+        let mut d = Draw::clean(seed);
+        d.catalog.push(CatalogEffect::SensorLag { tau_s: 480.0 });
+        d
+    });
     let reports: Vec<Report> = draws.par_iter().map(report).collect();
     let mut bad = Vec::new();
     // The generator's element is also coupled to the air, so its lag is not exactly first
@@ -79,16 +96,7 @@ fn lag_logs_name_the_lag_and_no_rate_term_under_every_timestamp_convention() {
     for (d, r) in draws.iter().zip(&reports) {
         let o = r.timing_offset.expect("a cycling log's report carries its timing offset");
         let tau = param(r, "sensor_lag", "tau_s");
-        println!(
-            "lag 480 s, stamp {:?} + {} s: {:?}, τ {tau:.0} s, offset {:+.2} s [{:+.2}, {:+.2}] (convention {:+.2})",
-            d.stamp,
-            d.conversion_delay_s,
-            names(r),
-            o.seconds,
-            o.ci95[0],
-            o.ci95[1],
-            expected_offset(d)
-        );
+        println!("{}, τ {tau:.0} s", offset_line("lag 480 s", d, r, &o));
         let no_rate = r.effects.iter().all(|e| !RATE_TERMS.contains(&e.name.as_str()));
         if !no_rate
             || (tau / 480.0 - 1.0).abs() > 0.10
@@ -151,30 +159,12 @@ fn a_bias_step_in_one_run_is_unexplained_with_its_run_and_time_and_noise_is_not(
 
 #[test]
 fn clean_logs_name_nothing_and_report_their_timestamp_convention() {
-    let draws: Vec<Draw> = [(Stamp::Start, 0.0), (Stamp::Centre, 0.0), (Stamp::End, 0.0), (Stamp::End, 0.75)]
-        .into_iter()
-        .enumerate()
-        .map(|(k, (s, delay))| {
-            let mut d = Draw::clean(51 + k as u64);
-            d.stamp = s;
-            d.conversion_delay_s = delay;
-            d
-        })
-        .collect();
+    let draws = under_each_convention(51, Draw::clean);
     let reports: Vec<Report> = draws.par_iter().map(report).collect();
     let mut bad = Vec::new();
     for (d, r) in draws.iter().zip(&reports) {
         let o = r.timing_offset.expect("a cycling log's report carries its timing offset");
-        println!(
-            "clean, stamp {:?} + {} s: {:?}, offset {:+.2} s [{:+.2}, {:+.2}] (convention {:+.2})",
-            d.stamp,
-            d.conversion_delay_s,
-            names(r),
-            o.seconds,
-            o.ci95[0],
-            o.ci95[1],
-            expected_offset(d)
-        );
+        println!("{}", offset_line("clean", d, r, &o));
         if !r.effects.is_empty() || (o.seconds - expected_offset(d)).abs() > 0.5 {
             bad.push(format!("{:?}+{}: {:?} δ {:+.2}", d.stamp, d.conversion_delay_s, names(r), o.seconds));
         }
@@ -225,29 +215,6 @@ fn outcome(r: &Report, truth: &[(&str, &str)], name: &str, channel: &str) -> (Ou
 
 fn env_usize(key: &str, default: usize) -> usize {
     std::env::var(key).ok().and_then(|v| v.parse().ok()).unwrap_or(default)
-}
-
-/// Exact (Clopper–Pearson) one-sided 95 % upper bound of a binomial rate, by bisection.
-fn upper_bound(k: usize, n: usize) -> f64 {
-    let cdf = |p: f64| -> f64 {
-        let mut term = (1.0 - p).powi(n as i32);
-        let mut sum = term;
-        for i in 0..k {
-            term *= (n - i) as f64 / (i + 1) as f64 * p / (1.0 - p);
-            sum += term;
-        }
-        sum
-    };
-    let (mut lo, mut hi) = (k as f64 / n as f64, 1.0);
-    for _ in 0..60 {
-        let mid = 0.5 * (lo + hi);
-        if cdf(mid) > 0.05 {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    hi
 }
 
 const OTHER_NAMES: [&str; 5] =
@@ -363,7 +330,7 @@ fn confusion_matrix_and_false_discoveries() {
             "false_discovery_rate {label}: {named}/{} = {:.1} % (95 % upper bound {:.1} %); unexplained {unexplained}/{}",
             reps.len(),
             100.0 * named as f64 / reps.len() as f64,
-            100.0 * upper_bound(named, reps.len()),
+            100.0 * common::upper_bound(named, reps.len()),
             reps.len()
         );
     }

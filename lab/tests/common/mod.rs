@@ -190,3 +190,27 @@ pub fn write_static_log_every(path: &std::path::Path, step_s: u32) {
     }
     std::fs::write(path, s).unwrap();
 }
+
+/// Exact (Clopper–Pearson) one-sided 95 % upper bound of a binomial rate, by bisection
+/// on the binomial tail P(X ≤ k | n, p) = 0.05.
+pub fn upper_bound(k: usize, n: usize) -> f64 {
+    let cdf = |p: f64| {
+        let mut term = (1.0 - p).powi(n as i32);
+        let mut sum = term;
+        for j in 1..=k {
+            term *= (n - j + 1) as f64 / j as f64 * p / (1.0 - p);
+            sum += term;
+        }
+        sum
+    };
+    let (mut lo, mut hi) = (k as f64 / n as f64, 1.0 - 1e-12);
+    for _ in 0..60 {
+        let m = 0.5 * (lo + hi);
+        if cdf(m) > 0.05 {
+            lo = m;
+        } else {
+            hi = m;
+        }
+    }
+    hi
+}
