@@ -13,7 +13,7 @@
 //! `demo-qemu` and `bench-target`) re-records the files instead. The benchmark's figures
 //! are measurements, judged by `budgets.txt`, not behaviour: [`normalise`] masks them, the
 //! one rule by which a checked output differs from the printed one. The programs that are
-//! only linked (`panic-check`, `size-baseline`) print nothing worth a file: their result is
+//! only linked (`panic_check`, `size_baseline`) print nothing worth a file: their result is
 //! the link and the size.
 
 use std::io::{BufRead, BufReader, Read};
@@ -23,7 +23,12 @@ use std::time::{Duration, Instant};
 use std::{env, fmt, thread};
 
 const TARGET: &str = "thumbv7em-none-eabihf";
-const FIRMWARE: &str = "qfa-firmware";
+/// The package whose examples are the QEMU programs (examples/).
+const CORE: &str = "qfa-thermal";
+/// The features the measuring examples need (`bench` requires both). Every target example
+/// but the demo builds with them, so panic_check links the same library the benchmark
+/// measures.
+const EXAMPLE_FEATURES: &str = "fixtures,bench-internals";
 /// The STM32F405 board example (built, not run: no hardware in CI), its own workspace.
 const BOARD: &str = "qfa-board-stm32f405";
 /// The board's workspace, relative to the repository root.
@@ -36,10 +41,12 @@ const SIZE_INSTALL: &str = "apt-get update && apt-get install -y binutils-arm-no
 /// The headless browser the lab's `report.html` tests open each page in.
 const CHROMIUM: &str = "chromium";
 const CHROMIUM_INSTALL: &str = "apt-get update && apt-get install -y chromium";
-/// Firmware binaries built by `test` (panic-check is built by its own step).
-const RUN_BINS: [&str; 3] = ["qemu-vectors", "bench", "size-baseline"];
+/// Target examples built by `test` (panic_check is built by its own step, the demo by its own).
+const TARGET_EXAMPLES: [&str; 3] = ["qemu_vectors", "bench", "size_baseline"];
 const QEMU_TIMEOUT: Duration = Duration::from_secs(300);
-/// The undefined symbol panic-check's panic handler calls.
+/// The example whose link proves that no panic is reachable from the core.
+const PANIC_CHECK: &str = "panic_check";
+/// The undefined symbol panic_check's panic handler calls.
 const PANIC_SYMBOL: &str = "qfa_panic_is_reachable_from_the_core";
 /// The seqlock's loom model: the test-name filter of its tests in qfa-thermal's unit tests.
 const LOOM_MODEL: &str = "compensator::seqlock::model::";
@@ -320,17 +327,27 @@ fn target_dir() -> Result<PathBuf> {
     Ok(PathBuf::from(out[start..start + len].replace("\\\\", "\\")))
 }
 
-fn elf(bin: &str) -> Result<PathBuf> {
-    Ok(target_dir()?.join(TARGET).join("release").join(bin))
+/// The release ELF of one of the core's examples.
+fn example_elf(example: &str) -> Result<PathBuf> {
+    Ok(target_dir()?.join(TARGET).join("release").join("examples").join(example))
 }
 
-fn build_firmware(bins: &[&str]) -> Result {
+/// The build of one of the core's target examples: release, LTO, the measuring features,
+/// and the example's own crate at opt-level 3. The examples belong to the core's package, so
+/// its profile line (`opt-level = "s"` for qfa-thermal, Cargo.toml) reaches them too; an
+/// application is its own crate, built at the release level, and the figures measure that
+/// (at "s" the fast path took 53 instructions instead of 28). `cargo rustc` passes the flag
+/// to the example alone: the library keeps the profile's level.
+fn example_build(example: &str) -> Command {
     let mut c = cargo();
-    c.args(["build", "-p", FIRMWARE, "--release", "--target", TARGET]);
-    for b in bins {
-        c.args(["--bin", b]);
-    }
-    run(c)
+    c.args(["rustc", "-p", CORE, "--release", "--target", TARGET, "--features", EXAMPLE_FEATURES]);
+    c.args(["--example", example, "--", "-C", "opt-level=3"]);
+    c
+}
+
+/// Build each of the core's target examples (see [`example_build`]).
+fn build_examples(examples: &[&str]) -> Result {
+    examples.iter().try_for_each(|e| run(example_build(e)))
 }
 
 fn qemu(kernel: &Path, icount: bool) -> Command {
@@ -418,17 +435,13 @@ struct Snapshot {
 }
 
 const VECTORS_SNAPSHOT: Snapshot = Snapshot {
-    program: "qemu-vectors",
-    expected: "firmware/src/bin/qemu-vectors.out",
+    program: "qemu_vectors",
+    expected: "examples/qemu_vectors.out",
     figures: Figures::None,
     command: "test",
 };
-const BENCH_SNAPSHOT: Snapshot = Snapshot {
-    program: "bench",
-    expected: "firmware/src/bin/bench.out",
-    figures: Figures::Measured,
-    command: "bench-target",
-};
+const BENCH_SNAPSHOT: Snapshot =
+    Snapshot { program: "bench", expected: "examples/bench.out", figures: Figures::Measured, command: "bench-target" };
 const DEMO_SNAPSHOT: Snapshot = Snapshot {
     program: DEMO_EXAMPLE,
     expected: "examples/qemu_demo.out",
@@ -535,9 +548,10 @@ fn test(overwrite: bool) -> Result {
     run(c)?;
     run(board_cargo(&["clippy", "--all-targets", "--", "-D", "warnings"])?)?;
 
-    step(&format!("clippy, {TARGET} (core and its examples, firmware, board example)"));
+    step(&format!("clippy, {TARGET} (core and its examples, board example)"));
     let mut c = cargo();
-    c.args(["clippy", "-p", "qfa-thermal", "-p", FIRMWARE, "--lib", "--bins", "--examples", "--target", TARGET]);
+    // With the measuring features, or the benchmark (required-features) is skipped unseen.
+    c.args(["clippy", "-p", CORE, "--lib", "--examples", "--features", EXAMPLE_FEATURES, "--target", TARGET]);
     c.args(["--", "-D", "warnings"]);
     run(c)?;
     run(board_cargo(&["clippy", "--target", TARGET, "--", "-D", "warnings"])?)?;
@@ -558,14 +572,14 @@ fn test(overwrite: bool) -> Result {
     step("loom model of the seqlock (clean; `cargo xtask loom` adds the mutants)");
     loom_model_passes(&target_dir()?.join("loom"))?;
 
-    step(&format!("target build, release ({})", RUN_BINS.join(", ")));
-    build_firmware(&RUN_BINS)?;
+    step(&format!("target build, release ({})", TARGET_EXAMPLES.join(", ")));
+    build_examples(&TARGET_EXAMPLES)?;
 
     step("reference vectors on QEMU mps2-an386 (Cortex-M4F)");
-    run_snapshot(&VECTORS_SNAPSHOT, &elf(VECTORS_SNAPSHOT.program)?, false, overwrite)?;
+    run_snapshot(&VECTORS_SNAPSHOT, &example_elf(VECTORS_SNAPSHOT.program)?, false, overwrite)?;
 
     step("benchmark on QEMU -icount shift=0 (figures masked: bench-target checks their budgets)");
-    run_snapshot(&BENCH_SNAPSHOT, &elf(BENCH_SNAPSHOT.program)?, true, overwrite)?;
+    run_snapshot(&BENCH_SNAPSHOT, &example_elf(BENCH_SNAPSHOT.program)?, true, overwrite)?;
 
     step(&format!("demo example ({DEMO_EXAMPLE}) on QEMU mps2-an386, the root memory.x"));
     run_demo_example(overwrite)?;
@@ -595,10 +609,9 @@ fn demo_qemu(overwrite: bool) -> Result {
 /// and print its expected output.
 fn run_demo_example(overwrite: bool) -> Result {
     let mut c = cargo();
-    c.args(["build", "-p", "qfa-thermal", "--release", "--target", TARGET, "--example", DEMO_EXAMPLE]);
+    c.args(["build", "-p", CORE, "--release", "--target", TARGET, "--example", DEMO_EXAMPLE]);
     run(c)?;
-    let kernel = target_dir()?.join(TARGET).join("release").join("examples").join(DEMO_EXAMPLE);
-    run_snapshot(&DEMO_SNAPSHOT, &kernel, false, overwrite).map(drop)
+    run_snapshot(&DEMO_SNAPSHOT, &example_elf(DEMO_EXAMPLE)?, false, overwrite).map(drop)
 }
 
 fn build_board() -> Result {
@@ -661,17 +674,17 @@ fn bench_target(overwrite: bool) -> Result {
     let budgets =
         parse_budgets(&std::fs::read_to_string(root().join(BUDGETS)).map_err(|e| Failure(format!("{BUDGETS}: {e}")))?)?;
     let mut printed = String::new();
-    step("bench firmware, QEMU -icount shift=0");
-    build_firmware(&["bench", "size-baseline"])?;
+    step("benchmark example (examples/bench.rs), QEMU -icount shift=0");
+    build_examples(&["bench", "size_baseline"])?;
     // The expected file pins which figures are printed; their values are judged below.
-    printed.push_str(&run_snapshot(&BENCH_SNAPSHOT, &elf(BENCH_SNAPSHOT.program)?, true, overwrite)?);
+    printed.push_str(&run_snapshot(&BENCH_SNAPSHOT, &example_elf(BENCH_SNAPSHOT.program)?, true, overwrite)?);
 
-    step("flash of the core: panic-check (core paths + runtime) minus size-baseline (runtime)");
+    step("flash of the core: panic_check (core paths + runtime) minus size_baseline (runtime)");
     build_panic_check()?;
     let tool = ensure_size_tool()?;
-    let (ct, cd, cb) = berkeley(&tool, &elf("panic-check")?)?;
-    let (bt, bd, bb) = berkeley(&tool, &elf("size-baseline")?)?;
-    println!("panic-check: text={ct} data={cd} bss={cb}; size-baseline: text={bt} data={bd} bss={bb}");
+    let (ct, cd, cb) = berkeley(&tool, &example_elf(PANIC_CHECK)?)?;
+    let (bt, bd, bb) = berkeley(&tool, &example_elf("size_baseline")?)?;
+    println!("panic_check: text={ct} data={cd} bss={cb}; size_baseline: text={bt} data={bd} bss={bb}");
     let core = format!(
         "core_flash_bytes={}\ncore_static_ram_bytes={}\n",
         (ct + cd).saturating_sub(bt + bd),
@@ -682,7 +695,7 @@ fn bench_target(overwrite: bool) -> Result {
 
     step("flash and RAM of the STM32F405 board example (whole image, release)");
     build_board()?;
-    let (t, d, b) = berkeley(&tool, &elf(BOARD)?)?;
+    let (t, d, b) = berkeley(&tool, &target_dir()?.join(TARGET).join("release").join(BOARD))?;
     println!("{BOARD}: text={t} data={d} bss={b}");
     println!("board_flash_bytes={}", t + d);
     println!("board_ram_bytes={}", d + b);
@@ -696,10 +709,9 @@ fn bench_target(overwrite: bool) -> Result {
     Ok(())
 }
 
-/// Build panic-check; on a link failure, return the linker's lines about the panic symbol.
+/// Build panic_check; on a link failure, return the linker's lines about the panic symbol.
 fn build_panic_check() -> Result {
-    let mut c = cargo();
-    c.args(["build", "-p", FIRMWARE, "--release", "--target", TARGET, "--bin", "panic-check"]);
+    let mut c = example_build(PANIC_CHECK);
     let line = show(&c);
     println!("$ {line}");
     let mut child = c
@@ -719,8 +731,8 @@ fn build_panic_check() -> Result {
     if err.contains(PANIC_SYMBOL) {
         let refs: Vec<&str> = err.lines().filter(|l| l.contains(PANIC_SYMBOL) || l.contains(">>>")).collect();
         fail(format!(
-            "panic-check: a panic is reachable from the core (its handler references the undefined \
-             `{PANIC_SYMBOL}`):\n{}\nTo find it: give panic-check's handler a `loop {{}}` body, build, \
+            "panic_check: a panic is reachable from the core (its handler references the undefined \
+             `{PANIC_SYMBOL}`):\n{}\nTo find it: give panic_check's handler a `loop {{}}` body, build, \
              and look for the calls to core::panicking::* in `llvm-objdump -d -l` of the ELF (the \
              source lines are in the debug info).",
             refs.join("\n")
@@ -732,7 +744,7 @@ fn build_panic_check() -> Result {
 
 fn panic_check() -> Result {
     ensure_target()?;
-    step("panic-check: link with an undefined panic handler (release, LTO)");
+    step("panic-check: link examples/panic_check.rs with an undefined panic handler (release, LTO)");
     build_panic_check()?;
     println!(
         "panic-check: OK, no panic reachable from Compensator::load_table, on_scratchpad, on_raw, \

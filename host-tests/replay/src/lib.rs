@@ -1,7 +1,7 @@
 //! Replays checked-in reference vectors through the compensator and compares bit patterns.
 //!
 //! no_std and allocation-free so the very same code runs on the host (`host-tests`) and on
-//! the Cortex-M4F under QEMU (`firmware`, binary `qemu-vectors`).
+//! the Cortex-M4F under QEMU (the root crate's example `examples/qemu_vectors.rs`).
 //!
 //! # Vector files (`host-tests/vectors/*.vec`)
 //! One event per line; `#` starts a comment. Inputs, then `=>`, then the expected outputs

@@ -1,8 +1,14 @@
 //! Semihosting runtime on the target: console, exit with a code, panic and HardFault exits.
+//! Each example defines its handlers and calls these.
 
 use core::fmt::Write;
 
 use cortex_m_semihosting::hio::{self, HostStream};
+
+/// Exit code of a panic (the same as a Rust panic on the host).
+pub const EXIT_PANIC: u32 = 101;
+/// Exit code of a HardFault.
+pub const EXIT_HARD_FAULT: u32 = 3;
 
 /// Semihosting `SYS_EXIT_EXTENDED`: unlike `SYS_EXIT` on 32-bit Arm, it carries an exit code.
 const SYS_EXIT_EXTENDED: usize = 0x20;
@@ -27,24 +33,24 @@ pub fn exit(code: u32) -> ! {
     cortex_m::asm::udf()
 }
 
-/// Panic: print the message on the host's stderr and exit with [`crate::EXIT_PANIC`], so a
+/// Panic: print the message on the host's stderr and exit with [`EXIT_PANIC`], so a
 /// panic fails the run instead of hanging it.
 pub fn on_panic(info: &core::panic::PanicInfo<'_>) -> ! {
     if let Ok(mut e) = hio::hstderr() {
         let _ = writeln!(e, "panic: {info}");
     }
-    exit(crate::EXIT_PANIC)
+    exit(EXIT_PANIC)
 }
 
-/// HardFault: print the faulting PC and exit with [`crate::EXIT_HARD_FAULT`].
+/// HardFault: print the faulting PC and exit with [`EXIT_HARD_FAULT`].
 pub fn on_hard_fault(ef: &cortex_m_rt::ExceptionFrame) -> ! {
     if let Ok(mut e) = hio::hstderr() {
         let _ = writeln!(e, "HardFault at pc={:#010x} lr={:#010x}", ef.pc(), ef.lr());
     }
-    exit(crate::EXIT_HARD_FAULT)
+    exit(EXIT_HARD_FAULT)
 }
 
 /// HardFault without formatting (for the panic-free link check): exit with the code only.
 pub fn on_hard_fault_quiet() -> ! {
-    exit(crate::EXIT_HARD_FAULT)
+    exit(EXIT_HARD_FAULT)
 }

@@ -1,17 +1,20 @@
-//! `panic-check`'s runtime and input buffer without the core: vector table, reset,
+//! `panic_check`'s runtime and input buffer without the core: vector table, reset,
 //! semihosting exit. The difference of their flash is `core_flash_bytes`
 //! (`cargo xtask bench-target`).
 #![cfg_attr(target_os = "none", no_std, no_main)]
+
+mod common;
 
 #[cfg(target_os = "none")]
 mod target {
     use core::hint::black_box;
 
     use cortex_m_rt::{entry, exception, ExceptionFrame};
-    use qfa_firmware::rt;
+
+    use crate::common::rt;
     use qfa_thermal::table::MAX_TABLE_BYTES;
 
-    /// The same input buffer as panic-check's, so the difference is the core's code alone.
+    /// The same input buffer as panic_check's, so the difference is the core's code alone.
     static TABLE_BYTES: [u8; MAX_TABLE_BYTES] = [0; MAX_TABLE_BYTES];
 
     #[entry]
@@ -33,7 +36,7 @@ mod target {
 
     #[panic_handler]
     fn panic(_: &core::panic::PanicInfo<'_>) -> ! {
-        // SAFETY: never runs; see panic-check.
+        // SAFETY: never runs; see panic_check.
         #[allow(unsafe_code)]
         unsafe {
             qfa_panic_is_reachable_from_the_core()
@@ -43,6 +46,6 @@ mod target {
 
 #[cfg(not(target_os = "none"))]
 fn main() {
-    eprintln!("size-baseline is a target binary: run `cargo xtask bench-target`");
+    eprintln!("size_baseline is a target program: run `cargo xtask bench-target`");
     std::process::exit(2);
 }

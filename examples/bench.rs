@@ -1,6 +1,8 @@
 //! Instruction counts of the fast and slow paths on the Cortex-M4F, under QEMU with
 //! `-icount shift=0` (one instruction = 1 ns of virtual time; SysTick counts that clock
-//! deterministically, the DWT cycle counter reads 0). Run: `cargo xtask bench-target`.
+//! deterministically, the DWT cycle counter reads 0). Run: `cargo xtask bench-target`, which
+//! builds it with `fixtures` and `bench-internals` and, as an application crate, at opt-level
+//! 3 (the core package's own `"s"` would reach it otherwise).
 //!
 //! Method: SysTick runs from the core clock, reload 2²⁴−1. A loop of exactly two
 //! instructions per iteration (`subs`/`bne`, inline asm), timed at two lengths, gives
@@ -9,6 +11,8 @@
 //! passes the same values through `black_box`, times instructions per tick, over `CALLS`.
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
+mod common;
+
 #[cfg(target_os = "none")]
 mod target {
     use core::fmt::Write;
@@ -16,8 +20,9 @@ mod target {
 
     use cortex_m::peripheral::{syst::SystClkSource, SYST};
     use cortex_m_rt::{entry, exception, ExceptionFrame};
-    use qfa_firmware::{fixtures, rt};
     use qfa_thermal::{Config, Extensions, PulseOutput, Status, Table, ThreeAxisSensorPerAxis, ThreeAxisSharedSensor};
+
+    use crate::common::rt;
 
     const CALLS: u32 = 10_000;
     const BATCH: u32 = 500;
@@ -78,7 +83,7 @@ mod target {
 
     fn compensator(ext: Extensions, misalignment: bool) -> ThreeAxisSharedSensor<Table> {
         let mut c = ThreeAxisSharedSensor::<Table>::new(Config::default()).expect("the default config is valid");
-        c.set_table(fixtures::table(ext, misalignment, 32)).expect("fixture table validates");
+        c.set_table(tables::table(ext, misalignment, 32)).expect("fixture table validates");
         for k in 0..64 {
             let (t, raw) = sample(k);
             c.on_raw(0, t, raw).expect("warm-up readings are plausible");
@@ -162,7 +167,7 @@ mod target {
             let _ = black_box(black_box(&mut c).on_raw(0, black_box(t), black_box(raw)));
         });
         let off_status = c.status();
-        let mut c = compensator(fixtures::all_slots_on(), false);
+        let mut c = compensator(tables::all_slots_on(), false);
         let slow_on = time_calls(|k| {
             let (t, raw) = sample(k + 64);
             let _ = black_box(black_box(&mut c).on_raw(0, black_box(t), black_box(raw)));
@@ -203,6 +208,67 @@ mod target {
     #[panic_handler]
     fn panic(info: &core::panic::PanicInfo<'_>) -> ! {
         rt::on_panic(info)
+    }
+
+    /// The tables the benchmark compensates with: the paper's JB-KT8 #1 on three axes.
+    mod tables {
+        use qfa_thermal::fixtures::JB_KT8_1;
+        use qfa_thermal::model::{BranchHysteresis, Creep, SensorLag};
+        use qfa_thermal::table::MAX_AXES;
+        use qfa_thermal::{AxisModel, BiasGrid, Extensions, Table};
+
+        /// First grid point, °C.
+        const GRID_START_C: f32 = -40.0;
+        /// Grid spacing, °C.
+        const GRID_STEP_C: f32 = 10.0;
+        /// Grid points: −40..=80 °C.
+        const GRID_POINTS: usize = 13;
+        /// Heating branch above the cooling branch by this much, g.
+        const BRANCH_SPLIT_G: f32 = 8e-6;
+        /// A small misalignment / cross-axis matrix (row-major), within the table limits.
+        const MISALIGNMENT: [f32; 9] = [1.0, 1.0e-3, -2.0e-3, 5.0e-4, 1.0, 1.5e-3, -1.0e-3, 2.0e-4, 1.0];
+
+        /// A plausible bias grid for `axis`: ~100 µg at 22 °C, 1.5 µg/°C, slight curvature,
+        /// and heating/cooling branches [`BRANCH_SPLIT_G`] apart.
+        fn bias_grid(axis: usize) -> BiasGrid {
+            let offset = 1.0e-4 + 2.0e-5 * axis as f32;
+            let k0 = |i: usize| {
+                let d = GRID_START_C + GRID_STEP_C * i as f32 - 22.0;
+                offset + 1.5e-6 * d + 8.0e-9 * d * d
+            };
+            let mut g =
+                BiasGrid::single_valued(GRID_START_C, GRID_STEP_C, &[0.0; GRID_POINTS]).expect("2 to 16 grid values");
+            for (i, (h, c)) in g.heating_g.iter_mut().zip(g.cooling_g.iter_mut()).enumerate() {
+                *h = k0(i) + 0.5 * BRANCH_SPLIT_G;
+                *c = k0(i) - 0.5 * BRANCH_SPLIT_G;
+            }
+            g
+        }
+
+        /// Every extension slot on, with plausible constants.
+        pub const fn all_slots_on() -> Extensions {
+            Extensions {
+                sensor_lag: Some(SensorLag { tau_s: 40.0 }),
+                bias_branch_hysteresis: Some(BranchHysteresis { half_width_c: 0.5, weight_g: 2e-5 }),
+                bias_creep: Some(Creep { gain_g_per_c: 2e-6, tau_ref_s: 600.0, t_ref_c: 22.0, activation_k: 4000.0 }),
+            }
+        }
+
+        /// A 3-axis JB-KT8 #1 table for a rate window of `rate_window` samples.
+        pub fn table(ext: Extensions, misalignment: bool, rate_window: u16) -> Table {
+            let mut axes = heapless::Vec::new();
+            for i in 0..MAX_AXES {
+                let axis = AxisModel { scale: JB_KT8_1, bias: bias_grid(i), rate_limit_c_per_min: 2.0, ext };
+                // Capacity is MAX_AXES and the loop pushes MAX_AXES.
+                let _ = axes.push(axis);
+            }
+            Table {
+                input: qfa_thermal::Input::PulseCounts,
+                rate_window,
+                axes,
+                misalignment: misalignment.then_some(MISALIGNMENT),
+            }
+        }
     }
 }
 

@@ -5,12 +5,15 @@
 //! Run: `cargo xtask panic-check` (release, LTO).
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
+mod common;
+
 #[cfg(target_os = "none")]
 mod target {
     use core::hint::black_box;
 
     use cortex_m_rt::{entry, exception, ExceptionFrame};
-    use qfa_firmware::rt;
+
+    use crate::common::rt;
     use qfa_thermal::table::MAX_TABLE_BYTES;
     use qfa_thermal::{Compensator, Config};
 
