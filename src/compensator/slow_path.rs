@@ -444,6 +444,10 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
         s.pending_count >= self.slow.config.confirm_samples
     }
 
+    // Cold and out of line: a rejected reading is rare, and kept apart it leaves the accepted
+    // reading's path the only one `publish` is laid out for.
+    #[cold]
+    #[inline(never)]
     fn reject(&mut self, sensor: usize, e: SampleError) -> Result<Status, SampleError> {
         self.slow.streams[sensor].invalid = true;
         self.publish(false);

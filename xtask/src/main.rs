@@ -578,8 +578,8 @@ fn test(overwrite: bool) -> Result {
     step("reference vectors on QEMU mps2-an386 (Cortex-M4F)");
     run_snapshot(&VECTORS_SNAPSHOT, &example_elf(VECTORS_SNAPSHOT.program)?, false, overwrite)?;
 
-    step("benchmark on QEMU -icount shift=0 (figures masked: bench-target checks their budgets)");
-    run_snapshot(&BENCH_SNAPSHOT, &example_elf(BENCH_SNAPSHOT.program)?, true, overwrite)?;
+    // The benchmark's figures against their budgets and the docs (as `bench-target` does).
+    check_figures(&measure_figures(overwrite)?)?;
 
     step(&format!("demo example ({DEMO_EXAMPLE}) on QEMU mps2-an386, the root memory.x"));
     run_demo_example(overwrite)?;
@@ -669,10 +669,83 @@ fn over_budget(budgets: &[(String, u64)], printed: &str) -> Result<Vec<String>> 
     Ok(over)
 }
 
-fn bench_target(overwrite: bool) -> Result {
-    ensure_target()?;
-    let budgets =
-        parse_budgets(&std::fs::read_to_string(root().join(BUDGETS)).map_err(|e| Failure(format!("{BUDGETS}: {e}")))?)?;
+/// The firmware's figures the docs state: (printed key, the README row that gives it).
+/// docs/measurements.md gives each in its table's row for the key, as the first number of
+/// the "measured" cell; the README, anywhere in the row's value cell. Both are checked against what the benchmark prints today.
+const STATED_FIGURES: [(&str, &str); 5] = [
+    ("fast_path_insns_3axis", "[fast path, 3 axes"),
+    ("fast_path_insns_3axis_misalign", "[fast path, 3 axes"),
+    ("slow_path_insns_3axis_all_on", "[slow path, every slot on"),
+    ("core_ram_bytes", "[RAM and flash of the core"),
+    ("core_flash_bytes", "[RAM and flash of the core"),
+];
+const MEASUREMENTS: &str = "docs/measurements.md";
+
+/// A printed figure as the docs write it: thousands grouped by a space, a zero fraction
+/// dropped (`1980.5` → `1 980.5`, `16056` → `16 056`, `28.0` → `28`).
+fn as_written(value: &str) -> String {
+    let value = value.trim();
+    let (int, frac) = value.split_once('.').unwrap_or((value, ""));
+    let digits: Vec<char> = int.chars().collect();
+    let mut out = String::new();
+    for (i, c) in digits.iter().enumerate() {
+        if i > 0 && (digits.len() - i).is_multiple_of(3) {
+            out.push(' ');
+        }
+        out.push(*c);
+    }
+    if !frac.trim_end_matches('0').is_empty() {
+        out.push('.');
+        out.push_str(frac);
+    }
+    out
+}
+
+/// Whether `text` holds `figure` as a whole number: not inside a longer one, whether that
+/// continues with digits, a decimal point or a space-grouped digit group ("1 980.5").
+fn holds_figure(text: &str, figure: &str) -> bool {
+    let digit = |c: Option<char>| c.is_some_and(|c| c.is_ascii_digit());
+    text.match_indices(figure).any(|(i, _)| {
+        let mut back = text[..i].chars().rev();
+        let (b1, b2) = (back.next(), back.next());
+        let mut ahead = text[i + figure.len()..].chars();
+        let (a1, a2) = (ahead.next(), ahead.next());
+        let joined_before = digit(b1) || b1 == Some('.') || (b1 == Some(' ') && digit(b2));
+        let joined_after = digit(a1) || ((a1 == Some('.') || a1 == Some(' ')) && digit(a2));
+        !joined_before && !joined_after
+    })
+}
+
+/// Each stated figure the README or docs/measurements.md gives differently from `printed`.
+fn stated_disagreements(readme: &str, measurements: &str, printed: &str) -> Result<Vec<String>> {
+    let mut out = Vec::new();
+    for (key, row) in STATED_FIGURES {
+        let Some(value) = printed.lines().find_map(|l| l.strip_prefix(&format!("{key}="))) else {
+            return fail(format!("no {key}= figure was printed to check the docs against"));
+        };
+        let figure = as_written(value);
+        // The row's value cell only: its label holds numbers too ("3 axes").
+        let value_cell = |l: &str| l.trim().trim_end_matches('|').rsplit(" | ").next().unwrap_or("").to_string();
+        match readme.lines().find(|l| l.starts_with(&format!("| {row}"))).map(value_cell) {
+            Some(c) if holds_figure(&c, &figure) => {}
+            Some(c) => out.push(format!("README.md gives {key} not as {figure}: `{c}`")),
+            None => out.push(format!("README.md has no row `| {row}` for {key}")),
+        }
+        let cell = measurements.lines().find(|l| l.starts_with(&format!("| `{key}`"))).and_then(|l| {
+            let cells: Vec<&str> = l.trim().trim_matches('|').split(" | ").collect();
+            cells.len().checked_sub(2).map(|i| cells[i].trim().trim_start_matches("**").to_string())
+        });
+        match cell {
+            Some(c) if c.starts_with(&figure) && holds_figure(&c, &figure) => {}
+            Some(c) => out.push(format!("{MEASUREMENTS} gives {key} as `{c}`, printed {figure}")),
+            None => out.push(format!("{MEASUREMENTS} has no table row for `{key}`")),
+        }
+    }
+    Ok(out)
+}
+
+/// Run the benchmark and size the core's flash: the figures, as `key=value` lines.
+fn measure_figures(overwrite: bool) -> Result<String> {
     let mut printed = String::new();
     step("benchmark example (examples/bench.rs), QEMU -icount shift=0");
     build_examples(&["bench", "size_baseline"])?;
@@ -692,21 +765,40 @@ fn bench_target(overwrite: bool) -> Result {
     );
     print!("{core}");
     printed.push_str(&core);
+    Ok(printed)
+}
+
+/// Fail when a figure is over its budget or the docs state it differently.
+fn check_figures(printed: &str) -> Result {
+    let read = |p: &str| std::fs::read_to_string(root().join(p)).map_err(|e| Failure(format!("{p}: {e}")));
+    let budgets = parse_budgets(&read(BUDGETS)?)?;
+    step(&format!("budgets ({BUDGETS}) and the figures README.md and {MEASUREMENTS} state"));
+    let mut wrong = over_budget(&budgets, printed)?;
+    wrong.extend(stated_disagreements(&read("README.md")?, &read(MEASUREMENTS)?, printed)?);
+    if !wrong.is_empty() {
+        return fail(format!("figures:\n{}", wrong.join("\n")));
+    }
+    println!(
+        "figures: all {} within their budgets; the {} the docs state match",
+        budgets.len(),
+        STATED_FIGURES.len()
+    );
+    Ok(())
+}
+
+fn bench_target(overwrite: bool) -> Result {
+    ensure_target()?;
+    let printed = measure_figures(overwrite)?;
 
     step("flash and RAM of the STM32F405 board example (whole image, release)");
     build_board()?;
+    let tool = ensure_size_tool()?;
     let (t, d, b) = berkeley(&tool, &target_dir()?.join(TARGET).join("release").join(BOARD))?;
     println!("{BOARD}: text={t} data={d} bss={b}");
     println!("board_flash_bytes={}", t + d);
     println!("board_ram_bytes={}", d + b);
 
-    step(&format!("budgets ({BUDGETS})"));
-    let over = over_budget(&budgets, &printed)?;
-    if !over.is_empty() {
-        return fail(format!("over budget:\n{}", over.join("\n")));
-    }
-    println!("budgets: all {} figures within their budgets", budgets.len());
-    Ok(())
+    check_figures(&printed)
 }
 
 /// Build panic_check; on a link failure, return the linker's lines about the panic symbol.
@@ -964,6 +1056,63 @@ mod tests {
             }
         }
         assert!(over_budget(&b, "fast_path_insns_3axis=1\n").is_err());
+    }
+
+    /// A figure is written as the docs write it, and found only as a whole number.
+    #[test]
+    fn figures_are_written_and_found_whole() {
+        assert_eq!(as_written("1980.5"), "1 980.5");
+        assert_eq!(as_written("16056"), "16 056");
+        assert_eq!(as_written("1016"), "1 016");
+        assert_eq!(as_written("28.0"), "28");
+        assert_eq!(as_written("453"), "453");
+        assert!(holds_figure("| 28 instructions |", "28"));
+        assert!(!holds_figure("| 128 instructions |", "28"));
+        assert!(!holds_figure("| 28.5 instructions |", "28"));
+        assert!(!holds_figure("| 1 980.5 |", "980.5"));
+        assert!(!holds_figure("| 1 980 |", "1"));
+        assert!(holds_figure("28 (45 with a misalignment matrix)", "45"));
+    }
+
+    /// The README and the measurements page pass when they give the printed figures, and a
+    /// figure changed in either (or a row gone) fails, naming the key.
+    #[test]
+    fn a_stated_figure_that_differs_from_the_printed_one_fails() {
+        let readme = "| [fast path, 3 axes, M4F](m) | 28 instructions (45 with a matrix) |\n\
+                      | [slow path, every slot on](m) | 1 980.5 instructions |\n\
+                      | [RAM and flash of the core](m) | 1 016 B RAM, 16 056 B flash |\n";
+        let measurements = "| `fast_path_insns_3axis`, text | 28 | ≤ 32 |\n\
+                            | `fast_path_insns_3axis_misalign` | 45 | ≤ 52 |\n\
+                            | `slow_path_insns_3axis_all_on` (status) | 1 980.5 (2 001.5 before) | ≤ 2 000 |\n\
+                            | `core_ram_bytes` = size | **1 016** | ≤ 1 024 |\n\
+                            | `core_flash_bytes` (text) | 16 056 | ≤ 16 384 |\n";
+        let printed = "fast_path_insns_3axis=28.0\nfast_path_insns_3axis_misalign=45.0\n\
+                       slow_path_insns_3axis_all_on=1980.5\ncore_ram_bytes=1016\ncore_flash_bytes=16056\n";
+        assert!(matches!(stated_disagreements(readme, measurements, printed), Ok(v) if v.is_empty()));
+        for (key, _) in STATED_FIGURES {
+            let moved: String = printed
+                .lines()
+                .map(|l| if l.starts_with(&format!("{key}=")) { format!("{key}=3\n") } else { format!("{l}\n") })
+                .collect();
+            match stated_disagreements(readme, measurements, &moved) {
+                Ok(v) => assert!(v.len() == 2 && v.iter().all(|m| m.contains(key)), "{key}: {v:?}"),
+                Err(e) => panic!("{e}"),
+            }
+        }
+        let stale = measurements.replace("| 1 980.5 (", "| 2 001.5 (");
+        assert!(matches!(stated_disagreements(readme, &stale, printed), Ok(v) if v.len() == 1));
+        assert!(matches!(stated_disagreements("", measurements, printed), Ok(v) if v.len() == 5));
+        assert!(stated_disagreements(readme, measurements, "core_ram_bytes=1016\n").is_err());
+    }
+
+    /// The checked-in docs have a row for every stated figure.
+    #[test]
+    fn the_docs_have_a_row_for_every_stated_figure() {
+        let (readme, measurements) = (include_str!("../../README.md"), include_str!("../../docs/measurements.md"));
+        for (key, row) in STATED_FIGURES {
+            assert!(readme.lines().any(|l| l.starts_with(&format!("| {row}"))), "README.md: {row}");
+            assert!(measurements.lines().any(|l| l.starts_with(&format!("| `{key}`"))), "{MEASUREMENTS}: {key}");
+        }
     }
 
     const DEMO_LINES: &str = "demo: 3 axes\n  30 s +0.000012 ok\n  60 s +0.000015 ok\ndemo done\n";
