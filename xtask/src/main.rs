@@ -778,11 +778,7 @@ fn check_figures(printed: &str) -> Result {
     if !wrong.is_empty() {
         return fail(format!("figures:\n{}", wrong.join("\n")));
     }
-    println!(
-        "figures: all {} within their budgets; the {} the docs state match",
-        budgets.len(),
-        STATED_FIGURES.len()
-    );
+    println!("figures: all {} within their budgets; the {} the docs state match", budgets.len(), STATED_FIGURES.len());
     Ok(())
 }
 
