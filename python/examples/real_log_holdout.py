@@ -5,7 +5,7 @@ The log is the public tofupilot IMU thermal-cycle log (docs/lab.md, "Real data")
 commit fc190f7cd507ec6b53fba4c4368b1a2a0a8e5125. Fetch it, then::
 
     pip install ./python matplotlib
-    python examples/python/real_log_holdout.py imu_raw_data.csv [--plot holdout.png]
+    python python/examples/real_log_holdout.py imu_raw_data.csv [--plot holdout.png]
 
 Prints the held-out bias RMS (mg) of every model on every axis, the table of
 docs/measurements.md ("Real data"), from ``qfa_thermal.calibrate``: the lab's own
