@@ -1,7 +1,7 @@
 //! Benchmark (asserts nothing; `cargo xtask experiment batch_bench [N …]`): a production
 //! batch's speed and memory. For each batch size N (default 10 and 100): the simulator's
 //! chamber run of N units (8 550 one-second rows each, the size of the real chamber log),
-//! split into units and calibrated by `qfa_lab::batch::run` at 1 worker thread (N ≤ 10
+//! split into units and calibrated by `qfa_calibrate::batch::run` at 1 worker thread (N ≤ 10
 //! only: it takes N × the single-core cost) and at 2, each run into a fresh folder. Prints
 //! one `key=value` line per run:
 //! `units threads seconds units_per_min cpu_s_per_unit seconds_per_unit vmhwm_mb`, where
@@ -11,12 +11,12 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use qfa_lab::batch::input::from_chamber_log;
-use qfa_lab::batch::{self, BatchOptions};
-use qfa_lab::data::open::ReadFlags;
-use qfa_lab::data::static_columns::{AccelUnit, TimeUnit};
-use qfa_lab::data::units::TempUnit;
-use qfa_lab::simulate::population::{draw, write_chamber, PopulationSpec};
+use qfa_calibrate::batch::input::from_chamber_log;
+use qfa_calibrate::batch::{self, BatchOptions};
+use qfa_log::open::ReadFlags;
+use qfa_log::static_columns::{AccelUnit, TimeUnit};
+use qfa_log::units::TempUnit;
+use qfa_sim::population::{draw, write_chamber, PopulationSpec};
 
 /// Peak resident memory of this process, MB (Linux `VmHWM`; 0 where it cannot be read).
 fn vmhwm_mb() -> f64 {

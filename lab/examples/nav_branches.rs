@@ -11,7 +11,7 @@
 //! usually have tied branches already (Single), and the two columns then coincide; the
 //! figures on the measurements page (78.3 → 81.3 %) were measured with free branches always.
 
-use qfa_lab::navigate::{self, mc, scenario::Scenario};
+use qfa_nav::{mc, scenario::Scenario};
 
 fn main() {
     if std::env::args().nth(1).as_deref() == Some("tally") {
@@ -59,7 +59,7 @@ fn branch_tie_tally_on_the_monte_carlo_units() {
     let mut tally = std::collections::BTreeMap::new();
     for i in 0..100u64 {
         let d = mc::draw(&sc, sc.seed, i);
-        let tables = navigate::calibrate_with(&d.units, d.seed, 1, false).unwrap();
+        let tables = qfa_nav::calibrate_with(&d.units, d.seed, 1, false).unwrap();
         for u in &tables.units {
             let b = &u.hysteresis.axes[0].bias;
             let diff: Vec<f32> = b.heating_g.iter().zip(&b.cooling_g).map(|(h, c)| h - c).collect();

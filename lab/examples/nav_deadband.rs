@@ -13,12 +13,12 @@
 //! 0.5 → 82.0 %, 72.3 %, 70.6 %. Not applied: 0.3 and 0.5 are not derived from anything,
 //! and the fit traces the branch with the table's deadband.
 
-use qfa_lab::navigate::{mc, scenario::Scenario};
+use qfa_nav::{mc, scenario::Scenario};
 use rayon::prelude::*;
 
 fn main() {
     let sc = Scenario::builtin();
-    let derived = qfa_lab::data::pairing::branch_deadband_c_per_min();
+    let derived = qfa_log::pairing::branch_deadband_c_per_min();
     let deadbands = [derived, 0.3, 0.5];
     let shares: Vec<[f64; 3]> = (0..16u64)
         .into_par_iter()

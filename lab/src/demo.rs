@@ -15,12 +15,12 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use crate::calibrate::report::Variants;
-use crate::calibrate::{calibrate_file, CalibrateOptions};
-use crate::data::cycling::write_log;
-use crate::simulate::simulate_paper;
-use crate::simulate::truth::Truth;
-use crate::verdict::{FileUse, LimitsChoice, Verdict};
+use qfa_calibrate::report::Variants;
+use qfa_calibrate::{calibrate_file, CalibrateOptions};
+use qfa_log::cycling::write_log;
+use qfa_report::verdict::{FileUse, LimitsChoice, Verdict};
+use qfa_sim::simulate_paper;
+use qfa_sim::truth::Truth;
 
 /// The paper's Table 4: (none, simple, hysteresis) ppm/°C for #1, #2, #3.
 pub const PAPER_TABLE4: [[f64; 3]; 3] = [[74.14, 12.78, 2.48], [104.22, 14.14, 4.23], [105.79, 14.46, 5.19]];
@@ -71,18 +71,9 @@ pub type DiscoveryHook = fn(log: &Path, out: &Path) -> Result<String, String>;
 /// Where the navigation study plugs in: called once with its output directory after all
 /// units are calibrated, and the flight's length limit, s. Returns its verdict and the
 /// caption of its flight plot; an error fails the demo.
-pub type NavigationHook = fn(out: &Path, duration_s: Option<f64>) -> Result<NavigationOutcome, String>;
+pub type NavigationHook = fn(out: &Path, duration_s: Option<f64>) -> Result<qfa_nav::NavigationOutcome, String>;
 
-/// What the navigation study hands the demo.
-#[derive(Clone, Debug)]
-pub struct NavigationOutcome {
-    /// The study's verdict (merged into the demo's).
-    pub verdict: Verdict,
-    /// The caption of `nav_errors.png`: what to look for, and why it may look alarming.
-    pub plot_caption: String,
-}
-
-/// The demo's `report.json`: the verdict (first, [`crate::verdict::json_with_verdict`])
+/// The demo's `report.json`: the verdict (first, [`qfa_report::verdict::json_with_verdict`])
 /// and every unit's Table-4 figures.
 #[derive(Serialize)]
 struct DemoReport<'a> {
@@ -166,7 +157,7 @@ pub fn run(
                 title: truth.name.clone(),
                 progress: opts.progress,
                 axis: None,
-                exports: crate::calibrate::peers::ExportOptions::default(),
+                exports: qfa_calibrate::peers::ExportOptions::default(),
                 limits: LimitsChoice::default(),
             },
         )?;
@@ -225,7 +216,8 @@ pub fn run(
     let json = serde_json::to_string_pretty(&results).map_err(|e| e.to_string())?;
     std::fs::write(opts.out.join("table4.json"), json).map_err(|e| e.to_string())?;
     let v = verdict(&results, &pages, nav.as_ref());
-    let json = crate::verdict::json_with_verdict(&v, &DemoReport { units: &results }).map_err(|e| e.to_string())?;
+    let json =
+        qfa_report::verdict::json_with_verdict(&v, &DemoReport { units: &results }).map_err(|e| e.to_string())?;
     std::fs::write(opts.out.join("report.json"), json).map_err(|e| e.to_string())?;
     std::fs::write(opts.out.join("report.md"), markdown(&results, &pages, nav.is_some(), &v))
         .map_err(|e| e.to_string())?;
@@ -256,7 +248,7 @@ fn dir_name(u: &UnitPage) -> String {
 
 /// The demo's verdict: every unit's calibration verdict and the navigation study's, merged
 /// (a unit that fails a limit fails the demo's verdict), with the demo's own files.
-fn verdict(results: &[UnitResult], units: &[UnitPage], nav: Option<&NavigationOutcome>) -> Verdict {
+fn verdict(results: &[UnitResult], units: &[UnitPage], nav: Option<&qfa_nav::NavigationOutcome>) -> Verdict {
     let mut parts: Vec<(String, Verdict)> =
         results.iter().zip(units).map(|(r, u)| (r.unit.clone(), u.verdict.clone())).collect();
     if let Some(n) = nav {
@@ -287,13 +279,16 @@ fn links(results: &[UnitResult], units: &[UnitPage], navigation: bool) -> Vec<(S
     let mut l = Vec::new();
     for (r, u) in results.iter().zip(units) {
         let name = dir_name(u);
-        l.push((format!("{}: calibration report", r.unit), format!("{name}/{}", crate::html_report::FILE)));
+        l.push((format!("{}: calibration report", r.unit), format!("{name}/{}", qfa_report::html_report::FILE)));
         if u.discovery.is_some() {
-            l.push((format!("{}: discovery report", r.unit), format!("{name}/discover/{}", crate::html_report::FILE)));
+            l.push((
+                format!("{}: discovery report", r.unit),
+                format!("{name}/discover/{}", qfa_report::html_report::FILE),
+            ));
         }
     }
     if navigation {
-        l.push(("Navigation study report".to_string(), format!("{NAVIGATION_DIR}/{}", crate::html_report::FILE)));
+        l.push(("Navigation study report".to_string(), format!("{NAVIGATION_DIR}/{}", qfa_report::html_report::FILE)));
     }
     l.push(("This report as Markdown".to_string(), "report.md".to_string()));
     l.push(("This report's figures (JSON, the verdict first)".to_string(), "report.json".to_string()));
@@ -322,7 +317,7 @@ fn markdown(results: &[UnitResult], units: &[UnitPage], navigation: bool, v: &Ve
     }
     s += "\n## Pages\n\n";
     for (text, href) in links(results, units, navigation) {
-        s += &format!("- [{text}]({})\n", crate::html_report::percent_encode(&href));
+        s += &format!("- [{text}]({})\n", qfa_report::html_report::percent_encode(&href));
     }
     s
 }
@@ -333,7 +328,7 @@ const TITLE: &str = "Demo: the paper's thermal test for JB-KT8 #1–#3";
 /// What the demo's page shows of one unit besides its [`UnitResult`].
 struct UnitPage {
     dir: std::path::PathBuf,
-    coverage: crate::calibrate::coverage::CalCoverage,
+    coverage: qfa_calibrate::coverage::CalCoverage,
     discovery: Option<String>,
     verdict: Verdict,
 }
@@ -344,12 +339,12 @@ fn page(
     opts: &DemoOptions,
     results: &[UnitResult],
     units: &[UnitPage],
-    navigation: Option<&NavigationOutcome>,
+    navigation: Option<&qfa_nav::NavigationOutcome>,
     v: &Verdict,
     bytes: u64,
     total_s: f64,
-) -> std::io::Result<crate::html_report::Page> {
-    let mut p = crate::html_report::Page::new(TITLE);
+) -> std::io::Result<qfa_report::html_report::Page> {
+    let mut p = qfa_report::html_report::Page::new(TITLE);
     v.to_page(&mut p);
     p.section("Pages of this run").links(&links(results, units, navigation.is_some()));
     p.section("Held-out scheme").para(
@@ -404,11 +399,12 @@ fn page(
     for (r, u) in results.iter().zip(units) {
         let name = dir_name(u);
         p.section(&r.unit);
-        let mut own = vec![(format!("{}: calibration report", r.unit), format!("{name}/{}", crate::html_report::FILE))];
+        let mut own =
+            vec![(format!("{}: calibration report", r.unit), format!("{name}/{}", qfa_report::html_report::FILE))];
         if u.discovery.is_some() {
             own.push((
                 format!("{}: discovery report", r.unit),
-                format!("{name}/discover/{}", crate::html_report::FILE),
+                format!("{name}/discover/{}", qfa_report::html_report::FILE),
             ));
         }
         p.links(&own);
@@ -430,7 +426,7 @@ fn page(
     }
     if let Some(n) = navigation {
         p.section("Navigation");
-        p.links(&[("Navigation study report", format!("{NAVIGATION_DIR}/{}", crate::html_report::FILE))]);
+        p.links(&[("Navigation study report", format!("{NAVIGATION_DIR}/{}", qfa_report::html_report::FILE))]);
         p.para(&format!("{}: {}", n.verdict.outcome, n.verdict.answer));
         let png = opts.out.join(NAVIGATION_DIR).join("nav_errors.png");
         if png.is_file() {

@@ -1,4 +1,7 @@
-//! qfa-lab: thermal-test simulator, calibration from four-position cycling logs, and the demo.
+//! qfa-lab: the lab's command line and its demo. The work is done by the lab's crates:
+//! `qfa_log` (readers and writers), `qfa_sim` (the simulator), `qfa_calibrate`
+//! (calibration, discovery, batches, compensation, lint), `qfa_nav` (the navigation study)
+//! and `qfa_report` (pages and verdicts).
 //!
 //! The lab calls the root crate's own estimator (`RateEstimator<32>`), model
 //! (`ScaleFactor`, `BiasGrid`, `Extensions`, `AxisModel::evaluate`), table (`Table`,
@@ -6,30 +9,16 @@
 //! what the firmware runs.
 //!
 //! Entry points for other tools:
-//! * simulate: [`simulate::simulate_paper`], [`simulate::simulate`], [`simulate::Accelerometer`];
-//! * truth over a temperature history: [`simulate::truth::Truth::model`] → [`simulate::truth::TruthModel::step`],
-//!   or [`simulate::truth::TruthModel::over_history`];
-//! * calibrate: [`calibrate::calibrate_log`] (in memory) and [`calibrate::calibrate_file`];
-//! * firmware view of a run: [`data::pairing::trace_run`]; fitting with extension slots:
-//!   [`calibrate::fit::fit`] with [`calibrate::fit::FitOptions::ext`];
-//! * compensation: [`compensate::compensate_run`];
+//! * simulate: [`qfa_sim::simulate_paper`], [`qfa_sim::simulate`], [`qfa_sim::Accelerometer`];
+//! * truth over a temperature history: [`qfa_sim::truth::Truth::model`] → [`qfa_sim::truth::TruthModel::step`],
+//!   or [`qfa_sim::truth::TruthModel::over_history`];
+//! * calibrate: [`qfa_calibrate::calibrate_log`] (in memory) and [`qfa_calibrate::calibrate_file`];
+//! * firmware view of a run: [`qfa_log::pairing::trace_run`]; fitting with extension slots:
+//!   [`qfa_calibrate::fit::fit`] with [`qfa_calibrate::fit::FitOptions::ext`];
+//! * compensation: [`qfa_calibrate::compensate::compensate_run`];
 //! * static multi-axis logs (a board at one orientation, CSV/TSV):
-//!   [`data::open::open`] → [`calibrate::static_cal::calibrate_static`]
-//!   (per-axis [`calibrate::fit::fit_static_axis`], peers in [`calibrate::peers`]) → [`compensate::compensate_static`].
+//!   [`qfa_log::open::open`] → [`qfa_calibrate::static_cal::calibrate_static`]
+//!   (per-axis [`qfa_calibrate::fit::fit_static_axis`], peers in [`qfa_calibrate::peers`]) → [`qfa_calibrate::compensate::compensate_static`].
 
-pub mod batch;
-pub mod calibrate;
-pub mod compensate;
-pub mod data;
 pub mod demo;
-pub mod discover;
-pub mod html_report;
-pub mod lint;
-pub mod navigate;
 pub mod out_path;
-pub mod plot_font;
-pub mod plot_legend;
-pub mod rng;
-pub mod simulate;
-pub mod spelling;
-pub mod verdict;

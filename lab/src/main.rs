@@ -6,24 +6,24 @@ use std::time::Instant;
 
 use clap::{Parser, Subcommand, ValueEnum};
 
-use qfa_lab::calibrate::peers::ExportOptions;
-use qfa_lab::calibrate::static_cal::{self, Holdout};
-use qfa_lab::calibrate::{calibrate_into, CalibrateOptions};
-use qfa_lab::compensate::compensate_log;
-use qfa_lab::data::channels::Channels;
-use qfa_lab::data::cycling::{write_compensated, write_log};
-use qfa_lab::data::open::{open, LogFormat, OpenError, OpenedLog, ReadFlags};
-use qfa_lab::data::static_columns::{AccelUnit, ColumnMap, TimeUnit};
-use qfa_lab::data::units::TempUnit;
-use qfa_lab::discover::{static_axes, Start};
-use qfa_lab::lint::Severity;
-use qfa_lab::navigate::calib::LabProgram;
-use qfa_lab::navigate::scenario::Scenario;
+use qfa_calibrate::compensate::compensate_log;
+use qfa_calibrate::discover::{static_axes, Start};
+use qfa_calibrate::lint::Severity;
+use qfa_calibrate::peers::ExportOptions;
+use qfa_calibrate::static_cal::{self, Holdout};
+use qfa_calibrate::{calibrate_into, CalibrateOptions};
 use qfa_lab::out_path::OutError;
-use qfa_lab::simulate::profile::{paper_positions, Program, PAPER_RATES};
-use qfa_lab::simulate::simulate;
-use qfa_lab::simulate::truth::Truth;
-use qfa_lab::verdict::{json_with_verdict, LimitsChoice, Verdict, CYCLING_KEYS, EXIT_LIMIT_FAILED, STATIC_KEYS};
+use qfa_log::channels::Channels;
+use qfa_log::cycling::{write_compensated, write_log};
+use qfa_log::open::{open, LogFormat, OpenError, OpenedLog, ReadFlags};
+use qfa_log::static_columns::{AccelUnit, ColumnMap, TimeUnit};
+use qfa_log::units::TempUnit;
+use qfa_nav::calib::LabProgram;
+use qfa_nav::scenario::Scenario;
+use qfa_report::verdict::{json_with_verdict, LimitsChoice, Verdict, CYCLING_KEYS, EXIT_LIMIT_FAILED, STATIC_KEYS};
+use qfa_sim::profile::{paper_positions, Program, PAPER_RATES};
+use qfa_sim::simulate;
+use qfa_sim::truth::Truth;
 
 #[derive(Parser)]
 #[command(name = "qfa-lab", version, about = "Thermal-test simulator, calibration and compensation for QFA tables")]
@@ -41,7 +41,7 @@ enum ProfileKind {
 }
 
 /// How to read a static multi-axis log (CSV/TSV with a header); any flag, or a header
-/// without a `pulses` column, selects the static-log path (`qfa_lab::data::open`).
+/// without a `pulses` column, selects the static-log path (`qfa_log::open`).
 #[derive(clap::Args, Clone, Default)]
 struct StaticFlags {
     /// Column choices, e.g. `time=timestamp,temp=imu.temperature,ax=imu.acc.x,ay=imu.acc.y,az=imu.acc.z`.
@@ -286,8 +286,8 @@ struct BatchCli {
     threads: usize,
     /// Run only shard K of N (0 ≤ K < N: units i with i mod N = K), all shards writing into
     /// the same --out; then `qfa-lab batch merge OUT`.
-    #[arg(long, value_parser = str::parse::<qfa_lab::batch::Shard>)]
-    shard: Option<qfa_lab::batch::Shard>,
+    #[arg(long, value_parser = str::parse::<qfa_calibrate::batch::Shard>)]
+    shard: Option<qfa_calibrate::batch::Shard>,
     /// Draw each unit's bias plot (off: a batch's pages are its certificates and the fleet).
     #[arg(long)]
     plots: bool,
@@ -569,7 +569,7 @@ fn calibrate_cmd(a: CalibrateArgs) -> Result<(), CliError> {
     let exports = ExportOptions { px4_device_id: a.px4_device_id, range_c: a.export_range, ..ExportOptions::default() };
     // Lint first: its warnings on the console, then the log it read (a refused log is the
     // error itself).
-    let lint = qfa_lab::lint::lint(&a.log, &a.fmt.flags());
+    let lint = qfa_calibrate::lint::lint(&a.log, &a.fmt.flags());
     let warnings: Vec<String> = lint.at_least(Severity::Warning).map(ToString::to_string).collect();
     if !warnings.is_empty() && lint.log.is_ok() {
         eprintln!("lint: {} finding(s) to act on (`qfa-lab lint` lists every check):", warnings.len());
@@ -625,9 +625,8 @@ fn calibrate_cmd(a: CalibrateArgs) -> Result<(), CliError> {
                 )));
             }
             let opts = static_cal::StaticCalOptions { holdout: a.holdout, ..Default::default() };
-            let cal =
-                qfa_lab::calibrate::autopilot_cal::calibrate_autopilot(&l, &a.out, &opts, !a.no_plots, true, &limits)
-                    .map_err(|e| e.to_string())?;
+            let cal = qfa_calibrate::autopilot_cal::calibrate_autopilot(&l, &a.out, &opts, !a.no_plots, true, &limits)
+                .map_err(|e| e.to_string())?;
             finish(&cal.verdict, &limits, &a.out)
         }
         OpenedLog::Single(_) => Err(CliError::single_not_taken("calibrate")),
@@ -690,7 +689,7 @@ fn discover_cmd(
             cycling_holdout(holdout)?;
             let ch = Channels::from_opened(&opened, 60.0)?;
             let pb = qfa_lab::demo::spinner("discovery", true);
-            let r = qfa_lab::discover::discover_with_verdict(&ch, start, out);
+            let r = qfa_calibrate::discover::discover_with_verdict(&ch, start, out);
             pb.finish_and_clear();
             let (r, v) = r?;
             let j = if json { Some(json_with_verdict(&v, &r).map_err(to_json)?) } else { None };
@@ -710,7 +709,7 @@ fn compensate_cmd(log: &Path, table: &Path, out: &Path, fmt: &StaticFlags) -> Re
     match open(log, &fmt.flags())? {
         OpenedLog::Static(l) => {
             let (t, f) = table_and_out()?;
-            let flags = qfa_lab::compensate::compensate_static(&t, &l, std::io::BufWriter::new(f))
+            let flags = qfa_calibrate::compensate::compensate_static(&t, &l, std::io::BufWriter::new(f))
                 .map_err(|e| e.to_string())?;
             eprintln!("{} rows ({}) → {}", l.rows(), l.skipped, out.display());
             eprintln!("status flags (also in the header of {}):", out.display());
@@ -723,7 +722,7 @@ fn compensate_cmd(log: &Path, table: &Path, out: &Path, fmt: &StaticFlags) -> Re
             let pb = indicatif::ProgressBar::new(l.runs.len() as u64);
             let c = compensate_log(&t, &l, Some(&pb)).map_err(|e| e.to_string())?;
             pb.finish_and_clear();
-            let flags = qfa_lab::compensate::FlagSummary::of(
+            let flags = qfa_calibrate::compensate::FlagSummary::of(
                 c.iter().flat_map(|r| r.status.iter().map(|&s| qfa_thermal::Status::from_bits_retain(s))),
             );
             let acc: Vec<Vec<f64>> = c.into_iter().map(|c| c.accel_g).collect();
@@ -747,7 +746,7 @@ fn compensate_cmd(log: &Path, table: &Path, out: &Path, fmt: &StaticFlags) -> Re
 }
 
 fn lint_cmd(log: &Path, fmt: &StaticFlags) -> Result<(), CliError> {
-    let lint = qfa_lab::lint::lint(log, &fmt.flags());
+    let lint = qfa_calibrate::lint::lint(log, &fmt.flags());
     println!("lint {}:", log.display());
     for f in &lint.findings {
         println!("{f}");
@@ -772,8 +771,8 @@ fn plan_cmd(scenario: Option<PathBuf>, lab_program: LabProgram, json: Option<Pat
         Some(p) => Scenario::load(&p)?,
         None => Scenario::builtin(),
     };
-    let p = qfa_lab::navigate::plan::plan(&sc, lab_program)?;
-    print!("{}", qfa_lab::navigate::plan::text(&p));
+    let p = qfa_nav::plan::plan(&sc, lab_program)?;
+    print!("{}", qfa_nav::plan::text(&p));
     if let Some(j) = json {
         std::fs::write(&j, serde_json::to_string_pretty(&p).map_err(|e| e.to_string())?).map_err(io_at(&j))?;
     }
@@ -786,7 +785,7 @@ fn plan_cmd(scenario: Option<PathBuf>, lab_program: LabProgram, json: Option<Pat
 
 fn navigate_cmd(a: NavigateCli) -> Result<(), CliError> {
     let out = a.out.ok_or_else(|| CliError::Usage("navigate: --out DIR is required".to_string()))?;
-    let args = qfa_lab::navigate::NavigateArgs {
+    let args = qfa_nav::NavigateArgs {
         scenario: a.scenario,
         out,
         discovered_tables: a.discovered_tables.map(|v| [v[0].clone(), v[1].clone(), v[2].clone()]),
@@ -804,12 +803,12 @@ fn navigate_cmd(a: NavigateCli) -> Result<(), CliError> {
     };
     if a.shard.is_some() {
         // A shard's partial result has no verdict: `navigate merge` judges the whole study.
-        let p = qfa_lab::navigate::navigate_shard(&args)?;
+        let p = qfa_nav::navigate_shard(&args)?;
         eprintln!("wrote {} (`navigate merge` writes the study's report and verdict)", p.display());
         Ok(())
     } else {
         let pb = qfa_lab::demo::spinner("navigation (calibrate, align, fly)", a.runs == 0);
-        let r = qfa_lab::navigate::navigate(&args);
+        let r = qfa_nav::navigate(&args);
         pb.finish_and_clear();
         let v = r?.verdict.ok_or_else(|| CliError::Failed("navigate wrote no verdict".into()))?;
         finish(&v, &LimitsChoice::default(), &args.out)
@@ -827,22 +826,22 @@ fn run(cli: Cli) -> Result<(), CliError> {
             let opts =
                 qfa_lab::demo::DemoOptions { out, row_s, seed, threads, progress: true, full_logs, nav_duration_s };
             // Discovery (on unit #1) and navigation run inside the demo.
-            qfa_lab::demo::run(&opts, Some(qfa_lab::discover::demo_hook), Some(qfa_lab::navigate::demo_hook))?;
+            qfa_lab::demo::run(&opts, Some(qfa_calibrate::discover::demo_hook), Some(qfa_nav::demo_hook))?;
             Ok(())
         }
         Cmd::Plan { scenario, lab_program, json } => plan_cmd(scenario, lab_program, json),
         Cmd::Lint { log, fmt } => lint_cmd(&log, &fmt),
         Cmd::Navigate(NavigateCli { sub: Some(NavCmd::Merge { dirs, out, no_plots }), .. }) => {
             let out = out.unwrap_or_else(|| dirs[0].clone());
-            let (sum, v) = qfa_lab::navigate::merge(&dirs, &out, !no_plots)?;
-            eprintln!("{}", qfa_lab::navigate::mc::table(&sum));
+            let (sum, v) = qfa_nav::merge(&dirs, &out, !no_plots)?;
+            eprintln!("{}", qfa_nav::mc::table(&sum));
             // A study: no limit applies, so the defaults never change the exit status.
             finish(&v, &LimitsChoice::default(), &out)
         }
         Cmd::Navigate(a) => navigate_cmd(a),
         Cmd::Batch(a) => batch_cmd(a),
         Cmd::SimulateBatch { units, seed, no_bad, truncated, out } => {
-            use qfa_lab::simulate::population::{draw, write_chamber, write_manifest_run, PopulationSpec};
+            use qfa_sim::population::{draw, write_chamber, write_manifest_run, PopulationSpec};
             let t0 = Instant::now();
             let truth = draw(&PopulationSpec { units, seed, bad: !no_bad, truncated });
             write_chamber(&out, &truth)?;
@@ -860,7 +859,7 @@ fn run(cli: Cli) -> Result<(), CliError> {
 }
 
 fn batch_cmd(a: BatchCli) -> Result<(), CliError> {
-    use qfa_lab::batch::{self, input, unit::UnitOptions, BatchOptions};
+    use qfa_calibrate::batch::{self, input, unit::UnitOptions, BatchOptions};
     let limits = LimitsChoice::from_arg(match &a.sub {
         Some(BatchCmd::Merge { limits, .. }) => limits.as_deref(),
         None => a.limits.as_deref(),

@@ -407,7 +407,7 @@ fn cycling_reader_reports_the_first_20_malformed_rows_and_the_count() {
     for i in 0..500 {
         text.push_str(&format!("p,rate0.3_pos0,{},1,oops,1,1\n", i + 1));
     }
-    let err = qfa_lab::data::cycling::read_log_from(text.as_bytes()).unwrap_err();
+    let err = qfa_log::cycling::read_log_from(text.as_bytes()).unwrap_err();
     assert_eq!(err.total, 500);
     assert_eq!(err.errors.len(), 20);
     assert_eq!(err.errors[19].line, 21);
@@ -452,7 +452,7 @@ fn ten_second_rows_give_real_figures_and_missing_bins_are_an_error() {
         assert!(v > 0.0 && v < 0.5 * b["none"].as_f64().unwrap(), "{p}: {}", r["peers_bias_residual_ug"]);
     }
     // An evaluation without bins is an error with its reason, never a figure.
-    let e = qfa_lab::calibrate::check_figures(&qfa_lab::calibrate::report::Evaluation::default()).unwrap_err();
+    let e = qfa_calibrate::check_figures(&qfa_calibrate::report::Evaluation::default()).unwrap_err();
     assert!(e.starts_with("bias residual (no compensation) not computable: no held-out bin qualified"), "{e}");
     let _ = std::fs::remove_dir_all(&d);
 }

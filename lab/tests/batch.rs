@@ -7,14 +7,14 @@ mod common;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use qfa_lab::batch::fleet::Decision;
-use qfa_lab::batch::input::{from_chamber_log, UnitInput};
-use qfa_lab::batch::unit::{UnitOptions, UnitOutcome};
-use qfa_lab::batch::{self, BatchOptions, Shard};
-use qfa_lab::data::open::ReadFlags;
-use qfa_lab::data::static_columns::{AccelUnit, TimeUnit};
-use qfa_lab::data::units::TempUnit;
-use qfa_lab::simulate::population::{draw, write_chamber, Defect, PopulationSpec, PopulationTruth, SPREAD};
+use qfa_calibrate::batch::fleet::Decision;
+use qfa_calibrate::batch::input::{from_chamber_log, UnitInput};
+use qfa_calibrate::batch::unit::{UnitOptions, UnitOutcome};
+use qfa_calibrate::batch::{self, BatchOptions, Shard};
+use qfa_log::open::ReadFlags;
+use qfa_log::static_columns::{AccelUnit, TimeUnit};
+use qfa_log::units::TempUnit;
+use qfa_sim::population::{draw, write_chamber, Defect, PopulationSpec, PopulationTruth, SPREAD};
 
 fn scratch(name: &str) -> PathBuf {
     let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
@@ -200,7 +200,7 @@ fn a_refused_unit_fails_alone_with_its_reason() {
     let dir = scratch("batch-refused");
     let spec = PopulationSpec { units: 4, seed: 2, bad: false, truncated: 0 };
     let (_, mut units) = chamber(&dir, &spec);
-    units[1].rows = qfa_lab::batch::input::UnitRows::Bytes(b"time\ttemp\tax\n0\t20\t0.1\n".to_vec());
+    units[1].rows = qfa_calibrate::batch::input::UnitRows::Bytes(b"time\ttemp\tax\n0\t20\t0.1\n".to_vec());
     let run = batch::run(&units, &dir.join("out"), &BatchOptions::default()).unwrap();
     let fleet = run.fleet.unwrap();
     assert_eq!(fleet.unit[1].decision, Decision::Fail);
@@ -248,12 +248,7 @@ fn the_command_refuses_a_users_mistakes_with_what_to_do() {
 /// what `table`'s axis `k` applies at the unit's reading (the truth is in case
 /// temperature, the table in the sensor's), after removing their mean difference (a
 /// constant is the orientation's, which no static log tells apart).
-fn table_error_mg(
-    table: &qfa_thermal::Table,
-    k: usize,
-    u: &qfa_lab::simulate::population::UnitTruth,
-    span: [f64; 2],
-) -> f64 {
+fn table_error_mg(table: &qfa_thermal::Table, k: usize, u: &qfa_sim::population::UnitTruth, span: [f64; 2]) -> f64 {
     use qfa_thermal::model::Branch;
     let mut d = Vec::new();
     let mut t = span[0].ceil();
@@ -274,9 +269,9 @@ type PriorRow = (String, bool, f64, f64);
 /// Each unit's error against its truth, own table and the prior's, per axis. The prior's table for a full unit is formed in memory
 /// from the same population (which that unit is part of).
 fn prior_study(units: usize, truncated: usize, seed: u64, name: &str) -> Vec<PriorRow> {
-    use qfa_lab::batch::input::from_manifest;
-    use qfa_lab::batch::prior::prior_table;
-    use qfa_lab::simulate::population::write_manifest_run;
+    use qfa_calibrate::batch::input::from_manifest;
+    use qfa_calibrate::batch::prior::prior_table;
+    use qfa_sim::population::write_manifest_run;
     let dir = scratch(name);
     let truth = draw(&PopulationSpec { units, seed, bad: false, truncated });
     write_manifest_run(&dir, &truth).unwrap();
@@ -289,7 +284,7 @@ fn prior_study(units: usize, truncated: usize, seed: u64, name: &str) -> Vec<Pri
     for ((_, r), u) in run.results.iter().zip(&truth.unit) {
         let UnitOutcome::Calibrated(c) = &r.outcome else { panic!("{}: not calibrated", r.serial) };
         let own = qfa_thermal::Table::decode(&std::fs::read(out.join(&r.serial).join("table.bin")).unwrap()).unwrap();
-        let deadband = qfa_lab::calibrate::static_cal::StaticCalOptions::default().deadband_c_per_min;
+        let deadband = qfa_calibrate::static_cal::StaticCalOptions::default().deadband_c_per_min;
         let prior = prior_table(&c.normal, &fleet.population, span, deadband).unwrap();
         for k in 0..3 {
             rows.push((

@@ -15,11 +15,11 @@
 //! (measured, seed 31, on the lab's earlier random streams: CV MSE Single 33.6 ± 7.8,
 //! Offset 36.0 ± 7.8, Free 23.2 ± 4.8 µg²).
 
-use qfa_lab::calibrate::fit::{fit, BranchMode, FitOptions, Fitted};
-use qfa_lab::data::cycling::Log;
-use qfa_lab::simulate::profile::{paper_positions, Program};
-use qfa_lab::simulate::simulate;
-use qfa_lab::simulate::truth::Truth;
+use qfa_calibrate::fit::{fit, BranchMode, FitOptions, Fitted};
+use qfa_log::cycling::Log;
+use qfa_sim::profile::{paper_positions, Program};
+use qfa_sim::simulate;
+use qfa_sim::truth::Truth;
 
 /// The truth's half-step, g (`Truth::with_effect("bias_branch_hysteresis")`).
 const PLAY_WEIGHT_G: f64 = 20e-6;

@@ -1,6 +1,6 @@
 //! Temperature in 1 °C steps, measured on the real chamber log (tofupilot IMU thermal
 //! cycle): its temperature rounded to whole degrees, read as an autopilot instance
-//! (`qfa_lab::data::autopilot`: the resolution named, the temperature rebuilt between
+//! (`qfa_log::autopilot`: the resolution named, the temperature rebuilt between
 //! steps, 1-s bins), must calibrate with held-out bias figures within 10 % of the same log
 //! unrounded through the same path.
 //!
@@ -12,9 +12,9 @@
 
 mod common;
 
-use qfa_lab::calibrate::static_cal::{calibrate_static, Figure, StaticCalOptions, StaticCalibration};
-use qfa_lab::data::autopilot::{resolution, AccelInstance, Temperature};
-use qfa_lab::data::static_log::{read_static_from, AccelUnit, ColumnMap, StaticOptions, TimeUnit, G0_MPS2};
+use qfa_calibrate::static_cal::{calibrate_static, Figure, StaticCalOptions, StaticCalibration};
+use qfa_log::autopilot::{resolution, AccelInstance, Temperature};
+use qfa_log::static_log::{read_static_from, AccelUnit, ColumnMap, StaticOptions, TimeUnit, G0_MPS2};
 
 fn rms(f: &Figure) -> f64 {
     match f {

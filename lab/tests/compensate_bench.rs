@@ -2,14 +2,14 @@
 //! timed test): run with
 //! `cargo test --release -p qfa-lab --test compensate_bench -- --ignored --nocapture`.
 //!
-//! [`qfa_lab::compensate::compensate_samples`] on the rows `python/bench/bench_compensate.py`
+//! [`qfa_calibrate::compensate::compensate_samples`] on the rows `python/bench/bench_compensate.py`
 //! builds (1 000 000 rows, three axes, the same closed-form columns, bit for bit) with the
 //! table it loads (`python/bench/bench_table.toml`); prints `key=value` lines, the best of
 //! five runs after a warm-up, and a checksum of the outputs that the Python run prints too.
 
 use std::time::Instant;
 
-use qfa_lab::compensate::compensate_samples;
+use qfa_calibrate::compensate::compensate_samples;
 
 /// Rows per run.
 const ROWS: usize = 1_000_000;

@@ -2,8 +2,8 @@
 //! hidden slots on: each catalog effect is named, its parameter recovered within 25 %,
 //! and the held-out gap of its channel shrinks ≥ 3× or to within 1.5× the noise floor.
 
-use qfa_lab::discover::{analyze, Gaps, Report, Start};
-use qfa_lab::simulate::synth::{cycling_channels, kt8_1_scale, truth, SynthConfig};
+use qfa_calibrate::discover::{analyze, Gaps, Report, Start};
+use qfa_sim::synth::{cycling_channels, kt8_1_scale, truth, SynthConfig};
 use qfa_thermal::model::{BranchHysteresis, Creep, Extensions, ScaleFactor, SensorLag};
 
 fn simple_scale() -> ScaleFactor {
@@ -197,8 +197,8 @@ fn discover_paper_structure_from_simple() {
 
 #[test]
 fn discover_single_channel_log_and_outputs() {
-    use qfa_lab::discover::{discover, Channels};
-    use qfa_lab::simulate::synth::single_csv;
+    use qfa_calibrate::discover::{discover, Channels};
+    use qfa_sim::synth::single_csv;
     let ext = Extensions {
         bias_branch_hysteresis: Some(BranchHysteresis { half_width_c: 1.5, weight_g: 1.5e-5 }),
         ..Default::default()
@@ -245,8 +245,8 @@ fn discover_single_channel_log_and_outputs() {
 
 #[test]
 fn discover_from_lab_format_csv_with_pulses() {
-    use qfa_lab::discover::{discover, Channels};
-    use qfa_lab::simulate::synth::cycling_csv;
+    use qfa_calibrate::discover::{discover, Channels};
+    use qfa_sim::synth::cycling_csv;
     let ext = Extensions { sensor_lag: Some(SensorLag { tau_s: 450.0 }), ..Default::default() };
     let csv = cycling_csv(&quick(21), &truth(kt8_1_scale(), paper_bias(), ext), 20.0);
     let ch = Channels::parse(&csv, 60.0).unwrap();
@@ -265,8 +265,8 @@ fn discover_from_lab_format_csv_with_pulses() {
     // DIR/table.bin gives the applied ±1 g back. 100 µg is below the unit's own bias
     // (120 µg at 22 °C, 2.5 µg/°C), so a table that lost the fitted bias fails it; the
     // row noise alone is 20 µg.
-    let log = qfa_lab::data::cycling::read_log_from(csv.as_bytes()).unwrap();
-    let comp = qfa_lab::compensate::compensate_log(&t, &log, None).unwrap();
+    let log = qfa_log::cycling::read_log_from(csv.as_bytes()).unwrap();
+    let comp = qfa_calibrate::compensate::compensate_log(&t, &log, None).unwrap();
     let (mut err, mut n) = (0.0f64, 0usize);
     for (run, c) in log.runs.iter().zip(&comp) {
         if run.input_g.abs() < 0.5 {
@@ -296,7 +296,7 @@ fn discover_from_lab_format_csv_with_pulses() {
 
 #[test]
 fn reader_reports_malformed_rows_with_line_numbers() {
-    use qfa_lab::discover::Channels;
+    use qfa_calibrate::discover::Channels;
     let bad = "program,run,time_s,input_g,temp_c,pulses,interval_s\np,0,1,1,22.0,100,1\np,0,x,1,22.0,100,1\np,1,2,-1,22.0,abc,1\n";
     let e = format!("{:#}", Channels::parse(bad, 60.0).unwrap_err());
     assert!(e.contains("line 3") && e.contains("line 4"), "{e}");

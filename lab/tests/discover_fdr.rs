@@ -15,11 +15,11 @@ mod common;
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use qfa_lab::data::cycling::write_log_to;
-use qfa_lab::discover::{analyze, Channels, Start};
-use qfa_lab::simulate::profile::{Position, Program, PAPER_RATES};
-use qfa_lab::simulate::simulate;
-use qfa_lab::simulate::truth::Truth;
+use qfa_calibrate::discover::{analyze, Channels, Start};
+use qfa_log::cycling::write_log_to;
+use qfa_sim::profile::{Position, Program, PAPER_RATES};
+use qfa_sim::simulate;
+use qfa_sim::truth::Truth;
 use rayon::prelude::*;
 
 /// One clean log's discovery: (effects added, unexplained channels, the largest held-out

@@ -21,15 +21,15 @@
 use std::sync::OnceLock;
 use std::time::Instant;
 
-use qfa_lab::navigate::faults::{self, imu_compensator, FaultReport, Replacement, RowSpec, ThermalCompensator};
-use qfa_lab::navigate::{self, scenario::Scenario};
+use qfa_nav::faults::{self, imu_compensator, FaultReport, Replacement, RowSpec, ThermalCompensator};
+use qfa_nav::scenario::Scenario;
 use qfa_thermal::compensator::{SampleError, Status};
 use qfa_thermal::Table;
 
 /// The real compensator with its flags scrambled: every refused reading reports
 /// `SampleError::Time` and the fast path never raises `TEMP_STALE` (the compensation itself
 /// is intact).
-struct WrongFlags(qfa_lab::navigate::accel::ImuCompensator);
+struct WrongFlags(qfa_nav::accel::ImuCompensator);
 
 impl ThermalCompensator for WrongFlags {
     fn load_table(&mut self, bytes: &[u8]) -> qfa_thermal::table::Result<()> {
@@ -118,7 +118,7 @@ fn flight() -> &'static FaultReport {
         let hz = std::env::var("QFA_FAULTS_IMU_HZ").ok().and_then(|s| s.parse().ok());
         sc.imu_rate_hz = hz.unwrap_or(if cfg!(debug_assertions) { 20.0 } else { 200.0 });
         let t0 = Instant::now();
-        let tables = navigate::calibrate_with(&navigate::units(), sc.seed, 2, false).unwrap();
+        let tables = qfa_nav::calibrate_with(&qfa_nav::units(), sc.seed, 2, false).unwrap();
         let mut rows = faults::standard_sets(CRUISE);
         rows.extend(broken_sets(CRUISE));
         let u = &tables.units;

@@ -1,6 +1,6 @@
 //! The cycling-log reader: every malformed row reported with its line number; round trip.
 
-use qfa_lab::data::cycling::{read_log_from, write_log_to, Log, RowFault, Run, Sample};
+use qfa_log::cycling::{read_log_from, write_log_to, Log, RowFault, Run, Sample};
 
 const HEADER: &str = "program,run,time_s,input_g,temp_c,pulses,interval_s\n";
 

@@ -4,11 +4,11 @@
 use std::time::Instant;
 
 use nalgebra::Vector3;
-use qfa_lab::navigate::earth::{self, G0};
-use qfa_lab::navigate::run;
-use qfa_lab::navigate::scenario::{Flight, Scenario};
-use qfa_lab::navigate::strapdown::{inverse, AltRef, Increments, Strapdown};
-use qfa_lab::navigate::{self, NavigateArgs};
+use qfa_nav::earth::{self, G0};
+use qfa_nav::run;
+use qfa_nav::scenario::{Flight, Scenario};
+use qfa_nav::strapdown::{inverse, AltRef, Increments, Strapdown};
+use qfa_nav::NavigateArgs;
 
 fn stationary(lat_deg: f64, hours: f64, rate_hz: f64) -> Scenario {
     let text = format!(
@@ -106,14 +106,14 @@ fn nav_schuler_period_and_amplitude() {
 fn nav_variant_ordering_in_demo_flight() {
     let out = std::env::temp_dir().join(format!("qfa-nav-test-{}", std::process::id()));
     let t = Instant::now();
-    let rep = navigate::navigate(&NavigateArgs {
+    let rep = qfa_nav::navigate(&NavigateArgs {
         out: out.clone(),
         imu_rate_hz: Some(50.0),
         no_plots: true,
         ..Default::default()
     })
     .unwrap();
-    println!("{}", navigate::summary(&rep));
+    println!("{}", qfa_nav::summary(&rep));
     println!("wall {:.1} s", t.elapsed().as_secs_f64());
     let th = |n: &str| rep.meta.thermal_cep_nmi_per_h[n];
     assert!(th("hysteresis") <= th("simple"));

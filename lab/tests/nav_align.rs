@@ -4,13 +4,13 @@
 //! (δψ = −ε_E/(Ω cos L)). Computed here from the drawn biases alone.
 
 use nalgebra::{UnitQuaternion, Vector3};
-use qfa_lab::navigate::accel::OracleCompensation;
-use qfa_lab::navigate::align::AlignErrors;
-use qfa_lab::navigate::earth::{self, OMEGA_IE};
-use qfa_lab::navigate::errors::{AccelErrors, GyroErrors, ImuErrors};
-use qfa_lab::navigate::run::{self, Variant};
-use qfa_lab::navigate::scenario::{Flight, Scenario};
-use qfa_lab::navigate::{truths_seeded, units};
+use qfa_nav::accel::OracleCompensation;
+use qfa_nav::align::AlignErrors;
+use qfa_nav::earth::{self, OMEGA_IE};
+use qfa_nav::errors::{AccelErrors, GyroErrors, ImuErrors};
+use qfa_nav::run::{self, Variant};
+use qfa_nav::scenario::{Flight, Scenario};
+use qfa_nav::{truths_seeded, units};
 
 fn stationary(seed: u64, align_s: f64) -> Scenario {
     let text = format!(
@@ -30,8 +30,8 @@ fn stationary(seed: u64, align_s: f64) -> Scenario {
 /// The alignment errors a stationary alignment cannot avoid, from the biases `fly` draws
 /// first from the scenario seed.
 fn expected(sc: &Scenario) -> AlignErrors {
-    let mut rng = qfa_lab::rng::seeded(sc.seed);
-    let d = qfa_lab::navigate::errors::ImuDraw::draw(&sc.imu, &mut rng);
+    let mut rng = qfa_rng::seeded(sc.seed);
+    let d = qfa_nav::errors::ImuDraw::draw(&sc.imu, &mut rng);
     let q = Flight::new(sc).state.q;
     let lat = sc.start.lat_deg.to_radians();
     let g = earth::gravity(lat, sc.start.alt_m);

@@ -7,7 +7,7 @@
 
 use std::time::Instant;
 
-use qfa_lab::navigate::{self, run, scenario::Scenario, NavigateArgs};
+use qfa_nav::{run, scenario::Scenario, NavigateArgs};
 
 #[test]
 #[ignore = "benchmark: run in release with --ignored"]
@@ -23,8 +23,8 @@ fn nav_bench_full_flight_200hz() {
     );
     assert!(p < 1.0);
     let out = std::env::temp_dir().join(format!("qfa-nav-bench-{}", std::process::id()));
-    let rep = navigate::navigate(&NavigateArgs { out: out.clone(), ..NavigateArgs::default() }).unwrap();
-    println!("{}", navigate::summary(&rep));
+    let rep = qfa_nav::navigate(&NavigateArgs { out: out.clone(), ..NavigateArgs::default() }).unwrap();
+    println!("{}", qfa_nav::summary(&rep));
     println!(
         "calibration {:.1} s, flight (5 variants, {} steps) {:.1} s",
         rep.meta.runtime_s[0],

@@ -16,10 +16,10 @@
 //! CI flies 10 Hz in the dev profile (the slow path runs at 1 Hz whatever the IMU rate);
 //! the full rate: `cargo test --release -p qfa-lab --test nav_clock -- --ignored --nocapture`.
 
-use qfa_lab::navigate::accel::{OracleCompensation, TableCompensation};
-use qfa_lab::navigate::clock::{self, ClockFigures, Clocked, TimeBase};
-use qfa_lab::navigate::run::{self, Variant};
-use qfa_lab::navigate::{self, thermal_ceps};
+use qfa_nav::accel::{OracleCompensation, TableCompensation};
+use qfa_nav::clock::{self, ClockFigures, Clocked, TimeBase};
+use qfa_nav::run::{self, Variant};
+use qfa_nav::thermal_ceps;
 
 /// µs timer at power-on: it wraps 5 s later, then every 2³² µs.
 const START_US: u32 = u32::MAX - 4_999_999;
@@ -29,11 +29,11 @@ const START_MS: u32 = u32::MAX - 1_799_999;
 fn fly(hours: f64, imu_hz: f64) -> [ClockFigures; 3] {
     let mut sc = clock::ten_hour_flight(hours);
     sc.imu_rate_hz = imu_hz;
-    let units = navigate::units();
-    let tables = navigate::calibrate_with(&units, sc.seed, 2, false).unwrap();
+    let units = qfa_nav::units();
+    let tables = qfa_nav::calibrate_with(&units, sc.seed, 2, false).unwrap();
     let m = sc.imu.accel.carried_misalignment();
     let u = &tables.units;
-    let table = |f: &dyn Fn(&navigate::calib::UnitTables) -> &qfa_thermal::Table| {
+    let table = |f: &dyn Fn(&qfa_nav::calib::UnitTables) -> &qfa_thermal::Table| {
         TableCompensation::with_misalignment([f(&u[0]), f(&u[1]), f(&u[2])], m).unwrap()
     };
     let bases = [
@@ -51,7 +51,7 @@ fn fly(hours: f64, imu_hz: f64) -> [ClockFigures; 3] {
         variants.push(Variant { name: name.into(), comp: Box::new(c) });
         logs.push(log);
     }
-    let res = run::fly(&sc, &mut navigate::truths(&units), variants).unwrap();
+    let res = run::fly(&sc, &mut qfa_nav::truths(&units), variants).unwrap();
     let hours_flown = res.t.last().unwrap() / 3600.0;
     assert!((hours_flown - hours).abs() < 0.01, "flew {hours_flown} h");
     let th = thermal_ceps(&res).unwrap();

@@ -3,7 +3,7 @@
 //! `Compensator<1, 32>` fed the same streams (the configuration flown before), every Δv
 //! must be bit-identical: the per-axis streams really are independent.
 
-use qfa_lab::navigate::accel::{axis_compensator, AccelCompensation, TableCompensation};
+use qfa_nav::accel::{axis_compensator, AccelCompensation, TableCompensation};
 use qfa_thermal::model::{AxisModel, BiasGrid, Extensions, ScaleFactor};
 use qfa_thermal::Table;
 

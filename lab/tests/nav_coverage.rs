@@ -1,12 +1,12 @@
 //! Coverage: the flight's clamped share is counted and reported, the flown table uses
 //! every program of the lab log, and the covering lab program reaches the flight's rates.
 
-use qfa_lab::calibrate::fit::{fit, FitOptions};
-use qfa_lab::navigate::calib::{calibrate_unit_on, CalibOptions, LabProgram, ROW_S};
-use qfa_lab::navigate::{self, NavigateArgs};
-use qfa_lab::simulate::profile::paper_positions;
-use qfa_lab::simulate::simulate;
-use qfa_lab::simulate::truth::Truth;
+use qfa_calibrate::fit::{fit, FitOptions};
+use qfa_nav::calib::{calibrate_unit_on, CalibOptions, LabProgram, ROW_S};
+use qfa_nav::NavigateArgs;
+use qfa_sim::profile::paper_positions;
+use qfa_sim::simulate;
+use qfa_sim::truth::Truth;
 
 /// The first 40 min of the built-in flight (ground start-up, climb warming the case
 /// 20 → 40 °C) at 50 Hz, calibrated on the paper's staircases, with one Monte Carlo run.
@@ -17,7 +17,7 @@ use qfa_lab::simulate::truth::Truth;
 #[test]
 fn nav_paper_program_flight_reports_clamped_rate_share() {
     let out = std::env::temp_dir().join(format!("qfa-nav-coverage-{}", std::process::id()));
-    let rep = navigate::navigate(&NavigateArgs {
+    let rep = qfa_nav::navigate(&NavigateArgs {
         out: out.clone(),
         imu_rate_hz: Some(50.0),
         duration_s: Some(2400.0),
@@ -29,7 +29,7 @@ fn nav_paper_program_flight_reports_clamped_rate_share() {
         ..Default::default()
     })
     .unwrap();
-    let summary = navigate::summary(&rep);
+    let summary = qfa_nav::summary(&rep);
     println!("{summary}");
     let h = &rep.meta.compensation_flags["hysteresis"];
     println!("hysteresis flags: {h:?}");
@@ -94,14 +94,14 @@ fn nav_flown_table_uses_every_program() {
 /// `(air − case)/τ`), not against the chain `plan` uses.
 #[test]
 fn plan_judges_lab_programs_against_the_default_flight() {
-    use qfa_lab::navigate::plan::plan;
-    use qfa_lab::navigate::scenario::Scenario;
-    use qfa_lab::navigate::thermal::Profile;
+    use qfa_nav::plan::plan;
+    use qfa_nav::scenario::Scenario;
+    use qfa_nav::thermal::Profile;
     let sc = Scenario::builtin();
     let paper = plan(&sc, LabProgram::Paper).unwrap();
     let covering = plan(&sc, LabProgram::Covering).unwrap();
-    println!("{}", qfa_lab::navigate::plan::text(&paper));
-    println!("{}", qfa_lab::navigate::plan::text(&covering));
+    println!("{}", qfa_nav::plan::text(&paper));
+    println!("{}", qfa_nav::plan::text(&covering));
     // Independent integration of the mission's case temperature.
     let profile = Profile::new(sc.temperature.clone()).unwrap();
     let tau = sc.thermal.case_tau_s;

@@ -118,7 +118,7 @@ fn links_resolve(page: &Path) -> Result<Vec<String>, String> {
 fn navigate_with_a_monte_carlo_run_and_its_merged_shard_tell_one_story() {
     let d = tmp("nav");
     let scenario = d.join("short.toml");
-    let sc = qfa_lab::navigate::scenario::Scenario::builtin().truncated(900.0);
+    let sc = qfa_nav::scenario::Scenario::builtin().truncated(900.0);
     std::fs::write(&scenario, toml::to_string(&sc).unwrap()).unwrap();
     let sc_path = s(&scenario);
     let quick = ["--scenario", &sc_path, "--imu-rate-hz", "20", "--runs", "1", "--jobs", "1", "--no-mc-discovered"];

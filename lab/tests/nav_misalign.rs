@@ -9,10 +9,10 @@
 //! with it. `cargo test -p qfa-lab --test nav_misalign -- --nocapture` prints the figures.
 
 use nalgebra::Matrix3;
-use qfa_lab::navigate::accel::{OracleCompensation, TableCompensation};
-use qfa_lab::navigate::run::{self, Variant};
-use qfa_lab::navigate::scenario::Scenario;
-use qfa_lab::navigate::{self, thermal_ceps};
+use qfa_nav::accel::{OracleCompensation, TableCompensation};
+use qfa_nav::run::{self, Variant};
+use qfa_nav::scenario::Scenario;
+use qfa_nav::thermal_ceps;
 
 #[test]
 fn the_triad_misalignment_matrix_matters() {
@@ -29,8 +29,8 @@ fn the_triad_misalignment_matrix_matters() {
     assert!(err < 1e-7, "(I + K)·M − I: {err}");
     assert!(k.iter().map(|x| x.abs()).fold(0.0, f64::max) > 1e-4, "K is not negligible");
 
-    let units = navigate::units();
-    let tables = navigate::calibrate_with(&units, sc.seed, 2, false).unwrap();
+    let units = qfa_nav::units();
+    let tables = qfa_nav::calibrate_with(&units, sc.seed, 2, false).unwrap();
     let u = &tables.units;
     let h = [&u[0].hysteresis, &u[1].hysteresis, &u[2].hysteresis];
     let s = [&u[0].simple, &u[1].simple, &u[2].simple];
@@ -43,7 +43,7 @@ fn the_triad_misalignment_matrix_matters() {
         },
         Variant { name: "hysteresis, no matrix".into(), comp: Box::new(TableCompensation::new(h).unwrap()) },
     ];
-    let res = run::fly(&sc, &mut navigate::truths(&units), variants).unwrap();
+    let res = run::fly(&sc, &mut qfa_nav::truths(&units), variants).unwrap();
     let th = thermal_ceps(&res).unwrap();
     let cep = |i: usize| run::Figures::of(&res.t, &res.tracks[i]).cep_nmi_per_h;
     println!(

@@ -5,13 +5,13 @@
 //! coefficient with the reason; expected values come from the truth presets (the paper's
 //! Eq. 15–17), never from the code under test.
 
-use qfa_lab::calibrate::fit::{encode, fit, FitOptions, T0_C};
-use qfa_lab::calibrate::{calibrate_log, CalibrateOptions};
-use qfa_lab::compensate::compensate_run;
-use qfa_lab::data::cycling::Log;
-use qfa_lab::simulate::profile::{paper_positions, Program};
-use qfa_lab::simulate::simulate;
-use qfa_lab::simulate::truth::Truth;
+use qfa_calibrate::compensate::compensate_run;
+use qfa_calibrate::fit::{encode, fit, FitOptions, T0_C};
+use qfa_calibrate::{calibrate_log, CalibrateOptions};
+use qfa_log::cycling::Log;
+use qfa_sim::profile::{paper_positions, Program};
+use qfa_sim::simulate;
+use qfa_sim::truth::Truth;
 
 fn ramps(rate: f64) -> Program {
     Program::staircase(&format!("ramp-{rate}"), rate, 30.0, 0.0, -30, 50)
@@ -88,13 +88,7 @@ fn compensator_with_exact_table_returns_the_input() {
     truth.sensor.offset_c = 0.0;
     truth.bias.b2_g_per_c2 = 0.0; // linear: the grid represents it exactly
     let p = ramps(1.0);
-    let run = qfa_lab::simulate::simulate_run(
-        &truth,
-        &p,
-        qfa_lab::simulate::profile::Position { run: 0, input_g: -1.0 },
-        1,
-        5,
-    );
+    let run = qfa_sim::simulate_run(&truth, &p, qfa_sim::profile::Position { run: 0, input_g: -1.0 }, 1, 5);
     let nodes: Vec<f32> = (0..16).map(|i| truth.bias.at(-40.0 + 7.0 * f64::from(i) - T0_C) as f32).collect();
     let axis = qfa_thermal::AxisModel {
         scale: truth.scale,
@@ -102,7 +96,7 @@ fn compensator_with_exact_table_returns_the_input() {
         rate_limit_c_per_min: 3.0,
         ext: truth.ext,
     };
-    let table = qfa_lab::calibrate::fit::table_of(axis).unwrap();
+    let table = qfa_calibrate::fit::table_of(axis).unwrap();
     let c = compensate_run(&table, &run).unwrap();
     // Skip the estimator's warm-up (min_samples = 8 readings and a full 32-sample window).
     let err: Vec<f64> = c.accel_g[40..].iter().map(|a| a + 1.0).collect();

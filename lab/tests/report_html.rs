@@ -51,22 +51,22 @@ fn the_browser_check_fails_on_a_broken_image_and_on_a_console_error() {
     let d = tmp("probe");
     let png = d.join("dot.png");
     std::fs::write(&png, decode_b64(PNG_1X1)).unwrap();
-    let mut p = qfa_lab::html_report::Page::new("probe");
+    let mut p = qfa_report::html_report::Page::new("probe");
     p.image(&png, "a dot").unwrap();
     let good = p.write(&d).unwrap();
     assert_eq!(browser::check(&c, &good), Ok(1), "a page with one good image passes");
     // The verdict-first check: this page has none; one with a verdict below a section fails
     // it too, and one that opens with it passes.
     assert_ne!(browser::show(&c, &good).unwrap().first, "verdict", "a page without a verdict fails the check");
-    let v = qfa_lab::verdict::Verdict::new("a probe", "nothing held out", vec![]);
-    let mut late = qfa_lab::html_report::Page::new("late");
+    let v = qfa_report::verdict::Verdict::new("a probe", "nothing held out", vec![]);
+    let mut late = qfa_report::html_report::Page::new("late");
     late.section("Something else first");
     v.to_page(&mut late);
     let late_dir = d.join("late");
     std::fs::create_dir_all(&late_dir).unwrap();
     let shown = browser::show(&c, &late.write(&late_dir).unwrap()).unwrap();
     assert_ne!(shown.first, "verdict", "a verdict below another section is not first");
-    let mut first = qfa_lab::html_report::Page::new("first");
+    let mut first = qfa_report::html_report::Page::new("first");
     v.to_page(&mut first);
     let first_dir = d.join("first");
     std::fs::create_dir_all(&first_dir).unwrap();
@@ -77,7 +77,7 @@ fn the_browser_check_fails_on_a_broken_image_and_on_a_console_error() {
     );
     // The same page with the image's data cut short: it no longer decodes.
     let html = std::fs::read_to_string(&good).unwrap();
-    let b64 = qfa_lab::html_report::base64(&std::fs::read(&png).unwrap());
+    let b64 = qfa_report::html_report::base64(&std::fs::read(&png).unwrap());
     let broken = d.join("broken.html");
     std::fs::write(&broken, html.replace(&b64, &b64[..12])).unwrap();
     let e = browser::check(&c, &broken).unwrap_err();
@@ -219,12 +219,8 @@ fn the_reduced_demo_writes_pages_that_load_and_stays_under_20_mb() {
 #[test]
 fn navigate_writes_a_page_that_loads() {
     let d = tmp("nav");
-    let args = qfa_lab::navigate::NavigateArgs {
-        out: d.clone(),
-        duration_s: Some(900.0),
-        ..qfa_lab::navigate::NavigateArgs::default()
-    };
-    qfa_lab::navigate::navigate(&args).unwrap();
+    let args = qfa_nav::NavigateArgs { out: d.clone(), duration_s: Some(900.0), ..qfa_nav::NavigateArgs::default() };
+    qfa_nav::navigate(&args).unwrap();
     let html = std::fs::read_to_string(d.join("report.html")).unwrap();
     for want in ["Held-out scheme", "Figures per variant", "What the lab program covers"] {
         assert!(html.contains(want), "navigate's page lacks {want:?}");

@@ -22,13 +22,13 @@
 //! 22.1 / 31.9 / 403. Discovery names nothing in any of these 100-min logs (its block test
 //! has too few blocks); the model it flashes is calibration's choice in each.
 
-use qfa_lab::calibrate::fit::{fit_static_axis, StaticSeries, StaticStructure};
-use qfa_lab::calibrate::peers::{ExportNote, PeerKind};
-use qfa_lab::calibrate::static_cal::{calibrate_static, candidates, Figure, Holdout, StaticCalOptions, ONE_BRANCH};
-use qfa_lab::data::static_log::{read_static_from, AccelUnit, AxisColumn, StaticLog, StaticOptions, TimeUnit};
-use qfa_lab::simulate::profile::{Position, Program};
-use qfa_lab::simulate::simulate_run;
-use qfa_lab::simulate::truth::Truth;
+use qfa_calibrate::fit::{fit_static_axis, StaticSeries, StaticStructure};
+use qfa_calibrate::peers::{ExportNote, PeerKind};
+use qfa_calibrate::static_cal::{calibrate_static, candidates, Figure, Holdout, StaticCalOptions, ONE_BRANCH};
+use qfa_log::static_log::{read_static_from, AccelUnit, AxisColumn, StaticLog, StaticOptions, TimeUnit};
+use qfa_sim::profile::{Position, Program};
+use qfa_sim::simulate_run;
+use qfa_sim::truth::Truth;
 
 /// The 0 g run of JB-KT8 #1 (with `effect`) under the chamber cycle, as a static log.
 fn chamber_log(effect: Option<&str>, seed: u64) -> StaticLog {
@@ -103,8 +103,12 @@ fn case(effect: Option<&str>) -> (f64, f64, String, f64) {
     assert_eq!(cal.report.holdout.scheme, "after-max", "the cycle has a later leg");
     // Discovery on the same static log: what it names, and the model it flashes (the
     // cross-validated choice among calibration's candidates plus the named structure).
-    let d =
-        qfa_lab::discover::static_axes::discover_static(&log, qfa_lab::discover::Start::Paper, Holdout::Auto).unwrap();
+    let d = qfa_calibrate::discover::static_axes::discover_static(
+        &log,
+        qfa_calibrate::discover::Start::Paper,
+        Holdout::Auto,
+    )
+    .unwrap();
     let x = &d.axes[0];
     println!(
         "effect={} discover_named={:?} named_ug={:.2} flashed_ug={:.2} flashed={} flashed_is_named={}",
@@ -206,12 +210,12 @@ fn one_branch_logs_calibrate_and_hold_on_the_other_leg() {
                     assert!(not_computed.contains("it learns only while the temperature rises"), "{not_computed}");
                     // No ArduPilot file is written for it, and the run says why.
                     let dir = std::env::temp_dir().join(format!("qfa-static-sim-{}", std::process::id()));
-                    qfa_lab::calibrate::static_cal::write_static_table(&dir, &cal).unwrap();
-                    let ex = qfa_lab::calibrate::peers::write_exports(
+                    qfa_calibrate::static_cal::write_static_table(&dir, &cal).unwrap();
+                    let ex = qfa_calibrate::peers::write_exports(
                         &dir,
-                        &qfa_lab::calibrate::static_cal::export_axes(&cal),
+                        &qfa_calibrate::static_cal::export_axes(&cal),
                         // One axis: the shared fields need a range inside its temperatures.
-                        &qfa_lab::calibrate::peers::ExportOptions { range_c: Some((0.0, 20.0)), ..Default::default() },
+                        &qfa_calibrate::peers::ExportOptions { range_c: Some((0.0, 20.0)), ..Default::default() },
                     )
                     .unwrap();
                     let written_ap = ex.written.iter().any(|f| f.starts_with("ardupilot"));

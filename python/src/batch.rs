@@ -7,10 +7,10 @@ use std::path::PathBuf;
 
 use pyo3::prelude::*;
 
-use qfa_lab::batch::unit::UnitOptions;
-use qfa_lab::batch::{self, input, BatchError as LabBatchError, BatchOptions, Shard};
-use qfa_lab::calibrate::static_cal::{Holdout, StaticCalOptions};
-use qfa_lab::verdict::{LimitsChoice, STATIC_KEYS};
+use qfa_calibrate::batch::unit::UnitOptions;
+use qfa_calibrate::batch::{self, input, BatchError as LabBatchError, BatchOptions, Shard};
+use qfa_calibrate::static_cal::{Holdout, StaticCalOptions};
+use qfa_report::verdict::{LimitsChoice, STATIC_KEYS};
 
 use crate::errors::{with_kind, BatchError, Kind};
 use crate::logs::read_flags;
@@ -35,7 +35,7 @@ fn err(py: Python<'_>, e: &LabBatchError) -> PyErr {
 }
 
 fn options(py: Python<'_>, holdout: &str, limits: Option<PathBuf>) -> PyResult<UnitOptions> {
-    let holdout: Holdout = holdout.parse().map_err(|e: qfa_lab::calibrate::static_cal::StaticCalError| {
+    let holdout: Holdout = holdout.parse().map_err(|e: qfa_calibrate::static_cal::StaticCalError| {
         with_kind::<BatchError>(py, e.to_string(), "UnknownHoldout")
     })?;
     let limits = LimitsChoice::from_arg(limits.as_deref())

@@ -6,11 +6,11 @@ use pyo3::create_exception;
 use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
 
-use qfa_lab::calibrate::fit::FitError;
-use qfa_lab::calibrate::static_cal::StaticCalError;
-use qfa_lab::data::open::{OpenError, ReadError};
-use qfa_lab::data::static_log::StaticError;
-use qfa_lab::data::units::UnitParseError;
+use qfa_calibrate::fit::FitError;
+use qfa_calibrate::static_cal::StaticCalError;
+use qfa_log::open::{OpenError, ReadError};
+use qfa_log::static_log::StaticError;
+use qfa_log::units::UnitParseError;
 use qfa_thermal::compensator::SampleError as FirmwareSampleError;
 
 create_exception!(_native, QfaError, PyException, "Base of every qfa_thermal error.");
@@ -134,7 +134,7 @@ impl Kind for FitError {
     }
 }
 
-impl Kind for qfa_lab::compensate::Error {
+impl Kind for qfa_calibrate::compensate::Error {
     fn kind(&self) -> &'static str {
         match self {
             Self::Table(_) => "Table",
@@ -144,7 +144,7 @@ impl Kind for qfa_lab::compensate::Error {
     }
 }
 
-impl Kind for qfa_lab::compensate::StaticCompensateError {
+impl Kind for qfa_calibrate::compensate::StaticCompensateError {
     fn kind(&self) -> &'static str {
         match self {
             Self::AxisCount { .. } => "AxisCount",

@@ -6,7 +6,7 @@
 //! Columns cross the boundary as numpy arrays, one copy each way (no per-row Python
 //! object); long runs release the GIL. Every failure is a `QfaError` subclass
 //! ([`errors`]) carrying `qfa-lab`'s message, with each option named as this package's
-//! keyword (`qfa_lab::spelling::Spelling::Python`) and a `kind` mapped from the Rust
+//! keyword (`qfa_log::spelling::Spelling::Python`) and a `kind` mapped from the Rust
 //! error's type ([`errors::Kind`]); nothing panics across the boundary that PyO3 would not
 //! turn into `PanicException`.
 
@@ -42,7 +42,7 @@ fn native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("RATE_WINDOW", firmware::RATE_WINDOW)?;
     m.add("G0", qfa_thermal::G0)?;
     let constants = PyDict::new(m.py());
-    constants.set_item("STATIC_LSB_PER_G", qfa_lab::calibrate::fit::STATIC_LSB_PER_G)?;
+    constants.set_item("STATIC_LSB_PER_G", qfa_calibrate::fit::STATIC_LSB_PER_G)?;
     m.add("constants", constants)?;
     Ok(())
 }

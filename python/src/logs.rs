@@ -9,11 +9,11 @@ use numpy::{PyArray1, PyReadonlyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use qfa_lab::data::cycling::Log as CyclingLog;
-use qfa_lab::data::open::{open, OpenError, OpenedLog, ReadFlags};
-use qfa_lab::data::static_log::{read_static_from, StaticError, StaticLog};
-use qfa_lab::data::units::UnitParseError;
-use qfa_lab::spelling::Spelling;
+use qfa_log::cycling::Log as CyclingLog;
+use qfa_log::open::{open, OpenError, OpenedLog, ReadFlags};
+use qfa_log::spelling::Spelling;
+use qfa_log::static_log::{read_static_from, StaticError, StaticLog};
+use qfa_log::units::UnitParseError;
 
 use crate::errors::{with_kind, Kind, LogError};
 
@@ -70,7 +70,7 @@ pub fn read_flags(
     })
 }
 
-/// Read a log file the way `qfa-lab` does (`qfa_lab::data::open`: any reader flag, or a
+/// Read a log file the way `qfa-lab` does (`qfa_log::open`: any reader flag, or a
 /// header without a `pulses` or `value` column, selects the static reader).
 #[pyfunction]
 #[pyo3(name = "read_log", signature = (path, *, columns = None, time_unit = None, accel_unit = None, temp_unit = None, decimal_comma = false))]

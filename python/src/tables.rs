@@ -8,10 +8,10 @@ use numpy::{PyArray1, PyReadonlyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use qfa_lab::calibrate::peers::{export_texts, write_exports, ExportAxis, ExportOptions};
-use qfa_lab::calibrate::static_cal::{self, Holdout, StaticCalOptions, StaticCalibration};
-use qfa_lab::calibrate::{self as cal, CalibrateOptions, Calibration};
-use qfa_lab::spelling::{CalibrateOption, Spelling};
+use qfa_calibrate::peers::{export_texts, write_exports, ExportAxis, ExportOptions};
+use qfa_calibrate::static_cal::{self, Holdout, StaticCalOptions, StaticCalibration};
+use qfa_calibrate::{self as cal, CalibrateOptions, Calibration};
+use qfa_log::spelling::{CalibrateOption, Spelling};
 use qfa_thermal::table::Input;
 use qfa_thermal::{Status, Table as FirmwareTable};
 
@@ -44,8 +44,8 @@ fn table_err(py: Python<'_>, e: qfa_thermal::table::Error, prefix: Option<&str>)
 
 /// Bytes of a table as `table.bin` holds them (the lab's encoder, the firmware's format).
 pub fn encode(py: Python<'_>, t: &FirmwareTable) -> PyResult<Vec<u8>> {
-    qfa_lab::calibrate::fit::encode(t).map_err(|e| match e {
-        qfa_lab::calibrate::fit::FitError::Table(e) => table_err(py, e, None),
+    qfa_calibrate::fit::encode(t).map_err(|e| match e {
+        qfa_calibrate::fit::FitError::Table(e) => table_err(py, e, None),
         e => with_kind::<TableError>(py, e.to_string(), e.kind()),
     })
 }
@@ -186,7 +186,7 @@ impl Table {
             Origin::Static(c) => {
                 written.extend(["table.toml", "table.bin", "report.json", "report.md"].map(String::from));
                 // The CLI's verdict with the default limits, naming the files this call writes.
-                let v = qfa_lab::calibrate::verdict::static_verdict(c, &Default::default(), &written, &[]);
+                let v = qfa_calibrate::verdict::static_verdict(c, &Default::default(), &written, &[]);
                 static_cal::write_static(&out, c, &v).map_err(|e| CalibrationError::new_err(e.to_string()))?;
             }
             Origin::Cycling(c, _) => {
@@ -278,7 +278,7 @@ pub fn calibrate(
                 progress: false,
                 axis: Some(axis.clone()),
                 exports,
-                limits: qfa_lab::verdict::LimitsChoice::default(),
+                limits: qfa_report::verdict::LimitsChoice::default(),
             };
             let c = py.detach(|| cal::calibrate_log(l, &opts)).map_err(CalibrationError::new_err)?;
             cal::cycling_export_axis(&c, &axis).map_err(CalibrationError::new_err)?;
@@ -307,7 +307,7 @@ pub fn compensate_columns<'py>(
     let temp_c = temp_c.as_slice()?;
     let columns: Vec<&[f64]> = accel.iter().map(|a| a.as_slice()).collect::<Result<_, _>>()?;
     let out = py
-        .detach(|| qfa_lab::compensate::compensate_samples(&table.table, time_s, temp_c, &columns))
+        .detach(|| qfa_calibrate::compensate::compensate_samples(&table.table, time_s, temp_c, &columns))
         .map_err(|e| with_kind::<CompensationError>(py, e.to_string(), e.kind()))?;
     let axes = out.accel_g.into_iter().map(|a| PyArray1::from_vec(py, a)).collect();
     let status = PyArray1::from_vec(py, out.status.iter().map(|s| s.bits()).collect());
@@ -322,7 +322,7 @@ pub fn compensate_cycling<'py>(py: Python<'py>, table: &Table, log: &Log) -> PyR
         return Err(CompensationError::new_err("not a cycling log"));
     };
     let runs = py
-        .detach(|| qfa_lab::compensate::compensate_log(&table.table, l, None))
+        .detach(|| qfa_calibrate::compensate::compensate_log(&table.table, l, None))
         .map_err(|e| with_kind::<CompensationError>(py, e.to_string(), e.kind()))?;
     let (mut accel, mut status) = (Vec::with_capacity(l.rows()), Vec::with_capacity(l.rows()));
     for r in runs {
@@ -336,7 +336,11 @@ pub fn compensate_cycling<'py>(py: Python<'py>, table: &Table, log: &Log) -> PyR
 /// word (`ok`, `no_temperature`, or flags joined by `|`).
 #[pyfunction]
 pub fn status_texts(status: PyReadonlyArray1<'_, u16>) -> PyResult<Vec<String>> {
-    Ok(status.as_array().iter().map(|&s| qfa_lab::compensate::static_status(Status::from_bits_retain(s))).collect())
+    Ok(status
+        .as_array()
+        .iter()
+        .map(|&s| qfa_calibrate::compensate::static_status(Status::from_bits_retain(s)))
+        .collect())
 }
 
 /// A fresh directory under the system's temporary directory for a discovery run whose
@@ -355,7 +359,7 @@ fn scratch_dir() -> PathBuf {
 #[pyfunction]
 #[pyo3(signature = (log, *, start = "simple", holdout = "auto", out = None))]
 pub fn discover(py: Python<'_>, log: &Log, start: &str, holdout: &str, out: Option<PathBuf>) -> PyResult<String> {
-    let start: qfa_lab::discover::Start =
+    let start: qfa_calibrate::discover::Start =
         start.parse().map_err(|e: anyhow::Error| DiscoveryError::new_err(format!("{e:#}")))?;
     let holdout: Holdout = holdout.parse().map_err(|e| static_cal_err::<DiscoveryError>(py, &e))?;
     if let LogData::Cycling(_) = &log.data {
@@ -379,17 +383,22 @@ pub fn discover(py: Python<'_>, log: &Log, start: &str, holdout: &str, out: Opti
 
 /// Run discovery into `dir` and return its `report.json` as written (the verdict first),
 /// so Python's dict is the CLI's file, not a second serialization of it.
-fn run_discovery(log: &Log, start: qfa_lab::discover::Start, holdout: Holdout, dir: &Path) -> anyhow::Result<String> {
+fn run_discovery(
+    log: &Log,
+    start: qfa_calibrate::discover::Start,
+    holdout: Holdout,
+    dir: &Path,
+) -> anyhow::Result<String> {
     match &log.data {
         LogData::Static(l) => {
-            qfa_lab::discover::static_axes::run(l, start, holdout, dir)?;
+            qfa_calibrate::discover::static_axes::run(l, start, holdout, dir)?;
         }
         LogData::Cycling(_) => {
             let Some(path) = &log.path else {
                 anyhow::bail!("discovery of a cycling log reads its file: read it with read_log(path)");
             };
-            let ch = qfa_lab::data::channels::Channels::read(path, 60.0)?;
-            qfa_lab::discover::discover(&ch, start, dir)?;
+            let ch = qfa_log::channels::Channels::read(path, 60.0)?;
+            qfa_calibrate::discover::discover(&ch, start, dir)?;
         }
     }
     Ok(std::fs::read_to_string(dir.join("report.json"))?)

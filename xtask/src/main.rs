@@ -184,7 +184,35 @@ fn show(c: &Command) -> String {
 }
 
 fn step(title: &str) {
+    finish_step();
+    if let Ok(mut t) = STEP_TIMES.lock() {
+        t.push((title.to_string(), Instant::now(), None));
+    }
     println!("\n==> {title}");
+}
+
+/// Each step's title, start and wall time: where a run's minutes go, printed at its end.
+static STEP_TIMES: std::sync::Mutex<Vec<(String, Instant, Option<Duration>)>> = std::sync::Mutex::new(Vec::new());
+
+fn finish_step() {
+    if let Ok(mut t) = STEP_TIMES.lock() {
+        if let Some(last) = t.last_mut().filter(|l| l.2.is_none()) {
+            last.2 = Some(last.1.elapsed());
+        }
+    }
+}
+
+/// The steps' wall times, longest first, and their sum.
+fn print_step_times() {
+    finish_step();
+    let Ok(mut t) = STEP_TIMES.lock() else { return };
+    t.sort_by_key(|s| std::cmp::Reverse(s.2));
+    let total: Duration = t.iter().filter_map(|s| s.2).sum();
+    println!("\nwall time by step (total {:.0} s):", total.as_secs_f64());
+    for (title, _, took) in t.iter() {
+        let title: String = title.chars().take(90).collect();
+        println!("  {:>6.0} s  {title}", took.unwrap_or_default().as_secs_f64());
+    }
 }
 
 /// Run `c` with inherited output; fail unless it exits 0.
@@ -562,8 +590,9 @@ fn test(overwrite: bool) -> Result {
     c.arg("test");
     run(c)?;
 
-    step("rustdoc of the crate and the lab, -D warnings");
-    for package in ["qfa-thermal", "qfa-lab"] {
+    step("rustdoc of the crate, the generator and the lab's crates, -D warnings");
+    for package in ["qfa-thermal", "qfa-rng", "qfa-report", "qfa-log", "qfa-sim", "qfa-calibrate", "qfa-nav", "qfa-lab"]
+    {
         let mut c = cargo();
         c.args(["doc", "-p", package, "--no-deps"]).env("RUSTDOCFLAGS", "-D warnings");
         run(c)?;
@@ -595,6 +624,7 @@ fn test(overwrite: bool) -> Result {
     c.args(["publish", "--dry-run", "-p", "qfa-thermal", "--allow-dirty"]);
     run(c)?;
 
+    print_step_times();
     println!("\nxtask test: all steps passed");
     Ok(())
 }

@@ -1,6 +1,6 @@
 //! Helpers shared by the CLI tests: run `qfa-lab`, read the exported parameter files, and
 //! apply each stack's published compensation formula to a log. The formulas are written
-//! here from the stacks' sources, independently of `qfa_lab::calibrate::peers` (the fitter
+//! here from the stacks' sources, independently of `qfa_calibrate::peers` (the fitter
 //! and the exporter), so a test that compares their result with the report checks the
 //! exported file, not the code that wrote it.
 

@@ -1,0 +1,522 @@
+//! The fleet: every unit's figures side by side, which units sit outside the population and
+//! why, process capability against each limit, and each unit's decision.
+//!
+//! # Outside the population
+//! Each figure ([`features`]) is compared with the fleet by a robust distance:
+//! `z = (x − median) / (1.4826 · MAD)` over the reference units (calibrated, both branches,
+//! a span at least [`FULL_SPAN_SHARE`] of the fleet's median span), so the bad units
+//! themselves cannot widen the yardstick the way a standard deviation would let them. The
+//! scale never goes below the figure's stated floor ([`Feature::floor`]: a resolution far
+//! under any population's spread, so it acts only when most units agree to the last digit).
+//! A unit is flagged when a figure sits more than [`Z_FLAG`] scales out (held-out RMS:
+//! above only; everything else: either side), with the figure, its value, the median and
+//! the distance. A unit with partial coverage is compared on its sensor only: its curve's
+//! shape outside its rows is an extrapolation, and its held-out figure comes from another
+//! scheme (blocks, not the later leg); its limits still apply, and its table comes from
+//! the population prior ([`super::prior`]).
+//!
+//! # The sensor against the fleet
+//! Units in one chamber see one air temperature. Per minute of the shared clock the fleet's
+//! median reading is formed; on the minutes where that median moves less than
+//! [`STEADY_C_PER_MIN`] (the holds, where the units' different lags have died out) each
+//! unit's difference from it gives its offset (median) and its drift (the least-squares
+//! slope over time). A sensor that drifts shows there and nowhere else: its unit's own log
+//! only shows a bias curve that does not repeat.
+//!
+//! # Decision
+//! FAIL: not calibrated, or a limit failed. REVIEW: every limit met but flagged outside the
+//! population (a person looks before it ships). PASS: neither.
+//!
+//! # Capability
+//! Per limit and axis, over the calibrated units: `Cpk = (USL − mean) / 3s` for a maximum,
+//! `(mean − LSL) / 3s` for a minimum, with `s` the batch's standard deviation (so in AIAG
+//! terms it is Ppk: one batch, no subgroups). Every limit here is one-sided, so Cp (which
+//! needs both) is not computed, and says why.
+
+use serde::{Deserialize, Serialize};
+
+use super::unit::{Calibrated, UnitOutcome, UnitResult};
+use qfa_report::verdict::{Limits, Measured, Outcome};
+
+/// Robust scales out that flag a unit. Set to 6 when this was written, after one 20-unit
+/// simulated batch whose good units reached 4.3; measured afterwards on three 100-unit
+/// chamber runs (seeds 1–3, 6 bad units each): the largest |z| of any good unit on any
+/// figure was 3.38, the smallest strongest-flag distance of a bad unit 11.0
+/// (`cargo test --release -p qfa-lab --test batch -- --ignored flag_study --nocapture`).
+/// The simulator's population is Gaussian; a real fleet's clusters (published batch
+/// studies find a few, not one family curve) would widen the tails, which is why the
+/// threshold keeps this margin. `a_chamber_run_flags_each_bad_unit_for_its_defect_and_passes_the_rest`
+/// fails when it is set so that a good unit is flagged or a bad one passes.
+pub const Z_FLAG: f64 = 6.0;
+/// A unit whose span is under this share of the fleet's median span has partial coverage.
+pub const FULL_SPAN_SHARE: f64 = 0.8;
+/// The fleet's median reading moves less than this on a steady minute, °C/min.
+pub const STEADY_C_PER_MIN: f64 = 0.1;
+/// Units a minute needs for its median to be formed.
+const MIN_UNITS_PER_MINUTE: usize = 3;
+/// Steady minutes a sensor comparison needs.
+const MIN_STEADY_MINUTES: usize = 10;
+
+/// Which way a figure is bad.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Side {
+    /// Too far either way.
+    Both,
+    /// Only too high.
+    High,
+}
+
+/// A figure the fleet compares.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Feature {
+    /// Name (`ax.slope_ug_per_c`).
+    pub name: String,
+    /// Unit (`µg/°C`).
+    pub unit: String,
+    /// Smallest robust scale, in the figure's unit.
+    pub floor: f64,
+    /// Which way it is bad.
+    pub side: Side,
+    /// Compared only on units with full coverage: the curve's shape (beyond a partial
+    /// log's rows it is an extrapolation) and the held-out figure (a partial log is held
+    /// out by another scheme, blocks instead of the later leg, so its figure measures
+    /// something else).
+    pub full_coverage_only: bool,
+}
+
+/// The distribution of one figure over the fleet.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FeatureStats {
+    /// The figure.
+    pub feature: Feature,
+    /// Units with a value.
+    pub n: usize,
+    /// Reference units' median.
+    pub median: f64,
+    /// Robust scale (1.4826 · MAD, at least the floor).
+    pub scale: f64,
+    /// Every unit's value, by serial (units without one left out).
+    pub values: Vec<(String, f64)>,
+}
+
+/// One figure outside the population.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Flag {
+    /// The figure.
+    pub feature: String,
+    /// The unit's value.
+    pub value: f64,
+    /// The fleet's median.
+    pub median: f64,
+    /// Robust distance, scales.
+    pub z: f64,
+    /// In words.
+    pub text: String,
+}
+
+/// What happens to a unit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Decision {
+    /// Meets every limit, inside the population: ship.
+    Pass,
+    /// Meets every limit, outside the population: a person looks first.
+    Review,
+    /// Not calibrated, or a limit failed.
+    Fail,
+}
+
+impl std::fmt::Display for Decision {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Self::Pass => "PASS",
+            Self::Review => "REVIEW",
+            Self::Fail => "FAIL",
+        })
+    }
+}
+
+/// One unit in the fleet.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FleetUnit {
+    /// Serial.
+    pub serial: String,
+    /// Decision.
+    pub decision: Decision,
+    /// Why, one line each (empty on PASS).
+    pub reasons: Vec<String>,
+    /// Figures outside the population.
+    pub flags: Vec<Flag>,
+    /// Partial coverage (shape not compared).
+    pub partial: bool,
+    /// Sensor offset from the fleet's median reading, °C.
+    pub sensor_offset_c: Measured,
+    /// Sensor drift against the fleet's median reading, °C/h.
+    pub sensor_drift_c_per_h: Measured,
+    /// The population prior's table, for a unit with partial coverage.
+    pub prior: Option<super::prior::PriorUse>,
+}
+
+/// Process capability of one limit on one axis.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Capability {
+    /// Limit key.
+    pub limit: String,
+    /// Axis (`all` for the span).
+    pub axis: String,
+    /// `max` or `min`.
+    pub sense: String,
+    /// The limit.
+    pub bound: f64,
+    /// Units with the figure.
+    pub n: usize,
+    /// Mean.
+    pub mean: Measured,
+    /// Standard deviation.
+    pub sd: Measured,
+    /// Cpk (Ppk: one batch).
+    pub cpk: Measured,
+    /// Cp.
+    pub cp: Measured,
+}
+
+/// The fleet's figures.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Fleet {
+    /// Units in the batch.
+    pub units: usize,
+    /// Counts per decision: pass, review, fail.
+    pub counts: [usize; 3],
+    /// The flag threshold, scales.
+    pub z_flag: f64,
+    /// Per figure.
+    pub stats: Vec<FeatureStats>,
+    /// Per limit and axis.
+    pub capability: Vec<Capability>,
+    /// Per unit, in serial order of the batch.
+    pub unit: Vec<FleetUnit>,
+    /// The population prior per axis (from the full-coverage, unflagged units).
+    pub population: Vec<super::prior::Population>,
+    /// The fleet's span: the median of those units' lowest and highest readings, °C.
+    pub span_c: [f64; 2],
+}
+
+/// The figures compared, for axes `axes`.
+#[must_use]
+pub fn features(axes: &[String]) -> Vec<Feature> {
+    let f = |name: String, unit: &str, floor: f64, side: Side, full_coverage_only: bool| Feature {
+        name,
+        unit: unit.to_string(),
+        floor,
+        side,
+        full_coverage_only,
+    };
+    let mut out = Vec::new();
+    for a in axes {
+        out.push(f(format!("{a}.level_mg"), "mg", 0.05, Side::Both, true));
+        out.push(f(format!("{a}.slope_ug_per_c"), "µg/°C", 0.5, Side::Both, true));
+        out.push(f(format!("{a}.curvature_ug_per_c2"), "µg/°C²", 0.01, Side::Both, true));
+        out.push(f(format!("{a}.split_mg"), "mg", 0.01, Side::Both, true));
+        out.push(f(format!("{a}.held_out_mg"), "mg", 0.02, Side::High, true));
+    }
+    out.push(f("sensor.offset_c".into(), "°C", 0.05, Side::Both, false));
+    out.push(f("sensor.drift_c_per_h".into(), "°C/h", 0.05, Side::Both, false));
+    out
+}
+
+fn value_of(c: &Calibrated, sensor: (&Measured, &Measured), name: &str) -> Option<f64> {
+    let num = |m: &Measured| match m {
+        Measured::Value(v) => Some(*v),
+        Measured::NotComputed { .. } => None,
+    };
+    match name {
+        "sensor.offset_c" => return num(sensor.0),
+        "sensor.drift_c_per_h" => return num(sensor.1),
+        _ => {}
+    }
+    let (axis, what) = name.split_once('.')?;
+    if what == "held_out_mg" {
+        return c.held_out_mg.iter().find(|(a, _)| a == axis).and_then(|(_, m)| num(m));
+    }
+    let d = c.descriptor.iter().find(|d| d.axis == axis)?;
+    match what {
+        "level_mg" => Some(d.level_mg),
+        "slope_ug_per_c" => Some(d.slope_ug_per_c),
+        "curvature_ug_per_c2" => Some(d.curvature_ug_per_c2),
+        "split_mg" => num(&d.split_mg),
+        _ => None,
+    }
+}
+
+/// Median of `v` (sorted in place); `None` when empty.
+#[must_use]
+pub fn median(v: &mut [f64]) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    Some(if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) })
+}
+
+/// Each unit's sensor offset and drift against the fleet's median reading (module docs).
+fn sensors(cal: &[Option<&Calibrated>]) -> Vec<(Measured, Measured)> {
+    use std::collections::BTreeMap;
+    let mut per_minute: BTreeMap<i64, Vec<f64>> = BTreeMap::new();
+    for c in cal.iter().flatten() {
+        for &(k, t) in &c.temp_minutes {
+            per_minute.entry(k).or_default().push(t);
+        }
+    }
+    let med: BTreeMap<i64, f64> = per_minute
+        .into_iter()
+        .filter(|(_, v)| v.len() >= MIN_UNITS_PER_MINUTE)
+        .filter_map(|(k, mut v)| median(&mut v).map(|m| (k, m)))
+        .collect();
+    let steady: BTreeMap<i64, f64> = med
+        .iter()
+        .filter(|(k, _)| match (med.get(&(**k - 1)), med.get(&(**k + 1))) {
+            (Some(a), Some(b)) => ((b - a) / 2.0).abs() < STEADY_C_PER_MIN,
+            _ => false,
+        })
+        .map(|(k, v)| (*k, *v))
+        .collect();
+    let not = |why: &str| Measured::NotComputed { not_computed: why.to_string() };
+    cal.iter()
+        .map(|c| {
+            let Some(c) = c else { return (not("not calibrated"), not("not calibrated")) };
+            let d: Vec<(f64, f64)> =
+                c.temp_minutes.iter().filter_map(|(k, t)| steady.get(k).map(|m| (*k as f64 / 60.0, t - m))).collect();
+            if d.len() < MIN_STEADY_MINUTES {
+                let why = format!(
+                    "{} steady minutes shared with at least {MIN_UNITS_PER_MINUTE} units; {MIN_STEADY_MINUTES} needed",
+                    d.len()
+                );
+                return (not(&why), not(&why));
+            }
+            let mut diffs: Vec<f64> = d.iter().map(|p| p.1).collect();
+            let offset = median(&mut diffs).map_or_else(|| not("no minute"), Measured::Value);
+            let n = d.len() as f64;
+            let (mh, md) = (d.iter().map(|p| p.0).sum::<f64>() / n, d.iter().map(|p| p.1).sum::<f64>() / n);
+            let sxx: f64 = d.iter().map(|p| (p.0 - mh).powi(2)).sum();
+            let sxy: f64 = d.iter().map(|p| (p.0 - mh) * (p.1 - md)).sum();
+            let drift = if sxx > 0.0 { Measured::Value(sxy / sxx) } else { not("the steady minutes span no time") };
+            (offset, drift)
+        })
+        .collect()
+}
+
+/// The fleet's figures, flags and decisions over `results` (in batch order).
+#[must_use]
+pub fn fleet(results: &[UnitResult], limits: &Limits) -> Fleet {
+    let cal: Vec<Option<&Calibrated>> = results
+        .iter()
+        .map(|r| match &r.outcome {
+            UnitOutcome::Calibrated(c) => Some(c.as_ref()),
+            UnitOutcome::Failed { .. } => None,
+        })
+        .collect();
+    let axes: Vec<String> = {
+        let mut a: Vec<String> = Vec::new();
+        for c in cal.iter().flatten() {
+            for d in &c.descriptor {
+                if !a.contains(&d.axis) {
+                    a.push(d.axis.clone());
+                }
+            }
+        }
+        a
+    };
+    let sensor = sensors(&cal);
+    let mut spans: Vec<f64> = cal.iter().flatten().map(|c| c.temp_c[1] - c.temp_c[0]).collect();
+    let median_span = median(&mut spans).unwrap_or(0.0);
+    let partial: Vec<bool> = cal
+        .iter()
+        .map(|c| c.is_none_or(|c| c.one_branch || c.temp_c[1] - c.temp_c[0] < FULL_SPAN_SHARE * median_span))
+        .collect();
+    let mut stats = Vec::new();
+    let mut flags: Vec<Vec<Flag>> = vec![Vec::new(); results.len()];
+    for feat in features(&axes) {
+        let values: Vec<(usize, f64)> = cal
+            .iter()
+            .enumerate()
+            .filter_map(|(i, c)| {
+                let c = (*c)?;
+                value_of(c, (&sensor[i].0, &sensor[i].1), &feat.name).filter(|v| v.is_finite()).map(|v| (i, v))
+            })
+            .collect();
+        let mut reference: Vec<f64> = values.iter().filter(|(i, _)| !partial[*i]).map(|(_, v)| *v).collect();
+        let Some(med) = median(&mut reference) else { continue };
+        let mut dev: Vec<f64> = reference.iter().map(|v| (v - med).abs()).collect();
+        let scale = (1.4826 * median(&mut dev).unwrap_or(0.0)).max(feat.floor);
+        for &(i, v) in &values {
+            if feat.full_coverage_only && partial[i] {
+                continue;
+            }
+            let z = (v - med) / scale;
+            let out = match feat.side {
+                Side::Both => z.abs() > Z_FLAG,
+                Side::High => z > Z_FLAG,
+            };
+            if out {
+                flags[i].push(Flag {
+                    feature: feat.name.clone(),
+                    value: v,
+                    median: med,
+                    z,
+                    text: format!(
+                        "{} {v:.3} {} against the fleet's {med:.3} ({z:+.1} robust SDs; flagged beyond ±{Z_FLAG})",
+                        feat.name, feat.unit
+                    ),
+                });
+            }
+        }
+        stats.push(FeatureStats {
+            n: values.len(),
+            median: med,
+            scale,
+            values: values.iter().map(|(i, v)| (results[*i].serial.clone(), *v)).collect(),
+            feature: feat,
+        });
+    }
+    // The strongest first: a reader's first reason is the figure furthest out.
+    for f in &mut flags {
+        f.sort_by(|a, b| b.z.abs().total_cmp(&a.z.abs()));
+    }
+    let mut counts = [0; 3];
+    let unit: Vec<FleetUnit> = results
+        .iter()
+        .enumerate()
+        .map(|(i, r)| {
+            let (decision, mut reasons) = match &r.outcome {
+                UnitOutcome::Failed { reason } => (Decision::Fail, vec![format!("not calibrated: {reason}")]),
+                UnitOutcome::Calibrated(c) if c.outcome == Outcome::Fail => {
+                    (Decision::Fail, c.failed_limits.iter().map(|l| format!("limit: {l}")).collect())
+                }
+                UnitOutcome::Calibrated(_) if !flags[i].is_empty() => (Decision::Review, Vec::new()),
+                UnitOutcome::Calibrated(_) => (Decision::Pass, Vec::new()),
+            };
+            reasons.extend(flags[i].iter().map(|f| format!("outside the population: {}", f.text)));
+            counts[decision as usize] += 1;
+            FleetUnit {
+                serial: r.serial.clone(),
+                decision,
+                reasons,
+                flags: flags[i].clone(),
+                partial: partial[i],
+                sensor_offset_c: sensor[i].0.clone(),
+                sensor_drift_c_per_h: sensor[i].1.clone(),
+                prior: None,
+            }
+        })
+        .collect();
+    let reference: Vec<&Calibrated> =
+        (0..results.len()).filter(|&i| !partial[i] && flags[i].is_empty()).filter_map(|i| cal[i]).collect();
+    let mut lo: Vec<f64> = reference.iter().map(|c| c.temp_c[0]).collect();
+    let mut hi: Vec<f64> = reference.iter().map(|c| c.temp_c[1]).collect();
+    let span_c = [median(&mut lo).unwrap_or(0.0), median(&mut hi).unwrap_or(0.0)];
+    let population = super::prior::population(&reference.iter().map(|c| &c.normal).collect::<Vec<_>>());
+    Fleet {
+        units: results.len(),
+        counts,
+        z_flag: Z_FLAG,
+        stats,
+        capability: capability(&cal, &axes, limits),
+        unit,
+        population,
+        span_c,
+    }
+}
+
+/// Record each partial unit's prior table on the fleet: a unit for which the prior decided
+/// most of the table is held for REVIEW with that reason, and the counts follow.
+pub fn apply_priors(fleet: &mut Fleet, uses: Vec<Option<super::prior::PriorUse>>) {
+    for (u, p) in fleet.unit.iter_mut().zip(uses) {
+        if let Some(p) = &p {
+            if p.mostly_prior {
+                u.reasons.push(format!(
+                    "the population prior, not the unit's rows, decided most of {} (its rows cover {:.0} % of the \
+                     fleet's span × both branches; under {:.0} %)",
+                    p.table,
+                    100.0 * p.covered_share,
+                    100.0 * super::prior::MOSTLY_PRIOR
+                ));
+                if u.decision == Decision::Pass {
+                    u.decision = Decision::Review;
+                }
+            }
+        }
+        u.prior = p;
+    }
+    fleet.counts = count(&fleet.unit);
+}
+
+/// Units per decision: PASS, REVIEW, FAIL.
+#[must_use]
+pub fn count(units: &[FleetUnit]) -> [usize; 3] {
+    let mut counts = [0; 3];
+    for u in units {
+        counts[u.decision as usize] += 1;
+    }
+    counts
+}
+
+fn capability(cal: &[Option<&Calibrated>], axes: &[String], limits: &Limits) -> Vec<Capability> {
+    let not = |why: &str| Measured::NotComputed { not_computed: why.to_string() };
+    let one = |limit: &str, axis: &str, sense: &str, bound: f64, v: Vec<f64>| {
+        let n = v.len();
+        let (mean, sd, cpk) = if n < 2 {
+            (not("fewer than 2 units"), not("fewer than 2 units"), not("fewer than 2 units"))
+        } else {
+            let m = v.iter().sum::<f64>() / n as f64;
+            let s = (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt();
+            let cpk = if s > 0.0 {
+                Measured::Value(if sense == "max" { (bound - m) / (3.0 * s) } else { (m - bound) / (3.0 * s) })
+            } else {
+                not("no spread: every unit gave the same figure")
+            };
+            (Measured::Value(m), Measured::Value(s), cpk)
+        };
+        Capability {
+            limit: limit.into(),
+            axis: axis.into(),
+            sense: sense.into(),
+            bound,
+            n,
+            mean,
+            sd,
+            cpk,
+            cp: not("one-sided limit: Cp needs a lower and an upper limit"),
+        }
+    };
+    let mut out = Vec::new();
+    for a in axes {
+        let v: Vec<f64> = cal
+            .iter()
+            .flatten()
+            .filter_map(|c| c.held_out_mg.iter().find(|(x, _)| x == a))
+            .filter_map(|(_, m)| match m {
+                Measured::Value(v) => Some(*v),
+                Measured::NotComputed { .. } => None,
+            })
+            .collect();
+        out.push(one("held_out_bias_mg", a, "max", limits.held_out_bias_mg, v));
+    }
+    let spans: Vec<f64> = cal.iter().flatten().map(|c| c.temp_c[1] - c.temp_c[0]).collect();
+    out.push(one("min_span_c", "all", "min", limits.min_span_c, spans));
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The median of odd and even counts, and none of nothing.
+    #[test]
+    fn median_of_odd_even_and_empty() {
+        assert_eq!(median(&mut [3.0, 1.0, 2.0]), Some(2.0));
+        assert_eq!(median(&mut [4.0, 1.0, 2.0, 3.0]), Some(2.5));
+        assert_eq!(median(&mut []), None);
+    }
+}

@@ -1,0 +1,397 @@
+//! A batch's units, from either input a production line has: one chamber log holding every
+//! unit (`time`, then `SERIAL.temp`, `SERIAL.ax`, `SERIAL.ay`, `SERIAL.az` per unit), or a
+//! manifest (`batch.toml`) naming one log per serial.
+//!
+//! Either way each unit ends as the bytes of a one-unit static log and the reader flags to
+//! read it with, so every unit goes through the one static reader with all its checks (units,
+//! time order, gaps, skipped rows). A chamber log is split in one pass (its cost per unit does
+//! not grow with the number of units); its fields are copied as written, so the reader sees
+//! what the logger wrote.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+
+use super::BatchError;
+use qfa_log::open::ReadFlags;
+use qfa_log::static_columns::{AccelUnit, ColumnMap, TimeUnit};
+use qfa_log::units::TempUnit;
+
+/// The roles a chamber log's unit columns carry, after the serial and a dot.
+pub const UNIT_ROLES: [&str; 4] = ["temp", "ax", "ay", "az"];
+
+/// One unit to calibrate.
+#[derive(Clone, Debug)]
+pub struct UnitInput {
+    /// Serial number (its output folder's name).
+    pub serial: String,
+    /// Where its rows came from, in words (the certificate's `source`).
+    pub source: String,
+    /// A one-unit log.
+    pub rows: UnitRows,
+    /// How to read it.
+    pub flags: ReadFlags,
+}
+
+/// Where a unit's one-unit log is.
+#[derive(Clone, Debug)]
+pub enum UnitRows {
+    /// In memory (split from a chamber log).
+    Bytes(Vec<u8>),
+    /// A file, read when the unit's turn comes (a manifest's logs are not all held at once).
+    File(PathBuf),
+}
+
+impl UnitInput {
+    /// The log's bytes.
+    ///
+    /// # Errors
+    /// The file cannot be read.
+    pub fn bytes(&self) -> Result<std::borrow::Cow<'_, [u8]>, BatchError> {
+        match &self.rows {
+            UnitRows::Bytes(b) => Ok(std::borrow::Cow::Borrowed(b)),
+            UnitRows::File(p) => std::fs::read(p)
+                .map(std::borrow::Cow::Owned)
+                .map_err(|e| BatchError::Io(format!("unit {}: {}: {e}", self.serial, p.display()))),
+        }
+    }
+}
+
+/// Reader settings a manifest may give once for every unit and override per unit.
+#[derive(Clone, Debug, Default)]
+struct Reading {
+    columns: Option<String>,
+    time_unit: Option<String>,
+    accel_unit: Option<String>,
+    temp_unit: Option<String>,
+    decimal_comma: Option<bool>,
+}
+
+// serde's `flatten` disables `deny_unknown_fields`, so the reader keys are written out in
+// both tables, and a typo in either is refused.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ManifestUnit {
+    serial: String,
+    log: PathBuf,
+    columns: Option<String>,
+    time_unit: Option<String>,
+    accel_unit: Option<String>,
+    temp_unit: Option<String>,
+    decimal_comma: Option<bool>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Manifest {
+    columns: Option<String>,
+    time_unit: Option<String>,
+    accel_unit: Option<String>,
+    temp_unit: Option<String>,
+    decimal_comma: Option<bool>,
+    #[serde(default)]
+    unit: Vec<ManifestUnit>,
+}
+
+impl ManifestUnit {
+    fn reading(&self) -> Reading {
+        Reading {
+            columns: self.columns.clone(),
+            time_unit: self.time_unit.clone(),
+            accel_unit: self.accel_unit.clone(),
+            temp_unit: self.temp_unit.clone(),
+            decimal_comma: self.decimal_comma,
+        }
+    }
+}
+
+impl Manifest {
+    fn reading(&self) -> Reading {
+        Reading {
+            columns: self.columns.clone(),
+            time_unit: self.time_unit.clone(),
+            accel_unit: self.accel_unit.clone(),
+            temp_unit: self.temp_unit.clone(),
+            decimal_comma: self.decimal_comma,
+        }
+    }
+}
+
+impl Reading {
+    /// These settings over `base` (the command line's), each one set here replacing it.
+    fn flags(&self, base: &ReadFlags, at: &str) -> Result<ReadFlags, BatchError> {
+        let bad = |key: &str, e: &dyn std::fmt::Display| BatchError::Manifest(format!("{at}: {key}: {e}"));
+        let mut f = base.clone();
+        if let Some(c) = &self.columns {
+            f.columns = Some(c.parse::<ColumnMap>().map_err(|e| bad("columns", &e))?);
+        }
+        if let Some(u) = &self.time_unit {
+            f.time_unit = Some(u.parse::<TimeUnit>().map_err(|e| bad("time_unit", &e))?);
+        }
+        if let Some(u) = &self.accel_unit {
+            f.accel_unit = Some(u.parse::<AccelUnit>().map_err(|e| bad("accel_unit", &e))?);
+        }
+        if let Some(u) = &self.temp_unit {
+            f.temp_unit = Some(u.parse::<TempUnit>().map_err(|e| bad("temp_unit", &e))?);
+        }
+        if let Some(d) = self.decimal_comma {
+            f.decimal_comma = d;
+        }
+        Ok(f)
+    }
+}
+
+/// A serial becomes a folder name: letters, digits, `-`, `_` and `.`, not starting with a
+/// dot, at most 64 characters; never two units with one serial.
+///
+/// # Errors
+/// [`BatchError::Serial`] naming the serial and the rule.
+pub fn check_serials<'a>(serials: impl IntoIterator<Item = &'a str>) -> Result<(), BatchError> {
+    let mut seen = BTreeMap::new();
+    for (i, s) in serials.into_iter().enumerate() {
+        let ok = !s.is_empty()
+            && s.len() <= 64
+            && !s.starts_with('.')
+            && s.chars().all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.'));
+        if !ok {
+            return Err(BatchError::Serial(format!(
+                "`{s}`: a serial names its unit's output folder, so it may hold only letters, digits, `-`, `_` and \
+                 `.`, not start with a dot, and be at most 64 characters"
+            )));
+        }
+        if let Some(first) = seen.insert(s.to_string(), i) {
+            return Err(BatchError::Serial(format!(
+                "`{s}` is given to units {} and {}: every unit needs its own serial (its table is flashed under it)",
+                first + 1,
+                i + 1
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// The units a manifest names, each log read from disk (paths relative to the manifest's
+/// folder). `base` is the command line's reader flags, which the manifest's keys override.
+///
+/// # Errors
+/// The manifest unreadable or unknown keys in it (a typo is refused, never ignored), a bad
+/// unit name, a serial rule broken, or a log that does not exist.
+pub fn from_manifest(path: &Path, base: &ReadFlags) -> Result<Vec<UnitInput>, BatchError> {
+    let text = std::fs::read_to_string(path).map_err(|e| BatchError::Io(format!("{}: {e}", path.display())))?;
+    let m: Manifest = toml::from_str(&text).map_err(|e| BatchError::Manifest(format!("{}: {e}", path.display())))?;
+    if m.unit.is_empty() {
+        return Err(BatchError::Manifest(format!(
+            "{}: no [[unit]] entries: each unit is a [[unit]] table with `serial` and `log`",
+            path.display()
+        )));
+    }
+    check_serials(m.unit.iter().map(|u| u.serial.as_str()))?;
+    let dir = path.parent().unwrap_or_else(|| Path::new("."));
+    let defaults = m.reading().flags(base, &path.display().to_string())?;
+    m.unit
+        .iter()
+        .map(|u| {
+            let flags = u.reading().flags(&defaults, &format!("{}: unit {}", path.display(), u.serial))?;
+            let log = dir.join(&u.log);
+            if !log.is_file() {
+                return Err(BatchError::Io(format!("unit {}: {}: no such file", u.serial, log.display())));
+            }
+            Ok(UnitInput {
+                serial: u.serial.clone(),
+                source: log.display().to_string(),
+                rows: UnitRows::File(log),
+                flags,
+            })
+        })
+        .collect()
+}
+
+/// The units of a chamber log: every header column `SERIAL.ROLE` ([`UNIT_ROLES`]) is unit
+/// SERIAL's; the time column is `--columns time=NAME`, or else the one column without a
+/// serial. Each unit needs its `temp` and at least one axis.
+///
+/// # Errors
+/// No unit columns, no or several candidate time columns, a unit without `temp` or axes, a
+/// serial rule broken, or a CSV error.
+pub fn from_chamber_log(path: &Path, bytes: &[u8], base: &ReadFlags) -> Result<Vec<UnitInput>, BatchError> {
+    let first = bytes.split(|b| *b == b'\n').next().unwrap_or_default();
+    // The static reader's own rule: the delimiter the header line holds most of.
+    let delim =
+        [b'\t', b',', b';'].into_iter().max_by_key(|d| first.iter().filter(|c| *c == d).count()).unwrap_or(b',');
+    let mut rd = csv::ReaderBuilder::new().delimiter(delim).flexible(true).from_reader(bytes);
+    let header: Vec<String> = rd
+        .headers()
+        .map_err(|e| BatchError::Chamber(format!("{}: header: {e}", path.display())))?
+        .iter()
+        .map(|h| h.trim().to_string())
+        .collect();
+    // serial → role → column index, in the header's order of serials.
+    let mut order: Vec<String> = Vec::new();
+    let mut cols: BTreeMap<String, BTreeMap<&'static str, usize>> = BTreeMap::new();
+    let mut others = Vec::new();
+    for (i, h) in header.iter().enumerate() {
+        let role = h.rsplit_once('.').and_then(|(s, r)| UNIT_ROLES.iter().find(|x| **x == r).map(|x| (s, *x)));
+        match role {
+            Some((serial, role)) if !serial.is_empty() => {
+                if !cols.contains_key(serial) {
+                    order.push(serial.to_string());
+                }
+                if cols.entry(serial.to_string()).or_default().insert(role, i).is_some() {
+                    return Err(BatchError::Chamber(format!("{}: column `{h}` appears twice", path.display())));
+                }
+            }
+            _ => others.push(i),
+        }
+    }
+    if order.is_empty() {
+        return Err(BatchError::Chamber(format!(
+            "{}: no unit columns: a chamber log names each unit's columns SERIAL.temp, SERIAL.ax, SERIAL.ay, \
+             SERIAL.az (for one log per unit, use --manifest)",
+            path.display()
+        )));
+    }
+    let time_name =
+        base.columns.as_ref().and_then(|c| c.roles.iter().find(|(r, _)| r == "time").map(|(_, c)| c.clone()));
+    let time_col = match time_name {
+        Some(name) => header.iter().position(|h| *h == name).ok_or_else(|| {
+            BatchError::Chamber(format!("{}: no column `{name}` (from --columns time=…)", path.display()))
+        })?,
+        None => match others.as_slice() {
+            [i] => *i,
+            [] => {
+                return Err(BatchError::Chamber(format!(
+                    "{}: no time column (a column without a serial)",
+                    path.display()
+                )))
+            }
+            many => {
+                return Err(BatchError::Chamber(format!(
+                    "{}: {} columns without a serial ({}): name the time column with --columns time=NAME",
+                    path.display(),
+                    many.len(),
+                    many.iter().map(|&i| format!("`{}`", header[i])).collect::<Vec<_>>().join(", ")
+                )))
+            }
+        },
+    };
+    check_serials(order.iter().map(String::as_str))?;
+    // Per unit: serial, the (role, column) pairs it has, and its one-unit log's text.
+    struct Split {
+        serial: String,
+        picked: Vec<(&'static str, usize)>,
+        text: String,
+    }
+    let mut units: Vec<Split> = Vec::new();
+    for s in &order {
+        let roles = &cols[s];
+        if !roles.contains_key("temp") || roles.len() < 2 {
+            return Err(BatchError::Chamber(format!(
+                "{}: unit {s} has columns {}: each unit needs SERIAL.temp and at least one of SERIAL.ax, .ay, .az",
+                path.display(),
+                roles.keys().copied().collect::<Vec<_>>().join(", ")
+            )));
+        }
+        let picked: Vec<(&'static str, usize)> =
+            UNIT_ROLES.iter().filter_map(|r| roles.get(r).map(|&i| (*r, i))).collect();
+        let mut text = String::from("time");
+        for (r, _) in &picked {
+            text.push('\t');
+            text.push_str(r);
+        }
+        text.push('\n');
+        units.push(Split { serial: s.clone(), picked, text });
+    }
+    for rec in rd.records() {
+        let rec = rec.map_err(|e| BatchError::Chamber(format!("{}: {e}", path.display())))?;
+        let field = |i: usize| rec.get(i).unwrap_or("").trim();
+        let t = field(time_col);
+        for u in &mut units {
+            u.text.push_str(t);
+            for (_, i) in &u.picked {
+                u.text.push('\t');
+                u.text.push_str(field(*i));
+            }
+            u.text.push('\n');
+        }
+    }
+    let columns: ColumnMap = "time=time,temp=temp,ax=ax,ay=ay,az=az"
+        .parse()
+        .map_err(|e| BatchError::Chamber(format!("internal column map: {e}")))?;
+    Ok(units
+        .into_iter()
+        .map(|Split { serial, picked, text }| {
+            let mut roles = columns.clone();
+            roles.roles.retain(|(r, _)| r == "time" || picked.iter().any(|(p, _)| p == r));
+            let source = format!(
+                "{}, columns {}",
+                path.display(),
+                picked.iter().map(|(_, i)| format!("`{}`", header[*i])).collect::<Vec<_>>().join(", ")
+            );
+            UnitInput {
+                serial,
+                source,
+                rows: UnitRows::Bytes(text.into_bytes()),
+                flags: ReadFlags { columns: Some(roles), ..base.clone() },
+            }
+        })
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A chamber log splits into one log per unit holding that unit's fields as written,
+    /// under the time column, in the header's order of serials.
+    #[test]
+    fn chamber_log_splits_by_serial() {
+        let log = "time,B7.temp,B7.ax,A1.temp,A1.az\n0,20.5,0.001,21.0,-1.0\n1,20.6,0.002,21.1,-0.999\n";
+        let u = from_chamber_log(Path::new("c.csv"), log.as_bytes(), &ReadFlags::default()).unwrap();
+        assert_eq!(u.iter().map(|u| u.serial.as_str()).collect::<Vec<_>>(), ["B7", "A1"]);
+        assert_eq!(
+            String::from_utf8(u[1].bytes().unwrap().into_owned()).unwrap(),
+            "time\ttemp\taz\n0\t21.0\t-1.0\n1\t21.1\t-0.999\n"
+        );
+        assert_eq!(u[0].flags.columns.as_ref().unwrap().roles.len(), 3);
+    }
+
+    /// The mistakes a user makes are refused with what to do: no unit columns, two
+    /// candidate time columns, a unit without its temperature, a duplicate or unsafe serial.
+    #[test]
+    fn chamber_log_mistakes_are_refused() {
+        let f = ReadFlags::default();
+        let cases = [
+            ("time,temp,ax\n0,1,2\n", "no unit columns"),
+            ("time,stamp,A.temp,A.ax\n0,0,1,2\n", "--columns time=NAME"),
+            ("time,A.ax,A.ay\n0,1,2\n", "needs SERIAL.temp"),
+            ("time,../x.temp,../x.ax\n0,1,2\n", "may hold only"),
+        ];
+        for (log, want) in cases {
+            let e = from_chamber_log(Path::new("c.csv"), log.as_bytes(), &f).unwrap_err().to_string();
+            assert!(e.contains(want), "{log:?}: {e}");
+        }
+        assert!(check_serials(["A", "B", "A"]).unwrap_err().to_string().contains("units 1 and 3"));
+    }
+
+    /// A manifest's keys override the command line's, a unit's override the manifest's, and
+    /// a misspelt key is refused rather than ignored.
+    #[test]
+    fn manifest_keys_override_and_typos_are_refused() {
+        let dir = std::env::temp_dir().join(format!("qfa-manifest-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("a.tsv"), "t\n").unwrap();
+        let m = dir.join("batch.toml");
+        std::fs::write(&m, "time_unit = \"ms\"\n[[unit]]\nserial = \"A\"\nlog = \"a.tsv\"\naccel_unit = \"mg\"\n")
+            .unwrap();
+        let base = ReadFlags { time_unit: Some(TimeUnit::S), ..ReadFlags::default() };
+        let u = from_manifest(&m, &base).unwrap();
+        assert_eq!(u[0].flags.time_unit, Some(TimeUnit::Ms));
+        assert_eq!(u[0].flags.accel_unit, Some(AccelUnit::Mg));
+        std::fs::write(&m, "[[unit]]\nserial = \"A\"\nlog = \"a.tsv\"\naccel_units = \"mg\"\n").unwrap();
+        assert!(from_manifest(&m, &base).unwrap_err().to_string().contains("accel_units"));
+        std::fs::write(&m, "[[units]]\nserial = \"A\"\nlog = \"a.tsv\"\n").unwrap();
+        assert!(from_manifest(&m, &base).is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

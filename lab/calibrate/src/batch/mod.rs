@@ -1,0 +1,386 @@
+//! Production batches (`qfa-lab batch`): many units from one chamber run, each calibrated
+//! as `qfa-lab calibrate` would, a certificate per serial, and the fleet page.
+//!
+//! Layout of the output folder:
+//! * `SERIAL/`: the unit's `table.bin` (flash it under that serial), `table.toml`, its
+//!   ArduPilot files, `report.*`, `unit.json` (what the fleet reads), and
+//!   `certificate.json` / `certificate.html` (decision, figures, the table's CRC-32);
+//! * `fleet.json`, `fleet.html`, `fleet_figures.png`, `fleet_held_out.png`.
+//!
+//! The units run in parallel on a rayon pool of `--threads` threads; each unit's files
+//! depend only on its own rows, and the fleet is formed afterwards in batch order, so the
+//! outputs are byte-identical whatever the thread count (a test holds this). With
+//! `--shard K/N` (0 ≤ K < N, as `navigate --shard`) a run calibrates the units whose place
+//! `i` in the batch has `i mod N = K` and writes only their folders; `qfa-lab batch merge OUT` then forms the fleet and certificates from every
+//! `unit.json` under OUT, as one run would have.
+
+pub mod fleet;
+pub mod input;
+pub mod pages;
+pub mod prior;
+pub mod unit;
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use rayon::prelude::*;
+
+use self::fleet::{Decision, Fleet};
+use self::input::UnitInput;
+use self::unit::{calibrate_unit, UnitOptions, UnitOutcome, UnitResult};
+use qfa_report::verdict::Outcome;
+
+/// Why a batch (or one of its units) could not go on.
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum BatchError {
+    /// The manifest is unreadable or holds an unknown key.
+    Manifest(String),
+    /// The chamber log cannot be split into units.
+    Chamber(String),
+    /// A serial cannot name a folder, or two units share one.
+    Serial(String),
+    /// One unit's calibration failed (the batch goes on).
+    Unit(String),
+    /// `--shard` is not `K/N` with 0 ≤ K < N.
+    Shard(String),
+    /// `batch merge` found no `unit.json`, or two with one index.
+    Merge(String),
+    /// A file could not be read or written.
+    Io(String),
+}
+
+impl fmt::Display for BatchError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Manifest(m) => write!(f, "manifest: {m}"),
+            Self::Chamber(m) => write!(f, "chamber log: {m}"),
+            Self::Serial(m) => write!(f, "serial {m}"),
+            Self::Unit(m) | Self::Io(m) => f.write_str(m),
+            Self::Shard(m) => write!(f, "--shard {m}: give K/N with 0 ≤ K < N (units i with i mod N = K)"),
+            Self::Merge(m) => write!(f, "merge: {m}"),
+        }
+    }
+}
+
+impl std::error::Error for BatchError {}
+
+/// Name of each unit's result file in its folder.
+pub const UNIT_JSON: &str = "unit.json";
+
+/// One shard of a job array: the units whose place `i` has `i mod n = k`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shard {
+    /// This run, 0..n.
+    pub k: usize,
+    /// Runs.
+    pub n: usize,
+}
+
+impl std::str::FromStr for Shard {
+    type Err = BatchError;
+    fn from_str(s: &str) -> Result<Self, BatchError> {
+        let bad = || BatchError::Shard(format!("`{s}`"));
+        let (k, n) = s.split_once('/').ok_or_else(bad)?;
+        let (k, n): (usize, usize) = (k.trim().parse().map_err(|_| bad())?, n.trim().parse().map_err(|_| bad())?);
+        if n == 0 || k >= n {
+            return Err(bad());
+        }
+        Ok(Self { k, n })
+    }
+}
+
+/// A batch's settings.
+#[derive(Clone, Debug, Default)]
+pub struct BatchOptions {
+    /// Per unit.
+    pub unit: UnitOptions,
+    /// Worker threads (0: rayon's default, one per core).
+    pub threads: usize,
+    /// Only this shard's units; the fleet is left to `batch merge`.
+    pub shard: Option<Shard>,
+    /// Show progress on the console.
+    pub progress: bool,
+}
+
+/// What a run produced: every unit's result and, unless sharded, the fleet.
+#[derive(Clone, Debug)]
+pub struct BatchRun {
+    /// Results of the units run, in batch order, with their index in the batch.
+    pub results: Vec<(usize, UnitResult)>,
+    /// The fleet (`None` for a shard).
+    pub fleet: Option<Fleet>,
+}
+
+#[derive(serde::Serialize, serde::Deserialize)]
+struct IndexedResult {
+    /// The unit's place in the batch (what `merge` orders by).
+    index: usize,
+    #[serde(flatten)]
+    result: UnitResult,
+}
+
+fn progress_bar(len: usize, show: bool) -> indicatif::ProgressBar {
+    if !show {
+        return indicatif::ProgressBar::hidden();
+    }
+    let pb = indicatif::ProgressBar::new(len as u64);
+    pb.set_style(
+        indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} units, {msg}, {eta} left")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    pb
+}
+
+/// Calibrate `units` into `out` (see the module docs).
+///
+/// # Errors
+/// The thread pool cannot be built, or a file cannot be written. A unit that fails is a
+/// result, not an error.
+pub fn run(units: &[UnitInput], out: &Path, opts: &BatchOptions) -> Result<BatchRun, BatchError> {
+    std::fs::create_dir_all(out).map_err(|e| BatchError::Io(format!("{}: {e}", out.display())))?;
+    let mine: Vec<(usize, &UnitInput)> =
+        units.iter().enumerate().filter(|(i, _)| opts.shard.is_none_or(|s| i % s.n == s.k)).collect();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(opts.threads)
+        .build()
+        .map_err(|e| BatchError::Io(format!("thread pool: {e}")))?;
+    let pb = progress_bar(mine.len(), opts.progress);
+    let (failed, limit_failed) = (AtomicUsize::new(0), AtomicUsize::new(0));
+    let results: Vec<Result<(usize, UnitResult), BatchError>> = pool.install(|| {
+        mine.par_iter()
+            .map(|&(i, u)| {
+                let dir = out.join(&u.serial);
+                std::fs::create_dir_all(&dir).map_err(|e| BatchError::Io(format!("{}: {e}", dir.display())))?;
+                let r = calibrate_unit(u, &dir, &opts.unit);
+                match &r.outcome {
+                    UnitOutcome::Failed { .. } => failed.fetch_add(1, Ordering::Relaxed),
+                    UnitOutcome::Calibrated(c) if c.outcome == Outcome::Fail => {
+                        limit_failed.fetch_add(1, Ordering::Relaxed)
+                    }
+                    UnitOutcome::Calibrated(_) => 0,
+                };
+                let json = serde_json::to_string_pretty(&IndexedResult { index: i, result: r.clone() })
+                    .map_err(|e| BatchError::Io(e.to_string()))?;
+                std::fs::write(dir.join(UNIT_JSON), json + "\n")
+                    .map_err(|e| BatchError::Io(format!("{}: {e}", dir.display())))?;
+                pb.set_message(format!(
+                    "{} not calibrated, {} failing a limit",
+                    failed.load(Ordering::Relaxed),
+                    limit_failed.load(Ordering::Relaxed)
+                ));
+                pb.inc(1);
+                Ok((i, r))
+            })
+            .collect()
+    });
+    pb.finish_and_clear();
+    let results = results.into_iter().collect::<Result<Vec<_>, _>>()?;
+    let fleet = if opts.shard.is_some() { None } else { Some(finish_fleet(out, &results, &opts.unit)?) };
+    Ok(BatchRun { results, fleet })
+}
+
+/// The fleet stage: figures, flags, decisions, certificates and the fleet page, from
+/// results in batch order.
+///
+/// # Errors
+/// A file cannot be written.
+pub fn finish_fleet(out: &Path, results: &[(usize, UnitResult)], opts: &UnitOptions) -> Result<Fleet, BatchError> {
+    let plain: Vec<UnitResult> = results.iter().map(|(_, r)| r.clone()).collect();
+    let mut fleet = fleet::fleet(&plain, &opts.limits.limits);
+    // Partial units: the population prior's table beside their own.
+    let span = (fleet.span_c[0], fleet.span_c[1]);
+    let mut uses = Vec::with_capacity(plain.len());
+    let mut prior_failed: Vec<(String, String)> = Vec::new();
+    for (r, f) in plain.iter().zip(&fleet.unit) {
+        let use_ = match &r.outcome {
+            UnitOutcome::Calibrated(c) if f.partial && !fleet.population.is_empty() => {
+                let dir = out.join(&r.serial);
+                let io = |e: &dyn fmt::Display| BatchError::Io(format!("{}: {e}", dir.display()));
+                match prior::prior_table(&c.normal, &fleet.population, span, opts.cal.deadband_c_per_min) {
+                    Ok(table) => {
+                        let bin = crate::fit::encode(&table).map_err(|e| io(&e))?;
+                        let toml = toml::to_string_pretty(&table).map_err(|e| io(&e))?;
+                        std::fs::write(dir.join("table_prior.bin"), &bin).map_err(|e| io(&e))?;
+                        std::fs::write(
+                            dir.join("table_prior.toml"),
+                            format!("# qfa-thermal table from the population prior (the lab guide's \"Production batches\")\n{toml}"),
+                        )
+                        .map_err(|e| io(&e))?;
+                        let crc = u32::from_le_bytes([bin[12], bin[13], bin[14], bin[15]]);
+                        let share = prior::covered_share(&c.normal, span);
+                        Some(prior::PriorUse {
+                            table: "table_prior.bin".into(),
+                            table_crc32: format!("{crc:08x}"),
+                            covered_share: share,
+                            mostly_prior: share < prior::MOSTLY_PRIOR,
+                        })
+                    }
+                    Err(e) => {
+                        // Never silent: the unit keeps its own table, and says why.
+                        prior_failed.push((r.serial.clone(), e));
+                        None
+                    }
+                }
+            }
+            _ => None,
+        };
+        uses.push(use_);
+    }
+    fleet::apply_priors(&mut fleet, uses);
+    for (serial, why) in prior_failed {
+        if let Some(u) = fleet.unit.iter_mut().find(|u| u.serial == serial) {
+            u.reasons.push(format!(
+                "partial coverage, but no prior table could be formed ({why}): table.bin is its own fit"
+            ));
+            if u.decision == Decision::Pass {
+                u.decision = Decision::Review;
+            }
+        }
+    }
+    fleet.counts = fleet::count(&fleet.unit);
+    let from = opts.limits.source();
+    for (r, f) in plain.iter().zip(&fleet.unit) {
+        pages::write_certificate(&out.join(&r.serial), r, f, &from)?;
+    }
+    pages::write_fleet(out, &fleet, &plain, &from)?;
+    Ok(fleet)
+}
+
+/// `batch merge OUT`: every `SERIAL/unit.json` under `out` (the shards of one batch, all
+/// written into `out`), ordered by their place in the batch, then [`finish_fleet`].
+///
+/// # Errors
+/// No `unit.json`, two with one index, or an unreadable one.
+pub fn merge(out: &Path, opts: &UnitOptions) -> Result<(Vec<(usize, UnitResult)>, Fleet), BatchError> {
+    let io = |p: &Path, e: &dyn fmt::Display| BatchError::Io(format!("{}: {e}", p.display()));
+    let mut found: Vec<(usize, UnitResult)> = Vec::new();
+    let mut dirs: Vec<PathBuf> = std::fs::read_dir(out)
+        .map_err(|e| io(out, &e))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.join(UNIT_JSON).is_file())
+        .collect();
+    dirs.sort();
+    for d in dirs {
+        let p = d.join(UNIT_JSON);
+        let text = std::fs::read_to_string(&p).map_err(|e| io(&p, &e))?;
+        let r: IndexedResult = serde_json::from_str(&text).map_err(|e| io(&p, &e))?;
+        found.push((r.index, r.result));
+    }
+    if found.is_empty() {
+        return Err(BatchError::Merge(format!(
+            "no SERIAL/{UNIT_JSON} under {}: run `qfa-lab batch … --shard K/N --out {}` for every K first",
+            out.display(),
+            out.display()
+        )));
+    }
+    found.sort_by_key(|(i, _)| *i);
+    for w in found.windows(2) {
+        if w[0].0 == w[1].0 {
+            return Err(BatchError::Merge(format!(
+                "{} and {} both hold batch place {}: the folder mixes two batches",
+                w[0].1.serial, w[1].1.serial, w[0].0
+            )));
+        }
+    }
+    let fleet = finish_fleet(out, &found, opts)?;
+    Ok((found, fleet))
+}
+
+/// Reasons shown where a unit has one line (the console, the fleet's verdict): the first
+/// [`REASONS_SHOWN`] (flags come strongest first), then how many more its certificate lists.
+#[must_use]
+pub fn first_reasons(reasons: &[String]) -> String {
+    let mut s = reasons.iter().take(REASONS_SHOWN).cloned().collect::<Vec<_>>().join("; ");
+    if reasons.len() > REASONS_SHOWN {
+        s.push_str(&format!("; and {} more on its certificate", reasons.len() - REASONS_SHOWN));
+    }
+    s
+}
+
+/// The units not passed, those with the same decision and reasons together (a flag
+/// every unit shares, such as a missing `--time-unit`, is one line, not one per unit), in
+/// batch order of each group's first unit: `(decision, reasons, serials)`.
+#[must_use]
+pub fn grouped(fleet: &Fleet) -> Vec<(Decision, String, Vec<String>)> {
+    let mut out: Vec<(Decision, String, Vec<String>)> = Vec::new();
+    for u in fleet.unit.iter().filter(|u| u.decision != Decision::Pass) {
+        let r = first_reasons(&u.reasons);
+        match out.iter_mut().find(|(d, x, _)| *d == u.decision && *x == r) {
+            Some(g) => g.2.push(u.serial.clone()),
+            None => out.push((u.decision, r, vec![u.serial.clone()])),
+        }
+    }
+    out
+}
+
+/// `SN1`, or `3 units (SN1, SN2, SN3)`, or `40 units (SN1, SN2, SN3, … SN40)`.
+#[must_use]
+pub fn serial_list(serials: &[String]) -> String {
+    match serials {
+        [one] => one.clone(),
+        many if many.len() <= 4 => format!("{} units ({})", many.len(), many.join(", ")),
+        many => format!("{} units ({}, … {})", many.len(), many[..3].join(", "), many[many.len() - 1]),
+    }
+}
+
+/// Reasons a one-line summary shows.
+pub const REASONS_SHOWN: usize = 2;
+
+/// The console's summary of a fleet: the verdict line, one line per unit not passed, and
+/// where the detail is.
+#[must_use]
+pub fn console(fleet: &Fleet, out: &Path) -> String {
+    let [pass, review, fail] = fleet.counts;
+    let mut s = format!(
+        "verdict: {} units: {pass} PASS, {review} REVIEW (limits met, outside the population), {fail} FAIL\n",
+        fleet.units
+    );
+    for (decision, reasons, serials) in grouped(fleet) {
+        let key = if decision == Decision::Fail { "fail" } else { "review" };
+        s.push_str(&format!("{key}: {}: {reasons}\n", serial_list(&serials)));
+    }
+    for u in &fleet.unit {
+        if let Some(p) = &u.prior {
+            s.push_str(&format!(
+                "prior: {}: partial coverage, flash {} (CRC-32 {}; its own rows cover {:.0} % of the fleet's span × both \
+                 branches)\n",
+                u.serial,
+                p.table,
+                p.table_crc32,
+                100.0 * p.covered_share
+            ));
+        }
+    }
+    s.push_str(&format!(
+        "detail: {}/fleet.html, fleet.json; each unit: {}/SERIAL/certificate.html\n",
+        out.display(),
+        out.display()
+    ));
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A list of serials reads whole up to four, then the first three and the last.
+    #[test]
+    fn serial_lists_stay_one_line() {
+        let s = |n: usize| (1..=n).map(|i| format!("S{i}")).collect::<Vec<_>>();
+        assert_eq!(serial_list(&s(1)), "S1");
+        assert_eq!(serial_list(&s(3)), "3 units (S1, S2, S3)");
+        assert_eq!(serial_list(&s(40)), "40 units (S1, S2, S3, … S40)");
+    }
+
+    /// `K/N` parses for 0 ≤ K < N and nothing else.
+    #[test]
+    fn shard_parses_only_k_of_n() {
+        assert_eq!("2/4".parse::<Shard>().unwrap(), Shard { k: 2, n: 4 });
+        assert_eq!("0/1".parse::<Shard>().unwrap(), Shard { k: 0, n: 1 });
+        for bad in ["4/4", "5/4", "1/0", "2", "a/b", "-1/3"] {
+            assert!(bad.parse::<Shard>().is_err(), "{bad}");
+        }
+    }
+}

@@ -1,0 +1,397 @@
+//! What a batch writes for people: a certificate per serial (`SERIAL/certificate.json`
+//! and `certificate.html`) and the fleet page (`fleet.json`, `fleet.html`, with
+//! `fleet_figures.png` and `fleet_held_out.png`).
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use serde::Serialize;
+
+use super::fleet::{Decision, Fleet, FleetUnit};
+use super::unit::{UnitOutcome, UnitResult};
+use super::BatchError;
+use qfa_report::html_report::{escape, Page};
+use qfa_report::verdict::Measured;
+
+/// A unit's certificate: what was calibrated from what, the figures, the decision, and the
+/// table's CRC so a table found on a unit leads back here.
+#[derive(Clone, Debug, Serialize)]
+pub struct Certificate<'a> {
+    /// Serial.
+    pub serial: &'a str,
+    /// Decision.
+    pub decision: Decision,
+    /// Why (empty on PASS).
+    pub reasons: &'a [String],
+    /// Where the rows came from.
+    pub source: &'a str,
+    /// The unit's result (figures, model chosen, table CRC).
+    pub unit: &'a UnitOutcome,
+    /// Sensor offset against the fleet, °C.
+    pub sensor_offset_c: &'a Measured,
+    /// Sensor drift against the fleet, °C/h.
+    pub sensor_drift_c_per_h: &'a Measured,
+    /// Shape compared with the fleet (false: partial coverage).
+    pub shape_compared: bool,
+    /// The table to flash under this serial and its header's CRC-32 (`None`: not calibrated).
+    pub flash: Option<(String, String)>,
+    /// For a unit with partial coverage, the population prior's table.
+    pub prior: &'a Option<super::prior::PriorUse>,
+    /// Where the limits came from.
+    pub limits_from: &'a str,
+    /// The program that wrote it.
+    pub written_by: String,
+}
+
+fn m(v: &Measured, digits: usize) -> String {
+    match v {
+        Measured::Value(x) => format!("{x:.digits$}"),
+        Measured::NotComputed { not_computed } => format!("not computed ({not_computed})"),
+    }
+}
+
+/// Write `certificate.json` and `certificate.html` into `dir`.
+///
+/// # Errors
+/// I/O or encoding errors.
+pub fn write_certificate(dir: &Path, r: &UnitResult, f: &FleetUnit, limits_from: &str) -> Result<(), BatchError> {
+    let io = |e: &dyn std::fmt::Display| BatchError::Io(format!("{}: {e}", dir.display()));
+    std::fs::create_dir_all(dir).map_err(|e| io(&e))?;
+    let cert = Certificate {
+        serial: &r.serial,
+        decision: f.decision,
+        reasons: &f.reasons,
+        source: &r.source,
+        unit: &r.outcome,
+        sensor_offset_c: &f.sensor_offset_c,
+        sensor_drift_c_per_h: &f.sensor_drift_c_per_h,
+        shape_compared: !f.partial,
+        flash: match (&r.outcome, &f.prior) {
+            (_, Some(p)) => Some((p.table.clone(), p.table_crc32.clone())),
+            (UnitOutcome::Calibrated(c), None) => Some(("table.bin".into(), c.table_crc32.clone())),
+            (UnitOutcome::Failed { .. }, None) => None,
+        },
+        prior: &f.prior,
+        limits_from,
+        written_by: format!("qfa-lab {}", env!("CARGO_PKG_VERSION")),
+    };
+    let json = serde_json::to_string_pretty(&cert).map_err(|e| io(&e))?;
+    std::fs::write(dir.join("certificate.json"), json + "\n").map_err(|e| io(&e))?;
+    // A certificate reads the same however the batch was run (one process, shards, a
+    // cluster): it names the batch, not the command line of the process that merged it.
+    let mut p = Page::with_command(
+        &format!("Certificate {}", r.serial),
+        &format!("qfa-lab batch: certificate of unit {} (the batch's command is on fleet.html)", r.serial),
+    );
+    let class = match f.decision {
+        Decision::Pass => "pass",
+        Decision::Review => "warn",
+        Decision::Fail => "fail",
+    };
+    let mut v = format!(
+        "<section id=\"verdict\"><h2>Verdict</h2><ul><li class=\"{class}\">verdict: {} ({})</li>",
+        f.decision,
+        match f.decision {
+            Decision::Pass =>
+                "every limit met held out, inside the population: flash the table named below under this serial",
+            Decision::Review => "every limit met, but outside the population: a person looks before it ships",
+            Decision::Fail => "held back: do not flash",
+        }
+    );
+    for reason in &f.reasons {
+        let _ = write!(v, "<li class=\"{class}\">{}</li>", escape(reason));
+    }
+    v.push_str("</ul></section>\n");
+    p.raw(&v);
+    let mut kv: Vec<(String, String)> = vec![
+        ("serial".into(), r.serial.clone()),
+        ("source".into(), r.source.clone()),
+        ("limits".into(), limits_from.to_string()),
+    ];
+    if let Some((file, crc)) = &cert.flash {
+        kv.push(("table to flash".into(), format!("{file}, CRC-32 {crc} (its header's, what the firmware checks)")));
+    }
+    if let Some(p) = &f.prior {
+        kv.push((
+            "population prior".into(),
+            format!(
+                "partial coverage: {} is the unit's rows and the fleet's population together; its own rows cover {:.0} % \
+                 of the fleet's span × both branches{}",
+                p.table,
+                100.0 * p.covered_share,
+                if p.mostly_prior { ", so the prior decided most of it" } else { "" }
+            ),
+        ));
+    }
+    match &r.outcome {
+        UnitOutcome::Calibrated(c) => {
+            kv.push(("table.bin CRC-32 (the unit's own fit)".into(), c.table_crc32.clone()));
+            kv.push(("table.bin bytes".into(), c.table_bytes.to_string()));
+            kv.push(("rows".into(), c.rows.to_string()));
+            kv.push(("temperature span".into(), format!("{:.1}..{:.1} °C", c.temp_c[0], c.temp_c[1])));
+            kv.push(("branches".into(), if c.one_branch { "one (heating or cooling only)" } else { "both" }.into()));
+            for (a, h) in &c.held_out_mg {
+                kv.push((format!("{a}: held-out bias RMS (mg)"), m(h, 2)));
+            }
+            for (a, s) in &c.structures {
+                kv.push((format!("{a}: model"), s.clone()));
+            }
+        }
+        UnitOutcome::Failed { reason } => kv.push(("not calibrated".into(), reason.clone())),
+    }
+    kv.push(("sensor offset against the fleet (°C)".into(), m(&f.sensor_offset_c, 2)));
+    kv.push(("sensor drift against the fleet (°C/h)".into(), m(&f.sensor_drift_c_per_h, 3)));
+    p.section("Certificate").kv(&kv);
+    let mut files =
+        vec![("table.bin", "table.bin"), ("report.html", "report.html"), ("certificate.json", "certificate.json")];
+    if f.prior.is_some() {
+        files.insert(0, ("table_prior.bin (flash this)", "table_prior.bin"));
+    }
+    p.section("Files").links(&files);
+    std::fs::write(dir.join("certificate.html"), p.html()).map_err(|e| io(&e))?;
+    Ok(())
+}
+
+/// Write `fleet.json`, `fleet.html` and its two plots into `out`.
+///
+/// # Errors
+/// I/O, drawing or encoding errors.
+pub fn write_fleet(out: &Path, fleet: &Fleet, results: &[UnitResult], limits_from: &str) -> Result<(), BatchError> {
+    let io = |e: &dyn std::fmt::Display| BatchError::Io(format!("{}: {e}", out.display()));
+    let json = serde_json::to_string_pretty(fleet).map_err(|e| io(&e))?;
+    std::fs::write(out.join("fleet.json"), json + "\n").map_err(|e| io(&e))?;
+    // Without a calibrated unit there is nothing to draw: the plots are not written (an
+    // old batch's plots in the folder are removed, so none is taken for this one's).
+    let plots = !fleet.stats.is_empty();
+    for name in ["fleet_figures.png", "fleet_held_out.png"] {
+        match std::fs::remove_file(out.join(name)) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(io(&e)),
+            _ => {}
+        }
+    }
+    if plots {
+        plot_figures(&out.join("fleet_figures.png"), fleet).map_err(|e| io(&e))?;
+        plot_held_out(&out.join("fleet_held_out.png"), fleet, results).map_err(|e| io(&e))?;
+    }
+    let [pass, review, fail] = fleet.counts;
+    let mut p = Page::new("Fleet");
+    let class = if fail > 0 {
+        "fail"
+    } else if review > 0 {
+        "warn"
+    } else {
+        "pass"
+    };
+    let mut v = format!(
+        "<section id=\"verdict\"><h2>Verdict</h2><ul><li class=\"{class}\">verdict: {} units: {pass} PASS, \
+         {review} REVIEW (limits met, outside the population), {fail} FAIL</li>",
+        fleet.units
+    );
+    for (decision, reasons, serials) in super::grouped(fleet) {
+        let c = if decision == Decision::Fail { "fail" } else { "warn" };
+        let links: Vec<String> =
+            serials.iter().map(|s| format!("<a href=\"{s}/certificate.html\">{s}</a>", s = escape(s))).collect();
+        let who =
+            if links.len() == 1 { links[0].clone() } else { format!("{} units: {}", links.len(), links.join(", ")) };
+        let _ = write!(v, "<li class=\"{c}\">{who} {decision}: {}</li>", escape(&reasons));
+    }
+    let _ = writeln!(v, "<li>limits: {}</li></ul></section>", escape(limits_from));
+    p.raw(&v);
+    p.section("Capability against each limit").para(
+        "Cpk = (limit − mean) / 3s for a maximum, (mean − limit) / 3s for a minimum, s the batch's standard deviation \
+         (Ppk in AIAG terms: one batch, no subgroups). Every limit is one-sided, so Cp is not computed.",
+    );
+    let rows: Vec<Vec<String>> = fleet
+        .capability
+        .iter()
+        .map(|c| {
+            vec![
+                c.limit.clone(),
+                c.axis.clone(),
+                format!("{} {}", c.sense, c.bound),
+                c.n.to_string(),
+                m(&c.mean, 3),
+                m(&c.sd, 3),
+                m(&c.cpk, 2),
+            ]
+        })
+        .collect();
+    p.table(&["limit", "axis", "bound", "units", "mean", "s", "Cpk"], &rows);
+    p.section("Figures across the fleet").para(&format!(
+        "Robust distance z = (x − median) / (1.4826·MAD) over the units with full coverage; a unit is flagged beyond \
+         ±{} (held-out RMS: above only). Red: flagged.",
+        fleet.z_flag
+    ));
+    if plots {
+        p.image(&out.join("fleet_figures.png"), "each figure's robust distance, one dot per unit")
+            .map_err(|e| io(&e))?;
+        p.image(&out.join("fleet_held_out.png"), "held-out bias RMS per axis against its limit").map_err(|e| io(&e))?;
+    } else {
+        p.warning("No unit was calibrated, so no figure can be compared: the verdict above says why.");
+    }
+    let rows: Vec<Vec<String>> = fleet
+        .stats
+        .iter()
+        .map(|s| {
+            vec![
+                s.feature.name.clone(),
+                s.feature.unit.clone(),
+                s.n.to_string(),
+                format!("{:.4}", s.median),
+                format!("{:.4}", s.scale),
+            ]
+        })
+        .collect();
+    p.table(&["figure", "unit", "units", "median", "robust SD"], &rows);
+    let partial: Vec<Vec<String>> = fleet
+        .unit
+        .iter()
+        .filter_map(|u| {
+            u.prior.as_ref().map(|p| {
+                vec![
+                    u.serial.clone(),
+                    format!("{} {}", p.table, p.table_crc32),
+                    format!("{:.0} %", 100.0 * p.covered_share),
+                    if p.mostly_prior { "the prior" } else { "its rows" }.to_string(),
+                ]
+            })
+        })
+        .collect();
+    p.section("Population prior").para(&format!(
+        "Units with partial coverage (one branch, or under 0.8 of the fleet's median span) get a table from their rows \
+         and the population together (empirical Bayes over the units with full coverage: {}), over the fleet's span \
+         {:.1}..{:.1} °C. Under half the span × both branches covered, the prior decided most of it.",
+        fleet.population.iter().map(|p| format!("{} from {} units", p.axis, p.units)).collect::<Vec<_>>().join(", "),
+        fleet.span_c[0],
+        fleet.span_c[1]
+    ));
+    if partial.is_empty() {
+        p.para("No unit has partial coverage.");
+    } else {
+        p.table(&["serial", "table to flash, CRC-32", "own rows cover", "decided mostly by"], &partial);
+    }
+    p.section("Units");
+    let rows: Vec<Vec<String>> = fleet
+        .unit
+        .iter()
+        .zip(results)
+        .map(|(u, r)| {
+            let crc = match (&r.outcome, &u.prior) {
+                (_, Some(p)) => format!("{} {}", p.table, p.table_crc32),
+                (UnitOutcome::Calibrated(c), None) => format!("table.bin {}", c.table_crc32),
+                (UnitOutcome::Failed { .. }, None) => "—".into(),
+            };
+            vec![u.serial.clone(), u.decision.to_string(), crc, u.reasons.join("; ")]
+        })
+        .collect();
+    p.table(&["serial", "decision", "table to flash, CRC-32", "why"], &rows);
+    let links: Vec<(String, String)> =
+        fleet.unit.iter().map(|u| (u.serial.clone(), format!("{}/certificate.html", u.serial))).collect();
+    p.links(&links);
+    std::fs::write(out.join("fleet.html"), p.html()).map_err(|e| io(&e))?;
+    Ok(())
+}
+
+fn plot_figures(path: &Path, fleet: &Fleet) -> Result<(), Box<dyn std::error::Error>> {
+    use plotters::prelude::*;
+    qfa_report::plot_font::register();
+    let rows = fleet.stats.len().max(1);
+    let root = BitMapBackend::new(path, (1200, 80 + 26 * rows as u32)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let lim = 3.0 * fleet.z_flag;
+    let mut chart = ChartBuilder::on(&root)
+        .caption("Each figure against the fleet (robust SDs; clipped at ±3× the flag line)", ("sans-serif", 18))
+        .margin(10)
+        .x_label_area_size(35)
+        .y_label_area_size(230)
+        .build_cartesian_2d(-lim..lim, (0..rows).into_segmented())?;
+    let names: Vec<String> = fleet.stats.iter().map(|s| s.feature.name.clone()).collect();
+    chart
+        .configure_mesh()
+        .x_desc("robust distance z")
+        .y_labels(rows)
+        .y_label_formatter(&|y| match y {
+            SegmentValue::CenterOf(k) => names.get(*k).cloned().unwrap_or_default(),
+            _ => String::new(),
+        })
+        .disable_y_mesh()
+        .draw()?;
+    for x in [-fleet.z_flag, fleet.z_flag] {
+        chart.draw_series(LineSeries::new(
+            [(x, SegmentValue::Exact(0)), (x, SegmentValue::Exact(rows))],
+            RED.mix(0.5),
+        ))?;
+    }
+    for (k, s) in fleet.stats.iter().enumerate() {
+        for (serial, v) in &s.values {
+            let z = ((v - s.median) / s.scale).clamp(-lim, lim);
+            let flagged =
+                fleet.unit.iter().any(|u| &u.serial == serial && u.flags.iter().any(|f| f.feature == s.feature.name));
+            let y = SegmentValue::CenterOf(k);
+            if flagged {
+                chart.draw_series([Circle::new((z, y), 5, RED.filled())])?;
+            } else {
+                chart.draw_series([Circle::new((z, y), 3, BLUE.mix(0.4).filled())])?;
+            }
+        }
+    }
+    root.present()?;
+    Ok(())
+}
+
+fn plot_held_out(path: &Path, fleet: &Fleet, results: &[UnitResult]) -> Result<(), Box<dyn std::error::Error>> {
+    use plotters::prelude::*;
+    qfa_report::plot_font::register();
+    let caps: Vec<_> = fleet.capability.iter().filter(|c| c.limit == "held_out_bias_mg").collect();
+    let root = BitMapBackend::new(path, (1200, 120 + 60 * caps.len().max(1) as u32)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let mut hi: f64 = 0.0;
+    let mut pts: Vec<(usize, f64, bool)> = Vec::new();
+    for (k, c) in caps.iter().enumerate() {
+        hi = hi.max(c.bound);
+        for (r, u) in results.iter().zip(&fleet.unit) {
+            if let UnitOutcome::Calibrated(cal) = &r.outcome {
+                if let Some((_, Measured::Value(v))) = cal.held_out_mg.iter().find(|(a, _)| *a == c.axis) {
+                    hi = hi.max(*v);
+                    pts.push((k, *v, u.decision != Decision::Pass));
+                }
+            }
+        }
+    }
+    let mut chart = ChartBuilder::on(&root)
+        .caption(
+            "Held-out bias RMS per unit, with the limit (red line); red dots: units not passed",
+            ("sans-serif", 18),
+        )
+        .margin(10)
+        .x_label_area_size(35)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0.0..hi * 1.1, (0..caps.len().max(1)).into_segmented())?;
+    let names: Vec<String> = caps.iter().map(|c| c.axis.clone()).collect();
+    chart
+        .configure_mesh()
+        .x_desc("held-out bias RMS (mg)")
+        .y_labels(caps.len().max(1))
+        .y_label_formatter(&|y| match y {
+            SegmentValue::CenterOf(k) => names.get(*k).cloned().unwrap_or_default(),
+            _ => String::new(),
+        })
+        .disable_y_mesh()
+        .draw()?;
+    for (k, c) in caps.iter().enumerate() {
+        chart.draw_series(LineSeries::new(
+            [(c.bound, SegmentValue::Exact(k)), (c.bound, SegmentValue::Exact(k + 1))],
+            RED.stroke_width(2),
+        ))?;
+    }
+    for (k, v, bad) in pts {
+        let y = SegmentValue::CenterOf(k);
+        if bad {
+            chart.draw_series([Circle::new((v, y), 5, RED.filled())])?;
+        } else {
+            chart.draw_series([Circle::new((v, y), 3, BLUE.mix(0.4).filled())])?;
+        }
+    }
+    root.present()?;
+    Ok(())
+}

@@ -1,0 +1,318 @@
+//! The population prior: a unit whose log is partial (one branch, or a short span) gets a
+//! table that borrows what its own rows cannot show from the fleet, by empirical Bayes.
+//!
+//! # The model
+//! Per axis, every unit's bias is `θ · x(T, branch)` with
+//! `x = [1, u, u², u³, ±½]`, `u = (T − 25 °C) / 50 °C` (the common form of
+//! [`super::unit`], scaled so the 5 × 5 normal equations stay well conditioned; `±½` is
+//! the heating/cooling split). The fleet's units are draws `θ ~ N(μ, Σ)`; `μ` and `Σ` are
+//! the mean and covariance of the full-coverage, unflagged units' own least-squares `θ`
+//! (their sampling error is small beside the spread: the descriptor recovers each unit's
+//! slope to 1/25 of it, `lab/tests/batch.rs`). A unit's rows give `AᵀA θ ≈ Aᵀy` with the
+//! noise variance `σ²` measured on its own residuals: the variance of their 60-s means,
+//! times the rows per mean, so slow residuals count as what they are, not as white noise.
+//! The posterior mean is `(AᵀA/σ² + Σ⁻¹)⁻¹ (Aᵀy/σ² + Σ⁻¹μ)`: where the rows determine a
+//! direction of `θ` the data win, where they cannot (the split on a heating-only log, the
+//! curvature beyond a short span) the fleet does.
+//!
+//! The unit's stage stores its sufficient statistics (`AᵀA`, `Aᵀy`, `σ²`, covered bins)
+//! in `unit.json`, so the prior needs no rows at the fleet stage and a merged sharded run
+//! forms it as one run would.
+//!
+//! # What is written, and when
+//! For each unit with partial coverage: `table_prior.bin` / `table_prior.toml`, a grid over
+//! the fleet's median span, the posterior curve ± half its split; the certificate names it
+//! as the table to flash. The share of the fleet's span × both branches the unit's own rows
+//! cover (1-°C bins with at least a 10-row equation on that branch) is stated; under a half,
+//! the certificate says the prior, not the unit's data, decided most of the table.
+
+use nalgebra::{Matrix5, Vector5};
+use serde::{Deserialize, Serialize};
+
+use qfa_thermal::model::Branch;
+
+use crate::fit::STATIC_LSB_PER_G;
+
+/// Basis scale, °C.
+pub const U_SCALE_C: f64 = 50.0;
+/// Length of the residual means that measure a unit's noise, s.
+pub const NOISE_MEAN_S: f64 = 60.0;
+/// Rows a 1-°C bin needs on a branch to count as covered (one averaged equation).
+pub const BIN_ROWS: usize = 10;
+/// Below this covered share the prior decided most of the table.
+pub const MOSTLY_PRIOR: f64 = 0.5;
+
+/// The basis at temperature `t_c` on `branch` (heating `+½`, cooling `−½`, unknown 0).
+#[must_use]
+pub fn basis(t_c: f64, branch: Branch) -> [f64; 5] {
+    let u = (t_c - super::unit::DESCRIPTOR_T_C) / U_SCALE_C;
+    let s = match branch {
+        Branch::Heating => 0.5,
+        Branch::Cooling => -0.5,
+        Branch::Unknown => 0.0,
+    };
+    [1.0, u, u * u, u * u * u, s]
+}
+
+/// One axis's sufficient statistics.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct AxisNormal {
+    /// Axis.
+    pub axis: String,
+    /// `Aᵀy`, y in g.
+    pub aty: [f64; 5],
+    /// The unit's own least-squares `θ` (minimum norm where its rows leave a direction
+    /// undetermined).
+    pub theta: [f64; 5],
+    /// Noise variance per row, g² (see the module docs).
+    pub sigma2: f64,
+}
+
+/// A unit's sufficient statistics for the prior.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct UnitNormal {
+    /// `AᵀA` (rows × basis), row-major; the same for every axis.
+    pub ata: [f64; 25],
+    /// Per axis.
+    pub axes: Vec<AxisNormal>,
+    /// 1-°C bins covered: `(bin, heating)`, bin = floor(T).
+    pub covered: Vec<(i32, bool)>,
+}
+
+/// The statistics of one unit's rows: readings `temp_c`, the branch in force per row
+/// (the firmware's), each axis `(name, g)`, row times `time_s`.
+#[must_use]
+pub fn normal_of(time_s: &[f64], temp_c: &[f64], branch: &[Branch], axes: &[(&str, &[f64])]) -> UnitNormal {
+    let n = temp_c.len();
+    let xs: Vec<[f64; 5]> = (0..n).map(|i| basis(temp_c[i], branch[i])).collect();
+    let mut ata = Matrix5::<f64>::zeros();
+    for x in &xs {
+        let v = Vector5::from_row_slice(x);
+        ata += v * v.transpose();
+    }
+    let pinv = ata.pseudo_inverse(1e-12 * ata.norm()).unwrap_or_else(|_| Matrix5::zeros());
+    let out_axes = axes
+        .iter()
+        .map(|(name, y)| {
+            let mut aty = Vector5::<f64>::zeros();
+            for (x, v) in xs.iter().zip(y.iter()) {
+                aty += Vector5::from_row_slice(x) * *v;
+            }
+            let theta = pinv * aty;
+            // Residual means over NOISE_MEAN_S: their variance × rows per mean.
+            let resid = xs.iter().zip(y.iter()).map(|(x, v)| v - Vector5::from_row_slice(x).dot(&theta));
+            let means = crate::metrics::time_bin_means(resid, time_s, NOISE_MEAN_S);
+            let m = means.len().max(1) as f64;
+            let mean_rows = means.iter().map(|b| b.2).sum::<usize>() as f64 / m;
+            let sigma2 = means.iter().map(|b| b.1 * b.1).sum::<f64>() / m * mean_rows;
+            AxisNormal { axis: (*name).to_string(), aty: aty.into(), theta: theta.into(), sigma2 }
+        })
+        .collect();
+    let mut count: std::collections::BTreeMap<(i32, bool), usize> = std::collections::BTreeMap::new();
+    for i in 0..n {
+        if branch[i] != Branch::Unknown {
+            *count.entry((temp_c[i].floor() as i32, branch[i] == Branch::Heating)).or_default() += 1;
+        }
+    }
+    UnitNormal {
+        ata: ata.transpose().as_slice().try_into().unwrap_or([0.0; 25]),
+        axes: out_axes,
+        covered: count.into_iter().filter(|(_, c)| *c >= BIN_ROWS).map(|(k, _)| k).collect(),
+    }
+}
+
+/// The fleet's population per axis: mean and covariance of `θ`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Population {
+    /// Axis.
+    pub axis: String,
+    /// Units it was formed from.
+    pub units: usize,
+    /// Mean `θ`.
+    pub mean: [f64; 5],
+    /// Covariance of `θ`, row-major.
+    pub cov: [f64; 25],
+}
+
+/// The population of each axis from the reference units' statistics.
+#[must_use]
+pub fn population(reference: &[&UnitNormal]) -> Vec<Population> {
+    let Some(first) = reference.first() else { return Vec::new() };
+    first
+        .axes
+        .iter()
+        .enumerate()
+        .filter_map(|(k, a)| {
+            let thetas: Vec<Vector5<f64>> =
+                reference.iter().filter_map(|u| u.axes.get(k)).map(|x| Vector5::from(x.theta)).collect();
+            let n = thetas.len();
+            if n < 3 {
+                return None;
+            }
+            let mean = thetas.iter().fold(Vector5::zeros(), |s, t| s + t) / n as f64;
+            let mut cov = Matrix5::<f64>::zeros();
+            for t in &thetas {
+                let d = t - mean;
+                cov += d * d.transpose();
+            }
+            cov /= (n - 1) as f64;
+            Some(Population {
+                axis: a.axis.clone(),
+                units: n,
+                mean: mean.into(),
+                cov: cov.transpose().as_slice().try_into().ok()?,
+            })
+        })
+        .collect()
+}
+
+/// The posterior mean `θ` of one axis of a unit (module docs); `None` when the
+/// population's covariance cannot be inverted (fewer units than directions that vary).
+#[must_use]
+pub fn posterior(unit: &UnitNormal, axis: usize, pop: &Population) -> Option<[f64; 5]> {
+    let a = unit.axes.get(axis)?;
+    let ata = Matrix5::from_row_slice(&unit.ata);
+    let cov = Matrix5::from_row_slice(&pop.cov);
+    // A floor on the prior's variance per direction (1e-9 of its largest) keeps Σ
+    // invertible when the fleet never varied a coefficient (a split of zero everywhere).
+    let floor = 1e-9 * cov.diagonal().max().max(f64::MIN_POSITIVE);
+    let prec = (cov + Matrix5::from_diagonal_element(floor)).try_inverse()?;
+    let s2 = a.sigma2.max(f64::MIN_POSITIVE);
+    let lhs = ata / s2 + prec;
+    let rhs = Vector5::from(a.aty) / s2 + prec * Vector5::from(pop.mean);
+    let theta = lhs.try_inverse()? * rhs;
+    theta.iter().all(|v| v.is_finite()).then(|| theta.into())
+}
+
+/// The share of the fleet's `span` (°C, both branches) a unit's covered bins hold.
+#[must_use]
+pub fn covered_share(unit: &UnitNormal, span: (f64, f64)) -> f64 {
+    let (lo, hi) = (span.0.floor() as i32, span.1.ceil() as i32 - 1);
+    let total = (2 * (hi - lo + 1)).max(1) as f64;
+    let inside = unit.covered.iter().filter(|(b, _)| (lo..=hi).contains(b)).count() as f64;
+    inside / total
+}
+
+/// A flashable axis model for curve `theta` over `span` (°C): 16 nodes, heating = the
+/// curve + half the split, cooling − half, the bias measured from `reference_g`.
+#[must_use]
+pub fn axis_model(theta: &[f64; 5], span: (f64, f64), reference_g: f64, deadband: f32) -> qfa_thermal::AxisModel {
+    let g = qfa_thermal::model::MAX_BIAS_POINTS;
+    let start = span.0.floor();
+    let end = span.1.ceil().max(start + 2.0);
+    let step = (end - start) / (g - 1) as f64;
+    let node = |j: usize, b: Branch| {
+        let x = basis(start + step * j as f64, b);
+        (x.iter().zip(theta).map(|(a, c)| a * c).sum::<f64>() - reference_g) as f32
+    };
+    let heating: heapless::Vec<f32, { qfa_thermal::model::MAX_BIAS_POINTS }> =
+        (0..g).map(|j| node(j, Branch::Heating)).collect();
+    let cooling: heapless::Vec<f32, { qfa_thermal::model::MAX_BIAS_POINTS }> =
+        (0..g).map(|j| node(j, Branch::Cooling)).collect();
+    qfa_thermal::AxisModel {
+        scale: qfa_thermal::ScaleFactor::simple(super::unit::DESCRIPTOR_T_C as f32, STATIC_LSB_PER_G, 0.0),
+        bias: qfa_thermal::BiasGrid {
+            t_start_c: start as f32,
+            t_step_c: step as f32,
+            deadband_c_per_min: deadband,
+            heating_g: heating,
+            cooling_g: cooling,
+        },
+        rate_limit_c_per_min: 20.0,
+        ext: qfa_thermal::Extensions::default(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// With a population far tighter than the noise the posterior is the population's
+    /// mean; with a vague population it is the unit's own fit; a direction the rows do not
+    /// reach (the split, on one branch) comes from the population either way.
+    #[test]
+    fn the_posterior_leans_on_whichever_knows_more() {
+        let temps: Vec<f64> = (0..600).map(|i| 20.0 + 0.05 * f64::from(i)).collect();
+        let time: Vec<f64> = (0..600).map(f64::from).collect();
+        let branch = vec![Branch::Heating; 600];
+        let own = [0.01, 0.002, 0.0, 0.0, 0.0];
+        let y: Vec<f64> =
+            temps.iter().map(|&t| basis(t, Branch::Heating).iter().zip(&own).map(|(a, b)| a * b).sum()).collect();
+        let u = normal_of(&time, &temps, &branch, &[("ax", &y)]);
+        // A noise floor for the exact data: a tenth of a mg.
+        let mut u = u;
+        u.axes[0].sigma2 = 1e-8;
+        let mean = [0.0, 0.001, 0.0, 0.0, 4e-4];
+        let pop = |var: f64| Population {
+            axis: "ax".into(),
+            units: 10,
+            mean,
+            cov: Matrix5::from_diagonal_element(var).transpose().as_slice().try_into().unwrap(),
+        };
+        let tight = posterior(&u, 0, &pop(1e-16)).unwrap();
+        let vague = posterior(&u, 0, &pop(1.0)).unwrap();
+        for k in 0..4 {
+            assert!((tight[k] - mean[k]).abs() < 1e-6, "tight {k}: {tight:?}");
+        }
+        // Vague: the unit's own curve, in what its rows determine (on one branch, the
+        // constant and the split only as `constant + split/2`).
+        for k in 1..4 {
+            assert!((vague[k] - own[k]).abs() < 1e-5, "vague {k}: {vague:?}");
+        }
+        assert!((vague[0] + 0.5 * vague[4] - own[0]).abs() < 1e-5, "vague: {vague:?}");
+        // The split is collinear with the constant on one branch: the rows fix only
+        // constant + split/2, and with a tight prior on the split the fleet's value stands.
+        let split = posterior(
+            &u,
+            0,
+            &Population {
+                cov: {
+                    let mut c = [1.0; 25].map(|_| 0.0);
+                    for k in 0..4 {
+                        c[k * 6] = 1.0;
+                    }
+                    c[24] = 1e-16;
+                    c
+                },
+                ..pop(1.0)
+            },
+        )
+        .unwrap();
+        assert!((split[4] - 4e-4).abs() < 1e-8, "{split:?}");
+        assert!((split[0] + 0.5 * split[4] - own[0]).abs() < 1e-5, "{split:?}");
+    }
+}
+
+/// How a unit's table came from the prior.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PriorUse {
+    /// The file written (`table_prior.bin`, with its `.toml`).
+    pub table: String,
+    /// The CRC-32 in its header.
+    pub table_crc32: String,
+    /// Share of the fleet's span × both branches the unit's own rows cover.
+    pub covered_share: f64,
+    /// The prior decided most of the table (`covered_share` under [`MOSTLY_PRIOR`]).
+    pub mostly_prior: bool,
+}
+
+/// The table of one unit's posterior over `span`, or why there is none.
+///
+/// # Errors
+/// No population for an axis, or a table the root crate refuses.
+pub fn prior_table(
+    unit: &UnitNormal,
+    pops: &[Population],
+    span: (f64, f64),
+    deadband: f32,
+) -> Result<qfa_thermal::Table, String> {
+    let n_rows = unit.ata[0].max(1.0);
+    let mut axes = Vec::new();
+    for (k, a) in unit.axes.iter().enumerate() {
+        let pop = pops.iter().find(|p| p.axis == a.axis).ok_or_else(|| format!("{}: no population", a.axis))?;
+        let theta = posterior(unit, k, pop).ok_or_else(|| format!("{}: the population cannot be inverted", a.axis))?;
+        // The bias is measured from the unit's own mean over its rows, as its own table's.
+        axes.push(axis_model(&theta, span, a.aty[0] / n_rows, deadband));
+    }
+    crate::fit::table_of_axes(qfa_thermal::Input::Samples, axes).map_err(|e| e.to_string())
+}

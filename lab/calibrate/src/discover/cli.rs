@@ -1,0 +1,49 @@
+//! The entry points: the workflow with its outputs written ([`discover`],
+//! [`discover_with_verdict`]) and the lab demo's hook.
+
+use super::*;
+use qfa_report::verdict::Verdict;
+
+/// Run the workflow on `input` from `start` and write the outputs to `out_dir`.
+///
+/// # Errors
+/// Output files could not be written.
+pub fn discover(input: &Channels, start: Start, out_dir: &Path) -> Result<Report> {
+    Ok(discover_with_verdict(input, start, out_dir)?.0)
+}
+
+/// [`discover`], with the verdict its reports open with (what `qfa-lab discover` prints).
+///
+/// # Errors
+/// Output files could not be written.
+pub fn discover_with_verdict(input: &Channels, start: Start, out_dir: &Path) -> Result<(Report, Verdict)> {
+    let report = analyze(input, start);
+    let v = output::write(input, &report, out_dir, output::Scope::Own)?;
+    Ok((report, v))
+}
+
+/// Demo hook (the demo runs one discovery): start `simple` on a unit's cycling log.
+/// With the simulator's Eq. 11 truth this should rediscover the paper's structure
+/// (`temp_quadratic` and the rate terms). Returns a one-line summary.
+///
+/// # Errors
+/// The discovery's failure, as text (the demo fails with it).
+pub fn demo_hook(log: &Path, out: &Path) -> std::result::Result<String, String> {
+    let run = || -> Result<Report> {
+        let ch = Channels::read(log, 60.0)?;
+        discover(&ch, Start::Simple, out)
+    };
+    let r = run().map_err(|e| format!("{e:#}"))?;
+    let names = r.effect_labels();
+    let gap = |g: &Gaps| match g {
+        Gaps::Cycling { scale_factor_ppm, bias_ug } => format!("{scale_factor_ppm:.1} ppm / {bias_ug:.1} µg"),
+        Gaps::Single { value_rms } => format!("{value_rms:.3}"),
+    };
+    Ok(format!(
+        "start simple → added [{}]; held-out gap (scale factor / bias) {} → {}; {}",
+        if names.is_empty() { "none".to_string() } else { names.join(", ") },
+        gap(&r.heldout_gap_before),
+        gap(&r.heldout_gap_after),
+        out.join("report.md").display()
+    ))
+}

@@ -1,0 +1,780 @@
+//! Fitting a model structure: nonlinear slot parameters by search, linear coefficients by
+//! least squares, every trial evaluated by the root crate's `AxisModel::evaluate`.
+//!
+//! For a given set of nonlinear parameters (lag τ, play half-width r, creep τ_ref and E)
+//! a probe `AxisModel` with those slots on is run over every row; its public states give
+//! the element temperature Te, the clamped Ṫ, the play term `(Te − p)/r` and the creep
+//! term `Te − x` exactly as the firmware computes them. Those are averaged into bins and
+//! form the columns of two linear least-squares problems (scale factor, bias). The fitted
+//! coefficients go into an `AxisModel`, which is then run again to give the predictions
+//! the residuals are formed from: what is scored is what the firmware would run.
+
+use nalgebra::{DMatrix, DVector};
+use qfa_thermal::model::{AxisModel, AxisState, BiasGrid, BranchHysteresis, Creep, Extensions, ScaleFactor, SensorLag};
+
+use super::Start;
+use qfa_log::channels::{Channels, LogKind};
+
+/// Reference temperature of ΔT: the lab's one [`crate::fit::T0_C`], as the
+/// model's f32.
+pub const T0_C: f32 = crate::fit::T0_C as f32;
+/// Fixed reference temperature of the creep time constant, °C.
+pub const CREEP_T_REF_C: f32 = 22.0;
+/// Bias grid points.
+pub const GRID_POINTS: usize = 16;
+
+/// A catalog effect (with the channel it acts on for `temp_quadratic`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Effect {
+    /// β·ΔT² on the scale factor.
+    TempQuadSf,
+    /// β_b·ΔT² on the bias (simple start only; the paper start's bias grid already curves).
+    TempQuadBias,
+    /// ε·Ṫ on the scale factor.
+    RateHysteresis,
+    /// α·Ṫ² on the scale factor.
+    RateSquared,
+    /// η·Ṫ·ΔT on the scale factor.
+    RateTempCoupling,
+    /// Element temperature lags the DS18B20 (both channels).
+    SensorLag,
+    /// Play operator on the bias.
+    BiasBranchHysteresis,
+    /// Arrhenius creep on the bias.
+    BiasCreep,
+    /// Slow drift of the bias with time since the start of the program (ageing, turn-on
+    /// settling): `d·t`. Signature: follows time, not temperature or its history, so it
+    /// shows on holds as much as on ramps. Lab-only: the root crate has no time slot yet,
+    /// so a discovered drift is reported but cannot go into the flashed table.
+    BiasDrift,
+}
+
+impl Effect {
+    /// Every effect, in catalog order.
+    pub const ALL: [Effect; 9] = [
+        Effect::TempQuadSf,
+        Effect::TempQuadBias,
+        Effect::RateHysteresis,
+        Effect::RateSquared,
+        Effect::RateTempCoupling,
+        Effect::SensorLag,
+        Effect::BiasBranchHysteresis,
+        Effect::BiasCreep,
+        Effect::BiasDrift,
+    ];
+
+    /// Catalog name.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Effect::TempQuadSf | Effect::TempQuadBias => "temp_quadratic",
+            Effect::RateHysteresis => "rate_hysteresis",
+            Effect::RateSquared => "rate_squared",
+            Effect::RateTempCoupling => "rate_temp_coupling",
+            Effect::SensorLag => "sensor_lag",
+            Effect::BiasBranchHysteresis => "bias_branch_hysteresis",
+            Effect::BiasCreep => "bias_creep",
+            Effect::BiasDrift => "bias_drift",
+        }
+    }
+
+    /// Channel it acts on: `scale_factor`, `bias` or `both`.
+    #[must_use]
+    pub fn channel(self) -> &'static str {
+        match self {
+            Effect::TempQuadSf | Effect::RateHysteresis | Effect::RateSquared | Effect::RateTempCoupling => {
+                "scale_factor"
+            }
+            Effect::TempQuadBias | Effect::BiasBranchHysteresis | Effect::BiasCreep | Effect::BiasDrift => "bias",
+            Effect::SensorLag => "both",
+        }
+    }
+
+    /// Parameters it adds (for the selection penalty).
+    #[must_use]
+    pub fn n_params(self) -> usize {
+        match self {
+            Effect::BiasBranchHysteresis => 2,
+            Effect::BiasCreep => 3,
+            _ => 1,
+        }
+    }
+
+    /// Whether the root crate's `AxisModel` can run it (so it goes into the table).
+    #[must_use]
+    pub fn in_firmware(self) -> bool {
+        self != Effect::BiasDrift
+    }
+
+    /// Whether it acts on the scale-factor channel.
+    #[must_use]
+    pub fn touches_sf(self) -> bool {
+        self.channel() != "bias"
+    }
+
+    /// Whether it acts on the bias channel.
+    #[must_use]
+    pub fn touches_bias(self) -> bool {
+        self.channel() != "scale_factor"
+    }
+}
+
+/// Nonlinear parameters of the slots that are on.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Nonlinear {
+    /// sensor_lag τ, s.
+    pub lag_tau_s: Option<f32>,
+    /// bias_branch_hysteresis half-width, °C.
+    pub play_r_c: Option<f32>,
+    /// bias_creep (τ_ref s, activation K).
+    pub creep: Option<(f32, f32)>,
+}
+
+impl Nonlinear {
+    /// The parameters with `e`'s slot off.
+    #[must_use]
+    pub fn without(mut self, e: Effect) -> Self {
+        match e {
+            Effect::SensorLag => self.lag_tau_s = None,
+            Effect::BiasBranchHysteresis => self.play_r_c = None,
+            Effect::BiasCreep => self.creep = None,
+            _ => {}
+        }
+        self
+    }
+}
+
+/// Linear structure: which terms are in the model.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Structure {
+    /// Start model.
+    pub start: Start,
+    /// β on the scale factor.
+    pub sf_quad: bool,
+    /// ε.
+    pub sf_eps: bool,
+    /// α.
+    pub sf_alpha: bool,
+    /// η.
+    pub sf_eta: bool,
+    /// ΔT² on a linear bias (simple start).
+    pub bias_quad: bool,
+    /// Bias drift with time (lab-only term).
+    pub bias_drift: bool,
+}
+
+impl Structure {
+    /// The start model's structure.
+    #[must_use]
+    pub fn start(start: Start) -> Self {
+        let p = start == Start::Paper;
+        Self { start, sf_quad: p, sf_eps: p, sf_alpha: p, sf_eta: p, bias_quad: false, bias_drift: false }
+    }
+
+    /// Whether `e` can still be added.
+    #[must_use]
+    pub fn can_add(&self, e: Effect, nl: &Nonlinear, kind: LogKind) -> bool {
+        let cyc = kind == LogKind::Cycling;
+        match e {
+            Effect::TempQuadSf => cyc && !self.sf_quad,
+            Effect::RateHysteresis => cyc && !self.sf_eps,
+            Effect::RateSquared => cyc && !self.sf_alpha,
+            Effect::RateTempCoupling => cyc && !self.sf_eta,
+            Effect::TempQuadBias => self.start == Start::Simple && !self.bias_quad,
+            Effect::SensorLag => nl.lag_tau_s.is_none(),
+            Effect::BiasBranchHysteresis => nl.play_r_c.is_none(),
+            Effect::BiasCreep => nl.creep.is_none(),
+            Effect::BiasDrift => !self.bias_drift,
+        }
+    }
+
+    /// The structure with the linear part of `e` switched off (the start model's own
+    /// terms stay).
+    #[must_use]
+    pub fn without(self, e: Effect) -> Self {
+        let base = Structure::start(self.start);
+        let mut s = self;
+        match e {
+            Effect::TempQuadSf => s.sf_quad = base.sf_quad,
+            Effect::TempQuadBias => s.bias_quad = base.bias_quad,
+            Effect::RateHysteresis => s.sf_eps = base.sf_eps,
+            Effect::RateSquared => s.sf_alpha = base.sf_alpha,
+            Effect::RateTempCoupling => s.sf_eta = base.sf_eta,
+            Effect::BiasDrift => s.bias_drift = false,
+            _ => {}
+        }
+        s
+    }
+
+    /// The structure with the linear part of `e` switched on.
+    #[must_use]
+    pub fn with(mut self, e: Effect) -> Self {
+        match e {
+            Effect::TempQuadSf => self.sf_quad = true,
+            Effect::TempQuadBias => self.bias_quad = true,
+            Effect::RateHysteresis => self.sf_eps = true,
+            Effect::RateSquared => self.sf_alpha = true,
+            Effect::RateTempCoupling => self.sf_eta = true,
+            Effect::BiasDrift => self.bias_drift = true,
+            _ => {}
+        }
+        self
+    }
+}
+
+/// Fixed geometry of a data set: bias grid, rate limit, channel weights.
+#[derive(Clone, Debug)]
+pub struct Setup<'a> {
+    /// The data.
+    pub ch: &'a Channels,
+    /// First grid temperature, °C.
+    pub grid_start: f32,
+    /// Grid step, °C.
+    pub grid_step: f32,
+    /// Calibrated |Ṫ| limit, °C/min.
+    pub rate_limit: f32,
+    /// Noise floor of the scale-factor channel, ppm (weights of the joint objective).
+    pub sigma_sf: f64,
+    /// Noise floor of the bias channel, µg (or value units).
+    pub sigma_b: f64,
+    /// Per-bin time derivative of the current model's prediction, (dK1/dt, dK0/dt) per
+    /// second: the direction in which a timing offset between the temperature readings
+    /// and the counts moves the prediction (K(T(t + δ)) ≈ K(T(t)) + δ·dK/dt). When set,
+    /// every fit takes the offset δ as a nuisance shared by both channels
+    /// ([`TimingOffset`]); `None` fits none.
+    pub offset_basis: Option<Vec<(f64, f64)>>,
+    /// Largest |δ| a fit may take, s.
+    pub offset_limit_s: f64,
+    /// δ held at this value instead of fitted (the selection holds it while it tests a
+    /// round's candidates: see `select::analyze`).
+    pub offset_fixed: Option<f64>,
+}
+
+/// The timing offset δ a fit took: the counts at time t follow the model at the temperature
+/// stamped t + δ (δ > 0: the temperature channel is stamped δ early against the counts,
+/// as a reading taken at the start of a counting interval, or a conversion that reports
+/// a temperature δ old, is).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TimingOffset {
+    /// δ, s.
+    pub seconds: f64,
+    /// Its SE from the fit's curvature for white residuals, s (the report widens it by
+    /// the residual's variance inflation).
+    pub se_white_s: f64,
+    /// δ sits at ±`offset_limit_s`.
+    pub at_limit: bool,
+}
+
+impl<'a> Setup<'a> {
+    /// Geometry from the data's temperature and rate range.
+    #[must_use]
+    pub fn new(ch: &'a Channels) -> Self {
+        let (mut lo, mut hi, mut rmax) = (f32::INFINITY, f32::NEG_INFINITY, 0.0f32);
+        for t in &ch.traces {
+            for (&x, &r) in t.est_t.iter().zip(&t.est_rate) {
+                lo = lo.min(x);
+                hi = hi.max(x);
+                rmax = rmax.max(r.abs());
+            }
+        }
+        let lo = (lo.floor() - 1.0).max(-60.0);
+        let hi = (hi.ceil() + 1.0).min(130.0).max(lo + 2.0);
+        let step = (hi - lo) / (GRID_POINTS - 1) as f32;
+        Self {
+            ch,
+            grid_start: lo,
+            grid_step: step,
+            rate_limit: (rmax * 1.25).clamp(0.1, 20.0),
+            sigma_sf: 1.0,
+            sigma_b: 1.0,
+            offset_basis: None,
+            offset_limit_s: offset_limit_s(ch),
+            offset_fixed: None,
+        }
+    }
+
+    /// The time derivative of `model`'s per-bin prediction along each trace (central
+    /// differences over the bins' times; one-sided at a trace's ends): the basis of the
+    /// timing offset ([`Setup::offset_basis`]).
+    #[must_use]
+    pub fn offset_basis_of(&self, model: &AxisModel) -> Vec<(f64, f64)> {
+        let pred = self.predict(model);
+        let mut out = Vec::with_capacity(pred.len());
+        let mut o = 0;
+        for t in &self.ch.traces {
+            let m = t.bins.len();
+            for i in 0..m {
+                let (a, b) = (i.saturating_sub(1), (i + 1).min(m - 1));
+                let dt = t.bins[b].time_s - t.bins[a].time_s;
+                out.push(if dt > 0.0 {
+                    ((pred[o + b].0 - pred[o + a].0) / dt, (pred[o + b].1 - pred[o + a].1) / dt)
+                } else {
+                    (0.0, 0.0)
+                });
+            }
+            o += m;
+        }
+        out
+    }
+
+    /// Factor from the bias channel's unit (g for cycling logs) to the reported unit.
+    #[must_use]
+    pub fn bias_unit(&self) -> f64 {
+        match self.ch.kind {
+            LogKind::Cycling => 1e6,
+            LogKind::Single => 1.0,
+        }
+    }
+
+    fn grid_temp(&self, j: usize) -> f32 {
+        self.grid_start + self.grid_step * j as f32
+    }
+}
+
+/// Per-bin mean features.
+#[derive(Clone, Debug, Default)]
+struct Features {
+    /// 1, d, d², r, r², r·d.
+    sf: Vec<[f64; 6]>,
+    /// Hat weights on the grid.
+    hat: Vec<[f64; GRID_POINTS]>,
+    play: Vec<f64>,
+    creep: Vec<f64>,
+}
+
+/// The largest timing offset a fit may take: 1.5 rows (a logger stamps a reading at the
+/// start, the centre or the end of its counting interval, and a conversion adds up to
+/// 0.75 s), at least 2 s. A longer delay is not a timestamp convention: `sensor_lag`.
+fn offset_limit_s(ch: &Channels) -> f64 {
+    let mut dt: Vec<f32> = ch.traces.iter().flat_map(|t| t.dt_s.iter().copied()).filter(|&d| d > 0.0).collect();
+    if dt.is_empty() {
+        return 2.0;
+    }
+    dt.sort_by(f32::total_cmp);
+    (1.5 * f64::from(dt[dt.len() / 2])).max(2.0)
+}
+
+fn clampf(x: f32, lo: f32, hi: f32) -> f32 {
+    if x < lo {
+        lo
+    } else if x > hi {
+        hi
+    } else {
+        x
+    }
+}
+
+/// A fitted model and its per-bin predictions (K1, K0) over every bin.
+#[derive(Clone, Debug)]
+pub struct Fitted {
+    /// The axis model.
+    pub model: AxisModel,
+    /// Per-bin predicted K1 (pulses/(g·s); 1 for single-channel) and K0.
+    pub pred: Vec<(f64, f64)>,
+    /// Bias drift, g/h (value units per hour for single-channel logs), when in the structure.
+    pub drift_per_h: Option<f64>,
+    /// The timing offset the fit took, when [`Setup::offset_basis`] is set.
+    pub offset: Option<TimingOffset>,
+}
+
+/// Per-bin residuals: scale factor in ppm (NaN for single-channel), bias in µg (or value).
+#[derive(Clone, Debug, Default)]
+pub struct Residuals {
+    /// Scale-factor residual, ppm.
+    pub sf: Vec<f64>,
+    /// Bias residual, µg (or the value's unit).
+    pub bias: Vec<f64>,
+}
+
+impl Setup<'_> {
+    fn probe(&self, nl: &Nonlinear) -> AxisModel {
+        let zeros = [0.0f32; GRID_POINTS];
+        AxisModel {
+            scale: ScaleFactor::simple(T0_C, 1.0, 0.0),
+            bias: BiasGrid::single_valued(self.grid_start, self.grid_step, &zeros).expect("2 to 16 grid values"),
+            rate_limit_c_per_min: self.rate_limit,
+            ext: Extensions {
+                sensor_lag: nl.lag_tau_s.map(|tau_s| SensorLag { tau_s }),
+                bias_branch_hysteresis: nl.play_r_c.map(|r| BranchHysteresis { half_width_c: r, weight_g: 1.0 }),
+                bias_creep: nl.creep.map(|(tau, e)| Creep {
+                    gain_g_per_c: 1.0,
+                    tau_ref_s: tau,
+                    t_ref_c: CREEP_T_REF_C,
+                    activation_k: e,
+                }),
+            },
+        }
+    }
+
+    fn features(&self, nl: &Nonlinear) -> Features {
+        let probe = self.probe(nl);
+        let n = self.ch.n_bins();
+        let mut f = Features {
+            sf: Vec::with_capacity(n),
+            hat: Vec::with_capacity(n),
+            play: Vec::with_capacity(n),
+            creep: Vec::with_capacity(n),
+        };
+        let t_end = probe.bias.t_end_c();
+        let lim = self.rate_limit;
+        for tr in &self.ch.traces {
+            let mut st = AxisState::default();
+            let mut bi = 0;
+            let (mut s6, mut h, mut pl, mut cr) = ([0.0f64; 6], [0.0f64; GRID_POINTS], 0.0, 0.0);
+            for i in 0..tr.est_t.len() {
+                probe.evaluate(&mut st, tr.est_t[i], tr.est_rate[i], tr.dt_s[i]);
+                let t = clampf(tr.est_t[i], self.grid_start, t_end);
+                let te = if nl.lag_tau_s.is_some() { st.element_c } else { t };
+                let r = f64::from(clampf(tr.est_rate[i], -lim, lim));
+                let d = f64::from(te - T0_C);
+                let row = crate::fit::eq11_regressors(d, r);
+                for k in 0..6 {
+                    s6[k] += row[k];
+                }
+                let x = (te - self.grid_start) / self.grid_step;
+                let j = (x as usize).min(GRID_POINTS - 2);
+                let frac = f64::from(x - j as f32);
+                h[j] += 1.0 - frac;
+                h[j + 1] += frac;
+                if let Some(rc) = nl.play_r_c {
+                    pl += f64::from((te - st.play_c) / rc);
+                }
+                if nl.creep.is_some() {
+                    cr += f64::from(te - st.creep_c);
+                }
+                while bi < tr.bins.len() && i + 1 == tr.bins[bi].hi {
+                    let m = (tr.bins[bi].hi - tr.bins[bi].lo) as f64;
+                    f.sf.push(s6.map(|v| v / m));
+                    f.hat.push(h.map(|v| v / m));
+                    f.play.push(pl / m);
+                    f.creep.push(cr / m);
+                    (s6, h, pl, cr) = ([0.0; 6], [0.0; GRID_POINTS], 0.0, 0.0);
+                    bi += 1;
+                }
+                if bi < tr.bins.len() && i + 1 == tr.bins[bi].lo {
+                    (s6, h, pl, cr) = ([0.0; 6], [0.0; GRID_POINTS], 0.0, 0.0);
+                }
+            }
+        }
+        f
+    }
+
+    /// Run `model` over every trace with the root crate's `evaluate`; per-bin (K1, K0).
+    #[must_use]
+    pub fn predict(&self, model: &AxisModel) -> Vec<(f64, f64)> {
+        let mut out = Vec::with_capacity(self.ch.n_bins());
+        for tr in &self.ch.traces {
+            let mut st = AxisState::default();
+            let mut bi = 0;
+            let (mut s1, mut s10) = (0.0f64, 0.0f64);
+            for i in 0..tr.est_t.len() {
+                let e = model.evaluate(&mut st, tr.est_t[i], tr.est_rate[i], tr.dt_s[i]);
+                if bi < tr.bins.len() && i >= tr.bins[bi].lo {
+                    s1 += f64::from(e.k1);
+                    s10 += f64::from(e.k1) * f64::from(e.k0);
+                }
+                while bi < tr.bins.len() && i + 1 == tr.bins[bi].hi {
+                    out.push((s1 / (tr.bins[bi].hi - tr.bins[bi].lo) as f64, s10 / s1));
+                    (s1, s10) = (0.0, 0.0);
+                    bi += 1;
+                }
+            }
+        }
+        out
+    }
+
+    /// Residuals (measured − model) of predictions.
+    #[must_use]
+    pub fn residuals(&self, pred: &[(f64, f64)]) -> Residuals {
+        let u = self.bias_unit();
+        let mut r = Residuals::default();
+        for (b, &(k1, k0)) in self.ch.traces.iter().flat_map(|t| t.bins.iter()).zip(pred) {
+            r.sf.push((b.sf - k1) / k1 * 1e6);
+            r.bias.push((b.bias - k0) * u);
+        }
+        r
+    }
+
+    /// Fit `structure` with nonlinear parameters `nl` on the bins where `train` is true.
+    #[must_use]
+    pub fn fit(&self, s: &Structure, nl: &Nonlinear, train: &[bool]) -> Fitted {
+        self.fit_y(s, nl, train, None)
+    }
+
+    /// Hours since the start of its program, per bin (the drift column).
+    #[must_use]
+    pub fn bin_hours(&self) -> Vec<f64> {
+        let mut v = Vec::with_capacity(self.ch.n_bins());
+        for t in &self.ch.traces {
+            let t0 = t.time_s.first().copied().unwrap_or(0.0);
+            v.extend(t.bins.iter().map(|b| (b.time_s - t0) / 3600.0));
+        }
+        v
+    }
+
+    /// As [`Setup::fit`], with the measured per-bin (K1, K0) replaced by `y` when given
+    /// (the block bootstrap refits resampled data through this).
+    #[must_use]
+    pub fn fit_y(&self, s: &Structure, nl: &Nonlinear, train: &[bool], y_over: Option<&[(f64, f64)]>) -> Fitted {
+        let f = self.features(nl);
+        let bins: Vec<_> = self.ch.traces.iter().flat_map(|t| t.bins.iter()).collect();
+        let meas = |i: usize| y_over.map_or((bins[i].sf, bins[i].bias), |y| y[i]);
+        let hours = if s.bias_drift { self.bin_hours() } else { Vec::new() };
+        let cyc = self.ch.kind == LogKind::Cycling;
+        // Scale factor: Eq. 11's columns (`eq11_regressors`' order) 1, d, [d²], [r], [r·d], [r²].
+        let rows: Vec<usize> = (0..bins.len()).filter(|&i| train[i]).collect();
+        let mut cols = vec![0usize, 1];
+        for (on, c) in [(s.sf_quad, 2), (s.sf_eps, 3), (s.sf_eta, 4), (s.sf_alpha, 5)] {
+            if on {
+                cols.push(c);
+            }
+        }
+        let a_sf = DMatrix::from_fn(if cyc { rows.len() } else { 0 }, cols.len(), |i, j| f.sf[rows[i]][cols[j]]);
+        let y_sf = DVector::from_fn(a_sf.nrows(), |i, _| meas(rows[i]).0);
+        // Bias: grid basis B (GRID_POINTS × nb) through the hats, then play, creep.
+        let basis: Vec<Vec<f64>> = match s.start {
+            Start::Simple => (0..GRID_POINTS)
+                .map(|j| {
+                    let d = f64::from(self.grid_temp(j) - T0_C);
+                    if s.bias_quad {
+                        vec![1.0, d, d * d]
+                    } else {
+                        vec![1.0, d]
+                    }
+                })
+                .collect(),
+            Start::Paper => {
+                (0..GRID_POINTS).map(|j| (0..GRID_POINTS).map(|k| if j == k { 1.0 } else { 0.0 }).collect()).collect()
+            }
+        };
+        let nb = basis[0].len();
+        let np = usize::from(nl.play_r_c.is_some());
+        let nc = usize::from(nl.creep.is_some());
+        let nd = usize::from(s.bias_drift);
+        let a = DMatrix::from_fn(rows.len(), nb + np + nc + nd, |i, j| {
+            let b = rows[i];
+            if j < nb {
+                (0..GRID_POINTS).map(|g| f.hat[b][g] * basis[g][j]).sum()
+            } else if j == nb && np == 1 {
+                f.play[b]
+            } else if j == nb + np && nc == 1 {
+                f.creep[b]
+            } else {
+                hours[b]
+            }
+        });
+        let y = DVector::from_fn(rows.len(), |i, _| meas(rows[i]).1);
+        // Paper start: a gentle second-difference penalty keeps a sparse grid well posed.
+        let pen = (s.start == Start::Paper).then_some((0usize, nb));
+        let (c_sf, c, offset) = self.solve_with_offset(&rows, (&a_sf, &y_sf), (&a, &y, pen));
+        let scale = if cyc {
+            let mut full = [0.0f64; 6];
+            for (j, &cj) in cols.iter().enumerate() {
+                full[cj] = c_sf[j];
+            }
+            crate::fit::scale_of_eq11(&full)
+        } else {
+            ScaleFactor::simple(T0_C, 1.0, 0.0)
+        };
+        let grid: Vec<f32> =
+            (0..GRID_POINTS).map(|g| (0..nb).map(|j| basis[g][j] * c[j]).sum::<f64>() as f32).collect();
+        let mut ext = Extensions { sensor_lag: nl.lag_tau_s.map(|tau_s| SensorLag { tau_s }), ..Default::default() };
+        if let Some(r) = nl.play_r_c {
+            ext.bias_branch_hysteresis = Some(BranchHysteresis { half_width_c: r, weight_g: c[nb] as f32 });
+        }
+        if let Some((tau, e)) = nl.creep {
+            ext.bias_creep = Some(Creep {
+                gain_g_per_c: c[nb + np] as f32,
+                tau_ref_s: tau,
+                t_ref_c: CREEP_T_REF_C,
+                activation_k: e,
+            });
+        }
+        let model = AxisModel {
+            scale,
+            bias: BiasGrid::single_valued(self.grid_start, self.grid_step, &grid).expect("2 to 16 grid values"),
+            rate_limit_c_per_min: self.rate_limit,
+            ext,
+        };
+        let mut pred = self.predict(&model);
+        // The drift is not an `AxisModel` term: it is added to the predicted K0 here.
+        let drift_per_h = s.bias_drift.then(|| c[nb + np + nc]);
+        if let Some(d) = drift_per_h {
+            for (p, h) in pred.iter_mut().zip(&hours) {
+                p.1 += d * h;
+            }
+        }
+        if let (Some(o), Some(basis)) = (offset, &self.offset_basis) {
+            for (p, d) in pred.iter_mut().zip(basis) {
+                p.0 += o.seconds * d.0;
+                p.1 += o.seconds * d.1;
+            }
+        }
+        Fitted { model, pred, drift_per_h, offset }
+    }
+
+    /// The two channels' least squares (scale factor: `a_sf`, `y_sf`; bias: `a_b`, `y_b`
+    /// with its penalty), with the timing offset δ shared by both when
+    /// [`Setup::offset_basis`] is set: the data are `y = A·c + δ·p + e`, so with
+    /// `r_y`, `r_p` the residuals of `y` and of the basis `p` on the scale factor's columns,
+    /// δ = Σ r_y·r_p / Σ r_p² and, on each channel, `c = c_y − δ·c_p`: the exact
+    /// least-squares solution on the scale factor, clamped to ±[`Setup::offset_limit_s`]
+    /// (the objective is a parabola in δ, so the clamp is the constrained optimum).
+    fn solve_with_offset(
+        &self,
+        rows: &[usize],
+        (a_sf, y_sf): (&DMatrix<f64>, &DVector<f64>),
+        (a_b, y_b, pen): (&DMatrix<f64>, &DVector<f64>, Option<(usize, usize)>),
+    ) -> (Vec<f64>, Vec<f64>, Option<TimingOffset>) {
+        let c_sf = if a_sf.nrows() > 0 { solve(a_sf, y_sf, None) } else { vec![0.0; a_sf.ncols()] };
+        let c_b = solve(a_b, y_b, pen);
+        let Some(basis) = self.offset_basis.as_ref().filter(|_| !rows.is_empty()) else {
+            return (c_sf, c_b, None);
+        };
+        let p_sf = DVector::from_fn(a_sf.nrows(), |i, _| basis[rows[i]].0);
+        let p_b = DVector::from_fn(a_b.nrows(), |i, _| basis[rows[i]].1);
+        let cp_sf = if a_sf.nrows() > 0 { solve(a_sf, &p_sf, None) } else { vec![0.0; a_sf.ncols()] };
+        let cp_b = solve(a_b, &p_b, pen);
+        let resid =
+            |a: &DMatrix<f64>, y: &DVector<f64>, c: &[f64]| -> DVector<f64> { y - a * DVector::from_column_slice(c) };
+        let (ry_sf, rp_sf) = (resid(a_sf, y_sf, &c_sf), resid(a_sf, &p_sf, &cp_sf));
+        // δ is estimated on the scale factor and applied to both channels. The bias's δ term
+        // is K0'·Ṫ·δ, 0.4 µg for 9 s at 0.9 °C/min on a 3-µg/°C unit, under slow noise of
+        // 1–10 µg that a white-noise weight does not see: weighted in, a 10-µg Gauss–Markov
+        // bias drove δ to its limit on the lab simulator's logs. The scale factor's is μ·Ṫ·δ,
+        // 16 ppm for the same 9 s on a −38 pulses/(g·s·°C) unit.
+        let den = rp_sf.norm_squared();
+        if den.is_nan() || den <= 0.0 {
+            return (c_sf, c_b, None);
+        }
+        let raw = self.offset_fixed.unwrap_or_else(|| ry_sf.dot(&rp_sf) / den);
+        let lim = self.offset_limit_s;
+        let d = raw.clamp(-lim, lim);
+        let sse = (&ry_sf - d * &rp_sf).norm_squared();
+        let n = ry_sf.len().max(2) as f64;
+        let se = (sse / (n - 1.0) / den).sqrt();
+        let sub = |c: Vec<f64>, cp: &[f64]| c.iter().zip(cp).map(|(a, b)| a - d * b).collect::<Vec<f64>>();
+        let offset =
+            TimingOffset { seconds: d, se_white_s: se, at_limit: raw.abs() >= lim && self.offset_fixed.is_none() };
+        (sub(c_sf, &cp_sf), sub(c_b, &cp_b), Some(offset))
+    }
+
+    /// Normalized sum of squares of `res` over `mask`: Σ(sf/σ_sf)² + Σ(bias/σ_b)².
+    #[must_use]
+    pub fn score(&self, res: &Residuals, mask: &[bool]) -> f64 {
+        let mut s = 0.0;
+        for ((&m, &sf), &b) in mask.iter().zip(&res.sf).zip(&res.bias) {
+            if m {
+                if sf.is_finite() {
+                    s += (sf / self.sigma_sf).powi(2);
+                }
+                s += (b / self.sigma_b).powi(2);
+            }
+        }
+        s
+    }
+}
+
+/// Least squares through the lab's one solver ([`crate::fit::lstsq_matrix`],
+/// SVD), on `A` stacked with two kinds of weak rows:
+/// * a ridge of 10⁻⁶ × each column's norm, so a column the training bins leave empty (or
+///   fewer bins than columns) still gives a defined, minimal answer;
+/// * with `pen = Some((from, to))`, a second-difference penalty on coefficients
+///   `from..to` of weight 10⁻² × the median column norm, which keeps a sparse bias grid well
+///   posed (weight 10⁻⁴ in the squared objective, against bins of unit weight).
+fn solve(a: &DMatrix<f64>, y: &DVector<f64>, pen: Option<(usize, usize)>) -> Vec<f64> {
+    let (n, k) = a.shape();
+    if n == 0 || k == 0 {
+        return vec![0.0; k];
+    }
+    let norm: Vec<f64> = (0..k).map(|j| a.column(j).norm()).map(|v| if v > 0.0 { v } else { 1.0 }).collect();
+    let pen_rows = pen.map_or(0, |(lo, hi)| hi.saturating_sub(lo + 2));
+    let mut m = DMatrix::zeros(n + k + pen_rows, k);
+    m.rows_mut(0, n).copy_from(a);
+    for j in 0..k {
+        m[(n + j, j)] = 1e-6 * norm[j];
+    }
+    if let Some((lo, hi)) = pen {
+        // Scaled by the median column norm: a node the training bins barely touch must not
+        // set the weight (an earlier 1/rms(norm⁻¹) let one near-empty end node shrink the
+        // penalty to nothing, and that node then took a coefficient of 10⁶ µg).
+        let mut sorted: Vec<f64> = norm[lo..hi].to_vec();
+        sorted.sort_by(f64::total_cmp);
+        let w = 1e-2 * sorted[sorted.len() / 2];
+        for (i, row) in crate::solver::second_difference_rows(k, lo, hi - lo, w).enumerate() {
+            m.row_mut(n + k + i).copy_from_slice(&row);
+        }
+    }
+    let mut yy = DVector::zeros(n + k + pen_rows);
+    yy.rows_mut(0, n).copy_from(y);
+    // Never fails: the ridge rows make the stacked matrix at least as tall as wide.
+    crate::fit::lstsq_matrix(m, &yy).map_or_else(|_| vec![0.0; k], |r| r.coef)
+}
+
+/// Golden-section minimum of `f` on `[a, b]`.
+pub fn golden(mut f: impl FnMut(f64) -> f64, mut a: f64, mut b: f64, iters: usize) -> (f64, f64) {
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    let mut c = b - g * (b - a);
+    let mut d = a + g * (b - a);
+    let (mut fc, mut fd) = (f(c), f(d));
+    for _ in 0..iters {
+        if fc < fd {
+            b = d;
+            d = c;
+            fd = fc;
+            c = b - g * (b - a);
+            fc = f(c);
+        } else {
+            a = c;
+            c = d;
+            fc = fd;
+            d = a + g * (b - a);
+            fd = f(d);
+        }
+    }
+    if fc < fd {
+        (c, fc)
+    } else {
+        (d, fd)
+    }
+}
+
+/// Nelder–Mead in 2-D from `x0` with initial steps `step`.
+pub fn nelder_mead2(mut f: impl FnMut([f64; 2]) -> f64, x0: [f64; 2], step: [f64; 2], iters: usize) -> ([f64; 2], f64) {
+    let mut s = [x0, [x0[0] + step[0], x0[1]], [x0[0], x0[1] + step[1]]];
+    let mut v = [f(s[0]), f(s[1]), f(s[2])];
+    let lerp = |a: [f64; 2], b: [f64; 2], t: f64| [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
+    for _ in 0..iters {
+        let mut idx = [0, 1, 2];
+        idx.sort_by(|&i, &j| v[i].total_cmp(&v[j]));
+        s = [s[idx[0]], s[idx[1]], s[idx[2]]];
+        v = [v[idx[0]], v[idx[1]], v[idx[2]]];
+        let c = lerp(s[0], s[1], 0.5);
+        let xr = lerp(s[2], c, 2.0);
+        let fr = f(xr);
+        if fr < v[0] {
+            let xe = lerp(s[2], c, 3.0);
+            let fe = f(xe);
+            if fe < fr {
+                (s[2], v[2]) = (xe, fe);
+            } else {
+                (s[2], v[2]) = (xr, fr);
+            }
+        } else if fr < v[1] {
+            (s[2], v[2]) = (xr, fr);
+        } else {
+            let xc = lerp(s[2], c, 0.5);
+            let fcv = f(xc);
+            if fcv < v[2] {
+                (s[2], v[2]) = (xc, fcv);
+            } else {
+                for i in 1..3 {
+                    s[i] = lerp(s[0], s[i], 0.5);
+                    v[i] = f(s[i]);
+                }
+            }
+        }
+    }
+    let b = (0..3).min_by(|&i, &j| v[i].total_cmp(&v[j])).unwrap_or(0);
+    (s[b], v[b])
+}

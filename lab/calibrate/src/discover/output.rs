@@ -1,0 +1,644 @@
+//! Outputs: `report.json`, `report.md`, `table.bin` (root-crate `Table`, 1 axis, rate
+//! window 32, new slots on: what `qfa-lab compensate --table DIR/table.bin` loads, so
+//! "discover, then compensate" is the workflow), the same bytes as `model.bin` (older
+//! name), `model.toml`, `residuals.csv` and residual plots (PNG).
+//!
+//! The per-axis directories of a static log's discovery ([`super::static_axes`]) get no
+//! `table.bin`/`model.bin`: their model is the named one in the axis's own units (K1 = 1,
+//! `bias_drift` without a slot), and `compensate` takes a table of all the log's axes, the
+//! one in the parent directory. Their `model.toml` is for reading and says so.
+//!
+//! Every `report.md`, `report.json` and `report.html` opens with the run's verdict
+//! ([`super::verdict`]), the same lines in each.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use anyhow::{Context, Result};
+use plotters::prelude::*;
+use qfa_thermal::table::{Input, Table};
+
+use super::static_axes::{AxisDiscovery, StaticDiscovery};
+use super::{BiasUnit, Channels, Gaps, LogKind, Report};
+use crate::metrics::rms_of_finite;
+use qfa_report::verdict::{json_with_verdict, Verdict};
+
+/// The named model's held-out gap is above the start model's on some channel.
+#[must_use]
+pub fn worse(r: &Report) -> bool {
+    match (&r.heldout_gap_before, &r.heldout_gap_after) {
+        (Gaps::Cycling { scale_factor_ppm: s0, bias_ug: b0 }, Gaps::Cycling { scale_factor_ppm: s1, bias_ug: b1 }) => {
+            s1 > s0 || b1 > b0
+        }
+        (Gaps::Single { value_rms: a }, Gaps::Single { value_rms: b }) => b > a,
+        _ => false,
+    }
+}
+
+/// A report's gaps in words with their units.
+#[must_use]
+pub fn gaps_text(unit: BiasUnit, g: &Gaps) -> String {
+    match g {
+        Gaps::Cycling { scale_factor_ppm, bias_ug } => {
+            format!("scale factor {scale_factor_ppm:.2} ppm, bias {bias_ug:.2} µg")
+        }
+        Gaps::Single { value_rms } => format!("value {value_rms:.4} {}", unit.label()),
+    }
+}
+
+/// The root-crate table of the report's final model, for `input`: pulse counts for a
+/// cycling log's scale-factor model, samples for a single-output log.
+#[must_use]
+pub fn table(report: &Report, input: Input) -> Option<Table> {
+    // Not validated here: a single-channel log's model is in the log's own units (often
+    // µg), which the root crate refuses as a table. `model.toml` is written either way;
+    // `write` validates before `table.bin` and says why when it cannot.
+    let mut t = Table {
+        input,
+        rate_window: qfa_log::pairing::RATE_WINDOW as u16,
+        axes: Default::default(),
+        misalignment: None,
+    };
+    t.axes.push(report.model.clone()?).ok()?;
+    Some(t)
+}
+
+/// Which run a discovery's outputs belong to.
+#[derive(Clone, Copy)]
+pub enum Scope<'a> {
+    /// A discovery of its own log (cycling or single-channel): its folds give the held-out
+    /// figures, and its `table.bin` is flashable.
+    Own,
+    /// One axis of a static log ([`super::static_axes`]): the held-out figures are the
+    /// log's scheme's (in the axis's record), discovery's own folds only chose what to name
+    /// (their figures are called selection-fold figures), and the table to flash is the
+    /// parent folder's, so this folder gets no `table.bin`/`model.bin`.
+    StaticAxis {
+        /// The whole static discovery.
+        discovery: &'a StaticDiscovery,
+        /// This axis.
+        axis: &'a AxisDiscovery,
+    },
+}
+
+impl Scope<'_> {
+    /// What this run's reports call the figures of discovery's own folds.
+    #[must_use]
+    pub fn folds_word(self) -> &'static str {
+        match self {
+            Self::Own => "held-out",
+            Self::StaticAxis { .. } => "selection-fold",
+        }
+    }
+
+    /// [`Scope::folds_word`] opening a sentence.
+    #[must_use]
+    pub fn folds_word_capital(self) -> &'static str {
+        match self {
+            Self::Own => "Held-out",
+            Self::StaticAxis { .. } => "Selection-fold",
+        }
+    }
+
+    /// The folds this run's own figures come from, by name.
+    #[must_use]
+    pub fn folds_name(self) -> &'static str {
+        match self {
+            Self::Own => "held-out folds",
+            Self::StaticAxis { .. } => "selection folds",
+        }
+    }
+
+    /// A sentence written for a discovery of its own log (the selection rule, the folds'
+    /// rule), in this run's words: on a static axis "held-out" there means selection-fold.
+    #[must_use]
+    pub fn relabel(self, text: &str) -> String {
+        match self {
+            Self::Own => text.to_string(),
+            Self::StaticAxis { .. } => text.replace("held-out", "selection-fold").replace("Held-out", "Selection-fold"),
+        }
+    }
+
+    /// Whether this folder gets a `table.bin` of its own.
+    #[must_use]
+    pub fn flashable(self) -> bool {
+        matches!(self, Self::Own)
+    }
+}
+
+/// Write every output into `dir` and return the verdict they open with. A static axis
+/// ([`Scope::StaticAxis`]) gets no `table.bin`/`model.bin` (see the module docs), and older
+/// ones there are removed.
+///
+/// # Errors
+/// A file could not be written.
+pub fn write(ch: &Channels, report: &Report, dir: &Path, scope: Scope<'_>) -> Result<Verdict> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let mut tables: Vec<String> = Vec::new();
+    let mut rest: Vec<String> = Vec::new();
+    let mut notes: Vec<String> = Vec::new();
+    let input = match ch.kind {
+        LogKind::Cycling => Input::PulseCounts,
+        LogKind::Single => Input::Samples,
+    };
+    if !scope.flashable() {
+        for f in ["table.bin", "model.bin"] {
+            match std::fs::remove_file(dir.join(f)) {
+                Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(e.into()),
+                _ => {}
+            }
+        }
+    }
+    if let Some(t) = table(report, input).filter(|_| scope.flashable()) {
+        match crate::fit::encode(&t) {
+            Ok(b) => {
+                std::fs::write(dir.join("table.bin"), &b)?;
+                std::fs::write(dir.join("model.bin"), &b)?;
+                tables.extend(["table.bin".to_string(), "model.bin".to_string()]);
+            }
+            Err(e) => notes.push(format!("the table did not validate ({e:?}), so no table.bin was written")),
+        }
+    }
+    if let Some(t) = table(report, input) {
+        std::fs::write(dir.join("model.toml"), toml::to_string(&t)?)?;
+        tables.push("model.toml".to_string());
+    }
+    write_csv(ch, report, &dir.join("residuals.csv"))?;
+    rest.push("residuals.csv".to_string());
+    match plots(ch, report, dir, scope) {
+        Ok(names) => rest.extend(names),
+        Err(e) => notes.push(format!("plots failed: {e:#}")),
+    }
+    let files: Vec<String> =
+        tables.into_iter().chain(["report.json", "report.md", "report.html"].map(String::from)).chain(rest).collect();
+    let v = match scope {
+        Scope::Own => super::verdict::discovery_verdict(ch, report, &files, &notes),
+        Scope::StaticAxis { discovery, axis } => {
+            let mut v = super::verdict::axis_verdict(discovery, axis, ch);
+            v.warnings.extend(notes);
+            v.files = super::verdict::axis_files(&files);
+            v
+        }
+    };
+    std::fs::write(dir.join("report.json"), json_with_verdict(&v, report)? + "\n")?;
+    std::fs::write(dir.join("report.md"), markdown(ch, report, scope, &v))?;
+    super::page::page(ch, report, dir, scope, &v)?.write(dir)?;
+    Ok(v)
+}
+
+/// The line saying what `table.bin` holds and what it scores held out.
+fn flashed_line(s: &mut String, ch: &Channels, r: &Report) {
+    let _ = writeln!(
+        s,
+        "Flashed (`table.bin`): the {}, held out {}{}.\n",
+        r.flashed.model,
+        gaps_text(ch.bias_unit, &r.flashed.heldout),
+        r.flashed.peer_better.as_ref().map_or_else(String::new, |p| format!(
+            "; **{} predicts the bias better held out ({:.3} {})**{}",
+            p.peer,
+            p.heldout_rms,
+            ch.bias_unit.label(),
+            if ch.kind == LogKind::Cycling { ", but has no scale-factor model to flash" } else { "" }
+        ))
+    );
+}
+
+#[allow(clippy::too_many_lines)]
+fn markdown(ch: &Channels, r: &Report, scope: Scope<'_>, v: &Verdict) -> String {
+    let (held, held_cap) = (scope.folds_word(), scope.folds_word_capital());
+    let mut s = String::new();
+    match scope {
+        Scope::Own => {
+            let _ = write!(s, "# Discovery report\n\n{}", v.markdown());
+            let _ = writeln!(s, "Start model: `{}`. Held-out rule: {}.\n", r.start.name(), r.heldout_rule);
+        }
+        Scope::StaticAxis { discovery, axis } => {
+            let _ = write!(s, "{}\n\n{}", super::static_axes::axis_title(axis), v.markdown());
+            s.push_str(&super::static_axes::axis_figures_markdown(discovery, axis));
+            let _ = writeln!(s, "\n## How discovery chose (selection folds)\n");
+            let _ = writeln!(
+                s,
+                "The figures in this section come from discovery's own folds inside the rows it saw (they decide \
+                 what is named), so they are called selection-fold figures; the held-out figures of the axis are \
+                 the ones above.\n"
+            );
+            let _ = writeln!(
+                s,
+                "Start model: `{}`. Selection folds: {}.\n",
+                r.start.name(),
+                scope.relabel(&r.heldout_rule)
+            );
+        }
+    }
+    let _ = writeln!(s, "- {held_cap} gap, start model: {}", gaps_text(ch.bias_unit, &r.heldout_gap_before));
+    let _ = writeln!(
+        s,
+        "- {held_cap} gap, named model{}: {}",
+        if worse(r) { " (worse than the start)" } else { "" },
+        gaps_text(ch.bias_unit, &r.heldout_gap_after)
+    );
+    let _ = writeln!(
+        s,
+        "- Noise floor (white part of the noise model fitted to the final {held} residual): {}",
+        gaps_text(ch.bias_unit, &r.noise_floor)
+    );
+    let _ = writeln!(s, "- Noise model: {}; change points: {}", noise_models_text(ch, r), change_point_tests_text(r));
+    if let Some(line) = timing_offset_text(ch, r) {
+        let _ = writeln!(s, "- Timing offset between the temperature readings and the counts: {line}");
+    }
+    let _ = writeln!(s);
+    let labels = r.effect_labels();
+    let _ = writeln!(
+        s,
+        "Summary: added {}; {}.\n",
+        if labels.is_empty() { "none".to_string() } else { labels.join(", ") },
+        if r.unexplained.is_empty() {
+            let ratios = r
+                .residual_vs_floor
+                .iter()
+                .map(|f| format!("{} {:.1}× [{:.1}, {:.1}]", f.channel, f.ratio, f.ratio_ci95[0], f.ratio_ci95[1]))
+                .collect::<Vec<_>>()
+                .join(", ");
+            if r.residual_vs_floor.iter().any(|f| f.ratio > 2.0) {
+                format!(
+                    "the {held} residual is {ratios} its white-noise floor, and the noise model fitted to it ({}) is \
+                     not rejected: no step inside any run ({}), run levels within its noise, no driver followed; \
+                     slow noise of that size explains it, and the catalog's effects cannot be told from it",
+                    noise_models_text(ch, r),
+                    change_point_tests_text(r)
+                )
+            } else {
+                format!(
+                    "no structure left that the catalog fails to explain ({held} residual {ratios} its noise floor)"
+                )
+            }
+        } else {
+            format!(
+                "unexplained structure left on {}",
+                r.unexplained.iter().map(|u| u.channel.as_str()).collect::<Vec<_>>().join(", ")
+            )
+        }
+    );
+    if scope.flashable() {
+        flashed_line(&mut s, ch, r);
+    }
+    let _ = writeln!(s, "Selection: {}.\n", scope.relabel(&r.selection_rule));
+    let unit = ch.bias_unit.label();
+    let _ = writeln!(
+        s,
+        "## Peers on the same {held} split (bias channel, {unit})\n\nEach fitted per fold on the training bins (bin means of the raw temperature reading) and scored on the bins its fold left out.\n\n| model | {held} RMS |\n|---|---|"
+    );
+    let bias_gap = |g: &Gaps| match g {
+        Gaps::Cycling { bias_ug, .. } => *bias_ug,
+        Gaps::Single { value_rms } => *value_rms,
+    };
+    let _ = writeln!(s, "| start model (`{}`) | {:.4} |", r.start.name(), bias_gap(&r.heldout_gap_before));
+    let _ = writeln!(s, "| named model | {:.4} |", bias_gap(&r.heldout_gap_after));
+    for p in &r.peers {
+        match (&p.heldout_rms, &p.error) {
+            (Some(x), _) => {
+                let _ = writeln!(s, "| {} | {x:.4} |", p.peer);
+            }
+            (None, e) => {
+                let _ = writeln!(s, "| {} | not computed: {} |", p.peer, e.as_deref().unwrap_or("no figure"));
+            }
+        }
+    }
+    let _ = writeln!(s);
+    if r.effects.is_empty() {
+        let _ = writeln!(s, "## Effects added: none\n\nNo candidate improved the {held} fit significantly.\n");
+    } else {
+        let _ = writeln!(
+            s,
+            "## Effects added\n\n| # | effect | channel | parameters (95 % interval) | {held} gain ± block-bootstrap SE | {held} gap before → after | {} |\n|---|---|---|---|---|---|---|",
+            if scope.flashable() { "in table.bin" } else { "root-crate slot" }
+        );
+        for (i, e) in r.effects.iter().enumerate() {
+            let p: Vec<String> = e.params_text(" **at search limit**");
+            let _ = writeln!(
+                s,
+                "| {} | `{}` | {} | {} | {:.1} ± {:.1} | {:.3} → {:.3} | {} |",
+                i + 1,
+                e.name,
+                e.channel,
+                p.join("; "),
+                e.gain.gain,
+                e.gain.bootstrap_se,
+                e.heldout_gap_before,
+                e.heldout_gap_after,
+                if e.in_table { "yes" } else { "no (no root-crate slot)" }
+            );
+        }
+        let _ = writeln!(s);
+    }
+    if !r.unexplained.is_empty() {
+        let _ = writeln!(s, "## Unexplained\n");
+        for u in &r.unexplained {
+            let mut line = format!(
+                "- The {} channel keeps structure that no catalog effect explains ({held} RMS {:.3}",
+                u.channel, u.rms
+            );
+            let _ = write!(
+                line,
+                ", {:.1}× its noise floor of {:.3}, 95 % interval [{:.1}, {:.1}]",
+                u.floor.ratio, u.floor.floor, u.floor.ratio_ci95[0], u.floor.ratio_ci95[1]
+            );
+            if let Some(l) = u.run_levels.as_ref().filter(|l| l.significant) {
+                let _ = write!(
+                    line,
+                    "; its mean differs between runs more than noise allows (χ² {:.1} on {} runs, critical {:.1})",
+                    l.q, l.runs, l.critical
+                );
+            }
+            if let Some(c) = &u.change_point {
+                let _ = write!(
+                    line,
+                    "; its level steps by {:+.3} at {:.2} h into {}, which the fitted noise model ({}) rejects (|z| {:.1})",
+                    c.size,
+                    c.at_h,
+                    c.run,
+                    noise_model_of(r, &u.channel).map_or_else(String::new, |n| n.model.text(channel_unit(ch, &u.channel))),
+                    c.z
+                );
+            }
+            match u.structure_rms {
+                Some(x) if !u.correlates_with.is_empty() => {
+                    let _ = write!(line, "; about {x:.3} of it follows {}).", u.correlates_with.join(", then "));
+                }
+                _ => line.push_str("; it follows none of the drivers tested)."),
+            }
+            let ts = &u.time_scales;
+            let _ = write!(
+                line,
+                " It lives mostly {} (RMS across runs {:.3}, slow within runs {:.3}, fast {:.3}).",
+                ts.dominant(),
+                ts.across_runs,
+                ts.within_run_slow,
+                ts.fast
+            );
+            if !u.where_.is_empty() {
+                let _ = write!(line, " It is largest on {}.", u.where_);
+            }
+            if !u.pinned.is_empty() {
+                let _ = write!(
+                    line,
+                    " Catalog effects that would fit only with a parameter at a search limit, so are not named: {}.",
+                    u.pinned.join("; ")
+                );
+            }
+            let _ = writeln!(s, "{line}");
+        }
+        let _ = writeln!(s);
+    }
+    let unit = if ch.kind == LogKind::Cycling { "ppm / µg".to_string() } else { ch.bias_unit.label().to_string() };
+    let _ = writeln!(
+        s,
+        "## Where the start model disagrees ({held} RMS, {unit})\n\n| channel | segment | RMS |\n|---|---|---|"
+    );
+    for w in &r.where_ {
+        let _ = writeln!(s, "| {} | {} | {:.3} |", w.channel, w.segment, w.rms);
+    }
+    let _ = writeln!(
+        s,
+        "\n## Where the final model disagrees ({held} RMS, {unit})\n\n| channel | segment | RMS |\n|---|---|---|"
+    );
+    for w in &r.where_after {
+        let _ = writeln!(s, "| {} | {} | {:.3} |", w.channel, w.segment, w.rms);
+    }
+    let _ = writeln!(s, "\n## Candidates per round\n\nGain: drop of the {held} Σ(residual/RMS)² (units of one bin's variance); SE from the block sums; significant when gain/SE exceeds the critical value.\n");
+    for (i, round) in r.rounds.iter().enumerate() {
+        let _ = writeln!(s, "### Round {}\n\n| candidate | channel | gain | SE | gain/SE | critical | blocks × bins | significant | at search limit | {held} gaps |\n|---|---|---|---|---|---|---|---|---|---|", i + 1);
+        for t in round {
+            let _ = writeln!(s, "| {} |", round_row(ch, t).join(" | "));
+        }
+        let _ = writeln!(s);
+    }
+    if scope.flashable() {
+        let _ = writeln!(s, "Files: `report.json`, `table.bin` (root-crate table, 1 axis, rate window 32: `qfa-lab compensate --table DIR/table.bin`), `model.bin` (same bytes), `model.toml`, `residuals.csv`, `residual_*.png`.");
+    } else {
+        let _ = writeln!(s, "Files: `report.json`, `model.toml` (the named model, for reading: its K1 is 1 and `bias_drift` has no slot, so it is not a table to flash; the flashable table of all axes is `../table.bin`), `residuals.csv`, `residual_*.png`.");
+    }
+    s
+}
+
+/// One candidate trial as the cells of the rounds' tables (Markdown and the page).
+#[must_use]
+pub fn round_row(ch: &Channels, t: &super::CandidateTrial) -> Vec<String> {
+    vec![
+        format!("`{}`", t.name),
+        t.channel.clone(),
+        format!("{:.1}", t.gain.gain),
+        format!("{:.1}", t.gain.se),
+        format!("{:.2}", t.gain.t),
+        format!("{:.2}", t.gain.critical),
+        format!("{} × {}", t.gain.blocks, t.gain.block_bins),
+        if t.significant { "yes" } else { "no" }.to_string(),
+        if t.at_bound.is_empty() { "-".to_string() } else { t.at_bound.join(", ") },
+        gaps_text(ch.bias_unit, &t.gaps),
+    ]
+}
+
+struct Row {
+    trace: usize,
+    time_s: f64,
+    temp_c: f64,
+    dir: i8,
+}
+
+fn rows(ch: &Channels) -> Vec<Row> {
+    let mut v = Vec::new();
+    for (ti, t) in ch.traces.iter().enumerate() {
+        for b in &t.bins {
+            let m = (b.hi - b.lo) as f64;
+            let tm = t.est_t[b.lo..b.hi].iter().map(|&x| f64::from(x)).sum::<f64>() / m;
+            let rm = t.est_rate[b.lo..b.hi].iter().map(|&x| f64::from(x)).sum::<f64>() / m;
+            let dir = if rm > 0.05 {
+                1
+            } else if rm < -0.05 {
+                -1
+            } else {
+                0
+            };
+            v.push(Row { trace: ti, time_s: b.time_s, temp_c: tm, dir });
+        }
+    }
+    v
+}
+
+fn write_csv(ch: &Channels, r: &Report, path: &Path) -> Result<()> {
+    let (b, a) = &r.residuals;
+    let mut s = String::from("program,time_s,temp_c,direction,sf_before_ppm,sf_after_ppm,bias_before,bias_after\n");
+    for (i, row) in rows(ch).iter().enumerate() {
+        let d = ["cooling", "hold", "heating"][(row.dir + 1) as usize];
+        let _ = writeln!(
+            s,
+            "{},{:.1},{:.3},{d},{:.4},{:.4},{:.6},{:.6}",
+            ch.traces[row.trace].program, row.time_s, row.temp_c, b.sf[i], a.sf[i], b.bias[i], a.bias[i]
+        );
+    }
+    std::fs::write(path, s)?;
+    Ok(())
+}
+
+/// The channels plotted: `(file stem, name in a title, axis label, unit)`.
+fn plotted(ch: &Channels) -> Vec<(&'static str, &'static str, &'static str, &'static str)> {
+    if ch.kind == LogKind::Cycling {
+        vec![
+            ("scale_factor", "scale factor", "scale-factor residual, ppm", "ppm"),
+            ("bias", "bias", "bias residual, µg", "µg"),
+        ]
+    } else if ch.bias_unit == BiasUnit::Value {
+        vec![("value", "value", "residual, value units", "value units")]
+    } else {
+        vec![("value", "bias", "bias residual, µg", "µg")]
+    }
+}
+
+/// Bins of `ch` on a hold (neither heating nor cooling).
+#[must_use]
+pub fn hold_bins(ch: &Channels) -> usize {
+    rows(ch).iter().filter(|r| r.dir == 0).count()
+}
+
+/// `residual_<channel>_vs_{time,temp}.png`: each channel's residual of every bin, start
+/// model above, named model below, on one shared scale; heating red, cooling blue, hold
+/// grey. The legend sits in a band above the data (the y range runs to 1.6× the largest
+/// residual), so it covers none of it. Returns the file names written.
+fn plots(ch: &Channels, r: &Report, dir: &Path, scope: Scope<'_>) -> Result<Vec<String>> {
+    qfa_report::plot_font::register();
+    let rows = rows(ch);
+    let (b, a) = &r.residuals;
+    let held = scope.folds_word();
+    let mut written = Vec::new();
+    // Program offsets so time runs on across programs.
+    let mut off = vec![0.0; ch.traces.len()];
+    let mut acc = 0.0;
+    for (i, t) in ch.traces.iter().enumerate() {
+        off[i] = acc;
+        acc += t.time_s.last().copied().unwrap_or(0.0) / 3600.0 + 0.5;
+    }
+    for (stem, name, label, unit) in plotted(ch) {
+        let (before, after) = if stem == "scale_factor" { (&b.sf, &a.sf) } else { (&b.bias, &a.bias) };
+        for vs_time in [true, false] {
+            let file_name = format!("residual_{stem}_vs_{}.png", if vs_time { "time" } else { "temp" });
+            let file = dir.join(&file_name);
+            let root = BitMapBackend::new(&file, (1200, 800)).into_drawing_area();
+            root.fill(&WHITE)?;
+            let panels = root.split_evenly((2, 1));
+            let x_of = |i: usize| if vs_time { off[rows[i].trace] + rows[i].time_s / 3600.0 } else { rows[i].temp_c };
+            let (xlo, xhi) =
+                (0..rows.len()).map(x_of).fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| (l.min(x), h.max(x)));
+            let ymax =
+                before.iter().chain(after.iter()).filter(|v| v.is_finite()).fold(1e-12f64, |m, v| m.max(v.abs()));
+            let named = if worse(r) { "named model, worse than the start" } else { "named model" };
+            let titles = [
+                format!("start model `{}`: {held} RMS {:.2} {unit}", r.start.name(), rms_of_finite(before)),
+                format!("{named}: {held} RMS {:.2} {unit}", rms_of_finite(after)),
+            ];
+            let branches = [
+                (1, "heating", RGBColor(230, 60, 60)),
+                (-1, "cooling", RGBColor(60, 60, 230)),
+                (0, "hold", RGBColor(160, 160, 160)),
+            ];
+            for (p, (title, v)) in panels.iter().zip([(&titles[0], before), (&titles[1], after)]) {
+                // The legend in a strip above the chart: inside, it sat on the hottest bins.
+                let entries: Vec<qfa_report::plot_legend::Entry> = branches
+                    .iter()
+                    .filter(|(dir, _, _)| (0..rows.len()).any(|i| rows[i].dir == *dir && v[i].is_finite()))
+                    .map(|(_, what, c)| ((*what).to_string(), *c, qfa_report::plot_legend::Mark::Dot))
+                    .collect();
+                let area = qfa_report::plot_legend::heading(
+                    p,
+                    &format!("{name}, every bin from a fit that never saw it: {title}"),
+                    &entries,
+                )
+                .map_err(|e| anyhow::anyhow!("{file_name}: {e}"))?;
+                let mut chart = ChartBuilder::on(&area)
+                    .margin(8)
+                    .x_label_area_size(30)
+                    .y_label_area_size(60)
+                    .build_cartesian_2d(xlo..xhi.max(xlo + 1e-9), -ymax..1.1 * ymax)?;
+                chart
+                    .configure_mesh()
+                    .x_desc(if vs_time { "time, h (programs in sequence)" } else { "temperature, °C" })
+                    .y_desc(label)
+                    .draw()?;
+                for (dir, _, c) in branches {
+                    let pts: Vec<(f64, f64)> = (0..rows.len())
+                        .filter(|&i| rows[i].dir == dir && v[i].is_finite())
+                        .map(|i| (x_of(i), v[i]))
+                        .collect();
+                    chart.draw_series(pts.into_iter().map(|p| Circle::new(p, 1, c.mix(0.7).filled())))?;
+                }
+            }
+            root.present()?;
+            written.push(file_name);
+        }
+    }
+    Ok(written)
+}
+
+/// The residual unit of a channel in words.
+fn channel_unit(ch: &Channels, channel: &str) -> &'static str {
+    if channel == "scale_factor" {
+        "ppm"
+    } else {
+        ch.bias_unit.label()
+    }
+}
+
+/// The noise test of `channel`, if the report has one.
+fn noise_model_of<'a>(r: &'a Report, channel: &str) -> Option<&'a super::noise::NoiseTest> {
+    r.residual_vs_floor.iter().position(|f| f.channel == channel).and_then(|k| r.noise.get(k))
+}
+
+/// Every channel's fitted noise model, in words.
+pub(super) fn noise_models_text(ch: &Channels, r: &Report) -> String {
+    r.residual_vs_floor
+        .iter()
+        .zip(&r.noise)
+        .map(|(f, n)| format!("{}: {}", f.channel, n.model.text(channel_unit(ch, &f.channel))))
+        .collect::<Vec<_>>()
+        .join("; ")
+}
+
+/// Every channel's change-point search against its critical value, in words.
+pub(super) fn change_point_tests_text(r: &Report) -> String {
+    r.residual_vs_floor
+        .iter()
+        .zip(&r.noise)
+        .map(|(f, n)| match (n.max_z, n.critical) {
+            (Some(z), Some(c)) => format!(
+                "{} largest |z| {z:.1} against {c:.1} from {} series of the model ({} runs searched)",
+                f.channel,
+                super::noise::NULL_DRAWS,
+                n.runs_searched
+            ),
+            _ => format!("{}: not searched, no run of {} bins or more", f.channel, 2 * super::noise::MIN_SEGMENT_BINS),
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The timing offset in words (cycling logs; `None` for a single-channel log).
+pub(super) fn timing_offset_text(ch: &Channels, r: &Report) -> Option<String> {
+    match &r.timing_offset {
+        Some(o) => Some(format!(
+            "{:+.2} s, 95 % interval [{:+.2}, {:+.2}] s (fitted with every model){}",
+            o.seconds,
+            o.ci95[0],
+            o.ci95[1],
+            if o.at_limit {
+                format!(", at its limit of ±{:.1} s: a longer delay than any timestamp convention", o.limit_s)
+            } else {
+                String::new()
+            }
+        )),
+        None if ch.kind == LogKind::Cycling => Some(
+            "not fitted, since the model holds ε·Ṫ (the `paper` start, or `rate_hysteresis` named): the two are one \
+             signal on the scale factor, and ε carries any offset"
+                .into(),
+        ),
+        None => None,
+    }
+}

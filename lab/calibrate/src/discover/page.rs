@@ -1,0 +1,362 @@
+//! Discovery's `report.html` ([`qfa_report::html_report`]): the verdict, the report's fields as
+//! tables (every table a [`Page::table`] or [`Page::kv`]), what the log covers, and every
+//! PNG in the output folder with a caption saying what to look for.
+
+use std::path::Path;
+
+use anyhow::Result;
+
+use super::output::{gaps_text, Scope};
+use super::static_axes::StaticDiscovery;
+use super::{Channels, Gaps, Report};
+use crate::coverage::Coverage;
+use qfa_report::html_report::Page;
+use qfa_report::verdict::Verdict;
+
+/// What the log's traces cover, as the rate estimator sees them.
+///
+/// # Errors
+/// No row with a temperature.
+pub fn coverage(ch: &Channels) -> Result<Coverage> {
+    let s = ch.traces.iter().flat_map(|t| t.est_t.iter().zip(&t.est_rate).map(|(&a, &r)| (f64::from(a), f64::from(r))));
+    Coverage::of_samples(s, f64::from(qfa_log::pairing::branch_deadband_c_per_min()))
+}
+
+/// What to look for in one of [`super::output`]'s residual plots (`file`), and why it may
+/// look alarming.
+#[must_use]
+pub fn caption(file: &str, ch: &Channels, r: &Report, scope: Scope<'_>) -> String {
+    let held = scope.folds_word();
+    let vs_time = file.ends_with("_vs_time.png");
+    let (name, pick): (&str, fn(&Gaps) -> f64) = if file.starts_with("residual_scale_factor") {
+        ("Scale-factor", |g| if let Gaps::Cycling { scale_factor_ppm, .. } = g { *scale_factor_ppm } else { f64::NAN })
+    } else {
+        ("Bias", |g| match g {
+            Gaps::Cycling { bias_ug, .. } => *bias_ug,
+            Gaps::Single { value_rms } => *value_rms,
+        })
+    };
+    let unit = if name == "Scale-factor" { "ppm" } else { ch.bias_unit.label() };
+    let (start, named, floor) = (pick(&r.heldout_gap_before), pick(&r.heldout_gap_after), pick(&r.noise_floor));
+    let mut s = format!(
+        "{name} residual of every bin, each from a fit that never saw it ({}): start model above, named model \
+         below, on one scale, against {}; red heating, blue cooling, grey hold.",
+        scope.folds_name(),
+        if vs_time { "time" } else { "temperature" }
+    );
+    if vs_time {
+        s.push_str(&format!(
+            " Look at the lower panel: a band about as wide as the noise ({floor:.2} {unit} bin to bin) means nothing \
+             is left; steps between runs, slow trends, or heating sitting apart from cooling are what the named model \
+             misses."
+        ));
+    } else {
+        s.push_str(
+            " Look at the lower panel: a curve left means the temperature shape is wrong; heating apart from cooling \
+             at one temperature is a lag or a hysteresis left.",
+        );
+        if super::output::hold_bins(ch) > 0 {
+            s.push_str(
+                " Grey points stack in columns at the hold temperatures: their spread is how far the output moves \
+                 while the temperature stands still.",
+            );
+        }
+    }
+    let channel = if name == "Scale-factor" {
+        "scale_factor"
+    } else if ch.kind == super::LogKind::Cycling {
+        "bias"
+    } else {
+        "value"
+    };
+    if let Some(f) = r.residual_vs_floor.iter().find(|f| f.channel == channel && f.ratio > 2.0) {
+        if r.unexplained.iter().all(|u| u.channel != channel) {
+            s.push_str(&format!(
+                " The lower panel wanders {:.1}× wider than its white noise, and the noise model fitted to it ({}) \
+                 is not rejected (no step inside a run, run levels within its noise, no driver followed): slow \
+                 noise of that size explains it, and the catalog's effects cannot be told from it.",
+                f.ratio,
+                r.residual_vs_floor.iter().position(|x| x.channel == channel).and_then(|k| r.noise.get(k)).map_or_else(
+                    String::new,
+                    |n| n.model.text(if channel == "scale_factor" { "ppm" } else { ch.bias_unit.label() })
+                )
+            ));
+        }
+    }
+    if start > 2.0 * named {
+        s.push_str(&format!(
+            " The upper panel's large swings are the start model's, which lacks what was named ({held} RMS \
+             {start:.2} against {named:.2} {unit}); the shared scale keeps the lower panel comparable."
+        ));
+    } else if format!("{named:.2}") != format!("{start:.2}") && named > start {
+        s.push_str(&format!(
+            " The lower panel is the worse one: on this channel the named model's {held} RMS ({named:.2} {unit}) is \
+             above the start model's ({start:.2} {unit}); the verdict says what to expect."
+        ));
+    }
+    if let Scope::StaticAxis { axis, .. } = scope {
+        if let (true, Some(b), Some(n)) = (
+            super::verdict::named_is_worse(axis),
+            axis.before.score().map(|x| x.rms_mg),
+            axis.after.score().map(|x| x.rms_mg),
+        ) {
+            s.push_str(&format!(
+                " These selection folds are the rows the effects were chosen on, so they flatter the named model: \
+                 held out on the log's scheme it is worse than the start model ({n:.2} mg against {b:.2} mg), the \
+                 verdict's figures."
+            ));
+        }
+    }
+    s
+}
+
+/// The page of one discovery run whose files are in `dir` (the plots already written),
+/// opening with its verdict.
+///
+/// # Errors
+/// A file in `dir` that cannot be read.
+#[allow(clippy::too_many_lines)]
+pub fn page(ch: &Channels, r: &Report, dir: &Path, scope: Scope<'_>, v: &Verdict) -> Result<Page> {
+    let (held, held_cap) = (scope.folds_word(), scope.folds_word_capital());
+    let mut p = match scope {
+        Scope::Own => Page::new("Discovery report"),
+        Scope::StaticAxis { axis, .. } => {
+            Page::new(&format!("Discovery report: axis {} (column {})", axis.axis, axis.column))
+        }
+    };
+    v.to_page(&mut p);
+    if let Scope::StaticAxis { discovery, axis } = scope {
+        p.section("Held-out figures of this axis, mg (RMS over rows / over 60-s means)");
+        p.para(&super::static_axes::axis_figures_intro(discovery));
+        let rows: Vec<Vec<String>> =
+            super::static_axes::axis_figures(discovery, axis).into_iter().map(Vec::from).collect();
+        p.table(&["model", "held-out, mg"], &rows);
+        p.section("How discovery chose (selection folds)").para(
+            "Everything below comes from discovery's own folds over every row of this axis: they decided what is \
+             named, so their figures are called selection-fold figures (in µg).",
+        );
+        p.kv(&[
+            ("start model", r.start.name().to_string()),
+            ("selection folds", scope.relabel(&r.heldout_rule)),
+            ("selection", scope.relabel(&r.selection_rule)),
+        ]);
+    } else {
+        p.section("Held-out scheme").kv(&[
+            ("start model", r.start.name().to_string()),
+            ("held-out rule", r.heldout_rule.clone()),
+            ("selection", r.selection_rule.clone()),
+        ]);
+    }
+    let mut gap_rows = vec![
+        ("start model".to_string(), gaps_text(ch.bias_unit, &r.heldout_gap_before)),
+        ("named model".to_string(), gaps_text(ch.bias_unit, &r.heldout_gap_after)),
+    ];
+    if let Scope::Own = scope {
+        gap_rows.push((
+            "flashed (table.bin)".to_string(),
+            format!(
+                "{}: {}{}",
+                r.flashed.model,
+                gaps_text(ch.bias_unit, &r.flashed.heldout),
+                r.flashed.peer_better.as_ref().map_or_else(String::new, |b| format!(
+                    "; {} predicts the bias better ({:.3})",
+                    b.peer, b.heldout_rms
+                ))
+            ),
+        ));
+    }
+    gap_rows.push((
+        format!("noise floor (white part of the noise model of the final {held} residual)"),
+        gaps_text(ch.bias_unit, &r.noise_floor),
+    ));
+    gap_rows.push(("noise model".to_string(), super::output::noise_models_text(ch, r)));
+    gap_rows.push(("change points".to_string(), super::output::change_point_tests_text(r)));
+    if let Some(t) = super::output::timing_offset_text(ch, r) {
+        gap_rows.push(("timing offset (temperature vs counts)".to_string(), t));
+    }
+    gap_rows.push((
+        format!("{held} residual / noise floor (95 % interval)"),
+        r.residual_vs_floor
+            .iter()
+            .map(|f| format!("{} {:.1}× [{:.1}, {:.1}]", f.channel, f.ratio, f.ratio_ci95[0], f.ratio_ci95[1]))
+            .collect::<Vec<_>>()
+            .join(", "),
+    ));
+    p.section(&format!("{held_cap} gaps")).kv(&gap_rows);
+    let effects: Vec<Vec<String>> = r
+        .effects
+        .iter()
+        .map(|e| {
+            let params: Vec<String> = e.params_text(" at search limit");
+            vec![
+                e.name.clone(),
+                e.channel.clone(),
+                params.join("; "),
+                format!("{:.1} ± {:.1}", e.gain.gain, e.gain.bootstrap_se),
+                format!("{:.3} → {:.3}", e.heldout_gap_before, e.heldout_gap_after),
+                if e.in_table { "yes" } else { "no" }.to_string(),
+                e.confusable_with.join(", "),
+            ]
+        })
+        .collect();
+    p.section("Effects added");
+    if effects.is_empty() {
+        p.para(&format!("none: no candidate improved the {held} fit significantly"));
+    } else {
+        p.table(
+            &[
+                "effect".to_string(),
+                "channel".to_string(),
+                "parameters (95 % interval)".to_string(),
+                format!("{held} gain ± SE"),
+                format!("{held} gap before → after"),
+                if scope.flashable() { "in table.bin" } else { "root-crate slot" }.to_string(),
+                "as good as".to_string(),
+            ],
+            &effects,
+        );
+    }
+    for u in &r.unexplained {
+        p.warning(&format!(
+            "the {} channel keeps structure no catalog effect explains ({held} RMS {:.3}, {:.1}× its noise floor, \
+             mostly {}{}{})",
+            u.channel,
+            u.rms,
+            u.floor.ratio,
+            u.time_scales.dominant(),
+            if u.correlates_with.is_empty() {
+                String::new()
+            } else {
+                format!("; follows {}", u.correlates_with.join(", then "))
+            },
+            if u.where_.is_empty() { String::new() } else { format!("; largest on {}", u.where_) }
+        ));
+    }
+    let bias_gap = |g: &Gaps| match g {
+        Gaps::Cycling { bias_ug, .. } => *bias_ug,
+        Gaps::Single { value_rms } => *value_rms,
+    };
+    let mut peers: Vec<Vec<String>> = vec![
+        vec![format!("start model (`{}`)", r.start.name()), format!("{:.4}", bias_gap(&r.heldout_gap_before))],
+        vec!["named model".to_string(), format!("{:.4}", bias_gap(&r.heldout_gap_after))],
+    ];
+    peers.extend(r.peers.iter().map(|x| {
+        vec![
+            x.peer.clone(),
+            x.heldout_rms.map_or_else(
+                || format!("not computed: {}", x.error.as_deref().unwrap_or("no figure")),
+                |v| format!("{v:.4}"),
+            ),
+        ]
+    }));
+    p.section(&format!("Peers on the same {held} split (bias channel, {})", ch.bias_unit.label()))
+        .table(&["model".to_string(), format!("{held} RMS")], &peers);
+    p.section("What the log covers, against what the models need");
+    match coverage(ch) {
+        Ok(c) => {
+            p.kv(&c.rows());
+            p.para(
+                "The rate and branch effects (sensor_lag, rate_hysteresis, bias_branch_hysteresis, bias_creep) are \
+                 told apart by heating and cooling legs at more than one rate; a log without one leg cannot name them.",
+            );
+            for n in c.record_next() {
+                p.warning(&format!("What to record next: {n}."));
+            }
+        }
+        Err(e) => {
+            p.warning(&format!("coverage not computed: {e:#}"));
+        }
+    }
+    let unit = if ch.kind == super::LogKind::Cycling { "ppm / µg" } else { ch.bias_unit.label() };
+    let where_rows = |w: &[super::Where]| -> Vec<Vec<String>> {
+        w.iter().map(|w| vec![w.channel.clone(), w.segment.clone(), format!("{:.3}", w.rms)]).collect()
+    };
+    p.section(&format!("Where the start model disagrees ({held} RMS, {unit})"))
+        .table(&["channel", "segment", "RMS"], &where_rows(&r.where_));
+    p.section(&format!("Where the final model disagrees ({held} RMS, {unit})"))
+        .table(&["channel", "segment", "RMS"], &where_rows(&r.where_after));
+    p.section("Candidates per round").para(&format!(
+        "Gain: drop of the {held} Σ(residual/RMS)² (units of one bin's variance); SE from the block sums; \
+         significant when gain/SE exceeds the critical value."
+    ));
+    let header = [
+        "candidate".to_string(),
+        "channel".to_string(),
+        "gain".to_string(),
+        "SE".to_string(),
+        "gain/SE".to_string(),
+        "critical".to_string(),
+        "blocks × bins".to_string(),
+        "significant".to_string(),
+        "at search limit".to_string(),
+        format!("{held} gaps"),
+    ];
+    for (i, round) in r.rounds.iter().enumerate() {
+        p.para(&format!("Round {}", i + 1));
+        let rows: Vec<Vec<String>> = round.iter().map(|t| super::output::round_row(ch, t)).collect();
+        p.table(&header, &rows);
+    }
+    p.section(&format!("Plots ({held} residuals)"));
+    p.images_in(dir, |name| caption(name, ch, r, scope))?;
+    p.para("Every figure on this page is also in report.md and report.json beside it.");
+    Ok(p)
+}
+
+/// The page of a static log's discovery in `dir`: its verdict, the per-axis figures as
+/// tables, what the log covers, then each axis's plots from its own folder (each also has
+/// its own `report.html`).
+///
+/// # Errors
+/// A file in `dir` that cannot be read.
+pub fn static_page(d: &StaticDiscovery, v: &Verdict, dir: &Path) -> Result<Page> {
+    let mut p = Page::new("Discovery report, static multi-axis log");
+    v.to_page(&mut p);
+    let h = &d.holdout;
+    p.section("Held-out scheme").kv(&[
+        ("asked (--holdout)", h.requested.clone()),
+        ("ran", h.scheme.clone()),
+        ("rule", h.rule.clone()),
+        ("which rows each figure comes from", d.figures.clone()),
+        ("start model", d.start.name().to_string()),
+        ("discovery's bins", format!("{} s (the per-axis reports are in µg)", d.bin_s)),
+    ]);
+    let [_, selection, named_flashed] = super::static_axes::how_to_read(d);
+    p.section("Per axis, mg (RMS over held-out rows / over 60-s means)");
+    p.para(&selection);
+    let (header, rows) = super::static_axes::table_rows(d);
+    p.table(&header, &rows);
+    p.para(&named_flashed);
+    for a in d.axes.iter().filter(|a| !a.not_in_table.is_empty()) {
+        p.warning(&format!(
+            "{}: named but with no root-crate slot (not in table.bin): {}",
+            a.axis,
+            a.not_in_table.join(", ")
+        ));
+    }
+    if let Some(ch) = d.channels.first() {
+        p.section("What the log covers, against what the models need");
+        match coverage(ch) {
+            Ok(c) => {
+                p.kv(&c.rows());
+                for n in c.record_next() {
+                    p.warning(&format!("What to record next: {n}."));
+                }
+            }
+            Err(e) => {
+                p.warning(&format!("coverage not computed: {e:#}"));
+            }
+        }
+    }
+    for ((a, r), ch) in d.axes.iter().zip(&d.reports).zip(&d.channels) {
+        let sub = dir.join(&a.axis);
+        if sub.is_dir() {
+            p.section(&format!(
+                "{} ({}): selection-fold residual plots (its own page: {}/report.html)",
+                a.axis, a.column, a.axis
+            ));
+            let scope = Scope::StaticAxis { discovery: d, axis: a };
+            p.images_in(&sub, |name| format!("{}: {}", a.axis, caption(name, ch, r, scope)))?;
+        }
+    }
+    Ok(p)
+}

@@ -1,0 +1,359 @@
+//! What the final model leaves: the held-out residual of each channel against its noise
+//! floor, the drivers it still follows, and the time scale it lives on. Reported as
+//! [`Unexplained`], never as a name.
+//!
+//! # The residual against its floor
+//! Every report gives each channel's held-out RMS over its noise floor (the white part of
+//! its fitted noise model, [`super::noise`]), with a block-bootstrap 95 % interval
+//! ([`FloorRatio`]). The ratio alone cannot decide: slow noise (a Gauss–Markov bias
+//! instability) is part of the residual but not of the white floor, and clean logs reach 7.1× on the lab simulator's 120 false-discovery logs and
+//! 4.6× on the independent generator's 100 (`floor_ratio_max` of the false-discovery runs).
+//! So the ratio is reported, and the decision is left to tests that slow noise passes:
+//!
+//! # Runs
+//! A level shared by a whole program (a run) is structure when the runs' mean residuals
+//! differ more than noise allows: Q = Σ (mean_k / SE_k)² against χ²(K) at level 0.05
+//! shared over the channels, SE_k from the run's variance and the residual's variance
+//! inflation N/N_eff (its autocorrelation after removing the run means), so slow noise
+//! widens the SEs instead of failing the test. It catches what cross-fitting cannot: a
+//! run held out is never seen in training, so its own level cannot be predicted. A run
+//! held out also carries its fold's fit error as a level, and slow noise moves whole runs
+//! too; but slow noise that shifts runs also wanders within them. So the shift (the
+//! across-runs part of [`TimeScales`]) must also exceed twice the larger of the bin-to-bin
+//! floor and the within-run slow part.
+//!
+//! # Drivers
+//! The residual is cross-fitted (a quadratic, each fold predicted from the other) on time
+//! since start, temperature, Ṫ, time since the last reversal and the ramp branch; a driver
+//! counts when the block test (level 0.05 shared over drivers and channels) says the
+//! cross-fit predicts the held-out residual.
+//!
+//! # Time scales
+//! The residual's RMS split into the part shared by a whole program (across runs), the
+//! slow part inside a program (a one-hour moving mean) and the rest (fast).
+
+use serde::Serialize;
+
+use super::fit::{Effect, Residuals};
+use super::noise::{self, ChangePoint, NoiseModel, NoiseTest};
+use super::{localize, noise_floor, stats, Channels, LogKind, ALPHA};
+use crate::metrics::rms_of_finite as rms;
+
+/// Length of the moving mean that separates slow from fast, s.
+const SLOW_WINDOW_S: f64 = 3600.0;
+
+/// A channel's final held-out residual against its noise floor.
+#[derive(Clone, Debug, Serialize)]
+pub struct FloorRatio {
+    /// `scale_factor`, `bias` or `value`.
+    pub channel: String,
+    /// Held-out RMS of the final residual (ppm, µg or the log's value unit).
+    pub rms: f64,
+    /// Noise floor, same unit (the white part of the channel's fitted noise model).
+    pub floor: f64,
+    /// rms / floor.
+    pub ratio: f64,
+    /// Block-bootstrap 95 % interval of the ratio.
+    pub ratio_ci95: [f64; 2],
+}
+
+/// The runs' mean residuals against noise (see the module docs).
+#[derive(Clone, Debug, Serialize)]
+pub struct RunLevels {
+    /// Q = Σ (mean_k / SE_k)².
+    pub q: f64,
+    /// Degrees of freedom (runs with residuals).
+    pub runs: usize,
+    /// χ² critical value at the shared level.
+    pub critical: f64,
+    /// Q exceeds it.
+    pub significant: bool,
+}
+
+/// RMS of the residual per time scale (same unit as the residual).
+#[derive(Clone, Copy, Debug, Serialize, PartialEq)]
+pub struct TimeScales {
+    /// Each program's mean (structure shared across a whole run: a level that differs
+    /// between runs).
+    pub across_runs: f64,
+    /// One-hour moving mean within a program, its mean removed.
+    pub within_run_slow: f64,
+    /// The rest.
+    pub fast: f64,
+}
+
+impl TimeScales {
+    /// The largest part, in words.
+    #[must_use]
+    pub fn dominant(&self) -> &'static str {
+        let v = [(self.across_runs, "across runs"), (self.within_run_slow, "slowly within runs"), (self.fast, "fast")];
+        v.iter().max_by(|a, b| a.0.total_cmp(&b.0)).map_or("fast", |x| x.1)
+    }
+}
+
+/// Residual structure no catalog effect explains.
+#[derive(Clone, Debug, Serialize)]
+pub struct Unexplained {
+    /// `scale_factor`, `bias` or `value`.
+    pub channel: String,
+    /// Segment where the final held-out residual is largest.
+    #[serde(rename = "where")]
+    pub where_: String,
+    /// Held-out RMS of the channel's final residual (ppm, µg or the log's value unit).
+    pub rms: f64,
+    /// The residual against its noise floor.
+    pub floor: FloorRatio,
+    /// The runs' levels against noise (absent for a single-run log).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub run_levels: Option<RunLevels>,
+    /// Where in time it lives.
+    pub time_scales: TimeScales,
+    /// RMS of the part that follows the strongest driver (cross-fitted), same unit;
+    /// absent when no driver is followed.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub structure_rms: Option<f64>,
+    /// Drivers the leftover follows significantly, strongest first: `time_since_start`,
+    /// `temperature`, `temperature_rate`, `time_since_reversal`, `branch` (direction of
+    /// the last ramp, kept through dwells).
+    pub correlates_with: Vec<String>,
+    /// Catalog effects that would fit only with a parameter at a search limit.
+    pub pinned: Vec<String>,
+    /// A step inside one run that the fitted noise model rejects (see [`noise`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub change_point: Option<ChangePoint>,
+}
+
+/// Each channel's residual against its floor, in the order of `channels_of`.
+#[must_use]
+pub fn floor_ratios(ch: &Channels, cur: &Residuals) -> Vec<FloorRatio> {
+    let len = stats::block_len(ch, &[&cur.sf, &cur.bias]);
+    let blocks = stats::blocks(ch, len);
+    channels_of(ch, cur)
+        .into_iter()
+        .map(|(name, r, _)| {
+            let floor = noise_floor(ch, r);
+            let n = r.iter().filter(|x| x.is_finite()).count().max(1) as f64;
+            let d: Vec<f64> = r.iter().map(|&x| (x / floor).powi(2)).collect();
+            let g = stats::gain_stat(&blocks, &d, ALPHA);
+            let ratio = (g.gain / n).sqrt();
+            let ci = [(g.ci95[0].max(0.0) / n).sqrt(), (g.ci95[1].max(0.0) / n).sqrt()];
+            FloorRatio { channel: name.into(), rms: rms(r), floor, ratio, ratio_ci95: ci }
+        })
+        .collect()
+}
+
+/// Each channel's noise model and its change-point test at level [`ALPHA`] shared over
+/// the channels, in the order of `channels_of`.
+#[must_use]
+pub fn noise_tests(ch: &Channels, cur: &Residuals) -> Vec<NoiseTest> {
+    let chans = channels_of(ch, cur);
+    let alpha = ALPHA / chans.len() as f64;
+    chans.into_iter().enumerate().map(|(k, (_, r, _))| noise::test(ch, r, alpha, 0x006e_6f69_7365 + k as u64)).collect()
+}
+
+/// The channels of a log: name, final residual, and whether it is the scale factor.
+fn channels_of<'a>(ch: &Channels, cur: &'a Residuals) -> Vec<(&'static str, &'a [f64], bool)> {
+    if ch.kind == LogKind::Cycling {
+        vec![("scale_factor", &cur.sf, true), ("bias", &cur.bias, false)]
+    } else {
+        vec![("value", &cur.bias, false)]
+    }
+}
+
+/// Upper χ² quantile with `k` degrees of freedom at tail `alpha` (Wilson–Hilferty: within
+/// 1 % of the exact value from 3 degrees of freedom at the tails used here).
+fn chi2_upper(alpha: f64, k: f64) -> f64 {
+    let z = stats::normal_quantile(1.0 - alpha);
+    let c = 2.0 / (9.0 * k);
+    k * (1.0 - c + z * c.sqrt()).powi(3)
+}
+
+/// The run-level test of residual `r` at level `alpha`, each run's mean (clipped at
+/// [`noise::CLIP_SD`] model SDs, so a glitch cannot pose as a level) against the SE of a
+/// run mean under the fitted noise model `model`; `None` with fewer than two runs.
+#[must_use]
+pub fn run_levels(ch: &Channels, r: &[f64], alpha: f64, model: &NoiseModel) -> Option<RunLevels> {
+    let c = noise::CLIP_SD * model.total_sd();
+    let runs: Vec<(f64, usize)> = noise::runs_of(ch, r)
+        .into_iter()
+        .filter(|(_, v, _)| v.len() >= 2)
+        .map(|(_, v, _)| (v.iter().map(|x| x.clamp(-c, c)).sum::<f64>() / v.len() as f64, v.len()))
+        .collect();
+    if runs.len() < 2 {
+        return None;
+    }
+    let q: f64 = runs.iter().map(|&(mean, n)| mean * mean / model.var_mean(n).max(1e-300)).sum();
+    let critical = chi2_upper(alpha, runs.len() as f64);
+    Some(RunLevels { q, runs: runs.len(), critical, significant: q > critical })
+}
+
+/// RMS of `r` per time scale (see [`TimeScales`]).
+#[must_use]
+pub fn time_scales(ch: &Channels, r: &[f64]) -> TimeScales {
+    let (mut across, mut slow, mut fast, mut n) = (0.0, 0.0, 0.0, 0usize);
+    let mut o = 0;
+    for t in &ch.traces {
+        let m = t.bins.len();
+        let v = &r[o..o + m];
+        o += m;
+        let fin: Vec<usize> = (0..m).filter(|&i| v[i].is_finite()).collect();
+        if fin.is_empty() {
+            continue;
+        }
+        let mean = fin.iter().map(|&i| v[i]).sum::<f64>() / fin.len() as f64;
+        let span = t.bins[m - 1].time_s - t.bins[0].time_s;
+        let bin_s = if m > 1 { span / (m - 1) as f64 } else { SLOW_WINDOW_S };
+        let half = ((SLOW_WINDOW_S / bin_s.max(1e-9)) / 2.0).round().max(1.0) as usize;
+        for &i in &fin {
+            let w: Vec<f64> =
+                (i.saturating_sub(half)..(i + half + 1).min(m)).map(|j| v[j]).filter(|x| x.is_finite()).collect();
+            let s = w.iter().sum::<f64>() / w.len() as f64 - mean;
+            across += mean * mean;
+            slow += s * s;
+            fast += (v[i] - mean - s).powi(2);
+            n += 1;
+        }
+    }
+    let k = n.max(1) as f64;
+    TimeScales { across_runs: (across / k).sqrt(), within_run_slow: (slow / k).sqrt(), fast: (fast / k).sqrt() }
+}
+
+/// Per-bin drivers the leftover residual is tested against.
+pub fn drivers(ch: &Channels) -> Vec<(&'static str, Vec<f64>)> {
+    let n = ch.n_bins();
+    let (mut since, mut temp, mut rate, mut rev, mut branch) = (
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+    );
+    for t in &ch.traces {
+        let t0 = t.time_s.first().copied().unwrap_or(0.0);
+        let (mut last_rev, mut dir, mut row) = (t0, 0i8, 0);
+        for b in &t.bins {
+            while row < b.hi {
+                let r = t.est_rate[row];
+                let d = if r > 0.05 {
+                    1
+                } else if r < -0.05 {
+                    -1
+                } else {
+                    0
+                };
+                if d != 0 && d != dir {
+                    if dir != 0 {
+                        last_rev = t.time_s[row];
+                    }
+                    dir = d;
+                }
+                row += 1;
+            }
+            let m = (b.hi - b.lo) as f64;
+            since.push((b.time_s - t0) / 3600.0);
+            temp.push(t.est_t[b.lo..b.hi].iter().map(|&x| f64::from(x)).sum::<f64>() / m);
+            rate.push(t.est_rate[b.lo..b.hi].iter().map(|&x| f64::from(x)).sum::<f64>() / m);
+            rev.push((b.time_s - last_rev) / 3600.0);
+            branch.push(f64::from(dir));
+        }
+    }
+    vec![
+        ("time_since_start", since),
+        ("temperature", temp),
+        ("temperature_rate", rate),
+        ("time_since_reversal", rev),
+        ("branch", branch),
+    ]
+}
+
+/// Cross-fitted quadratic in `x` of the residual `r`: each fold's bins predicted from a
+/// fit on the other fold. NaN where `r` is NaN.
+pub fn cross_fit(r: &[f64], x: &[f64], masks: &[Vec<bool>], trains: &[Vec<bool>]) -> Vec<f64> {
+    let fin: Vec<usize> = (0..r.len()).filter(|&i| r[i].is_finite() && x[i].is_finite()).collect();
+    let mean = fin.iter().map(|&i| x[i]).sum::<f64>() / fin.len().max(1) as f64;
+    let sd = (fin.iter().map(|&i| (x[i] - mean).powi(2)).sum::<f64>() / fin.len().max(1) as f64).sqrt().max(1e-12);
+    let z = |i: usize| (x[i] - mean) / sd;
+    let mut out = vec![f64::NAN; r.len()];
+    for (test, train) in masks.iter().zip(trains) {
+        let rows: Vec<usize> = fin.iter().copied().filter(|&i| train[i]).collect();
+        if rows.len() < 4 {
+            continue;
+        }
+        let a = nalgebra::DMatrix::from_fn(rows.len(), 3, |k, j| z(rows[k]).powi(j as i32));
+        let y = nalgebra::DVector::from_fn(rows.len(), |k, _| r[rows[k]]);
+        let Ok(c) = a.svd(true, true).solve(&y, 1e-12) else { continue };
+        for &i in fin.iter().filter(|&&i| test[i]) {
+            out[i] = c[0] + c[1] * z(i) + c[2] * z(i).powi(2);
+        }
+    }
+    out
+}
+
+/// Leftover structure per channel: the drivers the final held-out residual follows
+/// (cross-fitted, same block test at level ALPHA shared over drivers and channels), plus
+/// the candidates that would fit only at a search limit.
+pub fn find_unexplained(
+    ch: &Channels,
+    cur: &Residuals,
+    masks: &[Vec<bool>],
+    trains: &[Vec<bool>],
+    pinned: &[(Effect, Vec<String>)],
+    floors: &[FloorRatio],
+    noise: &[NoiseTest],
+) -> Vec<Unexplained> {
+    let drv = drivers(ch);
+    let chans = channels_of(ch, cur);
+    let len = stats::block_len(ch, &[&cur.sf, &cur.bias]);
+    let blocks = stats::blocks(ch, len);
+    let alpha = ALPHA / (drv.len() * chans.len()) as f64;
+    let after = localize(ch, cur, 1);
+    let mut out = Vec::new();
+    for (((name, r, is_sf), floor), nt) in chans.into_iter().zip(floors).zip(noise) {
+        let var = rms(r).powi(2).max(1e-300);
+        let mut hits: Vec<(f64, &str, f64)> = Vec::new();
+        for (dn, x) in &drv {
+            let f = cross_fit(r, x, masks, trains);
+            let d: Vec<f64> = r
+                .iter()
+                .zip(&f)
+                .map(|(&a, &b)| if b.is_finite() { (a * a - (a - b).powi(2)) / var } else { 0.0 })
+                .collect();
+            let g = stats::gain_stat(&blocks, &d, alpha);
+            if g.gain > 0.0 && g.t > g.critical {
+                hits.push((g.t, dn, rms(&f)));
+            }
+        }
+        hits.sort_by(|a, b| b.0.total_cmp(&a.0));
+        let pins: Vec<String> = pinned
+            .iter()
+            .filter(|(e, _)| if is_sf { e.touches_sf() } else { e.touches_bias() })
+            .map(|(e, p)| format!("{} ({} at a search limit)", e.name(), p.join(", ")))
+            .collect();
+        let levels = run_levels(ch, r, ALPHA / floors.len().max(1) as f64, &nt.model);
+        let scales = time_scales(ch, r);
+        // Held-out runs carry their fold's fit error as a level of their own, and slow noise
+        // moves whole runs: on clean logs the test alone fires (5 of 12 independent cycling
+        // logs), and with a level above twice the bin-to-bin floor still on 29 % of the lab
+        // simulator's clean logs (10-µg bias instability). Slow noise that shifts runs also
+        // wanders within them, so a shift is structure when it is also more than twice the
+        // within-run slow part and the floor.
+        let levels_left = levels.as_ref().is_some_and(|l| l.significant)
+            && scales.across_runs > 2.0 * floor.floor.max(scales.within_run_slow);
+        if hits.is_empty() && pins.is_empty() && !levels_left && nt.change_point.is_none() {
+            continue;
+        }
+        out.push(Unexplained {
+            channel: name.into(),
+            where_: after.iter().find(|w| w.channel == name).map_or_else(String::new, |w| w.segment.clone()),
+            rms: rms(r),
+            floor: floor.clone(),
+            run_levels: levels,
+            time_scales: scales,
+            structure_rms: hits.first().map(|h| h.2),
+            correlates_with: hits.iter().map(|h| h.1.to_string()).collect(),
+            pinned: pins,
+            change_point: nt.change_point.clone(),
+        });
+    }
+    out
+}

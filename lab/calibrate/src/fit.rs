@@ -1,0 +1,589 @@
+//! Least-squares fits of the simple model (Eq. 3–4) and the hysteresis model (Eq. 11 plus
+//! heating and cooling bias grids), producing root-crate [`Table`]s.
+//!
+//! Inputs per paired row (see [`qfa_log::pairing`]): measured K1 and K0, and the firmware's
+//! T̂, Ṫ, model temperature, branch and extension-slot bias of both runs (averaged, each
+//! feature separately, so the pair's equation is exact for a model linear in them).
+//! Consecutive rows are averaged in blocks of `block` rows before the solve (a linear
+//! model's equations may be averaged; it cuts a 1.35 M-row log to some 10⁴ equations).
+//!
+//! Solver: nalgebra SVD of the column-scaled design matrix (each column divided by its
+//! norm). The reported condition number is that of the **scaled** matrix (the one that
+//! governs the error amplification of the solve); the unscaled one is given too.
+//!
+//! * Simple: `K1 = γ + μ·ΔT`, `K0 = k0 + k1·ΔT` (ΔT against T0 = 22 °C).
+//! * Hysteresis: `K1 = Eq. 11` with ΔT and Ṫ (°C/min) as the firmware sees them;
+//!   K0 on a uniform grid of `grid_points` nodes over the fitted temperature range, one
+//!   value per node and branch (hat-function basis, the Unknown branch is the mean of both,
+//!   as in `BiasGrid::k0`), minus the extension slots' bias. How the two branches are tied
+//!   is chosen from the data, as the static fit chooses among the same [`BranchMode`]s:
+//!   Single (one curve, `g` unknowns), Offset (one curve ± a constant half-step, `g + 1`)
+//!   or Free (a curve per branch, `2g`), by blocked cross-validation over the fit programs'
+//!   paired rows with the one-standard-error rule ([`crate::select`]): the
+//!   fewest-unknown mode whose held-out K0 error is within one SE of the best's. Without
+//!   it, a unit whose bias is single-valued got two branches that differ by calibration
+//!   noise, which the firmware then applies as a branch-switching error. Weak regularisers
+//!   (weight 1, against ~10⁴ data equations) damp second differences and, in Free, tie
+//!   each heating node to its cooling node, so nodes no data reach stay defined.
+
+use std::fmt;
+
+use serde::Serialize;
+
+use qfa_thermal::model::{Branch, MAX_BIAS_POINTS};
+use qfa_thermal::{AxisModel, BiasGrid, Extensions, Input, ScaleFactor, Table};
+
+use qfa_log::cycling::Log;
+use qfa_log::pairing::{pair_program, trace_run, Trace, RATE_WINDOW};
+
+pub use super::solver::*;
+pub use super::static_fit::*;
+
+/// Reference temperature of every lab table, °C (the paper's start temperature).
+pub const T0_C: f64 = 22.0;
+
+/// Why a fit failed.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum FitError {
+    /// A fit program lacks a +1 g or a −1 g run.
+    NoPair(String),
+    /// Too few equations for the unknowns.
+    TooFewRows {
+        /// Equations.
+        rows: usize,
+        /// Unknowns.
+        unknowns: usize,
+    },
+    /// More axes than a table holds (`qfa_thermal::table::MAX_AXES`).
+    TooManyAxes,
+    /// The root crate refused the table.
+    Table(qfa_thermal::table::Error),
+    /// A cross-validation figure could not be formed.
+    Cv(String),
+    /// A heating/cooling step fitted on rows that hold (almost) one branch only: it would be
+    /// set by a handful of rows, or split arbitrarily from the curve it is collinear with,
+    /// and then applied to the whole other branch.
+    BranchUnidentified {
+        /// Heating rows fitted.
+        heating: usize,
+        /// Cooling rows fitted.
+        cooling: usize,
+        /// Rows each branch needs (one averaged equation).
+        needed: usize,
+    },
+}
+
+impl fmt::Display for FitError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::NoPair(p) => write!(f, "program `{p}` has no +1 g / −1 g pair of runs"),
+            Self::TooFewRows { rows, unknowns } => write!(f, "{rows} equations for {unknowns} unknowns"),
+            Self::TooManyAxes => write!(f, "more axes than a table holds"),
+            Self::Table(e) => write!(f, "table rejected: {e}"),
+            Self::Cv(s) => write!(f, "cross-validation: {s}"),
+            Self::BranchUnidentified { heating, cooling, needed } => write!(
+                f,
+                "heating/cooling step not identified: {heating} heating and {cooling} cooling rows fitted; a step \
+                 needs at least {needed} on each branch"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for FitError {}
+
+/// Eq. 11's regressors in the lab's one column order, `[1, ΔT, ΔT², Ṫ, Ṫ·ΔT, Ṫ²]`, whose
+/// coefficients are `[γ, μ, β, ε, η, α]` ([`scale_of_eq11`]); ΔT in °C, Ṫ in °C/min.
+#[must_use]
+pub fn eq11_regressors(d: f64, r: f64) -> [f64; 6] {
+    [1.0, d, d * d, r, r * d, r * r]
+}
+
+/// The root crate's scale factor from coefficients in [`eq11_regressors`]' order.
+#[must_use]
+pub fn scale_of_eq11(c: &[f64; 6]) -> ScaleFactor {
+    ScaleFactor {
+        t0_c: T0_C as f32,
+        gamma: c[0] as f32,
+        mu: c[1] as f32,
+        beta: c[2] as f32,
+        epsilon: c[3] as f32,
+        eta: c[4] as f32,
+        alpha: c[5] as f32,
+    }
+}
+
+/// Fit settings.
+#[derive(Clone, Debug)]
+pub struct FitOptions {
+    /// Programs to fit on (the others are held out).
+    pub fit_programs: Vec<String>,
+    /// Extension slots in force (their parameters fixed; their bias is subtracted).
+    pub ext: Extensions,
+    /// Branch deadband, °C/min.
+    pub deadband_c_per_min: f32,
+    /// Rows averaged per equation.
+    pub block: usize,
+    /// Bias grid nodes (2..=16).
+    pub grid_points: usize,
+    /// `None` (the default): the branch tie is chosen by cross-validation
+    /// (`choose_branch_mode`). `Some(mode)` forces it (the CV figures are still
+    /// reported, the rule says it was forced): for tests that must show a wrong tie fails.
+    pub branch_mode: Option<BranchMode>,
+}
+
+impl FitOptions {
+    /// Defaults for `fit_programs`: 30-s blocks at 1-s rows, 16 nodes, the firmware's
+    /// flicker deadband ([`qfa_log::pairing::branch_deadband_c_per_min`], 0.182 °C/min).
+    #[must_use]
+    pub fn new(fit_programs: Vec<String>) -> Self {
+        Self {
+            fit_programs,
+            ext: Extensions::default(),
+            deadband_c_per_min: qfa_log::pairing::branch_deadband_c_per_min(),
+            block: 30,
+            grid_points: MAX_BIAS_POINTS,
+            branch_mode: None,
+        }
+    }
+}
+
+/// The held-out rule: programs in order of first appearance; with three or more, fit on
+/// the first and the last (for the paper's test: 0.3 and 0.9 °C/min, the extreme rates)
+/// and hold out the rest (0.5 and 0.7); with two, fit on the first, hold out the second;
+/// with one, fit and evaluate on it (then nothing is held out, and the report says so).
+#[must_use]
+pub fn split_programs(programs: &[String]) -> (Vec<String>, Vec<String>) {
+    match programs.len() {
+        0 => (vec![], vec![]),
+        1 => (programs.to_vec(), programs.to_vec()),
+        2 => (vec![programs[0].clone()], vec![programs[1].clone()]),
+        n => (vec![programs[0].clone(), programs[n - 1].clone()], programs[1..n - 1].to_vec()),
+    }
+}
+
+/// Everything the fits produce.
+#[derive(Clone, Debug)]
+pub struct Fitted {
+    /// Simple-model table (Eq. 3–4).
+    pub simple: Table,
+    /// Hysteresis-model table (Eq. 11 + branched bias grid).
+    pub hysteresis: Table,
+    /// Scale factor, simple: [γ, μ].
+    pub sf_simple: LsResult,
+    /// Scale factor, Eq. 11: [γ, μ, β, ε, η, α].
+    pub sf_hysteresis: LsResult,
+    /// Bias, simple: [k0, k1].
+    pub bias_simple: LsResult,
+    /// Bias grid in the chosen branch mode's unknowns ([`BranchMode::expand`]): Single the
+    /// nodes, Offset the nodes then the half-step, Free heating nodes then cooling nodes.
+    pub bias_hysteresis: LsResult,
+    /// How the grid's branches are tied, chosen by cross-validation (`choose_branch_mode`).
+    pub branch: BranchChoice,
+    /// Paired rows used.
+    pub pairs: usize,
+}
+
+/// Features of one paired row.
+#[derive(Clone, Copy, Debug)]
+struct Row {
+    k1: f64,
+    k0: f64,
+    d: f64,
+    d2: f64,
+    r: f64,
+    rd: f64,
+    r2: f64,
+    ext_k0: f64,
+    // For the grid: both runs' (temperature, branch).
+    tp: f64,
+    bp: Branch,
+    tm: f64,
+    bm: Branch,
+}
+
+fn rows_of(log: &Log, program: &str, ext: &Extensions, deadband: f32) -> Result<(Vec<Row>, f64), FitError> {
+    let pp = pair_program(log, program).ok_or_else(|| FitError::NoPair(program.to_string()))?;
+    let tp: Trace = trace_run(&log.runs[pp.plus], ext, deadband);
+    let tm: Trace = trace_run(&log.runs[pp.minus], ext, deadband);
+    let mut out = Vec::with_capacity(pp.rows.len());
+    let mut max_rate: f64 = 0.0;
+    for (k, &(i, j)) in pp.rows.iter().enumerate() {
+        if !(tp.valid[i] && tm.valid[j]) {
+            continue;
+        }
+        let (k1, k0) = pp.k1_k0(log, k);
+        let (dp, dm) = (tp.model_temp_c[i] - T0_C, tm.model_temp_c[j] - T0_C);
+        let (rp, rm) = (tp.rate_c_per_min[i], tm.rate_c_per_min[j]);
+        max_rate = max_rate.max(rp.abs()).max(rm.abs());
+        let avg = |a: f64, b: f64| 0.5 * (a + b);
+        out.push(Row {
+            k1,
+            k0,
+            d: avg(dp, dm),
+            d2: avg(dp * dp, dm * dm),
+            r: avg(rp, rm),
+            rd: avg(rp * dp, rm * dm),
+            r2: avg(rp * rp, rm * rm),
+            ext_k0: avg(tp.ext_k0_g[i], tm.ext_k0_g[j]),
+            tp: tp.model_temp_c[i],
+            bp: tp.branch[i],
+            tm: tm.model_temp_c[j],
+            bm: tm.branch[j],
+        });
+    }
+    Ok((out, max_rate))
+}
+
+/// Ranges `[s, e)` of consecutive rows averaged into one equation: `block` rows each,
+/// restarting at every index in `starts` (a block never straddles a program boundary or a
+/// gap), the last of a segment shorter.
+fn block_ranges(n: usize, block: usize, starts: &[usize]) -> Vec<(usize, usize)> {
+    let block = block.max(1);
+    let mut bounds = starts.to_vec();
+    bounds.push(n);
+    let mut out = Vec::new();
+    for w in bounds.windows(2) {
+        let mut s = w[0];
+        while s < w[1] {
+            let e = (s + block).min(w[1]);
+            out.push((s, e));
+            s = e;
+        }
+    }
+    out
+}
+
+/// Block-average equations: `x` row-major with `p` columns.
+pub(crate) fn block_average(x: &[f64], y: &[f64], p: usize, block: usize, starts: &[usize]) -> (Vec<f64>, Vec<f64>) {
+    let mut xo = Vec::new();
+    let mut yo = Vec::new();
+    for (s, e) in block_ranges(y.len(), block, starts) {
+        let n = (e - s) as f64;
+        for j in 0..p {
+            xo.push((s..e).map(|i| x[i * p + j]).sum::<f64>() / n);
+        }
+        yo.push(y[s..e].iter().sum::<f64>() / n);
+    }
+    (xo, yo)
+}
+
+/// Hat-function weights of temperature `t` on the grid, added into `row` at `offset`.
+pub(crate) fn hat(row: &mut [f64], offset: usize, t: f64, start: f64, step: f64, n: usize, w: f64) {
+    let x = ((t - start) / step).clamp(0.0, (n - 1) as f64);
+    let i = (x.floor() as usize).min(n - 2);
+    let f = x - i as f64;
+    row[offset + i] += w * (1.0 - f);
+    row[offset + i + 1] += w * f;
+}
+
+pub(crate) fn grid_row(row: &mut [f64], t: f64, b: Branch, start: f64, step: f64, n: usize, w: f64) {
+    match b {
+        Branch::Heating => hat(row, 0, t, start, step, n, w),
+        Branch::Cooling => hat(row, n, t, start, step, n, w),
+        Branch::Unknown => {
+            hat(row, 0, t, start, step, n, 0.5 * w);
+            hat(row, n, t, start, step, n, 0.5 * w);
+        }
+    }
+}
+
+pub(crate) fn f32v(v: &[f64]) -> heapless::Vec<f32, MAX_BIAS_POINTS> {
+    v.iter().map(|&x| x as f32).collect()
+}
+
+/// Fit both models on `opts.fit_programs` of `log`.
+///
+/// # Errors
+/// A missing pair, too little data, or a table the root crate refuses.
+pub fn fit(log: &Log, opts: &FitOptions, progress: Option<&indicatif::ProgressBar>) -> Result<Fitted, FitError> {
+    let mut rows: Vec<Row> = Vec::new();
+    let mut starts = Vec::new();
+    let mut max_rate: f64 = 0.0;
+    for p in &opts.fit_programs {
+        starts.push(rows.len());
+        let (r, mr) = rows_of(log, p, &opts.ext, opts.deadband_c_per_min)?;
+        rows.extend(r);
+        max_rate = max_rate.max(mr);
+        if let Some(pb) = progress {
+            pb.inc(1);
+        }
+    }
+    let n = rows.len();
+    // Scale factor.
+    let y_k1: Vec<f64> = rows.iter().map(|r| r.k1).collect();
+    let xs: Vec<f64> = rows.iter().flat_map(|r| [1.0, r.d]).collect();
+    let (xb, yb) = block_average(&xs, &y_k1, 2, opts.block, &starts);
+    let sf_simple = lstsq(&xb, 2, &yb)?;
+    // Eq. 11's columns in `eq11_regressors`' order; each product is averaged over the
+    // pair's two runs (not the product of the averages), so the columns are written out.
+    let xh: Vec<f64> = rows.iter().flat_map(|r| [1.0, r.d, r.d2, r.r, r.rd, r.r2]).collect();
+    let (xb, yb) = block_average(&xh, &y_k1, 6, opts.block, &starts);
+    let sf_hysteresis = lstsq(&xb, 6, &yb)?;
+    // Bias, simple.
+    let y_k0: Vec<f64> = rows.iter().map(|r| r.k0).collect();
+    let (xb, yb) = block_average(&xs, &y_k0, 2, opts.block, &starts);
+    let bias_simple = lstsq(&xb, 2, &yb)?;
+    // Bias grid.
+    let tmin = rows.iter().map(|r| r.tp.min(r.tm)).fold(f64::INFINITY, f64::min);
+    let tmax = rows.iter().map(|r| r.tp.max(r.tm)).fold(f64::NEG_INFINITY, f64::max);
+    let start = tmin.floor().max(-60.0);
+    let end = tmax.ceil().min(130.0).max(start + 1.0);
+    let g = opts.grid_points.clamp(2, MAX_BIAS_POINTS);
+    let step = (end - start) / (g - 1) as f64;
+    let y_k0x: Vec<f64> = rows.iter().map(|r| r.k0 - r.ext_k0).collect();
+    let grid = GridSpec { start, step, g };
+    // How the branches are tied is the data's call (cross-validation, one-SE rule), then
+    // the chosen mode is fitted on all fit rows with the fit's own blocks.
+    let mut branch = choose_branch_mode(&rows, &y_k0x, &starts, grid, opts.block)?;
+    if let Some(m) = opts.branch_mode {
+        branch.mode = m;
+        branch.rule =
+            format!("forced to {m:?} by the caller (FitOptions::branch_mode); the CV figures are for reference");
+    }
+    let (xg, p) = bias_design(&rows, branch.mode, grid);
+    let (mut xb, mut yb) = block_average(&xg, &y_k0x, p, opts.block, &starts);
+    drop(xg);
+    branch.mode.push_regularisers(&mut xb, &mut yb, p, g);
+    let bias_hysteresis = lstsq(&xb, p, &yb)?;
+    let (heating, cooling) = branch.mode.expand(&bias_hysteresis.coef, g);
+    // The limit is what the fit rows covered plus a stated 25 % margin (the rate estimate
+    // of the same program varies run to run), floored only at the branch deadband (below
+    // it a rate is not told from the estimator's flicker), so `RATE_OUT_OF_RANGE` marks
+    // every rate beyond the calibrated range; the former 0.5 °C/min floor claimed up to
+    // 0.5 for the paper's staircases, which reach only ~0.4 (docs/lab.md, "Rate policy";
+    // figures in docs/measurements.md, "Navigation").
+    let rate_limit = (max_rate * 1.25).max(f64::from(opts.deadband_c_per_min)).min(20.0) as f32;
+
+    let c = &sf_simple.coef;
+    let scale_simple = ScaleFactor::simple(T0_C as f32, c[0] as f32, c[1] as f32);
+    let b = &bias_simple.coef;
+    let nodes: Vec<f64> = (0..g).map(|i| b[0] + b[1] * (start + step * i as f64 - T0_C)).collect();
+    let mut grid_simple =
+        BiasGrid::single_valued(start as f32, step as f32, &nodes.iter().map(|&x| x as f32).collect::<Vec<_>>())
+            .expect("2 to 16 grid values");
+    grid_simple.deadband_c_per_min = opts.deadband_c_per_min;
+    let simple = table_of(AxisModel {
+        scale: scale_simple,
+        bias: grid_simple,
+        rate_limit_c_per_min: rate_limit,
+        ext: Extensions::default(),
+    })?;
+
+    let h: [f64; 6] = sf_hysteresis.coef[..6].try_into().map_err(|_| FitError::TooFewRows { rows: n, unknowns: 6 })?;
+    let scale_h = scale_of_eq11(&h);
+    let grid_h = BiasGrid {
+        t_start_c: start as f32,
+        t_step_c: step as f32,
+        deadband_c_per_min: opts.deadband_c_per_min,
+        heating_g: f32v(&heating),
+        cooling_g: f32v(&cooling),
+    };
+    let hysteresis =
+        table_of(AxisModel { scale: scale_h, bias: grid_h, rate_limit_c_per_min: rate_limit, ext: opts.ext })?;
+    Ok(Fitted { simple, hysteresis, sf_simple, sf_hysteresis, bias_simple, bias_hysteresis, branch, pairs: n })
+}
+
+/// The bias grid's nodes: `g` nodes from `start` °C every `step` °C.
+#[derive(Clone, Copy, Debug)]
+struct GridSpec {
+    start: f64,
+    step: f64,
+    g: usize,
+}
+
+/// The K0 design of the paired rows in branch mode `mode` (row-major, and its column
+/// count): each row is the mean of its two runs' hat functions (see [`Row`]); Offset adds
+/// the half-step column, +1 on heating, −1 on cooling, 0 on Unknown (as `BiasGrid::k0`
+/// takes the mean of both branches there).
+fn bias_design(rows: &[Row], mode: BranchMode, gs: GridSpec) -> (Vec<f64>, usize) {
+    let GridSpec { start, step, g } = gs;
+    let p = mode.unknowns(g);
+    let sign = |b: Branch| match b {
+        Branch::Heating => 1.0,
+        Branch::Cooling => -1.0,
+        Branch::Unknown => 0.0,
+    };
+    let mut x = vec![0.0; rows.len() * p];
+    for (i, r) in rows.iter().enumerate() {
+        let row = &mut x[i * p..(i + 1) * p];
+        match mode {
+            BranchMode::Single => {
+                hat(row, 0, r.tp, start, step, g, 0.5);
+                hat(row, 0, r.tm, start, step, g, 0.5);
+            }
+            BranchMode::Offset => {
+                hat(row, 0, r.tp, start, step, g, 0.5);
+                hat(row, 0, r.tm, start, step, g, 0.5);
+                row[g] = 0.5 * (sign(r.bp) + sign(r.bm));
+            }
+            BranchMode::Free => {
+                grid_row(row, r.tp, r.bp, start, step, g, 0.5);
+                grid_row(row, r.tm, r.bm, start, step, g, 0.5);
+            }
+        }
+    }
+    (x, p)
+}
+
+/// Contiguous cross-validation folds over the cycling fit's paired rows. Chosen before any
+/// result, for a standard error from ten fold MSEs; on the paper's two fit programs
+/// (0.3 and 0.9 °C/min, about 49 h of rows) a fold is some 5 h of contiguous time, far
+/// beyond the 30-min correlation time of the simulated bias instability.
+pub const CYCLING_CV_FOLDS: usize = 10;
+
+/// Cross-validation figures of one branch mode, µg.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct BranchCv {
+    /// The mode.
+    pub mode: BranchMode,
+    /// Its linear unknowns.
+    pub unknowns: usize,
+    /// √(CV MSE), µg.
+    pub cv_rms_ug: f64,
+    /// CV MSE (mean of the fold MSEs), µg².
+    pub cv_mse_ug2: f64,
+    /// Its standard error, µg².
+    pub cv_se_ug2: f64,
+}
+
+/// The branch tie of a cycling fit's bias grid and how it was chosen.
+#[derive(Clone, Debug, Serialize)]
+pub struct BranchChoice {
+    /// The chosen mode.
+    pub mode: BranchMode,
+    /// Every candidate's figures (Single, Offset, Free).
+    pub candidates: Vec<BranchCv>,
+    /// The limit the chosen mode had to meet: best CV MSE + its SE, µg².
+    pub limit_ug2: f64,
+    /// Folds.
+    pub folds: usize,
+    /// The rule, in words.
+    pub rule: String,
+}
+
+/// Choose the bias grid's branch tie for the paired rows `rows` (targets `y`, K0 minus the
+/// extension slots) by blocked cross-validation with the one-SE rule
+/// ([`crate::select`]): the rows (programs in order, each in time order) are
+/// cut into [`CYCLING_CV_FOLDS`] contiguous equal chunks; for each chunk, every mode is
+/// fitted (same grid, blocks and weak regularisers as the final fit) on the other chunks
+/// and scored by the MSE of its residual on the held-out chunk's `block`-row K0 means.
+///
+/// # Errors
+/// Too few rows for the folds, a failed solve, or a figure that cannot be formed.
+fn choose_branch_mode(
+    rows: &[Row],
+    y: &[f64],
+    starts: &[usize],
+    gs: GridSpec,
+    block: usize,
+) -> Result<BranchChoice, FitError> {
+    let n = y.len();
+    let k = CYCLING_CV_FOLDS;
+    // Fold boundaries join the program starts, so no averaged block straddles a fold.
+    let mut st: Vec<usize> =
+        starts.iter().copied().chain((0..k).map(|f| (f * n).div_ceil(k))).filter(|&i| i < n).collect();
+    st.sort_unstable();
+    st.dedup();
+    let ranges = block_ranges(n, block, &st);
+    let fold_of: Vec<usize> = ranges.iter().map(|&(s, _)| s * k / n.max(1)).collect();
+    let mut cands = Vec::new();
+    for mode in [BranchMode::Single, BranchMode::Offset, BranchMode::Free] {
+        let (x, p) = bias_design(rows, mode, gs);
+        let (xb, yb) = block_average(&x, y, p, block, &st);
+        drop(x);
+        let mut fold_mse = Vec::with_capacity(k);
+        for f in 0..k {
+            let (mut xt, mut yt) = (Vec::new(), Vec::new());
+            for (b, &fb) in fold_of.iter().enumerate() {
+                if fb != f {
+                    xt.extend_from_slice(&xb[b * p..(b + 1) * p]);
+                    yt.push(yb[b]);
+                }
+            }
+            mode.push_regularisers(&mut xt, &mut yt, p, gs.g);
+            let c = lstsq(&xt, p, &yt)?.coef;
+            let (mut sse, mut m) = (0.0, 0usize);
+            for (b, &fb) in fold_of.iter().enumerate() {
+                if fb == f {
+                    let pred: f64 = xb[b * p..(b + 1) * p].iter().zip(&c).map(|(a, ci)| a * ci).sum();
+                    sse += (yb[b] - pred).powi(2);
+                    m += 1;
+                }
+            }
+            if m == 0 {
+                return Err(FitError::Cv(format!("fold {f} of {k} holds no block of {block} rows ({n} paired rows)")));
+            }
+            fold_mse.push(sse / m as f64 * 1e12);
+        }
+        cands.push((mode, p, crate::select::CvFigure::of_folds(&fold_mse)?));
+    }
+    let figs: Vec<(usize, crate::select::CvFigure)> = cands.iter().map(|&(_, p, f)| (p, f)).collect();
+    let chosen = crate::select::one_se_rule(&figs).ok_or_else(|| FitError::Cv("no candidate".to_string()))?;
+    let best = figs
+        .iter()
+        .map(|(_, f)| *f)
+        .min_by(|a, b| a.mse.total_cmp(&b.mse))
+        .ok_or_else(|| FitError::Cv("no candidate".to_string()))?;
+    Ok(BranchChoice {
+        mode: cands[chosen].0,
+        candidates: cands
+            .iter()
+            .map(|&(mode, unknowns, f)| BranchCv { mode, unknowns, cv_rms_ug: f.mse.sqrt(), cv_mse_ug2: f.mse, cv_se_ug2: f.se })
+            .collect(),
+        limit_ug2: best.mse + best.se,
+        folds: k,
+        rule: format!(
+            "bias-grid branch tie (Single: one curve; Offset: one curve ± a constant half-step; Free: a curve per branch) \
+             by {k}-fold blocked cross-validation over the fit programs' paired rows (contiguous equal chunks in time), \
+             scored on the held-out chunk's {block}-row K0 means; the mode with the fewest unknowns whose CV MSE is within \
+             one standard error of the best's (one-SE rule)"
+        ),
+    })
+}
+
+/// A validated single-axis lab table (see [`table_of_axes`]).
+///
+/// # Errors
+/// The root crate's validation error.
+pub fn table_of(axis: AxisModel) -> Result<Table, FitError> {
+    table_of_axes(Input::PulseCounts, [axis])
+}
+
+/// The one place the lab builds a table: these axes, the lab's rate window
+/// ([`RATE_WINDOW`] = 32), no misalignment matrix, validated by the root crate.
+///
+/// # Errors
+/// More axes than a table holds, or the root crate's validation error.
+pub fn table_of_axes(input: Input, axes: impl IntoIterator<Item = AxisModel>) -> Result<Table, FitError> {
+    table_of_axes_with(input, axes, None)
+}
+
+/// [`table_of_axes`] with a misalignment matrix (row-major, applied after the per-axis
+/// compensation).
+///
+/// # Errors
+/// As [`table_of_axes`], and a matrix outside the table's limits.
+pub fn table_of_axes_with(
+    input: Input,
+    axes: impl IntoIterator<Item = AxisModel>,
+    misalignment: Option<[f32; 9]>,
+) -> Result<Table, FitError> {
+    let mut v = heapless::Vec::new();
+    for a in axes {
+        v.push(a).map_err(|_| FitError::TooManyAxes)?;
+    }
+    let t = Table { input, rate_window: RATE_WINDOW as u16, axes: v, misalignment };
+    t.validate().map_err(FitError::Table)?;
+    Ok(t)
+}
+
+/// Encode a table to its flashable bytes.
+///
+/// # Errors
+/// The root crate's encoding error.
+pub fn encode(table: &Table) -> Result<Vec<u8>, FitError> {
+    let mut buf = [0u8; qfa_thermal::table::MAX_TABLE_BYTES];
+    table.encode(&mut buf).map(<[u8]>::to_vec).map_err(FitError::Table)
+}

@@ -1,0 +1,408 @@
+//! Calibration: log → fitted tables → held-out report, and its files.
+//!
+//! Files written to the output directory:
+//! `table.toml` / `table.bin` (the hysteresis model, the table to flash),
+//! `table_simple.toml` / `table_simple.bin` (the simple model, for comparison),
+//! `report.json`, `sf_vs_temp.png`, `residual_vs_time.png`, and the cubic peer as PX4
+//! (`px4_tc.params`) and ArduPilot (`ardupilot_tcal_1_enable.parm`,
+//! `ardupilot_tcal_2_values.parm`) parameters for the IMU axis [`CalibrateOptions::axis`]
+//! names, when they can be loaded as written (see [`peers::write_exports`]: a one-axis
+//! export needs [`peers::ExportOptions::range_c`]).
+//!
+//! Which rows each comes from: the held-out figures (and the plots) from tables fitted on
+//! the fit programs and compensated on the others; the tables and parameters written from
+//! the same models refitted on **every** program with a ±1 g pair, with the bias grid's
+//! branch tie the fit programs chose ([`FitOptions::branch_mode`]), so no program's rows are
+//! left out of what is flashed. With one program, both are the same fit.
+
+pub mod autopilot_cal;
+pub mod batch;
+pub mod compensate;
+pub mod coverage;
+pub mod discover;
+pub mod fit;
+pub mod lint;
+pub mod metrics;
+pub mod peers;
+pub mod report;
+pub mod select;
+pub mod solver;
+pub mod static_cal;
+pub mod static_choice;
+pub mod static_error;
+pub mod static_fit;
+pub mod static_holdout;
+pub mod static_output;
+pub mod static_report;
+pub mod verdict;
+
+use std::path::Path;
+use std::time::Instant;
+
+use crate::fit::{encode, fit, split_programs, FitOptions, Fitted};
+use crate::report::{
+    evaluate, plot_residual_vs_time, plot_sf_vs_temp, Evaluation, FitSummary, Report, Timings, METRIC_TEXT,
+};
+use qfa_log::cycling::{read_log, Log};
+use qfa_log::pairing::pair_program;
+
+/// Calibration settings.
+#[derive(Clone, Debug, Default)]
+pub struct CalibrateOptions {
+    /// Programs to fit on; `None` applies [`split_programs`].
+    pub fit_programs: Option<Vec<String>>,
+    /// Draw the plots.
+    pub plots: bool,
+    /// Title for plots and messages.
+    pub title: String,
+    /// Show progress bars.
+    pub progress: bool,
+    /// IMU axis this accelerometer is (`ax`, `ay` or `az`) in the PX4 / ArduPilot
+    /// parameter files; `None` is `ax`.
+    pub axis: Option<String>,
+    /// How to write those files.
+    pub exports: peers::ExportOptions,
+    /// The limits the verdict checks.
+    pub limits: qfa_report::verdict::LimitsChoice,
+}
+
+/// Result of a calibration.
+#[derive(Clone, Debug)]
+pub struct Calibration {
+    /// Fits and tables on the fit programs (what the held-out figures are of).
+    pub fitted: Fitted,
+    /// Fits and tables on every program (what is written and flashed).
+    pub table: Fitted,
+    /// Held-out evaluation.
+    pub eval: Evaluation,
+    /// The report as written.
+    pub report: Report,
+    /// The peers fitted on every program's pairs (what the parameter files hold).
+    pub peers: crate::peers::Peers,
+    /// The PX4 / ArduPilot files written, and why others were not.
+    pub exports: peers::Exports,
+    /// The verdict the reports open with (`None` until [`calibrate_into`] writes them).
+    pub verdict: Option<qfa_report::verdict::Verdict>,
+}
+
+fn bar(len: u64, msg: &str, show: bool) -> indicatif::ProgressBar {
+    if !show {
+        return indicatif::ProgressBar::hidden();
+    }
+    let pb = indicatif::ProgressBar::new(len);
+    pb.set_style(
+        indicatif::ProgressStyle::with_template("{msg:>22} [{bar:30}] {pos}/{len} {elapsed}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    pb.set_message(msg.to_string());
+    pb
+}
+
+/// Fit and evaluate an in-memory log (no files).
+///
+/// # Errors
+/// A message describing the failure.
+pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, String> {
+    let programs = log.programs();
+    let (fit_p, eval_p) = match &opts.fit_programs {
+        Some(f) => (f.clone(), programs.iter().filter(|p| !f.contains(p)).cloned().collect::<Vec<_>>()),
+        None => split_programs(&programs),
+    };
+    let eval_p = if eval_p.is_empty() { fit_p.clone() } else { eval_p };
+    let t = Instant::now();
+    let pb = bar(fit_p.len() as u64, "fitting", opts.progress);
+    let fitted = fit(log, &FitOptions::new(fit_p.clone()), Some(&pb)).map_err(|e| e.to_string())?;
+    pb.finish_and_clear();
+    let mut t_fit = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let n_eval = log.runs.iter().filter(|r| eval_p.contains(&r.program)).count();
+    let pb = bar(n_eval as u64, "held-out compensation", opts.progress);
+    let eval = evaluate(log, &eval_p, &fitted.simple, &fitted.hysteresis, Some(&pb)).map_err(|e| e.to_string())?;
+    pb.finish_and_clear();
+    let t_eval = t.elapsed().as_secs_f64();
+    check_figures(&eval)?;
+    let (peers, fit_peers) = crate::report::peer_bias(log, &fit_p, &eval_p, &fitted.hysteresis)?;
+    // What is written: the same models on every program with a pair (the branch tie as
+    // the fit programs chose it), and the peers on the same pairs.
+    let table_p: Vec<String> = programs.iter().filter(|p| pair_program(log, p).is_some()).cloned().collect();
+    let (table, peer_fits) = if table_p.iter().all(|p| fit_p.contains(p)) {
+        (fitted.clone(), fit_peers)
+    } else {
+        let t = Instant::now();
+        let o = FitOptions { branch_mode: Some(fitted.branch.mode), ..FitOptions::new(table_p.clone()) };
+        let table = fit(log, &o, None).map_err(|e| e.to_string())?;
+        let deadband = table.hysteresis.axes[0].bias.deadband_c_per_min;
+        let p = crate::report::peer_fit(log, &table_p, deadband)?;
+        t_fit += t.elapsed().as_secs_f64();
+        (table, p)
+    };
+    let h = &fitted.sf_hysteresis.coef;
+    let deadband = qfa_log::pairing::branch_deadband_c_per_min();
+    let coverage = crate::coverage::CalCoverage {
+        covered: crate::coverage::Coverage::of_log(log, &fit_p, deadband).map_err(|e| format!("{e:#}"))?,
+        table: crate::coverage::TableLimits::of(&fitted.hysteresis).map_err(|e| format!("{e:#}"))?,
+        programs: fit_p.clone(),
+    };
+    let report = Report {
+        coverage,
+        rows: log.rows(),
+        held_out: fit_p.iter().all(|p| !eval_p.contains(p)),
+        figures: format!(
+            "held-out figures and plots: tables fitted on {fit}, compensated on {}; table.*, table_simple.*, \
+             px4_tc.params, ardupilot_tcal_*.parm: fitted on {} (every program with a +1 g / -1 g pair), the bias \
+             grid's branch tie as chosen on {fit}",
+            eval_p.join(", "),
+            table_p.join(", "),
+            fit = fit_p.join(", ")
+        ),
+        table_programs: table_p,
+        fit_programs: fit_p,
+        eval_programs: eval_p,
+        sensitivity_ppm_per_c: eval.sensitivity_ppm_per_c,
+        bias_residual_ug: eval.bias_residual_ug,
+        peers_bias_residual_ug: peers,
+        metric: METRIC_TEXT.to_string(),
+        fit: FitSummary {
+            pairs: fitted.pairs,
+            cond_sf_simple: fitted.sf_simple.cond,
+            cond_sf_hysteresis: fitted.sf_hysteresis.cond,
+            cond_bias_grid: fitted.bias_hysteresis.cond,
+            eq11: [h[0], h[1], h[2], h[3], h[4], h[5]],
+            simple_sf: [fitted.sf_simple.coef[0], fitted.sf_simple.coef[1]],
+            simple_bias: [fitted.bias_simple.coef[0], fitted.bias_simple.coef[1]],
+            rms_sf_hysteresis: fitted.sf_hysteresis.rms,
+            branch: fitted.branch.clone(),
+        },
+        rejected_readings: eval.rejected_readings,
+        timings_s: Timings { fit: t_fit, evaluate: t_eval, ..Timings::default() },
+    };
+    Ok(Calibration { fitted, table, eval, report, peers: peer_fits, exports: peers::Exports::default(), verdict: None })
+}
+
+/// Every held-out figure must exist: a figure with no bins behind it is an error with its
+/// reason, never NaN, `null` or 0.0.
+///
+/// # Errors
+/// The first figure that could not be formed, and why.
+pub fn check_figures(ev: &crate::report::Evaluation) -> Result<(), String> {
+    let names = ["no compensation", "simple", "hysteresis"];
+    for (v, name) in names.iter().enumerate() {
+        if ev.bins[v].bias.is_empty() {
+            return Err(format!(
+                "bias residual ({name}) not computable: no held-out bin qualified (a bin is one program, branch \
+                 segment and 1 °C of T-hat with at least {} s of rows the compensator marked compensated)",
+                crate::metrics::MIN_BIN_S
+            ));
+        }
+        if ev.bins[v].sf.len() < 2 {
+            return Err(format!(
+                "sensitivity ({name}) not computable: {} held-out scale-factor bin(s); needs 2 or more (held-out \
+                 programs need both +1 g and -1 g runs, and bins at least {} s of compensated rows)",
+                ev.bins[v].sf.len(),
+                crate::metrics::MIN_BIN_S
+            ));
+        }
+    }
+    let s = ev.sensitivity_ppm_per_c;
+    let b = ev.bias_residual_ug;
+    for (x, what) in [
+        (s.none, "sensitivity (none)"),
+        (s.simple, "sensitivity (simple)"),
+        (s.hysteresis, "sensitivity (hysteresis)"),
+        (b.none, "bias residual (none)"),
+        (b.simple, "bias residual (simple)"),
+        (b.hysteresis, "bias residual (hysteresis)"),
+    ] {
+        if !x.is_finite() {
+            return Err(format!("{what} not computable: the held-out bins span no temperature range"));
+        }
+    }
+    Ok(())
+}
+
+/// The text of a cycling calibration's `table.toml`: a comment line with the units, then
+/// the table as TOML.
+///
+/// # Errors
+/// The table does not serialize.
+pub fn table_toml(table: &qfa_thermal::Table) -> Result<String, String> {
+    let toml = toml::to_string_pretty(table).map_err(|e| e.to_string())?;
+    let header = "# qfa-thermal coefficient table (K1 pulses/(g*s), K0 g, T degC, rate degC/min)\n";
+    Ok(format!("{header}{toml}"))
+}
+
+/// The accelerometer of a cycling calibration as the PX4 / ArduPilot exports see it: IMU
+/// axis `axis` (`ax`, `ay` or `az`), a one-axis export.
+///
+/// # Errors
+/// An axis other than `ax`, `ay` or `az`.
+pub fn cycling_export_axis(cal: &Calibration, axis: &str) -> Result<peers::ExportAxis, String> {
+    if !["ax", "ay", "az"].contains(&axis) {
+        return Err(format!("axis `{axis}`: expected ax, ay or az"));
+    }
+    Ok(peers::ExportAxis {
+        source: format!("accelerometer (--axis {})", axis.trim_start_matches('a')),
+        axis: axis.to_string(),
+        cubic: cal.peers.cubic.clone(),
+        ardupilot: Ok(cal.peers.ardupilot.clone()),
+    })
+}
+
+/// Write a table as TOML and postcard `.bin` under `dir/stem.{toml,bin}`.
+///
+/// # Errors
+/// Encoding or I/O errors.
+pub fn write_table(dir: &Path, stem: &str, table: &qfa_thermal::Table) -> Result<(), String> {
+    std::fs::write(dir.join(format!("{stem}.toml")), table_toml(table)?).map_err(|e| e.to_string())?;
+    let bin = encode(table).map_err(|e| e.to_string())?;
+    std::fs::write(dir.join(format!("{stem}.bin")), bin).map_err(|e| e.to_string())
+}
+
+/// Calibrate an in-memory log and write every output file into `out`.
+///
+/// # Errors
+/// A message describing the failure.
+pub fn calibrate_into(log: &Log, out: &Path, opts: &CalibrateOptions, read_s: f64) -> Result<Calibration, String> {
+    let t0 = Instant::now();
+    std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
+    let mut cal = calibrate_log(log, opts)?;
+    write_table(out, "table", &cal.table.hysteresis)?;
+    write_table(out, "table_simple", &cal.table.simple)?;
+    // One accelerometer: a one-axis export, so the shared fields need opts.exports.range_c.
+    let one = cycling_export_axis(&cal, opts.axis.as_deref().unwrap_or("ax"))?;
+    cal.exports = peers::write_exports(out, &[one], &opts.exports).map_err(|e| format!("{}: {e}", out.display()))?;
+    let t = Instant::now();
+    if opts.plots {
+        let held = format!(
+            "held out: programs {} (tables fitted on {})",
+            cal.report.eval_programs.join(", "),
+            cal.report.fit_programs.join(", ")
+        );
+        let title = if opts.title.is_empty() { held } else { format!("{}, {held}", opts.title) };
+        plot_sf_vs_temp(&out.join("sf_vs_temp.png"), &title, &cal.eval).map_err(|e| e.to_string())?;
+        plot_residual_vs_time(&out.join("residual_vs_time.png"), &title, &cal.eval).map_err(|e| e.to_string())?;
+    }
+    cal.report.timings_s.plots = t.elapsed().as_secs_f64();
+    cal.report.timings_s.read = read_s;
+    cal.report.timings_s.total = read_s + t0.elapsed().as_secs_f64();
+    let mut files: Vec<String> = ["table.bin", "table.toml", "table_simple.bin", "table_simple.toml"]
+        .into_iter()
+        .chain(["report.json", "report.md", "report.html"])
+        .map(String::from)
+        .collect();
+    if opts.plots {
+        files.extend(["sf_vs_temp.png".to_string(), "residual_vs_time.png".to_string()]);
+    }
+    files.extend(cal.exports.written.iter().map(|f| (*f).to_string()));
+    let axis = opts.axis.as_deref().unwrap_or("ax");
+    let notes: Vec<String> = cal.exports.notes.iter().map(ToString::to_string).collect();
+    let v = verdict::cycling_verdict(&cal.report, axis, &opts.limits, &files, &notes);
+    let json = qfa_report::verdict::json_with_verdict(&v, &cal.report).map_err(|e| e.to_string())?;
+    std::fs::write(out.join("report.json"), json).map_err(|e| e.to_string())?;
+    let md = format!("# Calibration report\n\n{}{}", v.markdown(), report::markdown(&cal.report));
+    std::fs::write(out.join("report.md"), md).map_err(|e| e.to_string())?;
+    cal.verdict = Some(v);
+    page(&cal, out, opts).map_err(|e| e.to_string())?.write(out).map_err(|e| e.to_string())?;
+    Ok(cal)
+}
+
+/// The calibration's `report.html` (see [`qfa_report::html_report`]).
+///
+/// # Errors
+/// A plot that cannot be read.
+pub fn page(cal: &Calibration, out: &Path, opts: &CalibrateOptions) -> std::io::Result<qfa_report::html_report::Page> {
+    let r = &cal.report;
+    let mut p = qfa_report::html_report::Page::new(&if opts.title.is_empty() {
+        "Calibration report".to_string()
+    } else {
+        format!("Calibration report: {}", opts.title)
+    });
+    if let Some(v) = &cal.verdict {
+        v.to_page(&mut p);
+    }
+    p.section("Held-out scheme").kv(&[
+        ("fitted on (programs)", r.fit_programs.join(", ")),
+        ("held out, figures from (programs)", r.eval_programs.join(", ")),
+        ("written tables fitted on (programs)", r.table_programs.join(", ")),
+        ("which rows each output comes from", r.figures.clone()),
+        ("log rows", r.rows.to_string()),
+    ]);
+    if !r.held_out {
+        p.warning("one program only: the figures are in-sample, not held out");
+    }
+    let (s, b, pb) = (r.sensitivity_ppm_per_c, r.bias_residual_ug, r.peers_bias_residual_ug);
+    p.section("Held-out figures").table(
+        &["model", "scale-factor sensitivity, ppm/°C", "bias residual, µg RMS"],
+        &[
+            vec!["no compensation".to_string(), format!("{:.2}", s.none), format!("{:.1}", b.none)],
+            vec!["simple (Eq. 3–4)".to_string(), format!("{:.2}", s.simple), format!("{:.1}", b.simple)],
+            vec![
+                "hysteresis (Eq. 11 + branched bias), table.bin".to_string(),
+                format!("{:.2}", s.hysteresis),
+                format!("{:.1}", b.hysteresis),
+            ],
+            vec!["PX4 / tofupilot cubic (bias only)".to_string(), "-".to_string(), format!("{:.1}", pb.cubic)],
+            vec!["ArduPilot TCAL (bias only)".to_string(), "-".to_string(), format!("{:.1}", pb.ardupilot)],
+        ],
+    );
+    p.para(&format!("Metric: {}.", r.metric));
+    r.coverage.to_page(&mut p);
+    let f = &r.fit;
+    p.section("Fit").kv(&[
+        ("paired rows", f.pairs.to_string()),
+        (
+            "condition numbers (simple, Eq. 11, bias grid)",
+            format!("{:.1}, {:.1}, {:.1}", f.cond_sf_simple, f.cond_sf_hysteresis, f.cond_bias_grid),
+        ),
+        ("Eq. 11 [γ, μ, β, ε, η, α]", f.eq11.iter().map(|c| format!("{c:.6e}")).collect::<Vec<_>>().join(", ")),
+        ("bias grid branch tie", format!("{:?}: {}", f.branch.mode, f.branch.rule)),
+    ]);
+    let branch_rows: Vec<Vec<String>> = f
+        .branch
+        .candidates
+        .iter()
+        .map(|c| {
+            vec![
+                format!("{:?}", c.mode),
+                c.unknowns.to_string(),
+                format!("{:.2}", c.cv_rms_ug),
+                format!("{:.3}", c.cv_mse_ug2),
+                format!("{:.3}", c.cv_se_ug2),
+            ]
+        })
+        .collect();
+    p.table(&["branch tie", "unknowns", "CV RMS, µg", "CV MSE, µg²", "SE, µg²"], &branch_rows);
+    p.para(&format!("Limit (best CV MSE + its SE): {:.3} µg² over {} folds.", f.branch.limit_ug2, f.branch.folds));
+    if opts.plots {
+        p.section("Plots (held-out bins only: the fit programs are not drawn)");
+        p.image(
+            &out.join("sf_vs_temp.png"),
+            "Scale factor against temperature on the held-out programs, per model. Left, uncompensated: the \
+             drift and the gap between heating (red) and cooling (blue) are what the table must remove. Right, \
+             the table (hysteresis): the points should lie flat, the two colours on one band; a slope left is \
+             sensitivity, a gap left is hysteresis the model did not carry.",
+        )?;
+        p.image(
+            &out.join("residual_vs_time.png"),
+            "Held-out residuals against time since each program's start, scale factor (top) and bias (bottom): \
+             green (the table) should stay closer to zero than orange (the simple model) and show no trend; a \
+             jump that both models share is in the unit or the log, not in either model.",
+        )?;
+    }
+    let t = r.timings_s;
+    p.section("Timings").para(&format!(
+        "read {:.2} s, fit {:.2} s, held-out compensation {:.2} s, plots {:.2} s",
+        t.read, t.fit, t.evaluate, t.plots
+    ));
+    Ok(p)
+}
+
+/// `qfa-lab calibrate --log LOG --out DIR`.
+///
+/// # Errors
+/// A message describing the failure (for a malformed log: every bad row with its line).
+pub fn calibrate_file(log_path: &Path, out: &Path, opts: &CalibrateOptions) -> Result<Calibration, String> {
+    let t = Instant::now();
+    let log = read_log(log_path).map_err(|e| e.to_string())?;
+    calibrate_into(&log, out, opts, t.elapsed().as_secs_f64())
+}

@@ -1,0 +1,485 @@
+//! Calibration of a static multi-axis log: per axis, the firmware's bias model (grid with
+//! heating/cooling branches and extension slots) fitted through the root crate's estimator
+//! and model, scored against the peers on held-out rows, then refitted on every row for the
+//! table that is written.
+//!
+//! # What refuses a log
+//! Only a cause in the log itself, checked on all rows before anything is fitted
+//! ([`check_coverage`]):
+//! * a temperature span below what the bias grid needs: `grid_points` nodes at least the
+//!   root crate's smallest grid step apart (`MIN_GRID_STEP_C`, 0.1 °C: finer steps resolve
+//!   nothing the firmware's 1/16-°C readings tell apart), 1.5 °C for 16 nodes;
+//! * too few rows per degree: the span cut into the grid's `grid_points − 1` equal
+//!   intervals, each must hold `block` rows (one averaged equation per interval, so every
+//!   node is set by data, not only by the weak smoothing rows).
+//!
+//! A held-out scheme the log cannot support, asked for explicitly (`after-max` on a log
+//! that ends at its hottest, `blocks:K` with blocks under `block` rows), is refused with
+//! that reason; `auto` never is.
+//!
+//! # Held-out scheme (`--holdout`, [`Holdout`]), the same for every figure of the report
+//! * `after-max`: fit on every row up to and including the first row at the log's highest
+//!   temperature, evaluate on every row after it: the later leg. For a chamber cycle that
+//!   ends cooling (the tofupilot log: 51.6 → −17.6 → 74.0 → 36.3 °C) that is a cooling leg
+//!   over a range the training saw only while heating. Needs a tenth of the rows on each
+//!   side of that row.
+//! * `blocks:K`: blocked cross-validation in time: the rows cut into K contiguous blocks of
+//!   equal row count; each block is evaluated on a fit to the other K − 1. For logs with no
+//!   later leg: heating only (PX4's and ArduPilot's own procedure, a cold-soaked board
+//!   warming up), cooling only, or a maximum near either end.
+//! * `none`: nothing held out; no held-out figure exists, and the report says so in each
+//!   figure's place.
+//! * `auto` (the default): `after-max` when the log has that later leg, else `blocks:5`.
+//!   The report states which one ran and why.
+//!
+//! # Model choice
+//! Each axis chooses among [`candidates`] (branch tie × `sensor_lag` τ × `bias_creep` τ) by
+//! blocked cross-validation **inside the rows it is fitted on**: those rows (in time order)
+//! are cut into contiguous blocks ([`CV_FOLDS`], or K under `blocks:K`); each block is
+//! predicted by a fit to the others (the firmware's states still run through every row);
+//! the candidate with the lowest RMS over all blocks wins, then is refitted on all of those
+//! rows. The held-out figures apply this whole procedure to each fold's training rows, so
+//! the choice never sees the rows it is scored on; under `blocks:K` the choice for the table
+//! is scored on the scheme's own K blocks. (Choosing on the held-out rows themselves would
+//! make the held-out figure a selection figure, better than what a new log would give.)
+//!
+//! **One branch.** Rows on which the smaller of the heating and cooling branches holds
+//! fewer than a tenth of the rows on a branch ([`is_one_branch`]: a heating-only or
+//! cooling-only log, or a fold of one) get one model, not a choice: [`ONE_BRANCH`], a
+//! rate-even bias curve shaped as a cubic in T. Every candidate's other terms (branch step,
+//! two branches, lag, creep) act differently on the branch those rows never show, and
+//! nothing in them can test how; [`ONE_BRANCH`]'s docs give the measurements.
+//!
+//! # Figures, and the rows each comes from
+//! * Held-out bias RMS per axis in mg (ours, the peers, no compensation): the RMS over every
+//!   fold's held-out rows of `a − reference − bias`, each row predicted by models fitted
+//!   on its fold's training rows (`reference` the axis's mean over them; `bias` the model's
+//!   K0 from the root crate's `AxisModel::evaluate`, or the peer's polynomial of the
+//!   reading). `binned_mg` is the same over 60-s means (white noise averaged down). A
+//!   figure that cannot be formed is [`Figure::NotComputed`] with its reason (`none`, or
+//!   the ArduPilot learner on a log with no 2 °C rise), never a number in its place.
+//! * The table (`table.bin`/`table.toml`) and the exported peers (`px4_tc.params`,
+//!   `ardupilot_tcal.parm`): the chosen structure, and the peers, fitted on **every row**,
+//!   the bias measured from the axis's mean over every row. `table_rms_mg` is that
+//!   table's RMS over every row (in-sample: not a held-out figure).
+
+use qfa_thermal::model::Branch;
+use qfa_thermal::Input;
+
+use crate::fit::{fit_static_traced, table_of_axes, FitError, StaticSeries, StaticStructure, StaticTraces};
+use crate::metrics::rms;
+use crate::peers::{PeerKind, Poly};
+use qfa_log::static_log::StaticLog;
+
+pub use super::static_choice::*;
+pub use super::static_error::*;
+pub use super::static_holdout::*;
+pub use super::static_output::*;
+pub use super::static_report::*;
+
+/// Length of the averaging window of `binned_mg`, s.
+pub const BIN_S: f64 = 60.0;
+
+/// Settings.
+#[derive(Clone, Debug)]
+pub struct StaticCalOptions {
+    /// Bias grid nodes.
+    pub grid_points: usize,
+    /// Rows averaged per equation.
+    pub block: usize,
+    /// Branch deadband, °C/min.
+    pub deadband_c_per_min: f32,
+    /// Candidate structures (default [`candidates`]).
+    pub candidates: Vec<StaticStructure>,
+    /// Held-out scheme.
+    pub holdout: Holdout,
+}
+
+impl Default for StaticCalOptions {
+    fn default() -> Self {
+        Self {
+            grid_points: 16,
+            block: 10,
+            deadband_c_per_min: qfa_log::pairing::branch_deadband_c_per_min(),
+            candidates: candidates(),
+            holdout: Holdout::Auto,
+        }
+    }
+}
+
+pub(crate) fn range(v: &[f64]) -> (f64, f64) {
+    (v.iter().copied().fold(f64::INFINITY, f64::min), v.iter().copied().fold(f64::NEG_INFINITY, f64::max))
+}
+
+/// Held-out figures of residuals `resid` (g) at times `time_s`: RMS over the rows and over
+/// their 60-s means, mg.
+///
+/// # Errors
+/// No residual, or a non-finite one.
+pub fn score(resid: &[f64], time_s: &[f64], what: &str) -> Result<Score, StaticCalError> {
+    if resid.is_empty() {
+        return Err(StaticCalError::Figure(format!("{what}: no held-out row had a model output")));
+    }
+    let bins: Vec<f64> =
+        crate::metrics::time_bin_means(resid.iter().copied(), time_s, BIN_S).into_iter().map(|b| b.1).collect();
+    let out = Score { rms_mg: rms(resid) * 1e3, binned_mg: rms(&bins) * 1e3 };
+    if !out.rms_mg.is_finite() || !out.binned_mg.is_finite() {
+        return Err(StaticCalError::Figure(format!("{what}: non-finite residual")));
+    }
+    Ok(out)
+}
+
+/// One set of rows a structure is chosen and fitted on: every row (the table), or one
+/// fold's training rows.
+struct RowSet {
+    rows: Vec<usize>,
+    mask: Vec<bool>,
+}
+
+/// Calibrate a static log (see the module docs).
+///
+/// # Errors
+/// A log refused by [`check_coverage`], a held-out scheme the log cannot hold, a failed
+/// fit, or a figure that cannot be formed.
+#[allow(clippy::too_many_lines)]
+pub fn calibrate_static(
+    log: &StaticLog,
+    opts: &StaticCalOptions,
+    progress: bool,
+) -> Result<StaticCalibration, StaticCalError> {
+    check_coverage(&log.temp_c, opts.grid_points, opts.block)?;
+    let (scheme, rule) = resolve_holdout(log, opts.holdout, opts.block)?;
+    let n = log.rows();
+    let folds = scheme.folds(n);
+    let k_sel = scheme.selection_folds();
+    // Set 0: every row (the table); set 1 + f: fold f's training rows.
+    let mut sets = vec![RowSet { rows: (0..n).collect(), mask: vec![true; n] }];
+    for f in &folds {
+        let mask: Vec<bool> = (0..n).map(|i| !f.contains(&i)).collect();
+        sets.push(RowSet { rows: (0..n).filter(|&i| mask[i]).collect(), mask });
+    }
+    let na = log.axes.len();
+    // Rows per branch, as the firmware's branch logic (deadband included) sees them.
+    let plain = StaticSeries { time_s: &log.time_s, temp_c: &log.temp_c, accel_g: &log.axes[0].accel_g }
+        .trace(&qfa_thermal::Extensions::default(), opts.deadband_c_per_min);
+    let branch_rows = |rows: &[usize]| -> (usize, usize) {
+        let count = |b: Branch| rows.iter().filter(|&&i| plain.branch[i] == b).count();
+        (count(Branch::Heating), count(Branch::Cooling))
+    };
+    let one_branch: Vec<bool> = sets.iter().map(|set| is_one_branch(branch_rows(&set.rows))).collect();
+    let log_branches = branch_rows(&sets[0].rows);
+    // The candidates on set s (the same for every axis).
+    let cands = |s: usize| -> Vec<StaticStructure> {
+        if one_branch[s] {
+            return vec![ONE_BRANCH];
+        }
+        opts.candidates.clone()
+    };
+    let mut union: Vec<StaticStructure> = Vec::new();
+    for s in 0..sets.len() {
+        for st in cands(s) {
+            if !union.contains(&st) {
+                union.push(st);
+            }
+        }
+    }
+    let pb = if progress {
+        indicatif::ProgressBar::new((na * union.len()) as u64)
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    let series_of = |a: usize| StaticSeries { time_s: &log.time_s, temp_c: &log.temp_c, accel_g: &log.axes[a].accel_g };
+    // Best (cv, structure) per axis and set, and the table's refusals. The traces depend on
+    // the temperatures only, so each structure's are computed once for every axis and set.
+    let mut best: Vec<Vec<Option<(f64, StaticStructure)>>> = vec![vec![None; sets.len()]; na];
+    let mut refused: Vec<Vec<String>> = vec![Vec::new(); na];
+    // Each fold's first refusal per axis, so a fold where nothing could be fitted says why.
+    let mut fold_refused: Vec<Vec<Option<String>>> = vec![vec![None; sets.len()]; na];
+    for st in &union {
+        let traces = StaticTraces::new(&series_of(0), st, opts.deadband_c_per_min);
+        for a in 0..na {
+            for (s, set) in sets.iter().enumerate() {
+                if !cands(s).contains(st) {
+                    continue;
+                }
+                match cv_rms(&series_of(a), &traces, &set.rows, k_sel, opts) {
+                    Ok(r) if best[a][s].is_none_or(|(b, _)| r < b) => best[a][s] = Some((r, *st)),
+                    Ok(_) => {}
+                    Err(e) if s == 0 => refused[a].push(format!("{}: {e}", st.name())),
+                    Err(e) => {
+                        fold_refused[a][s].get_or_insert_with(|| format!("{}: {e}", st.name()));
+                    }
+                }
+            }
+            pb.inc(1);
+        }
+    }
+    pb.finish_and_clear();
+
+    let mut fits = Vec::new();
+    let mut peers = Vec::new();
+    let mut axes = Vec::new();
+    let mut plot = PlotRows {
+        temp_c: log.temp_c.clone(),
+        branch: plain.branch.clone(),
+        heldout: (0..n).map(|i| folds.iter().any(|f| f.contains(&i))).collect(),
+        axes: Vec::new(),
+    };
+    for (a, ax) in log.axes.iter().enumerate() {
+        let series = series_of(a);
+        let chosen = |s: usize| {
+            best[a][s].ok_or_else(|| {
+                StaticCalError::Figure(format!(
+                    "{}: no candidate model could be fitted in cross-validation{} (first refusal: {})",
+                    ax.name,
+                    if s == 0 { String::new() } else { format!(" inside the training rows of fold {s}") },
+                    if s == 0 { refused[a].first() } else { fold_refused[a][s].as_ref() }
+                        .map_or("none", String::as_str)
+                ))
+            })
+        };
+        let fit_on = |s: usize, st: &StaticStructure| {
+            let traces = StaticTraces::new(&series, st, opts.deadband_c_per_min);
+            fit_static_traced(&series, &traces, &sets[s].mask, opts.grid_points, opts.block)
+                .map_err(|e| StaticCalError::Fit(ax.name.clone(), e))
+        };
+        // The table: chosen and fitted on every row.
+        let (cv, structure) = chosen(0)?;
+        let fit = fit_on(0, &structure)?;
+        let tr = series.model_trace(&fit.axis);
+        let reference = fit.reference_g;
+        let all: Vec<f64> =
+            (0..n).filter(|&i| tr.valid[i]).map(|i| ax.accel_g[i] - reference - tr.ext_k0_g[i]).collect();
+        let table_rms_mg = rms(&all) * 1e3;
+        let resid_mg = |tr: &qfa_log::pairing::Trace, r0: f64, i: usize| {
+            if tr.valid[i] {
+                (ax.accel_g[i] - r0 - tr.ext_k0_g[i]) * 1e3
+            } else {
+                f64::NAN
+            }
+        };
+        let before_mg: Vec<f64> = ax.accel_g.iter().map(|a| (a - reference) * 1e3).collect();
+        let mut after_mg: Vec<f64> = (0..n).map(|i| resid_mg(&tr, reference, i)).collect();
+        let (t_all, y_all): (Vec<f64>, Vec<f64>) =
+            (log.temp_c.clone(), ax.accel_g.iter().map(|v| v - reference).collect());
+        let exported = ExportedPeers {
+            cubic: PeerKind::Cubic
+                .fit(&t_all, &y_all)
+                .map_err(|e| StaticCalError::Fit(format!("{} cubic", ax.name), e))?,
+            ardupilot: PeerKind::Ardupilot.fit(&t_all, &y_all).map_err(|e| ardupilot_reason(&e)),
+        };
+        // The exported peers over every row, the constant the mean over every row (what the
+        // ordinary accelerometer calibration takes up): the figures the files reproduce.
+        let in_sample = |p: &Poly, what: &str| -> Result<Figure, StaticCalError> {
+            let r: Vec<f64> = t_all.iter().zip(&y_all).map(|(&t, &y)| y - p.eval(t)).collect();
+            let mean = r.iter().sum::<f64>() / r.len() as f64;
+            let centred: Vec<f64> = r.iter().map(|v| v - mean).collect();
+            score(&centred, &log.time_s, &format!("{} exported {what}", ax.name)).map(Figure::Score)
+        };
+        let exported_cubic = in_sample(&exported.cubic, "cubic")?;
+        let exported_ardupilot = match &exported.ardupilot {
+            Ok(p) => in_sample(p, "ardupilot")?,
+            Err(why) => Figure::not_computed(why.clone()),
+        };
+        // The held-out figures: per fold, the same procedure on its training rows.
+        let mut ho = HeldOut::default();
+        let mut heldout_structures = Vec::new();
+        for (f, rows) in folds.iter().enumerate() {
+            let s = f + 1;
+            let (_, st) = chosen(s)?;
+            heldout_structures.push(st.name());
+            let fit = fit_on(s, &st)?;
+            let tr = series.model_trace(&fit.axis);
+            let r0 = fit.reference_g;
+            let drawn = if folds.len() == 1 { 0..n } else { rows.clone() };
+            for i in drawn {
+                after_mg[i] = resid_mg(&tr, r0, i);
+            }
+            for i in rows.clone().filter(|&i| tr.valid[i]) {
+                ho.ours.push(ax.accel_g[i] - r0 - tr.ext_k0_g[i]);
+                ho.ours_t.push(log.time_s[i]);
+                ho.clamped += usize::from(tr.clamped[i]);
+            }
+            // Peers on the same training rows (the same reference removed), scored on the
+            // same held-out rows.
+            let tt: Vec<f64> = sets[s].rows.iter().map(|&i| log.temp_c[i]).collect();
+            let ty: Vec<f64> = sets[s].rows.iter().map(|&i| ax.accel_g[i] - r0).collect();
+            for (k, kind) in PeerKind::ALL.iter().enumerate() {
+                match kind.fit(&tt, &ty) {
+                    Ok(p) => ho.peers[k].extend(rows.clone().map(|i| ax.accel_g[i] - r0 - p.eval(log.temp_c[i]))),
+                    Err(e) if ho.peer_err[k].is_none() => {
+                        ho.peer_err[k] = Some(format!(
+                            "fold {} of {}: {}",
+                            f + 1,
+                            folds.len(),
+                            if *kind == PeerKind::Ardupilot { ardupilot_reason(&e) } else { e.to_string() }
+                        ));
+                    }
+                    Err(_) => {}
+                }
+            }
+            ho.none.extend(rows.clone().map(|i| ax.accel_g[i] - r0));
+            ho.t.extend(rows.clone().map(|i| log.time_s[i]));
+        }
+        let name = |w: &str| format!("{} {w}", ax.name);
+        let fig = |resid: &[f64], t: &[f64], what: &str, err: &Option<String>| -> Result<Figure, StaticCalError> {
+            if folds.is_empty() {
+                return Ok(Figure::not_computed(NO_HOLDOUT));
+            }
+            if let Some(e) = err {
+                return Ok(Figure::not_computed(e.clone()));
+            }
+            score(resid, t, &name(what)).map(Figure::Score)
+        };
+        axes.push(AxisReport {
+            axis: ax.name.clone(),
+            column: ax.column.clone(),
+            reference_g: reference,
+            structure: structure.name(),
+            cv_rms_mg: cv * 1e3,
+            table_rms_mg,
+            exported_cubic,
+            exported_ardupilot,
+            heldout_structures,
+            ours: fig(&ho.ours, &ho.ours_t, "ours", &None)?,
+            cubic: fig(&ho.peers[0], &ho.t, "cubic", &ho.peer_err[0])?,
+            ardupilot: fig(&ho.peers[1], &ho.t, "ardupilot", &ho.peer_err[1])?,
+            simple: fig(&ho.peers[2], &ho.t, "simple", &ho.peer_err[2])?,
+            none: fig(&ho.none, &ho.t, "none", &None)?,
+            clamped_rows: ho.clamped,
+            refused_candidates: std::mem::take(&mut refused[a]),
+        });
+        fits.push(fit);
+        peers.push(exported);
+        plot.axes.push((ax.name.clone(), before_mg, after_mg));
+    }
+    let table = table_of_axes(Input::Samples, fits.iter().map(|f| f.axis.clone()))
+        .map_err(|e| StaticCalError::Fit("table".to_string(), e))?;
+    let fold_reports: Vec<FoldReport> = folds
+        .iter()
+        .enumerate()
+        .map(|(f, r)| {
+            let train: Vec<f64> = sets[f + 1].rows.iter().map(|&i| log.temp_c[i]).collect();
+            FoldReport {
+                heldout_rows: (r.start + 1, r.end),
+                heldout_time_s: (log.time_s[r.start], log.time_s[r.end - 1]),
+                heldout_temp_c: range(&log.temp_c[r.clone()]),
+                train_rows: train.len(),
+                train_branch_rows: branch_rows(&sets[f + 1].rows),
+                train_temp_c: range(&train),
+            }
+        })
+        .collect();
+    let coverage = crate::coverage::Coverage::of_samples(
+        (0..n).filter(|&i| plain.valid[i]).map(|i| (plain.temp_c[i], plain.rate_c_per_min[i])),
+        f64::from(opts.deadband_c_per_min),
+    )
+    .map_err(|e| StaticCalError::Figure(format!("coverage: {e}")))?;
+    let mut record_next = coverage.record_next();
+    if one_branch[0] {
+        record_next.push(format!(
+            "with one leg the table is `{}` (one rate-even curve), and a mission that runs the other way is \
+             compensated by a curve fitted on this leg only",
+            ONE_BRANCH.name()
+        ));
+    }
+    if matches!(scheme, Scheme::Blocks { .. }) && opts.holdout == Holdout::Auto {
+        record_next.push(
+            "the log has no later leg after its highest temperature, so the held-out figures come from blocks in \
+             time, each inside the range its neighbours saw; record a cooling leg after the maximum to score the \
+             model on a leg it was not fitted on (`after-max`)"
+                .to_string(),
+        );
+    }
+    let report = StaticReport {
+        coverage,
+        record_next,
+        kind: "static multi-axis",
+        columns: log.columns.clone(),
+        rows: n,
+        skipped: log.skipped.clone(),
+        sampling: log.sampling,
+        temp_c: range(&log.temp_c),
+        branch_rows: log_branches,
+        holdout: HoldoutReport {
+            requested: opts.holdout.to_string(),
+            scheme: scheme.name(),
+            rule,
+            heldout_rows: folds.iter().map(ExactSizeIterator::len).sum(),
+            folds: fold_reports,
+        },
+        figures: figures_text(&scheme, n),
+        selection: format!(
+            "per axis, the lowest {k_sel}-fold blocked cross-validation RMS (contiguous blocks in time) among {} \
+             candidates (branch tie x sensor_lag tau x bias_creep tau), over the rows the model is fitted on: every \
+             row for the table, each fold's training rows for its held-out figure; rows where one branch holds \
+             fewer than a tenth of the rows on a branch get `{}` instead (one rate-even curve: terms that act on \
+             the other branch cannot be tested there){}",
+            opts.candidates.len(),
+            ONE_BRANCH.name(),
+            if one_branch[0] {
+                format!(
+                    "; this log holds {} heating and {} cooling rows, so its table is `{}`",
+                    log_branches.0,
+                    log_branches.1,
+                    ONE_BRANCH.name()
+                )
+            } else {
+                String::new()
+            }
+        ),
+        axes,
+    };
+    Ok(StaticCalibration { table, fits, peers, report, plot })
+}
+
+/// What stands in every held-out figure's place under `--holdout none`.
+pub const NO_HOLDOUT: &str = "--holdout none: no row is held out";
+
+/// Residuals pooled over the folds.
+#[derive(Default)]
+struct HeldOut {
+    ours: Vec<f64>,
+    ours_t: Vec<f64>,
+    clamped: usize,
+    /// Cubic, ArduPilot, simple ([`PeerKind::ALL`]'s order).
+    peers: [Vec<f64>; 3],
+    peer_err: [Option<String>; 3],
+    none: Vec<f64>,
+    t: Vec<f64>,
+}
+
+/// Why the ArduPilot learner formed no fit, in its own terms.
+fn ardupilot_reason(e: &FitError) -> String {
+    match e {
+        FitError::TooFewRows { rows, .. } => format!(
+            "the ArduPilot learner formed {rows} point(s) (one per 0.5 °C rise after the coldest row) and its cubic \
+             needs 4: it learns only while the temperature rises"
+        ),
+        e => e.to_string(),
+    }
+}
+
+/// Which rows each figure comes from, in words.
+fn figures_text(scheme: &Scheme, n: usize) -> String {
+    let held = match scheme {
+        Scheme::None => "no held-out figure (--holdout none)".to_string(),
+        Scheme::AfterMax { last } => format!(
+            "held-out figures (ours, peers, none): models chosen and fitted on rows 1..={}, scored on rows {}..={n}",
+            last + 1,
+            last + 2
+        ),
+        Scheme::Blocks { k } => format!(
+            "held-out figures (ours, peers, none): each of the {k} blocks scored with models chosen and fitted on the \
+             other {} blocks, pooled over all {n} rows",
+            k - 1
+        ),
+    };
+    format!(
+        "{held}; table.bin/table.toml, px4_tc.params and ardupilot_tcal.parm: fitted on all {n} rows (bias from each \
+         axis's mean over all rows); table_rms_mg: that table on all rows (in-sample)"
+    )
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,108 @@
+//! Why a static calibration fails ([`StaticCalError`]): a log the bias grid cannot be fitted
+//! on, a held-out scheme the log cannot hold, a failed fit or figure, or an output not written.
+
+use std::fmt;
+
+use qfa_thermal::table::limits::MIN_GRID_STEP_C;
+
+use crate::fit::FitError;
+use qfa_log::spelling::{CalibrateOption, Spelling};
+
+/// Why a static calibration failed.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum StaticCalError {
+    /// `--holdout after-max` on a log without a later leg.
+    Split(String),
+    /// A `--holdout` value that is none of the schemes (the value given).
+    UnknownHoldout(String),
+    /// `--holdout blocks:K` cuts the log into blocks shorter than a held-out block needs.
+    BlocksTooShort {
+        /// Blocks asked for (K).
+        blocks: usize,
+        /// Rows of the log.
+        rows: usize,
+        /// Rows a held-out block needs (one averaged equation).
+        needed: usize,
+    },
+    /// The temperature span is below what the bias grid needs.
+    SpanTooSmall {
+        /// Lowest reading, °C.
+        lo_c: f64,
+        /// Highest reading, °C.
+        hi_c: f64,
+        /// Span needed, °C.
+        needed_c: f64,
+        /// Grid nodes.
+        nodes: usize,
+    },
+    /// A part of the span holds too few rows for the grid.
+    TooFewRowsPerDegree {
+        /// The sparsest grid interval, °C.
+        interval_c: (f64, f64),
+        /// Rows in it.
+        rows: usize,
+        /// Rows it needs.
+        needed: usize,
+        /// The log's span, °C.
+        span_c: (f64, f64),
+        /// Intervals the span is cut into.
+        intervals: usize,
+    },
+    /// A fit failed.
+    Fit(String, FitError),
+    /// A figure could not be computed.
+    Figure(String),
+    /// Writing an output failed.
+    Io(String),
+}
+
+impl StaticCalError {
+    /// The message, with the held-out option spelled for `sp` (`--holdout` for the CLI,
+    /// `holdout=` for Python); the other variants name no option and read as `Display`.
+    #[must_use]
+    pub fn message(&self, sp: Spelling) -> String {
+        let holdout = CalibrateOption::Holdout;
+        match self {
+            Self::UnknownHoldout(s) => {
+                format!("{}: expected auto, after-max, blocks:K (K ≥ 2) or none", holdout.refused(sp, s))
+            }
+            Self::BlocksTooShort { blocks, rows, needed } => format!(
+                "{}: {rows} rows make blocks of {} rows; a held-out block needs at least {needed} (one averaged \
+                 equation)",
+                holdout.with(sp, &format!("blocks:{blocks}")),
+                rows / blocks
+            ),
+            e => e.to_string(),
+        }
+    }
+}
+
+impl fmt::Display for StaticCalError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Split(s) => write!(f, "held-out split: {s}"),
+            Self::UnknownHoldout(_) | Self::BlocksTooShort { .. } => f.write_str(&self.message(Spelling::Cli)),
+            Self::SpanTooSmall { lo_c, hi_c, needed_c, nodes } => write!(
+                f,
+                "the temperature span is too small: {:.2} °C ({lo_c:.2}..{hi_c:.2} °C); the model needs at least \
+                 {needed_c:.2} °C ({nodes} bias-grid nodes at least {MIN_GRID_STEP_C} °C apart, the root crate's \
+                 smallest grid step)",
+                hi_c - lo_c
+            ),
+            Self::TooFewRowsPerDegree { interval_c: (a, b), rows, needed, span_c: (lo, hi), intervals } => write!(
+                f,
+                "too few rows per degree: {rows} row(s) between {a:.2} and {b:.2} °C ({:.2} per °C); the model needs \
+                 {needed} there ({:.2} per °C): one {needed}-row averaged equation in each of the {intervals} \
+                 bias-grid intervals over {lo:.2}..{hi:.2} °C",
+                *rows as f64 / (b - a),
+                *needed as f64 / (b - a)
+            ),
+            Self::Fit(axis, e) => write!(f, "fit of {axis}: {e}"),
+            Self::Figure(s) => write!(f, "figure not computable: {s}"),
+            Self::Io(s) => write!(f, "{s}"),
+        }
+    }
+}
+
+impl std::error::Error for StaticCalError {}

@@ -1,0 +1,160 @@
+//! A calibration's verdict ([`qfa_report::verdict::Verdict`]): built here from a static or a
+//! cycling calibration, so every rendering of it says the same thing.
+
+use crate::report::Report;
+use crate::static_report::{PlotRows, StaticCalibration};
+use qfa_report::verdict::{Expected, FileUse, LimitsChoice, Verdict};
+
+/// The held-out rows' mean residual minus the training rows', per axis, mg, with the
+/// held-out RMS: `(axis, step_mg, heldout_rms_mg)`. Axes without held-out or training rows
+/// are left out.
+#[must_use]
+pub fn heldout_steps(plot: &PlotRows) -> Vec<(String, f64, f64)> {
+    let mut out = Vec::new();
+    for (name, _, after) in &plot.axes {
+        let (mut held, mut train) = ((0.0, 0.0, 0usize), (0.0, 0usize));
+        for (i, &r) in after.iter().enumerate() {
+            if !r.is_finite() {
+                continue;
+            }
+            if plot.heldout.get(i).copied().unwrap_or(false) {
+                held = (held.0 + r, held.1 + r * r, held.2 + 1);
+            } else {
+                train = (train.0 + r, train.1 + 1);
+            }
+        }
+        if held.2 == 0 || train.1 == 0 {
+            continue;
+        }
+        let n = held.2 as f64;
+        out.push((name.clone(), held.0 / n - train.0 / train.1 as f64, (held.1 / n).sqrt()));
+    }
+    out
+}
+
+/// A held-out step is worth a sentence when a constant offset is most of the held-out
+/// error: |step| above half the held-out RMS means the offset alone carries more than a
+/// quarter of the held-out mean square. (A rule, not a tuned threshold: on the real IMU log
+/// the steps carry 56, 85 and 84 % of it on x, y and z, so all three are said.)
+const STEP_SHARE: f64 = 0.5;
+
+/// The verdict of a static calibration written into a folder holding `files`; `notes` are
+/// what the run must say in words (an export left out, a lint finding).
+#[must_use]
+pub fn static_verdict(cal: &StaticCalibration, limits: &LimitsChoice, files: &[String], notes: &[String]) -> Verdict {
+    let r = &cal.report;
+    let held: Vec<(String, f64)> =
+        r.axes.iter().map(|a| (a.axis.clone(), a.ours.score().map_or(f64::NAN, |s| s.rms_mg))).collect();
+    let span = r.coverage.temp_c[1] - r.coverage.temp_c[0];
+    let checks = limits.limits.static_checks(&held, span);
+    let answer = match held.iter().find(|(_, v)| !v.is_finite()) {
+        Some(_) => "no held-out figure could be formed, so nothing says what to expect in use".to_string(),
+        None if checks.iter().all(|c| c.pass) => {
+            "table.bin meets every limit held out; flash it, or load the exported parameters".to_string()
+        }
+        None => format!(
+            "table.bin fails {}",
+            checks
+                .iter()
+                .filter(|c| !c.pass)
+                .map(|c| format!("{} on {}", c.limit, c.axis))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    };
+    let h = &r.holdout;
+    let mut v = Verdict::new(answer, format!("scheme `{}` (asked `{}`), {}", h.scheme, h.requested, h.rule), checks);
+    v.limits_from = limits.source_for(&v.checks);
+    v.expect = held
+        .iter()
+        .filter(|(_, x)| x.is_finite())
+        .map(|(a, x)| Expected { axis: a.clone(), what: "held-out bias RMS".into(), value: *x, unit: "mg".into() })
+        .collect();
+    v.covers = Some(r.coverage.covers());
+    for (axis, step, rms) in heldout_steps(&cal.plot) {
+        if step.abs() > STEP_SHARE * rms {
+            v.warnings.push(format!(
+                "{axis}: the held-out rows sit {step:+.2} mg off the training rows (held-out RMS {rms:.2} mg): the \
+                 later rows' bias differs from the earlier rows' at the same temperature, a shift the training rows \
+                 could not show; expect such a step in use"
+            ));
+        }
+    }
+    for a in &r.axes {
+        let (Some(ours), Some(cubic)) = (a.ours.score(), a.cubic.score()) else { continue };
+        // Said when it shows at the printed precision (0.01 mg): a difference the reader
+        // cannot see in the figures is not worth a sentence.
+        if (ours.rms_mg * 100.0).round() > (cubic.rms_mg * 100.0).round() {
+            v.warnings.push(format!(
+                "{}: our model ({:.2} mg) is worse held out than the PX4 cubic ({:.2} mg)",
+                a.axis, ours.rms_mg, cubic.rms_mg
+            ));
+        }
+        if a.clamped_rows > 0 {
+            v.warnings.push(format!(
+                "{}: {} held-out rows clamped (T or Ṫ outside what the training rows calibrated)",
+                a.axis, a.clamped_rows
+            ));
+        }
+    }
+    v.warnings.extend(notes.iter().cloned());
+    v.files = files.iter().map(|f| FileUse::of(f)).collect();
+    v.hold_back_if_failed();
+    v.advice = r.record_next.clone();
+    v
+}
+
+/// The verdict of a cycling calibration of accelerometer `axis` written into a folder
+/// holding `files`.
+#[must_use]
+pub fn cycling_verdict(r: &Report, axis: &str, limits: &LimitsChoice, files: &[String], notes: &[String]) -> Verdict {
+    let (s, b) = (r.sensitivity_ppm_per_c.hysteresis, r.bias_residual_ug.hysteresis);
+    let c = &r.coverage.covered;
+    let span = c.temp_c[1] - c.temp_c[0];
+    let checks = limits.limits.cycling_checks(axis, s, b, span);
+    let answer = if !r.held_out {
+        "one program only: the figures are in-sample, so nothing says what to expect in use".to_string()
+    } else if checks.iter().all(|c| c.pass) {
+        "table.bin meets every limit held out; flash it, or load the exported parameters".to_string()
+    } else {
+        format!("table.bin fails {}", checks.iter().filter(|c| !c.pass).map(|c| c.limit).collect::<Vec<_>>().join(", "))
+    };
+    let held_out = format!(
+        "tables fitted on programs {}, scored on programs {} (whole programs the fit never saw)",
+        r.fit_programs.join(", "),
+        r.eval_programs.join(", ")
+    );
+    let mut v = Verdict::new(answer, held_out, checks);
+    if !r.held_out {
+        // In-sample figures are not held out: the verdict cannot pass on them.
+        v.outcome = qfa_report::verdict::Outcome::Fail;
+    }
+    v.limits_from = limits.source_for(&v.checks);
+    v.expect = vec![
+        Expected {
+            axis: axis.into(),
+            what: "held-out scale-factor sensitivity".into(),
+            value: s,
+            unit: "ppm/°C".into(),
+        },
+        Expected { axis: axis.into(), what: "held-out bias residual RMS".into(), value: b, unit: "µg".into() },
+    ];
+    v.covers = Some(c.covers());
+    if r.rejected_readings > 0 {
+        v.warnings.push(format!(
+            "the compensator rejected {} temperature readings in the held-out runs",
+            r.rejected_readings
+        ));
+    }
+    let (pc, pa) = (r.peers_bias_residual_ug.cubic, r.peers_bias_residual_ug.ardupilot);
+    if b > pc.min(pa) {
+        v.warnings.push(format!(
+            "the bias residual ({b:.1} µg) is worse held out than a bias-only peer (PX4 cubic {pc:.1}, ArduPilot {pa:.1} µg)"
+        ));
+    }
+    v.warnings.extend(notes.iter().cloned());
+    v.files = files.iter().map(|f| FileUse::of(f)).collect();
+    v.hold_back_if_failed();
+    v.advice = c.record_next();
+    v
+}

@@ -1,0 +1,315 @@
+//! Channels: the scale-factor and bias series the discovery workflow compares the model
+//! against, formed from a cycling log (±1 g runs paired by time) or a single-channel log.
+//!
+//! Every program keeps its temperature trace at the log's row rate, run through the root
+//! crate's `RateEstimator<32>` exactly as the firmware would (raw = round(16·T)); the
+//! measured channels are averaged into bins (default 60 s) to cut noise. A model is
+//! evaluated on every row and averaged over the same bins, so its states (lag, play,
+//! creep) advance at the firmware's sample rate.
+
+use std::path::Path;
+
+use anyhow::{bail, Result};
+use qfa_thermal::rate::{RateConfig, RateEstimator};
+
+use crate::open::{open, open_bytes, OpenedLog, ReadFlags};
+use crate::single::SingleLog;
+
+/// Rows further apart than this (s) get the firmware's 1-s readings filled in between them
+/// (see [`Trace::new`]).
+pub const FILL_FROM_S: f64 = 1.5;
+
+/// Kind of log the channels came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LogKind {
+    /// Four-position cycling log: scale factor (pulses/(g·s)) and bias (g) channels.
+    Cycling,
+    /// `time_s,temp_c,value`: one output in any unit, treated as the bias channel.
+    Single,
+}
+
+/// Unit of the bias channel's values as the channels hold them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BiasUnit {
+    /// g: a cycling log's K0 (reported in µg).
+    G,
+    /// µg: a static axis, converted by the lab.
+    Ug,
+    /// A single-channel log's own unit, which the lab does not know.
+    Value,
+}
+
+impl BiasUnit {
+    /// Unit of the bias in reports.
+    #[must_use]
+    pub fn label(self) -> &'static str {
+        match self {
+            Self::G | Self::Ug => "µg",
+            Self::Value => "value units",
+        }
+    }
+
+    /// Factor from the held value to the reported one.
+    #[must_use]
+    pub fn to_report(self) -> f64 {
+        if self == Self::G {
+            1e6
+        } else {
+            1.0
+        }
+    }
+
+    /// A bias parameter's report name: `stem`, the unit, then `per` (`weight_ug`,
+    /// `drift_ug_per_h`; `drift_per_h` when the unit is the log's own).
+    #[must_use]
+    pub fn param(self, stem: &str, per: &str) -> String {
+        match self {
+            Self::G | Self::Ug => format!("{stem}_ug{per}"),
+            Self::Value => format!("{stem}{per}"),
+        }
+    }
+}
+
+/// One averaging bin: rows `lo..hi` of its trace.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bin {
+    /// First row.
+    pub lo: usize,
+    /// One past the last row.
+    pub hi: usize,
+    /// Mean time of the rows, s.
+    pub time_s: f64,
+    /// Measured K1, pulses/(g·s) (NaN for a single-channel log).
+    pub sf: f64,
+    /// Measured K0 in g (cycling) or the mean value (single-channel).
+    pub bias: f64,
+}
+
+/// One temperature program: the firmware's view of its temperature and the measured bins.
+#[derive(Clone, Debug)]
+pub struct Trace {
+    /// Program id from the log.
+    pub program: String,
+    /// Row times, s.
+    pub time_s: Vec<f64>,
+    /// DS18B20 raw readings, 1/16 °C.
+    pub temp_raw: Vec<i16>,
+    /// The estimator's temperature, °C (what the firmware passes to `evaluate`).
+    pub est_t: Vec<f32>,
+    /// The estimator's Ṫ, °C/min.
+    pub est_rate: Vec<f32>,
+    /// Seconds since the previous row (0 for the first).
+    pub dt_s: Vec<f32>,
+    /// Bins.
+    pub bins: Vec<Bin>,
+}
+
+impl Trace {
+    /// Build a trace from rows `(time_s, temp_c)` and bin the measured channels.
+    /// `sf` and `bias` are per-row measured values; bins average `sf` and form the bias as
+    /// `mean(sf·bias)/mean(sf)` (the pairing's K0) when `sf` is given.
+    #[must_use]
+    pub fn new(program: String, rows: &[(f64, f32)], sf: Option<&[f64]>, bias: &[f64], bin_s: f64) -> Self {
+        let n = rows.len();
+        let mut est = RateEstimator::<32>::new(RateConfig::default());
+        let mut time_s = Vec::with_capacity(n);
+        let mut temp_raw = Vec::with_capacity(n);
+        let mut est_t = Vec::with_capacity(n);
+        let mut est_rate = Vec::with_capacity(n);
+        let mut dt_s = Vec::with_capacity(n);
+        let mut keep = Vec::with_capacity(n);
+        let mut last: Option<f64> = None;
+        // The previous row the estimator took: its time and raw reading.
+        let mut prev: Option<(f64, i16)> = None;
+        for (i, &(t, temp)) in rows.iter().enumerate() {
+            // Ties to even: a cycling row's temperature is the mean of its two runs' readings,
+            // half a code when they differ, and `round` (ties away from zero) would move every
+            // such tie up above 0 °C and down below it: a step of up to 1/32 °C at 0 °C that
+            // the selection read as a scale-factor curvature (β ≈ −0.0003, 0.9 ppm at the
+            // span's ends) on 12 of 40 clean logs of the second independent generator.
+            let raw = (f64::from(temp) * 16.0).round_ties_even().clamp(-32768.0, 32767.0) as i16;
+            // The firmware reads its DS18B20 once a second and its estimator's window is 32
+            // readings (32 s). A log keeps fewer rows: at 10-s rows the same window would
+            // span 320 s and bend every ramp corner into a temperature error that a rate
+            // term then absorbs (a phantom ε of several ppm on a lag log with no rate term).
+            // So the readings the firmware would have taken between two rows are filled in
+            // at 1 s, linearly between the rows' readings, in 1/16-°C steps.
+            let mut centre: Option<qfa_thermal::rate::Estimate> = None;
+            if let Some((tp, rp)) = prev {
+                let gap = t - tp;
+                if gap > FILL_FROM_S && gap * 1000.0 <= f64::from(RateConfig::default().max_gap_ms) {
+                    // A cycling row's pulses are counted over the interval that ends at
+                    // `t`: its model value is taken at the interval's centre.
+                    let mid = (gap / 2.0).round().max(1.0);
+                    let mut k = 1.0;
+                    while k < gap - 0.5 {
+                        let x = f64::from(rp) + (f64::from(raw) - f64::from(rp)) * k / gap;
+                        if est.push(((tp + k) * 1000.0).round() as u32, x.round_ties_even() as i16).is_ok()
+                            && sf.is_some()
+                            && k == mid
+                        {
+                            centre = est.estimate();
+                        }
+                        k += 1.0;
+                    }
+                }
+            }
+            let t_ms = (t * 1000.0).round() as u32;
+            if est.push(t_ms, raw).is_err() {
+                continue; // non-monotonic time: the firmware rejects it too
+            }
+            prev = Some((t, raw));
+            let Some(e) = centre.or_else(|| est.estimate()) else { continue };
+            time_s.push(t);
+            temp_raw.push(raw);
+            est_t.push(e.temp_c);
+            est_rate.push(e.rate_c_per_min);
+            dt_s.push(last.map_or(0.0, |p| (t - p) as f32));
+            last = Some(t);
+            keep.push(i);
+        }
+        let mut bins = Vec::new();
+        let mut lo = 0;
+        while lo < time_s.len() {
+            let key = (time_s[lo] / bin_s).floor();
+            let mut hi = lo + 1;
+            while hi < time_s.len() && (time_s[hi] / bin_s).floor() == key {
+                hi += 1;
+            }
+            let m = (hi - lo) as f64;
+            let t_mean = time_s[lo..hi].iter().sum::<f64>() / m;
+            let (sf_b, bias_b) = match sf {
+                Some(sf) => {
+                    let s: f64 = keep[lo..hi].iter().map(|&k| sf[k]).sum::<f64>() / m;
+                    let sb: f64 = keep[lo..hi].iter().map(|&k| sf[k] * bias[k]).sum::<f64>() / m;
+                    (s, sb / s)
+                }
+                None => (f64::NAN, keep[lo..hi].iter().map(|&k| bias[k]).sum::<f64>() / m),
+            };
+            if sf_b.is_finite() || sf.is_none() {
+                bins.push(Bin { lo, hi, time_s: t_mean, sf: sf_b, bias: bias_b });
+            }
+            lo = hi;
+        }
+        Self { program, time_s, temp_raw, est_t, est_rate, dt_s, bins }
+    }
+
+    /// Ramp rate of the program, °C/min: the number at the end of its id when there is
+    /// one (the lab's `paper-0.5`), else the mean |Ṫ| while ramping (|Ṫ| > 0.05 °C/min).
+    #[must_use]
+    pub fn ramp_rate(&self) -> f64 {
+        let tail = self.program.rsplit(['-', '_', '@', ' ', '=']).next().unwrap_or("");
+        if let Ok(x) = tail.parse::<f64>() {
+            if x > 0.0 && x <= 20.0 {
+                return x;
+            }
+        }
+        let r: Vec<f64> = self.est_rate.iter().map(|x| f64::from(x.abs())).filter(|&x| x > 0.05).collect();
+        if r.is_empty() {
+            0.0
+        } else {
+            r.iter().sum::<f64>() / r.len() as f64
+        }
+    }
+}
+
+/// The channels of one log.
+#[derive(Clone, Debug)]
+pub struct Channels {
+    /// Which kind of log.
+    pub kind: LogKind,
+    /// Unit of the bias channel.
+    pub bias_unit: BiasUnit,
+    /// One trace per program.
+    pub traces: Vec<Trace>,
+}
+
+impl Channels {
+    /// Number of bins over all traces.
+    #[must_use]
+    pub fn n_bins(&self) -> usize {
+        self.traces.iter().map(|t| t.bins.len()).sum()
+    }
+
+    /// Channels of a cycling log: per program, the first +1 g and −1 g runs paired by
+    /// [`crate::pairing::pair_program`]; the program temperature of a pair is the
+    /// mean of both runs' readings (either one when only one has a reading yet).
+    ///
+    /// # Errors
+    /// No program has paired ±1 g runs with at least 8 rows.
+    pub fn from_cycling(log: &crate::cycling::Log, bin_s: f64) -> Result<Self> {
+        let mut traces = Vec::new();
+        for prog in log.programs() {
+            let Some(pp) = crate::pairing::pair_program(log, &prog) else {
+                continue; // a program without both ±1 g runs gives no channels
+            };
+            let (plus, minus) = (&log.runs[pp.plus].samples, &log.runs[pp.minus].samples);
+            let (mut rows, mut sf, mut bias) = (Vec::new(), Vec::new(), Vec::new());
+            for (k, &(i, j)) in pp.rows.iter().enumerate() {
+                let temp = match (plus[i].temp_c, minus[j].temp_c) {
+                    (Some(a), Some(b)) => 0.5 * (a + b),
+                    (Some(a), None) | (None, Some(a)) => a,
+                    (None, None) => continue,
+                };
+                let (k1, k0) = pp.k1_k0(log, k);
+                rows.push((plus[i].time_s, temp as f32));
+                sf.push(k1);
+                bias.push(k0);
+            }
+            if rows.len() >= 8 {
+                traces.push(Trace::new(prog, &rows, Some(&sf), &bias, bin_s));
+            }
+        }
+        if traces.is_empty() {
+            bail!("no program has paired +1 g and -1 g runs with at least 8 rows");
+        }
+        Ok(Self { kind: LogKind::Cycling, bias_unit: BiasUnit::G, traces })
+    }
+
+    /// Channels of a single-channel log: its value is the bias channel, in its own unit.
+    #[must_use]
+    pub fn from_single(log: &SingleLog, bin_s: f64) -> Self {
+        let rows: Vec<(f64, f32)> = log.time_s.iter().copied().zip(log.temp_c.iter().copied()).collect();
+        Self {
+            kind: LogKind::Single,
+            bias_unit: BiasUnit::Value,
+            traces: vec![Trace::new("log".into(), &rows, None, &log.value, bin_s)],
+        }
+    }
+
+    /// Channels of an opened log (cycling or single-channel; a static log's axes are
+    /// formed per axis by discovery's `static_axes` in qfa-calibrate).
+    ///
+    /// # Errors
+    /// A static log, or a cycling log without paired ±1 g runs.
+    pub fn from_opened(log: &OpenedLog, bin_s: f64) -> Result<Self> {
+        match log {
+            OpenedLog::Cycling(l) => Self::from_cycling(l, bin_s),
+            OpenedLog::Single(l) => Ok(Self::from_single(l, bin_s)),
+            OpenedLog::Static(_) => bail!(
+                "a static multi-axis log: its channels are formed per axis (discover reads it with the static \
+                 reader's flags); expected program,run,time_s,input_g,temp_c,pulses,interval_s or time_s,temp_c,value"
+            ),
+            OpenedLog::Autopilot(l) => bail!(
+                "a {}: calibrate reads it (one calibration per accelerometer instance); discover does not",
+                l.stack
+            ),
+        }
+    }
+
+    /// Read a cycling or single-channel log ([`crate::open`] decides which).
+    ///
+    /// # Errors
+    /// The reader's error (each malformed row with its line), or as [`Channels::from_opened`].
+    pub fn read(path: &Path, bin_s: f64) -> Result<Self> {
+        Self::from_opened(&open(path, &ReadFlags::default())?, bin_s)
+    }
+
+    /// Parse log text (see [`Channels::read`]).
+    ///
+    /// # Errors
+    /// As [`Channels::read`].
+    pub fn parse(text: &str, bin_s: f64) -> Result<Self> {
+        Self::from_opened(&open_bytes(text.as_bytes(), &ReadFlags::default())?, bin_s)
+    }
+}

@@ -1,0 +1,20 @@
+//! qfa-log, the lab's data layer: every log kind the lab reads or writes, and the channels the fitters
+//! see. Data flows one way: a log ([`cycling`] or [`static_log`]) → its channels
+//! ([`pairing`] for the ±1 g runs of a cycling log, [`channels`] for discovery's binned
+//! series) → a fit (in qfa-calibrate) → a table → compensation and evaluation.
+
+pub mod autopilot;
+pub mod channels;
+pub mod cycling;
+pub mod dataflash;
+pub mod lines;
+pub mod open;
+pub mod pairing;
+pub mod single;
+pub mod spelling;
+pub mod static_checks;
+pub mod static_columns;
+pub mod static_error;
+pub mod static_log;
+pub mod ulog;
+pub mod units;

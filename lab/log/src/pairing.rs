@@ -1,0 +1,211 @@
+//! Pairing of the +1 g and −1 g runs, and the firmware's view of each run's temperature.
+//!
+//! # Pairing
+//! Runs of one program follow the same temperature program, so their rows are matched by
+//! `time_s` (within half an interval). With `A = pulses/interval_s` (pulses/s) and the
+//! model `A = K1·(K0 + a)`:
+//! `K1 = (A₊ − A₋)/2` (pulses/(g·s)) and `K0 = (A₊ + A₋)/(2·K1)` (g).
+//!
+//! **The paper's Eq. 13–14 are inconsistent as printed:** Eq. 13 forms K1 from the 90° and
+//! 270° positions, but by Fig. 4 those are both 0 g, so `(A₉₀ − A₂₇₀)/2 ≈ 0`. The formulas
+//! above use the +1 g (0°) and −1 g (180°) positions, which is what Eq. 13 must mean.
+//!
+//! # Trace
+//! [`trace_run`] replays a run's `temp_c` column through the root crate's
+//! `RateEstimator<32>` (readings converted back to raw = round(temp_c·16), timestamps
+//! `time_s·1000` ms, one reading per row that has one) and `AxisModel::evaluate`, in the
+//! compensator's order, so the fit sees exactly the T̂, Ṫ, branch, element temperature and
+//! extension-slot states the firmware will see.
+
+use qfa_thermal::model::{AxisState, Branch};
+use qfa_thermal::rate::{RateConfig, RateEstimator};
+use qfa_thermal::{AxisModel, BiasGrid, Extensions, ScaleFactor};
+
+use crate::cycling::{Log, Run};
+
+/// Rate-estimator window of every lab table (`Table::rate_window`).
+pub const RATE_WINDOW: usize = 32;
+
+/// Branch deadband the lab writes into its tables, °C/min: the firmware's flicker floor
+/// for [`RATE_WINDOW`] at its default 1 s sample period
+/// ([`qfa_thermal::rate::flicker_deadband_c_per_min`], 0.182 °C/min), so the fit traces
+/// the branch exactly as the compensator will switch it.
+#[must_use]
+pub fn branch_deadband_c_per_min() -> f32 {
+    qfa_thermal::rate::flicker_deadband_c_per_min(RATE_WINDOW, qfa_thermal::Config::default().sample_period_ms)
+}
+
+/// The firmware's view of one run, row by row.
+#[derive(Clone, Debug, Default)]
+pub struct Trace {
+    /// A temperature had been received by this row.
+    pub valid: Vec<bool>,
+    /// T̂ from the rate estimator, °C.
+    pub temp_c: Vec<f64>,
+    /// Ṫ, °C/min.
+    pub rate_c_per_min: Vec<f64>,
+    /// Temperature the model uses (element with `sensor_lag`, else T̂ clamped), °C.
+    pub model_temp_c: Vec<f64>,
+    /// Bias branch in force.
+    pub branch: Vec<Branch>,
+    /// Bias from the extension slots (play + creep) with the given parameters, g; from
+    /// [`trace_axis`], the whole model's K0.
+    pub ext_k0_g: Vec<f64>,
+    /// The model clamped T̂ or Ṫ to its calibrated range at this row.
+    pub clamped: Vec<bool>,
+}
+
+/// Replay `run` through the root crate's estimator and model with extension slots `ext`
+/// and branch deadband `deadband` (°C/min).
+#[must_use]
+pub fn trace_run(run: &Run, ext: &Extensions, deadband: f32) -> Trace {
+    trace_readings(run.samples.iter().map(|s| (s.time_s, s.temp_c)), run.samples.len(), ext, deadband)
+}
+
+/// Replay rows `(time_s, reading °C or none)` through the root crate's estimator and model
+/// (see [`trace_run`]); any log kind with a temperature column uses this.
+#[must_use]
+pub fn trace_readings(
+    rows: impl Iterator<Item = (f64, Option<f64>)>,
+    n: usize,
+    ext: &Extensions,
+    deadband: f32,
+) -> Trace {
+    let zeros = [0.0f32; 16];
+    let mut bias = BiasGrid::single_valued(-60.0, 190.0 / 15.0, &zeros).expect("2 to 16 grid values");
+    bias.deadband_c_per_min = deadband;
+    let axis = AxisModel { scale: ScaleFactor::simple(22.0, 1.0, 0.0), bias, rate_limit_c_per_min: 20.0, ext: *ext };
+    trace_axis(rows, n, &axis)
+}
+
+/// Replay rows through the root crate's estimator and `axis.evaluate`, as the firmware
+/// does per temperature sample; `ext_k0_g` is then the model's K0 (g).
+#[must_use]
+pub fn trace_axis(rows: impl Iterator<Item = (f64, Option<f64>)>, n: usize, axis: &AxisModel) -> Trace {
+    let ext = &axis.ext;
+    let mut est = RateEstimator::<RATE_WINDOW>::new(RateConfig::default());
+    let mut st = AxisState::default();
+    let mut tr = Trace {
+        valid: Vec::with_capacity(n),
+        temp_c: Vec::with_capacity(n),
+        rate_c_per_min: Vec::with_capacity(n),
+        model_temp_c: Vec::with_capacity(n),
+        branch: Vec::with_capacity(n),
+        ext_k0_g: Vec::with_capacity(n),
+        clamped: Vec::with_capacity(n),
+    };
+    let mut last_ms: Option<u32> = None;
+    let mut cur = (false, f64::NAN, 0.0, f64::NAN, Branch::Unknown, 0.0);
+    let mut clamped = false;
+    for (time_s, temp_c) in rows {
+        if let Some(t) = temp_c {
+            let raw = (t * 16.0).round() as i16;
+            let t_ms = (time_s * 1000.0).round() as u32;
+            if est.push(t_ms, raw).is_ok() {
+                let e = est.estimate().expect("a sample was just pushed");
+                let dt = last_ms.map_or(0.0, |p| t_ms.wrapping_sub(p) as f32 * 1e-3);
+                last_ms = Some(t_ms);
+                let ev = axis.evaluate(&mut st, e.temp_c, e.rate_c_per_min, dt);
+                let te = if ext.sensor_lag.is_some() { st.element_c } else { e.temp_c.clamp(-60.0, 130.0) };
+                cur = (
+                    true,
+                    f64::from(e.temp_c),
+                    f64::from(e.rate_c_per_min),
+                    f64::from(te),
+                    st.branch,
+                    f64::from(ev.k0),
+                );
+                clamped = ev.temp_clamped || ev.rate_clamped;
+            }
+        }
+        tr.clamped.push(clamped);
+        tr.valid.push(cur.0);
+        tr.temp_c.push(cur.1);
+        tr.rate_c_per_min.push(cur.2);
+        tr.model_temp_c.push(cur.3);
+        tr.branch.push(cur.4);
+        tr.ext_k0_g.push(cur.5);
+    }
+    tr
+}
+
+/// The +1 g and −1 g runs of one program, matched row by row.
+#[derive(Clone, Debug)]
+pub struct ProgramPairs {
+    /// Program id.
+    pub program: String,
+    /// Index of the +1 g run in `log.runs`.
+    pub plus: usize,
+    /// Index of the −1 g run in `log.runs`.
+    pub minus: usize,
+    /// Matched `(row in plus, row in minus)`.
+    pub rows: Vec<(usize, usize)>,
+}
+
+impl ProgramPairs {
+    /// K1 (pulses/(g·s)) and K0 (g) of matched row `k`.
+    #[must_use]
+    pub fn k1_k0(&self, log: &Log, k: usize) -> (f64, f64) {
+        let (i, j) = self.rows[k];
+        let p = &log.runs[self.plus].samples[i];
+        let m = &log.runs[self.minus].samples[j];
+        let ap = p.pulses as f64 / p.interval_s;
+        let am = m.pulses as f64 / m.interval_s;
+        let gp = log.runs[self.plus].input_g;
+        let gm = log.runs[self.minus].input_g;
+        // General inputs: A± = K1·(K0 + g±) ⇒ K1 = (A₊ − A₋)/(g₊ − g₋).
+        let k1 = (ap - am) / (gp - gm);
+        let k0 = (ap + am) / (2.0 * k1) - (gp + gm) / 2.0;
+        (k1, k0)
+    }
+}
+
+/// Pair the first +1 g run with the first −1 g run of `program`, matching rows by time.
+#[must_use]
+pub fn pair_program(log: &Log, program: &str) -> Option<ProgramPairs> {
+    let plus = log.runs.iter().position(|r| r.program == program && r.input_g > 0.5)?;
+    let minus = log.runs.iter().position(|r| r.program == program && r.input_g < -0.5)?;
+    let (a, b) = (&log.runs[plus].samples, &log.runs[minus].samples);
+    let mut rows = Vec::with_capacity(a.len().min(b.len()));
+    let (mut i, mut j) = (0, 0);
+    while i < a.len() && j < b.len() {
+        let tol = 0.5 * a[i].interval_s.min(b[j].interval_s);
+        let d = a[i].time_s - b[j].time_s;
+        if d.abs() <= tol && a[i].interval_s == b[j].interval_s {
+            rows.push((i, j));
+            i += 1;
+            j += 1;
+        } else if d < 0.0 {
+            i += 1;
+        } else {
+            j += 1;
+        }
+    }
+    Some(ProgramPairs { program: program.to_string(), plus, minus, rows })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cycling::Sample;
+
+    fn run(program: &str, input_g: f64, pulses: &[i64], t0: f64) -> Run {
+        let samples = pulses
+            .iter()
+            .enumerate()
+            .map(|(i, &p)| Sample { time_s: t0 + i as f64, temp_c: Some(22.0), pulses: p, interval_s: 1.0 })
+            .collect();
+        Run { program: program.to_string(), run: "0".to_string(), input_g, samples }
+    }
+
+    #[test]
+    fn pairing_by_time_gives_k1_and_k0() {
+        // K1 = 1000, K0 = 0.01: A₊ = 1010, A₋ = −990.
+        let log = Log { runs: vec![run("p", 1.0, &[1010, 1010, 1010], 1.0), run("p", -1.0, &[-990, -990], 2.0)] };
+        let pp = pair_program(&log, "p").unwrap();
+        assert_eq!(pp.rows, vec![(1, 0), (2, 1)]);
+        let (k1, k0) = pp.k1_k0(&log, 0);
+        assert_eq!(k1, 1000.0);
+        assert!((k0 - 0.01).abs() < 1e-15);
+    }
+}

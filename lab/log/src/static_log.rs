@@ -1,0 +1,761 @@
+//! Static multi-axis log: time, temperature and one or more acceleration axes of a board at
+//! constant orientation (a board on a chamber shelf), as CSV or TSV with a header.
+//!
+//! Columns are found by common names (see [`COMMON_NAMES`]) or given with a
+//! [`ColumnMap`] (`time=timestamp,temp=imu.temperature,ax=imu.acc.x,...`); the delimiter
+//! (comma, tab or semicolon) is taken from the header line. Units come from
+//! [`TimeUnit`] / [`AccelUnit`], or from a column-name suffix (`time_s`, `timestamp_us`,
+//! `ax_g`, `acc_x_mps2`); a unit that is neither given nor in the name is an error, never a
+//! guess; the temperature is °C unless [`StaticOptions::temp_unit`] or the name (`temp_f`,
+//! `temp_k`) says otherwise, and an option that contradicts a name's unit is refused. Time is
+//! shifted to start at 0 s (logs often count from power-up or the epoch).
+//!
+//! What the reader does with each kind of bad row, so nothing reaches a fit unnoticed:
+//! * a field that does not parse as a number (`abc`), or a temperature outside
+//!   −60…130 °C: **error** ([`StaticError::Rows`], every row with its line number);
+//! * time going backwards: **error** (same);
+//! * an empty or `NaN` field: the row is **skipped**, counted in [`Skipped::nan`];
+//! * a timestamp equal to the previous row's: the later row is **skipped**, counted in
+//!   [`Skipped::duplicate`];
+//! * a glitch row (a spike in one row; the tofupilot log's first row is one): **skipped**,
+//!   counted in [`Skipped::glitch`]. A row is a glitch when one channel deviates from what
+//!   its ±5-row neighbourhood predicts (a robust local line: median slope, median level) by
+//!   more than [`GLITCH_SIGMAS`] robust σ of that channel (σ = 1.4826 · the median of those
+//!   deviations), and
+//!   by more than a floor too ([`GLITCH_MIN_TEMP_C`], [`GLITCH_MIN_ACCEL_G`]: a quantised
+//!   channel has a median deviation of 0);
+//! * irregular sampling: **reported** in [`Sampling`] (intervals outside 0.5…2 × the
+//!   median, and gaps longer than the rate estimator's 30-s restart), not skipped: the
+//!   root crate's estimator handles irregular spacing by design.
+//!
+//! Whole-log checks (errors): no header, no data rows, an unknown or missing column, a
+//! unit that makes the data implausible, each from both sides where the data allow it
+//! ([`super::units`]: the median |a| outside [`super::units::REST_G`] with all three axes,
+//! above it with fewer; a median row interval outside 10 µs…60 s, or a temperature
+//! changing faster than [`MAX_SLEW_C_PER_MIN`], see [`max_slew`]; readings outside
+//! −60…130 °C that another temperature unit puts inside), every one refused as
+//! [`StaticError::Unit`] with the figure and the unit that fits; fewer than [`MIN_ROWS`]
+//! rows left.
+//!
+//! Decimal commas (`20,5` in a `;`- or tab-separated file, a spreadsheet export in many
+//! locales) are read with [`StaticOptions::decimal_comma`]; without it, a log whose first
+//! bad field is such a number is refused with [`StaticError::DecimalComma`], which says
+//! so, rather than as thousands of rows that are "not a number".
+//!
+//! Line numbers are as an editor shows them (CRLF, CR-only and blank lines counted, see
+//! [`super::lines`]).
+
+use std::fmt;
+use std::io::Read;
+
+use serde::Serialize;
+
+use super::static_checks::{centred_median, glitches, median};
+pub use super::static_checks::{max_slew, Slew};
+pub use super::static_columns::*;
+pub use super::static_error::*;
+use super::units::{ReaderOption, TempUnit, UnitEvidence, UnitMismatch, UnitSource, REST_G};
+
+/// Standard gravity, m/s², to convert m/s² to g.
+pub const G0_MPS2: f64 = 9.806_65;
+
+/// Robust σ above which a one-row deviation is a glitch.
+pub const GLITCH_SIGMAS: f64 = 10.0;
+
+/// Smallest temperature deviation that counts as a glitch, °C (4 DS18B20 LSB).
+pub const GLITCH_MIN_TEMP_C: f64 = 0.25;
+
+/// Smallest acceleration deviation that counts as a glitch, g (2 mg: a quantised output can
+/// have a median deviation of 0).
+pub const GLITCH_MIN_ACCEL_G: f64 = 0.002;
+
+/// Fewest good rows a static log must keep.
+pub const MIN_ROWS: usize = 16;
+
+/// Fastest temperature change a board in a climate chamber can show, °C/min; a log whose
+/// time unit implies more is refused. 30 °C/min is the figure taken for chambers;
+/// it is about 4× the steepest ramp of the real tofupilot log (−8 °C/min, its SOURCE.md)
+/// and 3–30× the 1–10 °C/min a chamber program uses (the paper's programs run at
+/// 0.3–0.9 °C/min). The mistake it catches is a factor of 1 000 (µs read as ns, ms as µs),
+/// so the bound needs no precision. It was chosen before any run of the check.
+pub const MAX_SLEW_C_PER_MIN: f64 = 30.0;
+
+/// Window over which [`max_slew`] measures a temperature change, s: one minute, so the
+/// figure is a per-minute change and quantisation (1/16 °C for a DS18B20, 0.01 °C for an
+/// IMU's own sensor) adds at most 0.06 °C/min to it.
+pub const SLEW_WINDOW_S: f64 = 60.0;
+
+/// Line numbers kept per kind of skip or error (all are counted).
+pub const KEPT_LINES: usize = 20;
+
+/// How to read a static log.
+#[derive(Clone, Debug, Default)]
+pub struct StaticOptions {
+    /// Column choices.
+    pub columns: ColumnMap,
+    /// Time unit (else from the column name's suffix).
+    pub time_unit: Option<TimeUnit>,
+    /// Acceleration unit (else from the column names' suffix).
+    pub accel_unit: Option<AccelUnit>,
+    /// Temperature unit (else from the column name's suffix, else °C, assumed).
+    pub temp_unit: Option<TempUnit>,
+    /// Numbers use a decimal comma (`20,5`); needs a `;` or tab delimiter.
+    pub decimal_comma: bool,
+}
+
+/// Rows skipped, per reason: count and the first [`KEPT_LINES`] line numbers (1-based; the
+/// header is line 1).
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct SkipCount {
+    /// Rows skipped.
+    pub count: usize,
+    /// First line numbers.
+    pub lines: Vec<u64>,
+}
+
+impl SkipCount {
+    fn add(&mut self, line: u64) {
+        self.count += 1;
+        if self.lines.len() < KEPT_LINES {
+            self.lines.push(line);
+        }
+    }
+}
+
+/// Rows the reader skipped.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct Skipped {
+    /// An empty or NaN field.
+    pub nan: SkipCount,
+    /// Same timestamp as the previous row.
+    pub duplicate: SkipCount,
+    /// One-row spike (see the module docs).
+    pub glitch: SkipCount,
+}
+
+impl Skipped {
+    /// Total rows skipped.
+    #[must_use]
+    pub fn total(&self) -> usize {
+        self.nan.count + self.duplicate.count + self.glitch.count
+    }
+}
+
+impl fmt::Display for Skipped {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let mut first = true;
+        for (name, s) in
+            [("NaN/empty field", &self.nan), ("duplicate timestamp", &self.duplicate), ("glitch", &self.glitch)]
+        {
+            if s.count == 0 {
+                continue;
+            }
+            if !first {
+                f.write_str("; ")?;
+            }
+            first = false;
+            let lines: Vec<String> = s.lines.iter().map(u64::to_string).collect();
+            let more = if s.count > s.lines.len() { ", ..." } else { "" };
+            write!(f, "{} {name} row(s) skipped (line {}{more})", s.count, lines.join(", "))?;
+        }
+        if first {
+            f.write_str("no rows skipped")?;
+        }
+        Ok(())
+    }
+}
+
+/// Sampling regularity (reported, not corrected).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct Sampling {
+    /// Median row interval, s.
+    pub median_interval_s: f64,
+    /// Intervals outside 0.5…2 × the median.
+    pub irregular_intervals: usize,
+    /// Gaps longer than 30 s (the rate estimator restarts its window there).
+    pub gaps_over_30s: usize,
+    /// Longest interval, s.
+    pub max_interval_s: f64,
+    /// Fastest temperature change, °C/min: [`max_slew`] over the kept rows.
+    pub max_slew_c_per_min: f64,
+}
+
+/// One acceleration axis.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AxisColumn {
+    /// Role: `ax`, `ay` or `az`.
+    pub name: String,
+    /// Column name in the file.
+    pub column: String,
+    /// Specific force, g, one per kept row.
+    pub accel_g: Vec<f64>,
+}
+
+/// A static multi-axis log, after the skips.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StaticLog {
+    /// Time since the first kept row, s.
+    pub time_s: Vec<f64>,
+    /// The first kept row's time on the log's own clock, s (what `time_s` counts from):
+    /// logs of one chamber run line up on it.
+    pub time_origin_s: f64,
+    /// Temperature, °C.
+    pub temp_c: Vec<f64>,
+    /// Axes, in the order ax, ay, az (those present).
+    pub axes: Vec<AxisColumn>,
+    /// Line number of each kept row.
+    pub line: Vec<u64>,
+    /// Columns used: `(role, column, unit)`.
+    pub columns: Vec<(String, String, String)>,
+    /// Skipped rows.
+    pub skipped: Skipped,
+    /// Sampling regularity.
+    pub sampling: Sampling,
+    /// How each unit was decided and what the data show in it.
+    pub units: UnitEvidence,
+}
+
+impl fmt::Display for Sampling {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "median row interval {:.3} s, {} interval(s) outside 0.5..2x the median, {} gap(s) over 30 s (longest {:.1} s), \
+             fastest temperature change {:.1} °C/min",
+            self.median_interval_s,
+            self.irregular_intervals,
+            self.gaps_over_30s,
+            self.max_interval_s,
+            self.max_slew_c_per_min
+        )
+    }
+}
+
+impl StaticLog {
+    /// Kept rows.
+    #[must_use]
+    pub fn rows(&self) -> usize {
+        self.time_s.len()
+    }
+}
+
+/// Whether a header column matches a common name.
+pub fn matches_common(col: &str, name: &str) -> bool {
+    let c = col.to_ascii_lowercase();
+    c == name || c.ends_with(&format!(".{name}")) || c.ends_with(&format!("_{name}"))
+}
+
+fn find_column(header: &[String], role: &str, opts: &StaticOptions) -> Result<Option<usize>, StaticError> {
+    if let Some((_, col)) = opts.columns.roles.iter().find(|(r, _)| r == role) {
+        return header.iter().position(|h| h == col).map(Some).ok_or_else(|| StaticError::UnknownColumn {
+            role: role.to_string(),
+            column: col.clone(),
+            header: header.to_vec(),
+        });
+    }
+    let names = COMMON_NAMES.iter().find(|(r, _)| *r == role).map_or(&[][..], |(_, n)| *n);
+    // Names in priority order: the first name any column matches wins.
+    Ok(names.iter().find_map(|n| header.iter().position(|h| matches_common(h, n))))
+}
+
+/// Whether `s` is a number written with a decimal comma (`-20,5`, `1,5e-3`).
+fn is_decimal_comma(s: &str) -> bool {
+    s.matches(',').count() == 1 && s.replacen(',', ".", 1).parse::<f64>().is_ok()
+}
+
+/// Field text → value: `Ok(None)` for an empty or NaN field, `Err` for text that is no number.
+/// With `decimal_comma` the one comma of a field is its decimal point.
+fn parse_field(b: &[u8], column: &str, decimal_comma: bool) -> Result<Option<f64>, StaticRowFault> {
+    let s = std::str::from_utf8(b).unwrap_or("").trim();
+    if s.is_empty() || s.eq_ignore_ascii_case("nan") {
+        return Ok(None);
+    }
+    let parsed =
+        if decimal_comma && s.contains(',') { s.replacen(',', ".", 1).parse::<f64>() } else { s.parse::<f64>() };
+    match parsed {
+        Ok(x) if x.is_finite() => Ok(Some(x)),
+        Ok(_) => Ok(None),
+        Err(_) => Err(StaticRowFault::NotANumber { column: column.to_string(), text: s.to_string() }),
+    }
+}
+
+/// Read a static log from text.
+///
+/// # Errors
+/// See [`StaticError`]; skipped rows are in [`StaticLog::skipped`].
+pub fn read_static_from<R: Read>(reader: R, opts: &StaticOptions) -> Result<StaticLog, StaticError> {
+    let mut text = Vec::new();
+    let mut reader = reader;
+    reader.read_to_end(&mut text).map_err(|e| StaticError::Io(e.to_string()))?;
+    let first_line = text.split(|&c| c == b'\n').next().unwrap_or(b"");
+    if first_line.iter().all(u8::is_ascii_whitespace) {
+        return Err(StaticError::Empty);
+    }
+    // The delimiter is the most frequent of tab, comma and semicolon in the header.
+    let delim =
+        [b'\t', b',', b';'].into_iter().max_by_key(|d| first_line.iter().filter(|c| *c == d).count()).unwrap_or(b',');
+    if opts.decimal_comma && delim == b',' {
+        return Err(StaticError::DecimalCommaDelimiter);
+    }
+    let mut rdr = csv::ReaderBuilder::new().delimiter(delim).has_headers(false).flexible(true).from_reader(&text[..]);
+    let mut lines_of = super::lines::LineCounter::new(&text);
+    let mut rec = csv::ByteRecord::new();
+    if !rdr.read_byte_record(&mut rec).map_err(|e| StaticError::Io(e.to_string()))? {
+        return Err(StaticError::Empty);
+    }
+    let header: Vec<String> = rec.iter().map(|b| String::from_utf8_lossy(b).trim().to_string()).collect();
+    let need = |role: &str| -> Result<usize, StaticError> {
+        find_column(&header, role, opts)?
+            .ok_or_else(|| StaticError::MissingColumn { role: role.to_string(), header: header.clone() })
+    };
+    let ti = need("time")?;
+    let tc = need("temp")?;
+    let mut axes_idx: Vec<(&str, usize)> = Vec::new();
+    for role in ["ax", "ay", "az"] {
+        if let Some(i) = find_column(&header, role, opts)? {
+            axes_idx.push((role, i));
+        }
+    }
+    if axes_idx.is_empty() {
+        return Err(StaticError::MissingColumn { role: "ax/ay/az".to_string(), header: header.clone() });
+    }
+    let (time_unit, time_src) = resolve(
+        opts.time_unit,
+        &[(TimeUnit::from_suffix(&header[ti]), &header[ti])],
+        ReaderOption::TimeUnit,
+        TimeUnit::name,
+    )?
+    .ok_or_else(|| StaticError::UnitUnknown { option: ReaderOption::TimeUnit, column: header[ti].clone() })?;
+    let named: Vec<(Option<AccelUnit>, &String)> =
+        axes_idx.iter().map(|(_, i)| (AccelUnit::from_suffix(&header[*i]), &header[*i])).collect();
+    let (accel_unit, accel_src) =
+        resolve(opts.accel_unit, &named, ReaderOption::AccelUnit, AccelUnit::name)?.ok_or_else(|| {
+            StaticError::UnitUnknown { option: ReaderOption::AccelUnit, column: header[axes_idx[0].1].clone() }
+        })?;
+    let (temp_unit, temp_src) = resolve(
+        opts.temp_unit,
+        &[(TempUnit::from_suffix(&header[tc]), &header[tc])],
+        ReaderOption::TempUnit,
+        TempUnit::name,
+    )?
+    .unwrap_or((TempUnit::C, UnitSource::Assumed));
+
+    let ncol = header.len();
+    let mut raw_t: Vec<f64> = Vec::new();
+    let mut temp: Vec<f64> = Vec::new();
+    let mut acc: Vec<Vec<f64>> = vec![Vec::new(); axes_idx.len()];
+    let mut lines: Vec<u64> = Vec::new();
+    let mut skipped = Skipped::default();
+    // Every parsed temperature in the file's unit, for the unit check of out-of-range rows.
+    let mut file_temps: Vec<f64> = Vec::new();
+    let mut faults: Vec<(u64, StaticRowFault)> = Vec::new();
+    let mut n_faults = 0usize;
+    // Rows whose bad field is a decimal-comma number, and the first of them.
+    let mut comma_rows = 0usize;
+    let mut first_comma: Option<(u64, String, String)> = None;
+    let mut any_row = false;
+    let mut line: u64 = 1;
+    let mut fault = |faults: &mut Vec<(u64, StaticRowFault)>, line: u64, f: StaticRowFault| {
+        n_faults += 1;
+        if faults.len() < KEPT_LINES {
+            faults.push((line, f));
+        }
+    };
+    loop {
+        line += 1;
+        match rdr.read_byte_record(&mut rec) {
+            Ok(true) => {}
+            Ok(false) => break,
+            Err(e) => return Err(StaticError::Io(format!("line {line}: {e}"))),
+        }
+        if let Some(p) = rec.position() {
+            line = lines_of.line_of(p.byte());
+        }
+        if rec.len() == 1 && rec.get(0).is_some_and(|b| b.iter().all(u8::is_ascii_whitespace)) {
+            continue; // a blank line
+        }
+        any_row = true;
+        if rec.len() != ncol {
+            fault(&mut faults, line, StaticRowFault::FieldCount { got: rec.len(), want: ncol });
+            continue;
+        }
+        let mut cols: Vec<usize> = vec![ti, tc];
+        cols.extend(axes_idx.iter().map(|(_, i)| *i));
+        let mut vals = Vec::with_capacity(cols.len());
+        let mut bad = false;
+        for &c in &cols {
+            match parse_field(rec.get(c).unwrap_or(b""), &header[c], opts.decimal_comma) {
+                Ok(v) => vals.push(v),
+                Err(f) => {
+                    if let StaticRowFault::NotANumber { column, text } = &f {
+                        if delim != b',' && is_decimal_comma(text) {
+                            comma_rows += 1;
+                            first_comma.get_or_insert_with(|| (line, column.clone(), text.clone()));
+                        }
+                    }
+                    fault(&mut faults, line, f);
+                    bad = true;
+                    break;
+                }
+            }
+        }
+        if bad {
+            continue;
+        }
+        if vals.iter().any(Option::is_none) {
+            skipped.nan.add(line);
+            continue;
+        }
+        let vals: Vec<f64> = vals.into_iter().flatten().collect();
+        let (t, tc_v) = (vals[0], temp_unit.to_c(vals[1]));
+        file_temps.push(vals[1]);
+        if !TEMP_RANGE_C.contains(&tc_v) {
+            fault(&mut faults, line, StaticRowFault::TempOutOfRange(tc_v));
+            continue;
+        }
+        if let Some(&prev) = raw_t.last() {
+            if t < prev {
+                fault(&mut faults, line, StaticRowFault::TimeBackwards { previous: prev, time: t });
+                continue;
+            }
+            if t == prev {
+                skipped.duplicate.add(line);
+                continue;
+            }
+        }
+        raw_t.push(t);
+        temp.push(tc_v);
+        for (k, a) in acc.iter_mut().enumerate() {
+            a.push(vals[2 + k] * accel_unit.g());
+        }
+        lines.push(line);
+    }
+    if n_faults > 0 {
+        // The first bad field a decimal-comma number: say that, not "not a number" rows.
+        if let Some((line, column, text)) = first_comma.filter(|(l, _, _)| faults.first().is_some_and(|f| f.0 == *l)) {
+            return Err(StaticError::DecimalComma { line, column, text, rows: comma_rows });
+        }
+        // Temperatures out of range in the unit read, and every one in range in another:
+        // the unit is wrong, not the rows.
+        if faults.iter().any(|(_, f)| matches!(f, StaticRowFault::TempOutOfRange(_))) {
+            let fits = temp_fits(&file_temps, temp_unit);
+            if !fits.is_empty() {
+                let (lo, hi) = range_c(&file_temps, temp_unit);
+                let out = file_temps.iter().filter(|&&x| !TEMP_RANGE_C.contains(&temp_unit.to_c(x))).count();
+                return Err(StaticError::Unit(Box::new(UnitMismatch {
+                    option: ReaderOption::TempUnit,
+                    stated: temp_unit.name(),
+                    source: temp_src,
+                    evidence: format!(
+                        "the temperature spans {lo:.1}..{hi:.1} °C ({out} of {} rows outside -60..130 °C)",
+                        file_temps.len()
+                    ),
+                    expected: "a board in a climate chamber reads -60..130 °C".to_string(),
+                    fits: fits.into_iter().map(|(u, (a, b))| (u.name(), format!("{a:.1}..{b:.1} °C"))).collect(),
+                })));
+            }
+        }
+        return Err(StaticError::Rows { first: faults, total: n_faults });
+    }
+    if !any_row {
+        return Err(StaticError::NoRows);
+    }
+    // Glitch rows: any channel spiking marks the row.
+    let mut glitch = vec![false; raw_t.len()];
+    for i in glitches(&temp, GLITCH_MIN_TEMP_C) {
+        glitch[i] = true;
+    }
+    for a in &acc {
+        for i in glitches(a, GLITCH_MIN_ACCEL_G) {
+            glitch[i] = true;
+        }
+    }
+    let keep: Vec<usize> = (0..raw_t.len()).filter(|&i| !glitch[i]).collect();
+    for (i, _) in glitch.iter().enumerate().filter(|(_, g)| **g) {
+        skipped.glitch.add(lines[i]);
+    }
+    if keep.len() < MIN_ROWS {
+        return Err(StaticError::TooFewRows { kept: keep.len(), skipped });
+    }
+    let t0 = raw_t[keep[0]];
+    let time_s: Vec<f64> = keep.iter().map(|&i| (raw_t[i] - t0) * time_unit.seconds()).collect();
+    let intervals: Vec<f64> = time_s.windows(2).map(|w| w[1] - w[0]).collect();
+    let med = median(&intervals);
+    let kept_temp: Vec<f64> = keep.iter().map(|&k| temp[k]).collect();
+    let slew = max_slew(&time_s, &kept_temp);
+    if !INTERVAL_S.contains(&med) || slew.c_per_min > MAX_SLEW_C_PER_MIN {
+        // Which other units would make both the interval and the slew plausible.
+        let fits = TimeUnit::ALL
+            .into_iter()
+            .filter(|&u| u != time_unit)
+            .filter_map(|u| {
+                let k = u.seconds() / time_unit.seconds();
+                let t: Vec<f64> = time_s.iter().map(|x| x * k).collect();
+                let s = max_slew(&t, &kept_temp).c_per_min;
+                (INTERVAL_S.contains(&(med * k)) && s <= MAX_SLEW_C_PER_MIN)
+                    .then(|| (u.name(), format!("rows {} s apart, {s:.1} °C/min", sig3(med * k))))
+            })
+            .collect();
+        let (evidence, expected) = if INTERVAL_S.contains(&med) {
+            // The filtered values are the ones the range is of; at these rows they are the
+            // readings themselves unless a neighbour was a bad one.
+            let at = |i: usize| -> (u64, f64) { (lines[keep[i]], centred_median(&kept_temp, i)) };
+            let (a, b) = (at(slew.from), at(slew.to));
+            (
+                format!(
+                    "the temperature changes by {:.0} °C/min ({:.2} °C within {:.3} s: from {:.2} °C at line {} to \
+                     {:.2} °C at line {})",
+                    slew.c_per_min, slew.range_c, slew.window_s, a.1, a.0, b.1, b.0
+                ),
+                format!("a board in a climate chamber changes by at most {MAX_SLEW_C_PER_MIN:.0} °C/min"),
+            )
+        } else {
+            (
+                format!("the median row interval is {} s", sig3(med)),
+                "a logger writes a row every 10 µs..60 s".to_string(),
+            )
+        };
+        return Err(StaticError::Unit(Box::new(UnitMismatch {
+            option: ReaderOption::TimeUnit,
+            stated: time_unit.name(),
+            source: time_src,
+            evidence,
+            expected,
+            fits,
+        })));
+    }
+    let sampling = Sampling {
+        median_interval_s: med,
+        irregular_intervals: intervals.iter().filter(|&&d| d < 0.5 * med || d > 2.0 * med).count(),
+        gaps_over_30s: intervals.iter().filter(|&&d| d > 30.0).count(),
+        max_interval_s: intervals.iter().copied().fold(0.0, f64::max),
+        max_slew_c_per_min: slew.c_per_min,
+    };
+    let axes: Vec<AxisColumn> = axes_idx
+        .iter()
+        .zip(&acc)
+        .map(|((role, i), a)| AxisColumn {
+            name: (*role).to_string(),
+            column: header[*i].clone(),
+            accel_g: keep.iter().map(|&k| a[k]).collect(),
+        })
+        .collect();
+    // A board at rest reads |a| = 1 g: with every axis the median |a| is checked from both
+    // sides, with fewer axes (a projection) only from above.
+    let mag: Vec<f64> =
+        (0..keep.len()).map(|k| axes.iter().map(|a| a.accel_g[k] * a.accel_g[k]).sum::<f64>().sqrt()).collect();
+    let med_mag = median(&mag);
+    let all_axes = axes.len() == 3;
+    let lo = if all_axes { REST_G.0 } else { 0.0 };
+    if !(lo..=REST_G.1).contains(&med_mag) {
+        let fits = AccelUnit::ALL
+            .into_iter()
+            .filter(|&u| u != accel_unit)
+            .map(|u| (u, med_mag * u.g() / accel_unit.g()))
+            .filter(|(_, m)| (REST_G.0..=REST_G.1).contains(m))
+            .map(|(u, m)| (u.name(), format!("median |a| {} g", sig3(m))))
+            .collect();
+        let cols = axes.iter().map(|a| a.column.as_str()).collect::<Vec<_>>().join(", ");
+        let expected = if all_axes {
+            format!("a board at rest reads |a| = 1 g ({:.2}..{:.2} g)", REST_G.0, REST_G.1)
+        } else {
+            format!("a board at rest reads at most {:.2} g on {} of its axes", REST_G.1, axes.len())
+        };
+        return Err(StaticError::Unit(Box::new(UnitMismatch {
+            option: ReaderOption::AccelUnit,
+            stated: accel_unit.name(),
+            source: accel_src,
+            evidence: format!("the median |a| over {cols} is {} g", sig3(med_mag)),
+            expected,
+            fits,
+        })));
+    }
+    let temp_range = range_c(&kept_temp, TempUnit::C);
+    let units = UnitEvidence {
+        units: vec![
+            (
+                ReaderOption::TimeUnit,
+                time_unit.name(),
+                time_src,
+                format!("rows {} s apart, fastest change {:.1} °C/min", sig3(med), slew.c_per_min),
+            ),
+            (
+                ReaderOption::AccelUnit,
+                accel_unit.name(),
+                accel_src,
+                format!("median |a| {} g over {} axis(es)", sig3(med_mag), axes.len()),
+            ),
+            (
+                ReaderOption::TempUnit,
+                temp_unit.name(),
+                temp_src,
+                format!("{:.1}..{:.1} °C", temp_range.0, temp_range.1),
+            ),
+        ],
+        median_abs_g: med_mag,
+        all_axes,
+        temp_range_c: temp_range,
+        temp_also_plausible: temp_fits(&file_temps, temp_unit).into_iter().map(|(u, r)| (u.name(), r)).collect(),
+    };
+    let mut columns = vec![
+        ("time".to_string(), header[ti].clone(), format!("{time_unit:?}").to_lowercase()),
+        ("temp".to_string(), header[tc].clone(), format!("deg{}", temp_unit.name()).replace("degK", "K")),
+    ];
+    for a in &axes {
+        columns.push((a.name.clone(), a.column.clone(), format!("{accel_unit:?}").to_lowercase()));
+    }
+    Ok(StaticLog {
+        time_s,
+        time_origin_s: t0 * time_unit.seconds(),
+        temp_c: kept_temp,
+        axes,
+        line: keep.iter().map(|&k| lines[k]).collect(),
+        columns,
+        skipped,
+        sampling,
+        units,
+    })
+}
+
+/// Readings outside this range, °C, are refused.
+pub const TEMP_RANGE_C: std::ops::RangeInclusive<f64> = -60.0..=130.0;
+
+/// Plausible median row intervals, s.
+const INTERVAL_S: std::ops::RangeInclusive<f64> = 1e-5..=60.0;
+
+/// `x` with three significant digits (`0.00957`, `9.57`, `957`).
+fn sig3(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x}");
+    }
+    let digits = (2 - x.abs().log10().floor() as i32).max(0) as usize;
+    format!("{x:.digits$}")
+}
+
+/// Range of `v` (in `unit`), °C.
+fn range_c(v: &[f64], unit: TempUnit) -> (f64, f64) {
+    v.iter().map(|&x| unit.to_c(x)).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x), b.max(x)))
+}
+
+/// The temperature units other than `stated` in which every reading of `v` lies in
+/// [`TEMP_RANGE_C`], with the range each gives, °C.
+fn temp_fits(v: &[f64], stated: TempUnit) -> Vec<(TempUnit, (f64, f64))> {
+    TempUnit::ALL
+        .into_iter()
+        .filter(|&u| u != stated)
+        .map(|u| (u, range_c(v, u)))
+        .filter(|(_, (lo, hi))| TEMP_RANGE_C.contains(lo) && TEMP_RANGE_C.contains(hi))
+        .collect()
+}
+
+/// A column's unit from the option, else from the column names (`(unit in the name, name)`
+/// per column); an option contradicting a name is refused. `None`: neither states it.
+fn resolve<U: Copy + PartialEq>(
+    option: Option<U>,
+    named: &[(Option<U>, &String)],
+    which: ReaderOption,
+    name: fn(U) -> &'static str,
+) -> Result<Option<(U, UnitSource)>, StaticError> {
+    if let Some(u) = option {
+        if let Some((Some(n), col)) = named.iter().find(|(n, _)| n.is_some_and(|n| n != u)) {
+            return Err(StaticError::Unit(Box::new(UnitMismatch {
+                option: which,
+                stated: name(u),
+                source: UnitSource::Option,
+                evidence: format!("the column `{col}` is named for {}", name(*n)),
+                expected: "a unit in a column's name and the one passed must agree".to_string(),
+                fits: vec![(name(*n), "the column name's unit".to_string())],
+            })));
+        }
+        return Ok(Some((u, UnitSource::Option)));
+    }
+    match named.first() {
+        Some((Some(u), col)) if named.iter().all(|(n, _)| *n == Some(*u)) => {
+            Ok(Some((*u, UnitSource::ColumnName((*col).clone()))))
+        }
+        _ => Ok(None),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn opts() -> StaticOptions {
+        StaticOptions { time_unit: Some(TimeUnit::Ms), accel_unit: Some(AccelUnit::Mg), ..Default::default() }
+    }
+
+    #[test]
+    fn glitch_row_is_skipped_and_counted() {
+        let mut text = String::from("time\ttemp\taz\n0\t20\t1050\n");
+        for i in 1..40 {
+            text.push_str(&format!("{}\t{}\t1000\n", i * 500, 20.0 + 0.01 * f64::from(i)));
+        }
+        let log = read_static_from(text.as_bytes(), &opts()).unwrap();
+        // Line 2 is 50 mg off its neighbours (σ ≈ 0): a glitch.
+        assert_eq!(log.skipped.glitch, SkipCount { count: 1, lines: vec![2] });
+        assert_eq!(log.rows(), 39);
+        assert_eq!(log.time_s[0], 0.0);
+        assert!((log.axes[0].accel_g[0] - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn slew_is_the_largest_range_in_a_minute_and_ignores_two_bad_rows() {
+        // 1-s rows: hold 20 °C, ramp at 6 °C/min (0.1 °C per row) to 40 °C, hold. The
+        // fastest minute holds 61 rows, 6.0 °C.
+        let temp: Vec<f64> = (0..600).map(|i| 20.0 + 0.1 * f64::from((i - 100).clamp(0, 200))).collect();
+        let time: Vec<f64> = (0..600).map(f64::from).collect();
+        let s = max_slew(&time, &temp);
+        assert!((s.c_per_min - 6.0).abs() < 1e-9 && (s.range_c - 6.0).abs() < 1e-9, "{s:?}");
+        assert_eq!((s.window_s, s.to - s.from), (60.0, 60));
+        // Two 85 °C readings in a row (a DS18B20's power-on value) do not count.
+        let mut spiked = temp.clone();
+        spiked[50] = 85.0;
+        spiked[51] = 85.0;
+        assert!((max_slew(&time, &spiked).c_per_min - 6.0).abs() < 1e-9);
+        // Shorter than a minute: the whole log is the window. 20 K in 0.6 s.
+        let fast: Vec<f64> = time.iter().map(|t| t * 1e-3).collect();
+        let s = max_slew(&fast, &temp);
+        assert!((s.c_per_min - 20.0 / 0.599 * 60.0).abs() < 1e-6, "{s:?}");
+    }
+
+    #[test]
+    fn decimal_commas_are_named_or_read() {
+        let text = "time;temp;az\n".to_string() + &(0..40).map(|i| format!("{i};20,{i:02};-1,0\n")).collect::<String>();
+        let o = StaticOptions { time_unit: Some(TimeUnit::S), accel_unit: Some(AccelUnit::G), ..Default::default() };
+        let e = read_static_from(text.as_bytes(), &o).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "column `temp` holds `20,00` at line 2: a decimal comma? 40 row(s) have numbers like it; pass \
+             --decimal-comma to read them"
+        );
+        let log = read_static_from(text.as_bytes(), &StaticOptions { decimal_comma: true, ..o.clone() }).unwrap();
+        assert_eq!(log.temp_c[..2], [20.0, 20.01]);
+        assert_eq!(log.axes[0].accel_g[0], -1.0);
+        // A comma-separated file cannot carry decimal commas.
+        let e = read_static_from("time,temp,az\n".as_bytes(), &StaticOptions { decimal_comma: true, ..o }).unwrap_err();
+        assert_eq!(e, StaticError::DecimalCommaDelimiter);
+    }
+
+    #[test]
+    fn duplicates_skipped_gaps_reported_units_from_names() {
+        // Units from the names (ms, g); line 4 repeats line 3's time; a 40-s gap after line 20.
+        let mut text = String::from("time_ms,temp_c,ax_g\n");
+        let mut t = 0u64;
+        for i in 0..40u64 {
+            text.push_str(&format!("{t},{},0.001\n", 20.0 + 0.001 * i as f64));
+            if i != 1 {
+                t += if i == 18 { 40_000 } else { 1000 };
+            }
+        }
+        let log = read_static_from(text.as_bytes(), &StaticOptions::default()).unwrap();
+        assert_eq!(log.skipped.duplicate, SkipCount { count: 1, lines: vec![4] });
+        assert_eq!(log.rows(), 39);
+        assert_eq!(log.sampling.median_interval_s, 1.0);
+        assert_eq!((log.sampling.gaps_over_30s, log.sampling.irregular_intervals), (1, 1));
+        assert_eq!(log.sampling.max_interval_s, 40.0);
+        assert_eq!(log.columns[0], ("time".into(), "time_ms".into(), "ms".into()));
+        // Without a unit in the name or a flag: an error naming the flag.
+        let e = read_static_from("timestamp,temp_c,ax_g\n0,20,0\n".as_bytes(), &StaticOptions::default()).unwrap_err();
+        assert_eq!(e.to_string(), "the unit of column `timestamp` is not known: pass --time-unit s|ms|us|ns");
+    }
+}

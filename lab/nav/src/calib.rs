@@ -1,0 +1,293 @@
+//! Calibration of each unit through the lab: a simulated four-position test of the same
+//! unit ([`qfa_sim::simulate`], the paper's programs) fitted by [`qfa_calibrate::fit::fit`]
+//! into the root crate's tables, plus the "none" table derived from the simple fit.
+//!
+//! Only the +1 g and −1 g positions are simulated (the 0 g positions carry no K1 or K0
+//! information: the fit pairs ±1 g by time). Every program of the lab program
+//! ([`LabProgram`]) is simulated. With validation on, the structure is first fitted on the
+//! fit programs of the lab's held-out rule ([`qfa_calibrate::fit::split_programs`]) and
+//! evaluated on the held-out ones through the `Compensator` ([`Validation`]); the table
+//! that flies is then refitted on **every** program, so no part of the lab log is
+//! thrown away (`CalReport::flown_fit_programs` lists them).
+
+use qfa_thermal::model::AxisModel;
+use qfa_thermal::table::Table;
+
+use qfa_calibrate::coverage::{CalCoverage, Coverage, TableLimits};
+use qfa_calibrate::discover::{analyze, Channels, Start};
+use qfa_calibrate::fit::{fit, split_programs, FitOptions};
+use qfa_log::cycling::{write_log_to, Log};
+use qfa_sim::profile::{paper_positions, Program, PAPER_RATES};
+use qfa_sim::simulate;
+use qfa_sim::truth::Truth;
+
+/// Row length of the simulated log, s (the lab's default).
+pub const ROW_S: u32 = 1;
+
+/// The three tables of one unit and its fit figures.
+#[derive(Clone, Debug)]
+pub struct UnitTables {
+    /// Room-temperature constants: the simple fit's γ and K0 at T0, no temperature terms.
+    pub none: Table,
+    /// Paper Eq. 3–4.
+    pub simple: Table,
+    /// Eq. 11 plus heating / cooling bias grids.
+    pub hysteresis: Table,
+    /// The hysteresis model refitted with the extension slots the discovery workflow
+    /// found on the same calibration log (start `paper`); the hysteresis table itself
+    /// when discovery finds nothing missing.
+    pub discovered: Table,
+    /// Effects the discovery workflow added, in order (empty: `none`).
+    pub discovered_effects: Vec<String>,
+    /// Figures of the fit.
+    pub report: CalReport,
+}
+
+/// The lab program each unit is calibrated on.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum LabProgram {
+    /// [`Program::covering`]: the paper's staircase at 0.3 and 0.9 °C/min plus 1 and
+    /// 2 °C/min triangles, which reach the built-in flight's case rates.
+    #[default]
+    Covering,
+    /// The paper's four staircases (0.3, 0.5, 0.7, 0.9 °C/min): case rates up to 0.28 °C/min
+    /// against the built-in flight's 1.62 (`qfa-lab plan --lab-program paper`); kept as the
+    /// comparison.
+    Paper,
+}
+
+impl LabProgram {
+    /// Its programs, in the order the held-out rule reads them.
+    #[must_use]
+    pub fn programs(self) -> Vec<Program> {
+        match self {
+            Self::Covering => Program::covering(),
+            Self::Paper => PAPER_RATES.iter().map(|&r| Program::paper(r)).collect(),
+        }
+    }
+
+    /// Its name on the command line and in the reports.
+    #[must_use]
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Covering => "covering",
+            Self::Paper => "paper",
+        }
+    }
+}
+
+impl std::str::FromStr for LabProgram {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "covering" => Ok(Self::Covering),
+            "paper" => Ok(Self::Paper),
+            _ => Err(format!("lab program `{s}`: expected covering or paper")),
+        }
+    }
+}
+
+/// The held-out validation of the chosen structure: fitted on the held-out rule's fit
+/// programs, compensated through `Compensator<1, 32>` on the others.
+#[derive(Clone, Debug, serde::Serialize)]
+pub enum Validation {
+    /// Figures of the held-out evaluation.
+    Computed {
+        /// Programs the validation table was fitted on.
+        fit_programs: Vec<String>,
+        /// Programs it was evaluated on.
+        held_out_programs: Vec<String>,
+        /// Table-4 sensitivity, ppm/°C, held out.
+        sensitivity_ppm_per_c: qfa_calibrate::report::Variants,
+        /// Bias residual, µg RMS, held out.
+        bias_residual_ug: qfa_calibrate::report::Variants,
+    },
+    /// Not run, with the reason (the Monte Carlo runs skip it: it costs a second fit and
+    /// a compensation pass per unit, and it does not change the flown table).
+    NotComputed(String),
+}
+
+/// Fit figures of one unit.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct CalReport {
+    /// Unit.
+    pub unit: String,
+    /// Rows simulated.
+    pub rows: usize,
+    /// Condition number of the Eq. 11 design (column-scaled).
+    pub eq11_condition: f64,
+    /// RMS K1 residual of the Eq. 11 fit, ppm of γ.
+    pub k1_rms_ppm_hysteresis: f64,
+    /// Eq. 11 coefficients [γ, μ, β, ε, η, α] of the flown table.
+    pub eq11: Vec<f64>,
+    /// The lab program simulated.
+    pub lab_program: LabProgram,
+    /// Programs the flown table was fitted on: every program of the lab program.
+    pub flown_fit_programs: Vec<String>,
+    /// Held-out validation of the structure before the refit on every program.
+    pub validation: Validation,
+    /// What the flown table's programs cover and what the table clamps to.
+    pub coverage: CalCoverage,
+}
+
+fn axis(t: &Table) -> anyhow::Result<&AxisModel> {
+    t.axes.first().ok_or_else(|| anyhow::anyhow!("empty table"))
+}
+
+/// Simulate and fit unit `truth`, with the discovery workflow on its log.
+///
+/// # Errors
+/// A fit or table validation failure.
+pub fn calibrate_unit(truth: &Truth, seed: u64, threads: usize) -> anyhow::Result<UnitTables> {
+    calibrate_unit_with(truth, seed, threads, true)
+}
+
+/// Simulate and fit unit `truth` on the default lab program without validation;
+/// `discover` runs the discovery workflow on its log (without it, `discovered` is the
+/// hysteresis table and `discovered_effects` is `["not run"]`; the Monte Carlo runs skip
+/// it, it costs several seconds per unit).
+///
+/// # Errors
+/// A fit or table validation failure.
+pub fn calibrate_unit_with(truth: &Truth, seed: u64, threads: usize, discover: bool) -> anyhow::Result<UnitTables> {
+    calibrate_unit_on(truth, seed, threads, &CalibOptions { discover, ..CalibOptions::default() })
+}
+
+/// How a unit is calibrated.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CalibOptions {
+    /// Run the discovery workflow on the log.
+    pub discover: bool,
+    /// Validate the structure on the held-out programs before the refit on all.
+    pub validate: bool,
+    /// The lab program simulated.
+    pub lab: LabProgram,
+    /// Experiment only: replace every table's rate limit (°C/min) after the fit. Above the
+    /// fitted rate range the tables then extrapolate Eq. 11 instead of clamping, and
+    /// `RATE_OUT_OF_RANGE` no longer marks rates beyond what the table was fitted on.
+    pub rate_limit_override: Option<f32>,
+}
+
+/// Simulate unit `truth` on `opts.lab`'s programs, validate (with `opts.validate`) and fit
+/// the flown tables on every program.
+///
+/// # Errors
+/// A fit, evaluation or table validation failure.
+pub fn calibrate_unit_on(truth: &Truth, seed: u64, threads: usize, opts: &CalibOptions) -> anyhow::Result<UnitTables> {
+    let programs = opts.lab.programs();
+    let ids: Vec<String> = programs.iter().map(|p| p.id.clone()).collect();
+    let positions: Vec<_> = paper_positions().into_iter().filter(|p| p.input_g != 0.0).collect();
+    let log = simulate(truth, &programs, &positions, ROW_S, seed, threads, None);
+    let validation = if opts.validate {
+        let (fit_ids, held) = split_programs(&ids);
+        let v = fit(&log, &FitOptions::new(fit_ids.clone()), None)
+            .map_err(|e| anyhow::anyhow!("{}: validation fit: {e}", truth.name))?;
+        let ev = qfa_calibrate::report::evaluate(&log, &held, &v.simple, &v.hysteresis, None)
+            .map_err(|e| anyhow::anyhow!("{}: held-out evaluation: {e}", truth.name))?;
+        qfa_calibrate::check_figures(&ev).map_err(|e| anyhow::anyhow!("{}: {e}", truth.name))?;
+        Validation::Computed {
+            fit_programs: fit_ids,
+            held_out_programs: held,
+            sensitivity_ppm_per_c: ev.sensitivity_ppm_per_c,
+            bias_residual_ug: ev.bias_residual_ug,
+        }
+    } else {
+        Validation::NotComputed("validation off (Monte Carlo runs and tests skip it)".into())
+    };
+    // The flown table: the chosen structure refitted on every program of the log.
+    let mut f =
+        fit(&log, &FitOptions::new(ids.clone()), None).map_err(|e| anyhow::anyhow!("{}: fit: {e}", truth.name))?;
+    if let Some(l) = opts.rate_limit_override {
+        for t in [&mut f.simple, &mut f.hysteresis] {
+            for a in &mut t.axes {
+                a.rate_limit_c_per_min = l;
+            }
+            t.validate().map_err(|e| anyhow::anyhow!("rate limit {l}: {e}"))?;
+        }
+    }
+    let mut none = axis(&f.simple)?.clone();
+    none.scale.mu = 0.0;
+    let k0 = f.bias_simple.coef[0] as f32;
+    for v in none.bias.heating_g.iter_mut().chain(none.bias.cooling_g.iter_mut()) {
+        *v = k0;
+    }
+    let mut none_t = f.simple.clone();
+    none_t.axes[0] = none;
+    none_t.validate().map_err(|e| anyhow::anyhow!("none table: {e}"))?;
+    let (discovered, discovered_effects) = if opts.discover {
+        discover_on(&log, &ids, &f.hysteresis)?
+    } else {
+        (f.hysteresis.clone(), vec!["not run".to_string()])
+    };
+    let coverage = CalCoverage {
+        covered: Coverage::of_log(&log, &ids, qfa_log::pairing::branch_deadband_c_per_min())?,
+        table: TableLimits::of(&f.hysteresis)?,
+        programs: ids.clone(),
+    };
+    Ok(UnitTables {
+        none: none_t,
+        simple: f.simple,
+        hysteresis: f.hysteresis,
+        discovered,
+        discovered_effects,
+        report: CalReport {
+            unit: truth.name.clone(),
+            rows: log.rows(),
+            eq11_condition: f.sf_hysteresis.cond,
+            k1_rms_ppm_hysteresis: f.sf_hysteresis.rms / f.sf_hysteresis.coef[0] * 1e6,
+            eq11: f.sf_hysteresis.coef.clone(),
+            lab_program: opts.lab,
+            flown_fit_programs: ids,
+            validation,
+            coverage,
+        },
+    })
+}
+
+/// Run the discovery workflow (start `paper`) on the calibration log; refit the
+/// hysteresis model with the slots it switched on. Rate and temperature terms it may add
+/// are already in Eq. 11, so only the extension slots change the table.
+///
+/// # Errors
+/// Discovery or the refit failed.
+pub fn discover_on(log: &Log, fit_ids: &[String], hysteresis: &Table) -> anyhow::Result<(Table, Vec<String>)> {
+    let mut csv = Vec::new();
+    write_log_to(&mut csv, log)?;
+    let ch = Channels::parse(std::str::from_utf8(&csv)?, 60.0)?;
+    drop(csv);
+    let rep = analyze(&ch, Start::Paper);
+    let names: Vec<String> = rep.effects.iter().map(|e| e.name.clone()).collect();
+    let ext = rep.model.map(|m| m.ext).unwrap_or_default();
+    if ext == qfa_thermal::Extensions::default() {
+        return Ok((hysteresis.clone(), names));
+    }
+    let f = fit(log, &FitOptions { ext, ..FitOptions::new(fit_ids.to_vec()) }, None)
+        .map_err(|e| anyhow::anyhow!("refit with discovered slots: {e}"))?;
+    Ok((f.hysteresis, names))
+}
+
+/// One 3-axis table (x, y, z) from three 1-axis tables, for a `Compensator<3, 32>`.
+///
+/// # Errors
+/// Tables that are not 1-axis, or validation of the result.
+pub fn table3(axes: [&Table; 3]) -> anyhow::Result<Table> {
+    table3_with(axes, None)
+}
+
+/// [`table3`] carrying the misalignment matrix `misalignment` (row-major).
+///
+/// # Errors
+/// As [`table3`], and a matrix outside the table's limits.
+pub fn table3_with(axes: [&Table; 3], misalignment: Option<[f32; 9]>) -> anyhow::Result<Table> {
+    for t in axes {
+        anyhow::ensure!(t.axes.len() == 1, "expected 1-axis tables");
+        anyhow::ensure!(usize::from(t.rate_window) == qfa_log::pairing::RATE_WINDOW, "expected the lab's rate window");
+    }
+    qfa_calibrate::fit::table_of_axes_with(
+        qfa_thermal::Input::PulseCounts,
+        axes.map(|t| t.axes[0].clone()),
+        misalignment,
+    )
+    .map_err(|e| anyhow::anyhow!("3-axis table invalid: {e}"))
+}

@@ -1,0 +1,66 @@
+//! Drive temperature of the IMU bay over a flight: piecewise-linear breakpoints.
+//!
+//! The lab's thermal chain ([`qfa_sim::thermal::ThermalChain`]: air → case (DS18B20) →
+//! element, first-order lags) turns it into the case temperature and rate that the truth
+//! model and the DS18B20s see.
+
+use serde::{Deserialize, Serialize};
+
+/// One breakpoint of the drive temperature.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TempPoint {
+    /// Time since start, s.
+    pub t_s: f64,
+    /// Drive temperature, °C.
+    pub temp_c: f64,
+}
+
+/// Piecewise-linear drive profile, held constant outside its breakpoints.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Profile {
+    points: Vec<TempPoint>,
+}
+
+impl Profile {
+    /// From breakpoints sorted by time (at least one).
+    ///
+    /// # Errors
+    /// Empty or unsorted breakpoints.
+    pub fn new(points: Vec<TempPoint>) -> anyhow::Result<Self> {
+        anyhow::ensure!(!points.is_empty(), "temperature profile has no breakpoints");
+        anyhow::ensure!(
+            points.windows(2).all(|w| w[1].t_s > w[0].t_s),
+            "temperature breakpoints not increasing in time"
+        );
+        Ok(Self { points })
+    }
+
+    /// Drive temperature at `t_s`, °C.
+    #[must_use]
+    pub fn at(&self, t_s: f64) -> f64 {
+        let p = &self.points;
+        if t_s <= p[0].t_s {
+            return p[0].temp_c;
+        }
+        let i = p.partition_point(|q| q.t_s <= t_s);
+        if i >= p.len() {
+            return p[p.len() - 1].temp_c;
+        }
+        let (a, b) = (p[i - 1], p[i]);
+        a.temp_c + (b.temp_c - a.temp_c) * (t_s - a.t_s) / (b.t_s - a.t_s)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn profile_interpolates_and_holds() {
+        let p =
+            Profile::new(vec![TempPoint { t_s: 0.0, temp_c: 20.0 }, TempPoint { t_s: 100.0, temp_c: 30.0 }]).unwrap();
+        assert_eq!(p.at(-5.0), 20.0);
+        assert_eq!(p.at(50.0), 25.0);
+        assert_eq!(p.at(500.0), 30.0);
+    }
+}

@@ -1,0 +1,226 @@
+//! Simulator: temperature programs through the thermal chain and the truth model to a log.
+//!
+//! Internal step 1 s. Per step: chamber air from the program → case lag → truth K1, K0
+//! (on the case or element temperature) → accelerometer output
+//! `K1·(K0 + a + n)·dt` pulses with `n` white noise plus Gauss–Markov bias instability →
+//! I/F converter with carry (the fraction left over stays in the accumulator, so no pulse
+//! is lost: the sum of the logged pulses equals the integral to within one pulse).
+//! The DS18B20 converts every `sensor.period_s` from `sensor.first_s` on, reading the case
+//! temperature at that instant plus offset and noise, quantized to 1/16 °C (12 bits).
+//! Rows are `row_s` (an integer ≥ 1) seconds long. Every (program, run) gets its own
+//! seeded noise stream, so a log is reproducible from the seed.
+
+pub mod population;
+pub mod profile;
+pub mod synth;
+pub mod thermal;
+pub mod truth;
+
+use crate::profile::{Position, Program};
+use crate::truth::{NoiseTruth, Truth, TruthModel};
+use qfa_log::cycling::{Log, Run, Sample};
+use qfa_rng::{normal, seeded, LabRng};
+
+/// Accelerometer noise generator (white + Gauss–Markov), g.
+#[derive(Debug)]
+pub struct NoiseGen {
+    rng: LabRng,
+    cfg: NoiseTruth,
+    bias_g: f64,
+}
+
+impl NoiseGen {
+    /// Seeded generator; the bias-instability state starts from its stationary law.
+    #[must_use]
+    pub fn new(cfg: NoiseTruth, seed: u64) -> Self {
+        let mut rng = seeded(seed);
+        let z = normal(&mut rng);
+        Self { rng, cfg, bias_g: z * cfg.bias_instability_ug * 1e-6 }
+    }
+
+    /// Mean noise over a step of `dt_s`, g.
+    pub fn step(&mut self, dt_s: f64) -> f64 {
+        let c = self.cfg;
+        if c.bias_instability_ug > 0.0 {
+            let phi = (-dt_s / c.bias_instability_tau_s).exp();
+            let z = normal(&mut self.rng);
+            self.bias_g = phi * self.bias_g + c.bias_instability_ug * 1e-6 * (1.0 - phi * phi).sqrt() * z;
+        }
+        let white = if c.white_ug_per_rthz > 0.0 {
+            let z = normal(&mut self.rng);
+            z * c.white_ug_per_rthz * 1e-6 / dt_s.sqrt()
+        } else {
+            0.0
+        };
+        self.bias_g + white
+    }
+}
+
+/// One simulated accelerometer: truth model, noise and I/F converter with carry.
+///
+/// This is the entry point for other simulations (e.g. navigation): feed it the case
+/// temperature, its rate and the true specific force, get integer pulses.
+#[derive(Debug)]
+pub struct Accelerometer {
+    model: TruthModel,
+    noise: NoiseGen,
+    carry: f64,
+}
+
+impl Accelerometer {
+    /// From a truth configuration and a noise seed.
+    #[must_use]
+    pub fn new(truth: &Truth, seed: u64) -> Self {
+        Self { model: truth.model(), noise: NoiseGen::new(truth.noise, seed), carry: 0.0 }
+    }
+
+    /// Advance by `dt_s` at case temperature `case_c` (°C) and case rate (°C/min) with
+    /// specific force `input_g` along the input axis; returns whole pulses of this step.
+    pub fn step(&mut self, case_c: f64, case_rate_c_per_min: f64, input_g: f64, dt_s: f64) -> i64 {
+        let e = self.model.step(case_c, case_rate_c_per_min, dt_s);
+        if dt_s <= 0.0 {
+            return 0;
+        }
+        let n = self.noise.step(dt_s);
+        self.carry += e.k1 * (e.k0 + input_g + n) * dt_s;
+        let whole = self.carry.round();
+        self.carry -= whole;
+        whole as i64
+    }
+}
+
+/// The noise seed of one (program, run): its own stream of the base seed.
+fn run_seed(seed: u64, program: usize, run: u32) -> u64 {
+    qfa_rng::splitmix64(seed ^ ((program as u64 + 1) << 32) ^ u64::from(run))
+}
+
+/// Simulate one run of `program` at `pos`.
+#[must_use]
+pub fn simulate_run(truth: &Truth, program: &Program, pos: Position, row_s: u32, seed: u64) -> Run {
+    let row_s = row_s.max(1);
+    let dt = 1.0;
+    let start_air = program.temp_at(0.0);
+    let mut chain = truth.thermal.start(start_air, dt, truth.element_tau_s());
+    let mut acc = Accelerometer::new(truth, seed);
+    let mut srng = seeded(seed ^ 0xD518_B20D_518B_20D5);
+    let steps = program.duration_s().floor() as u64;
+    let rows = steps / u64::from(row_s);
+    let mut samples = Vec::with_capacity(rows as usize);
+    let mut next_conv = truth.sensor.first_s;
+    let mut reading: Option<f64> = None;
+    let mut case_prev = chain.case.y;
+    let mut pulses: i64 = 0;
+    // Initial state: the model at rest at the start temperature.
+    acc.step(case_prev, 0.0, pos.input_g, 0.0);
+    for k in 1..=rows * u64::from(row_s) {
+        let t1 = k as f64 * dt;
+        let temps = chain.step(program.temp_at(t1));
+        while next_conv <= t1 {
+            // Case temperature at the conversion instant, linear within the step.
+            let frac = (next_conv - (t1 - dt)) / dt;
+            let c = case_prev + (temps.case_c - case_prev) * frac;
+            reading = Some(truth.sensor.read(&mut srng, c));
+            next_conv += truth.sensor.period_s;
+        }
+        case_prev = temps.case_c;
+        pulses += acc.step(temps.case_c, temps.case_rate_c_per_min, pos.input_g, dt);
+        if k % u64::from(row_s) == 0 {
+            samples.push(Sample { time_s: t1, temp_c: reading, pulses, interval_s: f64::from(row_s) });
+            pulses = 0;
+        }
+    }
+    Run { program: program.id.clone(), run: pos.run.to_string(), input_g: pos.input_g, samples }
+}
+
+/// Simulate every program at every position. Runs are simulated on up to `threads`
+/// threads (the output order is fixed: program-major, then position).
+#[must_use]
+pub fn simulate(
+    truth: &Truth,
+    programs: &[Program],
+    positions: &[Position],
+    row_s: u32,
+    seed: u64,
+    threads: usize,
+    progress: Option<&indicatif::ProgressBar>,
+) -> Log {
+    let jobs: Vec<(usize, Position)> =
+        (0..programs.len()).flat_map(|p| positions.iter().map(move |&pos| (p, pos))).collect();
+    let mut out: Vec<Option<Run>> = vec![None; jobs.len()];
+    let threads = threads.max(1);
+    let chunks: Vec<Vec<usize>> = (0..threads).map(|t| (t..jobs.len()).step_by(threads).collect()).collect();
+    std::thread::scope(|s| {
+        let handles: Vec<_> = chunks
+            .iter()
+            .map(|idx| {
+                let jobs = &jobs;
+                s.spawn(move || {
+                    idx.iter()
+                        .map(|&i| {
+                            let (p, pos) = jobs[i];
+                            let r = simulate_run(truth, &programs[p], pos, row_s, run_seed(seed, p, pos.run));
+                            if let Some(pb) = progress {
+                                pb.inc(1);
+                            }
+                            (i, r)
+                        })
+                        .collect::<Vec<_>>()
+                })
+            })
+            .collect();
+        for h in handles {
+            for (i, r) in h.join().expect("simulation thread panicked") {
+                out[i] = Some(r);
+            }
+        }
+    });
+    Log { runs: out.into_iter().flatten().collect() }
+}
+
+/// The paper's full test (Steps 1–6, four rates × four positions) for one unit.
+#[must_use]
+pub fn simulate_paper(
+    truth: &Truth,
+    row_s: u32,
+    seed: u64,
+    threads: usize,
+    progress: Option<&indicatif::ProgressBar>,
+) -> Log {
+    let programs: Vec<Program> = crate::profile::PAPER_RATES.iter().map(|&r| Program::paper(r)).collect();
+    simulate(truth, &programs, &crate::profile::paper_positions(), row_s, seed, threads, progress)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn carry_loses_no_pulse() {
+        // Constant K1 and K0 and no noise: the pulse sum equals the exact integral ±1.
+        let mut t = Truth::jb_kt8(1).noiseless();
+        t.scale.mu = 0.0;
+        t.scale.beta = 0.0;
+        t.bias.b1_g_per_c = 0.0;
+        t.bias.b2_g_per_c2 = 0.0;
+        let mut a = Accelerometer::new(&t, 1);
+        let mut sum = 0i64;
+        let n = 100_000;
+        for _ in 0..n {
+            sum += a.step(22.0, 0.0, 0.3, 0.013);
+        }
+        let want = 320_320.0 * (120e-6 + 0.3) * 0.013 * f64::from(n);
+        assert!((sum as f64 - want).abs() <= 1.0, "{sum} vs {want}");
+    }
+
+    #[test]
+    fn first_row_has_no_temperature_and_readings_are_quantized() {
+        let t = Truth::jb_kt8(2);
+        let p = Program::staircase("short", 0.9, 2.0, 0.5, 18, 26);
+        let r = simulate_run(&t, &p, Position { run: 0, input_g: 1.0 }, 1, 7);
+        assert_eq!(r.samples[0].temp_c, None);
+        for s in &r.samples[1..] {
+            let v = s.temp_c.unwrap() * 16.0;
+            assert_eq!(v, v.round());
+        }
+    }
+}
