@@ -165,7 +165,7 @@ pub struct LabAccel {
     sensor: SensorTruth,
     model: TruthModel,
     noise: NoiseGen,
-    carry: f64,
+    counter: qfa_sim::IfConverter,
     k1: f64,
     k0: f64,
 }
@@ -178,7 +178,7 @@ impl LabAccel {
             sensor: truth.sensor,
             model: truth.model(),
             noise: NoiseGen::new(truth.noise, seed),
-            carry: 0.0,
+            counter: qfa_sim::IfConverter::default(),
             k1: 0.0,
             k0: 0.0,
         }
@@ -191,10 +191,8 @@ impl AccelTruth for LabAccel {
         let n = self.noise.step(dt_s);
         self.k1 = e.k1;
         self.k0 = e.k0;
-        self.carry += e.k1 * ((e.k0 + n) * dt_s + dv_mps / G0);
-        let whole = self.carry.round();
-        self.carry -= whole;
-        whole as i32
+        // A cycle's count is a few hundred pulses: it fits an i32 by orders of magnitude.
+        self.counter.count(e.k1 * ((e.k0 + n) * dt_s + dv_mps / G0)) as i32
     }
 
     fn coefficients(&self) -> (f64, f64) {

@@ -18,7 +18,9 @@ use qfa_thermal::model::{Extensions, ScaleFactor};
 
 use crate::profile::Program;
 use crate::truth::{BiasTruth, SensorTruth, Truth, TruthModel};
+use crate::IfConverter;
 use qfa_log::channels::{Channels, LogKind, Trace};
+use qfa_log::cycling::{write_log_to, Log, Run, Sample};
 use qfa_rng::{normal, seeded, LabRng};
 
 /// Test-program and noise configuration.
@@ -181,32 +183,32 @@ pub fn single_csv(c: &SynthConfig, truth: &Truth) -> String {
     s
 }
 
-/// A cycling log in the lab's CSV format: per program four runs (+1, 0, −1, 0 g), I/F
-/// pulses with carry; `accel_noise_ug` is white noise per row.
+/// A cycling log in the lab's CSV format (written by [`qfa_log::cycling::write_log_to`],
+/// the one cycling writer): per program four runs (+1, 0, −1, 0 g), pulses from the one
+/// [`crate::IfConverter`]; `accel_noise_ug` is white noise per row.
 #[must_use]
 pub fn cycling_csv(c: &SynthConfig, truth: &Truth, accel_noise_ug: f64) -> String {
     let mut rng = seeded(c.seed);
-    let mut s = String::with_capacity(1 << 20);
-    s.push_str("program,run,time_s,input_g,temp_c,pulses,interval_s\n");
+    let mut log = Log { runs: Vec::new() };
     for &rate in &c.rates {
         let rows = program_rows(c, rate, truth, &mut rng);
         for (run, g) in [1.0f64, 0.0, -1.0, 0.0].into_iter().enumerate() {
-            let mut carry = 0.0f64;
-            let mut prev = None::<f64>;
-            for r in &rows {
-                let Some(p0) = prev else {
-                    prev = Some(r.0);
-                    continue;
-                };
+            let mut counter = IfConverter::default();
+            let mut samples = Vec::with_capacity(rows.len());
+            for w in rows.windows(2) {
+                let (p0, r) = (w[0].0, &w[1]);
                 let iv = r.0 - p0;
-                prev = Some(r.0);
                 let a = r.2 * (r.3 + g + accel_noise_ug * 1e-6 * normal(&mut rng));
-                carry += a * iv;
-                let pulses = carry.floor();
-                carry -= pulses;
-                let _ = writeln!(s, "paper-{rate:.1},{},{:.1},{},{:.4},{},{}", run, r.0, g, r.1, pulses as i64, iv);
+                let pulses = counter.count(a * iv);
+                // The time is written to 0.1 s, as a chamber logger would stamp it.
+                let time_s = (r.0 * 10.0).round() / 10.0;
+                samples.push(Sample { time_s, temp_c: Some(f64::from(r.1)), pulses, interval_s: iv });
             }
+            log.runs.push(Run { program: format!("paper-{rate:.1}"), run: run.to_string(), input_g: g, samples });
         }
     }
-    s
+    let mut bytes = Vec::with_capacity(1 << 20);
+    // Into memory, in UTF-8 (the program and run names above are ASCII): neither can fail.
+    let _ = write_log_to(&mut bytes, &log);
+    String::from_utf8(bytes).expect("the cycling writer writes UTF-8")
 }
