@@ -14,7 +14,7 @@ use std::time::Instant;
 use qfa_calibrate::batch::input::from_chamber_log;
 use qfa_calibrate::batch::{self, BatchOptions};
 use qfa_log::open::ReadFlags;
-use qfa_log::static_columns::{AccelUnit, TimeUnit};
+use qfa_log::static_log::columns::{AccelUnit, TimeUnit};
 use qfa_log::units::TempUnit;
 use qfa_sim::population::{draw, write_chamber, PopulationSpec};
 

@@ -16,7 +16,7 @@ use qfa_lab::out_path::OutError;
 use qfa_log::channels::Channels;
 use qfa_log::cycling::{write_compensated, write_log};
 use qfa_log::open::{open, LogFormat, OpenError, OpenedLog, ReadFlags};
-use qfa_log::static_columns::{AccelUnit, ColumnMap, TimeUnit};
+use qfa_log::static_log::columns::{AccelUnit, ColumnMap, TimeUnit};
 use qfa_log::units::TempUnit;
 use qfa_nav::calib::LabProgram;
 use qfa_nav::scenario::Scenario;

@@ -12,7 +12,7 @@ use qfa_calibrate::batch::input::{from_chamber_log, UnitInput};
 use qfa_calibrate::batch::unit::{UnitOptions, UnitOutcome};
 use qfa_calibrate::batch::{self, BatchOptions, Shard};
 use qfa_log::open::ReadFlags;
-use qfa_log::static_columns::{AccelUnit, TimeUnit};
+use qfa_log::static_log::columns::{AccelUnit, TimeUnit};
 use qfa_log::units::TempUnit;
 use qfa_sim::population::{draw, write_chamber, Defect, PopulationSpec, PopulationTruth, SPREAD};
 

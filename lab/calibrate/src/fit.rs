@@ -36,8 +36,11 @@ use qfa_thermal::{AxisModel, BiasGrid, Extensions, Input, ScaleFactor, Table};
 use qfa_log::cycling::Log;
 use qfa_log::pairing::{pair_program, trace_run, Trace, RATE_WINDOW};
 
-pub use super::solver::*;
-pub use super::static_fit::*;
+pub use super::solver::{lstsq, lstsq_matrix, second_difference_rows, LsResult};
+pub use crate::static_cal::fit::{
+    fit_static_axis, fit_static_traced, BranchMode, CurveShape, StaticFit, StaticSeries, StaticStructure, StaticTraces,
+    STATIC_LSB_PER_G,
+};
 
 /// Reference temperature of every lab table, °C (the paper's start temperature).
 pub const T0_C: f64 = 22.0;

@@ -28,12 +28,6 @@ pub mod report;
 pub mod select;
 pub mod solver;
 pub mod static_cal;
-pub mod static_choice;
-pub mod static_error;
-pub mod static_fit;
-pub mod static_holdout;
-pub mod static_output;
-pub mod static_report;
 pub mod verdict;
 
 use std::path::Path;

@@ -16,14 +16,14 @@ use std::path::Path;
 use serde::Serialize;
 
 use crate::coverage::Coverage;
+use crate::static_cal::choice::is_one_branch;
+use crate::static_cal::holdout::{check_coverage, split_index};
 use crate::static_cal::StaticCalOptions;
-use crate::static_choice::is_one_branch;
-use crate::static_holdout::{check_coverage, split_index};
 use qfa_log::cycling::Log;
 use qfa_log::open::{open_bytes, OpenError, OpenedLog, ReadError, ReadFlags};
 use qfa_log::pairing::{branch_deadband_c_per_min, trace_readings};
 use qfa_log::spelling::Spelling;
-use qfa_log::static_checks::median;
+use qfa_log::static_log::checks::median;
 use qfa_log::static_log::{StaticError, StaticLog, COMMON_NAMES};
 use qfa_log::units::{ReaderOption, UnitSource};
 

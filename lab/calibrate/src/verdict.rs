@@ -2,7 +2,7 @@
 //! cycling calibration, so every rendering of it says the same thing.
 
 use crate::report::Report;
-use crate::static_report::{PlotRows, StaticCalibration};
+use crate::static_cal::report::{PlotRows, StaticCalibration};
 use qfa_report::verdict::{Expected, FileUse, LimitsChoice, Verdict};
 
 /// The held-out rows' mean residual minus the training rows', per axis, mg, with the

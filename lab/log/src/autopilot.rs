@@ -32,7 +32,7 @@ use std::collections::BTreeMap;
 use std::fmt;
 use std::fmt::Write as _;
 
-use crate::static_columns::{AccelUnit, TimeUnit};
+use crate::static_log::columns::{AccelUnit, TimeUnit};
 use crate::static_log::{read_static_from, StaticError, StaticLog, StaticOptions};
 
 /// Length of the bins samples are averaged over, s.

@@ -17,7 +17,7 @@ use crate::cycling::{read_log_from, Log, LogError};
 use crate::dataflash::{read_dataflash, DataflashError};
 use crate::single::{read_single_from, SingleError, SingleLog};
 use crate::spelling::Spelling;
-use crate::static_columns::{AccelUnit, ColumnMap, TimeUnit};
+use crate::static_log::columns::{AccelUnit, ColumnMap, TimeUnit};
 use crate::static_log::{read_static_from, StaticError, StaticLog, StaticOptions};
 use crate::ulog::{read_ulog, UlogError};
 use crate::units::TempUnit;

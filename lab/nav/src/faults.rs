@@ -49,7 +49,9 @@ use crate::accel::{ImuCompensator, OracleCompensation, TableCompensation};
 use crate::run::{self, Figures, Variant};
 use crate::scenario::Scenario;
 
-pub use super::fault_injection::*;
+pub use super::fault_injection::{
+    right_flag, Count, Delivered, FaultLog, FaultSet, FaultyCompensation, Injected, Injector, Kind,
+};
 
 /// The compensator interface the injector drives: the firmware's entry points for the
 /// whole IMU, in the recommended configuration (one 3-axis compensator, one DS18B20

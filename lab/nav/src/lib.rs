@@ -82,11 +82,13 @@ use anyhow::Context;
 use run::FlightResult;
 use scenario::Scenario;
 
-pub use args::*;
-pub use flight_report::*;
-pub use page::*;
-pub use tables::*;
-pub use variants::*;
+pub use args::{scenario_of, NavigateArgs};
+pub use flight_report::{
+    clamped_warnings, flag_shares, report, share, summary, thermal_ceps, Meta, PaperFigures, Report,
+};
+pub use page::{markdown, merge_markdown, merge_page, page};
+pub use tables::{calibrate, calibrate_on, calibrate_opts, calibrate_with, truths, truths_seeded, units, Tables};
+pub use variants::{mc_variants, read_table, variants, VARIANTS};
 
 /// Write the error time series (every 10 s) as CSV.
 ///

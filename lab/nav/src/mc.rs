@@ -39,7 +39,7 @@ use super::scenario::{Scenario, Variation};
 use super::{mc_variants, share, thermal_ceps, truths_seeded, units, NavigateArgs, Tables};
 use qfa_sim::truth::Truth;
 
-pub use super::mc_summary::*;
+pub use super::mc_summary::{merge, summarize, table, write_outputs, AlignStats, ShardTiming, Stats, Summary};
 
 /// What to run.
 #[derive(Clone, Debug, PartialEq)]

@@ -15,7 +15,7 @@ use serde::Deserialize;
 
 use super::BatchError;
 use qfa_log::open::ReadFlags;
-use qfa_log::static_columns::{AccelUnit, ColumnMap, TimeUnit};
+use qfa_log::static_log::columns::{AccelUnit, ColumnMap, TimeUnit};
 use qfa_log::units::TempUnit;
 
 /// The roles a chamber log's unit columns carry, after the serial and a dot.

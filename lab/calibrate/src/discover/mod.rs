@@ -108,17 +108,20 @@ use anyhow::Result;
 use qfa_thermal::model::AxisModel;
 use serde::Serialize;
 
-pub use cli::*;
+pub use cli::{demo_hook, discover, discover_with_verdict};
 pub use fit::Effect;
 use fit::{golden, nelder_mead2, Fitted, Nonlinear, Residuals, Setup, Structure};
 use folds::*;
 use heldout::*;
-pub use localize::*;
+pub use localize::localize;
 use params::*;
 pub use qfa_log::channels::{BiasUnit, Channels, LogKind};
-pub use report::*;
+pub use report::{
+    CandidateTrial, EffectReport, Flashed, Gaps, ParamCi, PeerBetter, PeerGap, Report, Start, TimingOffsetReport,
+    WeightZ, Where,
+};
 use search::*;
-pub use select::*;
+pub use select::{analyze, start_model, ALPHA};
 pub use stats::GainStat;
 use uncertainty::*;
 pub use unexplained::{FloorRatio, TimeScales, Unexplained};

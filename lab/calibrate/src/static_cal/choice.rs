@@ -1,4 +1,4 @@
-//! Static calibration's model choice ([`super::static_cal`], *Model choice*): the candidate
+//! Static calibration's model choice ([`crate::static_cal`], *Model choice*): the candidate
 //! structures, their blocked cross-validation on the rows a model is fitted on, the
 //! structures discovery adds, and the one model for rows that hold one branch.
 
@@ -33,7 +33,7 @@ pub fn candidates() -> Vec<StaticStructure> {
 /// Blocked cross-validation RMS (g) of one structure (its `traces`) on the rows `rows`
 /// (ascending): they are cut into `k` contiguous chunks, each predicted by a fit to the
 /// other rows of `rows`.
-pub(super) fn cv_rms(
+pub(crate) fn cv_rms(
     series: &StaticSeries<'_>,
     traces: &StaticTraces,
     rows: &[usize],

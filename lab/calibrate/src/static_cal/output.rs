@@ -6,8 +6,8 @@ use std::path::Path;
 
 use qfa_thermal::model::Branch;
 
-use super::static_cal::*;
 use crate::fit::encode;
+use crate::static_cal::*;
 use qfa_report::verdict::Verdict;
 
 /// The report in Markdown: the scheme, the held-out table (mg, per axis) and the table's
@@ -111,7 +111,7 @@ pub fn static_files(plots: bool, exports: &[&str]) -> Vec<String> {
 #[derive(Clone, Copy, Debug)]
 pub struct StaticRun<'a> {
     /// Calibration settings.
-    pub opts: &'a super::static_cal::StaticCalOptions,
+    pub opts: &'a crate::static_cal::StaticCalOptions,
     /// Which PX4 / ArduPilot files to write, and how.
     pub exports: &'a crate::peers::ExportOptions,
     /// The limits the verdict checks.
@@ -138,7 +138,7 @@ pub fn calibrate_static_into(
     notes: &[String],
 ) -> Result<(StaticCalibration, Verdict), StaticCalError> {
     let StaticRun { opts, exports, limits, plots, progress, command } = *run;
-    let cal = super::static_cal::calibrate_static(log, opts, progress)?;
+    let cal = crate::static_cal::calibrate_static(log, opts, progress)?;
     write_static_table(out, &cal)?;
     let ex = crate::peers::write_exports(out, &export_axes(&cal), exports)
         .map_err(|e| StaticCalError::Io(format!("{}: {e}", out.display())))?;

@@ -8,7 +8,7 @@ use std::str::FromStr;
 use qfa_thermal::model::MAX_BIAS_POINTS;
 use qfa_thermal::table::limits::MIN_GRID_STEP_C;
 
-use super::static_cal::*;
+use crate::static_cal::*;
 use qfa_log::static_log::StaticLog;
 
 /// The held-out scheme asked for (`--holdout`); see the module docs.

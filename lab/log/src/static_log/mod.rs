@@ -30,7 +30,7 @@
 //!
 //! Whole-log checks (errors): no header, no data rows, an unknown or missing column, a
 //! unit that makes the data implausible, each from both sides where the data allow it
-//! ([`super::units`]: the median |a| outside [`super::units::REST_G`] with all three axes,
+//! ([`crate::units`]: the median |a| outside [`crate::units::REST_G`] with all three axes,
 //! above it with fewer; a median row interval outside 10 µs…60 s, or a temperature
 //! changing faster than [`MAX_SLEW_C_PER_MIN`], see [`max_slew`]; readings outside
 //! −60…130 °C that another temperature unit puts inside), every one refused as
@@ -43,18 +43,22 @@
 //! so, rather than as thousands of rows that are "not a number".
 //!
 //! Line numbers are as an editor shows them (CRLF, CR-only and blank lines counted, see
-//! [`super::lines`]).
+//! [`crate::lines`]).
+
+pub mod checks;
+pub mod columns;
+pub mod error;
 
 use std::fmt;
 use std::io::Read;
 
 use serde::Serialize;
 
-use super::static_checks::{centred_median, glitches, median};
-pub use super::static_checks::{max_slew, Slew};
-pub use super::static_columns::*;
-pub use super::static_error::*;
-use super::units::{ReaderOption, TempUnit, UnitEvidence, UnitMismatch, UnitSource, REST_G};
+use crate::static_log::checks::{centred_median, glitches, median};
+pub use crate::static_log::checks::{max_slew, Slew};
+pub use crate::static_log::columns::{AccelUnit, ColumnMap, TimeUnit, COMMON_NAMES};
+pub use crate::static_log::error::{StaticError, StaticRowFault};
+use crate::units::{ReaderOption, TempUnit, UnitEvidence, UnitMismatch, UnitSource, REST_G};
 
 /// Standard gravity, m/s², to convert m/s² to g.
 pub const G0_MPS2: f64 = 9.806_65;
@@ -297,7 +301,7 @@ pub fn read_static_from<R: Read>(reader: R, opts: &StaticOptions) -> Result<Stat
         return Err(StaticError::DecimalCommaDelimiter);
     }
     let mut rdr = csv::ReaderBuilder::new().delimiter(delim).has_headers(false).flexible(true).from_reader(&text[..]);
-    let mut lines_of = super::lines::LineCounter::new(&text);
+    let mut lines_of = crate::lines::LineCounter::new(&text);
     let mut rec = csv::ByteRecord::new();
     if !rdr.read_byte_record(&mut rec).map_err(|e| StaticError::Io(e.to_string()))? {
         return Err(StaticError::Empty);

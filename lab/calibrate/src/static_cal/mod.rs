@@ -63,19 +63,32 @@
 //!   the bias measured from the axis's mean over every row. `table_rms_mg` is that
 //!   table's RMS over every row (in-sample: not a held-out figure).
 
+pub mod choice;
+pub mod error;
+pub mod fit;
+pub mod holdout;
+pub mod output;
+pub mod report;
+
 use qfa_thermal::model::Branch;
 use qfa_thermal::Input;
 
 use crate::fit::{fit_static_traced, table_of_axes, FitError, StaticSeries, StaticStructure, StaticTraces};
 use crate::metrics::rms;
 use crate::peers::{PeerKind, Poly};
+use crate::static_cal::choice::cv_rms;
 use qfa_log::static_log::StaticLog;
 
-pub use super::static_choice::*;
-pub use super::static_error::*;
-pub use super::static_holdout::*;
-pub use super::static_output::*;
-pub use super::static_report::*;
+pub use crate::static_cal::choice::{candidates, is_one_branch, CV_FOLDS, ONE_BRANCH};
+pub use crate::static_cal::error::StaticCalError;
+pub use crate::static_cal::holdout::{check_coverage, resolve_holdout, split_index, Holdout, Scheme};
+pub use crate::static_cal::output::{
+    calibrate_static_into, export_axes, markdown, plot_bias_vs_temp, static_files, static_table_toml, with_verdict,
+    write_static, write_static_page, write_static_page_as, write_static_table, StaticRun, BIAS_PLOT, STATIC_FILES,
+};
+pub use crate::static_cal::report::{
+    AxisReport, ExportedPeers, Figure, FoldReport, HoldoutReport, PlotRows, Score, StaticCalibration, StaticReport,
+};
 
 /// Length of the averaging window of `binned_mg`, s.
 pub const BIN_S: f64 = 60.0;

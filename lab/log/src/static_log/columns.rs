@@ -5,8 +5,8 @@ use std::str::FromStr;
 
 use serde::Serialize;
 
-use super::static_log::{StaticError, G0_MPS2};
-use super::units::{ReaderOption, UnitParseError};
+use crate::static_log::{StaticError, G0_MPS2};
+use crate::units::{ReaderOption, UnitParseError};
 
 /// Common column names, lower case, per role. A header column matches a role when its
 /// lower-cased name equals one of these or ends with `.`/`_` + one of them.

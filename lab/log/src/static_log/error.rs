@@ -3,9 +3,9 @@
 
 use std::fmt;
 
-use super::static_log::{Skipped, MIN_ROWS};
-use super::units::{ReaderOption, UnitMismatch, UnitParseError};
 use crate::spelling::Spelling;
+use crate::static_log::{Skipped, MIN_ROWS};
+use crate::units::{ReaderOption, UnitMismatch, UnitParseError};
 
 /// A row-level error of a static log.
 #[derive(Clone, Debug, PartialEq)]

@@ -7,7 +7,7 @@ use serde::Serialize;
 use qfa_thermal::model::{Branch, MAX_BIAS_POINTS};
 use qfa_thermal::{AxisModel, BiasGrid, Extensions, ScaleFactor};
 
-use super::fit::*;
+use crate::fit::*;
 use qfa_log::pairing::Trace;
 
 /// How the two bias branches are tied in a static fit.
@@ -51,7 +51,7 @@ impl BranchMode {
         }
         let curves = if self == Self::Free { 2 } else { 1 };
         for off in (0..curves).map(|b| b * g) {
-            for row in super::solver::second_difference_rows(p, off, g, 1.0) {
+            for row in crate::solver::second_difference_rows(p, off, g, 1.0) {
                 xb.extend(row);
                 yb.push(0.0);
             }

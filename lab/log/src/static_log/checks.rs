@@ -3,7 +3,7 @@
 
 use serde::Serialize;
 
-use super::static_log::*;
+use crate::static_log::*;
 
 /// Median of a copy of `v` (NaN-free input).
 pub fn median(v: &[f64]) -> f64 {
