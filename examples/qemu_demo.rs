@@ -5,7 +5,7 @@
 //!
 //! ```sh
 //! cargo xtask demo-qemu                                   # build for the target and run under QEMU
-//! cargo run --example qemu_demo                           # the same program on the host
+//! cargo run --example qemu_demo --features fixtures      # the same program on the host
 //! ```
 //!
 //! The simulated instrument follows the same table (heating branch, slots off), with the
@@ -51,15 +51,11 @@ fn main() {
 use core::fmt::{self, Write};
 
 use qfa_thermal::ds18b20::{encode_scratchpad, Resolution};
+use qfa_thermal::fixtures::JB_KT8_1;
 use qfa_thermal::model::AxisState;
 use qfa_thermal::table::MAX_TABLE_BYTES;
-use qfa_thermal::{
-    AxisModel, BiasGrid, Config, Extensions, Input, ScaleFactor, Status, Table, ThreeAxisSharedSensor, G0,
-};
+use qfa_thermal::{AxisModel, BiasGrid, Config, Extensions, Input, Status, Table, ThreeAxisSharedSensor, G0};
 
-/// Unit JB-KT8 #1 of Zhang et al. (2021), Eq. 15: pulses/(g·s), T0 = 22 °C, Ṫ in °C/min.
-const JB_KT8_1: ScaleFactor =
-    ScaleFactor { t0_c: 22.0, gamma: 320_320.0, mu: -32.76, beta: 0.1008, epsilon: 88.14, eta: -0.02409, alpha: 273.0 };
 /// Seconds simulated.
 const DURATION_S: u32 = 300;
 /// IMU cycles per second.
@@ -193,7 +189,7 @@ fn run(out: &mut dyn Write) -> fmt::Result {
             }
             out.write_str("]  [")?;
             for i in 0..3 {
-                let raw_g = pulse_sum[i] as f64 / (320_320.0 * span);
+                let raw_g = pulse_sum[i] as f64 / (f64::from(JB_KT8_1.gamma) * span);
                 write!(out, "{:>+7.0}", (raw_g - TRUE_G[i]) * 1e6)?;
             }
             out.write_str("]  ")?;

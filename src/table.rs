@@ -408,6 +408,17 @@ impl Table {
         Ok(&buf[..HEADER_LEN + payload_len])
     }
 
+    /// [`Self::encode`] into a buffer of the largest table's size: the one call host tools
+    /// (the lab, its batches, the Python package) encode a table with.
+    ///
+    /// # Errors
+    /// A validation error.
+    pub fn to_bytes(&self) -> Result<heapless::Vec<u8, MAX_TABLE_BYTES>> {
+        let mut buf = [0u8; MAX_TABLE_BYTES];
+        let used = self.encode(&mut buf)?;
+        heapless::Vec::from_slice(used).map_err(|_| Error::BufferTooSmall)
+    }
+
     /// Decode and fully validate a table.
     ///
     /// # Errors
@@ -468,6 +479,20 @@ mod tests {
         let mut axes = heapless::Vec::new();
         axes.push(axis).unwrap();
         Table { input: Input::PulseCounts, rate_window: 32, axes, misalignment: None }
+    }
+
+    /// `to_bytes` gives `encode`'s bytes, which decode to the same table; an invalid table
+    /// is refused with `encode`'s error, not written.
+    #[test]
+    fn to_bytes_is_encode_and_refuses_what_encode_refuses() {
+        let mut buf = [0u8; MAX_TABLE_BYTES];
+        let t = small();
+        let bytes = t.to_bytes().unwrap();
+        assert_eq!(bytes.as_slice(), t.encode(&mut buf).unwrap());
+        assert_eq!(Table::decode(&bytes).unwrap(), t);
+        let mut bad = small();
+        bad.rate_window = 2;
+        assert_eq!(bad.to_bytes(), Err(Error::OutOfRange("rate_window")));
     }
 
     #[test]

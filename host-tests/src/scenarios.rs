@@ -4,21 +4,16 @@
 //! through the compensator and writes the outputs next to them.
 
 use qfa_thermal::ds18b20::{encode_scratchpad, Resolution};
+use qfa_thermal::fixtures::JB_KT8;
 use qfa_thermal::model::{AxisModel, BiasGrid, BranchHysteresis, Creep, Extensions, ScaleFactor, SensorLag};
 use qfa_thermal::table::{crc32, Table, HEADER_LEN, MAX_TABLE_BYTES};
 
-/// Paper Eq. 15–17: (α, β, η, ε, μ, γ) for JB-KT8 #1, #2, #3.
-pub const KT8: [[f32; 6]; 3] = [
-    [273.0, 0.1008, -0.02409, 88.14, -32.76, 320_320.0],
-    [102.76, 0.08, -1.4912, 21.01, -49.81, 308_000.0],
-    [49.12, 0.2385, -0.0972, 48.53, -41.14, 328_000.0],
-];
-
-/// Eq. 11 coefficients of a unit, T0 = 22 °C, γ scaled by `gamma_scale` to tell axes apart.
+/// Eq. 11 coefficients of JB-KT8 #`unit + 1` (the paper's Eq. 15–17, from
+/// [`qfa_thermal::fixtures::JB_KT8`]), T0 = 22 °C, γ scaled by `gamma_scale` to tell axes apart.
 #[must_use]
 pub fn unit_scale(unit: usize, gamma_scale: f32) -> ScaleFactor {
-    let [alpha, beta, eta, epsilon, mu, gamma] = KT8[unit];
-    ScaleFactor { t0_c: 22.0, gamma: gamma * gamma_scale, mu, beta, epsilon, eta, alpha }
+    let s = JB_KT8[unit];
+    ScaleFactor { gamma: s.gamma * gamma_scale, ..s }
 }
 
 /// Bias grid −60..70 °C by 10 °C: K0 = b0 + b1·ΔT + b2·ΔT², heating +split, cooling −split.
@@ -115,7 +110,7 @@ pub fn profile_events(lines: &mut Vec<String>, rng: &mut Lcg, unit: usize, t_sta
         }
         if k % 2 == 1 {
             let dt = 2500 + (rng.uniform() * 40.0) as u32 - 20;
-            let k1 = f64::from(KT8[unit][5]);
+            let k1 = f64::from(JB_KT8[unit].gamma);
             let n: Vec<i32> = inputs_g
                 .iter()
                 .map(|a| (k1 * (1.2e-4 + a) * f64::from(dt) * 1e-6 + rng.uniform() - 0.5).round() as i32)

@@ -6,7 +6,7 @@
 //! Eq. 15–17), never from the code under test.
 
 use qfa_calibrate::compensate::compensate_run;
-use qfa_calibrate::fit::{encode, fit, FitOptions, T0_C};
+use qfa_calibrate::fit::{fit, FitOptions, T0_C};
 use qfa_calibrate::{calibrate_log, CalibrateOptions};
 use qfa_log::cycling::Log;
 use qfa_sim::profile::{paper_positions, Program};
@@ -72,7 +72,7 @@ fn eq11_coefficients_recovered_from_noiseless_log() {
     assert!((sb[0] - icept).abs() < 5e-6, "k0 {} vs {}", sb[0], icept);
     assert!((sb[1] - slope).abs() < 0.1e-6, "k1 {} vs {}", sb[1], slope);
     // The flashable bytes decode to the same table.
-    let bytes = encode(&f.hysteresis).unwrap();
+    let bytes = f.hysteresis.to_bytes().unwrap();
     assert_eq!(qfa_thermal::Table::decode(&bytes).unwrap(), f.hysteresis);
 }
 

@@ -42,12 +42,9 @@ fn table_err(py: Python<'_>, e: qfa_thermal::table::Error, prefix: Option<&str>)
     with_kind::<TableError>(py, msg, e.kind())
 }
 
-/// Bytes of a table as `table.bin` holds them (the lab's encoder, the firmware's format).
+/// Bytes of a table as `table.bin` holds them (the core's one encoder call).
 pub fn encode(py: Python<'_>, t: &FirmwareTable) -> PyResult<Vec<u8>> {
-    qfa_calibrate::fit::encode(t).map_err(|e| match e {
-        qfa_calibrate::fit::FitError::Table(e) => table_err(py, e, None),
-        e => with_kind::<TableError>(py, e.to_string(), e.kind()),
-    })
+    t.to_bytes().map(|b| b.to_vec()).map_err(|e| table_err(py, e, None))
 }
 
 /// A static calibration's error as an exception of type `E`: its message with the

@@ -639,7 +639,7 @@ fn demo_qemu(overwrite: bool) -> Result {
 /// and print its expected output.
 fn run_demo_example(overwrite: bool) -> Result {
     let mut c = cargo();
-    c.args(["build", "-p", CORE, "--release", "--target", TARGET, "--example", DEMO_EXAMPLE]);
+    c.args(["build", "-p", CORE, "--release", "--target", TARGET, "--features", "fixtures", "--example", DEMO_EXAMPLE]);
     run(c)?;
     run_snapshot(&DEMO_SNAPSHOT, &example_elf(DEMO_EXAMPLE)?, false, overwrite).map(drop)
 }

@@ -582,11 +582,3 @@ pub fn table_of_axes_with(
     Ok(t)
 }
 
-/// Encode a table to its flashable bytes.
-///
-/// # Errors
-/// The root crate's encoding error.
-pub fn encode(table: &Table) -> Result<Vec<u8>, FitError> {
-    let mut buf = [0u8; qfa_thermal::table::MAX_TABLE_BYTES];
-    table.encode(&mut buf).map(<[u8]>::to_vec).map_err(FitError::Table)
-}

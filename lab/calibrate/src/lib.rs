@@ -33,7 +33,7 @@ pub mod verdict;
 use std::path::Path;
 use std::time::Instant;
 
-use crate::fit::{encode, fit, split_programs, FitOptions, Fitted};
+use crate::fit::{fit, split_programs, FitOptions, Fitted};
 use crate::report::{
     evaluate, plot_residual_vs_time, plot_sf_vs_temp, Evaluation, FitSummary, Report, Timings, METRIC_TEXT,
 };
@@ -248,7 +248,7 @@ pub fn cycling_export_axis(cal: &Calibration, axis: &str) -> Result<peers::Expor
 /// Encoding or I/O errors.
 pub fn write_table(dir: &Path, stem: &str, table: &qfa_thermal::Table) -> Result<(), String> {
     std::fs::write(dir.join(format!("{stem}.toml")), table_toml(table)?).map_err(|e| e.to_string())?;
-    let bin = encode(table).map_err(|e| e.to_string())?;
+    let bin = table.to_bytes().map_err(|e| e.to_string())?;
     std::fs::write(dir.join(format!("{stem}.bin")), bin).map_err(|e| e.to_string())
 }
 

@@ -172,7 +172,7 @@ impl ThermalCompensator for Box<dyn ThermalCompensator> {
 }
 
 fn encode(t: &Table) -> anyhow::Result<Vec<u8>> {
-    qfa_calibrate::fit::encode(t).map_err(|e| anyhow::anyhow!("table: {e}"))
+    Ok(t.to_bytes().map_err(|e| anyhow::anyhow!("table: {e}"))?.to_vec())
 }
 
 /// Fly `sc` once with each axis's table (`tables`, x, y, z: the `hysteresis` variant's
@@ -409,7 +409,7 @@ mod tests {
         };
         let t = qfa_calibrate::fit::table_of_axes(qfa_thermal::Input::PulseCounts, [a.clone(), a.clone(), a])
             .expect("a valid table");
-        qfa_calibrate::fit::encode(&t).expect("encodes")
+        t.to_bytes().expect("encodes").to_vec()
     }
 
     fn comps() -> ImuCompensator {

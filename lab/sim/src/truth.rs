@@ -124,16 +124,16 @@ impl Truth {
     /// If `unit` is not 1, 2 or 3.
     #[must_use]
     pub fn jb_kt8(unit: u8) -> Self {
-        let (scale, bias, offset) = match unit {
-            1 => ((273.0, 0.1008, -0.02409, 88.14, -32.76, 320_320.0), (120e-6, 12e-6, 0.02e-6), 0.12),
-            2 => ((102.76, 0.08, -1.4912, 21.01, -49.81, 308_000.0), (-80e-6, 8e-6, -0.03e-6), -0.20),
-            3 => ((49.12, 0.2385, -0.0972, 48.53, -41.14, 328_000.0), (250e-6, 18e-6, 0.05e-6), 0.30),
+        // The scale factors are the paper's (Eq. 15–17); the bias and sensor numbers are ours.
+        let (bias, offset) = match unit {
+            1 => ((120e-6, 12e-6, 0.02e-6), 0.12),
+            2 => ((-80e-6, 8e-6, -0.03e-6), -0.20),
+            3 => ((250e-6, 18e-6, 0.05e-6), 0.30),
             _ => panic!("JB-KT8 units are #1, #2 and #3"),
         };
-        let (alpha, beta, eta, epsilon, mu, gamma) = scale;
         Self {
             name: format!("JB-KT8 #{unit}"),
-            scale: ScaleFactor { t0_c: 22.0, gamma, mu, beta, epsilon, eta, alpha },
+            scale: qfa_thermal::fixtures::JB_KT8[usize::from(unit) - 1],
             bias: BiasTruth { k0_g: bias.0, b1_g_per_c: bias.1, b2_g_per_c2: bias.2, b3_g_per_c3: 0.0 },
             ext: Extensions::default(),
             thermal: ThermalChain::default(),

@@ -200,7 +200,7 @@ pub fn finish_fleet(out: &Path, results: &[(usize, UnitResult)], opts: &UnitOpti
                 let io = |e: &dyn fmt::Display| BatchError::Io(format!("{}: {e}", dir.display()));
                 match prior::prior_table(&c.normal, &fleet.population, span, opts.cal.deadband_c_per_min) {
                     Ok(table) => {
-                        let bin = crate::fit::encode(&table).map_err(|e| io(&e))?;
+                        let bin = table.to_bytes().map_err(|e| io(&e))?;
                         let toml = toml::to_string_pretty(&table).map_err(|e| io(&e))?;
                         std::fs::write(dir.join("table_prior.bin"), &bin).map_err(|e| io(&e))?;
                         std::fs::write(

@@ -150,7 +150,7 @@ pub fn write(ch: &Channels, report: &Report, dir: &Path, scope: Scope<'_>) -> Re
         }
     }
     if let Some(t) = table(report, input).filter(|_| scope.flashable()) {
-        match crate::fit::encode(&t) {
+        match t.to_bytes() {
             Ok(b) => {
                 std::fs::write(dir.join("table.bin"), &b)?;
                 std::fs::write(dir.join("model.bin"), &b)?;

@@ -48,7 +48,7 @@ use serde::Serialize;
 use super::output::Scope;
 use super::verdict::named_is_worse;
 use super::{analyze, start_model, Channels, LogKind, Report, Start};
-use crate::fit::{encode, BranchMode, CurveShape, StaticStructure};
+use crate::fit::{BranchMode, CurveShape, StaticStructure};
 use crate::peers::PeerKind;
 use crate::static_cal::{
     calibrate_static, check_coverage, resolve_holdout, score, Figure, Holdout, HoldoutReport, StaticCalOptions,
@@ -515,7 +515,7 @@ pub fn run(log: &StaticLog, start: Start, holdout: Holdout, dir: &Path) -> Resul
         // Not flashable: the table of all axes is DIR/table.bin (see `output`'s docs).
         super::output::write(ch, r, &dir.join(&a.axis), Scope::StaticAxis { discovery: &d, axis: a })?;
     }
-    std::fs::write(dir.join("table.bin"), encode(&d.table).map_err(|e| anyhow::anyhow!("{e}"))?)?;
+    std::fs::write(dir.join("table.bin"), d.table.to_bytes().map_err(|e| anyhow::anyhow!("{e}"))?)?;
     let files: Vec<String> = ["table.bin", "report.json", "report.md", "report.html"].map(String::from).to_vec();
     let v = super::verdict::static_verdict(&d, &files);
     std::fs::write(dir.join("report.json"), json_with_verdict(&v, &d)? + "\n")?;

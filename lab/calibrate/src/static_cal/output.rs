@@ -6,7 +6,6 @@ use std::path::Path;
 
 use qfa_thermal::model::Branch;
 
-use crate::fit::encode;
 use crate::static_cal::*;
 use qfa_report::verdict::Verdict;
 
@@ -158,7 +157,7 @@ pub fn write_static_table(out: &Path, cal: &StaticCalibration) -> Result<(), Sta
     let io = |e: &dyn fmt::Display| StaticCalError::Io(format!("{}: {e}", out.display()));
     std::fs::create_dir_all(out).map_err(|e| io(&e))?;
     std::fs::write(out.join("table.toml"), static_table_toml(cal).map_err(|e| io(&e))?).map_err(|e| io(&e))?;
-    std::fs::write(out.join("table.bin"), encode(&cal.table).map_err(|e| io(&e))?).map_err(|e| io(&e))?;
+    std::fs::write(out.join("table.bin"), cal.table.to_bytes().map_err(|e| io(&e))?).map_err(|e| io(&e))?;
     Ok(())
 }
 
