@@ -581,4 +581,3 @@ pub fn table_of_axes_with(
     t.validate().map_err(FitError::Table)?;
     Ok(t)
 }
-
