@@ -143,7 +143,8 @@ pub fn run(
         let t = Instant::now();
         let log_path = dir.join("log.csv");
         write_log(&log_path, &log).map_err(|e| e.to_string())?;
-        std::fs::write(dir.join("truth.toml"), truth.to_toml()?).map_err(|e| e.to_string())?;
+        std::fs::write(dir.join("truth.toml"), truth.to_toml().map_err(|e| e.to_string())?)
+            .map_err(|e| e.to_string())?;
         let write_s = t.elapsed().as_secs_f64();
         let rows = log.rows();
         drop(log);

@@ -472,6 +472,28 @@ impl From<OpenError> for CliError {
     }
 }
 
+impl From<qfa_sim::truth::TruthError> for CliError {
+    fn from(e: qfa_sim::truth::TruthError) -> Self {
+        match e {
+            // A name the user typed: the command line asks for what cannot be done.
+            qfa_sim::truth::TruthError::UnknownEffect { .. } => Self::Usage(e.to_string()),
+            _ => Self::Failed(e.to_string()),
+        }
+    }
+}
+
+impl From<qfa_sim::profile::ProfileError> for CliError {
+    fn from(e: qfa_sim::profile::ProfileError) -> Self {
+        Self::Failed(e.to_string())
+    }
+}
+
+impl From<qfa_sim::population::PopulationError> for CliError {
+    fn from(e: qfa_sim::population::PopulationError) -> Self {
+        Self::Failed(e.to_string())
+    }
+}
+
 impl From<String> for CliError {
     fn from(e: String) -> Self {
         Self::Failed(e)

@@ -292,8 +292,8 @@ pub fn unit_columns(serial: &str) -> [String; 4] {
 /// columns; every unit's full run), and the truth (`truth.toml`), into `dir`.
 ///
 /// # Errors
-/// I/O or TOML errors, as text.
-pub fn write_chamber(dir: &Path, truth: &PopulationTruth) -> Result<(), String> {
+/// [`PopulationError`]: a file not written, or the truth not serialized.
+pub fn write_chamber(dir: &Path, truth: &PopulationTruth) -> Result<(), PopulationError> {
     let air = chamber_air();
     let rows: Vec<Vec<(f64, [f64; 3])>> =
         truth.unit.iter().enumerate().map(|(i, u)| unit_rows(u, &air, truth.seed, i)).collect();
@@ -321,8 +321,8 @@ pub fn write_chamber(dir: &Path, truth: &PopulationTruth) -> Result<(), String> 
 /// manifest naming them (`batch.toml`), and the truth (`truth.toml`), into `dir`.
 ///
 /// # Errors
-/// I/O or TOML errors, as text.
-pub fn write_manifest_run(dir: &Path, truth: &PopulationTruth) -> Result<(), String> {
+/// [`PopulationError`]: a file not written, or the truth not serialized.
+pub fn write_manifest_run(dir: &Path, truth: &PopulationTruth) -> Result<(), PopulationError> {
     let air = chamber_air();
     let mut manifest = String::from(
         "# One log per unit; each [[unit]] names its serial and log (relative to this file).\n\
@@ -342,18 +342,45 @@ pub fn write_manifest_run(dir: &Path, truth: &PopulationTruth) -> Result<(), Str
     write_truth(dir, truth)
 }
 
-fn write_truth(dir: &Path, truth: &PopulationTruth) -> Result<(), String> {
-    let text = toml::to_string(truth).map_err(|e| e.to_string())?;
+fn write_truth(dir: &Path, truth: &PopulationTruth) -> Result<(), PopulationError> {
+    let text = toml::to_string(truth).map_err(|e| PopulationError::Toml(e.to_string()))?;
     write(dir, "truth.toml", &text)
 }
 
-fn write(dir: &Path, name: &str, text: &str) -> Result<(), String> {
+fn write(dir: &Path, name: &str, text: &str) -> Result<(), PopulationError> {
     let p = dir.join(name);
+    let io = |path: &Path, e: std::io::Error| PopulationError::Io { path: path.to_path_buf(), message: e.to_string() };
     if let Some(parent) = p.parent() {
-        std::fs::create_dir_all(parent).map_err(|e| format!("{}: {e}", parent.display()))?;
+        std::fs::create_dir_all(parent).map_err(|e| io(parent, e))?;
     }
-    std::fs::write(&p, text).map_err(|e| format!("{}: {e}", p.display()))
+    std::fs::write(&p, text).map_err(|e| io(&p, e))
 }
+
+/// Why a simulated population could not be written.
+#[derive(Clone, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum PopulationError {
+    /// A file or folder that could not be written.
+    Io {
+        /// The file or folder.
+        path: std::path::PathBuf,
+        /// The system's message.
+        message: String,
+    },
+    /// The truth did not serialize (the `toml` crate's message).
+    Toml(String),
+}
+
+impl std::fmt::Display for PopulationError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Io { path, message } => write!(f, "{}: {message}", path.display()),
+            Self::Toml(m) => f.write_str(m),
+        }
+    }
+}
+
+impl std::error::Error for PopulationError {}
 
 #[cfg(test)]
 mod tests {

@@ -153,14 +153,15 @@ impl Program {
     ///
     /// # Errors
     /// A message naming the line.
-    pub fn from_file(path: &Path, id: &str) -> Result<Self, String> {
-        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    pub fn from_file(path: &Path, id: &str) -> Result<Self, ProfileError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| ProfileError::Io { path: path.to_path_buf(), message: e.to_string() })?;
         let mut pts: Vec<(f64, f64)> = Vec::new();
         for (i, line) in text.lines().enumerate() {
             let l = line.trim();
             if i == 0 {
                 if l.replace(' ', "") != "time_s,temp_c" {
-                    return Err(format!("line 1: header must be `time_s,temp_c`, got `{l}`"));
+                    return Err(ProfileError::Header { got: l.to_string() });
                 }
                 continue;
             }
@@ -169,26 +170,98 @@ impl Program {
             }
             let mut it = l.split(',').map(|f| f.trim().parse::<f64>());
             let (Some(Ok(t)), Some(Ok(c)), None) = (it.next(), it.next(), it.next()) else {
-                return Err(format!("line {}: expected `time_s,temp_c`, got `{l}`", i + 1));
+                return Err(ProfileError::Row { line: i + 1, got: l.to_string() });
             };
             if !t.is_finite() || !c.is_finite() || !(-60.0..=125.0).contains(&c) {
-                return Err(format!("line {}: value out of range", i + 1));
+                return Err(ProfileError::OutOfRange { line: i + 1 });
             }
             if pts.last().is_some_and(|p| t <= p.0) || (pts.is_empty() && t != 0.0) {
-                return Err(format!("line {}: time must start at 0 and increase", i + 1));
+                return Err(ProfileError::Time { line: i + 1 });
             }
             pts.push((t, c));
         }
         if pts.len() < 2 {
-            return Err("profile needs at least two points".to_string());
+            return Err(ProfileError::TooFewPoints);
         }
         Ok(Self { id: id.to_string(), points: pts })
     }
 }
 
+/// Why a user profile was refused ([`Program::from_file`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum ProfileError {
+    /// The file could not be read.
+    Io {
+        /// The file.
+        path: std::path::PathBuf,
+        /// The system's message.
+        message: String,
+    },
+    /// Line 1 is not `time_s,temp_c`.
+    Header {
+        /// What line 1 holds.
+        got: String,
+    },
+    /// A line that is not two numbers.
+    Row {
+        /// Its line number (the header is line 1).
+        line: usize,
+        /// What it holds.
+        got: String,
+    },
+    /// A value not finite, or a temperature outside −60..125 °C.
+    OutOfRange {
+        /// Its line number.
+        line: usize,
+    },
+    /// A time that does not start at 0 or does not increase.
+    Time {
+        /// Its line number.
+        line: usize,
+    },
+    /// Fewer than two points.
+    TooFewPoints,
+}
+
+impl std::fmt::Display for ProfileError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Io { path, message } => write!(f, "{}: {message}", path.display()),
+            Self::Header { got } => write!(f, "line 1: header must be `time_s,temp_c`, got `{got}`"),
+            Self::Row { line, got } => write!(f, "line {line}: expected `time_s,temp_c`, got `{got}`"),
+            Self::OutOfRange { line } => write!(f, "line {line}: value out of range"),
+            Self::Time { line } => write!(f, "line {line}: time must start at 0 and increase"),
+            Self::TooFewPoints => f.write_str("profile needs at least two points"),
+        }
+    }
+}
+
+impl std::error::Error for ProfileError {}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Each way a profile file can be wrong is its own error, with the line it is on.
+    #[test]
+    fn a_bad_profile_is_refused_with_its_line() {
+        let dir = std::env::temp_dir().join(format!("qfa-profile-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let read = |text: &str| {
+            let p = dir.join("p.csv");
+            std::fs::write(&p, text).unwrap();
+            Program::from_file(&p, "p")
+        };
+        assert_eq!(read("time,temp\n0,20\n").unwrap_err(), ProfileError::Header { got: "time,temp".into() });
+        assert_eq!(read("time_s,temp_c\n0,20\n60,x\n").unwrap_err(), ProfileError::Row { line: 3, got: "60,x".into() });
+        assert_eq!(read("time_s,temp_c\n0,20\n60,200\n").unwrap_err(), ProfileError::OutOfRange { line: 3 });
+        assert_eq!(read("time_s,temp_c\n0,20\n0,21\n").unwrap_err(), ProfileError::Time { line: 3 });
+        assert_eq!(read("time_s,temp_c\n0,20\n").unwrap_err(), ProfileError::TooFewPoints);
+        assert!(read("time_s,temp_c\n0,20\n60,21\n").is_ok());
+        assert!(matches!(Program::from_file(&dir.join("absent.csv"), "p"), Err(ProfileError::Io { .. })));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 
     #[test]
     fn triangle_ramps_continuously_at_its_rate() {

@@ -117,6 +117,30 @@ pub struct Truth {
 /// Names of the extension effects (the discovery catalog's names).
 pub const EFFECTS: [&str; 3] = ["sensor_lag", "bias_branch_hysteresis", "bias_creep"];
 
+/// Why a truth could not be built, read or written.
+#[derive(Clone, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum TruthError {
+    /// An effect name [`Truth::with_effect`] does not know.
+    UnknownEffect {
+        /// The name given.
+        name: String,
+    },
+    /// A truth TOML that does not parse or serialize (the `toml` crate's message).
+    Toml(String),
+}
+
+impl std::fmt::Display for TruthError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::UnknownEffect { name } => write!(f, "unknown effect `{name}`; known: {}", EFFECTS.join(", ")),
+            Self::Toml(m) => f.write_str(m),
+        }
+    }
+}
+
+impl std::error::Error for TruthError {}
+
 impl Truth {
     /// JB-KT8 #`unit` (1..=3), see the module docs for the numbers.
     ///
@@ -161,7 +185,7 @@ impl Truth {
     ///
     /// # Errors
     /// An unknown name.
-    pub fn with_effect(mut self, name: &str) -> Result<Self, String> {
+    pub fn with_effect(mut self, name: &str) -> Result<Self, TruthError> {
         match name {
             "sensor_lag" => self.ext.sensor_lag = Some(SensorLag { tau_s: 180.0 }),
             "bias_branch_hysteresis" => {
@@ -171,7 +195,7 @@ impl Truth {
                 self.ext.bias_creep =
                     Some(Creep { gain_g_per_c: 2e-6, tau_ref_s: 3600.0, t_ref_c: 25.0, activation_k: 4000.0 });
             }
-            _ => return Err(format!("unknown effect `{name}`; known: {}", EFFECTS.join(", "))),
+            _ => return Err(TruthError::UnknownEffect { name: name.to_string() }),
         }
         Ok(self)
     }
@@ -188,16 +212,16 @@ impl Truth {
     ///
     /// # Errors
     /// Serialization errors.
-    pub fn to_toml(&self) -> Result<String, String> {
-        toml::to_string_pretty(self).map_err(|e| e.to_string())
+    pub fn to_toml(&self) -> Result<String, TruthError> {
+        toml::to_string_pretty(self).map_err(|e| TruthError::Toml(e.to_string()))
     }
 
     /// From TOML text.
     ///
     /// # Errors
     /// Parse errors.
-    pub fn from_toml(text: &str) -> Result<Self, String> {
-        toml::from_str(text).map_err(|e| e.to_string())
+    pub fn from_toml(text: &str) -> Result<Self, TruthError> {
+        toml::from_str(text).map_err(|e| TruthError::Toml(e.to_string()))
     }
 
     /// The element lag's time constant: the `sensor_lag` τ when that effect is on.
@@ -312,6 +336,17 @@ impl State {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// An unknown effect is a typed error naming the known ones; a truth survives its TOML.
+    #[test]
+    fn unknown_effects_are_refused_by_name_and_the_toml_round_trips() {
+        let e = Truth::jb_kt8(1).with_effect("sensor_lags").unwrap_err();
+        assert_eq!(e, TruthError::UnknownEffect { name: "sensor_lags".into() });
+        assert!(e.to_string().starts_with("unknown effect `sensor_lags`; known: "), "{e}");
+        let t = Truth::jb_kt8(3).with_effect("bias_creep").unwrap();
+        assert_eq!(Truth::from_toml(&t.to_toml().unwrap()).unwrap().to_toml().unwrap(), t.to_toml().unwrap());
+        assert!(matches!(Truth::from_toml("name = 3"), Err(TruthError::Toml(_))));
+    }
     use qfa_thermal::model::AxisState;
     use qfa_thermal::{AxisModel, BiasGrid};
 
