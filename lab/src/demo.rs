@@ -161,7 +161,8 @@ pub fn run(
                 exports: qfa_calibrate::peers::ExportOptions::default(),
                 limits: LimitsChoice::default(),
             },
-        )?;
+        )
+        .map_err(|e| e.to_string())?;
         let verdict = cal.verdict.clone().ok_or_else(|| format!("{}: calibration wrote no verdict", truth.name))?;
         let calibrate_s = t.elapsed().as_secs_f64();
         let p = PAPER_TABLE4[usize::from(unit) - 1];

@@ -494,6 +494,12 @@ impl From<qfa_sim::population::PopulationError> for CliError {
     }
 }
 
+impl From<qfa_calibrate::CalibrateError> for CliError {
+    fn from(e: qfa_calibrate::CalibrateError) -> Self {
+        Self::Failed(e.to_string())
+    }
+}
+
 impl From<String> for CliError {
     fn from(e: String) -> Self {
         Self::Failed(e)

@@ -8,6 +8,7 @@ use pyo3::prelude::*;
 
 use qfa_calibrate::fit::FitError;
 use qfa_calibrate::static_cal::StaticCalError;
+use qfa_calibrate::CalibrateError;
 use qfa_log::open::{OpenError, ReadError};
 use qfa_log::static_log::StaticError;
 use qfa_log::units::UnitParseError;
@@ -115,6 +116,26 @@ impl Kind for StaticCalError {
             Self::Fit(..) => "Fit",
             Self::Figure(_) => "Figure",
             Self::Io(_) => "Io",
+            _ => OTHER,
+        }
+    }
+}
+
+/// A cycling calibration's kind: the fit's or the compensation's own kind when one of them
+/// failed, else the stage that did.
+impl Kind for CalibrateError {
+    fn kind(&self) -> &'static str {
+        match self {
+            Self::Read(_) => "Cycling",
+            Self::Fit(e) => e.kind(),
+            Self::Evaluate(e) => e.kind(),
+            Self::NotComputable(_) => "NotComputable",
+            Self::Peers(_) => "Peers",
+            Self::Coverage(_) => "Coverage",
+            Self::Table(_) => "Table",
+            Self::Toml(_) => "Toml",
+            Self::Axis(_) => "Axis",
+            Self::Output(_) => "Output",
             _ => OTHER,
         }
     }

@@ -112,7 +112,9 @@ impl Table {
     fn to_toml(&self) -> PyResult<String> {
         match &self.origin {
             Origin::Static(c) => static_cal::static_table_toml(c).map_err(|e| TableError::new_err(e.to_string())),
-            Origin::Loaded | Origin::Cycling(..) => cal::table_toml(&self.table).map_err(TableError::new_err),
+            Origin::Loaded | Origin::Cycling(..) => {
+                cal::table_toml(&self.table).map_err(|e| TableError::new_err(e.to_string()))
+            }
         }
     }
 
@@ -277,8 +279,9 @@ pub fn calibrate(
                 exports,
                 limits: qfa_report::verdict::LimitsChoice::default(),
             };
-            let c = py.detach(|| cal::calibrate_log(l, &opts)).map_err(CalibrationError::new_err)?;
-            cal::cycling_export_axis(&c, &axis).map_err(CalibrationError::new_err)?;
+            let calibration_err = |e: cal::CalibrateError| with_kind::<CalibrationError>(py, e.to_string(), e.kind());
+            let c = py.detach(|| cal::calibrate_log(l, &opts)).map_err(calibration_err)?;
+            cal::cycling_export_axis(&c, &axis).map_err(calibration_err)?;
             Ok(Table { table: c.table.hysteresis.clone(), origin: Origin::Cycling(Box::new(c), axis), exports })
         }
     }

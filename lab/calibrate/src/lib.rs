@@ -30,10 +30,11 @@ pub mod solver;
 pub mod static_cal;
 pub mod verdict;
 
+use std::fmt;
 use std::path::Path;
 use std::time::Instant;
 
-use crate::fit::{fit, split_programs, FitOptions, Fitted};
+use crate::fit::{fit, split_programs, FitError, FitOptions, Fitted};
 use crate::report::{
     evaluate, plot_residual_vs_time, plot_sf_vs_temp, Evaluation, FitSummary, Report, Timings, METRIC_TEXT,
 };
@@ -92,11 +93,60 @@ fn bar(len: u64, msg: &str, show: bool) -> indicatif::ProgressBar {
     pb
 }
 
+/// Why a cycling calibration failed: each cause its own variant, with the message the
+/// command line prints.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum CalibrateError {
+    /// The log could not be read (every bad row with its line).
+    Read(qfa_log::cycling::LogError),
+    /// A fit failed.
+    Fit(FitError),
+    /// The held-out compensation failed.
+    Evaluate(crate::compensate::Error),
+    /// A held-out figure that cannot be computed, and why (never NaN, `null` or 0.0).
+    NotComputable(String),
+    /// The peers could not be fitted: no ±1 g pair with temperatures in the programs.
+    Peers(String),
+    /// The coverage of the fitted rows or of the table could not be formed.
+    Coverage(String),
+    /// A table the root crate refuses to encode.
+    Table(qfa_thermal::table::Error),
+    /// A table that does not serialize as TOML (the `toml` crate's message).
+    Toml(String),
+    /// An accelerometer axis other than `ax`, `ay` or `az`.
+    Axis(String),
+    /// An output file, folder or plot that could not be written, with the system's message.
+    Output(String),
+}
+
+impl fmt::Display for CalibrateError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Read(e) => write!(f, "{e}"),
+            Self::Fit(e) => write!(f, "{e}"),
+            Self::Evaluate(e) => write!(f, "{e}"),
+            Self::Table(e) => write!(f, "{e}"),
+            Self::Axis(axis) => write!(f, "axis `{axis}`: expected ax, ay or az"),
+            Self::NotComputable(m) | Self::Peers(m) | Self::Coverage(m) | Self::Toml(m) | Self::Output(m) => {
+                f.write_str(m)
+            }
+        }
+    }
+}
+
+impl std::error::Error for CalibrateError {}
+
+/// An output that could not be written, as a [`CalibrateError::Output`].
+fn output(e: impl fmt::Display) -> CalibrateError {
+    CalibrateError::Output(e.to_string())
+}
+
 /// Fit and evaluate an in-memory log (no files).
 ///
 /// # Errors
 /// A message describing the failure.
-pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, String> {
+pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, CalibrateError> {
     let programs = log.programs();
     let (fit_p, eval_p) = match &opts.fit_programs {
         Some(f) => (f.clone(), programs.iter().filter(|p| !f.contains(p)).cloned().collect::<Vec<_>>()),
@@ -105,13 +155,14 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
     let eval_p = if eval_p.is_empty() { fit_p.clone() } else { eval_p };
     let t = Instant::now();
     let pb = bar(fit_p.len() as u64, "fitting", opts.progress);
-    let fitted = fit(log, &FitOptions::new(fit_p.clone()), Some(&pb)).map_err(|e| e.to_string())?;
+    let fitted = fit(log, &FitOptions::new(fit_p.clone()), Some(&pb)).map_err(CalibrateError::Fit)?;
     pb.finish_and_clear();
     let mut t_fit = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let n_eval = log.runs.iter().filter(|r| eval_p.contains(&r.program)).count();
     let pb = bar(n_eval as u64, "held-out compensation", opts.progress);
-    let eval = evaluate(log, &eval_p, &fitted.simple, &fitted.hysteresis, Some(&pb)).map_err(|e| e.to_string())?;
+    let eval =
+        evaluate(log, &eval_p, &fitted.simple, &fitted.hysteresis, Some(&pb)).map_err(CalibrateError::Evaluate)?;
     pb.finish_and_clear();
     let t_eval = t.elapsed().as_secs_f64();
     check_figures(&eval)?;
@@ -124,7 +175,7 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
     } else {
         let t = Instant::now();
         let o = FitOptions { branch_mode: Some(fitted.branch.mode), ..FitOptions::new(table_p.clone()) };
-        let table = fit(log, &o, None).map_err(|e| e.to_string())?;
+        let table = fit(log, &o, None).map_err(CalibrateError::Fit)?;
         let deadband = table.hysteresis.axes[0].bias.deadband_c_per_min;
         let p = crate::report::peer_fit(log, &table_p, deadband)?;
         t_fit += t.elapsed().as_secs_f64();
@@ -133,8 +184,10 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
     let h = &fitted.sf_hysteresis.coef;
     let deadband = qfa_log::pairing::branch_deadband_c_per_min();
     let coverage = crate::coverage::CalCoverage {
-        covered: crate::coverage::Coverage::of_log(log, &fit_p, deadband).map_err(|e| format!("{e:#}"))?,
-        table: crate::coverage::TableLimits::of(&fitted.hysteresis).map_err(|e| format!("{e:#}"))?,
+        covered: crate::coverage::Coverage::of_log(log, &fit_p, deadband)
+            .map_err(|e| CalibrateError::Coverage(format!("{e:#}")))?,
+        table: crate::coverage::TableLimits::of(&fitted.hysteresis)
+            .map_err(|e| CalibrateError::Coverage(format!("{e:#}")))?,
         programs: fit_p.clone(),
     };
     let report = Report {
@@ -178,23 +231,23 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
 ///
 /// # Errors
 /// The first figure that could not be formed, and why.
-pub fn check_figures(ev: &crate::report::Evaluation) -> Result<(), String> {
+pub fn check_figures(ev: &crate::report::Evaluation) -> Result<(), CalibrateError> {
     let names = ["no compensation", "simple", "hysteresis"];
     for (v, name) in names.iter().enumerate() {
         if ev.bins[v].bias.is_empty() {
-            return Err(format!(
+            return Err(CalibrateError::NotComputable(format!(
                 "bias residual ({name}) not computable: no held-out bin qualified (a bin is one program, branch \
                  segment and 1 °C of T-hat with at least {} s of rows the compensator marked compensated)",
                 crate::metrics::MIN_BIN_S
-            ));
+            )));
         }
         if ev.bins[v].sf.len() < 2 {
-            return Err(format!(
+            return Err(CalibrateError::NotComputable(format!(
                 "sensitivity ({name}) not computable: {} held-out scale-factor bin(s); needs 2 or more (held-out \
                  programs need both +1 g and -1 g runs, and bins at least {} s of compensated rows)",
                 ev.bins[v].sf.len(),
                 crate::metrics::MIN_BIN_S
-            ));
+            )));
         }
     }
     let s = ev.sensitivity_ppm_per_c;
@@ -208,7 +261,9 @@ pub fn check_figures(ev: &crate::report::Evaluation) -> Result<(), String> {
         (b.hysteresis, "bias residual (hysteresis)"),
     ] {
         if !x.is_finite() {
-            return Err(format!("{what} not computable: the held-out bins span no temperature range"));
+            return Err(CalibrateError::NotComputable(format!(
+                "{what} not computable: the held-out bins span no temperature range"
+            )));
         }
     }
     Ok(())
@@ -219,8 +274,8 @@ pub fn check_figures(ev: &crate::report::Evaluation) -> Result<(), String> {
 ///
 /// # Errors
 /// The table does not serialize.
-pub fn table_toml(table: &qfa_thermal::Table) -> Result<String, String> {
-    let toml = toml::to_string_pretty(table).map_err(|e| e.to_string())?;
+pub fn table_toml(table: &qfa_thermal::Table) -> Result<String, CalibrateError> {
+    let toml = toml::to_string_pretty(table).map_err(|e| CalibrateError::Toml(e.to_string()))?;
     let header = "# qfa-thermal coefficient table (K1 pulses/(g*s), K0 g, T degC, rate degC/min)\n";
     Ok(format!("{header}{toml}"))
 }
@@ -230,9 +285,9 @@ pub fn table_toml(table: &qfa_thermal::Table) -> Result<String, String> {
 ///
 /// # Errors
 /// An axis other than `ax`, `ay` or `az`.
-pub fn cycling_export_axis(cal: &Calibration, axis: &str) -> Result<peers::ExportAxis, String> {
+pub fn cycling_export_axis(cal: &Calibration, axis: &str) -> Result<peers::ExportAxis, CalibrateError> {
     if !["ax", "ay", "az"].contains(&axis) {
-        return Err(format!("axis `{axis}`: expected ax, ay or az"));
+        return Err(CalibrateError::Axis(axis.to_string()));
     }
     Ok(peers::ExportAxis {
         source: format!("accelerometer (--axis {})", axis.trim_start_matches('a')),
@@ -246,25 +301,31 @@ pub fn cycling_export_axis(cal: &Calibration, axis: &str) -> Result<peers::Expor
 ///
 /// # Errors
 /// Encoding or I/O errors.
-pub fn write_table(dir: &Path, stem: &str, table: &qfa_thermal::Table) -> Result<(), String> {
-    std::fs::write(dir.join(format!("{stem}.toml")), table_toml(table)?).map_err(|e| e.to_string())?;
-    let bin = table.to_bytes().map_err(|e| e.to_string())?;
-    std::fs::write(dir.join(format!("{stem}.bin")), bin).map_err(|e| e.to_string())
+pub fn write_table(dir: &Path, stem: &str, table: &qfa_thermal::Table) -> Result<(), CalibrateError> {
+    std::fs::write(dir.join(format!("{stem}.toml")), table_toml(table)?).map_err(output)?;
+    let bin = table.to_bytes().map_err(CalibrateError::Table)?;
+    std::fs::write(dir.join(format!("{stem}.bin")), bin).map_err(output)
 }
 
 /// Calibrate an in-memory log and write every output file into `out`.
 ///
 /// # Errors
 /// A message describing the failure.
-pub fn calibrate_into(log: &Log, out: &Path, opts: &CalibrateOptions, read_s: f64) -> Result<Calibration, String> {
+pub fn calibrate_into(
+    log: &Log,
+    out: &Path,
+    opts: &CalibrateOptions,
+    read_s: f64,
+) -> Result<Calibration, CalibrateError> {
     let t0 = Instant::now();
-    std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
+    std::fs::create_dir_all(out).map_err(|e| output(format!("{}: {e}", out.display())))?;
     let mut cal = calibrate_log(log, opts)?;
     write_table(out, "table", &cal.table.hysteresis)?;
     write_table(out, "table_simple", &cal.table.simple)?;
     // One accelerometer: a one-axis export, so the shared fields need opts.exports.range_c.
     let one = cycling_export_axis(&cal, opts.axis.as_deref().unwrap_or("ax"))?;
-    cal.exports = peers::write_exports(out, &[one], &opts.exports).map_err(|e| format!("{}: {e}", out.display()))?;
+    cal.exports =
+        peers::write_exports(out, &[one], &opts.exports).map_err(|e| output(format!("{}: {e}", out.display())))?;
     let t = Instant::now();
     if opts.plots {
         let held = format!(
@@ -273,8 +334,8 @@ pub fn calibrate_into(log: &Log, out: &Path, opts: &CalibrateOptions, read_s: f6
             cal.report.fit_programs.join(", ")
         );
         let title = if opts.title.is_empty() { held } else { format!("{}, {held}", opts.title) };
-        plot_sf_vs_temp(&out.join("sf_vs_temp.png"), &title, &cal.eval).map_err(|e| e.to_string())?;
-        plot_residual_vs_time(&out.join("residual_vs_time.png"), &title, &cal.eval).map_err(|e| e.to_string())?;
+        plot_sf_vs_temp(&out.join("sf_vs_temp.png"), &title, &cal.eval).map_err(output)?;
+        plot_residual_vs_time(&out.join("residual_vs_time.png"), &title, &cal.eval).map_err(output)?;
     }
     cal.report.timings_s.plots = t.elapsed().as_secs_f64();
     cal.report.timings_s.read = read_s;
@@ -291,12 +352,12 @@ pub fn calibrate_into(log: &Log, out: &Path, opts: &CalibrateOptions, read_s: f6
     let axis = opts.axis.as_deref().unwrap_or("ax");
     let notes: Vec<String> = cal.exports.notes.iter().map(ToString::to_string).collect();
     let v = verdict::cycling_verdict(&cal.report, axis, &opts.limits, &files, &notes);
-    let json = qfa_report::verdict::json_with_verdict(&v, &cal.report).map_err(|e| e.to_string())?;
-    std::fs::write(out.join("report.json"), json).map_err(|e| e.to_string())?;
+    let json = qfa_report::verdict::json_with_verdict(&v, &cal.report).map_err(output)?;
+    std::fs::write(out.join("report.json"), json).map_err(output)?;
     let md = format!("# Calibration report\n\n{}{}", v.markdown(), report::markdown(&cal.report));
-    std::fs::write(out.join("report.md"), md).map_err(|e| e.to_string())?;
+    std::fs::write(out.join("report.md"), md).map_err(output)?;
     cal.verdict = Some(v);
-    page(&cal, out, opts).map_err(|e| e.to_string())?.write(out).map_err(|e| e.to_string())?;
+    page(&cal, out, opts).map_err(output)?.write(out).map_err(output)?;
     Ok(cal)
 }
 
@@ -395,8 +456,8 @@ pub fn page(cal: &Calibration, out: &Path, opts: &CalibrateOptions) -> std::io::
 ///
 /// # Errors
 /// A message describing the failure (for a malformed log: every bad row with its line).
-pub fn calibrate_file(log_path: &Path, out: &Path, opts: &CalibrateOptions) -> Result<Calibration, String> {
+pub fn calibrate_file(log_path: &Path, out: &Path, opts: &CalibrateOptions) -> Result<Calibration, CalibrateError> {
     let t = Instant::now();
-    let log = read_log(log_path).map_err(|e| e.to_string())?;
+    let log = read_log(log_path).map_err(CalibrateError::Read)?;
     calibrate_into(&log, out, opts, t.elapsed().as_secs_f64())
 }

@@ -404,7 +404,7 @@ pub fn peer_bias(
     fit_programs: &[String],
     eval_programs: &[String],
     hysteresis: &Table,
-) -> Result<(PeerBias, crate::peers::Peers), String> {
+) -> Result<(PeerBias, crate::peers::Peers), crate::CalibrateError> {
     let ext = qfa_thermal::Extensions::default();
     let deadband = hysteresis.axes[0].bias.deadband_c_per_min;
     let peers = peer_fit(log, fit_programs, deadband)?;
@@ -442,10 +442,10 @@ pub fn peer_bias(
         }
     }
     if bins[0].is_empty() {
-        return Err(format!(
+        return Err(crate::CalibrateError::NotComputable(format!(
             "peer bias residual not computable: no held-out bin qualified (bins need {} s of rows)",
             crate::metrics::MIN_BIN_S
-        ));
+        )));
     }
     let r = |b: &[Bin]| rms(&b.iter().map(|x| x.value * 1e6).collect::<Vec<_>>());
     Ok((PeerBias { cubic: r(&bins[0]), ardupilot: r(&bins[1]) }, peers))
@@ -456,7 +456,7 @@ pub fn peer_bias(
 ///
 /// # Errors
 /// No pair with temperatures in `programs`, or a failed fit.
-pub fn peer_fit(log: &Log, programs: &[String], deadband: f32) -> Result<crate::peers::Peers, String> {
+pub fn peer_fit(log: &Log, programs: &[String], deadband: f32) -> Result<crate::peers::Peers, crate::CalibrateError> {
     let ext = qfa_thermal::Extensions::default();
     let (mut t, mut k0) = (Vec::new(), Vec::new());
     for prog in programs {
@@ -470,7 +470,9 @@ pub fn peer_fit(log: &Log, programs: &[String], deadband: f32) -> Result<crate::
         }
     }
     if t.is_empty() {
-        return Err("peers: no +1 g / -1 g pair with temperatures in the fit programs".to_string());
+        return Err(crate::CalibrateError::Peers(
+            "peers: no +1 g / -1 g pair with temperatures in the fit programs".to_string(),
+        ));
     }
-    crate::peers::fit_peers(&t, &k0).map_err(|e| format!("peers: {e}"))
+    crate::peers::fit_peers(&t, &k0).map_err(|e| crate::CalibrateError::Peers(format!("peers: {e}")))
 }
