@@ -254,6 +254,10 @@ def test_kind_comes_from_the_error_type(tmp_path: Path) -> None:
     with pytest.raises(q.CalibrationError) as c:
         q.calibrate(_cycling_log(tmp_path / "c.csv"), holdout="blocks:3")
     assert c.value.kind is None
+    # A cycling log whose only program has no -1 g run: the fit's own variant.
+    with pytest.raises(q.CalibrationError) as f:
+        q.calibrate(_cycling_log(tmp_path / "c.csv"))
+    assert f.value.kind == "NoPair", (f.value.kind, str(f.value))
     c = q.Compensator(axes=1)
     with pytest.raises(q.SampleError) as s:
         c.on_raw(1000, 400, sensor=1)
