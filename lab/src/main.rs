@@ -500,6 +500,12 @@ impl From<qfa_calibrate::CalibrateError> for CliError {
     }
 }
 
+impl From<qfa_log::channels::ChannelsError> for CliError {
+    fn from(e: qfa_log::channels::ChannelsError) -> Self {
+        Self::Failed(e.to_string())
+    }
+}
+
 impl From<String> for CliError {
     fn from(e: String) -> Self {
         Self::Failed(e)

@@ -9,7 +9,6 @@
 
 use std::path::Path;
 
-use anyhow::{bail, Result};
 use qfa_thermal::rate::{RateConfig, RateEstimator};
 
 use crate::open::{open, open_bytes, OpenedLog, ReadFlags};
@@ -224,6 +223,47 @@ pub struct Channels {
     pub traces: Vec<Trace>,
 }
 
+/// Why a log gives no discovery channels.
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum ChannelsError {
+    /// The log could not be opened or read (the file, and its reader's error).
+    Open(crate::open::OpenError),
+    /// Log text its reader refused (each malformed row with its line).
+    Read(crate::open::ReadError),
+    /// A cycling log in which no program has paired ±1 g runs with at least 8 rows.
+    NoPairedRuns,
+    /// A static multi-axis log: its channels are formed per axis, by discovery's own reader.
+    StaticLog,
+    /// An autopilot log (PX4 ULog or ArduPilot DataFlash): calibrated, not discovered.
+    AutopilotLog {
+        /// The stack that wrote it.
+        stack: String,
+    },
+}
+
+impl std::fmt::Display for ChannelsError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Open(e) => write!(f, "{e}"),
+            Self::Read(e) => write!(f, "{e}"),
+            Self::NoPairedRuns => f.write_str("no program has paired +1 g and -1 g runs with at least 8 rows"),
+            Self::StaticLog => f.write_str(
+                "a static multi-axis log: its channels are formed per axis (discover reads it with the static \
+                 reader's flags); expected program,run,time_s,input_g,temp_c,pulses,interval_s or time_s,temp_c,value",
+            ),
+            Self::AutopilotLog { stack } => {
+                write!(
+                    f,
+                    "a {stack}: calibrate reads it (one calibration per accelerometer instance); discover does not"
+                )
+            }
+        }
+    }
+}
+
+impl std::error::Error for ChannelsError {}
+
 impl Channels {
     /// Number of bins over all traces.
     #[must_use]
@@ -237,7 +277,7 @@ impl Channels {
     ///
     /// # Errors
     /// No program has paired ±1 g runs with at least 8 rows.
-    pub fn from_cycling(log: &crate::cycling::Log, bin_s: f64) -> Result<Self> {
+    pub fn from_cycling(log: &crate::cycling::Log, bin_s: f64) -> Result<Self, ChannelsError> {
         let mut traces = Vec::new();
         for prog in log.programs() {
             let Some(pp) = crate::pairing::pair_program(log, &prog) else {
@@ -261,7 +301,7 @@ impl Channels {
             }
         }
         if traces.is_empty() {
-            bail!("no program has paired +1 g and -1 g runs with at least 8 rows");
+            return Err(ChannelsError::NoPairedRuns);
         }
         Ok(Self { kind: LogKind::Cycling, bias_unit: BiasUnit::G, traces })
     }
@@ -282,18 +322,12 @@ impl Channels {
     ///
     /// # Errors
     /// A static log, or a cycling log without paired ±1 g runs.
-    pub fn from_opened(log: &OpenedLog, bin_s: f64) -> Result<Self> {
+    pub fn from_opened(log: &OpenedLog, bin_s: f64) -> Result<Self, ChannelsError> {
         match log {
             OpenedLog::Cycling(l) => Self::from_cycling(l, bin_s),
             OpenedLog::Single(l) => Ok(Self::from_single(l, bin_s)),
-            OpenedLog::Static(_) => bail!(
-                "a static multi-axis log: its channels are formed per axis (discover reads it with the static \
-                 reader's flags); expected program,run,time_s,input_g,temp_c,pulses,interval_s or time_s,temp_c,value"
-            ),
-            OpenedLog::Autopilot(l) => bail!(
-                "a {}: calibrate reads it (one calibration per accelerometer instance); discover does not",
-                l.stack
-            ),
+            OpenedLog::Static(_) => Err(ChannelsError::StaticLog),
+            OpenedLog::Autopilot(l) => Err(ChannelsError::AutopilotLog { stack: l.stack.to_string() }),
         }
     }
 
@@ -301,15 +335,35 @@ impl Channels {
     ///
     /// # Errors
     /// The reader's error (each malformed row with its line), or as [`Channels::from_opened`].
-    pub fn read(path: &Path, bin_s: f64) -> Result<Self> {
-        Self::from_opened(&open(path, &ReadFlags::default())?, bin_s)
+    pub fn read(path: &Path, bin_s: f64) -> Result<Self, ChannelsError> {
+        Self::from_opened(&open(path, &ReadFlags::default()).map_err(ChannelsError::Open)?, bin_s)
     }
 
     /// Parse log text (see [`Channels::read`]).
     ///
     /// # Errors
     /// As [`Channels::read`].
-    pub fn parse(text: &str, bin_s: f64) -> Result<Self> {
-        Self::from_opened(&open_bytes(text.as_bytes(), &ReadFlags::default())?, bin_s)
+    pub fn parse(text: &str, bin_s: f64) -> Result<Self, ChannelsError> {
+        Self::from_opened(&open_bytes(text.as_bytes(), &ReadFlags::default()).map_err(ChannelsError::Read)?, bin_s)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each log that gives no channels says why, as its own variant: malformed rows with
+    /// their lines, a cycling log without a ±1 g pair.
+    #[test]
+    fn a_log_without_channels_is_a_typed_error() {
+        let header = "program,run,time_s,input_g,temp_c,pulses,interval_s\n";
+        let bad = format!("{header}p,0,1,1,22.0,100,1\np,0,x,1,22.0,100,1\n");
+        match Channels::parse(&bad, 60.0) {
+            Err(e @ ChannelsError::Read(_)) => assert!(e.to_string().contains("line 3"), "{e}"),
+            other => panic!("{other:?}"),
+        }
+        let plus_only: String =
+            std::iter::once(header.to_string()).chain((1..20).map(|i| format!("p,0,{i},1,22.0,320000,1\n"))).collect();
+        assert!(matches!(Channels::parse(&plus_only, 60.0), Err(ChannelsError::NoPairedRuns)));
     }
 }
