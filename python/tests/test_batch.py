@@ -7,7 +7,7 @@ import concurrent.futures
 import os
 import hashlib
 from pathlib import Path
-from typing import Dict
+from typing import Any, Dict, Tuple
 
 import pytest
 
@@ -15,6 +15,8 @@ import qfa_thermal as q
 from conftest import run_lab
 
 READER = {"time_unit": "s", "accel_unit": "g", "temp_unit": "C"}
+#: Units in the simulated chamber run: the simulator's three defects and three good units.
+UNITS = 6
 
 
 def _tree(root: Path) -> Dict[str, str]:
@@ -26,17 +28,24 @@ def _tree(root: Path) -> Dict[str, str]:
 
 @pytest.fixture(scope="module")
 def chamber(tmp_path_factory: pytest.TempPathFactory, lab_bin: Path) -> Path:
-    """A simulated chamber run of 12 units (3 deliberately bad), written by the CLI."""
+    """A simulated chamber run of 6 units (3 deliberately bad: one of each defect), written
+    by the CLI; two per shard."""
     d = tmp_path_factory.mktemp("sim")
-    run_lab(lab_bin, ["simulate-batch", "--units", "12", "--seed", "4", "--out", str(d)])
+    run_lab(lab_bin, ["simulate-batch", "--units", str(UNITS), "--seed", "4", "--out", str(d)])
     return d / "chamber.tsv"
 
 
 @pytest.fixture(scope="module")
-def single(tmp_path_factory: pytest.TempPathFactory, chamber: Path) -> Path:
+def single_run(tmp_path_factory: pytest.TempPathFactory, chamber: Path) -> Tuple[Path, Dict[str, Any]]:
+    """The batch in this process: its folder and the fleet ``batch`` returned."""
     out = tmp_path_factory.mktemp("single")
-    q.batch(log=chamber, out=out, shards=3, **READER)
-    return out
+    fleet = q.batch(log=chamber, out=out, shards=3, **READER)
+    return out, fleet
+
+
+@pytest.fixture(scope="module")
+def single(single_run: Tuple[Path, Dict[str, Any]]) -> Path:
+    return single_run[0]
 
 
 def test_a_process_pool_writes_the_same_bytes(tmp_path: Path, chamber: Path, single: Path) -> None:
@@ -44,8 +53,8 @@ def test_a_process_pool_writes_the_same_bytes(tmp_path: Path, chamber: Path, sin
     with concurrent.futures.ProcessPoolExecutor(max_workers=2) as ex:
         fleet = q.batch(log=chamber, out=out, executor=ex, shards=3, **READER)
     assert _tree(out) == _tree(single)
-    assert fleet["units"] == 12
-    assert sum(fleet["counts"]) == 12
+    assert fleet["units"] == UNITS
+    assert sum(fleet["counts"]) == UNITS
 
 
 def test_a_dask_cluster_writes_the_same_bytes(tmp_path: Path, chamber: Path, single: Path) -> None:
@@ -60,19 +69,19 @@ def test_a_dask_cluster_writes_the_same_bytes(tmp_path: Path, chamber: Path, sin
         with distributed.Client(cluster) as client:
             fleet = q.batch(log=chamber, out=out, executor=client.get_executor(), shards=3, **READER)
     assert _tree(out) == _tree(single)
-    assert fleet["units"] == 12
+    assert fleet["units"] == UNITS
 
 
-def test_the_returned_fleet_is_the_file(single: Path, chamber: Path) -> None:
+def test_the_returned_fleet_is_the_file(single_run: Tuple[Path, Dict[str, Any]]) -> None:
     """``batch`` returns ``fleet.json`` itself, and every unit of the log has its
     certificate naming the CRC of a table that exists. (Which units the fleet flags is
-    judged against the simulator's truth on 60 units in ``lab/tests/batch.rs``: 12 are too
+    judged against the simulator's truth on 60 units in ``lab/tests/batch.rs``: 6 are too
     few for a robust spread.)"""
     import json
 
-    fleet = q.batch(log=chamber, out=single, shards=3, **READER)
+    single, fleet = single_run
     assert fleet == json.loads((single / "fleet.json").read_text())
-    assert [u["serial"] for u in fleet["unit"]] == [f"SN{i:04d}" for i in range(1, 13)]
+    assert [u["serial"] for u in fleet["unit"]] == [f"SN{i:04d}" for i in range(1, UNITS + 1)]
     for u in fleet["unit"]:
         cert = json.loads((single / u["serial"] / "certificate.json").read_text())
         name, crc = cert["flash"]
