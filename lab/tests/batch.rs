@@ -169,7 +169,7 @@ fn a_chamber_run_flags_each_bad_unit_for_its_defect_and_passes_the_rest() {
 #[test]
 fn threads_and_shards_do_not_change_a_byte() {
     let dir = scratch("batch-threads");
-    let spec = PopulationSpec { units: 8, seed: 9, bad: true, truncated: 0 };
+    let spec = PopulationSpec { units: 4, seed: 9, bad: true, truncated: 0 };
     let (_, units) = chamber(&dir, &spec);
     let opts = |threads, shard| BatchOptions { unit: UnitOptions::default(), threads, shard, progress: false };
     batch::run(&units, &dir.join("one"), &opts(1, None)).unwrap();
@@ -183,7 +183,7 @@ fn threads_and_shards_do_not_change_a_byte() {
     for k in [1, 0] {
         let run = batch::run(&units, &sharded, &opts(2, Some(Shard { k, n: 2 }))).unwrap();
         assert!(run.fleet.is_none());
-        assert_eq!(run.results.len(), 4);
+        assert_eq!(run.results.len(), 2);
     }
     batch::merge(&sharded, &UnitOptions::default()).unwrap();
     let merged = tree(&sharded);
