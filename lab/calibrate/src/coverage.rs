@@ -37,12 +37,37 @@ pub struct Coverage {
     pub deadband_c_per_min: f64,
 }
 
+/// Why a coverage or a table's limits could not be formed.
+#[derive(Clone, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum CoverageError {
+    /// No sample with a finite temperature and rate (in these programs, when given).
+    NoValidRow {
+        /// The programs the rows were taken from, when they came from a log.
+        programs: Option<Vec<String>>,
+    },
+    /// A table without axes.
+    EmptyTable,
+}
+
+impl std::fmt::Display for CoverageError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::NoValidRow { programs: Some(p) } => write!(f, "programs {p:?}: no valid row: coverage not computed"),
+            Self::NoValidRow { programs: None } => f.write_str("no valid row: coverage not computed"),
+            Self::EmptyTable => f.write_str("empty table"),
+        }
+    }
+}
+
+impl std::error::Error for CoverageError {}
+
 impl Coverage {
     /// Of `(temp_c, rate_c_per_min)` samples.
     ///
     /// # Errors
     /// No finite sample: the coverage is not computed.
-    pub fn of_samples(samples: impl Iterator<Item = (f64, f64)>, deadband: f64) -> anyhow::Result<Self> {
+    pub fn of_samples(samples: impl Iterator<Item = (f64, f64)>, deadband: f64) -> Result<Self, CoverageError> {
         let mut rows = 0;
         let mut t = [f64::INFINITY, f64::NEG_INFINITY];
         let mut br: [Option<BranchRange>; 2] = [None, None];
@@ -68,7 +93,9 @@ impl Coverage {
             b.temp_c = [b.temp_c[0].min(tc), b.temp_c[1].max(tc)];
             b.max_abs_rate_c_per_min = b.max_abs_rate_c_per_min.max(r.abs());
         }
-        anyhow::ensure!(rows > 0, "no valid row: coverage not computed");
+        if rows == 0 {
+            return Err(CoverageError::NoValidRow { programs: None });
+        }
         Ok(Self { rows, temp_c: t, heating: br[0], cooling: br[1], deadband_c_per_min: deadband })
     }
 
@@ -77,14 +104,15 @@ impl Coverage {
     ///
     /// # Errors
     /// No valid row in those programs.
-    pub fn of_log(log: &Log, programs: &[String], deadband: f32) -> anyhow::Result<Self> {
+    pub fn of_log(log: &Log, programs: &[String], deadband: f32) -> Result<Self, CoverageError> {
         let ext = qfa_thermal::Extensions::default();
         let mut s = Vec::new();
         for run in log.runs.iter().filter(|r| programs.contains(&r.program)) {
             let tr = trace_run(run, &ext, deadband);
             s.extend((0..tr.valid.len()).filter(|&i| tr.valid[i]).map(|i| (tr.temp_c[i], tr.rate_c_per_min[i])));
         }
-        Self::of_samples(s.into_iter(), f64::from(deadband)).map_err(|e| anyhow::anyhow!("programs {programs:?}: {e}"))
+        Self::of_samples(s.into_iter(), f64::from(deadband))
+            .map_err(|_| CoverageError::NoValidRow { programs: Some(programs.to_vec()) })
     }
 
     /// Largest |Ṫ| over both branches, °C/min (0 when neither has a row).
@@ -181,8 +209,8 @@ impl TableLimits {
     ///
     /// # Errors
     /// An empty table.
-    pub fn of(table: &Table) -> anyhow::Result<Self> {
-        let a = table.axes.first().ok_or_else(|| anyhow::anyhow!("empty table"))?;
+    pub fn of(table: &Table) -> Result<Self, CoverageError> {
+        let a = table.axes.first().ok_or(CoverageError::EmptyTable)?;
         Ok(Self {
             temp_c: [f64::from(a.bias.t_start_c), f64::from(a.bias.t_end_c())],
             rate_limit_c_per_min: f64::from(a.rate_limit_c_per_min),
@@ -243,6 +271,17 @@ impl Coverage {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// No finite sample is an error, never a coverage of infinities; from a log it names
+    /// the programs.
+    #[test]
+    fn no_valid_row_is_an_error_naming_its_programs() {
+        let nan = [(f64::NAN, 0.0), (20.0, f64::INFINITY)];
+        assert_eq!(Coverage::of_samples(nan.into_iter(), 0.05), Err(CoverageError::NoValidRow { programs: None }));
+        let log = Log { runs: Vec::new() };
+        let e = Coverage::of_log(&log, &["p1".to_string()], 0.05).unwrap_err();
+        assert_eq!(e.to_string(), "programs [\"p1\"]: no valid row: coverage not computed");
+    }
 
     #[test]
     fn branches_split_at_the_deadband_and_shortfalls_name_what_is_missing() {

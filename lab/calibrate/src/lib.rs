@@ -185,9 +185,9 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
     let deadband = qfa_log::pairing::branch_deadband_c_per_min();
     let coverage = crate::coverage::CalCoverage {
         covered: crate::coverage::Coverage::of_log(log, &fit_p, deadband)
-            .map_err(|e| CalibrateError::Coverage(format!("{e:#}")))?,
+            .map_err(|e| CalibrateError::Coverage(e.to_string()))?,
         table: crate::coverage::TableLimits::of(&fitted.hysteresis)
-            .map_err(|e| CalibrateError::Coverage(format!("{e:#}")))?,
+            .map_err(|e| CalibrateError::Coverage(e.to_string()))?,
         programs: fit_p.clone(),
     };
     let report = Report {

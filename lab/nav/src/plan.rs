@@ -56,7 +56,7 @@ pub fn mission_coverage(sc: &Scenario) -> anyhow::Result<Coverage> {
         let t = chain.step(profile.at(k as f64));
         s.push((t.case_c, t.case_rate_c_per_min));
     }
-    Coverage::of_samples(s.into_iter(), f64::from(qfa_log::pairing::branch_deadband_c_per_min()))
+    Ok(Coverage::of_samples(s.into_iter(), f64::from(qfa_log::pairing::branch_deadband_c_per_min()))?)
 }
 
 /// The case temperature and exact rate of `programs` through the simulator's chain.
@@ -72,7 +72,7 @@ pub fn program_coverage(programs: &[Program]) -> anyhow::Result<Coverage> {
             s.push((t.case_c, t.case_rate_c_per_min));
         }
     }
-    Coverage::of_samples(s.into_iter(), f64::from(qfa_log::pairing::branch_deadband_c_per_min()))
+    Ok(Coverage::of_samples(s.into_iter(), f64::from(qfa_log::pairing::branch_deadband_c_per_min()))?)
 }
 
 /// Judge `lab` against `sc`'s mission.

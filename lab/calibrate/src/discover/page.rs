@@ -19,7 +19,7 @@ use qfa_report::verdict::Verdict;
 /// No row with a temperature.
 pub fn coverage(ch: &Channels) -> Result<Coverage> {
     let s = ch.traces.iter().flat_map(|t| t.est_t.iter().zip(&t.est_rate).map(|(&a, &r)| (f64::from(a), f64::from(r))));
-    Coverage::of_samples(s, f64::from(qfa_log::pairing::branch_deadband_c_per_min()))
+    Ok(Coverage::of_samples(s, f64::from(qfa_log::pairing::branch_deadband_c_per_min()))?)
 }
 
 /// What to look for in one of [`super::output`]'s residual plots (`file`), and why it may
