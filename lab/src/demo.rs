@@ -158,7 +158,7 @@ pub fn run(
                 title: truth.name.clone(),
                 progress: opts.progress,
                 axis: None,
-                exports: qfa_calibrate::peers::ExportOptions::default(),
+                exports: qfa_calibrate::export::ExportOptions::default(),
                 limits: LimitsChoice::default(),
             },
         )

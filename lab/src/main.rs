@@ -8,8 +8,8 @@ use clap::{Parser, Subcommand, ValueEnum};
 
 use qfa_calibrate::compensate::compensate_log;
 use qfa_calibrate::discover::{static_axes, Start};
+use qfa_calibrate::export::ExportOptions;
 use qfa_calibrate::lint::Severity;
-use qfa_calibrate::peers::ExportOptions;
 use qfa_calibrate::static_cal::{self, Holdout};
 use qfa_calibrate::{calibrate_into, CalibrateOptions};
 use qfa_lab::out_path::OutError;

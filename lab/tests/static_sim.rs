@@ -22,8 +22,9 @@
 //! 22.1 / 31.9 / 403. Discovery names nothing in any of these 100-min logs (its block test
 //! has too few blocks); the model it flashes is calibration's choice in each.
 
+use qfa_calibrate::export::ExportNote;
 use qfa_calibrate::fit::{fit_static_axis, StaticSeries, StaticStructure};
-use qfa_calibrate::peers::{ExportNote, PeerKind};
+use qfa_calibrate::peers::PeerKind;
 use qfa_calibrate::static_cal::{calibrate_static, candidates, Figure, Holdout, StaticCalOptions, ONE_BRANCH};
 use qfa_log::static_log::{read_static_from, AccelUnit, AxisColumn, StaticLog, StaticOptions, TimeUnit};
 use qfa_sim::profile::{Position, Program};
@@ -211,11 +212,11 @@ fn one_branch_logs_calibrate_and_hold_on_the_other_leg() {
                     // No ArduPilot file is written for it, and the run says why.
                     let dir = std::env::temp_dir().join(format!("qfa-static-sim-{}", std::process::id()));
                     qfa_calibrate::static_cal::write_static_table(&dir, &cal).unwrap();
-                    let ex = qfa_calibrate::peers::write_exports(
+                    let ex = qfa_calibrate::export::write_exports(
                         &dir,
                         &qfa_calibrate::static_cal::export_axes(&cal),
                         // One axis: the shared fields need a range inside its temperatures.
-                        &qfa_calibrate::peers::ExportOptions { range_c: Some((0.0, 20.0)), ..Default::default() },
+                        &qfa_calibrate::export::ExportOptions { range_c: Some((0.0, 20.0)), ..Default::default() },
                     )
                     .unwrap();
                     let written_ap = ex.written.iter().any(|f| f.starts_with("ardupilot"));

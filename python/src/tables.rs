@@ -8,7 +8,7 @@ use numpy::{PyArray1, PyReadonlyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use qfa_calibrate::peers::{export_texts, write_exports, ExportAxis, ExportOptions};
+use qfa_calibrate::export::{export_texts, write_exports, ExportAxis, ExportOptions};
 use qfa_calibrate::static_cal::{self, Holdout, StaticCalOptions, StaticCalibration};
 use qfa_calibrate::{self as cal, CalibrateOptions, Calibration};
 use qfa_log::spelling::{CalibrateOption, Spelling};

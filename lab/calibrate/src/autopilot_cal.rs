@@ -22,7 +22,7 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use crate::peers::{
+use crate::export::{
     export_texts, ExportNote, ExportOptions, ARDUPILOT_ENABLE_FILE, ARDUPILOT_VALUES_FILE, EXPORT_FILES, PX4_FILE,
 };
 use crate::static_cal::{self, Figure, StaticCalOptions};

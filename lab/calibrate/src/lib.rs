@@ -6,8 +6,8 @@
 //! `report.json`, `sf_vs_temp.png`, `residual_vs_time.png`, and the cubic peer as PX4
 //! (`px4_tc.params`) and ArduPilot (`ardupilot_tcal_1_enable.parm`,
 //! `ardupilot_tcal_2_values.parm`) parameters for the IMU axis [`CalibrateOptions::axis`]
-//! names, when they can be loaded as written (see [`peers::write_exports`]: a one-axis
-//! export needs [`peers::ExportOptions::range_c`]).
+//! names, when they can be loaded as written (see [`export::write_exports`]: a one-axis
+//! export needs [`export::ExportOptions::range_c`]).
 //!
 //! Which rows each comes from: the held-out figures (and the plots) from tables fitted on
 //! the fit programs and compensated on the others; the tables and parameters written from
@@ -20,6 +20,7 @@ pub mod batch;
 pub mod compensate;
 pub mod coverage;
 pub mod discover;
+pub mod export;
 pub mod fit;
 pub mod lint;
 pub mod metrics;
@@ -56,7 +57,7 @@ pub struct CalibrateOptions {
     /// parameter files; `None` is `ax`.
     pub axis: Option<String>,
     /// How to write those files.
-    pub exports: peers::ExportOptions,
+    pub exports: export::ExportOptions,
     /// The limits the verdict checks.
     pub limits: qfa_report::verdict::LimitsChoice,
 }
@@ -75,7 +76,7 @@ pub struct Calibration {
     /// The peers fitted on every program's pairs (what the parameter files hold).
     pub peers: crate::peers::Peers,
     /// The PX4 / ArduPilot files written, and why others were not.
-    pub exports: peers::Exports,
+    pub exports: export::Exports,
     /// The verdict the reports open with (`None` until [`calibrate_into`] writes them).
     pub verdict: Option<qfa_report::verdict::Verdict>,
 }
@@ -223,7 +224,15 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
         rejected_readings: eval.rejected_readings,
         timings_s: Timings { fit: t_fit, evaluate: t_eval, ..Timings::default() },
     };
-    Ok(Calibration { fitted, table, eval, report, peers: peer_fits, exports: peers::Exports::default(), verdict: None })
+    Ok(Calibration {
+        fitted,
+        table,
+        eval,
+        report,
+        peers: peer_fits,
+        exports: export::Exports::default(),
+        verdict: None,
+    })
 }
 
 /// Every held-out figure must exist: a figure with no bins behind it is an error with its
@@ -285,11 +294,11 @@ pub fn table_toml(table: &qfa_thermal::Table) -> Result<String, CalibrateError> 
 ///
 /// # Errors
 /// An axis other than `ax`, `ay` or `az`.
-pub fn cycling_export_axis(cal: &Calibration, axis: &str) -> Result<peers::ExportAxis, CalibrateError> {
+pub fn cycling_export_axis(cal: &Calibration, axis: &str) -> Result<export::ExportAxis, CalibrateError> {
     if !["ax", "ay", "az"].contains(&axis) {
         return Err(CalibrateError::Axis(axis.to_string()));
     }
-    Ok(peers::ExportAxis {
+    Ok(export::ExportAxis {
         source: format!("accelerometer (--axis {})", axis.trim_start_matches('a')),
         axis: axis.to_string(),
         cubic: cal.peers.cubic.clone(),
@@ -325,7 +334,7 @@ pub fn calibrate_into(
     // One accelerometer: a one-axis export, so the shared fields need opts.exports.range_c.
     let one = cycling_export_axis(&cal, opts.axis.as_deref().unwrap_or("ax"))?;
     cal.exports =
-        peers::write_exports(out, &[one], &opts.exports).map_err(|e| output(format!("{}: {e}", out.display())))?;
+        export::write_exports(out, &[one], &opts.exports).map_err(|e| output(format!("{}: {e}", out.display())))?;
     let t = Instant::now();
     if opts.plots {
         let held = format!(

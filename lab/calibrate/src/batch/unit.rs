@@ -136,7 +136,7 @@ fn calibrate(input: &UnitInput, dir: &Path, opts: &UnitOptions) -> Result<Calibr
         .filter(|f| f.severity >= Severity::Warning)
         .filter_map(|f| f.to_string().lines().next().map(|l| format!("lint: {l}")))
         .collect();
-    let exports = crate::peers::ExportOptions::default();
+    let exports = crate::export::ExportOptions::default();
     // The page names the batch, not the worker process that wrote it (a thread, a shard,
     // a Dask worker), so every way of running the batch writes the same bytes.
     let command = format!("qfa-lab batch: unit {} (the batch's command is on fleet.html)", input.serial);

@@ -112,7 +112,7 @@ pub struct StaticRun<'a> {
     /// Calibration settings.
     pub opts: &'a crate::static_cal::StaticCalOptions,
     /// Which PX4 / ArduPilot files to write, and how.
-    pub exports: &'a crate::peers::ExportOptions,
+    pub exports: &'a crate::export::ExportOptions,
     /// The limits the verdict checks.
     pub limits: &'a qfa_report::verdict::LimitsChoice,
     /// Draw the plot.
@@ -139,7 +139,7 @@ pub fn calibrate_static_into(
     let StaticRun { opts, exports, limits, plots, progress, command } = *run;
     let cal = crate::static_cal::calibrate_static(log, opts, progress)?;
     write_static_table(out, &cal)?;
-    let ex = crate::peers::write_exports(out, &export_axes(&cal), exports)
+    let ex = crate::export::write_exports(out, &export_axes(&cal), exports)
         .map_err(|e| StaticCalError::Io(format!("{}: {e}", out.display())))?;
     let files = static_files(plots, &ex.written);
     let notes: Vec<String> = notes.iter().cloned().chain(ex.notes.iter().map(ToString::to_string)).collect();
@@ -163,7 +163,7 @@ pub fn write_static_table(out: &Path, cal: &StaticCalibration) -> Result<(), Sta
 
 /// Write `table.toml`, `table.bin`, `report.json` and `report.md` into `out`, each report
 /// opening with `verdict` (the PX4 / ArduPilot files:
-/// [`crate::peers::write_exports`] with [`export_axes`]).
+/// [`crate::export::write_exports`] with [`export_axes`]).
 ///
 /// # Errors
 /// I/O or encoding errors.
@@ -456,12 +456,12 @@ fn bias_plot_caption(verdict: &Verdict) -> String {
 
 /// The axes of a static calibration as PX4 / ArduPilot exports see them.
 #[must_use]
-pub fn export_axes(cal: &StaticCalibration) -> Vec<crate::peers::ExportAxis> {
+pub fn export_axes(cal: &StaticCalibration) -> Vec<crate::export::ExportAxis> {
     cal.report
         .axes
         .iter()
         .zip(&cal.peers)
-        .map(|(a, p)| crate::peers::ExportAxis {
+        .map(|(a, p)| crate::export::ExportAxis {
             axis: a.axis.clone(),
             source: a.column.clone(),
             cubic: p.cubic.clone(),
