@@ -42,7 +42,7 @@ fn native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("RATE_WINDOW", firmware::RATE_WINDOW)?;
     m.add("G0", qfa_thermal::G0)?;
     let constants = PyDict::new(m.py());
-    constants.set_item("STATIC_LSB_PER_G", qfa_calibrate::fit::STATIC_LSB_PER_G)?;
+    constants.set_item("STATIC_LSB_PER_G", qfa_calibrate::compensate::STATIC_LSB_PER_G)?;
     m.add("constants", constants)?;
     Ok(())
 }

@@ -16,6 +16,12 @@ use qfa_thermal::Table;
 use qfa_log::cycling::{Log, Run};
 use qfa_log::pairing::RATE_WINDOW;
 
+/// K1 of a static log's table, LSB/g. A static log holds accelerations as numbers (g after
+/// the unit flags), while the firmware's sample path takes integer LSB:
+/// `raw = round(a·2²⁰)` quantizes to 0.95 µg, three orders below the figures that matter,
+/// and keeps |raw| below 2²⁴ for |a| < 16 g, where f32 holds every integer exactly.
+pub const STATIC_LSB_PER_G: f32 = 1_048_576.0;
+
 /// Why a log could not be compensated.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[non_exhaustive]
@@ -232,7 +238,7 @@ pub struct StaticCompensated {
 /// column per table axis), through the firmware's own sample path: per axis a
 /// `Compensator<1, 32>` with that axis's model, fed each row's reading (`on_raw`) and the
 /// row's acceleration as pseudo-LSB (`cycle_samples([round(a·2²⁰)])`, see
-/// [`crate::fit::STATIC_LSB_PER_G`]). What [`compensate_static`] writes, before
+/// [`STATIC_LSB_PER_G`]). What [`compensate_static`] writes, before
 /// formatting; the Python package returns it as arrays. A million three-axis rows took
 /// 0.69 s in release on the project's 2-core machine (docs/measurements.md, "Python
 /// package", with the command).
@@ -269,11 +275,11 @@ pub fn compensate_samples(
         sample_period_ms: default.sample_period_ms.max((max_dt_s * 1000.0).ceil().min(60_000.0) as u32),
         input: qfa_thermal::Input::Samples,
         // The static tables' scale: rows enter as a·2²⁰ pseudo-LSB.
-        nominal_k1: crate::fit::STATIC_LSB_PER_G,
+        nominal_k1: STATIC_LSB_PER_G,
         ..default
     };
     let mut out = StaticCompensated { accel_g: Vec::with_capacity(accel_g.len()), status: vec![Status::empty(); rows] };
-    let lsb = f64::from(crate::fit::STATIC_LSB_PER_G);
+    let lsb = f64::from(STATIC_LSB_PER_G);
     let tick_s = f64::from(config.tick_s);
     // Axis after axis: each axis has its own compensator, so the order of the calls within
     // one compensator (reading, then sample, row after row) is the firmware's either way.

@@ -39,7 +39,6 @@ use qfa_log::pairing::{pair_program, trace_run, Trace, RATE_WINDOW};
 pub use super::solver::{lstsq, lstsq_matrix, second_difference_rows, LsResult};
 pub use crate::static_cal::fit::{
     fit_static_axis, fit_static_traced, BranchMode, CurveShape, StaticFit, StaticSeries, StaticStructure, StaticTraces,
-    STATIC_LSB_PER_G,
 };
 
 /// Reference temperature of every lab table, °C (the paper's start temperature).

@@ -31,7 +31,7 @@ use serde::{Deserialize, Serialize};
 
 use qfa_thermal::model::Branch;
 
-use crate::fit::STATIC_LSB_PER_G;
+use crate::compensate::STATIC_LSB_PER_G;
 
 /// Basis scale, °C.
 pub const U_SCALE_C: f64 = 50.0;

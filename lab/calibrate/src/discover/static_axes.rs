@@ -35,7 +35,7 @@
 //! named and the flashed differ: the tofupilot log's 52-min training leg gives the block
 //! test 8 blocks, too few to name effects that still predict better. The report gives both, and says which structure was flashed and
 //! whether discovery named it. Static tables have K1 = 2²⁰ LSB/g
-//! ([`crate::fit::STATIC_LSB_PER_G`]) and the bias in g from the axis's mean
+//! ([`crate::compensate::STATIC_LSB_PER_G`]) and the bias in g from the axis's mean
 //! over every row.
 
 use std::fmt::Write as _;

@@ -221,12 +221,6 @@ fn push_branch_ties(xb: &mut Vec<f64>, yb: &mut Vec<f64>, p: usize, g: usize) {
     }
 }
 
-/// K1 of a static log's table, LSB/g. A static log holds accelerations as numbers (g after
-/// the unit flags), while the firmware's sample path takes integer LSB:
-/// `raw = round(a·2²⁰)` quantizes to 0.95 µg, three orders below the figures that matter,
-/// and keeps |raw| below 2²⁴ for |a| < 16 g, where f32 holds every integer exactly.
-pub const STATIC_LSB_PER_G: f32 = 1_048_576.0;
-
 /// Fit the bias model `structure` to `series` on the rows where `train` is true.
 ///
 /// Equations: `a − reference = grid(Te, branch) [+ creep gain·(Te − x)] [+ play weight·(Te − p)/r]`
@@ -423,7 +417,7 @@ pub fn fit_static_traced(
     };
     let play_weight = if structure.play_half_width_c.is_some() { coef[k] as f32 } else { 0.0 };
     let axis = AxisModel {
-        scale: ScaleFactor::simple(T0_C as f32, STATIC_LSB_PER_G, 0.0),
+        scale: ScaleFactor::simple(T0_C as f32, crate::compensate::STATIC_LSB_PER_G, 0.0),
         bias: BiasGrid {
             t_start_c: start as f32,
             t_step_c: step as f32,
