@@ -1,4 +1,4 @@
-"""The `Compensator` class replays the firmware's reference vectors (host-tests/vectors,
+"""The `Compensator` class replays the firmware's reference vectors (replay/vectors,
 the files the host tests and the QEMU run check) bit for bit."""
 
 from __future__ import annotations
@@ -12,9 +12,9 @@ import qfa_thermal as q
 
 from conftest import REPO
 
-VECTORS = sorted((REPO / "host-tests" / "vectors").glob("*.vec"))
+VECTORS = sorted((REPO / "replay" / "vectors").glob("*.vec"))
 
-#: The vectors' error codes (host-tests/replay: `sample_error_code`, `table_error_code`),
+#: The vectors' error codes (replay: `sample_error_code`, `table_error_code`),
 #: by the `kind` the exceptions carry.
 SAMPLE_CODES = {
     "BusAllOnes": 0x11,

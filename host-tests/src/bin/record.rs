@@ -1,13 +1,14 @@
 //! Re-record the reference vectors: `cargo run -p host-tests --bin record`.
 //!
-//! Regenerates every `host-tests/vectors/*.vec` from `host_tests::scenarios` with the
+//! Regenerates every `replay/vectors/*.vec` from `host_tests::scenarios` with the
 //! current code. Review the result as a diff: any changed bit shows up line by line.
 
 use std::fmt::Write as _;
 use std::path::Path;
 
 fn main() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("vectors");
+    // The vectors live with their replay (`replay/vectors`), which both targets use.
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../replay/vectors");
     std::fs::create_dir_all(&dir).expect("create vectors dir");
     let mut total = 0;
     for (name, lines) in host_tests::scenarios::all() {

@@ -3,7 +3,7 @@
 //! no_std and allocation-free so the very same code runs on the host (`host-tests`) and on
 //! the Cortex-M4F under QEMU (the root crate's example `examples/qemu_vectors.rs`).
 //!
-//! # Vector files (`host-tests/vectors/*.vec`)
+//! # Vector files (`replay/vectors/*.vec`)
 //! One event per line; `#` starts a comment. Inputs, then `=>`, then the expected outputs
 //! as 8-digit hex u32 words (f32 values as their bit patterns):
 //!
@@ -25,14 +25,14 @@ use qfa_thermal::table::{self, MAX_TABLE_BYTES};
 
 /// The checked-in vector files, embedded so the target needs no file system.
 pub const FILES: &[(&str, &str)] = &[
-    ("kt8_1.vec", include_str!("../../vectors/kt8_1.vec")),
-    ("kt8_2.vec", include_str!("../../vectors/kt8_2.vec")),
-    ("kt8_3_misalign.vec", include_str!("../../vectors/kt8_3_misalign.vec")),
-    ("ext_sensor_lag.vec", include_str!("../../vectors/ext_sensor_lag.vec")),
-    ("ext_branch_hysteresis.vec", include_str!("../../vectors/ext_branch_hysteresis.vec")),
-    ("ext_creep.vec", include_str!("../../vectors/ext_creep.vec")),
-    ("ext_all.vec", include_str!("../../vectors/ext_all.vec")),
-    ("faults.vec", include_str!("../../vectors/faults.vec")),
+    ("kt8_1.vec", include_str!("../vectors/kt8_1.vec")),
+    ("kt8_2.vec", include_str!("../vectors/kt8_2.vec")),
+    ("kt8_3_misalign.vec", include_str!("../vectors/kt8_3_misalign.vec")),
+    ("ext_sensor_lag.vec", include_str!("../vectors/ext_sensor_lag.vec")),
+    ("ext_branch_hysteresis.vec", include_str!("../vectors/ext_branch_hysteresis.vec")),
+    ("ext_creep.vec", include_str!("../vectors/ext_creep.vec")),
+    ("ext_all.vec", include_str!("../vectors/ext_all.vec")),
+    ("faults.vec", include_str!("../vectors/faults.vec")),
 ];
 
 /// Most output words on one line.
