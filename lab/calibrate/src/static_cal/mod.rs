@@ -70,14 +70,17 @@ pub mod holdout;
 pub mod output;
 pub mod report;
 
+use std::ops::Range;
+
 use qfa_thermal::model::Branch;
 use qfa_thermal::Input;
 
-use crate::fit::{fit_static_traced, table_of_axes, FitError, StaticSeries, StaticStructure, StaticTraces};
+use crate::fit::{fit_static_traced, table_of_axes, FitError, StaticFit, StaticSeries, StaticStructure, StaticTraces};
 use crate::metrics::rms;
 use crate::peers::{PeerKind, Poly};
 use crate::static_cal::choice::cv_rms;
-use qfa_log::static_log::StaticLog;
+use qfa_log::pairing::Trace;
+use qfa_log::static_log::{AxisColumn, StaticLog};
 
 pub use crate::static_cal::choice::{candidates, is_one_branch, CV_FOLDS, ONE_BRANCH};
 pub use crate::static_cal::error::StaticCalError;
@@ -149,12 +152,82 @@ struct RowSet {
     mask: Vec<bool>,
 }
 
+/// What every step of one calibration shares: the log, the settings, the held-out scheme
+/// with its folds, the row sets and the rows' branches.
+struct Run<'a> {
+    log: &'a StaticLog,
+    opts: &'a StaticCalOptions,
+    scheme: Scheme,
+    /// Held-out rows of each fold.
+    folds: Vec<Range<usize>>,
+    /// Blocks of the cross-validation that chooses a structure.
+    k_sel: usize,
+    /// Set 0: every row (the table); set 1 + f: fold f's training rows.
+    sets: Vec<RowSet>,
+    /// The first axis replayed with no extension: each row's branch as the firmware's branch
+    /// logic (deadband included) sees it.
+    plain: Trace,
+    /// Per set: one branch holds fewer than a tenth of its rows ([`is_one_branch`]).
+    one_branch: Vec<bool>,
+}
+
+impl<'a> Run<'a> {
+    /// The folds of `scheme` on `log`, the row sets they give, and the rows' branches.
+    fn new(log: &'a StaticLog, opts: &'a StaticCalOptions, scheme: Scheme) -> Self {
+        let n = log.rows();
+        let folds = scheme.folds(n);
+        let k_sel = scheme.selection_folds();
+        let mut sets = vec![RowSet { rows: (0..n).collect(), mask: vec![true; n] }];
+        for f in &folds {
+            let mask: Vec<bool> = (0..n).map(|i| !f.contains(&i)).collect();
+            sets.push(RowSet { rows: (0..n).filter(|&i| mask[i]).collect(), mask });
+        }
+        let plain = StaticSeries { time_s: &log.time_s, temp_c: &log.temp_c, accel_g: &log.axes[0].accel_g }
+            .trace(&qfa_thermal::Extensions::default(), opts.deadband_c_per_min);
+        let mut run = Self { log, opts, scheme, folds, k_sel, sets, plain, one_branch: Vec::new() };
+        run.one_branch = run.sets.iter().map(|set| is_one_branch(run.branch_rows(&set.rows))).collect();
+        run
+    }
+
+    /// Axis `a` of the log.
+    fn series(&self, a: usize) -> StaticSeries<'a> {
+        StaticSeries { time_s: &self.log.time_s, temp_c: &self.log.temp_c, accel_g: &self.log.axes[a].accel_g }
+    }
+
+    /// Rows on the heating and on the cooling branch among `rows`.
+    fn branch_rows(&self, rows: &[usize]) -> (usize, usize) {
+        let count = |b: Branch| rows.iter().filter(|&&i| self.plain.branch[i] == b).count();
+        (count(Branch::Heating), count(Branch::Cooling))
+    }
+
+    /// The candidates on set `s` (the same for every axis): [`ONE_BRANCH`] alone on rows
+    /// with one branch.
+    fn candidates(&self, s: usize) -> Vec<StaticStructure> {
+        if self.one_branch[s] {
+            return vec![ONE_BRANCH];
+        }
+        self.opts.candidates.clone()
+    }
+
+    /// Structure `st` fitted to axis `series` (named `axis`) on set `s`'s rows.
+    fn fit_on(
+        &self,
+        series: &StaticSeries<'_>,
+        s: usize,
+        st: &StaticStructure,
+        axis: &str,
+    ) -> Result<StaticFit, StaticCalError> {
+        let traces = StaticTraces::new(series, st, self.opts.deadband_c_per_min);
+        fit_static_traced(series, &traces, &self.sets[s].mask, self.opts.grid_points, self.opts.block)
+            .map_err(|e| StaticCalError::Fit(axis.to_string(), e))
+    }
+}
+
 /// Calibrate a static log (see the module docs).
 ///
 /// # Errors
 /// A log refused by [`check_coverage`], a held-out scheme the log cannot hold, a failed
 /// fit, or a figure that cannot be formed.
-#[allow(clippy::too_many_lines)]
 pub fn calibrate_static(
     log: &StaticLog,
     opts: &StaticCalOptions,
@@ -162,65 +235,97 @@ pub fn calibrate_static(
 ) -> Result<StaticCalibration, StaticCalError> {
     check_coverage(&log.temp_c, opts.grid_points, opts.block)?;
     let (scheme, rule) = resolve_holdout(log, opts.holdout, opts.block)?;
+    let run = Run::new(log, opts, scheme);
+    let choices = choose_structures(&run, progress);
     let n = log.rows();
-    let folds = scheme.folds(n);
-    let k_sel = scheme.selection_folds();
-    // Set 0: every row (the table); set 1 + f: fold f's training rows.
-    let mut sets = vec![RowSet { rows: (0..n).collect(), mask: vec![true; n] }];
-    for f in &folds {
-        let mask: Vec<bool> = (0..n).map(|i| !f.contains(&i)).collect();
-        sets.push(RowSet { rows: (0..n).filter(|&i| mask[i]).collect(), mask });
+    let mut fits = Vec::new();
+    let mut peers = Vec::new();
+    let mut axes = Vec::new();
+    let mut plot = PlotRows {
+        temp_c: log.temp_c.clone(),
+        branch: run.plain.branch.clone(),
+        heldout: (0..n).map(|i| run.folds.iter().any(|f| f.contains(&i))).collect(),
+        axes: Vec::new(),
+    };
+    for (a, choice) in choices.into_iter().enumerate() {
+        let axis = calibrate_axis(&run, a, choice)?;
+        axes.push(axis.report);
+        fits.push(axis.fit);
+        peers.push(axis.exported);
+        plot.axes.push(axis.plot);
     }
-    let na = log.axes.len();
-    // Rows per branch, as the firmware's branch logic (deadband included) sees them.
-    let plain = StaticSeries { time_s: &log.time_s, temp_c: &log.temp_c, accel_g: &log.axes[0].accel_g }
-        .trace(&qfa_thermal::Extensions::default(), opts.deadband_c_per_min);
-    let branch_rows = |rows: &[usize]| -> (usize, usize) {
-        let count = |b: Branch| rows.iter().filter(|&&i| plain.branch[i] == b).count();
-        (count(Branch::Heating), count(Branch::Cooling))
-    };
-    let one_branch: Vec<bool> = sets.iter().map(|set| is_one_branch(branch_rows(&set.rows))).collect();
-    let log_branches = branch_rows(&sets[0].rows);
-    // The candidates on set s (the same for every axis).
-    let cands = |s: usize| -> Vec<StaticStructure> {
-        if one_branch[s] {
-            return vec![ONE_BRANCH];
-        }
-        opts.candidates.clone()
-    };
+    let table = table_of_axes(Input::Samples, fits.iter().map(|f| f.axis.clone()))
+        .map_err(|e| StaticCalError::Fit("table".to_string(), e))?;
+    let report = static_report(&run, rule, axes)?;
+    Ok(StaticCalibration { table, fits, peers, report, plot })
+}
+
+/// What cross-validation chose for one axis.
+struct AxisChoice {
+    /// Per set, the best (CV RMS in g, structure).
+    best: Vec<Option<(f64, StaticStructure)>>,
+    /// The table's refusals: every candidate that could not be fitted on every row, and why.
+    refused: Vec<String>,
+    /// Per set, the first refusal, so a fold where nothing could be fitted says why.
+    fold_refused: Vec<Option<String>>,
+}
+
+impl AxisChoice {
+    /// The best (CV RMS, structure) on set `s`; an error, with the first refusal, when no
+    /// candidate could be fitted there.
+    fn chosen(&self, s: usize, axis: &str) -> Result<(f64, StaticStructure), StaticCalError> {
+        self.best[s].ok_or_else(|| {
+            StaticCalError::Figure(format!(
+                "{axis}: no candidate model could be fitted in cross-validation{} (first refusal: {})",
+                if s == 0 { String::new() } else { format!(" inside the training rows of fold {s}") },
+                if s == 0 { self.refused.first() } else { self.fold_refused[s].as_ref() }
+                    .map_or("none", String::as_str)
+            ))
+        })
+    }
+}
+
+/// Every structure a set can choose from, each once, in the order the sets first name them.
+fn candidate_union(run: &Run<'_>) -> Vec<StaticStructure> {
     let mut union: Vec<StaticStructure> = Vec::new();
-    for s in 0..sets.len() {
-        for st in cands(s) {
+    for s in 0..run.sets.len() {
+        for st in run.candidates(s) {
             if !union.contains(&st) {
                 union.push(st);
             }
         }
     }
+    union
+}
+
+/// Per axis, the structure with the lowest blocked cross-validation RMS ([`cv_rms`]) on each
+/// row set, and the refusals. The traces depend on the temperatures only, so each
+/// structure's are computed once for every axis and set.
+fn choose_structures(run: &Run<'_>, progress: bool) -> Vec<AxisChoice> {
+    let (opts, sets) = (run.opts, &run.sets);
+    let union = candidate_union(run);
+    let na = run.log.axes.len();
     let pb = if progress {
         indicatif::ProgressBar::new((na * union.len()) as u64)
     } else {
         indicatif::ProgressBar::hidden()
     };
-    let series_of = |a: usize| StaticSeries { time_s: &log.time_s, temp_c: &log.temp_c, accel_g: &log.axes[a].accel_g };
-    // Best (cv, structure) per axis and set, and the table's refusals. The traces depend on
-    // the temperatures only, so each structure's are computed once for every axis and set.
-    let mut best: Vec<Vec<Option<(f64, StaticStructure)>>> = vec![vec![None; sets.len()]; na];
-    let mut refused: Vec<Vec<String>> = vec![Vec::new(); na];
-    // Each fold's first refusal per axis, so a fold where nothing could be fitted says why.
-    let mut fold_refused: Vec<Vec<Option<String>>> = vec![vec![None; sets.len()]; na];
+    let mut choices: Vec<AxisChoice> = (0..na)
+        .map(|_| AxisChoice { best: vec![None; sets.len()], refused: Vec::new(), fold_refused: vec![None; sets.len()] })
+        .collect();
     for st in &union {
-        let traces = StaticTraces::new(&series_of(0), st, opts.deadband_c_per_min);
-        for a in 0..na {
+        let traces = StaticTraces::new(&run.series(0), st, opts.deadband_c_per_min);
+        for (a, choice) in choices.iter_mut().enumerate() {
             for (s, set) in sets.iter().enumerate() {
-                if !cands(s).contains(st) {
+                if !run.candidates(s).contains(st) {
                     continue;
                 }
-                match cv_rms(&series_of(a), &traces, &set.rows, k_sel, opts) {
-                    Ok(r) if best[a][s].is_none_or(|(b, _)| r < b) => best[a][s] = Some((r, *st)),
+                match cv_rms(&run.series(a), &traces, &set.rows, run.k_sel, opts) {
+                    Ok(r) if choice.best[s].is_none_or(|(b, _)| r < b) => choice.best[s] = Some((r, *st)),
                     Ok(_) => {}
-                    Err(e) if s == 0 => refused[a].push(format!("{}: {e}", st.name())),
+                    Err(e) if s == 0 => choice.refused.push(format!("{}: {e}", st.name())),
                     Err(e) => {
-                        fold_refused[a][s].get_or_insert_with(|| format!("{}: {e}", st.name()));
+                        choice.fold_refused[s].get_or_insert_with(|| format!("{}: {e}", st.name()));
                     }
                 }
             }
@@ -228,183 +333,200 @@ pub fn calibrate_static(
         }
     }
     pb.finish_and_clear();
+    choices
+}
 
-    let mut fits = Vec::new();
-    let mut peers = Vec::new();
-    let mut axes = Vec::new();
-    let mut plot = PlotRows {
-        temp_c: log.temp_c.clone(),
-        branch: plain.branch.clone(),
-        heldout: (0..n).map(|i| folds.iter().any(|f| f.contains(&i))).collect(),
-        axes: Vec::new(),
+/// One axis calibrated: its report, the table's fit, the exported peers and its plot rows.
+struct AxisOutcome {
+    report: AxisReport,
+    fit: StaticFit,
+    exported: ExportedPeers,
+    /// Name, residual before and after compensation, mg.
+    plot: (String, Vec<f64>, Vec<f64>),
+}
+
+/// Calibrate axis `a` on its `choice`: the table's structure fitted on every row and scored
+/// there (in-sample), the exported peers, and the held-out figures.
+fn calibrate_axis(run: &Run<'_>, a: usize, choice: AxisChoice) -> Result<AxisOutcome, StaticCalError> {
+    let (log, n) = (run.log, run.log.rows());
+    let ax = &log.axes[a];
+    let series = run.series(a);
+    // The table: chosen and fitted on every row.
+    let (cv, structure) = choice.chosen(0, &ax.name)?;
+    let fit = run.fit_on(&series, 0, &structure, &ax.name)?;
+    let tr = series.model_trace(&fit.axis);
+    let reference = fit.reference_g;
+    let all: Vec<f64> = (0..n).filter(|&i| tr.valid[i]).map(|i| ax.accel_g[i] - reference - tr.ext_k0_g[i]).collect();
+    let table_rms_mg = rms(&all) * 1e3;
+    let before_mg: Vec<f64> = ax.accel_g.iter().map(|a| (a - reference) * 1e3).collect();
+    let mut after_mg: Vec<f64> = (0..n).map(|i| resid_mg(&ax.accel_g, &tr, reference, i)).collect();
+    let (exported, exported_cubic, exported_ardupilot) = exported_peers(log, ax, reference)?;
+    let (ho, heldout_structures) = held_out(run, &series, ax, &choice, &mut after_mg)?;
+    let no_folds = run.folds.is_empty();
+    let fig = |resid: &[f64], t: &[f64], what: &str, err: &Option<String>| {
+        heldout_figure(no_folds, &ax.name, resid, t, what, err)
     };
-    for (a, ax) in log.axes.iter().enumerate() {
-        let series = series_of(a);
-        let chosen = |s: usize| {
-            best[a][s].ok_or_else(|| {
-                StaticCalError::Figure(format!(
-                    "{}: no candidate model could be fitted in cross-validation{} (first refusal: {})",
-                    ax.name,
-                    if s == 0 { String::new() } else { format!(" inside the training rows of fold {s}") },
-                    if s == 0 { refused[a].first() } else { fold_refused[a][s].as_ref() }
-                        .map_or("none", String::as_str)
-                ))
-            })
-        };
-        let fit_on = |s: usize, st: &StaticStructure| {
-            let traces = StaticTraces::new(&series, st, opts.deadband_c_per_min);
-            fit_static_traced(&series, &traces, &sets[s].mask, opts.grid_points, opts.block)
-                .map_err(|e| StaticCalError::Fit(ax.name.clone(), e))
-        };
-        // The table: chosen and fitted on every row.
-        let (cv, structure) = chosen(0)?;
-        let fit = fit_on(0, &structure)?;
-        let tr = series.model_trace(&fit.axis);
-        let reference = fit.reference_g;
-        let all: Vec<f64> =
-            (0..n).filter(|&i| tr.valid[i]).map(|i| ax.accel_g[i] - reference - tr.ext_k0_g[i]).collect();
-        let table_rms_mg = rms(&all) * 1e3;
-        let resid_mg = |tr: &qfa_log::pairing::Trace, r0: f64, i: usize| {
-            if tr.valid[i] {
-                (ax.accel_g[i] - r0 - tr.ext_k0_g[i]) * 1e3
-            } else {
-                f64::NAN
-            }
-        };
-        let before_mg: Vec<f64> = ax.accel_g.iter().map(|a| (a - reference) * 1e3).collect();
-        let mut after_mg: Vec<f64> = (0..n).map(|i| resid_mg(&tr, reference, i)).collect();
-        let (t_all, y_all): (Vec<f64>, Vec<f64>) =
-            (log.temp_c.clone(), ax.accel_g.iter().map(|v| v - reference).collect());
-        let exported = ExportedPeers {
-            cubic: PeerKind::Cubic
-                .fit(&t_all, &y_all)
-                .map_err(|e| StaticCalError::Fit(format!("{} cubic", ax.name), e))?,
-            ardupilot: PeerKind::Ardupilot.fit(&t_all, &y_all).map_err(|e| ardupilot_reason(&e)),
-        };
-        // The exported peers over every row, the constant the mean over every row (what the
-        // ordinary accelerometer calibration takes up): the figures the files reproduce.
-        let in_sample = |p: &Poly, what: &str| -> Result<Figure, StaticCalError> {
-            let r: Vec<f64> = t_all.iter().zip(&y_all).map(|(&t, &y)| y - p.eval(t)).collect();
-            let mean = r.iter().sum::<f64>() / r.len() as f64;
-            let centred: Vec<f64> = r.iter().map(|v| v - mean).collect();
-            score(&centred, &log.time_s, &format!("{} exported {what}", ax.name)).map(Figure::Score)
-        };
-        let exported_cubic = in_sample(&exported.cubic, "cubic")?;
-        let exported_ardupilot = match &exported.ardupilot {
-            Ok(p) => in_sample(p, "ardupilot")?,
-            Err(why) => Figure::not_computed(why.clone()),
-        };
-        // The held-out figures: per fold, the same procedure on its training rows.
-        let mut ho = HeldOut::default();
-        let mut heldout_structures = Vec::new();
-        for (f, rows) in folds.iter().enumerate() {
-            let s = f + 1;
-            let (_, st) = chosen(s)?;
-            heldout_structures.push(st.name());
-            let fit = fit_on(s, &st)?;
-            let tr = series.model_trace(&fit.axis);
-            let r0 = fit.reference_g;
-            let drawn = if folds.len() == 1 { 0..n } else { rows.clone() };
-            for i in drawn {
-                after_mg[i] = resid_mg(&tr, r0, i);
-            }
-            for i in rows.clone().filter(|&i| tr.valid[i]) {
-                ho.ours.push(ax.accel_g[i] - r0 - tr.ext_k0_g[i]);
-                ho.ours_t.push(log.time_s[i]);
-                ho.clamped += usize::from(tr.clamped[i]);
-            }
-            // Peers on the same training rows (the same reference removed), scored on the
-            // same held-out rows.
-            let tt: Vec<f64> = sets[s].rows.iter().map(|&i| log.temp_c[i]).collect();
-            let ty: Vec<f64> = sets[s].rows.iter().map(|&i| ax.accel_g[i] - r0).collect();
-            for (k, kind) in PeerKind::ALL.iter().enumerate() {
-                match kind.fit(&tt, &ty) {
-                    Ok(p) => ho.peers[k].extend(rows.clone().map(|i| ax.accel_g[i] - r0 - p.eval(log.temp_c[i]))),
-                    Err(e) if ho.peer_err[k].is_none() => {
-                        ho.peer_err[k] = Some(format!(
-                            "fold {} of {}: {}",
-                            f + 1,
-                            folds.len(),
-                            if *kind == PeerKind::Ardupilot { ardupilot_reason(&e) } else { e.to_string() }
-                        ));
-                    }
-                    Err(_) => {}
-                }
-            }
-            ho.none.extend(rows.clone().map(|i| ax.accel_g[i] - r0));
-            ho.t.extend(rows.clone().map(|i| log.time_s[i]));
-        }
-        let name = |w: &str| format!("{} {w}", ax.name);
-        let fig = |resid: &[f64], t: &[f64], what: &str, err: &Option<String>| -> Result<Figure, StaticCalError> {
-            if folds.is_empty() {
-                return Ok(Figure::not_computed(NO_HOLDOUT));
-            }
-            if let Some(e) = err {
-                return Ok(Figure::not_computed(e.clone()));
-            }
-            score(resid, t, &name(what)).map(Figure::Score)
-        };
-        axes.push(AxisReport {
-            axis: ax.name.clone(),
-            column: ax.column.clone(),
-            reference_g: reference,
-            structure: structure.name(),
-            cv_rms_mg: cv * 1e3,
-            table_rms_mg,
-            exported_cubic,
-            exported_ardupilot,
-            heldout_structures,
-            ours: fig(&ho.ours, &ho.ours_t, "ours", &None)?,
-            cubic: fig(&ho.peers[0], &ho.t, "cubic", &ho.peer_err[0])?,
-            ardupilot: fig(&ho.peers[1], &ho.t, "ardupilot", &ho.peer_err[1])?,
-            simple: fig(&ho.peers[2], &ho.t, "simple", &ho.peer_err[2])?,
-            none: fig(&ho.none, &ho.t, "none", &None)?,
-            clamped_rows: ho.clamped,
-            refused_candidates: std::mem::take(&mut refused[a]),
-        });
-        fits.push(fit);
-        peers.push(exported);
-        plot.axes.push((ax.name.clone(), before_mg, after_mg));
+    let report = AxisReport {
+        axis: ax.name.clone(),
+        column: ax.column.clone(),
+        reference_g: reference,
+        structure: structure.name(),
+        cv_rms_mg: cv * 1e3,
+        table_rms_mg,
+        exported_cubic,
+        exported_ardupilot,
+        heldout_structures,
+        ours: fig(&ho.ours, &ho.ours_t, "ours", &None)?,
+        cubic: fig(&ho.peers[0], &ho.t, "cubic", &ho.peer_err[0])?,
+        ardupilot: fig(&ho.peers[1], &ho.t, "ardupilot", &ho.peer_err[1])?,
+        simple: fig(&ho.peers[2], &ho.t, "simple", &ho.peer_err[2])?,
+        none: fig(&ho.none, &ho.t, "none", &None)?,
+        clamped_rows: ho.clamped,
+        refused_candidates: choice.refused,
+    };
+    Ok(AxisOutcome { report, fit, exported, plot: (ax.name.clone(), before_mg, after_mg) })
+}
+
+/// Row `i`'s residual of an axis (`accel_g`, g) after the reference `r0` and the model's
+/// bias (`tr`), mg; NaN where the trace has no temperature yet.
+fn resid_mg(accel_g: &[f64], tr: &Trace, r0: f64, i: usize) -> f64 {
+    if tr.valid[i] {
+        (accel_g[i] - r0 - tr.ext_k0_g[i]) * 1e3
+    } else {
+        f64::NAN
     }
-    let table = table_of_axes(Input::Samples, fits.iter().map(|f| f.axis.clone()))
-        .map_err(|e| StaticCalError::Fit("table".to_string(), e))?;
+}
+
+/// The peers exported for an axis, fitted on every row with `reference` (g) removed, and
+/// their in-sample figures (cubic, ArduPilot): what the exported files reproduce.
+fn exported_peers(
+    log: &StaticLog,
+    ax: &AxisColumn,
+    reference: f64,
+) -> Result<(ExportedPeers, Figure, Figure), StaticCalError> {
+    let (t_all, y_all): (Vec<f64>, Vec<f64>) = (log.temp_c.clone(), ax.accel_g.iter().map(|v| v - reference).collect());
+    let exported = ExportedPeers {
+        cubic: PeerKind::Cubic.fit(&t_all, &y_all).map_err(|e| StaticCalError::Fit(format!("{} cubic", ax.name), e))?,
+        ardupilot: PeerKind::Ardupilot.fit(&t_all, &y_all).map_err(|e| ardupilot_reason(&e)),
+    };
+    // The exported peers over every row, the constant the mean over every row (what the
+    // ordinary accelerometer calibration takes up): the figures the files reproduce.
+    let in_sample = |p: &Poly, what: &str| -> Result<Figure, StaticCalError> {
+        let r: Vec<f64> = t_all.iter().zip(&y_all).map(|(&t, &y)| y - p.eval(t)).collect();
+        let mean = r.iter().sum::<f64>() / r.len() as f64;
+        let centred: Vec<f64> = r.iter().map(|v| v - mean).collect();
+        score(&centred, &log.time_s, &format!("{} exported {what}", ax.name)).map(Figure::Score)
+    };
+    let exported_cubic = in_sample(&exported.cubic, "cubic")?;
+    let exported_ardupilot = match &exported.ardupilot {
+        Ok(p) => in_sample(p, "ardupilot")?,
+        Err(why) => Figure::not_computed(why.clone()),
+    };
+    Ok((exported, exported_cubic, exported_ardupilot))
+}
+
+/// One axis's held-out residuals pooled over the folds, each fold's model chosen and fitted
+/// on its training rows, and the structures chosen. Each fold's model residuals, mg, go into
+/// `after_mg` on its held-out rows (on every row when there is one fold).
+fn held_out(
+    run: &Run<'_>,
+    series: &StaticSeries<'_>,
+    ax: &AxisColumn,
+    choice: &AxisChoice,
+    after_mg: &mut [f64],
+) -> Result<(HeldOut, Vec<String>), StaticCalError> {
+    let (log, folds, n) = (run.log, &run.folds, run.log.rows());
+    let mut ho = HeldOut::default();
+    let mut heldout_structures = Vec::new();
+    for (f, rows) in folds.iter().enumerate() {
+        let s = f + 1;
+        let (_, st) = choice.chosen(s, &ax.name)?;
+        heldout_structures.push(st.name());
+        let fit = run.fit_on(series, s, &st, &ax.name)?;
+        let tr = series.model_trace(&fit.axis);
+        let r0 = fit.reference_g;
+        let drawn = if folds.len() == 1 { 0..n } else { rows.clone() };
+        for i in drawn {
+            after_mg[i] = resid_mg(&ax.accel_g, &tr, r0, i);
+        }
+        for i in rows.clone().filter(|&i| tr.valid[i]) {
+            ho.ours.push(ax.accel_g[i] - r0 - tr.ext_k0_g[i]);
+            ho.ours_t.push(log.time_s[i]);
+            ho.clamped += usize::from(tr.clamped[i]);
+        }
+        fold_peers(run, ax, f, rows, r0, &mut ho);
+        ho.none.extend(rows.clone().map(|i| ax.accel_g[i] - r0));
+        ho.t.extend(rows.clone().map(|i| log.time_s[i]));
+    }
+    Ok((ho, heldout_structures))
+}
+
+/// The peers fitted on fold `f`'s training rows and scored on its held-out `rows`, with the
+/// same reference `r0` (g) removed, pooled into `ho`; for a peer that cannot be fitted, the
+/// first fold's reason is kept.
+fn fold_peers(run: &Run<'_>, ax: &AxisColumn, f: usize, rows: &Range<usize>, r0: f64, ho: &mut HeldOut) {
+    let (log, s) = (run.log, f + 1);
+    let tt: Vec<f64> = run.sets[s].rows.iter().map(|&i| log.temp_c[i]).collect();
+    let ty: Vec<f64> = run.sets[s].rows.iter().map(|&i| ax.accel_g[i] - r0).collect();
+    for (k, kind) in PeerKind::ALL.iter().enumerate() {
+        match kind.fit(&tt, &ty) {
+            Ok(p) => ho.peers[k].extend(rows.clone().map(|i| ax.accel_g[i] - r0 - p.eval(log.temp_c[i]))),
+            Err(e) if ho.peer_err[k].is_none() => {
+                ho.peer_err[k] = Some(format!(
+                    "fold {} of {}: {}",
+                    f + 1,
+                    run.folds.len(),
+                    if *kind == PeerKind::Ardupilot { ardupilot_reason(&e) } else { e.to_string() }
+                ));
+            }
+            Err(_) => {}
+        }
+    }
+}
+
+/// A held-out figure of axis `axis` (`what`: ours, a peer, none) from its residuals `resid`
+/// (g) at times `t`: not computed when nothing is held out (`no_folds`) or the model
+/// could not be fitted (`err`).
+fn heldout_figure(
+    no_folds: bool,
+    axis: &str,
+    resid: &[f64],
+    t: &[f64],
+    what: &str,
+    err: &Option<String>,
+) -> Result<Figure, StaticCalError> {
+    if no_folds {
+        return Ok(Figure::not_computed(NO_HOLDOUT));
+    }
+    if let Some(e) = err {
+        return Ok(Figure::not_computed(e.clone()));
+    }
+    score(resid, t, &format!("{axis} {what}")).map(Figure::Score)
+}
+
+/// The report of a calibration whose axes are `axes`: the log, the held-out scheme (`rule`:
+/// why it was taken) and its folds, the coverage with what to record next, and how each
+/// structure was chosen.
+fn static_report(run: &Run<'_>, rule: String, axes: Vec<AxisReport>) -> Result<StaticReport, StaticCalError> {
+    let (log, opts, folds, n) = (run.log, run.opts, &run.folds, run.log.rows());
+    let log_branches = run.branch_rows(&run.sets[0].rows);
     let fold_reports: Vec<FoldReport> = folds
         .iter()
         .enumerate()
         .map(|(f, r)| {
-            let train: Vec<f64> = sets[f + 1].rows.iter().map(|&i| log.temp_c[i]).collect();
+            let train: Vec<f64> = run.sets[f + 1].rows.iter().map(|&i| log.temp_c[i]).collect();
             FoldReport {
                 heldout_rows: (r.start + 1, r.end),
                 heldout_time_s: (log.time_s[r.start], log.time_s[r.end - 1]),
                 heldout_temp_c: range(&log.temp_c[r.clone()]),
                 train_rows: train.len(),
-                train_branch_rows: branch_rows(&sets[f + 1].rows),
+                train_branch_rows: run.branch_rows(&run.sets[f + 1].rows),
                 train_temp_c: range(&train),
             }
         })
         .collect();
-    let coverage = crate::coverage::Coverage::of_samples(
-        (0..n).filter(|&i| plain.valid[i]).map(|i| (plain.temp_c[i], plain.rate_c_per_min[i])),
-        f64::from(opts.deadband_c_per_min),
-    )
-    .map_err(|e| StaticCalError::Figure(format!("coverage: {e}")))?;
-    let mut record_next = coverage.record_next();
-    if one_branch[0] {
-        record_next.push(format!(
-            "with one leg the table is `{}` (one rate-even curve), and a mission that runs the other way is \
-             compensated by a curve fitted on this leg only",
-            ONE_BRANCH.name()
-        ));
-    }
-    if matches!(scheme, Scheme::Blocks { .. }) && opts.holdout == Holdout::Auto {
-        record_next.push(
-            "the log has no later leg after its highest temperature, so the held-out figures come from blocks in \
-             time, each inside the range its neighbours saw; record a cooling leg after the maximum to score the \
-             model on a leg it was not fitted on (`after-max`)"
-                .to_string(),
-        );
-    }
-    let report = StaticReport {
+    let (coverage, record_next) = coverage_and_next(run)?;
+    Ok(StaticReport {
         coverage,
         record_next,
         kind: "static multi-axis",
@@ -416,34 +538,69 @@ pub fn calibrate_static(
         branch_rows: log_branches,
         holdout: HoldoutReport {
             requested: opts.holdout.to_string(),
-            scheme: scheme.name(),
+            scheme: run.scheme.name(),
             rule,
             heldout_rows: folds.iter().map(ExactSizeIterator::len).sum(),
             folds: fold_reports,
         },
-        figures: figures_text(&scheme, n),
-        selection: format!(
-            "per axis, the lowest {k_sel}-fold blocked cross-validation RMS (contiguous blocks in time) among {} \
-             candidates (branch tie x sensor_lag tau x bias_creep tau), over the rows the model is fitted on: every \
-             row for the table, each fold's training rows for its held-out figure; rows where one branch holds \
-             fewer than a tenth of the rows on a branch get `{}` instead (one rate-even curve: terms that act on \
-             the other branch cannot be tested there){}",
-            opts.candidates.len(),
-            ONE_BRANCH.name(),
-            if one_branch[0] {
-                format!(
-                    "; this log holds {} heating and {} cooling rows, so its table is `{}`",
-                    log_branches.0,
-                    log_branches.1,
-                    ONE_BRANCH.name()
-                )
-            } else {
-                String::new()
-            }
-        ),
+        figures: figures_text(&run.scheme, n),
+        selection: selection_text(run, log_branches),
         axes,
-    };
-    Ok(StaticCalibration { table, fits, peers, report, plot })
+    })
+}
+
+/// The temperature and rate coverage of the rows with a temperature, and what to record
+/// next: the coverage's own list, then a note when the table is the one-branch curve and
+/// one when `auto` fell back to blocks.
+fn coverage_and_next(run: &Run<'_>) -> Result<(crate::coverage::Coverage, Vec<String>), StaticCalError> {
+    let (plain, n) = (&run.plain, run.log.rows());
+    let coverage = crate::coverage::Coverage::of_samples(
+        (0..n).filter(|&i| plain.valid[i]).map(|i| (plain.temp_c[i], plain.rate_c_per_min[i])),
+        f64::from(run.opts.deadband_c_per_min),
+    )
+    .map_err(|e| StaticCalError::Figure(format!("coverage: {e}")))?;
+    let mut record_next = coverage.record_next();
+    if run.one_branch[0] {
+        record_next.push(format!(
+            "with one leg the table is `{}` (one rate-even curve), and a mission that runs the other way is \
+             compensated by a curve fitted on this leg only",
+            ONE_BRANCH.name()
+        ));
+    }
+    if matches!(run.scheme, Scheme::Blocks { .. }) && run.opts.holdout == Holdout::Auto {
+        record_next.push(
+            "the log has no later leg after its highest temperature, so the held-out figures come from blocks in \
+             time, each inside the range its neighbours saw; record a cooling leg after the maximum to score the \
+             model on a leg it was not fitted on (`after-max`)"
+                .to_string(),
+        );
+    }
+    Ok((coverage, record_next))
+}
+
+/// How each axis's structure was chosen, in words, with the log's heating and cooling rows
+/// (`log_branches`) when its table is the one-branch curve.
+fn selection_text(run: &Run<'_>, log_branches: (usize, usize)) -> String {
+    format!(
+        "per axis, the lowest {}-fold blocked cross-validation RMS (contiguous blocks in time) among {} \
+         candidates (branch tie x sensor_lag tau x bias_creep tau), over the rows the model is fitted on: every \
+         row for the table, each fold's training rows for its held-out figure; rows where one branch holds \
+         fewer than a tenth of the rows on a branch get `{}` instead (one rate-even curve: terms that act on \
+         the other branch cannot be tested there){}",
+        run.k_sel,
+        run.opts.candidates.len(),
+        ONE_BRANCH.name(),
+        if run.one_branch[0] {
+            format!(
+                "; this log holds {} heating and {} cooling rows, so its table is `{}`",
+                log_branches.0,
+                log_branches.1,
+                ONE_BRANCH.name()
+            )
+        } else {
+            String::new()
+        }
+    )
 }
 
 /// What stands in every held-out figure's place under `--holdout none`.

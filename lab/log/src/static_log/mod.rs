@@ -290,6 +290,57 @@ pub fn read_static_from<R: Read>(reader: R, opts: &StaticOptions) -> Result<Stat
     let mut text = Vec::new();
     let mut reader = reader;
     reader.read_to_end(&mut text).map_err(|e| StaticError::Io(e.to_string()))?;
+    let delim = delimiter(&text, opts)?;
+    let mut rdr = csv::ReaderBuilder::new().delimiter(delim).has_headers(false).flexible(true).from_reader(&text[..]);
+    let mut lines_of = crate::lines::LineCounter::new(&text);
+    let mut rec = csv::ByteRecord::new();
+    if !rdr.read_byte_record(&mut rec).map_err(|e| StaticError::Io(e.to_string()))? {
+        return Err(StaticError::Empty);
+    }
+    let header: Vec<String> = rec.iter().map(|b| String::from_utf8_lossy(b).trim().to_string()).collect();
+    let layout = layout_of(header, opts)?;
+    let mut rows = read_rows(&mut rdr, &mut rec, &mut lines_of, &layout, delim, opts.decimal_comma)?;
+    if rows.n_faults > 0 {
+        return Err(faults_error(rows, layout.temp_unit, layout.temp_src));
+    }
+    if !rows.any_row {
+        return Err(StaticError::NoRows);
+    }
+    let keep = drop_glitches(&mut rows)?;
+    let t0 = rows.raw_t[keep[0]];
+    let time_s: Vec<f64> = keep.iter().map(|&i| (rows.raw_t[i] - t0) * layout.time_unit.seconds()).collect();
+    let kept_temp: Vec<f64> = keep.iter().map(|&k| rows.temp[k]).collect();
+    let line: Vec<u64> = keep.iter().map(|&k| rows.lines[k]).collect();
+    let sampling = check_time_unit(&time_s, &kept_temp, &line, &layout)?;
+    let axes: Vec<AxisColumn> = layout
+        .axes_idx
+        .iter()
+        .zip(&rows.acc)
+        .map(|((role, i), a)| AxisColumn {
+            name: (*role).to_string(),
+            column: layout.header[*i].clone(),
+            accel_g: keep.iter().map(|&k| a[k]).collect(),
+        })
+        .collect();
+    let med_mag = check_accel_unit(&axes, keep.len(), &layout)?;
+    let units = unit_evidence(&layout, &sampling, med_mag, axes.len(), &kept_temp, &rows.file_temps);
+    let columns = columns_used(&layout, &axes);
+    Ok(StaticLog {
+        time_s,
+        time_origin_s: t0 * layout.time_unit.seconds(),
+        temp_c: kept_temp,
+        axes,
+        line,
+        columns,
+        skipped: rows.skipped,
+        sampling,
+        units,
+    })
+}
+
+/// The delimiter of a log: the most frequent of tab, comma and semicolon in its first line.
+/// An empty first line, or decimal commas asked for in a comma-separated file, is refused.
+fn delimiter(text: &[u8], opts: &StaticOptions) -> Result<u8, StaticError> {
     let first_line = text.split(|&c| c == b'\n').next().unwrap_or(b"");
     if first_line.iter().all(u8::is_ascii_whitespace) {
         return Err(StaticError::Empty);
@@ -300,13 +351,37 @@ pub fn read_static_from<R: Read>(reader: R, opts: &StaticOptions) -> Result<Stat
     if opts.decimal_comma && delim == b',' {
         return Err(StaticError::DecimalCommaDelimiter);
     }
-    let mut rdr = csv::ReaderBuilder::new().delimiter(delim).has_headers(false).flexible(true).from_reader(&text[..]);
-    let mut lines_of = crate::lines::LineCounter::new(&text);
-    let mut rec = csv::ByteRecord::new();
-    if !rdr.read_byte_record(&mut rec).map_err(|e| StaticError::Io(e.to_string()))? {
-        return Err(StaticError::Empty);
-    }
-    let header: Vec<String> = rec.iter().map(|b| String::from_utf8_lossy(b).trim().to_string()).collect();
+    Ok(delim)
+}
+
+/// The columns a static log is read from, and the unit of each with where it came from.
+struct Layout {
+    /// Column names, trimmed.
+    header: Vec<String>,
+    /// Time column.
+    ti: usize,
+    /// Temperature column.
+    tc: usize,
+    /// Acceleration columns with their roles, in the order ax, ay, az (those present).
+    axes_idx: Vec<(&'static str, usize)>,
+    /// Time unit.
+    time_unit: TimeUnit,
+    /// Where the time unit came from.
+    time_src: UnitSource,
+    /// Acceleration unit.
+    accel_unit: AccelUnit,
+    /// Where the acceleration unit came from.
+    accel_src: UnitSource,
+    /// Temperature unit.
+    temp_unit: TempUnit,
+    /// Where the temperature unit came from.
+    temp_src: UnitSource,
+}
+
+/// Find the time, temperature and acceleration columns in `header` and decide their units:
+/// a missing time, temperature or every acceleration column is refused, so is a time or
+/// acceleration unit neither given nor in the name; the temperature is °C when neither says.
+fn layout_of(header: Vec<String>, opts: &StaticOptions) -> Result<Layout, StaticError> {
     let need = |role: &str| -> Result<usize, StaticError> {
         find_column(&header, role, opts)?
             .ok_or_else(|| StaticError::MissingColumn { role: role.to_string(), header: header.clone() })
@@ -342,31 +417,63 @@ pub fn read_static_from<R: Read>(reader: R, opts: &StaticOptions) -> Result<Stat
         TempUnit::name,
     )?
     .unwrap_or((TempUnit::C, UnitSource::Assumed));
+    Ok(Layout { header, ti, tc, axes_idx, time_unit, time_src, accel_unit, accel_src, temp_unit, temp_src })
+}
 
-    let ncol = header.len();
-    let mut raw_t: Vec<f64> = Vec::new();
-    let mut temp: Vec<f64> = Vec::new();
-    let mut acc: Vec<Vec<f64>> = vec![Vec::new(); axes_idx.len()];
-    let mut lines: Vec<u64> = Vec::new();
-    let mut skipped = Skipped::default();
-    // Every parsed temperature in the file's unit, for the unit check of out-of-range rows.
-    let mut file_temps: Vec<f64> = Vec::new();
-    let mut faults: Vec<(u64, StaticRowFault)> = Vec::new();
-    let mut n_faults = 0usize;
-    // Rows whose bad field is a decimal-comma number, and the first of them.
-    let mut comma_rows = 0usize;
-    let mut first_comma: Option<(u64, String, String)> = None;
-    let mut any_row = false;
-    let mut line: u64 = 1;
-    let mut fault = |faults: &mut Vec<(u64, StaticRowFault)>, line: u64, f: StaticRowFault| {
-        n_faults += 1;
-        if faults.len() < KEPT_LINES {
-            faults.push((line, f));
+/// What the row loop keeps (before glitches are removed) and what it found on the way.
+#[derive(Default)]
+struct Rows {
+    /// Time in the file's unit.
+    raw_t: Vec<f64>,
+    /// Temperature, °C.
+    temp: Vec<f64>,
+    /// Specific force per axis, g.
+    acc: Vec<Vec<f64>>,
+    /// Line number of each row.
+    lines: Vec<u64>,
+    /// Rows skipped so far (NaN and duplicates; glitches come later).
+    skipped: Skipped,
+    /// Every parsed temperature in the file's unit, for the unit check of out-of-range rows.
+    file_temps: Vec<f64>,
+    /// The first [`KEPT_LINES`] bad rows, with their line numbers.
+    faults: Vec<(u64, StaticRowFault)>,
+    /// Bad rows, all counted.
+    n_faults: usize,
+    /// Rows whose bad field is a decimal-comma number.
+    comma_rows: usize,
+    /// The first of them: line, column, text.
+    first_comma: Option<(u64, String, String)>,
+    /// Any row that is not blank.
+    any_row: bool,
+}
+
+impl Rows {
+    /// Count a bad row; keep it with its line number while fewer than [`KEPT_LINES`] are kept.
+    fn fault(&mut self, line: u64, f: StaticRowFault) {
+        self.n_faults += 1;
+        if self.faults.len() < KEPT_LINES {
+            self.faults.push((line, f));
         }
-    };
+    }
+}
+
+/// Read every row after the header: blank lines passed over, a row with the wrong field
+/// count or a field that is no number counted as a fault, the rest to [`keep_row`]. Only
+/// an unreadable record stops the loop (an error).
+fn read_rows(
+    rdr: &mut csv::Reader<&[u8]>,
+    rec: &mut csv::ByteRecord,
+    lines_of: &mut crate::lines::LineCounter<'_>,
+    layout: &Layout,
+    delim: u8,
+    decimal_comma: bool,
+) -> Result<Rows, StaticError> {
+    let ncol = layout.header.len();
+    let mut rows = Rows { acc: vec![Vec::new(); layout.axes_idx.len()], ..Rows::default() };
+    let mut line: u64 = 1;
     loop {
         line += 1;
-        match rdr.read_byte_record(&mut rec) {
+        match rdr.read_byte_record(rec) {
             Ok(true) => {}
             Ok(false) => break,
             Err(e) => return Err(StaticError::Io(format!("line {line}: {e}"))),
@@ -377,176 +484,217 @@ pub fn read_static_from<R: Read>(reader: R, opts: &StaticOptions) -> Result<Stat
         if rec.len() == 1 && rec.get(0).is_some_and(|b| b.iter().all(u8::is_ascii_whitespace)) {
             continue; // a blank line
         }
-        any_row = true;
+        rows.any_row = true;
         if rec.len() != ncol {
-            fault(&mut faults, line, StaticRowFault::FieldCount { got: rec.len(), want: ncol });
+            rows.fault(line, StaticRowFault::FieldCount { got: rec.len(), want: ncol });
             continue;
         }
-        let mut cols: Vec<usize> = vec![ti, tc];
-        cols.extend(axes_idx.iter().map(|(_, i)| *i));
-        let mut vals = Vec::with_capacity(cols.len());
-        let mut bad = false;
-        for &c in &cols {
-            match parse_field(rec.get(c).unwrap_or(b""), &header[c], opts.decimal_comma) {
-                Ok(v) => vals.push(v),
-                Err(f) => {
-                    if let StaticRowFault::NotANumber { column, text } = &f {
-                        if delim != b',' && is_decimal_comma(text) {
-                            comma_rows += 1;
-                            first_comma.get_or_insert_with(|| (line, column.clone(), text.clone()));
-                        }
+        if let Some(vals) = parse_row(rec, layout, line, delim, decimal_comma, &mut rows) {
+            keep_row(&mut rows, layout, line, vals);
+        }
+    }
+    Ok(rows)
+}
+
+/// The fields of one row in the order time, temperature, axes (`None` for an empty or NaN
+/// field), or `None` when one is no number: that is a fault, and noted as a decimal comma
+/// when it reads as one in a file not separated by commas.
+fn parse_row(
+    rec: &csv::ByteRecord,
+    layout: &Layout,
+    line: u64,
+    delim: u8,
+    decimal_comma: bool,
+    rows: &mut Rows,
+) -> Option<Vec<Option<f64>>> {
+    let mut cols: Vec<usize> = vec![layout.ti, layout.tc];
+    cols.extend(layout.axes_idx.iter().map(|(_, i)| *i));
+    let mut vals = Vec::with_capacity(cols.len());
+    for &c in &cols {
+        match parse_field(rec.get(c).unwrap_or(b""), &layout.header[c], decimal_comma) {
+            Ok(v) => vals.push(v),
+            Err(f) => {
+                if let StaticRowFault::NotANumber { column, text } = &f {
+                    if delim != b',' && is_decimal_comma(text) {
+                        rows.comma_rows += 1;
+                        rows.first_comma.get_or_insert_with(|| (line, column.clone(), text.clone()));
                     }
-                    fault(&mut faults, line, f);
-                    bad = true;
-                    break;
                 }
+                rows.fault(line, f);
+                return None;
             }
         }
-        if bad {
-            continue;
-        }
-        if vals.iter().any(Option::is_none) {
-            skipped.nan.add(line);
-            continue;
-        }
-        let vals: Vec<f64> = vals.into_iter().flatten().collect();
-        let (t, tc_v) = (vals[0], temp_unit.to_c(vals[1]));
-        file_temps.push(vals[1]);
-        if !TEMP_RANGE_C.contains(&tc_v) {
-            fault(&mut faults, line, StaticRowFault::TempOutOfRange(tc_v));
-            continue;
-        }
-        if let Some(&prev) = raw_t.last() {
-            if t < prev {
-                fault(&mut faults, line, StaticRowFault::TimeBackwards { previous: prev, time: t });
-                continue;
-            }
-            if t == prev {
-                skipped.duplicate.add(line);
-                continue;
-            }
-        }
-        raw_t.push(t);
-        temp.push(tc_v);
-        for (k, a) in acc.iter_mut().enumerate() {
-            a.push(vals[2 + k] * accel_unit.g());
-        }
-        lines.push(line);
     }
-    if n_faults > 0 {
-        // The first bad field a decimal-comma number: say that, not "not a number" rows.
-        if let Some((line, column, text)) = first_comma.filter(|(l, _, _)| faults.first().is_some_and(|f| f.0 == *l)) {
-            return Err(StaticError::DecimalComma { line, column, text, rows: comma_rows });
-        }
-        // Temperatures out of range in the unit read, and every one in range in another:
-        // the unit is wrong, not the rows.
-        if faults.iter().any(|(_, f)| matches!(f, StaticRowFault::TempOutOfRange(_))) {
-            let fits = temp_fits(&file_temps, temp_unit);
-            if !fits.is_empty() {
-                let (lo, hi) = range_c(&file_temps, temp_unit);
-                let out = file_temps.iter().filter(|&&x| !TEMP_RANGE_C.contains(&temp_unit.to_c(x))).count();
-                return Err(StaticError::Unit(Box::new(UnitMismatch {
-                    option: ReaderOption::TempUnit,
-                    stated: temp_unit.name(),
-                    source: temp_src,
-                    evidence: format!(
-                        "the temperature spans {lo:.1}..{hi:.1} °C ({out} of {} rows outside -60..130 °C)",
-                        file_temps.len()
-                    ),
-                    expected: "a board in a climate chamber reads -60..130 °C".to_string(),
-                    fits: fits.into_iter().map(|(u, (a, b))| (u.name(), format!("{a:.1}..{b:.1} °C"))).collect(),
-                })));
-            }
-        }
-        return Err(StaticError::Rows { first: faults, total: n_faults });
+    Some(vals)
+}
+
+/// Keep a parsed row, in °C and g, unless a field is empty or NaN (skipped), its
+/// temperature is outside [`TEMP_RANGE_C`] (a fault), its time goes backwards (a fault) or
+/// repeats the previous row's (skipped).
+fn keep_row(rows: &mut Rows, layout: &Layout, line: u64, vals: Vec<Option<f64>>) {
+    if vals.iter().any(Option::is_none) {
+        rows.skipped.nan.add(line);
+        return;
     }
-    if !any_row {
-        return Err(StaticError::NoRows);
+    let vals: Vec<f64> = vals.into_iter().flatten().collect();
+    let (t, tc_v) = (vals[0], layout.temp_unit.to_c(vals[1]));
+    rows.file_temps.push(vals[1]);
+    if !TEMP_RANGE_C.contains(&tc_v) {
+        rows.fault(line, StaticRowFault::TempOutOfRange(tc_v));
+        return;
     }
+    if let Some(&prev) = rows.raw_t.last() {
+        if t < prev {
+            rows.fault(line, StaticRowFault::TimeBackwards { previous: prev, time: t });
+            return;
+        }
+        if t == prev {
+            rows.skipped.duplicate.add(line);
+            return;
+        }
+    }
+    rows.raw_t.push(t);
+    rows.temp.push(tc_v);
+    for (k, a) in rows.acc.iter_mut().enumerate() {
+        a.push(vals[2 + k] * layout.accel_unit.g());
+    }
+    rows.lines.push(line);
+}
+
+/// The error for a log with bad rows: a decimal comma when the first bad field is one, the
+/// temperature unit when a reading is out of range and every reading fits another unit,
+/// else the rows themselves.
+fn faults_error(rows: Rows, temp_unit: TempUnit, temp_src: UnitSource) -> StaticError {
+    // The first bad field a decimal-comma number: say that, not "not a number" rows.
+    let faults = rows.faults;
+    if let Some((line, column, text)) = rows.first_comma.filter(|(l, _, _)| faults.first().is_some_and(|f| f.0 == *l)) {
+        return StaticError::DecimalComma { line, column, text, rows: rows.comma_rows };
+    }
+    // Temperatures out of range in the unit read, and every one in range in another:
+    // the unit is wrong, not the rows.
+    let file_temps = rows.file_temps;
+    if faults.iter().any(|(_, f)| matches!(f, StaticRowFault::TempOutOfRange(_))) {
+        let fits = temp_fits(&file_temps, temp_unit);
+        if !fits.is_empty() {
+            let (lo, hi) = range_c(&file_temps, temp_unit);
+            let out = file_temps.iter().filter(|&&x| !TEMP_RANGE_C.contains(&temp_unit.to_c(x))).count();
+            return StaticError::Unit(Box::new(UnitMismatch {
+                option: ReaderOption::TempUnit,
+                stated: temp_unit.name(),
+                source: temp_src,
+                evidence: format!(
+                    "the temperature spans {lo:.1}..{hi:.1} °C ({out} of {} rows outside -60..130 °C)",
+                    file_temps.len()
+                ),
+                expected: "a board in a climate chamber reads -60..130 °C".to_string(),
+                fits: fits.into_iter().map(|(u, (a, b))| (u.name(), format!("{a:.1}..{b:.1} °C"))).collect(),
+            }));
+        }
+    }
+    StaticError::Rows { first: faults, total: rows.n_faults }
+}
+
+/// The rows left once glitch rows (any channel spiking, see the module docs) are skipped
+/// and counted; fewer than [`MIN_ROWS`] is an error.
+fn drop_glitches(rows: &mut Rows) -> Result<Vec<usize>, StaticError> {
     // Glitch rows: any channel spiking marks the row.
-    let mut glitch = vec![false; raw_t.len()];
-    for i in glitches(&temp, GLITCH_MIN_TEMP_C) {
+    let mut glitch = vec![false; rows.raw_t.len()];
+    for i in glitches(&rows.temp, GLITCH_MIN_TEMP_C) {
         glitch[i] = true;
     }
-    for a in &acc {
+    for a in &rows.acc {
         for i in glitches(a, GLITCH_MIN_ACCEL_G) {
             glitch[i] = true;
         }
     }
-    let keep: Vec<usize> = (0..raw_t.len()).filter(|&i| !glitch[i]).collect();
+    let keep: Vec<usize> = (0..rows.raw_t.len()).filter(|&i| !glitch[i]).collect();
     for (i, _) in glitch.iter().enumerate().filter(|(_, g)| **g) {
-        skipped.glitch.add(lines[i]);
+        rows.skipped.glitch.add(rows.lines[i]);
     }
     if keep.len() < MIN_ROWS {
-        return Err(StaticError::TooFewRows { kept: keep.len(), skipped });
+        return Err(StaticError::TooFewRows { kept: keep.len(), skipped: std::mem::take(&mut rows.skipped) });
     }
-    let t0 = raw_t[keep[0]];
-    let time_s: Vec<f64> = keep.iter().map(|&i| (raw_t[i] - t0) * time_unit.seconds()).collect();
+    Ok(keep)
+}
+
+/// The sampling of the kept rows (`time_s` from the first, s; `temp_c`, °C; `lines`, their
+/// line numbers), after the time-unit check: a median row interval outside 10 µs…60 s, or
+/// a temperature changing faster than [`MAX_SLEW_C_PER_MIN`], refuses the time unit.
+fn check_time_unit(time_s: &[f64], temp_c: &[f64], lines: &[u64], layout: &Layout) -> Result<Sampling, StaticError> {
     let intervals: Vec<f64> = time_s.windows(2).map(|w| w[1] - w[0]).collect();
     let med = median(&intervals);
-    let kept_temp: Vec<f64> = keep.iter().map(|&k| temp[k]).collect();
-    let slew = max_slew(&time_s, &kept_temp);
+    let slew = max_slew(time_s, temp_c);
     if !INTERVAL_S.contains(&med) || slew.c_per_min > MAX_SLEW_C_PER_MIN {
-        // Which other units would make both the interval and the slew plausible.
-        let fits = TimeUnit::ALL
-            .into_iter()
-            .filter(|&u| u != time_unit)
-            .filter_map(|u| {
-                let k = u.seconds() / time_unit.seconds();
-                let t: Vec<f64> = time_s.iter().map(|x| x * k).collect();
-                let s = max_slew(&t, &kept_temp).c_per_min;
-                (INTERVAL_S.contains(&(med * k)) && s <= MAX_SLEW_C_PER_MIN)
-                    .then(|| (u.name(), format!("rows {} s apart, {s:.1} °C/min", sig3(med * k))))
-            })
-            .collect();
-        let (evidence, expected) = if INTERVAL_S.contains(&med) {
-            // The filtered values are the ones the range is of; at these rows they are the
-            // readings themselves unless a neighbour was a bad one.
-            let at = |i: usize| -> (u64, f64) { (lines[keep[i]], centred_median(&kept_temp, i)) };
-            let (a, b) = (at(slew.from), at(slew.to));
-            (
-                format!(
-                    "the temperature changes by {:.0} °C/min ({:.2} °C within {:.3} s: from {:.2} °C at line {} to \
-                     {:.2} °C at line {})",
-                    slew.c_per_min, slew.range_c, slew.window_s, a.1, a.0, b.1, b.0
-                ),
-                format!("a board in a climate chamber changes by at most {MAX_SLEW_C_PER_MIN:.0} °C/min"),
-            )
-        } else {
-            (
-                format!("the median row interval is {} s", sig3(med)),
-                "a logger writes a row every 10 µs..60 s".to_string(),
-            )
-        };
-        return Err(StaticError::Unit(Box::new(UnitMismatch {
-            option: ReaderOption::TimeUnit,
-            stated: time_unit.name(),
-            source: time_src,
-            evidence,
-            expected,
-            fits,
-        })));
+        return Err(time_unit_mismatch(time_s, temp_c, lines, med, &slew, layout));
     }
-    let sampling = Sampling {
+    Ok(Sampling {
         median_interval_s: med,
         irregular_intervals: intervals.iter().filter(|&&d| d < 0.5 * med || d > 2.0 * med).count(),
         gaps_over_30s: intervals.iter().filter(|&&d| d > 30.0).count(),
         max_interval_s: intervals.iter().copied().fold(0.0, f64::max),
         max_slew_c_per_min: slew.c_per_min,
-    };
-    let axes: Vec<AxisColumn> = axes_idx
-        .iter()
-        .zip(&acc)
-        .map(|((role, i), a)| AxisColumn {
-            name: (*role).to_string(),
-            column: header[*i].clone(),
-            accel_g: keep.iter().map(|&k| a[k]).collect(),
+    })
+}
+
+/// The time-unit error of [`check_time_unit`]: the slew (with the rows it runs between) when
+/// the interval is plausible, else the interval, and the other units that make both
+/// plausible.
+fn time_unit_mismatch(
+    time_s: &[f64],
+    temp_c: &[f64],
+    lines: &[u64],
+    med: f64,
+    slew: &Slew,
+    layout: &Layout,
+) -> StaticError {
+    let time_unit = layout.time_unit;
+    // Which other units would make both the interval and the slew plausible.
+    let fits = TimeUnit::ALL
+        .into_iter()
+        .filter(|&u| u != time_unit)
+        .filter_map(|u| {
+            let k = u.seconds() / time_unit.seconds();
+            let t: Vec<f64> = time_s.iter().map(|x| x * k).collect();
+            let s = max_slew(&t, temp_c).c_per_min;
+            (INTERVAL_S.contains(&(med * k)) && s <= MAX_SLEW_C_PER_MIN)
+                .then(|| (u.name(), format!("rows {} s apart, {s:.1} °C/min", sig3(med * k))))
         })
         .collect();
+    let (evidence, expected) = if INTERVAL_S.contains(&med) {
+        // The filtered values are the ones the range is of; at these rows they are the
+        // readings themselves unless a neighbour was a bad one.
+        let at = |i: usize| -> (u64, f64) { (lines[i], centred_median(temp_c, i)) };
+        let (a, b) = (at(slew.from), at(slew.to));
+        (
+            format!(
+                "the temperature changes by {:.0} °C/min ({:.2} °C within {:.3} s: from {:.2} °C at line {} to \
+                 {:.2} °C at line {})",
+                slew.c_per_min, slew.range_c, slew.window_s, a.1, a.0, b.1, b.0
+            ),
+            format!("a board in a climate chamber changes by at most {MAX_SLEW_C_PER_MIN:.0} °C/min"),
+        )
+    } else {
+        (format!("the median row interval is {} s", sig3(med)), "a logger writes a row every 10 µs..60 s".to_string())
+    };
+    StaticError::Unit(Box::new(UnitMismatch {
+        option: ReaderOption::TimeUnit,
+        stated: time_unit.name(),
+        source: layout.time_src.clone(),
+        evidence,
+        expected,
+        fits,
+    }))
+}
+
+/// The median |a| over the `rows` kept rows, g, after the acceleration-unit check: the
+/// median must lie in [`REST_G`] (0.67…1.5 g) with every axis, at most 1.5 g with fewer;
+/// outside, the unit is refused, naming the units that fit.
+fn check_accel_unit(axes: &[AxisColumn], rows: usize, layout: &Layout) -> Result<f64, StaticError> {
+    let accel_unit = layout.accel_unit;
     // A board at rest reads |a| = 1 g: with every axis the median |a| is checked from both
     // sides, with fewer axes (a projection) only from above.
     let mag: Vec<f64> =
-        (0..keep.len()).map(|k| axes.iter().map(|a| a.accel_g[k] * a.accel_g[k]).sum::<f64>().sqrt()).collect();
+        (0..rows).map(|k| axes.iter().map(|a| a.accel_g[k] * a.accel_g[k]).sum::<f64>().sqrt()).collect();
     let med_mag = median(&mag);
     let all_axes = axes.len() == 3;
     let lo = if all_axes { REST_G.0 } else { 0.0 };
@@ -567,57 +715,73 @@ pub fn read_static_from<R: Read>(reader: R, opts: &StaticOptions) -> Result<Stat
         return Err(StaticError::Unit(Box::new(UnitMismatch {
             option: ReaderOption::AccelUnit,
             stated: accel_unit.name(),
-            source: accel_src,
+            source: layout.accel_src.clone(),
             evidence: format!("the median |a| over {cols} is {} g", sig3(med_mag)),
             expected,
             fits,
         })));
     }
-    let temp_range = range_c(&kept_temp, TempUnit::C);
-    let units = UnitEvidence {
+    Ok(med_mag)
+}
+
+/// How each unit was decided and what the kept rows show in it (`med_mag`, the median |a|
+/// over `n_axes` axes, g; `temp_c`, the kept temperatures, °C), with the other temperature
+/// units every reading of the file (`file_temps`) would also fit.
+fn unit_evidence(
+    layout: &Layout,
+    sampling: &Sampling,
+    med_mag: f64,
+    n_axes: usize,
+    temp_c: &[f64],
+    file_temps: &[f64],
+) -> UnitEvidence {
+    let temp_range = range_c(temp_c, TempUnit::C);
+    UnitEvidence {
         units: vec![
             (
                 ReaderOption::TimeUnit,
-                time_unit.name(),
-                time_src,
-                format!("rows {} s apart, fastest change {:.1} °C/min", sig3(med), slew.c_per_min),
+                layout.time_unit.name(),
+                layout.time_src.clone(),
+                format!(
+                    "rows {} s apart, fastest change {:.1} °C/min",
+                    sig3(sampling.median_interval_s),
+                    sampling.max_slew_c_per_min
+                ),
             ),
             (
                 ReaderOption::AccelUnit,
-                accel_unit.name(),
-                accel_src,
-                format!("median |a| {} g over {} axis(es)", sig3(med_mag), axes.len()),
+                layout.accel_unit.name(),
+                layout.accel_src.clone(),
+                format!("median |a| {} g over {} axis(es)", sig3(med_mag), n_axes),
             ),
             (
                 ReaderOption::TempUnit,
-                temp_unit.name(),
-                temp_src,
+                layout.temp_unit.name(),
+                layout.temp_src.clone(),
                 format!("{:.1}..{:.1} °C", temp_range.0, temp_range.1),
             ),
         ],
         median_abs_g: med_mag,
-        all_axes,
+        all_axes: n_axes == 3,
         temp_range_c: temp_range,
-        temp_also_plausible: temp_fits(&file_temps, temp_unit).into_iter().map(|(u, r)| (u.name(), r)).collect(),
-    };
-    let mut columns = vec![
-        ("time".to_string(), header[ti].clone(), format!("{time_unit:?}").to_lowercase()),
-        ("temp".to_string(), header[tc].clone(), format!("deg{}", temp_unit.name()).replace("degK", "K")),
-    ];
-    for a in &axes {
-        columns.push((a.name.clone(), a.column.clone(), format!("{accel_unit:?}").to_lowercase()));
+        temp_also_plausible: temp_fits(file_temps, layout.temp_unit).into_iter().map(|(u, r)| (u.name(), r)).collect(),
     }
-    Ok(StaticLog {
-        time_s,
-        time_origin_s: t0 * time_unit.seconds(),
-        temp_c: kept_temp,
-        axes,
-        line: keep.iter().map(|&k| lines[k]).collect(),
-        columns,
-        skipped,
-        sampling,
-        units,
-    })
+}
+
+/// The columns used, `(role, column, unit)`: time, temperature, then each axis.
+fn columns_used(layout: &Layout, axes: &[AxisColumn]) -> Vec<(String, String, String)> {
+    let mut columns = vec![
+        ("time".to_string(), layout.header[layout.ti].clone(), format!("{:?}", layout.time_unit).to_lowercase()),
+        (
+            "temp".to_string(),
+            layout.header[layout.tc].clone(),
+            format!("deg{}", layout.temp_unit.name()).replace("degK", "K"),
+        ),
+    ];
+    for a in axes {
+        columns.push((a.name.clone(), a.column.clone(), format!("{:?}", layout.accel_unit).to_lowercase()));
+    }
+    columns
 }
 
 /// Readings outside this range, °C, are refused.
