@@ -85,14 +85,15 @@ fn moved_by(d: Defect) -> &'static [&'static str] {
     }
 }
 
-/// 60 units, one of each defect per started 50 (6 bad): every bad unit is held back
+/// 30 units, one of each defect per started 50 (3 bad): every bad unit is held back
 /// (REVIEW or FAIL) with its strongest flag on a figure its defect moves; every good unit
 /// passes; and every good unit's fleet figures agree with the truth it was drawn from, to
 /// a small share of the population's spread (the descriptor measures what it says).
 #[test]
 fn a_chamber_run_flags_each_bad_unit_for_its_defect_and_passes_the_rest() {
     let dir = scratch("batch-flags");
-    let spec = PopulationSpec { units: 60, seed: 3, bad: true, truncated: 0 };
+    // 30 units in CI (about 2 s of CPU each); `flag_study` below runs hundreds.
+    let spec = PopulationSpec { units: 30, seed: 3, bad: true, truncated: 0 };
     let (truth, units) = chamber(&dir, &spec);
     let out = dir.join("out");
     let run = batch::run(&units, &out, &BatchOptions { threads: 2, ..BatchOptions::default() }).unwrap();
@@ -126,7 +127,7 @@ fn a_chamber_run_flags_each_bad_unit_for_its_defect_and_passes_the_rest() {
             }
         }
     }
-    assert_eq!((bad, good), (6, 54));
+    assert_eq!((bad, good), (3, 27));
     // The descriptor against the truth, on the good units: slope, level and split.
     let stats: BTreeMap<&str, BTreeMap<&str, f64>> = fleet
         .stats
@@ -308,14 +309,14 @@ fn summary(rows: &[PriorRow], truncated: bool) -> (f64, f64, f64) {
     (rms(&|r| r.2), rms(&|r| r.3), worst_ratio)
 }
 
-/// The population prior on a simulated batch of 24 good units, 6 with truncated logs
+/// The population prior on a simulated batch of 16 good units, 4 with truncated logs
 /// (heating only, or the first half of the run): it brings the truncated units' error
 /// against their truth down, and leaves the full-log units within noise of their own
 /// tables (their tables' error against the truth is itself the noise floor; the prior's
 /// cubic may not exceed it by more than 50 µg on any axis of any unit).
 #[test]
 fn the_prior_helps_truncated_units_and_costs_full_ones_nothing_beyond_noise() {
-    let rows = prior_study(24, 6, 21, "batch-prior");
+    let rows = prior_study(16, 4, 21, "batch-prior");
     let (own_t, prior_t, _) = summary(&rows, true);
     println!("truncated units: own {own_t:.3} mg, prior {prior_t:.3} mg (RMS over axes and units)");
     assert!(prior_t < 0.5 * own_t, "truncated: own {own_t:.3} mg, prior {prior_t:.3} mg");

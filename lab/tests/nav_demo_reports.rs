@@ -7,14 +7,16 @@
 //! file.
 //!
 //! Runs reduced: the built-in flight's first 15 min at 20 Hz with one Monte Carlo run, and
-//! the demo at 10-s rows with 20 min of flight (as `report_html` runs it).
+//! the demo at 10-s rows with 20 min of flight. The demo's run also checks its pages in a
+//! real headless Chromium ([`common::browser`]) and its outputs' size (under 20 MB): one
+//! run of the demo serves both checks.
 
 mod common;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use common::html;
+use common::{browser, html};
 
 fn tmp(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("qfa-nav-demo-reports-{}-{name}", std::process::id()));
@@ -160,10 +162,20 @@ fn navigate_with_a_monte_carlo_run_and_its_merged_shard_tell_one_story() {
 }
 
 #[test]
-fn the_demo_tells_one_story_and_links_every_sub_page() {
+fn the_reduced_demo_tells_one_story_links_every_sub_page_loads_and_stays_under_20_mb() {
     let d = tmp("demo");
     let out = d.join("out");
     let stdout = lab_stdout(&["demo", "--out", &s(&out), "--row-s", "10", "--nav-duration-s", "1200"]);
+    let bytes = qfa_lab::demo::dir_bytes(&out).unwrap();
+    println!("reduced demo (10-s rows, 1200 s of flight): {:.2} MB", bytes as f64 / 1e6);
+    assert!(bytes < 20_000_000, "demo outputs {bytes} B, over 20 MB:\n{stdout}");
+    for u in 1..=3 {
+        assert!(!out.join(format!("kt8-{u}/log.csv")).exists(), "log.csv kept without --full-logs");
+        browser::assert_page(&out.join(format!("kt8-{u}/report.html")), 2);
+    }
+    browser::assert_page(&out.join("kt8-1/discover/report.html"), 1);
+    browser::assert_page(&out.join("navigation/report.html"), 1);
+    browser::assert_page(&out.join("report.html"), 4);
     let lines = assert_one_story(&out, &stdout);
     assert!(
         stdout.trim_end().lines().last().is_some_and(|l| l.starts_with("detail: ")),

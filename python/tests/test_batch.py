@@ -75,7 +75,7 @@ def test_a_dask_cluster_writes_the_same_bytes(tmp_path: Path, chamber: Path, sin
 def test_the_returned_fleet_is_the_file(single_run: Tuple[Path, Dict[str, Any]]) -> None:
     """``batch`` returns ``fleet.json`` itself, and every unit of the log has its
     certificate naming the CRC of a table that exists. (Which units the fleet flags is
-    judged against the simulator's truth on 60 units in ``lab/tests/batch.rs``: 6 are too
+    judged against the simulator's truth on 30 units in ``lab/tests/batch.rs``: 6 are too
     few for a robust spread.)"""
     import json
 
