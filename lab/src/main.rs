@@ -518,6 +518,30 @@ impl From<anyhow::Error> for CliError {
     }
 }
 
+/// A navigation error with its causes on one line (`context: cause`), as an anyhow error
+/// prints.
+fn nav_failed(e: impl std::error::Error + Send + Sync + 'static) -> CliError {
+    CliError::from(anyhow::Error::from(e))
+}
+
+impl From<qfa_nav::NavError> for CliError {
+    fn from(e: qfa_nav::NavError) -> Self {
+        nav_failed(e)
+    }
+}
+
+impl From<qfa_nav::scenario::ScenarioError> for CliError {
+    fn from(e: qfa_nav::scenario::ScenarioError) -> Self {
+        nav_failed(e)
+    }
+}
+
+impl From<qfa_nav::plan::PlanError> for CliError {
+    fn from(e: qfa_nav::plan::PlanError) -> Self {
+        nav_failed(e)
+    }
+}
+
 /// Every `--out` checked before any work (a log is read, a fit runs).
 fn check_out(cmd: &Cmd) -> Result<(), OutError> {
     use qfa_lab::out_path::{check_dir, check_file};

@@ -52,12 +52,12 @@ fn real() -> Box<dyn ThermalCompensator> {
     Box::new(imu_compensator())
 }
 
-fn same_tables(t: [&Table; 3]) -> anyhow::Result<[Table; 3]> {
-    Ok(t.map(Clone::clone))
+fn same_tables(t: [&Table; 3]) -> [Table; 3] {
+    t.map(Clone::clone)
 }
 
 /// Every thermal coefficient zeroed: μ, β, ε, η, α and both bias grids (K1 = γ, K0 = 0).
-fn zeroed(t: [&Table; 3]) -> anyhow::Result<[Table; 3]> {
+fn zeroed(t: [&Table; 3]) -> [Table; 3] {
     let mut out = t.map(Clone::clone);
     for a in out.iter_mut().flat_map(|t| t.axes.iter_mut()) {
         let s = &mut a.scale;
@@ -66,17 +66,17 @@ fn zeroed(t: [&Table; 3]) -> anyhow::Result<[Table; 3]> {
             *v = 0.0;
         }
     }
-    Ok(out)
+    out
 }
 
 /// The rate the model sees pinned at zero: the rate limit set to 1e-4 °C/min, so the
 /// Eq. 11 rate terms and the heating / cooling branch never see Ṫ.
-fn rate_pinned(t: [&Table; 3]) -> anyhow::Result<[Table; 3]> {
+fn rate_pinned(t: [&Table; 3]) -> [Table; 3] {
     let mut out = t.map(Clone::clone);
     for a in out.iter_mut().flat_map(|t| t.axes.iter_mut()) {
         a.rate_limit_c_per_min = 1e-4;
     }
-    Ok(out)
+    out
 }
 
 const ZEROED: Replacement = Replacement { compensator: real, tables: zeroed };

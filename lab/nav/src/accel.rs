@@ -11,6 +11,8 @@
 //! [`LabAccel`] wires in the lab's truth model: `E = K1·(K0 + a/g₀ + n)` pulses per second
 //! (paper Eq. 2), K1 from Eq. 11 and K0 a smooth bias plus any extension effects.
 
+use std::fmt;
+
 use nalgebra::Vector3;
 use qfa_thermal::compensator::{self, Compensator};
 use qfa_thermal::table::Table;
@@ -52,6 +54,49 @@ pub trait AccelCompensation {
     /// compensation without a status word (the oracle).
     fn flags(&self) -> Option<FlagCounts> {
         None
+    }
+}
+
+/// Why a compensation could not be built, or its flag shares not computed.
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum AccelError {
+    /// No compensated cycle counted: a share of cycles has no denominator.
+    NoCycles,
+    /// The compensator refused its settings.
+    Config(compensator::ConfigError),
+    /// The three tables could not be joined into one 3-axis table.
+    Table(super::calib::CalibError),
+    /// The compensator refused the 3-axis table.
+    Refused(qfa_thermal::table::Error),
+}
+
+impl fmt::Display for AccelError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::NoCycles => f.write_str("no compensated cycle counted: flag share not computed"),
+            Self::Config(_) => f.write_str("config"),
+            Self::Table(e) => write!(f, "{e}"),
+            Self::Refused(_) => f.write_str("table refused"),
+        }
+    }
+}
+
+impl std::error::Error for AccelError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            Self::NoCycles => None,
+            Self::Config(e) => Some(e),
+            // Printed as it is (above): its cause comes next.
+            Self::Table(e) => e.source(),
+            Self::Refused(e) => Some(e),
+        }
+    }
+}
+
+impl From<super::calib::CalibError> for AccelError {
+    fn from(e: super::calib::CalibError) -> Self {
+        Self::Table(e)
     }
 }
 
@@ -110,8 +155,8 @@ impl FlagCounts {
     ///
     /// # Errors
     /// No cycle counted: the share is not computed.
-    pub fn share(&self, flag: compensator::Status) -> anyhow::Result<f64> {
-        anyhow::ensure!(self.cycles > 0, "no compensated cycle counted: flag share not computed");
+    pub fn share(&self, flag: compensator::Status) -> Result<f64, AccelError> {
+        crate::ensure(self.cycles > 0, AccelError::NoCycles)?;
         let b = flag.bits().trailing_zeros() as usize;
         Ok(self.counts[b] as f64 / self.cycles as f64)
     }
@@ -120,7 +165,7 @@ impl FlagCounts {
     ///
     /// # Errors
     /// No cycle counted.
-    pub fn shares(&self) -> anyhow::Result<FlagShares> {
+    pub fn shares(&self) -> Result<FlagShares, AccelError> {
         Ok(FlagShares {
             cycles: self.cycles,
             rate_clamped: self.share(compensator::Status::RATE_OUT_OF_RANGE)?,
@@ -241,7 +286,7 @@ impl TableCompensation {
     ///
     /// # Errors
     /// A table's validation error.
-    pub fn new(tables: [&Table; 3]) -> anyhow::Result<Self> {
+    pub fn new(tables: [&Table; 3]) -> Result<Self, AccelError> {
         Self::with_misalignment(tables, None)
     }
 
@@ -250,11 +295,9 @@ impl TableCompensation {
     ///
     /// # Errors
     /// A table's validation error.
-    pub fn with_misalignment(tables: [&Table; 3], misalignment: Option<[f32; 9]>) -> anyhow::Result<Self> {
-        let mut comp =
-            ImuCompensator::new(compensator::Config::default()).map_err(|e| anyhow::anyhow!("config: {e}"))?;
-        comp.set_table(super::calib::table3_with(tables, misalignment)?)
-            .map_err(|e| anyhow::anyhow!("table refused: {e}"))?;
+    pub fn with_misalignment(tables: [&Table; 3], misalignment: Option<[f32; 9]>) -> Result<Self, AccelError> {
+        let mut comp = ImuCompensator::new(compensator::Config::default()).map_err(AccelError::Config)?;
+        comp.set_table(super::calib::table3_with(tables, misalignment)?).map_err(AccelError::Refused)?;
         Ok(Self { comp, rejected: 0, last_status: compensator::Status::empty(), flag_counts: FlagCounts::default() })
     }
 

@@ -44,7 +44,7 @@ pub struct NavigateArgs {
 ///
 /// # Errors
 /// Scenario file errors.
-pub fn scenario_of(args: &NavigateArgs) -> anyhow::Result<Scenario> {
+pub fn scenario_of(args: &NavigateArgs) -> Result<Scenario, scenario::ScenarioError> {
     let mut sc = match &args.scenario {
         Some(p) => Scenario::load(p)?,
         None => Scenario::builtin(),

@@ -10,12 +10,14 @@
 //! that flies is then refitted on **every** program, so no part of the lab log is
 //! thrown away (`CalReport::flown_fit_programs` lists them).
 
+use std::fmt;
+
 use qfa_thermal::model::AxisModel;
 use qfa_thermal::table::Table;
 
-use qfa_calibrate::coverage::{CalCoverage, Coverage, TableLimits};
+use qfa_calibrate::coverage::{CalCoverage, Coverage, CoverageError, TableLimits};
 use qfa_calibrate::discover::{analyze, Channels, Start};
-use qfa_calibrate::fit::{fit, split_programs, FitOptions};
+use qfa_calibrate::fit::{fit, split_programs, FitError, FitOptions};
 use qfa_log::cycling::{write_log_to, Log};
 use qfa_sim::profile::{paper_positions, Program, PAPER_RATES};
 use qfa_sim::simulate;
@@ -131,15 +133,123 @@ pub struct CalReport {
     pub coverage: CalCoverage,
 }
 
-fn axis(t: &Table) -> anyhow::Result<&AxisModel> {
-    t.axes.first().ok_or_else(|| anyhow::anyhow!("empty table"))
+/// Why a unit could not be calibrated, or its tables not joined into one 3-axis table.
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum CalibError {
+    /// A table without axes.
+    EmptyTable,
+    /// The fit on the fit programs, before the held-out evaluation, failed.
+    ValidationFit {
+        /// The unit.
+        unit: String,
+        /// The fit's error.
+        source: FitError,
+    },
+    /// The held-out evaluation through the compensator failed.
+    HeldOut {
+        /// The unit.
+        unit: String,
+        /// The compensation's error.
+        source: qfa_calibrate::compensate::Error,
+    },
+    /// A held-out figure that cannot be computed.
+    Figures {
+        /// The unit.
+        unit: String,
+        /// Which figure, and why.
+        source: qfa_calibrate::CalibrateError,
+    },
+    /// The fit of the flown tables on every program failed.
+    Fit {
+        /// The unit.
+        unit: String,
+        /// The fit's error.
+        source: FitError,
+    },
+    /// A table that no longer validates with the rate limit override.
+    RateLimit {
+        /// The override, °C/min.
+        limit: f32,
+        /// The validation's error.
+        source: qfa_thermal::table::Error,
+    },
+    /// The `none` table does not validate.
+    NoneTable(qfa_thermal::table::Error),
+    /// The calibration log could not be written out as text for discovery.
+    Log(std::io::Error),
+    /// The log's text is not UTF-8.
+    Utf8(std::str::Utf8Error),
+    /// Discovery could not form its channels from the log.
+    Channels(qfa_log::channels::ChannelsError),
+    /// The refit with the extension slots discovery switched on failed.
+    Refit(FitError),
+    /// The coverage of the fitted rows or the table's limits could not be formed.
+    Coverage(CoverageError),
+    /// A table with other than one axis where one 3-axis table is formed.
+    NotOneAxis,
+    /// A table whose rate window is not the lab's.
+    RateWindow,
+    /// The 3-axis table does not validate.
+    Table3(FitError),
+}
+
+impl fmt::Display for CalibError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::EmptyTable => f.write_str("empty table"),
+            Self::ValidationFit { unit, .. } => write!(f, "{unit}: validation fit"),
+            Self::HeldOut { unit, .. } => write!(f, "{unit}: held-out evaluation"),
+            Self::Figures { unit, .. } => f.write_str(unit),
+            Self::Fit { unit, .. } => write!(f, "{unit}: fit"),
+            Self::RateLimit { limit, .. } => write!(f, "rate limit {limit}"),
+            Self::NoneTable(_) => f.write_str("none table"),
+            Self::Log(e) => write!(f, "{e}"),
+            Self::Utf8(e) => write!(f, "{e}"),
+            Self::Channels(e) => write!(f, "{e}"),
+            Self::Refit(_) => f.write_str("refit with discovered slots"),
+            Self::Coverage(e) => write!(f, "{e}"),
+            Self::NotOneAxis => f.write_str("expected 1-axis tables"),
+            Self::RateWindow => f.write_str("expected the lab's rate window"),
+            Self::Table3(_) => f.write_str("3-axis table invalid"),
+        }
+    }
+}
+
+impl std::error::Error for CalibError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            Self::ValidationFit { source, .. } | Self::Fit { source, .. } => Some(source),
+            Self::HeldOut { source, .. } => Some(source),
+            Self::Figures { source, .. } => Some(source),
+            Self::RateLimit { source, .. } => Some(source),
+            Self::NoneTable(e) => Some(e),
+            Self::Refit(e) | Self::Table3(e) => Some(e),
+            // Printed as they are (above): their causes come next.
+            Self::Log(e) => e.source(),
+            Self::Utf8(e) => e.source(),
+            Self::Channels(e) => e.source(),
+            Self::Coverage(e) => e.source(),
+            Self::EmptyTable | Self::NotOneAxis | Self::RateWindow => None,
+        }
+    }
+}
+
+impl From<CoverageError> for CalibError {
+    fn from(e: CoverageError) -> Self {
+        Self::Coverage(e)
+    }
+}
+
+fn axis(t: &Table) -> Result<&AxisModel, CalibError> {
+    t.axes.first().ok_or(CalibError::EmptyTable)
 }
 
 /// Simulate and fit unit `truth`, with the discovery workflow on its log.
 ///
 /// # Errors
 /// A fit or table validation failure.
-pub fn calibrate_unit(truth: &Truth, seed: u64, threads: usize) -> anyhow::Result<UnitTables> {
+pub fn calibrate_unit(truth: &Truth, seed: u64, threads: usize) -> Result<UnitTables, CalibError> {
     calibrate_unit_with(truth, seed, threads, true)
 }
 
@@ -150,7 +260,7 @@ pub fn calibrate_unit(truth: &Truth, seed: u64, threads: usize) -> anyhow::Resul
 ///
 /// # Errors
 /// A fit or table validation failure.
-pub fn calibrate_unit_with(truth: &Truth, seed: u64, threads: usize, discover: bool) -> anyhow::Result<UnitTables> {
+pub fn calibrate_unit_with(truth: &Truth, seed: u64, threads: usize, discover: bool) -> Result<UnitTables, CalibError> {
     calibrate_unit_on(truth, seed, threads, &CalibOptions { discover, ..CalibOptions::default() })
 }
 
@@ -174,7 +284,12 @@ pub struct CalibOptions {
 ///
 /// # Errors
 /// A fit, evaluation or table validation failure.
-pub fn calibrate_unit_on(truth: &Truth, seed: u64, threads: usize, opts: &CalibOptions) -> anyhow::Result<UnitTables> {
+pub fn calibrate_unit_on(
+    truth: &Truth,
+    seed: u64,
+    threads: usize,
+    opts: &CalibOptions,
+) -> Result<UnitTables, CalibError> {
     let programs = opts.lab.programs();
     let ids: Vec<String> = programs.iter().map(|p| p.id.clone()).collect();
     let positions: Vec<_> = paper_positions().into_iter().filter(|p| p.input_g != 0.0).collect();
@@ -182,10 +297,10 @@ pub fn calibrate_unit_on(truth: &Truth, seed: u64, threads: usize, opts: &CalibO
     let validation = if opts.validate {
         let (fit_ids, held) = split_programs(&ids);
         let v = fit(&log, &FitOptions::new(fit_ids.clone()), None)
-            .map_err(|e| anyhow::anyhow!("{}: validation fit: {e}", truth.name))?;
+            .map_err(|e| CalibError::ValidationFit { unit: truth.name.clone(), source: e })?;
         let ev = qfa_calibrate::report::evaluate(&log, &held, &v.simple, &v.hysteresis, None)
-            .map_err(|e| anyhow::anyhow!("{}: held-out evaluation: {e}", truth.name))?;
-        qfa_calibrate::check_figures(&ev).map_err(|e| anyhow::anyhow!("{}: {e}", truth.name))?;
+            .map_err(|e| CalibError::HeldOut { unit: truth.name.clone(), source: e })?;
+        qfa_calibrate::check_figures(&ev).map_err(|e| CalibError::Figures { unit: truth.name.clone(), source: e })?;
         Validation::Computed {
             fit_programs: fit_ids,
             held_out_programs: held,
@@ -196,14 +311,14 @@ pub fn calibrate_unit_on(truth: &Truth, seed: u64, threads: usize, opts: &CalibO
         Validation::NotComputed("validation off (Monte Carlo runs and tests skip it)".into())
     };
     // The flown table: the chosen structure refitted on every program of the log.
-    let mut f =
-        fit(&log, &FitOptions::new(ids.clone()), None).map_err(|e| anyhow::anyhow!("{}: fit: {e}", truth.name))?;
+    let mut f = fit(&log, &FitOptions::new(ids.clone()), None)
+        .map_err(|e| CalibError::Fit { unit: truth.name.clone(), source: e })?;
     if let Some(l) = opts.rate_limit_override {
         for t in [&mut f.simple, &mut f.hysteresis] {
             for a in &mut t.axes {
                 a.rate_limit_c_per_min = l;
             }
-            t.validate().map_err(|e| anyhow::anyhow!("rate limit {l}: {e}"))?;
+            t.validate().map_err(|e| CalibError::RateLimit { limit: l, source: e })?;
         }
     }
     let mut none = axis(&f.simple)?.clone();
@@ -214,7 +329,7 @@ pub fn calibrate_unit_on(truth: &Truth, seed: u64, threads: usize, opts: &CalibO
     }
     let mut none_t = f.simple.clone();
     none_t.axes[0] = none;
-    none_t.validate().map_err(|e| anyhow::anyhow!("none table: {e}"))?;
+    none_t.validate().map_err(CalibError::NoneTable)?;
     let (discovered, discovered_effects) = if opts.discover {
         discover_on(&log, &ids, &f.hysteresis)?
     } else {
@@ -251,10 +366,11 @@ pub fn calibrate_unit_on(truth: &Truth, seed: u64, threads: usize, opts: &CalibO
 ///
 /// # Errors
 /// Discovery or the refit failed.
-pub fn discover_on(log: &Log, fit_ids: &[String], hysteresis: &Table) -> anyhow::Result<(Table, Vec<String>)> {
+pub fn discover_on(log: &Log, fit_ids: &[String], hysteresis: &Table) -> Result<(Table, Vec<String>), CalibError> {
     let mut csv = Vec::new();
-    write_log_to(&mut csv, log)?;
-    let ch = Channels::parse(std::str::from_utf8(&csv)?, 60.0)?;
+    write_log_to(&mut csv, log).map_err(CalibError::Log)?;
+    let ch =
+        Channels::parse(std::str::from_utf8(&csv).map_err(CalibError::Utf8)?, 60.0).map_err(CalibError::Channels)?;
     drop(csv);
     let rep = analyze(&ch, Start::Paper);
     let names: Vec<String> = rep.effects.iter().map(|e| e.name.clone()).collect();
@@ -262,8 +378,7 @@ pub fn discover_on(log: &Log, fit_ids: &[String], hysteresis: &Table) -> anyhow:
     if ext == qfa_thermal::Extensions::default() {
         return Ok((hysteresis.clone(), names));
     }
-    let f = fit(log, &FitOptions { ext, ..FitOptions::new(fit_ids.to_vec()) }, None)
-        .map_err(|e| anyhow::anyhow!("refit with discovered slots: {e}"))?;
+    let f = fit(log, &FitOptions { ext, ..FitOptions::new(fit_ids.to_vec()) }, None).map_err(CalibError::Refit)?;
     Ok((f.hysteresis, names))
 }
 
@@ -271,7 +386,7 @@ pub fn discover_on(log: &Log, fit_ids: &[String], hysteresis: &Table) -> anyhow:
 ///
 /// # Errors
 /// Tables that are not 1-axis, or validation of the result.
-pub fn table3(axes: [&Table; 3]) -> anyhow::Result<Table> {
+pub fn table3(axes: [&Table; 3]) -> Result<Table, CalibError> {
     table3_with(axes, None)
 }
 
@@ -279,15 +394,15 @@ pub fn table3(axes: [&Table; 3]) -> anyhow::Result<Table> {
 ///
 /// # Errors
 /// As [`table3`], and a matrix outside the table's limits.
-pub fn table3_with(axes: [&Table; 3], misalignment: Option<[f32; 9]>) -> anyhow::Result<Table> {
+pub fn table3_with(axes: [&Table; 3], misalignment: Option<[f32; 9]>) -> Result<Table, CalibError> {
     for t in axes {
-        anyhow::ensure!(t.axes.len() == 1, "expected 1-axis tables");
-        anyhow::ensure!(usize::from(t.rate_window) == qfa_log::pairing::RATE_WINDOW, "expected the lab's rate window");
+        crate::ensure(t.axes.len() == 1, CalibError::NotOneAxis)?;
+        crate::ensure(usize::from(t.rate_window) == qfa_log::pairing::RATE_WINDOW, CalibError::RateWindow)?;
     }
     qfa_calibrate::fit::table_of_axes_with(
         qfa_thermal::Input::PulseCounts,
         axes.map(|t| t.axes[0].clone()),
         misalignment,
     )
-    .map_err(|e| anyhow::anyhow!("3-axis table invalid: {e}"))
+    .map_err(CalibError::Table3)
 }

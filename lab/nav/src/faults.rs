@@ -40,18 +40,99 @@
 //! [`check`] lists every violated expectation; [`Replacement`] rows fly a deliberately broken
 //! compensation to show each expectation can fail.
 
-use std::fmt::Write as _;
+use std::fmt::{self, Write as _};
 
 use qfa_thermal::compensator::{Compensator, PulseOutput, SampleError, Status};
 use qfa_thermal::table::{self, Table};
 
-use crate::accel::{ImuCompensator, OracleCompensation, TableCompensation};
-use crate::run::{self, Figures, Variant};
+use crate::accel::{AccelError, ImuCompensator, OracleCompensation, TableCompensation};
+use crate::calib::CalibError;
+use crate::run::{self, Figures, RunError, Variant};
 use crate::scenario::Scenario;
 
 pub use super::fault_injection::{
     right_flag, Count, Delivered, FaultLog, FaultSet, FaultyCompensation, Injected, Injector, Kind,
 };
+
+/// Why the fault runs could not be flown or compared.
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum FaultsError {
+    /// A 3-axis table that does not encode.
+    Encode(table::Error),
+    /// The per-axis tables could not be joined into one 3-axis table.
+    Table(CalibError),
+    /// The fault-free twin refused its table.
+    Refused,
+    /// The `simple` compensation could not be built.
+    Compensation(AccelError),
+    /// A row's replacement table does not validate.
+    ReplacedTable {
+        /// The row.
+        row: String,
+        /// The validation's error.
+        source: table::Error,
+    },
+    /// The flight failed.
+    Flight(RunError),
+    /// The fault-free twin refused readings: the comparison has no clean reference.
+    TwinRefused,
+    /// A thermal-only CEP rate too small to divide by.
+    NothingToCompare {
+        /// The fault-free twin's, nmile/h.
+        twin: f64,
+        /// The `simple` variant's, nmile/h.
+        simple: f64,
+    },
+}
+
+impl fmt::Display for FaultsError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Encode(_) => f.write_str("table"),
+            Self::Table(e) => write!(f, "{e}"),
+            Self::Refused => f.write_str("a table was refused"),
+            Self::Compensation(e) => write!(f, "{e}"),
+            Self::ReplacedTable { row, .. } => write!(f, "{row}: replaced table invalid"),
+            Self::Flight(e) => write!(f, "{e}"),
+            Self::TwinRefused => f.write_str("the fault-free twin refused readings"),
+            Self::NothingToCompare { twin, simple } => {
+                write!(f, "thermal-only CEP rates twin {twin}, simple {simple}: nothing to compare with")
+            }
+        }
+    }
+}
+
+impl std::error::Error for FaultsError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            Self::Encode(e) | Self::ReplacedTable { source: e, .. } => Some(e),
+            // Printed as they are (above): their causes come next.
+            Self::Table(e) => e.source(),
+            Self::Compensation(e) => e.source(),
+            Self::Flight(e) => e.source(),
+            Self::Refused | Self::TwinRefused | Self::NothingToCompare { .. } => None,
+        }
+    }
+}
+
+impl From<CalibError> for FaultsError {
+    fn from(e: CalibError) -> Self {
+        Self::Table(e)
+    }
+}
+
+impl From<AccelError> for FaultsError {
+    fn from(e: AccelError) -> Self {
+        Self::Compensation(e)
+    }
+}
+
+impl From<RunError> for FaultsError {
+    fn from(e: RunError) -> Self {
+        Self::Flight(e)
+    }
+}
 
 /// The compensator interface the injector drives: the firmware's entry points for the
 /// whole IMU, in the recommended configuration (one 3-axis compensator, one DS18B20
@@ -101,8 +182,9 @@ pub fn imu_compensator() -> ImuCompensator {
 pub struct Replacement {
     /// The compensator, fresh.
     pub compensator: fn() -> Box<dyn ThermalCompensator>,
-    /// The per-axis tables it loads (x, y, z), made from the real ones.
-    pub tables: fn([&Table; 3]) -> anyhow::Result<[Table; 3]>,
+    /// The per-axis tables it loads (x, y, z), made from the real ones. It cannot fail:
+    /// what it makes is validated before it flies ([`FaultsError::ReplacedTable`]).
+    pub tables: fn([&Table; 3]) -> [Table; 3],
 }
 
 /// One row to fly: a named fault set, a limit on its `added` share, and what it flies in
@@ -171,8 +253,8 @@ impl ThermalCompensator for Box<dyn ThermalCompensator> {
     }
 }
 
-fn encode(t: &Table) -> anyhow::Result<Vec<u8>> {
-    Ok(t.to_bytes().map_err(|e| anyhow::anyhow!("table: {e}"))?.to_vec())
+fn encode(t: &Table) -> Result<Vec<u8>, FaultsError> {
+    Ok(t.to_bytes().map_err(FaultsError::Encode)?.to_vec())
 }
 
 /// Fly `sc` once with each axis's table (`tables`, x, y, z: the `hysteresis` variant's
@@ -188,12 +270,12 @@ pub fn fly_with_faults(
     tables: [&Table; 3],
     simple: [&Table; 3],
     rows: &[RowSpec],
-) -> anyhow::Result<FaultReport> {
+) -> Result<FaultReport, FaultsError> {
     // One 3-axis table for the IMU's compensator, as the firmware flies it.
     let m = sc.imu.accel.carried_misalignment();
     let good = encode(&crate::calib::table3_with(tables, m)?)?;
     let (clean, clean_log) = FaultyCompensation::new(imu_compensator(), &FaultSet::none(), &good);
-    anyhow::ensure!(clean_log.borrow().table_loaded, "a table was refused");
+    crate::ensure(clean_log.borrow().table_loaded, FaultsError::Refused)?;
     let mut variants = vec![
         Variant { name: "oracle".into(), comp: Box::new(OracleCompensation::carrying(sc.imu.accel.triad_inverse())) },
         Variant { name: "clean".into(), comp: Box::new(clean) },
@@ -203,9 +285,9 @@ pub fn fly_with_faults(
     for r in rows {
         let set = FaultSet { takeoff_s: sc.align_steps() as f64 / sc.imu_rate_hz, ..r.set.clone() };
         let log = if let Some(rep) = r.replaced {
-            let bt = (rep.tables)(tables)?;
+            let bt = (rep.tables)(tables);
             for t in &bt {
-                t.validate().map_err(|e| anyhow::anyhow!("{}: replaced table invalid: {e}", r.name))?;
+                t.validate().map_err(|e| FaultsError::ReplacedTable { row: r.name.clone(), source: e })?;
             }
             let bytes = encode(&crate::calib::table3_with([&bt[0], &bt[1], &bt[2]], m)?)?;
             let (c, log) = FaultyCompensation::new((rep.compensator)(), &set, &bytes);
@@ -220,7 +302,7 @@ pub fn fly_with_faults(
     }
     let units = crate::units();
     let res = run::fly(sc, &mut crate::truths(&units), variants)?;
-    anyhow::ensure!(clean_log.borrow().refused == 0, "the fault-free twin refused readings");
+    crate::ensure(clean_log.borrow().refused == 0, FaultsError::TwinRefused)?;
     let growth = |a: &run::Track, b: &run::Track| -> f64 {
         let d = |x: &[f64], y: &[f64]| -> Vec<f64> { x.iter().zip(y).map(|(p, q)| p - q).collect() };
         let tr = run::Track { dn: d(&a.dn, &b.dn), de: d(&a.de, &b.de), vn: d(&a.vn, &b.vn), ve: d(&a.ve, &b.ve) };
@@ -229,10 +311,10 @@ pub fn fly_with_faults(
     let (oracle, clean) = (&res.tracks[0], &res.tracks[1]);
     let clean_thermal = growth(clean, oracle);
     let simple_thermal = growth(&res.tracks[2], oracle);
-    anyhow::ensure!(
+    crate::ensure(
         clean_thermal > 1e-9 && simple_thermal > 1e-9,
-        "thermal-only CEP rates twin {clean_thermal}, simple {simple_thermal}: nothing to compare with"
-    );
+        FaultsError::NothingToCompare { twin: clean_thermal, simple: simple_thermal },
+    )?;
     let rows = rows
         .iter()
         .zip(&res.tracks[3..])

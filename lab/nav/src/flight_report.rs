@@ -3,9 +3,8 @@
 //! warnings), and its console table ([`summary`]).
 
 use std::collections::BTreeMap;
-use std::fmt::Write as _;
+use std::fmt::{self, Write as _};
 
-use anyhow::Context;
 use serde::Serialize;
 
 use super::align::AlignErrors;
@@ -98,16 +97,59 @@ impl Report {
     }
 }
 
+/// Why a flight's report figures could not be computed.
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum ReportError {
+    /// `simple` and `oracle` coincide (or the variant's figure is not finite): no share.
+    Share {
+        /// The `simple` variant's figure.
+        simple: f64,
+        /// The `oracle` variant's figure.
+        oracle: f64,
+    },
+    /// A variant the report needs is not in the flight.
+    NoVariant {
+        /// Its name.
+        name: &'static str,
+    },
+    /// A variant's flag shares could not be computed.
+    Flags {
+        /// The variant.
+        variant: String,
+        /// Why.
+        source: accel::AccelError,
+    },
+}
+
+impl fmt::Display for ReportError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Share { simple, oracle } => {
+                write!(f, "share undefined: simple {simple} and oracle {oracle} coincide")
+            }
+            Self::NoVariant { name } => write!(f, "no `{name}` variant"),
+            Self::Flags { variant, .. } => write!(f, "variant {variant}"),
+        }
+    }
+}
+
+impl std::error::Error for ReportError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            Self::Flags { source, .. } => Some(source),
+            Self::Share { .. } | Self::NoVariant { .. } => None,
+        }
+    }
+}
+
 /// `(simple − v)/(simple − oracle)`.
 ///
 /// # Errors
 /// A zero denominator (simple and oracle equal): the share cannot be computed.
-pub fn share(simple: f64, v: f64, oracle: f64) -> anyhow::Result<f64> {
+pub fn share(simple: f64, v: f64, oracle: f64) -> Result<f64, ReportError> {
     let den = simple - oracle;
-    anyhow::ensure!(
-        den.abs() > 1e-12 && v.is_finite(),
-        "share undefined: simple {simple} and oracle {oracle} coincide"
-    );
+    crate::ensure(den.abs() > 1e-12 && v.is_finite(), ReportError::Share { simple, oracle })?;
     Ok((simple - v) / den)
 }
 
@@ -116,8 +158,8 @@ pub fn share(simple: f64, v: f64, oracle: f64) -> anyhow::Result<f64> {
 ///
 /// # Errors
 /// No `oracle` variant in the flight.
-pub fn thermal_ceps(res: &FlightResult) -> anyhow::Result<BTreeMap<String, f64>> {
-    let oi = res.names.iter().position(|n| n == "oracle").ok_or_else(|| anyhow::anyhow!("no oracle variant"))?;
+pub fn thermal_ceps(res: &FlightResult) -> Result<BTreeMap<String, f64>, ReportError> {
+    let oi = res.names.iter().position(|n| n == "oracle").ok_or(ReportError::NoVariant { name: "oracle" })?;
     let o = &res.tracks[oi];
     let diff = |a: &[f64], b: &[f64]| -> Vec<f64> { a.iter().zip(b).map(|(x, y)| x - y).collect() };
     Ok(res
@@ -140,11 +182,11 @@ pub fn thermal_ceps(res: &FlightResult) -> anyhow::Result<BTreeMap<String, f64>>
 ///
 /// # Errors
 /// A variant that counted no cycle (the shares cannot be computed).
-pub fn flag_shares(res: &FlightResult) -> anyhow::Result<BTreeMap<String, accel::FlagShares>> {
+pub fn flag_shares(res: &FlightResult) -> Result<BTreeMap<String, accel::FlagShares>, ReportError> {
     let mut m = BTreeMap::new();
     for (n, f) in res.names.iter().zip(&res.flags) {
         if let Some(f) = f {
-            m.insert(n.clone(), f.shares().with_context(|| format!("variant {n}"))?);
+            m.insert(n.clone(), f.shares().map_err(|e| ReportError::Flags { variant: n.clone(), source: e })?);
         }
     }
     Ok(m)
@@ -180,10 +222,10 @@ pub fn report(
     tables: &Tables,
     discovered_source: String,
     runtime_s: [f64; 2],
-) -> anyhow::Result<Report> {
+) -> Result<Report, ReportError> {
     let variants: BTreeMap<String, Figures> =
         res.names.iter().zip(&res.tracks).map(|(n, tr)| (n.clone(), Figures::of(&res.t, tr))).collect();
-    let get = |n: &str| variants.get(n).copied().ok_or_else(|| anyhow::anyhow!("no `{n}` variant"));
+    let get = |n: &'static str| variants.get(n).copied().ok_or(ReportError::NoVariant { name: n });
     let (s, o) = (get("simple")?, get("oracle")?);
     let mut share_cep = BTreeMap::new();
     let mut share_v = BTreeMap::new();

@@ -73,14 +73,19 @@ pub mod thermal;
 pub mod variants;
 pub mod verdict;
 
-use std::fmt::Write as _;
+use std::fmt::{self, Write as _};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use anyhow::Context;
-
-use run::FlightResult;
-use scenario::Scenario;
+use calib::CalibError;
+use flight_report::ReportError;
+use mc::{McError, SummaryError};
+use plan::PlanError;
+use plot::PlotError;
+use qfa_report::verdict::Verdict;
+use run::{FlightResult, RunError};
+use scenario::{Scenario, ScenarioError};
+use variants::VariantsError;
 
 pub use args::{scenario_of, NavigateArgs};
 pub use flight_report::{
@@ -90,11 +95,204 @@ pub use page::{markdown, merge_markdown, merge_page, page};
 pub use tables::{calibrate, calibrate_on, calibrate_opts, calibrate_with, truths, truths_seeded, units, Tables};
 pub use variants::{mc_variants, read_table, variants, VARIANTS};
 
+/// Why `navigate`, a shard or a merge failed. Each module has its own error; those that
+/// pass another on print it as it is and hand on its cause, those that add a context
+/// (a file, a run) print the context and hand on the error, so a chain printed
+/// `context: cause` (as `qfa-lab` prints it) names each step once.
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum NavError {
+    /// [`navigate`] given a shard: a shard writes a partial result.
+    ShardGiven,
+    /// [`navigate_shard`] given no shard.
+    NoShard,
+    /// A shard `k/n` with `n = 0` or `k ≥ n`.
+    Shard {
+        /// This shard's index.
+        k: u64,
+        /// The number of shards.
+        n: u64,
+    },
+    /// A shard with no Monte Carlo run.
+    ShardRuns,
+    /// The scenario could not be loaded.
+    Scenario(ScenarioError),
+    /// The units could not be calibrated.
+    Calibration(CalibError),
+    /// A table could not be read, or a variant not built.
+    Variants(VariantsError),
+    /// The flight failed.
+    Flight(RunError),
+    /// The report's figures could not be computed.
+    Report(ReportError),
+    /// The Monte Carlo runs failed.
+    Mc(McError),
+    /// The Monte Carlo runs could not be summarized, merged or written.
+    Summary(SummaryError),
+    /// The lab program's coverage of the flight could not be formed.
+    Plan(PlanError),
+    /// `nav_errors.png` could not be drawn.
+    Plot(PlotError),
+    /// `report.html` could not be formed (a plot it embeds) or written; the error names
+    /// the file.
+    Page(std::io::Error),
+    /// A report or a partial result could not be turned into JSON.
+    Json(serde_json::Error),
+    /// A table could not be turned into TOML.
+    Toml(toml::ser::Error),
+    /// An output folder could not be created.
+    CreateDir {
+        /// The folder.
+        path: PathBuf,
+        /// The system's error.
+        source: std::io::Error,
+    },
+    /// An output file could not be written.
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// The system's error.
+        source: std::io::Error,
+    },
+}
+
+impl fmt::Display for NavError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::ShardGiven => f.write_str("a shard writes a partial result: use navigate_shard"),
+            Self::NoShard => f.write_str("no shard given"),
+            Self::Shard { k, n } => write!(f, "shard {k}/{n}: need 0 ≤ K < N"),
+            Self::ShardRuns => f.write_str("a shard needs --runs N > 0"),
+            Self::Scenario(e) => write!(f, "{e}"),
+            Self::Calibration(e) => write!(f, "{e}"),
+            Self::Variants(e) => write!(f, "{e}"),
+            Self::Flight(e) => write!(f, "{e}"),
+            Self::Report(e) => write!(f, "{e}"),
+            Self::Mc(e) => write!(f, "{e}"),
+            Self::Summary(e) => write!(f, "{e}"),
+            Self::Plan(e) => write!(f, "{e}"),
+            Self::Plot(_) => f.write_str("plot"),
+            Self::Page(e) => write!(f, "{e}"),
+            Self::Json(e) => write!(f, "{e}"),
+            Self::Toml(e) => write!(f, "{e}"),
+            Self::CreateDir { path, .. } => write!(f, "creating {}", path.display()),
+            Self::Write { path, .. } => write!(f, "writing {}", path.display()),
+        }
+    }
+}
+
+impl std::error::Error for NavError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            Self::ShardGiven | Self::NoShard | Self::Shard { .. } | Self::ShardRuns => None,
+            Self::Plot(e) => Some(e),
+            Self::CreateDir { source, .. } | Self::Write { source, .. } => Some(source),
+            // Printed as they are (above): their causes come next.
+            Self::Scenario(e) => e.source(),
+            Self::Calibration(e) => e.source(),
+            Self::Variants(e) => e.source(),
+            Self::Flight(e) => e.source(),
+            Self::Report(e) => e.source(),
+            Self::Mc(e) => e.source(),
+            Self::Summary(e) => e.source(),
+            Self::Plan(e) => e.source(),
+            Self::Page(e) => e.source(),
+            Self::Json(e) => e.source(),
+            Self::Toml(e) => e.source(),
+        }
+    }
+}
+
+impl From<ScenarioError> for NavError {
+    fn from(e: ScenarioError) -> Self {
+        Self::Scenario(e)
+    }
+}
+
+impl From<CalibError> for NavError {
+    fn from(e: CalibError) -> Self {
+        Self::Calibration(e)
+    }
+}
+
+impl From<VariantsError> for NavError {
+    fn from(e: VariantsError) -> Self {
+        Self::Variants(e)
+    }
+}
+
+impl From<RunError> for NavError {
+    fn from(e: RunError) -> Self {
+        Self::Flight(e)
+    }
+}
+
+impl From<ReportError> for NavError {
+    fn from(e: ReportError) -> Self {
+        Self::Report(e)
+    }
+}
+
+impl From<McError> for NavError {
+    fn from(e: McError) -> Self {
+        Self::Mc(e)
+    }
+}
+
+impl From<SummaryError> for NavError {
+    fn from(e: SummaryError) -> Self {
+        Self::Summary(e)
+    }
+}
+
+impl From<PlanError> for NavError {
+    fn from(e: PlanError) -> Self {
+        Self::Plan(e)
+    }
+}
+
+impl From<serde_json::Error> for NavError {
+    fn from(e: serde_json::Error) -> Self {
+        Self::Json(e)
+    }
+}
+
+impl From<toml::ser::Error> for NavError {
+    fn from(e: toml::ser::Error) -> Self {
+        Self::Toml(e)
+    }
+}
+
+/// `Err(e)` unless `ok`: each check stays one line.
+fn ensure<E>(ok: bool, e: E) -> Result<(), E> {
+    if ok {
+        Ok(())
+    } else {
+        Err(e)
+    }
+}
+
+/// Write `text` to `path`, the error naming the file.
+fn write_file(path: &Path, text: &str) -> Result<(), NavError> {
+    std::fs::write(path, text).map_err(|e| NavError::Write { path: path.into(), source: e })
+}
+
+/// `e` and its causes on one line, `context: cause`, as `qfa-lab` prints them.
+fn chain(e: &dyn std::error::Error) -> String {
+    let mut s = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        let _ = write!(s, ": {c}");
+        cause = c.source();
+    }
+    s
+}
+
 /// Write the error time series (every 10 s) as CSV.
 ///
 /// # Errors
 /// I/O.
-pub fn write_timeseries(path: &Path, res: &FlightResult) -> anyhow::Result<()> {
+pub fn write_timeseries(path: &Path, res: &FlightResult) -> Result<(), NavError> {
     let mut s = String::from("time_s,drive_c,case_c,element_c");
     for n in &res.names {
         for q in ["ve_mps", "vn_mps", "de_m", "dn_m"] {
@@ -110,7 +308,7 @@ pub fn write_timeseries(path: &Path, res: &FlightResult) -> anyhow::Result<()> {
         }
         s.push('\n');
     }
-    std::fs::write(path, s).with_context(|| format!("writing {}", path.display()))
+    write_file(path, &s)
 }
 
 /// The nominal single run: calibrate (with discovery), align and fly every variant on the
@@ -119,7 +317,7 @@ pub fn write_timeseries(path: &Path, res: &FlightResult) -> anyhow::Result<()> {
 ///
 /// # Errors
 /// Scenario, table or I/O errors.
-pub fn nominal(args: &NavigateArgs, sc: &Scenario) -> anyhow::Result<Report> {
+pub fn nominal(args: &NavigateArgs, sc: &Scenario) -> Result<Report, NavError> {
     let units = units();
     let t0 = Instant::now();
     let mut tables = calibrate_on(&units, sc, args.lab_program, args.rate_limit_override)?;
@@ -150,7 +348,7 @@ pub fn nominal(args: &NavigateArgs, sc: &Scenario) -> anyhow::Result<Report> {
     let res = run::fly(sc, &mut truths_seeded(&units, sc.seed), variants(&tables, disc)?)?;
     let t_fly = t1.elapsed().as_secs_f64();
     let rep = report(sc, &res, &tables, source, [t_cal, t_fly])?;
-    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    std::fs::create_dir_all(&args.out).map_err(|e| NavError::CreateDir { path: args.out.clone(), source: e })?;
     write_timeseries(&args.out.join("nav_timeseries.csv"), &res)?;
     if !args.no_plots {
         plot::plot_flight(
@@ -158,11 +356,11 @@ pub fn nominal(args: &NavigateArgs, sc: &Scenario) -> anyhow::Result<Report> {
             &format!("pure-inertial errors: {} (held out: the tables never saw the flight)", sc.name),
             &res,
         )
-        .map_err(|e| anyhow::anyhow!("plot: {e}"))?;
+        .map_err(NavError::Plot)?;
     }
     for (i, u) in tables.units.iter().enumerate() {
         for (n, t) in [("none", &u.none), ("simple", &u.simple), ("hysteresis", &u.hysteresis)] {
-            std::fs::write(args.out.join(format!("nav_table_{}_{n}.toml", ["x", "y", "z"][i])), toml::to_string(t)?)?;
+            write_file(&args.out.join(format!("nav_table_{}_{n}.toml", ["x", "y", "z"][i])), &toml::to_string(t)?)?;
         }
     }
     Ok(rep)
@@ -176,8 +374,8 @@ pub fn nominal(args: &NavigateArgs, sc: &Scenario) -> anyhow::Result<Report> {
 ///
 /// # Errors
 /// Scenario, table, Monte Carlo or I/O errors.
-pub fn navigate(args: &NavigateArgs) -> anyhow::Result<Report> {
-    anyhow::ensure!(args.shard.is_none(), "a shard writes a partial result: use navigate_shard");
+pub fn navigate(args: &NavigateArgs) -> Result<Report, NavError> {
+    ensure(args.shard.is_none(), NavError::ShardGiven)?;
     let sc = scenario_of(args)?;
     let mut rep = nominal(args, &sc)?;
     if args.verbose {
@@ -193,7 +391,7 @@ pub fn navigate(args: &NavigateArgs) -> anyhow::Result<Report> {
     }
     let plan = plan::plan(&sc, args.lab_program)?;
     let v = verdict::of_flight(&rep, &plan, verdict::flight_files(!args.no_plots, args.runs));
-    write_reports(&args.out, &v, &rep, &markdown(&rep, &v), &page(args, &rep, &plan, &v)?)?;
+    write_reports(&args.out, &v, &rep, &markdown(&rep, &v), &page(args, &rep, &plan, &v).map_err(NavError::Page)?)?;
     rep.verdict = Some(v);
     Ok(rep)
 }
@@ -204,10 +402,10 @@ pub fn navigate(args: &NavigateArgs) -> anyhow::Result<Report> {
 ///
 /// # Errors
 /// As [`mc::merge`], and I/O.
-pub fn merge(dirs: &[PathBuf], out: &Path, plots: bool) -> anyhow::Result<(mc::Summary, qfa_report::verdict::Verdict)> {
+pub fn merge(dirs: &[PathBuf], out: &Path, plots: bool) -> Result<(mc::Summary, Verdict), NavError> {
     let (sum, report) = mc::merge(dirs, out, plots)?;
     let v = verdict::of_study(&sum, &report, verdict::study_files(plots));
-    write_reports(out, &v, &report, &merge_markdown(&sum, &v), &merge_page(out, &sum, &v)?)?;
+    write_reports(out, &v, &report, &merge_markdown(&sum, &v), &merge_page(out, &sum, &v).map_err(NavError::Page)?)?;
     Ok((sum, v))
 }
 
@@ -219,13 +417,10 @@ fn write_reports<T: serde::Serialize>(
     report: &T,
     markdown: &str,
     page: &qfa_report::html_report::Page,
-) -> anyhow::Result<()> {
-    let json = out.join("report.json");
-    std::fs::write(&json, qfa_report::verdict::json_with_verdict(v, report)?)
-        .with_context(|| format!("writing {}", json.display()))?;
-    let md = out.join("report.md");
-    std::fs::write(&md, markdown).with_context(|| format!("writing {}", md.display()))?;
-    page.write(out)?;
+) -> Result<(), NavError> {
+    write_file(&out.join("report.json"), &qfa_report::verdict::json_with_verdict(v, report)?)?;
+    write_file(&out.join("report.md"), markdown)?;
+    page.write(out).map_err(NavError::Page)?;
     Ok(())
 }
 
@@ -235,18 +430,18 @@ fn write_reports<T: serde::Serialize>(
 ///
 /// # Errors
 /// Scenario, table, Monte Carlo or I/O errors.
-pub fn navigate_shard(args: &NavigateArgs) -> anyhow::Result<PathBuf> {
-    let (k, n) = args.shard.ok_or_else(|| anyhow::anyhow!("no shard given"))?;
-    anyhow::ensure!(n > 0 && k < n, "shard {k}/{n}: need 0 ≤ K < N");
-    anyhow::ensure!(args.runs > 0, "a shard needs --runs N > 0");
+pub fn navigate_shard(args: &NavigateArgs) -> Result<PathBuf, NavError> {
+    let (k, n) = args.shard.ok_or(NavError::NoShard)?;
+    ensure(n > 0 && k < n, NavError::Shard { k, n })?;
+    ensure(args.runs > 0, NavError::ShardRuns)?;
     let sc = scenario_of(args)?;
     let mut part = mc::run(&sc, &mc::Plan::of(args, &sc, (k, n)), args.verbose)?;
     if k == 0 {
         part.nominal = Some(serde_json::to_value(nominal(args, &sc)?)?);
     }
-    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    std::fs::create_dir_all(&args.out).map_err(|e| NavError::CreateDir { path: args.out.clone(), source: e })?;
     let path = args.out.join(format!("mc_partial_{k}_of_{n}.json"));
-    std::fs::write(&path, serde_json::to_string(&part)?).with_context(|| format!("writing {}", path.display()))?;
+    write_file(&path, &serde_json::to_string(&part)?)?;
     Ok(path)
 }
 
@@ -267,7 +462,7 @@ pub struct NavigationOutcome {
 /// The study's failure, as text (the demo fails with it).
 pub fn demo_hook(out: &Path, duration_s: Option<f64>) -> Result<NavigationOutcome, String> {
     let args = NavigateArgs { out: out.to_path_buf(), duration_s, ..NavigateArgs::default() };
-    let r = navigate(&args).map_err(|e| format!("{e:#}"))?;
+    let r = navigate(&args).map_err(|e| chain(&e))?;
     let plot_caption = verdict::caption("nav_errors.png", &verdict::alarms(&r));
     let verdict = r.verdict.ok_or_else(|| "navigate wrote no verdict".to_string())?;
     Ok(NavigationOutcome { verdict, plot_caption })

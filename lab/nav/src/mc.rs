@@ -26,20 +26,111 @@
 //! [`super::mc_summary`], re-exported here so `mc::merge` and `mc::Summary` keep their paths.
 
 use std::collections::BTreeMap;
+use std::fmt;
 use std::time::Instant;
 
-use anyhow::Context;
 use rand::{Rng, RngExt};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::align::AlignErrors;
-use super::run::{self, Figures};
+use super::calib::CalibError;
+use super::flight_report::ReportError;
+use super::run::{self, Figures, RunError};
 use super::scenario::{Scenario, Variation};
+use super::variants::VariantsError;
 use super::{mc_variants, share, thermal_ceps, truths_seeded, units, NavigateArgs, Tables};
 use qfa_sim::truth::Truth;
 
-pub use super::mc_summary::{merge, summarize, table, write_outputs, AlignStats, ShardTiming, Stats, Summary};
+pub use super::mc_summary::{
+    merge, summarize, table, write_outputs, AlignStats, ShardTiming, Stats, Summary, SummaryError,
+};
+
+/// Why a Monte Carlo run (or the runs of a shard) failed.
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum McError {
+    /// A run's units could not be calibrated.
+    Calibration {
+        /// The run.
+        run: u64,
+        /// The calibration's error.
+        source: CalibError,
+    },
+    /// A run's flight failed.
+    Flight {
+        /// The run.
+        run: u64,
+        /// The flight's error.
+        source: RunError,
+    },
+    /// A run's shares removed or flag shares could not be computed.
+    Figures {
+        /// The run.
+        run: u64,
+        /// Which, and why.
+        source: ReportError,
+    },
+    /// The variants could not be built from the tables.
+    Variants(VariantsError),
+    /// A draw's flight failed ([`hysteresis_share`]).
+    Fly(RunError),
+    /// The thermal-only CEP rates or a share could not be computed.
+    Report(ReportError),
+    /// The worker threads could not be started.
+    ThreadPool(rayon::ThreadPoolBuildError),
+    /// The scenario could not be written into the partial result.
+    Toml(toml::ser::Error),
+}
+
+impl fmt::Display for McError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Calibration { run, .. } => write!(f, "run {run}: calibration"),
+            Self::Flight { run, .. } => write!(f, "run {run}: flight"),
+            Self::Figures { run, .. } => write!(f, "run {run}"),
+            Self::Variants(e) => write!(f, "{e}"),
+            Self::Fly(e) => write!(f, "{e}"),
+            Self::Report(e) => write!(f, "{e}"),
+            Self::ThreadPool(_) => f.write_str("thread pool"),
+            Self::Toml(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl std::error::Error for McError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            Self::Calibration { source, .. } => Some(source),
+            Self::Flight { source, .. } => Some(source),
+            Self::Figures { source, .. } => Some(source),
+            Self::ThreadPool(e) => Some(e),
+            // Printed as they are (above): their causes come next.
+            Self::Variants(e) => e.source(),
+            Self::Fly(e) => e.source(),
+            Self::Report(e) => e.source(),
+            Self::Toml(e) => e.source(),
+        }
+    }
+}
+
+impl From<VariantsError> for McError {
+    fn from(e: VariantsError) -> Self {
+        Self::Variants(e)
+    }
+}
+
+impl From<RunError> for McError {
+    fn from(e: RunError) -> Self {
+        Self::Fly(e)
+    }
+}
+
+impl From<ReportError> for McError {
+    fn from(e: ReportError) -> Self {
+        Self::Report(e)
+    }
+}
 
 /// What to run.
 #[derive(Clone, Debug, PartialEq)]
@@ -200,7 +291,7 @@ pub fn draw(sc: &Scenario, seed: u64, i: u64) -> Draw {
 ///
 /// # Errors
 /// Calibration.
-pub fn tables_of(d: &Draw, discover: bool) -> anyhow::Result<Tables> {
+pub fn tables_of(d: &Draw, discover: bool) -> Result<Tables, CalibError> {
     tables_on(d, &super::calib::CalibOptions { discover, ..super::calib::CalibOptions::default() })
 }
 
@@ -208,7 +299,7 @@ pub fn tables_of(d: &Draw, discover: bool) -> anyhow::Result<Tables> {
 ///
 /// # Errors
 /// Calibration.
-pub fn tables_on(d: &Draw, opts: &super::calib::CalibOptions) -> anyhow::Result<Tables> {
+pub fn tables_on(d: &Draw, opts: &super::calib::CalibOptions) -> Result<Tables, CalibError> {
     let mut tables = super::calibrate_opts(&d.units, d.seed, 1, opts)?;
     tables.misalignment = d.scenario.imu.accel.carried_misalignment();
     Ok(tables)
@@ -219,17 +310,17 @@ pub fn tables_on(d: &Draw, opts: &super::calib::CalibOptions) -> anyhow::Result<
 ///
 /// # Errors
 /// Flight, or a share that cannot be computed.
-pub fn hysteresis_share(d: &Draw, tables: &Tables) -> anyhow::Result<f64> {
+pub fn hysteresis_share(d: &Draw, tables: &Tables) -> Result<f64, McError> {
     let r = run::fly(&d.scenario, &mut truths_seeded(&d.units, d.seed), mc_variants(tables)?)?;
     let th = thermal_ceps(&r)?;
-    share(th["simple"], th["hysteresis"], th["oracle"])
+    share(th["simple"], th["hysteresis"], th["oracle"]).map_err(McError::Report)
 }
 
 /// Fly run `i` of base seed `seed`; `discover` adds the `discovered` variant.
 ///
 /// # Errors
 /// Calibration, flight, or a share that cannot be computed.
-pub fn one(sc: &Scenario, seed: u64, i: u64, discover: bool) -> anyhow::Result<Outcome> {
+pub fn one(sc: &Scenario, seed: u64, i: u64, discover: bool) -> Result<Outcome, McError> {
     one_on(sc, seed, i, &super::calib::CalibOptions { discover, ..super::calib::CalibOptions::default() })
 }
 
@@ -237,28 +328,26 @@ pub fn one(sc: &Scenario, seed: u64, i: u64, discover: bool) -> anyhow::Result<O
 ///
 /// # Errors
 /// Calibration, flight, or a share that cannot be computed.
-pub fn one_on(sc: &Scenario, seed: u64, i: u64, opts: &super::calib::CalibOptions) -> anyhow::Result<Outcome> {
+pub fn one_on(sc: &Scenario, seed: u64, i: u64, opts: &super::calib::CalibOptions) -> Result<Outcome, McError> {
     let t0 = Instant::now();
     let d = draw(sc, seed, i);
-    let tables = tables_on(&d, opts).with_context(|| format!("run {i}: calibration"))?;
+    let tables = tables_on(&d, opts).map_err(|e| McError::Calibration { run: i, source: e })?;
     let Draw { scenario: s, units: us, seed: rs, temp_offset_c: off, temp_scale: scale } = d;
-    let res =
-        run::fly(&s, &mut truths_seeded(&us, rs), mc_variants(&tables)?).with_context(|| format!("run {i}: flight"))?;
+    let res = run::fly(&s, &mut truths_seeded(&us, rs), mc_variants(&tables)?)
+        .map_err(|e| McError::Flight { run: i, source: e })?;
     let cep: BTreeMap<String, f64> =
         res.names.iter().zip(&res.tracks).map(|(n, tr)| (n.clone(), Figures::of(&res.t, tr).cep_nmi_per_h)).collect();
     let thermal = thermal_ceps(&res)?;
+    let at_run = |e| McError::Figures { run: i, source: e };
     let mut ts = BTreeMap::new();
     let mut tot = BTreeMap::new();
     for n in cep.keys() {
-        ts.insert(
-            n.clone(),
-            share(thermal["simple"], thermal[n], thermal["oracle"]).with_context(|| format!("run {i}"))?,
-        );
-        tot.insert(n.clone(), share(cep["simple"], cep[n], cep["oracle"]).with_context(|| format!("run {i}"))?);
+        ts.insert(n.clone(), share(thermal["simple"], thermal[n], thermal["oracle"]).map_err(at_run)?);
+        tot.insert(n.clone(), share(cep["simple"], cep[n], cep["oracle"]).map_err(at_run)?);
     }
     let lo = res.temps.iter().map(|t| t[1]).fold(f64::INFINITY, f64::min);
     let hi = res.temps.iter().map(|t| t[1]).fold(f64::NEG_INFINITY, f64::max);
-    let flags = super::flag_shares(&res).with_context(|| format!("run {i}"))?;
+    let flags = super::flag_shares(&res).map_err(at_run)?;
     Ok(Outcome {
         rate_clamped_share: flags.iter().map(|(n, f)| (n.clone(), f.rate_clamped)).collect(),
         temp_clamped_share: flags.iter().map(|(n, f)| (n.clone(), f.temp_clamped)).collect(),
@@ -281,13 +370,13 @@ pub fn one_on(sc: &Scenario, seed: u64, i: u64, opts: &super::calib::CalibOption
 ///
 /// # Errors
 /// Thread pool, or the first failed run.
-pub fn run(sc: &Scenario, plan: &Plan, progress: bool) -> anyhow::Result<Partial> {
+pub fn run(sc: &Scenario, plan: &Plan, progress: bool) -> Result<Partial, McError> {
     let idx = plan.indices();
     let mut b = rayon::ThreadPoolBuilder::new();
     if plan.jobs > 0 {
         b = b.num_threads(plan.jobs);
     }
-    let pool = b.build().context("thread pool")?;
+    let pool = b.build().map_err(McError::ThreadPool)?;
     let jobs = pool.current_num_threads();
     let pb = if progress { indicatif::ProgressBar::new(idx.len() as u64) } else { indicatif::ProgressBar::hidden() };
     pb.set_style(
@@ -298,7 +387,7 @@ pub fn run(sc: &Scenario, plan: &Plan, progress: bool) -> anyhow::Result<Partial
     );
     pb.set_message(format!("{jobs} jobs"));
     let t0 = Instant::now();
-    let outcomes: Vec<anyhow::Result<Outcome>> = pool.install(|| {
+    let outcomes: Vec<Result<Outcome, McError>> = pool.install(|| {
         idx.par_iter()
             .map(|&i| {
                 let opts = super::calib::CalibOptions {
@@ -315,10 +404,10 @@ pub fn run(sc: &Scenario, plan: &Plan, progress: bool) -> anyhow::Result<Partial
     });
     pb.finish_and_clear();
     let wall_s = t0.elapsed().as_secs_f64();
-    let outcomes = outcomes.into_iter().collect::<anyhow::Result<Vec<_>>>()?;
+    let outcomes = outcomes.into_iter().collect::<Result<Vec<_>, _>>()?;
     Ok(Partial {
         scenario: sc.name.clone(),
-        scenario_toml: toml::to_string(sc)?,
+        scenario_toml: toml::to_string(sc).map_err(McError::Toml)?,
         runs: plan.runs,
         seed: plan.seed,
         shard: plan.shard,

@@ -3,15 +3,144 @@
 //! plots ([`write_outputs`]), and the console table ([`table`]).
 
 use std::collections::BTreeMap;
-use std::fmt::Write as _;
+use std::fmt::{self, Write as _};
 use std::path::{Path, PathBuf};
 
-use anyhow::Context;
 use serde::{Deserialize, Serialize};
 
 use super::align::AlignErrors;
 use super::mc::{Outcome, Partial};
+use super::plot::PlotError;
 use super::scenario::{Scenario, Variation};
+
+/// Why the runs could not be summarized, merged or written.
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum SummaryError {
+    /// No value to take statistics of.
+    NoValues,
+    /// A value that is not finite.
+    NonFinite,
+    /// The statistics of one column (a variant's figure) failed.
+    Column {
+        /// The column: the variant.
+        column: String,
+        /// Why ([`SummaryError::NoValues`] or [`SummaryError::NonFinite`]).
+        source: Box<SummaryError>,
+    },
+    /// No partial result to combine.
+    NoPartials,
+    /// A shard from another study: its scenario, seed or run count differ from the first's.
+    OtherStudy {
+        /// The shard, `(k, n)`.
+        shard: (u64, u64),
+    },
+    /// A run found in two partial results.
+    Duplicate {
+        /// The run.
+        run: u64,
+    },
+    /// Runs of the study that no partial result holds.
+    Missing {
+        /// The missing runs, in order.
+        missing: Vec<u64>,
+        /// The study's run count.
+        runs: u64,
+    },
+    /// The study's scenario (as its partial results carry it) does not parse.
+    Scenario(toml::de::Error),
+    /// A folder that could not be created.
+    CreateDir {
+        /// The folder.
+        path: PathBuf,
+        /// The system's error.
+        source: std::io::Error,
+    },
+    /// A file or folder that could not be read.
+    Read {
+        /// The file or folder.
+        path: PathBuf,
+        /// The system's error.
+        source: std::io::Error,
+    },
+    /// A file that could not be written.
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// The system's error.
+        source: std::io::Error,
+    },
+    /// A partial result that is not one.
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// The JSON parser's error.
+        source: serde_json::Error,
+    },
+    /// A distribution plot could not be drawn.
+    Plot(PlotError),
+    /// No `mc_partial_*.json` in the folders given.
+    NoneFound {
+        /// The folders (or files) given.
+        dirs: Vec<PathBuf>,
+    },
+    /// No partial result carries the nominal run (shard 0's).
+    NoNominal,
+    /// The nominal run's report is not a JSON object.
+    NominalNotObject,
+    /// The summary could not be turned into JSON.
+    Json(serde_json::Error),
+}
+
+impl fmt::Display for SummaryError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::NoValues => f.write_str("no values"),
+            Self::NonFinite => f.write_str("non-finite value"),
+            Self::Column { column, .. } => f.write_str(column),
+            Self::NoPartials => f.write_str("no partial results"),
+            Self::OtherStudy { shard: (k, n) } => {
+                write!(f, "shard {k}/{n} is from another study (scenario, seed or run count differ)")
+            }
+            Self::Duplicate { run } => write!(f, "run {run} appears twice"),
+            Self::Missing { missing, runs } => {
+                write!(f, "{} of {runs} runs missing (first: {:?})", missing.len(), &missing[..missing.len().min(10)])
+            }
+            Self::Scenario(e) => write!(f, "{e}"),
+            Self::CreateDir { path, .. } => write!(f, "creating {}", path.display()),
+            Self::Read { path, .. } => write!(f, "reading {}", path.display()),
+            Self::Write { path, .. } => write!(f, "writing {}", path.display()),
+            Self::Parse { path, .. } => write!(f, "parsing {}", path.display()),
+            Self::Plot(_) => f.write_str("plot"),
+            Self::NoneFound { dirs } => write!(f, "no mc_partial_*.json found in {dirs:?}"),
+            Self::NoNominal => f.write_str("no shard 0 (the nominal run) among the partial results"),
+            Self::NominalNotObject => f.write_str("nominal report is not an object"),
+            Self::Json(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl SummaryError {
+    /// This error of the statistics of column `column`.
+    fn in_column(self, column: &str) -> Self {
+        Self::Column { column: column.to_string(), source: Box::new(self) }
+    }
+}
+
+impl std::error::Error for SummaryError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            Self::Column { source, .. } => Some(&**source),
+            Self::CreateDir { source, .. } | Self::Read { source, .. } | Self::Write { source, .. } => Some(source),
+            Self::Parse { source, .. } => Some(source),
+            Self::Plot(e) => Some(e),
+            // Printed as they are (above): their causes come next.
+            Self::Scenario(e) => e.source(),
+            Self::Json(e) => e.source(),
+            _ => None,
+        }
+    }
+}
 
 /// Median and 10th / 90th percentiles (linear interpolation between order statistics).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -43,9 +172,9 @@ impl Stats {
     ///
     /// # Errors
     /// No values, or a non-finite one.
-    pub fn of(values: &[f64]) -> anyhow::Result<Self> {
-        anyhow::ensure!(!values.is_empty(), "no values");
-        anyhow::ensure!(values.iter().all(|x| x.is_finite()), "non-finite value");
+    pub fn of(values: &[f64]) -> Result<Self, SummaryError> {
+        crate::ensure(!values.is_empty(), SummaryError::NoValues)?;
+        crate::ensure(values.iter().all(|x| x.is_finite()), SummaryError::NonFinite)?;
         let mut v = values.to_vec();
         v.sort_by(f64::total_cmp);
         Ok(Self {
@@ -117,14 +246,14 @@ pub struct Summary {
 fn stats_by(
     outs: &[&Outcome],
     f: impl Fn(&Outcome) -> &BTreeMap<String, f64>,
-) -> anyhow::Result<BTreeMap<String, Stats>> {
+) -> Result<BTreeMap<String, Stats>, SummaryError> {
     let mut m: BTreeMap<String, Vec<f64>> = BTreeMap::new();
     for o in outs {
         for (k, v) in f(o) {
             m.entry(k.clone()).or_default().push(*v);
         }
     }
-    m.into_iter().map(|(k, v)| Ok((k.clone(), Stats::of(&v).with_context(|| k.clone())?))).collect()
+    m.into_iter().map(|(k, v)| Ok((k.clone(), Stats::of(&v).map_err(|e| e.in_column(&k))?))).collect()
 }
 
 /// Combine partial results of one study: same scenario, seed and run count, every run
@@ -132,35 +261,27 @@ fn stats_by(
 ///
 /// # Errors
 /// Mixed studies, duplicated or missing runs, statistics of no runs.
-pub fn summarize(parts: &[Partial]) -> anyhow::Result<(Summary, Vec<Outcome>)> {
-    let first = parts.first().ok_or_else(|| anyhow::anyhow!("no partial results"))?;
+pub fn summarize(parts: &[Partial]) -> Result<(Summary, Vec<Outcome>), SummaryError> {
+    let first = parts.first().ok_or(SummaryError::NoPartials)?;
     for p in parts {
-        anyhow::ensure!(
+        crate::ensure(
             p.scenario_toml == first.scenario_toml && p.seed == first.seed && p.runs == first.runs,
-            "shard {}/{} is from another study (scenario, seed or run count differ)",
-            p.shard.0,
-            p.shard.1
-        );
+            SummaryError::OtherStudy { shard: p.shard },
+        )?;
     }
     let mut outs: Vec<Outcome> = parts.iter().flat_map(|p| p.outcomes.iter().cloned()).collect();
     outs.sort_by_key(|o| o.run);
     for w in outs.windows(2) {
-        anyhow::ensure!(w[0].run != w[1].run, "run {} appears twice", w[0].run);
+        crate::ensure(w[0].run != w[1].run, SummaryError::Duplicate { run: w[0].run })?;
     }
     let have: std::collections::BTreeSet<u64> = outs.iter().map(|o| o.run).collect();
     let missing: Vec<u64> = (0..first.runs).filter(|i| !have.contains(i)).collect();
-    anyhow::ensure!(
-        missing.is_empty(),
-        "{} of {} runs missing (first: {:?})",
-        missing.len(),
-        first.runs,
-        &missing[..missing.len().min(10)]
-    );
+    crate::ensure(missing.is_empty(), SummaryError::Missing { missing, runs: first.runs })?;
     let refs: Vec<&Outcome> = outs.iter().collect();
     let mut alignment = BTreeMap::new();
     if let Some(o) = outs.first() {
         for n in o.alignment.keys() {
-            let col = |f: &dyn Fn(&AlignErrors) -> f64| -> anyhow::Result<Stats> {
+            let col = |f: &dyn Fn(&AlignErrors) -> f64| -> Result<Stats, SummaryError> {
                 Stats::of(&outs.iter().filter_map(|o| o.alignment.get(n)).map(|a| f(a).abs()).collect::<Vec<_>>())
             };
             alignment.insert(
@@ -173,7 +294,7 @@ pub fn summarize(parts: &[Partial]) -> anyhow::Result<(Summary, Vec<Outcome>)> {
             );
         }
     }
-    let sc: Scenario = toml::from_str(&first.scenario_toml)?;
+    let sc: Scenario = toml::from_str(&first.scenario_toml).map_err(SummaryError::Scenario)?;
     let sum = Summary {
         runs: first.runs,
         seed: first.seed,
@@ -204,9 +325,9 @@ pub fn summarize(parts: &[Partial]) -> anyhow::Result<(Summary, Vec<Outcome>)> {
 ///
 /// # Errors
 /// As [`summarize`], I/O or drawing.
-pub fn write_outputs(out: &Path, parts: &[Partial], plots: bool) -> anyhow::Result<Summary> {
+pub fn write_outputs(out: &Path, parts: &[Partial], plots: bool) -> Result<Summary, SummaryError> {
     let (sum, outs) = summarize(parts)?;
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    std::fs::create_dir_all(out).map_err(|e| SummaryError::CreateDir { path: out.into(), source: e })?;
     let names: Vec<String> = sum.cep_nmi_per_h.keys().cloned().collect();
     let mut s = String::from("run,seed,temp_offset_c,temp_scale,case_min_c,case_max_c");
     for n in &names {
@@ -256,7 +377,7 @@ pub fn write_outputs(out: &Path, parts: &[Partial], plots: bool) -> anyhow::Resu
         let _ = write!(s, ",{}", warn.join(";"));
         let _ = writeln!(s, ",{:.2}", o.wall_s);
     }
-    std::fs::write(out.join("mc_runs.csv"), s)?;
+    write_file(&out.join("mc_runs.csv"), &s)?;
     if plots {
         let col =
             |f: &dyn Fn(&Outcome) -> &BTreeMap<String, f64>, scale: f64, skip: &[&str]| -> Vec<(String, Vec<f64>)> {
@@ -274,23 +395,28 @@ pub fn write_outputs(out: &Path, parts: &[Partial], plots: bool) -> anyhow::Resu
             // `none` (several hundred % negative) would squash the scale.
             &col(&|o| &o.thermal_share_removed, 100.0, &["none", "simple", "oracle"]),
         )
-        .map_err(|e| anyhow::anyhow!("plot: {e}"))?;
+        .map_err(SummaryError::Plot)?;
         super::plot::plot_distributions(
             &out.join("mc_thermal_cep.png"),
             &format!("thermal-only CEP rate (variant − oracle, same sensor data); {title}"),
             "thermal-only CEP (nmile/h)",
             &col(&|o| &o.thermal_cep_nmi_per_h, 1.0, &["none", "oracle"]),
         )
-        .map_err(|e| anyhow::anyhow!("plot: {e}"))?;
+        .map_err(SummaryError::Plot)?;
         super::plot::plot_distributions(
             &out.join("mc_cep.png"),
             &format!("CEP rate (radial growth) per variant; {title}"),
             "CEP (nmile/h)",
             &col(&|o| &o.cep_nmi_per_h, 1.0, &[]),
         )
-        .map_err(|e| anyhow::anyhow!("plot: {e}"))?;
+        .map_err(SummaryError::Plot)?;
     }
     Ok(sum)
+}
+
+/// Write `text` to `path`, the error naming the file.
+fn write_file(path: &Path, text: &str) -> Result<(), SummaryError> {
+    std::fs::write(path, text).map_err(|e| SummaryError::Write { path: path.into(), source: e })
 }
 
 /// Read every `mc_partial_*.json` in `dirs`, combine, write `mc_runs.csv` and the plots
@@ -299,12 +425,12 @@ pub fn write_outputs(out: &Path, parts: &[Partial], plots: bool) -> anyhow::Resu
 ///
 /// # Errors
 /// I/O, parse, or [`summarize`]'s checks.
-pub fn merge(dirs: &[PathBuf], out: &Path, plots: bool) -> anyhow::Result<(Summary, serde_json::Value)> {
+pub fn merge(dirs: &[PathBuf], out: &Path, plots: bool) -> Result<(Summary, serde_json::Value), SummaryError> {
     let mut parts = Vec::new();
     for d in dirs {
         let mut files: Vec<PathBuf> = if d.is_dir() {
             std::fs::read_dir(d)
-                .with_context(|| format!("reading {}", d.display()))?
+                .map_err(|e| SummaryError::Read { path: d.clone(), source: e })?
                 .filter_map(Result::ok)
                 .map(|e| e.path())
                 .filter(|p| {
@@ -318,18 +444,18 @@ pub fn merge(dirs: &[PathBuf], out: &Path, plots: bool) -> anyhow::Result<(Summa
         };
         files.sort();
         for f in files {
-            let text = std::fs::read_to_string(&f).with_context(|| format!("reading {}", f.display()))?;
-            parts.push(serde_json::from_str::<Partial>(&text).with_context(|| format!("parsing {}", f.display()))?);
+            let text = std::fs::read_to_string(&f).map_err(|e| SummaryError::Read { path: f.clone(), source: e })?;
+            parts.push(serde_json::from_str::<Partial>(&text).map_err(|e| SummaryError::Parse { path: f, source: e })?);
         }
     }
-    anyhow::ensure!(!parts.is_empty(), "no mc_partial_*.json found in {dirs:?}");
+    crate::ensure(!parts.is_empty(), SummaryError::NoneFound { dirs: dirs.to_vec() })?;
     let sum = write_outputs(out, &parts, plots)?;
     let mut rep = match parts.iter().find_map(|p| p.nominal.clone()) {
         Some(v) => v,
-        None => anyhow::bail!("no shard 0 (the nominal run) among the partial results"),
+        None => return Err(SummaryError::NoNominal),
     };
-    let obj = rep.as_object_mut().ok_or_else(|| anyhow::anyhow!("nominal report is not an object"))?;
-    obj.insert("monte_carlo".into(), serde_json::to_value(&sum)?);
+    let obj = rep.as_object_mut().ok_or(SummaryError::NominalNotObject)?;
+    obj.insert("monte_carlo".into(), serde_json::to_value(&sum).map_err(SummaryError::Json)?);
     Ok((sum, rep))
 }
 

@@ -18,7 +18,7 @@ pub fn page(
     r: &Report,
     plan: &plan::Plan,
     v: &Verdict,
-) -> anyhow::Result<qfa_report::html_report::Page> {
+) -> std::io::Result<qfa_report::html_report::Page> {
     let mut p = qfa_report::html_report::Page::new(&format!("Navigation report: {}", r.meta.scenario));
     v.to_page(&mut p);
     p.section("Held-out scheme").para(&format!(
@@ -159,7 +159,7 @@ pub fn merge_markdown(sum: &mc::Summary, v: &Verdict) -> String {
 ///
 /// # Errors
 /// A plot that cannot be read.
-pub fn merge_page(out: &Path, sum: &mc::Summary, v: &Verdict) -> anyhow::Result<qfa_report::html_report::Page> {
+pub fn merge_page(out: &Path, sum: &mc::Summary, v: &Verdict) -> std::io::Result<qfa_report::html_report::Page> {
     let mut p = qfa_report::html_report::Page::new("Navigation Monte Carlo study (merged shards)");
     v.to_page(&mut p);
     p.section("Held-out scheme").para(

@@ -9,12 +9,14 @@
 //! given at the Monte Carlo's largest excursion scale (`1 + temp_scale`), which is what a
 //! table must cover for every run of the study.
 
+use std::fmt;
+
 use serde::Serialize;
 
 use super::calib::LabProgram;
 use super::scenario::Scenario;
-use super::thermal::Profile;
-use qfa_calibrate::coverage::Coverage;
+use super::thermal::{Profile, ProfileError};
+use qfa_calibrate::coverage::{Coverage, CoverageError};
 use qfa_sim::profile::Program;
 use qfa_sim::thermal::ThermalChain;
 
@@ -37,11 +39,52 @@ pub struct Plan {
     pub shortfalls_mc_extreme: Vec<String>,
 }
 
+/// Why a mission's or a lab program's coverage could not be formed.
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum PlanError {
+    /// The scenario's drive temperature profile.
+    Profile(ProfileError),
+    /// No sample to form a coverage from.
+    Coverage(CoverageError),
+}
+
+impl fmt::Display for PlanError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Profile(e) => write!(f, "{e}"),
+            Self::Coverage(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl std::error::Error for PlanError {
+    // Both are printed as they are (above): their causes come next.
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            Self::Profile(e) => e.source(),
+            Self::Coverage(e) => e.source(),
+        }
+    }
+}
+
+impl From<ProfileError> for PlanError {
+    fn from(e: ProfileError) -> Self {
+        Self::Profile(e)
+    }
+}
+
+impl From<CoverageError> for PlanError {
+    fn from(e: CoverageError) -> Self {
+        Self::Coverage(e)
+    }
+}
+
 /// The case temperature and exact rate of `sc`'s mission at 1 s.
 ///
 /// # Errors
 /// A bad temperature profile, or no sample.
-pub fn mission_coverage(sc: &Scenario) -> anyhow::Result<Coverage> {
+pub fn mission_coverage(sc: &Scenario) -> Result<Coverage, PlanError> {
     let profile = Profile::new(sc.temperature.clone())?;
     let ground = sc.ground_temp_c();
     let align_s = if sc.alignment.enabled { sc.alignment.duration_s } else { 0.0 };
@@ -63,7 +106,7 @@ pub fn mission_coverage(sc: &Scenario) -> anyhow::Result<Coverage> {
 ///
 /// # Errors
 /// No sample.
-pub fn program_coverage(programs: &[Program]) -> anyhow::Result<Coverage> {
+pub fn program_coverage(programs: &[Program]) -> Result<Coverage, PlanError> {
     let mut s = Vec::new();
     for p in programs {
         let mut chain = ThermalChain::default().start(p.temp_at(0.0), 1.0, 180.0);
@@ -79,7 +122,7 @@ pub fn program_coverage(programs: &[Program]) -> anyhow::Result<Coverage> {
 ///
 /// # Errors
 /// As [`mission_coverage`] and [`program_coverage`].
-pub fn plan(sc: &Scenario, lab: LabProgram) -> anyhow::Result<Plan> {
+pub fn plan(sc: &Scenario, lab: LabProgram) -> Result<Plan, PlanError> {
     let mission = mission_coverage(sc)?;
     let v = sc.monte_carlo;
     let extreme = sc.clone().with_temperature_variation(0.0, 1.0 + v.temp_scale);

@@ -2,6 +2,7 @@
 //! errors and the East and North velocity errors against time; and the Monte Carlo
 //! distributions. Each panel's legend sits in a strip above its chart, off the data.
 
+use std::fmt;
 use std::path::Path;
 
 use plotters::prelude::*;
@@ -9,7 +10,54 @@ use plotters::prelude::*;
 use super::run::FlightResult;
 use qfa_report::plot_legend::{heading, Entry, Mark};
 
-type PlotResult = Result<(), Box<dyn std::error::Error>>;
+type PlotResult = Result<(), PlotError>;
+
+/// The drawing errors of the bitmap backend (plotters does not re-export its error type).
+type DrawError = DrawingAreaErrorKind<<BitMapBackend<'static> as DrawingBackend>::ErrorType>;
+
+/// Why a plot could not be drawn or written.
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum PlotError {
+    /// plotters could not draw or write the PNG.
+    Draw(DrawError),
+    /// A panel's title and legend could not be drawn. `qfa_report`'s legend returns a
+    /// `Box<dyn Error>` (not `Send`, and not itself an `Error`), so its message is kept.
+    Legend(String),
+    /// No finite value to plot.
+    NoFiniteValues,
+}
+
+impl fmt::Display for PlotError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Draw(e) => write!(f, "{e}"),
+            Self::Legend(m) => f.write_str(m),
+            Self::NoFiniteValues => f.write_str("no finite values to plot"),
+        }
+    }
+}
+
+impl std::error::Error for PlotError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            // Printed as it is (above): its cause comes next.
+            Self::Draw(e) => e.source(),
+            Self::Legend(_) | Self::NoFiniteValues => None,
+        }
+    }
+}
+
+impl From<DrawError> for PlotError {
+    fn from(e: DrawError) -> Self {
+        Self::Draw(e)
+    }
+}
+
+/// [`PlotError::Legend`] from the legend's boxed error.
+fn legend(e: Box<dyn std::error::Error>) -> PlotError {
+    PlotError::Legend(e.to_string())
+}
 
 const COLORS: [RGBColor; 5] = [
     RGBColor(120, 120, 120),
@@ -39,7 +87,7 @@ fn panel(
     let xmax = t_h.last().copied().unwrap_or(1.0);
     let entries: Vec<Entry> =
         series.iter().enumerate().map(|(k, (name, _))| (name.clone(), color_of(name, k), Mark::Line)).collect();
-    let body = heading(area, title, &entries)?;
+    let body = heading(area, title, &entries).map_err(legend)?;
     let mut chart = ChartBuilder::on(&body)
         .margin(10)
         .x_label_area_size(35)
@@ -95,7 +143,7 @@ pub fn plot_distributions(path: &Path, title: &str, x_desc: &str, series: &[(Str
     let lo = all.clone().fold(f64::INFINITY, f64::min);
     let hi = all.fold(f64::NEG_INFINITY, f64::max);
     if !(lo.is_finite() && hi.is_finite()) {
-        return Err("no finite values to plot".into());
+        return Err(PlotError::NoFiniteValues);
     }
     let pad = ((hi - lo) * 0.05).max(1e-6);
     let root = BitMapBackend::new(path, (1200, 700)).into_drawing_area();
@@ -103,7 +151,7 @@ pub fn plot_distributions(path: &Path, title: &str, x_desc: &str, series: &[(Str
     let mut entries: Vec<Entry> =
         series.iter().enumerate().map(|(k, (name, _))| (name.clone(), color_of(name, k), Mark::Line)).collect();
     entries.push(("dot: the curve's median".to_string(), BLACK, Mark::Dot));
-    let body = heading(&root, title, &entries)?;
+    let body = heading(&root, title, &entries).map_err(legend)?;
     let mut chart = ChartBuilder::on(&body)
         .margin(15)
         .x_label_area_size(40)

@@ -8,6 +8,8 @@
 //! of the case arrives every second, and each variant compensates the same pulses and
 //! drives its own mechanisation. Errors are sampled once a second.
 
+use std::fmt;
+
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
@@ -17,7 +19,7 @@ use super::earth::{self, NMI_M};
 use super::errors::ImuDraw;
 use super::scenario::{Flight, Scenario};
 use super::strapdown::{inverse, AltRef, Increments, Strapdown};
-use super::thermal::Profile;
+use super::thermal::{Profile, ProfileError};
 use qfa_calibrate::metrics::rms;
 use qfa_sim::truth::SensorTruth;
 
@@ -152,6 +154,47 @@ impl Imu<'_> {
     }
 }
 
+/// Why a scenario could not be flown.
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum RunError {
+    /// An IMU period that is not a whole number of µs (the compensator's ticks).
+    Period,
+    /// An IMU rate that is not a whole number of Hz (one DS18B20 reading a second).
+    Rate,
+    /// The scenario's drive temperature profile.
+    Profile(ProfileError),
+    /// An alignment that ends before its coarse phase gave an attitude.
+    Alignment,
+}
+
+impl fmt::Display for RunError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Period => f.write_str("IMU period must be a whole number of µs"),
+            Self::Rate => f.write_str("IMU rate must be a whole number of Hz"),
+            Self::Profile(e) => write!(f, "{e}"),
+            Self::Alignment => f.write_str("alignment shorter than its coarse phase"),
+        }
+    }
+}
+
+impl std::error::Error for RunError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            // Printed as it is (above): its cause comes next.
+            Self::Profile(e) => e.source(),
+            Self::Period | Self::Rate | Self::Alignment => None,
+        }
+    }
+}
+
+impl From<ProfileError> for RunError {
+    fn from(e: ProfileError) -> Self {
+        Self::Profile(e)
+    }
+}
+
 /// Run the scenario with the given accelerometer truths (x, y, z) and variants.
 ///
 /// The non-thermal IMU errors are drawn from `sc.imu` with `sc.seed`. With
@@ -164,16 +207,16 @@ pub fn fly(
     sc: &Scenario,
     truths: &mut [Box<dyn AccelTruth>; 3],
     mut variants: Vec<Variant>,
-) -> anyhow::Result<FlightResult> {
+) -> Result<FlightResult, RunError> {
     let sensors: [SensorTruth; 3] = [0, 1, 2].map(|i| {
         truths[i].sensor().unwrap_or(SensorTruth { offset_c: 0.0, noise_c: 0.01, period_s: 1.0, first_s: 1.0 })
     });
     let dt = sc.dt();
     let dt_ticks = (dt * 1e6).round() as u32;
-    anyhow::ensure!((f64::from(dt_ticks) * 1e-6 - dt).abs() < 1e-12, "IMU period must be a whole number of µs");
+    crate::ensure((f64::from(dt_ticks) * 1e-6 - dt).abs() < 1e-12, RunError::Period)?;
     let steps = sc.steps();
     let per_second = sc.imu_rate_hz.round() as u64;
-    anyhow::ensure!((sc.imu_rate_hz - per_second as f64).abs() < 1e-9, "IMU rate must be a whole number of Hz");
+    crate::ensure((sc.imu_rate_hz - per_second as f64).abs() < 1e-9, RunError::Rate)?;
     let profile = Profile::new(sc.temperature.clone())?;
     let align_steps = sc.align_steps();
     let ground_c = sc.ground_temp_c();
@@ -217,7 +260,7 @@ pub fn fly(
             }
         }
         for (st, a) in starts.iter_mut().zip(&aligners) {
-            let q = a.attitude().ok_or_else(|| anyhow::anyhow!("alignment shorter than its coarse phase"))?;
+            let q = a.attitude().ok_or(RunError::Alignment)?;
             st.q = q;
             res.alignment.push(AlignErrors::of(&q, &start.q));
         }

@@ -17,9 +17,9 @@
 //! The built-in default (`default_scenario.toml`) is the paper's §3.2 flight.
 
 use std::f64::consts::PI;
-use std::path::Path;
+use std::fmt;
+use std::path::{Path, PathBuf};
 
-use anyhow::Context;
 use nalgebra::{UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
@@ -155,6 +155,65 @@ impl Default for Variation {
     }
 }
 
+/// Why a scenario could not be loaded.
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum ScenarioError {
+    /// The file could not be read.
+    Read {
+        /// The scenario file.
+        path: PathBuf,
+        /// The system's error.
+        source: std::io::Error,
+    },
+    /// The file's text is not a valid scenario.
+    Parse {
+        /// The scenario file.
+        path: PathBuf,
+        /// Why its text was refused ([`Scenario::parse`]'s error).
+        source: Box<ScenarioError>,
+    },
+    /// Text that is not TOML or not a scenario's fields.
+    Toml(toml::de::Error),
+    /// `imu_rate_hz` not in (0, 10 000] Hz.
+    ImuRate,
+    /// No segment to fly.
+    NoSegments,
+    /// A segment of zero or negative duration.
+    SegmentDuration,
+    /// The alignment's phases out of 0 < `coarse_s` ≤ `duration_s` ≤ 7200 s.
+    Alignment,
+    /// The `[monte_carlo]` variation bounds out of range.
+    MonteCarloBounds,
+}
+
+impl fmt::Display for ScenarioError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Read { path, .. } => write!(f, "reading {}", path.display()),
+            Self::Parse { path, .. } => write!(f, "parsing {}", path.display()),
+            Self::Toml(e) => write!(f, "{e}"),
+            Self::ImuRate => f.write_str("imu_rate_hz out of range"),
+            Self::NoSegments => f.write_str("scenario has no segments"),
+            Self::SegmentDuration => f.write_str("segment duration must be > 0"),
+            Self::Alignment => f.write_str("alignment: need 0 < coarse_s ≤ duration_s ≤ 7200 s"),
+            Self::MonteCarloBounds => f.write_str("monte_carlo: bounds must be ≥ 0, temp_scale < 1, unit_spread < 0.5"),
+        }
+    }
+}
+
+impl std::error::Error for ScenarioError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            Self::Read { source, .. } => Some(source),
+            Self::Parse { source, .. } => Some(&**source),
+            // Printed as it is (above): its cause, if any, comes next.
+            Self::Toml(e) => e.source(),
+            _ => None,
+        }
+    }
+}
+
 impl Scenario {
     /// The built-in default.
     ///
@@ -169,25 +228,25 @@ impl Scenario {
     ///
     /// # Errors
     /// TOML or semantic errors.
-    pub fn parse(text: &str) -> anyhow::Result<Self> {
-        let s: Self = toml::from_str(text)?;
-        anyhow::ensure!(s.imu_rate_hz > 0.0 && s.imu_rate_hz <= 10_000.0, "imu_rate_hz out of range");
-        anyhow::ensure!(!s.segments.is_empty(), "scenario has no segments");
-        anyhow::ensure!(s.segments.iter().all(|g| g.duration_s > 0.0), "segment duration must be > 0");
+    pub fn parse(text: &str) -> Result<Self, ScenarioError> {
+        let s: Self = toml::from_str(text).map_err(ScenarioError::Toml)?;
+        crate::ensure(s.imu_rate_hz > 0.0 && s.imu_rate_hz <= 10_000.0, ScenarioError::ImuRate)?;
+        crate::ensure(!s.segments.is_empty(), ScenarioError::NoSegments)?;
+        crate::ensure(s.segments.iter().all(|g| g.duration_s > 0.0), ScenarioError::SegmentDuration)?;
         let a = &s.alignment;
-        anyhow::ensure!(
+        crate::ensure(
             !a.enabled || (a.coarse_s > 0.0 && a.duration_s >= a.coarse_s && a.duration_s <= 7200.0),
-            "alignment: need 0 < coarse_s ≤ duration_s ≤ 7200 s"
-        );
+            ScenarioError::Alignment,
+        )?;
         let v = &s.monte_carlo;
-        anyhow::ensure!(
+        crate::ensure(
             [v.temp_offset_c, v.temp_scale, v.unit_spread, v.sensor_offset_c]
                 .iter()
                 .all(|x| x.is_finite() && *x >= 0.0)
                 && v.temp_scale < 1.0
                 && v.unit_spread < 0.5,
-            "monte_carlo: bounds must be ≥ 0, temp_scale < 1, unit_spread < 0.5"
-        );
+            ScenarioError::MonteCarloBounds,
+        )?;
         Ok(s)
     }
 
@@ -195,9 +254,9 @@ impl Scenario {
     ///
     /// # Errors
     /// I/O or parse errors, with the path.
-    pub fn load(path: &Path) -> anyhow::Result<Self> {
-        let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-        Self::parse(&text).with_context(|| format!("parsing {}", path.display()))
+    pub fn load(path: &Path) -> Result<Self, ScenarioError> {
+        let text = std::fs::read_to_string(path).map_err(|e| ScenarioError::Read { path: path.into(), source: e })?;
+        Self::parse(&text).map_err(|e| ScenarioError::Parse { path: path.into(), source: Box::new(e) })
     }
 
     /// Total duration, s.
@@ -374,5 +433,29 @@ mod tests {
         let h = s.duration_s() / 3600.0;
         assert!((2.2..2.45).contains(&h), "{h} h");
         assert_eq!(s.steps(), (s.duration_s() * 200.0) as u64);
+    }
+
+    /// A bad scenario reaches `navigate`'s caller as its variant, and prints as before:
+    /// the file, then why.
+    #[test]
+    fn a_bad_scenario_is_a_typed_error() {
+        let zero_rate = DEFAULT_TOML.replace("imu_rate_hz = 200.0", "imu_rate_hz = 0.0");
+        assert!(matches!(Scenario::parse(&zero_rate), Err(ScenarioError::ImuRate)));
+        assert!(matches!(Scenario::parse("imu_rate_hz = ["), Err(ScenarioError::Toml(_))));
+        let p = std::env::temp_dir().join(format!("qfa_nav_zero_rate_{}.toml", std::process::id()));
+        std::fs::write(&p, zero_rate).unwrap();
+        let args = crate::NavigateArgs { scenario: Some(p.clone()), ..crate::NavigateArgs::default() };
+        let e = crate::navigate(&args).unwrap_err();
+        std::fs::remove_file(&p).unwrap();
+        assert!(
+            matches!(&e, crate::NavError::Scenario(ScenarioError::Parse { path, source })
+                if *path == p && matches!(**source, ScenarioError::ImuRate)),
+            "{e:?}"
+        );
+        assert_eq!(crate::chain(&e), format!("parsing {}: imu_rate_hz out of range", p.display()));
+        // The file is gone now: reading it fails.
+        let e = crate::scenario_of(&args).unwrap_err();
+        assert!(matches!(&e, ScenarioError::Read { path, .. } if *path == p), "{e:?}");
+        assert!(crate::chain(&e).starts_with(&format!("reading {}: ", p.display())), "{e}");
     }
 }

@@ -4,6 +4,7 @@
 use qfa_thermal::table::Table;
 
 use super::accel::{AccelTruth, LabAccel};
+use super::calib::CalibError;
 use super::*;
 use qfa_sim::truth::Truth;
 
@@ -33,7 +34,7 @@ pub fn units() -> [Truth; 3] {
 ///
 /// # Errors
 /// A fit or validation failure.
-pub fn calibrate(units: &[Truth; 3], sc: &Scenario) -> anyhow::Result<Tables> {
+pub fn calibrate(units: &[Truth; 3], sc: &Scenario) -> Result<Tables, CalibError> {
     calibrate_opts(
         units,
         sc.seed,
@@ -51,7 +52,7 @@ pub fn calibrate_on(
     sc: &Scenario,
     lab: calib::LabProgram,
     rate_limit_override: Option<f32>,
-) -> anyhow::Result<Tables> {
+) -> Result<Tables, CalibError> {
     calibrate_opts(units, sc.seed, 2, &calib::CalibOptions { discover: true, validate: true, lab, rate_limit_override })
 }
 
@@ -60,7 +61,7 @@ pub fn calibrate_on(
 ///
 /// # Errors
 /// A fit or validation failure.
-pub fn calibrate_with(units: &[Truth; 3], seed: u64, threads: usize, discover: bool) -> anyhow::Result<Tables> {
+pub fn calibrate_with(units: &[Truth; 3], seed: u64, threads: usize, discover: bool) -> Result<Tables, CalibError> {
     calibrate_opts(units, seed, threads, &calib::CalibOptions { discover, ..calib::CalibOptions::default() })
 }
 
@@ -73,7 +74,7 @@ pub fn calibrate_opts(
     seed: u64,
     threads: usize,
     opts: &calib::CalibOptions,
-) -> anyhow::Result<Tables> {
+) -> Result<Tables, CalibError> {
     let mut out = Vec::new();
     for (i, u) in units.iter().enumerate() {
         out.push(calib::calibrate_unit_on(u, seed.wrapping_add(1000 + i as u64), threads, opts)?);

@@ -4,6 +4,8 @@
 //! element, first-order lags) turns it into the case temperature and rate that the truth
 //! model and the DS18B20s see.
 
+use std::fmt;
+
 use serde::{Deserialize, Serialize};
 
 /// One breakpoint of the drive temperature.
@@ -14,6 +16,27 @@ pub struct TempPoint {
     /// Drive temperature, °C.
     pub temp_c: f64,
 }
+
+/// Why breakpoints make no drive profile.
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum ProfileError {
+    /// No breakpoint at all.
+    NoBreakpoints,
+    /// Breakpoints whose times do not strictly increase.
+    NotIncreasing,
+}
+
+impl fmt::Display for ProfileError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::NoBreakpoints => f.write_str("temperature profile has no breakpoints"),
+            Self::NotIncreasing => f.write_str("temperature breakpoints not increasing in time"),
+        }
+    }
+}
+
+impl std::error::Error for ProfileError {}
 
 /// Piecewise-linear drive profile, held constant outside its breakpoints.
 #[derive(Clone, Debug, PartialEq)]
@@ -26,12 +49,9 @@ impl Profile {
     ///
     /// # Errors
     /// Empty or unsorted breakpoints.
-    pub fn new(points: Vec<TempPoint>) -> anyhow::Result<Self> {
-        anyhow::ensure!(!points.is_empty(), "temperature profile has no breakpoints");
-        anyhow::ensure!(
-            points.windows(2).all(|w| w[1].t_s > w[0].t_s),
-            "temperature breakpoints not increasing in time"
-        );
+    pub fn new(points: Vec<TempPoint>) -> Result<Self, ProfileError> {
+        crate::ensure(!points.is_empty(), ProfileError::NoBreakpoints)?;
+        crate::ensure(points.windows(2).all(|w| w[1].t_s > w[0].t_s), ProfileError::NotIncreasing)?;
         Ok(Self { points })
     }
 

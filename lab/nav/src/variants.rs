@@ -1,31 +1,106 @@
 //! The compensation variants flown in lock-step: their names in report order, the tables
 //! each is built from, and the oracle that carries the tables' misalignment.
 
-use std::path::Path;
+use std::fmt;
+use std::path::{Path, PathBuf};
 
-use anyhow::Context;
 use qfa_thermal::table::Table;
 
-use super::accel::{AccelCompensation, OracleCompensation, TableCompensation};
+use super::accel::{AccelCompensation, AccelError, OracleCompensation, TableCompensation};
 use super::run::Variant;
 use super::*;
 
 /// Variant names in report order.
 pub const VARIANTS: [&str; 5] = ["none", "simple", "hysteresis", "discovered", "oracle"];
 
+/// Why a variant's table could not be read, or its compensation not built.
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum VariantsError {
+    /// A table file that could not be read.
+    Read {
+        /// The table file.
+        path: PathBuf,
+        /// The system's error.
+        source: std::io::Error,
+    },
+    /// A TOML table file that is not UTF-8.
+    Utf8 {
+        /// The table file.
+        path: PathBuf,
+        /// Where the text stops being UTF-8.
+        source: std::string::FromUtf8Error,
+    },
+    /// A TOML table file that is not a table.
+    Parse {
+        /// The table file.
+        path: PathBuf,
+        /// The TOML parser's error.
+        source: toml::de::Error,
+    },
+    /// A TOML table that does not validate.
+    Invalid {
+        /// The table file.
+        path: PathBuf,
+        /// The validation's error.
+        source: qfa_thermal::table::Error,
+    },
+    /// A postcard table file that does not decode (or validate).
+    Decode {
+        /// The table file.
+        path: PathBuf,
+        /// The decoder's error.
+        source: qfa_thermal::table::Error,
+    },
+    /// A variant's compensation could not be built from its tables.
+    Compensation(AccelError),
+}
+
+impl fmt::Display for VariantsError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Read { path, .. } => write!(f, "reading {}", path.display()),
+            Self::Parse { path, .. } => write!(f, "parsing {}", path.display()),
+            Self::Utf8 { path, .. } | Self::Invalid { path, .. } | Self::Decode { path, .. } => {
+                write!(f, "{}", path.display())
+            }
+            Self::Compensation(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl std::error::Error for VariantsError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            Self::Read { source, .. } => Some(source),
+            Self::Utf8 { source, .. } => Some(source),
+            Self::Parse { source, .. } => Some(source),
+            Self::Invalid { source, .. } | Self::Decode { source, .. } => Some(source),
+            // Printed as it is (above): its cause comes next.
+            Self::Compensation(e) => e.source(),
+        }
+    }
+}
+
+impl From<AccelError> for VariantsError {
+    fn from(e: AccelError) -> Self {
+        Self::Compensation(e)
+    }
+}
+
 /// Read a table for the discovered variant: root-crate postcard (`.bin`) or TOML.
 ///
 /// # Errors
 /// I/O, decode or validation errors.
-pub fn read_table(path: &Path) -> anyhow::Result<Table> {
-    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+pub fn read_table(path: &Path) -> Result<Table, VariantsError> {
+    let bytes = std::fs::read(path).map_err(|e| VariantsError::Read { path: path.into(), source: e })?;
     if path.extension().is_some_and(|e| e == "toml") {
-        let text = String::from_utf8(bytes)?;
-        let t: Table = toml::from_str(&text).with_context(|| format!("parsing {}", path.display()))?;
-        t.validate().map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+        let text = String::from_utf8(bytes).map_err(|e| VariantsError::Utf8 { path: path.into(), source: e })?;
+        let t: Table = toml::from_str(&text).map_err(|e| VariantsError::Parse { path: path.into(), source: e })?;
+        t.validate().map_err(|e| VariantsError::Invalid { path: path.into(), source: e })?;
         Ok(t)
     } else {
-        Table::decode(&bytes).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
+        Table::decode(&bytes).map_err(|e| VariantsError::Decode { path: path.into(), source: e })
     }
 }
 
@@ -34,10 +109,10 @@ pub fn read_table(path: &Path) -> anyhow::Result<Table> {
 ///
 /// # Errors
 /// A table the compensator refuses.
-pub fn variants(t: &Tables, discovered: Option<[Table; 3]>) -> anyhow::Result<Vec<Variant>> {
+pub fn variants(t: &Tables, discovered: Option<[Table; 3]>) -> Result<Vec<Variant>, VariantsError> {
     let u = &t.units;
     let m = t.misalignment;
-    let tc = |f: &dyn Fn(&calib::UnitTables) -> &Table| -> anyhow::Result<Box<dyn AccelCompensation>> {
+    let tc = |f: &dyn Fn(&calib::UnitTables) -> &Table| -> Result<Box<dyn AccelCompensation>, AccelError> {
         Ok(Box::new(TableCompensation::with_misalignment([f(&u[0]), f(&u[1]), f(&u[2])], m)?))
     };
     let disc: Box<dyn AccelCompensation> = match &discovered {
@@ -66,10 +141,10 @@ fn oracle_of(t: &Tables) -> OracleCompensation {
 ///
 /// # Errors
 /// A table the compensator refuses.
-pub fn mc_variants(t: &Tables) -> anyhow::Result<Vec<Variant>> {
+pub fn mc_variants(t: &Tables) -> Result<Vec<Variant>, VariantsError> {
     let u = &t.units;
     let m = t.misalignment;
-    let tc = |f: &dyn Fn(&calib::UnitTables) -> &Table| -> anyhow::Result<Box<dyn AccelCompensation>> {
+    let tc = |f: &dyn Fn(&calib::UnitTables) -> &Table| -> Result<Box<dyn AccelCompensation>, AccelError> {
         Ok(Box::new(TableCompensation::with_misalignment([f(&u[0]), f(&u[1]), f(&u[2])], m)?))
     };
     let mut v = vec![
