@@ -67,7 +67,7 @@ pub struct UnitResult {
 
 /// Where the discovery workflow plugs in: called with a unit's log and output directory
 /// after calibration. Returns a one-line summary to print; an error fails the demo.
-pub type DiscoveryHook = fn(log: &Path, out: &Path) -> Result<String, String>;
+pub type DiscoveryHook = fn(log: &Path, out: &Path) -> Result<String, qfa_calibrate::discover::DiscoverError>;
 /// Where the navigation study plugs in: called once with its output directory after all
 /// units are calibrated, and the flight's length limit, s. Returns its verdict and the
 /// caption of its flight plot; an error fails the demo.
@@ -179,7 +179,7 @@ pub fn run(
         let mut discovery_line = None;
         if let Some(hook) = discovery.filter(|_| unit == 1) {
             let pb = spinner("discovery on unit #1's log", opts.progress);
-            let s = hook(&log_path, &dir.join("discover")).map_err(|e| format!("discovery on {}: {e}", truth.name));
+            let s = hook(&log_path, &dir.join("discover")).map_err(|e| format!("discovery on {}: {e:#}", truth.name));
             pb.finish_and_clear();
             let s = s?;
             eprintln!("   discovery: {s}");

@@ -500,6 +500,13 @@ impl From<qfa_calibrate::CalibrateError> for CliError {
     }
 }
 
+impl From<qfa_calibrate::discover::DiscoverError> for CliError {
+    fn from(e: qfa_calibrate::discover::DiscoverError) -> Self {
+        // `{:#}`: with its causes (the file and the system's error).
+        Self::Failed(format!("{e:#}"))
+    }
+}
+
 impl From<qfa_log::channels::ChannelsError> for CliError {
     fn from(e: qfa_log::channels::ChannelsError) -> Self {
         Self::Failed(e.to_string())

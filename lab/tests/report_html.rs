@@ -9,6 +9,7 @@ mod common;
 use std::path::{Path, PathBuf};
 
 use common::browser;
+use qfa_calibrate::discover::DiscoverError;
 
 fn tmp(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("qfa-report-html-{}-{name}", std::process::id()));
@@ -191,8 +192,9 @@ fn the_demo_fails_when_a_hook_fails() {
         full_logs: false,
         nav_duration_s: None,
     };
-    let e = qfa_lab::demo::run(&opts, Some(|_: &Path, _: &Path| Err("the hook failed".to_string())), None).unwrap_err();
-    assert!(e.contains("the hook failed"), "{e}");
+    let fail = |_: &Path, _: &Path| Err(DiscoverError::NoModel { axis: "the hook's".into(), fold: None });
+    let e = qfa_lab::demo::run(&opts, Some(fail), None).unwrap_err();
+    assert!(e.contains("the hook's: discovery gave no model"), "{e}");
     let _ = std::fs::remove_dir_all(&d);
 }
 

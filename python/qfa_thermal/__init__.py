@@ -330,7 +330,8 @@ def discover(
 
     Raises:
         DiscoveryError: the run failed (CLI's message, options named as keywords; ``kind``
-            as for ``calibrate`` when calibration's held-out scheme refused the log).
+            the Rust variant, as for ``calibrate`` when calibration's held-out scheme
+            refused the log).
     """
     lg = _as_log(log, reader)
     text = _native.discover(lg.native, start=start, holdout=holdout, out=None if out is None else _os.fspath(out))

@@ -6,6 +6,7 @@ use pyo3::create_exception;
 use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
 
+use qfa_calibrate::discover::DiscoverError;
 use qfa_calibrate::fit::FitError;
 use qfa_calibrate::static_cal::StaticCalError;
 use qfa_calibrate::CalibrateError;
@@ -136,6 +137,27 @@ impl Kind for CalibrateError {
             Self::Toml(_) => "Toml",
             Self::Axis(_) => "Axis",
             Self::Output(_) => "Output",
+            _ => OTHER,
+        }
+    }
+}
+
+/// A discovery's kind: static calibration's own when it refused the log, else the stage
+/// that failed.
+impl Kind for DiscoverError {
+    fn kind(&self) -> &'static str {
+        match self {
+            Self::UnknownStart(_) => "UnknownStart",
+            Self::Channels(_) => "Channels",
+            Self::StaticCal(e) => e.kind(),
+            Self::NoModel { .. } => "NoModel",
+            Self::CreateDir { .. } => "CreateDir",
+            Self::Io { .. } => "Io",
+            Self::Toml { .. } => "Toml",
+            Self::Json { .. } => "Json",
+            Self::Table(_) => "Table",
+            Self::Page(_) => "Page",
+            Self::Plot(_) | Self::PlotLegend { .. } => "Plot",
             _ => OTHER,
         }
     }

@@ -8,6 +8,7 @@ use numpy::{PyArray1, PyReadonlyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
+use qfa_calibrate::discover::DiscoverError;
 use qfa_calibrate::export::{export_texts, write_exports, ExportAxis, ExportOptions};
 use qfa_calibrate::static_cal::{self, Holdout, StaticCalOptions, StaticCalibration};
 use qfa_calibrate::{self as cal, CalibrateOptions, Calibration};
@@ -360,7 +361,7 @@ fn scratch_dir() -> PathBuf {
 #[pyo3(signature = (log, *, start = "simple", holdout = "auto", out = None))]
 pub fn discover(py: Python<'_>, log: &Log, start: &str, holdout: &str, out: Option<PathBuf>) -> PyResult<String> {
     let start: qfa_calibrate::discover::Start =
-        start.parse().map_err(|e: anyhow::Error| DiscoveryError::new_err(format!("{e:#}")))?;
+        start.parse().map_err(|e: DiscoverError| with_kind::<DiscoveryError>(py, e.to_string(), e.kind()))?;
     let holdout: Holdout = holdout.parse().map_err(|e| static_cal_err::<DiscoveryError>(py, &e))?;
     if let LogData::Cycling(_) = &log.data {
         cycling_holdout(holdout).map_err(DiscoveryError::new_err)?;
@@ -373,12 +374,19 @@ pub fn discover(py: Python<'_>, log: &Log, start: &str, holdout: &str, out: Opti
     if scratch {
         let _ = std::fs::remove_dir_all(&dir);
     }
-    result.map_err(|e| match e.downcast_ref::<static_cal::StaticCalError>() {
+    result.map_err(|e| discovery_err(py, &e))
+}
+
+/// A failed discovery as a `DiscoveryError`, its kind the variant of the [`DiscoverError`]
+/// behind it (none for a failure of this package's own or of the log's channels).
+fn discovery_err(py: Python<'_>, e: &anyhow::Error) -> PyErr {
+    match e.downcast_ref::<DiscoverError>() {
         // Calibration's own refusal (a held-out scheme the log cannot hold): typed, so
         // its option is spelled for Python and its kind is the variant.
-        Some(s) => static_cal_err::<DiscoveryError>(py, s),
+        Some(DiscoverError::StaticCal(s)) => static_cal_err::<DiscoveryError>(py, s),
+        Some(d) => with_kind::<DiscoveryError>(py, format!("{e:#}"), d.kind()),
         None => DiscoveryError::new_err(format!("{e:#}")),
-    })
+    }
 }
 
 /// Run discovery into `dir` and return its `report.json` as written (the verdict first),

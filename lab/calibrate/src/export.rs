@@ -4,7 +4,8 @@
 
 use std::fmt::Write as _;
 
-use crate::peers::{Poly, ARDUPILOT_SCALE};
+use crate::fit::FitError;
+use crate::peers::{ardupilot_reason, Poly, ARDUPILOT_SCALE};
 use qfa_log::spelling::{CalibrateOption, Spelling};
 use qfa_log::static_log::G0_MPS2;
 
@@ -34,7 +35,7 @@ pub struct ExportAxis {
     pub cubic: Poly,
     /// The ArduPilot cubic about 35 °C, or why its learner formed none (it learns on rises
     /// only: a cooling-only log has none).
-    pub ardupilot: Result<Poly, String>,
+    pub ardupilot: Result<Poly, FitError>,
 }
 
 /// How to write the exports.
@@ -288,7 +289,7 @@ pub fn export_texts(axes: &[ExportAxis], opts: &ExportOptions) -> (Vec<(&'static
     // carries AP_PARAM_FLAG_ENABLE (the group's other parameters are hidden until it is
     // set) and @RebootRequired; TMIN/TMAX have @Range -70 80.
     if let Some(why) = axes.iter().find_map(|a| a.ardupilot.as_ref().err()) {
-        notes.push(ExportNote::NoArdupilotFit(why.clone()));
+        notes.push(ExportNote::NoArdupilotFit(ardupilot_reason(why)));
         return (files, notes);
     }
     let (tmin, tmax) = (polys[0].1.tmin_c, polys[0].1.tmax_c);

@@ -146,6 +146,18 @@ impl PeerKind {
     }
 }
 
+/// Why the ArduPilot learner formed no fit, in its own terms.
+#[must_use]
+pub fn ardupilot_reason(e: &FitError) -> String {
+    match e {
+        FitError::TooFewRows { rows, .. } => format!(
+            "the ArduPilot learner formed {rows} point(s) (one per 0.5 °C rise after the coldest row) and its cubic \
+             needs 4: it learns only while the temperature rises"
+        ),
+        e => e.to_string(),
+    }
+}
+
 /// Fit every peer to training temperatures `t` (°C) and outputs `y` (g, reference removed).
 ///
 /// # Errors

@@ -5,6 +5,7 @@
 
 use std::fmt;
 use std::io::Read;
+use std::num::ParseFloatError;
 
 use crate::lines::LineCounter;
 
@@ -27,7 +28,10 @@ pub struct SingleLog {
 }
 
 /// Why a single-channel log was not read.
+///
+/// `{}` prints this error's own message; `{:#}` adds its cause (a field's parse error).
 #[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
 pub enum SingleError {
     /// The file is not readable text.
     Io(String),
@@ -42,6 +46,13 @@ pub enum SingleError {
     },
     /// Fewer than [`MIN_ROWS`] rows with a reading.
     TooFewRows(usize),
+    /// A field that is not a finite number: one of the rows [`SingleError::Rows`] lists.
+    Field {
+        /// Its column.
+        column: &'static str,
+        /// Why its text is not a number; `None`: a number, but not finite.
+        parse: Option<ParseFloatError>,
+    },
 }
 
 impl SingleError {
@@ -52,15 +63,38 @@ impl SingleError {
 impl fmt::Display for SingleError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Self::Io(e) => write!(f, "{e}"),
-            Self::MissingColumn(c) => write!(f, "single-channel log without a `{c}` column"),
-            Self::Rows { errors, total } => write!(f, "{total} malformed row(s):\n{}", errors.join("\n")),
-            Self::TooFewRows(n) => write!(f, "too few rows: {n} with a reading, {MIN_ROWS} needed"),
+            Self::Io(e) => write!(f, "{e}")?,
+            Self::MissingColumn(c) => write!(f, "single-channel log without a `{c}` column")?,
+            Self::Rows { errors, total } => write!(f, "{total} malformed row(s):\n{}", errors.join("\n"))?,
+            Self::TooFewRows(n) => write!(f, "too few rows: {n} with a reading, {MIN_ROWS} needed")?,
+            Self::Field { column, parse: Some(_) } => f.write_str(column)?,
+            Self::Field { column, parse: None } => write!(f, "{column}: not finite")?,
+        }
+        if let Some(cause) = std::error::Error::source(self).filter(|_| f.alternate()) {
+            write!(f, ": {cause}")?;
+        }
+        Ok(())
+    }
+}
+
+impl std::error::Error for SingleError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            Self::Field { parse: Some(e), .. } => Some(e),
+            _ => None,
         }
     }
 }
 
-impl std::error::Error for SingleError {}
+/// The field `text` of `column` as a finite number.
+fn number(text: &str, column: &'static str) -> Result<f64, SingleError> {
+    let v: f64 = text.parse().map_err(|e| SingleError::Field { column, parse: Some(e) })?;
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(SingleError::Field { column, parse: None })
+    }
+}
 
 /// Whether a header (already split into names) is a single-channel log's.
 #[must_use]
@@ -96,21 +130,13 @@ pub fn read_single_from<R: Read>(mut reader: R) -> Result<SingleLog, SingleError
     while next(&mut rdr, &mut rec)? {
         let line = rec.position().map_or(0, |p| lines.line_of(p.byte()));
         let get = |i: usize| rec.get(i).unwrap_or("");
-        let number = |i: usize, name: &str| -> Result<f64, String> {
-            let v: f64 = get(i).parse().map_err(|e| format!("{name}: {e}"))?;
-            if v.is_finite() {
-                Ok(v)
-            } else {
-                Err(format!("{name}: not finite"))
-            }
-        };
-        let row = || -> Result<Option<(f64, f32, f64)>, String> {
-            let t = number(ti, COLUMNS[0])?;
+        let row = || -> Result<Option<(f64, f32, f64)>, SingleError> {
+            let t = number(get(ti), COLUMNS[0])?;
             if get(tc).is_empty() {
                 return Ok(None); // no reading yet
             }
-            let temp = number(tc, COLUMNS[1])? as f32;
-            Ok(Some((t, temp, number(vi, COLUMNS[2])?)))
+            let temp = number(get(tc), COLUMNS[1])? as f32;
+            Ok(Some((t, temp, number(get(vi), COLUMNS[2])?)))
         };
         match row() {
             Ok(Some((t, temp, v))) => {
@@ -122,7 +148,7 @@ pub fn read_single_from<R: Read>(mut reader: R) -> Result<SingleLog, SingleError
             Err(e) => {
                 total += 1;
                 if errors.len() < SingleError::KEPT {
-                    errors.push(format!("line {line}: {e}"));
+                    errors.push(format!("line {line}: {e:#}"));
                 }
             }
         }
@@ -180,5 +206,16 @@ mod tests {
         assert_eq!(e, SingleError::TooFewRows(3));
         let e = read_single_from("time_s,temp_c,val\n1,2,3\n".as_bytes()).unwrap_err();
         assert_eq!(e.to_string(), "single-channel log without a `value` column");
+    }
+
+    #[test]
+    fn a_bad_field_is_typed_with_its_column_and_parse_error() {
+        let e = number("x", "time_s").unwrap_err();
+        assert!(matches!(&e, SingleError::Field { column: "time_s", parse: Some(_) }), "{e:?}");
+        assert_eq!(format!("{e:#}"), "time_s: invalid float literal");
+        assert!(std::error::Error::source(&e).is_some());
+        let e = number("inf", "value").unwrap_err();
+        assert!(matches!(&e, SingleError::Field { column: "value", parse: None }), "{e:?}");
+        assert_eq!(format!("{e:#}"), "value: not finite");
     }
 }

@@ -192,7 +192,7 @@ pub fn finish_fleet(out: &Path, results: &[(usize, UnitResult)], opts: &UnitOpti
     // Partial units: the population prior's table beside their own.
     let span = (fleet.span_c[0], fleet.span_c[1]);
     let mut uses = Vec::with_capacity(plain.len());
-    let mut prior_failed: Vec<(String, String)> = Vec::new();
+    let mut prior_failed: Vec<(String, prior::PriorError)> = Vec::new();
     for (r, f) in plain.iter().zip(&fleet.unit) {
         let use_ = match &r.outcome {
             UnitOutcome::Calibrated(c) if f.partial && !fleet.population.is_empty() => {

@@ -26,12 +26,15 @@
 //! cover (1-°C bins with at least a 10-row equation on that branch) is stated; under a half,
 //! the certificate says the prior, not the unit's data, decided most of the table.
 
+use std::fmt;
+
 use nalgebra::{Matrix5, Vector5};
 use serde::{Deserialize, Serialize};
 
 use qfa_thermal::model::Branch;
 
 use crate::compensate::STATIC_LSB_PER_G;
+use crate::fit::FitError;
 
 /// Basis scale, °C.
 pub const U_SCALE_C: f64 = 50.0;
@@ -281,6 +284,16 @@ mod tests {
         assert!((split[4] - 4e-4).abs() < 1e-8, "{split:?}");
         assert!((split[0] + 0.5 * split[4] - own[0]).abs() < 1e-5, "{split:?}");
     }
+
+    #[test]
+    fn a_unit_without_a_population_gets_no_prior_table_and_is_told_which_axis() {
+        let temps: Vec<f64> = (0..100).map(|i| 20.0 + 0.1 * f64::from(i)).collect();
+        let time: Vec<f64> = (0..100).map(f64::from).collect();
+        let u = normal_of(&time, &temps, &[Branch::Heating; 100], &[("ay", &temps)]);
+        let e = prior_table(&u, &[], (20.0, 30.0), 0.1).unwrap_err();
+        assert!(matches!(&e, PriorError::NoPopulation(axis) if axis == "ay"), "{e:?}");
+        assert_eq!(e.to_string(), "ay: no population");
+    }
 }
 
 /// How a unit's table came from the prior.
@@ -296,23 +309,58 @@ pub struct PriorUse {
     pub mostly_prior: bool,
 }
 
+/// Why a unit's prior table could not be formed (the unit keeps its own table, and its
+/// certificate says why).
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum PriorError {
+    /// The fleet has no population for this axis of the unit.
+    NoPopulation(String),
+    /// The posterior of this axis cannot be formed: the population's covariance, or the
+    /// posterior's normal equations, cannot be inverted.
+    NotInvertible(String),
+    /// The table of the posterior curves was refused.
+    Table(FitError),
+}
+
+impl fmt::Display for PriorError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::NoPopulation(axis) => write!(f, "{axis}: no population"),
+            Self::NotInvertible(axis) => write!(f, "{axis}: the population cannot be inverted"),
+            Self::Table(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl std::error::Error for PriorError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            // The message is the fit's own: the chain goes on from its source.
+            Self::Table(e) => e.source(),
+            Self::NoPopulation(_) | Self::NotInvertible(_) => None,
+        }
+    }
+}
+
 /// The table of one unit's posterior over `span`, or why there is none.
 ///
 /// # Errors
-/// No population for an axis, or a table the root crate refuses.
+/// No population for an axis, a posterior that cannot be formed, or a table the root
+/// crate refuses ([`PriorError`]).
 pub fn prior_table(
     unit: &UnitNormal,
     pops: &[Population],
     span: (f64, f64),
     deadband: f32,
-) -> Result<qfa_thermal::Table, String> {
+) -> Result<qfa_thermal::Table, PriorError> {
     let n_rows = unit.ata[0].max(1.0);
     let mut axes = Vec::new();
     for (k, a) in unit.axes.iter().enumerate() {
-        let pop = pops.iter().find(|p| p.axis == a.axis).ok_or_else(|| format!("{}: no population", a.axis))?;
-        let theta = posterior(unit, k, pop).ok_or_else(|| format!("{}: the population cannot be inverted", a.axis))?;
+        let pop = pops.iter().find(|p| p.axis == a.axis).ok_or_else(|| PriorError::NoPopulation(a.axis.clone()))?;
+        let theta = posterior(unit, k, pop).ok_or_else(|| PriorError::NotInvertible(a.axis.clone()))?;
         // The bias is measured from the unit's own mean over its rows, as its own table's.
         axes.push(axis_model(&theta, span, a.aty[0] / n_rows, deadband));
     }
-    crate::fit::table_of_axes(qfa_thermal::Input::Samples, axes).map_err(|e| e.to_string())
+    crate::fit::table_of_axes(qfa_thermal::Input::Samples, axes).map_err(PriorError::Table)
 }

@@ -7,7 +7,7 @@ use qfa_report::verdict::Verdict;
 /// Run the workflow on `input` from `start` and write the outputs to `out_dir`.
 ///
 /// # Errors
-/// Output files could not be written.
+/// Output files could not be written ([`DiscoverError`]).
 pub fn discover(input: &Channels, start: Start, out_dir: &Path) -> Result<Report> {
     Ok(discover_with_verdict(input, start, out_dir)?.0)
 }
@@ -15,7 +15,7 @@ pub fn discover(input: &Channels, start: Start, out_dir: &Path) -> Result<Report
 /// [`discover`], with the verdict its reports open with (what `qfa-lab discover` prints).
 ///
 /// # Errors
-/// Output files could not be written.
+/// Output files could not be written ([`DiscoverError`]).
 pub fn discover_with_verdict(input: &Channels, start: Start, out_dir: &Path) -> Result<(Report, Verdict)> {
     let report = analyze(input, start);
     let v = output::write(input, &report, out_dir, output::Scope::Own)?;
@@ -27,13 +27,9 @@ pub fn discover_with_verdict(input: &Channels, start: Start, out_dir: &Path) -> 
 /// (`temp_quadratic` and the rate terms). Returns a one-line summary.
 ///
 /// # Errors
-/// The discovery's failure, as text (the demo fails with it).
-pub fn demo_hook(log: &Path, out: &Path) -> std::result::Result<String, String> {
-    let run = || -> Result<Report> {
-        let ch = Channels::read(log, 60.0)?;
-        discover(&ch, Start::Simple, out)
-    };
-    let r = run().map_err(|e| format!("{e:#}"))?;
+/// The log gives no channels, or an output could not be written (the demo fails with it).
+pub fn demo_hook(log: &Path, out: &Path) -> Result<String, DiscoverError> {
+    let r = discover(&Channels::read(log, 60.0)?, Start::Simple, out)?;
     let names = r.effect_labels();
     let gap = |g: &Gaps| match g {
         Gaps::Cycling { scale_factor_ppm, bias_ug } => format!("{scale_factor_ppm:.1} ppm / {bias_ug:.1} µg"),

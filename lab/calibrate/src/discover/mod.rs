@@ -85,6 +85,7 @@
 //! with the effective τ).
 
 pub mod cli;
+pub mod error;
 pub mod fit;
 mod folds;
 mod heldout;
@@ -104,11 +105,11 @@ pub mod verdict;
 
 use std::path::Path;
 
-use anyhow::Result;
 use qfa_thermal::model::AxisModel;
 use serde::Serialize;
 
 pub use cli::{demo_hook, discover, discover_with_verdict};
+pub use error::DiscoverError;
 pub use fit::Effect;
 use fit::{golden, nelder_mead2, Fitted, Nonlinear, Residuals, Setup, Structure};
 use folds::*;
@@ -127,6 +128,9 @@ use uncertainty::*;
 pub use unexplained::{FloorRatio, TimeScales, Unexplained};
 
 use crate::metrics::rms_of_finite as rms;
+
+/// What discovery's fallible steps return: a [`DiscoverError`] unless they name another.
+type Result<T, E = DiscoverError> = std::result::Result<T, E>;
 
 #[cfg(test)]
 mod tests {

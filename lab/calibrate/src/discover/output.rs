@@ -14,12 +14,12 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use anyhow::{Context, Result};
 use plotters::prelude::*;
 use qfa_thermal::table::{Input, Table};
+use serde::Serialize;
 
 use super::static_axes::{AxisDiscovery, StaticDiscovery};
-use super::{BiasUnit, Channels, Gaps, LogKind, Report};
+use super::{BiasUnit, Channels, DiscoverError, Gaps, LogKind, Report, Result};
 use crate::metrics::rms_of_finite;
 use qfa_report::verdict::{json_with_verdict, Verdict};
 
@@ -131,9 +131,9 @@ impl Scope<'_> {
 /// ones there are removed.
 ///
 /// # Errors
-/// A file could not be written.
+/// A file could not be written ([`DiscoverError`]).
 pub fn write(ch: &Channels, report: &Report, dir: &Path, scope: Scope<'_>) -> Result<Verdict> {
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    std::fs::create_dir_all(dir).map_err(|source| DiscoverError::CreateDir { path: dir.into(), source })?;
     let mut tables: Vec<String> = Vec::new();
     let mut rest: Vec<String> = Vec::new();
     let mut notes: Vec<String> = Vec::new();
@@ -143,24 +143,22 @@ pub fn write(ch: &Channels, report: &Report, dir: &Path, scope: Scope<'_>) -> Re
     };
     if !scope.flashable() {
         for f in ["table.bin", "model.bin"] {
-            match std::fs::remove_file(dir.join(f)) {
-                Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(e.into()),
-                _ => {}
-            }
+            remove_stale(&dir.join(f))?;
         }
     }
     if let Some(t) = table(report, input).filter(|_| scope.flashable()) {
         match t.to_bytes() {
             Ok(b) => {
-                std::fs::write(dir.join("table.bin"), &b)?;
-                std::fs::write(dir.join("model.bin"), &b)?;
+                write_file(&dir.join("table.bin"), &b)?;
+                write_file(&dir.join("model.bin"), &b)?;
                 tables.extend(["table.bin".to_string(), "model.bin".to_string()]);
             }
             Err(e) => notes.push(format!("the table did not validate ({e:?}), so no table.bin was written")),
         }
     }
     if let Some(t) = table(report, input) {
-        std::fs::write(dir.join("model.toml"), toml::to_string(&t)?)?;
+        let path = dir.join("model.toml");
+        write_file(&path, toml::to_string(&t).map_err(|source| DiscoverError::Toml { path: path.clone(), source })?)?;
         tables.push("model.toml".to_string());
     }
     write_csv(ch, report, &dir.join("residuals.csv"))?;
@@ -180,10 +178,32 @@ pub fn write(ch: &Channels, report: &Report, dir: &Path, scope: Scope<'_>) -> Re
             v
         }
     };
-    std::fs::write(dir.join("report.json"), json_with_verdict(&v, report)? + "\n")?;
-    std::fs::write(dir.join("report.md"), markdown(ch, report, scope, &v))?;
-    super::page::page(ch, report, dir, scope, &v)?.write(dir)?;
+    write_json(&dir.join("report.json"), &v, report)?;
+    write_file(&dir.join("report.md"), markdown(ch, report, scope, &v))?;
+    super::page::page(ch, report, dir, scope, &v).and_then(|p| p.write(dir)).map_err(DiscoverError::Page)?;
     Ok(v)
+}
+
+/// Remove an older output at `path`, if there is one.
+fn remove_stale(path: &Path) -> Result<()> {
+    match std::fs::remove_file(path) {
+        Err(source) if source.kind() != std::io::ErrorKind::NotFound => {
+            Err(DiscoverError::Io { path: path.to_path_buf(), source })
+        }
+        _ => Ok(()),
+    }
+}
+
+/// Write `bytes` to `path`; the error names the file.
+pub(super) fn write_file(path: &Path, bytes: impl AsRef<[u8]>) -> Result<()> {
+    std::fs::write(path, bytes).map_err(|source| DiscoverError::Io { path: path.to_path_buf(), source })
+}
+
+/// Write a `report.json` to `path`: the verdict first, then `report`.
+pub(super) fn write_json<T: Serialize>(path: &Path, v: &Verdict, report: &T) -> Result<()> {
+    let json =
+        json_with_verdict(v, report).map_err(|source| DiscoverError::Json { path: path.to_path_buf(), source })?;
+    write_file(path, json + "\n")
 }
 
 /// The line saying what `table.bin` holds and what it scores held out.
@@ -476,8 +496,7 @@ fn write_csv(ch: &Channels, r: &Report, path: &Path) -> Result<()> {
             ch.traces[row.trace].program, row.time_s, row.temp_c, b.sf[i], a.sf[i], b.bias[i], a.bias[i]
         );
     }
-    std::fs::write(path, s)?;
-    Ok(())
+    write_file(path, s)
 }
 
 /// The channels plotted: `(file stem, name in a title, axis label, unit)`.
@@ -552,7 +571,7 @@ fn plots(ch: &Channels, r: &Report, dir: &Path, scope: Scope<'_>) -> Result<Vec<
                     &format!("{name}, every bin from a fit that never saw it: {title}"),
                     &entries,
                 )
-                .map_err(|e| anyhow::anyhow!("{file_name}: {e}"))?;
+                .map_err(|e| DiscoverError::PlotLegend { file: file_name.clone(), message: e.to_string() })?;
                 let mut chart = ChartBuilder::on(&area)
                     .margin(8)
                     .x_label_area_size(30)

@@ -4,12 +4,10 @@
 
 use std::path::Path;
 
-use anyhow::Result;
-
 use super::output::{gaps_text, Scope};
 use super::static_axes::StaticDiscovery;
 use super::{Channels, Gaps, Report};
-use crate::coverage::Coverage;
+use crate::coverage::{Coverage, CoverageError};
 use qfa_report::html_report::Page;
 use qfa_report::verdict::Verdict;
 
@@ -17,9 +15,9 @@ use qfa_report::verdict::Verdict;
 ///
 /// # Errors
 /// No row with a temperature.
-pub fn coverage(ch: &Channels) -> Result<Coverage> {
+pub fn coverage(ch: &Channels) -> Result<Coverage, CoverageError> {
     let s = ch.traces.iter().flat_map(|t| t.est_t.iter().zip(&t.est_rate).map(|(&a, &r)| (f64::from(a), f64::from(r))));
-    Ok(Coverage::of_samples(s, f64::from(qfa_log::pairing::branch_deadband_c_per_min()))?)
+    Coverage::of_samples(s, f64::from(qfa_log::pairing::branch_deadband_c_per_min()))
 }
 
 /// What to look for in one of [`super::output`]'s residual plots (`file`), and why it may
@@ -116,7 +114,7 @@ pub fn caption(file: &str, ch: &Channels, r: &Report, scope: Scope<'_>) -> Strin
 /// # Errors
 /// A file in `dir` that cannot be read.
 #[allow(clippy::too_many_lines)]
-pub fn page(ch: &Channels, r: &Report, dir: &Path, scope: Scope<'_>, v: &Verdict) -> Result<Page> {
+pub fn page(ch: &Channels, r: &Report, dir: &Path, scope: Scope<'_>, v: &Verdict) -> std::io::Result<Page> {
     let (held, held_cap) = (scope.folds_word(), scope.folds_word_capital());
     let mut p = match scope {
         Scope::Own => Page::new("Discovery report"),
@@ -308,7 +306,7 @@ pub fn page(ch: &Channels, r: &Report, dir: &Path, scope: Scope<'_>, v: &Verdict
 ///
 /// # Errors
 /// A file in `dir` that cannot be read.
-pub fn static_page(d: &StaticDiscovery, v: &Verdict, dir: &Path) -> Result<Page> {
+pub fn static_page(d: &StaticDiscovery, v: &Verdict, dir: &Path) -> std::io::Result<Page> {
     let mut p = Page::new("Discovery report, static multi-axis log");
     v.to_page(&mut p);
     let h = &d.holdout;

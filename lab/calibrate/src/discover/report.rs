@@ -13,12 +13,12 @@ pub enum Start {
 }
 
 impl std::str::FromStr for Start {
-    type Err = anyhow::Error;
+    type Err = DiscoverError;
     fn from_str(s: &str) -> Result<Self> {
         match s {
             "simple" => Ok(Start::Simple),
             "paper" => Ok(Start::Paper),
-            _ => anyhow::bail!("start must be simple or paper, not {s:?}"),
+            _ => Err(DiscoverError::UnknownStart(s.to_string())),
         }
     }
 }

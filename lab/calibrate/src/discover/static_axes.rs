@@ -41,22 +41,21 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use anyhow::{Context, Result};
 use qfa_thermal::model::{AxisModel, AxisState};
 use serde::Serialize;
 
-use super::output::Scope;
+use super::output::{write_file, write_json, Scope};
 use super::verdict::named_is_worse;
-use super::{analyze, start_model, Channels, LogKind, Report, Start};
+use super::{analyze, start_model, Channels, DiscoverError, LogKind, Report, Result, Start};
 use crate::fit::{BranchMode, CurveShape, StaticStructure};
 use crate::peers::PeerKind;
 use crate::static_cal::{
-    calibrate_static, check_coverage, resolve_holdout, score, Figure, Holdout, HoldoutReport, StaticCalOptions,
-    NO_HOLDOUT,
+    calibrate_static, check_coverage, resolve_holdout, score, Figure, Holdout, HoldoutReport, StaticCalError,
+    StaticCalOptions, NO_HOLDOUT,
 };
 use qfa_log::channels::{BiasUnit, Trace};
 use qfa_log::static_log::StaticLog;
-use qfa_report::verdict::{json_with_verdict, Verdict};
+use qfa_report::verdict::Verdict;
 
 /// Bin width for a static log, s: about 400 bins over the log, between 10 and 60 s. A
 /// chamber log of a few hours gets the cycling logs' 60-s bins; the tofupilot log (70.7
@@ -226,8 +225,9 @@ fn discover_rows(
 /// Discover each axis of `log` under the held-out scheme `holdout`; see the module docs.
 ///
 /// # Errors
-/// A log static calibration refuses, a held-out scheme the log cannot hold, a discovery
-/// that gives no model, or a figure that cannot be formed.
+/// A log static calibration refuses, a held-out scheme the log cannot hold, or a figure
+/// that cannot be formed ([`DiscoverError::StaticCal`]); a discovery that gives no model
+/// ([`DiscoverError::NoModel`]).
 #[allow(clippy::too_many_lines)]
 pub fn discover_static(log: &StaticLog, start: Start, holdout: Holdout) -> Result<StaticDiscovery> {
     let mut opts = StaticCalOptions { holdout, ..StaticCalOptions::default() };
@@ -244,7 +244,7 @@ pub fn discover_static(log: &StaticLog, start: Start, holdout: Holdout) -> Resul
     for (a, ax) in log.axes.iter().enumerate() {
         let name = |w: &str| format!("{} {w}", ax.name);
         let (r, ch, _, reference) = discover_rows(log, a, &all, start, bin_s);
-        let disc_all = r.model.clone().with_context(|| format!("{}: discovery gave no model", ax.name))?;
+        let disc_all = r.model.clone().ok_or_else(|| DiscoverError::NoModel { axis: ax.name.clone(), fold: None })?;
         // Held-out residuals, pooled over the folds in time order.
         let (mut before, mut after, mut t_before, mut t_after) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let mut peers: [Vec<f64>; 3] = [Vec::new(), Vec::new(), Vec::new()];
@@ -255,7 +255,7 @@ pub fn discover_static(log: &StaticLog, start: Start, holdout: Holdout) -> Resul
             let train: Vec<usize> = (0..n).filter(|i| !held.contains(i)).collect();
             let (rf, _, base, r0) = discover_rows(log, a, &train, start, bin_s);
             let disc =
-                rf.model.clone().with_context(|| format!("{}: discovery gave no model in fold {}", ax.name, f + 1))?;
+                rf.model.clone().ok_or_else(|| DiscoverError::NoModel { axis: ax.name.clone(), fold: Some(f + 1) })?;
             effects_per_fold.push(rf.effect_labels());
             let drift = 1e-6 * rf.effects.iter().find_map(|e| e.params.get("drift_ug_per_h").copied()).unwrap_or(0.0);
             for (m, d, res, t) in [(&base, 0.0, &mut before, &mut t_before), (&disc, drift, &mut after, &mut t_after)] {
@@ -281,7 +281,7 @@ pub fn discover_static(log: &StaticLog, start: Start, holdout: Holdout) -> Resul
             none.extend(held.clone().map(|i| ax.accel_g[i] - r0));
             ho_t.extend(held.clone().map(|i| log.time_s[i]));
         }
-        let fig = |res: &[f64], t: &[f64], what: &str, err: &Option<String>| -> Result<Figure> {
+        let fig = |res: &[f64], t: &[f64], what: &str, err: &Option<String>| -> Result<Figure, StaticCalError> {
             if folds.is_empty() {
                 return Ok(Figure::not_computed(NO_HOLDOUT));
             }
@@ -331,7 +331,7 @@ pub fn discover_static(log: &StaticLog, start: Start, holdout: Holdout) -> Resul
     // false-discovery rate); the cross-validation decides what is *flashed* (a
     // prediction); the report gives both figures.
     opts.holdout = holdout;
-    let cal = calibrate_static(log, &opts, false).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let cal = calibrate_static(log, &opts, false)?;
     for (a, c) in axes.iter_mut().zip(&cal.report.axes) {
         a.final_is_named = c.structure == a.named_structure;
         a.final_structure.clone_from(&c.structure);
@@ -507,19 +507,19 @@ pub fn markdown(d: &StaticDiscovery) -> String {
 /// discovery and the verdict its reports open with.
 ///
 /// # Errors
-/// As [`discover_static`], or a file could not be written.
+/// As [`discover_static`], or a file could not be written ([`DiscoverError`]).
 pub fn run(log: &StaticLog, start: Start, holdout: Holdout, dir: &Path) -> Result<(StaticDiscovery, Verdict)> {
     let d = discover_static(log, start, holdout)?;
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    std::fs::create_dir_all(dir).map_err(|source| DiscoverError::CreateDir { path: dir.into(), source })?;
     for ((a, r), ch) in d.axes.iter().zip(&d.reports).zip(&d.channels) {
         // Not flashable: the table of all axes is DIR/table.bin (see `output`'s docs).
         super::output::write(ch, r, &dir.join(&a.axis), Scope::StaticAxis { discovery: &d, axis: a })?;
     }
-    std::fs::write(dir.join("table.bin"), d.table.to_bytes().map_err(|e| anyhow::anyhow!("{e}"))?)?;
+    write_file(&dir.join("table.bin"), d.table.to_bytes().map_err(DiscoverError::Table)?)?;
     let files: Vec<String> = ["table.bin", "report.json", "report.md", "report.html"].map(String::from).to_vec();
     let v = super::verdict::static_verdict(&d, &files);
-    std::fs::write(dir.join("report.json"), json_with_verdict(&v, &d)? + "\n")?;
-    std::fs::write(dir.join("report.md"), format!("# Discovery on a static log\n\n{}{}", v.markdown(), markdown(&d)))?;
-    super::page::static_page(&d, &v, dir)?.write(dir)?;
+    write_json(&dir.join("report.json"), &v, &d)?;
+    write_file(&dir.join("report.md"), format!("# Discovery on a static log\n\n{}{}", v.markdown(), markdown(&d)))?;
+    super::page::static_page(&d, &v, dir).and_then(|p| p.write(dir)).map_err(DiscoverError::Page)?;
     Ok((d, v))
 }

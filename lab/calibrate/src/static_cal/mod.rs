@@ -75,9 +75,9 @@ use std::ops::Range;
 use qfa_thermal::model::Branch;
 use qfa_thermal::Input;
 
-use crate::fit::{fit_static_traced, table_of_axes, FitError, StaticFit, StaticSeries, StaticStructure, StaticTraces};
+use crate::fit::{fit_static_traced, table_of_axes, StaticFit, StaticSeries, StaticStructure, StaticTraces};
 use crate::metrics::rms;
-use crate::peers::{PeerKind, Poly};
+use crate::peers::{ardupilot_reason, PeerKind, Poly};
 use crate::static_cal::choice::cv_rms;
 use qfa_log::pairing::Trace;
 use qfa_log::static_log::{AxisColumn, StaticLog};
@@ -407,7 +407,7 @@ fn exported_peers(
     let (t_all, y_all): (Vec<f64>, Vec<f64>) = (log.temp_c.clone(), ax.accel_g.iter().map(|v| v - reference).collect());
     let exported = ExportedPeers {
         cubic: PeerKind::Cubic.fit(&t_all, &y_all).map_err(|e| StaticCalError::Fit(format!("{} cubic", ax.name), e))?,
-        ardupilot: PeerKind::Ardupilot.fit(&t_all, &y_all).map_err(|e| ardupilot_reason(&e)),
+        ardupilot: PeerKind::Ardupilot.fit(&t_all, &y_all),
     };
     // The exported peers over every row, the constant the mean over every row (what the
     // ordinary accelerometer calibration takes up): the figures the files reproduce.
@@ -420,7 +420,7 @@ fn exported_peers(
     let exported_cubic = in_sample(&exported.cubic, "cubic")?;
     let exported_ardupilot = match &exported.ardupilot {
         Ok(p) => in_sample(p, "ardupilot")?,
-        Err(why) => Figure::not_computed(why.clone()),
+        Err(why) => Figure::not_computed(ardupilot_reason(why)),
     };
     Ok((exported, exported_cubic, exported_ardupilot))
 }
@@ -617,17 +617,6 @@ struct HeldOut {
     peer_err: [Option<String>; 3],
     none: Vec<f64>,
     t: Vec<f64>,
-}
-
-/// Why the ArduPilot learner formed no fit, in its own terms.
-fn ardupilot_reason(e: &FitError) -> String {
-    match e {
-        FitError::TooFewRows { rows, .. } => format!(
-            "the ArduPilot learner formed {rows} point(s) (one per 0.5 °C rise after the coldest row) and its cubic \
-             needs 4: it learns only while the temperature rises"
-        ),
-        e => e.to_string(),
-    }
 }
 
 /// Which rows each figure comes from, in words.

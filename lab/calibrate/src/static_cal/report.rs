@@ -6,7 +6,7 @@ use serde::Serialize;
 use qfa_thermal::model::Branch;
 use qfa_thermal::Table;
 
-use crate::fit::StaticFit;
+use crate::fit::{FitError, StaticFit};
 use crate::peers::Poly;
 use qfa_log::static_log::{Sampling, Skipped};
 
@@ -190,8 +190,9 @@ pub struct PlotRows {
 pub struct ExportedPeers {
     /// PX4 / tofupilot cubic.
     pub cubic: Poly,
-    /// ArduPilot TCAL, or why its learner formed no fit (it takes only rises).
-    pub ardupilot: Result<Poly, String>,
+    /// ArduPilot TCAL, or why its learner formed no fit (it takes only rises:
+    /// [`crate::peers::ardupilot_reason`] says so in its terms).
+    pub ardupilot: Result<Poly, FitError>,
 }
 
 /// A static calibration.
