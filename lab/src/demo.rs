@@ -71,7 +71,8 @@ pub type DiscoveryHook = fn(log: &Path, out: &Path) -> Result<String, qfa_calibr
 /// Where the navigation study plugs in: called once with its output directory after all
 /// units are calibrated, and the flight's length limit, s. Returns its verdict and the
 /// caption of its flight plot; an error fails the demo.
-pub type NavigationHook = fn(out: &Path, duration_s: Option<f64>) -> Result<qfa_nav::NavigationOutcome, String>;
+pub type NavigationHook =
+    fn(out: &Path, duration_s: Option<f64>) -> Result<qfa_nav::NavigationOutcome, qfa_nav::NavError>;
 
 /// The demo's `report.json`: the verdict (first, [`qfa_report::verdict::json_with_verdict`])
 /// and every unit's Table-4 figures.
@@ -208,7 +209,8 @@ pub fn run(
     let mut nav = None;
     if let Some(hook) = navigation {
         let pb = spinner("navigation study (calibrate, align, fly)", opts.progress);
-        let s = hook(&opts.out.join(NAVIGATION_DIR), opts.nav_duration_s).map_err(|e| format!("navigation: {e}"));
+        let s = hook(&opts.out.join(NAVIGATION_DIR), opts.nav_duration_s)
+            .map_err(|e| format!("navigation: {}", error_chain(&e)));
         pb.finish_and_clear();
         let s = s?;
         eprintln!("navigation: {}", s.verdict.answer);
@@ -458,6 +460,18 @@ pub fn table4_text(results: &[UnitResult]) -> String {
             r.bias_residual_ug.simple,
             r.bias_residual_ug.hysteresis
         ));
+    }
+    s
+}
+
+/// An error and its causes on one line, `e: cause: cause`, as the command line prints them.
+fn error_chain(e: &dyn std::error::Error) -> String {
+    let mut s = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        s.push_str(": ");
+        s.push_str(&c.to_string());
+        cause = c.source();
     }
     s
 }

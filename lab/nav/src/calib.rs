@@ -80,12 +80,12 @@ impl LabProgram {
 }
 
 impl std::str::FromStr for LabProgram {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = CalibError;
+    fn from_str(s: &str) -> Result<Self, CalibError> {
         match s {
             "covering" => Ok(Self::Covering),
             "paper" => Ok(Self::Paper),
-            _ => Err(format!("lab program `{s}`: expected covering or paper")),
+            _ => Err(CalibError::LabProgram(s.to_string())),
         }
     }
 }
@@ -137,6 +137,8 @@ pub struct CalReport {
 #[derive(Debug)]
 #[non_exhaustive]
 pub enum CalibError {
+    /// A lab program other than `covering` or `paper` (the name given).
+    LabProgram(String),
     /// A table without axes.
     EmptyTable,
     /// The fit on the fit programs, before the held-out evaluation, failed.
@@ -197,6 +199,7 @@ pub enum CalibError {
 impl fmt::Display for CalibError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
+            Self::LabProgram(s) => write!(f, "lab program `{s}`: expected covering or paper"),
             Self::EmptyTable => f.write_str("empty table"),
             Self::ValidationFit { unit, .. } => write!(f, "{unit}: validation fit"),
             Self::HeldOut { unit, .. } => write!(f, "{unit}: held-out evaluation"),
@@ -230,7 +233,7 @@ impl std::error::Error for CalibError {
             Self::Utf8(e) => e.source(),
             Self::Channels(e) => e.source(),
             Self::Coverage(e) => e.source(),
-            Self::EmptyTable | Self::NotOneAxis | Self::RateWindow => None,
+            Self::LabProgram(_) | Self::EmptyTable | Self::NotOneAxis | Self::RateWindow => None,
         }
     }
 }

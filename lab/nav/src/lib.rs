@@ -154,6 +154,8 @@ pub enum NavError {
         /// The system's error.
         source: std::io::Error,
     },
+    /// The study flew but wrote no verdict (the demo needs one to merge).
+    NoVerdict,
 }
 
 impl fmt::Display for NavError {
@@ -177,6 +179,7 @@ impl fmt::Display for NavError {
             Self::Toml(e) => write!(f, "{e}"),
             Self::CreateDir { path, .. } => write!(f, "creating {}", path.display()),
             Self::Write { path, .. } => write!(f, "writing {}", path.display()),
+            Self::NoVerdict => f.write_str("navigate wrote no verdict"),
         }
     }
 }
@@ -184,7 +187,7 @@ impl fmt::Display for NavError {
 impl std::error::Error for NavError {
     fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
         match self {
-            Self::ShardGiven | Self::NoShard | Self::Shard { .. } | Self::ShardRuns => None,
+            Self::ShardGiven | Self::NoShard | Self::Shard { .. } | Self::ShardRuns | Self::NoVerdict => None,
             Self::Plot(e) => Some(e),
             Self::CreateDir { source, .. } | Self::Write { source, .. } => Some(source),
             // Printed as they are (above): their causes come next.
@@ -278,6 +281,7 @@ fn write_file(path: &Path, text: &str) -> Result<(), NavError> {
 }
 
 /// `e` and its causes on one line, `context: cause`, as `qfa-lab` prints them.
+#[cfg(test)]
 fn chain(e: &dyn std::error::Error) -> String {
     let mut s = e.to_string();
     let mut cause = e.source();
@@ -459,11 +463,11 @@ pub struct NavigationOutcome {
 /// the caption of its flight plot.
 ///
 /// # Errors
-/// The study's failure, as text (the demo fails with it).
-pub fn demo_hook(out: &Path, duration_s: Option<f64>) -> Result<NavigationOutcome, String> {
+/// The study's failure (the demo fails with it).
+pub fn demo_hook(out: &Path, duration_s: Option<f64>) -> Result<NavigationOutcome, NavError> {
     let args = NavigateArgs { out: out.to_path_buf(), duration_s, ..NavigateArgs::default() };
-    let r = navigate(&args).map_err(|e| chain(&e))?;
+    let r = navigate(&args)?;
     let plot_caption = verdict::caption("nav_errors.png", &verdict::alarms(&r));
-    let verdict = r.verdict.ok_or_else(|| "navigate wrote no verdict".to_string())?;
+    let verdict = r.verdict.ok_or(NavError::NoVerdict)?;
     Ok(NavigationOutcome { verdict, plot_caption })
 }
