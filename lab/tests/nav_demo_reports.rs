@@ -165,9 +165,11 @@ fn navigate_with_a_monte_carlo_run_and_its_merged_shard_tell_one_story() {
 fn the_reduced_demo_tells_one_story_links_every_sub_page_loads_and_stays_under_20_mb() {
     let d = tmp("demo");
     let out = d.join("out");
+    let t = std::time::Instant::now();
     let stdout = lab_stdout(&["demo", "--out", &s(&out), "--row-s", "10", "--nav-duration-s", "1200"]);
+    let secs = t.elapsed().as_secs_f64();
     let bytes = qfa_lab::demo::dir_bytes(&out).unwrap();
-    println!("reduced demo (10-s rows, 1200 s of flight): {:.2} MB", bytes as f64 / 1e6);
+    println!("reduced demo (10-s rows, 1200 s of flight): {secs:.1} s, {:.2} MB", bytes as f64 / 1e6);
     assert!(bytes < 20_000_000, "demo outputs {bytes} B, over 20 MB:\n{stdout}");
     for u in 1..=3 {
         assert!(!out.join(format!("kt8-{u}/log.csv")).exists(), "log.csv kept without --full-logs");

@@ -72,6 +72,8 @@ commands:
                 vectors, benchmark and demo example on QEMU mps2-an386 (each output checked
                 against its .out file), panic-check, the STM32F405 board (its own workspace:
                 host tests and firmware build), publish dry run
+  test-target [--overwrite]
+                the target half of `test` alone (test runs it alongside its host half)
   demo-qemu [--overwrite]
                 run the demo example (examples/qemu_demo.rs) on QEMU, output checked against
                 examples/qemu_demo.out
@@ -111,6 +113,7 @@ fn main() {
     let args: Vec<String> = env::args().skip(1).collect();
     let result = match args.first().map(String::as_str) {
         Some(command @ "test") => overwrite_flag(command, &args[1..]).and_then(test),
+        Some(command @ "test-target") => overwrite_flag(command, &args[1..]).and_then(test_target),
         Some(command @ "demo-qemu") => overwrite_flag(command, &args[1..]).and_then(demo_qemu),
         Some(command @ "bench-target") => overwrite_flag(command, &args[1..]).and_then(bench_target),
         Some("panic-check") => panic_check(),
@@ -559,8 +562,13 @@ fn run_snapshot(snapshot: &Snapshot, kernel: &Path, icount: bool, overwrite: boo
     Ok(out)
 }
 
+/// `cargo xtask test`: the host half here, the target half ([`test_target`]) in a second
+/// process alongside it. The two share the 2 cores where one half waits (the host tests'
+/// run, QEMU, Chromium) and Cargo's lock on the target directory where both build; the
+/// target half's output is printed after the host half's, so neither interleaves.
 fn test(overwrite: bool) -> Result {
     ensure_target()?;
+    let target_half = Alongside::start("test-target", overwrite)?;
 
     step("rustfmt --check (rustfmt.toml: 120 columns), workspace and board");
     let mut c = cargo();
@@ -576,14 +584,6 @@ fn test(overwrite: bool) -> Result {
     run(c)?;
     run(board_cargo(&["clippy", "--all-targets", "--", "-D", "warnings"])?)?;
 
-    step(&format!("clippy, {TARGET} (core and its examples, board example)"));
-    let mut c = cargo();
-    // With the measuring features, or the benchmark (required-features) is skipped unseen.
-    c.args(["clippy", "-p", CORE, "--lib", "--examples", "--features", EXAMPLE_FEATURES, "--target", TARGET]);
-    c.args(["--", "-D", "warnings"]);
-    run(c)?;
-    run(board_cargo(&["clippy", "--target", TARGET, "--", "-D", "warnings"])?)?;
-
     step("host tests and doctests (default members; the README's example is a doctest)");
     ensure_chromium()?;
     let mut c = cargo();
@@ -591,12 +591,36 @@ fn test(overwrite: bool) -> Result {
     run(c)?;
 
     step("rustdoc of the crate, the generator and the lab's crates, -D warnings");
+    let mut c = cargo();
+    c.arg("doc").env("RUSTDOCFLAGS", "-D warnings");
     for package in ["qfa-thermal", "qfa-rng", "qfa-report", "qfa-log", "qfa-sim", "qfa-calibrate", "qfa-nav", "qfa-lab"]
     {
-        let mut c = cargo();
-        c.args(["doc", "-p", package, "--no-deps"]).env("RUSTDOCFLAGS", "-D warnings");
-        run(c)?;
+        c.args(["-p", package]);
     }
+    c.arg("--no-deps");
+    run(c)?;
+
+    step("the target half (started alongside the host steps): waiting for it");
+    let target_log = target_half.finish();
+    print_step_times();
+    print!("{}", target_log?);
+    println!("\nxtask test: all steps passed");
+    Ok(())
+}
+
+/// The target half of `test`: clippy for the target, the loom model, the QEMU programs
+/// against their `.out` files, the figures against their budgets, panic-check, the board,
+/// the publish dry run.
+fn test_target(overwrite: bool) -> Result {
+    ensure_target()?;
+
+    step(&format!("clippy, {TARGET} (core and its examples, board example)"));
+    let mut c = cargo();
+    // With the measuring features, or the benchmark (required-features) is skipped unseen.
+    c.args(["clippy", "-p", CORE, "--lib", "--examples", "--features", EXAMPLE_FEATURES, "--target", TARGET]);
+    c.args(["--", "-D", "warnings"]);
+    run(c)?;
+    run(board_cargo(&["clippy", "--target", TARGET, "--", "-D", "warnings"])?)?;
 
     step("loom model of the seqlock (clean; `cargo xtask loom` adds the mutants)");
     loom_model_passes(&target_dir()?.join("loom"))?;
@@ -625,8 +649,58 @@ fn test(overwrite: bool) -> Result {
     run(c)?;
 
     print_step_times();
-    println!("\nxtask test: all steps passed");
+    println!("\nxtask test-target: all steps passed");
     Ok(())
+}
+
+/// An xtask command running in a second process, its output into a file under the target
+/// directory; killed if dropped before [`Alongside::finish`] (the host half failed).
+struct Alongside {
+    child: Child,
+    log: PathBuf,
+    started: Instant,
+}
+
+impl Alongside {
+    fn start(command: &str, overwrite: bool) -> Result<Self> {
+        let log = target_dir()?.join(format!("xtask-{command}.log"));
+        let opened = std::fs::File::create(&log).and_then(|f| Ok((f.try_clone()?, f)));
+        let Ok((out, err)) = opened else { return fail(format!("cannot write {}", log.display())) };
+        let exe = env::current_exe().map_err(|e| Failure(format!("xtask's own path: {e}")))?;
+        let mut c = Command::new(exe);
+        c.current_dir(root()).arg(command).args(overwrite.then_some("--overwrite")).stdout(out).stderr(err);
+        println!("$ {}  (alongside; output in {}, printed at the end)", show(&c), log.display());
+        match c.spawn() {
+            Ok(child) => Ok(Self { child, log, started: Instant::now() }),
+            Err(e) => fail(format!("`{}` could not start: {e}", show(&c))),
+        }
+    }
+
+    /// Wait for it; its output, headed by its wall time, or a failure naming its log.
+    fn finish(mut self) -> Result<String> {
+        let status = self.child.wait().map_err(|e| Failure(format!("waiting for {}: {e}", self.log.display())));
+        let took = self.started.elapsed().as_secs_f64();
+        let out = std::fs::read_to_string(&self.log).unwrap_or_default();
+        let text = format!("\n==> the target half's output ({took:.0} s wall, alongside the host steps)\n{out}");
+        match status? {
+            s if s.success() => Ok(text),
+            s => {
+                print!("{text}");
+                fail(format!("the target half exited with {s} (its output is above, and in {})", self.log.display()))
+            }
+        }
+    }
+}
+
+impl Drop for Alongside {
+    fn drop(&mut self) {
+        // A no-op once `finish` has waited; otherwise the host half failed first.
+        if matches!(self.child.try_wait(), Ok(None)) {
+            let _ = self.child.kill();
+            let _ = self.child.wait();
+            eprintln!("(the target half was stopped; its output so far is in {})", self.log.display());
+        }
+    }
 }
 
 fn demo_qemu(overwrite: bool) -> Result {
