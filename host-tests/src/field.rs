@@ -325,13 +325,6 @@ fn quantize(true_c: f64, coin: u64) -> i16 {
     raw as i16
 }
 
-fn splitmix(x: u64) -> u64 {
-    let mut z = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
 /// Run `h` through the compensator and the oracle.
 #[must_use]
 pub fn run(h: &History) -> Verdict {
@@ -377,7 +370,7 @@ pub fn run(h: &History) -> Verdict {
                 Event::LoadCorrupt => {
                     let mut buf = [0u8; MAX_TABLE_BYTES];
                     let mut bytes = tables[1 - current].encode(&mut buf).expect("encodes").to_vec();
-                    let k = (splitmix(u64::from(s)) as usize) % bytes.len();
+                    let k = (qfa_rng::splitmix64(u64::from(s)) as usize) % bytes.len();
                     bytes[k] ^= 0x5A;
                     assert!(comp.load_table(&bytes).is_err(), "a flipped byte is refused (CRC)");
                 }
@@ -398,7 +391,7 @@ pub fn run(h: &History) -> Verdict {
                 let _ = comp.on_missed_reading(j, t_ms);
                 continue;
             }
-            let coin = splitmix(h.flicker_seed ^ (u64::from(s) << 8) ^ j as u64);
+            let coin = qfa_rng::splitmix64(h.flicker_seed ^ (u64::from(s) << 8) ^ j as u64);
             let raw = quantize(true_c, coin);
             match here {
                 Some(Event::Crc) => {
@@ -422,7 +415,7 @@ pub fn run(h: &History) -> Verdict {
         }
         for c in 0..h.cycles_per_s {
             let pulses: [i32; AXES] = core::array::from_fn(|i| {
-                let r = splitmix(h.flicker_seed ^ (u64::from(s) << 20) ^ (u64::from(c) << 4) ^ i as u64);
+                let r = qfa_rng::splitmix64(h.flicker_seed ^ (u64::from(s) << 20) ^ (u64::from(c) << 4) ^ i as u64);
                 1_601 - (r % 3_203) as i32
             });
             let dt = 5_000;

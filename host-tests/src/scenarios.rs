@@ -3,6 +3,7 @@
 //! Each scenario is a list of event lines (the part before `=>`); `record` replays them
 //! through the compensator and writes the outputs next to them.
 
+use qfa_rng::{seeded, uniform, LabRng};
 use qfa_thermal::ds18b20::{encode_scratchpad, Resolution};
 use qfa_thermal::fixtures::JB_KT8;
 use qfa_thermal::model::{AxisModel, BiasGrid, BranchHysteresis, Creep, Extensions, ScaleFactor, SensorLag};
@@ -60,22 +61,6 @@ fn hex(b: &[u8]) -> String {
     b.iter().map(|x| format!("{x:02x}")).collect()
 }
 
-/// Deterministic generator (64-bit LCG, Knuth's constants) so vectors regenerate identically.
-pub struct Lcg(u64);
-
-impl Lcg {
-    /// Seeded generator.
-    #[must_use]
-    pub const fn new(seed: u64) -> Self {
-        Self(seed)
-    }
-    /// Uniform in [0, 1).
-    pub fn uniform(&mut self) -> f64 {
-        self.0 = self.0.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
-
 /// A temperature program: (duration s, rate °C/min) segments from `start_c`.
 #[must_use]
 pub fn temperature_at(start_c: f64, segments: &[(f64, f64)], t_s: f64) -> f64 {
@@ -94,13 +79,13 @@ pub const PROFILE: [(f64, f64); 5] = [(60.0, 0.0), (200.0, -0.9), (100.0, 0.0), 
 
 /// Readings every ~2 s (jittered) along `PROFILE`, one IMU cycle after every second reading.
 /// Every fifth reading goes through a scratchpad, exercising the decoder.
-pub fn profile_events(lines: &mut Vec<String>, rng: &mut Lcg, unit: usize, t_start_ms: u32) {
+pub fn profile_events(lines: &mut Vec<String>, rng: &mut LabRng, unit: usize, t_start_ms: u32) {
     let mut t_ms = t_start_ms;
     let inputs_g = [1.0, -0.5, 0.25];
     for k in 0..300u32 {
-        t_ms = t_ms.wrapping_add(2000 + (rng.uniform() * 200.0) as u32 - 100);
+        t_ms = t_ms.wrapping_add(2000 + (uniform(rng) * 200.0) as u32 - 100);
         let t_s = f64::from(k) * 2.0;
-        let temp = temperature_at(22.0, &PROFILE, t_s) + 0.01 * (rng.uniform() - 0.5);
+        let temp = temperature_at(22.0, &PROFILE, t_s) + 0.01 * (uniform(rng) - 0.5);
         let raw = (temp * 16.0).round() as i16;
         if k % 5 == 4 {
             let sp = encode_scratchpad(raw, Resolution::Bits12, 0x0D);
@@ -109,11 +94,11 @@ pub fn profile_events(lines: &mut Vec<String>, rng: &mut Lcg, unit: usize, t_sta
             lines.push(format!("raw {t_ms} {raw}"));
         }
         if k % 2 == 1 {
-            let dt = 2500 + (rng.uniform() * 40.0) as u32 - 20;
+            let dt = 2500 + (uniform(rng) * 40.0) as u32 - 20;
             let k1 = f64::from(JB_KT8[unit].gamma);
             let n: Vec<i32> = inputs_g
                 .iter()
-                .map(|a| (k1 * (1.2e-4 + a) * f64::from(dt) * 1e-6 + rng.uniform() - 0.5).round() as i32)
+                .map(|a| (k1 * (1.2e-4 + a) * f64::from(dt) * 1e-6 + uniform(rng) - 0.5).round() as i32)
                 .collect();
             lines.push(format!("cycle {dt} {} {} {}", n[0], n[1], n[2]));
             // The same unit read as MEMS samples: raw = K1·(K0 + a) LSB, one 1 kHz sample,
@@ -168,7 +153,7 @@ pub fn all() -> Vec<(&'static str, Vec<String>)> {
             ),
         );
         l.push(format!("table {}", table_hex(&table(unit, [none; 3], m))));
-        profile_events(&mut l, &mut Lcg::new(11 + unit as u64), unit, 1000);
+        profile_events(&mut l, &mut seeded(11 + unit as u64), unit, 1000);
         files.push((name, l));
     }
     let slots = [
@@ -183,7 +168,7 @@ pub fn all() -> Vec<(&'static str, Vec<String>)> {
         l.push(format!("table {}", table_hex(&table(0, [e; 3], None))));
         // Start near the u32 wrap in one file: timestamps must wrap cleanly.
         let t0 = if i == 3 { u32::MAX - 300_000 } else { 5000 };
-        profile_events(&mut l, &mut Lcg::new(100 + i as u64), 0, t0);
+        profile_events(&mut l, &mut seeded(100 + i as u64), 0, t0);
         files.push((name, l));
     }
     files.push(("faults.vec", faults()));

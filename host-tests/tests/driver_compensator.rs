@@ -19,7 +19,7 @@ use std::collections::BTreeMap;
 
 use host_tests::fuzzing::stream_table;
 use host_tests::onewire_sim::{Device, Sim};
-use host_tests::scenarios::Lcg;
+use qfa_rng::LabRng;
 use qfa_thermal::compensator::{Compensator, Config, SampleError, Status};
 use qfa_thermal::ds18b20::{self, Resolution};
 use qfa_thermal::ds18b20_driver::{self as drv, Ds18b20};
@@ -113,7 +113,7 @@ enum App {
 #[allow(clippy::too_many_lines)]
 #[test]
 fn driver_and_compensator_come_through_every_fault() {
-    let mut rng = Lcg::new(0x0DD5_EED5);
+    let mut rng = qfa_rng::seeded(0x0DD5_EED5);
     let mut dev = Device::ds18b20(0x0042_1E55, truth_raw(0));
     // EEPROM holds 11 bits, so a brown-out also reverts the resolution the driver set.
     dev.eeprom = [0x4B, 0x46, Resolution::Bits11.config_byte()];
@@ -166,11 +166,11 @@ fn driver_and_compensator_come_through_every_fault() {
             let kind = KINDS[kind_i % KINDS.len()];
             kind_i += 1;
             next_fault_us = now_us + FAULT_EVERY_S * 1_000_000;
-            let dur_us = |lo: f64, hi: f64, rng: &mut Lcg| ((lo + (hi - lo) * rng.uniform()) * 1e6) as u64;
+            let dur_us = |lo: f64, hi: f64, rng: &mut LabRng| ((lo + (hi - lo) * qfa_rng::uniform(rng)) * 1e6) as u64;
             let mut ev = Event { kind: Some(kind), ..Event::default() };
             match kind {
                 Kind::FlipRetried | Kind::FlipExhausted => {
-                    let bit = (rng.uniform() * 72.0) as usize;
+                    let bit = (qfa_rng::uniform(&mut rng) * 72.0) as usize;
                     sim.with(|w| {
                         w.devices[0].flip_bit = bit;
                         w.devices[0].flip_times = if kind == Kind::FlipRetried { 1 } else { 2 };
@@ -193,7 +193,7 @@ fn driver_and_compensator_come_through_every_fault() {
                     sim.with(|w| w.pin_error = true);
                 }
                 Kind::BrownOut => {
-                    let at = sim.now_ns() + (rng.uniform() * 700e6) as u64;
+                    let at = sim.now_ns() + (qfa_rng::uniform(&mut rng) * 700e6) as u64;
                     sim.with(|w| w.devices[0].brown_out_at_ns = Some(at));
                 }
                 Kind::Spike => {

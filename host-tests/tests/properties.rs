@@ -62,11 +62,11 @@ proptest! {
 /// inputs, each through all three harnesses.
 #[test]
 fn fuzz_harnesses_over_fixed_corpus() {
-    let mut rng = host_tests::scenarios::Lcg::new(7);
+    let mut rng = qfa_rng::seeded(7);
     let mut n = 0;
     for len in [0usize, 1, 2, 9, 16, 17, 64, 255, 1024] {
         for _ in 0..40 {
-            let data: Vec<u8> = (0..len).map(|_| (rng.uniform() * 256.0) as u8).collect();
+            let data: Vec<u8> = (0..len).map(|_| (qfa_rng::uniform(&mut rng) * 256.0) as u8).collect();
             fuzzing::scratchpad(&data);
             fuzzing::table(&data);
             fuzzing::compensator_stream(&data);
@@ -239,12 +239,12 @@ proptest! {
         let lim = a.rate_limit_c_per_min;
         let db = g.deadband_c_per_min;
         let rates = [-1e3, -40.0, -lim - 1.0, -lim, -0.5 * lim, -db - 0.01, 0.0, db + 0.01, 0.5 * lim, lim, lim + 1.0, 40.0, 1e3];
-        let mut rng = host_tests::scenarios::Lcg::new(seed);
+        let mut rng = qfa_rng::seeded(seed);
         let mut walk = AxisState::default();
         let mut n = 0u32;
         for &temp in temps.iter().chain(temps.iter().rev()) {
             for &rate in &rates {
-                let dt = [0.0f32, 1.0, 60.0, 1e4][(rng.uniform() * 4.0) as usize];
+                let dt = [0.0f32, 1.0, 60.0, 1e4][(qfa_rng::uniform(&mut rng) * 4.0) as usize];
                 // A fresh state and one that walked through every point so far (branches,
                 // lag, play and creep states in every configuration the walk reaches).
                 let fresh = a.evaluate(&mut AxisState::default(), temp, rate, dt);

@@ -42,11 +42,7 @@ fn synthetic(path: &Path, start_c: f64, legs: &[f64], names: &[&str]) -> Synthet
     }
     // A hash of (row, axis), so an axis gets the same noise whichever other axes the log has.
     let noise = |i: usize, g: usize| -> f64 {
-        let mut z = (i as u64) << 2 | g as u64;
-        z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
+        let z = qfa_rng::splitmix64((i as u64) << 2 | g as u64);
         ((z >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 4e-4
     };
     let gravity = [0.01, -0.02, -1.0];

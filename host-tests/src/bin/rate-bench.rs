@@ -9,27 +9,20 @@
 //!
 //! A report, not a test: it prints figures and asserts nothing about them.
 
-use host_tests::scenarios::Lcg;
+use qfa_rng::{normal, seeded, uniform, LabRng};
 use qfa_thermal::rate::{RateConfig, RateEstimator};
 
 const Q: f64 = 0.0625;
 
-fn gauss(rng: &mut Lcg) -> f64 {
-    // Box–Muller.
-    let u1 = rng.uniform().max(1e-300);
-    let u2 = rng.uniform();
-    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
-}
-
 /// RMS error of Ṫ (°C/min) over `trials` independent windows.
-fn rms_error<const N: usize>(rate: f64, sigma_n: f64, trials: usize, rng: &mut Lcg) -> f64 {
+fn rms_error<const N: usize>(rate: f64, sigma_n: f64, trials: usize, rng: &mut LabRng) -> f64 {
     let mut sum2 = 0.0;
     for _ in 0..trials {
         let mut e = RateEstimator::<N>::new(RateConfig { min_samples: N as u8, ..RateConfig::default() });
-        let offset = rng.uniform() * 10.0 + 15.0;
+        let offset = uniform(rng) * 10.0 + 15.0;
         for k in 0..N {
             let t_s = k as f64;
-            let temp = offset + rate / 60.0 * t_s + sigma_n * gauss(rng);
+            let temp = offset + rate / 60.0 * t_s + sigma_n * normal(rng);
             let raw = (temp / Q).round() as i16;
             e.push(1000 * k as u32 + 7, raw).expect("monotonic");
         }
@@ -68,7 +61,7 @@ fn step_lag<const N: usize>() -> (usize, usize) {
     (half, ninety)
 }
 
-fn run<const N: usize>(rng: &mut Lcg) {
+fn run<const N: usize>(rng: &mut LabRng) {
     println!("window N = {N} samples at 1 Hz");
     println!("  sigma_n °C | rate °C/min | RMS(Ṫ) °C/min | CRB °C/min | ratio");
     let mut worst: f64 = 0.0;
@@ -87,7 +80,7 @@ fn run<const N: usize>(rng: &mut Lcg) {
 }
 
 fn main() {
-    let mut rng = Lcg::new(2024);
+    let mut rng = seeded(2024);
     run::<32>(&mut rng);
     run::<64>(&mut rng);
 }

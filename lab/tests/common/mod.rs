@@ -169,11 +169,8 @@ pub fn write_static_log(path: &std::path::Path) {
 /// [`write_static_log`] with a row every `step_s` seconds (the same 2 h, fewer rows).
 pub fn write_static_log_every(path: &std::path::Path, step_s: u32) {
     let mut s = String::from("time\ttemp\tax\tay\taz\n");
-    let mut x: u64 = 7;
-    let mut noise = || {
-        x = x.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
-        ((x >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 2e-4
-    };
+    let mut rng = qfa_rng::seeded(7);
+    let mut noise = || (qfa_rng::uniform(&mut rng) - 0.5) * 2e-4;
     let legs = [(25.0, 60.0, 1800 / step_s), (60.0, -10.0, 3600 / step_s), (-10.0, 40.0, 1800 / step_s)];
     let mut t = 0;
     for (a, b, n) in legs {
