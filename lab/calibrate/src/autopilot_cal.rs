@@ -313,7 +313,7 @@ pub fn calibrate_autopilot(
 
 /// The log's `report.html`: the verdict, then each instance with a link to its own page.
 #[must_use]
-pub fn page(c: &AutopilotCalibration) -> qfa_report::html_report::Page {
+pub(crate) fn page(c: &AutopilotCalibration) -> qfa_report::html_report::Page {
     use qfa_report::html_report::escape;
     let mut p = qfa_report::html_report::Page::new(&format!("Calibration of a {}", c.log));
     c.verdict.to_page(&mut p);
@@ -341,7 +341,7 @@ pub fn page(c: &AutopilotCalibration) -> qfa_report::html_report::Page {
 /// The report in words: each instance, refused or calibrated, with its warnings and
 /// held-out figures, and the files written.
 #[must_use]
-pub fn markdown(c: &AutopilotCalibration) -> String {
+pub(crate) fn markdown(c: &AutopilotCalibration) -> String {
     let mut s = format!("# Calibration of a {}\n\n", c.log);
     for n in &c.reader_notes {
         let _ = writeln!(s, "* reader: {n}");

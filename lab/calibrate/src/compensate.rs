@@ -158,7 +158,7 @@ pub fn compensate_log(
 
 /// Whether a status word means "no temperature-based compensation yet".
 #[must_use]
-pub fn not_compensated(status: u16) -> bool {
+pub(crate) fn not_compensated(status: u16) -> bool {
     Status::from_bits_retain(status).intersects(Status::NO_TABLE | Status::TEMP_STALE)
 }
 
@@ -343,12 +343,6 @@ impl FlagSummary {
             }
         }
         s
-    }
-
-    /// The rows carrying flag `name` (0 for a name the status word does not have).
-    #[must_use]
-    pub fn count(&self, name: &str) -> usize {
-        self.by_flag.iter().find(|(n, _)| *n == name).map_or(0, |c| c.1)
     }
 
     fn share(&self, n: usize) -> f64 {

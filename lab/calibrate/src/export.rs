@@ -10,18 +10,19 @@ use qfa_log::spelling::{CalibrateOption, Spelling};
 use qfa_log::static_log::G0_MPS2;
 
 /// The first ArduPilot file: only `INS_TCAL1_ENABLE` (see [`write_exports`]).
-pub const ARDUPILOT_ENABLE_FILE: &str = "ardupilot_tcal_1_enable.parm";
+pub(crate) const ARDUPILOT_ENABLE_FILE: &str = "ardupilot_tcal_1_enable.parm";
 /// The second ArduPilot file: the range and the coefficients.
-pub const ARDUPILOT_VALUES_FILE: &str = "ardupilot_tcal_2_values.parm";
+pub(crate) const ARDUPILOT_VALUES_FILE: &str = "ardupilot_tcal_2_values.parm";
 /// The PX4 file.
-pub const PX4_FILE: &str = "px4_tc.params";
+pub(crate) const PX4_FILE: &str = "px4_tc.params";
 /// Every file [`write_exports`] manages in an output directory (older names included, so a
 /// file from an earlier run never sits beside this run's as if it were current).
-pub const EXPORT_FILES: [&str; 4] = [PX4_FILE, ARDUPILOT_ENABLE_FILE, ARDUPILOT_VALUES_FILE, "ardupilot_tcal.parm"];
+pub(crate) const EXPORT_FILES: [&str; 4] =
+    [PX4_FILE, ARDUPILOT_ENABLE_FILE, ARDUPILOT_VALUES_FILE, "ardupilot_tcal.parm"];
 
 /// The range ArduPilot accepts for `INS_TCALn_TMIN` / `TMAX`, °C (their `@Range: -70 80`
 /// in `AP_InertialSensor_tempcal.cpp`).
-pub const ARDUPILOT_T_RANGE_C: (f64, f64) = (-70.0, 80.0);
+pub(crate) const ARDUPILOT_T_RANGE_C: (f64, f64) = (-70.0, 80.0);
 
 /// One IMU axis of an export.
 #[derive(Clone, Debug)]
@@ -88,7 +89,7 @@ pub enum ExportNote {
     NoPx4DeviceId,
     /// The ArduPilot learner formed no fit (why, in its terms).
     NoArdupilotFit(String),
-    /// TMIN/TMAX outside what ArduPilot accepts ([`ARDUPILOT_T_RANGE_C`]).
+    /// TMIN/TMAX outside what ArduPilot accepts (`ARDUPILOT_T_RANGE_C`).
     ArdupilotRange {
         /// The range asked for, °C; `None`: the training temperatures were the range.
         range_c: Option<(f64, f64)>,
@@ -353,7 +354,7 @@ pub fn export_texts(axes: &[ExportAxis], opts: &ExportOptions) -> (Vec<(&'static
 ///   station loads only names the vehicle lists. Only when TMIN/TMAX lie in −70…80 °C.
 /// * The fields an accelerometer's three axes share are written only for a complete
 ///   export (all three axes from one fit) or about [`ExportOptions::range_c`] (then the
-///   cubic re-expanded about its middle, [`Poly::about`], the range inside every axis's
+///   cubic re-expanded about its middle, `Poly::about`, the range inside every axis's
 ///   training temperatures). So a one-axis file never re-references the other axes.
 ///
 /// Older export files in `dir` are removed first, so what is there is this run's.

@@ -19,7 +19,7 @@
 //!   is chosen from the data, as the static fit chooses among the same [`BranchMode`]s:
 //!   Single (one curve, `g` unknowns), Offset (one curve ± a constant half-step, `g + 1`)
 //!   or Free (a curve per branch, `2g`), by blocked cross-validation over the fit programs'
-//!   paired rows with the one-standard-error rule ([`crate::select`]): the
+//!   paired rows with the one-standard-error rule (`crate::select`): the
 //!   fewest-unknown mode whose held-out K0 error is within one SE of the best's. Without
 //!   it, a unit whose bias is single-valued got two branches that differ by calibration
 //!   noise, which the firmware then applies as a branch-switching error. Weak regularisers
@@ -36,10 +36,9 @@ use qfa_thermal::{AxisModel, BiasGrid, Extensions, Input, ScaleFactor, Table};
 use qfa_log::cycling::Log;
 use qfa_log::pairing::{pair_program, trace_run, Trace, RATE_WINDOW};
 
-pub use super::solver::{lstsq, lstsq_matrix, second_difference_rows, LsResult};
-pub use crate::static_cal::fit::{
-    fit_static_axis, fit_static_traced, BranchMode, CurveShape, StaticFit, StaticSeries, StaticStructure, StaticTraces,
-};
+pub(crate) use super::solver::{lstsq, lstsq_matrix, LsResult};
+pub use crate::static_cal::fit::{fit_static_axis, BranchMode, CurveShape, StaticSeries, StaticStructure};
+pub(crate) use crate::static_cal::fit::{fit_static_traced, StaticFit, StaticTraces};
 
 /// Reference temperature of every lab table, °C (the paper's start temperature).
 pub const T0_C: f64 = 22.0;
@@ -98,13 +97,13 @@ impl std::error::Error for FitError {}
 /// Eq. 11's regressors in the lab's one column order, `[1, ΔT, ΔT², Ṫ, Ṫ·ΔT, Ṫ²]`, whose
 /// coefficients are `[γ, μ, β, ε, η, α]` ([`scale_of_eq11`]); ΔT in °C, Ṫ in °C/min.
 #[must_use]
-pub fn eq11_regressors(d: f64, r: f64) -> [f64; 6] {
+pub(crate) fn eq11_regressors(d: f64, r: f64) -> [f64; 6] {
     [1.0, d, d * d, r, r * d, r * r]
 }
 
 /// The root crate's scale factor from coefficients in [`eq11_regressors`]' order.
 #[must_use]
-pub fn scale_of_eq11(c: &[f64; 6]) -> ScaleFactor {
+pub(crate) fn scale_of_eq11(c: &[f64; 6]) -> ScaleFactor {
     ScaleFactor {
         t0_c: T0_C as f32,
         gamma: c[0] as f32,
@@ -178,7 +177,7 @@ pub struct Fitted {
     pub sf_hysteresis: LsResult,
     /// Bias, simple: [k0, k1].
     pub bias_simple: LsResult,
-    /// Bias grid in the chosen branch mode's unknowns ([`BranchMode::expand`]): Single the
+    /// Bias grid in the chosen branch mode's unknowns (`BranchMode::expand`): Single the
     /// nodes, Offset the nodes then the half-step, Free heating nodes then cooling nodes.
     pub bias_hysteresis: LsResult,
     /// How the grid's branches are tied, chosen by cross-validation (`choose_branch_mode`).
@@ -433,7 +432,7 @@ fn bias_design(rows: &[Row], mode: BranchMode, gs: GridSpec) -> (Vec<f64>, usize
 /// result, for a standard error from ten fold MSEs; on the paper's two fit programs
 /// (0.3 and 0.9 °C/min, about 49 h of rows) a fold is some 5 h of contiguous time, far
 /// beyond the 30-min correlation time of the simulated bias instability.
-pub const CYCLING_CV_FOLDS: usize = 10;
+pub(crate) const CYCLING_CV_FOLDS: usize = 10;
 
 /// Cross-validation figures of one branch mode, µg.
 #[derive(Clone, Copy, Debug, Serialize)]

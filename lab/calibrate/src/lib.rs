@@ -26,8 +26,8 @@ pub mod lint;
 pub mod metrics;
 pub mod peers;
 pub mod report;
-pub mod select;
-pub mod solver;
+pub(crate) mod select;
+pub(crate) mod solver;
 pub mod static_cal;
 pub mod verdict;
 
@@ -374,7 +374,11 @@ pub fn calibrate_into(
 ///
 /// # Errors
 /// A plot that cannot be read.
-pub fn page(cal: &Calibration, out: &Path, opts: &CalibrateOptions) -> std::io::Result<qfa_report::html_report::Page> {
+pub(crate) fn page(
+    cal: &Calibration,
+    out: &Path,
+    opts: &CalibrateOptions,
+) -> std::io::Result<qfa_report::html_report::Page> {
     let r = &cal.report;
     let mut p = qfa_report::html_report::Page::new(&if opts.title.is_empty() {
         "Calibration report".to_string()

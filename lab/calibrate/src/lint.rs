@@ -237,17 +237,17 @@ fn resolution(v: &[f64]) -> (f64, usize) {
 /// Coarsest temperature step that lint passes without a warning, °C: the rate estimator
 /// fits a line through 32 readings, so steps of 0.5 °C turn a 1 °C/min ramp into a
 /// staircase of 30-s treads. Chosen from that arithmetic, before any log was linted.
-pub const COARSE_TEMP_STEP_C: f64 = 0.5;
+pub(crate) const COARSE_TEMP_STEP_C: f64 = 0.5;
 
 /// The bias must change by at least this many times its per-degree noise over the log's
 /// span, on some axis, before lint takes the log as raw output: a flatter log was likely
 /// recorded with compensation on. Chosen before any log was linted; the real tofupilot log
 /// changes by 100× and more.
-pub const FLAT_FACTOR: f64 = 5.0;
+pub(crate) const FLAT_FACTOR: f64 = 5.0;
 
 /// The checks on a static log.
 #[must_use]
-pub fn lint_static(bytes: &[u8], log: &StaticLog) -> Vec<Finding> {
+pub(crate) fn lint_static(bytes: &[u8], log: &StaticLog) -> Vec<Finding> {
     let mut out = Vec::new();
     let n = log.rows();
     // Format and columns.
@@ -618,7 +618,7 @@ fn compensation_on(log: &StaticLog, out: &mut Vec<Finding>) {
 
 /// The checks on a cycling log.
 #[must_use]
-pub fn lint_cycling(log: &Log) -> Vec<Finding> {
+pub(crate) fn lint_cycling(log: &Log) -> Vec<Finding> {
     let mut out = Vec::new();
     let programs = log.programs();
     out.push(Finding::new(

@@ -22,12 +22,12 @@ use std::collections::BTreeMap;
 use qfa_thermal::model::Branch;
 
 /// Bins with less data than this are dropped, s.
-pub const MIN_BIN_S: f64 = 60.0;
+pub(crate) const MIN_BIN_S: f64 = 60.0;
 
 /// Table-4 temperature sensitivity, ppm/°C, of scale-factor values `sf` observed at
 /// temperatures `temps`. `None` with fewer than two points or no temperature span.
 #[must_use]
-pub fn sensitivity_ppm_per_c(sf: &[f64], temps: &[f64]) -> Option<f64> {
+pub(crate) fn sensitivity_ppm_per_c(sf: &[f64], temps: &[f64]) -> Option<f64> {
     if sf.len() < 2 || sf.len() != temps.len() {
         return None;
     }
@@ -48,7 +48,11 @@ pub fn sensitivity_ppm_per_c(sf: &[f64], temps: &[f64]) -> Option<f64> {
 /// The one binning of the held-out 60-s figure, the fleet's per-minute temperatures and
 /// the population prior's noise.
 #[must_use]
-pub fn time_bin_means(values: impl IntoIterator<Item = f64>, time_s: &[f64], bin_s: f64) -> Vec<(i64, f64, usize)> {
+pub(crate) fn time_bin_means(
+    values: impl IntoIterator<Item = f64>,
+    time_s: &[f64],
+    bin_s: f64,
+) -> Vec<(i64, f64, usize)> {
     let mut out = Vec::new();
     let (mut key, mut s, mut n) = (i64::MIN, 0.0, 0usize);
     for (v, &t) in values.into_iter().zip(time_s) {
@@ -81,7 +85,7 @@ pub fn rms(v: &[f64]) -> f64 {
 /// without that channel (a single-channel log has no scale-factor channel), as the
 /// discovery's residuals do.
 #[must_use]
-pub fn rms_of_finite(v: &[f64]) -> f64 {
+pub(crate) fn rms_of_finite(v: &[f64]) -> f64 {
     let (s, n) = v.iter().filter(|x| x.is_finite()).fold((0.0, 0usize), |(s, n), x| (s + x * x, n + 1));
     if n == 0 {
         0.0
@@ -116,7 +120,7 @@ type Acc = (f64, f64, f64, f64, Branch);
 /// are skipped. `interval_s[i]` weights row `i`.
 #[must_use]
 #[allow(clippy::too_many_arguments)]
-pub fn bin_series(
+pub(crate) fn bin_series(
     program: &str,
     temp_c: &[f64],
     branch: &[Branch],
@@ -160,7 +164,7 @@ pub fn bin_series(
 
 /// Table-4 sensitivity of a set of scale-factor bins.
 #[must_use]
-pub fn bins_sensitivity(bins: &[Bin]) -> Option<f64> {
+pub(crate) fn bins_sensitivity(bins: &[Bin]) -> Option<f64> {
     let v: Vec<f64> = bins.iter().map(|b| b.value).collect();
     let t: Vec<f64> = bins.iter().map(|b| b.temp_c).collect();
     sensitivity_ppm_per_c(&v, &t)

@@ -24,10 +24,10 @@ use serde::Serialize;
 use crate::fit::{lstsq, FitError};
 
 /// ArduPilot's fixed reference temperature, °C.
-pub const ARDUPILOT_TREF_C: f64 = 35.0;
+pub(crate) const ARDUPILOT_TREF_C: f64 = 35.0;
 
 /// ArduPilot stores coefficients × 10⁶.
-pub const ARDUPILOT_SCALE: f64 = 1.0e6;
+pub(crate) const ARDUPILOT_SCALE: f64 = 1.0e6;
 
 /// A polynomial of bias (g) in temperature, clamped to its range.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -54,7 +54,14 @@ impl Poly {
     ///
     /// # Errors
     /// Too few points.
-    pub fn fit(t: &[f64], y: &[f64], deg: usize, tref_c: f64, tmin_c: f64, tmax_c: f64) -> Result<Self, FitError> {
+    pub(crate) fn fit(
+        t: &[f64],
+        y: &[f64],
+        deg: usize,
+        tref_c: f64,
+        tmin_c: f64,
+        tmax_c: f64,
+    ) -> Result<Self, FitError> {
         let p = deg + 1;
         let x: Vec<f64> = t.iter().flat_map(|&ti| (0..p).map(move |k| (ti - tref_c).powi(k as i32))).collect();
         let ls = lstsq(&x, p, y)?;
@@ -109,11 +116,11 @@ pub enum PeerKind {
 
 impl PeerKind {
     /// Every peer, in report order.
-    pub const ALL: [PeerKind; 3] = [PeerKind::Cubic, PeerKind::Ardupilot, PeerKind::Simple];
+    pub(crate) const ALL: [PeerKind; 3] = [PeerKind::Cubic, PeerKind::Ardupilot, PeerKind::Simple];
 
     /// Name as in the reports.
     #[must_use]
-    pub fn label(self) -> &'static str {
+    pub(crate) fn label(self) -> &'static str {
         match self {
             PeerKind::Cubic => "PX4/tofupilot cubic",
             PeerKind::Ardupilot => "ArduPilot TCAL",
@@ -122,7 +129,7 @@ impl PeerKind {
     }
 
     /// Fit this peer to training temperatures `t` (°C, the raw reading) and outputs `y`
-    /// (reference removed), as [`fit_peers`] does.
+    /// (reference removed), as `fit_peers` does.
     ///
     /// # Errors
     /// Too few training rows, or (ArduPilot) fewer than 4 learner points.
@@ -148,7 +155,7 @@ impl PeerKind {
 
 /// Why the ArduPilot learner formed no fit, in its own terms.
 #[must_use]
-pub fn ardupilot_reason(e: &FitError) -> String {
+pub(crate) fn ardupilot_reason(e: &FitError) -> String {
     match e {
         FitError::TooFewRows { rows, .. } => format!(
             "the ArduPilot learner formed {rows} point(s) (one per 0.5 °C rise after the coldest row) and its cubic \
@@ -163,7 +170,7 @@ pub fn ardupilot_reason(e: &FitError) -> String {
 /// # Errors
 /// Too few training rows, or fewer than 4 ArduPilot points (the learner needs a rise of
 /// 2 °C or more after the coldest row).
-pub fn fit_peers(t: &[f64], y: &[f64]) -> Result<Peers, FitError> {
+pub(crate) fn fit_peers(t: &[f64], y: &[f64]) -> Result<Peers, FitError> {
     let cubic = PeerKind::Cubic.fit(t, y)?;
     let simple = PeerKind::Simple.fit(t, y)?;
     let ardupilot = PeerKind::Ardupilot.fit(t, y)?;
@@ -175,7 +182,7 @@ impl Poly {
     /// of `Σ cₖ (T − r₀)ᵏ` re-expanded in powers of `T − r₁` (binomial theorem), so inside
     /// the clamp range it is the same function.
     #[must_use]
-    pub fn about(&self, tref_c: f64, tmin_c: f64, tmax_c: f64) -> Self {
+    pub(crate) fn about(&self, tref_c: f64, tmin_c: f64, tmax_c: f64) -> Self {
         let h = tref_c - self.tref_c;
         let binom = |n: usize, k: usize| -> f64 { (0..k).fold(1.0, |acc, i| acc * (n - i) as f64 / (i + 1) as f64) };
         let coef = (0..self.coef.len())

@@ -220,7 +220,7 @@ pub struct Timings {
 /// The held-out figures of a cycling calibration in Markdown (after the verdict in
 /// `report.md`).
 #[must_use]
-pub fn markdown(r: &Report) -> String {
+pub(crate) fn markdown(r: &Report) -> String {
     let (s, b, pb) = (r.sensitivity_ppm_per_c, r.bias_residual_ug, r.peers_bias_residual_ug);
     format!(
         "## Held-out figures\n\nTables fitted on programs {}, figures from programs {}; the written tables are \
@@ -246,7 +246,7 @@ pub fn markdown(r: &Report) -> String {
 }
 
 /// Metric definition written into the report.
-pub const METRIC_TEXT: &str = "Table-4 sensitivity (max-min)/(mean*span)*1e6 ppm/degC over held-out bins \
+pub(crate) const METRIC_TEXT: &str = "Table-4 sensitivity (max-min)/(mean*span)*1e6 ppm/degC over held-out bins \
 (program, branch segment, 1 degC of T-hat; bins >= 60 s); compensated scale factor (a+ - a-)/2 from the root \
 crate's Compensator<1,32>; bias residual = RMS of binned (a+ + a-)/2 and 0 g outputs, ug";
 
@@ -273,7 +273,7 @@ fn legend_headroom(lo: f64, hi: f64, entries: u32) -> f64 {
 ///
 /// # Errors
 /// Drawing or file errors.
-pub fn plot_sf_vs_temp(path: &Path, title: &str, ev: &Evaluation) -> PlotResult {
+pub(crate) fn plot_sf_vs_temp(path: &Path, title: &str, ev: &Evaluation) -> PlotResult {
     use plotters::prelude::*;
     qfa_report::plot_font::register();
     let root = BitMapBackend::new(path, (1500, 500)).into_drawing_area();
@@ -328,7 +328,7 @@ pub fn plot_sf_vs_temp(path: &Path, title: &str, ev: &Evaluation) -> PlotResult 
 ///
 /// # Errors
 /// Drawing or file errors.
-pub fn plot_residual_vs_time(path: &Path, title: &str, ev: &Evaluation) -> PlotResult {
+pub(crate) fn plot_residual_vs_time(path: &Path, title: &str, ev: &Evaluation) -> PlotResult {
     use plotters::prelude::*;
     qfa_report::plot_font::register();
     let root = BitMapBackend::new(path, (1400, 800)).into_drawing_area();
@@ -399,7 +399,7 @@ pub struct PeerBias {
 ///
 /// # Errors
 /// No fit pairs, a failed fit, or no held-out bin (the reason is in the message).
-pub fn peer_bias(
+pub(crate) fn peer_bias(
     log: &Log,
     fit_programs: &[String],
     eval_programs: &[String],
@@ -456,7 +456,11 @@ pub fn peer_bias(
 ///
 /// # Errors
 /// No pair with temperatures in `programs`, or a failed fit.
-pub fn peer_fit(log: &Log, programs: &[String], deadband: f32) -> Result<crate::peers::Peers, crate::CalibrateError> {
+pub(crate) fn peer_fit(
+    log: &Log,
+    programs: &[String],
+    deadband: f32,
+) -> Result<crate::peers::Peers, crate::CalibrateError> {
     let ext = qfa_thermal::Extensions::default();
     let (mut t, mut k0) = (Vec::new(), Vec::new());
     for prog in programs {

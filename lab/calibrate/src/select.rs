@@ -18,7 +18,7 @@ use crate::fit::FitError;
 
 /// Cross-validation figures of one candidate (units of the squared residual).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-pub struct CvFigure {
+pub(crate) struct CvFigure {
     /// Mean over folds of the held-out mean squared error.
     pub mse: f64,
     /// Standard error of `mse`: sample SD of the fold MSEs over √folds.
@@ -33,7 +33,7 @@ impl CvFigure {
     /// # Errors
     /// [`FitError::Cv`] with fewer than two folds (no standard error) or a non-finite MSE:
     /// a figure that cannot be computed is an error, not a number.
-    pub fn of_folds(fold_mse: &[f64]) -> Result<Self, FitError> {
+    pub(crate) fn of_folds(fold_mse: &[f64]) -> Result<Self, FitError> {
         let k = fold_mse.len();
         if k < 2 {
             return Err(FitError::Cv(format!("{k} cross-validation fold(s): a standard error needs 2 or more")));
@@ -51,7 +51,7 @@ impl CvFigure {
 /// the fewest unknowns whose `mse` ≤ best `mse` + best `se` (among equal unknowns, the
 /// lower `mse`). `None` for no candidates.
 #[must_use]
-pub fn one_se_rule(cands: &[(usize, CvFigure)]) -> Option<usize> {
+pub(crate) fn one_se_rule(cands: &[(usize, CvFigure)]) -> Option<usize> {
     let best = (0..cands.len()).min_by(|&a, &b| cands[a].1.mse.total_cmp(&cands[b].1.mse))?;
     let limit = cands[best].1.mse + cands[best].1.se;
     (0..cands.len())

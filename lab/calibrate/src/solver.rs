@@ -24,7 +24,7 @@ pub struct LsResult {
 ///
 /// # Errors
 /// [`FitError::TooFewRows`].
-pub fn lstsq(x: &[f64], p: usize, y: &[f64]) -> Result<LsResult, FitError> {
+pub(crate) fn lstsq(x: &[f64], p: usize, y: &[f64]) -> Result<LsResult, FitError> {
     let n = y.len();
     if n < p || p == 0 {
         return Err(FitError::TooFewRows { rows: n, unknowns: p });
@@ -38,7 +38,7 @@ pub fn lstsq(x: &[f64], p: usize, y: &[f64]) -> Result<LsResult, FitError> {
 ///
 /// # Errors
 /// [`FitError::TooFewRows`] when `A` has fewer rows than columns or none.
-pub fn lstsq_matrix(mut m: DMatrix<f64>, y: &DVector<f64>) -> Result<LsResult, FitError> {
+pub(crate) fn lstsq_matrix(mut m: DMatrix<f64>, y: &DVector<f64>) -> Result<LsResult, FitError> {
     let (n, p) = m.shape();
     if n < p || p == 0 {
         return Err(FitError::TooFewRows { rows: n, unknowns: p });
@@ -72,7 +72,7 @@ pub fn lstsq_matrix(mut m: DMatrix<f64>, y: &DVector<f64>) -> Result<LsResult, F
 /// `weight·(c[off+i−1] − 2·c[off+i] + c[off+i+1]) = 0`, over the `g` nodes at column `off`
 /// of a `p`-column design. The weight is the caller's: 1 against unit-weight rows in the
 /// calibration fits, scaled to the column norms in discovery's bin-averaged problem.
-pub fn second_difference_rows(p: usize, off: usize, g: usize, weight: f64) -> impl Iterator<Item = Vec<f64>> {
+pub(crate) fn second_difference_rows(p: usize, off: usize, g: usize, weight: f64) -> impl Iterator<Item = Vec<f64>> {
     (1..g.saturating_sub(1)).map(move |i| {
         let mut row = vec![0.0; p];
         for (d, c) in [1.0, -2.0, 1.0].into_iter().enumerate() {

@@ -9,7 +9,7 @@ use qfa_report::verdict::{Expected, FileUse, LimitsChoice, Verdict};
 /// held-out RMS: `(axis, step_mg, heldout_rms_mg)`. Axes without held-out or training rows
 /// are left out.
 #[must_use]
-pub fn heldout_steps(plot: &PlotRows) -> Vec<(String, f64, f64)> {
+pub(crate) fn heldout_steps(plot: &PlotRows) -> Vec<(String, f64, f64)> {
     let mut out = Vec::new();
     for (name, _, after) in &plot.axes {
         let (mut held, mut train) = ((0.0, 0.0, 0usize), (0.0, 0usize));
@@ -107,7 +107,13 @@ pub fn static_verdict(cal: &StaticCalibration, limits: &LimitsChoice, files: &[S
 /// The verdict of a cycling calibration of accelerometer `axis` written into a folder
 /// holding `files`.
 #[must_use]
-pub fn cycling_verdict(r: &Report, axis: &str, limits: &LimitsChoice, files: &[String], notes: &[String]) -> Verdict {
+pub(crate) fn cycling_verdict(
+    r: &Report,
+    axis: &str,
+    limits: &LimitsChoice,
+    files: &[String],
+    notes: &[String],
+) -> Verdict {
     let (s, b) = (r.sensitivity_ppm_per_c.hysteresis, r.bias_residual_ug.hysteresis);
     let c = &r.coverage.covered;
     let span = c.temp_c[1] - c.temp_c[0];

@@ -1,5 +1,5 @@
 //! An autopilot's own chamber log (PX4 ULog, ArduPilot DataFlash `.bin`), read by
-//! [`super::ulog`] and [`super::dataflash`] into one shape: every accelerometer instance with
+//! `super::ulog` and `super::dataflash` into one shape: every accelerometer instance with
 //! its device ID, samples and temperature, and the parameters in force when logging began.
 //!
 //! What this module decides, per instance, before anything is fitted ([`check`]):
@@ -13,10 +13,10 @@
 //!   `TC_A_ENABLE = 1` and a `TC_An_ID` equal to its device ID is **calibrated, with that
 //!   stated**: its samples are uncompensated, and the new file replaces slot n.
 //! * **no temperature** (PX4 `temperature` NaN, ArduPilot `T` identically 0, or fewer than
-//!   [`MIN_TEMP_SAMPLES`] finite readings): **refused**, named.
+//!   `MIN_TEMP_SAMPLES` finite readings): **refused**, named.
 //! * **coarse temperature** ([`resolution`]: the smallest step between readings, when the
-//!   readings sit on that lattice and it is at least [`COARSE_STEP_C`]): **named**, and the
-//!   temperature is rebuilt between its steps ([`dequantize`]) before the firmware's rate
+//!   readings sit on that lattice and it is at least `COARSE_STEP_C`): **named**, and the
+//!   temperature is rebuilt between its steps (`dequantize`) before the firmware's rate
 //!   estimator sees it. A 1 °C staircase read as it is gives the 32-reading rate window a
 //!   rate of zero between steps and a spike at each one.
 //! * ArduPilot with `AHRS_ORIENTATION ≠ 0`: the `IMU` message is rotated to the vehicle
@@ -24,7 +24,7 @@
 //!   file would set: **refused**, named.
 //!
 //! An instance is turned into a static log ([`AccelInstance::to_static`]) by averaging its
-//! samples over [`BIN_S`]-s bins (autopilots log accelerometers at tens to hundreds of hertz;
+//! samples over `BIN_S`-s bins (autopilots log accelerometers at tens to hundreds of hertz;
 //! the fit's blocks are 10 rows) and handing the rows to the static reader, so its checks
 //! (glitches, units, slew) apply unchanged.
 
@@ -36,16 +36,16 @@ use crate::static_log::columns::{AccelUnit, TimeUnit};
 use crate::static_log::{read_static_from, StaticError, StaticLog, StaticOptions};
 
 /// Length of the bins samples are averaged over, s.
-pub const BIN_S: f64 = 1.0;
+pub(crate) const BIN_S: f64 = 1.0;
 
 /// Smallest temperature step that counts as coarse, °C: 4 DS18B20 steps (1/16 °C); a
 /// sensor at 0.25 °C or coarser leaves the rate estimator's 32-s window without a reading
 /// change for 30 s at 0.5 °C/min.
-pub const COARSE_STEP_C: f64 = 0.25;
+pub(crate) const COARSE_STEP_C: f64 = 0.25;
 
 /// Fewest samples, and finite nonzero temperature readings, an instance needs (the
 /// static reader's `MIN_ROWS`).
-pub const MIN_TEMP_SAMPLES: usize = 16;
+pub(crate) const MIN_TEMP_SAMPLES: usize = 16;
 
 /// Which autopilot wrote the log.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -109,7 +109,7 @@ pub enum Temperature {
     Resolution {
         /// Smallest step between readings, °C.
         step_c: f64,
-        /// At least [`COARSE_STEP_C`] and the readings on its lattice.
+        /// At least `COARSE_STEP_C` and the readings on its lattice.
         coarse: bool,
     },
 }
@@ -145,7 +145,7 @@ impl InstanceCheck {
 /// The temperature resolution of `temp_c` (finite readings in log order): the smallest
 /// nonzero step between consecutive readings (steps under 1e-6 °C are float noise), and
 /// whether the readings sit on that lattice (95 % of them within 1 % of a step of
-/// `first + k·step`) with a step of at least [`COARSE_STEP_C`].
+/// `first + k·step`) with a step of at least `COARSE_STEP_C`.
 #[must_use]
 pub fn resolution(temp_c: &[f64]) -> Temperature {
     let finite: Vec<f64> = temp_c.iter().copied().filter(|t| t.is_finite()).collect();
@@ -176,7 +176,7 @@ pub fn resolution(temp_c: &[f64]) -> Temperature {
 /// the slope that a staircase hides; on a hold dithering between two steps it gives the
 /// value between them. Non-finite readings stay non-finite.
 #[must_use]
-pub fn dequantize(time_s: &[f64], temp_c: &[f64]) -> Vec<f64> {
+pub(crate) fn dequantize(time_s: &[f64], temp_c: &[f64]) -> Vec<f64> {
     let idx: Vec<usize> = (0..temp_c.len()).filter(|&i| temp_c[i].is_finite()).collect();
     let mut knots: Vec<(f64, f64)> = Vec::new();
     for w in idx.windows(2) {
@@ -216,7 +216,7 @@ fn px4_slot_of(params: &BTreeMap<String, f64>, device_id: u32) -> Option<u8> {
 /// ArduPilot's parameter prefix of IMU instance `i` (0-based): `INS_` for the first three
 /// (`INS_ACC_ID`, `INS_ACC2_ID`, `INS_TCAL1_ENABLE` …), as the lab names them.
 #[must_use]
-pub fn ardupilot_id_param(i: u8) -> String {
+pub(crate) fn ardupilot_id_param(i: u8) -> String {
     match i {
         0 => "INS_ACC_ID".to_string(),
         n => format!("INS_ACC{}_ID", n + 1),
@@ -349,7 +349,7 @@ impl std::error::Error for AutopilotError {}
 
 impl AccelInstance {
     /// The instance as a static log: its temperature rebuilt between steps when `coarse`
-    /// ([`dequantize`]), then every quantity averaged over [`BIN_S`]-s bins of the log's
+    /// (`dequantize`), then every quantity averaged over `BIN_S`-s bins of the log's
     /// clock (a sample with a non-finite value is left out of its bin), read by the static
     /// reader with columns `time_s`, `temp_c`, `ax`, `ay`, `az` (m/s²). A row's line number
     /// is its bin's number + 1.

@@ -16,7 +16,7 @@ use crate::single::SingleLog;
 
 /// Rows further apart than this (s) get the firmware's 1-s readings filled in between them
 /// (see [`Trace::new`]).
-pub const FILL_FROM_S: f64 = 1.5;
+pub(crate) const FILL_FROM_S: f64 = 1.5;
 
 /// Kind of log the channels came from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -277,7 +277,7 @@ impl Channels {
     ///
     /// # Errors
     /// No program has paired ±1 g runs with at least 8 rows.
-    pub fn from_cycling(log: &crate::cycling::Log, bin_s: f64) -> Result<Self, ChannelsError> {
+    pub(crate) fn from_cycling(log: &crate::cycling::Log, bin_s: f64) -> Result<Self, ChannelsError> {
         let mut traces = Vec::new();
         for prog in log.programs() {
             let Some(pp) = crate::pairing::pair_program(log, &prog) else {
@@ -308,7 +308,7 @@ impl Channels {
 
     /// Channels of a single-channel log: its value is the bias channel, in its own unit.
     #[must_use]
-    pub fn from_single(log: &SingleLog, bin_s: f64) -> Self {
+    pub(crate) fn from_single(log: &SingleLog, bin_s: f64) -> Self {
         let rows: Vec<(f64, f32)> = log.time_s.iter().copied().zip(log.temp_c.iter().copied()).collect();
         Self {
             kind: LogKind::Single,

@@ -5,8 +5,8 @@
 //! column means) is described once, in docs/lab.md, "The cycling log".
 //!
 //! The reader checks every row, counts **every** malformed one and keeps the first
-//! [`LogError::KEPT`] with their 1-based line numbers as an editor shows them (the header is
-//! line 1; CRLF, CR-only and blank lines counted, see [`super::lines`]); nothing is dropped
+//! `LogError::KEPT` with their 1-based line numbers as an editor shows them (the header is
+//! line 1; CRLF, CR-only and blank lines counted, see `super::lines`); nothing is dropped
 //! silently. It reads the file into memory (the line numbers are counted from the bytes)
 //! and parses through `csv::ByteRecord` into one reused record, so a row costs no
 //! allocation (its speed: docs/measurements.md, "Lab: calibration"; `qfa-lab demo` prints
@@ -17,7 +17,7 @@ use std::io::{BufWriter, Read, Write};
 use std::path::Path;
 
 /// The header, in order.
-pub const COLUMNS: [&str; 7] = ["program", "run", "time_s", "input_g", "temp_c", "pulses", "interval_s"];
+pub(crate) const COLUMNS: [&str; 7] = ["program", "run", "time_s", "input_g", "temp_c", "pulses", "interval_s"];
 
 /// One counting interval.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -82,7 +82,7 @@ impl Log {
 #[derive(Clone, Debug, PartialEq)]
 #[non_exhaustive]
 pub enum RowFault {
-    /// The header is not exactly [`COLUMNS`].
+    /// The header is not exactly `COLUMNS`.
     Header(String),
     /// Wrong number of fields.
     FieldCount(usize),
@@ -129,7 +129,7 @@ impl fmt::Display for RowError {
     }
 }
 
-/// Every malformed row of a log (the first [`LogError::KEPT`] are kept, all are counted).
+/// Every malformed row of a log (the first `LogError::KEPT` are kept, all are counted).
 #[derive(Clone, Debug, PartialEq)]
 pub struct LogError {
     /// The first errors, in line order.
@@ -140,7 +140,7 @@ pub struct LogError {
 
 impl LogError {
     /// Errors kept in detail (all are counted).
-    pub const KEPT: usize = 20;
+    pub(crate) const KEPT: usize = 20;
 
     fn single(line: u64, fault: RowFault) -> Self {
         Self { errors: vec![RowError { line, fault }], total: 1 }

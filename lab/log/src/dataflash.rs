@@ -22,7 +22,7 @@ use ardupilot_binlog::Reader;
 use super::autopilot::{ardupilot_id_param, AccelInstance, AutopilotLog, Stack};
 
 /// A DataFlash record starts `A3 95`; the first is the `FMT` of `FMT` (type 128).
-pub const MAGIC: [u8; 3] = [0xA3, 0x95, 0x80];
+pub(crate) const MAGIC: [u8; 3] = [0xA3, 0x95, 0x80];
 
 /// Why a DataFlash log was not read.
 #[derive(Debug, PartialEq, Eq)]
@@ -60,7 +60,7 @@ impl std::error::Error for DataflashError {}
 ///
 /// # Errors
 /// [`DataflashError`].
-pub fn read_dataflash(bytes: &[u8]) -> Result<AutopilotLog, DataflashError> {
+pub(crate) fn read_dataflash(bytes: &[u8]) -> Result<AutopilotLog, DataflashError> {
     let mut reader = Reader::new(Cursor::new(bytes));
     let mut by_i: BTreeMap<u8, AccelInstance> = BTreeMap::new();
     let mut params: BTreeMap<String, f64> = BTreeMap::new();

@@ -6,12 +6,12 @@
 pub mod autopilot;
 pub mod channels;
 pub mod cycling;
-pub mod dataflash;
-pub mod lines;
+pub(crate) mod dataflash;
+pub(crate) mod lines;
 pub mod open;
 pub mod pairing;
-pub mod single;
+pub(crate) mod single;
 pub mod spelling;
 pub mod static_log;
-pub mod ulog;
+pub(crate) mod ulog;
 pub mod units;

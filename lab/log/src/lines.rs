@@ -9,7 +9,7 @@
 
 /// Counts lines up to records' start offsets, in increasing order.
 #[derive(Debug)]
-pub struct LineCounter<'a> {
+pub(crate) struct LineCounter<'a> {
     text: &'a [u8],
     pos: usize,
     line: u64,
@@ -18,14 +18,14 @@ pub struct LineCounter<'a> {
 impl<'a> LineCounter<'a> {
     /// A counter over the whole text of a file.
     #[must_use]
-    pub fn new(text: &'a [u8]) -> Self {
+    pub(crate) fn new(text: &'a [u8]) -> Self {
         Self { text, pos: 0, line: 1 }
     }
 
     /// The 1-based line of the record that the `csv` crate says starts at byte `start`.
     /// That offset may point at the terminator bytes before the record (the `\n` of a
     /// CRLF, blank lines): they are skipped first. Offsets must not decrease.
-    pub fn line_of(&mut self, start: u64) -> u64 {
+    pub(crate) fn line_of(&mut self, start: u64) -> u64 {
         let n = self.text.len();
         let mut b = usize::try_from(start).unwrap_or(n).min(n);
         while b < n && matches!(self.text[b], b'\r' | b'\n') {

@@ -66,7 +66,7 @@ pub struct ReadFlags {
 impl ReadFlags {
     /// Whether any flag was given.
     #[must_use]
-    pub fn any(&self) -> bool {
+    pub(crate) fn any(&self) -> bool {
         self.columns.is_some()
             || self.time_unit.is_some()
             || self.accel_unit.is_some()
@@ -102,8 +102,9 @@ pub enum OpenedLog {
 
 impl OpenedLog {
     /// Its format.
+    #[cfg(test)]
     #[must_use]
-    pub fn format(&self) -> LogFormat {
+    pub(crate) fn format(&self) -> LogFormat {
         match self {
             Self::Cycling(_) => LogFormat::Cycling,
             Self::Static(_) => LogFormat::Static,
@@ -154,7 +155,7 @@ impl std::error::Error for OpenError {}
 
 /// The format of a log whose first line is `header`, read with `flags`.
 #[must_use]
-pub fn format_of_header(header: &str, flags: &ReadFlags) -> LogFormat {
+pub(crate) fn format_of_header(header: &str, flags: &ReadFlags) -> LogFormat {
     if flags.any() {
         return LogFormat::Static;
     }
@@ -169,7 +170,7 @@ pub fn format_of_header(header: &str, flags: &ReadFlags) -> LogFormat {
     }
 }
 
-/// Open the log at `path`: its format from [`format_of_header`], read by that format's
+/// Open the log at `path`: its format from `format_of_header`, read by that format's
 /// reader.
 ///
 /// # Errors
@@ -198,7 +199,7 @@ impl ReadError {
     /// The message, with every reader option spelled for `sp` (only the static reader
     /// takes options).
     #[must_use]
-    pub fn message(&self, sp: Spelling) -> String {
+    pub(crate) fn message(&self, sp: Spelling) -> String {
         match self {
             Self::Cycling(e) => e.to_string(),
             Self::Static(e) => e.message(sp),

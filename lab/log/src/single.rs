@@ -10,10 +10,10 @@ use std::num::ParseFloatError;
 use crate::lines::LineCounter;
 
 /// The columns a single-channel log must have.
-pub const COLUMNS: [&str; 3] = ["time_s", "temp_c", "value"];
+pub(crate) const COLUMNS: [&str; 3] = ["time_s", "temp_c", "value"];
 
 /// Fewest rows a single-channel log is read with.
-pub const MIN_ROWS: usize = 8;
+pub(crate) const MIN_ROWS: usize = 8;
 
 /// A single-channel log: one row per reading; rows whose `temp_c` is empty (no reading
 /// yet) are left out.
@@ -57,7 +57,7 @@ pub enum SingleError {
 
 impl SingleError {
     /// Malformed rows listed in detail (all are counted).
-    pub const KEPT: usize = 20;
+    pub(crate) const KEPT: usize = 20;
 }
 
 impl fmt::Display for SingleError {
@@ -96,18 +96,12 @@ fn number(text: &str, column: &'static str) -> Result<f64, SingleError> {
     }
 }
 
-/// Whether a header (already split into names) is a single-channel log's.
-#[must_use]
-pub fn is_single_header<S: AsRef<str>>(names: &[S]) -> bool {
-    COLUMNS.iter().all(|c| names.iter().any(|n| n.as_ref().trim().eq_ignore_ascii_case(c)))
-}
-
 /// Read a single-channel log.
 ///
 /// # Errors
 /// [`SingleError`]: unreadable text, a missing column, malformed rows (each with its
 /// line), too few rows.
-pub fn read_single_from<R: Read>(mut reader: R) -> Result<SingleLog, SingleError> {
+pub(crate) fn read_single_from<R: Read>(mut reader: R) -> Result<SingleLog, SingleError> {
     let mut text = Vec::new();
     reader.read_to_end(&mut text).map_err(|e| SingleError::Io(e.to_string()))?;
     let mut rdr =

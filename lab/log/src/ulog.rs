@@ -18,7 +18,7 @@ use px4_ulog::stream_parser::model::{DataMessage, DropoutMessage, LogStage, Para
 use super::autopilot::{AccelInstance, AutopilotLog, Stack};
 
 /// The ULog file magic (`ULog` 01 12 35).
-pub const MAGIC: [u8; 7] = *b"ULog\x01\x12\x35";
+pub(crate) const MAGIC: [u8; 7] = *b"ULog\x01\x12\x35";
 
 /// Why a ULog was not read.
 #[derive(Debug, PartialEq, Eq)]
@@ -59,7 +59,7 @@ impl std::error::Error for UlogError {}
 ///
 /// # Errors
 /// [`UlogError`].
-pub fn read_ulog(bytes: &[u8]) -> Result<AutopilotLog, UlogError> {
+pub(crate) fn read_ulog(bytes: &[u8]) -> Result<AutopilotLog, UlogError> {
     let mut by_multi: BTreeMap<u8, AccelInstance> = BTreeMap::new();
     let mut field_error: Option<&'static str> = None;
     let mut topics: Vec<String> = Vec::new();

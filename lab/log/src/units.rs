@@ -8,7 +8,7 @@
 //!   too small, g read as m/s² 9.8× too small, m/s² read as g 9.8× too large. With one or
 //!   two axes |a| is only a projection, so only "too large" can be refused;
 //! * time: the median row interval (10 µs…60 s) and the fastest temperature change
-//!   ([`crate::static_log::MAX_SLEW_C_PER_MIN`]) from both sides;
+//!   (`crate::static_log::MAX_SLEW_C_PER_MIN`) from both sides;
 //! * temperature: readings outside −60…130 °C in the stated unit refuse it (kelvin read as
 //!   °C, °C read as kelvin, a hot Fahrenheit log read as °C), and a column name carrying a
 //!   unit (`temp_f`, `temperature_k`) contradicting the option is refused. Celsius and
@@ -80,7 +80,7 @@ impl ReaderOption {
     /// flag (``--time-unit `hours` ``), Python writes the keyword as passed
     /// (`time_unit="hours"`).
     #[must_use]
-    pub fn refused(self, sp: Spelling, value: &str) -> String {
+    pub(crate) fn refused(self, sp: Spelling, value: &str) -> String {
         match sp {
             Spelling::Cli => format!("{} `{value}`", self.name(sp)),
             Spelling::Python => self.with(sp, value),
@@ -112,11 +112,11 @@ pub enum TempUnit {
 
 impl TempUnit {
     /// Every unit.
-    pub const ALL: [TempUnit; 3] = [TempUnit::C, TempUnit::F, TempUnit::K];
+    pub(crate) const ALL: [TempUnit; 3] = [TempUnit::C, TempUnit::F, TempUnit::K];
 
     /// The name the option takes.
     #[must_use]
-    pub fn name(self) -> &'static str {
+    pub(crate) fn name(self) -> &'static str {
         match self {
             Self::C => "C",
             Self::F => "F",
@@ -126,7 +126,7 @@ impl TempUnit {
 
     /// A reading in this unit, in °C.
     #[must_use]
-    pub fn to_c(self, x: f64) -> f64 {
+    pub(crate) fn to_c(self, x: f64) -> f64 {
         match self {
             Self::C => x,
             Self::F => (x - 32.0) / 1.8,
@@ -228,7 +228,7 @@ pub struct UnitMismatch {
 impl UnitMismatch {
     /// The message, with the option spelled for `sp`.
     #[must_use]
-    pub fn message(&self, sp: Spelling) -> String {
+    pub(crate) fn message(&self, sp: Spelling) -> String {
         let read = match &self.source {
             UnitSource::ColumnName(c) => format!("read in {} (from the column name `{c}`)", self.stated),
             UnitSource::Option => format!("read with {}", self.option.with(sp, self.stated)),

@@ -8,7 +8,7 @@
 //! follows the chamber air through a first-order lag of the unit's own time constant; the
 //! unit's sensor reads the case with its own offset, quantised to 1/16 °C.
 //!
-//! The nominal unit and its spread ([`NOMINAL`], [`SPREAD`]) are MEMS-grade figures of the
+//! The nominal unit and its spread (`NOMINAL`, [`SPREAD`]) are MEMS-grade figures of the
 //! size the lab's real chamber log shows (a few tenths of a mg per °C, a split of tenths of
 //! a mg), not the paper's quartz units: the paper's three are pulse-count units calibrated
 //! by a four-position cycling program of many hours each, which a production line of
@@ -30,13 +30,13 @@ use qfa_rng::{normal, seeded, stream_seed, uniform};
 /// 25 → −20 → 70 → 40 °C at 2 °C/min with 15-min holds: 8 550 one-second rows, the size
 /// and shape of the lab's real chamber log (8 400 rows, 51.6 → −17.6 → 74.0 → 36.3 °C), so
 /// `--holdout auto` holds out the last cooling leg as it does there.
-pub const PROGRAM: [(f64, f64, f64); 3] = [(-20.0, 2.0, 900.0), (70.0, 2.0, 900.0), (40.0, 2.0, 900.0)];
+pub(crate) const PROGRAM: [(f64, f64, f64); 3] = [(-20.0, 2.0, 900.0), (70.0, 2.0, 900.0), (40.0, 2.0, 900.0)];
 /// Hold at 25 °C before the first leg, s.
-pub const FIRST_HOLD_S: f64 = 900.0;
+pub(crate) const FIRST_HOLD_S: f64 = 900.0;
 /// Temperature the curves are written about, °C.
-pub const T_REF_C: f64 = 25.0;
+pub(crate) const T_REF_C: f64 = 25.0;
 /// Branch deadband of the truth, °C/min: the case rate must pass it to change branch.
-pub const TRUTH_DEADBAND_C_PER_MIN: f64 = 0.05;
+pub(crate) const TRUTH_DEADBAND_C_PER_MIN: f64 = 0.05;
 
 /// One axis's bias curve, g: `level + c1·d + c2·d² + c3·d³ ± split/2` with `d = T − 25 °C`,
 /// `+` on the heating branch.
@@ -65,13 +65,13 @@ impl AxisCurve {
 }
 
 /// The nominal unit's axes (`ax`, `ay`, `az`).
-pub const NOMINAL: [AxisCurve; 3] = [
+pub(crate) const NOMINAL: [AxisCurve; 3] = [
     AxisCurve { level_g: 0.0, c1: 1.0e-4, c2: 2.0e-7, c3: 0.0, split_g: 2.0e-4 },
     AxisCurve { level_g: 0.0, c1: -5.0e-5, c2: -1.0e-7, c3: 0.0, split_g: 6.0e-5 },
     AxisCurve { level_g: -1.0, c1: 3.0e-5, c2: 0.0, c3: 2.0e-9, split_g: 1.0e-4 },
 ];
 
-/// The population's spread (one standard deviation) about [`NOMINAL`]: the level by an
+/// The population's spread (one standard deviation) about `NOMINAL`: the level by an
 /// absolute 2 mg (mounting and bias), every other coefficient by its own scale below, so a
 /// coefficient whose nominal is 0 still varies.
 pub const SPREAD: AxisCurve = AxisCurve { level_g: 2.0e-3, c1: 2.0e-5, c2: 5.0e-8, c3: 5.0e-10, split_g: 2.0e-5 };
@@ -90,7 +90,7 @@ pub enum Defect {
 
 impl Defect {
     /// Every defect, in the order units are given them.
-    pub const ALL: [Self; 3] = [Self::Damaged, Self::DriftingSensor, Self::Hysteresis3x];
+    pub(crate) const ALL: [Self; 3] = [Self::Damaged, Self::DriftingSensor, Self::Hysteresis3x];
 }
 
 /// Rows a unit's own log keeps (manifest runs only: one chamber log shares its rows).
@@ -151,7 +151,7 @@ pub struct PopulationSpec {
 
 /// Serial of unit `i`.
 #[must_use]
-pub fn serial(i: usize) -> String {
+pub(crate) fn serial(i: usize) -> String {
     format!("SN{:04}", i + 1)
 }
 
@@ -216,7 +216,7 @@ pub fn draw(spec: &PopulationSpec) -> PopulationTruth {
 
 /// The chamber air temperature at every row (1-s rows from 0 s).
 #[must_use]
-pub fn chamber_air() -> Vec<f64> {
+pub(crate) fn chamber_air() -> Vec<f64> {
     let mut out = vec![T_REF_C; FIRST_HOLD_S as usize];
     let mut t = T_REF_C;
     for (target, rate, hold) in PROGRAM {
@@ -234,7 +234,7 @@ pub fn chamber_air() -> Vec<f64> {
 
 /// One unit's rows: (sensor reading °C, [ax, ay, az] g), one per chamber row.
 #[must_use]
-pub fn unit_rows(u: &UnitTruth, air: &[f64], seed: u64, index: usize) -> Vec<(f64, [f64; 3])> {
+pub(crate) fn unit_rows(u: &UnitTruth, air: &[f64], seed: u64, index: usize) -> Vec<(f64, [f64; 3])> {
     let mut r = seeded(stream_seed(seed ^ 0x5A5A_5A5A, index as u64));
     let mut lag = Lag::new(u.case_tau_s, 1.0, air[0]);
     let n = air.len();
@@ -266,7 +266,7 @@ pub fn unit_rows(u: &UnitTruth, air: &[f64], seed: u64, index: usize) -> Vec<(f6
 
 /// The rows a truncated log keeps.
 #[must_use]
-pub fn kept_rows(t: Option<Truncation>, air: &[f64]) -> std::ops::Range<usize> {
+pub(crate) fn kept_rows(t: Option<Truncation>, air: &[f64]) -> std::ops::Range<usize> {
     match t {
         None => 0..air.len(),
         Some(Truncation::HeatingOnly) => {
@@ -284,7 +284,7 @@ pub fn kept_rows(t: Option<Truncation>, air: &[f64]) -> std::ops::Range<usize> {
 
 /// Column header names of one unit in a chamber log: `SN0001.temp`, `SN0001.ax`, ….
 #[must_use]
-pub fn unit_columns(serial: &str) -> [String; 4] {
+pub(crate) fn unit_columns(serial: &str) -> [String; 4] {
     [format!("{serial}.temp"), format!("{serial}.ax"), format!("{serial}.ay"), format!("{serial}.az")]
 }
 

@@ -38,11 +38,12 @@ pub fn paper_positions() -> Vec<Position> {
 pub const PAPER_RATES: [f64; 4] = [0.3, 0.5, 0.7, 0.9];
 
 /// Program ids of [`Program::covering`].
-pub const COVERING_IDS: [&str; 4] = ["paper-0.3", "paper-0.9", "ramp-1.0", "ramp-2.0"];
+#[cfg(test)]
+pub(crate) const COVERING_IDS: [&str; 4] = ["paper-0.3", "paper-0.9", "ramp-1.0", "ramp-2.0"];
 
 /// Program id of the paper's program at `rate`, e.g. `paper-0.3`.
 #[must_use]
-pub fn paper_id(rate: f64) -> String {
+pub(crate) fn paper_id(rate: f64) -> String {
     format!("paper-{rate:.1}")
 }
 
@@ -106,7 +107,7 @@ impl Program {
     /// dwells keep the case below about half the ramp rate, this reaches the case rates of
     /// a flight (the built-in flight's reach 1.6 °C/min). Id `ramp-{rate:.1}`.
     #[must_use]
-    pub fn triangle(rate: f64) -> Self {
+    pub(crate) fn triangle(rate: f64) -> Self {
         let mut pts = vec![(0.0, 22.0), (1800.0, 22.0)];
         let mut t = 1800.0;
         let mut temp: f64 = 22.0;
@@ -118,7 +119,7 @@ impl Program {
         Self { id: format!("ramp-{rate:.1}"), points: pts }
     }
 
-    /// The lab program that covers the built-in flight ([`COVERING_IDS`]): the paper's
+    /// The lab program that covers the built-in flight (`COVERING_IDS`): the paper's
     /// staircase at 0.3 and 0.9 °C/min and continuous 1 and 2 °C/min triangles, in that
     /// order (the held-out rule then fits on `paper-0.3` and `ramp-2.0` and holds out
     /// `paper-0.9` and `ramp-1.0`, both inside the fitted rate range).

@@ -41,12 +41,12 @@ pub struct Lag {
 impl Lag {
     /// A lag at rest at `y0`, stepping by `dt_s`.
     #[must_use]
-    pub fn new(tau_s: f64, dt_s: f64, y0: f64) -> Self {
+    pub(crate) fn new(tau_s: f64, dt_s: f64, y0: f64) -> Self {
         Self { tau_s, dt_s, decay: (-dt_s / tau_s).exp(), y: y0 }
     }
 
     /// Advance one step with the input going linearly from `u0` to `u1`; returns the output.
-    pub fn step(&mut self, u0: f64, u1: f64) -> f64 {
+    pub(crate) fn step(&mut self, u0: f64, u1: f64) -> f64 {
         let k_tau = (u1 - u0) / self.dt_s * self.tau_s;
         self.y = u1 - k_tau + (self.y - u0 + k_tau) * self.decay;
         self.y
@@ -54,13 +54,13 @@ impl Lag {
 
     /// Step length, s.
     #[must_use]
-    pub fn dt_s(&self) -> f64 {
+    pub(crate) fn dt_s(&self) -> f64 {
         self.dt_s
     }
 
     /// Current rate of change for input `u`, per second.
     #[must_use]
-    pub fn rate_per_s(&self, u: f64) -> f64 {
+    pub(crate) fn rate_per_s(&self, u: f64) -> f64 {
         (u - self.y) / self.tau_s
     }
 }

@@ -79,7 +79,7 @@ pub struct SensorTruth {
 
 impl SensorTruth {
     /// A DS18B20 reading of `temp_c`, °C: [`SensorTruth::raw`] over 16.
-    pub fn read<R: rand::Rng + ?Sized>(&self, rng: &mut R, temp_c: f64) -> f64 {
+    pub(crate) fn read<R: rand::Rng + ?Sized>(&self, rng: &mut R, temp_c: f64) -> f64 {
         f64::from(self.raw(rng, temp_c)) / 16.0
     }
 
@@ -115,7 +115,7 @@ pub struct Truth {
 }
 
 /// Names of the extension effects (the discovery catalog's names).
-pub const EFFECTS: [&str; 3] = ["sensor_lag", "bias_branch_hysteresis", "bias_creep"];
+pub(crate) const EFFECTS: [&str; 3] = ["sensor_lag", "bias_branch_hysteresis", "bias_creep"];
 
 /// Why a truth could not be built, read or written.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -226,7 +226,7 @@ impl Truth {
 
     /// The element lag's time constant: the `sensor_lag` τ when that effect is on.
     #[must_use]
-    pub fn element_tau_s(&self) -> f64 {
+    pub(crate) fn element_tau_s(&self) -> f64 {
         self.ext.sensor_lag.map_or(self.thermal.element_tau_s, |l| f64::from(l.tau_s))
     }
 

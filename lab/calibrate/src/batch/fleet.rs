@@ -2,13 +2,13 @@
 //! why, process capability against each limit, and each unit's decision.
 //!
 //! # Outside the population
-//! Each figure ([`features`]) is compared with the fleet by a robust distance:
+//! Each figure (`features`) is compared with the fleet by a robust distance:
 //! `z = (x − median) / (1.4826 · MAD)` over the reference units (calibrated, both branches,
-//! a span at least [`FULL_SPAN_SHARE`] of the fleet's median span), so the bad units
+//! a span at least `FULL_SPAN_SHARE` of the fleet's median span), so the bad units
 //! themselves cannot widen the yardstick the way a standard deviation would let them. The
 //! scale never goes below the figure's stated floor ([`Feature::floor`]: a resolution far
 //! under any population's spread, so it acts only when most units agree to the last digit).
-//! A unit is flagged when a figure sits more than [`Z_FLAG`] scales out (held-out RMS:
+//! A unit is flagged when a figure sits more than `Z_FLAG` scales out (held-out RMS:
 //! above only; everything else: either side), with the figure, its value, the median and
 //! the distance. A unit with partial coverage is compared on its sensor only: its curve's
 //! shape outside its rows is an extrapolation, and its held-out figure comes from another
@@ -18,7 +18,7 @@
 //! # The sensor against the fleet
 //! Units in one chamber see one air temperature. Per minute of the shared clock the fleet's
 //! median reading is formed; on the minutes where that median moves less than
-//! [`STEADY_C_PER_MIN`] (the holds, where the units' different lags have died out) each
+//! `STEADY_C_PER_MIN` (the holds, where the units' different lags have died out) each
 //! unit's difference from it gives its offset (median) and its drift (the least-squares
 //! slope over time). A sensor that drifts shows there and nowhere else: its unit's own log
 //! only shows a bias curve that does not repeat.
@@ -47,11 +47,11 @@ use qfa_report::verdict::{Limits, Measured, Outcome};
 /// studies find a few, not one family curve) would widen the tails, which is why the
 /// threshold keeps this margin. `a_chamber_run_flags_each_bad_unit_for_its_defect_and_passes_the_rest`
 /// fails when it is set so that a good unit is flagged or a bad one passes.
-pub const Z_FLAG: f64 = 6.0;
+pub(crate) const Z_FLAG: f64 = 6.0;
 /// A unit whose span is under this share of the fleet's median span has partial coverage.
-pub const FULL_SPAN_SHARE: f64 = 0.8;
+pub(crate) const FULL_SPAN_SHARE: f64 = 0.8;
 /// The fleet's median reading moves less than this on a steady minute, °C/min.
-pub const STEADY_C_PER_MIN: f64 = 0.1;
+pub(crate) const STEADY_C_PER_MIN: f64 = 0.1;
 /// Units a minute needs for its median to be formed.
 const MIN_UNITS_PER_MINUTE: usize = 3;
 /// Steady minutes a sensor comparison needs.
@@ -204,7 +204,7 @@ pub struct Fleet {
 
 /// The figures compared, for axes `axes`.
 #[must_use]
-pub fn features(axes: &[String]) -> Vec<Feature> {
+pub(crate) fn features(axes: &[String]) -> Vec<Feature> {
     let f = |name: String, unit: &str, floor: f64, side: Side, full_coverage_only: bool| Feature {
         name,
         unit: unit.to_string(),
@@ -251,7 +251,7 @@ fn value_of(c: &Calibrated, sensor: (&Measured, &Measured), name: &str) -> Optio
 
 /// Median of `v` (sorted in place); `None` when empty.
 #[must_use]
-pub fn median(v: &mut [f64]) -> Option<f64> {
+pub(crate) fn median(v: &mut [f64]) -> Option<f64> {
     if v.is_empty() {
         return None;
     }
@@ -309,7 +309,7 @@ fn sensors(cal: &[Option<&Calibrated>]) -> Vec<(Measured, Measured)> {
 
 /// The fleet's figures, flags and decisions over `results` (in batch order).
 #[must_use]
-pub fn fleet(results: &[UnitResult], limits: &Limits) -> Fleet {
+pub(crate) fn fleet(results: &[UnitResult], limits: &Limits) -> Fleet {
     let cal: Vec<Option<&Calibrated>> = results
         .iter()
         .map(|r| match &r.outcome {
@@ -431,7 +431,7 @@ pub fn fleet(results: &[UnitResult], limits: &Limits) -> Fleet {
 
 /// Record each partial unit's prior table on the fleet: a unit for which the prior decided
 /// most of the table is held for REVIEW with that reason, and the counts follow.
-pub fn apply_priors(fleet: &mut Fleet, uses: Vec<Option<super::prior::PriorUse>>) {
+pub(crate) fn apply_priors(fleet: &mut Fleet, uses: Vec<Option<super::prior::PriorUse>>) {
     for (u, p) in fleet.unit.iter_mut().zip(uses) {
         if let Some(p) = &p {
             if p.mostly_prior {
@@ -454,7 +454,7 @@ pub fn apply_priors(fleet: &mut Fleet, uses: Vec<Option<super::prior::PriorUse>>
 
 /// Units per decision: PASS, REVIEW, FAIL.
 #[must_use]
-pub fn count(units: &[FleetUnit]) -> [usize; 3] {
+pub(crate) fn count(units: &[FleetUnit]) -> [usize; 3] {
     let mut counts = [0; 3];
     for u in units {
         counts[u.decision as usize] += 1;

@@ -19,7 +19,7 @@ use qfa_log::static_log::columns::{AccelUnit, ColumnMap, TimeUnit};
 use qfa_log::units::TempUnit;
 
 /// The roles a chamber log's unit columns carry, after the serial and a dot.
-pub const UNIT_ROLES: [&str; 4] = ["temp", "ax", "ay", "az"];
+pub(crate) const UNIT_ROLES: [&str; 4] = ["temp", "ax", "ay", "az"];
 
 /// One unit to calibrate.
 #[derive(Clone, Debug)]
@@ -48,7 +48,7 @@ impl UnitInput {
     ///
     /// # Errors
     /// The file cannot be read.
-    pub fn bytes(&self) -> Result<std::borrow::Cow<'_, [u8]>, BatchError> {
+    pub(crate) fn bytes(&self) -> Result<std::borrow::Cow<'_, [u8]>, BatchError> {
         match &self.rows {
             UnitRows::Bytes(b) => Ok(std::borrow::Cow::Borrowed(b)),
             UnitRows::File(p) => std::fs::read(p)
@@ -147,7 +147,7 @@ impl Reading {
 ///
 /// # Errors
 /// [`BatchError::Serial`] naming the serial and the rule.
-pub fn check_serials<'a>(serials: impl IntoIterator<Item = &'a str>) -> Result<(), BatchError> {
+pub(crate) fn check_serials<'a>(serials: impl IntoIterator<Item = &'a str>) -> Result<(), BatchError> {
     let mut seen = BTreeMap::new();
     for (i, s) in serials.into_iter().enumerate() {
         let ok = !s.is_empty()
@@ -207,7 +207,7 @@ pub fn from_manifest(path: &Path, base: &ReadFlags) -> Result<Vec<UnitInput>, Ba
         .collect()
 }
 
-/// The units of a chamber log: every header column `SERIAL.ROLE` ([`UNIT_ROLES`]) is unit
+/// The units of a chamber log: every header column `SERIAL.ROLE` (`UNIT_ROLES`) is unit
 /// SERIAL's; the time column is `--columns time=NAME`, or else the one column without a
 /// serial. Each unit needs its `temp` and at least one axis.
 ///

@@ -16,7 +16,7 @@
 
 pub mod fleet;
 pub mod input;
-pub mod pages;
+pub(crate) mod pages;
 pub mod prior;
 pub mod unit;
 
@@ -67,7 +67,7 @@ impl fmt::Display for BatchError {
 impl std::error::Error for BatchError {}
 
 /// Name of each unit's result file in its folder.
-pub const UNIT_JSON: &str = "unit.json";
+pub(crate) const UNIT_JSON: &str = "unit.json";
 
 /// One shard of a job array: the units whose place `i` has `i mod n = k`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -186,7 +186,11 @@ pub fn run(units: &[UnitInput], out: &Path, opts: &BatchOptions) -> Result<Batch
 ///
 /// # Errors
 /// A file cannot be written.
-pub fn finish_fleet(out: &Path, results: &[(usize, UnitResult)], opts: &UnitOptions) -> Result<Fleet, BatchError> {
+pub(crate) fn finish_fleet(
+    out: &Path,
+    results: &[(usize, UnitResult)],
+    opts: &UnitOptions,
+) -> Result<Fleet, BatchError> {
     let plain: Vec<UnitResult> = results.iter().map(|(_, r)| r.clone()).collect();
     let mut fleet = fleet::fleet(&plain, &opts.limits.limits);
     // Partial units: the population prior's table beside their own.
@@ -249,7 +253,7 @@ pub fn finish_fleet(out: &Path, results: &[(usize, UnitResult)], opts: &UnitOpti
 }
 
 /// `batch merge OUT`: every `SERIAL/unit.json` under `out` (the shards of one batch, all
-/// written into `out`), ordered by their place in the batch, then [`finish_fleet`].
+/// written into `out`), ordered by their place in the batch, then `finish_fleet`.
 ///
 /// # Errors
 /// No `unit.json`, two with one index, or an unreadable one.
@@ -291,7 +295,7 @@ pub fn merge(out: &Path, opts: &UnitOptions) -> Result<(Vec<(usize, UnitResult)>
 /// Reasons shown where a unit has one line (the console, the fleet's verdict): the first
 /// [`REASONS_SHOWN`] (flags come strongest first), then how many more its certificate lists.
 #[must_use]
-pub fn first_reasons(reasons: &[String]) -> String {
+pub(crate) fn first_reasons(reasons: &[String]) -> String {
     let mut s = reasons.iter().take(REASONS_SHOWN).cloned().collect::<Vec<_>>().join("; ");
     if reasons.len() > REASONS_SHOWN {
         s.push_str(&format!("; and {} more on its certificate", reasons.len() - REASONS_SHOWN));
@@ -303,7 +307,7 @@ pub fn first_reasons(reasons: &[String]) -> String {
 /// every unit shares, such as a missing `--time-unit`, is one line, not one per unit), in
 /// batch order of each group's first unit: `(decision, reasons, serials)`.
 #[must_use]
-pub fn grouped(fleet: &Fleet) -> Vec<(Decision, String, Vec<String>)> {
+pub(crate) fn grouped(fleet: &Fleet) -> Vec<(Decision, String, Vec<String>)> {
     let mut out: Vec<(Decision, String, Vec<String>)> = Vec::new();
     for u in fleet.unit.iter().filter(|u| u.decision != Decision::Pass) {
         let r = first_reasons(&u.reasons);
@@ -317,7 +321,7 @@ pub fn grouped(fleet: &Fleet) -> Vec<(Decision, String, Vec<String>)> {
 
 /// `SN1`, or `3 units (SN1, SN2, SN3)`, or `40 units (SN1, SN2, SN3, … SN40)`.
 #[must_use]
-pub fn serial_list(serials: &[String]) -> String {
+pub(crate) fn serial_list(serials: &[String]) -> String {
     match serials {
         [one] => one.clone(),
         many if many.len() <= 4 => format!("{} units ({})", many.len(), many.join(", ")),
@@ -326,7 +330,7 @@ pub fn serial_list(serials: &[String]) -> String {
 }
 
 /// Reasons a one-line summary shows.
-pub const REASONS_SHOWN: usize = 2;
+pub(crate) const REASONS_SHOWN: usize = 2;
 
 /// The console's summary of a fleet: the verdict line, one line per unit not passed, and
 /// where the detail is.

@@ -16,7 +16,7 @@ use qfa_report::verdict::Measured;
 /// A unit's certificate: what was calibrated from what, the figures, the decision, and the
 /// table's CRC so a table found on a unit leads back here.
 #[derive(Clone, Debug, Serialize)]
-pub struct Certificate<'a> {
+pub(crate) struct Certificate<'a> {
     /// Serial.
     pub serial: &'a str,
     /// Decision.
@@ -54,7 +54,12 @@ fn m(v: &Measured, digits: usize) -> String {
 ///
 /// # Errors
 /// I/O or encoding errors.
-pub fn write_certificate(dir: &Path, r: &UnitResult, f: &FleetUnit, limits_from: &str) -> Result<(), BatchError> {
+pub(crate) fn write_certificate(
+    dir: &Path,
+    r: &UnitResult,
+    f: &FleetUnit,
+    limits_from: &str,
+) -> Result<(), BatchError> {
     let io = |e: &dyn std::fmt::Display| BatchError::Io(format!("{}: {e}", dir.display()));
     std::fs::create_dir_all(dir).map_err(|e| io(&e))?;
     let cert = Certificate {
@@ -156,7 +161,12 @@ pub fn write_certificate(dir: &Path, r: &UnitResult, f: &FleetUnit, limits_from:
 ///
 /// # Errors
 /// I/O, drawing or encoding errors.
-pub fn write_fleet(out: &Path, fleet: &Fleet, results: &[UnitResult], limits_from: &str) -> Result<(), BatchError> {
+pub(crate) fn write_fleet(
+    out: &Path,
+    fleet: &Fleet,
+    results: &[UnitResult],
+    limits_from: &str,
+) -> Result<(), BatchError> {
     let io = |e: &dyn std::fmt::Display| BatchError::Io(format!("{}: {e}", out.display()));
     let json = serde_json::to_string_pretty(fleet).map_err(|e| io(&e))?;
     std::fs::write(out.join("fleet.json"), json + "\n").map_err(|e| io(&e))?;

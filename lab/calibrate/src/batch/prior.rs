@@ -37,17 +37,17 @@ use crate::compensate::STATIC_LSB_PER_G;
 use crate::fit::FitError;
 
 /// Basis scale, °C.
-pub const U_SCALE_C: f64 = 50.0;
+pub(crate) const U_SCALE_C: f64 = 50.0;
 /// Length of the residual means that measure a unit's noise, s.
-pub const NOISE_MEAN_S: f64 = 60.0;
+pub(crate) const NOISE_MEAN_S: f64 = 60.0;
 /// Rows a 1-°C bin needs on a branch to count as covered (one averaged equation).
-pub const BIN_ROWS: usize = 10;
+pub(crate) const BIN_ROWS: usize = 10;
 /// Below this covered share the prior decided most of the table.
-pub const MOSTLY_PRIOR: f64 = 0.5;
+pub(crate) const MOSTLY_PRIOR: f64 = 0.5;
 
 /// The basis at temperature `t_c` on `branch` (heating `+½`, cooling `−½`, unknown 0).
 #[must_use]
-pub fn basis(t_c: f64, branch: Branch) -> [f64; 5] {
+pub(crate) fn basis(t_c: f64, branch: Branch) -> [f64; 5] {
     let u = (t_c - super::unit::DESCRIPTOR_T_C) / U_SCALE_C;
     let s = match branch {
         Branch::Heating => 0.5,
@@ -85,7 +85,7 @@ pub struct UnitNormal {
 /// The statistics of one unit's rows: readings `temp_c`, the branch in force per row
 /// (the firmware's), each axis `(name, g)`, row times `time_s`.
 #[must_use]
-pub fn normal_of(time_s: &[f64], temp_c: &[f64], branch: &[Branch], axes: &[(&str, &[f64])]) -> UnitNormal {
+pub(crate) fn normal_of(time_s: &[f64], temp_c: &[f64], branch: &[Branch], axes: &[(&str, &[f64])]) -> UnitNormal {
     let n = temp_c.len();
     let xs: Vec<[f64; 5]> = (0..n).map(|i| basis(temp_c[i], branch[i])).collect();
     let mut ata = Matrix5::<f64>::zeros();
@@ -139,7 +139,7 @@ pub struct Population {
 
 /// The population of each axis from the reference units' statistics.
 #[must_use]
-pub fn population(reference: &[&UnitNormal]) -> Vec<Population> {
+pub(crate) fn population(reference: &[&UnitNormal]) -> Vec<Population> {
     let Some(first) = reference.first() else { return Vec::new() };
     first
         .axes
@@ -172,7 +172,7 @@ pub fn population(reference: &[&UnitNormal]) -> Vec<Population> {
 /// The posterior mean `θ` of one axis of a unit (module docs); `None` when the
 /// population's covariance cannot be inverted (fewer units than directions that vary).
 #[must_use]
-pub fn posterior(unit: &UnitNormal, axis: usize, pop: &Population) -> Option<[f64; 5]> {
+pub(crate) fn posterior(unit: &UnitNormal, axis: usize, pop: &Population) -> Option<[f64; 5]> {
     let a = unit.axes.get(axis)?;
     let ata = Matrix5::from_row_slice(&unit.ata);
     let cov = Matrix5::from_row_slice(&pop.cov);
@@ -189,7 +189,7 @@ pub fn posterior(unit: &UnitNormal, axis: usize, pop: &Population) -> Option<[f6
 
 /// The share of the fleet's `span` (°C, both branches) a unit's covered bins hold.
 #[must_use]
-pub fn covered_share(unit: &UnitNormal, span: (f64, f64)) -> f64 {
+pub(crate) fn covered_share(unit: &UnitNormal, span: (f64, f64)) -> f64 {
     let (lo, hi) = (span.0.floor() as i32, span.1.ceil() as i32 - 1);
     let total = (2 * (hi - lo + 1)).max(1) as f64;
     let inside = unit.covered.iter().filter(|(b, _)| (lo..=hi).contains(b)).count() as f64;
@@ -199,7 +199,12 @@ pub fn covered_share(unit: &UnitNormal, span: (f64, f64)) -> f64 {
 /// A flashable axis model for curve `theta` over `span` (°C): 16 nodes, heating = the
 /// curve + half the split, cooling − half, the bias measured from `reference_g`.
 #[must_use]
-pub fn axis_model(theta: &[f64; 5], span: (f64, f64), reference_g: f64, deadband: f32) -> qfa_thermal::AxisModel {
+pub(crate) fn axis_model(
+    theta: &[f64; 5],
+    span: (f64, f64),
+    reference_g: f64,
+    deadband: f32,
+) -> qfa_thermal::AxisModel {
     let g = qfa_thermal::model::MAX_BIAS_POINTS;
     let start = span.0.floor();
     let end = span.1.ceil().max(start + 2.0);
@@ -305,7 +310,7 @@ pub struct PriorUse {
     pub table_crc32: String,
     /// Share of the fleet's span × both branches the unit's own rows cover.
     pub covered_share: f64,
-    /// The prior decided most of the table (`covered_share` under [`MOSTLY_PRIOR`]).
+    /// The prior decided most of the table (`covered_share` under `MOSTLY_PRIOR`).
     pub mostly_prior: bool,
 }
 

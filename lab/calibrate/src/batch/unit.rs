@@ -24,9 +24,9 @@ use qfa_log::static_log::StaticLog;
 use qfa_report::verdict::{LimitsChoice, Measured, Outcome};
 
 /// Temperature the descriptor is read at, °C.
-pub const DESCRIPTOR_T_C: f64 = 25.0;
+pub(crate) const DESCRIPTOR_T_C: f64 = 25.0;
 /// Length of the temperature means kept for the fleet's sensor comparison, s.
-pub const TEMP_MEAN_S: f64 = 60.0;
+pub(crate) const TEMP_MEAN_S: f64 = 60.0;
 
 /// One axis in the fleet's common form.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -113,7 +113,7 @@ pub struct UnitOptions {
 /// Calibrate one unit into `dir` (its folder) and describe it; a refusal is a
 /// [`UnitOutcome::Failed`], not an error: one bad unit does not stop a batch.
 #[must_use]
-pub fn calibrate_unit(input: &UnitInput, dir: &Path, opts: &UnitOptions) -> UnitResult {
+pub(crate) fn calibrate_unit(input: &UnitInput, dir: &Path, opts: &UnitOptions) -> UnitResult {
     let outcome = match calibrate(input, dir, opts) {
         Ok(c) => UnitOutcome::Calibrated(Box::new(c)),
         Err(e) => UnitOutcome::Failed { reason: e.to_string() },
@@ -183,7 +183,11 @@ fn calibrate(input: &UnitInput, dir: &Path, opts: &UnitOptions) -> Result<Calibr
 ///
 /// # Errors
 /// The descriptor fit failed.
-pub fn describe(log: &StaticLog, opts: &StaticCalOptions, one_branch: bool) -> Result<Vec<AxisDescriptor>, BatchError> {
+pub(crate) fn describe(
+    log: &StaticLog,
+    opts: &StaticCalOptions,
+    one_branch: bool,
+) -> Result<Vec<AxisDescriptor>, BatchError> {
     let structure = StaticStructure {
         shape: CurveShape::Cubic,
         branches: if one_branch { BranchMode::Single } else { BranchMode::Offset },
@@ -233,7 +237,7 @@ pub fn describe(log: &StaticLog, opts: &StaticCalOptions, one_branch: bool) -> R
 /// The prior's statistics of `log`: its rows with a temperature, each on the branch the
 /// firmware's logic puts it (deadband `deadband`, °C/min).
 #[must_use]
-pub fn normal(log: &StaticLog, deadband: f32) -> super::prior::UnitNormal {
+pub(crate) fn normal(log: &StaticLog, deadband: f32) -> super::prior::UnitNormal {
     let series = StaticSeries { time_s: &log.time_s, temp_c: &log.temp_c, accel_g: &log.axes[0].accel_g };
     let tr = series.trace(&qfa_thermal::Extensions::default(), deadband);
     let rows: Vec<usize> = (0..log.rows()).filter(|&i| tr.valid[i]).collect();
@@ -248,7 +252,7 @@ pub fn normal(log: &StaticLog, deadband: f32) -> super::prior::UnitNormal {
 /// Mean temperature reading per [`TEMP_MEAN_S`] of the log's own clock (so the logs of
 /// one chamber run line up, whichever row each starts at).
 #[must_use]
-pub fn temp_minutes(log: &StaticLog) -> Vec<(i64, f64)> {
+pub(crate) fn temp_minutes(log: &StaticLog) -> Vec<(i64, f64)> {
     let clock: Vec<f64> = log.time_s.iter().map(|t| t + log.time_origin_s).collect();
     crate::metrics::time_bin_means(log.temp_c.iter().copied(), &clock, TEMP_MEAN_S)
         .into_iter()

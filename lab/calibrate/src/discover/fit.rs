@@ -17,15 +17,15 @@ use qfa_log::channels::{Channels, LogKind};
 
 /// Reference temperature of ΔT: the lab's one [`crate::fit::T0_C`], as the
 /// model's f32.
-pub const T0_C: f32 = crate::fit::T0_C as f32;
+pub(crate) const T0_C: f32 = crate::fit::T0_C as f32;
 /// Fixed reference temperature of the creep time constant, °C.
-pub const CREEP_T_REF_C: f32 = 22.0;
+pub(crate) const CREEP_T_REF_C: f32 = 22.0;
 /// Bias grid points.
-pub const GRID_POINTS: usize = 16;
+pub(crate) const GRID_POINTS: usize = 16;
 
 /// A catalog effect (with the channel it acts on for `temp_quadratic`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum Effect {
+pub(crate) enum Effect {
     /// β·ΔT² on the scale factor.
     TempQuadSf,
     /// β_b·ΔT² on the bias (simple start only; the paper start's bias grid already curves).
@@ -51,7 +51,7 @@ pub enum Effect {
 
 impl Effect {
     /// Every effect, in catalog order.
-    pub const ALL: [Effect; 9] = [
+    pub(crate) const ALL: [Effect; 9] = [
         Effect::TempQuadSf,
         Effect::TempQuadBias,
         Effect::RateHysteresis,
@@ -65,7 +65,7 @@ impl Effect {
 
     /// Catalog name.
     #[must_use]
-    pub fn name(self) -> &'static str {
+    pub(crate) fn name(self) -> &'static str {
         match self {
             Effect::TempQuadSf | Effect::TempQuadBias => "temp_quadratic",
             Effect::RateHysteresis => "rate_hysteresis",
@@ -80,7 +80,7 @@ impl Effect {
 
     /// Channel it acts on: `scale_factor`, `bias` or `both`.
     #[must_use]
-    pub fn channel(self) -> &'static str {
+    pub(crate) fn channel(self) -> &'static str {
         match self {
             Effect::TempQuadSf | Effect::RateHysteresis | Effect::RateSquared | Effect::RateTempCoupling => {
                 "scale_factor"
@@ -92,7 +92,7 @@ impl Effect {
 
     /// Parameters it adds (for the selection penalty).
     #[must_use]
-    pub fn n_params(self) -> usize {
+    pub(crate) fn n_params(self) -> usize {
         match self {
             Effect::BiasBranchHysteresis => 2,
             Effect::BiasCreep => 3,
@@ -102,26 +102,26 @@ impl Effect {
 
     /// Whether the root crate's `AxisModel` can run it (so it goes into the table).
     #[must_use]
-    pub fn in_firmware(self) -> bool {
+    pub(crate) fn in_firmware(self) -> bool {
         self != Effect::BiasDrift
     }
 
     /// Whether it acts on the scale-factor channel.
     #[must_use]
-    pub fn touches_sf(self) -> bool {
+    pub(crate) fn touches_sf(self) -> bool {
         self.channel() != "bias"
     }
 
     /// Whether it acts on the bias channel.
     #[must_use]
-    pub fn touches_bias(self) -> bool {
+    pub(crate) fn touches_bias(self) -> bool {
         self.channel() != "scale_factor"
     }
 }
 
 /// Nonlinear parameters of the slots that are on.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Nonlinear {
+pub(crate) struct Nonlinear {
     /// sensor_lag τ, s.
     pub lag_tau_s: Option<f32>,
     /// bias_branch_hysteresis half-width, °C.
@@ -133,7 +133,7 @@ pub struct Nonlinear {
 impl Nonlinear {
     /// The parameters with `e`'s slot off.
     #[must_use]
-    pub fn without(mut self, e: Effect) -> Self {
+    pub(crate) fn without(mut self, e: Effect) -> Self {
         match e {
             Effect::SensorLag => self.lag_tau_s = None,
             Effect::BiasBranchHysteresis => self.play_r_c = None,
@@ -146,7 +146,7 @@ impl Nonlinear {
 
 /// Linear structure: which terms are in the model.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Structure {
+pub(crate) struct Structure {
     /// Start model.
     pub start: Start,
     /// β on the scale factor.
@@ -166,14 +166,14 @@ pub struct Structure {
 impl Structure {
     /// The start model's structure.
     #[must_use]
-    pub fn start(start: Start) -> Self {
+    pub(crate) fn start(start: Start) -> Self {
         let p = start == Start::Paper;
         Self { start, sf_quad: p, sf_eps: p, sf_alpha: p, sf_eta: p, bias_quad: false, bias_drift: false }
     }
 
     /// Whether `e` can still be added.
     #[must_use]
-    pub fn can_add(&self, e: Effect, nl: &Nonlinear, kind: LogKind) -> bool {
+    pub(crate) fn can_add(&self, e: Effect, nl: &Nonlinear, kind: LogKind) -> bool {
         let cyc = kind == LogKind::Cycling;
         match e {
             Effect::TempQuadSf => cyc && !self.sf_quad,
@@ -191,7 +191,7 @@ impl Structure {
     /// The structure with the linear part of `e` switched off (the start model's own
     /// terms stay).
     #[must_use]
-    pub fn without(self, e: Effect) -> Self {
+    pub(crate) fn without(self, e: Effect) -> Self {
         let base = Structure::start(self.start);
         let mut s = self;
         match e {
@@ -208,7 +208,7 @@ impl Structure {
 
     /// The structure with the linear part of `e` switched on.
     #[must_use]
-    pub fn with(mut self, e: Effect) -> Self {
+    pub(crate) fn with(mut self, e: Effect) -> Self {
         match e {
             Effect::TempQuadSf => self.sf_quad = true,
             Effect::TempQuadBias => self.bias_quad = true,
@@ -224,7 +224,7 @@ impl Structure {
 
 /// Fixed geometry of a data set: bias grid, rate limit, channel weights.
 #[derive(Clone, Debug)]
-pub struct Setup<'a> {
+pub(crate) struct Setup<'a> {
     /// The data.
     pub ch: &'a Channels,
     /// First grid temperature, °C.
@@ -255,7 +255,7 @@ pub struct Setup<'a> {
 /// as a reading taken at the start of a counting interval, or a conversion that reports
 /// a temperature δ old, is).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TimingOffset {
+pub(crate) struct TimingOffset {
     /// δ, s.
     pub seconds: f64,
     /// Its SE from the fit's curvature for white residuals, s (the report widens it by
@@ -268,7 +268,7 @@ pub struct TimingOffset {
 impl<'a> Setup<'a> {
     /// Geometry from the data's temperature and rate range.
     #[must_use]
-    pub fn new(ch: &'a Channels) -> Self {
+    pub(crate) fn new(ch: &'a Channels) -> Self {
         let (mut lo, mut hi, mut rmax) = (f32::INFINITY, f32::NEG_INFINITY, 0.0f32);
         for t in &ch.traces {
             for (&x, &r) in t.est_t.iter().zip(&t.est_rate) {
@@ -297,7 +297,7 @@ impl<'a> Setup<'a> {
     /// differences over the bins' times; one-sided at a trace's ends): the basis of the
     /// timing offset ([`Setup::offset_basis`]).
     #[must_use]
-    pub fn offset_basis_of(&self, model: &AxisModel) -> Vec<(f64, f64)> {
+    pub(crate) fn offset_basis_of(&self, model: &AxisModel) -> Vec<(f64, f64)> {
         let pred = self.predict(model);
         let mut out = Vec::with_capacity(pred.len());
         let mut o = 0;
@@ -319,7 +319,7 @@ impl<'a> Setup<'a> {
 
     /// Factor from the bias channel's unit (g for cycling logs) to the reported unit.
     #[must_use]
-    pub fn bias_unit(&self) -> f64 {
+    pub(crate) fn bias_unit(&self) -> f64 {
         match self.ch.kind {
             LogKind::Cycling => 1e6,
             LogKind::Single => 1.0,
@@ -366,7 +366,7 @@ fn clampf(x: f32, lo: f32, hi: f32) -> f32 {
 
 /// A fitted model and its per-bin predictions (K1, K0) over every bin.
 #[derive(Clone, Debug)]
-pub struct Fitted {
+pub(crate) struct Fitted {
     /// The axis model.
     pub model: AxisModel,
     /// Per-bin predicted K1 (pulses/(g·s); 1 for single-channel) and K0.
@@ -461,7 +461,7 @@ impl Setup<'_> {
 
     /// Run `model` over every trace with the root crate's `evaluate`; per-bin (K1, K0).
     #[must_use]
-    pub fn predict(&self, model: &AxisModel) -> Vec<(f64, f64)> {
+    pub(crate) fn predict(&self, model: &AxisModel) -> Vec<(f64, f64)> {
         let mut out = Vec::with_capacity(self.ch.n_bins());
         for tr in &self.ch.traces {
             let mut st = AxisState::default();
@@ -485,7 +485,7 @@ impl Setup<'_> {
 
     /// Residuals (measured − model) of predictions.
     #[must_use]
-    pub fn residuals(&self, pred: &[(f64, f64)]) -> Residuals {
+    pub(crate) fn residuals(&self, pred: &[(f64, f64)]) -> Residuals {
         let u = self.bias_unit();
         let mut r = Residuals::default();
         for (b, &(k1, k0)) in self.ch.traces.iter().flat_map(|t| t.bins.iter()).zip(pred) {
@@ -497,13 +497,13 @@ impl Setup<'_> {
 
     /// Fit `structure` with nonlinear parameters `nl` on the bins where `train` is true.
     #[must_use]
-    pub fn fit(&self, s: &Structure, nl: &Nonlinear, train: &[bool]) -> Fitted {
+    pub(crate) fn fit(&self, s: &Structure, nl: &Nonlinear, train: &[bool]) -> Fitted {
         self.fit_y(s, nl, train, None)
     }
 
     /// Hours since the start of its program, per bin (the drift column).
     #[must_use]
-    pub fn bin_hours(&self) -> Vec<f64> {
+    pub(crate) fn bin_hours(&self) -> Vec<f64> {
         let mut v = Vec::with_capacity(self.ch.n_bins());
         for t in &self.ch.traces {
             let t0 = t.time_s.first().copied().unwrap_or(0.0);
@@ -515,7 +515,7 @@ impl Setup<'_> {
     /// As [`Setup::fit`], with the measured per-bin (K1, K0) replaced by `y` when given
     /// (the block bootstrap refits resampled data through this).
     #[must_use]
-    pub fn fit_y(&self, s: &Structure, nl: &Nonlinear, train: &[bool], y_over: Option<&[(f64, f64)]>) -> Fitted {
+    pub(crate) fn fit_y(&self, s: &Structure, nl: &Nonlinear, train: &[bool], y_over: Option<&[(f64, f64)]>) -> Fitted {
         let f = self.features(nl);
         let bins: Vec<_> = self.ch.traces.iter().flat_map(|t| t.bins.iter()).collect();
         let meas = |i: usize| y_over.map_or((bins[i].sf, bins[i].bias), |y| y[i]);
@@ -661,7 +661,7 @@ impl Setup<'_> {
 
     /// Normalized sum of squares of `res` over `mask`: Σ(sf/σ_sf)² + Σ(bias/σ_b)².
     #[must_use]
-    pub fn score(&self, res: &Residuals, mask: &[bool]) -> f64 {
+    pub(crate) fn score(&self, res: &Residuals, mask: &[bool]) -> f64 {
         let mut s = 0.0;
         for ((&m, &sf), &b) in mask.iter().zip(&res.sf).zip(&res.bias) {
             if m {
@@ -712,7 +712,7 @@ fn solve(a: &DMatrix<f64>, y: &DVector<f64>, pen: Option<(usize, usize)>) -> Vec
 }
 
 /// Golden-section minimum of `f` on `[a, b]`.
-pub fn golden(mut f: impl FnMut(f64) -> f64, mut a: f64, mut b: f64, iters: usize) -> (f64, f64) {
+pub(crate) fn golden(mut f: impl FnMut(f64) -> f64, mut a: f64, mut b: f64, iters: usize) -> (f64, f64) {
     let g = 0.5 * (5f64.sqrt() - 1.0);
     let mut c = b - g * (b - a);
     let mut d = a + g * (b - a);
@@ -740,7 +740,12 @@ pub fn golden(mut f: impl FnMut(f64) -> f64, mut a: f64, mut b: f64, iters: usiz
 }
 
 /// Nelder–Mead in 2-D from `x0` with initial steps `step`.
-pub fn nelder_mead2(mut f: impl FnMut([f64; 2]) -> f64, x0: [f64; 2], step: [f64; 2], iters: usize) -> ([f64; 2], f64) {
+pub(crate) fn nelder_mead2(
+    mut f: impl FnMut([f64; 2]) -> f64,
+    x0: [f64; 2],
+    step: [f64; 2],
+    iters: usize,
+) -> ([f64; 2], f64) {
     let mut s = [x0, [x0[0] + step[0], x0[1]], [x0[0], x0[1] + step[1]]];
     let mut v = [f(s[0]), f(s[1]), f(s[2])];
     let lerp = |a: [f64; 2], b: [f64; 2], t: f64| [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];

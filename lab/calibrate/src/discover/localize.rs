@@ -5,7 +5,7 @@ use super::*;
 
 /// Localize the disagreement of held-out residuals `r`: worst segments per channel.
 #[must_use]
-pub fn localize(ch: &Channels, r: &Residuals, top: usize) -> Vec<Where> {
+pub(crate) fn localize(ch: &Channels, r: &Residuals, top: usize) -> Vec<Where> {
     use std::collections::BTreeMap;
     // Temperature bands: a round width giving 4..8 bands.
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);

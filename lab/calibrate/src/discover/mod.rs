@@ -14,7 +14,7 @@
 //!    on a 16-point grid with equal branches); `paper` = Eq. 11 and a single-valued bias
 //!    grid fitted by least squares with a gentle smoothness penalty. On a cycling log
 //!    whose model has no ε·Ṫ, every fit also takes a timing offset δ between the
-//!    temperature channel and the counts ([`fit::TimingOffset`]): held while a round's
+//!    temperature channel and the counts (`fit::TimingOffset`): held while a round's
 //!    candidates are scored, reported with its interval.
 //! 3. **Held-out rule** (every figure of merit is held out): a cycling log's programs are
 //!    sorted by ramp rate and dealt alternately into two folds (0.3/0.7 and 0.5/0.9 °C/min
@@ -25,13 +25,13 @@
 //!    cooling and holds at every temperature). Model states always run through the whole
 //!    trace; only the fit skips the held-out bins. Nonlinear parameters are searched on
 //!    the training fold only, weighted by each channel's bin-to-bin noise floor.
-//! 4. **Localization** ([`localize`]): RMS of the held-out residual by heating / cooling
+//! 4. **Localization** (`localize`): RMS of the held-out residual by heating / cooling
 //!    ramps × program rate × temperature band, and holds by time since the last change.
 //! 5. **Candidates**: each catalog effect not yet in the model. Nonlinear parameters by a
 //!    coarse log-grid then golden section (τ, r; 20 steps) or Nelder–Mead (creep τ_ref,
 //!    E; T_ref fixed at 22 °C); linear coefficients re-fitted by least squares for every
 //!    trial; every trial scored by running the root crate's `AxisModel::evaluate`.
-//! 6. **Selection** ([`stats`]): the per-bin held-out gain (drop of
+//! 6. **Selection** (`stats`): the per-bin held-out gain (drop of
 //!    (residual/RMS)², summed over the channels) is summed over blocks of consecutive
 //!    bins, four times the residual's 1/e autocorrelation lag long (≥ 10 bins, ≥ 8
 //!    blocks), so the block sums are close to independent even under the Gauss–Markov
@@ -39,7 +39,7 @@
 //!    t(1 − 0.05/m, blocks − 1) standard errors of the block sums (m = 9, the catalog's
 //!    size, in every round: Bonferroni over everything the workflow could add). An
 //!    effect with a weight of its own (drift rate, play weight, Eq. 11 term) must also
-//!    clear its weight test ([`WeightZ`]: |weight| > z(1 − 0.05/(2m)) moving-block
+//!    clear its weight test (`WeightZ`: |weight| > z(1 − 0.05/(2m)) moving-block
 //!    bootstrap SEs, held-out residuals resampled, nonlinear parameters searched again
 //!    per resample). A significant candidate with a parameter at a search limit is
 //!    not added (a limit, not the data, decided it); it is reported. Among the rest the
@@ -55,8 +55,8 @@
 //!    interval; nonlinear parameters a profile interval (all-data Σ(residual/RMS)² rising
 //!    by 3.84·N/N_eff, N/N_eff from the residual autocorrelation), linear ones a
 //!    moving-block bootstrap interval; `at_bound` flags a search limit.
-//! 8. **Unexplained** ([`unexplained`]): each channel's final held-out residual against its
-//!    noise floor, the white part of the noise model fitted to it ([`noise`]: white plus
+//! 8. **Unexplained** (`unexplained`): each channel's final held-out residual against its
+//!    noise floor, the white part of the noise model fitted to it (`noise`: white plus
 //!    Gauss–Markov, robust to glitches and steps; always reported); a change point inside a
 //!    run that the fitted model rejects; drivers it follows significantly (cross-fitted on
 //!    time since start, temperature, Ṫ, time since the last reversal and the ramp branch,
@@ -84,24 +84,24 @@
 //! 3-min dwells; the out-of-catalog test confirms a two-stage lag is named as one lag
 //! with the effective τ).
 
-pub mod cli;
-pub mod error;
+pub(crate) mod cli;
+pub(crate) mod error;
 pub mod fit;
 mod folds;
 mod heldout;
 mod localize;
-pub mod noise;
-pub mod output;
-pub mod page;
+pub(crate) mod noise;
+pub(crate) mod output;
+pub(crate) mod page;
 mod params;
-pub mod report;
+pub(crate) mod report;
 mod search;
-pub mod select;
+pub(crate) mod select;
 pub mod static_axes;
-pub mod stats;
+pub(crate) mod stats;
 mod uncertainty;
-pub mod unexplained;
-pub mod verdict;
+pub(crate) mod unexplained;
+pub(crate) mod verdict;
 
 use std::path::Path;
 
@@ -110,22 +110,22 @@ use serde::Serialize;
 
 pub use cli::{demo_hook, discover, discover_with_verdict};
 pub use error::DiscoverError;
-pub use fit::Effect;
+pub(crate) use fit::Effect;
 use fit::{golden, nelder_mead2, Fitted, Nonlinear, Residuals, Setup, Structure};
 use folds::*;
 use heldout::*;
-pub use localize::localize;
+pub(crate) use localize::localize;
 use params::*;
-pub use qfa_log::channels::{BiasUnit, Channels, LogKind};
-pub use report::{
-    CandidateTrial, EffectReport, Flashed, Gaps, ParamCi, PeerBetter, PeerGap, Report, Start, TimingOffsetReport,
-    WeightZ, Where,
-};
+pub use qfa_log::channels::Channels;
+pub(crate) use qfa_log::channels::{BiasUnit, LogKind};
+pub(crate) use report::{CandidateTrial, ParamCi, WeightZ};
+pub use report::{EffectReport, Flashed, Gaps, PeerBetter, PeerGap, Report, Start, TimingOffsetReport, Where};
 use search::*;
-pub use select::{analyze, start_model, ALPHA};
-pub use stats::GainStat;
+pub use select::analyze;
+pub(crate) use select::{start_model, ALPHA};
+pub(crate) use stats::GainStat;
 use uncertainty::*;
-pub use unexplained::{FloorRatio, TimeScales, Unexplained};
+pub(crate) use unexplained::{FloorRatio, Unexplained};
 
 use crate::metrics::rms_of_finite as rms;
 

@@ -48,19 +48,19 @@ const LAGS: [usize; 12] = [1, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64];
 const MIN_PAIRS: usize = 30;
 /// Shortest segment either side of a change point, bins (5 min of 60-s bins: a step must
 /// hold for that long to be told from a burst of noise).
-pub const MIN_SEGMENT_BINS: usize = 5;
+pub(crate) const MIN_SEGMENT_BINS: usize = 5;
 /// Series drawn from the fitted model for the change-point test's critical value.
-pub const NULL_DRAWS: usize = 400;
+pub(crate) const NULL_DRAWS: usize = 400;
 /// A change point is structure only when its step is also at least this many white-noise
 /// SDs. Set after the first study: on 40 clean logs of the first independent generator the
 /// fitted model's null alone rejected 7 times (|z| 3.6–4.4 against 3.5–3.9), every time for
 /// a step of 1.1–2.4 white SDs; the 40-µg step of the second generator's test is 18 (the
 /// held-out residual's departures from white + Gauss–Markov near ramp corners make the
 /// null's tail too light, so a size is asked of a step as of a run level).
-pub const STEP_MIN_WHITE: f64 = 3.0;
+pub(crate) const STEP_MIN_WHITE: f64 = 3.0;
 /// Residuals are clipped at this many SDs of the model's total before the change-point
 /// and run-level tests.
-pub const CLIP_SD: f64 = 4.0;
+pub(crate) const CLIP_SD: f64 = 4.0;
 
 /// A channel's fitted noise: white plus Gauss–Markov (see the module docs).
 #[derive(Clone, Debug, Serialize, PartialEq)]
@@ -80,13 +80,13 @@ pub struct NoiseModel {
 impl NoiseModel {
     /// Per-bin correlation of the slow part.
     #[must_use]
-    pub fn phi(&self) -> f64 {
+    pub(crate) fn phi(&self) -> f64 {
         (-self.bin_s / self.tau_s).exp()
     }
 
     /// SD of one bin's total noise.
     #[must_use]
-    pub fn total_sd(&self) -> f64 {
+    pub(crate) fn total_sd(&self) -> f64 {
         (self.white.powi(2) + self.slow_sd.powi(2)).sqrt()
     }
 
@@ -101,13 +101,13 @@ impl NoiseModel {
 
     /// Variance of the sum of `n` consecutive bins.
     #[must_use]
-    pub fn var_sum(&self, n: usize) -> f64 {
+    pub(crate) fn var_sum(&self, n: usize) -> f64 {
         self.white.powi(2) * n as f64 + self.slow_sd.powi(2) * self.sum_corr(n)
     }
 
     /// Variance of the mean of `n` consecutive bins.
     #[must_use]
-    pub fn var_mean(&self, n: usize) -> f64 {
+    pub(crate) fn var_mean(&self, n: usize) -> f64 {
         self.var_sum(n) / (n as f64).powi(2).max(1.0)
     }
 
@@ -122,7 +122,7 @@ impl NoiseModel {
 
     /// In words, with `unit`.
     #[must_use]
-    pub fn text(&self, unit: &str) -> String {
+    pub(crate) fn text(&self, unit: &str) -> String {
         format!(
             "white {:.3} {unit} per bin + Gauss–Markov {:.3} {unit} (τ {:.0} min)",
             self.white,
@@ -159,7 +159,7 @@ fn median(v: &mut [f64]) -> f64 {
 
 /// Fit the noise model to residual `r` (see the module docs).
 #[must_use]
-pub fn fit(ch: &Channels, r: &[f64]) -> NoiseModel {
+pub(crate) fn fit(ch: &Channels, r: &[f64]) -> NoiseModel {
     let runs = runs_of(ch, r);
     let mut spacing: Vec<f64> =
         runs.iter().flat_map(|(_, _, t)| t.windows(2).map(|w| w[1] - w[0])).filter(|d| *d > 0.0).collect();
@@ -293,7 +293,7 @@ pub struct NoiseTest {
 /// Fit the noise model to `r` and test it against a change point in any run, at level
 /// `alpha`. `seed` fixes the null draws (the same log gives the same answer).
 #[must_use]
-pub fn test(ch: &Channels, r: &[f64], alpha: f64, seed: u64) -> NoiseTest {
+pub(crate) fn test(ch: &Channels, r: &[f64], alpha: f64, seed: u64) -> NoiseTest {
     let model = fit(ch, r);
     let runs = runs_of(ch, r);
     let mut obs: Option<(f64, usize, usize, f64)> = None;

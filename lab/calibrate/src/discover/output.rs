@@ -25,7 +25,7 @@ use qfa_report::verdict::{json_with_verdict, Verdict};
 
 /// The named model's held-out gap is above the start model's on some channel.
 #[must_use]
-pub fn worse(r: &Report) -> bool {
+pub(crate) fn worse(r: &Report) -> bool {
     match (&r.heldout_gap_before, &r.heldout_gap_after) {
         (Gaps::Cycling { scale_factor_ppm: s0, bias_ug: b0 }, Gaps::Cycling { scale_factor_ppm: s1, bias_ug: b1 }) => {
             s1 > s0 || b1 > b0
@@ -37,7 +37,7 @@ pub fn worse(r: &Report) -> bool {
 
 /// A report's gaps in words with their units.
 #[must_use]
-pub fn gaps_text(unit: BiasUnit, g: &Gaps) -> String {
+pub(crate) fn gaps_text(unit: BiasUnit, g: &Gaps) -> String {
     match g {
         Gaps::Cycling { scale_factor_ppm, bias_ug } => {
             format!("scale factor {scale_factor_ppm:.2} ppm, bias {bias_ug:.2} µg")
@@ -49,7 +49,7 @@ pub fn gaps_text(unit: BiasUnit, g: &Gaps) -> String {
 /// The root-crate table of the report's final model, for `input`: pulse counts for a
 /// cycling log's scale-factor model, samples for a single-output log.
 #[must_use]
-pub fn table(report: &Report, input: Input) -> Option<Table> {
+pub(crate) fn table(report: &Report, input: Input) -> Option<Table> {
     // Not validated here: a single-channel log's model is in the log's own units (often
     // µg), which the root crate refuses as a table. `model.toml` is written either way;
     // `write` validates before `table.bin` and says why when it cannot.
@@ -65,7 +65,7 @@ pub fn table(report: &Report, input: Input) -> Option<Table> {
 
 /// Which run a discovery's outputs belong to.
 #[derive(Clone, Copy)]
-pub enum Scope<'a> {
+pub(crate) enum Scope<'a> {
     /// A discovery of its own log (cycling or single-channel): its folds give the held-out
     /// figures, and its `table.bin` is flashable.
     Own,
@@ -84,7 +84,7 @@ pub enum Scope<'a> {
 impl Scope<'_> {
     /// What this run's reports call the figures of discovery's own folds.
     #[must_use]
-    pub fn folds_word(self) -> &'static str {
+    pub(crate) fn folds_word(self) -> &'static str {
         match self {
             Self::Own => "held-out",
             Self::StaticAxis { .. } => "selection-fold",
@@ -93,7 +93,7 @@ impl Scope<'_> {
 
     /// [`Scope::folds_word`] opening a sentence.
     #[must_use]
-    pub fn folds_word_capital(self) -> &'static str {
+    pub(crate) fn folds_word_capital(self) -> &'static str {
         match self {
             Self::Own => "Held-out",
             Self::StaticAxis { .. } => "Selection-fold",
@@ -102,7 +102,7 @@ impl Scope<'_> {
 
     /// The folds this run's own figures come from, by name.
     #[must_use]
-    pub fn folds_name(self) -> &'static str {
+    pub(crate) fn folds_name(self) -> &'static str {
         match self {
             Self::Own => "held-out folds",
             Self::StaticAxis { .. } => "selection folds",
@@ -112,7 +112,7 @@ impl Scope<'_> {
     /// A sentence written for a discovery of its own log (the selection rule, the folds'
     /// rule), in this run's words: on a static axis "held-out" there means selection-fold.
     #[must_use]
-    pub fn relabel(self, text: &str) -> String {
+    pub(crate) fn relabel(self, text: &str) -> String {
         match self {
             Self::Own => text.to_string(),
             Self::StaticAxis { .. } => text.replace("held-out", "selection-fold").replace("Held-out", "Selection-fold"),
@@ -121,7 +121,7 @@ impl Scope<'_> {
 
     /// Whether this folder gets a `table.bin` of its own.
     #[must_use]
-    pub fn flashable(self) -> bool {
+    pub(crate) fn flashable(self) -> bool {
         matches!(self, Self::Own)
     }
 }
@@ -132,7 +132,7 @@ impl Scope<'_> {
 ///
 /// # Errors
 /// A file could not be written ([`DiscoverError`]).
-pub fn write(ch: &Channels, report: &Report, dir: &Path, scope: Scope<'_>) -> Result<Verdict> {
+pub(crate) fn write(ch: &Channels, report: &Report, dir: &Path, scope: Scope<'_>) -> Result<Verdict> {
     std::fs::create_dir_all(dir).map_err(|source| DiscoverError::CreateDir { path: dir.into(), source })?;
     let mut tables: Vec<String> = Vec::new();
     let mut rest: Vec<String> = Vec::new();
@@ -443,7 +443,7 @@ fn markdown(ch: &Channels, r: &Report, scope: Scope<'_>, v: &Verdict) -> String 
 
 /// One candidate trial as the cells of the rounds' tables (Markdown and the page).
 #[must_use]
-pub fn round_row(ch: &Channels, t: &super::CandidateTrial) -> Vec<String> {
+pub(crate) fn round_row(ch: &Channels, t: &super::CandidateTrial) -> Vec<String> {
     vec![
         format!("`{}`", t.name),
         t.channel.clone(),
@@ -515,7 +515,7 @@ fn plotted(ch: &Channels) -> Vec<(&'static str, &'static str, &'static str, &'st
 
 /// Bins of `ch` on a hold (neither heating nor cooling).
 #[must_use]
-pub fn hold_bins(ch: &Channels) -> usize {
+pub(crate) fn hold_bins(ch: &Channels) -> usize {
     rows(ch).iter().filter(|r| r.dir == 0).count()
 }
 

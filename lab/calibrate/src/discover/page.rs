@@ -15,7 +15,7 @@ use qfa_report::verdict::Verdict;
 ///
 /// # Errors
 /// No row with a temperature.
-pub fn coverage(ch: &Channels) -> Result<Coverage, CoverageError> {
+pub(crate) fn coverage(ch: &Channels) -> Result<Coverage, CoverageError> {
     let s = ch.traces.iter().flat_map(|t| t.est_t.iter().zip(&t.est_rate).map(|(&a, &r)| (f64::from(a), f64::from(r))));
     Coverage::of_samples(s, f64::from(qfa_log::pairing::branch_deadband_c_per_min()))
 }
@@ -23,7 +23,7 @@ pub fn coverage(ch: &Channels) -> Result<Coverage, CoverageError> {
 /// What to look for in one of [`super::output`]'s residual plots (`file`), and why it may
 /// look alarming.
 #[must_use]
-pub fn caption(file: &str, ch: &Channels, r: &Report, scope: Scope<'_>) -> String {
+pub(crate) fn caption(file: &str, ch: &Channels, r: &Report, scope: Scope<'_>) -> String {
     let held = scope.folds_word();
     let vs_time = file.ends_with("_vs_time.png");
     let (name, pick): (&str, fn(&Gaps) -> f64) = if file.starts_with("residual_scale_factor") {
@@ -114,7 +114,7 @@ pub fn caption(file: &str, ch: &Channels, r: &Report, scope: Scope<'_>) -> Strin
 /// # Errors
 /// A file in `dir` that cannot be read.
 #[allow(clippy::too_many_lines)]
-pub fn page(ch: &Channels, r: &Report, dir: &Path, scope: Scope<'_>, v: &Verdict) -> std::io::Result<Page> {
+pub(crate) fn page(ch: &Channels, r: &Report, dir: &Path, scope: Scope<'_>, v: &Verdict) -> std::io::Result<Page> {
     let (held, held_cap) = (scope.folds_word(), scope.folds_word_capital());
     let mut p = match scope {
         Scope::Own => Page::new("Discovery report"),
@@ -306,7 +306,7 @@ pub fn page(ch: &Channels, r: &Report, dir: &Path, scope: Scope<'_>, v: &Verdict
 ///
 /// # Errors
 /// A file in `dir` that cannot be read.
-pub fn static_page(d: &StaticDiscovery, v: &Verdict, dir: &Path) -> std::io::Result<Page> {
+pub(crate) fn static_page(d: &StaticDiscovery, v: &Verdict, dir: &Path) -> std::io::Result<Page> {
     let mut p = Page::new("Discovery report, static multi-axis log");
     v.to_page(&mut p);
     let h = &d.holdout;

@@ -26,7 +26,7 @@ impl std::str::FromStr for Start {
 impl Start {
     /// Name as in the CLI and report.
     #[must_use]
-    pub fn name(self) -> &'static str {
+    pub(crate) fn name(self) -> &'static str {
         match self {
             Start::Simple => "simple",
             Start::Paper => "paper",
@@ -175,7 +175,7 @@ pub struct PeerBetter {
     pub heldout_rms: f64,
 }
 
-/// The timing offset a discovery fitted (see [`super::fit::TimingOffset`]).
+/// The timing offset a discovery fitted (see `super::fit::TimingOffset`).
 #[derive(Clone, Copy, Debug, Serialize, PartialEq)]
 pub struct TimingOffsetReport {
     /// δ, s: the counts at time t follow the temperature stamped t + δ.
@@ -208,11 +208,11 @@ pub struct Report {
     /// reports structure left even when no driver explains it).
     pub residual_vs_floor: Vec<FloorRatio>,
     /// The timing offset between the temperature channel and the counts, fitted with every
-    /// model as a nuisance (cycling logs only; see [`super::fit::TimingOffset`]).
+    /// model as a nuisance (cycling logs only; see `super::fit::TimingOffset`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub timing_offset: Option<TimingOffsetReport>,
     /// Each channel's fitted noise model and its change-point test, in the order of
-    /// `residual_vs_floor` ([`super::noise`]).
+    /// `residual_vs_floor` (`super::noise`).
     pub noise: Vec<super::noise::NoiseTest>,
     /// Noise floors of the final held-out residual (the white part of each channel's
     /// noise model).
@@ -265,7 +265,7 @@ impl EffectReport {
     /// Each parameter as `name = value [low, high]`, followed by `limit_mark` when it sits at
     /// a search limit.
     #[must_use]
-    pub fn params_text(&self, limit_mark: &str) -> Vec<String> {
+    pub(crate) fn params_text(&self, limit_mark: &str) -> Vec<String> {
         self.params_ci
             .iter()
             .map(|(k, c)| {

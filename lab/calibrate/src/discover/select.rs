@@ -8,7 +8,7 @@ use super::*;
 /// Family-wise level of one selection round: the candidates of a round share it
 /// (Bonferroni), so the chance that a log with nothing missing gets any addition in the
 /// first round is at most this, if the block test holds its level.
-pub const ALPHA: f64 = 0.05;
+pub(crate) const ALPHA: f64 = 0.05;
 
 /// Per-bin held-out gain of `r` over `cur`, each channel in units of its held-out
 /// variance before the candidate.
@@ -49,7 +49,7 @@ fn selection_rule_text() -> String {
 /// The start model fitted on every bin of `ch` (no held-out split): the "before" of a
 /// discovery whose figures are scored on data outside `ch`.
 #[must_use]
-pub fn start_model(ch: &Channels, start: Start) -> AxisModel {
+pub(crate) fn start_model(ch: &Channels, start: Start) -> AxisModel {
     let setup = Setup::new(ch);
     setup.fit(&Structure::start(start), &Nonlinear::default(), &vec![true; ch.n_bins()]).model
 }

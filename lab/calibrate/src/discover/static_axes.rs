@@ -31,7 +31,7 @@
 //! static calibration's cross-validated choice among its candidates, by the very call
 //! `calibrate` makes ([`calibrate_static`]), so `discover` and `calibrate` write the same
 //! table for the same log and flags and cannot disagree. The named structure
-//! ([`structure_of`]) is reported beside it with its held-out figure. On a short log the
+//! (`structure_of`) is reported beside it with its held-out figure. On a short log the
 //! named and the flashed differ: the tofupilot log's 52-min training leg gives the block
 //! test 8 blocks, too few to name effects that still predict better. The report gives both, and says which structure was flashed and
 //! whether discovery named it. Static tables have K1 = 2²⁰ LSB/g
@@ -65,7 +65,7 @@ use qfa_report::verdict::Verdict;
 /// 5, 20, 30 and 60 s were tried afterwards only to measure how much the answer depends on
 /// it: docs/measurements.md, "Real data".)
 #[must_use]
-pub fn bin_width_s(duration_s: f64) -> f64 {
+pub(crate) fn bin_width_s(duration_s: f64) -> f64 {
     (duration_s / 400.0).round().clamp(10.0, 60.0)
 }
 
@@ -144,7 +144,7 @@ pub struct StaticDiscovery {
 /// is single-valued) with its lag, play and creep slots. A creep's activation energy is
 /// dropped (the static fitter's creep has a constant τ) and `bias_drift` has no slot.
 #[must_use]
-pub fn structure_of(m: &AxisModel) -> StaticStructure {
+pub(crate) fn structure_of(m: &AxisModel) -> StaticStructure {
     StaticStructure {
         shape: CurveShape::Nodes,
         branches: BranchMode::Single,
@@ -354,14 +354,14 @@ pub fn discover_static(log: &StaticLog, start: Start, holdout: Holdout) -> Resul
 
 /// The title line of one axis's report.
 #[must_use]
-pub fn axis_title(a: &AxisDiscovery) -> String {
+pub(crate) fn axis_title(a: &AxisDiscovery) -> String {
     format!("# Discovery report: axis {} (column `{}`)", a.axis, a.column)
 }
 
 /// One axis's held-out figures on the log's scheme, one row per model: `[model, figure]`
 /// (RMS over rows / over 60-s means, mg).
 #[must_use]
-pub fn axis_figures(d: &StaticDiscovery, a: &AxisDiscovery) -> Vec<[String; 2]> {
+pub(crate) fn axis_figures(d: &StaticDiscovery, a: &AxisDiscovery) -> Vec<[String; 2]> {
     vec![
         [format!("start model `{}`", d.start.name()), a.before.cell()],
         [
@@ -380,7 +380,7 @@ pub fn axis_figures(d: &StaticDiscovery, a: &AxisDiscovery) -> Vec<[String; 2]> 
 
 /// What [`axis_figures`] are, in one sentence.
 #[must_use]
-pub fn axis_figures_intro(d: &StaticDiscovery) -> String {
+pub(crate) fn axis_figures_intro(d: &StaticDiscovery) -> String {
     format!(
         "Held-out figures of this axis, scheme `{}` ({}), RMS over rows / over 60-s means, mg: the only held-out \
          figures of this axis.",
@@ -390,7 +390,7 @@ pub fn axis_figures_intro(d: &StaticDiscovery) -> String {
 
 /// [`axis_figures`] as Markdown, after [`axis_figures_intro`].
 #[must_use]
-pub fn axis_figures_markdown(d: &StaticDiscovery, a: &AxisDiscovery) -> String {
+pub(crate) fn axis_figures_markdown(d: &StaticDiscovery, a: &AxisDiscovery) -> String {
     let mut s = format!("{}\n\n| model | held-out, mg |\n|---|---|\n", axis_figures_intro(d));
     for [m, f] in axis_figures(d, a) {
         let _ = writeln!(s, "| {m} | {f} |");
@@ -400,7 +400,7 @@ pub fn axis_figures_markdown(d: &StaticDiscovery, a: &AxisDiscovery) -> String {
 
 /// The per-axis table's header and rows (mg), for Markdown and the page alike.
 #[must_use]
-pub fn table_rows(d: &StaticDiscovery) -> (Vec<&'static str>, Vec<Vec<String>>) {
+pub(crate) fn table_rows(d: &StaticDiscovery) -> (Vec<&'static str>, Vec<Vec<String>>) {
     let header = vec![
         "axis",
         "effects named (every row)",
@@ -450,7 +450,7 @@ pub fn table_rows(d: &StaticDiscovery) -> (Vec<&'static str>, Vec<Vec<String>>) 
 
 /// Which rows each figure comes from and what decides the names and the table, in words.
 #[must_use]
-pub fn how_to_read(d: &StaticDiscovery) -> [String; 3] {
+pub(crate) fn how_to_read(d: &StaticDiscovery) -> [String; 3] {
     [
         format!("Which rows each figure comes from: {}.", d.figures),
         "For each held-out figure, discovery sees only that fold's training rows (its own selection folds, time \
@@ -468,7 +468,7 @@ pub fn how_to_read(d: &StaticDiscovery) -> [String; 3] {
 /// The static discovery's `report.md` after its verdict: the per-axis table (mg) and how
 /// to read it.
 #[must_use]
-pub fn markdown(d: &StaticDiscovery) -> String {
+pub(crate) fn markdown(d: &StaticDiscovery) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,

@@ -15,7 +15,7 @@ use qfa_rng::{seeded, uniform};
 
 /// Blocks of consecutive bins within each trace (a block never spans two programs).
 #[derive(Clone, Debug)]
-pub struct Blocks {
+pub(crate) struct Blocks {
     /// Block index of every bin.
     pub of_bin: Vec<usize>,
     /// Number of blocks.
@@ -61,7 +61,7 @@ fn acf(ch: &Channels, v: &[f64], max_lag: usize) -> Vec<f64> {
 /// Variance inflation N/N_eff = 1 + 2·Σρ_k of a residual series (initial positive
 /// sequence: the sum stops at the first ρ_k below 0.05), at least 1.
 #[must_use]
-pub fn inflation(ch: &Channels, v: &[f64]) -> f64 {
+pub(crate) fn inflation(ch: &Channels, v: &[f64]) -> f64 {
     let n = v.iter().filter(|x| x.is_finite()).count();
     let r = acf(ch, v, (n / 4).min(400));
     let mut s = 1.0;
@@ -80,7 +80,7 @@ pub fn inflation(ch: &Channels, v: &[f64]) -> f64 {
 /// Gauss–Markov residual are then still correlated, the SE comes out too small, and on
 /// this file's clean single-channel test logs a drift was "found" at t = 2.8.)
 #[must_use]
-pub fn block_len(ch: &Channels, chans: &[&[f64]]) -> usize {
+pub(crate) fn block_len(ch: &Channels, chans: &[&[f64]]) -> usize {
     let n = ch.n_bins();
     let mut k_e = 1;
     for v in chans {
@@ -96,7 +96,7 @@ pub fn block_len(ch: &Channels, chans: &[&[f64]]) -> usize {
 
 /// Blocks of `len` bins per trace; a trace's remainder joins its last block.
 #[must_use]
-pub fn blocks(ch: &Channels, len: usize) -> Blocks {
+pub(crate) fn blocks(ch: &Channels, len: usize) -> Blocks {
     let mut of_bin = Vec::with_capacity(ch.n_bins());
     let mut next = 0;
     for t in &ch.traces {
@@ -134,7 +134,7 @@ pub struct GainStat {
 
 /// Per-block sums of `d` (NaNs skipped).
 #[must_use]
-pub fn block_sums(b: &Blocks, d: &[f64]) -> Vec<f64> {
+pub(crate) fn block_sums(b: &Blocks, d: &[f64]) -> Vec<f64> {
     let mut s = vec![0.0; b.n];
     for (i, &x) in d.iter().enumerate() {
         if x.is_finite() {
@@ -147,7 +147,7 @@ pub fn block_sums(b: &Blocks, d: &[f64]) -> Vec<f64> {
 /// Paired block test of the per-bin gains `d` against the one-sided critical value for
 /// level `alpha` (Student t with blocks − 1 degrees of freedom).
 #[must_use]
-pub fn gain_stat(b: &Blocks, d: &[f64], alpha: f64) -> GainStat {
+pub(crate) fn gain_stat(b: &Blocks, d: &[f64], alpha: f64) -> GainStat {
     let g = block_sums(b, d);
     let n = g.len().max(1) as f64;
     let total: f64 = g.iter().sum();
@@ -176,7 +176,7 @@ pub fn gain_stat(b: &Blocks, d: &[f64], alpha: f64) -> GainStat {
 
 /// Standard normal quantile (Acklam's rational approximation, |error| < 1.2e-9).
 #[must_use]
-pub fn normal_quantile(p: f64) -> f64 {
+pub(crate) fn normal_quantile(p: f64) -> f64 {
     let p = p.clamp(1e-300, 1.0 - 1e-16);
     const A: [f64; 6] = [
         -3.969683028665376e1,
@@ -215,7 +215,7 @@ pub fn normal_quantile(p: f64) -> f64 {
 /// Student-t quantile with `nu` degrees of freedom (Cornish–Fisher expansion around the
 /// normal quantile; within 1 % of the exact value for ν ≥ 5 and p ≤ 0.999).
 #[must_use]
-pub fn t_quantile(p: f64, nu: f64) -> f64 {
+pub(crate) fn t_quantile(p: f64, nu: f64) -> f64 {
     let z = normal_quantile(p);
     let (z3, z5, z7) = (z.powi(3), z.powi(5), z.powi(7));
     z + (z3 + z) / (4.0 * nu)

@@ -125,7 +125,7 @@ pub struct Unexplained {
 
 /// Each channel's residual against its floor, in the order of `channels_of`.
 #[must_use]
-pub fn floor_ratios(ch: &Channels, cur: &Residuals) -> Vec<FloorRatio> {
+pub(crate) fn floor_ratios(ch: &Channels, cur: &Residuals) -> Vec<FloorRatio> {
     let len = stats::block_len(ch, &[&cur.sf, &cur.bias]);
     let blocks = stats::blocks(ch, len);
     channels_of(ch, cur)
@@ -145,7 +145,7 @@ pub fn floor_ratios(ch: &Channels, cur: &Residuals) -> Vec<FloorRatio> {
 /// Each channel's noise model and its change-point test at level [`ALPHA`] shared over
 /// the channels, in the order of `channels_of`.
 #[must_use]
-pub fn noise_tests(ch: &Channels, cur: &Residuals) -> Vec<NoiseTest> {
+pub(crate) fn noise_tests(ch: &Channels, cur: &Residuals) -> Vec<NoiseTest> {
     let chans = channels_of(ch, cur);
     let alpha = ALPHA / chans.len() as f64;
     chans.into_iter().enumerate().map(|(k, (_, r, _))| noise::test(ch, r, alpha, 0x006e_6f69_7365 + k as u64)).collect()
@@ -172,7 +172,7 @@ fn chi2_upper(alpha: f64, k: f64) -> f64 {
 /// [`noise::CLIP_SD`] model SDs, so a glitch cannot pose as a level) against the SE of a
 /// run mean under the fitted noise model `model`; `None` with fewer than two runs.
 #[must_use]
-pub fn run_levels(ch: &Channels, r: &[f64], alpha: f64, model: &NoiseModel) -> Option<RunLevels> {
+pub(crate) fn run_levels(ch: &Channels, r: &[f64], alpha: f64, model: &NoiseModel) -> Option<RunLevels> {
     let c = noise::CLIP_SD * model.total_sd();
     let runs: Vec<(f64, usize)> = noise::runs_of(ch, r)
         .into_iter()
@@ -189,7 +189,7 @@ pub fn run_levels(ch: &Channels, r: &[f64], alpha: f64, model: &NoiseModel) -> O
 
 /// RMS of `r` per time scale (see [`TimeScales`]).
 #[must_use]
-pub fn time_scales(ch: &Channels, r: &[f64]) -> TimeScales {
+pub(crate) fn time_scales(ch: &Channels, r: &[f64]) -> TimeScales {
     let (mut across, mut slow, mut fast, mut n) = (0.0, 0.0, 0.0, 0usize);
     let mut o = 0;
     for t in &ch.traces {
@@ -219,7 +219,7 @@ pub fn time_scales(ch: &Channels, r: &[f64]) -> TimeScales {
 }
 
 /// Per-bin drivers the leftover residual is tested against.
-pub fn drivers(ch: &Channels) -> Vec<(&'static str, Vec<f64>)> {
+pub(crate) fn drivers(ch: &Channels) -> Vec<(&'static str, Vec<f64>)> {
     let n = ch.n_bins();
     let (mut since, mut temp, mut rate, mut rev, mut branch) = (
         Vec::with_capacity(n),
@@ -268,7 +268,7 @@ pub fn drivers(ch: &Channels) -> Vec<(&'static str, Vec<f64>)> {
 
 /// Cross-fitted quadratic in `x` of the residual `r`: each fold's bins predicted from a
 /// fit on the other fold. NaN where `r` is NaN.
-pub fn cross_fit(r: &[f64], x: &[f64], masks: &[Vec<bool>], trains: &[Vec<bool>]) -> Vec<f64> {
+pub(crate) fn cross_fit(r: &[f64], x: &[f64], masks: &[Vec<bool>], trains: &[Vec<bool>]) -> Vec<f64> {
     let fin: Vec<usize> = (0..r.len()).filter(|&i| r[i].is_finite() && x[i].is_finite()).collect();
     let mean = fin.iter().map(|&i| x[i]).sum::<f64>() / fin.len().max(1) as f64;
     let sd = (fin.iter().map(|&i| (x[i] - mean).powi(2)).sum::<f64>() / fin.len().max(1) as f64).sqrt().max(1e-12);
@@ -292,7 +292,7 @@ pub fn cross_fit(r: &[f64], x: &[f64], masks: &[Vec<bool>], trains: &[Vec<bool>]
 /// Leftover structure per channel: the drivers the final held-out residual follows
 /// (cross-fitted, same block test at level ALPHA shared over drivers and channels), plus
 /// the candidates that would fit only at a search limit.
-pub fn find_unexplained(
+pub(crate) fn find_unexplained(
     ch: &Channels,
     cur: &Residuals,
     masks: &[Vec<bool>],

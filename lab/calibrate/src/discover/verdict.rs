@@ -114,7 +114,7 @@ fn covers_and_advice(v: &mut Verdict, ch: &Channels) {
 /// folder holding `files`; `notes` are what the run must say in words (a table that did
 /// not validate, plots that failed).
 #[must_use]
-pub fn discovery_verdict(ch: &Channels, r: &Report, files: &[String], notes: &[String]) -> Verdict {
+pub(crate) fn discovery_verdict(ch: &Channels, r: &Report, files: &[String], notes: &[String]) -> Verdict {
     let start = channel_figures(&r.heldout_gap_before, ch.bias_unit);
     let named = channel_figures(&r.heldout_gap_after, ch.bias_unit);
     let (words, worse) = standing(r.start.name(), &start, &named);
@@ -200,7 +200,7 @@ fn static_labels(labels: &[String]) -> String {
 
 /// The named model of `a` is worse than the start model held out (at the printed precision).
 #[must_use]
-pub fn named_is_worse(a: &AxisDiscovery) -> bool {
+pub(crate) fn named_is_worse(a: &AxisDiscovery) -> bool {
     matches!((rms(&a.before), rms(&a.after)), (Some(s), Some(n)) if compare(s, n) == Compared::Worse)
 }
 
@@ -309,7 +309,7 @@ fn static_held_out(d: &StaticDiscovery) -> String {
 /// The verdict of a static log's discovery, written into a folder holding `files` (and a
 /// folder per axis).
 #[must_use]
-pub fn static_verdict(d: &StaticDiscovery, files: &[String]) -> Verdict {
+pub(crate) fn static_verdict(d: &StaticDiscovery, files: &[String]) -> Verdict {
     let answer = d.axes.iter().map(|a| axis_answer(d, a)).collect::<Vec<_>>().join("; ");
     let mut v = Verdict::new(answer, static_held_out(d), Vec::new());
     v.expect = expect(&d.axes);
@@ -331,7 +331,7 @@ pub fn static_verdict(d: &StaticDiscovery, files: &[String]) -> Verdict {
 
 /// The verdict of one axis of a static log (its own folder's reports), before its files.
 #[must_use]
-pub fn axis_verdict(d: &StaticDiscovery, a: &AxisDiscovery, ch: &Channels) -> Verdict {
+pub(crate) fn axis_verdict(d: &StaticDiscovery, a: &AxisDiscovery, ch: &Channels) -> Verdict {
     let mut v = Verdict::new(axis_answer(d, a), static_held_out(d), Vec::new());
     v.expect = expect(std::slice::from_ref(a));
     v.warnings = axis_warnings(d, a);
@@ -341,7 +341,7 @@ pub fn axis_verdict(d: &StaticDiscovery, a: &AxisDiscovery, ch: &Channels) -> Ve
 
 /// The files of a static axis's folder, each with what to do with it.
 #[must_use]
-pub fn axis_files(files: &[String]) -> Vec<FileUse> {
+pub(crate) fn axis_files(files: &[String]) -> Vec<FileUse> {
     file_uses(files, true)
 }
 

@@ -7,7 +7,7 @@ use crate::static_cal::StaticCalOptions;
 
 /// Contiguous cross-validation blocks of the model choice (`blocks:K` uses K), and the
 /// blocks of `--holdout auto` when the log has no later leg.
-pub const CV_FOLDS: usize = 5;
+pub(crate) const CV_FOLDS: usize = 5;
 
 /// The candidate structures: branch tie (single, constant step, free) × `sensor_lag` τ
 /// (none, 30…480 s) × `bias_creep` τ (none, 60…600 s).
@@ -68,7 +68,7 @@ pub(crate) fn cv_rms(
     Ok((sum / count as f64).sqrt())
 }
 
-/// The model on rows that hold one branch ([`is_one_branch`]): one rate-even bias curve,
+/// The model on rows that hold one branch (`is_one_branch`): one rate-even bias curve,
 /// shaped as a cubic in T. Every other candidate has a term that flips with the branch
 /// (branch step, two branches, `sensor_lag`, `bias_creep`, play), which rows of one branch
 /// cannot test. Measured on the simulator (JB-KT8 #1, the chamber cycle of `static_sim`,
@@ -95,6 +95,6 @@ pub const ONE_BRANCH: StaticStructure = StaticStructure {
 /// smaller branch has fewer than a tenth of the rows on a branch (the tenth `after-max`
 /// asks of a leg).
 #[must_use]
-pub fn is_one_branch((heating, cooling): (usize, usize)) -> bool {
+pub(crate) fn is_one_branch((heating, cooling): (usize, usize)) -> bool {
     heating.min(cooling) * 10 < heating + cooling
 }

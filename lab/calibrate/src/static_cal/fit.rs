@@ -24,7 +24,7 @@ pub enum BranchMode {
 impl BranchMode {
     /// Linear unknowns for `g` grid nodes.
     #[must_use]
-    pub fn unknowns(self, g: usize) -> usize {
+    pub(crate) fn unknowns(self, g: usize) -> usize {
         match self {
             Self::Single => g,
             Self::Offset => g + 1,
@@ -34,7 +34,7 @@ impl BranchMode {
 
     /// Heating and cooling nodes from this mode's first [`Self::unknowns`] coefficients.
     #[must_use]
-    pub fn expand(self, c: &[f64], g: usize) -> (Vec<f64>, Vec<f64>) {
+    pub(crate) fn expand(self, c: &[f64], g: usize) -> (Vec<f64>, Vec<f64>) {
         match self {
             Self::Single => (c[..g].to_vec(), c[..g].to_vec()),
             Self::Offset => (c[..g].iter().map(|v| v + c[g]).collect(), c[..g].iter().map(|v| v - c[g]).collect()),
@@ -73,7 +73,7 @@ pub enum CurveShape {
 impl CurveShape {
     /// Unknowns of one curve on `g` nodes.
     #[must_use]
-    pub fn unknowns(self, g: usize) -> usize {
+    pub(crate) fn unknowns(self, g: usize) -> usize {
         match self {
             Self::Nodes => g,
             Self::Cubic => 4.min(g),
@@ -135,7 +135,7 @@ impl StaticStructure {
 
     /// Linear unknowns for `g` grid nodes.
     #[must_use]
-    pub fn unknowns(&self, g: usize) -> usize {
+    pub(crate) fn unknowns(&self, g: usize) -> usize {
         self.branches.unknowns(self.shape.unknowns(g))
             + usize::from(self.creep_tau_s.is_some())
             + usize::from(self.play_half_width_c.is_some())
@@ -189,7 +189,7 @@ impl StaticSeries<'_> {
 
     /// The firmware's view of the series under `ext` (see [`qfa_log::pairing::trace_readings`]).
     #[must_use]
-    pub fn trace(&self, ext: &Extensions, deadband: f32) -> Trace {
+    pub(crate) fn trace(&self, ext: &Extensions, deadband: f32) -> Trace {
         qfa_log::pairing::trace_readings(self.rows(), self.time_s.len(), ext, deadband)
     }
 
@@ -203,7 +203,7 @@ impl StaticSeries<'_> {
     /// earlier rows alone, so these rows' values are the whole series' (a
     /// cross-validation block needs no row after it).
     #[must_use]
-    pub fn model_trace_until(&self, axis: &AxisModel, end: usize) -> Trace {
+    pub(crate) fn model_trace_until(&self, axis: &AxisModel, end: usize) -> Trace {
         let end = end.min(self.time_s.len());
         qfa_log::pairing::trace_axis(self.rows().take(end), end, axis)
     }
@@ -251,7 +251,7 @@ pub fn fit_static_axis(
 /// the structure only (not on the axis output, nor on which rows are fitted), so a caller
 /// that fits one structure many times (cross-validation folds, several axes) computes it once.
 #[derive(Clone, Debug)]
-pub struct StaticTraces {
+pub(crate) struct StaticTraces {
     /// The structure.
     pub structure: StaticStructure,
     /// Branch deadband, °C/min.
@@ -264,7 +264,7 @@ pub struct StaticTraces {
 impl StaticTraces {
     /// Replay `series`' temperatures through the root crate under `structure`.
     #[must_use]
-    pub fn new(series: &StaticSeries<'_>, structure: &StaticStructure, deadband: f32) -> Self {
+    pub(crate) fn new(series: &StaticSeries<'_>, structure: &StaticStructure, deadband: f32) -> Self {
         Self {
             structure: *structure,
             deadband,
@@ -279,7 +279,7 @@ impl StaticTraces {
 ///
 /// # Errors
 /// As [`fit_static_axis`].
-pub fn fit_static_traced(
+pub(crate) fn fit_static_traced(
     series: &StaticSeries<'_>,
     traces: &StaticTraces,
     train: &[bool],

@@ -55,7 +55,7 @@ impl fmt::Display for Holdout {
 
 /// The scheme in force on one log (`auto` resolved).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Scheme {
+pub(crate) enum Scheme {
     /// Held out: the rows after row `last` (0-based).
     AfterMax {
         /// Last training row.
@@ -74,7 +74,7 @@ impl Scheme {
     /// The held-out rows of each fold (0-based, ascending, disjoint); each fold's training
     /// rows are all the others. None for `none`.
     #[must_use]
-    pub fn folds(&self, n: usize) -> Vec<Range<usize>> {
+    pub(crate) fn folds(&self, n: usize) -> Vec<Range<usize>> {
         match *self {
             Self::AfterMax { last } => std::iter::once(last + 1..n).collect(),
             Self::Blocks { k } => (0..k).map(|f| n * f / k..n * (f + 1) / k).collect(),
@@ -85,7 +85,7 @@ impl Scheme {
     /// Cross-validation blocks of the model choice: the scheme's K under `blocks:K`, else
     /// [`CV_FOLDS`].
     #[must_use]
-    pub fn selection_folds(&self) -> usize {
+    pub(crate) fn selection_folds(&self) -> usize {
         match *self {
             Self::Blocks { k } => k,
             _ => CV_FOLDS,
@@ -94,7 +94,7 @@ impl Scheme {
 
     /// Name as `--holdout` spells it.
     #[must_use]
-    pub fn name(&self) -> String {
+    pub(crate) fn name(&self) -> String {
         match *self {
             Self::AfterMax { .. } => Holdout::AfterMax.to_string(),
             Self::Blocks { k } => Holdout::Blocks(k).to_string(),
@@ -109,7 +109,7 @@ impl Scheme {
 /// # Errors
 /// Fewer than a tenth of the rows on either side: the log has no later leg to evaluate on
 /// (or nothing before it to fit on).
-pub fn split_index(log: &StaticLog) -> Result<usize, StaticCalError> {
+pub(crate) fn split_index(log: &StaticLog) -> Result<usize, StaticCalError> {
     let n = log.rows();
     let imax = (0..n).fold(0, |b, i| if log.temp_c[i] > log.temp_c[b] { i } else { b });
     let tenth = (n / 10).max(1);
@@ -161,7 +161,7 @@ fn later_leg_inside(log: &StaticLog, last: usize) -> Result<(), StaticCalError> 
 ///
 /// # Errors
 /// `after-max` on a log without a later leg; `blocks:K` with a block under `block` rows.
-pub fn resolve_holdout(log: &StaticLog, h: Holdout, block: usize) -> Result<(Scheme, String), StaticCalError> {
+pub(crate) fn resolve_holdout(log: &StaticLog, h: Holdout, block: usize) -> Result<(Scheme, String), StaticCalError> {
     let n = log.rows();
     let blocks = |k: usize, why: &str| -> Result<(Scheme, String), StaticCalError> {
         if n / k < block {
@@ -205,7 +205,7 @@ pub fn resolve_holdout(log: &StaticLog, h: Holdout, block: usize) -> Result<(Sch
 ///
 /// # Errors
 /// [`StaticCalError::SpanTooSmall`] or [`StaticCalError::TooFewRowsPerDegree`].
-pub fn check_coverage(temp_c: &[f64], grid_points: usize, block: usize) -> Result<(), StaticCalError> {
+pub(crate) fn check_coverage(temp_c: &[f64], grid_points: usize, block: usize) -> Result<(), StaticCalError> {
     let (lo, hi) = range(temp_c);
     let g = grid_points.clamp(2, MAX_BIAS_POINTS);
     let needed = (g - 1) as f64 * f64::from(MIN_GRID_STEP_C);

@@ -5,7 +5,7 @@
 //!
 //! # What refuses a log
 //! Only a cause in the log itself, checked on all rows before anything is fitted
-//! ([`check_coverage`]):
+//! (`check_coverage`):
 //! * a temperature span below what the bias grid needs: `grid_points` nodes at least the
 //!   root crate's smallest grid step apart (`MIN_GRID_STEP_C`, 0.1 °C: finer steps resolve
 //!   nothing the firmware's 1/16-°C readings tell apart), 1.5 °C for 16 nodes;
@@ -35,7 +35,7 @@
 //! # Model choice
 //! Each axis chooses among [`candidates`] (branch tie × `sensor_lag` τ × `bias_creep` τ) by
 //! blocked cross-validation **inside the rows it is fitted on**: those rows (in time order)
-//! are cut into contiguous blocks ([`CV_FOLDS`], or K under `blocks:K`); each block is
+//! are cut into contiguous blocks (`CV_FOLDS`, or K under `blocks:K`); each block is
 //! predicted by a fit to the others (the firmware's states still run through every row);
 //! the candidate with the lowest RMS over all blocks wins, then is refitted on all of those
 //! rows. The held-out figures apply this whole procedure to each fold's training rows, so
@@ -44,7 +44,7 @@
 //! make the held-out figure a selection figure, better than what a new log would give.)
 //!
 //! **One branch.** Rows on which the smaller of the heating and cooling branches holds
-//! fewer than a tenth of the rows on a branch ([`is_one_branch`]: a heating-only or
+//! fewer than a tenth of the rows on a branch (`is_one_branch`: a heating-only or
 //! cooling-only log, or a fold of one) get one model, not a choice: [`ONE_BRANCH`], a
 //! rate-even bias curve shaped as a cubic in T. Every candidate's other terms (branch step,
 //! two branches, lag, creep) act differently on the branch those rows never show, and
@@ -63,12 +63,12 @@
 //!   the bias measured from the axis's mean over every row. `table_rms_mg` is that
 //!   table's RMS over every row (in-sample: not a held-out figure).
 
-pub mod choice;
-pub mod error;
-pub mod fit;
-pub mod holdout;
-pub mod output;
-pub mod report;
+pub(crate) mod choice;
+pub(crate) mod error;
+pub(crate) mod fit;
+pub(crate) mod holdout;
+pub(crate) mod output;
+pub(crate) mod report;
 
 use std::ops::Range;
 
@@ -82,19 +82,20 @@ use crate::static_cal::choice::cv_rms;
 use qfa_log::pairing::Trace;
 use qfa_log::static_log::{AxisColumn, StaticLog};
 
-pub use crate::static_cal::choice::{candidates, is_one_branch, CV_FOLDS, ONE_BRANCH};
+pub use crate::static_cal::choice::{candidates, ONE_BRANCH};
+pub(crate) use crate::static_cal::choice::{is_one_branch, CV_FOLDS};
 pub use crate::static_cal::error::StaticCalError;
-pub use crate::static_cal::holdout::{check_coverage, resolve_holdout, split_index, Holdout, Scheme};
+pub use crate::static_cal::holdout::Holdout;
+pub(crate) use crate::static_cal::holdout::{check_coverage, resolve_holdout, Scheme};
 pub use crate::static_cal::output::{
-    calibrate_static_into, export_axes, markdown, plot_bias_vs_temp, static_files, static_table_toml, with_verdict,
-    write_static, write_static_page, write_static_page_as, write_static_table, StaticRun, BIAS_PLOT, STATIC_FILES,
+    calibrate_static_into, export_axes, markdown, static_table_toml, write_static, write_static_table, StaticRun,
 };
-pub use crate::static_cal::report::{
-    AxisReport, ExportedPeers, Figure, FoldReport, HoldoutReport, PlotRows, Score, StaticCalibration, StaticReport,
-};
+pub(crate) use crate::static_cal::output::{static_files, with_verdict, write_static_page};
+pub(crate) use crate::static_cal::report::{AxisReport, HoldoutReport, Score, StaticReport};
+pub use crate::static_cal::report::{ExportedPeers, Figure, FoldReport, PlotRows, StaticCalibration};
 
 /// Length of the averaging window of `binned_mg`, s.
-pub const BIN_S: f64 = 60.0;
+pub(crate) const BIN_S: f64 = 60.0;
 
 /// Settings.
 #[derive(Clone, Debug)]
@@ -132,7 +133,7 @@ pub(crate) fn range(v: &[f64]) -> (f64, f64) {
 ///
 /// # Errors
 /// No residual, or a non-finite one.
-pub fn score(resid: &[f64], time_s: &[f64], what: &str) -> Result<Score, StaticCalError> {
+pub(crate) fn score(resid: &[f64], time_s: &[f64], what: &str) -> Result<Score, StaticCalError> {
     if resid.is_empty() {
         return Err(StaticCalError::Figure(format!("{what}: no held-out row had a model output")));
     }
@@ -226,7 +227,7 @@ impl<'a> Run<'a> {
 /// Calibrate a static log (see the module docs).
 ///
 /// # Errors
-/// A log refused by [`check_coverage`], a held-out scheme the log cannot hold, a failed
+/// A log refused by `check_coverage`, a held-out scheme the log cannot hold, a failed
 /// fit, or a figure that cannot be formed.
 pub fn calibrate_static(
     log: &StaticLog,
@@ -604,7 +605,7 @@ fn selection_text(run: &Run<'_>, log_branches: (usize, usize)) -> String {
 }
 
 /// What stands in every held-out figure's place under `--holdout none`.
-pub const NO_HOLDOUT: &str = "--holdout none: no row is held out";
+pub(crate) const NO_HOLDOUT: &str = "--holdout none: no row is held out";
 
 /// Residuals pooled over the folds.
 #[derive(Default)]

@@ -92,12 +92,12 @@ pub fn static_table_toml(cal: &StaticCalibration) -> Result<String, toml::ser::E
 
 /// The files [`write_static`] and [`write_static_page`] write, before the plot and the
 /// exports.
-pub const STATIC_FILES: [&str; 5] = ["table.bin", "table.toml", "report.json", "report.md", "report.html"];
+pub(crate) const STATIC_FILES: [&str; 5] = ["table.bin", "table.toml", "report.json", "report.md", "report.html"];
 
 /// The files a static calibration writes into its folder, in the verdict's order: the
 /// table, the reports, the plot (with `plots`), then the exports written.
 #[must_use]
-pub fn static_files(plots: bool, exports: &[&str]) -> Vec<String> {
+pub(crate) fn static_files(plots: bool, exports: &[&str]) -> Vec<String> {
     let mut f: Vec<String> = STATIC_FILES.iter().map(|s| (*s).to_string()).collect();
     if plots {
         f.push(BIAS_PLOT.to_string());
@@ -178,7 +178,7 @@ pub fn write_static(out: &Path, cal: &StaticCalibration, verdict: &Verdict) -> R
 
 /// A Markdown report with the verdict after its title line.
 #[must_use]
-pub fn with_verdict(verdict: &Verdict, md: &str) -> String {
+pub(crate) fn with_verdict(verdict: &Verdict, md: &str) -> String {
     match md.split_once('\n') {
         Some((title, rest)) if title.starts_with("# ") => {
             format!("{title}\n\n{}{}", verdict.markdown(), rest.trim_start())
@@ -188,7 +188,7 @@ pub fn with_verdict(verdict: &Verdict, md: &str) -> String {
 }
 
 /// File name of the static calibration's plot.
-pub const BIAS_PLOT: &str = "bias_vs_temp.png";
+pub(crate) const BIAS_PLOT: &str = "bias_vs_temp.png";
 
 /// `bias_vs_temp.png`: per axis (a row), the bias against temperature before compensation
 /// (the axis's mean removed) and after (see [`PlotRows::axes`]), mg; heating red, cooling
@@ -196,7 +196,7 @@ pub const BIAS_PLOT: &str = "bias_vs_temp.png";
 ///
 /// # Errors
 /// Drawing or file errors.
-pub fn plot_bias_vs_temp(path: &Path, title: &str, rows: &PlotRows) -> Result<(), Box<dyn std::error::Error>> {
+pub(crate) fn plot_bias_vs_temp(path: &Path, title: &str, rows: &PlotRows) -> Result<(), Box<dyn std::error::Error>> {
     use plotters::prelude::*;
     qfa_report::plot_font::register();
     let na = rows.axes.len().max(1);
@@ -276,7 +276,7 @@ pub fn plot_bias_vs_temp(path: &Path, title: &str, rows: &PlotRows) -> Result<()
 ///
 /// # Errors
 /// Drawing, encoding or I/O errors.
-pub fn write_static_page(
+pub(crate) fn write_static_page(
     out: &Path,
     cal: &StaticCalibration,
     plots: bool,
@@ -289,7 +289,7 @@ pub fn write_static_page(
 ///
 /// # Errors
 /// As [`write_static_page`].
-pub fn write_static_page_as(
+pub(crate) fn write_static_page_as(
     out: &Path,
     cal: &StaticCalibration,
     plots: bool,

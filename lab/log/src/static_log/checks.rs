@@ -47,7 +47,7 @@ pub(crate) fn glitches(v: &[f64], floor: f64) -> Vec<usize> {
 
 /// The fastest temperature change of a log, see [`max_slew`].
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-pub struct Slew {
+pub(crate) struct Slew {
     /// The change, °C/min: `range_c` per `window_s`, scaled to a minute.
     pub c_per_min: f64,
     /// Largest temperature range inside one window, °C.
@@ -67,7 +67,7 @@ pub struct Slew {
 /// 5-row running median so two bad readings in a row (a DS18B20's 85 °C power-on value)
 /// do not make a log look 1000× too fast; a monotone ramp or a hold passes unchanged.
 #[must_use]
-pub fn max_slew(time_s: &[f64], temp_c: &[f64]) -> Slew {
+pub(crate) fn max_slew(time_s: &[f64], temp_c: &[f64]) -> Slew {
     let n = time_s.len().min(temp_c.len());
     let none = Slew { c_per_min: 0.0, range_c: 0.0, window_s: SLEW_WINDOW_S, from: 0, to: 0 };
     if n < 2 {

@@ -73,7 +73,7 @@ pub enum TimeUnit {
 impl TimeUnit {
     /// Seconds per unit.
     #[must_use]
-    pub fn seconds(self) -> f64 {
+    pub(crate) fn seconds(self) -> f64 {
         match self {
             Self::S => 1.0,
             Self::Ms => 1e-3,
@@ -93,11 +93,11 @@ impl TimeUnit {
 
 impl TimeUnit {
     /// Every unit, coarse to fine.
-    pub const ALL: [TimeUnit; 4] = [TimeUnit::S, TimeUnit::Ms, TimeUnit::Us, TimeUnit::Ns];
+    pub(crate) const ALL: [TimeUnit; 4] = [TimeUnit::S, TimeUnit::Ms, TimeUnit::Us, TimeUnit::Ns];
 
     /// The name `--time-unit` takes.
     #[must_use]
-    pub fn name(self) -> &'static str {
+    pub(crate) fn name(self) -> &'static str {
         match self {
             Self::S => "s",
             Self::Ms => "ms",
@@ -133,11 +133,11 @@ pub enum AccelUnit {
 
 impl AccelUnit {
     /// Every unit.
-    pub const ALL: [AccelUnit; 3] = [AccelUnit::G, AccelUnit::Mg, AccelUnit::Mps2];
+    pub(crate) const ALL: [AccelUnit; 3] = [AccelUnit::G, AccelUnit::Mg, AccelUnit::Mps2];
 
     /// The name `--accel-unit` takes.
     #[must_use]
-    pub fn name(self) -> &'static str {
+    pub(crate) fn name(self) -> &'static str {
         match self {
             Self::G => "g",
             Self::Mg => "mg",
@@ -147,7 +147,7 @@ impl AccelUnit {
 
     /// g per unit.
     #[must_use]
-    pub fn g(self) -> f64 {
+    pub(crate) fn g(self) -> f64 {
         match self {
             Self::G => 1.0,
             Self::Mg => 1e-3,

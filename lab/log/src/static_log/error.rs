@@ -100,7 +100,7 @@ pub enum StaticError {
     },
     /// [`crate::static_log::StaticOptions::decimal_comma`] with a comma-separated header.
     DecimalCommaDelimiter,
-    /// Malformed rows: the first [`crate::static_log::KEPT_LINES`] with line numbers, and the count.
+    /// Malformed rows: the first `crate::static_log::KEPT_LINES` with line numbers, and the count.
     Rows {
         /// `(line, fault)`.
         first: Vec<(u64, StaticRowFault)>,

@@ -20,9 +20,9 @@
 //! * a glitch row (a spike in one row; the tofupilot log's first row is one): **skipped**,
 //!   counted in [`Skipped::glitch`]. A row is a glitch when one channel deviates from what
 //!   its ±5-row neighbourhood predicts (a robust local line: median slope, median level) by
-//!   more than [`GLITCH_SIGMAS`] robust σ of that channel (σ = 1.4826 · the median of those
+//!   more than `GLITCH_SIGMAS` robust σ of that channel (σ = 1.4826 · the median of those
 //!   deviations), and
-//!   by more than a floor too ([`GLITCH_MIN_TEMP_C`], [`GLITCH_MIN_ACCEL_G`]: a quantised
+//!   by more than a floor too (`GLITCH_MIN_TEMP_C`, `GLITCH_MIN_ACCEL_G`: a quantised
 //!   channel has a median deviation of 0);
 //! * irregular sampling: **reported** in [`Sampling`] (intervals outside 0.5…2 × the
 //!   median, and gaps longer than the rate estimator's 30-s restart), not skipped: the
@@ -32,9 +32,9 @@
 //! unit that makes the data implausible, each from both sides where the data allow it
 //! ([`crate::units`]: the median |a| outside [`crate::units::REST_G`] with all three axes,
 //! above it with fewer; a median row interval outside 10 µs…60 s, or a temperature
-//! changing faster than [`MAX_SLEW_C_PER_MIN`], see [`max_slew`]; readings outside
+//! changing faster than `MAX_SLEW_C_PER_MIN`, see `max_slew`; readings outside
 //! −60…130 °C that another temperature unit puts inside), every one refused as
-//! [`StaticError::Unit`] with the figure and the unit that fits; fewer than [`MIN_ROWS`]
+//! [`StaticError::Unit`] with the figure and the unit that fits; fewer than `MIN_ROWS`
 //! rows left.
 //!
 //! Decimal commas (`20,5` in a `;`- or tab-separated file, a spreadsheet export in many
@@ -43,11 +43,11 @@
 //! so, rather than as thousands of rows that are "not a number".
 //!
 //! Line numbers are as an editor shows them (CRLF, CR-only and blank lines counted, see
-//! [`crate::lines`]).
+//! `crate::lines`).
 
 pub mod checks;
 pub mod columns;
-pub mod error;
+pub(crate) mod error;
 
 use std::fmt;
 use std::io::Read;
@@ -55,7 +55,7 @@ use std::io::Read;
 use serde::Serialize;
 
 use crate::static_log::checks::{centred_median, glitches, median};
-pub use crate::static_log::checks::{max_slew, Slew};
+pub(crate) use crate::static_log::checks::{max_slew, Slew};
 pub use crate::static_log::columns::{AccelUnit, ColumnMap, TimeUnit, COMMON_NAMES};
 pub use crate::static_log::error::{StaticError, StaticRowFault};
 use crate::units::{ReaderOption, TempUnit, UnitEvidence, UnitMismatch, UnitSource, REST_G};
@@ -64,17 +64,17 @@ use crate::units::{ReaderOption, TempUnit, UnitEvidence, UnitMismatch, UnitSourc
 pub const G0_MPS2: f64 = 9.806_65;
 
 /// Robust σ above which a one-row deviation is a glitch.
-pub const GLITCH_SIGMAS: f64 = 10.0;
+pub(crate) const GLITCH_SIGMAS: f64 = 10.0;
 
 /// Smallest temperature deviation that counts as a glitch, °C (4 DS18B20 LSB).
-pub const GLITCH_MIN_TEMP_C: f64 = 0.25;
+pub(crate) const GLITCH_MIN_TEMP_C: f64 = 0.25;
 
 /// Smallest acceleration deviation that counts as a glitch, g (2 mg: a quantised output can
 /// have a median deviation of 0).
-pub const GLITCH_MIN_ACCEL_G: f64 = 0.002;
+pub(crate) const GLITCH_MIN_ACCEL_G: f64 = 0.002;
 
 /// Fewest good rows a static log must keep.
-pub const MIN_ROWS: usize = 16;
+pub(crate) const MIN_ROWS: usize = 16;
 
 /// Fastest temperature change a board in a climate chamber can show, °C/min; a log whose
 /// time unit implies more is refused. 30 °C/min is the figure taken for chambers;
@@ -82,15 +82,15 @@ pub const MIN_ROWS: usize = 16;
 /// and 3–30× the 1–10 °C/min a chamber program uses (the paper's programs run at
 /// 0.3–0.9 °C/min). The mistake it catches is a factor of 1 000 (µs read as ns, ms as µs),
 /// so the bound needs no precision. It was chosen before any run of the check.
-pub const MAX_SLEW_C_PER_MIN: f64 = 30.0;
+pub(crate) const MAX_SLEW_C_PER_MIN: f64 = 30.0;
 
 /// Window over which [`max_slew`] measures a temperature change, s: one minute, so the
 /// figure is a per-minute change and quantisation (1/16 °C for a DS18B20, 0.01 °C for an
 /// IMU's own sensor) adds at most 0.06 °C/min to it.
-pub const SLEW_WINDOW_S: f64 = 60.0;
+pub(crate) const SLEW_WINDOW_S: f64 = 60.0;
 
 /// Line numbers kept per kind of skip or error (all are counted).
-pub const KEPT_LINES: usize = 20;
+pub(crate) const KEPT_LINES: usize = 20;
 
 /// How to read a static log.
 #[derive(Clone, Debug, Default)]
@@ -107,7 +107,7 @@ pub struct StaticOptions {
     pub decimal_comma: bool,
 }
 
-/// Rows skipped, per reason: count and the first [`KEPT_LINES`] line numbers (1-based; the
+/// Rows skipped, per reason: count and the first `KEPT_LINES` line numbers (1-based; the
 /// header is line 1).
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
 pub struct SkipCount {
@@ -180,7 +180,7 @@ pub struct Sampling {
     pub gaps_over_30s: usize,
     /// Longest interval, s.
     pub max_interval_s: f64,
-    /// Fastest temperature change, °C/min: [`max_slew`] over the kept rows.
+    /// Fastest temperature change, °C/min: `max_slew` over the kept rows.
     pub max_slew_c_per_min: f64,
 }
 
@@ -785,7 +785,7 @@ fn columns_used(layout: &Layout, axes: &[AxisColumn]) -> Vec<(String, String, St
 }
 
 /// Readings outside this range, °C, are refused.
-pub const TEMP_RANGE_C: std::ops::RangeInclusive<f64> = -60.0..=130.0;
+pub(crate) const TEMP_RANGE_C: std::ops::RangeInclusive<f64> = -60.0..=130.0;
 
 /// Plausible median row intervals, s.
 const INTERVAL_S: std::ops::RangeInclusive<f64> = 1e-5..=60.0;
