@@ -66,7 +66,7 @@ fn fitted(hysteretic: bool, seed: u64, forced: Option<BranchMode>) -> Fitted {
     let log = log_of(&truth, seed);
     let mut opts = FitOptions::new(log.programs());
     opts.branch_mode = forced;
-    let f = fit(&log, &opts, None).unwrap();
+    let f = fit(&qfa_log::pairing::PairedLog::new(&log), &opts, None).unwrap();
     let c: Vec<String> = f
         .branch
         .candidates

@@ -82,8 +82,9 @@ fn nav_flown_table_uses_every_program() {
     let programs = LabProgram::Paper.programs();
     let positions: Vec<_> = paper_positions().into_iter().filter(|p| p.input_g != 0.0).collect();
     let log = simulate(&truth, &programs, &positions, ROW_S, seed, 2, None);
-    let all = fit(&log, &FitOptions::new(want_ids.iter().map(|s| (*s).to_string()).collect()), None).unwrap();
-    let two = fit(&log, &FitOptions::new(vec!["paper-0.3".into(), "paper-0.9".into()]), None).unwrap();
+    let paired = qfa_log::pairing::PairedLog::new(&log);
+    let all = fit(&paired, &FitOptions::new(want_ids.iter().map(|s| (*s).to_string()).collect()), None).unwrap();
+    let two = fit(&paired, &FitOptions::new(vec!["paper-0.3".into(), "paper-0.9".into()]), None).unwrap();
     assert_eq!(u.hysteresis, all.hysteresis, "flown table is not the fit on every program");
     assert_ne!(u.hysteresis, two.hysteresis, "the check can tell the two fits apart");
 }

@@ -40,7 +40,7 @@ fn eq11_coefficients_recovered_from_noiseless_log() {
     let rates = [0.5, 1.0, 1.5];
     let log = short_log(&truth, &rates, 1, 3);
     let programs: Vec<String> = log.programs();
-    let f = fit(&log, &FitOptions::new(programs), None).unwrap();
+    let f = fit(&qfa_log::pairing::PairedLog::new(&log), &FitOptions::new(programs), None).unwrap();
     let c = &f.sf_hysteresis.coef;
     let s = truth.scale;
     println!("fitted [γ μ β ε η α] = {c:?}, cond {:.1}", f.sf_hysteresis.cond);

@@ -33,8 +33,7 @@ use serde::Serialize;
 use qfa_thermal::model::{Branch, MAX_BIAS_POINTS};
 use qfa_thermal::{AxisModel, BiasGrid, Extensions, Input, ScaleFactor, Table};
 
-use qfa_log::cycling::Log;
-use qfa_log::pairing::{pair_program, trace_run, Trace, RATE_WINDOW};
+use qfa_log::pairing::{trace_run, PairedLog, Trace, RATE_WINDOW};
 
 pub(crate) use super::solver::{lstsq, lstsq_matrix, LsResult};
 pub use crate::static_cal::fit::{fit_static_axis, BranchMode, CurveShape, StaticSeries, StaticStructure};
@@ -204,8 +203,14 @@ struct Row {
     bm: Branch,
 }
 
-fn rows_of(log: &Log, program: &str, ext: &Extensions, deadband: f32) -> Result<(Vec<Row>, f64), FitError> {
-    let pp = pair_program(log, program).ok_or_else(|| FitError::NoPair(program.to_string()))?;
+fn rows_of(
+    paired: &PairedLog<'_>,
+    program: &str,
+    ext: &Extensions,
+    deadband: f32,
+) -> Result<(Vec<Row>, f64), FitError> {
+    let log = paired.log;
+    let pp = paired.program(program).ok_or_else(|| FitError::NoPair(program.to_string()))?;
     let tp: Trace = trace_run(&log.runs[pp.plus], ext, deadband);
     let tm: Trace = trace_run(&log.runs[pp.minus], ext, deadband);
     let mut out = Vec::with_capacity(pp.rows.len());
@@ -294,17 +299,21 @@ pub(crate) fn f32v(v: &[f64]) -> heapless::Vec<f32, MAX_BIAS_POINTS> {
     v.iter().map(|&x| x as f32).collect()
 }
 
-/// Fit both models on `opts.fit_programs` of `log`.
+/// Fit both models on `opts.fit_programs` of `paired`'s log.
 ///
 /// # Errors
 /// A missing pair, too little data, or a table the root crate refuses.
-pub fn fit(log: &Log, opts: &FitOptions, progress: Option<&indicatif::ProgressBar>) -> Result<Fitted, FitError> {
+pub fn fit(
+    paired: &PairedLog<'_>,
+    opts: &FitOptions,
+    progress: Option<&indicatif::ProgressBar>,
+) -> Result<Fitted, FitError> {
     let mut rows: Vec<Row> = Vec::new();
     let mut starts = Vec::new();
     let mut max_rate: f64 = 0.0;
     for p in &opts.fit_programs {
         starts.push(rows.len());
-        let (r, mr) = rows_of(log, p, &opts.ext, opts.deadband_c_per_min)?;
+        let (r, mr) = rows_of(paired, p, &opts.ext, opts.deadband_c_per_min)?;
         rows.extend(r);
         max_rate = max_rate.max(mr);
         if let Some(pb) = progress {

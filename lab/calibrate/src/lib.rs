@@ -40,7 +40,7 @@ use crate::report::{
     evaluate, plot_residual_vs_time, plot_sf_vs_temp, Evaluation, FitSummary, Report, Timings, METRIC_TEXT,
 };
 use qfa_log::cycling::{read_log, Log};
-use qfa_log::pairing::pair_program;
+use qfa_log::pairing::PairedLog;
 
 /// Calibration settings.
 #[derive(Clone, Debug, Default)]
@@ -149,6 +149,8 @@ fn output(e: impl fmt::Display) -> CalibrateError {
 /// A message describing the failure.
 pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, CalibrateError> {
     let programs = log.programs();
+    // Paired once; the fit, the evaluation, the peers and the table's refit read these pairs.
+    let paired = PairedLog::new(log);
     let (fit_p, eval_p) = match &opts.fit_programs {
         Some(f) => (f.clone(), programs.iter().filter(|p| !f.contains(p)).cloned().collect::<Vec<_>>()),
         None => split_programs(&programs),
@@ -156,29 +158,29 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
     let eval_p = if eval_p.is_empty() { fit_p.clone() } else { eval_p };
     let t = Instant::now();
     let pb = bar(fit_p.len() as u64, "fitting", opts.progress);
-    let fitted = fit(log, &FitOptions::new(fit_p.clone()), Some(&pb)).map_err(CalibrateError::Fit)?;
+    let fitted = fit(&paired, &FitOptions::new(fit_p.clone()), Some(&pb)).map_err(CalibrateError::Fit)?;
     pb.finish_and_clear();
     let mut t_fit = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let n_eval = log.runs.iter().filter(|r| eval_p.contains(&r.program)).count();
     let pb = bar(n_eval as u64, "held-out compensation", opts.progress);
     let eval =
-        evaluate(log, &eval_p, &fitted.simple, &fitted.hysteresis, Some(&pb)).map_err(CalibrateError::Evaluate)?;
+        evaluate(&paired, &eval_p, &fitted.simple, &fitted.hysteresis, Some(&pb)).map_err(CalibrateError::Evaluate)?;
     pb.finish_and_clear();
     let t_eval = t.elapsed().as_secs_f64();
     check_figures(&eval)?;
-    let (peers, fit_peers) = crate::report::peer_bias(log, &fit_p, &eval_p, &fitted.hysteresis)?;
+    let (peers, fit_peers) = crate::report::peer_bias(&paired, &fit_p, &eval_p, &fitted.hysteresis)?;
     // What is written: the same models on every program with a pair (the branch tie as
     // the fit programs chose it), and the peers on the same pairs.
-    let table_p: Vec<String> = programs.iter().filter(|p| pair_program(log, p).is_some()).cloned().collect();
+    let table_p: Vec<String> = programs.iter().filter(|p| paired.program(p).is_some()).cloned().collect();
     let (table, peer_fits) = if table_p.iter().all(|p| fit_p.contains(p)) {
         (fitted.clone(), fit_peers)
     } else {
         let t = Instant::now();
         let o = FitOptions { branch_mode: Some(fitted.branch.mode), ..FitOptions::new(table_p.clone()) };
-        let table = fit(log, &o, None).map_err(CalibrateError::Fit)?;
+        let table = fit(&paired, &o, None).map_err(CalibrateError::Fit)?;
         let deadband = table.hysteresis.axes[0].bias.deadband_c_per_min;
-        let p = crate::report::peer_fit(log, &table_p, deadband)?;
+        let p = crate::report::peer_fit(&paired, &table_p, deadband)?;
         t_fit += t.elapsed().as_secs_f64();
         (table, p)
     };

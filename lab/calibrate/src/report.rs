@@ -14,8 +14,7 @@ use qfa_thermal::Table;
 
 use crate::compensate::{compensate_run, not_compensated};
 use crate::metrics::{bin_series, bins_sensitivity, rms, Bin};
-use qfa_log::cycling::Log;
-use qfa_log::pairing::{pair_program, trace_run, Trace};
+use qfa_log::pairing::{trace_run, PairedLog, Trace};
 
 /// Figures per compensation variant.
 #[derive(Clone, Copy, Debug, Default, Serialize, PartialEq)]
@@ -64,12 +63,13 @@ type Output = (Vec<f64>, Option<Vec<u16>>);
 /// A table that does not load into the compensator.
 #[allow(clippy::needless_range_loop)]
 pub fn evaluate(
-    log: &Log,
+    paired: &PairedLog<'_>,
     programs: &[String],
     simple: &Table,
     hysteresis: &Table,
     progress: Option<&indicatif::ProgressBar>,
 ) -> Result<Evaluation, crate::compensate::Error> {
+    let log = paired.log;
     let gamma_none = f64::from(hysteresis.axes[0].scale.gamma);
     let mut ev = Evaluation::default();
     let ext = qfa_thermal::Extensions::default();
@@ -92,7 +92,7 @@ pub fn evaluate(
         }
         let pos = |run_idx: usize| idx.iter().position(|&i| i == run_idx);
         // Pairs: scale factor and bias.
-        if let Some(pp) = pair_program(log, prog) {
+        if let Some(pp) = paired.program(prog) {
             let (ip, im) = (pos(pp.plus).unwrap_or(0), pos(pp.minus).unwrap_or(0));
             let (tp, tm) = (&traces[ip], &traces[im]);
             let sp = &log.runs[pp.plus].samples;
@@ -400,19 +400,20 @@ pub struct PeerBias {
 /// # Errors
 /// No fit pairs, a failed fit, or no held-out bin (the reason is in the message).
 pub(crate) fn peer_bias(
-    log: &Log,
+    paired: &PairedLog<'_>,
     fit_programs: &[String],
     eval_programs: &[String],
     hysteresis: &Table,
 ) -> Result<(PeerBias, crate::peers::Peers), crate::CalibrateError> {
     let ext = qfa_thermal::Extensions::default();
     let deadband = hysteresis.axes[0].bias.deadband_c_per_min;
-    let peers = peer_fit(log, fit_programs, deadband)?;
+    let log = paired.log;
+    let peers = peer_fit(paired, fit_programs, deadband)?;
     let gamma = f64::from(hysteresis.axes[0].scale.gamma);
     let mut bins: [Vec<Bin>; 2] = [Vec::new(), Vec::new()];
     let polys = [&peers.cubic, &peers.ardupilot];
     for prog in eval_programs {
-        if let Some(pp) = pair_program(log, prog) {
+        if let Some(pp) = paired.program(prog) {
             let (tp, tm) =
                 (trace_run(&log.runs[pp.plus], &ext, deadband), trace_run(&log.runs[pp.minus], &ext, deadband));
             let sp = &log.runs[pp.plus].samples;
@@ -457,14 +458,15 @@ pub(crate) fn peer_bias(
 /// # Errors
 /// No pair with temperatures in `programs`, or a failed fit.
 pub(crate) fn peer_fit(
-    log: &Log,
+    paired: &PairedLog<'_>,
     programs: &[String],
     deadband: f32,
 ) -> Result<crate::peers::Peers, crate::CalibrateError> {
+    let log = paired.log;
     let ext = qfa_thermal::Extensions::default();
     let (mut t, mut k0) = (Vec::new(), Vec::new());
     for prog in programs {
-        let Some(pp) = pair_program(log, prog) else { continue };
+        let Some(pp) = paired.program(prog) else { continue };
         let (tp, tm) = (trace_run(&log.runs[pp.plus], &ext, deadband), trace_run(&log.runs[pp.minus], &ext, deadband));
         for (k, &(i, j)) in pp.rows.iter().enumerate() {
             if tp.valid[i] && tm.valid[j] {

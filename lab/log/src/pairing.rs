@@ -160,6 +160,31 @@ impl ProgramPairs {
     }
 }
 
+/// A cycling log with every program paired once ([`pair_program`]): what a calibration's
+/// fit, held-out evaluation and peers read, so none of them pairs the log again. It borrows
+/// the log, so the pairs' run indices cannot be read against another log.
+#[derive(Clone, Debug)]
+pub struct PairedLog<'a> {
+    /// The log.
+    pub log: &'a Log,
+    /// Each program with a +1 g and a −1 g run, in order of first appearance.
+    pairs: Vec<ProgramPairs>,
+}
+
+impl<'a> PairedLog<'a> {
+    /// Pair every program of `log`.
+    #[must_use]
+    pub fn new(log: &'a Log) -> Self {
+        Self { log, pairs: log.programs().iter().filter_map(|p| pair_program(log, p)).collect() }
+    }
+
+    /// The pairs of `program`, if it has a +1 g and a −1 g run.
+    #[must_use]
+    pub fn program(&self, program: &str) -> Option<&ProgramPairs> {
+        self.pairs.iter().find(|p| p.program == program)
+    }
+}
+
 /// Pair the first +1 g run with the first −1 g run of `program`, matching rows by time.
 #[must_use]
 pub fn pair_program(log: &Log, program: &str) -> Option<ProgramPairs> {

@@ -10,6 +10,7 @@
 //! that flies is then refitted on **every** program, so no part of the lab log is
 //! thrown away (`CalReport::flown_fit_programs` lists them).
 
+use qfa_log::pairing::PairedLog;
 use std::fmt;
 
 use qfa_thermal::model::AxisModel;
@@ -297,11 +298,12 @@ pub fn calibrate_unit_on(
     let ids: Vec<String> = programs.iter().map(|p| p.id.clone()).collect();
     let positions: Vec<_> = paper_positions().into_iter().filter(|p| p.input_g != 0.0).collect();
     let log = simulate(truth, &programs, &positions, ROW_S, seed, threads, None);
+    let paired = PairedLog::new(&log);
     let validation = if opts.validate {
         let (fit_ids, held) = split_programs(&ids);
-        let v = fit(&log, &FitOptions::new(fit_ids.clone()), None)
+        let v = fit(&paired, &FitOptions::new(fit_ids.clone()), None)
             .map_err(|e| CalibError::ValidationFit { unit: truth.name.clone(), source: e })?;
-        let ev = qfa_calibrate::report::evaluate(&log, &held, &v.simple, &v.hysteresis, None)
+        let ev = qfa_calibrate::report::evaluate(&paired, &held, &v.simple, &v.hysteresis, None)
             .map_err(|e| CalibError::HeldOut { unit: truth.name.clone(), source: e })?;
         qfa_calibrate::check_figures(&ev).map_err(|e| CalibError::Figures { unit: truth.name.clone(), source: e })?;
         Validation::Computed {
@@ -314,7 +316,7 @@ pub fn calibrate_unit_on(
         Validation::NotComputed("validation off (Monte Carlo runs and tests skip it)".into())
     };
     // The flown table: the chosen structure refitted on every program of the log.
-    let mut f = fit(&log, &FitOptions::new(ids.clone()), None)
+    let mut f = fit(&paired, &FitOptions::new(ids.clone()), None)
         .map_err(|e| CalibError::Fit { unit: truth.name.clone(), source: e })?;
     if let Some(l) = opts.rate_limit_override {
         for t in [&mut f.simple, &mut f.hysteresis] {
@@ -381,7 +383,8 @@ pub fn discover_on(log: &Log, fit_ids: &[String], hysteresis: &Table) -> Result<
     if ext == qfa_thermal::Extensions::default() {
         return Ok((hysteresis.clone(), names));
     }
-    let f = fit(log, &FitOptions { ext, ..FitOptions::new(fit_ids.to_vec()) }, None).map_err(CalibError::Refit)?;
+    let f = fit(&PairedLog::new(log), &FitOptions { ext, ..FitOptions::new(fit_ids.to_vec()) }, None)
+        .map_err(CalibError::Refit)?;
     Ok((f.hysteresis, names))
 }
 
