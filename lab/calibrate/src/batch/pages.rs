@@ -160,6 +160,21 @@ pub fn write_fleet(out: &Path, fleet: &Fleet, results: &[UnitResult], limits_fro
     let io = |e: &dyn std::fmt::Display| BatchError::Io(format!("{}: {e}", out.display()));
     let json = serde_json::to_string_pretty(fleet).map_err(|e| io(&e))?;
     std::fs::write(out.join("fleet.json"), json + "\n").map_err(|e| io(&e))?;
+    let plots = replace_plots(out, fleet, results)?;
+    let mut p = Page::new("Fleet");
+    p.raw(&verdict_html(fleet, limits_from));
+    capability_section(&mut p, fleet);
+    figures_section(&mut p, out, fleet, plots)?;
+    prior_section(&mut p, fleet);
+    units_section(&mut p, fleet, results);
+    std::fs::write(out.join("fleet.html"), p.html()).map_err(|e| io(&e))?;
+    Ok(())
+}
+
+/// Remove an older batch's plots from `out` and draw this fleet's; false (none drawn)
+/// without a calibrated unit.
+fn replace_plots(out: &Path, fleet: &Fleet, results: &[UnitResult]) -> Result<bool, BatchError> {
+    let io = |e: &dyn std::fmt::Display| BatchError::Io(format!("{}: {e}", out.display()));
     // Without a calibrated unit there is nothing to draw: the plots are not written (an
     // old batch's plots in the folder are removed, so none is taken for this one's).
     let plots = !fleet.stats.is_empty();
@@ -173,8 +188,13 @@ pub fn write_fleet(out: &Path, fleet: &Fleet, results: &[UnitResult], limits_fro
         plot_figures(&out.join("fleet_figures.png"), fleet).map_err(|e| io(&e))?;
         plot_held_out(&out.join("fleet_held_out.png"), fleet, results).map_err(|e| io(&e))?;
     }
+    Ok(plots)
+}
+
+/// The page's verdict section: the counts, then each group of units held back with its
+/// reasons, then where the limits came from.
+fn verdict_html(fleet: &Fleet, limits_from: &str) -> String {
     let [pass, review, fail] = fleet.counts;
-    let mut p = Page::new("Fleet");
     let class = if fail > 0 {
         "fail"
     } else if review > 0 {
@@ -196,7 +216,11 @@ pub fn write_fleet(out: &Path, fleet: &Fleet, results: &[UnitResult], limits_fro
         let _ = write!(v, "<li class=\"{c}\">{who} {decision}: {}</li>", escape(&reasons));
     }
     let _ = writeln!(v, "<li>limits: {}</li></ul></section>", escape(limits_from));
-    p.raw(&v);
+    v
+}
+
+/// Cpk of the fleet against each limit.
+fn capability_section(p: &mut Page, fleet: &Fleet) {
     p.section("Capability against each limit").para(
         "Cpk = (limit − mean) / 3s for a maximum, (mean − limit) / 3s for a minimum, s the batch's standard deviation \
          (Ppk in AIAG terms: one batch, no subgroups). Every limit is one-sided, so Cp is not computed.",
@@ -217,6 +241,12 @@ pub fn write_fleet(out: &Path, fleet: &Fleet, results: &[UnitResult], limits_fro
         })
         .collect();
     p.table(&["limit", "axis", "bound", "units", "mean", "s", "Cpk"], &rows);
+}
+
+/// Each figure's spread across the fleet: the plots (or why there are none) and the
+/// robust statistics.
+fn figures_section(p: &mut Page, out: &Path, fleet: &Fleet, plots: bool) -> Result<(), BatchError> {
+    let io = |e: &dyn std::fmt::Display| BatchError::Io(format!("{}: {e}", out.display()));
     p.section("Figures across the fleet").para(&format!(
         "Robust distance z = (x − median) / (1.4826·MAD) over the units with full coverage; a unit is flagged beyond \
          ±{} (held-out RMS: above only). Red: flagged.",
@@ -243,6 +273,11 @@ pub fn write_fleet(out: &Path, fleet: &Fleet, results: &[UnitResult], limits_fro
         })
         .collect();
     p.table(&["figure", "unit", "units", "median", "robust SD"], &rows);
+    Ok(())
+}
+
+/// The units with partial coverage and the population prior's table each gets.
+fn prior_section(p: &mut Page, fleet: &Fleet) {
     let partial: Vec<Vec<String>> = fleet
         .unit
         .iter()
@@ -270,6 +305,10 @@ pub fn write_fleet(out: &Path, fleet: &Fleet, results: &[UnitResult], limits_fro
     } else {
         p.table(&["serial", "table to flash, CRC-32", "own rows cover", "decided mostly by"], &partial);
     }
+}
+
+/// Every unit's decision, table to flash and reasons, with links to the certificates.
+fn units_section(p: &mut Page, fleet: &Fleet, results: &[UnitResult]) {
     p.section("Units");
     let rows: Vec<Vec<String>> = fleet
         .unit
@@ -288,8 +327,6 @@ pub fn write_fleet(out: &Path, fleet: &Fleet, results: &[UnitResult], limits_fro
     let links: Vec<(String, String)> =
         fleet.unit.iter().map(|u| (u.serial.clone(), format!("{}/certificate.html", u.serial))).collect();
     p.links(&links);
-    std::fs::write(out.join("fleet.html"), p.html()).map_err(|e| io(&e))?;
-    Ok(())
 }
 
 fn plot_figures(path: &Path, fleet: &Fleet) -> Result<(), Box<dyn std::error::Error>> {
