@@ -57,7 +57,30 @@ fn m(v: &Measured, digits: usize) -> String {
 pub fn write_certificate(dir: &Path, r: &UnitResult, f: &FleetUnit, limits_from: &str) -> Result<(), BatchError> {
     let io = |e: &dyn std::fmt::Display| BatchError::Io(format!("{}: {e}", dir.display()));
     std::fs::create_dir_all(dir).map_err(|e| io(&e))?;
-    let cert = Certificate {
+    let cert = certificate_of(r, f, limits_from);
+    let json = serde_json::to_string_pretty(&cert).map_err(|e| io(&e))?;
+    std::fs::write(dir.join("certificate.json"), json + "\n").map_err(|e| io(&e))?;
+    // A certificate reads the same however the batch was run (one process, shards, a
+    // cluster): it names the batch, not the command line of the process that merged it.
+    let mut p = Page::with_command(
+        &format!("Certificate {}", r.serial),
+        &format!("qfa-lab batch: certificate of unit {} (the batch's command is on fleet.html)", r.serial),
+    );
+    p.raw(&certificate_verdict_html(f));
+    p.section("Certificate").kv(&certificate_rows(r, f, limits_from, &cert.flash));
+    let mut files =
+        vec![("table.bin", "table.bin"), ("report.html", "report.html"), ("certificate.json", "certificate.json")];
+    if f.prior.is_some() {
+        files.insert(0, ("table_prior.bin (flash this)", "table_prior.bin"));
+    }
+    p.section("Files").links(&files);
+    std::fs::write(dir.join("certificate.html"), p.html()).map_err(|e| io(&e))?;
+    Ok(())
+}
+
+/// The certificate of unit `r` with its fleet decision `f`.
+fn certificate_of<'a>(r: &'a UnitResult, f: &'a FleetUnit, limits_from: &'a str) -> Certificate<'a> {
+    Certificate {
         serial: &r.serial,
         decision: f.decision,
         reasons: &f.reasons,
@@ -74,15 +97,11 @@ pub fn write_certificate(dir: &Path, r: &UnitResult, f: &FleetUnit, limits_from:
         prior: &f.prior,
         limits_from,
         written_by: format!("qfa-lab {}", env!("CARGO_PKG_VERSION")),
-    };
-    let json = serde_json::to_string_pretty(&cert).map_err(|e| io(&e))?;
-    std::fs::write(dir.join("certificate.json"), json + "\n").map_err(|e| io(&e))?;
-    // A certificate reads the same however the batch was run (one process, shards, a
-    // cluster): it names the batch, not the command line of the process that merged it.
-    let mut p = Page::with_command(
-        &format!("Certificate {}", r.serial),
-        &format!("qfa-lab batch: certificate of unit {} (the batch's command is on fleet.html)", r.serial),
-    );
+    }
+}
+
+/// The certificate page's verdict section: the decision in words and its reasons.
+fn certificate_verdict_html(f: &FleetUnit) -> String {
     let class = match f.decision {
         Decision::Pass => "pass",
         Decision::Review => "warn",
@@ -102,13 +121,23 @@ pub fn write_certificate(dir: &Path, r: &UnitResult, f: &FleetUnit, limits_from:
         let _ = write!(v, "<li class=\"{class}\">{}</li>", escape(reason));
     }
     v.push_str("</ul></section>\n");
-    p.raw(&v);
+    v
+}
+
+/// The certificate's rows: the unit, the table to flash (`flash`), the prior, the unit's
+/// own fit or why it failed, and its sensor against the fleet.
+fn certificate_rows(
+    r: &UnitResult,
+    f: &FleetUnit,
+    limits_from: &str,
+    flash: &Option<(String, String)>,
+) -> Vec<(String, String)> {
     let mut kv: Vec<(String, String)> = vec![
         ("serial".into(), r.serial.clone()),
         ("source".into(), r.source.clone()),
         ("limits".into(), limits_from.to_string()),
     ];
-    if let Some((file, crc)) = &cert.flash {
+    if let Some((file, crc)) = flash {
         kv.push(("table to flash".into(), format!("{file}, CRC-32 {crc} (its header's, what the firmware checks)")));
     }
     if let Some(p) = &f.prior {
@@ -141,15 +170,7 @@ pub fn write_certificate(dir: &Path, r: &UnitResult, f: &FleetUnit, limits_from:
     }
     kv.push(("sensor offset against the fleet (°C)".into(), m(&f.sensor_offset_c, 2)));
     kv.push(("sensor drift against the fleet (°C/h)".into(), m(&f.sensor_drift_c_per_h, 3)));
-    p.section("Certificate").kv(&kv);
-    let mut files =
-        vec![("table.bin", "table.bin"), ("report.html", "report.html"), ("certificate.json", "certificate.json")];
-    if f.prior.is_some() {
-        files.insert(0, ("table_prior.bin (flash this)", "table_prior.bin"));
-    }
-    p.section("Files").links(&files);
-    std::fs::write(dir.join("certificate.html"), p.html()).map_err(|e| io(&e))?;
-    Ok(())
+    kv
 }
 
 /// Write `fleet.json`, `fleet.html` and its two plots into `out`.
