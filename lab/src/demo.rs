@@ -447,44 +447,61 @@ fn page(
         ("navigation flight", opts.nav_duration_s.map_or("full".to_string(), |d| format!("first {d:.0} s"))),
     ]);
     for (r, u) in results.iter().zip(units) {
-        let name = dir_name(u);
-        p.section(&r.unit);
-        let mut own =
-            vec![(format!("{}: calibration report", r.unit), format!("{name}/{}", qfa_report::html_report::FILE))];
-        if u.discovery.is_some() {
-            own.push((
-                format!("{}: discovery report", r.unit),
-                format!("{name}/discover/{}", qfa_report::html_report::FILE),
-            ));
-        }
-        p.links(&own);
-        p.para(&format!("{}: {}", u.verdict.outcome, u.verdict.answer));
-        u.coverage.to_page(&mut p);
-        p.image(
-            &u.dir.join("sf_vs_temp.png"),
-            &format!(
-                "{}: compensated scale factor against temperature, held-out bins (programs the fit never saw), one \
-                 panel per model. Look for: the no-compensation panel's slope ({:.1} ppm/°C held out) gone in the \
-                 hysteresis panel ({:.2} ppm/°C), where heating (red) and cooling (blue) bins lie in one band; their \
-                 split in the simple panel is the rate (hysteresis) effect the simple model lacks.",
-                r.unit, r.ours.none, r.ours.hysteresis
-            ),
-        )?;
-        if let Some(d) = &u.discovery {
-            p.para(&format!("Discovery: {d}"));
-        }
+        unit_section(&mut p, r, u)?;
     }
     if let Some(n) = navigation {
-        p.section("Navigation");
-        p.links(&[("Navigation study report", format!("{NAVIGATION_DIR}/{}", qfa_report::html_report::FILE))]);
-        p.para(&format!("{}: {}", n.verdict.outcome, n.verdict.answer));
-        let png = opts.out.join(NAVIGATION_DIR).join("nav_errors.png");
-        if png.is_file() {
-            p.image(&png, &n.plot_caption)?;
-        }
+        navigation_section(&mut p, opts, n)?;
     }
     p.section("Console table").pre(&table4_text(results));
     Ok(p)
+}
+
+/// One unit's section: its pages, its verdict, its coverage, its scale-factor plot and
+/// its discovery line.
+fn unit_section(p: &mut qfa_report::html_report::Page, r: &UnitResult, u: &UnitPage) -> std::io::Result<()> {
+    let name = dir_name(u);
+    p.section(&r.unit);
+    let mut own =
+        vec![(format!("{}: calibration report", r.unit), format!("{name}/{}", qfa_report::html_report::FILE))];
+    if u.discovery.is_some() {
+        own.push((
+            format!("{}: discovery report", r.unit),
+            format!("{name}/discover/{}", qfa_report::html_report::FILE),
+        ));
+    }
+    p.links(&own);
+    p.para(&format!("{}: {}", u.verdict.outcome, u.verdict.answer));
+    u.coverage.to_page(p);
+    p.image(
+        &u.dir.join("sf_vs_temp.png"),
+        &format!(
+            "{}: compensated scale factor against temperature, held-out bins (programs the fit never saw), one \
+                 panel per model. Look for: the no-compensation panel's slope ({:.1} ppm/°C held out) gone in the \
+                 hysteresis panel ({:.2} ppm/°C), where heating (red) and cooling (blue) bins lie in one band; their \
+                 split in the simple panel is the rate (hysteresis) effect the simple model lacks.",
+            r.unit, r.ours.none, r.ours.hysteresis
+        ),
+    )?;
+    if let Some(d) = &u.discovery {
+        p.para(&format!("Discovery: {d}"));
+    }
+    Ok(())
+}
+
+/// The navigation study's section: its page, its verdict and its error plot.
+fn navigation_section(
+    p: &mut qfa_report::html_report::Page,
+    opts: &DemoOptions,
+    n: &qfa_nav::NavigationOutcome,
+) -> std::io::Result<()> {
+    p.section("Navigation");
+    p.links(&[("Navigation study report", format!("{NAVIGATION_DIR}/{}", qfa_report::html_report::FILE))]);
+    p.para(&format!("{}: {}", n.verdict.outcome, n.verdict.answer));
+    let png = opts.out.join(NAVIGATION_DIR).join("nav_errors.png");
+    if png.is_file() {
+        p.image(&png, &n.plot_caption)?;
+    }
+    Ok(())
 }
 
 /// The Table-4-style comparison as text.
