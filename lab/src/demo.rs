@@ -127,104 +127,12 @@ pub fn run(
     let mut results = Vec::new();
     let mut pages: Vec<UnitPage> = Vec::new();
     for unit in 1..=3u8 {
-        let truth = Truth::jb_kt8(unit);
-        let dir = opts.out.join(format!("kt8-{unit}"));
-        std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
-        eprintln!("== {} ==", truth.name);
-        let t = Instant::now();
-        let pb = if opts.progress { indicatif::ProgressBar::new(16) } else { indicatif::ProgressBar::hidden() };
-        pb.set_style(
-            indicatif::ProgressStyle::with_template("{msg:>22} [{bar:30}] {pos}/{len} {elapsed}")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-        );
-        pb.set_message("simulating runs");
-        let log = simulate_paper(&truth, opts.row_s, opts.seed + u64::from(unit), opts.threads, Some(&pb));
-        pb.finish_and_clear();
-        let simulate_s = t.elapsed().as_secs_f64();
-        let t = Instant::now();
-        let log_path = dir.join("log.csv");
-        write_log(&log_path, &log).map_err(|e| e.to_string())?;
-        std::fs::write(dir.join("truth.toml"), truth.to_toml().map_err(|e| e.to_string())?)
-            .map_err(|e| e.to_string())?;
-        let write_s = t.elapsed().as_secs_f64();
-        let rows = log.rows();
-        drop(log);
-        let t = Instant::now();
-        let cal = calibrate_file(
-            &log_path,
-            &dir,
-            &CalibrateOptions {
-                fit_programs: None,
-                plots: true,
-                title: truth.name.clone(),
-                progress: opts.progress,
-                axis: None,
-                exports: qfa_calibrate::export::ExportOptions::default(),
-                limits: LimitsChoice::default(),
-            },
-        )
-        .map_err(|e| e.to_string())?;
-        let verdict = cal.verdict.clone().ok_or_else(|| format!("{}: calibration wrote no verdict", truth.name))?;
-        let calibrate_s = t.elapsed().as_secs_f64();
-        let p = PAPER_TABLE4[usize::from(unit) - 1];
-        eprintln!(
-            "   {rows} rows: simulate {simulate_s:.1} s, write {write_s:.1} s, calibrate {calibrate_s:.1} s \
-             (read {:.1}, fit {:.1}, held-out compensation {:.1}); Eq. 11 cond {:.1}",
-            cal.report.timings_s.read,
-            cal.report.timings_s.fit,
-            cal.report.timings_s.evaluate,
-            cal.report.fit.cond_sf_hysteresis
-        );
-        // One discovery run, on the first unit: enough to show the workflow, and it keeps
-        // the demo well inside its two minutes.
-        let mut discovery_line = None;
-        if let Some(hook) = discovery.filter(|_| unit == 1) {
-            let pb = spinner("discovery on unit #1's log", opts.progress);
-            let s = hook(&log_path, &dir.join("discover")).map_err(|e| format!("discovery on {}: {e:#}", truth.name));
-            pb.finish_and_clear();
-            let s = s?;
-            eprintln!("   discovery: {s}");
-            discovery_line = Some(s);
-        }
-        if !opts.full_logs {
-            std::fs::remove_file(&log_path).map_err(|e| format!("{}: {e}", log_path.display()))?;
-        }
-        pages.push(UnitPage {
-            dir: dir.clone(),
-            coverage: cal.report.coverage.clone(),
-            discovery: discovery_line,
-            verdict,
-        });
-        results.push(UnitResult {
-            unit: truth.name.clone(),
-            ours: cal.report.sensitivity_ppm_per_c,
-            paper: Variants { none: p[0], simple: p[1], hysteresis: p[2] },
-            bias_residual_ug: cal.report.bias_residual_ug,
-            rows,
-            simulate_s,
-            write_s,
-            calibrate_s,
-        });
+        let (page, result) = run_unit(opts, unit, discovery)?;
+        pages.push(page);
+        results.push(result);
     }
-    let mut nav = None;
-    if let Some(hook) = navigation {
-        let pb = spinner("navigation study (calibrate, align, fly)", opts.progress);
-        let s = hook(&opts.out.join(NAVIGATION_DIR), opts.nav_duration_s)
-            .map_err(|e| format!("navigation: {}", error_chain(&e)));
-        pb.finish_and_clear();
-        let s = s?;
-        eprintln!("navigation: {}", s.verdict.answer);
-        nav = Some(s);
-    }
-    println!("{}", table4_text(&results));
-    let json = serde_json::to_string_pretty(&results).map_err(|e| e.to_string())?;
-    std::fs::write(opts.out.join("table4.json"), json).map_err(|e| e.to_string())?;
-    let v = verdict(&results, &pages, nav.as_ref());
-    let json =
-        qfa_report::verdict::json_with_verdict(&v, &DemoReport { units: &results }).map_err(|e| e.to_string())?;
-    std::fs::write(opts.out.join("report.json"), json).map_err(|e| e.to_string())?;
-    std::fs::write(opts.out.join("report.md"), markdown(&results, &pages, nav.is_some(), &v))
-        .map_err(|e| e.to_string())?;
+    let nav = navigate(opts, navigation)?;
+    let v = write_reports(opts, &results, &pages, nav.as_ref())?;
     let bytes = dir_bytes(&opts.out).map_err(|e| format!("{}: {e}", opts.out.display()))?;
     let total_s = t_all.elapsed().as_secs_f64();
     page(opts, &results, &pages, nav.as_ref(), &v, bytes, total_s)
@@ -240,6 +148,144 @@ pub fn run(
     print!("{}", v.console());
     println!("detail: {}/report.md, report.html, report.json", opts.out.display());
     Ok(results)
+}
+
+/// One of the paper's units: simulated and written, calibrated, discovered (unit #1 only)
+/// and its log removed unless kept; its entry on the page and its Table 4 row.
+fn run_unit(opts: &DemoOptions, unit: u8, discovery: Option<DiscoveryHook>) -> Result<(UnitPage, UnitResult), String> {
+    let truth = Truth::jb_kt8(unit);
+    let dir = opts.out.join(format!("kt8-{unit}"));
+    std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
+    eprintln!("== {} ==", truth.name);
+    let (log_path, rows, simulate_s, write_s) = simulate_unit(opts, unit, &truth, &dir)?;
+    let t = Instant::now();
+    let cal = calibrate_file(
+        &log_path,
+        &dir,
+        &CalibrateOptions {
+            fit_programs: None,
+            plots: true,
+            title: truth.name.clone(),
+            progress: opts.progress,
+            axis: None,
+            exports: qfa_calibrate::export::ExportOptions::default(),
+            limits: LimitsChoice::default(),
+        },
+    )
+    .map_err(|e| e.to_string())?;
+    let verdict = cal.verdict.clone().ok_or_else(|| format!("{}: calibration wrote no verdict", truth.name))?;
+    let calibrate_s = t.elapsed().as_secs_f64();
+    let p = PAPER_TABLE4[usize::from(unit) - 1];
+    eprintln!(
+        "   {rows} rows: simulate {simulate_s:.1} s, write {write_s:.1} s, calibrate {calibrate_s:.1} s \
+         (read {:.1}, fit {:.1}, held-out compensation {:.1}); Eq. 11 cond {:.1}",
+        cal.report.timings_s.read,
+        cal.report.timings_s.fit,
+        cal.report.timings_s.evaluate,
+        cal.report.fit.cond_sf_hysteresis
+    );
+    // One discovery run, on the first unit: enough to show the workflow, and it keeps
+    // the demo well inside its two minutes.
+    let discovery_line = match discovery.filter(|_| unit == 1) {
+        Some(hook) => Some(discover_unit(hook, opts, &truth, &log_path, &dir)?),
+        None => None,
+    };
+    if !opts.full_logs {
+        std::fs::remove_file(&log_path).map_err(|e| format!("{}: {e}", log_path.display()))?;
+    }
+    let page = UnitPage { dir: dir.clone(), coverage: cal.report.coverage.clone(), discovery: discovery_line, verdict };
+    let result = UnitResult {
+        unit: truth.name.clone(),
+        ours: cal.report.sensitivity_ppm_per_c,
+        paper: Variants { none: p[0], simple: p[1], hysteresis: p[2] },
+        bias_residual_ug: cal.report.bias_residual_ug,
+        rows,
+        simulate_s,
+        write_s,
+        calibrate_s,
+    };
+    Ok((page, result))
+}
+
+/// Simulate the unit's paper runs and write its `log.csv` and `truth.toml` into `dir`:
+/// the log's path, its rows, and the seconds each step took.
+fn simulate_unit(
+    opts: &DemoOptions,
+    unit: u8,
+    truth: &Truth,
+    dir: &Path,
+) -> Result<(std::path::PathBuf, usize, f64, f64), String> {
+    let t = Instant::now();
+    let pb = if opts.progress { indicatif::ProgressBar::new(16) } else { indicatif::ProgressBar::hidden() };
+    pb.set_style(
+        indicatif::ProgressStyle::with_template("{msg:>22} [{bar:30}] {pos}/{len} {elapsed}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    pb.set_message("simulating runs");
+    let log = simulate_paper(truth, opts.row_s, opts.seed + u64::from(unit), opts.threads, Some(&pb));
+    pb.finish_and_clear();
+    let simulate_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let log_path = dir.join("log.csv");
+    write_log(&log_path, &log).map_err(|e| e.to_string())?;
+    std::fs::write(dir.join("truth.toml"), truth.to_toml().map_err(|e| e.to_string())?).map_err(|e| e.to_string())?;
+    let write_s = t.elapsed().as_secs_f64();
+    let rows = log.rows();
+    drop(log);
+    Ok((log_path, rows, simulate_s, write_s))
+}
+
+/// The discovery workflow on the unit's log, into `dir/discover`: its one-line summary.
+fn discover_unit(
+    hook: DiscoveryHook,
+    opts: &DemoOptions,
+    truth: &Truth,
+    log_path: &Path,
+    dir: &Path,
+) -> Result<String, String> {
+    let pb = spinner("discovery on unit #1's log", opts.progress);
+    let s = hook(log_path, &dir.join("discover")).map_err(|e| format!("discovery on {}: {e:#}", truth.name));
+    pb.finish_and_clear();
+    let s = s?;
+    eprintln!("   discovery: {s}");
+    Ok(s)
+}
+
+/// The navigation study, when there is a hook for it, into `out/navigation`.
+fn navigate(
+    opts: &DemoOptions,
+    navigation: Option<NavigationHook>,
+) -> Result<Option<qfa_nav::NavigationOutcome>, String> {
+    let mut nav = None;
+    if let Some(hook) = navigation {
+        let pb = spinner("navigation study (calibrate, align, fly)", opts.progress);
+        let s = hook(&opts.out.join(NAVIGATION_DIR), opts.nav_duration_s)
+            .map_err(|e| format!("navigation: {}", error_chain(&e)));
+        pb.finish_and_clear();
+        let s = s?;
+        eprintln!("navigation: {}", s.verdict.answer);
+        nav = Some(s);
+    }
+    Ok(nav)
+}
+
+/// Print Table 4 and write `table4.json`, then the verdict's `report.json` and
+/// `report.md`; the verdict.
+fn write_reports(
+    opts: &DemoOptions,
+    results: &[UnitResult],
+    pages: &[UnitPage],
+    nav: Option<&qfa_nav::NavigationOutcome>,
+) -> Result<Verdict, String> {
+    println!("{}", table4_text(results));
+    let json = serde_json::to_string_pretty(results).map_err(|e| e.to_string())?;
+    std::fs::write(opts.out.join("table4.json"), json).map_err(|e| e.to_string())?;
+    let v = verdict(results, pages, nav);
+    let json = qfa_report::verdict::json_with_verdict(&v, &DemoReport { units: results }).map_err(|e| e.to_string())?;
+    std::fs::write(opts.out.join("report.json"), json).map_err(|e| e.to_string())?;
+    std::fs::write(opts.out.join("report.md"), markdown(results, pages, nav.is_some(), &v))
+        .map_err(|e| e.to_string())?;
+    Ok(v)
 }
 
 /// The navigation study's folder in the demo's output.
@@ -401,44 +447,61 @@ fn page(
         ("navigation flight", opts.nav_duration_s.map_or("full".to_string(), |d| format!("first {d:.0} s"))),
     ]);
     for (r, u) in results.iter().zip(units) {
-        let name = dir_name(u);
-        p.section(&r.unit);
-        let mut own =
-            vec![(format!("{}: calibration report", r.unit), format!("{name}/{}", qfa_report::html_report::FILE))];
-        if u.discovery.is_some() {
-            own.push((
-                format!("{}: discovery report", r.unit),
-                format!("{name}/discover/{}", qfa_report::html_report::FILE),
-            ));
-        }
-        p.links(&own);
-        p.para(&format!("{}: {}", u.verdict.outcome, u.verdict.answer));
-        u.coverage.to_page(&mut p);
-        p.image(
-            &u.dir.join("sf_vs_temp.png"),
-            &format!(
-                "{}: compensated scale factor against temperature, held-out bins (programs the fit never saw), one \
-                 panel per model. Look for: the no-compensation panel's slope ({:.1} ppm/°C held out) gone in the \
-                 hysteresis panel ({:.2} ppm/°C), where heating (red) and cooling (blue) bins lie in one band; their \
-                 split in the simple panel is the rate (hysteresis) effect the simple model lacks.",
-                r.unit, r.ours.none, r.ours.hysteresis
-            ),
-        )?;
-        if let Some(d) = &u.discovery {
-            p.para(&format!("Discovery: {d}"));
-        }
+        unit_section(&mut p, r, u)?;
     }
     if let Some(n) = navigation {
-        p.section("Navigation");
-        p.links(&[("Navigation study report", format!("{NAVIGATION_DIR}/{}", qfa_report::html_report::FILE))]);
-        p.para(&format!("{}: {}", n.verdict.outcome, n.verdict.answer));
-        let png = opts.out.join(NAVIGATION_DIR).join("nav_errors.png");
-        if png.is_file() {
-            p.image(&png, &n.plot_caption)?;
-        }
+        navigation_section(&mut p, opts, n)?;
     }
     p.section("Console table").pre(&table4_text(results));
     Ok(p)
+}
+
+/// One unit's section: its pages, its verdict, its coverage, its scale-factor plot and
+/// its discovery line.
+fn unit_section(p: &mut qfa_report::html_report::Page, r: &UnitResult, u: &UnitPage) -> std::io::Result<()> {
+    let name = dir_name(u);
+    p.section(&r.unit);
+    let mut own =
+        vec![(format!("{}: calibration report", r.unit), format!("{name}/{}", qfa_report::html_report::FILE))];
+    if u.discovery.is_some() {
+        own.push((
+            format!("{}: discovery report", r.unit),
+            format!("{name}/discover/{}", qfa_report::html_report::FILE),
+        ));
+    }
+    p.links(&own);
+    p.para(&format!("{}: {}", u.verdict.outcome, u.verdict.answer));
+    u.coverage.to_page(p);
+    p.image(
+        &u.dir.join("sf_vs_temp.png"),
+        &format!(
+            "{}: compensated scale factor against temperature, held-out bins (programs the fit never saw), one \
+                 panel per model. Look for: the no-compensation panel's slope ({:.1} ppm/°C held out) gone in the \
+                 hysteresis panel ({:.2} ppm/°C), where heating (red) and cooling (blue) bins lie in one band; their \
+                 split in the simple panel is the rate (hysteresis) effect the simple model lacks.",
+            r.unit, r.ours.none, r.ours.hysteresis
+        ),
+    )?;
+    if let Some(d) = &u.discovery {
+        p.para(&format!("Discovery: {d}"));
+    }
+    Ok(())
+}
+
+/// The navigation study's section: its page, its verdict and its error plot.
+fn navigation_section(
+    p: &mut qfa_report::html_report::Page,
+    opts: &DemoOptions,
+    n: &qfa_nav::NavigationOutcome,
+) -> std::io::Result<()> {
+    p.section("Navigation");
+    p.links(&[("Navigation study report", format!("{NAVIGATION_DIR}/{}", qfa_report::html_report::FILE))]);
+    p.para(&format!("{}: {}", n.verdict.outcome, n.verdict.answer));
+    let png = opts.out.join(NAVIGATION_DIR).join("nav_errors.png");
+    if png.is_file() {
+        p.image(&png, &n.plot_caption)?;
+    }
+    Ok(())
 }
 
 /// The Table-4-style comparison as text.

@@ -137,53 +137,19 @@ pub fn calibrate_autopilot(
     limits: &LimitsChoice,
 ) -> Result<AutopilotCalibration, AutopilotCalError> {
     let io = |e: &dyn fmt::Display| AutopilotCalError::Io(format!("{}: {e}", out.display()));
-    std::fs::create_dir_all(out).map_err(|e| io(&e))?;
-    for f in EXPORT_FILES {
-        match std::fs::remove_file(out.join(f)) {
-            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(io(&e)),
-            _ => {}
-        }
-    }
+    remove_old_exports(out)?;
     let mut outcomes = Vec::new();
     let mut verdicts = Vec::new();
-    // (instance index, device ID, export axes) of each calibrated instance.
+    // (instance index, device ID, export axes, outcome index) of each calibrated instance.
     let mut calibrated = Vec::new();
     for (inst, c) in log.instances.iter().zip(check(log)) {
-        let (temp_step_c, coarse) = match c.temperature {
-            Temperature::Resolution { step_c, coarse } => (Some(step_c), coarse),
-            Temperature::Missing { .. } => (None, false),
-        };
-        let mut o = InstanceOutcome {
-            index: c.index,
-            device_id: c.device_id,
-            samples: c.samples,
-            temp_step_c,
-            temp_dequantized: coarse,
-            refused: c.refused.clone(),
-            warnings: c.warnings.clone(),
-            dir: None,
-            exported_as: None,
-            heldout_rms_mg: Vec::new(),
-        };
+        let mut o = instance_outcome(&c);
         if o.refused.is_none() {
-            let name = c.name();
-            let result = inst
-                .to_static(coarse)
-                .map_err(|e| e.to_string())
-                .and_then(|l| static_cal::calibrate_static(&l, opts, progress).map_err(|e| format!("{name}: {e}")));
-            match result {
+            match calibrate_instance(inst, &c, opts, progress) {
                 Err(e) => o.refused = Some(e),
                 Ok(cal) => {
-                    let dir = format!("instance{}", c.index);
-                    let d = out.join(&dir);
-                    let files = static_cal::static_files(plots, &[]);
-                    let v = static_verdict(&cal, limits, &files, &o.warnings);
-                    static_cal::write_static(&d, &cal, &v).map_err(|e| io(&e))?;
-                    static_cal::write_static_page(&d, &cal, plots, &v).map_err(|e| io(&e))?;
+                    let v = write_instance(out, &cal, plots, limits, &mut o)?;
                     verdicts.push((format!("instance {}", c.index), v));
-                    o.heldout_rms_mg =
-                        cal.report.axes.iter().map(|a| (a.axis.clone(), figure(&a.ours), figure(&a.cubic))).collect();
-                    o.dir = Some(dir);
                     calibrated.push((c.index, c.device_id, static_cal::export_axes(&cal), outcomes.len()));
                 }
             }
@@ -194,105 +160,16 @@ pub fn calibrate_autopilot(
         return Err(AutopilotCalError::NothingCalibrated(outcomes.iter().filter_map(|o| o.refused.clone()).collect()));
     }
     let mut export_notes = Vec::new();
-    let mut files: Vec<(&'static str, String)> = Vec::new();
-    match log.stack {
-        Stack::Px4 => {
-            let mut text = String::new();
-            let mut ids = Vec::new();
-            for (slot, (index, id, axes, k)) in calibrated.iter().enumerate() {
-                let slot = slot as u8;
-                let Some(id) = id else { continue };
-                let eo = ExportOptions { px4_device_id: Some(*id as i32), px4_slot: slot, ..ExportOptions::default() };
-                let (texts, notes) = export_texts(axes, &eo);
-                export_notes.extend(
-                    notes
-                        .into_iter()
-                        .filter(|n| !matches!(n, ExportNote::NoArdupilotFit(_) | ExportNote::ArdupilotRange { .. }))
-                        .map(|n| format!("instance {index}: {n}")),
-                );
-                let Some((_, t)) = texts.into_iter().find(|(n, _)| *n == PX4_FILE) else { continue };
-                ids.push(*id);
-                outcomes[*k].exported_as = Some(format!("TC_A{slot}_* (TC_A{slot}_ID = {id})"));
-                if text.is_empty() {
-                    text = t;
-                } else {
-                    let _ = writeln!(text, "# TC_A{slot}: accelerometer instance {index} of the log, device ID {id}");
-                    for l in t.lines().filter(|l| !l.starts_with('#') && !l.contains("\tTC_A_ENABLE\t")) {
-                        let _ = writeln!(text, "{l}");
-                    }
-                }
-            }
-            if !text.is_empty() {
-                // Stale slots that name one of these devices would be matched first.
-                for m in ids.len()..4 {
-                    let name = format!("TC_A{m}_ID");
-                    if let Some(&v) = log.params.get(&name) {
-                        if ids.contains(&(v as i64 as i32 as u32)) {
-                            let _ = writeln!(
-                                text,
-                                "# {name} named device {} in the log: cleared so it cannot shadow the slot above",
-                                v as i64 as i32 as u32
-                            );
-                            let _ = writeln!(text, "1\t1\t{name}\t0\t6");
-                        }
-                    }
-                }
-                files.push((PX4_FILE, text));
-            }
-        }
-        Stack::ArduPilot => {
-            let (mut enable, mut values) = (String::new(), String::new());
-            let mut imus = Vec::new();
-            for (index, id, axes, k) in &calibrated {
-                let eo = ExportOptions { ardupilot_instance: *index, ..ExportOptions::default() };
-                let (texts, notes) = export_texts(axes, &eo);
-                export_notes.extend(
-                    notes
-                        .into_iter()
-                        .filter(|n| *n != ExportNote::NoPx4DeviceId)
-                        .map(|n| format!("instance {index}: {n}")),
-                );
-                let get = |f: &str| texts.iter().find(|(n, _)| *n == f).map(|(_, t)| t.clone());
-                let (Some(e), Some(v)) = (get(ARDUPILOT_ENABLE_FILE), get(ARDUPILOT_VALUES_FILE)) else { continue };
-                let n = u16::from(*index) + 1;
-                imus.push(n);
-                outcomes[*k].exported_as = Some(format!(
-                    "INS_TCAL{n}_* (IMU instance {index}{})",
-                    id.map_or(String::new(), |id| format!(", device ID {id}"))
-                ));
-                for (all, t) in [(&mut enable, e), (&mut values, v)] {
-                    if all.is_empty() {
-                        all.push_str(&t);
-                    } else {
-                        let _ = writeln!(all, "# INS_TCAL{n}: IMU instance {index} of the log");
-                        for l in t.lines().filter(|l| !l.starts_with('#')) {
-                            let _ = writeln!(all, "{l}");
-                        }
-                    }
-                }
-            }
-            if !enable.is_empty() {
-                files.push((ARDUPILOT_ENABLE_FILE, enable));
-                files.push((ARDUPILOT_VALUES_FILE, values));
-            }
-        }
-    }
+    let files = match log.stack {
+        Stack::Px4 => px4_export(log, &calibrated, &mut outcomes, &mut export_notes),
+        Stack::ArduPilot => ardupilot_export(&calibrated, &mut outcomes, &mut export_notes),
+    };
     let mut written = Vec::new();
     for (name, text) in files {
         std::fs::write(out.join(name), text).map_err(|e| io(&e))?;
         written.push(name.to_string());
     }
-    let mut all_files: Vec<FileUse> = written.iter().map(|f| FileUse::of(f)).collect();
-    all_files.extend(["report.json", "report.md", "report.html"].map(FileUse::of));
-    all_files.extend(outcomes.iter().filter_map(|o| o.dir.as_ref()).map(|d| FileUse {
-        file: format!("{d}/"),
-        action: "that instance's table (table.bin: flash this), reports and plot".to_string(),
-    }));
-    let mut verdict = Verdict::merge(&verdicts, &limits.source(), all_files);
-    verdict.warnings.extend(export_notes.iter().cloned());
-    for o in outcomes.iter().filter(|o| o.refused.is_some()) {
-        verdict.warnings.push(format!("instance {} refused: {}", o.index, o.refused.as_deref().unwrap_or("")));
-    }
+    let verdict = merged_verdict(&verdicts, limits, &written, &outcomes, &export_notes);
     let cal = AutopilotCalibration {
         verdict,
         log: log.stack.to_string(),
@@ -303,12 +180,207 @@ pub fn calibrate_autopilot(
         written,
         export_notes,
     };
-    let json = qfa_report::verdict::json_with_verdict(&cal.verdict, &cal).map_err(|e| io(&e))?;
-    std::fs::write(out.join("report.json"), json).map_err(|e| io(&e))?;
-    std::fs::write(out.join("report.md"), static_cal::with_verdict(&cal.verdict, &markdown(&cal)))
-        .map_err(|e| io(&e))?;
-    page(&cal).write(out).map_err(|e| io(&e))?;
+    write_reports(out, &cal)?;
     Ok(cal)
+}
+
+/// Create `out` and remove the export files an older run left in it, so none is taken
+/// for this run's.
+fn remove_old_exports(out: &Path) -> Result<(), AutopilotCalError> {
+    let io = |e: &dyn fmt::Display| AutopilotCalError::Io(format!("{}: {e}", out.display()));
+    std::fs::create_dir_all(out).map_err(|e| io(&e))?;
+    for f in EXPORT_FILES {
+        match std::fs::remove_file(out.join(f)) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(io(&e)),
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
+/// What [`check`] found for one instance, as its outcome before calibration.
+fn instance_outcome(c: &qfa_log::autopilot::InstanceCheck) -> InstanceOutcome {
+    let (temp_step_c, coarse) = match c.temperature {
+        Temperature::Resolution { step_c, coarse } => (Some(step_c), coarse),
+        Temperature::Missing { .. } => (None, false),
+    };
+    InstanceOutcome {
+        index: c.index,
+        device_id: c.device_id,
+        samples: c.samples,
+        temp_step_c,
+        temp_dequantized: coarse,
+        refused: c.refused.clone(),
+        warnings: c.warnings.clone(),
+        dir: None,
+        exported_as: None,
+        heldout_rms_mg: Vec::new(),
+    }
+}
+
+/// One instance read as a static log (its temperature rebuilt between coarse steps when
+/// [`check`] found them) and calibrated; the error is the reason it is refused.
+fn calibrate_instance(
+    inst: &qfa_log::autopilot::AccelInstance,
+    c: &qfa_log::autopilot::InstanceCheck,
+    opts: &StaticCalOptions,
+    progress: bool,
+) -> Result<static_cal::StaticCalibration, String> {
+    let coarse = matches!(c.temperature, Temperature::Resolution { coarse: true, .. });
+    let name = c.name();
+    inst.to_static(coarse)
+        .map_err(|e| e.to_string())
+        .and_then(|l| static_cal::calibrate_static(&l, opts, progress).map_err(|e| format!("{name}: {e}")))
+}
+
+/// Write a calibrated instance's folder `out/instance{I}/` (table, reports, page) and
+/// record it and its held-out figures in `o`; its verdict.
+fn write_instance(
+    out: &Path,
+    cal: &static_cal::StaticCalibration,
+    plots: bool,
+    limits: &LimitsChoice,
+    o: &mut InstanceOutcome,
+) -> Result<Verdict, AutopilotCalError> {
+    let io = |e: &dyn fmt::Display| AutopilotCalError::Io(format!("{}: {e}", out.display()));
+    let dir = format!("instance{}", o.index);
+    let d = out.join(&dir);
+    let files = static_cal::static_files(plots, &[]);
+    let v = static_verdict(cal, limits, &files, &o.warnings);
+    static_cal::write_static(&d, cal, &v).map_err(|e| io(&e))?;
+    static_cal::write_static_page(&d, cal, plots, &v).map_err(|e| io(&e))?;
+    o.heldout_rms_mg = cal.report.axes.iter().map(|a| (a.axis.clone(), figure(&a.ours), figure(&a.cubic))).collect();
+    o.dir = Some(dir);
+    Ok(v)
+}
+
+/// PX4's `px4_tc.params`: a `TC_An_*` slot per calibrated instance with a device ID, and
+/// stale slots of the log that name one of those devices cleared; each exported outcome
+/// gets its slot, `notes` the export's notes that concern PX4.
+fn px4_export(
+    log: &AutopilotLog,
+    calibrated: &[(u8, Option<u32>, Vec<crate::export::ExportAxis>, usize)],
+    outcomes: &mut [InstanceOutcome],
+    notes_out: &mut Vec<String>,
+) -> Vec<(&'static str, String)> {
+    let mut text = String::new();
+    let mut ids = Vec::new();
+    for (slot, (index, id, axes, k)) in calibrated.iter().enumerate() {
+        let slot = slot as u8;
+        let Some(id) = id else { continue };
+        let eo = ExportOptions { px4_device_id: Some(*id as i32), px4_slot: slot, ..ExportOptions::default() };
+        let (texts, notes) = export_texts(axes, &eo);
+        notes_out.extend(
+            notes
+                .into_iter()
+                .filter(|n| !matches!(n, ExportNote::NoArdupilotFit(_) | ExportNote::ArdupilotRange { .. }))
+                .map(|n| format!("instance {index}: {n}")),
+        );
+        let Some((_, t)) = texts.into_iter().find(|(n, _)| *n == PX4_FILE) else { continue };
+        ids.push(*id);
+        outcomes[*k].exported_as = Some(format!("TC_A{slot}_* (TC_A{slot}_ID = {id})"));
+        if text.is_empty() {
+            text = t;
+        } else {
+            let _ = writeln!(text, "# TC_A{slot}: accelerometer instance {index} of the log, device ID {id}");
+            for l in t.lines().filter(|l| !l.starts_with('#') && !l.contains("\tTC_A_ENABLE\t")) {
+                let _ = writeln!(text, "{l}");
+            }
+        }
+    }
+    if text.is_empty() {
+        return Vec::new();
+    }
+    // Stale slots that name one of these devices would be matched first.
+    for m in ids.len()..4 {
+        let name = format!("TC_A{m}_ID");
+        if let Some(&v) = log.params.get(&name) {
+            if ids.contains(&(v as i64 as i32 as u32)) {
+                let _ = writeln!(
+                    text,
+                    "# {name} named device {} in the log: cleared so it cannot shadow the slot above",
+                    v as i64 as i32 as u32
+                );
+                let _ = writeln!(text, "1\t1\t{name}\t0\t6");
+            }
+        }
+    }
+    vec![(PX4_FILE, text)]
+}
+
+/// ArduPilot's two `.parm` files: `INS_TCAL{I+1}_*` for each calibrated IMU instance I;
+/// each exported outcome gets its parameters, `notes` the export's notes that concern
+/// ArduPilot.
+fn ardupilot_export(
+    calibrated: &[(u8, Option<u32>, Vec<crate::export::ExportAxis>, usize)],
+    outcomes: &mut [InstanceOutcome],
+    notes_out: &mut Vec<String>,
+) -> Vec<(&'static str, String)> {
+    let (mut enable, mut values) = (String::new(), String::new());
+    let mut imus = Vec::new();
+    for (index, id, axes, k) in calibrated {
+        let eo = ExportOptions { ardupilot_instance: *index, ..ExportOptions::default() };
+        let (texts, notes) = export_texts(axes, &eo);
+        notes_out.extend(
+            notes.into_iter().filter(|n| *n != ExportNote::NoPx4DeviceId).map(|n| format!("instance {index}: {n}")),
+        );
+        let get = |f: &str| texts.iter().find(|(n, _)| *n == f).map(|(_, t)| t.clone());
+        let (Some(e), Some(v)) = (get(ARDUPILOT_ENABLE_FILE), get(ARDUPILOT_VALUES_FILE)) else { continue };
+        let n = u16::from(*index) + 1;
+        imus.push(n);
+        outcomes[*k].exported_as = Some(format!(
+            "INS_TCAL{n}_* (IMU instance {index}{})",
+            id.map_or(String::new(), |id| format!(", device ID {id}"))
+        ));
+        for (all, t) in [(&mut enable, e), (&mut values, v)] {
+            if all.is_empty() {
+                all.push_str(&t);
+            } else {
+                let _ = writeln!(all, "# INS_TCAL{n}: IMU instance {index} of the log");
+                for l in t.lines().filter(|l| !l.starts_with('#')) {
+                    let _ = writeln!(all, "{l}");
+                }
+            }
+        }
+    }
+    if enable.is_empty() {
+        return Vec::new();
+    }
+    vec![(ARDUPILOT_ENABLE_FILE, enable), (ARDUPILOT_VALUES_FILE, values)]
+}
+
+/// The log's verdict: the calibrated instances' verdicts merged, over the files written
+/// and each instance's folder, with the export notes and the refusals as warnings.
+fn merged_verdict(
+    verdicts: &[(String, Verdict)],
+    limits: &LimitsChoice,
+    written: &[String],
+    outcomes: &[InstanceOutcome],
+    export_notes: &[String],
+) -> Verdict {
+    let mut all_files: Vec<FileUse> = written.iter().map(|f| FileUse::of(f)).collect();
+    all_files.extend(["report.json", "report.md", "report.html"].map(FileUse::of));
+    all_files.extend(outcomes.iter().filter_map(|o| o.dir.as_ref()).map(|d| FileUse {
+        file: format!("{d}/"),
+        action: "that instance's table (table.bin: flash this), reports and plot".to_string(),
+    }));
+    let mut verdict = Verdict::merge(verdicts, &limits.source(), all_files);
+    verdict.warnings.extend(export_notes.iter().cloned());
+    for o in outcomes.iter().filter(|o| o.refused.is_some()) {
+        verdict.warnings.push(format!("instance {} refused: {}", o.index, o.refused.as_deref().unwrap_or("")));
+    }
+    verdict
+}
+
+/// Write the log's `report.json`, `report.md` and `report.html` into `out`.
+fn write_reports(out: &Path, cal: &AutopilotCalibration) -> Result<(), AutopilotCalError> {
+    let io = |e: &dyn fmt::Display| AutopilotCalError::Io(format!("{}: {e}", out.display()));
+    let json = qfa_report::verdict::json_with_verdict(&cal.verdict, cal).map_err(|e| io(&e))?;
+    std::fs::write(out.join("report.json"), json).map_err(|e| io(&e))?;
+    std::fs::write(out.join("report.md"), static_cal::with_verdict(&cal.verdict, &markdown(cal)))
+        .map_err(|e| io(&e))?;
+    page(cal).write(out).map_err(|e| io(&e))?;
+    Ok(())
 }
 
 /// The log's `report.html`: the verdict, then each instance with a link to its own page.

@@ -182,24 +182,51 @@ fn ardupilot_axis(axis: &str) -> &'static str {
 #[must_use]
 pub fn export_texts(axes: &[ExportAxis], opts: &ExportOptions) -> (Vec<(&'static str, String)>, Vec<ExportNote>) {
     let mut notes = Vec::new();
-    let Some(first) = axes.first() else { return (Vec::new(), notes) };
     let mut roles: Vec<&str> = axes.iter().map(|a| a.axis.as_str()).collect();
     roles.sort_unstable();
     roles.dedup();
     let complete = roles == ["ax", "ay", "az"];
+    let Some(polys) = export_polys(axes, opts, complete, &mut notes) else { return (Vec::new(), notes) };
+    let partial_note = partial_note(axes, opts, complete);
+    let sources = axes.iter().map(|a| a.source.as_str()).collect::<Vec<_>>().join(", ");
+    let mut files = Vec::new();
+    match opts.px4_device_id {
+        None => notes.push(ExportNote::NoPx4DeviceId),
+        Some(id) => files.push((PX4_FILE, px4_text(axes, &polys, opts.px4_slot, id, &partial_note, &sources))),
+    }
+    match ardupilot_texts(axes, &polys, opts, &partial_note, &sources) {
+        Ok((enable, values)) => {
+            files.push((ARDUPILOT_ENABLE_FILE, enable));
+            files.push((ARDUPILOT_VALUES_FILE, values));
+        }
+        Err(note) => notes.push(note),
+    }
+    (files, notes)
+}
+
+/// Each axis's (PX4 cubic, ArduPilot polynomial) to export; `None` (the reason in
+/// `notes`) when the axes cannot share the stacks' common fields: no axis, axes that are
+/// not the three (`complete`) with one training range and no `range_c`, or a `range_c`
+/// outside an axis's training temperatures.
+fn export_polys(
+    axes: &[ExportAxis],
+    opts: &ExportOptions,
+    complete: bool,
+    notes: &mut Vec<ExportNote>,
+) -> Option<Vec<(Poly, Poly)>> {
+    let first = axes.first()?;
     // The training temperatures every axis saw (the same rows for a static log).
     let lo = axes.iter().map(|a| a.cubic.tmin_c).fold(f64::NEG_INFINITY, f64::max);
     let hi = axes.iter().map(|a| a.cubic.tmax_c).fold(f64::INFINITY, f64::min);
     let same = axes.iter().all(|a| a.cubic.tmin_c == first.cubic.tmin_c && a.cubic.tmax_c == first.cubic.tmax_c);
-    let names = || axes.iter().map(|a| a.axis.as_str()).collect::<Vec<_>>().join(", ");
-    let (polys, partial_note): (Vec<(Poly, Poly)>, Option<String>) = match opts.range_c {
-        None if complete && same => (axes.iter().map(|a| (a.cubic.clone(), ardupilot_or_cubic(a))).collect(), None),
+    match opts.range_c {
+        None if complete && same => Some(axes.iter().map(|a| (a.cubic.clone(), ardupilot_or_cubic(a))).collect()),
         None => {
             notes.push(ExportNote::SharedFieldsNeedRange {
                 axes: axes.iter().map(|a| a.axis.clone()).collect(),
                 training_c: (lo, hi),
             });
-            return (Vec::new(), notes);
+            None
         }
         Some((rlo, rhi)) => {
             // Exported about a range inside the training temperatures only: outside them
@@ -210,96 +237,117 @@ pub fn export_texts(axes: &[ExportAxis], opts: &ExportOptions) -> (Vec<(&'static
                     training_c: (a.cubic.tmin_c, a.cubic.tmax_c),
                     axis: a.axis.clone(),
                 });
-                return (Vec::new(), notes);
+                return None;
             }
             let mid = 0.5 * (rlo + rhi);
-            let polys = axes
-                .iter()
-                .map(|a| {
-                    let ap = Poly { tmin_c: rlo, tmax_c: rhi, ..ardupilot_or_cubic(a) };
-                    (a.cubic.about(mid, rlo, rhi), ap)
-                })
-                .collect();
-            let note = (!complete).then(|| {
-                format!(
-                    "This file sets the fields the three axes share for {} only: load onto one vehicle only qfa-lab \
-                     files exported with the same --export-range {rlo},{rhi}.",
-                    names()
-                )
-            });
-            (polys, note)
-        }
-    };
-    let sources = axes.iter().map(|a| a.source.as_str()).collect::<Vec<_>>().join(", ");
-    let (slot, imu) = (opts.px4_slot, u16::from(opts.ardupilot_instance) + 1);
-    let mut files = Vec::new();
-    let cubic0 = &polys[0].0;
-
-    // PX4: `TemperatureCompensation::calc_thermal_offsets_3D` (PX4-Autopilot,
-    // src/modules/temperature_compensation) computes offset = X0 + X1·dT + X2·dT² + X3·dT³
-    // with dT = T clipped to TMIN..TMAX minus TREF, for the accelerometer whose device ID
-    // equals TC_A0_ID; `calibration::Accelerometer::Correct` subtracts it in the sensor
-    // frame, before the rotation. TC_A_ENABLE is read at startup (`reboot_required`).
-    match opts.px4_device_id {
-        None => notes.push(ExportNote::NoPx4DeviceId),
-        Some(id) => {
-            let mut s = String::from("# Onboard parameters for Vehicle 1\n");
-            let _ = writeln!(
-                s,
-                "# qfa-lab: PX4 thermal compensation of accelerometer slot {slot} (TC_A{slot}_*), the cubic of the bias in \
-                 temperature fitted on every row of the log.\n\
-                 # TC_A{slot}_ID = {id}: PX4 applies TC_A{slot}_* only to the accelerometer with this device ID (its CAL_ACCn_ID, CAL_ACC0_ID for the first, \
-                 parameter, or device_id in `listener sensor_accel`).\n\
-                 # TC_A{slot}_Xk_0/1/2 are the sensor's own x, y, z (PX4 subtracts the offset before the board rotation): \
-                 here from the log's {sources}; m/s2 per degC^k of T - TC_A{slot}_TREF, T clamped to TC_A{slot}_TMIN..TC_A{slot}_TMAX."
-            );
-            if let Some(n) = &partial_note {
-                let _ = writeln!(s, "# {n}");
-            }
-            let _ = write!(
-                s,
-                "# After loading (QGroundControl: Vehicle Setup > Parameters > Tools > Load from file):\n\
-                 #  1. Reboot: TC_A_ENABLE is read only at startup.\n\
-                 #  2. Run the ordinary accelerometer calibration: TC_A{slot}_X0_* are 0 here, so its offsets take up the \
-                 constant bias at the calibration temperature.\n\
-                 #  3. Reboot again before flying: PX4 reads the thermal compensation parameters at startup.\n\
-                 # Vehicle-Id\tComponent-Id\tName\tValue\tType\n",
-            );
-            let _ = writeln!(s, "1\t1\tTC_A_ENABLE\t1\t6");
-            let _ = writeln!(s, "1\t1\tTC_A{slot}_ID\t{id}\t6");
-            for (name, v) in [("TREF", cubic0.tref_c), ("TMIN", cubic0.tmin_c), ("TMAX", cubic0.tmax_c)] {
-                let _ = writeln!(s, "1\t1\tTC_A{slot}_{name}\t{v:.6}\t9");
-            }
-            for (a, (p, _)) in axes.iter().zip(&polys) {
-                let i = px4_index(&a.axis);
-                for k in 0..4 {
-                    // X0 = 0 as PX4's own calibration writes it ("zero at the reference
-                    // temperature"): the ordinary accelerometer calibration holds the offset.
-                    let v = if k == 0 { 0.0 } else { p.coef[k] * G0_MPS2 };
-                    let _ = writeln!(s, "1\t1\tTC_A{slot}_X{k}_{i}\t{v:.9e}\t9");
-                }
-            }
-            files.push((PX4_FILE, s));
+            Some(
+                axes.iter()
+                    .map(|a| {
+                        let ap = Poly { tmin_c: rlo, tmax_c: rhi, ..ardupilot_or_cubic(a) };
+                        (a.cubic.about(mid, rlo, rhi), ap)
+                    })
+                    .collect(),
+            )
         }
     }
+}
 
-    // ArduPilot: `AP_InertialSensor::TCal::correct_sensor` (ArduPilot,
-    // libraries/AP_InertialSensor/AP_InertialSensor_tempcal.cpp) clips T and the
-    // accelerometer calibration temperature to TMIN..TMAX and corrects by
-    // −p(T − 35) + p(CALTEMP − 35), p(d) = (ACC1·d + ACC2·d² + ACC3·d³)·10⁻⁶. ENABLE
-    // carries AP_PARAM_FLAG_ENABLE (the group's other parameters are hidden until it is
-    // set) and @RebootRequired; TMIN/TMAX have @Range -70 80.
+/// The note the files of an export about `range_c` carry when it is not of the three axes
+/// (`complete`): only files exported with the same range may be loaded together.
+fn partial_note(axes: &[ExportAxis], opts: &ExportOptions, complete: bool) -> Option<String> {
+    let (rlo, rhi) = opts.range_c?;
+    let names = || axes.iter().map(|a| a.axis.as_str()).collect::<Vec<_>>().join(", ");
+    (!complete).then(|| {
+        format!(
+            "This file sets the fields the three axes share for {} only: load onto one vehicle only qfa-lab \
+             files exported with the same --export-range {rlo},{rhi}.",
+            names()
+        )
+    })
+}
+
+/// `px4_tc.params` for slot `slot`, device `id`.
+///
+/// PX4: `TemperatureCompensation::calc_thermal_offsets_3D` (PX4-Autopilot,
+/// src/modules/temperature_compensation) computes offset = X0 + X1·dT + X2·dT² + X3·dT³
+/// with dT = T clipped to TMIN..TMAX minus TREF, for the accelerometer whose device ID
+/// equals TC_A0_ID; `calibration::Accelerometer::Correct` subtracts it in the sensor
+/// frame, before the rotation. TC_A_ENABLE is read at startup (`reboot_required`).
+fn px4_text(
+    axes: &[ExportAxis],
+    polys: &[(Poly, Poly)],
+    slot: u8,
+    id: i32,
+    partial_note: &Option<String>,
+    sources: &str,
+) -> String {
+    let cubic0 = &polys[0].0;
+    let mut s = String::from("# Onboard parameters for Vehicle 1\n");
+    let _ = writeln!(
+        s,
+        "# qfa-lab: PX4 thermal compensation of accelerometer slot {slot} (TC_A{slot}_*), the cubic of the bias in \
+         temperature fitted on every row of the log.\n\
+         # TC_A{slot}_ID = {id}: PX4 applies TC_A{slot}_* only to the accelerometer with this device ID (its CAL_ACCn_ID, CAL_ACC0_ID for the first, \
+         parameter, or device_id in `listener sensor_accel`).\n\
+         # TC_A{slot}_Xk_0/1/2 are the sensor's own x, y, z (PX4 subtracts the offset before the board rotation): \
+         here from the log's {sources}; m/s2 per degC^k of T - TC_A{slot}_TREF, T clamped to TC_A{slot}_TMIN..TC_A{slot}_TMAX."
+    );
+    if let Some(n) = partial_note {
+        let _ = writeln!(s, "# {n}");
+    }
+    let _ = write!(
+        s,
+        "# After loading (QGroundControl: Vehicle Setup > Parameters > Tools > Load from file):\n\
+         #  1. Reboot: TC_A_ENABLE is read only at startup.\n\
+         #  2. Run the ordinary accelerometer calibration: TC_A{slot}_X0_* are 0 here, so its offsets take up the \
+         constant bias at the calibration temperature.\n\
+         #  3. Reboot again before flying: PX4 reads the thermal compensation parameters at startup.\n\
+         # Vehicle-Id\tComponent-Id\tName\tValue\tType\n",
+    );
+    let _ = writeln!(s, "1\t1\tTC_A_ENABLE\t1\t6");
+    let _ = writeln!(s, "1\t1\tTC_A{slot}_ID\t{id}\t6");
+    for (name, v) in [("TREF", cubic0.tref_c), ("TMIN", cubic0.tmin_c), ("TMAX", cubic0.tmax_c)] {
+        let _ = writeln!(s, "1\t1\tTC_A{slot}_{name}\t{v:.6}\t9");
+    }
+    for (a, (p, _)) in axes.iter().zip(polys) {
+        let i = px4_index(&a.axis);
+        for k in 0..4 {
+            // X0 = 0 as PX4's own calibration writes it ("zero at the reference
+            // temperature"): the ordinary accelerometer calibration holds the offset.
+            let v = if k == 0 { 0.0 } else { p.coef[k] * G0_MPS2 };
+            let _ = writeln!(s, "1\t1\tTC_A{slot}_X{k}_{i}\t{v:.9e}\t9");
+        }
+    }
+    s
+}
+
+/// The two ArduPilot files (enable, values) for IMU `opts.ardupilot_instance + 1`, or the
+/// note saying why they are left out (an axis without an ArduPilot fit, or a range
+/// ArduPilot refuses).
+///
+/// ArduPilot: `AP_InertialSensor::TCal::correct_sensor` (ArduPilot,
+/// libraries/AP_InertialSensor/AP_InertialSensor_tempcal.cpp) clips T and the
+/// accelerometer calibration temperature to TMIN..TMAX and corrects by
+/// −p(T − 35) + p(CALTEMP − 35), p(d) = (ACC1·d + ACC2·d² + ACC3·d³)·10⁻⁶. ENABLE
+/// carries AP_PARAM_FLAG_ENABLE (the group's other parameters are hidden until it is
+/// set) and @RebootRequired; TMIN/TMAX have @Range -70 80.
+fn ardupilot_texts(
+    axes: &[ExportAxis],
+    polys: &[(Poly, Poly)],
+    opts: &ExportOptions,
+    partial_note: &Option<String>,
+    sources: &str,
+) -> Result<(String, String), ExportNote> {
+    let imu = u16::from(opts.ardupilot_instance) + 1;
     if let Some(why) = axes.iter().find_map(|a| a.ardupilot.as_ref().err()) {
-        notes.push(ExportNote::NoArdupilotFit(ardupilot_reason(why)));
-        return (files, notes);
+        return Err(ExportNote::NoArdupilotFit(ardupilot_reason(why)));
     }
     let (tmin, tmax) = (polys[0].1.tmin_c, polys[0].1.tmax_c);
     let (rmin, rmax) = ARDUPILOT_T_RANGE_C;
     // As written (two decimals, as ArduPilot prints them), so the check is on the file's values.
     let (wmin, wmax) = ((tmin * 100.0).round() / 100.0, (tmax * 100.0).round() / 100.0);
     if wmin < rmin || wmax > rmax {
-        notes.push(ExportNote::ArdupilotRange { range_c: opts.range_c, training_c: (tmin, tmax), imu });
-        return (files, notes);
+        return Err(ExportNote::ArdupilotRange { range_c: opts.range_c, training_c: (tmin, tmax), imu });
     }
     let n_values = 2 + 3 * axes.len();
     let enable = format!(
@@ -321,13 +369,13 @@ pub fn export_texts(axes: &[ExportAxis], opts: &ExportOptions) -> (Vec<(&'static
          # TMIN/TMAX clamp T (ArduPilot accepts -70..80 degC); they also clamp the gyro terms INS_TCAL{imu}_GYR*,\n\
          # which this file leaves as they are.\n"
     );
-    if let Some(n) = &partial_note {
+    if let Some(n) = partial_note {
         let _ = writeln!(values, "# {n}");
     }
     let _ = writeln!(values, "INS_TCAL{imu}_TMIN,{tmin:.2}");
     let _ = writeln!(values, "INS_TCAL{imu}_TMAX,{tmax:.2}");
     for k in 1..4 {
-        for (a, (_, p)) in axes.iter().zip(&polys) {
+        for (a, (_, p)) in axes.iter().zip(polys) {
             let _ = writeln!(
                 values,
                 "INS_TCAL{imu}_ACC{k}_{},{:.6}",
@@ -336,9 +384,7 @@ pub fn export_texts(axes: &[ExportAxis], opts: &ExportOptions) -> (Vec<(&'static
             );
         }
     }
-    files.push((ARDUPILOT_ENABLE_FILE, enable));
-    files.push((ARDUPILOT_VALUES_FILE, values));
-    (files, notes)
+    Ok((enable, values))
 }
 
 /// Write the PX4 and ArduPilot parameter files of `axes` into `dir`, each only when the

@@ -226,10 +226,54 @@ pub fn from_chamber_log(path: &Path, bytes: &[u8], base: &ReadFlags) -> Result<V
         .iter()
         .map(|h| h.trim().to_string())
         .collect();
+    let (mut order, mut others) = (Vec::new(), Vec::new());
+    let cols = serial_columns(path, &header, &mut order, &mut others)?;
+    let time_col = time_column(path, &header, &others, base)?;
+    check_serials(order.iter().map(String::as_str))?;
+    // Per unit: serial, the (role, column) pairs it has, and its one-unit log's text.
+    struct Split {
+        serial: String,
+        picked: Vec<(&'static str, usize)>,
+        text: String,
+    }
+    let mut units: Vec<Split> = Vec::new();
+    for s in &order {
+        let picked = unit_roles(path, s, &cols[s])?;
+        let text = header_line(&picked);
+        units.push(Split { serial: s.clone(), picked, text });
+    }
+    for rec in rd.records() {
+        let rec = rec.map_err(|e| BatchError::Chamber(format!("{}: {e}", path.display())))?;
+        let field = |i: usize| rec.get(i).unwrap_or("").trim();
+        let t = field(time_col);
+        for u in &mut units {
+            u.text.push_str(t);
+            for (_, i) in &u.picked {
+                u.text.push('\t');
+                u.text.push_str(field(*i));
+            }
+            u.text.push('\n');
+        }
+    }
+    let columns: ColumnMap = "time=time,temp=temp,ax=ax,ay=ay,az=az"
+        .parse()
+        .map_err(|e| BatchError::Chamber(format!("internal column map: {e}")))?;
+    Ok(units
+        .into_iter()
+        .map(|Split { serial, picked, text }| unit_input(path, &header, &columns, base, serial, &picked, text))
+        .collect())
+}
+
+/// The header's unit columns, serial → role → column index; the serials in the header's
+/// order go to `order`, the columns without a serial to `others`.
+fn serial_columns(
+    path: &Path,
+    header: &[String],
+    order: &mut Vec<String>,
+    others: &mut Vec<usize>,
+) -> Result<BTreeMap<String, BTreeMap<&'static str, usize>>, BatchError> {
     // serial → role → column index, in the header's order of serials.
-    let mut order: Vec<String> = Vec::new();
     let mut cols: BTreeMap<String, BTreeMap<&'static str, usize>> = BTreeMap::new();
-    let mut others = Vec::new();
     for (i, h) in header.iter().enumerate() {
         let role = h.rsplit_once('.').and_then(|(s, r)| UNIT_ROLES.iter().find(|x| **x == r).map(|x| (s, *x)));
         match role {
@@ -251,13 +295,19 @@ pub fn from_chamber_log(path: &Path, bytes: &[u8], base: &ReadFlags) -> Result<V
             path.display()
         )));
     }
+    Ok(cols)
+}
+
+/// The time column: the one `--columns time=NAME` names, or else the one column without a
+/// serial (`others`).
+fn time_column(path: &Path, header: &[String], others: &[usize], base: &ReadFlags) -> Result<usize, BatchError> {
     let time_name =
         base.columns.as_ref().and_then(|c| c.roles.iter().find(|(r, _)| r == "time").map(|(_, c)| c.clone()));
     let time_col = match time_name {
         Some(name) => header.iter().position(|h| *h == name).ok_or_else(|| {
             BatchError::Chamber(format!("{}: no column `{name}` (from --columns time=…)", path.display()))
         })?,
-        None => match others.as_slice() {
+        None => match others {
             [i] => *i,
             [] => {
                 return Err(BatchError::Chamber(format!(
@@ -275,67 +325,61 @@ pub fn from_chamber_log(path: &Path, bytes: &[u8], base: &ReadFlags) -> Result<V
             }
         },
     };
-    check_serials(order.iter().map(String::as_str))?;
-    // Per unit: serial, the (role, column) pairs it has, and its one-unit log's text.
-    struct Split {
-        serial: String,
-        picked: Vec<(&'static str, usize)>,
-        text: String,
+    Ok(time_col)
+}
+
+/// Unit `s`'s (role, column) pairs in [`UNIT_ROLES`]' order; refused without `temp` and
+/// an axis.
+fn unit_roles(
+    path: &Path,
+    s: &str,
+    roles: &BTreeMap<&'static str, usize>,
+) -> Result<Vec<(&'static str, usize)>, BatchError> {
+    if !roles.contains_key("temp") || roles.len() < 2 {
+        return Err(BatchError::Chamber(format!(
+            "{}: unit {s} has columns {}: each unit needs SERIAL.temp and at least one of SERIAL.ax, .ay, .az",
+            path.display(),
+            roles.keys().copied().collect::<Vec<_>>().join(", ")
+        )));
     }
-    let mut units: Vec<Split> = Vec::new();
-    for s in &order {
-        let roles = &cols[s];
-        if !roles.contains_key("temp") || roles.len() < 2 {
-            return Err(BatchError::Chamber(format!(
-                "{}: unit {s} has columns {}: each unit needs SERIAL.temp and at least one of SERIAL.ax, .ay, .az",
-                path.display(),
-                roles.keys().copied().collect::<Vec<_>>().join(", ")
-            )));
-        }
-        let picked: Vec<(&'static str, usize)> =
-            UNIT_ROLES.iter().filter_map(|r| roles.get(r).map(|&i| (*r, i))).collect();
-        let mut text = String::from("time");
-        for (r, _) in &picked {
-            text.push('\t');
-            text.push_str(r);
-        }
-        text.push('\n');
-        units.push(Split { serial: s.clone(), picked, text });
+    Ok(UNIT_ROLES.iter().filter_map(|r| roles.get(r).map(|&i| (*r, i))).collect())
+}
+
+/// The header line of a unit's one-unit log: `time`, then its roles.
+fn header_line(picked: &[(&'static str, usize)]) -> String {
+    let mut text = String::from("time");
+    for (r, _) in picked {
+        text.push('\t');
+        text.push_str(r);
     }
-    for rec in rd.records() {
-        let rec = rec.map_err(|e| BatchError::Chamber(format!("{}: {e}", path.display())))?;
-        let field = |i: usize| rec.get(i).unwrap_or("").trim();
-        let t = field(time_col);
-        for u in &mut units {
-            u.text.push_str(t);
-            for (_, i) in &u.picked {
-                u.text.push('\t');
-                u.text.push_str(field(*i));
-            }
-            u.text.push('\n');
-        }
+    text.push('\n');
+    text
+}
+
+/// A unit's input: its one-unit log `text` (columns `picked` of the chamber log), read
+/// with the chamber log's flags and the unit's roles.
+fn unit_input(
+    path: &Path,
+    header: &[String],
+    columns: &ColumnMap,
+    base: &ReadFlags,
+    serial: String,
+    picked: &[(&'static str, usize)],
+    text: String,
+) -> UnitInput {
+    let mut roles = columns.clone();
+    roles.roles.retain(|(r, _)| r == "time" || picked.iter().any(|(p, _)| p == r));
+    let source = format!(
+        "{}, columns {}",
+        path.display(),
+        picked.iter().map(|(_, i)| format!("`{}`", header[*i])).collect::<Vec<_>>().join(", ")
+    );
+    UnitInput {
+        serial,
+        source,
+        rows: UnitRows::Bytes(text.into_bytes()),
+        flags: ReadFlags { columns: Some(roles), ..base.clone() },
     }
-    let columns: ColumnMap = "time=time,temp=temp,ax=ax,ay=ay,az=az"
-        .parse()
-        .map_err(|e| BatchError::Chamber(format!("internal column map: {e}")))?;
-    Ok(units
-        .into_iter()
-        .map(|Split { serial, picked, text }| {
-            let mut roles = columns.clone();
-            roles.roles.retain(|(r, _)| r == "time" || picked.iter().any(|(p, _)| p == r));
-            let source = format!(
-                "{}, columns {}",
-                path.display(),
-                picked.iter().map(|(_, i)| format!("`{}`", header[*i])).collect::<Vec<_>>().join(", ")
-            );
-            UnitInput {
-                serial,
-                source,
-                rows: UnitRows::Bytes(text.into_bytes()),
-                flags: ReadFlags { columns: Some(roles), ..base.clone() },
-            }
-        })
-        .collect())
 }
 
 #[cfg(test)]

@@ -62,7 +62,30 @@ pub(crate) fn write_certificate(
 ) -> Result<(), BatchError> {
     let io = |e: &dyn std::fmt::Display| BatchError::Io(format!("{}: {e}", dir.display()));
     std::fs::create_dir_all(dir).map_err(|e| io(&e))?;
-    let cert = Certificate {
+    let cert = certificate_of(r, f, limits_from);
+    let json = serde_json::to_string_pretty(&cert).map_err(|e| io(&e))?;
+    std::fs::write(dir.join("certificate.json"), json + "\n").map_err(|e| io(&e))?;
+    // A certificate reads the same however the batch was run (one process, shards, a
+    // cluster): it names the batch, not the command line of the process that merged it.
+    let mut p = Page::with_command(
+        &format!("Certificate {}", r.serial),
+        &format!("qfa-lab batch: certificate of unit {} (the batch's command is on fleet.html)", r.serial),
+    );
+    p.raw(&certificate_verdict_html(f));
+    p.section("Certificate").kv(&certificate_rows(r, f, limits_from, &cert.flash));
+    let mut files =
+        vec![("table.bin", "table.bin"), ("report.html", "report.html"), ("certificate.json", "certificate.json")];
+    if f.prior.is_some() {
+        files.insert(0, ("table_prior.bin (flash this)", "table_prior.bin"));
+    }
+    p.section("Files").links(&files);
+    std::fs::write(dir.join("certificate.html"), p.html()).map_err(|e| io(&e))?;
+    Ok(())
+}
+
+/// The certificate of unit `r` with its fleet decision `f`.
+fn certificate_of<'a>(r: &'a UnitResult, f: &'a FleetUnit, limits_from: &'a str) -> Certificate<'a> {
+    Certificate {
         serial: &r.serial,
         decision: f.decision,
         reasons: &f.reasons,
@@ -79,15 +102,11 @@ pub(crate) fn write_certificate(
         prior: &f.prior,
         limits_from,
         written_by: format!("qfa-lab {}", env!("CARGO_PKG_VERSION")),
-    };
-    let json = serde_json::to_string_pretty(&cert).map_err(|e| io(&e))?;
-    std::fs::write(dir.join("certificate.json"), json + "\n").map_err(|e| io(&e))?;
-    // A certificate reads the same however the batch was run (one process, shards, a
-    // cluster): it names the batch, not the command line of the process that merged it.
-    let mut p = Page::with_command(
-        &format!("Certificate {}", r.serial),
-        &format!("qfa-lab batch: certificate of unit {} (the batch's command is on fleet.html)", r.serial),
-    );
+    }
+}
+
+/// The certificate page's verdict section: the decision in words and its reasons.
+fn certificate_verdict_html(f: &FleetUnit) -> String {
     let class = match f.decision {
         Decision::Pass => "pass",
         Decision::Review => "warn",
@@ -107,13 +126,23 @@ pub(crate) fn write_certificate(
         let _ = write!(v, "<li class=\"{class}\">{}</li>", escape(reason));
     }
     v.push_str("</ul></section>\n");
-    p.raw(&v);
+    v
+}
+
+/// The certificate's rows: the unit, the table to flash (`flash`), the prior, the unit's
+/// own fit or why it failed, and its sensor against the fleet.
+fn certificate_rows(
+    r: &UnitResult,
+    f: &FleetUnit,
+    limits_from: &str,
+    flash: &Option<(String, String)>,
+) -> Vec<(String, String)> {
     let mut kv: Vec<(String, String)> = vec![
         ("serial".into(), r.serial.clone()),
         ("source".into(), r.source.clone()),
         ("limits".into(), limits_from.to_string()),
     ];
-    if let Some((file, crc)) = &cert.flash {
+    if let Some((file, crc)) = flash {
         kv.push(("table to flash".into(), format!("{file}, CRC-32 {crc} (its header's, what the firmware checks)")));
     }
     if let Some(p) = &f.prior {
@@ -146,15 +175,7 @@ pub(crate) fn write_certificate(
     }
     kv.push(("sensor offset against the fleet (°C)".into(), m(&f.sensor_offset_c, 2)));
     kv.push(("sensor drift against the fleet (°C/h)".into(), m(&f.sensor_drift_c_per_h, 3)));
-    p.section("Certificate").kv(&kv);
-    let mut files =
-        vec![("table.bin", "table.bin"), ("report.html", "report.html"), ("certificate.json", "certificate.json")];
-    if f.prior.is_some() {
-        files.insert(0, ("table_prior.bin (flash this)", "table_prior.bin"));
-    }
-    p.section("Files").links(&files);
-    std::fs::write(dir.join("certificate.html"), p.html()).map_err(|e| io(&e))?;
-    Ok(())
+    kv
 }
 
 /// Write `fleet.json`, `fleet.html` and its two plots into `out`.
@@ -170,6 +191,21 @@ pub(crate) fn write_fleet(
     let io = |e: &dyn std::fmt::Display| BatchError::Io(format!("{}: {e}", out.display()));
     let json = serde_json::to_string_pretty(fleet).map_err(|e| io(&e))?;
     std::fs::write(out.join("fleet.json"), json + "\n").map_err(|e| io(&e))?;
+    let plots = replace_plots(out, fleet, results)?;
+    let mut p = Page::new("Fleet");
+    p.raw(&verdict_html(fleet, limits_from));
+    capability_section(&mut p, fleet);
+    figures_section(&mut p, out, fleet, plots)?;
+    prior_section(&mut p, fleet);
+    units_section(&mut p, fleet, results);
+    std::fs::write(out.join("fleet.html"), p.html()).map_err(|e| io(&e))?;
+    Ok(())
+}
+
+/// Remove an older batch's plots from `out` and draw this fleet's; false (none drawn)
+/// without a calibrated unit.
+fn replace_plots(out: &Path, fleet: &Fleet, results: &[UnitResult]) -> Result<bool, BatchError> {
+    let io = |e: &dyn std::fmt::Display| BatchError::Io(format!("{}: {e}", out.display()));
     // Without a calibrated unit there is nothing to draw: the plots are not written (an
     // old batch's plots in the folder are removed, so none is taken for this one's).
     let plots = !fleet.stats.is_empty();
@@ -183,8 +219,13 @@ pub(crate) fn write_fleet(
         plot_figures(&out.join("fleet_figures.png"), fleet).map_err(|e| io(&e))?;
         plot_held_out(&out.join("fleet_held_out.png"), fleet, results).map_err(|e| io(&e))?;
     }
+    Ok(plots)
+}
+
+/// The page's verdict section: the counts, then each group of units held back with its
+/// reasons, then where the limits came from.
+fn verdict_html(fleet: &Fleet, limits_from: &str) -> String {
     let [pass, review, fail] = fleet.counts;
-    let mut p = Page::new("Fleet");
     let class = if fail > 0 {
         "fail"
     } else if review > 0 {
@@ -206,7 +247,11 @@ pub(crate) fn write_fleet(
         let _ = write!(v, "<li class=\"{c}\">{who} {decision}: {}</li>", escape(&reasons));
     }
     let _ = writeln!(v, "<li>limits: {}</li></ul></section>", escape(limits_from));
-    p.raw(&v);
+    v
+}
+
+/// Cpk of the fleet against each limit.
+fn capability_section(p: &mut Page, fleet: &Fleet) {
     p.section("Capability against each limit").para(
         "Cpk = (limit − mean) / 3s for a maximum, (mean − limit) / 3s for a minimum, s the batch's standard deviation \
          (Ppk in AIAG terms: one batch, no subgroups). Every limit is one-sided, so Cp is not computed.",
@@ -227,6 +272,12 @@ pub(crate) fn write_fleet(
         })
         .collect();
     p.table(&["limit", "axis", "bound", "units", "mean", "s", "Cpk"], &rows);
+}
+
+/// Each figure's spread across the fleet: the plots (or why there are none) and the
+/// robust statistics.
+fn figures_section(p: &mut Page, out: &Path, fleet: &Fleet, plots: bool) -> Result<(), BatchError> {
+    let io = |e: &dyn std::fmt::Display| BatchError::Io(format!("{}: {e}", out.display()));
     p.section("Figures across the fleet").para(&format!(
         "Robust distance z = (x − median) / (1.4826·MAD) over the units with full coverage; a unit is flagged beyond \
          ±{} (held-out RMS: above only). Red: flagged.",
@@ -253,6 +304,11 @@ pub(crate) fn write_fleet(
         })
         .collect();
     p.table(&["figure", "unit", "units", "median", "robust SD"], &rows);
+    Ok(())
+}
+
+/// The units with partial coverage and the population prior's table each gets.
+fn prior_section(p: &mut Page, fleet: &Fleet) {
     let partial: Vec<Vec<String>> = fleet
         .unit
         .iter()
@@ -280,6 +336,10 @@ pub(crate) fn write_fleet(
     } else {
         p.table(&["serial", "table to flash, CRC-32", "own rows cover", "decided mostly by"], &partial);
     }
+}
+
+/// Every unit's decision, table to flash and reasons, with links to the certificates.
+fn units_section(p: &mut Page, fleet: &Fleet, results: &[UnitResult]) {
     p.section("Units");
     let rows: Vec<Vec<String>> = fleet
         .unit
@@ -298,8 +358,6 @@ pub(crate) fn write_fleet(
     let links: Vec<(String, String)> =
         fleet.unit.iter().map(|u| (u.serial.clone(), format!("{}/certificate.html", u.serial))).collect();
     p.links(&links);
-    std::fs::write(out.join("fleet.html"), p.html()).map_err(|e| io(&e))?;
-    Ok(())
 }
 
 fn plot_figures(path: &Path, fleet: &Fleet) -> Result<(), Box<dyn std::error::Error>> {

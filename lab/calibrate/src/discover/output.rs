@@ -223,10 +223,30 @@ fn flashed_line(s: &mut String, ch: &Channels, r: &Report) {
     );
 }
 
-#[allow(clippy::too_many_lines)]
+/// `report.md`: the opening, the gaps and the summary, then the peers, the effects, what
+/// is unexplained, where the models disagree, the rounds and the files.
 fn markdown(ch: &Channels, r: &Report, scope: Scope<'_>, v: &Verdict) -> String {
-    let (held, held_cap) = (scope.folds_word(), scope.folds_word_capital());
+    let held = scope.folds_word();
     let mut s = String::new();
+    markdown_opening(&mut s, r, scope, v);
+    markdown_gaps(&mut s, ch, r, scope);
+    let _ = writeln!(s, "Summary: {}.\n", summary_text(ch, r, held));
+    if scope.flashable() {
+        flashed_line(&mut s, ch, r);
+    }
+    let _ = writeln!(s, "Selection: {}.\n", scope.relabel(&r.selection_rule));
+    markdown_peers(&mut s, ch, r, held);
+    markdown_effects(&mut s, r, scope);
+    markdown_unexplained(&mut s, ch, r, held);
+    markdown_where(&mut s, ch, r, held);
+    markdown_rounds(&mut s, ch, r, held);
+    markdown_files(&mut s, scope);
+    s
+}
+
+/// The title and verdict, then the start model and the rule its figures come from: the
+/// log's own held-out rule, or a static axis's figures and its selection folds.
+fn markdown_opening(s: &mut String, r: &Report, scope: Scope<'_>, v: &Verdict) {
     match scope {
         Scope::Own => {
             let _ = write!(s, "# Discovery report\n\n{}", v.markdown());
@@ -250,6 +270,12 @@ fn markdown(ch: &Channels, r: &Report, scope: Scope<'_>, v: &Verdict) -> String 
             );
         }
     }
+}
+
+/// The gaps of the start and the named model, the noise floor, the noise model, the
+/// change points and the timing offset, as a list.
+fn markdown_gaps(s: &mut String, ch: &Channels, r: &Report, scope: Scope<'_>) {
+    let (held, held_cap) = (scope.folds_word(), scope.folds_word_capital());
     let _ = writeln!(s, "- {held_cap} gap, start model: {}", gaps_text(ch.bias_unit, &r.heldout_gap_before));
     let _ = writeln!(
         s,
@@ -267,10 +293,14 @@ fn markdown(ch: &Channels, r: &Report, scope: Scope<'_>, v: &Verdict) -> String 
         let _ = writeln!(s, "- Timing offset between the temperature readings and the counts: {line}");
     }
     let _ = writeln!(s);
+}
+
+/// The summary's words after "Summary: ": the effects added, then what is left of the
+/// residual against its noise floor.
+fn summary_text(ch: &Channels, r: &Report, held: &str) -> String {
     let labels = r.effect_labels();
-    let _ = writeln!(
-        s,
-        "Summary: added {}; {}.\n",
+    format!(
+        "added {}; {}",
         if labels.is_empty() { "none".to_string() } else { labels.join(", ") },
         if r.unexplained.is_empty() {
             let ratios = r
@@ -298,11 +328,11 @@ fn markdown(ch: &Channels, r: &Report, scope: Scope<'_>, v: &Verdict) -> String 
                 r.unexplained.iter().map(|u| u.channel.as_str()).collect::<Vec<_>>().join(", ")
             )
         }
-    );
-    if scope.flashable() {
-        flashed_line(&mut s, ch, r);
-    }
-    let _ = writeln!(s, "Selection: {}.\n", scope.relabel(&r.selection_rule));
+    )
+}
+
+/// The peers' table: every model's held-out RMS of the bias channel on the same split.
+fn markdown_peers(s: &mut String, ch: &Channels, r: &Report, held: &str) {
     let unit = ch.bias_unit.label();
     let _ = writeln!(
         s,
@@ -325,6 +355,11 @@ fn markdown(ch: &Channels, r: &Report, scope: Scope<'_>, v: &Verdict) -> String 
         }
     }
     let _ = writeln!(s);
+}
+
+/// The effects added, one row each, or a line saying none was.
+fn markdown_effects(s: &mut String, r: &Report, scope: Scope<'_>) {
+    let held = scope.folds_word();
     if r.effects.is_empty() {
         let _ = writeln!(s, "## Effects added: none\n\nNo candidate improved the {held} fit significantly.\n");
     } else {
@@ -351,65 +386,80 @@ fn markdown(ch: &Channels, r: &Report, scope: Scope<'_>, v: &Verdict) -> String 
         }
         let _ = writeln!(s);
     }
+}
+
+/// The "Unexplained" section, one paragraph per channel with structure left (none when
+/// every channel is explained).
+fn markdown_unexplained(s: &mut String, ch: &Channels, r: &Report, held: &str) {
     if !r.unexplained.is_empty() {
         let _ = writeln!(s, "## Unexplained\n");
         for u in &r.unexplained {
-            let mut line = format!(
-                "- The {} channel keeps structure that no catalog effect explains ({held} RMS {:.3}",
-                u.channel, u.rms
-            );
-            let _ = write!(
-                line,
-                ", {:.1}× its noise floor of {:.3}, 95 % interval [{:.1}, {:.1}]",
-                u.floor.ratio, u.floor.floor, u.floor.ratio_ci95[0], u.floor.ratio_ci95[1]
-            );
-            if let Some(l) = u.run_levels.as_ref().filter(|l| l.significant) {
-                let _ = write!(
-                    line,
-                    "; its mean differs between runs more than noise allows (χ² {:.1} on {} runs, critical {:.1})",
-                    l.q, l.runs, l.critical
-                );
-            }
-            if let Some(c) = &u.change_point {
-                let _ = write!(
-                    line,
-                    "; its level steps by {:+.3} at {:.2} h into {}, which the fitted noise model ({}) rejects (|z| {:.1})",
-                    c.size,
-                    c.at_h,
-                    c.run,
-                    noise_model_of(r, &u.channel).map_or_else(String::new, |n| n.model.text(channel_unit(ch, &u.channel))),
-                    c.z
-                );
-            }
-            match u.structure_rms {
-                Some(x) if !u.correlates_with.is_empty() => {
-                    let _ = write!(line, "; about {x:.3} of it follows {}).", u.correlates_with.join(", then "));
-                }
-                _ => line.push_str("; it follows none of the drivers tested)."),
-            }
-            let ts = &u.time_scales;
-            let _ = write!(
-                line,
-                " It lives mostly {} (RMS across runs {:.3}, slow within runs {:.3}, fast {:.3}).",
-                ts.dominant(),
-                ts.across_runs,
-                ts.within_run_slow,
-                ts.fast
-            );
-            if !u.where_.is_empty() {
-                let _ = write!(line, " It is largest on {}.", u.where_);
-            }
-            if !u.pinned.is_empty() {
-                let _ = write!(
-                    line,
-                    " Catalog effects that would fit only with a parameter at a search limit, so are not named: {}.",
-                    u.pinned.join("; ")
-                );
-            }
+            let line = unexplained_line(ch, r, u, held);
             let _ = writeln!(s, "{line}");
         }
         let _ = writeln!(s);
     }
+}
+
+/// One channel's unexplained structure in words: its size against the noise floor, run
+/// levels, a change point, what it follows, its time scale, where it is largest and the
+/// effects pinned at a search limit.
+fn unexplained_line(ch: &Channels, r: &Report, u: &super::Unexplained, held: &str) -> String {
+    let mut line =
+        format!("- The {} channel keeps structure that no catalog effect explains ({held} RMS {:.3}", u.channel, u.rms);
+    let _ = write!(
+        line,
+        ", {:.1}× its noise floor of {:.3}, 95 % interval [{:.1}, {:.1}]",
+        u.floor.ratio, u.floor.floor, u.floor.ratio_ci95[0], u.floor.ratio_ci95[1]
+    );
+    if let Some(l) = u.run_levels.as_ref().filter(|l| l.significant) {
+        let _ = write!(
+            line,
+            "; its mean differs between runs more than noise allows (χ² {:.1} on {} runs, critical {:.1})",
+            l.q, l.runs, l.critical
+        );
+    }
+    if let Some(c) = &u.change_point {
+        let _ = write!(
+            line,
+            "; its level steps by {:+.3} at {:.2} h into {}, which the fitted noise model ({}) rejects (|z| {:.1})",
+            c.size,
+            c.at_h,
+            c.run,
+            noise_model_of(r, &u.channel).map_or_else(String::new, |n| n.model.text(channel_unit(ch, &u.channel))),
+            c.z
+        );
+    }
+    match u.structure_rms {
+        Some(x) if !u.correlates_with.is_empty() => {
+            let _ = write!(line, "; about {x:.3} of it follows {}).", u.correlates_with.join(", then "));
+        }
+        _ => line.push_str("; it follows none of the drivers tested)."),
+    }
+    let ts = &u.time_scales;
+    let _ = write!(
+        line,
+        " It lives mostly {} (RMS across runs {:.3}, slow within runs {:.3}, fast {:.3}).",
+        ts.dominant(),
+        ts.across_runs,
+        ts.within_run_slow,
+        ts.fast
+    );
+    if !u.where_.is_empty() {
+        let _ = write!(line, " It is largest on {}.", u.where_);
+    }
+    if !u.pinned.is_empty() {
+        let _ = write!(
+            line,
+            " Catalog effects that would fit only with a parameter at a search limit, so are not named: {}.",
+            u.pinned.join("; ")
+        );
+    }
+    line
+}
+
+/// Where the start model and where the final model disagree, one table each.
+fn markdown_where(s: &mut String, ch: &Channels, r: &Report, held: &str) {
     let unit = if ch.kind == LogKind::Cycling { "ppm / µg".to_string() } else { ch.bias_unit.label().to_string() };
     let _ = writeln!(
         s,
@@ -425,6 +475,10 @@ fn markdown(ch: &Channels, r: &Report, scope: Scope<'_>, v: &Verdict) -> String 
     for w in &r.where_after {
         let _ = writeln!(s, "| {} | {} | {:.3} |", w.channel, w.segment, w.rms);
     }
+}
+
+/// Every round's candidates, one table per round.
+fn markdown_rounds(s: &mut String, ch: &Channels, r: &Report, held: &str) {
     let _ = writeln!(s, "\n## Candidates per round\n\nGain: drop of the {held} Σ(residual/RMS)² (units of one bin's variance); SE from the block sums; significant when gain/SE exceeds the critical value.\n");
     for (i, round) in r.rounds.iter().enumerate() {
         let _ = writeln!(s, "### Round {}\n\n| candidate | channel | gain | SE | gain/SE | critical | blocks × bins | significant | at search limit | {held} gaps |\n|---|---|---|---|---|---|---|---|---|---|", i + 1);
@@ -433,12 +487,15 @@ fn markdown(ch: &Channels, r: &Report, scope: Scope<'_>, v: &Verdict) -> String 
         }
         let _ = writeln!(s);
     }
+}
+
+/// The closing line naming the files beside the report.
+fn markdown_files(s: &mut String, scope: Scope<'_>) {
     if scope.flashable() {
         let _ = writeln!(s, "Files: `report.json`, `table.bin` (root-crate table, 1 axis, rate window 32: `qfa-lab compensate --table DIR/table.bin`), `model.bin` (same bytes), `model.toml`, `residuals.csv`, `residual_*.png`.");
     } else {
         let _ = writeln!(s, "Files: `report.json`, `model.toml` (the named model, for reading: its K1 is 1 and `bias_drift` has no slot, so it is not a table to flash; the flashable table of all axes is `../table.bin`), `residuals.csv`, `residual_*.png`.");
     }
-    s
 }
 
 /// One candidate trial as the cells of the rounds' tables (Markdown and the page).

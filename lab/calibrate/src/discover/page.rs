@@ -113,9 +113,8 @@ pub(crate) fn caption(file: &str, ch: &Channels, r: &Report, scope: Scope<'_>) -
 ///
 /// # Errors
 /// A file in `dir` that cannot be read.
-#[allow(clippy::too_many_lines)]
 pub(crate) fn page(ch: &Channels, r: &Report, dir: &Path, scope: Scope<'_>, v: &Verdict) -> std::io::Result<Page> {
-    let (held, held_cap) = (scope.folds_word(), scope.folds_word_capital());
+    let held = scope.folds_word();
     let mut p = match scope {
         Scope::Own => Page::new("Discovery report"),
         Scope::StaticAxis { axis, .. } => {
@@ -123,6 +122,23 @@ pub(crate) fn page(ch: &Channels, r: &Report, dir: &Path, scope: Scope<'_>, v: &
         }
     };
     v.to_page(&mut p);
+    page_scheme(&mut p, r, scope);
+    page_gaps(&mut p, ch, r, scope);
+    page_effects(&mut p, r, scope);
+    page_unexplained(&mut p, r, held);
+    page_peers(&mut p, ch, r, held);
+    page_coverage(&mut p, ch);
+    page_where(&mut p, ch, r, held);
+    page_rounds(&mut p, ch, r, held);
+    p.section(&format!("Plots ({held} residuals)"));
+    p.images_in(dir, |name| caption(name, ch, r, scope))?;
+    p.para("Every figure on this page is also in report.md and report.json beside it.");
+    Ok(p)
+}
+
+/// The held-out scheme: the log's own, or a static axis's held-out figures followed by
+/// the selection folds discovery chose on.
+fn page_scheme(p: &mut Page, r: &Report, scope: Scope<'_>) {
     if let Scope::StaticAxis { discovery, axis } = scope {
         p.section("Held-out figures of this axis, mg (RMS over rows / over 60-s means)");
         p.para(&super::static_axes::axis_figures_intro(discovery));
@@ -145,6 +161,12 @@ pub(crate) fn page(ch: &Channels, r: &Report, dir: &Path, scope: Scope<'_>, v: &
             ("selection", r.selection_rule.clone()),
         ]);
     }
+}
+
+/// The gaps section: the start, named and flashed models' gaps, the noise floor and
+/// model, the change points, the timing offset and the residual against the floor.
+fn page_gaps(p: &mut Page, ch: &Channels, r: &Report, scope: Scope<'_>) {
+    let (held, held_cap) = (scope.folds_word(), scope.folds_word_capital());
     let mut gap_rows = vec![
         ("start model".to_string(), gaps_text(ch.bias_unit, &r.heldout_gap_before)),
         ("named model".to_string(), gaps_text(ch.bias_unit, &r.heldout_gap_after)),
@@ -181,6 +203,11 @@ pub(crate) fn page(ch: &Channels, r: &Report, dir: &Path, scope: Scope<'_>, v: &
             .join(", "),
     ));
     p.section(&format!("{held_cap} gaps")).kv(&gap_rows);
+}
+
+/// The effects added, one row each, or a line saying none was.
+fn page_effects(p: &mut Page, r: &Report, scope: Scope<'_>) {
+    let held = scope.folds_word();
     let effects: Vec<Vec<String>> = r
         .effects
         .iter()
@@ -214,6 +241,10 @@ pub(crate) fn page(ch: &Channels, r: &Report, dir: &Path, scope: Scope<'_>, v: &
             &effects,
         );
     }
+}
+
+/// A warning for each channel that keeps structure no catalog effect explains.
+fn page_unexplained(p: &mut Page, r: &Report, held: &str) {
     for u in &r.unexplained {
         p.warning(&format!(
             "the {} channel keeps structure no catalog effect explains ({held} RMS {:.3}, {:.1}× its noise floor, \
@@ -230,6 +261,10 @@ pub(crate) fn page(ch: &Channels, r: &Report, dir: &Path, scope: Scope<'_>, v: &
             if u.where_.is_empty() { String::new() } else { format!("; largest on {}", u.where_) }
         ));
     }
+}
+
+/// The peers' table: every model's held-out RMS of the bias channel on the same split.
+fn page_peers(p: &mut Page, ch: &Channels, r: &Report, held: &str) {
     let bias_gap = |g: &Gaps| match g {
         Gaps::Cycling { bias_ug, .. } => *bias_ug,
         Gaps::Single { value_rms } => *value_rms,
@@ -249,6 +284,10 @@ pub(crate) fn page(ch: &Channels, r: &Report, dir: &Path, scope: Scope<'_>, v: &
     }));
     p.section(&format!("Peers on the same {held} split (bias channel, {})", ch.bias_unit.label()))
         .table(&["model".to_string(), format!("{held} RMS")], &peers);
+}
+
+/// What the log covers against what the models need, and what to record next.
+fn page_coverage(p: &mut Page, ch: &Channels) {
     p.section("What the log covers, against what the models need");
     match coverage(ch) {
         Ok(c) => {
@@ -265,6 +304,10 @@ pub(crate) fn page(ch: &Channels, r: &Report, dir: &Path, scope: Scope<'_>, v: &
             p.warning(&format!("coverage not computed: {e:#}"));
         }
     }
+}
+
+/// Where the start model and where the final model disagree, one table each.
+fn page_where(p: &mut Page, ch: &Channels, r: &Report, held: &str) {
     let unit = if ch.kind == super::LogKind::Cycling { "ppm / µg" } else { ch.bias_unit.label() };
     let where_rows = |w: &[super::Where]| -> Vec<Vec<String>> {
         w.iter().map(|w| vec![w.channel.clone(), w.segment.clone(), format!("{:.3}", w.rms)]).collect()
@@ -273,6 +316,10 @@ pub(crate) fn page(ch: &Channels, r: &Report, dir: &Path, scope: Scope<'_>, v: &
         .table(&["channel", "segment", "RMS"], &where_rows(&r.where_));
     p.section(&format!("Where the final model disagrees ({held} RMS, {unit})"))
         .table(&["channel", "segment", "RMS"], &where_rows(&r.where_after));
+}
+
+/// Every round's candidates, one table per round.
+fn page_rounds(p: &mut Page, ch: &Channels, r: &Report, held: &str) {
     p.section("Candidates per round").para(&format!(
         "Gain: drop of the {held} Σ(residual/RMS)² (units of one bin's variance); SE from the block sums; \
          significant when gain/SE exceeds the critical value."
@@ -294,10 +341,6 @@ pub(crate) fn page(ch: &Channels, r: &Report, dir: &Path, scope: Scope<'_>, v: &
         let rows: Vec<Vec<String>> = round.iter().map(|t| super::output::round_row(ch, t)).collect();
         p.table(&header, &rows);
     }
-    p.section(&format!("Plots ({held} residuals)"));
-    p.images_in(dir, |name| caption(name, ch, r, scope))?;
-    p.para("Every figure on this page is also in report.md and report.json beside it.");
-    Ok(p)
 }
 
 /// The page of a static log's discovery in `dir`: its verdict, the per-axis figures as

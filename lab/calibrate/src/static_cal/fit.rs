@@ -288,9 +288,40 @@ pub(crate) fn fit_static_traced(
 ) -> Result<StaticFit, FitError> {
     let structure = &traces.structure;
     let deadband = traces.deadband;
-    let (base, creep, play) = (&traces.base, &traces.creep, &traces.play);
-    let idx: Vec<usize> = (0..train.len()).filter(|&i| train[i] && base.valid[i]).collect();
+    let base = &traces.base;
     let g = grid_points.clamp(2, MAX_BIAS_POINTS);
+    let idx = training_rows(traces, train, g, block)?;
+    let reference_g = idx.iter().map(|&i| series.accel_g[i]).sum::<f64>() / idx.len() as f64;
+    let (start, step) = grid_span(base, &idx, g);
+    let c = structure.shape.unknowns(g);
+    let nb = structure.branches.unknowns(c);
+    let basis = node_basis(structure.shape, g, c);
+    let (x, y, max_rate) = design_rows(series, traces, &idx, &basis, reference_g, start, step);
+    let ls = solve_blocks(&x, &y, &idx, structure, g, block)?;
+    let (heating, cooling) = branch_nodes(structure, &basis, &ls.coef, c);
+    let (creep_gain, play_weight) = extension_weights(structure, &ls.coef, nb);
+    let axis = AxisModel {
+        scale: ScaleFactor::simple(T0_C as f32, crate::compensate::STATIC_LSB_PER_G, 0.0),
+        bias: BiasGrid {
+            t_start_c: start as f32,
+            t_step_c: step as f32,
+            deadband_c_per_min: deadband,
+            heating_g: f32v(&heating),
+            cooling_g: f32v(&cooling),
+        },
+        rate_limit_c_per_min: (max_rate * 1.25).clamp(0.5, 20.0) as f32,
+        ext: structure.ext(creep_gain, play_weight),
+    };
+    table_of(axis.clone())?;
+    Ok(StaticFit { axis, structure: *structure, ls, reference_g })
+}
+
+/// The training rows with a valid trace, refused when they are too few for the
+/// structure's unknowns on `g` nodes or, for [`BranchMode::Offset`], when a branch has
+/// fewer than `block` of them.
+fn training_rows(traces: &StaticTraces, train: &[bool], g: usize, block: usize) -> Result<Vec<usize>, FitError> {
+    let (structure, base) = (&traces.structure, &traces.base);
+    let idx: Vec<usize> = (0..train.len()).filter(|&i| train[i] && base.valid[i]).collect();
     let p = structure.unknowns(g);
     if idx.len() < 2 * p {
         return Err(FitError::TooFewRows { rows: idx.len(), unknowns: p });
@@ -306,7 +337,11 @@ pub(crate) fn fit_static_traced(
             return Err(FitError::BranchUnidentified { heating, cooling, needed: block.max(1) });
         }
     }
-    let reference_g = idx.iter().map(|&i| series.accel_g[i]).sum::<f64>() / idx.len() as f64;
+    Ok(idx)
+}
+
+/// The bias grid's first node and step, °C, for `g` nodes over the rows `idx`.
+fn grid_span(base: &Trace, idx: &[usize], g: usize) -> (f64, f64) {
     // The grid spans the fitted rows' model temperature Te. A fit of every row of the
     // series (the table written) also spans their readings T̂: the firmware clamps T̂ to
     // the grid and flags TEMP_OUT_OF_RANGE beyond it, and with `sensor_lag` Te stays inside
@@ -321,19 +356,41 @@ pub(crate) fn fit_static_traced(
     let start = tmin.floor().max(-60.0);
     let end = tmax.ceil().min(130.0).max(start + 1.0);
     let step = (end - start) / (g - 1) as f64;
-    let c = structure.shape.unknowns(g);
-    let nb = structure.branches.unknowns(c);
-    // Node values of the curve's unknowns: the identity for free nodes; for the cubic,
-    // powers 0..=3 of the node temperature scaled to −1..1 (conditioning).
-    let basis: Vec<Vec<f64>> = (0..g)
-        .map(|j| match structure.shape {
+    (start, step)
+}
+
+/// Node values of the curve's `c` unknowns at each of the `g` nodes: the identity for free
+/// nodes; for the cubic, powers 0..=3 of the node temperature scaled to −1..1
+/// (conditioning).
+fn node_basis(shape: CurveShape, g: usize, c: usize) -> Vec<Vec<f64>> {
+    (0..g)
+        .map(|j| match shape {
             CurveShape::Nodes => (0..g).map(|k| f64::from(u8::from(j == k))).collect(),
             CurveShape::Cubic => {
                 let u = (2.0 * j as f64 / (g - 1) as f64) - 1.0;
                 (0..c).map(|k| u.powi(k as i32)).collect()
             }
         })
-        .collect();
+        .collect()
+}
+
+/// One equation per training row: the design matrix (row-major, the structure's unknowns
+/// per row), the output less `reference_g`, and the largest rate seen, °C/min.
+fn design_rows(
+    series: &StaticSeries<'_>,
+    traces: &StaticTraces,
+    idx: &[usize],
+    basis: &[Vec<f64>],
+    reference_g: f64,
+    start: f64,
+    step: f64,
+) -> (Vec<f64>, Vec<f64>, f64) {
+    let structure = &traces.structure;
+    let (base, creep, play) = (&traces.base, &traces.creep, &traces.play);
+    let g = basis.len();
+    let p = structure.unknowns(g);
+    let c = structure.shape.unknowns(g);
+    let nb = structure.branches.unknowns(c);
     let mut h = vec![0.0; 2 * g];
     let mut x = vec![0.0; idx.len() * p];
     let mut y = Vec::with_capacity(idx.len());
@@ -377,14 +434,29 @@ pub(crate) fn fit_static_traced(
         y.push(series.accel_g[i] - reference_g);
         max_rate = max_rate.max(base.rate_c_per_min[i].abs());
     }
-    // Blocks of consecutive training rows (a block never spans a gap in the training set).
+    (x, y, max_rate)
+}
+
+/// Average the equations over blocks of `block` consecutive training rows (a block never
+/// spans a gap in the training set), add the structure's smoothing and tie rows, and
+/// solve.
+fn solve_blocks(
+    x: &[f64],
+    y: &[f64],
+    idx: &[usize],
+    structure: &StaticStructure,
+    g: usize,
+    block: usize,
+) -> Result<LsResult, FitError> {
+    let p = structure.unknowns(g);
+    let c = structure.shape.unknowns(g);
     let mut starts = vec![0];
     for k in 1..idx.len() {
         if idx[k] != idx[k - 1] + 1 {
             starts.push(k);
         }
     }
-    let (mut xb, mut yb) = block_average(&x, &y, p, block, &starts);
+    let (mut xb, mut yb) = block_average(x, y, p, block, &starts);
     match structure.shape {
         CurveShape::Nodes => structure.branches.push_regularisers(&mut xb, &mut yb, p, g),
         // A cubic needs no smoothing rows; two branches are tied coefficient by coefficient
@@ -392,13 +464,16 @@ pub(crate) fn fit_static_traced(
         CurveShape::Cubic if structure.branches == BranchMode::Free => push_branch_ties(&mut xb, &mut yb, p, c),
         CurveShape::Cubic => {}
     }
-    let ls = lstsq(&xb, p, &yb)?;
-    let coef = &ls.coef;
+    lstsq(&xb, p, &yb)
+}
+
+/// The heating and cooling node values from the solved coefficients.
+fn branch_nodes(structure: &StaticStructure, basis: &[Vec<f64>], coef: &[f64], c: usize) -> (Vec<f64>, Vec<f64>) {
     let nodes = |u: &[f64]| -> Vec<f64> { basis.iter().map(|bj| bj.iter().zip(u).map(|(a, b)| a * b).sum()).collect() };
     // The branch step `d` is a constant on the curve's values, so it is added to the nodes,
     // never to the curve's unknowns: on a cubic those are coefficients, and `d` on each of
     // them would be `d·(1 + u + u² + u³)`, a step that vanishes at the bottom node.
-    let (heating, cooling) = match structure.branches {
+    match structure.branches {
         BranchMode::Offset => {
             let mid = nodes(&coef[..c]);
             (mid.iter().map(|v| v + coef[c]).collect(), mid.iter().map(|v| v - coef[c]).collect())
@@ -407,7 +482,12 @@ pub(crate) fn fit_static_traced(
             let (hc, cc) = structure.branches.expand(coef, c);
             (nodes(&hc), nodes(&cc))
         }
-    };
+    }
+}
+
+/// The creep gain and the play weight (0 for a slot the structure leaves out), the
+/// coefficients after the curves' `nb` unknowns.
+fn extension_weights(structure: &StaticStructure, coef: &[f64], nb: usize) -> (f32, f32) {
     let mut k = nb;
     let creep_gain = if structure.creep_tau_s.is_some() {
         k += 1;
@@ -416,20 +496,7 @@ pub(crate) fn fit_static_traced(
         0.0
     };
     let play_weight = if structure.play_half_width_c.is_some() { coef[k] as f32 } else { 0.0 };
-    let axis = AxisModel {
-        scale: ScaleFactor::simple(T0_C as f32, crate::compensate::STATIC_LSB_PER_G, 0.0),
-        bias: BiasGrid {
-            t_start_c: start as f32,
-            t_step_c: step as f32,
-            deadband_c_per_min: deadband,
-            heating_g: f32v(&heating),
-            cooling_g: f32v(&cooling),
-        },
-        rate_limit_c_per_min: (max_rate * 1.25).clamp(0.5, 20.0) as f32,
-        ext: structure.ext(creep_gain, play_weight),
-    };
-    table_of(axis.clone())?;
-    Ok(StaticFit { axis, structure: *structure, ls, reference_g })
+    (creep_gain, play_weight)
 }
 
 #[cfg(test)]

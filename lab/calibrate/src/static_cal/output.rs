@@ -298,9 +298,8 @@ pub(crate) fn write_static_page_as(
 ) -> Result<(), StaticCalError> {
     let io = |e: &dyn fmt::Display| StaticCalError::Io(format!("{}: {e}", out.display()));
     let r = &cal.report;
-    let h = &r.holdout;
     if plots {
-        let title = format!("bias against temperature per axis; held-out scheme {}", h.scheme);
+        let title = format!("bias against temperature per axis; held-out scheme {}", r.holdout.scheme);
         plot_bias_vs_temp(&out.join(BIAS_PLOT), &title, &cal.plot).map_err(|e| io(&e))?;
     }
     let mut p = match command {
@@ -308,6 +307,22 @@ pub(crate) fn write_static_page_as(
         None => qfa_report::html_report::Page::new("Static calibration report"),
     };
     verdict.to_page(&mut p);
+    scheme_section(&mut p, r);
+    log_section(&mut p, r);
+    coverage_section(&mut p, r);
+    heldout_section(&mut p, r);
+    table_section(&mut p, r);
+    if plots {
+        p.section("Plots");
+        p.image(&out.join(BIAS_PLOT), &bias_plot_caption(verdict)).map_err(|e| io(&e))?;
+    }
+    p.write(out).map_err(|e| io(&e))?;
+    Ok(())
+}
+
+/// The held-out scheme asked for and run, and its folds' rows and temperatures.
+fn scheme_section(p: &mut qfa_report::html_report::Page, r: &StaticReport) {
+    let h = &r.holdout;
     p.section("Held-out scheme").kv(&[
         ("asked (--holdout)", h.requested.clone()),
         ("ran", h.scheme.clone()),
@@ -334,6 +349,10 @@ pub(crate) fn write_static_page_as(
             .collect();
         p.table(&["fold", "held-out rows", "held-out °C", "training rows", "heating / cooling", "training °C"], &folds);
     }
+}
+
+/// The log as read: its columns, the rows kept, what the reader skipped, the sampling.
+fn log_section(p: &mut qfa_report::html_report::Page, r: &StaticReport) {
     p.section("The log").kv(&[
         (
             "columns",
@@ -347,6 +366,10 @@ pub(crate) fn write_static_page_as(
         ("reader", r.skipped.to_string()),
         ("sampling", r.sampling.to_string()),
     ]);
+}
+
+/// What the log covers against what the model needs, and what to record next.
+fn coverage_section(p: &mut qfa_report::html_report::Page, r: &StaticReport) {
     p.section("What the log covers, against what the model needs");
     p.kv(&r.coverage.rows());
     p.para(&format!(
@@ -362,8 +385,13 @@ pub(crate) fn write_static_page_as(
     for n in &r.record_next {
         p.warning(&format!("What to record next: {n}."));
     }
+}
+
+/// The held-out bias RMS of each axis under our model and its peers, and the held-out
+/// rows clamped.
+fn heldout_section(p: &mut qfa_report::html_report::Page, r: &StaticReport) {
     p.section("Held-out bias RMS, mg (rows / 60-s means)");
-    if h.folds.is_empty() {
+    if r.holdout.folds.is_empty() {
         p.warning(&format!("not computed ({NO_HOLDOUT})"));
     } else {
         let t: Vec<Vec<String>> = r
@@ -402,6 +430,10 @@ pub(crate) fn write_static_page_as(
             ));
         }
     }
+}
+
+/// The table written: each axis's structure and its figures on all rows.
+fn table_section(p: &mut qfa_report::html_report::Page, r: &StaticReport) {
     p.section(&format!("Table (table.bin), fitted on all {} rows", r.rows));
     let t: Vec<Vec<String>> = r
         .axes
@@ -428,12 +460,6 @@ pub(crate) fn write_static_page_as(
         ],
         &t,
     );
-    if plots {
-        p.section("Plots");
-        p.image(&out.join(BIAS_PLOT), &bias_plot_caption(verdict)).map_err(|e| io(&e))?;
-    }
-    p.write(out).map_err(|e| io(&e))?;
-    Ok(())
 }
 
 /// What to look for in `bias_vs_temp.png`, with the verdict's warnings about held-out
