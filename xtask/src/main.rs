@@ -663,12 +663,17 @@ struct Alongside {
 
 impl Alongside {
     fn start(command: &str, overwrite: bool) -> Result<Self> {
-        let log = target_dir()?.join(format!("xtask-{command}.log"));
-        let opened = std::fs::File::create(&log).and_then(|f| Ok((f.try_clone()?, f)));
-        let Ok((out, err)) = opened else { return fail(format!("cannot write {}", log.display())) };
         let exe = env::current_exe().map_err(|e| Failure(format!("xtask's own path: {e}")))?;
         let mut c = Command::new(exe);
-        c.current_dir(root()).arg(command).args(overwrite.then_some("--overwrite")).stdout(out).stderr(err);
+        c.current_dir(root()).arg(command).args(overwrite.then_some("--overwrite"));
+        Self::spawn(c, target_dir()?.join(format!("xtask-{command}.log")))
+    }
+
+    /// Start `c` with its stdout and stderr into `log`.
+    fn spawn(mut c: Command, log: PathBuf) -> Result<Self> {
+        let opened = std::fs::File::create(&log).and_then(|f| Ok((f.try_clone()?, f)));
+        let Ok((out, err)) = opened else { return fail(format!("cannot write {}", log.display())) };
+        c.stdout(out).stderr(err);
         println!("$ {}  (alongside; output in {}, printed at the end)", show(&c), log.display());
         match c.spawn() {
             Ok(child) => Ok(Self { child, log, started: Instant::now() }),
@@ -1123,6 +1128,23 @@ fn loom() -> Result {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn alongside(script: &str, name: &str) -> Result<String> {
+        let mut c = Command::new("sh");
+        c.args(["-c", script]);
+        Alongside::spawn(c, env::temp_dir().join(format!("xtask-alongside-{}-{name}.log", std::process::id())))?
+            .finish()
+    }
+
+    /// The half run alongside: its output comes back on success; a non-zero exit fails the
+    /// whole command, naming the status, and its output is still shown.
+    #[test]
+    fn a_half_run_alongside_passes_its_output_and_fails_the_run_when_it_fails() {
+        let ok = alongside("echo target half; echo to stderr >&2", "ok").unwrap_or_else(|e| panic!("{e}"));
+        assert!(ok.contains("target half") && ok.contains("to stderr"), "{ok}");
+        let Err(e) = alongside("echo half way; exit 3", "fails") else { panic!("a failed half passed") };
+        assert!(e.0.contains("exited with exit status: 3"), "{}", e.0);
+    }
 
     fn budgets() -> Vec<(String, u64)> {
         match parse_budgets(include_str!("../budgets.txt")) {
