@@ -67,13 +67,16 @@ const USAGE: &str = "usage: cargo xtask <command>
 
 commands:
   test [--overwrite]
-                rustup target, rustfmt, clippy (host and target, -D warnings), host tests and
-                doctests (the lab's report.html opened in headless Chromium), rustdoc -D warnings, the seqlock's loom model, target build, reference
-                vectors, benchmark and demo example on QEMU mps2-an386 (each output checked
-                against its .out file), panic-check, the STM32F405 board (its own workspace:
-                host tests and firmware build), publish dry run
+                the host half: rustfmt, clippy (host, -D warnings), host tests and doctests
+                (the lab's report.html opened in headless Chromium), rustdoc -D warnings;
+                alongside it, in a second process whose output is printed at the end, the
+                target half (test-target)
   test-target [--overwrite]
-                the target half of `test` alone (test runs it alongside its host half)
+                the target half alone: clippy for the target, the seqlock's loom model,
+                target build, reference vectors, benchmark and demo example on QEMU
+                mps2-an386 (each output checked against its .out file), the figures against
+                their budgets, panic-check, the STM32F405 board (its own workspace: host
+                tests and firmware build), publish dry run
   demo-qemu [--overwrite]
                 run the demo example (examples/qemu_demo.rs) on QEMU, output checked against
                 examples/qemu_demo.out
