@@ -38,7 +38,7 @@ pub fn timing(lat: u32, last_lat: u32, elapsed_cycles: u32) -> Cycle {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use host_tests::scenarios::Lcg;
+    use qfa_rng::{seeded, uniform, LabRng};
 
     /// The hardware, modelled independently: TIM7 updates at every multiple of the period;
     /// each handler run comes some time after the update that triggered it (at most one
@@ -47,13 +47,13 @@ mod tests {
     /// after TIM7). Delays run up to 3.4 periods, so runs are lost in ones, twos and threes.
     #[test]
     fn overrun_a_late_handler_counts_the_lost_cycles_and_keeps_dt_exact() {
-        let mut rng = Lcg::new(0x7137);
+        let mut rng = seeded(0x7137);
         let p = u64::from(PERIOD_US);
         // Start near the cycle counter's wrap (every 25.6 s), so it wraps during the run.
         let cyc0 = u64::from(u32::MAX) - 3_000 * 168;
-        let read = |t: u64, rng: &mut Lcg| {
+        let read = |t: u64, rng: &mut LabRng| {
             let lat = (t % p) as u32;
-            let cyc = (cyc0 + (t * 168) + (rng.uniform() * 2.0 * 168.0) as u64) as u32;
+            let cyc = (cyc0 + (t * 168) + (uniform(rng) * 2.0 * 168.0) as u64) as u32;
             (lat, cyc)
         };
         let mut t = 1_000u64;
@@ -63,8 +63,8 @@ mod tests {
             // The next update after this run, and how late its run is.
             let next_update = (t / p + 1) * p;
             let delay = match i % 10 {
-                0 => (rng.uniform() * 3.4 * p as f64) as u64,
-                _ => (rng.uniform() * 40.0) as u64,
+                0 => (uniform(&mut rng) * 3.4 * p as f64) as u64,
+                _ => (uniform(&mut rng) * 40.0) as u64,
             };
             let run = next_update + delay;
             let updates = run / p - t / p;
