@@ -400,6 +400,23 @@ pub(crate) fn page(
     if !r.held_out {
         p.warning("one program only: the figures are in-sample, not held out");
     }
+    held_out_figures_section(&mut p, r);
+    p.para(&format!("Metric: {}.", r.metric));
+    r.coverage.to_page(&mut p);
+    fit_section(&mut p, &r.fit);
+    if opts.plots {
+        plots_section(&mut p, out)?;
+    }
+    let t = r.timings_s;
+    p.section("Timings").para(&format!(
+        "read {:.2} s, fit {:.2} s, held-out compensation {:.2} s, plots {:.2} s",
+        t.read, t.fit, t.evaluate, t.plots
+    ));
+    Ok(p)
+}
+
+/// The held-out figures of each model and peer.
+fn held_out_figures_section(p: &mut qfa_report::html_report::Page, r: &Report) {
     let (s, b, pb) = (r.sensitivity_ppm_per_c, r.bias_residual_ug, r.peers_bias_residual_ug);
     p.section("Held-out figures").table(
         &["model", "scale-factor sensitivity, ppm/°C", "bias residual, µg RMS"],
@@ -415,9 +432,11 @@ pub(crate) fn page(
             vec!["ArduPilot TCAL (bias only)".to_string(), "-".to_string(), format!("{:.1}", pb.ardupilot)],
         ],
     );
-    p.para(&format!("Metric: {}.", r.metric));
-    r.coverage.to_page(&mut p);
-    let f = &r.fit;
+}
+
+/// The fit: its rows, condition numbers, Eq. 11 coefficients and the branch tie's
+/// cross-validation.
+fn fit_section(p: &mut qfa_report::html_report::Page, f: &FitSummary) {
     p.section("Fit").kv(&[
         ("paired rows", f.pairs.to_string()),
         (
@@ -443,28 +462,28 @@ pub(crate) fn page(
         .collect();
     p.table(&["branch tie", "unknowns", "CV RMS, µg", "CV MSE, µg²", "SE, µg²"], &branch_rows);
     p.para(&format!("Limit (best CV MSE + its SE): {:.3} µg² over {} folds.", f.branch.limit_ug2, f.branch.folds));
-    if opts.plots {
-        p.section("Plots (held-out bins only: the fit programs are not drawn)");
-        p.image(
-            &out.join("sf_vs_temp.png"),
-            "Scale factor against temperature on the held-out programs, per model. Left, uncompensated: the \
-             drift and the gap between heating (red) and cooling (blue) are what the table must remove. Right, \
-             the table (hysteresis): the points should lie flat, the two colours on one band; a slope left is \
-             sensitivity, a gap left is hysteresis the model did not carry.",
-        )?;
-        p.image(
-            &out.join("residual_vs_time.png"),
-            "Held-out residuals against time since each program's start, scale factor (top) and bias (bottom): \
-             green (the table) should stay closer to zero than orange (the simple model) and show no trend; a \
-             jump that both models share is in the unit or the log, not in either model.",
-        )?;
-    }
-    let t = r.timings_s;
-    p.section("Timings").para(&format!(
-        "read {:.2} s, fit {:.2} s, held-out compensation {:.2} s, plots {:.2} s",
-        t.read, t.fit, t.evaluate, t.plots
-    ));
-    Ok(p)
+}
+
+/// The held-out plots, each with what to read in it.
+///
+/// # Errors
+/// A plot that cannot be read.
+fn plots_section(p: &mut qfa_report::html_report::Page, out: &Path) -> std::io::Result<()> {
+    p.section("Plots (held-out bins only: the fit programs are not drawn)");
+    p.image(
+        &out.join("sf_vs_temp.png"),
+        "Scale factor against temperature on the held-out programs, per model. Left, uncompensated: the \
+         drift and the gap between heating (red) and cooling (blue) are what the table must remove. Right, \
+         the table (hysteresis): the points should lie flat, the two colours on one band; a slope left is \
+         sensitivity, a gap left is hysteresis the model did not carry.",
+    )?;
+    p.image(
+        &out.join("residual_vs_time.png"),
+        "Held-out residuals against time since each program's start, scale factor (top) and bias (bottom): \
+         green (the table) should stay closer to zero than orange (the simple model) and show no trend; a \
+         jump that both models share is in the unit or the log, not in either model.",
+    )?;
+    Ok(())
 }
 
 /// `qfa-lab calibrate --log LOG --out DIR`.
