@@ -151,11 +151,7 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
     let programs = log.programs();
     // Paired once; the fit, the evaluation, the peers and the table's refit read these pairs.
     let paired = PairedLog::new(log);
-    let (fit_p, eval_p) = match &opts.fit_programs {
-        Some(f) => (f.clone(), programs.iter().filter(|p| !f.contains(p)).cloned().collect::<Vec<_>>()),
-        None => split_programs(&programs),
-    };
-    let eval_p = if eval_p.is_empty() { fit_p.clone() } else { eval_p };
+    let (fit_p, eval_p) = fit_and_eval_programs(&programs, opts.fit_programs.as_deref());
     let t = Instant::now();
     let pb = bar(fit_p.len() as u64, "fitting", opts.progress);
     let fitted = fit(&paired, &FitOptions::new(fit_p.clone()), Some(&pb)).map_err(CalibrateError::Fit)?;
@@ -184,27 +180,12 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
         t_fit += t.elapsed().as_secs_f64();
         (table, p)
     };
-    let h = &fitted.sf_hysteresis.coef;
-    let deadband = qfa_log::pairing::branch_deadband_c_per_min();
-    let coverage = crate::coverage::CalCoverage {
-        covered: crate::coverage::Coverage::of_log(log, &fit_p, deadband)
-            .map_err(|e| CalibrateError::Coverage(e.to_string()))?,
-        table: crate::coverage::TableLimits::of(&fitted.hysteresis)
-            .map_err(|e| CalibrateError::Coverage(e.to_string()))?,
-        programs: fit_p.clone(),
-    };
+    let coverage = cal_coverage(log, &fit_p, &fitted)?;
     let report = Report {
         coverage,
         rows: log.rows(),
         held_out: fit_p.iter().all(|p| !eval_p.contains(p)),
-        figures: format!(
-            "held-out figures and plots: tables fitted on {fit}, compensated on {}; table.*, table_simple.*, \
-             px4_tc.params, ardupilot_tcal_*.parm: fitted on {} (every program with a +1 g / -1 g pair), the bias \
-             grid's branch tie as chosen on {fit}",
-            eval_p.join(", "),
-            table_p.join(", "),
-            fit = fit_p.join(", ")
-        ),
+        figures: figures_text(&fit_p, &eval_p, &table_p),
         table_programs: table_p,
         fit_programs: fit_p,
         eval_programs: eval_p,
@@ -212,17 +193,7 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
         bias_residual_ug: eval.bias_residual_ug,
         peers_bias_residual_ug: peers,
         metric: METRIC_TEXT.to_string(),
-        fit: FitSummary {
-            pairs: fitted.pairs,
-            cond_sf_simple: fitted.sf_simple.cond,
-            cond_sf_hysteresis: fitted.sf_hysteresis.cond,
-            cond_bias_grid: fitted.bias_hysteresis.cond,
-            eq11: [h[0], h[1], h[2], h[3], h[4], h[5]],
-            simple_sf: [fitted.sf_simple.coef[0], fitted.sf_simple.coef[1]],
-            simple_bias: [fitted.bias_simple.coef[0], fitted.bias_simple.coef[1]],
-            rms_sf_hysteresis: fitted.sf_hysteresis.rms,
-            branch: fitted.branch.clone(),
-        },
+        fit: fit_summary(&fitted),
         rejected_readings: eval.rejected_readings,
         timings_s: Timings { fit: t_fit, evaluate: t_eval, ..Timings::default() },
     };
@@ -235,6 +206,57 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
         exports: export::Exports::default(),
         verdict: None,
     })
+}
+
+/// The fit programs (`fit_programs`, else [`split_programs`]'s) and the held-out ones
+/// (the others; the fit programs themselves when there are none).
+fn fit_and_eval_programs(programs: &[String], fit_programs: Option<&[String]>) -> (Vec<String>, Vec<String>) {
+    let (fit_p, eval_p) = match fit_programs {
+        Some(f) => (f.to_vec(), programs.iter().filter(|p| !f.contains(p)).cloned().collect::<Vec<_>>()),
+        None => split_programs(programs),
+    };
+    let eval_p = if eval_p.is_empty() { fit_p.clone() } else { eval_p };
+    (fit_p, eval_p)
+}
+
+/// What the fit programs covered and what the hysteresis table claims.
+fn cal_coverage(log: &Log, fit_p: &[String], fitted: &Fitted) -> Result<crate::coverage::CalCoverage, CalibrateError> {
+    let deadband = qfa_log::pairing::branch_deadband_c_per_min();
+    Ok(crate::coverage::CalCoverage {
+        covered: crate::coverage::Coverage::of_log(log, fit_p, deadband)
+            .map_err(|e| CalibrateError::Coverage(e.to_string()))?,
+        table: crate::coverage::TableLimits::of(&fitted.hysteresis)
+            .map_err(|e| CalibrateError::Coverage(e.to_string()))?,
+        programs: fit_p.to_vec(),
+    })
+}
+
+/// Which rows each output comes from, in words.
+fn figures_text(fit_p: &[String], eval_p: &[String], table_p: &[String]) -> String {
+    format!(
+        "held-out figures and plots: tables fitted on {fit}, compensated on {}; table.*, table_simple.*, \
+         px4_tc.params, ardupilot_tcal_*.parm: fitted on {} (every program with a +1 g / -1 g pair), the bias \
+         grid's branch tie as chosen on {fit}",
+        eval_p.join(", "),
+        table_p.join(", "),
+        fit = fit_p.join(", ")
+    )
+}
+
+/// The fit's figures for the report.
+fn fit_summary(fitted: &Fitted) -> FitSummary {
+    let h = &fitted.sf_hysteresis.coef;
+    FitSummary {
+        pairs: fitted.pairs,
+        cond_sf_simple: fitted.sf_simple.cond,
+        cond_sf_hysteresis: fitted.sf_hysteresis.cond,
+        cond_bias_grid: fitted.bias_hysteresis.cond,
+        eq11: [h[0], h[1], h[2], h[3], h[4], h[5]],
+        simple_sf: [fitted.sf_simple.coef[0], fitted.sf_simple.coef[1]],
+        simple_bias: [fitted.bias_simple.coef[0], fitted.bias_simple.coef[1]],
+        rms_sf_hysteresis: fitted.sf_hysteresis.rms,
+        branch: fitted.branch.clone(),
+    }
 }
 
 /// Every held-out figure must exist: a figure with no bins behind it is an error with its
