@@ -308,18 +308,7 @@ pub fn fit(
     opts: &FitOptions,
     progress: Option<&indicatif::ProgressBar>,
 ) -> Result<Fitted, FitError> {
-    let mut rows: Vec<Row> = Vec::new();
-    let mut starts = Vec::new();
-    let mut max_rate: f64 = 0.0;
-    for p in &opts.fit_programs {
-        starts.push(rows.len());
-        let (r, mr) = rows_of(paired, p, &opts.ext, opts.deadband_c_per_min)?;
-        rows.extend(r);
-        max_rate = max_rate.max(mr);
-        if let Some(pb) = progress {
-            pb.inc(1);
-        }
-    }
+    let (rows, starts, max_rate) = fit_rows(paired, opts, progress)?;
     let n = rows.len();
     // Scale factor.
     let y_k1: Vec<f64> = rows.iter().map(|r| r.k1).collect();
@@ -335,29 +324,9 @@ pub fn fit(
     let y_k0: Vec<f64> = rows.iter().map(|r| r.k0).collect();
     let (xb, yb) = block_average(&xs, &y_k0, 2, opts.block, &starts);
     let bias_simple = lstsq(&xb, 2, &yb)?;
-    // Bias grid.
-    let tmin = rows.iter().map(|r| r.tp.min(r.tm)).fold(f64::INFINITY, f64::min);
-    let tmax = rows.iter().map(|r| r.tp.max(r.tm)).fold(f64::NEG_INFINITY, f64::max);
-    let start = tmin.floor().max(-60.0);
-    let end = tmax.ceil().min(130.0).max(start + 1.0);
-    let g = opts.grid_points.clamp(2, MAX_BIAS_POINTS);
-    let step = (end - start) / (g - 1) as f64;
-    let y_k0x: Vec<f64> = rows.iter().map(|r| r.k0 - r.ext_k0).collect();
-    let grid = GridSpec { start, step, g };
-    // How the branches are tied is the data's call (cross-validation, one-SE rule), then
-    // the chosen mode is fitted on all fit rows with the fit's own blocks.
-    let mut branch = choose_branch_mode(&rows, &y_k0x, &starts, grid, opts.block)?;
-    if let Some(m) = opts.branch_mode {
-        branch.mode = m;
-        branch.rule =
-            format!("forced to {m:?} by the caller (FitOptions::branch_mode); the CV figures are for reference");
-    }
-    let (xg, p) = bias_design(&rows, branch.mode, grid);
-    let (mut xb, mut yb) = block_average(&xg, &y_k0x, p, opts.block, &starts);
-    drop(xg);
-    branch.mode.push_regularisers(&mut xb, &mut yb, p, g);
-    let bias_hysteresis = lstsq(&xb, p, &yb)?;
-    let (heating, cooling) = branch.mode.expand(&bias_hysteresis.coef, g);
+    let grid = grid_spec(&rows, opts.grid_points);
+    let (branch, bias_hysteresis) = fit_bias_grid(&rows, &starts, grid, opts)?;
+    let (heating, cooling) = branch.mode.expand(&bias_hysteresis.coef, grid.g);
     // The limit is what the fit rows covered plus a stated 25 % margin (the rate estimate
     // of the same program varies run to run), floored only at the branch deadband (below
     // it a rate is not told from the estimator's flicker), so `RATE_OUT_OF_RANGE` marks
@@ -365,27 +334,13 @@ pub fn fit(
     // 0.5 for the paper's staircases, which reach only ~0.4 (docs/lab.md, "Rate policy";
     // figures in docs/measurements.md, "Navigation").
     let rate_limit = (max_rate * 1.25).max(f64::from(opts.deadband_c_per_min)).min(20.0) as f32;
-
-    let c = &sf_simple.coef;
-    let scale_simple = ScaleFactor::simple(T0_C as f32, c[0] as f32, c[1] as f32);
-    let b = &bias_simple.coef;
-    let nodes: Vec<f64> = (0..g).map(|i| b[0] + b[1] * (start + step * i as f64 - T0_C)).collect();
-    let mut grid_simple =
-        BiasGrid::single_valued(start as f32, step as f32, &nodes.iter().map(|&x| x as f32).collect::<Vec<_>>())
-            .expect("2 to 16 grid values");
-    grid_simple.deadband_c_per_min = opts.deadband_c_per_min;
-    let simple = table_of(AxisModel {
-        scale: scale_simple,
-        bias: grid_simple,
-        rate_limit_c_per_min: rate_limit,
-        ext: Extensions::default(),
-    })?;
+    let simple = simple_table(&sf_simple, &bias_simple, grid, rate_limit, opts.deadband_c_per_min)?;
 
     let h: [f64; 6] = sf_hysteresis.coef[..6].try_into().map_err(|_| FitError::TooFewRows { rows: n, unknowns: 6 })?;
     let scale_h = scale_of_eq11(&h);
     let grid_h = BiasGrid {
-        t_start_c: start as f32,
-        t_step_c: step as f32,
+        t_start_c: grid.start as f32,
+        t_step_c: grid.step as f32,
         deadband_c_per_min: opts.deadband_c_per_min,
         heating_g: f32v(&heating),
         cooling_g: f32v(&cooling),
@@ -393,6 +348,90 @@ pub fn fit(
     let hysteresis =
         table_of(AxisModel { scale: scale_h, bias: grid_h, rate_limit_c_per_min: rate_limit, ext: opts.ext })?;
     Ok(Fitted { simple, hysteresis, sf_simple, sf_hysteresis, bias_simple, bias_hysteresis, branch, pairs: n })
+}
+
+/// The paired rows of `opts.fit_programs`, in order, with the row each program starts at
+/// and the largest rate they reach, °C/min.
+fn fit_rows(
+    paired: &PairedLog<'_>,
+    opts: &FitOptions,
+    progress: Option<&indicatif::ProgressBar>,
+) -> Result<(Vec<Row>, Vec<usize>, f64), FitError> {
+    let mut rows: Vec<Row> = Vec::new();
+    let mut starts = Vec::new();
+    let mut max_rate: f64 = 0.0;
+    for p in &opts.fit_programs {
+        starts.push(rows.len());
+        let (r, mr) = rows_of(paired, p, &opts.ext, opts.deadband_c_per_min)?;
+        rows.extend(r);
+        max_rate = max_rate.max(mr);
+        if let Some(pb) = progress {
+            pb.inc(1);
+        }
+    }
+    Ok((rows, starts, max_rate))
+}
+
+/// The bias grid over the rows' temperatures (whole degrees, within −60…130 °C) with
+/// `grid_points` nodes (2 to `MAX_BIAS_POINTS`).
+fn grid_spec(rows: &[Row], grid_points: usize) -> GridSpec {
+    let tmin = rows.iter().map(|r| r.tp.min(r.tm)).fold(f64::INFINITY, f64::min);
+    let tmax = rows.iter().map(|r| r.tp.max(r.tm)).fold(f64::NEG_INFINITY, f64::max);
+    let start = tmin.floor().max(-60.0);
+    let end = tmax.ceil().min(130.0).max(start + 1.0);
+    let g = grid_points.clamp(2, MAX_BIAS_POINTS);
+    let step = (end - start) / (g - 1) as f64;
+    GridSpec { start, step, g }
+}
+
+/// The hysteresis model's bias grid: the branch mode (chosen by cross-validation unless
+/// `opts.branch_mode` forces it) and its least squares on all fit rows.
+fn fit_bias_grid(
+    rows: &[Row],
+    starts: &[usize],
+    grid: GridSpec,
+    opts: &FitOptions,
+) -> Result<(BranchChoice, LsResult), FitError> {
+    let y_k0x: Vec<f64> = rows.iter().map(|r| r.k0 - r.ext_k0).collect();
+    // How the branches are tied is the data's call (cross-validation, one-SE rule), then
+    // the chosen mode is fitted on all fit rows with the fit's own blocks.
+    let mut branch = choose_branch_mode(rows, &y_k0x, starts, grid, opts.block)?;
+    if let Some(m) = opts.branch_mode {
+        branch.mode = m;
+        branch.rule =
+            format!("forced to {m:?} by the caller (FitOptions::branch_mode); the CV figures are for reference");
+    }
+    let (xg, p) = bias_design(rows, branch.mode, grid);
+    let (mut xb, mut yb) = block_average(&xg, &y_k0x, p, opts.block, starts);
+    drop(xg);
+    branch.mode.push_regularisers(&mut xb, &mut yb, p, grid.g);
+    let bias_hysteresis = lstsq(&xb, p, &yb)?;
+    Ok((branch, bias_hysteresis))
+}
+
+/// The simple model's table: the linear scale factor, the linear bias sampled on `grid`.
+fn simple_table(
+    sf_simple: &LsResult,
+    bias_simple: &LsResult,
+    grid: GridSpec,
+    rate_limit: f32,
+    deadband_c_per_min: f32,
+) -> Result<Table, FitError> {
+    let GridSpec { start, step, g } = grid;
+    let c = &sf_simple.coef;
+    let scale_simple = ScaleFactor::simple(T0_C as f32, c[0] as f32, c[1] as f32);
+    let b = &bias_simple.coef;
+    let nodes: Vec<f64> = (0..g).map(|i| b[0] + b[1] * (start + step * i as f64 - T0_C)).collect();
+    let mut grid_simple =
+        BiasGrid::single_valued(start as f32, step as f32, &nodes.iter().map(|&x| x as f32).collect::<Vec<_>>())
+            .expect("2 to 16 grid values");
+    grid_simple.deadband_c_per_min = deadband_c_per_min;
+    table_of(AxisModel {
+        scale: scale_simple,
+        bias: grid_simple,
+        rate_limit_c_per_min: rate_limit,
+        ext: Extensions::default(),
+    })
 }
 
 /// The bias grid's nodes: `g` nodes from `start` °C every `step` °C.

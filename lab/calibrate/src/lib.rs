@@ -151,11 +151,7 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
     let programs = log.programs();
     // Paired once; the fit, the evaluation, the peers and the table's refit read these pairs.
     let paired = PairedLog::new(log);
-    let (fit_p, eval_p) = match &opts.fit_programs {
-        Some(f) => (f.clone(), programs.iter().filter(|p| !f.contains(p)).cloned().collect::<Vec<_>>()),
-        None => split_programs(&programs),
-    };
-    let eval_p = if eval_p.is_empty() { fit_p.clone() } else { eval_p };
+    let (fit_p, eval_p) = fit_and_eval_programs(&programs, opts.fit_programs.as_deref());
     let t = Instant::now();
     let pb = bar(fit_p.len() as u64, "fitting", opts.progress);
     let fitted = fit(&paired, &FitOptions::new(fit_p.clone()), Some(&pb)).map_err(CalibrateError::Fit)?;
@@ -184,27 +180,12 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
         t_fit += t.elapsed().as_secs_f64();
         (table, p)
     };
-    let h = &fitted.sf_hysteresis.coef;
-    let deadband = qfa_log::pairing::branch_deadband_c_per_min();
-    let coverage = crate::coverage::CalCoverage {
-        covered: crate::coverage::Coverage::of_log(log, &fit_p, deadband)
-            .map_err(|e| CalibrateError::Coverage(e.to_string()))?,
-        table: crate::coverage::TableLimits::of(&fitted.hysteresis)
-            .map_err(|e| CalibrateError::Coverage(e.to_string()))?,
-        programs: fit_p.clone(),
-    };
+    let coverage = cal_coverage(log, &fit_p, &fitted)?;
     let report = Report {
         coverage,
         rows: log.rows(),
         held_out: fit_p.iter().all(|p| !eval_p.contains(p)),
-        figures: format!(
-            "held-out figures and plots: tables fitted on {fit}, compensated on {}; table.*, table_simple.*, \
-             px4_tc.params, ardupilot_tcal_*.parm: fitted on {} (every program with a +1 g / -1 g pair), the bias \
-             grid's branch tie as chosen on {fit}",
-            eval_p.join(", "),
-            table_p.join(", "),
-            fit = fit_p.join(", ")
-        ),
+        figures: figures_text(&fit_p, &eval_p, &table_p),
         table_programs: table_p,
         fit_programs: fit_p,
         eval_programs: eval_p,
@@ -212,17 +193,7 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
         bias_residual_ug: eval.bias_residual_ug,
         peers_bias_residual_ug: peers,
         metric: METRIC_TEXT.to_string(),
-        fit: FitSummary {
-            pairs: fitted.pairs,
-            cond_sf_simple: fitted.sf_simple.cond,
-            cond_sf_hysteresis: fitted.sf_hysteresis.cond,
-            cond_bias_grid: fitted.bias_hysteresis.cond,
-            eq11: [h[0], h[1], h[2], h[3], h[4], h[5]],
-            simple_sf: [fitted.sf_simple.coef[0], fitted.sf_simple.coef[1]],
-            simple_bias: [fitted.bias_simple.coef[0], fitted.bias_simple.coef[1]],
-            rms_sf_hysteresis: fitted.sf_hysteresis.rms,
-            branch: fitted.branch.clone(),
-        },
+        fit: fit_summary(&fitted),
         rejected_readings: eval.rejected_readings,
         timings_s: Timings { fit: t_fit, evaluate: t_eval, ..Timings::default() },
     };
@@ -235,6 +206,57 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
         exports: export::Exports::default(),
         verdict: None,
     })
+}
+
+/// The fit programs (`fit_programs`, else [`split_programs`]'s) and the held-out ones
+/// (the others; the fit programs themselves when there are none).
+fn fit_and_eval_programs(programs: &[String], fit_programs: Option<&[String]>) -> (Vec<String>, Vec<String>) {
+    let (fit_p, eval_p) = match fit_programs {
+        Some(f) => (f.to_vec(), programs.iter().filter(|p| !f.contains(p)).cloned().collect::<Vec<_>>()),
+        None => split_programs(programs),
+    };
+    let eval_p = if eval_p.is_empty() { fit_p.clone() } else { eval_p };
+    (fit_p, eval_p)
+}
+
+/// What the fit programs covered and what the hysteresis table claims.
+fn cal_coverage(log: &Log, fit_p: &[String], fitted: &Fitted) -> Result<crate::coverage::CalCoverage, CalibrateError> {
+    let deadband = qfa_log::pairing::branch_deadband_c_per_min();
+    Ok(crate::coverage::CalCoverage {
+        covered: crate::coverage::Coverage::of_log(log, fit_p, deadband)
+            .map_err(|e| CalibrateError::Coverage(e.to_string()))?,
+        table: crate::coverage::TableLimits::of(&fitted.hysteresis)
+            .map_err(|e| CalibrateError::Coverage(e.to_string()))?,
+        programs: fit_p.to_vec(),
+    })
+}
+
+/// Which rows each output comes from, in words.
+fn figures_text(fit_p: &[String], eval_p: &[String], table_p: &[String]) -> String {
+    format!(
+        "held-out figures and plots: tables fitted on {fit}, compensated on {}; table.*, table_simple.*, \
+         px4_tc.params, ardupilot_tcal_*.parm: fitted on {} (every program with a +1 g / -1 g pair), the bias \
+         grid's branch tie as chosen on {fit}",
+        eval_p.join(", "),
+        table_p.join(", "),
+        fit = fit_p.join(", ")
+    )
+}
+
+/// The fit's figures for the report.
+fn fit_summary(fitted: &Fitted) -> FitSummary {
+    let h = &fitted.sf_hysteresis.coef;
+    FitSummary {
+        pairs: fitted.pairs,
+        cond_sf_simple: fitted.sf_simple.cond,
+        cond_sf_hysteresis: fitted.sf_hysteresis.cond,
+        cond_bias_grid: fitted.bias_hysteresis.cond,
+        eq11: [h[0], h[1], h[2], h[3], h[4], h[5]],
+        simple_sf: [fitted.sf_simple.coef[0], fitted.sf_simple.coef[1]],
+        simple_bias: [fitted.bias_simple.coef[0], fitted.bias_simple.coef[1]],
+        rms_sf_hysteresis: fitted.sf_hysteresis.rms,
+        branch: fitted.branch.clone(),
+    }
 }
 
 /// Every held-out figure must exist: a figure with no bins behind it is an error with its
@@ -400,6 +422,23 @@ pub(crate) fn page(
     if !r.held_out {
         p.warning("one program only: the figures are in-sample, not held out");
     }
+    held_out_figures_section(&mut p, r);
+    p.para(&format!("Metric: {}.", r.metric));
+    r.coverage.to_page(&mut p);
+    fit_section(&mut p, &r.fit);
+    if opts.plots {
+        plots_section(&mut p, out)?;
+    }
+    let t = r.timings_s;
+    p.section("Timings").para(&format!(
+        "read {:.2} s, fit {:.2} s, held-out compensation {:.2} s, plots {:.2} s",
+        t.read, t.fit, t.evaluate, t.plots
+    ));
+    Ok(p)
+}
+
+/// The held-out figures of each model and peer.
+fn held_out_figures_section(p: &mut qfa_report::html_report::Page, r: &Report) {
     let (s, b, pb) = (r.sensitivity_ppm_per_c, r.bias_residual_ug, r.peers_bias_residual_ug);
     p.section("Held-out figures").table(
         &["model", "scale-factor sensitivity, ppm/°C", "bias residual, µg RMS"],
@@ -415,9 +454,11 @@ pub(crate) fn page(
             vec!["ArduPilot TCAL (bias only)".to_string(), "-".to_string(), format!("{:.1}", pb.ardupilot)],
         ],
     );
-    p.para(&format!("Metric: {}.", r.metric));
-    r.coverage.to_page(&mut p);
-    let f = &r.fit;
+}
+
+/// The fit: its rows, condition numbers, Eq. 11 coefficients and the branch tie's
+/// cross-validation.
+fn fit_section(p: &mut qfa_report::html_report::Page, f: &FitSummary) {
     p.section("Fit").kv(&[
         ("paired rows", f.pairs.to_string()),
         (
@@ -443,28 +484,28 @@ pub(crate) fn page(
         .collect();
     p.table(&["branch tie", "unknowns", "CV RMS, µg", "CV MSE, µg²", "SE, µg²"], &branch_rows);
     p.para(&format!("Limit (best CV MSE + its SE): {:.3} µg² over {} folds.", f.branch.limit_ug2, f.branch.folds));
-    if opts.plots {
-        p.section("Plots (held-out bins only: the fit programs are not drawn)");
-        p.image(
-            &out.join("sf_vs_temp.png"),
-            "Scale factor against temperature on the held-out programs, per model. Left, uncompensated: the \
-             drift and the gap between heating (red) and cooling (blue) are what the table must remove. Right, \
-             the table (hysteresis): the points should lie flat, the two colours on one band; a slope left is \
-             sensitivity, a gap left is hysteresis the model did not carry.",
-        )?;
-        p.image(
-            &out.join("residual_vs_time.png"),
-            "Held-out residuals against time since each program's start, scale factor (top) and bias (bottom): \
-             green (the table) should stay closer to zero than orange (the simple model) and show no trend; a \
-             jump that both models share is in the unit or the log, not in either model.",
-        )?;
-    }
-    let t = r.timings_s;
-    p.section("Timings").para(&format!(
-        "read {:.2} s, fit {:.2} s, held-out compensation {:.2} s, plots {:.2} s",
-        t.read, t.fit, t.evaluate, t.plots
-    ));
-    Ok(p)
+}
+
+/// The held-out plots, each with what to read in it.
+///
+/// # Errors
+/// A plot that cannot be read.
+fn plots_section(p: &mut qfa_report::html_report::Page, out: &Path) -> std::io::Result<()> {
+    p.section("Plots (held-out bins only: the fit programs are not drawn)");
+    p.image(
+        &out.join("sf_vs_temp.png"),
+        "Scale factor against temperature on the held-out programs, per model. Left, uncompensated: the \
+         drift and the gap between heating (red) and cooling (blue) are what the table must remove. Right, \
+         the table (hysteresis): the points should lie flat, the two colours on one band; a slope left is \
+         sensitivity, a gap left is hysteresis the model did not carry.",
+    )?;
+    p.image(
+        &out.join("residual_vs_time.png"),
+        "Held-out residuals against time since each program's start, scale factor (top) and bias (bottom): \
+         green (the table) should stay closer to zero than orange (the simple model) and show no trend; a \
+         jump that both models share is in the unit or the log, not in either model.",
+    )?;
+    Ok(())
 }
 
 /// `qfa-lab calibrate --log LOG --out DIR`.

@@ -226,102 +226,110 @@ pub(crate) fn ardupilot_id_param(i: u8) -> String {
 /// Check each instance of `log` (see the module docs).
 #[must_use]
 pub fn check(log: &AutopilotLog) -> Vec<InstanceCheck> {
-    log.instances
-        .iter()
-        .map(|inst| {
-            let temperature = resolution(&inst.temp_c);
-            let mut c = InstanceCheck {
-                index: inst.index,
-                device_id: inst.device_id,
-                samples: inst.time_s.len(),
-                temperature,
-                refused: None,
-                warnings: Vec::new(),
-            };
-            let name = c.name();
-            if c.samples < MIN_TEMP_SAMPLES {
-                c.refused = Some(format!(
-                    "{name} has only {} sample(s) in the log: PX4's default logging profile records sensor_accel a few \
-                     times per log; record the chamber run with SDLOG_PROFILE bit 2 (thermal calibration), ArduPilot \
-                     with IMU logging on",
-                    c.samples
-                ));
-            }
-            match temperature {
-                Temperature::Missing { finite } => {
-                    c.refused = c.refused.take().or(Some(format!(
-                        "{name} has no temperature ({finite} nonzero finite reading(s) of {}): a thermal calibration \
-                         needs the sensor's own temperature; PX4 logs NaN and ArduPilot 0 for a part without one",
-                        c.samples
-                    )));
-                }
-                Temperature::Resolution { step_c, coarse: true } => c.warnings.push(format!(
-                    "{name} reports temperature in {step_c:.3} °C steps: the temperature is rebuilt between its steps \
-                     before the rate is estimated (a staircase gives the rate estimator zero between steps and a spike \
-                     at each); the PX4/ArduPilot files still see the steps on the vehicle"
-                )),
-                Temperature::Resolution { .. } => {}
-            }
-            match log.stack {
-                Stack::Px4 => {
-                    let enabled = log.params.get("TC_A_ENABLE").is_some_and(|&v| v != 0.0);
-                    if let (true, Some(id)) = (enabled, inst.device_id) {
-                        if let Some(slot) = px4_slot_of(&log.params, id) {
-                            c.warnings.push(format!(
-                                "{name} was logged with TC_A_ENABLE = 1 and TC_A{slot}_ID = {id}: PX4 applies TC_A{slot}_* \
-                                 in the sensors module, after the sensor_accel topic read here, so these samples are \
-                                 uncompensated and are calibrated; the new px4_tc.params replaces the vehicle's \
-                                 TC_A{slot}_* values"
-                            ));
-                        }
-                    }
-                    if inst.device_id.is_none_or(|id| id == 0) {
-                        c.refused = c.refused.take().or_else(|| {
-                            Some(format!(
-                                "{name}: sensor_accel.device_id is 0, and PX4 applies TC_An_* only to the accelerometer \
-                                 whose device ID equals TC_An_ID"
-                            ))
-                        });
-                    }
-                }
-                Stack::ArduPilot => {
-                    let p = format!("INS_TCAL{}_ENABLE", u16::from(inst.index) + 1);
-                    match log.params.get(&p).map(|&v| v.round() as i64) {
-                        Some(1) => {
-                            c.refused = c.refused.take().or_else(|| {
-                                Some(format!(
-                                    "{name} was logged with {p} = 1: ArduPilot applies INS_TCAL{n}_* in the IMU backend, \
-                                     before the IMU message is logged, so these samples are already compensated and a \
-                                     fit to them would compensate twice; set {p} = 0 (or 2 to let ArduPilot learn), \
-                                     reboot and record again",
-                                    n = u16::from(inst.index) + 1
-                                ))
-                            });
-                        }
-                        Some(2) => c.warnings.push(format!(
-                            "{name} was logged with {p} = 2 (ArduPilot learning): samples are uncompensated while it \
-                             learns, and are calibrated; ArduPilot overwrites INS_TCAL{}_* when its learner finishes",
-                            u16::from(inst.index) + 1
-                        )),
-                        _ => {}
-                    }
-                    if let Some(&rot) = log.params.get("AHRS_ORIENTATION") {
-                        if rot != 0.0 {
-                            c.refused = c.refused.take().or_else(|| {
-                                Some(format!(
-                                    "{name}: AHRS_ORIENTATION = {rot}: the IMU message is rotated to the vehicle frame \
-                                     after INS_TCAL is applied in the board frame, so its axes are not those of \
-                                     INS_TCAL{}_ACC*_X/Y/Z; record with AHRS_ORIENTATION = 0",
-                                    u16::from(inst.index) + 1
-                                ))
-                            });
-                        }
-                    }
-                }
-            }
-            c
-        })
-        .collect()
+    log.instances.iter().map(|inst| check_instance(log, inst)).collect()
+}
+
+/// Check one instance: its sample count and temperature, then its stack's parameters.
+fn check_instance(log: &AutopilotLog, inst: &AccelInstance) -> InstanceCheck {
+    let temperature = resolution(&inst.temp_c);
+    let mut c = InstanceCheck {
+        index: inst.index,
+        device_id: inst.device_id,
+        samples: inst.time_s.len(),
+        temperature,
+        refused: None,
+        warnings: Vec::new(),
+    };
+    let name = c.name();
+    if c.samples < MIN_TEMP_SAMPLES {
+        c.refused = Some(format!(
+            "{name} has only {} sample(s) in the log: PX4's default logging profile records sensor_accel a few \
+             times per log; record the chamber run with SDLOG_PROFILE bit 2 (thermal calibration), ArduPilot \
+             with IMU logging on",
+            c.samples
+        ));
+    }
+    match temperature {
+        Temperature::Missing { finite } => {
+            c.refused = c.refused.take().or(Some(format!(
+                "{name} has no temperature ({finite} nonzero finite reading(s) of {}): a thermal calibration \
+                 needs the sensor's own temperature; PX4 logs NaN and ArduPilot 0 for a part without one",
+                c.samples
+            )));
+        }
+        Temperature::Resolution { step_c, coarse: true } => c.warnings.push(format!(
+            "{name} reports temperature in {step_c:.3} °C steps: the temperature is rebuilt between its steps \
+             before the rate is estimated (a staircase gives the rate estimator zero between steps and a spike \
+             at each); the PX4/ArduPilot files still see the steps on the vehicle"
+        )),
+        Temperature::Resolution { .. } => {}
+    }
+    match log.stack {
+        Stack::Px4 => check_px4_params(log, inst, &name, &mut c),
+        Stack::ArduPilot => check_ardupilot_params(log, inst, &name, &mut c),
+    }
+    c
+}
+
+/// PX4: a warning when the instance was logged with its TC_A slot enabled; refused
+/// without a device ID.
+fn check_px4_params(log: &AutopilotLog, inst: &AccelInstance, name: &str, c: &mut InstanceCheck) {
+    let enabled = log.params.get("TC_A_ENABLE").is_some_and(|&v| v != 0.0);
+    if let (true, Some(id)) = (enabled, inst.device_id) {
+        if let Some(slot) = px4_slot_of(&log.params, id) {
+            c.warnings.push(format!(
+                "{name} was logged with TC_A_ENABLE = 1 and TC_A{slot}_ID = {id}: PX4 applies TC_A{slot}_* \
+                 in the sensors module, after the sensor_accel topic read here, so these samples are \
+                 uncompensated and are calibrated; the new px4_tc.params replaces the vehicle's \
+                 TC_A{slot}_* values"
+            ));
+        }
+    }
+    if inst.device_id.is_none_or(|id| id == 0) {
+        c.refused = c.refused.take().or_else(|| {
+            Some(format!(
+                "{name}: sensor_accel.device_id is 0, and PX4 applies TC_An_* only to the accelerometer \
+                 whose device ID equals TC_An_ID"
+            ))
+        });
+    }
+}
+
+/// ArduPilot: refused when logged with its INS_TCAL compensation on or with a board
+/// rotation; a warning while ArduPilot was learning.
+fn check_ardupilot_params(log: &AutopilotLog, inst: &AccelInstance, name: &str, c: &mut InstanceCheck) {
+    let p = format!("INS_TCAL{}_ENABLE", u16::from(inst.index) + 1);
+    match log.params.get(&p).map(|&v| v.round() as i64) {
+        Some(1) => {
+            c.refused = c.refused.take().or_else(|| {
+                Some(format!(
+                    "{name} was logged with {p} = 1: ArduPilot applies INS_TCAL{n}_* in the IMU backend, \
+                     before the IMU message is logged, so these samples are already compensated and a \
+                     fit to them would compensate twice; set {p} = 0 (or 2 to let ArduPilot learn), \
+                     reboot and record again",
+                    n = u16::from(inst.index) + 1
+                ))
+            });
+        }
+        Some(2) => c.warnings.push(format!(
+            "{name} was logged with {p} = 2 (ArduPilot learning): samples are uncompensated while it \
+             learns, and are calibrated; ArduPilot overwrites INS_TCAL{}_* when its learner finishes",
+            u16::from(inst.index) + 1
+        )),
+        _ => {}
+    }
+    if let Some(&rot) = log.params.get("AHRS_ORIENTATION") {
+        if rot != 0.0 {
+            c.refused = c.refused.take().or_else(|| {
+                Some(format!(
+                    "{name}: AHRS_ORIENTATION = {rot}: the IMU message is rotated to the vehicle frame \
+                     after INS_TCAL is applied in the board frame, so its axes are not those of \
+                     INS_TCAL{}_ACC*_X/Y/Z; record with AHRS_ORIENTATION = 0",
+                    u16::from(inst.index) + 1
+                ))
+            });
+        }
+    }
 }
 
 /// Why an instance could not be turned into a static log.

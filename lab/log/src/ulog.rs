@@ -63,60 +63,10 @@ pub(crate) fn read_ulog(bytes: &[u8]) -> Result<AutopilotLog, UlogError> {
     let mut by_multi: BTreeMap<u8, AccelInstance> = BTreeMap::new();
     let mut field_error: Option<&'static str> = None;
     let mut topics: Vec<String> = Vec::new();
-    let mut on_data = |m: &DataMessage| {
-        let fmt = m.flattened_format;
-        let name = fmt.message_name();
-        if name != "sensor_accel" {
-            if !topics.iter().any(|t| t == name) {
-                topics.push(name.to_string());
-            }
-            return;
-        }
-        macro_rules! field {
-            ($t:ty, $n:literal) => {
-                match fmt.get_field_parser::<$t>($n) {
-                    Ok(p) => p.parse(m.data),
-                    Err(_) => {
-                        field_error.get_or_insert($n);
-                        return;
-                    }
-                }
-            };
-        }
-        let ts = field!(u64, "timestamp");
-        let id = field!(u32, "device_id");
-        let (x, y, z) = (field!(f32, "x"), field!(f32, "y"), field!(f32, "z"));
-        // A driver without a temperature sensor leaves the field NaN; a format without it, too.
-        let temp = fmt.get_field_parser::<f32>("temperature").map_or(f32::NAN, |p| p.parse(m.data));
-        let multi = m.multi_id.value();
-        let inst = by_multi.entry(multi).or_insert_with(|| AccelInstance {
-            index: multi,
-            device_id: Some(id),
-            ..AccelInstance::default()
-        });
-        inst.time_s.push(ts as f64 * 1e-6);
-        inst.temp_c.push(f64::from(temp));
-        for (a, v) in inst.accel_mps2.iter_mut().zip([x, y, z]) {
-            a.push(f64::from(v));
-        }
-    };
+    let mut on_data = |m: &DataMessage| record_accel_sample(m, &mut by_multi, &mut field_error, &mut topics);
     let mut params: BTreeMap<String, f64> = BTreeMap::new();
     let mut changed: BTreeMap<String, (f64, f64)> = BTreeMap::new();
-    let mut on_param = |p: &ParameterMessage| {
-        let (name, v, stage) = match p {
-            ParameterMessage::Float(n, v, s) => (*n, f64::from(*v), s),
-            ParameterMessage::Int32(n, v, s) => (*n, f64::from(*v), s),
-        };
-        match stage {
-            LogStage::Definitions => {
-                params.insert(name.to_string(), v);
-            }
-            LogStage::Data => {
-                let first = params.get(name).copied().unwrap_or(f64::NAN);
-                changed.entry(name.to_string()).or_insert((first, v)).1 = v;
-            }
-        }
-    };
+    let mut on_param = |p: &ParameterMessage| record_param(p, &mut params, &mut changed);
     let mut dropouts = (0usize, 0u64);
     let mut on_dropout = |d: &DropoutMessage| {
         dropouts.0 += 1;
@@ -136,6 +86,81 @@ pub(crate) fn read_ulog(bytes: &[u8]) -> Result<AutopilotLog, UlogError> {
     if by_multi.is_empty() {
         return Err(UlogError::NoAccel { topics });
     }
+    Ok(AutopilotLog {
+        stack: Stack::Px4,
+        params,
+        changed_params: changed.into_iter().map(|(n, (a, b))| (n, a, b)).collect(),
+        instances: by_multi.into_values().collect(),
+        reader_notes: reader_notes(dropouts, leftover, appended),
+    })
+}
+
+/// Add a `sensor_accel` message's sample to its instance in `by_multi`, or note another
+/// topic's name in `topics`; a format without a needed field goes into `field_error`.
+fn record_accel_sample(
+    m: &DataMessage,
+    by_multi: &mut BTreeMap<u8, AccelInstance>,
+    field_error: &mut Option<&'static str>,
+    topics: &mut Vec<String>,
+) {
+    let fmt = m.flattened_format;
+    let name = fmt.message_name();
+    if name != "sensor_accel" {
+        if !topics.iter().any(|t| t == name) {
+            topics.push(name.to_string());
+        }
+        return;
+    }
+    macro_rules! field {
+        ($t:ty, $n:literal) => {
+            match fmt.get_field_parser::<$t>($n) {
+                Ok(p) => p.parse(m.data),
+                Err(_) => {
+                    field_error.get_or_insert($n);
+                    return;
+                }
+            }
+        };
+    }
+    let ts = field!(u64, "timestamp");
+    let id = field!(u32, "device_id");
+    let (x, y, z) = (field!(f32, "x"), field!(f32, "y"), field!(f32, "z"));
+    // A driver without a temperature sensor leaves the field NaN; a format without it, too.
+    let temp = fmt.get_field_parser::<f32>("temperature").map_or(f32::NAN, |p| p.parse(m.data));
+    let multi = m.multi_id.value();
+    let inst = by_multi.entry(multi).or_insert_with(|| AccelInstance {
+        index: multi,
+        device_id: Some(id),
+        ..AccelInstance::default()
+    });
+    inst.time_s.push(ts as f64 * 1e-6);
+    inst.temp_c.push(f64::from(temp));
+    for (a, v) in inst.accel_mps2.iter_mut().zip([x, y, z]) {
+        a.push(f64::from(v));
+    }
+}
+
+/// A parameter's value: from the definitions into `params`, a change during the log into
+/// `changed` (its first and last value).
+fn record_param(p: &ParameterMessage, params: &mut BTreeMap<String, f64>, changed: &mut BTreeMap<String, (f64, f64)>) {
+    let (name, v, stage) = match p {
+        ParameterMessage::Float(n, v, s) => (*n, f64::from(*v), s),
+        ParameterMessage::Int32(n, v, s) => (*n, f64::from(*v), s),
+    };
+    match stage {
+        LogStage::Definitions => {
+            params.insert(name.to_string(), v);
+        }
+        LogStage::Data => {
+            let first = params.get(name).copied().unwrap_or(f64::NAN);
+            changed.entry(name.to_string()).or_insert((first, v)).1 = v;
+        }
+    }
+}
+
+/// What the reader could not read: dropouts (count, ms), a truncated last message,
+/// appended data sections.
+fn reader_notes(dropouts: (usize, u64), leftover: bool, appended: bool) -> Vec<String> {
     let mut reader_notes = Vec::new();
     if dropouts.0 > 0 {
         reader_notes.push(format!(
@@ -149,11 +174,5 @@ pub(crate) fn read_ulog(bytes: &[u8]) -> Result<AutopilotLog, UlogError> {
     if appended {
         reader_notes.push("the ULog has appended data sections, which are not read".to_string());
     }
-    Ok(AutopilotLog {
-        stack: Stack::Px4,
-        params,
-        changed_params: changed.into_iter().map(|(n, (a, b))| (n, a, b)).collect(),
-        instances: by_multi.into_values().collect(),
-        reader_notes,
-    })
+    reader_notes
 }

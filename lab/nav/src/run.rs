@@ -18,9 +18,10 @@ use super::align::{AlignErrors, Aligner, FilterNoise};
 use super::earth::{self, NMI_M};
 use super::errors::ImuDraw;
 use super::scenario::{Flight, Scenario};
-use super::strapdown::{inverse, AltRef, Increments, Strapdown};
+use super::strapdown::{inverse, AltRef, Increments, NavState, Strapdown};
 use super::thermal::{Profile, ProfileError};
 use qfa_calibrate::metrics::rms;
+use qfa_sim::thermal::{ChainState, Temps};
 use qfa_sim::truth::SensorTruth;
 
 pub use super::errors::GyroErrors;
@@ -124,7 +125,7 @@ struct Sensed {
 }
 
 impl Imu<'_> {
-    fn sense(&mut self, ideal: &Increments, th: &qfa_sim::thermal::Temps, dt: f64) -> Sensed {
+    fn sense(&mut self, ideal: &Increments, th: &Temps, dt: f64) -> Sensed {
         let dtheta = self.draw.gyro(&ideal.dtheta, dt, &mut self.rng);
         let dv = self.draw.accel(&ideal.dv, dt);
         let mut pulses = [0i32; 3];
@@ -202,7 +203,6 @@ impl From<ProfileError> for RunError {
 /// own compensated output ([`super::align`]) and starts from its aligned attitude, zero
 /// velocity and the true position; otherwise every variant starts at the true state.
 /// Every variant sees the same gyro increments, pulses and temperature readings.
-#[allow(clippy::too_many_lines)]
 pub fn fly(
     sc: &Scenario,
     truths: &mut [Box<dyn AccelTruth>; 3],
@@ -211,20 +211,16 @@ pub fn fly(
     let sensors: [SensorTruth; 3] = [0, 1, 2].map(|i| {
         truths[i].sensor().unwrap_or(SensorTruth { offset_c: 0.0, noise_c: 0.01, period_s: 1.0, first_s: 1.0 })
     });
-    let dt = sc.dt();
-    let dt_ticks = (dt * 1e6).round() as u32;
-    crate::ensure((f64::from(dt_ticks) * 1e-6 - dt).abs() < 1e-12, RunError::Period)?;
+    let (dt, dt_ticks, per_second) = imu_timing(sc)?;
     let steps = sc.steps();
-    let per_second = sc.imu_rate_hz.round() as u64;
-    crate::ensure((sc.imu_rate_hz - per_second as f64).abs() < 1e-9, RunError::Rate)?;
     let profile = Profile::new(sc.temperature.clone())?;
     let align_steps = sc.align_steps();
     let ground_c = sc.ground_temp_c();
-    let mut chain =
+    let chain =
         sc.thermal.start(if align_steps > 0 { ground_c } else { profile.at(0.0) }, dt, sc.thermal.element_tau_s);
     let mut rng = qfa_rng::seeded(sc.seed);
     let draw = ImuDraw::draw(&sc.imu, &mut rng);
-    let mut imu = Imu { truths, sensors, draw, rng };
+    let imu = Imu { truths, sensors, draw, rng };
     let mut flight = Flight::new(sc);
     let start = flight.state;
     let mut res = FlightResult {
@@ -234,66 +230,19 @@ pub fn fly(
         ..FlightResult::default()
     };
     // Global cycle count: the DS18B20 timestamps run on through alignment and flight.
-    let mut clock: u64 = 0;
-    let mut prev_ideal = Increments::default();
+    let mut sim = Sim { imu, chain, clock: 0, prev_ideal: Increments::default(), dt, dt_ticks, per_second };
     let mut starts = vec![start; variants.len()];
     if align_steps > 0 {
-        let g = sc.imu.gyro;
-        let noise = FilterNoise {
-            arw_rad_rs: g.arw_dprh.to_radians() / 60.0,
-            // The lab units' white noise, 10 µg/√Hz.
-            accel_white_mps2_rhz: 10e-6 * earth::G0,
-            gyro_bias_rad_s: g.bias_dph.hypot(g.bias_instability_dph).to_radians() / 3600.0,
-        };
-        let mut aligners: Vec<Aligner> =
-            variants.iter().map(|_| Aligner::new(&sc.alignment, start, dt, per_second, noise)).collect();
-        for _ in 0..align_steps {
-            clock += 1;
-            let ideal = inverse(&start, &start, &prev_ideal, dt);
-            prev_ideal = ideal;
-            let th = chain.step(ground_c);
-            let s = imu.sense(&ideal, &th, dt);
-            imu.read_temperatures(clock, per_second, th.case_c, &mut variants);
-            for (v, a) in variants.iter_mut().zip(&mut aligners) {
-                let dv = v.comp.compensate(s.pulses, dt_ticks, &s.coeffs);
-                a.step(&Increments { dtheta: s.dtheta, dv });
-            }
-        }
-        for (st, a) in starts.iter_mut().zip(&aligners) {
-            let q = a.attitude().ok_or(RunError::Alignment)?;
-            st.q = q;
-            res.alignment.push(AlignErrors::of(&q, &start.q));
-        }
+        align_on_ground(&mut sim, sc, (start, ground_c, align_steps), &mut variants, &mut starts, &mut res.alignment)?;
     }
     let mut navs: Vec<Strapdown> = starts.into_iter().map(Strapdown::new).collect();
     // The flags are counted over the flight only: the alignment's first cycles are flagged
     // RATE_NOT_READY by construction (the estimator's window is filling).
     let flags_at_takeoff: Vec<_> = variants.iter().map(|v| v.comp.flags()).collect();
     for k in 1..=steps {
-        clock += 1;
-        let prev = flight.state;
-        let truth = flight.step();
-        let ideal = inverse(&prev, &truth, &prev_ideal, dt);
-        prev_ideal = ideal;
-        let th = chain.step(profile.at(flight.t));
-        let s = imu.sense(&ideal, &th, dt);
-        imu.read_temperatures(clock, per_second, th.case_c, &mut variants);
-        let alt = AltRef { h: truth.h, vd: truth.v.z };
-        for (v, nav) in variants.iter_mut().zip(&mut navs) {
-            let dv = v.comp.compensate(s.pulses, dt_ticks, &s.coeffs);
-            nav.step(&Increments { dtheta: s.dtheta, dv }, dt, alt);
-        }
+        let (truth, th) = fly_cycle(&mut sim, &mut flight, &profile, &mut variants, &mut navs);
         if k % per_second == 0 {
-            res.t.push(flight.t);
-            res.temps.push([th.air_c, th.case_c, th.element_c]);
-            let (rm, rn) = earth::radii(truth.lat);
-            for (tr, nav) in res.tracks.iter_mut().zip(&navs) {
-                let s = &nav.state;
-                tr.vn.push(s.v.x - truth.v.x);
-                tr.ve.push(s.v.y - truth.v.y);
-                tr.dn.push((s.lat - truth.lat) * (rm + truth.h));
-                tr.de.push((s.lon - truth.lon) * (rn + truth.h) * truth.lat.cos());
-            }
+            sample_errors(&mut res, flight.t, &th, &truth, &navs);
         }
     }
     res.flags = variants
@@ -302,6 +251,110 @@ pub fn fly(
         .map(|(v, f0)| v.comp.flags().map(|f| f0.as_ref().map_or(f, |f0| f.since(f0))))
         .collect();
     Ok(res)
+}
+
+/// The IMU period (s, and in the compensator's µs ticks) and the cycles per second,
+/// refused unless both are whole numbers.
+fn imu_timing(sc: &Scenario) -> Result<(f64, u32, u64), RunError> {
+    let dt = sc.dt();
+    let dt_ticks = (dt * 1e6).round() as u32;
+    crate::ensure((f64::from(dt_ticks) * 1e-6 - dt).abs() < 1e-12, RunError::Period)?;
+    let per_second = sc.imu_rate_hz.round() as u64;
+    crate::ensure((sc.imu_rate_hz - per_second as f64).abs() < 1e-9, RunError::Rate)?;
+    Ok((dt, dt_ticks, per_second))
+}
+
+/// What runs on from one IMU cycle to the next, through alignment and flight: the IMU,
+/// the thermal chain, the global cycle count, the previous ideal increments, the timing.
+struct Sim<'a> {
+    imu: Imu<'a>,
+    chain: ChainState,
+    clock: u64,
+    prev_ideal: Increments,
+    dt: f64,
+    dt_ticks: u32,
+    per_second: u64,
+}
+
+/// The stationary alignment at `start` with the bay at `ground_c` over `align_steps`
+/// cycles: each variant aligns on its own compensated output; its attitude goes into
+/// its entry of `starts` and its errors into `alignment`.
+fn align_on_ground(
+    sim: &mut Sim<'_>,
+    sc: &Scenario,
+    (start, ground_c, align_steps): (NavState, f64, u64),
+    variants: &mut [Variant],
+    starts: &mut [NavState],
+    alignment: &mut Vec<AlignErrors>,
+) -> Result<(), RunError> {
+    let g = sc.imu.gyro;
+    let noise = FilterNoise {
+        arw_rad_rs: g.arw_dprh.to_radians() / 60.0,
+        // The lab units' white noise, 10 µg/√Hz.
+        accel_white_mps2_rhz: 10e-6 * earth::G0,
+        gyro_bias_rad_s: g.bias_dph.hypot(g.bias_instability_dph).to_radians() / 3600.0,
+    };
+    let mut aligners: Vec<Aligner> =
+        variants.iter().map(|_| Aligner::new(&sc.alignment, start, sim.dt, sim.per_second, noise)).collect();
+    for _ in 0..align_steps {
+        sim.clock += 1;
+        let ideal = inverse(&start, &start, &sim.prev_ideal, sim.dt);
+        sim.prev_ideal = ideal;
+        let th = sim.chain.step(ground_c);
+        let s = sim.imu.sense(&ideal, &th, sim.dt);
+        sim.imu.read_temperatures(sim.clock, sim.per_second, th.case_c, variants);
+        for (v, a) in variants.iter_mut().zip(&mut aligners) {
+            let dv = v.comp.compensate(s.pulses, sim.dt_ticks, &s.coeffs);
+            a.step(&Increments { dtheta: s.dtheta, dv });
+        }
+    }
+    for (st, a) in starts.iter_mut().zip(&aligners) {
+        let q = a.attitude().ok_or(RunError::Alignment)?;
+        st.q = q;
+        alignment.push(AlignErrors::of(&q, &start.q));
+    }
+    Ok(())
+}
+
+/// One flight cycle: the trajectory advances, the IMU senses it at the drive profile's
+/// temperature, and each variant compensates and drives its mechanisation. Returns the
+/// true state and the temperatures of the cycle.
+fn fly_cycle(
+    sim: &mut Sim<'_>,
+    flight: &mut Flight,
+    profile: &Profile,
+    variants: &mut [Variant],
+    navs: &mut [Strapdown],
+) -> (NavState, Temps) {
+    sim.clock += 1;
+    let prev = flight.state;
+    let truth = flight.step();
+    let ideal = inverse(&prev, &truth, &sim.prev_ideal, sim.dt);
+    sim.prev_ideal = ideal;
+    let th = sim.chain.step(profile.at(flight.t));
+    let s = sim.imu.sense(&ideal, &th, sim.dt);
+    sim.imu.read_temperatures(sim.clock, sim.per_second, th.case_c, variants);
+    let alt = AltRef { h: truth.h, vd: truth.v.z };
+    for (v, nav) in variants.iter_mut().zip(navs) {
+        let dv = v.comp.compensate(s.pulses, sim.dt_ticks, &s.coeffs);
+        nav.step(&Increments { dtheta: s.dtheta, dv }, sim.dt, alt);
+    }
+    (truth, th)
+}
+
+/// Sample, at flight time `t`, the temperatures and each variant's velocity and position
+/// errors against the true state.
+fn sample_errors(res: &mut FlightResult, t: f64, th: &Temps, truth: &NavState, navs: &[Strapdown]) {
+    res.t.push(t);
+    res.temps.push([th.air_c, th.case_c, th.element_c]);
+    let (rm, rn) = earth::radii(truth.lat);
+    for (tr, nav) in res.tracks.iter_mut().zip(navs) {
+        let s = &nav.state;
+        tr.vn.push(s.v.x - truth.v.x);
+        tr.ve.push(s.v.y - truth.v.y);
+        tr.dn.push((s.lat - truth.lat) * (rm + truth.h));
+        tr.de.push((s.lon - truth.lon) * (rn + truth.h) * truth.lat.cos());
+    }
 }
 
 /// Closure check with perfect sensors: the ideal increments (f64, no quantization) drive

@@ -317,75 +317,125 @@ pub(crate) fn fleet(results: &[UnitResult], limits: &Limits) -> Fleet {
             UnitOutcome::Failed { .. } => None,
         })
         .collect();
-    let axes: Vec<String> = {
-        let mut a: Vec<String> = Vec::new();
-        for c in cal.iter().flatten() {
-            for d in &c.descriptor {
-                if !a.contains(&d.axis) {
-                    a.push(d.axis.clone());
-                }
-            }
-        }
-        a
-    };
+    let axes = fleet_axes(&cal);
     let sensor = sensors(&cal);
-    let mut spans: Vec<f64> = cal.iter().flatten().map(|c| c.temp_c[1] - c.temp_c[0]).collect();
-    let median_span = median(&mut spans).unwrap_or(0.0);
-    let partial: Vec<bool> = cal
-        .iter()
-        .map(|c| c.is_none_or(|c| c.one_branch || c.temp_c[1] - c.temp_c[0] < FULL_SPAN_SHARE * median_span))
-        .collect();
+    let partial = partial_units(&cal);
     let mut stats = Vec::new();
     let mut flags: Vec<Vec<Flag>> = vec![Vec::new(); results.len()];
     for feat in features(&axes) {
-        let values: Vec<(usize, f64)> = cal
-            .iter()
-            .enumerate()
-            .filter_map(|(i, c)| {
-                let c = (*c)?;
-                value_of(c, (&sensor[i].0, &sensor[i].1), &feat.name).filter(|v| v.is_finite()).map(|v| (i, v))
-            })
-            .collect();
-        let mut reference: Vec<f64> = values.iter().filter(|(i, _)| !partial[*i]).map(|(_, v)| *v).collect();
-        let Some(med) = median(&mut reference) else { continue };
-        let mut dev: Vec<f64> = reference.iter().map(|v| (v - med).abs()).collect();
-        let scale = (1.4826 * median(&mut dev).unwrap_or(0.0)).max(feat.floor);
-        for &(i, v) in &values {
-            if feat.full_coverage_only && partial[i] {
-                continue;
-            }
-            let z = (v - med) / scale;
-            let out = match feat.side {
-                Side::Both => z.abs() > Z_FLAG,
-                Side::High => z > Z_FLAG,
-            };
-            if out {
-                flags[i].push(Flag {
-                    feature: feat.name.clone(),
-                    value: v,
-                    median: med,
-                    z,
-                    text: format!(
-                        "{} {v:.3} {} against the fleet's {med:.3} ({z:+.1} robust SDs; flagged beyond ±{Z_FLAG})",
-                        feat.name, feat.unit
-                    ),
-                });
-            }
+        if let Some(s) = feature_stats(feat, results, &cal, &sensor, &partial, &mut flags) {
+            stats.push(s);
         }
-        stats.push(FeatureStats {
-            n: values.len(),
-            median: med,
-            scale,
-            values: values.iter().map(|(i, v)| (results[*i].serial.clone(), *v)).collect(),
-            feature: feat,
-        });
     }
     // The strongest first: a reader's first reason is the figure furthest out.
     for f in &mut flags {
         f.sort_by(|a, b| b.z.abs().total_cmp(&a.z.abs()));
     }
     let mut counts = [0; 3];
-    let unit: Vec<FleetUnit> = results
+    let unit = fleet_units(results, &flags, &partial, &sensor, &mut counts);
+    let reference: Vec<&Calibrated> =
+        (0..results.len()).filter(|&i| !partial[i] && flags[i].is_empty()).filter_map(|i| cal[i]).collect();
+    let mut lo: Vec<f64> = reference.iter().map(|c| c.temp_c[0]).collect();
+    let mut hi: Vec<f64> = reference.iter().map(|c| c.temp_c[1]).collect();
+    let span_c = [median(&mut lo).unwrap_or(0.0), median(&mut hi).unwrap_or(0.0)];
+    let population = super::prior::population(&reference.iter().map(|c| &c.normal).collect::<Vec<_>>());
+    Fleet {
+        units: results.len(),
+        counts,
+        z_flag: Z_FLAG,
+        stats,
+        capability: capability(&cal, &axes, limits),
+        unit,
+        population,
+        span_c,
+    }
+}
+
+/// The axes the calibrated units describe, in order of first appearance.
+fn fleet_axes(cal: &[Option<&Calibrated>]) -> Vec<String> {
+    let mut a: Vec<String> = Vec::new();
+    for c in cal.iter().flatten() {
+        for d in &c.descriptor {
+            if !a.contains(&d.axis) {
+                a.push(d.axis.clone());
+            }
+        }
+    }
+    a
+}
+
+/// Per unit, whether its coverage is partial: not calibrated, one branch only, or a span
+/// short of [`FULL_SPAN_SHARE`] of the fleet's median span.
+fn partial_units(cal: &[Option<&Calibrated>]) -> Vec<bool> {
+    let mut spans: Vec<f64> = cal.iter().flatten().map(|c| c.temp_c[1] - c.temp_c[0]).collect();
+    let median_span = median(&mut spans).unwrap_or(0.0);
+    cal.iter()
+        .map(|c| c.is_none_or(|c| c.one_branch || c.temp_c[1] - c.temp_c[0] < FULL_SPAN_SHARE * median_span))
+        .collect()
+}
+
+/// The fleet's robust statistics of `feat` (median and scale over the units of full
+/// coverage), each unit outside them flagged in `flags`; `None` when no unit gives a value.
+fn feature_stats(
+    feat: Feature,
+    results: &[UnitResult],
+    cal: &[Option<&Calibrated>],
+    sensor: &[(Measured, Measured)],
+    partial: &[bool],
+    flags: &mut [Vec<Flag>],
+) -> Option<FeatureStats> {
+    let values: Vec<(usize, f64)> = cal
+        .iter()
+        .enumerate()
+        .filter_map(|(i, c)| {
+            let c = (*c)?;
+            value_of(c, (&sensor[i].0, &sensor[i].1), &feat.name).filter(|v| v.is_finite()).map(|v| (i, v))
+        })
+        .collect();
+    let mut reference: Vec<f64> = values.iter().filter(|(i, _)| !partial[*i]).map(|(_, v)| *v).collect();
+    let med = median(&mut reference)?;
+    let mut dev: Vec<f64> = reference.iter().map(|v| (v - med).abs()).collect();
+    let scale = (1.4826 * median(&mut dev).unwrap_or(0.0)).max(feat.floor);
+    for &(i, v) in &values {
+        if feat.full_coverage_only && partial[i] {
+            continue;
+        }
+        let z = (v - med) / scale;
+        let out = match feat.side {
+            Side::Both => z.abs() > Z_FLAG,
+            Side::High => z > Z_FLAG,
+        };
+        if out {
+            flags[i].push(Flag {
+                feature: feat.name.clone(),
+                value: v,
+                median: med,
+                z,
+                text: format!(
+                    "{} {v:.3} {} against the fleet's {med:.3} ({z:+.1} robust SDs; flagged beyond ±{Z_FLAG})",
+                    feat.name, feat.unit
+                ),
+            });
+        }
+    }
+    Some(FeatureStats {
+        n: values.len(),
+        median: med,
+        scale,
+        values: values.iter().map(|(i, v)| (results[*i].serial.clone(), *v)).collect(),
+        feature: feat,
+    })
+}
+
+/// Each unit's decision and reasons (a failure, then its flags), counted in `counts`.
+fn fleet_units(
+    results: &[UnitResult],
+    flags: &[Vec<Flag>],
+    partial: &[bool],
+    sensor: &[(Measured, Measured)],
+    counts: &mut [usize; 3],
+) -> Vec<FleetUnit> {
+    results
         .iter()
         .enumerate()
         .map(|(i, r)| {
@@ -410,23 +460,7 @@ pub(crate) fn fleet(results: &[UnitResult], limits: &Limits) -> Fleet {
                 prior: None,
             }
         })
-        .collect();
-    let reference: Vec<&Calibrated> =
-        (0..results.len()).filter(|&i| !partial[i] && flags[i].is_empty()).filter_map(|i| cal[i]).collect();
-    let mut lo: Vec<f64> = reference.iter().map(|c| c.temp_c[0]).collect();
-    let mut hi: Vec<f64> = reference.iter().map(|c| c.temp_c[1]).collect();
-    let span_c = [median(&mut lo).unwrap_or(0.0), median(&mut hi).unwrap_or(0.0)];
-    let population = super::prior::population(&reference.iter().map(|c| &c.normal).collect::<Vec<_>>());
-    Fleet {
-        units: results.len(),
-        counts,
-        z_flag: Z_FLAG,
-        stats,
-        capability: capability(&cal, &axes, limits),
-        unit,
-        population,
-        span_c,
-    }
+        .collect()
 }
 
 /// Record each partial unit's prior table on the fleet: a unit for which the prior decided

@@ -521,32 +521,11 @@ impl Setup<'_> {
         let meas = |i: usize| y_over.map_or((bins[i].sf, bins[i].bias), |y| y[i]);
         let hours = if s.bias_drift { self.bin_hours() } else { Vec::new() };
         let cyc = self.ch.kind == LogKind::Cycling;
-        // Scale factor: Eq. 11's columns (`eq11_regressors`' order) 1, d, [d²], [r], [r·d], [r²].
         let rows: Vec<usize> = (0..bins.len()).filter(|&i| train[i]).collect();
-        let mut cols = vec![0usize, 1];
-        for (on, c) in [(s.sf_quad, 2), (s.sf_eps, 3), (s.sf_eta, 4), (s.sf_alpha, 5)] {
-            if on {
-                cols.push(c);
-            }
-        }
+        let cols = Self::sf_columns(s);
         let a_sf = DMatrix::from_fn(if cyc { rows.len() } else { 0 }, cols.len(), |i, j| f.sf[rows[i]][cols[j]]);
         let y_sf = DVector::from_fn(a_sf.nrows(), |i, _| meas(rows[i]).0);
-        // Bias: grid basis B (GRID_POINTS × nb) through the hats, then play, creep.
-        let basis: Vec<Vec<f64>> = match s.start {
-            Start::Simple => (0..GRID_POINTS)
-                .map(|j| {
-                    let d = f64::from(self.grid_temp(j) - T0_C);
-                    if s.bias_quad {
-                        vec![1.0, d, d * d]
-                    } else {
-                        vec![1.0, d]
-                    }
-                })
-                .collect(),
-            Start::Paper => {
-                (0..GRID_POINTS).map(|j| (0..GRID_POINTS).map(|k| if j == k { 1.0 } else { 0.0 }).collect()).collect()
-            }
-        };
+        let basis = self.bias_basis(s);
         let nb = basis[0].len();
         let np = usize::from(nl.play_r_c.is_some());
         let nc = usize::from(nl.creep.is_some());
@@ -576,6 +555,52 @@ impl Setup<'_> {
         } else {
             ScaleFactor::simple(T0_C, 1.0, 0.0)
         };
+        let model = self.model_of(scale, nl, &basis, &c);
+        let mut pred = self.predict(&model);
+        // The drift is not an `AxisModel` term: it is added to the predicted K0 here.
+        let drift_per_h = s.bias_drift.then(|| c[nb + np + nc]);
+        self.add_drift_and_offset(&mut pred, drift_per_h, &hours, offset);
+        Fitted { model, pred, drift_per_h, offset }
+    }
+
+    /// The scale factor's columns of Eq. 11 (`eq11_regressors`' order) that `s` fits:
+    /// 1, d, [d²], [r], [r·d], [r²].
+    fn sf_columns(s: &Structure) -> Vec<usize> {
+        let mut cols = vec![0usize, 1];
+        for (on, c) in [(s.sf_quad, 2), (s.sf_eps, 3), (s.sf_eta, 4), (s.sf_alpha, 5)] {
+            if on {
+                cols.push(c);
+            }
+        }
+        cols
+    }
+
+    /// The bias's grid basis B (`GRID_POINTS` × nb), seen through the hats in the design:
+    /// 1, d, [d²] for the simple start, the identity (one value per grid point) for the
+    /// paper's.
+    fn bias_basis(&self, s: &Structure) -> Vec<Vec<f64>> {
+        match s.start {
+            Start::Simple => (0..GRID_POINTS)
+                .map(|j| {
+                    let d = f64::from(self.grid_temp(j) - T0_C);
+                    if s.bias_quad {
+                        vec![1.0, d, d * d]
+                    } else {
+                        vec![1.0, d]
+                    }
+                })
+                .collect(),
+            Start::Paper => {
+                (0..GRID_POINTS).map(|j| (0..GRID_POINTS).map(|k| if j == k { 1.0 } else { 0.0 }).collect()).collect()
+            }
+        }
+    }
+
+    /// The axis model of the bias coefficients `c` (grid through `basis`, then play, creep)
+    /// with `scale` and the nonlinear parameters `nl`.
+    fn model_of(&self, scale: ScaleFactor, nl: &Nonlinear, basis: &[Vec<f64>], c: &[f64]) -> AxisModel {
+        let nb = basis[0].len();
+        let np = usize::from(nl.play_r_c.is_some());
         let grid: Vec<f32> =
             (0..GRID_POINTS).map(|g| (0..nb).map(|j| basis[g][j] * c[j]).sum::<f64>() as f32).collect();
         let mut ext = Extensions { sensor_lag: nl.lag_tau_s.map(|tau_s| SensorLag { tau_s }), ..Default::default() };
@@ -590,17 +615,25 @@ impl Setup<'_> {
                 activation_k: e,
             });
         }
-        let model = AxisModel {
+        AxisModel {
             scale,
             bias: BiasGrid::single_valued(self.grid_start, self.grid_step, &grid).expect("2 to 16 grid values"),
             rate_limit_c_per_min: self.rate_limit,
             ext,
-        };
-        let mut pred = self.predict(&model);
-        // The drift is not an `AxisModel` term: it is added to the predicted K0 here.
-        let drift_per_h = s.bias_drift.then(|| c[nb + np + nc]);
+        }
+    }
+
+    /// Add to the predicted (K1, K0) the drift (`drift_per_h` × hours, on K0) and the
+    /// timing offset along [`Setup::offset_basis`].
+    fn add_drift_and_offset(
+        &self,
+        pred: &mut [(f64, f64)],
+        drift_per_h: Option<f64>,
+        hours: &[f64],
+        offset: Option<TimingOffset>,
+    ) {
         if let Some(d) = drift_per_h {
-            for (p, h) in pred.iter_mut().zip(&hours) {
+            for (p, h) in pred.iter_mut().zip(hours) {
                 p.1 += d * h;
             }
         }
@@ -610,7 +643,6 @@ impl Setup<'_> {
                 p.1 += o.seconds * d.1;
             }
         }
-        Fitted { model, pred, drift_per_h, offset }
     }
 
     /// The two channels' least squares (scale factor: `a_sf`, `y_sf`; bias: `a_b`, `y_b`

@@ -228,7 +228,6 @@ fn discover_rows(
 /// A log static calibration refuses, a held-out scheme the log cannot hold, or a figure
 /// that cannot be formed ([`DiscoverError::StaticCal`]); a discovery that gives no model
 /// ([`DiscoverError::NoModel`]).
-#[allow(clippy::too_many_lines)]
 pub fn discover_static(log: &StaticLog, start: Start, holdout: Holdout) -> Result<StaticDiscovery> {
     let mut opts = StaticCalOptions { holdout, ..StaticCalOptions::default() };
     check_coverage(&log.temp_c, opts.grid_points, opts.block)?;
@@ -242,86 +241,10 @@ pub fn discover_static(log: &StaticLog, start: Start, holdout: Holdout) -> Resul
     let mut reports = Vec::new();
     let mut channels = Vec::new();
     for (a, ax) in log.axes.iter().enumerate() {
-        let name = |w: &str| format!("{} {w}", ax.name);
         let (r, ch, _, reference) = discover_rows(log, a, &all, start, bin_s);
         let disc_all = r.model.clone().ok_or_else(|| DiscoverError::NoModel { axis: ax.name.clone(), fold: None })?;
-        // Held-out residuals, pooled over the folds in time order.
-        let (mut before, mut after, mut t_before, mut t_after) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-        let mut peers: [Vec<f64>; 3] = [Vec::new(), Vec::new(), Vec::new()];
-        let mut peer_err: [Option<String>; 3] = [None, None, None];
-        let (mut none, mut ho_t) = (Vec::new(), Vec::new());
-        let mut effects_per_fold = Vec::new();
-        for (f, held) in folds.iter().enumerate() {
-            let train: Vec<usize> = (0..n).filter(|i| !held.contains(i)).collect();
-            let (rf, _, base, r0) = discover_rows(log, a, &train, start, bin_s);
-            let disc =
-                rf.model.clone().ok_or_else(|| DiscoverError::NoModel { axis: ax.name.clone(), fold: Some(f + 1) })?;
-            effects_per_fold.push(rf.effect_labels());
-            let drift = 1e-6 * rf.effects.iter().find_map(|e| e.params.get("drift_ug_per_h").copied()).unwrap_or(0.0);
-            for (m, d, res, t) in [(&base, 0.0, &mut before, &mut t_before), (&disc, drift, &mut after, &mut t_after)] {
-                let b = row_bias(log, m, d, bin_s);
-                for i in held.clone() {
-                    if let Some(k0) = b[i] {
-                        res.push(ax.accel_g[i] - r0 - k0);
-                        t.push(log.time_s[i]);
-                    }
-                }
-            }
-            let tt: Vec<f64> = train.iter().map(|&i| log.temp_c[i]).collect();
-            let value: Vec<f64> = train.iter().map(|&i| ax.accel_g[i] - r0).collect();
-            for (k, kind) in PeerKind::ALL.iter().enumerate() {
-                match kind.fit(&tt, &value) {
-                    Ok(p) => peers[k].extend(held.clone().map(|i| ax.accel_g[i] - r0 - p.eval(log.temp_c[i]))),
-                    Err(e) if peer_err[k].is_none() => {
-                        peer_err[k] = Some(format!("fold {} of {}: {}: {e}", f + 1, folds.len(), kind.label()));
-                    }
-                    Err(_) => {}
-                }
-            }
-            none.extend(held.clone().map(|i| ax.accel_g[i] - r0));
-            ho_t.extend(held.clone().map(|i| log.time_s[i]));
-        }
-        let fig = |res: &[f64], t: &[f64], what: &str, err: &Option<String>| -> Result<Figure, StaticCalError> {
-            if folds.is_empty() {
-                return Ok(Figure::not_computed(NO_HOLDOUT));
-            }
-            if let Some(e) = err {
-                return Ok(Figure::not_computed(e.clone()));
-            }
-            Ok(Figure::Score(score(res, t, &name(what))?))
-        };
-        axes.push(AxisDiscovery {
-            axis: ax.name.clone(),
-            column: ax.column.clone(),
-            reference_g: reference,
-            effects: r.effect_labels(),
-            effects_per_fold,
-            not_in_table: r.effects.iter().filter(|e| !e.in_table).map(|e| e.name.clone()).collect(),
-            unexplained: r
-                .unexplained
-                .iter()
-                .map(|u| {
-                    let mut s = u.correlates_with.join(", ");
-                    if !u.pinned.is_empty() {
-                        let _ = write!(s, "{}pinned: {}", if s.is_empty() { "" } else { "; " }, u.pinned.join("; "));
-                    }
-                    s
-                })
-                .collect(),
-            before: fig(&before, &t_before, "start model", &None)?,
-            after: fig(&after, &t_after, "discovered model", &None)?,
-            named_structure: structure_of(&disc_all).name(),
-            // Filled in below, once every axis's named structure is known.
-            final_structure: String::new(),
-            final_is_named: false,
-            final_cv_rms_mg: f64::NAN,
-            final_model: Figure::not_computed("not yet chosen"),
-            final_table_rms_mg: f64::NAN,
-            cubic: fig(&peers[0], &ho_t, PeerKind::Cubic.label(), &peer_err[0])?,
-            ardupilot: fig(&peers[1], &ho_t, PeerKind::Ardupilot.label(), &peer_err[1])?,
-            simple: fig(&peers[2], &ho_t, PeerKind::Simple.label(), &peer_err[2])?,
-            none: fig(&none, &ho_t, "none", &None)?,
-        });
+        let held_out = held_out_residuals(log, a, &folds, start, bin_s)?;
+        axes.push(axis_discovery(log, a, &r, &disc_all, reference, held_out, folds.is_empty())?);
         reports.push(r);
         channels.push(ch);
     }
@@ -332,13 +255,7 @@ pub fn discover_static(log: &StaticLog, start: Start, holdout: Holdout) -> Resul
     // prediction); the report gives both figures.
     opts.holdout = holdout;
     let cal = calibrate_static(log, &opts, false)?;
-    for (a, c) in axes.iter_mut().zip(&cal.report.axes) {
-        a.final_is_named = c.structure == a.named_structure;
-        a.final_structure.clone_from(&c.structure);
-        a.final_cv_rms_mg = c.cv_rms_mg;
-        a.final_model = c.ours.clone();
-        a.final_table_rms_mg = c.table_rms_mg;
-    }
+    adopt_flashed_choice(&mut axes, &cal.report.axes);
     Ok(StaticDiscovery {
         table: cal.table,
         start,
@@ -350,6 +267,164 @@ pub fn discover_static(log: &StaticLog, start: Start, holdout: Holdout) -> Resul
         reports,
         channels,
     })
+}
+
+/// One axis's held-out residuals, pooled over the folds in time order: the start and the
+/// discovered model (each with the times of its rows), the peers, and no compensation.
+struct HeldOutResiduals {
+    before: Vec<f64>,
+    after: Vec<f64>,
+    t_before: Vec<f64>,
+    t_after: Vec<f64>,
+    peers: [Vec<f64>; 3],
+    peer_err: [Option<String>; 3],
+    none: Vec<f64>,
+    ho_t: Vec<f64>,
+    effects_per_fold: Vec<Vec<String>>,
+}
+
+/// Discover axis `a` on each fold's training rows and collect the held-out residuals of
+/// the start model, the discovered model, the peers and no compensation.
+fn held_out_residuals(
+    log: &StaticLog,
+    a: usize,
+    folds: &[std::ops::Range<usize>],
+    start: Start,
+    bin_s: f64,
+) -> Result<HeldOutResiduals> {
+    let ax = &log.axes[a];
+    let n = log.rows();
+    let mut h = HeldOutResiduals {
+        before: Vec::new(),
+        after: Vec::new(),
+        t_before: Vec::new(),
+        t_after: Vec::new(),
+        peers: [Vec::new(), Vec::new(), Vec::new()],
+        peer_err: [None, None, None],
+        none: Vec::new(),
+        ho_t: Vec::new(),
+        effects_per_fold: Vec::new(),
+    };
+    for (f, held) in folds.iter().enumerate() {
+        let train: Vec<usize> = (0..n).filter(|i| !held.contains(i)).collect();
+        let (rf, _, base, r0) = discover_rows(log, a, &train, start, bin_s);
+        let disc =
+            rf.model.clone().ok_or_else(|| DiscoverError::NoModel { axis: ax.name.clone(), fold: Some(f + 1) })?;
+        h.effects_per_fold.push(rf.effect_labels());
+        let drift = 1e-6 * rf.effects.iter().find_map(|e| e.params.get("drift_ug_per_h").copied()).unwrap_or(0.0);
+        for (m, d, res, t) in
+            [(&base, 0.0, &mut h.before, &mut h.t_before), (&disc, drift, &mut h.after, &mut h.t_after)]
+        {
+            let b = row_bias(log, m, d, bin_s);
+            for i in held.clone() {
+                if let Some(k0) = b[i] {
+                    res.push(ax.accel_g[i] - r0 - k0);
+                    t.push(log.time_s[i]);
+                }
+            }
+        }
+        held_out_peers(log, a, &train, held, r0, (f, folds.len()), &mut h);
+        h.none.extend(held.clone().map(|i| ax.accel_g[i] - r0));
+        h.ho_t.extend(held.clone().map(|i| log.time_s[i]));
+    }
+    Ok(h)
+}
+
+/// Fit each peer on fold `f`'s training rows (of `n_folds`) and add its held-out residuals,
+/// or note the first fold a peer could not be fitted on.
+fn held_out_peers(
+    log: &StaticLog,
+    a: usize,
+    train: &[usize],
+    held: &std::ops::Range<usize>,
+    r0: f64,
+    (f, n_folds): (usize, usize),
+    h: &mut HeldOutResiduals,
+) {
+    let ax = &log.axes[a];
+    let tt: Vec<f64> = train.iter().map(|&i| log.temp_c[i]).collect();
+    let value: Vec<f64> = train.iter().map(|&i| ax.accel_g[i] - r0).collect();
+    for (k, kind) in PeerKind::ALL.iter().enumerate() {
+        match kind.fit(&tt, &value) {
+            Ok(p) => h.peers[k].extend(held.clone().map(|i| ax.accel_g[i] - r0 - p.eval(log.temp_c[i]))),
+            Err(e) if h.peer_err[k].is_none() => {
+                h.peer_err[k] = Some(format!("fold {} of {}: {}: {e}", f + 1, n_folds, kind.label()));
+            }
+            Err(_) => {}
+        }
+    }
+}
+
+/// Axis `a`'s discovery: its named effects and structure from `r` (every row) and its
+/// held-out figures; the flashed choice is left to [`adopt_flashed_choice`].
+fn axis_discovery(
+    log: &StaticLog,
+    a: usize,
+    r: &Report,
+    disc_all: &AxisModel,
+    reference: f64,
+    h: HeldOutResiduals,
+    no_folds: bool,
+) -> Result<AxisDiscovery> {
+    let ax = &log.axes[a];
+    let name = |w: &str| format!("{} {w}", ax.name);
+    let fig = |res: &[f64], t: &[f64], what: &str, err: &Option<String>| -> Result<Figure, StaticCalError> {
+        if no_folds {
+            return Ok(Figure::not_computed(NO_HOLDOUT));
+        }
+        if let Some(e) = err {
+            return Ok(Figure::not_computed(e.clone()));
+        }
+        Ok(Figure::Score(score(res, t, &name(what))?))
+    };
+    Ok(AxisDiscovery {
+        axis: ax.name.clone(),
+        column: ax.column.clone(),
+        reference_g: reference,
+        effects: r.effect_labels(),
+        effects_per_fold: h.effects_per_fold,
+        not_in_table: r.effects.iter().filter(|e| !e.in_table).map(|e| e.name.clone()).collect(),
+        unexplained: unexplained_lines(r),
+        before: fig(&h.before, &h.t_before, "start model", &None)?,
+        after: fig(&h.after, &h.t_after, "discovered model", &None)?,
+        named_structure: structure_of(disc_all).name(),
+        // Filled in by `adopt_flashed_choice`, once every axis's named structure is known.
+        final_structure: String::new(),
+        final_is_named: false,
+        final_cv_rms_mg: f64::NAN,
+        final_model: Figure::not_computed("not yet chosen"),
+        final_table_rms_mg: f64::NAN,
+        cubic: fig(&h.peers[0], &h.ho_t, PeerKind::Cubic.label(), &h.peer_err[0])?,
+        ardupilot: fig(&h.peers[1], &h.ho_t, PeerKind::Ardupilot.label(), &h.peer_err[1])?,
+        simple: fig(&h.peers[2], &h.ho_t, PeerKind::Simple.label(), &h.peer_err[2])?,
+        none: fig(&h.none, &h.ho_t, "none", &None)?,
+    })
+}
+
+/// One line per unexplained structure: what it correlates with, then what pinned it.
+fn unexplained_lines(r: &Report) -> Vec<String> {
+    r.unexplained
+        .iter()
+        .map(|u| {
+            let mut s = u.correlates_with.join(", ");
+            if !u.pinned.is_empty() {
+                let _ = write!(s, "{}pinned: {}", if s.is_empty() { "" } else { "; " }, u.pinned.join("; "));
+            }
+            s
+        })
+        .collect()
+}
+
+/// Record on each axis the structure static calibration flashed, its figures, and whether
+/// discovery named it.
+fn adopt_flashed_choice(axes: &mut [AxisDiscovery], cal_axes: &[crate::static_cal::AxisReport]) {
+    for (a, c) in axes.iter_mut().zip(cal_axes) {
+        a.final_is_named = c.structure == a.named_structure;
+        a.final_structure.clone_from(&c.structure);
+        a.final_cv_rms_mg = c.cv_rms_mg;
+        a.final_model = c.ours.clone();
+        a.final_table_rms_mg = c.table_rms_mg;
+    }
 }
 
 /// The title line of one axis's report.
