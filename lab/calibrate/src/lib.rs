@@ -508,10 +508,11 @@ fn plots_section(p: &mut qfa_report::html_report::Page, out: &Path) -> std::io::
     Ok(())
 }
 
-/// `qfa-lab calibrate --log LOG --out DIR`.
+/// Read the cycling log at `log_path` and calibrate it into `out`: the demo's entry, for
+/// the log it wrote (`qfa-lab calibrate` goes through `open` and [`calibrate_into`]).
 ///
 /// # Errors
-/// A message describing the failure (for a malformed log: every bad row with its line).
+/// The failure (for a malformed log: every bad row with its line).
 pub fn calibrate_file(log_path: &Path, out: &Path, opts: &CalibrateOptions) -> Result<Calibration, CalibrateError> {
     let t = Instant::now();
     let log = read_log(log_path).map_err(CalibrateError::Read)?;

@@ -138,7 +138,7 @@ pub fn lint(path: &Path, flags: &ReadFlags) -> Lint {
 }
 
 /// An autopilot log: each accelerometer instance as `calibrate` will treat it (the checks
-/// are the reader's own, `data::autopilot::check`), and what the reader left unread.
+/// are the reader's own, `qfa_log::autopilot::check`), and what the reader left unread.
 fn lint_autopilot(l: &qfa_log::autopilot::AutopilotLog) -> Vec<Finding> {
     let mut out = vec![Finding::new(
         Severity::Ok,
