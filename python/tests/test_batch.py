@@ -15,8 +15,9 @@ import qfa_thermal as q
 from conftest import run_lab
 
 READER = {"time_unit": "s", "accel_unit": "g", "temp_unit": "C"}
-#: Units in the simulated chamber run: the simulator's three defects and three good units.
-UNITS = 6
+#: Units in the simulated chamber run: the simulator's three defects and one good unit,
+#: in three shards of two, one and one.
+UNITS = 4
 
 
 def _tree(root: Path) -> Dict[str, str]:
@@ -28,8 +29,8 @@ def _tree(root: Path) -> Dict[str, str]:
 
 @pytest.fixture(scope="module")
 def chamber(tmp_path_factory: pytest.TempPathFactory, lab_bin: Path) -> Path:
-    """A simulated chamber run of 6 units (3 deliberately bad: one of each defect), written
-    by the CLI; two per shard."""
+    """A simulated chamber run of 4 units (3 deliberately bad: one of each defect), written
+    by the CLI."""
     d = tmp_path_factory.mktemp("sim")
     run_lab(lab_bin, ["simulate-batch", "--units", str(UNITS), "--seed", "4", "--out", str(d)])
     return d / "chamber.tsv"
@@ -75,7 +76,7 @@ def test_a_dask_cluster_writes_the_same_bytes(tmp_path: Path, chamber: Path, sin
 def test_the_returned_fleet_is_the_file(single_run: Tuple[Path, Dict[str, Any]]) -> None:
     """``batch`` returns ``fleet.json`` itself, and every unit of the log has its
     certificate naming the CRC of a table that exists. (Which units the fleet flags is
-    judged against the simulator's truth on 30 units in ``lab/tests/batch.rs``: 6 are too
+    judged against the simulator's truth on 20 units in ``lab/tests/batch.rs``: 4 are too
     few for a robust spread.)"""
     import json
 
