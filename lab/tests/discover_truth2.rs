@@ -185,16 +185,34 @@ fn overlaps(a: &str, b: &str) -> bool {
     a == b || a == "both" || b == "both"
 }
 
-/// The outcome for a true effect `(name, channel)`, and the largest held-out gain it had as
-/// a candidate in any round, in SEs (its block test's t).
-fn outcome(r: &Report, truth: &[(&str, &str)], name: &str, channel: &str) -> (Outcome, f64) {
-    let t = r
+/// Why a true effect whose best candidate trial reached 3 SE was not named: that trial's
+/// t below the block test's critical value (the level-α test over the catalog, Student t
+/// on the blocks' degrees of freedom), the weight test refused it, a parameter at a search
+/// limit, or it passed every test and another candidate was added instead.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum StrongMiss {
+    BelowCritical,
+    WeightTest,
+    AtLimit,
+    OtherPicked,
+}
+
+/// The outcome for a true effect `(name, channel)`, the largest held-out gain it had as
+/// a candidate in any round, in SEs (its block test's t), and for a miss at 3 SE or more,
+/// why that trial was not added, with its critical value and blocks.
+fn outcome(
+    r: &Report,
+    truth: &[(&str, &str)],
+    name: &str,
+    channel: &str,
+) -> (Outcome, f64, Option<(StrongMiss, f64, usize)>) {
+    let best = r
         .rounds
         .iter()
         .flatten()
         .filter(|c| c.name == name && (c.channel == channel || name != "temp_quadratic"))
-        .map(|c| c.gain.t)
-        .fold(f64::NEG_INFINITY, f64::max);
+        .max_by(|a, b| a.gain.t.total_cmp(&b.gain.t));
+    let t = best.map_or(f64::NEG_INFINITY, |c| c.gain.t);
     let named = r.effects.iter().any(|e| e.name == name && (e.channel == channel || name != "temp_quadratic"));
     let wrong = r.effects.iter().any(|e| {
         !truth.iter().any(|(n, c)| *n == e.name && (*c == e.channel || *n != "temp_quadratic"))
@@ -210,7 +228,19 @@ fn outcome(r: &Report, truth: &[(&str, &str)], name: &str, channel: &str) -> (Ou
     } else {
         Outcome::Missed
     };
-    (o, t)
+    let why = best.filter(|c| !named && c.gain.t >= 3.0).map(|c| {
+        let cause = if c.gain.t <= c.gain.critical {
+            StrongMiss::BelowCritical
+        } else if !c.significant {
+            StrongMiss::WeightTest
+        } else if !c.at_bound.is_empty() {
+            StrongMiss::AtLimit
+        } else {
+            StrongMiss::OtherPicked
+        };
+        (cause, c.gain.critical, c.gain.blocks)
+    });
+    (o, t, why)
 }
 
 fn env_usize(key: &str, default: usize) -> usize {
@@ -231,10 +261,14 @@ fn confusion_matrix_and_false_discoveries() {
     let draws: Vec<Draw> = (0..n_draws as u64).map(|s| truth2::random_draw(1000 + s)).collect();
     let reports: Vec<Report> = draws.par_iter().map(report).collect();
     let mut rows: std::collections::BTreeMap<String, [usize; 5]> = Default::default();
-    let mut strong: std::collections::BTreeMap<String, (usize, usize)> = Default::default();
+    // Per true effect with a trial at 3 SE or more: draws, named, and the misses by cause
+    // (below the critical value, weight test, at a limit, another picked).
+    let mut strong: std::collections::BTreeMap<String, (usize, usize, [usize; 4])> = Default::default();
     let (mut clean_n, mut clean_named, mut clean_unexplained) = (0, 0, 0);
     let (mut names_total, mut names_false) = (0, 0);
     let mut other: [[usize; 4]; 5] = [[0; 4]; 5];
+    // The misses at 3 SE or more below their critical value: (t, critical, blocks).
+    let mut below_critical: Vec<(f64, f64, usize)> = Vec::new();
     for (d, r) in draws.iter().zip(&reports) {
         let truth: Vec<(&str, &str)> = d.catalog.iter().map(|e| (e.name(), e.channel())).collect();
         if d.other.is_empty() {
@@ -251,7 +285,7 @@ fn confusion_matrix_and_false_discoveries() {
             clean_unexplained += usize::from(!r.unexplained.is_empty());
         }
         for &(name, channel) in &truth {
-            let (o, t) = outcome(r, &truth, name, channel);
+            let (o, t, why) = outcome(r, &truth, name, channel);
             let key = format!("{name} ({channel})");
             let row = rows.entry(key.clone()).or_default();
             row[0] += 1;
@@ -260,6 +294,12 @@ fn confusion_matrix_and_false_discoveries() {
                 let s = strong.entry(key).or_default();
                 s.0 += 1;
                 s.1 += usize::from(o == Outcome::Named);
+                if let Some((w, critical, blocks)) = why {
+                    s.2[w as usize] += 1;
+                    if w == StrongMiss::BelowCritical {
+                        below_critical.push((t, critical, blocks));
+                    }
+                }
             }
         }
         if d.catalog.is_empty() {
@@ -277,22 +317,34 @@ fn confusion_matrix_and_false_discoveries() {
         }
     }
     println!("\nconfusion matrix over {n_draws} random draws of the second generator (start `simple`):\n");
-    println!("| true effect | draws | named | named wrongly | unexplained | missed | named when gain ≥ 3 SE |");
-    println!("|---|---|---|---|---|---|---|");
+    println!(
+        "| true effect | draws | named | named wrongly | unexplained | missed | named when gain ≥ 3 SE | \
+         not named at ≥ 3 SE: below critical / weight test / at a limit / other picked |"
+    );
+    println!("|---|---|---|---|---|---|---|---|");
     for (k, v) in &rows {
-        let s = strong.get(k).copied().unwrap_or((0, 0));
+        let s = strong.get(k).copied().unwrap_or((0, 0, [0; 4]));
         let pct = |x: usize| format!("{x} ({:.0} %)", 100.0 * x as f64 / v[0].max(1) as f64);
         println!(
-            "| {k} | {} | {} | {} | {} | {} | {} of {} |",
+            "| {k} | {} | {} | {} | {} | {} | {} of {} | {} / {} / {} / {} |",
             v[0],
             pct(v[1]),
             pct(v[2]),
             pct(v[3]),
             pct(v[4]),
             s.1,
-            s.0
+            s.0,
+            s.2[0],
+            s.2[1],
+            s.2[2],
+            s.2[3]
         );
     }
+    below_critical.sort_by_key(|a| a.2);
+    println!(
+        "\nmisses at ≥ 3 SE below the critical value (t / critical / blocks): {}",
+        below_critical.iter().map(|(t, c, b)| format!("{t:.2}/{c:.2}/{b}")).collect::<Vec<_>>().join(", ")
+    );
     println!("\n| out-of-catalog effect (alone or with others out of catalog) | draws | unexplained | named something | silent |");
     println!("|---|---|---|---|---|");
     for (k, v) in other.iter().enumerate() {

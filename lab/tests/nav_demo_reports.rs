@@ -7,9 +7,9 @@
 //! file.
 //!
 //! Runs reduced: the built-in flight's first 15 min at 20 Hz with one Monte Carlo run, and
-//! the demo at 10-s rows with 20 min of flight. The demo's run also checks its pages in a
-//! real headless Chromium ([`common::browser`]) and its outputs' size (under 20 MB): one
-//! run of the demo serves both checks.
+//! the demo at 10-s rows with 20 min of flight. The navigate run and the demo's also open
+//! their pages in a real headless Chromium ([`common::browser`]), and the demo's outputs'
+//! size is checked (under 20 MB): one run serves both checks.
 
 mod common;
 
@@ -136,6 +136,12 @@ fn navigate_with_a_monte_carlo_run_and_its_merged_shard_tell_one_story() {
     assert!(lines.iter().any(|l| l.starts_with("expect in use: CEP rate")), "{lines:?}");
     assert!(lines.iter().any(|l| l.starts_with("warning: the flight is only 15 min")), "{lines:?}");
     assert!(!lines.iter().any(|l| l.starts_with("limit: ")), "a study has no limits: {lines:?}");
+    // The page itself: its sections, and it loads in a real browser with its plot.
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    for want in ["Held-out scheme", "Figures per variant", "What the lab program covers"] {
+        assert!(html.contains(want), "navigate's page lacks {want:?}");
+    }
+    browser::assert_page(&out.join("report.html"), 1);
 
     // The shard path: shard 0 of 1 flies the nominal run and the Monte Carlo run, merge
     // judges the study.
