@@ -14,6 +14,7 @@ use qfa_thermal::Table;
 
 use crate::compensate::{compensate_run, not_compensated};
 use crate::metrics::{bin_series, bins_sensitivity, rms, Bin};
+use qfa_log::cycling::Run;
 use qfa_log::pairing::{trace_run, PairedLog, Trace};
 
 /// Figures per compensation variant.
@@ -121,27 +122,36 @@ pub fn evaluate(
                 ev.bins[v].bias.extend(bin_series(prog, &temp, &br, &time, &ivl, &bias, &use_row));
             }
         }
-        // Zero-g runs: bias directly.
-        for (k, &i) in idx.iter().enumerate() {
-            let run = &log.runs[i];
-            if run.input_g != 0.0 {
-                continue;
-            }
-            let tr = &traces[k];
-            let time: Vec<f64> = run.samples.iter().map(|s| s.time_s).collect();
-            let ivl: Vec<f64> = run.samples.iter().map(|s| s.interval_s).collect();
-            for v in 0..3 {
-                let (a, st) = &outs[k][v];
-                let ok = valid_rows(tr, st.as_deref());
-                ev.bins[v].bias.extend(bin_series(prog, &tr.temp_c, &tr.branch, &time, &ivl, a, &ok));
-            }
-        }
+        bin_zero_g_runs(&mut ev, prog, idx.iter().map(|&i| &log.runs[i]), &traces, &outs);
     }
     let sens = |v: usize| bins_sensitivity(&ev.bins[v].sf).unwrap_or(f64::NAN);
     let bres = |v: usize| rms(&ev.bins[v].bias.iter().map(|b| b.value * 1e6).collect::<Vec<_>>());
     ev.sensitivity_ppm_per_c = Variants { none: sens(0), simple: sens(1), hysteresis: sens(2) };
     ev.bias_residual_ug = Variants { none: bres(0), simple: bres(1), hysteresis: bres(2) };
     Ok(ev)
+}
+
+/// The zero-g runs among a program's `runs` (with their `traces` and each variant's
+/// `outs`, in the same order): their output is the bias directly, binned into `ev`.
+fn bin_zero_g_runs<'a>(
+    ev: &mut Evaluation,
+    prog: &str,
+    runs: impl Iterator<Item = &'a Run>,
+    traces: &[Trace],
+    outs: &[[Output; 3]],
+) {
+    for (k, run) in runs.enumerate() {
+        if run.input_g != 0.0 {
+            continue;
+        }
+        let tr = &traces[k];
+        let time: Vec<f64> = run.samples.iter().map(|s| s.time_s).collect();
+        let ivl: Vec<f64> = run.samples.iter().map(|s| s.interval_s).collect();
+        for (v, (a, st)) in outs[k].iter().enumerate() {
+            let ok = valid_rows(tr, st.as_deref());
+            ev.bins[v].bias.extend(bin_series(prog, &tr.temp_c, &tr.branch, &time, &ivl, a, &ok));
+        }
+    }
 }
 
 /// Fit diagnostics in the report.

@@ -103,6 +103,36 @@ pub struct Trace {
     pub bins: Vec<Bin>,
 }
 
+/// The kept rows (`time_s`, and `keep`: each one's index in the measured channels) in
+/// bins of `bin_s` seconds: `sf` averaged and the bias as `mean(sf·bias)/mean(sf)` when
+/// `sf` is given, else the bias averaged.
+fn bin_rows(time_s: &[f64], keep: &[usize], sf: Option<&[f64]>, bias: &[f64], bin_s: f64) -> Vec<Bin> {
+    let mut bins = Vec::new();
+    let mut lo = 0;
+    while lo < time_s.len() {
+        let key = (time_s[lo] / bin_s).floor();
+        let mut hi = lo + 1;
+        while hi < time_s.len() && (time_s[hi] / bin_s).floor() == key {
+            hi += 1;
+        }
+        let m = (hi - lo) as f64;
+        let t_mean = time_s[lo..hi].iter().sum::<f64>() / m;
+        let (sf_b, bias_b) = match sf {
+            Some(sf) => {
+                let s: f64 = keep[lo..hi].iter().map(|&k| sf[k]).sum::<f64>() / m;
+                let sb: f64 = keep[lo..hi].iter().map(|&k| sf[k] * bias[k]).sum::<f64>() / m;
+                (s, sb / s)
+            }
+            None => (f64::NAN, keep[lo..hi].iter().map(|&k| bias[k]).sum::<f64>() / m),
+        };
+        if sf_b.is_finite() || sf.is_none() {
+            bins.push(Bin { lo, hi, time_s: t_mean, sf: sf_b, bias: bias_b });
+        }
+        lo = hi;
+    }
+    bins
+}
+
 impl Trace {
     /// Build a trace from rows `(time_s, temp_c)` and bin the measured channels.
     /// `sf` and `bias` are per-row measured values; bins average `sf` and form the bias as
@@ -167,29 +197,7 @@ impl Trace {
             last = Some(t);
             keep.push(i);
         }
-        let mut bins = Vec::new();
-        let mut lo = 0;
-        while lo < time_s.len() {
-            let key = (time_s[lo] / bin_s).floor();
-            let mut hi = lo + 1;
-            while hi < time_s.len() && (time_s[hi] / bin_s).floor() == key {
-                hi += 1;
-            }
-            let m = (hi - lo) as f64;
-            let t_mean = time_s[lo..hi].iter().sum::<f64>() / m;
-            let (sf_b, bias_b) = match sf {
-                Some(sf) => {
-                    let s: f64 = keep[lo..hi].iter().map(|&k| sf[k]).sum::<f64>() / m;
-                    let sb: f64 = keep[lo..hi].iter().map(|&k| sf[k] * bias[k]).sum::<f64>() / m;
-                    (s, sb / s)
-                }
-                None => (f64::NAN, keep[lo..hi].iter().map(|&k| bias[k]).sum::<f64>() / m),
-            };
-            if sf_b.is_finite() || sf.is_none() {
-                bins.push(Bin { lo, hi, time_s: t_mean, sf: sf_b, bias: bias_b });
-            }
-            lo = hi;
-        }
+        let bins = bin_rows(&time_s, &keep, sf, bias, bin_s);
         Self { program, time_s, temp_raw, est_t, est_rate, dt_s, bins }
     }
 

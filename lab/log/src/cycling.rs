@@ -226,6 +226,43 @@ fn parse_row(rec: &csv::ByteRecord) -> Result<Parsed, RowFault> {
     Ok((time_s, input_g, temp_c, pulses, interval_s))
 }
 
+/// The header row: exactly [`COLUMNS`], or the error for line 1.
+fn check_header(rdr: &mut csv::Reader<&[u8]>, rec: &mut csv::ByteRecord) -> Result<(), LogError> {
+    match rdr.read_byte_record(rec) {
+        Ok(true) => {
+            let got: Vec<&[u8]> = (0..rec.len()).map(|i| field_str(rec, i)).collect();
+            if got.len() != COLUMNS.len() || got.iter().zip(COLUMNS).any(|(g, c)| *g != c.as_bytes()) {
+                let h = got.iter().map(|g| String::from_utf8_lossy(g).into_owned()).collect::<Vec<_>>().join(",");
+                return Err(LogError::single(1, RowFault::Header(h)));
+            }
+            Ok(())
+        }
+        Ok(false) => Err(LogError::single(1, RowFault::Header(String::new()))),
+        Err(e) => Err(LogError::single(1, RowFault::Csv(e.to_string()))),
+    }
+}
+
+/// The index in `log.runs` of the run `(prog, run)`, added with `input_g` when new;
+/// `current`, the previous row's, is tried first (consecutive rows usually share it).
+fn run_index(log: &mut Log, current: Option<usize>, prog: &[u8], run: &[u8], input_g: f64) -> usize {
+    let same = |r: &Run| r.run.as_bytes() == run && r.program.as_bytes() == prog;
+    match current {
+        Some(i) if same(&log.runs[i]) => i,
+        _ => match log.runs.iter().position(same) {
+            Some(i) => i,
+            None => {
+                log.runs.push(Run {
+                    program: String::from_utf8_lossy(prog).into_owned(),
+                    run: String::from_utf8_lossy(run).into_owned(),
+                    input_g,
+                    samples: Vec::new(),
+                });
+                log.runs.len() - 1
+            }
+        },
+    }
+}
+
 /// Read a log from any reader.
 ///
 /// # Errors
@@ -237,17 +274,7 @@ pub fn read_log_from<R: Read>(mut reader: R) -> Result<Log, LogError> {
     let mut rdr = csv::ReaderBuilder::new().has_headers(false).flexible(true).from_reader(&text[..]);
     let mut rec = csv::ByteRecord::new();
     let mut line: u64 = 1;
-    match rdr.read_byte_record(&mut rec) {
-        Ok(true) => {
-            let got: Vec<&[u8]> = (0..rec.len()).map(|i| field_str(&rec, i)).collect();
-            if got.len() != COLUMNS.len() || got.iter().zip(COLUMNS).any(|(g, c)| *g != c.as_bytes()) {
-                let h = got.iter().map(|g| String::from_utf8_lossy(g).into_owned()).collect::<Vec<_>>().join(",");
-                return Err(LogError::single(1, RowFault::Header(h)));
-            }
-        }
-        Ok(false) => return Err(LogError::single(1, RowFault::Header(String::new()))),
-        Err(e) => return Err(LogError::single(1, RowFault::Csv(e.to_string()))),
-    }
+    check_header(&mut rdr, &mut rec)?;
     let mut log = Log::default();
     let mut errors = LogError { errors: Vec::new(), total: 0 };
     // Index of the run of the previous row: consecutive rows usually share it.
@@ -278,24 +305,7 @@ pub fn read_log_from<R: Read>(mut reader: R) -> Result<Log, LogError> {
                 continue;
             }
         };
-        let prog = field_str(&rec, 0);
-        let run = field_str(&rec, 1);
-        let same = |r: &Run| r.run.as_bytes() == run && r.program.as_bytes() == prog;
-        let idx = match current {
-            Some(i) if same(&log.runs[i]) => i,
-            _ => match log.runs.iter().position(same) {
-                Some(i) => i,
-                None => {
-                    log.runs.push(Run {
-                        program: String::from_utf8_lossy(prog).into_owned(),
-                        run: String::from_utf8_lossy(run).into_owned(),
-                        input_g,
-                        samples: Vec::new(),
-                    });
-                    log.runs.len() - 1
-                }
-            },
-        };
+        let idx = run_index(&mut log, current, field_str(&rec, 0), field_str(&rec, 1), input_g);
         current = Some(idx);
         let r = &mut log.runs[idx];
         if r.input_g != input_g {

@@ -329,19 +329,28 @@ pub fn write_outputs(out: &Path, parts: &[Partial], plots: bool) -> Result<Summa
     let (sum, outs) = summarize(parts)?;
     std::fs::create_dir_all(out).map_err(|e| SummaryError::CreateDir { path: out.into(), source: e })?;
     let names: Vec<String> = sum.cep_nmi_per_h.keys().cloned().collect();
+    write_file(&out.join("mc_runs.csv"), &runs_csv(&names, &outs))?;
+    if plots {
+        plot_runs(out, &names, &outs)?;
+    }
+    Ok(sum)
+}
+
+/// `mc_runs.csv`: one row per run, the figures of each variant in `names`.
+fn runs_csv(names: &[String], outs: &[Outcome]) -> String {
     let mut s = String::from("run,seed,temp_offset_c,temp_scale,case_min_c,case_max_c");
-    for n in &names {
+    for n in names {
         let _ = write!(s, ",{n}_cep_nmi_per_h,{n}_thermal_cep_nmi_per_h,{n}_thermal_share,{n}_share_total_cep,{n}_roll_arcsec,{n}_pitch_arcsec,{n}_heading_mrad,{n}_rate_clamped_share,{n}_temp_clamped_share");
     }
     s.push_str(",clamped_warning");
     s.push_str(",wall_s\n");
-    for o in &outs {
+    for o in outs {
         let _ = write!(
             s,
             "{},{},{:.3},{:.4},{:.2},{:.2}",
             o.run, o.seed, o.temp_offset_c, o.temp_scale, o.case_temp_range_c[0], o.case_temp_range_c[1]
         );
-        for n in &names {
+        for n in names {
             let a = o.alignment.get(n).copied().unwrap_or_default();
             let _ = write!(
                 s,
@@ -377,41 +386,42 @@ pub fn write_outputs(out: &Path, parts: &[Partial], plots: bool) -> Result<Summa
         let _ = write!(s, ",{}", warn.join(";"));
         let _ = writeln!(s, ",{:.2}", o.wall_s);
     }
-    write_file(&out.join("mc_runs.csv"), &s)?;
-    if plots {
-        let col =
-            |f: &dyn Fn(&Outcome) -> &BTreeMap<String, f64>, scale: f64, skip: &[&str]| -> Vec<(String, Vec<f64>)> {
-                names
-                    .iter()
-                    .filter(|n| !skip.contains(&n.as_str()))
-                    .map(|n| (n.clone(), outs.iter().map(|o| f(o)[n] * scale).collect()))
-                    .collect()
-            };
-        let title = format!("{} runs", outs.len());
-        super::plot::plot_distributions(
-            &out.join("mc_thermal_share.png"),
-            &format!("thermal share removed, (simple − v)/(simple − oracle) on thermal-only CEP; {title}"),
-            "thermal share removed (%)",
-            // `none` (several hundred % negative) would squash the scale.
-            &col(&|o| &o.thermal_share_removed, 100.0, &["none", "simple", "oracle"]),
-        )
-        .map_err(SummaryError::Plot)?;
-        super::plot::plot_distributions(
-            &out.join("mc_thermal_cep.png"),
-            &format!("thermal-only CEP rate (variant − oracle, same sensor data); {title}"),
-            "thermal-only CEP (nmile/h)",
-            &col(&|o| &o.thermal_cep_nmi_per_h, 1.0, &["none", "oracle"]),
-        )
-        .map_err(SummaryError::Plot)?;
-        super::plot::plot_distributions(
-            &out.join("mc_cep.png"),
-            &format!("CEP rate (radial growth) per variant; {title}"),
-            "CEP (nmile/h)",
-            &col(&|o| &o.cep_nmi_per_h, 1.0, &[]),
-        )
-        .map_err(SummaryError::Plot)?;
-    }
-    Ok(sum)
+    s
+}
+
+/// `mc_thermal_share.png`, `mc_thermal_cep.png` and `mc_cep.png`: each variant's
+/// empirical distribution over the runs.
+fn plot_runs(out: &Path, names: &[String], outs: &[Outcome]) -> Result<(), SummaryError> {
+    let col = |f: &dyn Fn(&Outcome) -> &BTreeMap<String, f64>, scale: f64, skip: &[&str]| -> Vec<(String, Vec<f64>)> {
+        names
+            .iter()
+            .filter(|n| !skip.contains(&n.as_str()))
+            .map(|n| (n.clone(), outs.iter().map(|o| f(o)[n] * scale).collect()))
+            .collect()
+    };
+    let title = format!("{} runs", outs.len());
+    super::plot::plot_distributions(
+        &out.join("mc_thermal_share.png"),
+        &format!("thermal share removed, (simple − v)/(simple − oracle) on thermal-only CEP; {title}"),
+        "thermal share removed (%)",
+        // `none` (several hundred % negative) would squash the scale.
+        &col(&|o| &o.thermal_share_removed, 100.0, &["none", "simple", "oracle"]),
+    )
+    .map_err(SummaryError::Plot)?;
+    super::plot::plot_distributions(
+        &out.join("mc_thermal_cep.png"),
+        &format!("thermal-only CEP rate (variant − oracle, same sensor data); {title}"),
+        "thermal-only CEP (nmile/h)",
+        &col(&|o| &o.thermal_cep_nmi_per_h, 1.0, &["none", "oracle"]),
+    )
+    .map_err(SummaryError::Plot)?;
+    super::plot::plot_distributions(
+        &out.join("mc_cep.png"),
+        &format!("CEP rate (radial growth) per variant; {title}"),
+        "CEP (nmile/h)",
+        &col(&|o| &o.cep_nmi_per_h, 1.0, &[]),
+    )
+    .map_err(SummaryError::Plot)
 }
 
 /// Write `text` to `path`, the error naming the file.

@@ -20,6 +20,25 @@ pub(crate) fn coverage(ch: &Channels) -> Result<Coverage, CoverageError> {
     Coverage::of_samples(s, f64::from(qfa_log::pairing::branch_deadband_c_per_min()))
 }
 
+/// The caption's sentence for a `channel` whose residual wanders more than twice its white
+/// noise while its fitted noise model is not rejected: slow noise explains it.
+fn slow_noise_sentence(ch: &Channels, r: &Report, channel: &str) -> Option<String> {
+    let f = r.residual_vs_floor.iter().find(|f| f.channel == channel && f.ratio > 2.0)?;
+    if r.unexplained.iter().any(|u| u.channel == channel) {
+        return None;
+    }
+    Some(format!(
+        " The lower panel wanders {:.1}× wider than its white noise, and the noise model fitted to it ({}) \
+         is not rejected (no step inside a run, run levels within its noise, no driver followed): slow \
+         noise of that size explains it, and the catalog's effects cannot be told from it.",
+        f.ratio,
+        r.residual_vs_floor.iter().position(|x| x.channel == channel).and_then(|k| r.noise.get(k)).map_or_else(
+            String::new,
+            |n| n.model.text(if channel == "scale_factor" { "ppm" } else { ch.bias_unit.label() })
+        )
+    ))
+}
+
 /// What to look for in one of [`super::output`]'s residual plots (`file`), and why it may
 /// look alarming.
 #[must_use]
@@ -67,19 +86,8 @@ pub(crate) fn caption(file: &str, ch: &Channels, r: &Report, scope: Scope<'_>) -
     } else {
         "value"
     };
-    if let Some(f) = r.residual_vs_floor.iter().find(|f| f.channel == channel && f.ratio > 2.0) {
-        if r.unexplained.iter().all(|u| u.channel != channel) {
-            s.push_str(&format!(
-                " The lower panel wanders {:.1}× wider than its white noise, and the noise model fitted to it ({}) \
-                 is not rejected (no step inside a run, run levels within its noise, no driver followed): slow \
-                 noise of that size explains it, and the catalog's effects cannot be told from it.",
-                f.ratio,
-                r.residual_vs_floor.iter().position(|x| x.channel == channel).and_then(|k| r.noise.get(k)).map_or_else(
-                    String::new,
-                    |n| n.model.text(if channel == "scale_factor" { "ppm" } else { ch.bias_unit.label() })
-                )
-            ));
-        }
+    if let Some(sentence) = slow_noise_sentence(ch, r, channel) {
+        s.push_str(&sentence);
     }
     if start > 2.0 * named {
         s.push_str(&format!(
