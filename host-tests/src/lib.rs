@@ -1,5 +1,6 @@
 //! Host tests for qfa-thermal.
 
+#[cfg(feature = "field")]
 pub mod field;
 pub mod fuzzing;
 pub mod onewire_sim;
