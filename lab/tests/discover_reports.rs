@@ -73,11 +73,10 @@ struct Renderings {
     page: Vec<String>,
 }
 
-/// Run `discover ARGS --out OUT` without and with `--json`, check stdout's shape both
-/// times, and read the verdict back from every rendering.
-/// `qfa-lab discover` with `args` into `out`, its four renderings; with `json_too`, run
-/// again with `--json` and check that stdout is then `report.json` (one log suffices for
-/// that: the flag's path is the same for every log, and a discovery is seconds of CPU).
+/// Run `discover ARGS --out OUT`, check stdout's shape, and read the verdict back from
+/// every rendering; with `json_too`, run it again with `--json` and check that stdout is
+/// then `report.json` (one log suffices for that: the flag's path is the same for every
+/// log, and each run is a whole discovery).
 fn discover(args: &[&str], out: &Path, json_too: bool) -> Renderings {
     let out_s = out.to_str().unwrap();
     let mut a = vec!["discover", "--out", out_s];

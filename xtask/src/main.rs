@@ -629,7 +629,9 @@ fn test(overwrite: bool) -> Result {
     c.arg("--no-deps");
     run(c)?;
 
-    step("the target half (started alongside the host steps): waiting for it");
+    // The target half is this process's child, so its CPU seconds land in this step when
+    // it is waited for: the host half's total includes them.
+    step("the target half (started alongside the host steps): waiting for it, its CPU-s counted here");
     let target_log = target_half.finish();
     print_step_times();
     print!("{}", target_log?);
