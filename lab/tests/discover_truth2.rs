@@ -187,25 +187,26 @@ fn overlaps(a: &str, b: &str) -> bool {
 
 /// Why a true effect whose best candidate trial reached 3 SE was not named: that trial's
 /// t below the block test's critical value (the level-α test over the catalog, Student t
-/// on the blocks' degrees of freedom), the weight test refused it, a parameter at a search
-/// limit, or it passed every test and another candidate was added instead.
+/// on the blocks' degrees of freedom), its gain not confirmed on the unwhitened residual,
+/// the weight test refused it, a parameter at a search limit, or it passed every test and
+/// another candidate was added instead.
 #[derive(Clone, Copy, PartialEq, Eq)]
 enum StrongMiss {
     BelowCritical,
+    RawTest,
     WeightTest,
     AtLimit,
     OtherPicked,
 }
 
+/// Why a trial at 3 SE or more was not added, with its critical value, its blocks and
+/// its weight's z (for an effect with a weight).
+type MissCause = (StrongMiss, f64, usize, Option<f64>);
+
 /// The outcome for a true effect `(name, channel)`, the largest held-out gain it had as
-/// a candidate in any round, in SEs (its block test's t), and for a miss at 3 SE or more,
-/// why that trial was not added, with its critical value and blocks.
-fn outcome(
-    r: &Report,
-    truth: &[(&str, &str)],
-    name: &str,
-    channel: &str,
-) -> (Outcome, f64, Option<(StrongMiss, f64, usize)>) {
+/// a candidate in any round, in SEs (its block test's t), the blocks of that trial, and
+/// for a miss at 3 SE or more, why that trial was not added.
+fn outcome(r: &Report, truth: &[(&str, &str)], name: &str, channel: &str) -> (Outcome, f64, usize, Option<MissCause>) {
     let best = r
         .rounds
         .iter()
@@ -231,6 +232,8 @@ fn outcome(
     let why = best.filter(|c| !named && c.gain.t >= 3.0).map(|c| {
         let cause = if c.gain.t <= c.gain.critical {
             StrongMiss::BelowCritical
+        } else if !(c.raw_gain.gain > 0.0 && c.raw_gain.t > c.raw_gain.critical) {
+            StrongMiss::RawTest
         } else if !c.significant {
             StrongMiss::WeightTest
         } else if !c.at_bound.is_empty() {
@@ -238,9 +241,9 @@ fn outcome(
         } else {
             StrongMiss::OtherPicked
         };
-        (cause, c.gain.critical, c.gain.blocks)
+        (cause, c.gain.critical, c.gain.blocks, c.weight.as_ref().map(|w| w.z))
     });
-    (o, t, why)
+    (o, t, best.map_or(0, |c| c.gain.blocks), why)
 }
 
 fn env_usize(key: &str, default: usize) -> usize {
@@ -262,14 +265,19 @@ fn confusion_matrix_and_false_discoveries() {
     let reports: Vec<Report> = draws.par_iter().map(report).collect();
     let mut rows: std::collections::BTreeMap<String, [usize; 5]> = Default::default();
     // Per true effect with a trial at 3 SE or more: draws, named, and the misses by cause
-    // (below the critical value, weight test, at a limit, another picked).
-    let mut strong: std::collections::BTreeMap<String, (usize, usize, [usize; 4])> = Default::default();
+    // (below the critical value, the unwhitened test, weight test, at a limit, another
+    // picked).
+    let mut strong: std::collections::BTreeMap<String, (usize, usize, [usize; 5])> = Default::default();
     let (mut clean_n, mut clean_named, mut clean_unexplained) = (0, 0, 0);
     let (mut names_total, mut names_false) = (0, 0);
     let mut other: [[usize; 4]; 5] = [[0; 4]; 5];
-    // The misses at 3 SE or more below their critical value: (t, critical, blocks).
+    // The misses at 3 SE or more below their critical value: (t, critical, blocks); those
+    // the weight test refused: (effect, seed, t, z); the blocks of every true effect's
+    // best trial.
     let mut below_critical: Vec<(f64, f64, usize)> = Vec::new();
-    for (d, r) in draws.iter().zip(&reports) {
+    let mut weight_refused: Vec<(String, u64, f64, f64)> = Vec::new();
+    let mut best_blocks: Vec<usize> = Vec::new();
+    for ((d, r), seed) in draws.iter().zip(&reports).zip(1000u64..) {
         let truth: Vec<(&str, &str)> = d.catalog.iter().map(|e| (e.name(), e.channel())).collect();
         if d.other.is_empty() {
             names_total += r.effects.len();
@@ -285,7 +293,10 @@ fn confusion_matrix_and_false_discoveries() {
             clean_unexplained += usize::from(!r.unexplained.is_empty());
         }
         for &(name, channel) in &truth {
-            let (o, t, why) = outcome(r, &truth, name, channel);
+            let (o, t, blocks_of_best, why) = outcome(r, &truth, name, channel);
+            if blocks_of_best > 0 {
+                best_blocks.push(blocks_of_best);
+            }
             let key = format!("{name} ({channel})");
             let row = rows.entry(key.clone()).or_default();
             row[0] += 1;
@@ -294,10 +305,13 @@ fn confusion_matrix_and_false_discoveries() {
                 let s = strong.entry(key).or_default();
                 s.0 += 1;
                 s.1 += usize::from(o == Outcome::Named);
-                if let Some((w, critical, blocks)) = why {
+                if let Some((w, critical, blocks, z)) = why {
                     s.2[w as usize] += 1;
                     if w == StrongMiss::BelowCritical {
                         below_critical.push((t, critical, blocks));
+                    }
+                    if w == StrongMiss::WeightTest {
+                        weight_refused.push((name.to_string(), seed, t, z.unwrap_or(f64::NAN)));
                     }
                 }
             }
@@ -319,14 +333,14 @@ fn confusion_matrix_and_false_discoveries() {
     println!("\nconfusion matrix over {n_draws} random draws of the second generator (start `simple`):\n");
     println!(
         "| true effect | draws | named | named wrongly | unexplained | missed | named when gain ≥ 3 SE | \
-         not named at ≥ 3 SE: below critical / weight test / at a limit / other picked |"
+         not named at ≥ 3 SE: below critical / unwhitened test / weight test / at a limit / other picked |"
     );
     println!("|---|---|---|---|---|---|---|---|");
     for (k, v) in &rows {
-        let s = strong.get(k).copied().unwrap_or((0, 0, [0; 4]));
+        let s = strong.get(k).copied().unwrap_or((0, 0, [0; 5]));
         let pct = |x: usize| format!("{x} ({:.0} %)", 100.0 * x as f64 / v[0].max(1) as f64);
         println!(
-            "| {k} | {} | {} | {} | {} | {} | {} of {} | {} / {} / {} / {} |",
+            "| {k} | {} | {} | {} | {} | {} | {} of {} | {} / {} / {} / {} / {} |",
             v[0],
             pct(v[1]),
             pct(v[2]),
@@ -337,7 +351,8 @@ fn confusion_matrix_and_false_discoveries() {
             s.2[0],
             s.2[1],
             s.2[2],
-            s.2[3]
+            s.2[3],
+            s.2[4]
         );
     }
     below_critical.sort_by_key(|a| a.2);
@@ -345,6 +360,21 @@ fn confusion_matrix_and_false_discoveries() {
         "\nmisses at ≥ 3 SE below the critical value (t / critical / blocks): {}",
         below_critical.iter().map(|(t, c, b)| format!("{t:.2}/{c:.2}/{b}")).collect::<Vec<_>>().join(", ")
     );
+    println!(
+        "misses at ≥ 3 SE the weight test refused (effect, seed, t, weight z against z(1 − 0.05/18) = 2.77): {}",
+        weight_refused
+            .iter()
+            .map(|(n, s, t, z)| format!("{n} seed {s} t {t:.2} z {z:.2}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    best_blocks.sort_unstable();
+    if let (Some(lo), Some(hi)) = (best_blocks.first(), best_blocks.last()) {
+        println!(
+            "blocks of each true effect's best trial: {lo} to {hi}, median {}",
+            best_blocks[best_blocks.len() / 2]
+        );
+    }
     println!("\n| out-of-catalog effect (alone or with others out of catalog) | draws | unexplained | named something | silent |");
     println!("|---|---|---|---|---|");
     for (k, v) in other.iter().enumerate() {
@@ -372,11 +402,18 @@ fn confusion_matrix_and_false_discoveries() {
             analyze(&ch, Start::Simple)
         })
         .collect();
+    // The issue's goals, asserted: each clean-log FDR at most 5 %, and of the true effects
+    // whose best trial reached 3 SE at least 90 % named (pooled over the catalog: per
+    // effect the counts are 7 to 21, too few to hold each to 90 %; the table prints them).
+    let (strong_n, strong_named) = strong.values().fold((0, 0), |a, s| (a.0 + s.0, a.1 + s.1));
+    println!("named when gain ≥ 3 SE, all catalog effects: {strong_named} of {strong_n}");
+    assert!(strong_named as f64 >= 0.9 * strong_n as f64, "{strong_named} of {strong_n}");
     for (label, reps, expected) in [
         ("second generator (truth2, random conventions and noise)", &clean2, &[][..]),
         ("first generator (truth)", &clean1, &["temp_quadratic (bias)", "temp_quadratic (scale_factor)"][..]),
     ] {
         let named = reps.iter().filter(|r| names(r).iter().any(|n| !expected.contains(&n.as_str()))).count();
+        assert!(named as f64 <= 0.05 * reps.len() as f64, "{label}: {named} of {}", reps.len());
         let unexplained = reps.iter().filter(|r| !r.unexplained.is_empty()).count();
         println!(
             "false_discovery_rate {label}: {named}/{} = {:.1} % (95 % upper bound {:.1} %); unexplained {unexplained}/{}",

@@ -19,8 +19,9 @@
 //! Measured (dev profile, with the branch-deadband floor): held-out RMS, µg, ours / cubic / ArduPilot / paper linear / none:
 //! nothing hidden 12.4 / 10.4 / 10.7 / 11.8 / 416; sensor_lag 22.1 / 101.0 / 75.8 / 101.4 /
 //! 459; bias_creep 33.0 / 43.2 / 39.5 / 38.8 / 434; bias_branch_hysteresis 15.3 / 36.1 /
-//! 22.1 / 31.9 / 403. Discovery names nothing in any of these 100-min logs (its block test
-//! has too few blocks); the model it flashes is calibration's choice in each.
+//! 22.1 / 31.9 / 403. Discovery names the hidden effect in each of the three logs that have
+//! one (the lag and the play "not identified" beside a creep) and nothing in the clean one;
+//! the model it flashes is calibration's choice in each.
 
 use qfa_calibrate::export::ExportNote;
 use qfa_calibrate::fit::{fit_static_axis, StaticSeries, StaticStructure};

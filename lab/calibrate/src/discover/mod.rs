@@ -31,13 +31,17 @@
 //!    coarse log-grid then golden section (τ, r; 20 steps) or Nelder–Mead (creep τ_ref,
 //!    E; T_ref fixed at 22 °C); linear coefficients re-fitted by least squares for every
 //!    trial; every trial scored by running the root crate's `AxisModel::evaluate`.
-//! 6. **Selection** (`stats`): the per-bin held-out gain (drop of
-//!    (residual/RMS)², summed over the channels) is summed over blocks of consecutive
-//!    bins, four times the residual's 1/e autocorrelation lag long (≥ 10 bins, ≥ 8
-//!    blocks), so the block sums are close to independent even under the Gauss–Markov
-//!    bias instability. A candidate is significant when its gain exceeds
+//! 6. **Selection** (`stats`, `noise`): both held-out residuals, before and after the
+//!    candidate, are whitened by the noise model fitted to the one after (white plus
+//!    Gauss–Markov is ARMA(1, 1); its innovations, clipped at 4 SD). The per-bin gain
+//!    (drop of (residual/RMS)², summed over the channels) is summed over blocks of
+//!    consecutive bins, four times the whitened residual's 1/e autocorrelation lag long
+//!    (≥ 10 bins, ≥ 8 blocks). A candidate is significant when that gain exceeds
 //!    t(1 − 0.05/m, blocks − 1) standard errors of the block sums (m = 9, the catalog's
-//!    size, in every round: Bonferroni over everything the workflow could add). An
+//!    size, in every round: Bonferroni over everything the workflow could add), and
+//!    when the same gain on the unwhitened residuals (blocks from their own
+//!    autocorrelation) passes the same test at the uncorrected level 0.05: the
+//!    improvement must show in the residual a user sees, not only in its fast part. An
 //!    effect with a weight of its own (drift rate, play weight, Eq. 11 term) must also
 //!    clear its weight test (`WeightZ`: |weight| > z(1 − 0.05/(2m)) moving-block
 //!    bootstrap SEs, held-out residuals resampled, nonlinear parameters searched again

@@ -109,8 +109,12 @@ pub struct CandidateTrial {
     pub name: String,
     /// Channel.
     pub channel: String,
-    /// Held-out gain and its block test.
+    /// Held-out gain and its block test, on the residuals whitened by the fitted noise
+    /// model.
     pub gain: GainStat,
+    /// The same gain on the residuals themselves, and its block test at the uncorrected
+    /// level: the improvement must also show in the held-out residual a user sees.
+    pub raw_gain: GainStat,
     /// The effect's own weight against its block-bootstrap standard error, on all bins
     /// (tested only after the block test passed; `None` for a lag, which has no weight).
     pub weight: Option<WeightZ>,
