@@ -67,8 +67,8 @@ pub(super) fn folds(ch: &Channels) -> (Vec<Vec<bool>>, Vec<Vec<bool>>, String) {
     }
 }
 
-/// Noise floor of a per-bin residual: the white part of its fitted noise model
-/// ([`super::noise`]), robust to glitches and steps.
+/// Noise floor of a per-bin residual: the bin-to-bin noise of its fitted noise model
+/// ([`super::noise::NoiseModel::floor`]), robust to glitches and steps.
 pub(crate) fn noise_floor(ch: &Channels, v: &[f64]) -> f64 {
-    super::noise::fit(ch, v).white
+    super::noise::fit(ch, v).floor()
 }

@@ -60,7 +60,7 @@
 //!    by 3.84·N/N_eff, N/N_eff from the residual autocorrelation), linear ones a
 //!    moving-block bootstrap interval; `at_bound` flags a search limit.
 //! 8. **Unexplained** (`unexplained`): each channel's final held-out residual against its
-//!    noise floor, the white part of the noise model fitted to it (`noise`: white plus
+//!    noise floor, the bin-to-bin noise of the model fitted to it (`noise`: white plus
 //!    Gauss–Markov, robust to glitches and steps; always reported); a change point inside a
 //!    run that the fitted model rejects; drivers it follows significantly (cross-fitted on
 //!    time since start, temperature, Ṫ, time since the last reversal and the ramp branch,

@@ -16,8 +16,15 @@
 //! move it by the share of pairs they touch, not by their size. `W` and `Q` are fitted by
 //! non-negative least squares on the relative error of `D(k)` for each `τ` on a 48-point
 //! log grid from 2 to 2 000 bins (a shorter correlation time is white noise at this
-//! bin width, and the two cannot be told apart), and the best `τ` is kept. The white part's SD
-//! `√W` is the channel's noise floor.
+//! bin width, and the two cannot be told apart), and the best `τ` is kept.
+//!
+//! # The noise floor
+//! The channel's noise floor is the model's bin-to-bin noise, `√(D(1)/2) = √(W + Q(1 − φ))`
+//! ([`NoiseModel::floor`]): the SD of one bin's noise against its neighbour. It is not the
+//! white part alone. On a residual whose bin-to-bin variation the slow part explains
+//! entirely, the fit puts `W` at its bound 0, and a floor of `√W` made the report print a
+//! held-out residual of 10¹⁵ times its floor (a real log's z axis) and gave that channel
+//! an almost infinite weight in the parameter search.
 //!
 //! # The tests the model must pass ([`NoiseTest`])
 //! "Slow noise can explain it" is only said when the fitted model is not rejected against
@@ -65,7 +72,8 @@ pub(crate) const CLIP_SD: f64 = 4.0;
 /// A channel's fitted noise: white plus Gauss–Markov (see the module docs).
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct NoiseModel {
-    /// SD of the white part per bin (the channel's noise floor), residual unit.
+    /// SD of the white part per bin, residual unit (0 when the fit puts it at its bound;
+    /// stored as at least 10⁻¹²).
     pub white: f64,
     /// SD of the Gauss–Markov part, residual unit.
     pub slow_sd: f64,
@@ -82,6 +90,13 @@ impl NoiseModel {
     #[must_use]
     pub(crate) fn phi(&self) -> f64 {
         (-self.bin_s / self.tau_s).exp()
+    }
+
+    /// The channel's noise floor: the bin-to-bin noise `√(W + Q(1 − φ))` (see the module
+    /// docs), residual unit; positive whenever the residual varies.
+    #[must_use]
+    pub fn floor(&self) -> f64 {
+        (self.white.powi(2) + self.slow_sd.powi(2) * (1.0 - self.phi())).sqrt()
     }
 
     /// SD of one bin's total noise.
@@ -437,6 +452,24 @@ mod tests {
             }
         }
         out
+    }
+
+    #[test]
+    fn the_floor_is_the_bin_to_bin_noise_even_when_the_white_part_is_zero() {
+        // Pure Gauss–Markov, SD 3, τ 30 bins: no white part. The floor the selection
+        // weighs and the report divides by is the bin-to-bin noise 3·√(1 − e^(−1/30)) =
+        // 0.548; the white part alone (the floor before) came out near zero and the
+        // report then printed a residual of 10¹⁵ times its floor.
+        let ch = channels(8, 600);
+        let expect = 3.0 * (1.0 - (-1.0f64 / 30.0).exp()).sqrt();
+        let r = series(&ch, 0.0, 3.0, 30.0, 5);
+        let floor = super::super::folds::noise_floor(&ch, &r);
+        assert!((floor / expect - 1.0).abs() < 0.15, "floor {floor}, expected {expect}");
+        // With a white part of 1 as well: √(1 + 9(1 − e^(−1/30))) = 1.14.
+        let r = series(&ch, 1.0, 3.0, 30.0, 6);
+        let expect = (1.0 + 9.0 * (1.0 - (-1.0f64 / 30.0).exp())).sqrt();
+        let floor = super::super::folds::noise_floor(&ch, &r);
+        assert!((floor / expect - 1.0).abs() < 0.1, "floor {floor}, expected {expect}");
     }
 
     /// Lag-`k` autocorrelation of the finite values of one series (no runs).

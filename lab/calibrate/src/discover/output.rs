@@ -285,7 +285,7 @@ fn markdown_gaps(s: &mut String, ch: &Channels, r: &Report, scope: Scope<'_>) {
     );
     let _ = writeln!(
         s,
-        "- Noise floor (white part of the noise model fitted to the final {held} residual): {}",
+        "- Noise floor (bin-to-bin noise of the model fitted to the final {held} residual): {}",
         gaps_text(ch.bias_unit, &r.noise_floor)
     );
     let _ = writeln!(s, "- Noise model: {}; change points: {}", noise_models_text(ch, r), change_point_tests_text(r));
@@ -311,7 +311,7 @@ fn summary_text(ch: &Channels, r: &Report, held: &str) -> String {
                 .join(", ");
             if r.residual_vs_floor.iter().any(|f| f.ratio > 2.0) {
                 format!(
-                    "the {held} residual is {ratios} its white-noise floor, and the noise model fitted to it ({}) is \
+                    "the {held} residual is {ratios} its bin-to-bin noise floor, and the noise model fitted to it ({}) is \
                      not rejected: no step inside any run ({}), run levels within its noise, no driver followed; \
                      slow noise of that size explains it, and the catalog's effects cannot be told from it",
                     noise_models_text(ch, r),

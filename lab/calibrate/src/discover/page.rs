@@ -194,7 +194,7 @@ fn page_gaps(p: &mut Page, ch: &Channels, r: &Report, scope: Scope<'_>) {
         ));
     }
     gap_rows.push((
-        format!("noise floor (white part of the noise model of the final {held} residual)"),
+        format!("noise floor (bin-to-bin noise of the noise model of the final {held} residual)"),
         gaps_text(ch.bias_unit, &r.noise_floor),
     ));
     gap_rows.push(("noise model".to_string(), super::output::noise_models_text(ch, r)));

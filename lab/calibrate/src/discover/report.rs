@@ -218,8 +218,8 @@ pub struct Report {
     /// Each channel's fitted noise model and its change-point test, in the order of
     /// `residual_vs_floor` (`super::noise`).
     pub noise: Vec<super::noise::NoiseTest>,
-    /// Noise floors of the final held-out residual (the white part of each channel's
-    /// noise model).
+    /// Noise floors of the final held-out residual (the bin-to-bin noise of each
+    /// channel's noise model, [`super::noise::NoiseModel::floor`]).
     pub noise_floor: Gaps,
     /// Peers on the same held-out split, bias channel (cycling logs: the bias channel
     /// only; the peers have no scale-factor model).

@@ -3,11 +3,12 @@
 //! [`Unexplained`], never as a name.
 //!
 //! # The residual against its floor
-//! Every report gives each channel's held-out RMS over its noise floor (the white part of
-//! its fitted noise model, [`super::noise`]), with a block-bootstrap 95 % interval
+//! Every report gives each channel's held-out RMS over its noise floor (the bin-to-bin
+//! noise of its fitted noise model, [`super::noise`]), with a block-bootstrap 95 % interval
 //! ([`FloorRatio`]). The ratio alone cannot decide: slow noise (a Gauss–Markov bias
-//! instability) is part of the residual but not of the white floor, and clean logs reach 7.1× on the lab simulator's 120 false-discovery logs and
-//! 4.6× on the independent generator's 100 (`floor_ratio_max` of the false-discovery runs).
+//! instability) is mostly not in the bin-to-bin floor, and clean logs reach 7.6× on the lab
+//! simulator's 120 false-discovery logs and 4.8× on the independent generator's 100
+//! (`floor_ratio_max` of the false-discovery runs).
 //! So the ratio is reported, and the decision is left to tests that slow noise passes:
 //!
 //! # Runs
@@ -49,7 +50,7 @@ pub struct FloorRatio {
     pub channel: String,
     /// Held-out RMS of the final residual (ppm, µg or the log's value unit).
     pub rms: f64,
-    /// Noise floor, same unit (the white part of the channel's fitted noise model).
+    /// Noise floor, same unit (the bin-to-bin noise of the channel's fitted noise model).
     pub floor: f64,
     /// rms / floor.
     pub ratio: f64,
