@@ -219,7 +219,7 @@ pub struct Report {
     /// `residual_vs_floor` (`super::noise`).
     pub noise: Vec<super::noise::NoiseTest>,
     /// Noise floors of the final held-out residual (the bin-to-bin noise of each
-    /// channel's noise model, [`super::noise::NoiseModel::floor`]).
+    /// channel's noise model, √(W + Q(1 − φ))).
     pub noise_floor: Gaps,
     /// Peers on the same held-out split, bias channel (cycling logs: the bias channel
     /// only; the peers have no scale-factor model).
