@@ -232,7 +232,7 @@ fn outcome(r: &Report, truth: &[(&str, &str)], name: &str, channel: &str) -> (Ou
     let why = best.filter(|c| !named && c.gain.t >= 3.0).map(|c| {
         let cause = if c.gain.t <= c.gain.critical {
             StrongMiss::BelowCritical
-        } else if !(c.raw_gain.gain > 0.0 && c.raw_gain.t > c.raw_gain.critical) {
+        } else if !c.raw_gain.passes() {
             StrongMiss::RawTest
         } else if !c.significant {
             StrongMiss::WeightTest

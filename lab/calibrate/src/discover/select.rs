@@ -28,6 +28,15 @@ fn per_bin_gain(cur: &Residuals, r: &Residuals) -> Vec<f64> {
         .collect()
 }
 
+/// `r` gains over `cur` held out: the whitened test ([`whitened_gain`], level `alpha`)
+/// and its confirmation on the residuals themselves ([`raw_gain`]) both pass. Returns
+/// the two tests and the verdict.
+fn gains(ch: &Channels, cur: &Residuals, r: &Residuals, alpha: f64) -> (stats::GainStat, stats::GainStat, bool) {
+    let (g, raw) = (whitened_gain(ch, cur, r, alpha), raw_gain(ch, cur, r));
+    let passes = g.passes() && raw.passes();
+    (g, raw, passes)
+}
+
 /// The block test of `r`'s held-out gain over `cur` (level `alpha`), on both residuals
 /// whitened by the noise model fitted to `r`, channel by channel (the larger model's
 /// residual estimates the noise, as in an F-test: `cur` still holds the structure under
@@ -277,12 +286,7 @@ fn try_candidates(
         let s2 = m.s.with(e);
         let nls2: Vec<Nonlinear> = (0..nf).map(|k| search(setup, &s2, &m.nls[k], e, &trains[k])).collect();
         let r = heldout(setup, &s2, &nls2, masks, trains);
-        // Blocks from the residual with the candidate in (the larger model's residual
-        // estimates the noise, as in an F-test): the current residual still holds the
-        // structure under test, whose long correlation would leave too few blocks.
-        let g = whitened_gain(ch, &m.cur, &r, alpha);
-        let raw = raw_gain(ch, &m.cur, &r);
-        let passes = g.gain > 0.0 && g.t > g.critical && raw.gain > 0.0 && raw.t > raw.critical;
+        let (g, raw, passes) = gains(ch, &m.cur, &r, alpha);
         let wz = if passes { weight_z(setup, &s2, &nls2[0], e, &r) } else { None };
         let z_crit = stats::normal_quantile(1.0 - alpha / 2.0);
         let significant = passes && wz.as_ref().is_none_or(|w| w.z > z_crit);
@@ -365,9 +369,7 @@ fn backward_step(
         let s_minus = m.s.without(e);
         let nls_minus: Vec<Nonlinear> = m.nls.iter().map(|n| n.without(e)).collect();
         let r_minus = heldout(setup, &s_minus, &nls_minus, masks, trains);
-        let g = whitened_gain(ch, &r_minus, &m.cur, ALPHA / Effect::ALL.len() as f64);
-        let raw = raw_gain(ch, &r_minus, &m.cur);
-        if !(g.gain > 0.0 && g.t > g.critical && raw.gain > 0.0 && raw.t > raw.critical) {
+        if !gains(ch, &r_minus, &m.cur, ALPHA / Effect::ALL.len() as f64).2 {
             effects.remove(k);
             m.s = s_minus;
             m.nls = nls_minus;

@@ -132,6 +132,14 @@ pub struct GainStat {
     pub block_bins: usize,
 }
 
+impl GainStat {
+    /// The gain is positive and its t exceeds the critical value.
+    #[must_use]
+    pub fn passes(&self) -> bool {
+        self.gain > 0.0 && self.t > self.critical
+    }
+}
+
 /// Per-block sums of `d` (NaNs skipped).
 #[must_use]
 pub(crate) fn block_sums(b: &Blocks, d: &[f64]) -> Vec<f64> {

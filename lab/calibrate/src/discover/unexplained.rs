@@ -320,7 +320,7 @@ pub(crate) fn find_unexplained(
                 .map(|(&a, &b)| if b.is_finite() { (a * a - (a - b).powi(2)) / var } else { 0.0 })
                 .collect();
             let g = stats::gain_stat(&blocks, &d, alpha);
-            if g.gain > 0.0 && g.t > g.critical {
+            if g.passes() {
                 hits.push((g.t, dn, rms(&f)));
             }
         }
