@@ -11,9 +11,11 @@
 //!
 //! # The fit (robust)
 //! `D(k)` is estimated at 12 lags from 1 to 64 bins as (1.4826 × the median of
-//! |e_{i+k} − e_i|)² over pairs inside one run: the median of the differences, not their
-//! mean square, so rare glitches, a step, or the jumps at a hysteresis loop's reversals
-//! move it by the share of pairs they touch, not by their size. `W` and `Q` are fitted by
+//! |e_{i+k} − e_i|)² over pairs inside one run, and `D(∞) = 2(W + Q)` from 1.4826 × the
+//! median absolute deviation of each run about its median, so that the model never claims
+//! more variance than the runs show: medians, not mean squares, so rare glitches, a step,
+//! or the jumps at a hysteresis loop's reversals move it by the share of pairs they touch,
+//! not by their size. `W` and `Q` are fitted by
 //! non-negative least squares on the relative error of `D(k)` for each `τ` on a 48-point
 //! log grid from 2 to 2 000 bins (a shorter correlation time is white noise at this
 //! bin width, and the two cannot be told apart), and the best `τ` is kept.
@@ -238,6 +240,27 @@ pub(crate) fn fit(ch: &Channels, r: &[f64]) -> NoiseModel {
         let s = 1.4826 * median(&mut diffs);
         d.push((k as f64, (s * s).max(1e-300)));
     }
+    // The residual's own variance bounds the model's: D(∞) = 2(W + Q), from the runs'
+    // median absolute deviations about their medians (robust as the lags are). Without it
+    // a residual whose differences still grew at the longest lag took the long-τ end of
+    // the family: a scale-factor hysteresis's residual of 5.4 ppm RMS got a slow part of
+    // SD 30 ppm (τ 33 h), against which no change point or run level could show. Slow
+    // noise with τ near a run's length is then partly a level per run, which the run-level
+    // test weighs.
+    let mut dev: Vec<f64> = runs
+        .iter()
+        .filter(|(_, v, _)| !v.is_empty())
+        .flat_map(|(_, v, _)| {
+            let mid = median(&mut v.clone());
+            v.iter().map(move |x| (x - mid).abs())
+        })
+        .collect();
+    let far = if !d.is_empty() && dev.len() >= MIN_PAIRS {
+        let s = 1.4826 * median(&mut dev);
+        Some(2.0 * (s * s).max(1e-300))
+    } else {
+        None
+    };
     if d.is_empty() {
         let all: Vec<f64> = runs.iter().flat_map(|(_, v, _)| v.iter().copied()).collect();
         let sd = if all.len() > 1 { crate::metrics::rms_of_finite(&all) } else { 1.0 };
@@ -247,8 +270,11 @@ pub(crate) fn fit(ch: &Channels, r: &[f64]) -> NoiseModel {
     for g in 0..48 {
         let tau_bins = 2.0 * (1000.0f64).powf(f64::from(g) / 47.0);
         // Relative least squares: rows (2, 2(1 − φ^k)) / D_k against 1.
-        let rows: Vec<(f64, f64)> =
-            d.iter().map(|&(k, dk)| (2.0 / dk, 2.0 * (1.0 - (-k / tau_bins).exp()) / dk)).collect();
+        let rows: Vec<(f64, f64)> = d
+            .iter()
+            .map(|&(k, dk)| (2.0 / dk, 2.0 * (1.0 - (-k / tau_bins).exp()) / dk))
+            .chain(far.map(|df| (2.0 / df, 2.0 / df)))
+            .collect();
         let (w, q) = nnls2(&rows);
         let sse: f64 = rows.iter().map(|&(a, b)| (a * w + b * q - 1.0).powi(2)).sum();
         if best.as_ref().is_none_or(|b| sse < b.0) {
@@ -516,6 +542,21 @@ mod tests {
             let w = fit(&ch, &series(&ch, 1.0, 0.0, 30.0, seed));
             assert!((w.white - 1.0).abs() < 0.1 && w.slow_sd < 0.3, "{w:?}");
         }
+    }
+
+    #[test]
+    fn the_model_never_claims_more_variance_than_the_residual_has() {
+        // A structure that looks like a random walk over the 64 lags fitted but is bounded:
+        // a ±5 square wave (half-period 90 bins) plus white noise of SD 1, SD 5.1 in all.
+        // The model's total SD must stay within 30 % of that; fitted from the lags alone
+        // it took the long-τ end of the family and claimed an SD of 11.2.
+        let ch = channels(8, 600);
+        let mut rng = seeded(3);
+        let r: Vec<f64> =
+            (0..ch.n_bins()).map(|i| if (i / 90) % 2 == 0 { 5.0 } else { -5.0 } + normal(&mut rng)).collect();
+        let sd = (r.iter().map(|x| x * x).sum::<f64>() / r.len() as f64).sqrt();
+        let m = fit(&ch, &r);
+        assert!(m.total_sd() < 1.3 * sd && m.total_sd() > 0.7 * sd, "SD {sd}: {m:?}");
     }
 
     #[test]
