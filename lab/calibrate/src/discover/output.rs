@@ -288,7 +288,13 @@ fn markdown_gaps(s: &mut String, ch: &Channels, r: &Report, scope: Scope<'_>) {
         "- Noise floor (bin-to-bin noise of the model fitted to the final {held} residual): {}",
         gaps_text(ch.bias_unit, &r.noise_floor)
     );
-    let _ = writeln!(s, "- Noise model: {}; change points: {}", noise_models_text(ch, r), change_point_tests_text(r));
+    let _ = writeln!(
+        s,
+        "- Noise model: {}; change points: {}{}",
+        noise_models_text(ch, r),
+        change_point_tests_text(r),
+        branch_test_text(r).map_or_else(String::new, |b| format!("; level by ramp branch: {b}"))
+    );
     if let Some(line) = timing_offset_text(ch, r) {
         let _ = writeln!(s, "- Timing offset between the temperature readings and the counts: {line}");
     }
@@ -312,10 +318,11 @@ fn summary_text(ch: &Channels, r: &Report, held: &str) -> String {
             if r.residual_vs_floor.iter().any(|f| f.ratio > 2.0) {
                 format!(
                     "the {held} residual is {ratios} its bin-to-bin noise floor, and the noise model fitted to it ({}) is \
-                     not rejected: no step inside any run ({}), run levels within its noise, no driver followed; \
+                     not rejected: no step inside any run ({}){}, run levels within its noise, no driver followed; \
                      slow noise of that size explains it, and the catalog's effects cannot be told from it",
                     noise_models_text(ch, r),
-                    change_point_tests_text(r)
+                    change_point_tests_text(r),
+                    branch_test_text(r).map_or_else(String::new, |b| format!(", no scale-factor level by ramp branch ({b})"))
                 )
             } else {
                 format!(
@@ -430,10 +437,20 @@ fn unexplained_line(ch: &Channels, r: &Report, u: &super::Unexplained, held: &st
             c.z
         );
     }
+    if let Some(b) = &u.branch_level {
+        let _ = write!(
+            line,
+            "; its level differs by ramp branch, {:+.3} on heating and {:+.3} on cooling (a dwell with the ramp \
+             before it, 10 min after each reversal left out), which the fitted noise model rejects (|z| {:.1}); \
+             the timing offset fitted alongside takes such a level's share on the ramps, so read the offset with it",
+            b.size, -b.size, b.z
+        );
+    }
     match u.structure_rms {
         Some(x) if !u.correlates_with.is_empty() => {
             let _ = write!(line, "; about {x:.3} of it follows {}).", u.correlates_with.join(", then "));
         }
+        _ if u.branch_level.is_some() => line.push_str("; no cross-fitted driver passes its block test)."),
         _ => line.push_str("; it follows none of the drivers tested)."),
     }
     let ts = &u.time_scales;
@@ -694,6 +711,14 @@ pub(super) fn change_point_tests_text(r: &Report) -> String {
         })
         .collect::<Vec<_>>()
         .join(", ")
+}
+
+/// The branch test in words (a cycling log's scale factor), or `None` where none ran.
+pub(super) fn branch_test_text(r: &Report) -> Option<String> {
+    r.residual_vs_floor.iter().zip(&r.noise).find_map(|(f, n)| match (n.branch_z, n.branch_critical) {
+        (Some(z), Some(c)) => Some(format!("{} |z| {z:.1} against {c:.1}", f.channel)),
+        _ => None,
+    })
 }
 
 /// The timing offset in words (cycling logs; `None` for a single-channel log).

@@ -36,7 +36,7 @@
 use serde::Serialize;
 
 use super::fit::{Effect, Residuals};
-use super::noise::{self, ChangePoint, NoiseModel, NoiseTest};
+use super::noise::{self, BranchLevel, ChangePoint, NoiseModel, NoiseTest};
 use super::{localize, noise_floor, stats, Channels, LogKind, ALPHA};
 use crate::metrics::rms_of_finite as rms;
 
@@ -122,6 +122,10 @@ pub struct Unexplained {
     /// A step inside one run that the fitted noise model rejects (see [`noise`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub change_point: Option<ChangePoint>,
+    /// A scale-factor level by ramp branch that the fitted noise model rejects (see
+    /// [`noise`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub branch_level: Option<BranchLevel>,
 }
 
 /// Each channel's residual against its floor, in the order of `channels_of`.
@@ -149,7 +153,23 @@ pub(crate) fn floor_ratios(ch: &Channels, cur: &Residuals) -> Vec<FloorRatio> {
 pub(crate) fn noise_tests(ch: &Channels, cur: &Residuals) -> Vec<NoiseTest> {
     let chans = channels_of(ch, cur);
     let alpha = ALPHA / chans.len() as f64;
-    chans.into_iter().enumerate().map(|(k, (_, r, _))| noise::test(ch, r, alpha, 0x006e_6f69_7365 + k as u64)).collect()
+    let drv = drivers(ch);
+    let driver = |name: &str| drv.iter().find(|d| d.0 == name).map(|d| d.1.as_slice()).unwrap_or(&[]);
+    chans
+        .into_iter()
+        .enumerate()
+        .map(|(k, (_, r, is_sf))| {
+            let mut t = noise::test(ch, r, alpha, 0x006e_6f69_7365 + k as u64);
+            if is_sf {
+                if let Some((z, critical, level)) =
+                    noise::branch_test(ch, r, driver("branch"), driver("time_since_reversal"), &t.model, alpha)
+                {
+                    (t.branch_z, t.branch_critical, t.branch_level) = (Some(z), Some(critical), level);
+                }
+            }
+            t
+        })
+        .collect()
 }
 
 /// The channels of a log: name, final residual, and whether it is the scale factor.
@@ -340,7 +360,8 @@ pub(crate) fn find_unexplained(
         // within-run slow part and the floor.
         let levels_left = levels.as_ref().is_some_and(|l| l.significant)
             && scales.across_runs > 2.0 * floor.floor.max(scales.within_run_slow);
-        if hits.is_empty() && pins.is_empty() && !levels_left && nt.change_point.is_none() {
+        if hits.is_empty() && pins.is_empty() && !levels_left && nt.change_point.is_none() && nt.branch_level.is_none()
+        {
             continue;
         }
         out.push(Unexplained {
@@ -354,6 +375,7 @@ pub(crate) fn find_unexplained(
             correlates_with: hits.iter().map(|h| h.1.to_string()).collect(),
             pinned: pins,
             change_point: nt.change_point.clone(),
+            branch_level: nt.branch_level.clone(),
         });
     }
     out
