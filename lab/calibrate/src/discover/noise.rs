@@ -43,6 +43,9 @@
 //!   [`STEP_MIN_WHITE`] white-noise SDs (why: its doc).
 //! * **a level per run**: the runs' clipped mean residuals against the model's SE of a
 //!   run mean (`unexplained::run_levels`).
+//! * **a run noisier than the others**: the largest run SD (1.4826 × its median absolute
+//!   deviation about its median) over the median run's, against the same maximum over
+//!   the [`NULL_DRAWS`] series, and at least [`RUN_NOISE_MIN_RATIO`] (why: its doc).
 //! * **a scale-factor level by ramp branch** (cycling logs; [`branch_test`]): the
 //!   generalized-least-squares slope of the residual on the branch (±1, a dwell with the
 //!   ramp before it) under the fitted model, the 10 minutes after each reversal left out
@@ -368,6 +371,47 @@ pub struct ChangePoint {
     pub z: f64,
 }
 
+/// A run counts as noisier only when its SD (robust, about its median) is at least this
+/// many times the median run's. Set after seeing both sides: clean logs of the lab
+/// simulator reach 1.51× (its scale-factor noise varies with the program's rate) and the
+/// second generator's 1.11×; its bad runs (five times the white noise and a 10-µg wander)
+/// read 2.26–4.44×. Twice the SD is four times the variance: a run worth a look.
+pub(crate) const RUN_NOISE_MIN_RATIO: f64 = 2.0;
+/// Fewest values a run needs to enter the run-noise test.
+const RUN_NOISE_MIN_BINS: usize = 20;
+
+/// A run noisier than the fitted (stationary) noise model allows.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct NoisyRun {
+    /// The run: its id, and its place in the log.
+    pub run: String,
+    /// Its SD (1.4826 × the median absolute deviation about its median) over the median
+    /// run's.
+    pub ratio: f64,
+}
+
+/// The largest run SD over the median run's (runs of [`RUN_NOISE_MIN_BINS`] values or
+/// more, at least 3 of them), and that run's index in `runs`.
+fn max_run_noise(runs: &[&[f64]]) -> Option<(f64, usize)> {
+    let sds: Vec<(usize, f64)> = runs
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| v.len() >= RUN_NOISE_MIN_BINS)
+        .map(|(k, v)| {
+            let mut c = v.to_vec();
+            let mid = median(&mut c);
+            let mut dev: Vec<f64> = v.iter().map(|x| (x - mid).abs()).collect();
+            (k, 1.4826 * median(&mut dev))
+        })
+        .collect();
+    if sds.len() < 3 {
+        return None;
+    }
+    let mut all: Vec<f64> = sds.iter().map(|x| x.1).collect();
+    let mid = median(&mut all).max(1e-300);
+    sds.iter().map(|&(k, sd)| (sd / mid, k)).max_by(|a, b| a.0.total_cmp(&b.0))
+}
+
 /// Seconds after a ramp reversal left out of the branch test: the rate estimator's delay
 /// and the thermal chain's corner transients live there, not a branch's level.
 const BRANCH_SKIP_S: f64 = 600.0;
@@ -399,6 +443,17 @@ pub struct NoiseTest {
     /// The split that gave `max_z`, when the model is rejected.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub change_point: Option<ChangePoint>,
+    /// The noisiest run's SD over the median run's; absent with fewer than 3 runs of
+    /// [`RUN_NOISE_MIN_BINS`] values.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_run_noise: Option<f64>,
+    /// Its critical value at the test's level, from the same [`NULL_DRAWS`] series.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub run_noise_critical: Option<f64>,
+    /// That run, when the model is rejected and its ratio is at least
+    /// [`RUN_NOISE_MIN_RATIO`].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub noisy_run: Option<NoisyRun>,
     /// The branch test's |z| (a cycling log's scale factor only: the catalog has no
     /// scale-factor term by branch; the bias has `bias_branch_hysteresis`).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -491,6 +546,8 @@ pub(crate) fn test(ch: &Channels, r: &[f64], alpha: f64, seed: u64) -> NoiseTest
     }
     let lens: Vec<usize> = runs.iter().map(|(_, v, _)| v.len()).collect();
     let runs_searched = lens.iter().filter(|&&n| n >= 2 * MIN_SEGMENT_BINS).count();
+    let values: Vec<&[f64]> = runs.iter().map(|(_, v, _)| v.as_slice()).collect();
+    let run_noise = max_run_noise(&values);
     let Some(max_z) = obs.map(|o| o.0) else {
         return NoiseTest {
             model,
@@ -498,28 +555,32 @@ pub(crate) fn test(ch: &Channels, r: &[f64], alpha: f64, seed: u64) -> NoiseTest
             max_z: None,
             critical: None,
             change_point: None,
+            max_run_noise: None,
+            run_noise_critical: None,
+            noisy_run: None,
             branch_z: None,
             branch_critical: None,
             branch_level: None,
         };
     };
-    let critical = null_quantile(&model, &lens, alpha, seed);
+    let (critical, run_noise_critical) = null_quantile(&model, &lens, alpha, seed);
+    let run_label = |k: usize| {
+        format!(
+            "{} ({} {} of {})",
+            ch.traces[k].program,
+            if ch.kind == super::LogKind::Cycling { "program" } else { "run" },
+            k + 1,
+            ch.traces.len()
+        )
+    };
+    let noisy_run = run_noise
+        .filter(|&(ratio, _)| ratio > run_noise_critical && ratio >= RUN_NOISE_MIN_RATIO)
+        .map(|(ratio, k)| NoisyRun { run: run_label(runs[k].0), ratio });
     let change_point =
         obs.filter(|o| o.0 > critical && o.3.abs() > STEP_MIN_WHITE * model.white).map(|(z, k, m, size)| {
             let (_, _, time) = &runs[k];
             let t0 = ch.traces[k].time_s.first().copied().unwrap_or(0.0);
-            ChangePoint {
-                run: format!(
-                    "{} ({} {} of {})",
-                    ch.traces[k].program,
-                    if ch.kind == super::LogKind::Cycling { "program" } else { "run" },
-                    k + 1,
-                    ch.traces.len()
-                ),
-                at_h: (0.5 * (time[m - 1] + time[m]) - t0) / 3600.0,
-                size,
-                z,
-            }
+            ChangePoint { run: run_label(k), at_h: (0.5 * (time[m - 1] + time[m]) - t0) / 3600.0, size, z }
         });
     NoiseTest {
         model,
@@ -527,21 +588,25 @@ pub(crate) fn test(ch: &Channels, r: &[f64], alpha: f64, seed: u64) -> NoiseTest
         max_z: Some(max_z),
         critical: Some(critical),
         change_point,
+        max_run_noise: run_noise.map(|r| r.0),
+        run_noise_critical: run_noise.map(|_| run_noise_critical),
+        noisy_run,
         branch_z: None,
         branch_critical: None,
         branch_level: None,
     }
 }
 
-/// The (1 − `alpha`) quantile of the largest change-point |z| over runs of `lens` bins
-/// drawn from `model`.
-fn null_quantile(model: &NoiseModel, lens: &[usize], alpha: f64, seed: u64) -> f64 {
+/// The (1 − `alpha`) quantiles of the largest change-point |z| and of the noisiest run's
+/// SD over the median run's, over runs of `lens` bins drawn from `model`.
+fn null_quantile(model: &NoiseModel, lens: &[usize], alpha: f64, seed: u64) -> (f64, f64) {
     let mut rng = seeded(seed ^ 0x6e6f_6973_6521);
     let phi = model.phi();
     let innov = model.slow_sd * (1.0 - phi * phi).max(0.0).sqrt();
-    let mut maxima: Vec<f64> = (0..NULL_DRAWS)
+    let (mut maxima, mut noisiest): (Vec<f64>, Vec<f64>) = (0..NULL_DRAWS)
         .map(|_| {
             let mut top = 0.0f64;
+            let mut series = Vec::with_capacity(lens.len());
             for &n in lens {
                 let mut g = model.slow_sd * normal(&mut rng);
                 let v: Vec<f64> = (0..n)
@@ -553,13 +618,16 @@ fn null_quantile(model: &NoiseModel, lens: &[usize], alpha: f64, seed: u64) -> f
                 if let Some((z, _, _)) = max_split(model, &clipped(model, &v)) {
                     top = top.max(z);
                 }
+                series.push(v);
             }
-            top
+            let refs: Vec<&[f64]> = series.iter().map(Vec::as_slice).collect();
+            (top, max_run_noise(&refs).map_or(0.0, |r| r.0))
         })
-        .collect();
+        .unzip();
     maxima.sort_by(f64::total_cmp);
+    noisiest.sort_by(f64::total_cmp);
     let i = (((1.0 - alpha) * NULL_DRAWS as f64).ceil() as usize).min(NULL_DRAWS) - 1;
-    maxima[i]
+    (maxima[i], noisiest[i])
 }
 
 #[cfg(test)]
@@ -707,6 +775,35 @@ mod tests {
             .collect();
         let (_, _, level) = branch_test(&ch, &r, &branch, &since, &fit(&ch, &r), 0.05).expect("bins kept");
         assert!(level.is_none(), "{level:?}");
+    }
+
+    #[test]
+    fn a_run_with_five_times_the_noise_is_found_and_noise_is_not() {
+        let ch = channels(8, 600);
+        let mut rejected = 0;
+        for seed in 1..=20 {
+            let r = series(&ch, 1.0, 1.0, 20.0, seed);
+            rejected += usize::from(test(&ch, &r, 0.05, seed).noisy_run.is_some());
+        }
+        assert!(rejected <= 3, "{rejected} of 20 rejected");
+        // Run 4 with five times the white noise and a 4-SD slow wander on top.
+        let mut r = series(&ch, 1.0, 1.0, 20.0, 9);
+        let extra = series(&ch, 4.0, 4.0, 60.0, 10);
+        for i in 3 * 600..4 * 600 {
+            r[i] += extra[i];
+        }
+        let t = test(&ch, &r, 0.05, 9);
+        let run = t.noisy_run.expect("the noisy run is found");
+        assert_eq!(run.run, "r3 (run 4 of 8)");
+        assert!(run.ratio > 3.0, "{run:?}");
+        // A run at 1.5 times the noise is left alone: under the size rule.
+        let mut r = series(&ch, 1.0, 0.0, 20.0, 11);
+        let extra = series(&ch, 1.1, 0.0, 20.0, 12);
+        for i in 3 * 600..4 * 600 {
+            r[i] += extra[i];
+        }
+        let t = test(&ch, &r, 0.05, 11);
+        assert!(t.noisy_run.is_none() && t.max_run_noise.is_some_and(|x| x > 1.3), "{t:?}");
     }
 
     #[test]

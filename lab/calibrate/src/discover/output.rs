@@ -290,9 +290,10 @@ fn markdown_gaps(s: &mut String, ch: &Channels, r: &Report, scope: Scope<'_>) {
     );
     let _ = writeln!(
         s,
-        "- Noise model: {}; change points: {}{}",
+        "- Noise model: {}; change points: {}; noise by run: {}{}",
         noise_models_text(ch, r),
         change_point_tests_text(r),
+        run_noise_tests_text(r),
         branch_test_text(r).map_or_else(String::new, |b| format!("; level by ramp branch: {b}"))
     );
     if let Some(line) = timing_offset_text(ch, r) {
@@ -318,10 +319,12 @@ fn summary_text(ch: &Channels, r: &Report, held: &str) -> String {
             if r.residual_vs_floor.iter().any(|f| f.ratio > 2.0) {
                 format!(
                     "the {held} residual is {ratios} its bin-to-bin noise floor, and the noise model fitted to it ({}) is \
-                     not rejected: no step inside any run ({}){}, run levels within its noise, no driver followed; \
-                     slow noise of that size explains it, and the catalog's effects cannot be told from it",
+                     not rejected: no step inside any run ({}), no run noisier than it allows ({}){}, run levels \
+                     within its noise, no driver followed; slow noise of that size explains it, and the catalog's \
+                     effects cannot be told from it",
                     noise_models_text(ch, r),
                     change_point_tests_text(r),
+                    run_noise_tests_text(r),
                     branch_test_text(r).map_or_else(String::new, |b| format!(", no scale-factor level by ramp branch ({b})"))
                 )
             } else {
@@ -444,6 +447,13 @@ fn unexplained_line(ch: &Channels, r: &Report, u: &super::Unexplained, held: &st
              before it, 10 min after each reversal left out), which the fitted noise model rejects (|z| {:.1}); \
              the timing offset fitted alongside takes such a level's share on the ramps, so read the offset with it",
             b.size, -b.size, b.z
+        );
+    }
+    if let Some(n) = &u.noisy_run {
+        let _ = write!(
+            line,
+            "; its noise in {} is {:.1}× the median run's, more than the fitted noise model gives any run",
+            n.run, n.ratio
         );
     }
     match u.structure_rms {
@@ -708,6 +718,24 @@ pub(super) fn change_point_tests_text(r: &Report) -> String {
                 n.runs_searched
             ),
             _ => format!("{}: not searched, no run of {} bins or more", f.channel, 2 * super::noise::MIN_SEGMENT_BINS),
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Every channel's run-noise test (the noisiest run's SD over the median run's) against
+/// its critical value, in words.
+pub(super) fn run_noise_tests_text(r: &Report) -> String {
+    r.residual_vs_floor
+        .iter()
+        .zip(&r.noise)
+        .map(|(f, n)| match (n.max_run_noise, n.run_noise_critical) {
+            (Some(x), Some(c)) => format!(
+                "{} noisiest run {x:.2}× the median run against {c:.2}× (and {:.1}× at least)",
+                f.channel,
+                super::noise::RUN_NOISE_MIN_RATIO
+            ),
+            _ => format!("{}: not tested, fewer than 3 runs long enough", f.channel),
         })
         .collect::<Vec<_>>()
         .join(", ")

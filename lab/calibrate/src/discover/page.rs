@@ -199,6 +199,7 @@ fn page_gaps(p: &mut Page, ch: &Channels, r: &Report, scope: Scope<'_>) {
     ));
     gap_rows.push(("noise model".to_string(), super::output::noise_models_text(ch, r)));
     gap_rows.push(("change points".to_string(), super::output::change_point_tests_text(r)));
+    gap_rows.push(("noise by run".to_string(), super::output::run_noise_tests_text(r)));
     if let Some(b) = super::output::branch_test_text(r) {
         gap_rows.push(("level by ramp branch".to_string(), b));
     }

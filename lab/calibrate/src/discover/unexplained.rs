@@ -36,7 +36,7 @@
 use serde::Serialize;
 
 use super::fit::{Effect, Residuals};
-use super::noise::{self, BranchLevel, ChangePoint, NoiseModel, NoiseTest};
+use super::noise::{self, BranchLevel, ChangePoint, NoiseModel, NoiseTest, NoisyRun};
 use super::{localize, noise_floor, stats, Channels, LogKind, ALPHA};
 use crate::metrics::rms_of_finite as rms;
 
@@ -126,6 +126,9 @@ pub struct Unexplained {
     /// [`noise`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub branch_level: Option<BranchLevel>,
+    /// A run noisier than the fitted noise model allows (see [`noise`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub noisy_run: Option<NoisyRun>,
 }
 
 /// Each channel's residual against its floor, in the order of `channels_of`.
@@ -360,7 +363,12 @@ pub(crate) fn find_unexplained(
         // within-run slow part and the floor.
         let levels_left = levels.as_ref().is_some_and(|l| l.significant)
             && scales.across_runs > 2.0 * floor.floor.max(scales.within_run_slow);
-        if hits.is_empty() && pins.is_empty() && !levels_left && nt.change_point.is_none() && nt.branch_level.is_none()
+        if hits.is_empty()
+            && pins.is_empty()
+            && !levels_left
+            && nt.change_point.is_none()
+            && nt.branch_level.is_none()
+            && nt.noisy_run.is_none()
         {
             continue;
         }
@@ -376,6 +384,7 @@ pub(crate) fn find_unexplained(
             pinned: pins,
             change_point: nt.change_point.clone(),
             branch_level: nt.branch_level.clone(),
+            noisy_run: nt.noisy_run.clone(),
         });
     }
     out
