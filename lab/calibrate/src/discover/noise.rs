@@ -233,6 +233,13 @@ fn median(v: &mut [f64]) -> f64 {
     v[v.len() / 2]
 }
 
+/// |x − median| for each value of a non-empty run (the median absolute deviation's terms:
+/// the long-lag level of the fit and the run-noise test both take their SD from them).
+fn abs_deviations(v: &[f64]) -> Vec<f64> {
+    let mid = median(&mut v.to_vec());
+    v.iter().map(|x| (x - mid).abs()).collect()
+}
+
 /// Fit the noise model to residual `r` (see the module docs).
 #[must_use]
 pub(crate) fn fit(ch: &Channels, r: &[f64]) -> NoiseModel {
@@ -257,14 +264,8 @@ pub(crate) fn fit(ch: &Channels, r: &[f64]) -> NoiseModel {
     // SD 30 ppm (τ 33 h), against which no change point or run level could show. Slow
     // noise with τ near a run's length is then partly a level per run, which the run-level
     // test weighs.
-    let mut dev: Vec<f64> = runs
-        .iter()
-        .filter(|(_, v, _)| !v.is_empty())
-        .flat_map(|(_, v, _)| {
-            let mid = median(&mut v.clone());
-            v.iter().map(move |x| (x - mid).abs())
-        })
-        .collect();
+    let mut dev: Vec<f64> =
+        runs.iter().filter(|(_, v, _)| !v.is_empty()).flat_map(|(_, v, _)| abs_deviations(v)).collect();
     let far = if !d.is_empty() && dev.len() >= MIN_PAIRS {
         let s = 1.4826 * median(&mut dev);
         Some(2.0 * (s * s).max(1e-300))
@@ -397,12 +398,7 @@ fn max_run_noise(runs: &[&[f64]]) -> Option<(f64, usize)> {
         .iter()
         .enumerate()
         .filter(|(_, v)| v.len() >= RUN_NOISE_MIN_BINS)
-        .map(|(k, v)| {
-            let mut c = v.to_vec();
-            let mid = median(&mut c);
-            let mut dev: Vec<f64> = v.iter().map(|x| (x - mid).abs()).collect();
-            (k, 1.4826 * median(&mut dev))
-        })
+        .map(|(k, v)| (k, 1.4826 * median(&mut abs_deviations(v))))
         .collect();
     if sds.len() < 3 {
         return None;
