@@ -753,7 +753,7 @@ pub(super) fn branch_test_text(r: &Report) -> Option<String> {
 pub(super) fn timing_offset_text(ch: &Channels, r: &Report) -> Option<String> {
     match &r.timing_offset {
         Some(o) => Some(format!(
-            "{:+.2} s, 95 % interval [{:+.2}, {:+.2}] s (fitted with every model){}",
+            "{:+.2} s, 95 % interval [{:+.2}, {:+.2}] s (fitted with every model){}{}",
             o.seconds,
             o.ci95[0],
             o.ci95[1],
@@ -761,6 +761,12 @@ pub(super) fn timing_offset_text(ch: &Channels, r: &Report) -> Option<String> {
                 format!(", at its limit of ±{:.1} s: a longer delay than any timestamp convention", o.limit_s)
             } else {
                 String::new()
+            },
+            if o.shares_a_branch_level {
+                "; not the log's timing alone: a scale-factor level by ramp branch is left unexplained, and the \
+                 offset takes its share on the ramps"
+            } else {
+                ""
             }
         )),
         None if ch.kind == LogKind::Cycling => Some(

@@ -190,6 +190,10 @@ pub struct TimingOffsetReport {
     pub limit_s: f64,
     /// δ sits at the limit: the delay is longer than a timestamp convention.
     pub at_limit: bool,
+    /// A scale-factor level by ramp branch is left unexplained (`unexplained[].branch_level`):
+    /// δ took that level's share on the ramps, so it is not the log's timing alone (a
+    /// 9.9-ppm hysteresis moved it from +11.1 to −1.3 s).
+    pub shares_a_branch_level: bool,
 }
 
 /// The discovery report; `report.json` is its serialization.

@@ -172,6 +172,10 @@ pub fn analyze(ch: &Channels, start: Start) -> Report {
     let residual_vs_floor = unexplained::floor_ratios(ch, &cur);
     let noise = unexplained::noise_tests(ch, &cur);
     let unexplained = unexplained::find_unexplained(ch, &cur, &masks, &trains, &pinned, &residual_vs_floor, &noise);
+    let timing_offset = timing_offset.map(|o| TimingOffsetReport {
+        shares_a_branch_level: unexplained.iter().any(|u| u.branch_level.is_some()),
+        ..o
+    });
     Report {
         start,
         effects,
@@ -426,6 +430,7 @@ fn intervals(
             ci95: [o.seconds - half, o.seconds + half],
             limit_s: setup.offset_limit_s,
             at_limit: o.at_limit,
+            shares_a_branch_level: false,
         }
     });
     let len_all = stats::block_len(ch, &[&res_all.sf, &res_all.bias]);
