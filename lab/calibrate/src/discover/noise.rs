@@ -40,7 +40,7 @@
 //!   (every split of every run) is in the null distribution, not assumed away. Residuals
 //!   are clipped at 4 SD of the model's total before the test (and so are the draws), so a
 //!   single glitch cannot pose as a step; and the step must be at least
-//!   [`STEP_MIN_WHITE`] white-noise SDs (why: its doc).
+//!   [`STEP_MIN_FLOORS`] noise floors (the bin-to-bin noise; why: its doc).
 //! * **a level per run**: the runs' clipped mean residuals against the model's SE of a
 //!   run mean (`unexplained::run_levels`).
 //! * **a run noisier than the others**: the largest run SD (1.4826 × its median absolute
@@ -74,13 +74,17 @@ const MIN_PAIRS: usize = 30;
 pub(crate) const MIN_SEGMENT_BINS: usize = 5;
 /// Series drawn from the fitted model for the change-point test's critical value.
 pub(crate) const NULL_DRAWS: usize = 400;
-/// A change point is structure only when its step is also at least this many white-noise
-/// SDs. Set after the first study: on 40 clean logs of the first independent generator the
-/// fitted model's null alone rejected 7 times (|z| 3.6–4.4 against 3.5–3.9), every time for
-/// a step of 1.1–2.4 white SDs; the 40-µg step of the second generator's test is 18 (the
-/// held-out residual's departures from white + Gauss–Markov near ramp corners make the
-/// null's tail too light, so a size is asked of a step as of a run level).
-pub(crate) const STEP_MIN_WHITE: f64 = 3.0;
+/// A change point is structure only when its step is also at least this many noise floors
+/// ([`NoiseModel::floor`], the bin-to-bin noise). Set after the first study: on 40 clean
+/// logs of the first independent generator the fitted model's null alone rejected 7 times
+/// (|z| 3.6–4.4 against 3.5–3.9), every time for a step of 1.1–2.4 white SDs; the 40-µg
+/// step of the second generator's test is 18 (the held-out residual's departures from
+/// white + Gauss–Markov near ramp corners make the null's tail too light, so a size is
+/// asked of a step as of a run level). The yardstick was the white part at first, which the
+/// fit puts at 0 when a short-τ slow part takes the bin-to-bin noise (a real MEMS log's y
+/// and z axes): the rule then asked nothing. Where white noise dominates the floor is the
+/// white SD within a few per cent.
+pub(crate) const STEP_MIN_FLOORS: f64 = 3.0;
 /// Residuals are clipped at this many SDs of the model's total before the change-point
 /// and run-level tests.
 pub(crate) const CLIP_SD: f64 = 4.0;
@@ -576,7 +580,7 @@ pub(crate) fn test(ch: &Channels, r: &[f64], alpha: f64, seed: u64) -> NoiseTest
         .filter(|&(ratio, _)| ratio > run_noise_critical && ratio >= RUN_NOISE_MIN_RATIO)
         .map(|(ratio, k)| NoisyRun { run: run_label(runs[k].0), ratio });
     let change_point =
-        obs.filter(|o| o.0 > critical && o.3.abs() > STEP_MIN_WHITE * model.white).map(|(z, k, m, size)| {
+        obs.filter(|o| o.0 > critical && o.3.abs() > STEP_MIN_FLOORS * model.floor()).map(|(z, k, m, size)| {
             let (_, _, time) = &runs[k];
             let t0 = ch.traces[k].time_s.first().copied().unwrap_or(0.0);
             ChangePoint { run: run_label(k), at_h: (0.5 * (time[m - 1] + time[m]) - t0) / 3600.0, size, z }
@@ -862,6 +866,30 @@ mod tests {
             }
         }
         assert!(test(&ch, &g, 0.05, 5).change_point.is_none());
+    }
+
+    #[test]
+    fn a_step_is_sized_against_the_bin_to_bin_noise_when_the_fit_has_no_white_part() {
+        // Gauss–Markov noise alone with τ 5 bins, as a real MEMS log's axes fit (white 0):
+        // a size rule in white SDs then asks nothing of a step. A step of 2.3 floors (9
+        // white SDs of this fit) that the z test rejects is held to the rule as a step of
+        // 2.3 white SDs on white noise is; one of 4 floors is found.
+        let ch = channels(8, 600);
+        let with_step = |size: f64| {
+            let mut r = series(&ch, 0.0, 1.0, 5.0, 21);
+            for x in &mut r[3 * 600 + 300..4 * 600] {
+                *x += size;
+            }
+            test(&ch, &r, 0.05, 21)
+        };
+        let small = with_step(1.0);
+        let floor = small.model.floor();
+        println!("{:?} floor {floor}", small.model);
+        assert!(small.model.white < 0.3 * floor, "{:?}", small.model);
+        assert!(small.max_z.zip(small.critical).is_some_and(|(z, c)| z > c), "{small:?}");
+        assert!(small.change_point.is_none(), "{:?} (floor {floor})", small.change_point);
+        let large = with_step(4.0 * floor);
+        assert!(large.change_point.is_some(), "{large:?}");
     }
 
     #[test]
