@@ -309,9 +309,13 @@ enum StrongMiss {
     OtherPicked,
 }
 
-/// Why a trial at 3 SE or more was not added, with its critical value, its blocks and
-/// its weight's z (for an effect with a weight).
-type MissCause = (StrongMiss, f64, usize, Option<f64>);
+/// Why a trial at 3 SE or more was not added, with its critical value, its blocks, its
+/// weight's z (for an effect with a weight) and its unwhitened test's t, critical value
+/// and blocks.
+type MissCause = (StrongMiss, f64, usize, Option<f64>, RawTest);
+
+/// The unwhitened test of a trial: its t, critical value and blocks.
+type RawTest = (f64, f64, usize);
 
 /// The outcome for a true effect `(name, channel)`, the largest held-out gain it had as
 /// a candidate in any round, in SEs (its block test's t), the blocks of that trial, and
@@ -351,7 +355,8 @@ fn outcome(r: &Report, truth: &[(&str, &str)], name: &str, channel: &str) -> (Ou
         } else {
             StrongMiss::OtherPicked
         };
-        (cause, c.gain.critical, c.gain.blocks, c.weight.as_ref().map(|w| w.z))
+        let raw = (c.raw_gain.t, c.raw_gain.critical, c.raw_gain.blocks);
+        (cause, c.gain.critical, c.gain.blocks, c.weight.as_ref().map(|w| w.z), raw)
     });
     (o, t, best.map_or(0, |c| c.gain.blocks), why)
 }
@@ -386,6 +391,7 @@ fn confusion_matrix_and_false_discoveries() {
     // best trial.
     let mut below_critical: Vec<(f64, f64, usize)> = Vec::new();
     let mut weight_refused: Vec<(String, u64, f64, f64)> = Vec::new();
+    let mut raw_refused: Vec<(String, u64, f64, RawTest)> = Vec::new();
     let mut best_blocks: Vec<usize> = Vec::new();
     for ((d, r), seed) in draws.iter().zip(&reports).zip(1000u64..) {
         let truth: Vec<(&str, &str)> = d.catalog.iter().map(|e| (e.name(), e.channel())).collect();
@@ -415,13 +421,16 @@ fn confusion_matrix_and_false_discoveries() {
                 let s = strong.entry(key).or_default();
                 s.0 += 1;
                 s.1 += usize::from(o == Outcome::Named);
-                if let Some((w, critical, blocks, z)) = why {
+                if let Some((w, critical, blocks, z, raw)) = why {
                     s.2[w as usize] += 1;
                     if w == StrongMiss::BelowCritical {
                         below_critical.push((t, critical, blocks));
                     }
                     if w == StrongMiss::WeightTest {
                         weight_refused.push((name.to_string(), seed, t, z.unwrap_or(f64::NAN)));
+                    }
+                    if w == StrongMiss::RawTest {
+                        raw_refused.push((name.to_string(), seed, t, raw));
                     }
                 }
             }
@@ -475,6 +484,14 @@ fn confusion_matrix_and_false_discoveries() {
         weight_refused
             .iter()
             .map(|(n, s, t, z)| format!("{n} seed {s} t {t:.2} z {z:.2}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    println!(
+        "misses at ≥ 3 SE the unwhitened test refused (effect, seed, whitened t, unwhitened t / critical / blocks): {}",
+        raw_refused
+            .iter()
+            .map(|(n, s, t, (rt, rc, rb))| format!("{n} seed {s} t {t:.2} raw {rt:.2}/{rc:.2}/{rb}"))
             .collect::<Vec<_>>()
             .join(", ")
     );

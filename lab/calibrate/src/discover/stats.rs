@@ -91,7 +91,14 @@ pub(crate) fn block_len(ch: &Channels, chans: &[&[f64]]) -> usize {
         let k = r.iter().position(|&x| x < (-1.0f64).exp()).unwrap_or(r.len());
         k_e = k_e.max(k);
     }
-    (4 * k_e).max(10).min((n / 8).max(2))
+    let mut len = (4 * k_e).max(10).min((n / 8).max(2));
+    // Blocks do not cross traces ([`blocks`]), so n/8 alone left 6 or 7 blocks on logs
+    // whose programs differ in length, and the unwhitened test's critical value was then
+    // t(0.95, 5) = 2.01 on an SE from six sums.
+    while len > 2 && ch.traces.iter().map(|t| (t.bins.len() / len).max(1)).sum::<usize>() < 8 {
+        len -= 1;
+    }
+    len
 }
 
 /// Blocks of `len` bins per trace; a trace's remainder joins its last block.
@@ -234,6 +241,27 @@ pub(crate) fn t_quantile(p: f64, nu: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn blocks_are_at_least_eight_when_traces_differ_in_length() {
+        use qfa_log::channels::{BiasUnit, LogKind, Trace};
+        // Four runs of 3 000, 1 000, 1 000 and 1 000 bins, and a residual slow enough
+        // that four times its 1/e lag exceeds n/8: the cap alone gave 4 + 1 + 1 + 1 blocks.
+        let traces = [3000usize, 1000, 1000, 1000]
+            .iter()
+            .enumerate()
+            .map(|(k, &n)| {
+                let rows: Vec<(f64, f32)> = (0..n * 6).map(|i| (10.0 * (i + 1) as f64, 20.0)).collect();
+                Trace::new(format!("r{k}"), &rows, None, &vec![0.0; rows.len()], 60.0)
+            })
+            .collect();
+        let ch = Channels { kind: LogKind::Single, bias_unit: BiasUnit::Value, traces };
+        let slow: Vec<f64> = (0..ch.n_bins()).map(|i| (i as f64 / 900.0).sin()).collect();
+        let len = block_len(&ch, &[&slow]);
+        let n_blocks = blocks(&ch, len).n;
+        assert!(n_blocks >= 8, "{n_blocks} blocks of {len} bins");
+        assert!(len >= 400, "{len}: no shorter than eight blocks need");
+    }
 
     #[test]
     fn quantiles_match_tables() {
