@@ -408,9 +408,10 @@ pub struct NoisyRun {
 /// [`RUN_NOISE_MIN_BINS`] values or more, at least 3 of them), and that run's index in
 /// `runs`. A run's bin-to-bin noise is 1.4826 × the median |difference of neighbouring
 /// values| / √2: a step or a slow wander inside the run moves one difference, or each a
-/// little, where it moved the run's SD about its median by its size (a step of 8 µg in
-/// one position's reading, 5 of its noise floors, read as a run 2.1× noisier than the
-/// others; the change-point test is the one that asks about steps).
+/// little, where it moved the run's SD about its median by its size (a 10-µg step in one
+/// position's run of the second generator's draw 33 was reported as a noisier bias run,
+/// beside the scale factor's change point; the change-point test is the one that asks
+/// about steps).
 fn max_run_noise(runs: &[&[f64]]) -> Option<(f64, usize)> {
     let sds: Vec<(usize, f64)> = runs
         .iter()
