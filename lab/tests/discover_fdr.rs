@@ -36,27 +36,31 @@ fn one(i: usize) -> (Vec<String>, Vec<String>, f64, f64) {
     let r = analyze(&ch, Start::Paper);
     let ratio = r.residual_vs_floor.iter().map(|f| f.ratio).fold(0.0, f64::max);
     let lower = r.residual_vs_floor.iter().map(|f| f.ratio_ci95[0]).fold(0.0, f64::max);
-    (r.effect_labels(), r.unexplained.iter().map(why).collect(), ratio, lower)
-}
-
-/// A channel's unexplained structure in a few words: which test rejected the noise model.
-fn why(u: &qfa_calibrate::discover::Unexplained) -> String {
-    let mut parts = Vec::new();
-    if let Some(c) = &u.change_point {
-        parts.push(format!("step in {} (|z| {:.1}, {:+.2})", c.run, c.z, c.size));
-    }
-    if let Some(n) = &u.noisy_run {
-        parts.push(format!("noisy run {} ({:.2}×)", n.run, n.ratio));
-    }
-    if let Some(b) = &u.branch_level {
-        parts.push(format!("level by branch (|z| {:.1})", b.z));
-    }
-    if u.run_levels.as_ref().is_some_and(|l| l.significant) {
-        parts.push("run levels".into());
-    }
-    parts.extend(u.correlates_with.iter().map(|d| format!("follows {d}")));
-    parts.extend(u.pinned.iter().cloned());
-    format!("{}: {}", u.channel, parts.join(", "))
+    // Each channel's unexplained structure in a few words: which test rejected the noise
+    // model (inline: the report's `Unexplained` type is not named outside the crate).
+    let why: Vec<String> = r
+        .unexplained
+        .iter()
+        .map(|u| {
+            let mut parts = Vec::new();
+            if let Some(c) = &u.change_point {
+                parts.push(format!("step in {} (|z| {:.1}, {:+.2})", c.run, c.z, c.size));
+            }
+            if let Some(n) = &u.noisy_run {
+                parts.push(format!("noisy run {} ({:.2}×)", n.run, n.ratio));
+            }
+            if let Some(b) = &u.branch_level {
+                parts.push(format!("level by branch (|z| {:.1})", b.z));
+            }
+            if u.run_levels.as_ref().is_some_and(|l| l.significant) {
+                parts.push("run levels".into());
+            }
+            parts.extend(u.correlates_with.iter().map(|d| format!("follows {d}")));
+            parts.extend(u.pinned.iter().cloned());
+            format!("{}: {}", u.channel, parts.join(", "))
+        })
+        .collect();
+    (r.effect_labels(), why, ratio, lower)
 }
 
 #[test]

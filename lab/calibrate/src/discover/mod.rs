@@ -129,7 +129,7 @@ pub use select::analyze;
 pub(crate) use select::{start_model, ALPHA};
 pub(crate) use stats::GainStat;
 use uncertainty::*;
-pub use unexplained::{FloorRatio, Unexplained};
+pub(crate) use unexplained::{FloorRatio, Unexplained};
 
 use crate::metrics::rms_of_finite as rms;
 
