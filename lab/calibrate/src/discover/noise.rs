@@ -462,8 +462,7 @@ pub struct NoiseTest {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub change_point: Option<ChangePoint>,
     /// The noisiest run's bin-to-bin noise over the median run's; absent with fewer than 3
-    /// runs of
-    /// [`RUN_NOISE_MIN_BINS`] values.
+    /// runs of [`RUN_NOISE_MIN_BINS`] values.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub max_run_noise: Option<f64>,
     /// Its critical value at the test's level, from the same [`NULL_DRAWS`] series.
@@ -829,7 +828,7 @@ mod tests {
         let t = test(&ch, &r, 0.05, 11);
         assert!(t.noisy_run.is_none() && t.max_run_noise.is_some_and(|x| x > 1.3), "{t:?}");
         // A step of 6 SDs half-way through run 4 is a change point, not a noisy run (its SD
-        // about its median is 3.2 times the others': that statistic called it noise).
+        // about its median read 4.2 times the others': that statistic called it noise).
         let mut r = series(&ch, 1.0, 0.0, 20.0, 13);
         for x in &mut r[3 * 600 + 300..4 * 600] {
             *x += 6.0;
