@@ -36,8 +36,12 @@
 //!   its SD under the fitted model (exact for white + Gauss–Markov, from closed-form
 //!   sums of φ^|i−j|); the statistic is the largest |z| over all runs and splits. Its
 //!   critical value is the (1 − α) quantile of the same maximum over [`NULL_DRAWS`] series
-//!   drawn from the fitted model with the same run lengths: the multiplicity of the search
-//!   (every split of every run) is in the null distribution, not assumed away. Residuals
+//!   drawn from the fitted model with the same run lengths, each refitted and tested
+//!   against its own fit as the log is: the multiplicity of the search (every split of
+//!   every run) and the fit's own error are in the null distribution, not assumed away.
+//!   Tested against the model that drew them instead, 50 of 200 Gauss–Markov series
+//!   (τ 30 bins, the lab simulator's bias instability) were rejected at level 0.1: a
+//!   series whose slow part is fitted low reads its own wander as a step. Residuals
 //!   are clipped at 4 SD of the model's total before the test (and so are the draws), so a
 //!   single glitch cannot pose as a step; and the step must be at least
 //!   [`STEP_MIN_FLOORS`] noise floors (the bin-to-bin noise; why: its doc).
@@ -85,7 +89,10 @@ pub(crate) const NULL_DRAWS: usize = 400;
 /// asked of a step as of a run level). The yardstick was the white part at first, which the
 /// fit puts at 0 when a short-τ slow part takes the bin-to-bin noise (a real MEMS log's y
 /// and z axes): the rule then asked nothing. Where white noise dominates the floor is the
-/// white SD within a few per cent.
+/// white SD within a few per cent. Measured again once the null refitted each draw (so that
+/// it holds its level on the lab simulator): without the rule 18 of 100 clean logs of the
+/// second generator and 7 of 100 of the first were reported unexplained, at 2 floors 9
+/// and 1, at 3 floors 7 and 1; kept at 3, the value set before that.
 pub(crate) const STEP_MIN_FLOORS: f64 = 3.0;
 /// Residuals are clipped at this many SDs of the model's total before the change-point
 /// and run-level tests.
@@ -238,9 +245,11 @@ pub(crate) fn runs_of(ch: &Channels, r: &[f64]) -> Vec<(usize, Vec<f64>, Vec<f64
     out
 }
 
+/// The upper median (the element at `len / 2` in sorted order), by selection: the null
+/// draws refit the model hundreds of times per test.
 fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
+    let mid = v.len() / 2;
+    *v.select_nth_unstable_by(mid, f64::total_cmp).1
 }
 
 /// |x − median| for each value of a non-empty run (the median absolute deviation's terms:
@@ -257,10 +266,15 @@ pub(crate) fn fit(ch: &Channels, r: &[f64]) -> NoiseModel {
     let mut spacing: Vec<f64> =
         runs.iter().flat_map(|(_, _, t)| t.windows(2).map(|w| w[1] - w[0])).filter(|d| *d > 0.0).collect();
     let bin_s = if spacing.is_empty() { 60.0 } else { median(&mut spacing) };
+    let values: Vec<&[f64]> = runs.iter().map(|(_, v, _)| v.as_slice()).collect();
+    fit_runs(&values, bin_s)
+}
+
+/// [`fit`] on runs of finite values `runs`, bins `bin_s` apart.
+fn fit_runs(runs: &[&[f64]], bin_s: f64) -> NoiseModel {
     let mut d = Vec::new();
     for &k in &LAGS {
-        let mut diffs: Vec<f64> =
-            runs.iter().flat_map(|(_, v, _)| v.windows(k + 1).map(|w| (w[k] - w[0]).abs())).collect();
+        let mut diffs: Vec<f64> = runs.iter().flat_map(|v| v.windows(k + 1).map(|w| (w[k] - w[0]).abs())).collect();
         if diffs.len() < MIN_PAIRS {
             break;
         }
@@ -274,8 +288,7 @@ pub(crate) fn fit(ch: &Channels, r: &[f64]) -> NoiseModel {
     // SD 30 ppm (τ 33 h), against which no change point or run level could show. Slow
     // noise with τ near a run's length is then partly a level per run, which the run-level
     // test weighs.
-    let mut dev: Vec<f64> =
-        runs.iter().filter(|(_, v, _)| !v.is_empty()).flat_map(|(_, v, _)| abs_deviations(v)).collect();
+    let mut dev: Vec<f64> = runs.iter().filter(|v| !v.is_empty()).flat_map(|v| abs_deviations(v)).collect();
     let far = if !d.is_empty() && dev.len() >= MIN_PAIRS {
         let s = 1.4826 * median(&mut dev);
         Some(2.0 * (s * s).max(1e-300))
@@ -283,7 +296,7 @@ pub(crate) fn fit(ch: &Channels, r: &[f64]) -> NoiseModel {
         None
     };
     if d.is_empty() {
-        let all: Vec<f64> = runs.iter().flat_map(|(_, v, _)| v.iter().copied()).collect();
+        let all: Vec<f64> = runs.iter().flat_map(|v| v.iter().copied()).collect();
         let sd = if all.len() > 1 { crate::metrics::rms_of_finite(&all) } else { 1.0 };
         return NoiseModel { white: sd.max(1e-12), slow_sd: 0.0, tau_s: bin_s, bin_s, lags: 0 };
     }
@@ -622,22 +635,24 @@ fn null_quantile(model: &NoiseModel, lens: &[usize], alpha: f64, seed: u64) -> (
     let innov = model.slow_sd * (1.0 - phi * phi).max(0.0).sqrt();
     let (mut maxima, mut noisiest): (Vec<f64>, Vec<f64>) = (0..NULL_DRAWS)
         .map(|_| {
-            let mut top = 0.0f64;
-            let mut series = Vec::with_capacity(lens.len());
-            for &n in lens {
-                let mut g = model.slow_sd * normal(&mut rng);
-                let v: Vec<f64> = (0..n)
-                    .map(|_| {
-                        g = phi * g + innov * normal(&mut rng);
-                        g + model.white * normal(&mut rng)
-                    })
-                    .collect();
-                if let Some((z, _, _)) = max_split(model, &clipped(model, &v)) {
-                    top = top.max(z);
-                }
-                series.push(v);
-            }
+            let series: Vec<Vec<f64>> = lens
+                .iter()
+                .map(|&n| {
+                    let mut g = model.slow_sd * normal(&mut rng);
+                    (0..n)
+                        .map(|_| {
+                            g = phi * g + innov * normal(&mut rng);
+                            g + model.white * normal(&mut rng)
+                        })
+                        .collect()
+                })
+                .collect();
             let refs: Vec<&[f64]> = series.iter().map(Vec::as_slice).collect();
+            // Each draw is tested as the log is: against the model fitted to the draw
+            // itself, so that the fit's own error is in the null (see the module docs).
+            let refit = fit_runs(&refs, model.bin_s);
+            let top =
+                refs.iter().filter_map(|v| max_split(&refit, &clipped(&refit, v)).map(|m| m.0)).fold(0.0f64, f64::max);
             (top, max_run_noise(&refs).map_or(0.0, |r| r.0))
         })
         .unzip();
@@ -857,6 +872,27 @@ mod tests {
         // The mean-square floor the robust fit replaces would have grown far more.
         let ms = (r.windows(2).map(|w| (w[1] - w[0]).powi(2)).sum::<f64>() / (2.0 * r.len() as f64)).sqrt();
         assert!(ms > 2.0 * clean.white, "{ms}");
+    }
+
+    #[test]
+    fn the_change_point_test_holds_its_level_when_the_model_is_fitted_to_the_series_itself() {
+        // The lab simulator's bias instability at 60-s bins: Gauss–Markov of SD 1 and τ
+        // 30 bins, a small white part, four runs of 6.5 h. The model fitted to one such
+        // series is off by its own sampling error, and a series whose slow part came out
+        // low reads its own wander as a step. With the critical value from draws of the
+        // fitted model tested against that same model (the plug-in null), 50 of these 200
+        // series were rejected at level 0.1; with every draw refitted as the log is, 23.
+        // The bound, 27, is the 95.7 % point of Binomial(200, 0.1): a test that holds its
+        // level passes it 19 times in 20.
+        let ch = channels(4, 390);
+        let rejected = (0..200u64)
+            .filter(|&seed| {
+                let r = series(&ch, 0.13, 1.0, 30.0, 77 + seed);
+                let t = test(&ch, &r, 0.1, seed);
+                t.max_z.zip(t.critical).is_some_and(|(z, c)| z > c)
+            })
+            .count();
+        assert!(rejected <= 27, "{rejected} of 200 rejected at level 0.1");
     }
 
     #[test]
