@@ -50,10 +50,13 @@ fn one(i: usize) -> (Vec<String>, Vec<String>, f64, f64) {
         .map(|u| {
             let mut parts = Vec::new();
             if let Some(c) = &u.change_point {
-                parts.push(format!("step in {} at {:.2} h (|z| {:.1}, {:+.2})", c.run, c.at_h, c.z, c.size));
+                parts.push(format!(
+                    "step in {} of {} at {:.2} h (|z| {:.1}, {:+.2})",
+                    c.series, c.run, c.at_h, c.z, c.size
+                ));
             }
             if let Some(n) = &u.noisy_run {
-                parts.push(format!("noisy run {} ({:.2}×)", n.run, n.ratio));
+                parts.push(format!("noisy run {} of {} ({:.2}×)", n.series, n.run, n.ratio));
             }
             if let Some(b) = &u.branch_level {
                 parts.push(format!("level by branch (|z| {:.1})", b.z));

@@ -13,6 +13,8 @@
 //! - a true ε too large for a timing offset to mimic: ε named, within 25 %;
 //! - a 40-µg bias step half-way through one run: reported unexplained, with its run and
 //!   time; the same log without it, and a clean log with rare glitches: nothing;
+//! - a 10.7-µg step that each channel carries at half size, under its size rule: found in
+//!   the +1 g reading, with its run, time and size;
 //! - a ±4-ppm scale-factor hysteresis: a level by ramp branch reported unexplained, and
 //!   the timing offset marked as sharing it.
 //!
@@ -241,9 +243,38 @@ fn a_bias_step_in_one_run_is_unexplained_with_its_run_and_time_and_noise_is_not(
         .find_map(|u| u.change_point.clone().filter(|_| u.channel == "bias"))
         .unwrap_or_else(|| panic!("the step is not reported: {:?}", reports[1].unexplained));
     // Program 1 is the 0.5-°C/min program; its pos0 run is paired with pos2, so the step
-    // shows in the pair's bias at half the size (K0 = (A₊ + A₋)/2), half-way through it.
+    // shows in the pair's bias at half the size (K0 = (A₊ + A₋)/2) and whole in the +1 g
+    // reading, half-way through it: the bias channel reports the stronger, the reading's.
     assert!(cp.run.contains("0.5"), "{cp:?}");
-    assert!((cp.size.abs() - 20.0).abs() < 6.0, "{cp:?}");
+    assert_eq!(cp.series, "+1 g reading", "{cp:?}");
+    assert!((cp.size.abs() - 40.0).abs() < 12.0, "{cp:?}");
+}
+
+#[test]
+fn a_step_each_channel_carries_at_half_size_is_found_in_its_positions_reading() {
+    // The study's draw 1249: a 10.7-µg bias step 74 % into program 3's +1 g run, with
+    // temperature-dependent noise. K1 and K0 each carry half of it, under 3 of their noise
+    // floors (grown by the noise that grows with temperature), so neither channel's search
+    // reported it (|z| 7.5 and 6.6 passed, the size did not) and the log was silent at
+    // 13.9 SE; the +1 g reading (bias + scale-factor residual) carries it whole.
+    let d = truth2::random_draw(1249);
+    let Some(&OutOfCatalog::BiasStep { program_index: 2, run_index: 0, at_fraction, size_g }) =
+        d.other.iter().find(|o| matches!(o, OutOfCatalog::BiasStep { .. }))
+    else {
+        panic!("draw 1249 is not the step it was: {:?}", d.other)
+    };
+    let r = report(&d);
+    println!("{:?}; unexplained {:?}", names(&r), r.unexplained);
+    let cp = r
+        .unexplained
+        .iter()
+        .find_map(|u| u.change_point.clone().filter(|_| u.channel == "bias"))
+        .unwrap_or_else(|| panic!("the step is not reported: {:?}", r.unexplained));
+    let at_h = at_fraction * truth2::program(truth2::RATES[2], d.span_c, d.heating_only).duration_s / 3600.0;
+    assert_eq!(cp.series, "+1 g reading", "{cp:?}");
+    assert!(cp.run.contains("program 3 of 4"), "{cp:?}");
+    assert!((cp.at_h - at_h).abs() < 0.25, "{cp:?}, the step at {at_h:.2} h");
+    assert!((cp.size - size_g * 1e6).abs() < 0.25 * size_g * 1e6, "{cp:?}, the step {:.1} µg", size_g * 1e6);
 }
 
 #[test]

@@ -45,6 +45,16 @@
 //!   are clipped at 4 SD of the model's total before the test (and so are the draws), so a
 //!   single glitch cannot pose as a step; and the step must be at least
 //!   [`STEP_MIN_FLOORS`] noise floors (the bin-to-bin noise; why: its doc).
+//!
+//!   On a cycling log the search also runs on each position's reading: `+1 g reading` =
+//!   bias + scale-factor residual and `−1 g reading` = bias − scale-factor residual, in
+//!   the bias unit (with `A = K1·(K0 + a)`, a change δ in one position's reading moves K1
+//!   by ±δ/2 as a fraction and K0 by δ/2). A bias step in one position's run (a shock, a
+//!   pendulum settling) is whole there and half in each channel, where it can pass the
+//!   z test and fail the size rule (a 10.7-µg step with noise that grows with
+//!   temperature: |z| 7.5 and 6.6, each half under 3 floors, nothing reported). Each
+//!   reading has its own fitted model, and the change-point and run-noise tests share
+//!   the level over the four series (the branch test over the two channels).
 //! * **a level per run**: the runs' clipped mean residuals against the model's SE of a
 //!   run mean (`unexplained::run_levels`).
 //! * **a run noisier than the others**: the largest run's bin-to-bin noise (1.4826 × the
@@ -384,6 +394,8 @@ fn clipped(model: &NoiseModel, v: &[f64]) -> Vec<f64> {
 /// A change point inside one run.
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct ChangePoint {
+    /// The series it was found in ([`NoiseTest::series`]).
+    pub series: String,
     /// The run: its id, and its place in the log (a cycling log's run is a program's pair
     /// of ±1 g runs, whose K1 and K0 each carry half a step in one of them).
     pub run: String,
@@ -410,6 +422,8 @@ const RUN_NOISE_MIN_BINS: usize = 20;
 /// A run noisier than the fitted (stationary) noise model allows.
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct NoisyRun {
+    /// The series it was found in ([`NoiseTest::series`]).
+    pub series: String,
     /// The run: its id, and its place in the log.
     pub run: String,
     /// Its bin-to-bin noise (1.4826 × the median |difference of neighbouring bins| / √2)
@@ -460,6 +474,10 @@ pub struct BranchLevel {
 /// The noise model against the change-point and branch-level alternatives.
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct NoiseTest {
+    /// The series tested: a channel (`scale_factor`, `bias`, `value`) or, on a cycling
+    /// log, one position's reading (`+1 g reading` = K0 + K1 residual, `−1 g reading` =
+    /// K0 − K1 residual, in the bias unit; see the module docs).
+    pub series: String,
     /// The fitted model.
     pub model: NoiseModel,
     /// Runs long enough to search (2 × [`MIN_SEGMENT_BINS`] bins or more).
@@ -563,7 +581,7 @@ pub(crate) fn branch_test(
 /// Fit the noise model to `r` and test it against a change point in any run, at level
 /// `alpha`. `seed` fixes the null draws (the same log gives the same answer).
 #[must_use]
-pub(crate) fn test(ch: &Channels, r: &[f64], alpha: f64, seed: u64) -> NoiseTest {
+pub(crate) fn test(ch: &Channels, series: &str, r: &[f64], alpha: f64, seed: u64) -> NoiseTest {
     let model = fit(ch, r);
     let runs = runs_of(ch, r);
     let mut obs: Option<(f64, usize, usize, f64)> = None;
@@ -580,6 +598,7 @@ pub(crate) fn test(ch: &Channels, r: &[f64], alpha: f64, seed: u64) -> NoiseTest
     let run_noise = max_run_noise(&values);
     let Some(max_z) = obs.map(|o| o.0) else {
         return NoiseTest {
+            series: series.into(),
             model,
             runs_searched,
             max_z: None,
@@ -605,14 +624,21 @@ pub(crate) fn test(ch: &Channels, r: &[f64], alpha: f64, seed: u64) -> NoiseTest
     };
     let noisy_run = run_noise
         .filter(|&(ratio, _)| ratio > run_noise_critical && ratio >= RUN_NOISE_MIN_RATIO)
-        .map(|(ratio, k)| NoisyRun { run: run_label(runs[k].0), ratio });
+        .map(|(ratio, k)| NoisyRun { series: series.into(), run: run_label(runs[k].0), ratio });
     let change_point =
         obs.filter(|o| o.0 > critical && o.3.abs() > STEP_MIN_FLOORS * model.floor()).map(|(z, k, m, size)| {
             let (_, _, time) = &runs[k];
             let t0 = ch.traces[k].time_s.first().copied().unwrap_or(0.0);
-            ChangePoint { run: run_label(k), at_h: (0.5 * (time[m - 1] + time[m]) - t0) / 3600.0, size, z }
+            ChangePoint {
+                series: series.into(),
+                run: run_label(k),
+                at_h: (0.5 * (time[m - 1] + time[m]) - t0) / 3600.0,
+                size,
+                z,
+            }
         });
     NoiseTest {
+        series: series.into(),
         model,
         runs_searched,
         max_z: Some(max_z),
@@ -821,7 +847,7 @@ mod tests {
         let mut rejected = 0;
         for seed in 1..=20 {
             let r = series(&ch, 1.0, 1.0, 20.0, seed);
-            rejected += usize::from(test(&ch, &r, 0.05, seed).noisy_run.is_some());
+            rejected += usize::from(test(&ch, "value", &r, 0.05, seed).noisy_run.is_some());
         }
         assert!(rejected <= 3, "{rejected} of 20 rejected");
         // Run 4 with five times the white noise and a 4-SD slow wander on top.
@@ -830,7 +856,7 @@ mod tests {
         for i in 3 * 600..4 * 600 {
             r[i] += extra[i];
         }
-        let t = test(&ch, &r, 0.05, 9);
+        let t = test(&ch, "value", &r, 0.05, 9);
         let run = t.noisy_run.expect("the noisy run is found");
         assert_eq!(run.run, "r3 (run 4 of 8)");
         assert!(run.ratio > 3.0, "{run:?}");
@@ -840,7 +866,7 @@ mod tests {
         for i in 3 * 600..4 * 600 {
             r[i] += extra[i];
         }
-        let t = test(&ch, &r, 0.05, 11);
+        let t = test(&ch, "value", &r, 0.05, 11);
         assert!(t.noisy_run.is_none() && t.max_run_noise.is_some_and(|x| x > 1.3), "{t:?}");
         // A step of 6 SDs half-way through run 4 is a change point, not a noisy run (its SD
         // about its median read 4.2 times the others': that statistic called it noise).
@@ -848,7 +874,7 @@ mod tests {
         for x in &mut r[3 * 600 + 300..4 * 600] {
             *x += 6.0;
         }
-        let t = test(&ch, &r, 0.05, 13);
+        let t = test(&ch, "value", &r, 0.05, 13);
         assert!(t.change_point.is_some(), "{t:?}");
         assert!(t.noisy_run.is_none() && t.max_run_noise.is_some_and(|x| x < 1.3), "{t:?}");
     }
@@ -888,7 +914,7 @@ mod tests {
         let rejected = (0..200u64)
             .filter(|&seed| {
                 let r = series(&ch, 0.13, 1.0, 30.0, 77 + seed);
-                let t = test(&ch, &r, 0.1, seed);
+                let t = test(&ch, "value", &r, 0.1, seed);
                 t.max_z.zip(t.critical).is_some_and(|(z, c)| z > c)
             })
             .count();
@@ -901,7 +927,7 @@ mod tests {
         let mut passes = 0;
         for seed in 1..=20 {
             let r = series(&ch, 1.0, 1.0, 20.0, seed);
-            if test(&ch, &r, 0.05, seed).change_point.is_none() {
+            if test(&ch, "value", &r, 0.05, seed).change_point.is_none() {
                 passes += 1;
             }
         }
@@ -912,7 +938,7 @@ mod tests {
         for x in &mut r[3 * 600 + 250..4 * 600] {
             *x += 4.0;
         }
-        let t = test(&ch, &r, 0.05, 99);
+        let t = test(&ch, "value", &r, 0.05, 99);
         let cp = t.change_point.expect("the step is found");
         assert_eq!(cp.run, "r3 (run 4 of 8)");
         assert!((cp.at_h - 250.0 / 60.0).abs() < 0.5, "{cp:?}");
@@ -924,7 +950,7 @@ mod tests {
                 *x += 40.0;
             }
         }
-        assert!(test(&ch, &g, 0.05, 5).change_point.is_none());
+        assert!(test(&ch, "value", &g, 0.05, 5).change_point.is_none());
     }
 
     #[test]
@@ -939,7 +965,7 @@ mod tests {
             for x in &mut r[3 * 600 + 300..4 * 600] {
                 *x += size;
             }
-            test(&ch, &r, 0.05, 21)
+            test(&ch, "value", &r, 0.05, 21)
         };
         let small = with_step(1.0);
         let floor = small.model.floor();
@@ -956,10 +982,10 @@ mod tests {
         // Runs of 8 bins cannot hold 5 bins either side of a split: no |z|, no critical
         // value, and the count of runs searched says why.
         let ch = channels(3, 8);
-        let t = test(&ch, &series(&ch, 1.0, 0.5, 10.0, 3), 0.05, 3);
+        let t = test(&ch, "value", &series(&ch, 1.0, 0.5, 10.0, 3), 0.05, 3);
         assert_eq!((t.runs_searched, t.max_z, t.critical, t.change_point), (0, None, None, None));
         let long = channels(3, 40);
-        let t = test(&long, &series(&long, 1.0, 0.5, 10.0, 3), 0.05, 3);
+        let t = test(&long, "value", &series(&long, 1.0, 0.5, 10.0, 3), 0.05, 3);
         assert_eq!(t.runs_searched, 3);
         assert!(t.max_z.is_some_and(f64::is_finite) && t.critical.is_some_and(|c| c > 0.0), "{t:?}");
     }

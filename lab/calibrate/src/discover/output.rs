@@ -432,11 +432,13 @@ fn unexplained_line(ch: &Channels, r: &Report, u: &super::Unexplained, held: &st
     if let Some(c) = &u.change_point {
         let _ = write!(
             line,
-            "; its level steps by {:+.3} at {:.2} h into {}, which the fitted noise model ({}) rejects (|z| {:.1})",
+            "; {} steps by {:+.3} at {:.2} h into {}{}, which the fitted noise model ({}) rejects (|z| {:.1})",
+            if c.series == u.channel { "its level".to_string() } else { format!("the {}", c.series) },
             c.size,
             c.at_h,
             c.run,
-            noise_model_of(r, &u.channel).map_or_else(String::new, |n| n.model.text(channel_unit(ch, &u.channel))),
+            if c.series == u.channel { "" } else { " (K1 and K0 each carry half of it)" },
+            noise_model_of(r, &c.series).map_or_else(String::new, |n| n.model.text(channel_unit(ch, &c.series))),
             c.z
         );
     }
@@ -452,8 +454,10 @@ fn unexplained_line(ch: &Channels, r: &Report, u: &super::Unexplained, held: &st
     if let Some(n) = &u.noisy_run {
         let _ = write!(
             line,
-            "; its noise in {} is {:.1}× the median run's, more than the fitted noise model gives any run",
-            n.run, n.ratio
+            "; {} noise in {} is {:.1}× the median run's, more than the fitted noise model gives any run",
+            if n.series == u.channel { "its".to_string() } else { format!("the {}'s", n.series) },
+            n.run,
+            n.ratio
         );
     }
     match u.structure_rms {
@@ -682,7 +686,7 @@ fn plots(ch: &Channels, r: &Report, dir: &Path, scope: Scope<'_>) -> Result<Vec<
 }
 
 /// The residual unit of a channel in words.
-fn channel_unit(ch: &Channels, channel: &str) -> &'static str {
+pub(super) fn channel_unit(ch: &Channels, channel: &str) -> &'static str {
     if channel == "scale_factor" {
         "ppm"
     } else {
@@ -690,52 +694,49 @@ fn channel_unit(ch: &Channels, channel: &str) -> &'static str {
     }
 }
 
-/// The noise test of `channel`, if the report has one.
-fn noise_model_of<'a>(r: &'a Report, channel: &str) -> Option<&'a super::noise::NoiseTest> {
-    r.residual_vs_floor.iter().position(|f| f.channel == channel).and_then(|k| r.noise.get(k))
+/// The noise test of `series` (a channel or a position's reading), if the report has one.
+pub(super) fn noise_model_of<'a>(r: &'a Report, series: &str) -> Option<&'a super::noise::NoiseTest> {
+    r.noise.iter().find(|n| n.series == series)
 }
 
-/// Every channel's fitted noise model, in words.
+/// Every series' fitted noise model, in words.
 pub(super) fn noise_models_text(ch: &Channels, r: &Report) -> String {
-    r.residual_vs_floor
+    r.noise
         .iter()
-        .zip(&r.noise)
-        .map(|(f, n)| format!("{}: {}", f.channel, n.model.text(channel_unit(ch, &f.channel))))
+        .map(|n| format!("{}: {}", n.series, n.model.text(channel_unit(ch, &n.series))))
         .collect::<Vec<_>>()
         .join("; ")
 }
 
-/// Every channel's change-point search against its critical value, in words.
+/// Every series' change-point search against its critical value, in words.
 pub(super) fn change_point_tests_text(r: &Report) -> String {
-    r.residual_vs_floor
+    r.noise
         .iter()
-        .zip(&r.noise)
-        .map(|(f, n)| match (n.max_z, n.critical) {
+        .map(|n| match (n.max_z, n.critical) {
             (Some(z), Some(c)) => format!(
                 "{} largest |z| {z:.1} against {c:.1} from {} series of the model ({} runs searched)",
-                f.channel,
+                n.series,
                 super::noise::NULL_DRAWS,
                 n.runs_searched
             ),
-            _ => format!("{}: not searched, no run of {} bins or more", f.channel, 2 * super::noise::MIN_SEGMENT_BINS),
+            _ => format!("{}: not searched, no run of {} bins or more", n.series, 2 * super::noise::MIN_SEGMENT_BINS),
         })
         .collect::<Vec<_>>()
         .join(", ")
 }
 
-/// Every channel's run-noise test (the noisiest run's SD over the median run's) against
+/// Every series' run-noise test (the noisiest run's SD over the median run's) against
 /// its critical value, in words.
 pub(super) fn run_noise_tests_text(r: &Report) -> String {
-    r.residual_vs_floor
+    r.noise
         .iter()
-        .zip(&r.noise)
-        .map(|(f, n)| match (n.max_run_noise, n.run_noise_critical) {
+        .map(|n| match (n.max_run_noise, n.run_noise_critical) {
             (Some(x), Some(c)) => format!(
                 "{} noisiest run {x:.2}× the median run against {c:.2}× (and {:.1}× at least)",
-                f.channel,
+                n.series,
                 super::noise::RUN_NOISE_MIN_RATIO
             ),
-            _ => format!("{}: not tested, fewer than 3 runs long enough", f.channel),
+            _ => format!("{}: not tested, fewer than 3 runs long enough", n.series),
         })
         .collect::<Vec<_>>()
         .join(", ")
@@ -743,8 +744,8 @@ pub(super) fn run_noise_tests_text(r: &Report) -> String {
 
 /// The branch test in words (a cycling log's scale factor), or `None` where none ran.
 pub(super) fn branch_test_text(r: &Report) -> Option<String> {
-    r.residual_vs_floor.iter().zip(&r.noise).find_map(|(f, n)| match (n.branch_z, n.branch_critical) {
-        (Some(z), Some(c)) => Some(format!("{} |z| {z:.1} against {c:.1}", f.channel)),
+    r.noise.iter().find_map(|n| match (n.branch_z, n.branch_critical) {
+        (Some(z), Some(c)) => Some(format!("{} |z| {z:.1} against {c:.1}", n.series)),
         _ => None,
     })
 }

@@ -32,10 +32,8 @@ fn slow_noise_sentence(ch: &Channels, r: &Report, channel: &str) -> Option<Strin
          is not rejected (no step inside a run, run levels within its noise, no driver followed): slow \
          noise of that size explains it, and the catalog's effects cannot be told from it.",
         f.ratio,
-        r.residual_vs_floor.iter().position(|x| x.channel == channel).and_then(|k| r.noise.get(k)).map_or_else(
-            String::new,
-            |n| n.model.text(if channel == "scale_factor" { "ppm" } else { ch.bias_unit.label() })
-        )
+        super::output::noise_model_of(r, channel)
+            .map_or_else(String::new, |n| n.model.text(super::output::channel_unit(ch, channel)))
     ))
 }
 

@@ -119,14 +119,17 @@ pub struct Unexplained {
     pub correlates_with: Vec<String>,
     /// Catalog effects that would fit only with a parameter at a search limit.
     pub pinned: Vec<String>,
-    /// A step inside one run that the fitted noise model rejects (see [`noise`]).
+    /// A step inside one run that the fitted noise model rejects (see [`noise`]); the bias
+    /// channel's is the strongest of its own and each position's reading's (its `series`
+    /// says which).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub change_point: Option<ChangePoint>,
     /// A scale-factor level by ramp branch that the fitted noise model rejects (see
     /// [`noise`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub branch_level: Option<BranchLevel>,
-    /// A run noisier than the fitted noise model allows (see [`noise`]).
+    /// A run noisier than the fitted noise model allows (see [`noise`]); chosen as
+    /// `change_point` is.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub noisy_run: Option<NoisyRun>,
 }
@@ -150,22 +153,28 @@ pub(crate) fn floor_ratios(ch: &Channels, cur: &Residuals) -> Vec<FloorRatio> {
         .collect()
 }
 
-/// Each channel's noise model and its change-point test at level [`ALPHA`] shared over
-/// the channels, in the order of `channels_of`.
+/// Each series' noise model and its change-point and run-noise tests at level [`ALPHA`]
+/// shared over the series: the channels in the order of `channels_of`, then, on a cycling
+/// log, each position's reading ([`position_readings`]); the scale factor's branch test at
+/// [`ALPHA`] shared over the channels.
 #[must_use]
 pub(crate) fn noise_tests(ch: &Channels, cur: &Residuals) -> Vec<NoiseTest> {
     let chans = channels_of(ch, cur);
-    let alpha = ALPHA / chans.len() as f64;
+    let readings = position_readings(ch, cur);
+    let series: Vec<(&str, &[f64], bool)> =
+        chans.iter().copied().chain(readings.iter().map(|(name, r)| (*name, r.as_slice(), false))).collect();
+    let alpha = ALPHA / series.len() as f64;
+    let branch_alpha = ALPHA / chans.len() as f64;
     let drv = drivers(ch);
     let driver = |name: &str| drv.iter().find(|d| d.0 == name).map(|d| d.1.as_slice()).unwrap_or(&[]);
-    chans
+    series
         .into_iter()
         .enumerate()
-        .map(|(k, (_, r, is_sf))| {
-            let mut t = noise::test(ch, r, alpha, 0x006e_6f69_7365 + k as u64);
+        .map(|(k, (name, r, is_sf))| {
+            let mut t = noise::test(ch, name, r, alpha, 0x006e_6f69_7365 + k as u64);
             if is_sf {
                 if let Some((z, critical, level)) =
-                    noise::branch_test(ch, r, driver("branch"), driver("time_since_reversal"), &t.model, alpha)
+                    noise::branch_test(ch, r, driver("branch"), driver("time_since_reversal"), &t.model, branch_alpha)
                 {
                     (t.branch_z, t.branch_critical, t.branch_level) = (Some(z), Some(critical), level);
                 }
@@ -173,6 +182,36 @@ pub(crate) fn noise_tests(ch: &Channels, cur: &Residuals) -> Vec<NoiseTest> {
             t
         })
         .collect()
+}
+
+/// A cycling log's residual of each position's reading, in the bias unit: `+1 g reading`
+/// = bias + scale factor, `−1 g reading` = bias − scale factor (with `A = K1·(K0 + a)`, a
+/// change δ in one position's reading moves K1 by ±δ/2 (as a fraction) and K0 by δ/2, so
+/// the ppm and µg residuals add back to the reading's µg). A bias step in one position's
+/// run (a shock, a settling pendulum) is full size there and half size in each channel;
+/// none for a single-channel log.
+fn position_readings(ch: &Channels, cur: &Residuals) -> Vec<(&'static str, Vec<f64>)> {
+    if ch.kind != LogKind::Cycling {
+        return Vec::new();
+    }
+    let reading = |sign: f64| cur.bias.iter().zip(&cur.sf).map(|(b, s)| b + sign * s).collect();
+    vec![("+1 g reading", reading(1.0)), ("−1 g reading", reading(-1.0))]
+}
+
+/// Of `tests`, the change point and the noisy run that most exceed their critical values.
+fn strongest(tests: &[&NoiseTest]) -> (Option<ChangePoint>, Option<NoisyRun>) {
+    let over = |x: f64, c: Option<f64>| c.map_or(0.0, |c| x / c.max(1e-300));
+    let cp = tests
+        .iter()
+        .filter_map(|t| t.change_point.as_ref().map(|c| (over(c.z, t.critical), c)))
+        .max_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|x| x.1.clone());
+    let noisy = tests
+        .iter()
+        .filter_map(|t| t.noisy_run.as_ref().map(|n| (over(n.ratio, t.run_noise_critical), n)))
+        .max_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|x| x.1.clone());
+    (cp, noisy)
 }
 
 /// The channels of a log: name, final residual, and whether it is the scale factor.
@@ -332,7 +371,13 @@ pub(crate) fn find_unexplained(
     let alpha = ALPHA / (drv.len() * chans.len()) as f64;
     let after = localize(ch, cur, 1);
     let mut out = Vec::new();
+    // A position's reading is the bias of that position: its change point or noisy run is
+    // reported with the bias channel.
+    let readings: Vec<&NoiseTest> = noise.iter().skip(chans.len()).collect();
     for (((name, r, is_sf), floor), nt) in chans.into_iter().zip(floors).zip(noise) {
+        let tested: Vec<&NoiseTest> =
+            std::iter::once(nt).chain(if is_sf { &[][..] } else { &readings[..] }.iter().copied()).collect();
+        let (change_point, noisy_run) = strongest(&tested);
         let var = rms(r).powi(2).max(1e-300);
         let mut hits: Vec<(f64, &str, f64)> = Vec::new();
         for (dn, x) in &drv {
@@ -366,9 +411,9 @@ pub(crate) fn find_unexplained(
         if hits.is_empty()
             && pins.is_empty()
             && !levels_left
-            && nt.change_point.is_none()
+            && change_point.is_none()
             && nt.branch_level.is_none()
-            && nt.noisy_run.is_none()
+            && noisy_run.is_none()
         {
             continue;
         }
@@ -382,9 +427,9 @@ pub(crate) fn find_unexplained(
             structure_rms: hits.first().map(|h| h.2),
             correlates_with: hits.iter().map(|h| h.1.to_string()).collect(),
             pinned: pins,
-            change_point: nt.change_point.clone(),
+            change_point,
             branch_level: nt.branch_level.clone(),
-            noisy_run: nt.noisy_run.clone(),
+            noisy_run,
         });
     }
     out
