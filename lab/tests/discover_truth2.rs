@@ -80,7 +80,8 @@ fn quadratic_form(s: &[f64], t_s: &[f64], w: f64, q: f64, tau_s: f64) -> f64 {
 /// temperature) has no systematic part; a bad run's slow wander does.
 fn heldout_size_se(ch: &Channels, with: &Residuals, twin: &Residuals, noisy: &Report) -> f64 {
     let mut total = 0.0;
-    for (f, n) in noisy.residual_vs_floor.iter().zip(&noisy.noise) {
+    for f in &noisy.residual_vs_floor {
+        let n = noisy.noise.iter().find(|n| n.series == f.channel).expect("each channel has its noise test");
         let (a, b) = match f.channel.as_str() {
             "scale_factor" => (&with.sf, &twin.sf),
             _ => (&with.bias, &twin.bias),

@@ -219,8 +219,9 @@ pub struct Report {
     /// model as a nuisance (cycling logs only; see `super::fit::TimingOffset`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub timing_offset: Option<TimingOffsetReport>,
-    /// Each channel's fitted noise model and its change-point test, in the order of
-    /// `residual_vs_floor` (`super::noise`).
+    /// Each series' fitted noise model and its tests (`super::noise`): the channels in the
+    /// order of `residual_vs_floor`, then, on a cycling log, each position's reading;
+    /// `series` names each.
     pub noise: Vec<super::noise::NoiseTest>,
     /// Noise floors of the final held-out residual (the bin-to-bin noise of each
     /// channel's noise model, √(W + Q(1 − φ))).
