@@ -245,10 +245,15 @@ fn a_bias_step_in_one_run_is_unexplained_with_its_run_and_time_and_noise_is_not(
         .unwrap_or_else(|| panic!("the step is not reported: {:?}", reports[1].unexplained));
     // Program 1 is the 0.5-°C/min program; its pos0 run is paired with pos2, so the step
     // shows in the pair's bias at half the size (K0 = (A₊ + A₋)/2) and whole in the +1 g
-    // reading, half-way through it: the bias channel reports the stronger, the reading's.
+    // reading, half-way through it: the bias channel reports the stronger of the two, at
+    // the size its series carries.
     assert!(cp.run.contains("0.5"), "{cp:?}");
-    assert_eq!(cp.series, "+1 g reading", "{cp:?}");
-    assert!((cp.size.abs() - 40.0).abs() < 12.0, "{cp:?}");
+    let whole = match cp.series.as_str() {
+        "+1 g reading" => 40.0,
+        "bias" => 20.0,
+        other => panic!("the step is reported in the {other}: {cp:?}"),
+    };
+    assert!((cp.size - whole).abs() < 0.3 * whole, "{cp:?}");
 }
 
 #[test]
@@ -276,6 +281,34 @@ fn a_step_each_channel_carries_at_half_size_is_found_in_its_positions_reading() 
     assert!(cp.run.contains("program 3 of 4"), "{cp:?}");
     assert!((cp.at_h - at_h).abs() < 0.25, "{cp:?}, the step at {at_h:.2} h");
     assert!((cp.size - size_g * 1e6).abs() < 0.25 * size_g * 1e6, "{cp:?}, the step {:.1} µg", size_g * 1e6);
+}
+
+#[test]
+fn a_step_the_segment_means_miss_under_slow_noise_is_found_by_the_whitened_search() {
+    // The study's draw 1448: a 7.1-µg bias step half-way through program 3's +1 g run,
+    // alone, at 9.6 SE of the fitted noise to a test that knows its shape. The reading's
+    // fitted noise has a slow part larger than its white part (white 1.4 µg + Gauss–Markov
+    // 2.3 µg, τ 68 min), and the difference of the segments' means spends the step on its
+    // wander (|z| 2.9 against 4.9): the log was silent. Whitened, it is found (7.0 against 4.9).
+    let d = truth2::random_draw(1448);
+    let Some(&OutOfCatalog::BiasStep { program_index: 2, run_index: 0, at_fraction, size_g }) =
+        d.other.iter().find(|o| matches!(o, OutOfCatalog::BiasStep { .. }))
+    else {
+        panic!("draw 1448 is not the step it was: {:?}", d.other)
+    };
+    let r = report(&d);
+    println!("{:?}; unexplained {:?}", names(&r), r.unexplained);
+    let cp = r
+        .unexplained
+        .iter()
+        .find_map(|u| u.change_point.clone().filter(|_| u.channel == "bias"))
+        .unwrap_or_else(|| panic!("the step is not reported: {:?} {:?}", r.noise, r.unexplained));
+    let at_h = at_fraction * truth2::program(truth2::RATES[2], d.span_c, d.heating_only).duration_s / 3600.0;
+    assert_eq!((cp.series.as_str(), cp.search.as_str()), ("+1 g reading", "whitened"), "{cp:?}");
+    assert!(cp.run.contains("program 3 of 4"), "{cp:?}");
+    assert!((cp.at_h - at_h).abs() < 0.25, "{cp:?}, the step at {at_h:.2} h");
+    assert!((cp.size - size_g * 1e6).abs() < 0.25 * size_g * 1e6, "{cp:?}, the step {:.1} µg", size_g * 1e6);
+    assert!(cp.z > cp.critical, "{cp:?}");
 }
 
 #[test]

@@ -432,14 +432,18 @@ fn unexplained_line(ch: &Channels, r: &Report, u: &super::Unexplained, held: &st
     if let Some(c) = &u.change_point {
         let _ = write!(
             line,
-            "; {} steps by {:+.3} at {:.2} h into {}{}, which the fitted noise model ({}) rejects (|z| {:.1})",
+            "; {} steps by {:+.3} {} at {:.2} h into {}{}, which the fitted noise model ({}) rejects (|z| {:.1} \
+             against {:.1}, {} search)",
             if c.series == u.channel { "its level".to_string() } else { format!("the {}", c.series) },
             c.size,
+            channel_unit(ch, &c.series),
             c.at_h,
             c.run,
             if c.series == u.channel { "" } else { " (K1 and K0 each carry half of it)" },
             noise_model_of(r, &c.series).map_or_else(String::new, |n| n.model.text(channel_unit(ch, &c.series))),
-            c.z
+            c.z,
+            c.critical,
+            c.search
         );
     }
     if let Some(b) = &u.branch_level {
@@ -714,8 +718,13 @@ pub(super) fn change_point_tests_text(r: &Report) -> String {
         .iter()
         .map(|n| match (n.max_z, n.critical) {
             (Some(z), Some(c)) => format!(
-                "{} largest |z| {z:.1} against {c:.1} from {} series of the model ({} runs searched)",
+                "{} largest |z| {z:.1} against {c:.1} by segment means and {}, from {} series of the model ({} runs \
+                 searched)",
                 n.series,
+                match (n.whitened_max_z, n.whitened_critical) {
+                    (Some(wz), Some(wc)) => format!("{wz:.1} against {wc:.1} whitened"),
+                    _ => "no split whitened (every split within 10 min of a corner)".to_string(),
+                },
                 super::noise::NULL_DRAWS,
                 n.runs_searched
             ),
