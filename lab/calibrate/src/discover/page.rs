@@ -131,7 +131,7 @@ pub(crate) fn page(ch: &Channels, r: &Report, dir: &Path, scope: Scope<'_>, v: &
     page_scheme(&mut p, r, scope);
     page_gaps(&mut p, ch, r, scope);
     page_effects(&mut p, r, scope);
-    page_unexplained(&mut p, r, held);
+    page_unexplained(&mut p, ch, r, held);
     page_peers(&mut p, ch, r, held);
     page_coverage(&mut p, ch);
     page_where(&mut p, ch, r, held);
@@ -253,21 +253,19 @@ fn page_effects(p: &mut Page, r: &Report, scope: Scope<'_>) {
     }
 }
 
-/// A warning for each channel that keeps structure no catalog effect explains.
-fn page_unexplained(p: &mut Page, r: &Report, held: &str) {
+/// A warning for each channel that keeps structure no catalog effect explains, with what
+/// rejected the fitted noise model ([`super::Unexplained::evidence`]).
+fn page_unexplained(p: &mut Page, ch: &Channels, r: &Report, held: &str) {
     for u in &r.unexplained {
+        let unit = super::output::channel_unit(ch, &u.channel);
         p.warning(&format!(
-            "the {} channel keeps structure no catalog effect explains ({held} RMS {:.3}, {:.1}× its noise floor, \
-             mostly {}{}{})",
+            "the {} channel keeps structure no catalog effect explains ({held} RMS {:.3} {unit}, {:.1}× its noise \
+             floor, mostly {}): {}{}",
             u.channel,
             u.rms,
             u.floor.ratio,
             u.time_scales.dominant(),
-            if u.correlates_with.is_empty() {
-                String::new()
-            } else {
-                format!("; follows {}", u.correlates_with.join(", then "))
-            },
+            u.evidence(unit, ch.bias_unit.label()),
             if u.where_.is_empty() { String::new() } else { format!("; largest on {}", u.where_) }
         ));
     }

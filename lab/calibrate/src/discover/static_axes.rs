@@ -401,18 +401,12 @@ fn axis_discovery(
     })
 }
 
-/// One line per unexplained structure: what it correlates with, then what pinned it.
+/// One line per unexplained structure: what rejected the fitted noise model
+/// ([`super::Unexplained::evidence`]). It gave only the drivers followed and the pinned
+/// effects, so a step alone read "" (and the console "follows: no driver tested").
 fn unexplained_lines(r: &Report) -> Vec<String> {
-    r.unexplained
-        .iter()
-        .map(|u| {
-            let mut s = u.correlates_with.join(", ");
-            if !u.pinned.is_empty() {
-                let _ = write!(s, "{}pinned: {}", if s.is_empty() { "" } else { "; " }, u.pinned.join("; "));
-            }
-            s
-        })
-        .collect()
+    let unit = BiasUnit::Ug.label();
+    r.unexplained.iter().map(|u| u.evidence(unit, unit)).collect()
 }
 
 /// Record on each axis the structure static calibration flashed, its figures, and whether

@@ -134,6 +134,50 @@ pub struct Unexplained {
     pub noisy_run: Option<NoisyRun>,
 }
 
+impl Unexplained {
+    /// What rejected the fitted noise model, in words (`unit` the channel's; a position's
+    /// reading is in the bias unit): a step with its series, time, run, size, |z| and
+    /// critical value; a level by ramp branch; a noisy run; run levels; the drivers it
+    /// follows; the effects pinned at a search limit. Never empty: an entry is made only
+    /// when one of these is present.
+    #[must_use]
+    pub fn evidence(&self, unit: &str, bias_unit: &str) -> String {
+        let mut parts = Vec::new();
+        if let Some(c) = &self.change_point {
+            parts.push(format!(
+                "a step of {:+.3} {} in the {} at {:.2} h into {} (|z| {:.1} against {:.1}, {} search)",
+                c.size,
+                if c.series == self.channel { unit } else { bias_unit },
+                if c.series == self.channel { "level" } else { c.series.as_str() },
+                c.at_h,
+                c.run,
+                c.z,
+                c.critical,
+                c.search
+            ));
+        }
+        if let Some(b) = &self.branch_level {
+            parts.push(format!("a level by ramp branch of ±{:.3} {unit} (|z| {:.1})", b.size.abs(), b.z));
+        }
+        if let Some(n) = &self.noisy_run {
+            parts.push(format!("the {} noise in {} at {:.1}× the median run's", n.series, n.run, n.ratio));
+        }
+        if let Some(l) = self.run_levels.as_ref().filter(|l| l.significant) {
+            parts.push(format!("run levels that differ (χ² {:.1} on {} runs against {:.1})", l.q, l.runs, l.critical));
+        }
+        if !self.correlates_with.is_empty() {
+            parts.push(format!("follows {}", self.correlates_with.join(", ")));
+        }
+        if !self.pinned.is_empty() {
+            parts.push(format!("pinned: {}", self.pinned.join("; ")));
+        }
+        if parts.is_empty() {
+            parts.push(format!("a residual {:.1}× its noise floor", self.floor.ratio));
+        }
+        parts.join("; ")
+    }
+}
+
 /// Each channel's residual against its floor, in the order of `channels_of`.
 #[must_use]
 pub(crate) fn floor_ratios(ch: &Channels, cur: &Residuals) -> Vec<FloorRatio> {
@@ -198,12 +242,38 @@ fn position_readings(ch: &Channels, cur: &Residuals) -> Vec<(&'static str, Vec<f
     vec![("+1 g reading", reading(1.0)), ("−1 g reading", reading(-1.0))]
 }
 
+/// How close in time two readings' change points must be to count as one step, h (the
+/// search places a step within a few 60-s bins of its true time).
+const MIRROR_H: f64 = 0.25;
+
+/// `t` (a position's reading's test), without its change point when another reading of
+/// `all` has one in the same run within [`MIRROR_H`] of the opposite sign: that pattern is
+/// a scale-factor step (the ±1 g readings are bias ± scale factor), which the bias channel
+/// does not carry. A sign-alike pair is a step in both positions, i.e. the bias's. Seen
+/// once: a 3.3-ppm scale-factor hysteresis alone (its jumps at reversals) was reported as
+/// a bias step, from the −6.1 and +5.4 µg steps of its two readings at 6.96 h, while the
+/// whitened search sized a step by its own coefficient.
+fn without_mirrored_step(t: &NoiseTest, all: &[NoiseTest]) -> NoiseTest {
+    let mut t = t.clone();
+    let mirrored = t.change_point.as_ref().is_some_and(|c| {
+        all.iter().filter(|o| o.series != t.series && o.series.ends_with("reading")).any(|o| {
+            o.change_point
+                .as_ref()
+                .is_some_and(|d| d.run == c.run && (d.at_h - c.at_h).abs() <= MIRROR_H && d.size * c.size < 0.0)
+        })
+    });
+    if mirrored {
+        t.change_point = None;
+    }
+    t
+}
+
 /// Of `tests`, the change point and the noisy run that most exceed their critical values.
 fn strongest(tests: &[&NoiseTest]) -> (Option<ChangePoint>, Option<NoisyRun>) {
     let over = |x: f64, c: Option<f64>| c.map_or(0.0, |c| x / c.max(1e-300));
     let cp = tests
         .iter()
-        .filter_map(|t| t.change_point.as_ref().map(|c| (over(c.z, t.critical), c)))
+        .filter_map(|t| t.change_point.as_ref().map(|c| (over(c.z, Some(c.critical)), c)))
         .max_by(|a, b| a.0.total_cmp(&b.0))
         .map(|x| x.1.clone());
     let noisy = tests
@@ -373,7 +443,10 @@ pub(crate) fn find_unexplained(
     let mut out = Vec::new();
     // A position's reading is the bias of that position: its change point or noisy run is
     // reported with the bias channel.
-    let readings: Vec<&NoiseTest> = noise.iter().skip(chans.len()).collect();
+    // A step that the two readings take with opposite signs at one time is the scale
+    // factor's (it moves them by ±δ), not the bias's: it is left out of the bias channel.
+    let readings: Vec<NoiseTest> = noise.iter().skip(chans.len()).map(|t| without_mirrored_step(t, noise)).collect();
+    let readings: Vec<&NoiseTest> = readings.iter().collect();
     for (((name, r, is_sf), floor), nt) in chans.into_iter().zip(floors).zip(noise) {
         let tested: Vec<&NoiseTest> =
             std::iter::once(nt).chain(if is_sf { &[][..] } else { &readings[..] }.iter().copied()).collect();
@@ -433,4 +506,96 @@ pub(crate) fn find_unexplained(
         });
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_step_alone_is_described_with_its_run_time_and_size() {
+        // A static axis whose only evidence is a step: the summary line read "" and the
+        // console "follows: no driver tested".
+        let u = Unexplained {
+            channel: "value".into(),
+            where_: String::new(),
+            rms: 983.4,
+            floor: FloorRatio { channel: "value".into(), rms: 983.4, floor: 134.6, ratio: 7.3, ratio_ci95: [5.7, 8.9] },
+            run_levels: None,
+            time_scales: TimeScales { across_runs: 0.0, within_run_slow: 900.0, fast: 100.0 },
+            structure_rms: None,
+            correlates_with: Vec::new(),
+            pinned: Vec::new(),
+            change_point: Some(ChangePoint {
+                series: "value".into(),
+                run: "ay (run 1 of 1)".into(),
+                at_h: 1.161,
+                size: -825.85,
+                z: 4.36,
+                search: "whitened".into(),
+                critical: 3.95,
+            }),
+            branch_level: None,
+            noisy_run: None,
+        };
+        let e = u.evidence("µg", "µg");
+        assert_eq!(
+            e,
+            "a step of -825.850 µg in the level at 1.16 h into ay (run 1 of 1) (|z| 4.4 against 4.0, whitened search)"
+        );
+        // A position's reading is named, in the bias unit, on the scale-factor channel too.
+        let mut sf = u.clone();
+        sf.channel = "scale_factor".into();
+        sf.change_point.as_mut().expect("set above").series = "+1 g reading".into();
+        assert!(
+            sf.evidence("ppm", "µg").starts_with("a step of -825.850 µg in the +1 g reading"),
+            "{}",
+            sf.evidence("ppm", "µg")
+        );
+    }
+
+    fn reading(series: &str, run: &str, at_h: f64, size: f64) -> NoiseTest {
+        let model = NoiseModel { white: 1.0, slow_sd: 0.0, tau_s: 60.0, bin_s: 60.0, lags: 12 };
+        NoiseTest {
+            series: series.into(),
+            model,
+            runs_searched: 4,
+            max_z: Some(6.0),
+            critical: Some(4.0),
+            whitened_max_z: Some(6.0),
+            whitened_critical: Some(4.0),
+            change_point: Some(ChangePoint {
+                series: series.into(),
+                run: run.into(),
+                at_h,
+                size,
+                z: 6.0,
+                search: "whitened".into(),
+                critical: 4.0,
+            }),
+            max_run_noise: None,
+            run_noise_critical: None,
+            noisy_run: None,
+            branch_z: None,
+            branch_critical: None,
+            branch_level: None,
+        }
+    }
+
+    #[test]
+    fn a_step_the_two_readings_take_oppositely_is_left_out_of_the_bias() {
+        // Opposite signs at one time in one run: the scale factor's step (bias ± sf).
+        let all = [reading("+1 g reading", "p3", 6.96, -6.1), reading("−1 g reading", "p3", 7.0, 5.4)];
+        assert!(without_mirrored_step(&all[0], &all).change_point.is_none());
+        assert!(without_mirrored_step(&all[1], &all).change_point.is_none());
+        // The same sign (a bias step in both positions), another run, or another time: kept.
+        for other in [
+            reading("−1 g reading", "p3", 7.0, -5.4),
+            reading("−1 g reading", "p2", 6.96, 5.4),
+            reading("−1 g reading", "p3", 6.96 + 2.0 * MIRROR_H, 5.4),
+        ] {
+            let all = [reading("+1 g reading", "p3", 6.96, -6.1), other];
+            assert!(without_mirrored_step(&all[0], &all).change_point.is_some(), "{:?}", all[1].change_point);
+        }
+    }
 }

@@ -175,9 +175,14 @@ pub(crate) fn discovery_verdict(ch: &Channels, r: &Report, files: &[String], not
         v.warnings.push(format!("{} is named but not in table.bin (no root-crate slot yet)", e.name));
     }
     for u in &r.unexplained {
+        let unit = super::output::channel_unit(ch, &u.channel);
         v.warnings.push(format!(
-            "the {} channel keeps structure no catalog effect explains (held-out RMS {:.2}, {:.1}× its noise floor)",
-            u.channel, u.rms, u.floor.ratio
+            "the {} channel keeps structure no catalog effect explains (held-out RMS {:.2} {unit}, {:.1}× its noise \
+             floor): {}",
+            u.channel,
+            u.rms,
+            u.floor.ratio,
+            u.evidence(unit, ch.bias_unit.label())
         ));
     }
     v.warnings.extend(notes.iter().cloned());
@@ -289,8 +294,7 @@ fn axis_warnings(d: &StaticDiscovery, a: &AxisDiscovery) -> Vec<String> {
         ));
     }
     for u in &a.unexplained {
-        let what = if u.is_empty() { "no driver tested" } else { u.as_str() };
-        w.push(format!("{}: structure left that no catalog effect explains (follows: {what})", a.axis));
+        w.push(format!("{}: structure left that no catalog effect explains: {u}", a.axis));
     }
     w
 }
