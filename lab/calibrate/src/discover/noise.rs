@@ -529,7 +529,7 @@ fn gls_splits(model: &NoiseModel, v: &[f64], splits: impl Iterator<Item = usize>
 /// time constants; set after seeing those) and steps sized by the segments' means, 1, 6
 /// and none, and the second generator's steps of draws 1448 and 1249 are still found. The
 /// segment-means search has no such gap.
-const CORNER_SKIP_S: f64 = 1800.0;
+pub(crate) const CORNER_SKIP_S: f64 = 1800.0;
 
 /// Per bin, in the order of the log's bins: whether a split may fall before it, i.e. it is
 /// [`CORNER_SKIP_S`] or more after the last corner of its trace.

@@ -723,7 +723,10 @@ pub(super) fn change_point_tests_text(r: &Report) -> String {
                 n.series,
                 match (n.whitened_max_z, n.whitened_critical) {
                     (Some(wz), Some(wc)) => format!("{wz:.1} against {wc:.1} whitened"),
-                    _ => "no split whitened (every split within 10 min of a corner)".to_string(),
+                    _ => format!(
+                        "no split whitened (every split within {:.0} min after a corner)",
+                        super::noise::CORNER_SKIP_S / 60.0
+                    ),
                 },
                 super::noise::NULL_DRAWS,
                 n.runs_searched
