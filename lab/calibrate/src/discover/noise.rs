@@ -1236,6 +1236,53 @@ mod tests {
     }
 
     #[test]
+    fn the_branch_test_is_generalized_least_squares_by_a_dense_solve() {
+        // For random models, two runs of 300 bins and a branch switching every 70 bins, the
+        // 10 minutes after each switch left out: the level by branch and its z against
+        // nalgebra's Cholesky solve of the model's dense covariance over the bins kept, the
+        // residual and the branch centred per run.
+        let mut rng = seeded(43);
+        for case in 0..8 {
+            let white = 0.2 + 1.5 * qfa_rng::uniform(&mut rng);
+            let slow = 3.0 * qfa_rng::uniform(&mut rng);
+            let tau_bins = 2.0 + 60.0 * qfa_rng::uniform(&mut rng);
+            let m = NoiseModel { white, slow_sd: slow, tau_s: 60.0 * tau_bins, bin_s: 60.0, lags: 12 };
+            let ch = channels(2, 300);
+            let n = ch.n_bins();
+            let branch: Vec<f64> = (0..n).map(|i| if ((i % 300) / 70) % 2 == 0 { 1.0 } else { -1.0 }).collect();
+            let since: Vec<f64> = (0..n).map(|i| ((i % 300) % 70) as f64 / 60.0).collect();
+            let noise = series(&ch, white, slow, tau_bins, 200 + case);
+            // A level of 0.3 white SDs: its jumps stay inside the 4-SD clip, which the dense
+            // solve does not have.
+            let r: Vec<f64> = (0..n).map(|i| noise[i] + 0.3 * white * branch[i]).collect();
+            let (z, _, level) = branch_test(&ch, &r, &branch, &since, &m, 1.0).expect("bins kept");
+            let level = level.expect("at level 1 every z is a level");
+            let (mut xtx, mut xty) = (0.0, 0.0);
+            for run in 0..2 {
+                let kept: Vec<usize> =
+                    (run * 300..(run + 1) * 300).filter(|&i| since[i] * 3600.0 >= BRANCH_SKIP_S).collect();
+                let k = kept.len();
+                let t = |a: usize| ch.traces[run].bins[a - run * 300].time_s;
+                let cov = nalgebra::DMatrix::from_fn(k, k, |i, j| {
+                    let d = (t(kept[i]) - t(kept[j])).abs();
+                    slow * slow * (-d / m.tau_s).exp() + if i == j { white * white } else { 0.0 }
+                });
+                let chol = cov.cholesky().expect("positive definite");
+                let centred = |v: &[f64]| {
+                    let mean = kept.iter().map(|&i| v[i]).sum::<f64>() / k as f64;
+                    nalgebra::DVector::from_iterator(k, kept.iter().map(|&i| v[i] - mean))
+                };
+                let x = centred(&branch);
+                xtx += x.dot(&chol.solve(&x));
+                xty += x.dot(&chol.solve(&centred(&r)));
+            }
+            let (beta, z_dense) = (xty / xtx, xty / xtx.sqrt());
+            assert!((level.size / beta - 1.0).abs() < 1e-6, "case {case}: {} against {beta} ({m:?})", level.size);
+            assert!((z / z_dense.abs() - 1.0).abs() < 1e-6, "case {case}: {z} against {z_dense}");
+        }
+    }
+
+    #[test]
     fn the_split_search_is_generalized_least_squares_by_a_dense_solve() {
         // For random models and splits (before and after the filter's gain settles), the
         // z and step of `gls_splits` against generalized least squares of the run on a level
