@@ -643,6 +643,8 @@ pub struct BranchLevel {
     pub size: f64,
     /// Its z under the fitted model (generalized least squares).
     pub z: f64,
+    /// The critical value |z| passed, z(1 − α/2).
+    pub critical: f64,
 }
 
 /// The noise model against the change-point and branch-level alternatives.
@@ -758,7 +760,7 @@ pub(crate) fn branch_test(
     }
     let (z, size) = (sxy / sxx.sqrt(), sxy / sxx);
     let critical = super::stats::normal_quantile(1.0 - alpha / 2.0);
-    let level = (z.abs() > critical).then_some(BranchLevel { size, z });
+    let level = (z.abs() > critical).then_some(BranchLevel { size, z, critical });
     Some((z.abs(), critical, level))
 }
 

@@ -450,9 +450,13 @@ fn unexplained_line(ch: &Channels, r: &Report, u: &super::Unexplained, held: &st
         let _ = write!(
             line,
             "; its level differs by ramp branch, {:+.3} on heating and {:+.3} on cooling (a dwell with the ramp \
-             before it, 10 min after each reversal left out), which the fitted noise model rejects (|z| {:.1}); \
-             the timing offset fitted alongside takes such a level's share on the ramps, so read the offset with it",
-            b.size, -b.size, b.z
+             before it, 10 min after each reversal left out), which the fitted noise model rejects (|z| {:.1} \
+             against {:.2}); the timing offset fitted alongside takes such a level's share on the ramps, so read \
+             the offset with it",
+            b.size,
+            -b.size,
+            b.z.abs(),
+            b.critical
         );
     }
     if let Some(n) = &u.noisy_run {

@@ -157,7 +157,13 @@ impl Unexplained {
             ));
         }
         if let Some(b) = &self.branch_level {
-            parts.push(format!("a level by ramp branch of ±{:.3} {unit} (|z| {:.1})", b.size.abs(), b.z));
+            parts.push(format!(
+                "a level by ramp branch, {:+.3} {unit} on heating and {:+.3} on cooling (|z| {:.1} against {:.2})",
+                b.size,
+                -b.size,
+                b.z.abs(),
+                b.critical
+            ));
         }
         if let Some(n) = &self.noisy_run {
             parts.push(format!("the {} noise in {} at {:.1}× the median run's", n.series, n.run, n.ratio));
@@ -539,7 +545,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_step_alone_is_described_with_its_run_time_and_size() {
+    fn a_step_or_a_level_by_branch_alone_is_described_with_what_it_was_tested_against() {
         // A static axis whose only evidence is a step: the summary line read "" and the
         // console "follows: no driver tested".
         let u = Unexplained {
@@ -577,6 +583,14 @@ mod tests {
             sf.evidence("ppm", "µg").starts_with("a step of -825.850 µg in the +1 g reading"),
             "{}",
             sf.evidence("ppm", "µg")
+        );
+        // A level by ramp branch alone: both branches' levels, |z| and its critical value
+        // (the console gave "±0.572 ppm (|z| 3.8)", nothing to judge it by).
+        sf.change_point = None;
+        sf.branch_level = Some(BranchLevel { size: 0.572, z: 3.83, critical: 2.241 });
+        assert_eq!(
+            sf.evidence("ppm", "µg"),
+            "a level by ramp branch, +0.572 ppm on heating and -0.572 on cooling (|z| 3.8 against 2.24)"
         );
     }
 
