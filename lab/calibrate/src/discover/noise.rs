@@ -1237,6 +1237,15 @@ mod tests {
         assert!(large.change_point.is_some(), "{large:?}");
     }
 
+    /// A model for the dense-solve checks: white 0.2–1.7, Gauss–Markov 0–3 with τ 2–62
+    /// 60-s bins; and τ in bins.
+    fn random_model(rng: &mut qfa_rng::LabRng) -> (NoiseModel, f64) {
+        let white = 0.2 + 1.5 * qfa_rng::uniform(rng);
+        let slow = 3.0 * qfa_rng::uniform(rng);
+        let tau_bins = 2.0 + 60.0 * qfa_rng::uniform(rng);
+        (NoiseModel { white, slow_sd: slow, tau_s: 60.0 * tau_bins, bin_s: 60.0, lags: 12 }, tau_bins)
+    }
+
     #[test]
     fn the_branch_test_is_generalized_least_squares_by_a_dense_solve() {
         // For random models, two runs of 300 bins and a branch switching every 70 bins, the
@@ -1245,10 +1254,8 @@ mod tests {
         // residual and the branch centred per run.
         let mut rng = seeded(43);
         for case in 0..8 {
-            let white = 0.2 + 1.5 * qfa_rng::uniform(&mut rng);
-            let slow = 3.0 * qfa_rng::uniform(&mut rng);
-            let tau_bins = 2.0 + 60.0 * qfa_rng::uniform(&mut rng);
-            let m = NoiseModel { white, slow_sd: slow, tau_s: 60.0 * tau_bins, bin_s: 60.0, lags: 12 };
+            let (m, tau_bins) = random_model(&mut rng);
+            let (white, slow) = (m.white, m.slow_sd);
             let ch = channels(2, 300);
             let n = ch.n_bins();
             let branch: Vec<f64> = (0..n).map(|i| if ((i % 300) / 70) % 2 == 0 { 1.0 } else { -1.0 }).collect();
@@ -1291,10 +1298,8 @@ mod tests {
         // and a step by nalgebra's Cholesky solve of the model's dense covariance.
         let mut rng = seeded(41);
         for case in 0..12 {
-            let white = 0.2 + 1.5 * qfa_rng::uniform(&mut rng);
-            let slow = 3.0 * qfa_rng::uniform(&mut rng);
-            let tau_bins = 2.0 + 60.0 * qfa_rng::uniform(&mut rng);
-            let m = NoiseModel { white, slow_sd: slow, tau_s: 60.0 * tau_bins, bin_s: 60.0, lags: 12 };
+            let (m, tau_bins) = random_model(&mut rng);
+            let (white, slow) = (m.white, m.slow_sd);
             let ch = channels(1, 400);
             let mut v = series(&ch, white, slow, tau_bins, 100 + case);
             let n = v.len();
