@@ -236,7 +236,8 @@ pub(crate) fn noise_tests(ch: &Channels, cur: &Residuals) -> Vec<NoiseTest> {
 
 /// Each bin's temperature slope, °C/min: central differences of the bins' mean
 /// temperatures `temp` over their times within a trace (one-sided at its ends), over two
-/// minutes of 60-s bins. The estimator's Ṫ row by row is noisier: on the second
+/// bin spacings (two minutes at a cycling log's 60-s bins). The estimator's Ṫ row by row
+/// is noisier: on the second
 /// generator's logs a 0.3-°C/min ramp's swings between 0.19 and 0.37 °C/min with the
 /// sensor's 1/16-°C steps, where the bins' slope stays within a few hundredths.
 fn temperature_slope(ch: &Channels, temp: &[f64]) -> Vec<f64> {
