@@ -631,6 +631,30 @@ fn max_run_noise(runs: &[&[f64]]) -> Option<(f64, usize)> {
     sds.iter().map(|&(k, sd)| (sd / mid, k)).max_by(|a, b| a.0.total_cmp(&b.0))
 }
 
+impl NoiseTest {
+    /// A fitted model that no alternative was tested against (no run long enough to
+    /// search); the tests' fields are filled in by whoever runs them.
+    #[must_use]
+    pub(crate) fn untested(series: &str, model: NoiseModel, runs_searched: usize) -> Self {
+        Self {
+            series: series.into(),
+            model,
+            runs_searched,
+            max_z: None,
+            critical: None,
+            whitened_max_z: None,
+            whitened_critical: None,
+            change_point: None,
+            max_run_noise: None,
+            run_noise_critical: None,
+            noisy_run: None,
+            branch_z: None,
+            branch_critical: None,
+            branch_level: None,
+        }
+    }
+}
+
 /// Seconds after a ramp reversal left out of the branch test: the rate estimator's delay
 /// and the thermal chain's corner transients live there, not a branch's level.
 const BRANCH_SKIP_S: f64 = 600.0;
@@ -803,22 +827,7 @@ pub(crate) fn test(ch: &Channels, series: &str, r: &[f64], alpha: f64, seed: u64
     let values: Vec<&[f64]> = runs.iter().map(|(_, v, _)| v.as_slice()).collect();
     let run_noise = max_run_noise(&values);
     let Some(max_z) = obs.map(|o| o.0) else {
-        return NoiseTest {
-            series: series.into(),
-            model,
-            runs_searched,
-            max_z: None,
-            critical: None,
-            whitened_max_z: None,
-            whitened_critical: None,
-            change_point: None,
-            max_run_noise: None,
-            run_noise_critical: None,
-            noisy_run: None,
-            branch_z: None,
-            branch_critical: None,
-            branch_level: None,
-        };
+        return NoiseTest::untested(series, model, runs_searched);
     };
     let null = null_quantile(&model, &masks, alpha, seed);
     let (critical, run_noise_critical) = (null.means, null.run_noise);

@@ -598,9 +598,6 @@ mod tests {
     fn reading(series: &str, run: &str, at_h: f64, size: f64) -> NoiseTest {
         let model = NoiseModel { white: 1.0, slow_sd: 0.0, tau_s: 60.0, bin_s: 60.0, lags: 12 };
         NoiseTest {
-            series: series.into(),
-            model,
-            runs_searched: 4,
             max_z: Some(6.0),
             critical: Some(4.0),
             whitened_max_z: Some(6.0),
@@ -614,12 +611,7 @@ mod tests {
                 search: "whitened".into(),
                 critical: 4.0,
             }),
-            max_run_noise: None,
-            run_noise_critical: None,
-            noisy_run: None,
-            branch_z: None,
-            branch_critical: None,
-            branch_level: None,
+            ..NoiseTest::untested(series, model, 4)
         }
     }
 
