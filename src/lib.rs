@@ -124,9 +124,13 @@ pub mod time;
 #[doc(hidden)]
 pub use compensator::Published;
 pub use compensator::{
-    Applier, Compensator, Config, ConfigError, CountingApplier, PulseOutput, SampleError, SampleOutput, Status,
-    ThreeAxisSensorPerAxis, ThreeAxisSharedSensor, Updater, DEFAULT_RATE_WINDOW, G0,
+    Applier, Compensator, Config, ConfigError, CountingApplier, PulseOutput, SampleError, SampleOutput,
+    SensorPerAxisUpdater, SharedSensorUpdater, Status, ThreeAxisApplier, ThreeAxisSensorPerAxis, ThreeAxisSharedSensor,
+    Updater, DEFAULT_RATE_WINDOW, G0, IMU_PERIOD_TOLERANCE,
 };
+/// The `heapless` this crate's types are built on ([`Table::axes`], [`BiasGrid`]'s
+/// branches), so a table can be built at run time without a dependency of your own.
+pub use heapless;
 pub use model::{AxisModel, BiasGrid, Extensions, ScaleFactor};
 pub use table::{Input, Table};
 

@@ -115,8 +115,48 @@ pub struct BiasGrid {
 }
 
 impl BiasGrid {
+    /// The branch deadband [`single_valued`](Self::single_valued) and [`flat`](Self::flat)
+    /// give, °C/min. It only matters once the branches differ; the compensator raises it to
+    /// its flicker floor anyway (0.182 °C/min for 32 readings at 1 s).
+    pub const DEFAULT_DEADBAND_C_PER_MIN: f32 = 0.05;
+
+    /// A grid whose branches are both `values_g`, at `M` points from `t_start_c` by
+    /// `t_step_c`, with [`DEFAULT_DEADBAND_C_PER_MIN`](Self::DEFAULT_DEADBAND_C_PER_MIN):
+    /// [`single_valued`](Self::single_valued) in a `const`, for a table in flash. `M` is
+    /// checked when it is compiled; a grid of one point does not build:
+    ///
+    /// ```compile_fail,E0080
+    /// const ONE: qfa_thermal::BiasGrid = qfa_thermal::BiasGrid::flat(-40.0, 10.0, [1e-4]);
+    /// # let _ = &ONE;
+    /// ```
+    #[must_use]
+    pub const fn flat<const M: usize>(t_start_c: f32, t_step_c: f32, values_g: [f32; M]) -> Self {
+        Self::with_branches(t_start_c, t_step_c, Self::DEFAULT_DEADBAND_C_PER_MIN, values_g, values_g)
+    }
+
+    /// A grid with a heating and a cooling branch of `M` points each (2..=16, checked when
+    /// it is compiled), in a `const`.
+    #[must_use]
+    pub const fn with_branches<const M: usize>(
+        t_start_c: f32,
+        t_step_c: f32,
+        deadband_c_per_min: f32,
+        heating_g: [f32; M],
+        cooling_g: [f32; M],
+    ) -> Self {
+        const { assert!(M >= 2 && M <= MAX_BIAS_POINTS, "a bias grid has 2 to 16 points") }
+        Self {
+            t_start_c,
+            t_step_c,
+            deadband_c_per_min,
+            heating_g: heapless::Vec::from_array(heating_g),
+            cooling_g: heapless::Vec::from_array(cooling_g),
+        }
+    }
+
     /// A grid whose branches are both `f(T)`, given at `values_g.len()` points from
-    /// `t_start_c` by `t_step_c`.
+    /// `t_start_c` by `t_step_c`, with
+    /// [`DEFAULT_DEADBAND_C_PER_MIN`](Self::DEFAULT_DEADBAND_C_PER_MIN).
     ///
     /// # Errors
     /// [`Error::GridPoints`] unless 2..=[`MAX_BIAS_POINTS`] values are given: a longer list
@@ -126,7 +166,13 @@ impl BiasGrid {
             .ok()
             .filter(|v: &heapless::Vec<f32, MAX_BIAS_POINTS>| v.len() >= 2)
             .ok_or(Error::GridPoints { given: values_g.len() })?;
-        Ok(Self { t_start_c, t_step_c, deadband_c_per_min: 0.05, heating_g: v.clone(), cooling_g: v })
+        Ok(Self {
+            t_start_c,
+            t_step_c,
+            deadband_c_per_min: Self::DEFAULT_DEADBAND_C_PER_MIN,
+            heating_g: v.clone(),
+            cooling_g: v,
+        })
     }
 
     /// Top of the grid, °C: the top of the calibrated range.
@@ -270,6 +316,11 @@ pub struct Extensions {
     pub bias_branch_hysteresis: Option<BranchHysteresis>,
     /// Temperature-dependent bias creep.
     pub bias_creep: Option<Creep>,
+}
+
+impl Extensions {
+    /// Every slot off: [`Extensions::default`] in a `const`.
+    pub const NONE: Self = Self { sensor_lag: None, bias_branch_hysteresis: None, bias_creep: None };
 }
 
 /// One axis's coefficient table.

@@ -235,6 +235,37 @@ pub struct Table {
     pub misalignment: Option<[f32; 9]>,
 }
 
+impl Table {
+    /// A table of `M` axes (1..=3, checked when it is compiled), in a `const` or `static`:
+    /// a table in flash, written by hand or generated. Nothing is validated here;
+    /// [`Compensator::set_table`](crate::Compensator::set_table) validates it before use.
+    ///
+    /// ```
+    /// use qfa_thermal::{AxisModel, BiasGrid, Config, Extensions, Input, ScaleFactor, Table, ThreeAxisSensorPerAxis};
+    ///
+    /// const AXIS: AxisModel = AxisModel {
+    ///     scale: ScaleFactor::simple(22.0, 320_320.0, -32.76),
+    ///     bias: BiasGrid::flat(-40.0, 10.0, [1e-4; 13]),
+    ///     rate_limit_c_per_min: 2.0,
+    ///     ext: Extensions::NONE,
+    /// };
+    /// static TABLE: Table = Table::new(Input::PulseCounts, 32, [AXIS; 3], None);
+    ///
+    /// let mut comp = ThreeAxisSensorPerAxis::new(Config::default()).unwrap(); // holds `&'static Table`
+    /// comp.set_table(&TABLE).unwrap();
+    /// ```
+    #[must_use]
+    pub const fn new<const M: usize>(
+        input: Input,
+        rate_window: u16,
+        axes: [AxisModel; M],
+        misalignment: Option<[f32; 9]>,
+    ) -> Self {
+        const { assert!(M >= 1 && M <= MAX_AXES, "a table has 1 to 3 axes") }
+        Self { input, rate_window, axes: heapless::Vec::from_array(axes), misalignment }
+    }
+}
+
 /// CRC-32/ISO-HDLC remainders of the 16 nibbles (reflected polynomial EDB88320h), built at
 /// compile time.
 const CRC32_NIBBLES: [u32; 16] = {

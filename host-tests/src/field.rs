@@ -28,7 +28,7 @@ use qfa_thermal::model::{BiasGrid, BranchHysteresis, Creep, Extensions, SensorLa
 use qfa_thermal::table::Input;
 use qfa_thermal::table::{Table, MAX_TABLE_BYTES};
 use qfa_thermal::time::MsClock;
-use qfa_thermal::{Compensator, Config, PulseOutput};
+use qfa_thermal::{Compensator, Config, PulseOutput, Status};
 
 use crate::oracle::{Oracle, LSB_C};
 use crate::scenarios;
@@ -304,9 +304,12 @@ pub struct Verdict {
     pub silent_wrong_cycles: u64,
     /// The first such cycle, described.
     pub first: Option<String>,
-    /// Cycles per status bit (bit 0 `TEMP_STALE` … bit 8 `MODEL_SETTLING`).
-    pub flagged: [u64; 9],
+    /// Cycles per status bit (bit 0 `TEMP_STALE` … the last, [`FLAGS`] − 1).
+    pub flagged: [u64; FLAGS],
 }
+
+/// How many status bits the firmware has: [`Verdict::flagged`]'s length.
+pub const FLAGS: usize = (u16::BITS - Status::all().bits().leading_zeros()) as usize;
 
 /// A reading of `true_c`, quantized to 1/16 °C; near a code edge it may land one code
 /// either way (flicker), as a DS18B20 at rest does.

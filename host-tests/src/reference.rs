@@ -29,6 +29,8 @@ const RAW_MIN: i64 = -55 * 16;
 const RAW_MAX: i64 = 125 * 16;
 /// `Config::default().nominal_k1`: the pass-through scale with no table, pulses/(g·s).
 const NOMINAL_K1: f64 = 320_000.0;
+/// `Config::default().imu_period_s` (2.5 ms) in 1-µs ticks.
+const IMU_PERIOD_TICKS: u64 = 2_500;
 
 /// Status bits, spelled from the documented flag list rather than imported.
 pub mod flag {
@@ -50,6 +52,8 @@ pub mod flag {
     pub const WRONG_INPUT: u16 = 1 << 7;
     /// A history state (lag, play, creep) started without the history, not yet settled.
     pub const MODEL_SETTLING: u16 = 1 << 8;
+    /// The cycle's length is more than 4× off the configured IMU period.
+    pub const DT_IMPLAUSIBLE: u16 = 1 << 9;
 }
 use flag as Status;
 
@@ -564,6 +568,10 @@ impl Reference {
     fn apply(&mut self, counts: [i64; 3], dt: u32, per_tick: bool) -> Predicted {
         self.since = (self.since + u64::from(dt)).min(u64::from(u32::MAX));
         let stale = if self.since > STALE_AFTER { Status::TEMP_STALE } else { 0 };
+        // The documented rule: a period P with P ≤ 4·dt ≤ 16·P passes.
+        let dt4 = 4 * u64::from(dt);
+        let stale =
+            stale | if (IMU_PERIOD_TICKS..=16 * IMU_PERIOD_TICKS).contains(&dt4) { 0 } else { Status::DT_IMPLAUSIBLE };
         let bias_factor = if per_tick { G0 * TICK_S * f64::from(dt) } else { G0 };
         let mut v = [0.0; 3];
         for i in 0..3 {

@@ -7,7 +7,7 @@
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use host_tests::field::{history, run};
+use host_tests::field::{history, run, FLAGS};
 use proptest::test_runner::{Config, RngSeed, TestCaseError, TestRunner};
 
 #[test]
@@ -17,7 +17,7 @@ fn status_ok_means_within_the_oracles_tolerance() {
     let cycles = AtomicU64::new(0);
     let ok = AtomicU64::new(0);
     let wrong = AtomicU64::new(0);
-    let flagged: [AtomicU64; 9] = Default::default();
+    let flagged: [AtomicU64; FLAGS] = core::array::from_fn(|_| AtomicU64::new(0));
     let mut runner = TestRunner::new(Config {
         cases: histories,
         rng_seed: RngSeed::Fixed(seed),

@@ -776,8 +776,12 @@ fn compensate_cmd(log: &Path, table: &Path, out: &Path, fmt: &StaticFlags) -> Re
             let (t, f) = table_and_out()?;
             let flags = qfa_calibrate::compensate::compensate_static(&t, &l, std::io::BufWriter::new(f))
                 .map_err(|e| e.to_string())?;
+            // The counts go beside the CSV, which stays plain for pandas and Python's csv.
+            let sidecar = out.with_extension("flags.json");
+            let text = serde_json::to_string_pretty(&flags.json()).map_err(|e| e.to_string())?;
+            std::fs::write(&sidecar, text + "\n").map_err(io_at(&sidecar))?;
             eprintln!("{} rows ({}) → {}", l.rows(), l.skipped, out.display());
-            eprintln!("status flags (also in the header of {}):", out.display());
+            eprintln!("status flags (also in {}):", sidecar.display());
             for line in flags.lines() {
                 eprintln!("  {line}");
             }

@@ -48,8 +48,8 @@ impl ThermalCompensator for WrongFlags {
     }
 }
 
-fn real() -> Box<dyn ThermalCompensator> {
-    Box::new(imu_compensator())
+fn real(imu_rate_hz: f64) -> Box<dyn ThermalCompensator> {
+    Box::new(imu_compensator(imu_rate_hz))
 }
 
 fn same_tables(t: [&Table; 3]) -> [Table; 3] {
@@ -82,7 +82,7 @@ fn rate_pinned(t: [&Table; 3]) -> [Table; 3] {
 const ZEROED: Replacement = Replacement { compensator: real, tables: zeroed };
 const RATE_PINNED: Replacement = Replacement { compensator: real, tables: rate_pinned };
 const WRONG_FLAGS: Replacement =
-    Replacement { compensator: || Box::new(WrongFlags(imu_compensator())), tables: same_tables };
+    Replacement { compensator: |hz| Box::new(WrongFlags(imu_compensator(hz))), tables: same_tables };
 
 /// The broken rows: each must make `check` fail. Zeroed coefficients and a pinned rate
 /// with 5 % CRC errors and with a 2-minute dropout (the two limited rows); scrambled flags

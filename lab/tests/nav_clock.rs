@@ -34,7 +34,7 @@ fn fly(hours: f64, imu_hz: f64) -> [ClockFigures; 3] {
     let m = sc.imu.accel.carried_misalignment();
     let u = &tables.units;
     let table = |f: &dyn Fn(&qfa_nav::calib::UnitTables) -> &qfa_thermal::Table| {
-        TableCompensation::with_misalignment([f(&u[0]), f(&u[1]), f(&u[2])], m).unwrap()
+        TableCompensation::with_misalignment([f(&u[0]), f(&u[1]), f(&u[2])], m, imu_hz).unwrap()
     };
     let bases = [
         TimeBase::Ideal,

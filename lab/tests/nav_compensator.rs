@@ -27,11 +27,11 @@ fn one_axis(gamma: f32, b0: f32) -> Table {
 #[test]
 fn three_axis_per_sensor_equals_three_one_axis_compensators() {
     let tables = [one_axis(320_320.0, 1e-4), one_axis(308_000.0, -2e-4), one_axis(328_000.0, 5e-5)];
-    let mut three = TableCompensation::new([&tables[0], &tables[1], &tables[2]]).unwrap();
+    let mut three = TableCompensation::new([&tables[0], &tables[1], &tables[2]], 200.0).unwrap(); // 5-ms cycles
     let mut ones: Vec<_> = tables
         .iter()
         .map(|t| {
-            let mut c = axis_compensator();
+            let mut c = axis_compensator(200.0);
             c.set_table(t.clone()).unwrap();
             c
         })

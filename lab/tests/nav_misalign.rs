@@ -36,12 +36,18 @@ fn the_triad_misalignment_matrix_matters() {
     let s = [&u[0].simple, &u[1].simple, &u[2].simple];
     let variants = vec![
         Variant { name: "oracle".into(), comp: Box::new(OracleCompensation::carrying(a.triad_inverse())) },
-        Variant { name: "simple".into(), comp: Box::new(TableCompensation::with_misalignment(s, Some(m)).unwrap()) },
+        Variant {
+            name: "simple".into(),
+            comp: Box::new(TableCompensation::with_misalignment(s, Some(m), sc.imu_rate_hz).unwrap()),
+        },
         Variant {
             name: "hysteresis".into(),
-            comp: Box::new(TableCompensation::with_misalignment(h, Some(m)).unwrap()),
+            comp: Box::new(TableCompensation::with_misalignment(h, Some(m), sc.imu_rate_hz).unwrap()),
         },
-        Variant { name: "hysteresis, no matrix".into(), comp: Box::new(TableCompensation::new(h).unwrap()) },
+        Variant {
+            name: "hysteresis, no matrix".into(),
+            comp: Box::new(TableCompensation::new(h, sc.imu_rate_hz).unwrap()),
+        },
     ];
     let res = run::fly(&sc, &mut qfa_nav::truths(&units), variants).unwrap();
     let th = thermal_ceps(&res).unwrap();

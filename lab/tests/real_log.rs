@@ -442,9 +442,10 @@ fn heating_only_cut_calibrates_and_its_table_holds_on_the_cooling_leg() {
     assert!(worse.is_empty(), "on the cooling leg, worse than the cubic on the same heating rows: {worse:?}");
 }
 
-/// `compensate`'s CSV, after its header comment lines (`# ` and the status-flag counts).
+/// `compensate`'s CSV, read as pandas and Python's `csv` read it: no options, the first
+/// line is the header.
 fn comp_reader(path: &std::path::Path) -> csv::Reader<std::fs::File> {
-    csv::ReaderBuilder::new().comment(Some(b'#')).from_path(path).unwrap()
+    csv::Reader::from_path(path).unwrap()
 }
 
 /// Run qfa-lab, which must fail; its stdout + stderr.
@@ -482,12 +483,18 @@ fn the_table_covers_the_log_it_was_fitted_on() {
     let flagged = rows.iter().filter(|r| &r[5] != "ok").count();
     println!("{console}TEMP_OUT_OF_RANGE rows (status column): {out_of_range}; rows not ok: {flagged}");
     assert_eq!(out_of_range, 0);
-    // The counts on the console and in the header are the status column's.
-    let header = std::fs::read_to_string(&comp).unwrap();
+    // The counts on the console and in the sidecar JSON are the status column's, and the
+    // CSV opens without options: its first line is the header (before, two `#` lines were).
     for want in [format!("8399 rows, {flagged} flagged"), "TEMP_OUT_OF_RANGE: 0 rows (0.00 %)".to_string()] {
         assert!(console.contains(&want), "console lacks `{want}`:\n{console}");
-        assert!(header.lines().take(12).any(|l| l.starts_with('#') && l.contains(&want)), "header lacks `{want}`");
     }
+    let text = std::fs::read_to_string(&comp).unwrap();
+    assert!(text.starts_with("time_s,temp_c,"), "{:?}", text.lines().next());
+    let sidecar: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(comp.with_extension("flags.json")).unwrap()).unwrap();
+    assert_eq!(sidecar["rows"], 8399);
+    assert_eq!(sidecar["flagged"], flagged);
+    assert_eq!(sidecar["rows_by_flag"]["TEMP_OUT_OF_RANGE"], 0);
     let _ = std::fs::remove_dir_all(&dir);
 }
 

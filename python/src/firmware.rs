@@ -79,7 +79,7 @@ pub struct Compensator {
 impl Compensator {
     /// A compensator with no table, from `Config::default()` with the fields given changed.
     #[new]
-    #[pyo3(signature = (axes = 3, sensors = 1, *, tick_s = None, stale_after_ticks = None, sample_period_ms = None,
+    #[pyo3(signature = (axes = 3, sensors = 1, *, tick_s = None, imu_period_s = None, stale_after_ticks = None, sample_period_ms = None,
         input = None, nominal_k1 = None, max_step_raw = None, max_slew_raw_per_min = None, confirm_samples = None,
         rate_max_gap_ms = None, rate_min_samples = None, rate_smoothing_alpha = None))]
     #[allow(clippy::too_many_arguments)]
@@ -88,6 +88,7 @@ impl Compensator {
         axes: usize,
         sensors: usize,
         tick_s: Option<f32>,
+        imu_period_s: Option<f32>,
         stale_after_ticks: Option<u32>,
         sample_period_ms: Option<u32>,
         input: Option<&str>,
@@ -111,6 +112,7 @@ impl Compensator {
         };
         let config = Config {
             tick_s: tick_s.unwrap_or(d.tick_s),
+            imu_period_s: imu_period_s.unwrap_or(d.imu_period_s),
             stale_after_ticks: stale_after_ticks.unwrap_or(d.stale_after_ticks),
             sample_period_ms: sample_period_ms.unwrap_or(d.sample_period_ms),
             input,
@@ -247,6 +249,7 @@ impl Compensator {
         let c = *each!(&self.inner, c => c.config());
         let d = PyDict::new(py);
         d.set_item("tick_s", c.tick_s)?;
+        d.set_item("imu_period_s", c.imu_period_s)?;
         d.set_item("stale_after_ticks", c.stale_after_ticks)?;
         d.set_item("sample_period_ms", c.sample_period_ms)?;
         d.set_item("input", if c.input == Input::Samples { "samples" } else { "pulse_counts" })?;

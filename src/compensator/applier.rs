@@ -8,6 +8,9 @@ use core::sync::atomic::Ordering;
 use super::seqlock::{Published, Set, AGE_STALE};
 use super::Status;
 
+/// [`Status::DT_IMPLAUSIBLE`]'s bit number.
+const DT_IMPLAUSIBLE_SHIFT: u32 = Status::DT_IMPLAUSIBLE.bits().trailing_zeros();
+
 /// Output of one IMU cycle from pulse counts ([`Compensator::cycle`],
 /// [`Compensator::cycle_counters`], [`CountingApplier::cycle`]): velocity increments.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -35,6 +38,10 @@ pub struct SampleOutput<const AXES: usize> {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct FastState<const AXES: usize> {
     pub(super) stale_after_ticks: u32,
+    /// The fewest `dt_ticks` a cycle may take without [`Status::DT_IMPLAUSIBLE`], and how
+    /// many more ([`Config::imu_period_s`]'s band): one unsigned compare per cycle.
+    pub(super) dt_lowest: u32,
+    pub(super) dt_span: u32,
     /// Ticks per age unit (`stale_after_ticks / AGE_STEPS`): turns a set's age into ticks.
     pub(super) ticks_per_age: f32,
     /// Ticks left before the set is stale, counted down and held at 0. At each copy, the
@@ -152,7 +159,9 @@ impl<'a, const AXES: usize> Applier<'a, AXES> {
         // TEMP_STALE (bit 0) exactly when ticks_left == 0: `validate` keeps it ≤ 2³¹, so
         // `ticks_left − 1` has its top bit set only at 0. Two instructions, no branch.
         let stale = (f.ticks_left.wrapping_sub(1) >> 31) as u16;
-        Status::from_bits_retain(f.path_status[usize::from(SAMPLES)].bits() | stale)
+        // Outside the band, below it included (the subtraction wraps to a large number).
+        let dt_bad = u16::from(dt_ticks.wrapping_sub(f.dt_lowest) > f.dt_span) << DT_IMPLAUSIBLE_SHIFT;
+        Status::from_bits_retain(f.path_status[usize::from(SAMPLES)].bits() | stale | dt_bad)
     }
 
     /// Fast path: signed pulse counts of this cycle and its length in ticks.

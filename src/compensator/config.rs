@@ -22,7 +22,16 @@ pub enum ConfigError {
     GapShorterThanSamplePeriod,
     /// `rate.min_samples` exceeds the window `RATE_WINDOW`: the rate would never be ready.
     MinSamplesAboveWindow,
+    /// [`Config::imu_period_s`] is under [`IMU_PERIOD_TOLERANCE`] ticks of
+    /// [`Config::tick_s`], or its band reaches past 2³⁰ ticks.
+    ImuPeriodInTicks,
 }
+
+/// How far a cycle's `dt_ticks` may be from [`Config::imu_period_s`] before
+/// [`Status::DT_IMPLAUSIBLE`]: a factor of 4 either way. The mistakes it is for are
+/// factors of 10 or more (CPU cycles at 168 MHz given as 1-µs ticks: 168×; milliseconds as
+/// microseconds: 1 000×); a cycle three IMU interrupts late (4×) is still accepted.
+pub const IMU_PERIOD_TOLERANCE: u32 = 4;
 
 impl fmt::Display for ConfigError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -32,6 +41,7 @@ impl fmt::Display for ConfigError {
             Self::StaleShorterThanSamplePeriod => f.write_str("stale threshold not longer than one sample period"),
             Self::GapShorterThanSamplePeriod => f.write_str("rate max_gap_ms shorter than one sample period"),
             Self::MinSamplesAboveWindow => f.write_str("rate min_samples above the window length"),
+            Self::ImuPeriodInTicks => f.write_str("imu_period_s is under 4 ticks or over 2^30 ticks of tick_s"),
         }
     }
 }
@@ -41,14 +51,22 @@ impl core::error::Error for ConfigError {}
 /// Compensator settings. Checked by [`Config::validate`]; [`Compensator::new`] refuses a
 /// config that fails it.
 ///
-/// Start from [`Config::default`] (1 µs ticks, 1 Hz readings, stale after 3 s, pulse
-/// counts, a JB-KT8-class nominal scale) and change what your hardware differs in:
+/// Start from [`Config::default`] (1 µs ticks, a 2.5-ms IMU cycle, 1 Hz readings, stale
+/// after 3 s, pulse counts, a JB-KT8-class nominal scale) and change what your hardware
+/// differs in:
 ///
 /// ```
 /// use qfa_thermal::{Compensator, Config, ConfigError, Input};
 ///
-/// // A MEMS accelerometer at 2²⁰ LSB/g nominal, read on a 100 ns timer.
-/// let config = Config { input: Input::Samples, nominal_k1: 1_048_576.0, tick_s: 1e-7, stale_after_ticks: 30_000_000, ..Config::default() };
+/// // A MEMS accelerometer at 2²⁰ LSB/g nominal, read at 1 kHz on a 100 ns timer.
+/// let config = Config {
+///     input: Input::Samples,
+///     nominal_k1: 1_048_576.0,
+///     tick_s: 1e-7,
+///     imu_period_s: 1e-3,
+///     stale_after_ticks: 30_000_000,
+///     ..Config::default()
+/// };
 /// assert_eq!(config.validate(), Ok(()));
 ///
 /// // One reading confirming itself would switch the plausibility checks off: refused.
@@ -61,6 +79,14 @@ impl core::error::Error for ConfigError {}
 pub struct Config {
     /// Length of one fast-path tick, s (default 1 µs; 1 ns..1 s).
     pub tick_s: f32,
+    /// The IMU's cycle period, s (default 2.5 ms, 400 Hz): the `dt_ticks` the fast path
+    /// expects (up to 60 s), in seconds so that it does not share a unit mistake with
+    /// `dt_ticks`. A cycle
+    /// whose `dt_ticks · tick_s` is more than [`IMU_PERIOD_TOLERANCE`] times off it raises
+    /// [`Status::DT_IMPLAUSIBLE`]: its bias term `K0·dt` and the staleness clock would be
+    /// wrong by that factor. With the default, cycles of 0.625..10 ms pass: set your IMU's
+    /// own period.
+    pub imu_period_s: f32,
     /// Ticks without a good temperature before [`Status::TEMP_STALE`] (default 3 s); must
     /// be longer than [`sample_period_ms`](Self::sample_period_ms) and below 2³¹ − 1.
     pub stale_after_ticks: u32,
@@ -93,6 +119,7 @@ impl Default for Config {
     fn default() -> Self {
         Self {
             tick_s: 1e-6,
+            imu_period_s: 2.5e-3,
             stale_after_ticks: 3_000_000,
             sample_period_ms: 1_000,
             input: table::Input::PulseCounts,
@@ -116,6 +143,15 @@ impl Config {
         }
         if !(1e-9..=1.0).contains(&self.tick_s) {
             return Err(ConfigError::OutOfRange("tick_s"));
+        }
+        if !self.imu_period_s.is_finite() {
+            return Err(ConfigError::NonFinite("imu_period_s"));
+        }
+        if !(self.imu_period_s > 0.0 && self.imu_period_s <= 60.0) {
+            return Err(ConfigError::OutOfRange("imu_period_s"));
+        }
+        if self.dt_band().is_none() {
+            return Err(ConfigError::ImuPeriodInTicks);
         }
         if !self.nominal_k1.is_finite() {
             return Err(ConfigError::NonFinite("nominal_k1"));
@@ -157,6 +193,22 @@ impl Config {
             return Err(ConfigError::OutOfRange("confirm_samples"));
         }
         Ok(())
+    }
+
+    /// The `dt_ticks` a cycle may take without [`Status::DT_IMPLAUSIBLE`], as
+    /// `(lowest, highest − lowest)`: with `P` the IMU period rounded to whole ticks, every
+    /// `dt` with `P ≤ 4·dt` and `dt ≤ 4·P`. `None` when `P` is under
+    /// [`IMU_PERIOD_TOLERANCE`] ticks (the band would start at 0) or `4·P` passes 2³⁰.
+    pub(super) fn dt_band(&self) -> Option<(u32, u32)> {
+        // Formed once, at construction: a division here costs the fast path nothing.
+        let period = libm::roundf(self.imu_period_s / self.tick_s);
+        let k = IMU_PERIOD_TOLERANCE;
+        if !(period >= k as f32 && period <= (1u32 << 30) as f32 / k as f32) {
+            return None;
+        }
+        let p = period as u32;
+        let lowest = p.div_ceil(k);
+        Some((lowest, p * k - lowest))
     }
 
     /// The stale threshold in ms (for comparing sensors' timestamps in the slow path).

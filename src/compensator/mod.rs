@@ -86,7 +86,7 @@ mod tests;
 
 use applier::FastState;
 pub use applier::{Applier, CountingApplier, PulseOutput, SampleOutput};
-pub use config::{Config, ConfigError};
+pub use config::{Config, ConfigError, IMU_PERIOD_TOLERANCE};
 // Crate-private unless the benchmark's feature asks for it (its size is a figure there).
 #[cfg(feature = "bench-internals")]
 #[doc(hidden)]
@@ -114,6 +114,17 @@ pub type ThreeAxisSensorPerAxis<T = &'static Table> = Compensator<3, DEFAULT_RAT
 /// Three axes sharing one temperature sensor (temperature stream 0 serves every axis), the
 /// default rate window, and the table in flash; `ThreeAxisSharedSensor<Table>` owns it.
 pub type ThreeAxisSharedSensor<T = &'static Table> = Compensator<3, DEFAULT_RATE_WINDOW, 1, T>;
+
+/// The slow half of a [`ThreeAxisSensorPerAxis`] (from [`Compensator::split`]): the type a
+/// task that owns it names, `SensorPerAxisUpdater<'static>` for a table in flash.
+pub type SensorPerAxisUpdater<'a, T = &'static Table> = Updater<'a, 3, DEFAULT_RATE_WINDOW, 3, T>;
+
+/// The slow half of a [`ThreeAxisSharedSensor`].
+pub type SharedSensorUpdater<'a, T = &'static Table> = Updater<'a, 3, DEFAULT_RATE_WINDOW, 1, T>;
+
+/// The fast half of either three-axis configuration, for the IMU interrupt:
+/// `ThreeAxisApplier<'static>`.
+pub type ThreeAxisApplier<'a> = Applier<'a, 3>;
 
 /// Temperature compensation for `AXES` accelerometers with a `RATE_WINDOW`-reading rate
 /// window and `SENSORS` temperature streams (1, or one per axis). The table is held as `T`:
@@ -203,6 +214,7 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
         if usize::from(config.rate.min_samples) > RATE_WINDOW {
             return Err(ConfigError::MinSamplesAboveWindow);
         }
+        let dt_band = config.dt_band().ok_or(ConfigError::ImuPeriodInTicks)?;
         let stream = Stream {
             rate: RateEstimator::new(config.rate),
             last: Timed { t_ms: 0, raw: 0 },
@@ -229,6 +241,8 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
             shared: Published::new(),
             fast: FastState {
                 stale_after_ticks: config.stale_after_ticks,
+                dt_lowest: dt_band.0,
+                dt_span: dt_band.1,
                 ticks_per_age: config.stale_after_ticks as f32 / f32::from(AGE_STEPS),
                 ticks_left: 0,
                 seen_seq: 0,

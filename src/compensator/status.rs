@@ -33,6 +33,13 @@ bitflags::bitflags! {
         /// Cleared as the states converge (`model::AxisState::settling`) and at the first
         /// decisive rate.
         const MODEL_SETTLING = 1 << 8;
+        /// This cycle's `dt_ticks · tick_s` is more than
+        /// [`IMU_PERIOD_TOLERANCE`](super::IMU_PERIOD_TOLERANCE) times off
+        /// [`Config::imu_period_s`]: `dt_ticks` is in another unit than [`Config::tick_s`]
+        /// (CPU cycles given as 1-µs ticks), or the IMU missed cycles. The bias term `K0·dt`
+        /// and the staleness clock are wrong by that factor; the fast path's own flag, set on
+        /// that cycle only.
+        const DT_IMPLAUSIBLE = 1 << 9;
     }
 }
 
@@ -44,9 +51,27 @@ impl Status {
     }
 }
 
+/// Over defmt a status prints as its flags' names, `OK` when none is set:
+/// `Status(RATE_NOT_READY | MODEL_SETTLING)`, not a hex word to look up.
 #[cfg(feature = "defmt")]
 impl defmt::Format for Status {
     fn format(&self, f: defmt::Formatter<'_>) {
-        defmt::write!(f, "Status({=u16:#06x})", self.bits());
+        if self.is_ok() {
+            defmt::write!(f, "Status(OK)");
+            return;
+        }
+        defmt::write!(f, "Status(");
+        for (i, (name, _)) in self.iter_names().enumerate() {
+            if i > 0 {
+                defmt::write!(f, " | ");
+            }
+            defmt::write!(f, "{=str}", name);
+        }
+        // Bits no flag names (none today) are shown, never dropped.
+        let unnamed = self.bits() & !Self::all().bits();
+        if unnamed != 0 {
+            defmt::write!(f, " | {=u16:#06x}", unnamed);
+        }
+        defmt::write!(f, ")");
     }
 }

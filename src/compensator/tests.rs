@@ -83,7 +83,9 @@ fn flicker_at_rest_does_not_flip_the_branch() {
 
 #[test]
 fn recovers_the_applied_specific_force() {
-    let mut c = comp3();
+    // One cycle a second.
+    let once_a_second = Config { imu_period_s: 1.0, ..Config::default() };
+    let mut c = Compensator::<3, 32>::new(once_a_second).unwrap();
     c.set_table(table(3, 32)).unwrap();
     warm(&mut c, 20);
     let s = c.on_raw(0, 20_000, 352).unwrap();
@@ -99,7 +101,7 @@ fn recovers_the_applied_specific_force() {
     // Samples through the pulse compensator: flagged, never status OK.
     assert!(c.cycle_samples([n, n, n], 1_000_000).status.contains(Status::WRONG_INPUT));
     // The same model on samples: raw = K1·(K0 + a) LSB gives a in m/s².
-    let mut m = Compensator::<3, 32>::new(Config { input: table::Input::Samples, ..Config::default() }).unwrap();
+    let mut m = Compensator::<3, 32>::new(Config { input: table::Input::Samples, ..once_a_second }).unwrap();
     m.set_table(Table { input: table::Input::Samples, ..table(3, 32) }).unwrap();
     warm(&mut m, 21);
     let samples = m.cycle_samples([n, n, n], 1_000_000);
@@ -219,6 +221,13 @@ fn bad_configs_are_refused_with_their_reason() {
         (Config { sample_period_ms: 0, ..d }, ConfigError::OutOfRange("sample_period_ms")),
         (Config { max_step_raw: -1, ..d }, ConfigError::OutOfRange("max_step_raw")),
         (Config { max_slew_raw_per_min: -1, ..d }, ConfigError::OutOfRange("max_slew_raw_per_min")),
+        (Config { imu_period_s: f32::NAN, ..d }, ConfigError::NonFinite("imu_period_s")),
+        (Config { imu_period_s: 0.0, ..d }, ConfigError::OutOfRange("imu_period_s")),
+        (Config { imu_period_s: 61.0, ..d }, ConfigError::OutOfRange("imu_period_s")),
+        // 3 µs at 1-µs ticks: the band would start at 0 ticks.
+        (Config { imu_period_s: 3e-6, ..d }, ConfigError::ImuPeriodInTicks),
+        // 60 s at 1-ns ticks: 4·P passes 2³⁰.
+        (Config { imu_period_s: 60.0, tick_s: 1e-9, ..d }, ConfigError::ImuPeriodInTicks),
     ];
     for (cfg, want) in cases {
         assert_eq!(cfg.validate(), Err(want), "{cfg:?}");
@@ -430,4 +439,63 @@ fn the_first_cycle_after_split_has_a_whole_set_whatever_it_preempts() {
         assert!(!got.status.contains(Status::NO_TABLE), "store {stores}: {got:?}");
     });
     assert!(stores > 10, "{stores}");
+}
+
+/// The README's wiring with the IMU's `dt` taken from a 168-MHz cycle counter while
+/// `tick_s` stays at 1 µs: the bias term `K0·dt` is 168× too large. Before the IMU period
+/// was configured, every cycle within the stale budget of a fresh reading was status OK and
+/// wrong; now every such cycle is flagged, and the right `dt` is not.
+#[test]
+fn dt_in_cpu_cycles_given_as_microsecond_ticks_is_flagged_on_every_cycle() {
+    let cfg = Config { imu_period_s: 5e-3, ..Config::default() }; // a 200-Hz IMU
+    let [mut good, mut mistaken] = [0, 1].map(|_| {
+        let mut c = Compensator::<3, 32>::new(cfg).unwrap();
+        c.set_table(table(3, 32)).unwrap();
+        c
+    });
+    let (mut right, mut wrong, mut within_stale_budget) = (0u32, 0u32, 0u32);
+    for second in 0..30u32 {
+        for c in [&mut good, &mut mistaken] {
+            c.on_raw(0, second * 1_000, 352).unwrap();
+        }
+        for _ in 0..200 {
+            let ok = good.cycle([1_601, 0, 0], 5_000);
+            let cpu = mistaken.cycle([1_601, 0, 0], 5_000 * 168);
+            if second >= 10 {
+                assert!(!ok.status.contains(Status::DT_IMPLAUSIBLE), "{:?}", ok.status);
+                right += u32::from(ok.status.is_ok());
+            }
+            assert!(cpu.status.contains(Status::DT_IMPLAUSIBLE), "{:?}", cpu.status);
+            wrong += u32::from(cpu.status.is_ok());
+            within_stale_budget += u32::from(!cpu.status.contains(Status::TEMP_STALE));
+        }
+    }
+    assert_eq!(wrong, 0);
+    // The flag is what stands between those cycles and status OK: the stale clock alone
+    // lets about four a second through (3 s of budget at 0.84 s a cycle).
+    assert!(within_stale_budget >= 60, "{within_stale_budget}");
+    // The test can fail: the right dt is OK once the rate window has filled.
+    assert_eq!(right, 20 * 200);
+}
+
+/// The band is the documented one, edges included: with P = 2 500 ticks (2.5 ms at 1 µs),
+/// `dt` passes exactly when `P ≤ 4·dt ≤ 16·P`; on the other input path too.
+#[test]
+fn the_dt_band_is_a_factor_of_four_either_side_of_the_imu_period() {
+    let mut c = comp3();
+    let flagged = |c: &mut Compensator<3, 32>, dt: u32| {
+        let pulses = c.cycle([0; 3], dt).status.contains(Status::DT_IMPLAUSIBLE);
+        assert_eq!(c.cycle_samples([0; 3], dt).status.contains(Status::DT_IMPLAUSIBLE), pulses, "{dt}");
+        pulses
+    };
+    for (dt, want) in [(0, true), (1, true), (624, true), (625, false), (2_500, false), (10_000, false), (10_001, true)]
+    {
+        assert_eq!(flagged(&mut c, dt), want, "{dt}");
+    }
+    assert!(flagged(&mut c, u32::MAX));
+    // A 100-ns timer with the period in seconds: the band follows the tick.
+    let fine = Config { tick_s: 1e-7, stale_after_ticks: 30_000_000, ..Config::default() };
+    let mut f = Compensator::<3, 32>::new(fine).unwrap();
+    assert!(!f.cycle([0; 3], 25_000).status.contains(Status::DT_IMPLAUSIBLE));
+    assert!(f.cycle([0; 3], 2_500).status.contains(Status::DT_IMPLAUSIBLE));
 }

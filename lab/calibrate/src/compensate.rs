@@ -92,6 +92,16 @@ pub struct Compensated {
     pub rejected: usize,
 }
 
+/// The firmware's IMU period for a log whose rows are its cycles: the median row spacing
+/// (a logging gap is then a cycle the firmware flags `DT_IMPLAUSIBLE`, as it would flag
+/// missed IMU cycles), kept within what [`Config::imu_period_s`] takes (1 ms..60 s).
+fn row_period_s(spacings_s: impl Iterator<Item = f64>) -> f32 {
+    let mut d: Vec<f64> = spacings_s.filter(|d| d.is_finite() && *d > 0.0).collect();
+    d.sort_by(f64::total_cmp);
+    let median = d.get(d.len() / 2).copied().unwrap_or(1.0);
+    median.clamp(1e-3, 60.0) as f32
+}
+
 /// Compensate one run with `table`.
 ///
 /// # Errors
@@ -110,6 +120,7 @@ pub fn compensate_run(table: &Table, run: &Run) -> Result<Compensated, Error> {
     let config = Config {
         stale_after_ticks: default.stale_after_ticks.max(row_ticks),
         sample_period_ms: default.sample_period_ms.max(row_ms),
+        imu_period_s: row_period_s(run.samples.iter().map(|s| s.interval_s)),
         ..default
     };
     let mut c = Compensator::<1, RATE_WINDOW>::new(config).map_err(Error::Config)?;
@@ -274,6 +285,7 @@ pub fn compensate_samples(
             .max((1.5 * max_dt_s / f64::from(default.tick_s)).ceil().min(f64::from(i32::MAX - 1)) as u32),
         sample_period_ms: default.sample_period_ms.max((max_dt_s * 1000.0).ceil().min(60_000.0) as u32),
         input: qfa_thermal::Input::Samples,
+        imu_period_s: row_period_s(time_s.windows(2).map(|w| w[1] - w[0])),
         // The static tables' scale: rows enter as a·2²⁰ pseudo-LSB.
         nominal_k1: STATIC_LSB_PER_G,
         ..default
@@ -297,7 +309,9 @@ pub fn compensate_samples(
         for i in 0..rows {
             let t_ms = (time_s[i] * 1000.0).round() as u32;
             let raw_t = (temp_c[i] * 16.0).round().clamp(-32768.0, 32767.0) as i16;
-            let dt_ticks = if i == 0 { 0 } else { ((time_s[i] - time_s[i - 1]) / tick_s).round() as u32 };
+            // The first row has no spacing of its own: it takes the log's typical one.
+            let dt_s = if i == 0 { f64::from(config.imu_period_s) } else { time_s[i] - time_s[i - 1] };
+            let dt_ticks = (dt_s / tick_s).round() as u32;
             // A refused reading raises TEMP_INVALID in the output's status: nothing is lost.
             let _ = c.on_raw(0, t_ms, raw_t);
             let raw = (column[i] * lsb).round().clamp(f64::from(i32::MIN), f64::from(i32::MAX)) as i32;
@@ -310,9 +324,9 @@ pub fn compensate_samples(
     Ok(out)
 }
 
-/// How many rows carry each status flag: what `compensate` prints on the console and in
-/// its output's header, so a flag raised on some rows is never left to be found in the
-/// status column.
+/// How many rows carry each status flag: what `compensate` prints on the console and writes
+/// beside its output (`<out>.flags.json`), so a flag raised on some rows is never left to
+/// be found in the status column.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct FlagSummary {
     /// Rows compensated.
@@ -353,6 +367,14 @@ impl FlagSummary {
         }
     }
 
+    /// The summary as JSON: `{"rows", "flagged", "rows_by_flag": {FLAG: rows}}`.
+    #[must_use]
+    pub fn json(&self) -> serde_json::Value {
+        let by_flag: serde_json::Map<String, serde_json::Value> =
+            self.by_flag.iter().map(|(n, c)| ((*n).to_string(), (*c).into())).collect();
+        serde_json::json!({ "rows": self.rows, "flagged": self.flagged, "rows_by_flag": by_flag })
+    }
+
     /// The summary as lines: `<rows> rows, <n> flagged (<share> %)`, then one line per
     /// flag `<FLAG>: <n> rows (<share> %)`.
     #[must_use]
@@ -364,8 +386,10 @@ impl FlagSummary {
 }
 
 /// Compensate a static log with a table of the same axes ([`compensate_samples`]) and
-/// write `time_s,temp_c,<axes…>,status` in g, after header comment lines (`# `) that give
-/// the count and share of rows with each status flag ([`FlagSummary`], returned too); `status` is `ok`, `no_temperature` (no
+/// write `time_s,temp_c,<axes…>,status` in g, a plain CSV whose first line is its header
+/// (it opens in `pandas.read_csv` and Python's `csv` without options); the count and share
+/// of rows with each status flag is returned ([`FlagSummary`]), for the console and the
+/// sidecar JSON ([`FlagSummary::json`]). `status` is `ok`, `no_temperature` (no
 /// reading yet: compensated at T0 and flagged stale), or the firmware's flags joined by
 /// `|` (`TEMP_OUT_OF_RANGE`, `TEMP_INVALID`, …), OR-ed over the axes ([`static_status`]).
 ///
@@ -374,16 +398,12 @@ impl FlagSummary {
 pub fn compensate_static<W: std::io::Write>(
     table: &Table,
     log: &qfa_log::static_log::StaticLog,
-    mut w: W,
+    w: W,
 ) -> Result<FlagSummary, StaticCompensateError> {
     let columns: Vec<&[f64]> = log.axes.iter().map(|a| a.accel_g.as_slice()).collect();
     let out = compensate_samples(table, &log.time_s, &log.temp_c, &columns)?;
     let io = |e: &dyn std::fmt::Display| StaticCompensateError::Io(e.to_string());
     let summary = FlagSummary::of(out.status.iter().copied());
-    writeln!(w, "# qfa-lab compensate: status flags (the firmware's), rows with each").map_err(|e| io(&e))?;
-    for l in summary.lines() {
-        writeln!(w, "# {l}").map_err(|e| io(&e))?;
-    }
     let mut wr = csv::Writer::from_writer(w);
     let mut head = vec!["time_s".to_string(), "temp_c".to_string()];
     head.extend(log.axes.iter().map(|a| a.name.clone()));

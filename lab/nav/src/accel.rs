@@ -258,10 +258,21 @@ pub type AxisCompensator = Compensator<1, 32>;
 /// and one misalignment matrix.
 pub type ImuCompensator = Compensator<3, 32, 3>;
 
-/// A fresh [`AxisCompensator`] with the firmware's default settings (1 µs ticks).
+/// The firmware's default settings (1 µs ticks) for an IMU cycling at `imu_rate_hz`: the
+/// IMU period is the one setting a flight must state, or every cycle of another rate than
+/// the default 400 Hz is flagged `DT_IMPLAUSIBLE`.
 #[must_use]
-pub fn axis_compensator() -> AxisCompensator {
-    Compensator::new(compensator::Config::default()).expect("the default config is valid")
+pub fn firmware_config(imu_rate_hz: f64) -> compensator::Config {
+    compensator::Config { imu_period_s: (1.0 / imu_rate_hz) as f32, ..compensator::Config::default() }
+}
+
+/// A fresh [`AxisCompensator`] with [`firmware_config`].
+///
+/// # Panics
+/// If `imu_rate_hz` is outside what a scenario allows (0, 10 000] Hz.
+#[must_use]
+pub fn axis_compensator(imu_rate_hz: f64) -> AxisCompensator {
+    Compensator::new(firmware_config(imu_rate_hz)).expect("a scenario's IMU rate is a valid period")
 }
 
 /// Compensation through the root crate's [`Compensator`], exactly as the firmware runs it:
@@ -282,12 +293,12 @@ pub struct TableCompensation {
 }
 
 impl TableCompensation {
-    /// With the x, y, z tables loaded and the default compensator settings (1 µs ticks).
+    /// With the x, y, z tables loaded and [`firmware_config`] at `imu_rate_hz`.
     ///
     /// # Errors
     /// A table's validation error.
-    pub fn new(tables: [&Table; 3]) -> Result<Self, AccelError> {
-        Self::with_misalignment(tables, None)
+    pub fn new(tables: [&Table; 3], imu_rate_hz: f64) -> Result<Self, AccelError> {
+        Self::with_misalignment(tables, None, imu_rate_hz)
     }
 
     /// With the x, y, z tables and the misalignment matrix `misalignment` (row-major) in
@@ -295,8 +306,12 @@ impl TableCompensation {
     ///
     /// # Errors
     /// A table's validation error.
-    pub fn with_misalignment(tables: [&Table; 3], misalignment: Option<[f32; 9]>) -> Result<Self, AccelError> {
-        let mut comp = ImuCompensator::new(compensator::Config::default()).map_err(AccelError::Config)?;
+    pub fn with_misalignment(
+        tables: [&Table; 3],
+        misalignment: Option<[f32; 9]>,
+        imu_rate_hz: f64,
+    ) -> Result<Self, AccelError> {
+        let mut comp = ImuCompensator::new(firmware_config(imu_rate_hz)).map_err(AccelError::Config)?;
         comp.set_table(super::calib::table3_with(tables, misalignment)?).map_err(AccelError::Refused)?;
         Ok(Self { comp, rejected: 0, last_status: compensator::Status::empty(), flag_counts: FlagCounts::default() })
     }

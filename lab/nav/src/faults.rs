@@ -170,10 +170,14 @@ impl ThermalCompensator for ImuCompensator {
     }
 }
 
-/// A fresh [`ImuCompensator`] with the firmware's default settings.
+/// A fresh [`ImuCompensator`] with the firmware's default settings at `imu_rate_hz`
+/// ([`crate::accel::firmware_config`]).
+///
+/// # Panics
+/// If `imu_rate_hz` is outside what a scenario allows (0, 10 000] Hz.
 #[must_use]
-pub fn imu_compensator() -> ImuCompensator {
-    Compensator::new(qfa_thermal::Config::default()).expect("the default config is valid")
+pub fn imu_compensator(imu_rate_hz: f64) -> ImuCompensator {
+    Compensator::new(crate::accel::firmware_config(imu_rate_hz)).expect("a scenario's IMU rate is a valid period")
 }
 
 /// What a row flies in place of the real compensation: the fault test's deliberately
@@ -181,7 +185,7 @@ pub fn imu_compensator() -> ImuCompensator {
 #[derive(Clone, Copy, Debug)]
 pub struct Replacement {
     /// The compensator, fresh.
-    pub compensator: fn() -> Box<dyn ThermalCompensator>,
+    pub compensator: fn(f64) -> Box<dyn ThermalCompensator>,
     /// The per-axis tables it loads (x, y, z), made from the real ones. It cannot fail:
     /// what it makes is validated before it flies ([`FaultsError::ReplacedTable`]).
     pub tables: fn([&Table; 3]) -> [Table; 3],
@@ -274,12 +278,13 @@ pub fn fly_with_faults(
     // One 3-axis table for the IMU's compensator, as the firmware flies it.
     let m = sc.imu.accel.carried_misalignment();
     let good = encode(&crate::calib::table3_with(tables, m)?)?;
-    let (clean, clean_log) = FaultyCompensation::new(imu_compensator(), &FaultSet::none(), &good);
+    let hz = sc.imu_rate_hz;
+    let (clean, clean_log) = FaultyCompensation::new(imu_compensator(hz), &FaultSet::none(), &good);
     crate::ensure(clean_log.borrow().table_loaded, FaultsError::Refused)?;
     let mut variants = vec![
         Variant { name: "oracle".into(), comp: Box::new(OracleCompensation::carrying(sc.imu.accel.triad_inverse())) },
         Variant { name: "clean".into(), comp: Box::new(clean) },
-        Variant { name: "simple".into(), comp: Box::new(TableCompensation::with_misalignment(simple, m)?) },
+        Variant { name: "simple".into(), comp: Box::new(TableCompensation::with_misalignment(simple, m, hz)?) },
     ];
     let mut logs = Vec::new();
     for r in rows {
@@ -290,11 +295,11 @@ pub fn fly_with_faults(
                 t.validate().map_err(|e| FaultsError::ReplacedTable { row: r.name.clone(), source: e })?;
             }
             let bytes = encode(&crate::calib::table3_with([&bt[0], &bt[1], &bt[2]], m)?)?;
-            let (c, log) = FaultyCompensation::new((rep.compensator)(), &set, &bytes);
+            let (c, log) = FaultyCompensation::new((rep.compensator)(hz), &set, &bytes);
             variants.push(Variant { name: r.name.clone(), comp: Box::new(c) });
             log
         } else {
-            let (c, log) = FaultyCompensation::new(imu_compensator(), &set, &good);
+            let (c, log) = FaultyCompensation::new(imu_compensator(hz), &set, &good);
             variants.push(Variant { name: r.name.clone(), comp: Box::new(c) });
             log
         };
@@ -495,7 +500,7 @@ mod tests {
     }
 
     fn comps() -> ImuCompensator {
-        imu_compensator()
+        imu_compensator(200.0) // the 5-ms cycles below
     }
 
     #[test]

@@ -349,7 +349,7 @@ pub fn nominal(args: &NavigateArgs, sc: &Scenario) -> Result<Report, NavError> {
         }
     };
     let t1 = Instant::now();
-    let res = run::fly(sc, &mut truths_seeded(&units, sc.seed), variants(&tables, disc)?)?;
+    let res = run::fly(sc, &mut truths_seeded(&units, sc.seed), variants(&tables, disc, sc.imu_rate_hz)?)?;
     let t_fly = t1.elapsed().as_secs_f64();
     let rep = report(sc, &res, &tables, source, [t_cal, t_fly])?;
     std::fs::create_dir_all(&args.out).map_err(|e| NavError::CreateDir { path: args.out.clone(), source: e })?;

@@ -311,7 +311,7 @@ pub fn tables_on(d: &Draw, opts: &super::calib::CalibOptions) -> Result<Tables, 
 /// # Errors
 /// Flight, or a share that cannot be computed.
 pub fn hysteresis_share(d: &Draw, tables: &Tables) -> Result<f64, McError> {
-    let r = run::fly(&d.scenario, &mut truths_seeded(&d.units, d.seed), mc_variants(tables)?)?;
+    let r = run::fly(&d.scenario, &mut truths_seeded(&d.units, d.seed), mc_variants(tables, d.scenario.imu_rate_hz)?)?;
     let th = thermal_ceps(&r)?;
     share(th["simple"], th["hysteresis"], th["oracle"]).map_err(McError::Report)
 }
@@ -333,7 +333,7 @@ pub fn one_on(sc: &Scenario, seed: u64, i: u64, opts: &super::calib::CalibOption
     let d = draw(sc, seed, i);
     let tables = tables_on(&d, opts).map_err(|e| McError::Calibration { run: i, source: e })?;
     let Draw { scenario: s, units: us, seed: rs, temp_offset_c: off, temp_scale: scale } = d;
-    let res = run::fly(&s, &mut truths_seeded(&us, rs), mc_variants(&tables)?)
+    let res = run::fly(&s, &mut truths_seeded(&us, rs), mc_variants(&tables, s.imu_rate_hz)?)
         .map_err(|e| McError::Flight { run: i, source: e })?;
     let cep: BTreeMap<String, f64> =
         res.names.iter().zip(&res.tracks).map(|(n, tr)| (n.clone(), Figures::of(&res.t, tr).cep_nmi_per_h)).collect();

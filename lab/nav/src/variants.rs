@@ -109,14 +109,14 @@ pub fn read_table(path: &Path) -> Result<Table, VariantsError> {
 ///
 /// # Errors
 /// A table the compensator refuses.
-pub fn variants(t: &Tables, discovered: Option<[Table; 3]>) -> Result<Vec<Variant>, VariantsError> {
+pub fn variants(t: &Tables, discovered: Option<[Table; 3]>, imu_rate_hz: f64) -> Result<Vec<Variant>, VariantsError> {
     let u = &t.units;
     let m = t.misalignment;
     let tc = |f: &dyn Fn(&calib::UnitTables) -> &Table| -> Result<Box<dyn AccelCompensation>, AccelError> {
-        Ok(Box::new(TableCompensation::with_misalignment([f(&u[0]), f(&u[1]), f(&u[2])], m)?))
+        Ok(Box::new(TableCompensation::with_misalignment([f(&u[0]), f(&u[1]), f(&u[2])], m, imu_rate_hz)?))
     };
     let disc: Box<dyn AccelCompensation> = match &discovered {
-        Some(d) => Box::new(TableCompensation::with_misalignment([&d[0], &d[1], &d[2]], m)?),
+        Some(d) => Box::new(TableCompensation::with_misalignment([&d[0], &d[1], &d[2]], m, imu_rate_hz)?),
         None => tc(&|x| &x.hysteresis)?,
     };
     Ok(vec![
@@ -141,11 +141,11 @@ fn oracle_of(t: &Tables) -> OracleCompensation {
 ///
 /// # Errors
 /// A table the compensator refuses.
-pub fn mc_variants(t: &Tables) -> Result<Vec<Variant>, VariantsError> {
+pub fn mc_variants(t: &Tables, imu_rate_hz: f64) -> Result<Vec<Variant>, VariantsError> {
     let u = &t.units;
     let m = t.misalignment;
     let tc = |f: &dyn Fn(&calib::UnitTables) -> &Table| -> Result<Box<dyn AccelCompensation>, AccelError> {
-        Ok(Box::new(TableCompensation::with_misalignment([f(&u[0]), f(&u[1]), f(&u[2])], m)?))
+        Ok(Box::new(TableCompensation::with_misalignment([f(&u[0]), f(&u[1]), f(&u[2])], m, imu_rate_hz)?))
     };
     let mut v = vec![
         Variant { name: "none".into(), comp: tc(&|x| &x.none)? },
