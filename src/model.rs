@@ -112,6 +112,15 @@ pub struct BiasGrid {
     pub heating_g: heapless::Vec<f32, MAX_BIAS_POINTS>,
     /// K0 while cooling, g, same length as `heating_g`.
     pub cooling_g: heapless::Vec<f32, MAX_BIAS_POINTS>,
+    /// RMS of the bias residual of the fit this grid came from, g (1e-7..0.1): what the
+    /// table is accurate to. [`Status::MODEL_SETTLING`](crate::Status::MODEL_SETTLING)
+    /// clears once the history states can no longer move K0 by more than a quarter of it
+    /// ([`settled_within_g`](Self::settled_within_g)), so that settling adds at most 3 % to
+    /// the table's own error in quadrature. `qfa-lab` writes the fit's residual; a grid
+    /// written by hand takes [`DEFAULT_RESIDUAL_RMS_G`](Self::DEFAULT_RESIDUAL_RMS_G), as
+    /// does a TOML table that leaves the field out.
+    #[serde(default = "BiasGrid::default_residual_rms_g")]
+    pub residual_rms_g: f32,
 }
 
 impl BiasGrid {
@@ -119,6 +128,21 @@ impl BiasGrid {
     /// give, °C/min. It only matters once the branches differ; the compensator raises it to
     /// its flicker floor anyway (0.182 °C/min for 32 readings at 1 s).
     pub const DEFAULT_DEADBAND_C_PER_MIN: f32 = 0.05;
+
+    /// The residual a grid written by hand states, g: 4 µg, a navigation-grade QFA's bias
+    /// stability, which puts the settling threshold at 1 µg.
+    pub const DEFAULT_RESIDUAL_RMS_G: f32 = 4e-6;
+
+    fn default_residual_rms_g() -> f32 {
+        Self::DEFAULT_RESIDUAL_RMS_G
+    }
+
+    /// How close the history states' bias terms must come to the history's before
+    /// `MODEL_SETTLING` clears, g: a quarter of [`residual_rms_g`](Self::residual_rms_g).
+    #[must_use]
+    pub fn settled_within_g(&self) -> f32 {
+        0.25 * self.residual_rms_g
+    }
 
     /// A grid whose branches are both `values_g`, at `M` points from `t_start_c` by
     /// `t_step_c`, with [`DEFAULT_DEADBAND_C_PER_MIN`](Self::DEFAULT_DEADBAND_C_PER_MIN):
@@ -151,6 +175,7 @@ impl BiasGrid {
             deadband_c_per_min,
             heating_g: heapless::Vec::from_array(heating_g),
             cooling_g: heapless::Vec::from_array(cooling_g),
+            residual_rms_g: Self::DEFAULT_RESIDUAL_RMS_G,
         }
     }
 
@@ -172,6 +197,7 @@ impl BiasGrid {
             deadband_c_per_min: Self::DEFAULT_DEADBAND_C_PER_MIN,
             heating_g: v.clone(),
             cooling_g: v,
+            residual_rms_g: Self::DEFAULT_RESIDUAL_RMS_G,
         })
     }
 
@@ -373,8 +399,6 @@ const RESTART_SILENTLY: u8 = 0x80;
 /// A lag state is settled when it is within this of the history's, °C (a quarter of a
 /// DS18B20 LSB).
 pub const SETTLED_LAG_C: f32 = 1.0 / 64.0;
-/// A play or creep state is settled when its bias term is within this of the history's, g.
-pub const SETTLED_BIAS_G: f32 = 1e-6;
 
 /// What the history states depend on, as bits: the slots, with a word saying which are on,
 /// and the calibrated range. Compared as one array: field by field, with the `Option`s and
@@ -431,12 +455,11 @@ impl AxisState {
     }
 
     /// A history state may still be off by more than [`SETTLED_LAG_C`] (lag) or its bias
-    /// term by more than [`SETTLED_BIAS_G`] (play, creep).
+    /// term by more than `settled_g` (play, creep: the grid's
+    /// [`settled_within_g`](BiasGrid::settled_within_g)).
     #[must_use]
-    pub fn settling(&self) -> bool {
-        self.lag_unknown_c > SETTLED_LAG_C
-            || self.play_unknown_g > SETTLED_BIAS_G
-            || self.creep_unknown_g > SETTLED_BIAS_G
+    pub fn settling(&self, settled_g: f32) -> bool {
+        self.lag_unknown_c > SETTLED_LAG_C || self.play_unknown_g > settled_g || self.creep_unknown_g > settled_g
     }
 }
 
@@ -463,6 +486,26 @@ fn lag_weight(dt_s: f32, tau_s: f32) -> f32 {
 
 fn abs(x: f32) -> f32 {
     libm::fabsf(x)
+}
+
+/// The larger of two finite values. `f32::max` is a call to `fmaxf` on the Cortex-M4F (it
+/// has no `vmaxnm`), about 17 instructions where a compare and a select take 3; for finite
+/// operands the two agree bit for bit (a ±0 tie aside, which no caller compares by sign).
+pub(crate) fn larger(a: f32, b: f32) -> f32 {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
+/// The smaller of two finite values ([`larger`]'s reason).
+fn smaller(a: f32, b: f32) -> f32 {
+    if a < b {
+        a
+    } else {
+        b
+    }
 }
 
 fn clamp(x: f32, lo: f32, hi: f32) -> (f32, bool) {
@@ -510,14 +553,24 @@ impl AxisModel {
         if state.restart != 0 {
             // Started without the history (power-up, or a reload that changed the slots):
             // from the temperature now, with what the history could have made of them. The
-            // element lies within the grid's span of the (clamped) temperature; the play
-            // output within its half-width of the element temperature, which bounds the play
-            // term by its weight.
-            let span = self.bias.t_end_c() - self.bias.t_start_c;
+            // element and creep states are averages of past clamped temperatures, so they lie
+            // inside the grid: no further from T than the grid's farther end. A first-order
+            // state driven by a temperature that moves at most R (the table's rate limit)
+            // trails it by at most R·τ. The play output lies within its half-width of the
+            // element temperature, which bounds the play term by its weight.
+            let farther_end = larger(self.bias.t_end_c() - t, t - self.bias.t_start_c);
+            let rate_c_per_s = lim * (1.0 / 60.0);
             (state.element_c, state.play_c, state.creep_c) = (t, t, t);
-            state.lag_unknown_c = if self.ext.sensor_lag.is_some() { span } else { 0.0 };
+            state.lag_unknown_c = self.ext.sensor_lag.map_or(0.0, |l| smaller(farther_end, rate_c_per_s * l.tau_s));
             state.play_unknown_g = self.ext.bias_branch_hysteresis.map_or(0.0, |h| abs(h.weight_g));
-            state.creep_unknown_g = self.ext.bias_creep.map_or(0.0, |c| abs(c.gain_g_per_c) * span);
+            state.creep_unknown_g = self.ext.bias_creep.map_or(0.0, |c| {
+                // The creep state trails the element, which trails T. τ(T) falls with T for a
+                // positive activation temperature and rises for a negative one: its largest
+                // value in the grid is at the cold end or the hot end.
+                let slowest = c.tau_s(if c.activation_k >= 0.0 { self.bias.t_start_c } else { self.bias.t_end_c() });
+                let lag_tau = self.ext.sensor_lag.map_or(0.0, |l| l.tau_s);
+                abs(c.gain_g_per_c) * smaller(farther_end, rate_c_per_s * (slowest + lag_tau))
+            });
             #[cfg(qfa_mutant = "reload_drops_state")]
             if state.restart & RESTART_SILENTLY != 0 {
                 (state.lag_unknown_c, state.play_unknown_g, state.creep_unknown_g) = (0.0, 0.0, 0.0);
@@ -550,7 +603,7 @@ impl AxisModel {
             state.play_c = clamp(state.play_c, lo, hi).0;
             let g_per_c = abs(h.weight_g) / h.half_width_c;
             state.play_unknown_g =
-                (state.play_unknown_g - abs(state.play_c - before) * g_per_c).max(state.lag_unknown_c * g_per_c);
+                larger(state.play_unknown_g - abs(state.play_c - before) * g_per_c, state.lag_unknown_c * g_per_c);
             // Te ± r rounds to Te's ulp, so the fraction can reach 1.0002 with the smallest
             // half-width: held to ±1, the term never exceeds its weight.
             let fraction = (te - state.play_c) / h.half_width_c;
@@ -565,7 +618,8 @@ impl AxisModel {
             }
             k0 += c.gain_g_per_c * (te - state.creep_c);
         }
-        let settling = state.settling() || branch_unknown_g > SETTLED_BIAS_G;
+        let settled_g = self.bias.settled_within_g();
+        let settling = state.settling(settled_g) || branch_unknown_g > settled_g;
         #[cfg(qfa_mutant = "settling_never_flagged")]
         let settling = false;
         Evaluation { k1, k0, temp_clamped, rate_clamped, settling }
@@ -686,14 +740,18 @@ mod tests {
         assert!(c.tau_s(85.0) < c.tau_s(-55.0));
     }
 
-    /// After power-up a lag state is flagged until its error bound, the grid's span at the
-    /// start, has shrunk by e^(−t/τ) below ¼ LSB: t = τ·ln(span·64), 9.03 τ for a 130-°C
-    /// grid, checked here against that formula to the second.
+    /// After power-up a lag state is flagged until its error bound has shrunk by e^(−t/τ)
+    /// below ¼ LSB. The bound at the start is what the history could have made of it: no
+    /// further from T than the grid's farther end (80 °C from 20 °C on −60…70 °C), and no
+    /// more than the rate limit times τ (2 °C/min × 600 s = 20 °C), so t = τ·ln(20·64) =
+    /// 7.15 τ, checked here against that formula to the second. Before the bound took the
+    /// rate limit, it was the grid's whole span: 9.03 τ.
     #[test]
     fn a_lag_started_without_its_history_settles_when_its_bound_says() {
         let m = axis(Extensions { sensor_lag: Some(SensorLag { tau_s: 600.0 }), ..Default::default() });
-        let span = f64::from(m.bias.t_end_c() - m.bias.t_start_c);
-        let want_s = 600.0 * (span * 64.0).ln();
+        let bound_c = (2.0 / 60.0 * 600.0f64).min(70.0 - 20.0f64).min(20.0 - -60.0);
+        assert_eq!(bound_c, 20.0);
+        let want_s = 600.0 * (bound_c * 64.0).ln();
         let mut s = AxisState::default();
         let mut settled_at = None;
         for k in 0..20_000u32 {
@@ -705,5 +763,45 @@ mod tests {
         }
         let got = settled_at.expect("settles");
         assert!((got - want_s).abs() <= 2.0, "settled after {got} s, the bound says {want_s:.0} s");
+    }
+
+    /// The real chamber log's z axis, as `qfa-lab calibrate` fits it: a grid over −18…74 °C, a
+    /// 30-s lag, a 600-s creep of 0.26 mg/°C, a rate limit of 11.1 °C/min, and a fit residual
+    /// of 2 mg. Powered up at 52 °C, the creep state may be as far as the grid's farther end
+    /// (70 °C; the rate limit allows 117), 18.5 mg of bias; it is settled once that has shrunk
+    /// below a quarter of the residual, 0.5 mg: ln(37.0) = 3.61 τ, 36 min. With the threshold
+    /// at 1 µg, as before the table recorded its residual, it took 100 min: the whole 70-min
+    /// log was flagged.
+    #[test]
+    fn a_creep_settles_to_a_quarter_of_the_tables_residual() {
+        let settle_min = |residual_rms_g: f32| {
+            let mut bias = BiasGrid::single_valued(-18.0, 92.0 / 15.0, &[0.0; 16]).unwrap();
+            bias.residual_rms_g = residual_rms_g;
+            let m = AxisModel {
+                scale: ScaleFactor::simple(22.0, 1_048_576.0, 0.0),
+                bias,
+                rate_limit_c_per_min: 11.148_451,
+                ext: Extensions {
+                    sensor_lag: Some(SensorLag { tau_s: 30.0 }),
+                    bias_creep: Some(Creep {
+                        gain_g_per_c: 2.645_932e-4,
+                        tau_ref_s: 600.0,
+                        t_ref_c: 22.0,
+                        activation_k: 0.0,
+                    }),
+                    ..Extensions::NONE
+                },
+            };
+            let mut s = AxisState::default();
+            (0..20_000u32)
+                .find(|&k| !m.evaluate(&mut s, 52.0, 0.0, if k == 0 { 0.0 } else { 1.0 }).settling)
+                .map(|k| f64::from(k) / 60.0)
+        };
+        let want_min = 600.0 * (2.645_932e-4 * 70.0 / 0.5e-3f64).ln() / 60.0;
+        let got = settle_min(2e-3).expect("settles");
+        // The lag's own doubt feeds the creep's for its first minutes: a little later.
+        assert!(got >= want_min && got < want_min + 2.0, "settled after {got:.1} min, the bound says {want_min:.1}");
+        let strict = settle_min(BiasGrid::DEFAULT_RESIDUAL_RMS_G).expect("settles");
+        assert!(strict > 95.0, "{strict:.1} min");
     }
 }

@@ -3,7 +3,7 @@
 //! ```text
 //! offset size field
 //!      0    4 magic "QFAT"
-//!      4    2 format version, little-endian (2; 1 is refused, see below)
+//!      4    2 format version, little-endian (3; 1 and 2 are refused, see below)
 //!      6    1 axis count (1..=3)
 //!      7    1 reserved, 0
 //!      8    4 payload length, little-endian
@@ -28,8 +28,11 @@ use crate::model::{AxisModel, MAX_BIAS_POINTS};
 
 /// Magic bytes at offset 0.
 pub const MAGIC: [u8; 4] = *b"QFAT";
-/// Format version written and accepted.
-pub const FORMAT_VERSION: u16 = 2;
+/// Format version written and accepted. Format 3 added each bias grid's fit residual
+/// ([`BiasGrid::residual_rms_g`](crate::BiasGrid::residual_rms_g)), which sets when
+/// `MODEL_SETTLING` clears; a format-2 table is refused with [`Error::Version`]: re-export it
+/// with `qfa-lab` (or decode it with the previous release and add the field).
+pub const FORMAT_VERSION: u16 = 3;
 /// The format before tables recorded their [`Input`]: refused with [`Error::NoInputRecorded`].
 const FORMAT_WITHOUT_INPUT: u16 = 1;
 /// Header length in bytes.
@@ -69,6 +72,9 @@ pub mod limits {
     pub const MISALIGNMENT: f32 = 0.05;
     /// Largest branch deadband, °C/min.
     pub const DEADBAND_C_PER_MIN: f32 = 10.0;
+    /// A bias grid's fit residual (RMS), g: from 0.1 µg (below any accelerometer's bias
+    /// stability) to the largest bias.
+    pub const RESIDUAL_RMS_G: (f32, f32) = (1e-7, BIAS_G);
     /// Smallest bias-grid step, °C: 1.6 DS18B20 LSB (0.0625 °C). Finer steps resolve nothing
     /// the sensor can tell apart, and at 64 °C a step of 2.6e-7 °C is below one f32 ulp of
     /// the temperature (7.6e-6 °C), so the node index would be noise.
@@ -215,7 +221,7 @@ pub type Result<T> = core::result::Result<T, Error>;
 /// let mut buf = [0u8; MAX_TABLE_BYTES];
 /// let bytes = t.encode(&mut buf).unwrap();
 /// assert_eq!(&bytes[..4], b"QFAT");
-/// assert_eq!(u16::from_le_bytes([bytes[4], bytes[5]]), table::FORMAT_VERSION); // 2
+/// assert_eq!(u16::from_le_bytes([bytes[4], bytes[5]]), table::FORMAT_VERSION); // 3
 /// assert_eq!(Table::decode(bytes), Ok(t));
 ///
 /// let mut corrupt = bytes.to_vec();
@@ -349,6 +355,7 @@ fn validate_axis(a: &AxisModel) -> Result<()> {
     within(b.t_start_c, limits::TEMP_C, "bias.t_start_c")?;
     within(b.t_end_c(), limits::TEMP_C, "bias grid end")?;
     within(b.deadband_c_per_min, (0.0, limits::DEADBAND_C_PER_MIN), "bias.deadband_c_per_min")?;
+    within(b.residual_rms_g, limits::RESIDUAL_RMS_G, "bias.residual_rms_g")?;
     let mut grid_max = 0.0f32;
     for &k0 in b.heating_g.iter().chain(b.cooling_g.iter()) {
         within(k0, (-limits::BIAS_G, limits::BIAS_G), "bias value")?;
@@ -546,10 +553,11 @@ mod tests {
                 want.extend_from_slice(&f.to_le_bytes()).unwrap();
             }
         }
+        want.extend_from_slice(&4e-6f32.to_le_bytes()).unwrap(); // the grid's residual (format 3)
         want.extend_from_slice(&1.0f32.to_le_bytes()).unwrap();
         want.extend_from_slice(&[0, 0, 0, 0]).unwrap(); // three slots off, no misalignment
         assert_eq!(&bytes[HEADER_LEN..], &want[..]);
-        assert_eq!(&bytes[..8], &[b'Q', b'F', b'A', b'T', 2, 0, 1, 0]);
+        assert_eq!(&bytes[..8], &[b'Q', b'F', b'A', b'T', 3, 0, 1, 0]);
         assert_eq!(&bytes[8..12], &(want.len() as u32).to_le_bytes());
         assert_eq!(&bytes[12..16], &crc32(&want).to_le_bytes());
         assert_eq!(crc32(b"123456789"), 0xCBF4_3926, "CRC-32/ISO-HDLC check value");
@@ -568,7 +576,9 @@ mod tests {
         };
         assert_eq!(mutate(&|b| b.truncate(10)), Err(Error::Truncated));
         assert_eq!(mutate(&|b| b[0] = b'X'), Err(Error::BadMagic));
-        assert_eq!(mutate(&|b| b[4] = 3), Err(Error::Version(3)));
+        assert_eq!(mutate(&|b| b[4] = 4), Err(Error::Version(4)));
+        // Format 2 did not record the grids' residual: refused, not read with a guess.
+        assert_eq!(mutate(&|b| b[4] = 2), Err(Error::Version(2)));
         assert_eq!(mutate(&|b| b[4] = 1), Err(Error::NoInputRecorded));
         assert!(matches!(mutate(&|b| b[6] = 4), Err(Error::AxisCount { .. })));
         assert!(matches!(mutate(&|b| b[6] = 2), Err(Error::AxisCount { .. })));

@@ -117,7 +117,8 @@ fn rust_literal(t: &Table) -> String {
             format!(
                 "AxisModel {{ scale: ScaleFactor {{ t0_c: {}, gamma: {}, mu: {}, beta: {}, epsilon: {}, eta: {}, alpha: {} }}, \
                  bias: BiasGrid {{ t_start_c: {}, t_step_c: {}, deadband_c_per_min: {}, \
-                 heating_g: heapless::Vec::from_array([{}]), cooling_g: heapless::Vec::from_array([{}]) }}, \
+                 heating_g: heapless::Vec::from_array([{}]), cooling_g: heapless::Vec::from_array([{}]), \
+                 residual_rms_g: {} }}, \
                  rate_limit_c_per_min: {}, ext: Extensions {{ sensor_lag: {}, bias_branch_hysteresis: {}, bias_creep: {} }} }}",
                 f(s.t0_c),
                 f(s.gamma),
@@ -131,6 +132,7 @@ fn rust_literal(t: &Table) -> String {
                 f(b.deadband_c_per_min),
                 floats(&b.heating_g),
                 floats(&b.cooling_g),
+                f(b.residual_rms_g),
                 f(a.rate_limit_c_per_min),
                 option(e.sensor_lag, |l| format!("SensorLag {{ tau_s: {} }}", f(l.tau_s))),
                 option(e.bias_branch_hysteresis, |h| format!(

@@ -164,10 +164,13 @@ pub struct Oracle {
     tick_s: f64,
 }
 
-/// The firmware's settling thresholds (`model::SETTLED_LAG_C`, `model::SETTLED_BIAS_G`),
-/// spelled from its docs: what a state it no longer flags may still be off by.
+/// The firmware's settling thresholds (`model::SETTLED_LAG_C`, and a quarter of the grid's
+/// `residual_rms_g` for bias terms), spelled from its docs: what a state it no longer flags
+/// may still be off by.
 const SETTLED_LAG_C: f64 = 1.0 / 64.0;
-const SETTLED_BIAS_G: f64 = 1e-6;
+fn settled_bias_g(m: &AxisModel) -> f64 {
+    0.25 * f64::from(m.bias.residual_rms_g)
+}
 
 /// The flicker floor of a 32-reading window at 1 s, from its derivation in the firmware's
 /// docs (`rate::flicker_deadband_c_per_min`): σ = 60·q/(2·√S), times √(2·ln(M/α)) for
@@ -379,11 +382,11 @@ impl Oracle {
         if let Some(p) = m.ext.bias_branch_hysteresis {
             let half = f64::from(p.half_width_c);
             k0 += f64::from(p.weight_g) * (te.value - a.play.value) / half;
-            k0_tol += f64::from(p.weight_g).abs() * (dte + a.play.err) / half + SETTLED_BIAS_G;
+            k0_tol += f64::from(p.weight_g).abs() * (dte + a.play.err) / half + settled_bias_g(m);
         }
         if let Some(cr) = m.ext.bias_creep {
             k0 += f64::from(cr.gain_g_per_c) * (te.value - a.creep.value);
-            k0_tol += f64::from(cr.gain_g_per_c).abs() * (dte + a.creep.err) + SETTLED_BIAS_G;
+            k0_tol += f64::from(cr.gain_g_per_c).abs() * (dte + a.creep.err) + settled_bias_g(m);
         }
         k0_tol += F32_REL * k0.abs() + 1e-9;
         self.ideal[i] = ready.then_some(Ideal { k1, k1_tol, k0, k0_tol });

@@ -130,10 +130,9 @@ struct AxisRef {
     creep_unknown: f64,
 }
 
-/// The documented thresholds of `MODEL_SETTLING`: a quarter LSB for the lag, 1 µg for the
-/// play and creep terms.
+/// The documented thresholds of `MODEL_SETTLING`: a quarter LSB for the lag; for the play,
+/// creep and branch terms a quarter of the grid's recorded fit residual.
 const SETTLED_LAG_C: f64 = 1.0 / 64.0;
-const SETTLED_BIAS_G: f64 = 1e-6;
 
 /// The documented reload rule: with the same slots and grid range every state is kept;
 /// otherwise the three history states restart (and settle again); the branch is kept.
@@ -250,11 +249,16 @@ fn eval_axis(m: &AxisModel, s: &mut AxisRef, t: f64, r: f64, dt: f64) -> (f64, f
     if !s.init {
         *s = AxisRef { init: true, restart: 7, ..AxisRef::default() };
     }
+    let settled_g = 0.25 * f64::from(m.bias.residual_rms_g);
     if s.restart != 0 {
-        let span = hi - lo;
+        // The documented bounds: a state is an average of past clamped temperatures (inside
+        // the grid), and trails a temperature moving at most the rate limit by rate × τ.
+        let farther = (hi - tc).max(tc - lo);
+        let rate_c_per_s = lim / 60.0;
+        let lag_tau = m.ext.sensor_lag.map_or(0.0, |l| f64::from(l.tau_s));
         if s.restart & 1 != 0 {
             s.te = tc;
-            s.lag_unknown = if m.ext.sensor_lag.is_some() { span } else { 0.0 };
+            s.lag_unknown = if m.ext.sensor_lag.is_some() { farther.min(rate_c_per_s * lag_tau) } else { 0.0 };
         }
         let te0 = if m.ext.sensor_lag.is_some() { s.te } else { tc };
         if s.restart & 2 != 0 {
@@ -263,7 +267,14 @@ fn eval_axis(m: &AxisModel, s: &mut AxisRef, t: f64, r: f64, dt: f64) -> (f64, f
         }
         if s.restart & 4 != 0 {
             s.creep = te0;
-            s.creep_unknown = if m.ext.bias_creep.is_some() { span } else { 0.0 };
+            s.creep_unknown = m.ext.bias_creep.map_or(0.0, |c| {
+                let tau = |t: f64| {
+                    f64::from(c.tau_ref_s)
+                        * (f64::from(c.activation_k) * (1.0 / (t + 273.15) - 1.0 / (f64::from(c.t_ref_c) + 273.15)))
+                            .exp()
+                };
+                farther.min(rate_c_per_s * (tau(lo).max(tau(hi)) + lag_tau))
+            });
         }
         s.restart = 0;
     }
@@ -316,12 +327,12 @@ fn eval_axis(m: &AxisModel, s: &mut AxisRef, t: f64, r: f64, dt: f64) -> (f64, f
         }
         k0 += f64::from(cr.gain_g_per_c) * (te - s.creep);
     }
-    let settling = (s.branch == 0 && (h - c).abs() * 0.5 > SETTLED_BIAS_G)
+    let settling = (s.branch == 0 && (h - c).abs() * 0.5 > settled_g)
         || s.lag_unknown > SETTLED_LAG_C
         || m.ext
             .bias_branch_hysteresis
-            .is_some_and(|h| f64::from(h.weight_g).abs() * s.play_unknown > SETTLED_BIAS_G * f64::from(h.half_width_c))
-        || m.ext.bias_creep.is_some_and(|c| f64::from(c.gain_g_per_c).abs() * s.creep_unknown > SETTLED_BIAS_G);
+            .is_some_and(|h| f64::from(h.weight_g).abs() * s.play_unknown > settled_g * f64::from(h.half_width_c))
+        || m.ext.bias_creep.is_some_and(|c| f64::from(c.gain_g_per_c).abs() * s.creep_unknown > settled_g);
     (k1, k0, tc != t, rc != r, settling)
 }
 

@@ -138,6 +138,7 @@ fn axis_model() -> impl Strategy<Value = AxisModel> {
                 deadband_c_per_min: deadband,
                 heating_g: heapless::Vec::from_slice(&heating).unwrap(),
                 cooling_g: heapless::Vec::from_slice(&cooling).unwrap(),
+                residual_rms_g: BiasGrid::DEFAULT_RESIDUAL_RMS_G,
             }
         });
     let lag = prop::option::of((l::LAG_TAU_S.0..=l::LAG_TAU_S.1).prop_map(|tau_s| SensorLag { tau_s }));

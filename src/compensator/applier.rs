@@ -173,14 +173,11 @@ impl<'a, const AXES: usize> Applier<'a, AXES> {
         let status = self.begin::<false>(dt_ticks);
         let s = &self.fast.set;
         let dt = dt_ticks as f32;
-        let mut dv = [0.0f32; AXES];
-        for i in 0..AXES {
-            dv[i] = pulses[i] as f32 * s.scale[i] - s.bias_tick[i] * dt;
+        let dv: [f32; AXES] = core::array::from_fn(|i| pulses[i] as f32 * s.scale[i] - s.bias_tick[i] * dt);
+        match &s.misalign {
+            None => PulseOutput { dv_mps: dv, status },
+            Some(m) => PulseOutput { dv_mps: misalign(m, dv), status },
         }
-        if let Some(m) = &s.misalign {
-            dv = misalign(m, dv);
-        }
-        PulseOutput { dv_mps: dv, status }
     }
 
     /// Fast path for MEMS samples: raw readings (LSB) of this cycle and the ticks since
@@ -192,14 +189,11 @@ impl<'a, const AXES: usize> Applier<'a, AXES> {
     pub fn cycle_samples(&mut self, raw: [i32; AXES], dt_ticks: u32) -> SampleOutput<AXES> {
         let status = self.begin::<true>(dt_ticks);
         let s = &self.fast.set;
-        let mut a = [0.0f32; AXES];
-        for i in 0..AXES {
-            a[i] = raw[i] as f32 * s.scale[i] - s.bias_acc[i];
+        let a: [f32; AXES] = core::array::from_fn(|i| raw[i] as f32 * s.scale[i] - s.bias_acc[i]);
+        match &s.misalign {
+            None => SampleOutput { accel_mps2: a, status },
+            Some(m) => SampleOutput { accel_mps2: misalign(m, a), status },
         }
-        if let Some(m) = &s.misalign {
-            a = misalign(m, a);
-        }
-        SampleOutput { accel_mps2: a, status }
     }
 
     /// This applier for wrapping cumulative u32 counters, from `counters` as their base.

@@ -41,7 +41,7 @@ impl fmt::Display for ConfigError {
             Self::StaleShorterThanSamplePeriod => f.write_str("stale threshold not longer than one sample period"),
             Self::GapShorterThanSamplePeriod => f.write_str("rate max_gap_ms shorter than one sample period"),
             Self::MinSamplesAboveWindow => f.write_str("rate min_samples above the window length"),
-            Self::ImuPeriodInTicks => f.write_str("imu_period_s is under 4 ticks or over 2^30 ticks of tick_s"),
+            Self::ImuPeriodInTicks => f.write_str("imu_period_s out of range in ticks"),
         }
     }
 }
@@ -201,9 +201,10 @@ impl Config {
     /// [`IMU_PERIOD_TOLERANCE`] ticks (the band would start at 0) or `4·P` passes 2³⁰.
     pub(super) fn dt_band(&self) -> Option<(u32, u32)> {
         // Formed once, at construction: a division here costs the fast path nothing.
-        let period = libm::roundf(self.imu_period_s / self.tick_s);
+        // Rounded to whole ticks by adding a half before the cast (the period is positive).
+        let period = self.imu_period_s / self.tick_s + 0.5;
         let k = IMU_PERIOD_TOLERANCE;
-        if !(period >= k as f32 && period <= (1u32 << 30) as f32 / k as f32) {
+        if !(period >= k as f32 && period < ((1u32 << 30) / k) as f32) {
             return None;
         }
         let p = period as u32;

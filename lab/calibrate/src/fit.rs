@@ -295,6 +295,16 @@ pub(crate) fn grid_row(row: &mut [f64], t: f64, b: Branch, start: f64, step: f64
     }
 }
 
+/// The `residual_rms_g` a table records from its fit's block-averaged bias residual, g: never
+/// below [`BiasGrid::DEFAULT_RESIDUAL_RMS_G`] (4 µg, a navigation-grade QFA's bias
+/// stability: a fit that matches its rows more closely than that, as on a simulated log, does
+/// not make the unit more stable) nor above the largest bias a table holds.
+pub(crate) fn residual_for_table(block_rms_g: f64) -> f32 {
+    let floor = f64::from(BiasGrid::DEFAULT_RESIDUAL_RMS_G);
+    let rms = if block_rms_g.is_finite() { block_rms_g } else { 0.0 };
+    rms.clamp(floor, f64::from(qfa_thermal::table::limits::BIAS_G)) as f32
+}
+
 pub(crate) fn f32v(v: &[f64]) -> heapless::Vec<f32, MAX_BIAS_POINTS> {
     v.iter().map(|&x| x as f32).collect()
 }
@@ -344,6 +354,7 @@ pub fn fit(
         deadband_c_per_min: opts.deadband_c_per_min,
         heating_g: f32v(&heating),
         cooling_g: f32v(&cooling),
+        residual_rms_g: residual_for_table(bias_hysteresis.rms),
     };
     let hysteresis =
         table_of(AxisModel { scale: scale_h, bias: grid_h, rate_limit_c_per_min: rate_limit, ext: opts.ext })?;

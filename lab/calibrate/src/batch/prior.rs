@@ -225,6 +225,9 @@ pub(crate) fn axis_model(
             deadband_c_per_min: deadband,
             heating_g: heating,
             cooling_g: cooling,
+            // The prior's curve comes from the fleet, not from a fit to this unit's rows: no
+            // residual of its own, so the threshold a hand-written grid has.
+            residual_rms_g: qfa_thermal::BiasGrid::DEFAULT_RESIDUAL_RMS_G,
         },
         rate_limit_c_per_min: 20.0,
         ext: qfa_thermal::Extensions::default(),

@@ -297,7 +297,7 @@ pub(crate) fn fit_static_traced(
     let nb = structure.branches.unknowns(c);
     let basis = node_basis(structure.shape, g, c);
     let (x, y, max_rate) = design_rows(series, traces, &idx, &basis, reference_g, start, step);
-    let ls = solve_blocks(&x, &y, &idx, structure, g, block)?;
+    let (ls, block_rms_g) = solve_blocks(&x, &y, &idx, structure, g, block)?;
     let (heating, cooling) = branch_nodes(structure, &basis, &ls.coef, c);
     let (creep_gain, play_weight) = extension_weights(structure, &ls.coef, nb);
     let axis = AxisModel {
@@ -308,6 +308,7 @@ pub(crate) fn fit_static_traced(
             deadband_c_per_min: deadband,
             heating_g: f32v(&heating),
             cooling_g: f32v(&cooling),
+            residual_rms_g: residual_for_table(block_rms_g),
         },
         rate_limit_c_per_min: (max_rate * 1.25).clamp(0.5, 20.0) as f32,
         ext: structure.ext(creep_gain, play_weight),
@@ -440,6 +441,9 @@ fn design_rows(
 /// Average the equations over blocks of `block` consecutive training rows (a block never
 /// spans a gap in the training set), add the structure's smoothing and tie rows, and
 /// solve.
+/// The solve, and the RMS residual of its block-averaged rows (the regularisers left out):
+/// the error the table leaves at the blocks' time scale, with the white noise averaged
+/// down, which the table records as its `residual_rms_g`.
 fn solve_blocks(
     x: &[f64],
     y: &[f64],
@@ -447,7 +451,7 @@ fn solve_blocks(
     structure: &StaticStructure,
     g: usize,
     block: usize,
-) -> Result<LsResult, FitError> {
+) -> Result<(LsResult, f64), FitError> {
     let p = structure.unknowns(g);
     let c = structure.shape.unknowns(g);
     let mut starts = vec![0];
@@ -457,6 +461,7 @@ fn solve_blocks(
         }
     }
     let (mut xb, mut yb) = block_average(x, y, p, block, &starts);
+    let rows = yb.len();
     match structure.shape {
         CurveShape::Nodes => structure.branches.push_regularisers(&mut xb, &mut yb, p, g),
         // A cubic needs no smoothing rows; two branches are tied coefficient by coefficient
@@ -464,7 +469,15 @@ fn solve_blocks(
         CurveShape::Cubic if structure.branches == BranchMode::Free => push_branch_ties(&mut xb, &mut yb, p, c),
         CurveShape::Cubic => {}
     }
-    lstsq(&xb, p, &yb)
+    let ls = lstsq(&xb, p, &yb)?;
+    let ss: f64 = (0..rows)
+        .map(|k| {
+            let fit: f64 = (0..p).map(|j| xb[k * p + j] * ls.coef[j]).sum();
+            (yb[k] - fit).powi(2)
+        })
+        .sum();
+    let rms = (ss / rows.max(1) as f64).sqrt();
+    Ok((ls, rms))
 }
 
 /// The heating and cooling node values from the solved coefficients.
