@@ -110,7 +110,7 @@ fn table() -> Table {
         // Capacity is 3 and the loop pushes 3.
         let _ = axes.push(model);
     }
-    Table { input: Input::PulseCounts, rate_window: 32, axes, misalignment: None }
+    Table { input: Input::PulseCounts, rate_window: 32, axes, misalignment: None, part_lsb_per_g: None }
 }
 
 /// Run the demo, writing to `out`.
@@ -122,7 +122,9 @@ fn run(out: &mut dyn Write) -> fmt::Result {
     let mut buf = [0u8; MAX_TABLE_BYTES];
     let bytes = table.encode(&mut buf).map_err(|_| fmt::Error)?;
     // One sensor for the three axes; the table, loaded from bytes, is owned.
-    let mut comp = ThreeAxisSharedSensor::<Table>::new(Config::default()).map_err(|_| fmt::Error)?;
+    // The IMU's 200-Hz cycle, stated so that a dt in another unit is flagged.
+    let config = Config { imu_period_s: 5e-3, ..Config::default() };
+    let mut comp = ThreeAxisSharedSensor::<Table>::new(config).map_err(|_| fmt::Error)?;
     comp.load_table(bytes).map_err(|_| fmt::Error)?;
     writeln!(
         out,

@@ -18,7 +18,7 @@
 //! let bias = BiasGrid::single_valued(-40.0, 10.0, &[5e-5; 13]).expect("2 to 16 grid values");
 //! let scale = ScaleFactor { t0_c: 22.0, gamma: 320_320.0, mu: -32.76, beta: 0.1008, epsilon: 88.14, eta: -0.02409, alpha: 273.0 }; // JB-KT8 #1, Eq. 15
 //! let axis = AxisModel { scale, bias, rate_limit_c_per_min: 2.0, ext: Extensions::default() };
-//! let table = Table { input: Input::PulseCounts, rate_window: 32, axes: [axis].into_iter().collect(), misalignment: None };
+//! let table = Table { input: Input::PulseCounts, rate_window: 32, axes: [axis].into_iter().collect(), misalignment: None, part_lsb_per_g: None };
 //!
 //! let mut comp = Compensator::<1, 32>::new(Config::default()).unwrap();
 //! comp.set_table(table).unwrap();
@@ -34,32 +34,39 @@
 //! # MEMS samples
 //!
 //! `qfa-lab calibrate` on a static (MEMS) log writes a table for [`Input::Samples`] in the
-//! lab's own scale, 2²⁰ units per g (K1 ≈ 1 048 576). The compensator is configured in that
-//! scale, and each raw sample is brought to it with one integer multiply: for a ±8 g part at
-//! 4 096 LSB/g, `raw · 256`. A compensator left at the part's 4 096 refuses the table
-//! ([`table::Error::Scale`]) rather than scale every output by 1/256.
+//! lab's own scale, [`table::SAMPLE_UNITS_PER_G`] (2²⁰ units per g, K1 ≈ 1 048 576). The
+//! compensator is told the part's own sensitivity at the range it is set to
+//! ([`Config::sample_lsb_per_g`]: 4 096 LSB/g for a ±8 g 16-bit part) and takes the part's
+//! raw LSB as they come; it brings them to the table's scale once per reading, at no cost
+//! per cycle. A samples configuration that does not state the sensitivity is refused, and a
+//! table that records the range it was calibrated at (`qfa-lab calibrate --lsb-per-g`)
+//! refuses a compensator that states another ([`table::Error::PartScale`]).
 //!
 //! ```
-//! use qfa_thermal::{AxisModel, BiasGrid, Compensator, Config, Extensions, Input, ScaleFactor, Table};
+//! use qfa_thermal::{AxisModel, BiasGrid, Compensator, Config, ConfigError, Extensions, Input, ScaleFactor, Table};
 //!
-//! // What `calibrate` writes for one MEMS axis (`table.bin` → `Table::decode`), here by hand:
-//! // K1 at the lab's 2²⁰ per g, a 2 mg bias.
+//! // What `calibrate --lsb-per-g 4096` writes for one MEMS axis (`table.bin` →
+//! // `Table::decode`), here by hand: K1 at the lab's 2²⁰ per g, a 2 mg bias.
 //! let bias = BiasGrid::single_valued(-20.0, 10.0, &[2e-3; 10]).expect("10 values fit a branch");
 //! let axis = AxisModel { scale: ScaleFactor::simple(25.0, 1_048_576.0, 0.0), bias, rate_limit_c_per_min: 5.0, ext: Extensions::default() };
-//! let table = Table { input: Input::Samples, rate_window: 32, axes: [axis].into_iter().collect(), misalignment: None };
+//! let table = Table::samples_of_part(32, [axis], None, 4_096.0);
 //!
-//! let part = Config { input: Input::Samples, nominal_k1: 4_096.0, ..Config::default() };
-//! let mut wrong = Compensator::<1, 32>::new(part).unwrap();
-//! assert!(matches!(wrong.set_table(table.clone()), Err(qfa_thermal::table::Error::Scale { .. })));
+//! // The part's sensitivity is part of the configuration, not a multiplier in your code.
+//! let unstated = Config { input: Input::Samples, ..Config::default() };
+//! assert_eq!(unstated.validate(), Err(ConfigError::SampleScaleNotStated));
+//! // The part set to ±16 g (2 048 LSB/g) against a table calibrated at ±8 g: refused.
+//! let sixteen = Config { input: Input::Samples, sample_lsb_per_g: 2_048.0, ..Config::default() };
+//! let mut wrong = Compensator::<1, 32>::new(sixteen).unwrap();
+//! assert!(matches!(wrong.set_table(table.clone()), Err(qfa_thermal::table::Error::PartScale { .. })));
 //!
-//! let lab_scale = Config { input: Input::Samples, nominal_k1: 1_048_576.0, ..Config::default() };
-//! let mut comp = Compensator::<1, 32>::new(lab_scale).unwrap();
+//! let part = Config { input: Input::Samples, sample_lsb_per_g: 4_096.0, ..Config::default() };
+//! let mut comp = Compensator::<1, 32>::new(part).unwrap();
 //! comp.set_table(table).unwrap();
 //! for s in 0..8 {
 //!     comp.on_raw(0, s * 1_000, 400).unwrap(); // 25.0 °C
 //! }
 //! let raw_lsb = 4_096 + 8; // the part's reading: 1 g plus its 2 mg bias, at 4 096 LSB/g
-//! let out = comp.cycle_samples([raw_lsb * 256], 5_000); // brought to 2²⁰ per g
+//! let out = comp.cycle_samples([raw_lsb], 5_000); // raw, as the part gives it
 //! let g = out.accel_mps2[0] / qfa_thermal::G0;
 //! assert!((g - 1.0).abs() < 1e-4, "{g}");
 //! ```

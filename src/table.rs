@@ -41,6 +41,10 @@ pub const HEADER_LEN: usize = 16;
 pub const MAX_TABLE_BYTES: usize = 1024;
 /// Most axes a table holds.
 pub const MAX_AXES: usize = 3;
+/// The unit every [`Input::Samples`] table's K1 is in: 2²⁰ per g, the lab's scale. The
+/// compensator brings the part's raw LSB to it with [`Config::sample_lsb_per_g`](crate::Config::sample_lsb_per_g),
+/// once per reading, so the fast path takes raw samples as the part gives them.
+pub const SAMPLE_UNITS_PER_G: f32 = 1_048_576.0;
 
 /// Physically sane limits a table must respect (beyond finiteness).
 pub mod limits {
@@ -146,15 +150,25 @@ pub enum Error {
         /// Input the compensator's [`Config`](crate::Config) names.
         compensator: Input,
     },
-    /// The table's K1 at T0 (γ) is more than a factor of 2 from the compensator's
-    /// [`Config::nominal_k1`](crate::Config::nominal_k1): the table is in another unit
-    /// scale (another sensor's LSB per g, or the lab's 2²⁰ units per g), and applying it
-    /// would scale every output by that ratio.
+    /// The table's K1 at T0 (γ) is more than a factor of 2 from its nominal scale: the
+    /// compensator's [`Config::nominal_k1`](crate::Config::nominal_k1) for pulse counts,
+    /// [`SAMPLE_UNITS_PER_G`] for samples. The table is in another unit scale, and applying
+    /// it would scale every output by that ratio.
     Scale {
         /// γ of the first axis out of scale, rounded.
         table_k1: u32,
         /// The compensator's nominal K1, rounded.
         nominal_k1: u32,
+    },
+    /// The table records the part's sensitivity ([`Table::part_lsb_per_g`]) and the
+    /// compensator's [`Config::sample_lsb_per_g`](crate::Config::sample_lsb_per_g) differs:
+    /// the part is read at another range than it was calibrated at (a ±16 g part given
+    /// the ±8 g sensitivity reads 1 g as 0.5 g).
+    PartScale {
+        /// The part's LSB per g the table was calibrated at, rounded.
+        table_lsb_per_g: u32,
+        /// The compensator's, rounded.
+        config_lsb_per_g: u32,
     },
     /// Table was fitted with another rate-estimator window than this firmware's.
     RateWindow {
@@ -188,8 +202,13 @@ impl fmt::Display for Error {
             }
             Self::Scale { table_k1, nominal_k1 } => write!(
                 f,
-                "table K1 {table_k1} per g is not within a factor of 2 of the compensator's nominal {nominal_k1}: \
-                 another unit scale (set Config::nominal_k1 to the table's scale and feed inputs in it)"
+                "table K1 {table_k1} per g is not within a factor of 2 of the nominal {nominal_k1}: another unit \
+                 scale (pulse counts: set Config::nominal_k1; samples tables are in 2^20 units per g)"
+            ),
+            Self::PartScale { table_lsb_per_g, config_lsb_per_g } => write!(
+                f,
+                "table calibrated at {table_lsb_per_g} LSB/g, the compensator states {config_lsb_per_g} LSB/g: \
+                 the part is read at another range (set Config::sample_lsb_per_g to the part's range)"
             ),
             Self::RateWindow { table, firmware } => {
                 write!(f, "table fitted with rate window {table}, firmware uses {firmware}")
@@ -216,7 +235,7 @@ pub type Result<T> = core::result::Result<T, Error>;
 /// let bias = BiasGrid::single_valued(-40.0, 10.0, &[1e-4; 13]).expect("2 to 16 grid values");
 /// let scale = ScaleFactor { t0_c: 22.0, gamma: 320_320.0, mu: -32.76, beta: 0.1008, epsilon: 88.14, eta: -0.02409, alpha: 273.0 }; // JB-KT8 #1, Eq. 15
 /// let axis = AxisModel { scale, bias, rate_limit_c_per_min: 2.0, ext: Extensions::default() };
-/// let t = Table { input: Input::PulseCounts, rate_window: 32, axes: [axis].into_iter().collect(), misalignment: None };
+/// let t = Table { input: Input::PulseCounts, rate_window: 32, axes: [axis].into_iter().collect(), misalignment: None, part_lsb_per_g: None };
 ///
 /// let mut buf = [0u8; MAX_TABLE_BYTES];
 /// let bytes = t.encode(&mut buf).unwrap();
@@ -239,11 +258,20 @@ pub struct Table {
     pub axes: heapless::Vec<AxisModel, MAX_AXES>,
     /// Row-major 3×3 matrix applied to the per-axis velocity increments, or none.
     pub misalignment: Option<[f32; 9]>,
+    /// For [`Input::Samples`]: the part's own sensitivity at the range it was calibrated at,
+    /// LSB per g (4 096 for a ±8 g 16-bit part), when calibration was told it
+    /// (`qfa-lab calibrate --lsb-per-g`). A compensator configured with another
+    /// [`Config::sample_lsb_per_g`](crate::Config::sample_lsb_per_g) refuses the table
+    /// ([`Error::PartScale`]): the part is set to another range than it was calibrated at,
+    /// or the firmware states the wrong one, and every output would be off by their ratio.
+    /// `None` for pulse counts, and for a samples table that does not know it.
+    pub part_lsb_per_g: Option<f32>,
 }
 
 impl Table {
     /// A table of `M` axes (1..=3, checked when it is compiled), in a `const` or `static`:
-    /// a table in flash, written by hand or generated. Nothing is validated here;
+    /// a table in flash, written by hand or generated, recording no part sensitivity
+    /// ([`samples_of_part`](Self::samples_of_part) records one). Nothing is validated here;
     /// [`Compensator::set_table`](crate::Compensator::set_table) validates it before use.
     ///
     /// ```
@@ -268,7 +296,26 @@ impl Table {
         misalignment: Option<[f32; 9]>,
     ) -> Self {
         const { assert!(M >= 1 && M <= MAX_AXES, "a table has 1 to 3 axes") }
-        Self { input, rate_window, axes: heapless::Vec::from_array(axes), misalignment }
+        Self { input, rate_window, axes: heapless::Vec::from_array(axes), misalignment, part_lsb_per_g: None }
+    }
+
+    /// A samples table of `M` axes that records the part's sensitivity at the range it was
+    /// calibrated at, LSB per g ([`Table::part_lsb_per_g`]), in a `const` or `static`.
+    #[must_use]
+    pub const fn samples_of_part<const M: usize>(
+        rate_window: u16,
+        axes: [AxisModel; M],
+        misalignment: Option<[f32; 9]>,
+        part_lsb_per_g: f32,
+    ) -> Self {
+        const { assert!(M >= 1 && M <= MAX_AXES, "a table has 1 to 3 axes") }
+        Self {
+            input: Input::Samples,
+            rate_window,
+            axes: heapless::Vec::from_array(axes),
+            misalignment,
+            part_lsb_per_g: Some(part_lsb_per_g),
+        }
     }
 }
 
@@ -422,6 +469,13 @@ impl Table {
         if self.rate_window < 3 {
             return Err(Error::OutOfRange("rate_window"));
         }
+        if let Some(lsb) = self.part_lsb_per_g {
+            // Only a samples table is read in a part's LSB.
+            if self.input != Input::Samples {
+                return Err(Error::OutOfRange("part_lsb_per_g"));
+            }
+            within(lsb, limits::GAMMA, "part_lsb_per_g")?;
+        }
         Ok(())
     }
 
@@ -516,7 +570,7 @@ mod tests {
         };
         let mut axes = heapless::Vec::new();
         axes.push(axis).unwrap();
-        Table { input: Input::PulseCounts, rate_window: 32, axes, misalignment: None }
+        Table { input: Input::PulseCounts, rate_window: 32, axes, misalignment: None, part_lsb_per_g: None }
     }
 
     /// `to_bytes` gives `encode`'s bytes, which decode to the same table; an invalid table
@@ -556,6 +610,7 @@ mod tests {
         want.extend_from_slice(&4e-6f32.to_le_bytes()).unwrap(); // the grid's residual (format 3)
         want.extend_from_slice(&1.0f32.to_le_bytes()).unwrap();
         want.extend_from_slice(&[0, 0, 0, 0]).unwrap(); // three slots off, no misalignment
+        want.push(0).unwrap(); // no part sensitivity recorded (format 3)
         assert_eq!(&bytes[HEADER_LEN..], &want[..]);
         assert_eq!(&bytes[..8], &[b'Q', b'F', b'A', b'T', 3, 0, 1, 0]);
         assert_eq!(&bytes[8..12], &(want.len() as u32).to_le_bytes());

@@ -332,11 +332,18 @@ fn quantize(true_c: f64, coin: u64) -> i16 {
 #[must_use]
 pub fn run(h: &History) -> Verdict {
     let input = if h.entry == Entry::Samples { Input::Samples } else { Input::PulseCounts };
+    // The oracle reads the tables' K1 in the input's own units; a samples compensator is
+    // given them in its tables' 2²⁰ units per g and reads the part at its LSB per g.
     let tables = [h.tables[0].table(), h.tables[1].table()].map(|mut t| {
         t.input = input;
         t
     });
-    let mut comp = Comp::new(Config { input, ..Config::default() }).expect("default config");
+    let config = match input {
+        Input::Samples => scenarios::samples_config(Config::default()),
+        Input::PulseCounts => Config::default(),
+    };
+    let mut comp = Comp::new(config).expect("default config");
+    let loaded = tables.clone().map(|t| if input == Input::Samples { scenarios::as_samples(&t) } else { t });
     let mut counters = [0u32; AXES];
     let mut oracle = Oracle::new(AXES, &tables, 1e-6);
     let before = h.before_power_up_s;
@@ -352,7 +359,7 @@ pub fn run(h: &History) -> Verdict {
         oracle.before_power_up(j, &steps);
     }
     let mut current = 0usize;
-    comp.set_table(tables[0].clone()).expect("drawn tables are valid");
+    comp.set_table(loaded[0].clone()).expect("drawn tables are valid");
     comp.prime_counters(counters);
     oracle.load(0);
     let mut clock = MsClock::new();
@@ -362,17 +369,17 @@ pub fn run(h: &History) -> Verdict {
         for &(_, sensor, ev) in h.events.iter().filter(|e| e.0 == s) {
             match ev {
                 Event::ReloadSame => {
-                    comp.set_table(tables[current].clone()).expect("valid");
+                    comp.set_table(loaded[current].clone()).expect("valid");
                     oracle.load(current);
                 }
                 Event::LoadOther => {
                     current = 1 - current;
-                    comp.set_table(tables[current].clone()).expect("valid");
+                    comp.set_table(loaded[current].clone()).expect("valid");
                     oracle.load(current);
                 }
                 Event::LoadCorrupt => {
                     let mut buf = [0u8; MAX_TABLE_BYTES];
-                    let mut bytes = tables[1 - current].encode(&mut buf).expect("encodes").to_vec();
+                    let mut bytes = loaded[1 - current].encode(&mut buf).expect("encodes").to_vec();
                     let k = (qfa_rng::splitmix64(u64::from(s)) as usize) % bytes.len();
                     bytes[k] ^= 0x5A;
                     assert!(comp.load_table(&bytes).is_err(), "a flipped byte is refused (CRC)");

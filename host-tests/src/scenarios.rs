@@ -47,7 +47,36 @@ pub fn table(unit: usize, ext: [Extensions; 3], misalignment: Option<[f32; 9]>) 
         };
         axes.push(a).expect("3 axes fit");
     }
-    Table { input: qfa_thermal::Input::PulseCounts, rate_window: 32, axes, misalignment }
+    Table { input: qfa_thermal::Input::PulseCounts, rate_window: 32, axes, misalignment, part_lsb_per_g: None }
+}
+
+/// The part sensitivity the harnesses' samples entries are read at, LSB per g: the QFA
+/// tables' own K1 (about 320 000 per g), taken as a MEMS part's.
+pub const SAMPLE_PART_LSB_PER_G: f32 = 320_000.0;
+
+/// The configuration the harnesses' samples entries use: `Input::Samples` at
+/// [`SAMPLE_PART_LSB_PER_G`].
+#[must_use]
+pub fn samples_config(base: qfa_thermal::Config) -> qfa_thermal::Config {
+    qfa_thermal::Config { input: qfa_thermal::Input::Samples, sample_lsb_per_g: SAMPLE_PART_LSB_PER_G, ..base }
+}
+
+/// `t` as a samples table: every K1 coefficient brought from the part's LSB
+/// ([`SAMPLE_PART_LSB_PER_G`]) to the 2²⁰ units per g every samples table is in
+/// (`table::SAMPLE_UNITS_PER_G`). A compensator reading the part at
+/// [`samples_config`] applies the same K1 to its raw samples (to f32 rounding).
+#[must_use]
+pub fn as_samples(t: &Table) -> Table {
+    let k = qfa_thermal::table::SAMPLE_UNITS_PER_G / SAMPLE_PART_LSB_PER_G;
+    let mut s = t.clone();
+    s.input = qfa_thermal::Input::Samples;
+    for a in &mut s.axes {
+        let c = &mut a.scale;
+        for x in [&mut c.gamma, &mut c.mu, &mut c.beta, &mut c.epsilon, &mut c.eta, &mut c.alpha] {
+            *x *= k;
+        }
+    }
+    s
 }
 
 /// Encoded bytes of a table as a hex string.

@@ -144,8 +144,8 @@ fn tables(input: Input) -> &'static [Vec<u8>; 3] {
             bias_branch_hysteresis: Some(scenarios::PLAY),
             bias_creep: Some(scenarios::CREEP),
         };
-        let enc = |mut t: qfa_thermal::Table| {
-            t.input = input;
+        let enc = |t: qfa_thermal::Table| {
+            let t = if input == Input::Samples { scenarios::as_samples(&t) } else { t };
             let mut buf = [0u8; qfa_thermal::table::MAX_TABLE_BYTES];
             t.encode(&mut buf).expect("valid table").to_vec()
         };
@@ -220,7 +220,10 @@ type Comp<const S: usize> = Compensator<3, 32, S>;
 
 impl<const S: usize> Model<S> {
     fn new(h: &History, check: bool, strict: bool) -> (Self, Comp<S>) {
-        let cfg = Config { input: h.input, ..Config::default() };
+        let cfg = match h.input {
+            Input::Samples => scenarios::samples_config(Config::default()),
+            Input::PulseCounts => Config::default(),
+        };
         let mut c = Comp::<S>::new(cfg).expect("valid config");
         if h.with_table {
             c.load_table(&tables(h.input)[0]).expect("valid table");

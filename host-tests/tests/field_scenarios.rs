@@ -11,9 +11,12 @@ use qfa_thermal::{Compensator, Config, ConfigError, Extensions, SampleError, Sta
 type Comp = Compensator<3, 32, 3>;
 
 fn comp(input: Input) -> Comp {
-    let mut c = Comp::new(Config { input, ..Config::default() }).unwrap();
-    let mut t = scenarios::table(0, [Extensions::default(); 3], None);
-    t.input = input;
+    let t = scenarios::table(0, [Extensions::default(); 3], None);
+    let (config, t) = match input {
+        Input::Samples => (scenarios::samples_config(Config::default()), scenarios::as_samples(&t)),
+        Input::PulseCounts => (Config::default(), t),
+    };
+    let mut c = Comp::new(config).unwrap();
     c.set_table(t).unwrap();
     c
 }
@@ -95,11 +98,9 @@ fn returning_sensor_after_a_whole_wrap_restarts_its_window() {
 /// happened since must apply the table exactly as the original does.
 #[test]
 fn clone_after_a_table_load_applies_the_table() {
-    let mut a = Comp::new(Config { input: Input::Samples, ..Config::default() }).unwrap();
+    let mut a = Comp::new(scenarios::samples_config(Config::default())).unwrap();
     let _ = a.cycle_samples([1 << 20, 0, 0], 2_500);
-    let mut t = scenarios::table(0, [Extensions::default(); 3], None);
-    t.input = Input::Samples;
-    a.set_table(t).unwrap();
+    a.set_table(scenarios::as_samples(&scenarios::table(0, [Extensions::default(); 3], None))).unwrap();
     for k in 0..12u32 {
         for s in 0..3 {
             a.on_raw(s, 1_000 * k + s as u32, 352).unwrap();

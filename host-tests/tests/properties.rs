@@ -211,7 +211,7 @@ proptest! {
     #[test]
     fn validated_tables_bound_k0_and_k1_everywhere(a in axis_model(), seed in any::<u64>()) {
         use qfa_thermal::table::limits as l;
-        let mut t = Table { input: qfa_thermal::Input::PulseCounts, rate_window: 32, axes: heapless::Vec::new(), misalignment: None };
+        let mut t = Table { input: qfa_thermal::Input::PulseCounts, rate_window: 32, axes: heapless::Vec::new(), misalignment: None, part_lsb_per_g: None };
         t.axes.push(a.clone()).unwrap();
         prop_assume!(t.validate().is_ok());
         let g = &a.bias;
@@ -328,6 +328,7 @@ fn grid_interpolation_can_leave_its_nodes_by_one_ulp() {
         rate_window: 32,
         axes: heapless::Vec::new(),
         misalignment: None,
+        part_lsb_per_g: None,
     };
     t.axes.push(a.clone()).unwrap();
     t.validate().unwrap();

@@ -125,34 +125,57 @@ fn a_grid_longer_than_a_branch_is_refused() {
     assert_eq!(fits.t_end_c(), 80.0);
 }
 
-/// A MEMS table in the lab's scale (2²⁰ units per g) set on a compensator configured for
-/// the part's own 4 096 LSB/g is refused with both scales named. Before the check it was
-/// accepted, and the part's −4 096 LSB (−1 g) came out as −0.0039 g with the status OK; the
-/// same table with the compensator in its scale and the samples scaled to it gives −1 g.
+/// The samples' scale is the part's sensitivity, configured, never a multiplier written by
+/// hand. A MEMS table in the lab's scale (2²⁰ units per g) on a compensator that states the
+/// part's 4 096 LSB/g takes the part's raw LSB as they come: −4 096 LSB reads −1 g. Before,
+/// the compensator was configured in the table's scale and the firmware multiplied by 256;
+/// raw LSB fed without it read −0.0039 g, and a ±16 g part given the ±8 g multiplier read
+/// 0.5 g, both with the status OK. Now a samples configuration without the sensitivity is
+/// refused, a table that records the range it was calibrated at refuses another, and a
+/// table in another unit scale is refused, each naming both sides.
 #[test]
-fn a_table_in_another_unit_scale_is_refused() {
+fn the_parts_sensitivity_is_configured_and_checked_against_the_table() {
     use qfa_thermal::table::{self, Input};
-    let lab_scale = 1_048_576.0f32;
     let mut t = scenarios::table(0, [Extensions::default(); 3], None);
     t.input = Input::Samples;
     for a in &mut t.axes {
-        a.scale = qfa_thermal::ScaleFactor::simple(22.0, lab_scale, 0.0);
+        a.scale = qfa_thermal::ScaleFactor::simple(22.0, table::SAMPLE_UNITS_PER_G, 0.0);
     }
-    let part = Config { input: Input::Samples, nominal_k1: 4_096.0, ..Config::default() };
-    let mut c = Comp::new(part).unwrap();
-    assert_eq!(c.set_table(t.clone()), Err(table::Error::Scale { table_k1: 1_048_576, nominal_k1: 4_096 }));
-    assert!(c.table().is_none(), "nothing changed");
+    let at = |lsb: f32| Config { input: Input::Samples, sample_lsb_per_g: lsb, ..Config::default() };
 
-    let lab = Config { input: Input::Samples, nominal_k1: lab_scale, ..Config::default() };
-    let mut c = Comp::new(lab).unwrap();
-    c.set_table(t).unwrap();
+    // Not stated: refused at configuration.
+    let unstated = Config { input: Input::Samples, ..Config::default() };
+    assert_eq!(unstated.validate(), Err(qfa_thermal::ConfigError::SampleScaleNotStated));
+
+    // Stated: raw LSB in, g out.
+    let mut c = Comp::new(at(4_096.0)).unwrap();
+    c.set_table(t.clone()).unwrap();
     for t_s in 0..40 {
         for s in 0..3 {
             c.on_raw(s, t_s * 1_000, 352 + (t_s / 4) as i16).unwrap();
         }
     }
-    let raw_lsb = -4_096i32; // the part at −1 g on z
-    let out = c.cycle_samples([0, 0, raw_lsb * ((1 << 20) / 4_096)], 2_500); // × 256
+    let out = c.cycle_samples([0, 0, -4_096], 2_500); // the part at −1 g on z, raw
     let az_g = f64::from(out.accel_mps2[2]) / 9.806_65;
     assert!((az_g + 1.0).abs() < 2e-4, "{az_g} g (the bias is about 1e-4 g)");
+
+    // A table that knows its part was at ±16 g (2 048 LSB/g) refuses a firmware at ±8 g.
+    let mut sixteen = t.clone();
+    sixteen.part_lsb_per_g = Some(2_048.0);
+    let mut c = Comp::new(at(4_096.0)).unwrap();
+    assert_eq!(
+        c.set_table(sixteen.clone()),
+        Err(table::Error::PartScale { table_lsb_per_g: 2_048, config_lsb_per_g: 4_096 })
+    );
+    assert!(c.table().is_none(), "nothing changed");
+    let mut c = Comp::new(at(2_048.0)).unwrap();
+    c.set_table(sixteen).unwrap();
+
+    // A table in the part's own LSB (γ 4 096) is another unit scale than 2²⁰: refused.
+    let mut own = t;
+    for a in &mut own.axes {
+        a.scale = qfa_thermal::ScaleFactor::simple(22.0, 4_096.0, 0.0);
+    }
+    let mut c = Comp::new(at(4_096.0)).unwrap();
+    assert_eq!(c.set_table(own), Err(table::Error::Scale { table_k1: 4_096, nominal_k1: 1_048_576 }));
 }

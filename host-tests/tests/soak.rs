@@ -73,6 +73,7 @@ fn one_axis_table() -> Vec<u8> {
         rate_window: 32,
         axes: heapless::Vec::new(),
         misalignment: None,
+        part_lsb_per_g: None,
     };
     let scale = qfa_thermal::fixtures::JB_KT8_1;
     let bias = BiasGrid::single_valued(-60.0, 65.0, &[1e-4, 1.5e-4, 3e-4]).expect("2 to 16 grid values");

@@ -254,6 +254,11 @@ struct CalibrateArgs {
     /// Static logs: the held-out scheme, auto | after-max | blocks:K | none (the lab guide's "Static logs").
     #[arg(long, default_value = "auto")]
     holdout: Holdout,
+    /// Static logs: the part's sensitivity at the range it was logged at, LSB per g (4096
+    /// for ±8 g at 16 bits), recorded in table.bin so that a firmware stating another
+    /// `Config::sample_lsb_per_g` refuses the table.
+    #[arg(long, value_name = "LSB")]
+    lsb_per_g: Option<f32>,
     /// Pass/fail limits (TOML; the lab guide's "Limits" lists the keys and defaults): a
     /// unit that fails one exits with status 3 after writing every file.
     #[arg(long, value_name = "FILE")]
@@ -653,7 +658,14 @@ fn calibrate_cmd(a: CalibrateArgs) -> Result<(), CliError> {
     match opened {
         OpenedLog::Static(l) => {
             eprintln!("{} rows read; {}; {}", l.rows(), l.skipped, l.sampling);
-            let opts = static_cal::StaticCalOptions { holdout: a.holdout, ..Default::default() };
+            let opts =
+                static_cal::StaticCalOptions { holdout: a.holdout, part_lsb_per_g: a.lsb_per_g, ..Default::default() };
+            if a.lsb_per_g.is_none() {
+                eprintln!(
+                    "note: table.bin does not record the part's sensitivity (--lsb-per-g): a firmware that states \
+                     the wrong Config::sample_lsb_per_g cannot be refused"
+                );
+            }
             let notes = lint_notes(&warnings);
             let run = static_cal::StaticRun {
                 opts: &opts,
@@ -668,6 +680,9 @@ fn calibrate_cmd(a: CalibrateArgs) -> Result<(), CliError> {
         }
         OpenedLog::Cycling(l) => {
             cycling_holdout(a.holdout)?;
+            if a.lsb_per_g.is_some() {
+                return Err(CliError::Usage("--lsb-per-g: static logs only (a cycling log is pulse counts)".into()));
+            }
             let opts = CalibrateOptions {
                 fit_programs: if a.fit_programs.is_empty() { None } else { Some(a.fit_programs) },
                 plots: !a.no_plots,

@@ -1,14 +1,16 @@
 //! The MEMS recipe of the firmware guide, end to end: a static chamber log → `qfa-lab
-//! calibrate` → `table.bin` → `Table::decode` → a compensator for samples in the table's
-//! scale → the part's own LSB brought to it → `cycle_samples` removes the bias's change
-//! with temperature (0.98 mg between 10 and 50 °C here, 0.07 mg left). And the
-//! mistake the recipe warns of: a compensator left at the part's 4 096 LSB/g refuses the
-//! table instead of scaling every output by 1/256, as it did before the scale check.
+//! calibrate --lsb-per-g 4096` → `table.bin` → `Table::decode` → a compensator that states
+//! the part's 4 096 LSB/g → the part's raw LSB → `cycle_samples` removes the bias's change
+//! with temperature (0.98 mg between 10 and 50 °C here, 0.07 mg left). And the mistakes it
+//! guards against: the part read at ±16 g (2 048 LSB/g) against a table calibrated at ±8 g
+//! is refused, and so is a samples configuration that does not state the sensitivity.
+//! Before, the firmware multiplied the raw LSB by 2²⁰/4 096 by hand: left out, 1 g read
+//! 0.0039 g; with ±8 g's 256 for a ±16 g part, 0.5 g; both with the status OK.
 
 use std::process::Command;
 
 use qfa_thermal::table::{self, Input, Table};
-use qfa_thermal::{Compensator, Config, G0};
+use qfa_thermal::{Compensator, Config, ConfigError, G0};
 
 /// The truth of the synthetic part: bias in g at `temp_c` (the same on every axis).
 fn bias_g(temp_c: f64) -> f64 {
@@ -36,21 +38,27 @@ fn a_mems_table_reaches_the_firmware_from_the_docs() {
     std::fs::write(&log, csv).unwrap();
     let out = dir.join("cal");
     let run = Command::new(env!("CARGO_BIN_EXE_qfa-lab"))
-        .args(["calibrate", "--log", log.to_str().unwrap(), "--out", out.to_str().unwrap()])
+        .args(["calibrate", "--log", log.to_str().unwrap(), "--out", out.to_str().unwrap(), "--lsb-per-g", "4096"])
         .output()
         .expect("run qfa-lab");
     assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
     let table = Table::decode(&std::fs::read(out.join("table.bin")).unwrap()).unwrap();
     assert_eq!(table.input, Input::Samples);
+    assert_eq!(table.part_lsb_per_g, Some(4_096.0));
 
-    // The mistake: the part's own scale.
-    let part = Config { input: Input::Samples, nominal_k1: LSB_PER_G as f32, ..Config::default() };
-    let mut wrong = Compensator::<3, 32>::new(part).unwrap();
-    assert!(matches!(wrong.set_table(table.clone()), Err(table::Error::Scale { nominal_k1: 4_096, .. })));
+    // The mistakes: no sensitivity stated; the part read at ±16 g.
+    let unstated = Config { input: Input::Samples, ..Config::default() };
+    assert_eq!(Compensator::<3, 32>::new(unstated).err(), Some(ConfigError::SampleScaleNotStated));
+    let sixteen = Config { input: Input::Samples, sample_lsb_per_g: 2_048.0, ..Config::default() };
+    let mut wrong = Compensator::<3, 32>::new(sixteen).unwrap();
+    assert_eq!(
+        wrong.set_table(table.clone()),
+        Err(table::Error::PartScale { table_lsb_per_g: 4_096, config_lsb_per_g: 2_048 })
+    );
 
-    // The recipe: the compensator in the table's scale, the samples multiplied by 2²⁰/4 096.
-    let lab = Config { input: Input::Samples, nominal_k1: 1_048_576.0, ..Config::default() };
-    let mut c = Compensator::<3, 32>::new(lab).unwrap();
+    // The recipe: the compensator states the part's sensitivity; raw LSB go in as they come.
+    let part = Config { input: Input::Samples, sample_lsb_per_g: LSB_PER_G as f32, ..Config::default() };
+    let mut c = Compensator::<3, 32>::new(part).unwrap();
     c.set_table(table).unwrap();
     // Hold at 10 °C, warm at 1 °C/min to 50 °C, hold again; each hold is long enough for
     // whatever history states the table has to settle (`MODEL_SETTLING` clears). The part's
@@ -73,14 +81,14 @@ fn a_mems_table_reaches_the_firmware_from_the_docs() {
         }
         at(&mut c, (temp_c * 16.0) as i16, 3_600);
         let b = bias_g(temp_c);
-        let raw: [i32; 3] = [b, b, 1.0 + b].map(|g| (g * LSB_PER_G).round() as i32 * 256);
+        let raw: [i32; 3] = [b, b, 1.0 + b].map(|g| (g * LSB_PER_G).round() as i32);
         let o = c.cycle_samples(raw, 5_000);
         assert!(o.status.is_ok(), "at {temp_c} °C: {:?}", o.status);
         held.push((raw, o.accel_mps2.map(|a| f64::from(a) / f64::from(G0))));
     }
     let ((raw_cold, cold), (raw_hot, hot)) = (held[0], held[1]);
     for axis in 0..3 {
-        let raw_moved = f64::from(raw_hot[axis] - raw_cold[axis]) / 256.0 / LSB_PER_G;
+        let raw_moved = f64::from(raw_hot[axis] - raw_cold[axis]) / LSB_PER_G;
         let moved = hot[axis] - cold[axis];
         println!("axis {axis}: raw moved {:.3} mg, compensated {:.3} mg", raw_moved * 1e3, moved * 1e3);
         assert!(raw_moved.abs() > 0.7e-3, "the bias moves: {raw_moved}");

@@ -13,6 +13,7 @@ fn one_axis(gamma: f32, b0: f32) -> Table {
         rate_window: 32,
         axes: heapless::Vec::new(),
         misalignment: None,
+        part_lsb_per_g: None,
     };
     let axis = AxisModel {
         scale: ScaleFactor { t0_c: 22.0, gamma, mu: -32.76, beta: 0.1008, epsilon: 88.14, eta: -0.02409, alpha: 273.0 },

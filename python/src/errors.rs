@@ -219,6 +219,7 @@ impl Kind for qfa_thermal::table::Error {
             Self::Input { .. } => "Input",
             Self::Scale { .. } => "Scale",
             Self::RateWindow { .. } => "RateWindow",
+            Self::PartScale { .. } => "PartScale",
             _ => OTHER,
         }
     }
@@ -232,6 +233,8 @@ impl Kind for qfa_thermal::ConfigError {
             Self::StaleShorterThanSamplePeriod => "StaleShorterThanSamplePeriod",
             Self::GapShorterThanSamplePeriod => "GapShorterThanSamplePeriod",
             Self::MinSamplesAboveWindow => "MinSamplesAboveWindow",
+            Self::ImuPeriodInTicks => "ImuPeriodInTicks",
+            Self::SampleScaleNotStated => "SampleScaleNotStated",
             _ => OTHER,
         }
     }

@@ -80,7 +80,7 @@ impl Compensator {
     /// A compensator with no table, from `Config::default()` with the fields given changed.
     #[new]
     #[pyo3(signature = (axes = 3, sensors = 1, *, tick_s = None, imu_period_s = None, stale_after_ticks = None, sample_period_ms = None,
-        input = None, nominal_k1 = None, max_step_raw = None, max_slew_raw_per_min = None, confirm_samples = None,
+        input = None, nominal_k1 = None, sample_lsb_per_g = None, max_step_raw = None, max_slew_raw_per_min = None, confirm_samples = None,
         rate_max_gap_ms = None, rate_min_samples = None, rate_smoothing_alpha = None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -93,6 +93,7 @@ impl Compensator {
         sample_period_ms: Option<u32>,
         input: Option<&str>,
         nominal_k1: Option<f32>,
+        sample_lsb_per_g: Option<f32>,
         max_step_raw: Option<i16>,
         max_slew_raw_per_min: Option<i32>,
         confirm_samples: Option<u8>,
@@ -125,6 +126,7 @@ impl Compensator {
             max_slew_raw_per_min: max_slew_raw_per_min.unwrap_or(d.max_slew_raw_per_min),
             confirm_samples: confirm_samples.unwrap_or(d.confirm_samples),
             nominal_k1: nominal_k1.unwrap_or(d.nominal_k1),
+            sample_lsb_per_g: sample_lsb_per_g.unwrap_or(d.sample_lsb_per_g),
         };
         let cfg = |e: qfa_thermal::ConfigError| with_kind::<ConfigError>(py, e.to_string(), e.kind());
         let inner = match (axes, sensors) {
@@ -254,6 +256,7 @@ impl Compensator {
         d.set_item("sample_period_ms", c.sample_period_ms)?;
         d.set_item("input", if c.input == Input::Samples { "samples" } else { "pulse_counts" })?;
         d.set_item("nominal_k1", c.nominal_k1)?;
+        d.set_item("sample_lsb_per_g", c.sample_lsb_per_g)?;
         d.set_item("max_step_raw", c.max_step_raw)?;
         d.set_item("max_slew_raw_per_min", c.max_slew_raw_per_min)?;
         d.set_item("confirm_samples", c.confirm_samples)?;

@@ -82,7 +82,7 @@ pub(super) struct FastState<const AXES: usize> {
 /// let bias = BiasGrid::single_valued(-40.0, 10.0, &[1e-4; 13]).expect("2 to 16 grid values");
 /// let scale = ScaleFactor { t0_c: 22.0, gamma: 320_320.0, mu: -32.76, beta: 0.1008, epsilon: 88.14, eta: -0.02409, alpha: 273.0 }; // JB-KT8 #1, Eq. 15
 /// let axis = AxisModel { scale, bias, rate_limit_c_per_min: 2.0, ext: Extensions::default() };
-/// let table = Table { input: Input::PulseCounts, rate_window: 32, axes: core::iter::repeat_n(axis, 3).collect(), misalignment: None };
+/// let table = Table { input: Input::PulseCounts, rate_window: 32, axes: core::iter::repeat_n(axis, 3).collect(), misalignment: None, part_lsb_per_g: None };
 /// let mut comp = ThreeAxisSensorPerAxis::<Table>::new(Config::default()).unwrap(); // owns its table
 /// comp.set_table(table).unwrap();
 /// let (mut updater, mut applier) = comp.split();

@@ -22,6 +22,9 @@ pub enum ConfigError {
     GapShorterThanSamplePeriod,
     /// `rate.min_samples` exceeds the window `RATE_WINDOW`: the rate would never be ready.
     MinSamplesAboveWindow,
+    /// [`Input::Samples`](table::Input::Samples) without [`Config::sample_lsb_per_g`]: the
+    /// part's raw LSB could not be brought to the table's scale.
+    SampleScaleNotStated,
     /// [`Config::imu_period_s`] is under [`IMU_PERIOD_TOLERANCE`] ticks of
     /// [`Config::tick_s`], or its band reaches past 2³⁰ ticks.
     ImuPeriodInTicks,
@@ -42,6 +45,7 @@ impl fmt::Display for ConfigError {
             Self::GapShorterThanSamplePeriod => f.write_str("rate max_gap_ms shorter than one sample period"),
             Self::MinSamplesAboveWindow => f.write_str("rate min_samples above the window length"),
             Self::ImuPeriodInTicks => f.write_str("imu_period_s out of range in ticks"),
+            Self::SampleScaleNotStated => f.write_str("samples need sample_lsb_per_g, the part's LSB per g"),
         }
     }
 }
@@ -58,10 +62,10 @@ impl core::error::Error for ConfigError {}
 /// ```
 /// use qfa_thermal::{Compensator, Config, ConfigError, Input};
 ///
-/// // A MEMS accelerometer at 2²⁰ LSB/g nominal, read at 1 kHz on a 100 ns timer.
+/// // A ±8 g 16-bit MEMS accelerometer (4 096 LSB/g), read at 1 kHz on a 100 ns timer.
 /// let config = Config {
 ///     input: Input::Samples,
-///     nominal_k1: 1_048_576.0,
+///     sample_lsb_per_g: 4_096.0,
 ///     tick_s: 1e-7,
 ///     imu_period_s: 1e-3,
 ///     stale_after_ticks: 30_000_000,
@@ -106,13 +110,21 @@ pub struct Config {
     /// restarted clock (default 3; 2..=16: one reading confirming itself would switch off
     /// both the plausibility and the restart checks).
     pub confirm_samples: u8,
-    /// Scale factor used while no table is loaded, in the unit of the fast path's input:
-    /// pulses/(g·s) for pulse counts, LSB/g for samples. Default 320 000, a JB-KT8-class QFA
-    /// (Zhang et al. 2021, Eq. 15–17: γ = 308 000…328 000); set the nominal of your own
-    /// sensor. A table's γ must be within a factor of 2 of it
-    /// ([`table::Error::Scale`]): the lab's static tables are in 2²⁰ units per g, so a MEMS
-    /// part read through them sets 1 048 576 here and feeds `raw · (2²⁰ / its LSB per g)`.
+    /// Pulse counts: the scale factor used while no table is loaded, pulses/(g·s). Default
+    /// 320 000, a JB-KT8-class QFA (Zhang et al. 2021, Eq. 15–17: γ = 308 000…328 000); set
+    /// the nominal of your own sensor. A table's γ must be within a factor of 2 of it
+    /// ([`table::Error::Scale`]). Not used for samples: see `sample_lsb_per_g`.
     pub nominal_k1: f32,
+    /// Samples: the part's own sensitivity at the range it is set to, LSB per g, from its
+    /// datasheet (4 096 for a ±8 g 16-bit part, 2 048 at ±16 g). Required with
+    /// [`Input::Samples`](table::Input::Samples) (default 0, not stated: refused with
+    /// [`ConfigError::SampleScaleNotStated`]); not used for pulse counts. The fast path takes
+    /// the part's raw LSB as it gives them, and the slow path brings them to the table's
+    /// [`table::SAMPLE_UNITS_PER_G`] once per reading, so no hand-written multiplier can be
+    /// left out or be the wrong range's. A table that records the sensitivity it was
+    /// calibrated at ([`Table::part_lsb_per_g`](crate::Table::part_lsb_per_g)) is refused
+    /// unless this equals it ([`table::Error::PartScale`]).
+    pub sample_lsb_per_g: f32,
 }
 
 impl Default for Config {
@@ -128,6 +140,7 @@ impl Default for Config {
             max_slew_raw_per_min: 160,
             confirm_samples: 3,
             nominal_k1: 320_000.0,
+            sample_lsb_per_g: 0.0,
         }
     }
 }
@@ -158,6 +171,17 @@ impl Config {
         }
         if !(table::limits::GAMMA.0..=table::limits::GAMMA.1).contains(&self.nominal_k1) {
             return Err(ConfigError::OutOfRange("nominal_k1"));
+        }
+        if self.input == table::Input::Samples {
+            if self.sample_lsb_per_g == 0.0 {
+                return Err(ConfigError::SampleScaleNotStated);
+            }
+            if !self.sample_lsb_per_g.is_finite() {
+                return Err(ConfigError::NonFinite("sample_lsb_per_g"));
+            }
+            if !(table::limits::GAMMA.0..=table::limits::GAMMA.1).contains(&self.sample_lsb_per_g) {
+                return Err(ConfigError::OutOfRange("sample_lsb_per_g"));
+            }
         }
         let a = self.rate.smoothing_alpha;
         if !a.is_finite() {
@@ -210,6 +234,24 @@ impl Config {
         let p = period as u32;
         let lowest = p.div_ceil(k);
         Some((lowest, p * k - lowest))
+    }
+
+    /// The input's units per g: [`nominal_k1`](Self::nominal_k1) for pulse counts (per
+    /// second), the part's [`sample_lsb_per_g`](Self::sample_lsb_per_g) for samples.
+    pub(super) fn input_per_g(&self) -> f32 {
+        match self.input {
+            table::Input::PulseCounts => self.nominal_k1,
+            table::Input::Samples => self.sample_lsb_per_g,
+        }
+    }
+
+    /// What a table's K1 is multiplied by to be in the input's units: 1 for pulse counts
+    /// (the table is in them), the part's LSB per 2²⁰ units for samples.
+    pub(super) fn table_to_input(&self) -> f32 {
+        match self.input {
+            table::Input::PulseCounts => 1.0,
+            table::Input::Samples => self.sample_lsb_per_g * (1.0 / table::SAMPLE_UNITS_PER_G),
+        }
     }
 
     /// The stale threshold in ms (for comparing sensors' timestamps in the slow path).

@@ -142,7 +142,7 @@ pub type ThreeAxisApplier<'a> = Applier<'a, 3>;
 /// let bias = BiasGrid::single_valued(-40.0, 10.0, &[0.0; 13]).expect("2 to 16 grid values");
 /// let scale = ScaleFactor { t0_c: 22.0, gamma: 320_320.0, mu: -32.76, beta: 0.1008, epsilon: 88.14, eta: -0.02409, alpha: 273.0 }; // JB-KT8 #1, Eq. 15
 /// let axis = AxisModel { scale, bias, rate_limit_c_per_min: 2.0, ext: Extensions::default() };
-/// let table = Table { input: Input::PulseCounts, rate_window: 32, axes: [axis].into_iter().collect(), misalignment: None };
+/// let table = Table { input: Input::PulseCounts, rate_window: 32, axes: [axis].into_iter().collect(), misalignment: None, part_lsb_per_g: None };
 ///
 /// let mut comp = Compensator::<1, 32>::new(Config::default()).unwrap();
 /// // Before a table: raw pass-through at the nominal scale, flagged.

@@ -161,7 +161,7 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
             oldest.max(age)
         });
         let Some(t) = &self.table else {
-            let nominal = G0 / self.config.nominal_k1;
+            let nominal = G0 / self.config.input_per_g();
             return Set {
                 scale: [nominal; AXES],
                 bias_tick: [0.0; AXES],
@@ -173,8 +173,10 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
             };
         };
         let table: &Table = t.borrow();
+        // 1 for pulse counts (K1 · 1 is K1, bit for bit); the part's LSB per 2²⁰ for samples.
+        let to_input = self.config.table_to_input();
         Set {
-            scale: core::array::from_fn(|i| G0 / self.evals[i].k1),
+            scale: core::array::from_fn(|i| G0 / (self.evals[i].k1 * to_input)),
             bias_tick: core::array::from_fn(|i| (self.evals[i].k0 * G0) * self.config.tick_s),
             bias_acc: core::array::from_fn(|i| self.evals[i].k0 * G0),
             // Validation allows a matrix only with 3 axes, so AXES == 3 here.
@@ -256,9 +258,20 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
         }
         // Every axis's γ within a factor of 2 of the nominal scale: a table in another unit
         // scale is refused, never applied 256 (or 9.8) times off with the status OK.
-        let nominal = self.slow.config.nominal_k1;
+        let config = &self.slow.config;
+        let nominal = match tb.input {
+            table::Input::PulseCounts => config.nominal_k1,
+            table::Input::Samples => table::SAMPLE_UNITS_PER_G,
+        };
         if let Some(a) = tb.axes.iter().find(|a| !(0.5..=2.0).contains(&(a.scale.gamma / nominal))) {
             return Err(table::Error::Scale { table_k1: a.scale.gamma as u32, nominal_k1: nominal as u32 });
+        }
+        // A table that knows the part's range refuses a firmware that reads it at another.
+        if let Some(part) = tb.part_lsb_per_g {
+            let stated = config.sample_lsb_per_g;
+            if !(libm::fabsf(stated / part - 1.0) <= 1e-3) {
+                return Err(table::Error::PartScale { table_lsb_per_g: part as u32, config_lsb_per_g: stated as u32 });
+            }
         }
         // The model's running states carry over (`AxisState::carried_over`): a reload of the
         // table in force is a no-op, a changed slot restarts alone.

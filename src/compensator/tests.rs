@@ -12,7 +12,7 @@ use crate::rate::RateConfig;
 
 fn table(axes: usize, window: u16) -> Table {
     let mut t =
-        Table { input: table::Input::PulseCounts, rate_window: window, axes: heapless::Vec::new(), misalignment: None };
+        Table { input: table::Input::PulseCounts, rate_window: window, axes: heapless::Vec::new(), misalignment: None, part_lsb_per_g: None };
     for i in 0..axes {
         let a = AxisModel {
             scale: ScaleFactor {
@@ -100,9 +100,19 @@ fn recovers_the_applied_specific_force() {
     assert!(out.status.is_ok());
     // Samples through the pulse compensator: flagged, never status OK.
     assert!(c.cycle_samples([n, n, n], 1_000_000).status.contains(Status::WRONG_INPUT));
-    // The same model on samples: raw = K1·(K0 + a) LSB gives a in m/s².
-    let mut m = Compensator::<3, 32>::new(Config { input: table::Input::Samples, ..once_a_second }).unwrap();
-    m.set_table(Table { input: table::Input::Samples, ..table(3, 32) }).unwrap();
+    // The same model on samples: a part read at 320 000 LSB/g, its table in the 2²⁰ units
+    // per g every samples table is in; raw = K1·(K0 + a) LSB gives a in m/s².
+    let part = Config { input: table::Input::Samples, sample_lsb_per_g: 320_000.0, ..once_a_second };
+    let mut m = Compensator::<3, 32>::new(part).unwrap();
+    let mut samples_table = Table { input: table::Input::Samples, ..table(3, 32) };
+    for a in &mut samples_table.axes {
+        let k = table::SAMPLE_UNITS_PER_G / 320_000.0;
+        let c = &mut a.scale;
+        for x in [&mut c.gamma, &mut c.mu, &mut c.beta, &mut c.epsilon, &mut c.eta, &mut c.alpha] {
+            *x *= k;
+        }
+    }
+    m.set_table(samples_table).unwrap();
     warm(&mut m, 21);
     let samples = m.cycle_samples([n, n, n], 1_000_000);
     let a = f64::from(samples.accel_mps2[0]) / 9.806_65;

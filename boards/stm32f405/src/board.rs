@@ -280,7 +280,8 @@ fn main() -> ! {
         core::mem::size_of::<Table>()
     );
 
-    let comp = match Comp::new(Config::default()) {
+    // TIM7's 400-Hz cycle in seconds: a dt in another unit than TIM2's 1-µs ticks is flagged.
+    let comp = match Comp::new(Config { imu_period_s: 2.5e-3, ..Config::default() }) {
         Ok(c) => COMP.init(c),
         Err(e) => defmt::panic!("compensator config: {}", e),
     };

@@ -20,7 +20,7 @@ use qfa_log::pairing::RATE_WINDOW;
 /// the unit flags), while the firmware's sample path takes integer LSB:
 /// `raw = round(a·2²⁰)` quantizes to 0.95 µg, three orders below the figures that matter,
 /// and keeps |raw| below 2²⁴ for |a| < 16 g, where f32 holds every integer exactly.
-pub const STATIC_LSB_PER_G: f32 = 1_048_576.0;
+pub const STATIC_LSB_PER_G: f32 = qfa_thermal::table::SAMPLE_UNITS_PER_G;
 
 /// Why a log could not be compensated.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -286,8 +286,8 @@ pub fn compensate_samples(
         sample_period_ms: default.sample_period_ms.max((max_dt_s * 1000.0).ceil().min(60_000.0) as u32),
         input: qfa_thermal::Input::Samples,
         imu_period_s: row_period_s(time_s.windows(2).map(|w| w[1] - w[0])),
-        // The static tables' scale: rows enter as a·2²⁰ pseudo-LSB.
-        nominal_k1: STATIC_LSB_PER_G,
+        // The rows enter as a·2²⁰ pseudo-LSB: a "part" of 2²⁰ LSB per g, the tables' own scale.
+        sample_lsb_per_g: STATIC_LSB_PER_G,
         ..default
     };
     let mut out = StaticCompensated { accel_g: Vec::with_capacity(accel_g.len()), status: vec![Status::empty(); rows] };
@@ -302,6 +302,9 @@ pub fn compensate_samples(
             rate_window: table.rate_window,
             axes: heapless::Vec::new(),
             misalignment: None,
+            // The rows enter as the lab's 2²⁰ pseudo-LSB per g, not the part's own LSB: the
+            // part's sensitivity (which the firmware checks) does not apply to them.
+            part_lsb_per_g: None,
         };
         let _ = one.axes.push(axis.clone());
         c.set_table(one).map_err(StaticCompensateError::Table)?;

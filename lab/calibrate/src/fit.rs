@@ -634,7 +634,7 @@ pub fn table_of_axes_with(
     for a in axes {
         v.push(a).map_err(|_| FitError::TooManyAxes)?;
     }
-    let t = Table { input, rate_window: RATE_WINDOW as u16, axes: v, misalignment };
+    let t = Table { input, rate_window: RATE_WINDOW as u16, axes: v, misalignment, part_lsb_per_g: None };
     t.validate().map_err(FitError::Table)?;
     Ok(t)
 }

@@ -58,6 +58,7 @@ pub(crate) fn table(report: &Report, input: Input) -> Option<Table> {
         rate_window: qfa_log::pairing::RATE_WINDOW as u16,
         axes: Default::default(),
         misalignment: None,
+        part_lsb_per_g: None,
     };
     t.axes.push(report.model.clone()?).ok()?;
     Some(t)

@@ -110,6 +110,10 @@ pub struct StaticCalOptions {
     pub candidates: Vec<StaticStructure>,
     /// Held-out scheme.
     pub holdout: Holdout,
+    /// The part's own sensitivity at the range it was logged at, LSB per g, recorded in the
+    /// table (`Table::part_lsb_per_g`) so that a firmware reading the part at another range
+    /// refuses it; `None`: not recorded (`calibrate --lsb-per-g`).
+    pub part_lsb_per_g: Option<f32>,
 }
 
 impl Default for StaticCalOptions {
@@ -120,6 +124,7 @@ impl Default for StaticCalOptions {
             deadband_c_per_min: qfa_log::pairing::branch_deadband_c_per_min(),
             candidates: candidates(),
             holdout: Holdout::Auto,
+            part_lsb_per_g: None,
         }
     }
 }
@@ -255,8 +260,10 @@ pub fn calibrate_static(
         peers.push(axis.exported);
         plot.axes.push(axis.plot);
     }
-    let table = table_of_axes(Input::Samples, fits.iter().map(|f| f.axis.clone()))
+    let mut table = table_of_axes(Input::Samples, fits.iter().map(|f| f.axis.clone()))
         .map_err(|e| StaticCalError::Fit("table".to_string(), e))?;
+    table.part_lsb_per_g = opts.part_lsb_per_g;
+    table.validate().map_err(|e| StaticCalError::Fit("table".to_string(), crate::fit::FitError::Table(e)))?;
     let report = static_report(&run, rule, axes)?;
     Ok(StaticCalibration { table, fits, peers, report, plot })
 }
