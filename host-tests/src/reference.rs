@@ -568,8 +568,9 @@ impl Reference {
     /// An IMU cycle of MEMS samples: `a = raw·g0/K1 − K0·g0`, m/s².
     pub fn samples(&mut self, raw: [i64; 3], dt: u32) -> Predicted {
         match self.apply(raw, dt, false) {
-            // The reference is configured as `Config::default()`: pulse counts.
-            Predicted::Cycle { status, dv } => Predicted::Cycle { status: status | Status::WRONG_INPUT, dv },
+            // The reference is configured as `Config::default()`: pulse counts. The documented
+            // rule: the other entry's output is 0 on every axis, flagged.
+            Predicted::Cycle { status, .. } => Predicted::Cycle { status: status | Status::WRONG_INPUT, dv: [0.0; 3] },
             other => other,
         }
     }

@@ -167,10 +167,15 @@ impl<'a, const AXES: usize> Applier<'a, AXES> {
     /// Fast path: signed pulse counts of this cycle and its length in ticks.
     ///
     /// `Δv[i] = N[i]·(g0/K1[i]) − (K0[i]·g0·tick)·dt`, then `Δv = M·Δv` with a
-    /// misalignment matrix. Always finite. Never blocks.
+    /// misalignment matrix. Always finite. Never blocks. On a compensator configured for
+    /// samples every Δv is 0 with [`Status::WRONG_INPUT`]: nothing computed in another unit
+    /// is left in the field.
     #[inline]
     pub fn cycle(&mut self, pulses: [i32; AXES], dt_ticks: u32) -> PulseOutput<AXES> {
         let status = self.begin::<false>(dt_ticks);
+        if status.contains(Status::WRONG_INPUT) {
+            return PulseOutput { dv_mps: [0.0; AXES], status };
+        }
         let s = &self.fast.set;
         let dt = dt_ticks as f32;
         let dv: [f32; AXES] = core::array::from_fn(|i| pulses[i] as f32 * s.scale[i] - s.bias_tick[i] * dt);
@@ -184,10 +189,15 @@ impl<'a, const AXES: usize> Applier<'a, AXES> {
     /// the previous one (for staleness only).
     ///
     /// `a[i] = raw[i]·(g0/K1[i]) − K0[i]·g0`, m/s², then `a = M·a` with a misalignment
-    /// matrix: the paper's `a = E/K1 − K0`, with `1/K1` formed in the slow path.
+    /// matrix: the paper's `a = E/K1 − K0`, with `1/K1` formed in the slow path. On a
+    /// compensator configured for pulse counts every output is 0 with
+    /// [`Status::WRONG_INPUT`].
     #[inline]
     pub fn cycle_samples(&mut self, raw: [i32; AXES], dt_ticks: u32) -> SampleOutput<AXES> {
         let status = self.begin::<true>(dt_ticks);
+        if status.contains(Status::WRONG_INPUT) {
+            return SampleOutput { accel_mps2: [0.0; AXES], status };
+        }
         let s = &self.fast.set;
         let a: [f32; AXES] = core::array::from_fn(|i| raw[i] as f32 * s.scale[i] - s.bias_acc[i]);
         match &s.misalign {

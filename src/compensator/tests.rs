@@ -202,8 +202,20 @@ fn no_table_passes_raw_through_at_nominal_scale_flagged() {
     // 320 000 pulses at the default nominal 320 000 pulses/(g·s) is 1 g·s = g0 m/s.
     assert!((out.dv_mps[0] - 9.806_65).abs() < 1e-5, "{out:?}");
     assert!((out.dv_mps[1] + 9.806_65).abs() < 1e-5, "{out:?}");
+    // The other entry leaves nothing computed in another unit: zero, flagged. Before, it
+    // returned 4.9 (an acceleration where a Δv is read, or the reverse).
     let s = c.cycle_samples([160_000, 0, 0], 2500);
+    assert!(s.status.contains(Status::WRONG_INPUT));
+    assert_eq!(s.accel_mps2, [0.0; 3], "{s:?}");
+    // A samples compensator without a table passes the part's raw LSB through at its
+    // stated sensitivity; its pulse entry is zero, flagged.
+    let part = Config { input: table::Input::Samples, sample_lsb_per_g: 4_096.0, ..Config::default() };
+    let mut m = Compensator::<3, 32>::new(part).unwrap();
+    let s = m.cycle_samples([2_048, 0, 0], 2500);
     assert!((s.accel_mps2[0] - 4.903_325).abs() < 1e-5, "{s:?}");
+    let p = m.cycle([320_000, 0, 0], 2500);
+    assert!(p.status.contains(Status::WRONG_INPUT));
+    assert_eq!(p.dv_mps, [0.0; 3], "{p:?}");
 }
 
 #[test]
