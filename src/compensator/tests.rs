@@ -11,8 +11,13 @@ use crate::model::{AxisModel, BiasGrid, Extensions, ScaleFactor};
 use crate::rate::RateConfig;
 
 fn table(axes: usize, window: u16) -> Table {
-    let mut t =
-        Table { input: table::Input::PulseCounts, rate_window: window, axes: heapless::Vec::new(), misalignment: None, part_lsb_per_g: None };
+    let mut t = Table {
+        input: table::Input::PulseCounts,
+        rate_window: window,
+        axes: heapless::Vec::new(),
+        misalignment: None,
+        part_lsb_per_g: None,
+    };
     for i in 0..axes {
         let a = AxisModel {
             scale: ScaleFactor {

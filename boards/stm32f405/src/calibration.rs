@@ -2,10 +2,8 @@
 //! `qfa-lab` writes (or from a placeholder fixture). The compensator holds `&TABLE` and
 //! validates it where it lies at boot; no RAM copy is made.
 
-// The generated initialiser names a slot's type only when that slot is on.
-#[allow(unused_imports)]
-use qfa_thermal::model::{BranchHysteresis, Creep, SensorLag};
-use qfa_thermal::{AxisModel, BiasGrid, Extensions, Input, ScaleFactor, Table};
+// The generated initialiser (`qfa_thermal::table::RustSource`) names every path in full.
+use qfa_thermal::Table;
 
 include!(concat!(env!("OUT_DIR"), "/table.rs"));
 

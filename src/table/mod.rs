@@ -26,6 +26,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::model::{AxisModel, MAX_BIAS_POINTS};
 
+mod source;
+pub use source::RustSource;
+
 /// Magic bytes at offset 0.
 pub const MAGIC: [u8; 4] = *b"QFAT";
 /// Format version written and accepted. Format 3 added each bias grid's fit residual
