@@ -82,8 +82,29 @@ mod target {
     }
 
     fn compensator(ext: Extensions, misalignment: bool) -> ThreeAxisSharedSensor<Table> {
-        let mut c = ThreeAxisSharedSensor::<Table>::new(Config::default()).expect("the default config is valid");
-        c.set_table(tables::table(ext, misalignment, 32)).expect("fixture table validates");
+        warmed(Config::default(), tables::table(ext, misalignment, 32))
+    }
+
+    /// The same model for a MEMS part read at the table's own 320 000 LSB per g: the
+    /// samples path measured on a compensator configured for samples (on a pulse one it
+    /// would time the `WRONG_INPUT` return).
+    fn samples_compensator() -> ThreeAxisSharedSensor<Table> {
+        let config = Config { input: qfa_thermal::Input::Samples, sample_lsb_per_g: 320_000.0, ..Config::default() };
+        let mut t = tables::table(Extensions::default(), false, 32);
+        t.input = qfa_thermal::Input::Samples;
+        for a in &mut t.axes {
+            let k = qfa_thermal::table::SAMPLE_UNITS_PER_G / 320_000.0;
+            let s = &mut a.scale;
+            for x in [&mut s.gamma, &mut s.mu, &mut s.beta, &mut s.epsilon, &mut s.eta, &mut s.alpha] {
+                *x *= k;
+            }
+        }
+        warmed(config, t)
+    }
+
+    fn warmed(config: Config, table: Table) -> ThreeAxisSharedSensor<Table> {
+        let mut c = ThreeAxisSharedSensor::<Table>::new(config).expect("a valid config");
+        c.set_table(table).expect("fixture table validates");
         for k in 0..64 {
             let (t, raw) = sample(k);
             c.on_raw(0, t, raw).expect("warm-up readings are plausible");
@@ -121,8 +142,10 @@ mod target {
         let fast = time_calls(|_| {
             black_box(black_box(&mut ap).cycle(black_box(PULSES), black_box(DT)));
         });
+        let mut cs = samples_compensator();
+        let (_, mut aps) = cs.split();
         let fast_s = time_calls(|_| {
-            black_box(black_box(&mut ap).cycle_samples(black_box(PULSES), black_box(DT)));
+            black_box(black_box(&mut aps).cycle_samples(black_box(PULSES), black_box(DT)));
         });
         let mut c = compensator(Extensions::default(), true);
         let (_, mut ap) = c.split();
@@ -267,6 +290,7 @@ mod target {
                 rate_window,
                 axes,
                 misalignment: misalignment.then_some(MISALIGNMENT),
+                part_lsb_per_g: None,
             }
         }
     }
