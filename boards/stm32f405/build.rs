@@ -25,8 +25,13 @@ const RATE_WINDOW: u16 = DEFAULT_RATE_WINDOW as u16;
 /// so the board runs compensated out of the box; it is not a calibration of any sensor.
 fn fixture() -> Table {
     let scale = qfa_thermal::fixtures::JB_KT8_1;
-    let mut table =
-        Table { input: Input::PulseCounts, rate_window: RATE_WINDOW, axes: Default::default(), misalignment: None, part_lsb_per_g: None };
+    let mut table = Table {
+        input: Input::PulseCounts,
+        rate_window: RATE_WINDOW,
+        axes: Default::default(),
+        misalignment: None,
+        part_lsb_per_g: None,
+    };
     for axis in 0..MAX_AXES {
         let offset = 1.0e-4 + 2.0e-5 * axis as f32;
         let k0: Vec<f32> = (0..13).map(|i| offset + 1.5e-6 * (-40.0 + 10.0 * i as f32 - 22.0)).collect();

@@ -88,8 +88,42 @@ pub struct Compensated {
     pub accel_g: Vec<f64>,
     /// Status word per row.
     pub status: Vec<u16>,
-    /// Readings the compensator rejected.
-    pub rejected: usize,
+    /// Readings the compensator rejected, by reason.
+    pub rejected: Rejections,
+}
+
+/// Temperature readings the firmware refused, by reason: a count alone gave no cause.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct Rejections {
+    /// Outside the DS18B20's −55…+125 °C, which its decoder refuses (a chamber program that
+    /// goes to −60 °C, as the paper's does, leaves the sensor's range there).
+    pub outside_sensor_range: usize,
+    /// Refused for any other reason (a jump, a time step, the power-on value).
+    pub other: usize,
+}
+
+impl Rejections {
+    /// Count one refusal by its reason.
+    pub fn count(&mut self, e: &qfa_thermal::SampleError) {
+        match e {
+            qfa_thermal::SampleError::Decode(qfa_thermal::ds18b20::Error::OutOfRange { .. }) => {
+                self.outside_sensor_range += 1;
+            }
+            _ => self.other += 1,
+        }
+    }
+
+    /// Every refusal.
+    #[must_use]
+    pub fn total(&self) -> usize {
+        self.outside_sensor_range + self.other
+    }
+
+    /// Both counts added.
+    pub fn add(&mut self, o: Rejections) {
+        self.outside_sensor_range += o.outside_sensor_range;
+        self.other += o.other;
+    }
 }
 
 /// The firmware's IMU period for a log whose rows are its cycles: the median row spacing
@@ -129,13 +163,13 @@ pub fn compensate_run(table: &Table, run: &Run) -> Result<Compensated, Error> {
     let mut out = Compensated {
         accel_g: Vec::with_capacity(run.samples.len()),
         status: Vec::with_capacity(run.samples.len()),
-        rejected: 0,
+        rejected: Rejections::default(),
     };
     for s in &run.samples {
         if let Some(t) = s.temp_c {
             let raw = (t * 16.0).round() as i16;
-            if c.on_raw(0, (s.time_s * 1000.0).round() as u32, raw).is_err() {
-                out.rejected += 1;
+            if let Err(e) = c.on_raw(0, (s.time_s * 1000.0).round() as u32, raw) {
+                out.rejected.count(&e);
             }
         }
         let ticks = (s.interval_s / tick_s).round() as u32;

@@ -46,8 +46,8 @@ pub struct Evaluation {
     pub bias_residual_ug: Variants,
     /// Bins per variant: none, simple, hysteresis.
     pub bins: [VariantBins; 3],
-    /// Readings the compensator rejected.
-    pub rejected_readings: usize,
+    /// Readings the compensator rejected, by reason.
+    pub rejected_readings: crate::compensate::Rejections,
 }
 
 fn valid_rows(tr: &Trace, status: Option<&[u16]>) -> Vec<bool> {
@@ -84,7 +84,7 @@ pub fn evaluate(
             let none: Vec<f64> = run.samples.iter().map(|s| s.pulses as f64 / (s.interval_s * gamma_none)).collect();
             let cs = compensate_run(simple, run)?;
             let ch = compensate_run(hysteresis, run)?;
-            ev.rejected_readings += ch.rejected;
+            ev.rejected_readings.add(ch.rejected);
             outs.push([(none, None), (cs.accel_g, Some(cs.status)), (ch.accel_g, Some(ch.status))]);
             traces.push(trace_run(run, &ext, hysteresis.axes[0].bias.deadband_c_per_min));
             if let Some(pb) = progress {
@@ -203,8 +203,8 @@ pub struct Report {
     pub metric: String,
     /// Fit diagnostics.
     pub fit: FitSummary,
-    /// Readings the compensator rejected in the held-out runs.
-    pub rejected_readings: usize,
+    /// Readings the compensator rejected in the held-out runs, by reason.
+    pub rejected_readings: crate::compensate::Rejections,
     /// Temperature and rate ranges the fit programs cover (heating, cooling) and the
     /// limits `table.bin` clamps to: beyond them the firmware clamps and flags.
     pub coverage: crate::coverage::CalCoverage,

@@ -146,10 +146,20 @@ pub(crate) fn cycling_verdict(
         Expected { axis: axis.into(), what: "held-out bias residual RMS".into(), value: b, unit: "µg".into() },
     ];
     v.covers = Some(c.covers());
-    if r.rejected_readings > 0 {
+    let rej = r.rejected_readings;
+    if rej.outside_sensor_range > 0 {
         v.warnings.push(format!(
-            "the compensator rejected {} temperature readings in the held-out runs",
-            r.rejected_readings
+            "the compensator refused {} temperature readings in the held-out runs as outside the DS18B20's \
+             -55..125 °C: the program leaves the sensor's range there (the paper's goes to -60 °C), so in use \
+             the table holds only within it; a chamber program inside -55..125 °C avoids the gap",
+            rej.outside_sensor_range
+        ));
+    }
+    if rej.other > 0 {
+        v.warnings.push(format!(
+            "the compensator refused {} temperature readings in the held-out runs (jumps, time steps or the \
+             power-on value: the log's temperature column has faults the firmware would flag)",
+            rej.other
         ));
     }
     let (pc, pa) = (r.peers_bias_residual_ug.cubic, r.peers_bias_residual_ug.ardupilot);
