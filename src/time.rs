@@ -25,9 +25,13 @@
 //!
 //! # Why a clock type
 //! Most timers give a wrapping `u32` of **microseconds**, which wraps every 71.6 min.
-//! `now_us / 1000` is *not* a millisecond clock: it jumps back to 0 at every µs wrap, and
-//! a slow path fed with it rejects every reading as non-monotonic until the ms value
-//! catches up (about 71 min). [`MsClock`] extends the µs clock instead: it keeps the
+//! `now_us / 1000` is *not* a millisecond clock: it jumps back by 4 294 967 ms at every µs
+//! wrap. The compensator takes the jump as a restarted clock: it refuses the readings until
+//! `confirm_samples` of them agree, then restarts the rate window, so at the default
+//! settings each wrap costs 2 refused readings and 9 s without status OK (flagged, never
+//! silent; `compensator::tests::dividing_the_us_clock_costs_seconds_of_flags_at_each_wrap_not_an_hour`),
+//! and the rate window starts over every 71.6 min. [`MsClock`]
+//! extends the µs clock instead: it keeps the
 //! milliseconds (and the sub-millisecond remainder) across wraps, so its output wraps only
 //! at 2³² ms. Its one requirement: [`MsClock::ms`] is called at least once every 2³¹ µs
 //! (35.8 min), which any 1 Hz temperature loop does 2 000 times over.

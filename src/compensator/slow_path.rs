@@ -269,7 +269,8 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
         // A table that knows the part's range refuses a firmware that reads it at another.
         if let Some(part) = tb.part_lsb_per_g {
             let stated = config.sample_lsb_per_g;
-            if !(libm::fabsf(stated / part - 1.0) <= 1e-3) {
+            // Both finite: the configuration and the table were validated.
+            if libm::fabsf(stated / part - 1.0) > 1e-3 {
                 return Err(table::Error::PartScale { table_lsb_per_g: part as u32, config_lsb_per_g: stated as u32 });
             }
         }

@@ -526,3 +526,36 @@ fn the_dt_band_is_a_factor_of_four_either_side_of_the_imu_period() {
     assert!(!f.cycle([0; 3], 25_000).status.contains(Status::DT_IMPLAUSIBLE));
     assert!(f.cycle([0; 3], 2_500).status.contains(Status::DT_IMPLAUSIBLE));
 }
+
+/// What `now_us / 1000` costs when it is fed instead of an [`crate::time::MsClock`]: at
+/// every µs wrap (71.6 min) the time jumps back by 4 294 967 ms. The compensator takes that
+/// as a restarted clock: it refuses the readings until `confirm_samples` (3) of them agree,
+/// then restarts the rate window, so the unit is flagged for those seconds and the window's
+/// refill, and never status OK on the way. The figures the time module's docs state are
+/// this test's: 2 readings refused, 9 s not OK.
+#[test]
+fn dividing_the_us_clock_costs_seconds_of_flags_at_each_wrap_not_an_hour() {
+    let mut c = Compensator::<1, 32>::new(Config::default()).unwrap();
+    c.set_table(table(1, 32)).unwrap();
+    let start_us = u32::MAX - 60_000_000; // a minute before the µs wrap
+    let (mut refused, mut not_ok_after_wrap, mut ok_after) = (0u32, 0u32, 0u32);
+    for s in 0..180u32 {
+        let now_us = start_us.wrapping_add(s * 1_000_000);
+        let wrapped = now_us < start_us;
+        if c.on_raw(0, now_us / 1000, 352).is_err() {
+            assert!(wrapped, "refused only after the wrap");
+            refused += 1;
+        }
+        let out = c.cycle([1_601], 2_500);
+        if wrapped {
+            if out.status.is_ok() {
+                ok_after += 1;
+            } else {
+                not_ok_after_wrap += 1;
+            }
+        }
+    }
+    assert_eq!(refused, 2);
+    assert_eq!(not_ok_after_wrap, 9);
+    assert!(ok_after > 100, "{ok_after}");
+}
