@@ -93,11 +93,7 @@ mod target {
         let mut t = tables::table(Extensions::default(), false, 32);
         t.input = qfa_thermal::Input::Samples;
         for a in &mut t.axes {
-            let k = qfa_thermal::table::SAMPLE_UNITS_PER_G / 320_000.0;
-            let s = &mut a.scale;
-            for x in [&mut s.gamma, &mut s.mu, &mut s.beta, &mut s.epsilon, &mut s.eta, &mut s.alpha] {
-                *x *= k;
-            }
+            a.scale = a.scale.in_units(qfa_thermal::table::SAMPLE_UNITS_PER_G / 320_000.0);
         }
         warmed(config, t)
     }

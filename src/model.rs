@@ -68,6 +68,22 @@ impl ScaleFactor {
         Self { t0_c, gamma, mu, beta: 0.0, epsilon: 0.0, eta: 0.0, alpha: 0.0 }
     }
 
+    /// This scale factor in another unit per g, `k` of the new unit to one of the old: every
+    /// coefficient times `k` (a MEMS part's K1 in its LSB per g, brought to the 2²⁰ units
+    /// per g of a samples table, is `.in_units(2²⁰ / lsb_per_g)`).
+    #[must_use]
+    pub fn in_units(self, k: f32) -> Self {
+        Self {
+            t0_c: self.t0_c,
+            gamma: self.gamma * k,
+            mu: self.mu * k,
+            beta: self.beta * k,
+            epsilon: self.epsilon * k,
+            eta: self.eta * k,
+            alpha: self.alpha * k,
+        }
+    }
+
     /// K1 at temperature `t_c` and rate `rate` (°C/min).
     ///
     /// Evaluation order is fixed so every platform gives the same bits:

@@ -71,10 +71,7 @@ pub fn as_samples(t: &Table) -> Table {
     let mut s = t.clone();
     s.input = qfa_thermal::Input::Samples;
     for a in &mut s.axes {
-        let c = &mut a.scale;
-        for x in [&mut c.gamma, &mut c.mu, &mut c.beta, &mut c.epsilon, &mut c.eta, &mut c.alpha] {
-            *x *= k;
-        }
+        a.scale = a.scale.in_units(k);
     }
     s
 }

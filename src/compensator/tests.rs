@@ -111,11 +111,7 @@ fn recovers_the_applied_specific_force() {
     let mut m = Compensator::<3, 32>::new(part).unwrap();
     let mut samples_table = Table { input: table::Input::Samples, ..table(3, 32) };
     for a in &mut samples_table.axes {
-        let k = table::SAMPLE_UNITS_PER_G / 320_000.0;
-        let c = &mut a.scale;
-        for x in [&mut c.gamma, &mut c.mu, &mut c.beta, &mut c.epsilon, &mut c.eta, &mut c.alpha] {
-            *x *= k;
-        }
+        a.scale = a.scale.in_units(table::SAMPLE_UNITS_PER_G / 320_000.0);
     }
     m.set_table(samples_table).unwrap();
     warm(&mut m, 21);
