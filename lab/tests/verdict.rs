@@ -148,7 +148,8 @@ fn a_unit_failing_a_limit_exits_with_status_3_and_names_the_limit_everywhere() {
     std::fs::write(&wrong, "held_out_bias_mg = 800\n").unwrap();
     let out = d.join("wrong-unit");
     let (code, stdout, stderr) = run(&as_str(&args(&out, &wrong)));
-    assert_eq!(code, 1, "{stdout}{stderr}");
+    // A usage error, as the lab guide's exit statuses say (it exited 1 before they were kept).
+    assert_eq!(code, 2, "{stdout}{stderr}");
     assert!(stderr.contains("held_out_bias_mg = 800 mg is outside"), "{stderr}");
     assert!(!out.join("table.bin").exists(), "nothing written for a refused limits file");
 
@@ -157,7 +158,7 @@ fn a_unit_failing_a_limit_exits_with_status_3_and_names_the_limit_everywhere() {
     std::fs::write(&cycling, "held_out_bias_ug = 0.5\n").unwrap();
     let out = d.join("other-kind");
     let (code, stdout, stderr) = run(&as_str(&args(&out, &cycling)));
-    assert_eq!(code, 1, "{stdout}{stderr}");
+    assert_eq!(code, 2, "{stdout}{stderr}");
     assert!(stderr.contains("none of the keys a static log is checked against"), "{stderr}");
     assert!(!out.join("table.bin").exists(), "nothing written for a limits file that does not apply");
     let _ = std::fs::remove_dir_all(&d);
