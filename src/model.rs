@@ -515,15 +515,6 @@ pub(crate) fn larger(a: f32, b: f32) -> f32 {
     }
 }
 
-/// The smaller of two finite values ([`larger`]'s reason).
-fn smaller(a: f32, b: f32) -> f32 {
-    if a < b {
-        a
-    } else {
-        b
-    }
-}
-
 fn clamp(x: f32, lo: f32, hi: f32) -> (f32, bool) {
     if x < lo {
         (lo, true)
@@ -570,23 +561,15 @@ impl AxisModel {
             // Started without the history (power-up, or a reload that changed the slots):
             // from the temperature now, with what the history could have made of them. The
             // element and creep states are averages of past clamped temperatures, so they lie
-            // inside the grid: no further from T than the grid's farther end. A first-order
-            // state driven by a temperature that moves at most R (the table's rate limit)
-            // trails it by at most R·τ. The play output lies within its half-width of the
-            // element temperature, which bounds the play term by its weight.
+            // inside the grid: no further from T than the grid's farther end. (The table's
+            // rate limit times τ is no bound: the case may have moved faster while the unit
+            // was off, and the oracle found such a history.) The play output lies within its
+            // half-width of the element temperature, which bounds the play term by its weight.
             let farther_end = larger(self.bias.t_end_c() - t, t - self.bias.t_start_c);
-            let rate_c_per_s = lim * (1.0 / 60.0);
             (state.element_c, state.play_c, state.creep_c) = (t, t, t);
-            state.lag_unknown_c = self.ext.sensor_lag.map_or(0.0, |l| smaller(farther_end, rate_c_per_s * l.tau_s));
+            state.lag_unknown_c = if self.ext.sensor_lag.is_some() { farther_end } else { 0.0 };
             state.play_unknown_g = self.ext.bias_branch_hysteresis.map_or(0.0, |h| abs(h.weight_g));
-            state.creep_unknown_g = self.ext.bias_creep.map_or(0.0, |c| {
-                // The creep state trails the element, which trails T. τ(T) falls with T for a
-                // positive activation temperature and rises for a negative one: its largest
-                // value in the grid is at the cold end or the hot end.
-                let slowest = c.tau_s(if c.activation_k >= 0.0 { self.bias.t_start_c } else { self.bias.t_end_c() });
-                let lag_tau = self.ext.sensor_lag.map_or(0.0, |l| l.tau_s);
-                abs(c.gain_g_per_c) * smaller(farther_end, rate_c_per_s * (slowest + lag_tau))
-            });
+            state.creep_unknown_g = self.ext.bias_creep.map_or(0.0, |c| abs(c.gain_g_per_c) * farther_end);
             #[cfg(qfa_mutant = "reload_drops_state")]
             if state.restart & RESTART_SILENTLY != 0 {
                 (state.lag_unknown_c, state.play_unknown_g, state.creep_unknown_g) = (0.0, 0.0, 0.0);
@@ -757,16 +740,16 @@ mod tests {
     }
 
     /// After power-up a lag state is flagged until its error bound has shrunk by e^(−t/τ)
-    /// below ¼ LSB. The bound at the start is what the history could have made of it: no
-    /// further from T than the grid's farther end (80 °C from 20 °C on −60…70 °C), and no
-    /// more than the rate limit times τ (2 °C/min × 600 s = 20 °C), so t = τ·ln(20·64) =
-    /// 7.15 τ, checked here against that formula to the second. Before the bound took the
-    /// rate limit, it was the grid's whole span: 9.03 τ.
+    /// below ¼ LSB. The bound at the start is what the history could have made of it: the
+    /// state is an average of past clamped temperatures, so no further from T than the grid's
+    /// farther end (80 °C from 20 °C on −60…70 °C): t = τ·ln(80·64) = 8.54 τ, checked here
+    /// against that formula to the second. Before, it was the grid's whole span (130 °C,
+    /// 9.03 τ).
     #[test]
     fn a_lag_started_without_its_history_settles_when_its_bound_says() {
         let m = axis(Extensions { sensor_lag: Some(SensorLag { tau_s: 600.0 }), ..Default::default() });
-        let bound_c = (2.0 / 60.0 * 600.0f64).min(70.0 - 20.0f64).min(20.0 - -60.0);
-        assert_eq!(bound_c, 20.0);
+        let bound_c = (70.0 - 20.0f64).max(20.0 - -60.0);
+        assert_eq!(bound_c, 80.0);
         let want_s = 600.0 * (bound_c * 64.0).ln();
         let mut s = AxisState::default();
         let mut settled_at = None;
@@ -784,7 +767,7 @@ mod tests {
     /// The real chamber log's z axis, as `qfa-lab calibrate` fits it: a grid over −18…74 °C, a
     /// 30-s lag, a 600-s creep of 0.26 mg/°C, a rate limit of 11.1 °C/min, and a fit residual
     /// of 2 mg. Powered up at 52 °C, the creep state may be as far as the grid's farther end
-    /// (70 °C; the rate limit allows 117), 18.5 mg of bias; it is settled once that has shrunk
+    /// (70 °C), 18.5 mg of bias; it is settled once that has shrunk
     /// below a quarter of the residual, 0.5 mg: ln(37.0) = 3.61 τ, 36 min. With the threshold
     /// at 1 µg, as before the table recorded its residual, it took 100 min: the whole 70-min
     /// log was flagged.

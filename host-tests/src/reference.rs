@@ -251,14 +251,12 @@ fn eval_axis(m: &AxisModel, s: &mut AxisRef, t: f64, r: f64, dt: f64) -> (f64, f
     }
     let settled_g = 0.25 * f64::from(m.bias.residual_rms_g);
     if s.restart != 0 {
-        // The documented bounds: a state is an average of past clamped temperatures (inside
-        // the grid), and trails a temperature moving at most the rate limit by rate × τ.
+        // The documented bound: a state is an average of past clamped temperatures, inside
+        // the grid, so no further from T than the grid's farther end.
         let farther = (hi - tc).max(tc - lo);
-        let rate_c_per_s = lim / 60.0;
-        let lag_tau = m.ext.sensor_lag.map_or(0.0, |l| f64::from(l.tau_s));
         if s.restart & 1 != 0 {
             s.te = tc;
-            s.lag_unknown = if m.ext.sensor_lag.is_some() { farther.min(rate_c_per_s * lag_tau) } else { 0.0 };
+            s.lag_unknown = if m.ext.sensor_lag.is_some() { farther } else { 0.0 };
         }
         let te0 = if m.ext.sensor_lag.is_some() { s.te } else { tc };
         if s.restart & 2 != 0 {
@@ -267,14 +265,7 @@ fn eval_axis(m: &AxisModel, s: &mut AxisRef, t: f64, r: f64, dt: f64) -> (f64, f
         }
         if s.restart & 4 != 0 {
             s.creep = te0;
-            s.creep_unknown = m.ext.bias_creep.map_or(0.0, |c| {
-                let tau = |t: f64| {
-                    f64::from(c.tau_ref_s)
-                        * (f64::from(c.activation_k) * (1.0 / (t + 273.15) - 1.0 / (f64::from(c.t_ref_c) + 273.15)))
-                            .exp()
-                };
-                farther.min(rate_c_per_s * (tau(lo).max(tau(hi)) + lag_tau))
-            });
+            s.creep_unknown = if m.ext.bias_creep.is_some() { farther } else { 0.0 };
         }
         s.restart = 0;
     }
