@@ -270,7 +270,7 @@ struct CalibrateArgs {
     /// Static logs: the part's sensitivity at the range it was logged at, LSB per g (4096
     /// for ±8 g at 16 bits), recorded in table.bin so that a firmware stating another
     /// `Config::sample_lsb_per_g` refuses the table.
-    #[arg(long, value_name = "LSB")]
+    #[arg(long, value_name = "LSB", value_parser = parse_lsb_per_g)]
     lsb_per_g: Option<f32>,
     /// Pass/fail limits (TOML; the lab guide's "Limits" lists the keys and defaults): a
     /// unit that fails one exits with status 3 after writing every file.
@@ -405,6 +405,17 @@ fn parse_shard(s: &str) -> Result<(u64, u64), String> {
 
 /// A PX4 device ID: PX4 keeps the (unsigned) ID in an int32 parameter; `listener` prints it
 /// unsigned, a ground station may show it signed: either is taken, the int32 is written.
+/// A part's sensitivity, LSB per g, within what a table takes (1..1e9), refused before any work.
+fn parse_lsb_per_g(s: &str) -> Result<f32, String> {
+    let v: f32 =
+        s.trim().parse().map_err(|e| format!("{e}: expected the part's LSB per g, e.g. 4096 (±8 g, 16 bits)"))?;
+    let (lo, hi) = qfa_thermal::table::limits::GAMMA;
+    if !(v.is_finite() && (lo..=hi).contains(&v)) {
+        return Err(format!("{v} is no part's LSB per g: 1 to 1e9, e.g. 4096 (±8 g, 16 bits)"));
+    }
+    Ok(v)
+}
+
 fn parse_device_id(s: &str) -> Result<i32, String> {
     let v: i64 = s.trim().parse().map_err(|e| format!("{e}: expected the accelerometer's device ID, e.g. 1310988"))?;
     if v == 0 {

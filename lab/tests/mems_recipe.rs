@@ -97,3 +97,20 @@ fn a_mems_table_reaches_the_firmware_from_the_docs() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A sensitivity no part has is refused as a usage error before any work, naming the range
+/// and an example: 0, NaN and a word (the table's own check came only after the whole fit).
+#[test]
+fn a_sensitivity_no_part_has_is_refused_before_the_fit() {
+    let dir = std::env::temp_dir().join(format!("qfa-mems-lsb-{}", std::process::id()));
+    for v in ["0", "nan", "4096g"] {
+        let out = Command::new(env!("CARGO_BIN_EXE_qfa-lab"))
+            .args(["calibrate", "--log", "no-such.csv", "--out", dir.to_str().unwrap(), "--lsb-per-g", v])
+            .output()
+            .expect("run qfa-lab");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{v}: {err}");
+        assert!(err.contains("LSB per g") && err.contains("4096"), "{v}: {err}");
+        assert!(!dir.exists(), "nothing written");
+    }
+}
