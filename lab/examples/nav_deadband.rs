@@ -18,7 +18,7 @@ use rayon::prelude::*;
 
 fn main() {
     let sc = Scenario::builtin();
-    let derived = qfa_log::pairing::branch_deadband_c_per_min();
+    let derived = qfa_log::replay::branch_deadband_c_per_min();
     let deadbands = [derived, 0.3, 0.5];
     let shares: Vec<[f64; 3]> = (0..16u64)
         .into_par_iter()

@@ -84,11 +84,37 @@ fn eq11_coefficients_recovered_from_noiseless_log() {
 /// window's 16-s lag adds ε·Δṫ) by 200 µg.
 #[test]
 fn compensator_with_exact_table_returns_the_input() {
+    let (mean, rms, worst) = exact_table_error(1);
+    assert!(mean.abs() < 3e-6, "{mean}");
+    assert!(rms < 30e-6, "{rms}");
+    assert!(worst < 200e-6, "{worst}");
+}
+
+/// The same run logged at 10-s rows. The compensation of a log fills in the firmware's
+/// 1-s readings between rows and runs a 10-s row as ten 1-s cycles, so the mean stays
+/// within a pulse (measured 0.93 µg). Row by row it is worse than the 1-s log (RMS 51.1,
+/// max 258 µg): a 10-s row's reading does not say when within those 10 s the sensor's
+/// code changed, so the filled readings' code steps sit up to 5 s from the sensor's own
+/// at 0.375 °C/min and Ṫ jitters by more. The RMS and max bounds (60, 300 µg) were set
+/// after seeing those figures; with one reading per row at its end (the estimator's 32
+/// readings then span 320 s) they were mean −8.6, RMS 96.9, max 504 µg, and all three
+/// bounds fail (`cargo test -p qfa-lab --test recovery -- --nocapture`).
+#[test]
+fn compensator_with_exact_table_returns_the_input_from_ten_second_rows() {
+    let (mean, rms, worst) = exact_table_error(10);
+    assert!(mean.abs() < 3e-6, "{mean}");
+    assert!(rms < 60e-6, "{rms}");
+    assert!(worst < 300e-6, "{worst}");
+}
+
+/// Mean, RMS and worst (g) of `a − input` over a noiseless run compensated with the exact
+/// table, logged at `row_s`-s rows, after the estimator's warm-up.
+fn exact_table_error(row_s: u32) -> (f64, f64, f64) {
     let mut truth = Truth::jb_kt8(1).noiseless();
     truth.sensor.offset_c = 0.0;
     truth.bias.b2_g_per_c2 = 0.0; // linear: the grid represents it exactly
     let p = ramps(1.0);
-    let run = qfa_sim::simulate_run(&truth, &p, qfa_sim::profile::Position { run: 0, input_g: -1.0 }, 1, 5);
+    let run = qfa_sim::simulate_run(&truth, &p, qfa_sim::profile::Position { run: 0, input_g: -1.0 }, row_s, 5);
     let nodes: Vec<f32> = (0..16).map(|i| truth.bias.at(-40.0 + 7.0 * f64::from(i) - T0_C) as f32).collect();
     let axis = qfa_thermal::AxisModel {
         scale: truth.scale,
@@ -99,14 +125,18 @@ fn compensator_with_exact_table_returns_the_input() {
     let table = qfa_calibrate::fit::table_of(axis).unwrap();
     let c = compensate_run(&table, &run).unwrap();
     // Skip the estimator's warm-up (min_samples = 8 readings and a full 32-sample window).
-    let err: Vec<f64> = c.accel_g[40..].iter().map(|a| a + 1.0).collect();
+    let warm_up = 40usize.div_ceil(row_s as usize);
+    let err: Vec<f64> = c.accel_g[warm_up..].iter().map(|a| a + 1.0).collect();
     let worst = err.iter().map(|e| e.abs()).fold(0.0, f64::max);
     let rms = (err.iter().map(|e| e * e).sum::<f64>() / err.len() as f64).sqrt();
     let mean = err.iter().sum::<f64>() / err.len() as f64;
-    println!("a − input: mean {:.2} µg, RMS {:.2} µg, max {:.1} µg", mean * 1e6, rms * 1e6, worst * 1e6);
-    assert!(mean.abs() < 3e-6, "{mean}");
-    assert!(rms < 30e-6, "{rms}");
-    assert!(worst < 200e-6, "{worst}");
+    println!(
+        "{row_s}-s rows, a − input: mean {:.2} µg, RMS {:.2} µg, max {:.1} µg",
+        mean * 1e6,
+        rms * 1e6,
+        worst * 1e6
+    );
+    (mean, rms, worst)
 }
 
 /// Noisy unit #1 on four short ramp programs: the held-out Table-4 sensitivity of the

@@ -21,7 +21,7 @@ use crate::tables::Table;
 
 /// The rate window every instance here is built with, samples: the lab's and the
 /// reference vectors' `Compensator<_, 32>`.
-pub const RATE_WINDOW: usize = 32;
+pub const RATE_WINDOW: usize = qfa_thermal::DEFAULT_RATE_WINDOW;
 
 /// The instantiations Python can pick: axes 1..=3, one temperature stream or one per axis
 /// (boxed: their sizes differ by the per-axis state).

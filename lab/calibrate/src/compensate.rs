@@ -1,10 +1,11 @@
 //! Compensation of a log through the root crate's `Compensator<1, 32>`, as the firmware runs it.
 //!
-//! Per row, in order: if the row has a reading, `on_raw(0, time_s·1000 ms, round(temp_c·16))`
-//! (a rejected reading leaves the last good compensation in force, as on target); then
-//! `cycle([pulses], interval_s·10⁶ ticks)` with the default 1-µs tick. The reading is
-//! applied before the row's pulses because it was taken inside that interval (the same
-//! alignment the fit uses, see [`qfa_log::pairing::trace_run`]).
+//! Per row, in order: the firmware's readings up to the one at the row's interval's centre
+//! ([`qfa_log::replay`]: the row's own when no 1-s readings were filled in before it), each
+//! through `on_raw` (a rejected reading leaves the last good compensation in force, as on
+//! target); then `cycle([pulses], interval_s·10⁶ ticks)` with the default 1-µs tick; then
+//! the rest of the row's readings. The fit sees each row at the same reading (see
+//! [`qfa_log::pairing::trace_run`]).
 //! `accel_g = Δv / (g0 · interval_s)`: the compensated mean specific force of the interval.
 //! Each run starts a fresh compensator (each run is a fresh power-up in the test).
 //! The staleness limit is at least 1.5 rows (see [`compensate_run`]).
@@ -14,7 +15,7 @@ use qfa_thermal::table::Input;
 use qfa_thermal::Table;
 
 use qfa_log::cycling::{Log, Run};
-use qfa_log::pairing::RATE_WINDOW;
+use qfa_log::replay::{clock_ms, Readings, RowInstant, FILL_FROM_S, RATE_WINDOW, READING_PERIOD_S};
 
 /// K1 of a static log's table, LSB/g. A static log holds accelerations as numbers (g after
 /// the unit flags), while the firmware's sample path takes integer LSB:
@@ -88,7 +89,8 @@ pub struct Compensated {
     pub accel_g: Vec<f64>,
     /// Status word per row.
     pub status: Vec<u16>,
-    /// Readings the compensator rejected, by reason.
+    /// The log's readings the compensator rejected, by reason (the 1-s readings the replay
+    /// fills in between rows are not counted).
     pub rejected: Rejections,
 }
 
@@ -138,44 +140,65 @@ fn row_period_s(spacings_s: impl Iterator<Item = f64>) -> f32 {
 
 /// Compensate one run with `table`.
 ///
+/// A row longer than [`FILL_FROM_S`] is run as the firmware runs those seconds: cycles of
+/// at most [`READING_PERIOD_S`] on a 1-s grid from the row's start, the row's pulses shared
+/// among them in proportion to their length (the input is taken as steady within a row),
+/// each cycle after the readings taken by its end ([`qfa_log::replay`] fills in the 1-s
+/// readings between rows). One coefficient per 10-s row instead would put one sample of the
+/// estimator's Ṫ jitter on each row, where the firmware averages ten. A shorter row is one
+/// cycle after its reading.
+///
 /// # Errors
 /// A table of the other kind (samples, from a static log), a table that does not load into
 /// a `Compensator<1, 32>`, or rows too long for it.
 pub fn compensate_run(table: &Table, run: &Run) -> Result<Compensated, Error> {
     check_input(table, Input::PulseCounts).map_err(Error::Table)?;
-    // One row is one fast-path cycle; a log's rows may be longer than the default 3-s
-    // staleness limit (the project's 10-s rows), although each row carries a fresh reading.
-    // The sample period is then one row and staleness means "no reading for 1.5 rows", else
-    // every row of such a log would be flagged stale and no held-out figure could be formed.
-    let default = Config::default();
-    let max_interval_s = run.samples.iter().map(|s| s.interval_s).fold(0.0, f64::max);
-    let row_ticks = (1.5 * max_interval_s / f64::from(default.tick_s)).ceil().min(f64::from(i32::MAX - 1)) as u32;
-    let row_ms = (max_interval_s * 1000.0).ceil().min(60_000.0) as u32;
+    // With the readings filled in and long rows cut into 1-s cycles, the firmware's own
+    // configuration applies: its staleness limit and sample period; rows further apart
+    // than the estimator's gap limit are then stale, as the firmware would find them.
     let config = Config {
-        stale_after_ticks: default.stale_after_ticks.max(row_ticks),
-        sample_period_ms: default.sample_period_ms.max(row_ms),
-        imu_period_s: row_period_s(run.samples.iter().map(|s| s.interval_s)),
-        ..default
+        imu_period_s: row_period_s(run.samples.iter().map(|s| s.interval_s.min(READING_PERIOD_S))),
+        ..Config::default()
     };
     let mut c = Compensator::<1, RATE_WINDOW>::new(config).map_err(Error::Config)?;
     c.set_table(table.clone()).map_err(Error::Table)?;
-    let tick_s = f64::from(c.config().tick_s);
+    let tick_us = f64::from(c.config().tick_s) * 1e6;
     let mut out = Compensated {
         accel_g: Vec::with_capacity(run.samples.len()),
         status: Vec::with_capacity(run.samples.len()),
         rejected: Rejections::default(),
     };
+    let mut readings = Readings::new();
+    let mut buf = Vec::new();
     for s in &run.samples {
-        if let Some(t) = s.temp_c {
-            let raw = (t * 16.0).round() as i16;
-            if let Err(e) = c.on_raw(0, (s.time_s * 1000.0).round() as u32, raw) {
-                out.rejected.count(&e);
+        readings.row(s.time_s, s.temp_c, RowInstant::OwnReading, &mut buf);
+        let start_ms = clock_ms(s.time_s - s.interval_s);
+        let total_ms = f64::from(clock_ms(s.time_s).wrapping_sub(start_ms).max(1));
+        let step_ms = if s.interval_s > FILL_FROM_S { (READING_PERIOD_S * 1000.0) as u32 } else { u32::MAX };
+        // Milliseconds since the row's start; a filled reading before it (a missing row) is
+        // taken before the first cycle.
+        let since_start = |ms: u32| (ms.wrapping_sub(start_ms) as i32).max(0) as u32;
+        let (mut done_ms, mut sent, mut dv, mut status) = (0u32, 0i64, 0.0f64, Status::empty());
+        let mut next = 0;
+        while done_ms < total_ms as u32 {
+            let end_ms = done_ms.saturating_add(step_ms).min(total_ms as u32);
+            while next < buf.len() && since_start(buf[next].clock_ms) <= end_ms {
+                let r = buf[next];
+                // Only the log's own readings are counted: a filled-in one is the lab's.
+                if let (Err(e), true) = (c.on_raw(0, r.clock_ms, r.raw), r.own) {
+                    out.rejected.count(&e);
+                }
+                next += 1;
             }
+            let target = (s.pulses as f64 * f64::from(end_ms) / total_ms).round() as i64;
+            let ticks = ((f64::from(end_ms) - f64::from(done_ms)) * 1000.0 / tick_us).round() as u32;
+            let o = c.cycle([(target - sent) as i32], ticks);
+            dv += f64::from(o.dv_mps[0]);
+            status |= o.status;
+            (sent, done_ms) = (target, end_ms);
         }
-        let ticks = (s.interval_s / tick_s).round() as u32;
-        let o = c.cycle([s.pulses as i32], ticks);
-        out.accel_g.push(f64::from(o.dv_mps[0]) / (f64::from(G0) * s.interval_s));
-        out.status.push(o.status.bits());
+        out.accel_g.push(dv / (f64::from(G0) * s.interval_s));
+        out.status.push(status.bits());
     }
     Ok(out)
 }
@@ -309,15 +332,16 @@ pub fn compensate_samples(
             accel: accel_g.iter().map(|a| a.len()).collect(),
         });
     }
-    // Rows may be slower than 1 Hz: the sample period is the longest row spacing, and
-    // staleness means no reading for 1.5 of them (as for cycling logs).
+    // Rows may be slower than 1 Hz: the replay fills in the firmware's 1-s readings
+    // between them, so the sample period stays the firmware's; where it cannot (rows over
+    // the estimator's gap limit apart) staleness means no reading for 1.5 rows, as for
+    // cycling logs, and the estimator's restart flags the rows instead.
     let default = Config::default();
     let max_dt_s = time_s.windows(2).map(|w| w[1] - w[0]).fold(0.0, f64::max);
     let config = Config {
         stale_after_ticks: default
             .stale_after_ticks
             .max((1.5 * max_dt_s / f64::from(default.tick_s)).ceil().min(f64::from(i32::MAX - 1)) as u32),
-        sample_period_ms: default.sample_period_ms.max((max_dt_s * 1000.0).ceil().min(60_000.0) as u32),
         input: qfa_thermal::Input::Samples,
         imu_period_s: row_period_s(time_s.windows(2).map(|w| w[1] - w[0])),
         // The rows enter as a·2²⁰ pseudo-LSB: a "part" of 2²⁰ LSB per g, the tables' own scale.
@@ -343,14 +367,17 @@ pub fn compensate_samples(
         let _ = one.axes.push(axis.clone());
         c.set_table(one).map_err(StaticCompensateError::Table)?;
         let mut axis_g = Vec::with_capacity(rows);
+        let mut readings = Readings::new();
+        let mut buf = Vec::new();
         for i in 0..rows {
-            let t_ms = (time_s[i] * 1000.0).round() as u32;
-            let raw_t = (temp_c[i] * 16.0).round().clamp(-32768.0, 32767.0) as i16;
             // The first row has no spacing of its own: it takes the log's typical one.
             let dt_s = if i == 0 { f64::from(config.imu_period_s) } else { time_s[i] - time_s[i - 1] };
             let dt_ticks = (dt_s / tick_s).round() as u32;
             // A refused reading raises TEMP_INVALID in the output's status: nothing is lost.
-            let _ = c.on_raw(0, t_ms, raw_t);
+            readings.row(time_s[i], Some(temp_c[i]), RowInstant::OwnReading, &mut buf);
+            for r in &buf {
+                let _ = c.on_raw(0, r.clock_ms, r.raw);
+            }
             let raw = (column[i] * lsb).round().clamp(f64::from(i32::MIN), f64::from(i32::MAX)) as i32;
             let o = c.cycle_samples([raw], dt_ticks);
             out.status[i] |= o.status;

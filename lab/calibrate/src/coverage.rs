@@ -10,6 +10,7 @@ use serde::Serialize;
 
 use qfa_log::cycling::Log;
 use qfa_log::pairing::trace_run;
+use qfa_log::replay::Motion;
 
 /// Range of one branch: rows whose rate is beyond the branch deadband in that direction.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -77,12 +78,10 @@ impl Coverage {
             }
             rows += 1;
             t = [t[0].min(tc), t[1].max(tc)];
-            let k = if r > deadband {
-                0
-            } else if r < -deadband {
-                1
-            } else {
-                continue;
+            let k = match Motion::against(r, deadband) {
+                Motion::Heating => 0,
+                Motion::Cooling => 1,
+                Motion::Holding => continue,
             };
             let b = br[k].get_or_insert(BranchRange {
                 rows: 0,

@@ -33,7 +33,8 @@ use serde::Serialize;
 use qfa_thermal::model::{Branch, MAX_BIAS_POINTS};
 use qfa_thermal::{AxisModel, BiasGrid, Extensions, Input, ScaleFactor, Table};
 
-use qfa_log::pairing::{trace_run, PairedLog, Trace, RATE_WINDOW};
+use qfa_log::pairing::{trace_run, PairedLog, Trace};
+use qfa_log::replay::RATE_WINDOW;
 
 pub(crate) use super::solver::{lstsq, lstsq_matrix, LsResult};
 pub use crate::static_cal::fit::{fit_static_axis, BranchMode, CurveShape, StaticSeries, StaticStructure};
@@ -135,13 +136,13 @@ pub struct FitOptions {
 
 impl FitOptions {
     /// Defaults for `fit_programs`: 30-s blocks at 1-s rows, 16 nodes, the firmware's
-    /// flicker deadband ([`qfa_log::pairing::branch_deadband_c_per_min`], 0.182 °C/min).
+    /// flicker deadband ([`qfa_log::replay::branch_deadband_c_per_min`], 0.182 °C/min).
     #[must_use]
     pub fn new(fit_programs: Vec<String>) -> Self {
         Self {
             fit_programs,
             ext: Extensions::default(),
-            deadband_c_per_min: qfa_log::pairing::branch_deadband_c_per_min(),
+            deadband_c_per_min: qfa_log::replay::branch_deadband_c_per_min(),
             block: 30,
             grid_points: MAX_BIAS_POINTS,
             branch_mode: None,

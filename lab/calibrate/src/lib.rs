@@ -221,7 +221,7 @@ fn fit_and_eval_programs(programs: &[String], fit_programs: Option<&[String]>) -
 
 /// What the fit programs covered and what the hysteresis table claims.
 fn cal_coverage(log: &Log, fit_p: &[String], fitted: &Fitted) -> Result<crate::coverage::CalCoverage, CalibrateError> {
-    let deadband = qfa_log::pairing::branch_deadband_c_per_min();
+    let deadband = qfa_log::replay::branch_deadband_c_per_min();
     Ok(crate::coverage::CalCoverage {
         covered: crate::coverage::Coverage::of_log(log, fit_p, deadband)
             .map_err(|e| CalibrateError::Coverage(e.to_string()))?,

@@ -1,22 +1,19 @@
 //! Channels: the scale-factor and bias series the discovery workflow compares the model
 //! against, formed from a cycling log (±1 g runs paired by time) or a single-channel log.
 //!
-//! Every program keeps its temperature trace at the log's row rate, run through the root
-//! crate's `RateEstimator<32>` exactly as the firmware would (raw = round(16·T)); the
-//! measured channels are averaged into bins (default 60 s) to cut noise. A model is
-//! evaluated on every row and averaged over the same bins, so its states (lag, play,
-//! creep) advance at the firmware's sample rate.
+//! Every program keeps its temperature trace as the firmware sees it ([`crate::replay`]:
+//! its readings, one a second, and its `RateEstimator<32>`); the measured channels are
+//! averaged into bins (default 60 s) to cut noise. A model is evaluated on every row
+//! ([`Trace::evaluate_rows`]) and averaged over the same bins.
 
 use std::path::Path;
 
-use qfa_thermal::rate::{RateConfig, RateEstimator};
+use qfa_thermal::model::{AxisState, Branch, Evaluation};
+use qfa_thermal::AxisModel;
 
 use crate::open::{open, open_bytes, OpenedLog, ReadFlags};
+use crate::replay::{FirmwareView, Motion, RowInstant, RowSeen};
 use crate::single::SingleLog;
-
-/// Rows further apart than this (s) get the firmware's 1-s readings filled in between them
-/// (see [`Trace::new`]).
-pub(crate) const FILL_FROM_S: f64 = 1.5;
 
 /// Kind of log the channels came from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -93,12 +90,14 @@ pub struct Trace {
     pub time_s: Vec<f64>,
     /// DS18B20 raw readings, 1/16 °C.
     pub temp_raw: Vec<i16>,
-    /// The estimator's temperature, °C (what the firmware passes to `evaluate`).
+    /// The estimator's temperature at the reading that stands for each row, °C.
     pub est_t: Vec<f32>,
-    /// The estimator's Ṫ, °C/min.
+    /// The estimator's Ṫ there, °C/min.
     pub est_rate: Vec<f32>,
     /// Seconds since the previous row (0 for the first).
     pub dt_s: Vec<f32>,
+    /// The firmware's bias branch at each row ([`crate::replay::Seen::branch`]).
+    pub branch: Vec<Branch>,
     /// Bins.
     pub bins: Vec<Bin>,
 }
@@ -134,75 +133,75 @@ fn bin_rows(time_s: &[f64], keep: &[usize], sf: Option<&[f64]>, bias: &[f64], bi
 }
 
 impl Trace {
-    /// Build a trace from rows `(time_s, temp_c)` and bin the measured channels.
-    /// `sf` and `bias` are per-row measured values; bins average `sf` and form the bias as
-    /// `mean(sf·bias)/mean(sf)` (the pairing's K0) when `sf` is given.
+    /// Build a trace from rows `(time_s, temp_c)` through the firmware's view and bin the
+    /// measured channels. `sf` and `bias` are per-row measured values; bins average `sf` and
+    /// form the bias as `mean(sf·bias)/mean(sf)` (the pairing's K0) when `sf` is given. With
+    /// `sf` the rows are pulse counts over their intervals, seen at the intervals' centres.
     #[must_use]
     pub fn new(program: String, rows: &[(f64, f32)], sf: Option<&[f64]>, bias: &[f64], bin_s: f64) -> Self {
         let n = rows.len();
-        let mut est = RateEstimator::<32>::new(RateConfig::default());
+        let instant = if sf.is_some() { RowInstant::IntervalCentre } else { RowInstant::OwnReading };
+        let mut view = FirmwareView::new();
         let mut time_s = Vec::with_capacity(n);
         let mut temp_raw = Vec::with_capacity(n);
         let mut est_t = Vec::with_capacity(n);
         let mut est_rate = Vec::with_capacity(n);
         let mut dt_s = Vec::with_capacity(n);
+        let mut branch = Vec::with_capacity(n);
         let mut keep = Vec::with_capacity(n);
         let mut last: Option<f64> = None;
-        // The previous row the estimator took: its time and raw reading.
-        let mut prev: Option<(f64, i16)> = None;
         for (i, &(t, temp)) in rows.iter().enumerate() {
-            // Ties to even: a cycling row's temperature is the mean of its two runs' readings,
-            // half a code when they differ, and `round` (ties away from zero) would move every
-            // such tie up above 0 °C and down below it: a step of up to 1/32 °C at 0 °C that
-            // the selection read as a scale-factor curvature (β ≈ −0.0003, 0.9 ppm at the
-            // span's ends) on 12 of 40 clean logs of the second independent generator.
-            let raw = (f64::from(temp) * 16.0).round_ties_even().clamp(-32768.0, 32767.0) as i16;
-            // The firmware reads its DS18B20 once a second and its estimator's window is 32
-            // readings (32 s). A log keeps fewer rows: at 10-s rows the same window would
-            // span 320 s and bend every ramp corner into a temperature error that a rate
-            // term then absorbs (a phantom ε of several ppm on a lag log with no rate term).
-            // So the readings the firmware would have taken between two rows are filled in
-            // at 1 s, linearly between the rows' readings, in 1/16-°C steps.
-            let mut centre: Option<qfa_thermal::rate::Estimate> = None;
-            if let Some((tp, rp)) = prev {
-                let gap = t - tp;
-                if gap > FILL_FROM_S && gap * 1000.0 <= f64::from(RateConfig::default().max_gap_ms) {
-                    // A cycling row's pulses are counted over the interval that ends at
-                    // `t`: its model value is taken at the interval's centre.
-                    let mid = (gap / 2.0).round().max(1.0);
-                    let mut k = 1.0;
-                    while k < gap - 0.5 {
-                        let x = f64::from(rp) + (f64::from(raw) - f64::from(rp)) * k / gap;
-                        if est.push(((tp + k) * 1000.0).round() as u32, x.round_ties_even() as i16).is_ok()
-                            && sf.is_some()
-                            && k == mid
-                        {
-                            centre = est.estimate();
-                        }
-                        k += 1.0;
-                    }
+            let (mut at_row, mut own_raw) = (None, 0);
+            let seen = view.row(t, Some(f64::from(temp)), instant, |s| {
+                if s.reading.stands_for_row {
+                    at_row = Some((s.estimate, s.branch));
                 }
-            }
-            let t_ms = (t * 1000.0).round() as u32;
-            if est.push(t_ms, raw).is_err() {
+                if s.reading.own {
+                    own_raw = s.reading.raw;
+                    at_row = at_row.or(Some((s.estimate, s.branch)));
+                }
+            });
+            if seen != RowSeen::Accepted {
                 continue; // non-monotonic time: the firmware rejects it too
             }
-            prev = Some((t, raw));
-            let Some(e) = centre.or_else(|| est.estimate()) else { continue };
+            let (e, b) = at_row.expect("the row's own reading was accepted");
             time_s.push(t);
-            temp_raw.push(raw);
+            temp_raw.push(own_raw);
             est_t.push(e.temp_c);
             est_rate.push(e.rate_c_per_min);
+            branch.push(b);
             dt_s.push(last.map_or(0.0, |p| (t - p) as f32));
             last = Some(t);
             keep.push(i);
         }
         let bins = bin_rows(&time_s, &keep, sf, bias, bin_s);
-        Self { program, time_s, temp_raw, est_t, est_rate, dt_s, bins }
+        Self { program, time_s, temp_raw, est_t, est_rate, dt_s, branch, bins }
+    }
+
+    /// Run `model` over the rows, each with its T̂, Ṫ and the seconds since the previous
+    /// row, and call `at_row(row, state, evaluation)` after each: the one loop in which
+    /// discovery evaluates a model.
+    ///
+    /// The model's states (lag, play, creep) step once per row, not on every filled-in
+    /// reading as the firmware's do: discovery evaluates a model per candidate and per
+    /// nonlinear parameter, and stepping on every reading made its tests on 10-s rows take
+    /// 158 s instead of 75 s for gains that moved by under 1 % (`cargo test -p qfa-lab
+    /// --test discover -- --nocapture`).
+    /// T̂, Ṫ and the branch are the firmware's either way (calibration's trace steps the same
+    /// way, [`crate::pairing::trace_axis`]).
+    pub fn evaluate_rows(&self, model: &AxisModel, mut at_row: impl FnMut(usize, &AxisState, &Evaluation)) {
+        let mut st = AxisState::default();
+        for i in 0..self.est_t.len() {
+            // The model's branch is the firmware's, which also saw the readings between rows
+            // (`Branch::next` of the branch after a reading, at its Ṫ, is itself).
+            st.branch = self.branch[i];
+            let e = model.evaluate(&mut st, self.est_t[i], self.est_rate[i], self.dt_s[i]);
+            at_row(i, &st, &e);
+        }
     }
 
     /// Ramp rate of the program, °C/min: the number at the end of its id when there is
-    /// one (the lab's `paper-0.5`), else the mean |Ṫ| while ramping (|Ṫ| > 0.05 °C/min).
+    /// one (the lab's `paper-0.5`), else the mean |Ṫ| while ramping ([`Motion::direction`]).
     #[must_use]
     pub fn ramp_rate(&self) -> f64 {
         let tail = self.program.rsplit(['-', '_', '@', ' ', '=']).next().unwrap_or("");
@@ -211,12 +210,27 @@ impl Trace {
                 return x;
             }
         }
-        let r: Vec<f64> = self.est_rate.iter().map(|x| f64::from(x.abs())).filter(|&x| x > 0.05).collect();
+        let r: Vec<f64> = self
+            .est_rate
+            .iter()
+            .map(|&x| f64::from(x))
+            .filter(|&x| Motion::direction(x) != Motion::Holding)
+            .map(f64::abs)
+            .collect();
         if r.is_empty() {
             0.0
         } else {
             r.iter().sum::<f64>() / r.len() as f64
         }
+    }
+
+    /// Mean T̂ (°C) and Ṫ (°C/min) of the rows of `bin`.
+    #[must_use]
+    pub fn bin_means(&self, bin: &Bin) -> (f64, f64) {
+        let m = (bin.hi - bin.lo) as f64;
+        let t = self.est_t[bin.lo..bin.hi].iter().map(|&x| f64::from(x)).sum::<f64>() / m;
+        let r = self.est_rate[bin.lo..bin.hi].iter().map(|&x| f64::from(x)).sum::<f64>() / m;
+        (t, r)
     }
 }
 

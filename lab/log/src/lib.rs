@@ -10,6 +10,7 @@ pub(crate) mod dataflash;
 pub(crate) mod lines;
 pub mod open;
 pub mod pairing;
+pub mod replay;
 pub(crate) mod single;
 pub mod spelling;
 pub mod static_log;

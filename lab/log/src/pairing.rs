@@ -11,29 +11,17 @@
 //! above use the +1 g (0°) and −1 g (180°) positions, which is what Eq. 13 must mean.
 //!
 //! # Trace
-//! [`trace_run`] replays a run's `temp_c` column through the root crate's
-//! `RateEstimator<32>` (readings converted back to raw = round(temp_c·16), timestamps
-//! `time_s·1000` ms, one reading per row that has one) and `AxisModel::evaluate`, in the
-//! compensator's order, so the fit sees exactly the T̂, Ṫ, branch, element temperature and
-//! extension-slot states the firmware will see.
+//! [`trace_run`] replays a run's `temp_c` column through the firmware's view
+//! ([`crate::replay`]: its readings, its `RateEstimator<32>`) and `AxisModel::evaluate` on
+//! every reading, in the compensator's order, so the fit sees exactly the T̂, Ṫ, branch,
+//! element temperature and extension-slot states the firmware will see; a run's row (its
+//! pulses counted over the row's interval) is seen at the interval's centre.
 
 use qfa_thermal::model::{AxisState, Branch};
-use qfa_thermal::rate::{RateConfig, RateEstimator};
 use qfa_thermal::{AxisModel, BiasGrid, Extensions, ScaleFactor};
 
 use crate::cycling::{Log, Run};
-
-/// Rate-estimator window of every lab table (`Table::rate_window`).
-pub const RATE_WINDOW: usize = 32;
-
-/// Branch deadband the lab writes into its tables, °C/min: the firmware's flicker floor
-/// for [`RATE_WINDOW`] at its default 1 s sample period
-/// ([`qfa_thermal::rate::flicker_deadband_c_per_min`], 0.182 °C/min), so the fit traces
-/// the branch exactly as the compensator will switch it.
-#[must_use]
-pub fn branch_deadband_c_per_min() -> f32 {
-    qfa_thermal::rate::flicker_deadband_c_per_min(RATE_WINDOW, qfa_thermal::Config::default().sample_period_ms)
-}
+use crate::replay::{FirmwareView, RowInstant};
 
 /// The firmware's view of one run, row by row.
 #[derive(Clone, Debug, Default)]
@@ -55,15 +43,16 @@ pub struct Trace {
     pub clamped: Vec<bool>,
 }
 
-/// Replay `run` through the root crate's estimator and model with extension slots `ext`
-/// and branch deadband `deadband` (°C/min).
+/// Replay `run` through the firmware's view and model with extension slots `ext` and
+/// branch deadband `deadband` (°C/min); each row is seen at its interval's centre.
 #[must_use]
 pub fn trace_run(run: &Run, ext: &Extensions, deadband: f32) -> Trace {
-    trace_readings(run.samples.iter().map(|s| (s.time_s, s.temp_c)), run.samples.len(), ext, deadband)
+    let rows = run.samples.iter().map(|s| (s.time_s, s.temp_c));
+    trace_axis(rows, run.samples.len(), &probe_axis(ext, deadband), RowInstant::IntervalCentre)
 }
 
-/// Replay rows `(time_s, reading °C or none)` through the root crate's estimator and model
-/// (see [`trace_run`]); any log kind with a temperature column uses this.
+/// Replay rows `(time_s, reading °C or none)`, each one sample at its time, through the
+/// firmware's view and model (see [`trace_run`]); a static or single-channel log uses this.
 #[must_use]
 pub fn trace_readings(
     rows: impl Iterator<Item = (f64, Option<f64>)>,
@@ -71,19 +60,36 @@ pub fn trace_readings(
     ext: &Extensions,
     deadband: f32,
 ) -> Trace {
+    trace_axis(rows, n, &probe_axis(ext, deadband), RowInstant::OwnReading)
+}
+
+/// A model with unit gains and a flat zero grid over the sensor's range: its states are
+/// the extension slots' and the branch's alone.
+fn probe_axis(ext: &Extensions, deadband: f32) -> AxisModel {
     let zeros = [0.0f32; 16];
     let mut bias = BiasGrid::single_valued(-60.0, 190.0 / 15.0, &zeros).expect("2 to 16 grid values");
     bias.deadband_c_per_min = deadband;
-    let axis = AxisModel { scale: ScaleFactor::simple(22.0, 1.0, 0.0), bias, rate_limit_c_per_min: 20.0, ext: *ext };
-    trace_axis(rows, n, &axis)
+    AxisModel { scale: ScaleFactor::simple(22.0, 1.0, 0.0), bias, rate_limit_c_per_min: 20.0, ext: *ext }
 }
 
-/// Replay rows through the root crate's estimator and `axis.evaluate`, as the firmware
-/// does per temperature sample; `ext_k0_g` is then the model's K0 (g).
+/// Replay rows through the firmware's view and `axis.evaluate`; each row gets the state at
+/// the reading that stands for it (`instant`). `ext_k0_g` is then the model's K0 (g).
+///
+/// T̂, Ṫ and the branch are the firmware's on every reading; the model's own states (lag,
+/// play, creep) step once per row, at the reading that stands for it, with the time since
+/// the previous row's, as discovery's do ([`crate::channels::Trace::evaluate_rows`]).
+/// Stepping them on every filled-in reading as well made the test that calibrates a 58-h
+/// static log at 10-s rows take 278 s instead of 83 s, for held-out figures that moved by
+/// about 1 % (`cargo test -p qfa-lab --test discover_independent`, its desk log).
 #[must_use]
-pub fn trace_axis(rows: impl Iterator<Item = (f64, Option<f64>)>, n: usize, axis: &AxisModel) -> Trace {
+pub fn trace_axis(
+    rows: impl Iterator<Item = (f64, Option<f64>)>,
+    n: usize,
+    axis: &AxisModel,
+    instant: RowInstant,
+) -> Trace {
     let ext = &axis.ext;
-    let mut est = RateEstimator::<RATE_WINDOW>::new(RateConfig::default());
+    let mut view = FirmwareView::with_deadband(axis.bias.deadband_c_per_min);
     let mut st = AxisState::default();
     let mut tr = Trace {
         valid: Vec::with_capacity(n),
@@ -94,37 +100,49 @@ pub fn trace_axis(rows: impl Iterator<Item = (f64, Option<f64>)>, n: usize, axis
         ext_k0_g: Vec::with_capacity(n),
         clamped: Vec::with_capacity(n),
     };
+    // (valid, T̂, Ṫ, model temperature, branch, K0, clamped) at the latest row's reading.
+    let mut cur = (false, f64::NAN, 0.0, f64::NAN, Branch::Unknown, 0.0, false);
     let mut last_ms: Option<u32> = None;
-    let mut cur = (false, f64::NAN, 0.0, f64::NAN, Branch::Unknown, 0.0);
-    let mut clamped = false;
     for (time_s, temp_c) in rows {
-        if let Some(t) = temp_c {
-            let raw = (t * 16.0).round() as i16;
-            let t_ms = (time_s * 1000.0).round() as u32;
-            if est.push(t_ms, raw).is_ok() {
-                let e = est.estimate().expect("a sample was just pushed");
-                let dt = last_ms.map_or(0.0, |p| t_ms.wrapping_sub(p) as f32 * 1e-3);
-                last_ms = Some(t_ms);
-                let ev = axis.evaluate(&mut st, e.temp_c, e.rate_c_per_min, dt);
-                let te = if ext.sensor_lag.is_some() { st.element_c } else { e.temp_c.clamp(-60.0, 130.0) };
-                cur = (
-                    true,
-                    f64::from(e.temp_c),
-                    f64::from(e.rate_c_per_min),
-                    f64::from(te),
-                    st.branch,
-                    f64::from(ev.k0),
-                );
-                clamped = ev.temp_clamped || ev.rate_clamped;
+        let mut evaluated = false;
+        let mut latest = None;
+        view.row(time_s, temp_c, instant, |seen| {
+            latest = Some(seen.branch);
+            if !seen.reading.stands_for_row {
+                return;
             }
+            evaluated = true;
+            // The model's branch is the firmware's, which also saw the readings between rows:
+            // `Branch::next` of the branch after this reading, at this reading's Ṫ, is itself.
+            st.branch = seen.branch;
+            let e = seen.estimate;
+            let dt = last_ms.map_or(0.0, |p| seen.reading.clock_ms.wrapping_sub(p) as f32 * 1e-3);
+            last_ms = Some(seen.reading.clock_ms);
+            let ev = axis.evaluate(&mut st, e.temp_c, e.rate_c_per_min, dt);
+            let te = if ext.sensor_lag.is_some() { st.element_c } else { e.temp_c.clamp(-60.0, 130.0) };
+            cur = (
+                true,
+                f64::from(e.temp_c),
+                f64::from(e.rate_c_per_min),
+                f64::from(te),
+                seen.branch,
+                f64::from(ev.k0),
+                ev.temp_clamped || ev.rate_clamped,
+            );
+        });
+        // The reading that stands for the row was refused (a time not after the previous
+        // one): the row keeps the previous row's state, as the firmware keeps its last good
+        // coefficients; its branch is the firmware's after the row's readings.
+        if let (false, Some(branch)) = (evaluated, latest) {
+            cur.4 = branch;
         }
-        tr.clamped.push(clamped);
         tr.valid.push(cur.0);
         tr.temp_c.push(cur.1);
         tr.rate_c_per_min.push(cur.2);
         tr.model_temp_c.push(cur.3);
         tr.branch.push(cur.4);
         tr.ext_k0_g.push(cur.5);
+        tr.clamped.push(cur.6);
     }
     tr
 }

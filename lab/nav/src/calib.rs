@@ -341,7 +341,7 @@ pub fn calibrate_unit_on(
         (f.hysteresis.clone(), vec!["not run".to_string()])
     };
     let coverage = CalCoverage {
-        covered: Coverage::of_log(&log, &ids, qfa_log::pairing::branch_deadband_c_per_min())?,
+        covered: Coverage::of_log(&log, &ids, qfa_log::replay::branch_deadband_c_per_min())?,
         table: TableLimits::of(&f.hysteresis)?,
         programs: ids.clone(),
     };
@@ -403,7 +403,7 @@ pub fn table3(axes: [&Table; 3]) -> Result<Table, CalibError> {
 pub fn table3_with(axes: [&Table; 3], misalignment: Option<[f32; 9]>) -> Result<Table, CalibError> {
     for t in axes {
         crate::ensure(t.axes.len() == 1, CalibError::NotOneAxis)?;
-        crate::ensure(usize::from(t.rate_window) == qfa_log::pairing::RATE_WINDOW, CalibError::RateWindow)?;
+        crate::ensure(usize::from(t.rate_window) == qfa_log::replay::RATE_WINDOW, CalibError::RateWindow)?;
     }
     qfa_calibrate::fit::table_of_axes_with(
         qfa_thermal::Input::PulseCounts,

@@ -99,7 +99,7 @@ pub fn mission_coverage(sc: &Scenario) -> Result<Coverage, PlanError> {
         let t = chain.step(profile.at(k as f64));
         s.push((t.case_c, t.case_rate_c_per_min));
     }
-    Ok(Coverage::of_samples(s.into_iter(), f64::from(qfa_log::pairing::branch_deadband_c_per_min()))?)
+    Ok(Coverage::of_samples(s.into_iter(), f64::from(qfa_log::replay::branch_deadband_c_per_min()))?)
 }
 
 /// The case temperature and exact rate of `programs` through the simulator's chain.
@@ -115,7 +115,7 @@ pub fn program_coverage(programs: &[Program]) -> Result<Coverage, PlanError> {
             s.push((t.case_c, t.case_rate_c_per_min));
         }
     }
-    Ok(Coverage::of_samples(s.into_iter(), f64::from(qfa_log::pairing::branch_deadband_c_per_min()))?)
+    Ok(Coverage::of_samples(s.into_iter(), f64::from(qfa_log::replay::branch_deadband_c_per_min()))?)
 }
 
 /// Judge `lab` against `sc`'s mission.

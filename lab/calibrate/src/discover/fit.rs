@@ -10,7 +10,7 @@
 //! the residuals are formed from: what is scored is what the firmware would run.
 
 use nalgebra::{DMatrix, DVector};
-use qfa_thermal::model::{AxisModel, AxisState, BiasGrid, BranchHysteresis, Creep, Extensions, ScaleFactor, SensorLag};
+use qfa_thermal::model::{AxisModel, BiasGrid, BranchHysteresis, Creep, Extensions, ScaleFactor, SensorLag};
 
 use super::Start;
 use qfa_log::channels::{Channels, LogKind};
@@ -418,11 +418,9 @@ impl Setup<'_> {
         let t_end = probe.bias.t_end_c();
         let lim = self.rate_limit;
         for tr in &self.ch.traces {
-            let mut st = AxisState::default();
             let mut bi = 0;
             let (mut s6, mut h, mut pl, mut cr) = ([0.0f64; 6], [0.0f64; GRID_POINTS], 0.0, 0.0);
-            for i in 0..tr.est_t.len() {
-                probe.evaluate(&mut st, tr.est_t[i], tr.est_rate[i], tr.dt_s[i]);
+            tr.evaluate_rows(&probe, |i, st, _| {
                 let t = clampf(tr.est_t[i], self.grid_start, t_end);
                 let te = if nl.lag_tau_s.is_some() { st.element_c } else { t };
                 let r = f64::from(clampf(tr.est_rate[i], -lim, lim));
@@ -454,7 +452,7 @@ impl Setup<'_> {
                 if bi < tr.bins.len() && i + 1 == tr.bins[bi].lo {
                     (s6, h, pl, cr) = ([0.0; 6], [0.0; GRID_POINTS], 0.0, 0.0);
                 }
-            }
+            });
         }
         f
     }
@@ -464,11 +462,9 @@ impl Setup<'_> {
     pub(crate) fn predict(&self, model: &AxisModel) -> Vec<(f64, f64)> {
         let mut out = Vec::with_capacity(self.ch.n_bins());
         for tr in &self.ch.traces {
-            let mut st = AxisState::default();
             let mut bi = 0;
             let (mut s1, mut s10) = (0.0f64, 0.0f64);
-            for i in 0..tr.est_t.len() {
-                let e = model.evaluate(&mut st, tr.est_t[i], tr.est_rate[i], tr.dt_s[i]);
+            tr.evaluate_rows(model, |i, _, e| {
                 if bi < tr.bins.len() && i >= tr.bins[bi].lo {
                     s1 += f64::from(e.k1);
                     s10 += f64::from(e.k1) * f64::from(e.k0);
@@ -478,7 +474,7 @@ impl Setup<'_> {
                     (s1, s10) = (0.0, 0.0);
                     bi += 1;
                 }
-            }
+            });
         }
         out
     }

@@ -2,6 +2,7 @@
 //! (ramps by rate and temperature band, holds by time since the last change).
 
 use super::*;
+use qfa_log::replay::Motion;
 
 /// Localize the disagreement of held-out residuals `r`: worst segments per channel.
 #[must_use]
@@ -24,19 +25,18 @@ pub(crate) fn localize(ch: &Channels, r: &Residuals, top: usize) -> Vec<Where> {
         let mut row = 0;
         for b in &t.bins {
             while row < b.hi {
-                if t.est_rate[row].abs() > 0.05 {
+                if Motion::direction(f64::from(t.est_rate[row])) != Motion::Holding {
                     last_change = t.time_s[row];
                 }
                 row += 1;
             }
-            let m = (b.hi - b.lo) as f64;
-            let tm: f64 = t.est_t[b.lo..b.hi].iter().map(|&x| f64::from(x)).sum::<f64>() / m;
-            let rm: f64 = t.est_rate[b.lo..b.hi].iter().map(|&x| f64::from(x)).sum::<f64>() / m;
+            let (tm, rm) = t.bin_means(b);
             let band = (tm / width).floor() * width;
-            let seg = if rm.abs() > 0.05 {
+            let motion = Motion::direction(rm);
+            let seg = if motion != Motion::Holding {
                 format!(
                     "{} ramps {rate:.1} °C/min, {band:.0}..{:.0} °C",
-                    if rm > 0.0 { "heating" } else { "cooling" },
+                    if motion == Motion::Heating { "heating" } else { "cooling" },
                     band + width
                 )
             } else {

@@ -6,9 +6,9 @@
 //! # Workflow
 //! 1. **Channels** ([`qfa_log::channels`]): pair the ±1 g runs of each program by time,
 //!    `K1 = (A₊ − A₋)/2`, `K0 = (A₊ + A₋)/(2·K1)`, average into 60-s bins; T and Ṫ come
-//!    from the root crate's `RateEstimator<32>` on raw = round(16·T), the mean of the two
-//!    runs' readings, fed at the firmware's 1-s reading period (readings between rows
-//!    filled in) and taken at the middle of each cycling row's counting interval. A
+//!    from the firmware's view of the mean of the two runs' readings
+//!    ([`qfa_log::replay`], the one calibration and `compensate` take: the 1-s readings
+//!    filled in between rows, a cycling row seen at the middle of its counting interval). A
 //!    single-channel log `time_s,temp_c,value` is the bias channel.
 //! 2. **Start model** ([`Start`]): `simple` = K1 and K0 linear in ΔT (Eq. 3–4, the bias
 //!    on a 16-point grid with equal branches); `paper` = Eq. 11 and a single-valued bias

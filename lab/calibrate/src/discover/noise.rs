@@ -534,20 +534,12 @@ pub(crate) const CORNER_SKIP_S: f64 = 1800.0;
 /// Per bin, in the order of the log's bins: whether a split may fall before it, i.e. it is
 /// [`CORNER_SKIP_S`] or more after the last corner of its trace.
 fn split_allowed(ch: &Channels) -> Vec<bool> {
-    let deadband = f64::from(qfa_log::pairing::branch_deadband_c_per_min());
     let mut out = Vec::with_capacity(ch.n_bins());
     for t in &ch.traces {
         let (mut last, mut class, mut row) = (f64::NEG_INFINITY, None::<i8>, 0);
         for b in &t.bins {
             while row < b.hi {
-                let r = f64::from(t.est_rate[row]);
-                let c = if r > deadband {
-                    1
-                } else if r < -deadband {
-                    -1
-                } else {
-                    0
-                };
+                let c = qfa_log::replay::Motion::of(f64::from(t.est_rate[row])).sign();
                 if class.is_some_and(|k| k != c) {
                     last = t.time_s[row];
                 }

@@ -55,7 +55,7 @@ pub(crate) fn table(report: &Report, input: Input) -> Option<Table> {
     // `write` validates before `table.bin` and says why when it cannot.
     let mut t = Table {
         input,
-        rate_window: qfa_log::pairing::RATE_WINDOW as u16,
+        rate_window: qfa_log::replay::RATE_WINDOW as u16,
         axes: Default::default(),
         misalignment: None,
         part_lsb_per_g: None,
@@ -566,16 +566,8 @@ fn rows(ch: &Channels) -> Vec<Row> {
     let mut v = Vec::new();
     for (ti, t) in ch.traces.iter().enumerate() {
         for b in &t.bins {
-            let m = (b.hi - b.lo) as f64;
-            let tm = t.est_t[b.lo..b.hi].iter().map(|&x| f64::from(x)).sum::<f64>() / m;
-            let rm = t.est_rate[b.lo..b.hi].iter().map(|&x| f64::from(x)).sum::<f64>() / m;
-            let dir = if rm > 0.05 {
-                1
-            } else if rm < -0.05 {
-                -1
-            } else {
-                0
-            };
+            let (tm, rm) = t.bin_means(b);
+            let dir = qfa_log::replay::Motion::direction(rm).sign();
             v.push(Row { trace: ti, time_s: b.time_s, temp_c: tm, dir });
         }
     }

@@ -17,7 +17,7 @@ use qfa_report::verdict::Verdict;
 /// No row with a temperature.
 pub(crate) fn coverage(ch: &Channels) -> Result<Coverage, CoverageError> {
     let s = ch.traces.iter().flat_map(|t| t.est_t.iter().zip(&t.est_rate).map(|(&a, &r)| (f64::from(a), f64::from(r))));
-    Coverage::of_samples(s, f64::from(qfa_log::pairing::branch_deadband_c_per_min()))
+    Coverage::of_samples(s, f64::from(qfa_log::replay::branch_deadband_c_per_min()))
 }
 
 /// The caption's sentence for a `channel` whose residual wanders more than twice its white

@@ -41,7 +41,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use qfa_thermal::model::{AxisModel, AxisState};
+use qfa_thermal::model::AxisModel;
 use serde::Serialize;
 
 use super::output::{write_file, write_json, Scope};
@@ -179,11 +179,9 @@ fn row_bias(log: &StaticLog, model: &AxisModel, drift_per_h: f64, bin_s: f64) ->
     let all: Vec<usize> = (0..n).collect();
     let tr = Trace::new(String::new(), &rows_of(log, &all), None, &zeros, bin_s);
     let mut out = vec![None; n];
-    let mut st = AxisState::default();
     let t0 = tr.time_s.first().copied().unwrap_or(0.0);
     let mut i = 0;
-    for j in 0..tr.time_s.len() {
-        let e = model.evaluate(&mut st, tr.est_t[j], tr.est_rate[j], tr.dt_s[j]);
+    tr.evaluate_rows(model, |j, _, e| {
         // The trace keeps a subset of the rows, in order, with their times unchanged.
         while i < n && log.time_s[i] != tr.time_s[j] {
             i += 1;
@@ -191,7 +189,7 @@ fn row_bias(log: &StaticLog, model: &AxisModel, drift_per_h: f64, bin_s: f64) ->
         if i < n {
             out[i] = Some(f64::from(e.k0) + drift_per_h * (tr.time_s[j] - t0) / 3600.0);
         }
-    }
+    });
     out
 }
 

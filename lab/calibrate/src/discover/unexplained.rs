@@ -39,6 +39,7 @@ use super::fit::{Effect, Residuals};
 use super::noise::{self, BranchLevel, ChangePoint, NoiseModel, NoiseTest, NoisyRun};
 use super::{localize, noise_floor, stats, Channels, LogKind, ALPHA};
 use crate::metrics::rms_of_finite as rms;
+use qfa_log::replay::Motion;
 
 /// Length of the moving mean that separates slow from fast, s.
 const SLOW_WINDOW_S: f64 = 3600.0;
@@ -234,27 +235,6 @@ pub(crate) fn noise_tests(ch: &Channels, cur: &Residuals) -> Vec<NoiseTest> {
         .collect()
 }
 
-/// Each bin's temperature slope, °C/min: central differences of the bins' mean
-/// temperatures `temp` over their times within a trace (one-sided at its ends), over two
-/// bin spacings (two minutes at a cycling log's 60-s bins). The estimator's Ṫ row by row
-/// is noisier: on the second
-/// generator's logs a 0.3-°C/min ramp's swings between 0.19 and 0.37 °C/min with the
-/// sensor's 1/16-°C steps, where the bins' slope stays within a few hundredths.
-fn temperature_slope(ch: &Channels, temp: &[f64]) -> Vec<f64> {
-    let mut out = Vec::with_capacity(temp.len());
-    let mut o = 0;
-    for t in &ch.traces {
-        let m = t.bins.len();
-        for i in 0..m {
-            let (a, b) = (i.saturating_sub(1), (i + 1).min(m - 1));
-            let dt = t.bins[b].time_s - t.bins[a].time_s;
-            out.push(if dt > 0.0 { 60.0 * (temp[o + b] - temp[o + a]) / dt } else { 0.0 });
-        }
-        o += m;
-    }
-    out
-}
-
 /// A cycling log's residual of each position's reading, in the bias unit: `+1 g reading`
 /// = bias + scale factor, `−1 g reading` = bias − scale factor (with `A = K1·(K0 + a)`, a
 /// change δ in one position's reading moves K1 by ±δ/2 (as a fraction) and K0 by δ/2, so
@@ -379,25 +359,33 @@ pub(crate) fn time_scales(ch: &Channels, r: &[f64]) -> TimeScales {
 }
 
 /// Per-bin drivers the leftover residual is tested against. The branch (±1, 0 before the
-/// first ramp; a dwell keeps the ramp's before it) and the time since a reversal follow
-/// the sign of the bins' temperature slope ([`temperature_slope`]) past
-/// [`BRANCH_RATE_C_PER_MIN`], not the estimator's Ṫ row by row. That Ṫ crosses
-/// ±0.05 °C/min on its own in a dwell (the sensor's noise and 1/16-°C steps), and the
-/// branch then flipped there for a bin or two, with a "reversal" that restarted the time
-/// since one. On the second generator's draw 1344 (a 1.7-ppm scale-factor hysteresis with
-/// noise growing with temperature) the branch test read |z| 1.8 against 2.24 and the log
-/// was silent; with the bins' slope, 3.8. Of its 100 clean logs, 4 were over 2.24 before
-/// and none now (the largest 2.2).
+/// first ramp) is the direction the temperature moves: the rule of `Branch::next` (past
+/// the threshold heating or cooling, within it the branch held, [`Motion::against`])
+/// applied to the bins' temperature slope ([`temperature_slope`]), [`Motion::direction`];
+/// the time since a reversal restarts where it flips.
+///
+/// It is not the branch the table is read on, and on purpose: the question here is which
+/// physical effect the residual follows, and a unit's hysteresis turns with the
+/// temperature, not with the firmware's deadband (0.182 °C/min, the flicker floor of its
+/// 32-s estimator on 1/16-°C codes). On the second generator's clean draw 33 with a ±4-ppm
+/// scale-factor hysteresis the level by branch read 2.2 ppm (z 6.9) with this direction,
+/// 0.94 ppm (z 2.9) with the firmware's branch row by row, and was not found with the
+/// slope against the firmware's deadband; 31 of its 1 508 bins differ between the last two,
+/// the bins after each reversal, where the level is largest. The input is the slope, not
+/// the estimator's Ṫ row by row: that Ṫ crosses the threshold on its own in a dwell (the
+/// sensor's noise and 1/16-°C steps) and the branch then flipped for a bin or two (draw
+/// 1344, a 1.7-ppm hysteresis with noise growing with temperature: |z| 1.8 against 2.24
+/// with the row's Ṫ, 3.8 with the slope).
 pub(crate) fn drivers(ch: &Channels) -> Vec<(&'static str, Vec<f64>)> {
     let n = ch.n_bins();
     let (mut since, mut temp, mut rate) = (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
     for t in &ch.traces {
         let t0 = t.time_s.first().copied().unwrap_or(0.0);
         for b in &t.bins {
-            let m = (b.hi - b.lo) as f64;
+            let (tm, rm) = t.bin_means(b);
             since.push((b.time_s - t0) / 3600.0);
-            temp.push(t.est_t[b.lo..b.hi].iter().map(|&x| f64::from(x)).sum::<f64>() / m);
-            rate.push(t.est_rate[b.lo..b.hi].iter().map(|&x| f64::from(x)).sum::<f64>() / m);
+            temp.push(tm);
+            rate.push(rm);
         }
     }
     let slope = temperature_slope(ch, &temp);
@@ -405,17 +393,17 @@ pub(crate) fn drivers(ch: &Channels) -> Vec<(&'static str, Vec<f64>)> {
     let mut o = 0;
     for t in &ch.traces {
         let t0 = t.time_s.first().copied().unwrap_or(0.0);
-        let (mut last_rev, mut dir) = (t0, 0.0f64);
+        let (mut last_rev, mut dir) = (t0, 0i8);
         for (i, b) in t.bins.iter().enumerate() {
-            let s = slope[o + i];
-            if s.abs() > BRANCH_RATE_C_PER_MIN && s.signum() != dir {
-                if dir != 0.0 {
+            let d = Motion::direction(slope[o + i]).sign();
+            if d != 0 && d != dir {
+                if dir != 0 {
                     last_rev = b.time_s;
                 }
-                dir = s.signum();
+                dir = d;
             }
             rev.push((b.time_s - last_rev) / 3600.0);
-            branch.push(dir);
+            branch.push(f64::from(dir));
         }
         o += t.bins.len();
     }
@@ -428,9 +416,26 @@ pub(crate) fn drivers(ch: &Channels) -> Vec<(&'static str, Vec<f64>)> {
     ]
 }
 
-/// A bin's temperature slope must pass this, °C/min, to set the branch: the rate at which
-/// the localizer tells a ramp from a dwell.
-const BRANCH_RATE_C_PER_MIN: f64 = 0.05;
+/// Each bin's temperature slope, °C/min: central differences of the bins' mean
+/// temperatures `temp` over their times within a trace (one-sided at its ends), over two
+/// bin spacings (two minutes at a cycling log's 60-s bins). The estimator's Ṫ row by row
+/// is noisier: on the second
+/// generator's logs a 0.3-°C/min ramp's swings between 0.19 and 0.37 °C/min with the
+/// sensor's 1/16-°C steps, where the bins' slope stays within a few hundredths.
+fn temperature_slope(ch: &Channels, temp: &[f64]) -> Vec<f64> {
+    let mut out = Vec::with_capacity(temp.len());
+    let mut o = 0;
+    for t in &ch.traces {
+        let m = t.bins.len();
+        for i in 0..m {
+            let (a, b) = (i.saturating_sub(1), (i + 1).min(m - 1));
+            let dt = t.bins[b].time_s - t.bins[a].time_s;
+            out.push(if dt > 0.0 { 60.0 * (temp[o + b] - temp[o + a]) / dt } else { 0.0 });
+        }
+        o += m;
+    }
+    out
+}
 
 /// Cross-fitted quadratic in `x` of the residual `r`: each fold's bins predicted from a
 /// fit on the other fold. NaN where `r` is NaN.

@@ -9,6 +9,7 @@ use qfa_thermal::{AxisModel, BiasGrid, Extensions, ScaleFactor};
 
 use crate::fit::*;
 use qfa_log::pairing::Trace;
+use qfa_log::replay::RowInstant;
 
 /// How the two bias branches are tied in a static fit.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -205,7 +206,7 @@ impl StaticSeries<'_> {
     #[must_use]
     pub(crate) fn model_trace_until(&self, axis: &AxisModel, end: usize) -> Trace {
         let end = end.min(self.time_s.len());
-        qfa_log::pairing::trace_axis(self.rows().take(end), end, axis)
+        qfa_log::pairing::trace_axis(self.rows().take(end), end, axis, RowInstant::OwnReading)
     }
 }
 

@@ -121,7 +121,7 @@ impl Default for StaticCalOptions {
         Self {
             grid_points: 16,
             block: 10,
-            deadband_c_per_min: qfa_log::pairing::branch_deadband_c_per_min(),
+            deadband_c_per_min: qfa_log::replay::branch_deadband_c_per_min(),
             candidates: candidates(),
             holdout: Holdout::Auto,
             part_lsb_per_g: None,
