@@ -1,0 +1,85 @@
+//! The lab's concepts that decide its answers exist once. Each check reads the lab's
+//! library sources (their test modules left out) and names every place that breaks it.
+//!
+//! - The firmware's view of a log's temperatures (`qfa_log::replay`): the only module that
+//!   constructs the rate estimator or turns a temperature into a DS18B20 code. The
+//!   simulator's sensor quantizes on its own side of the seam (it is the sensor), so
+//!   `lab/sim` is not searched for the rounding, nor the navigation study's fault injector,
+//!   which adds a spike to the sensor's codes.
+//! - Heating, cooling and holding: `replay::Motion` and the firmware's `Branch::next`, the
+//!   only comparisons of a rate with the branch deadband.
+
+use std::path::{Path, PathBuf};
+
+/// Library sources under `dir`, each with its text up to its test module.
+fn sources(dir: &Path) -> Vec<(PathBuf, String)> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).expect("a lab source folder").flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                if p.file_name().is_some_and(|n| n != "tests" && n != "examples") {
+                    stack.push(p);
+                }
+            } else if p.extension().is_some_and(|x| x == "rs") && p.to_string_lossy().contains("/src/") {
+                let text = std::fs::read_to_string(&p).expect("readable source");
+                let library = text.split("\n#[cfg(test)]").next().unwrap_or("").to_string();
+                out.push((p, library));
+            }
+        }
+    }
+    out
+}
+
+fn lab() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).to_path_buf()
+}
+
+/// Lines of `files` (outside `allowed`) containing any of `needles`, as `file:line: text`.
+fn offenders(files: &[(PathBuf, String)], needles: &[&str], allowed: &[&str]) -> Vec<String> {
+    let mut out = Vec::new();
+    for (p, text) in files {
+        let rel = p.strip_prefix(lab()).unwrap_or(p).to_string_lossy().to_string();
+        if allowed.iter().any(|a| rel == *a) {
+            continue;
+        }
+        for (i, line) in text.lines().enumerate() {
+            let code = line.split("//").next().unwrap_or("");
+            if needles.iter().any(|n| code.contains(n)) {
+                out.push(format!("{rel}:{}: {}", i + 1, line.trim()));
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn the_firmware_view_of_a_log_is_built_in_one_module() {
+    let files = sources(&lab());
+    assert!(files.len() > 50, "only {} lab sources found: the walk is broken", files.len());
+    let estimator = offenders(&files, &["RateEstimator::new", "RateEstimator::<"], &["log/src/replay.rs"]);
+    assert!(
+        estimator.is_empty(),
+        "the rate estimator is constructed outside qfa_log::replay:\n{}",
+        estimator.join("\n")
+    );
+    let without_sim: Vec<_> = files.iter().filter(|(p, _)| !p.starts_with(lab().join("sim"))).cloned().collect();
+    let rounding = offenders(
+        &without_sim,
+        &["* 16.0).round", "*16.0).round"],
+        &["log/src/replay.rs", "nav/src/fault_injection.rs"],
+    );
+    assert!(
+        rounding.is_empty(),
+        "a temperature is rounded to a code outside qfa_log::replay:\n{}",
+        rounding.join("\n")
+    );
+}
+
+#[test]
+fn heating_cooling_and_holding_are_told_apart_in_one_place() {
+    let files = sources(&lab());
+    let compare = offenders(&files, &["> deadband", "< -deadband", "> 0.05 {", "< -0.05 {"], &["log/src/replay.rs"]);
+    assert!(compare.is_empty(), "a rate is classified outside replay::Motion:\n{}", compare.join("\n"));
+}
