@@ -12,10 +12,10 @@
 //!
 //! # Trace
 //! [`trace_run`] replays a run's `temp_c` column through the firmware's view
-//! ([`crate::replay`]: its readings, its `RateEstimator<32>`) and `AxisModel::evaluate` on
-//! every reading, in the compensator's order, so the fit sees exactly the T̂, Ṫ, branch,
-//! element temperature and extension-slot states the firmware will see; a run's row (its
-//! pulses counted over the row's interval) is seen at the interval's centre.
+//! ([`crate::replay`]: its readings, its `RateEstimator<32>`, its branch) and
+//! `AxisModel::evaluate` once per row ([`trace_axis`] says why not on every reading), so
+//! the fit sees the T̂, Ṫ and branch the firmware will see; a run's row (its pulses counted
+//! over the row's interval) is seen at the interval's centre.
 
 use qfa_thermal::model::{AxisState, Branch};
 use qfa_thermal::{AxisModel, BiasGrid, Extensions, ScaleFactor};

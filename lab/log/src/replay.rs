@@ -287,6 +287,12 @@ impl FirmwareView {
 mod tests {
     use super::*;
 
+    /// The replay's reading period is the firmware's default sensor period.
+    #[test]
+    fn the_reading_period_is_the_firmwares() {
+        assert_eq!(READING_PERIOD_S * 1000.0, f64::from(qfa_thermal::Config::default().sample_period_ms));
+    }
+
     /// Ties go to even codes on both sides of 0 °C: ±1/32 °C reads 0, ±3/32 °C reads ±2/16.
     #[test]
     fn half_codes_round_to_even_codes() {
