@@ -1003,8 +1003,7 @@ fn batch_cmd(a: BatchCli) -> Result<(), CliError> {
         // As `calibrate`: the default limits are reported but change no exit status; a unit
         // that could not be calibrated always does.
         let [_, _, fail] = fleet.counts;
-        let uncalibrated =
-            fleet.unit.iter().filter(|u| u.reasons.iter().any(|r| r.starts_with("not calibrated"))).count();
+        let uncalibrated = fleet.unit.iter().filter(|u| !u.calibrated).count();
         if (fail > 0 && limits.file.is_some()) || uncalibrated > 0 {
             return Err(CliError::UnitsFailed(if limits.file.is_some() { fail } else { uncalibrated }));
         }

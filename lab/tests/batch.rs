@@ -207,6 +207,7 @@ fn a_refused_unit_fails_alone_with_its_reason() {
     let fleet = run.fleet.unwrap();
     assert_eq!(fleet.unit[1].decision, Decision::Fail);
     assert!(fleet.unit[1].reasons[0].starts_with("not calibrated: "), "{:?}", fleet.unit[1].reasons);
+    assert_eq!(fleet.unit.iter().map(|u| u.calibrated).collect::<Vec<_>>(), [true, false, true]);
     assert!(matches!(run.results[1].1.outcome, UnitOutcome::Failed { .. }));
     for i in [0, 2] {
         assert!(matches!(run.results[i].1.outcome, UnitOutcome::Calibrated(_)), "unit {i}");

@@ -144,6 +144,9 @@ pub struct FleetUnit {
     pub serial: String,
     /// Decision.
     pub decision: Decision,
+    /// The unit got a table (else it FAILs, `reasons` saying why): what a command's exit
+    /// status is decided by, never the reasons' text.
+    pub calibrated: bool,
     /// Why, one line each (empty on PASS).
     pub reasons: Vec<String>,
     /// Figures outside the population.
@@ -452,6 +455,7 @@ fn fleet_units(
             FleetUnit {
                 serial: r.serial.clone(),
                 decision,
+                calibrated: matches!(r.outcome, UnitOutcome::Calibrated(_)),
                 reasons,
                 flags: flags[i].clone(),
                 partial: partial[i],
