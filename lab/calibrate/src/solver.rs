@@ -67,6 +67,50 @@ pub(crate) fn lstsq_matrix(mut m: DMatrix<f64>, y: &DVector<f64>) -> Result<LsRe
     Ok(LsResult { coef, cond, rms, rows: n })
 }
 
+/// A least-squares problem `min ‖A·c − y‖` reduced to `p` equations by the Householder QR
+/// that [`lstsq_matrix`] also starts with: `A = Q·R`, so `‖A·c − y‖² = ‖R·c − Qᵀy‖² + const`
+/// over the first `p` entries of `Qᵀy`. A caller that must keep a problem's statistics
+/// without its rows (a batch unit's, for the fleet's prior) keeps `R` and `Qᵀy`, and solves
+/// later by stacking them with other equations into [`lstsq_matrix`]: never `AᵀA`, which
+/// squares the condition number.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct Reduced {
+    /// `R`, `p × p` upper triangular (zero rows where `A` had fewer than `p`).
+    pub r: DMatrix<f64>,
+    /// `Qᵀy`'s first `p` entries, one vector per right-hand side.
+    pub qty: Vec<DVector<f64>>,
+}
+
+/// [`Reduced`] of `A` for each right-hand side in `ys` (each of `A`'s row count).
+#[must_use]
+pub(crate) fn reduce(a: DMatrix<f64>, ys: &[DVector<f64>]) -> Reduced {
+    let (n, p) = a.shape();
+    let k = n.min(p);
+    let qr = a.qr();
+    let mut r = DMatrix::zeros(p, p);
+    r.rows_mut(0, k).copy_from(&qr.r());
+    let qty = ys
+        .iter()
+        .map(|y| {
+            let mut v = y.clone();
+            qr.q_tr_mul(&mut v);
+            let mut z = DVector::zeros(p);
+            z.rows_mut(0, k).copy_from(&v.rows(0, k));
+            z
+        })
+        .collect();
+    Reduced { r, qty }
+}
+
+/// Rows `W` with `Wᵀ·W = Σ⁻¹` for a positive definite covariance `Σ` (`W = L⁻¹`, `Σ = L·Lᵀ`):
+/// a Gaussian prior `c ~ N(μ, Σ)` enters [`lstsq_matrix`] as the equations `W·c ≈ W·μ`,
+/// so a posterior is one stacked solve. `None` when `Σ` is not positive definite.
+#[must_use]
+pub(crate) fn prior_rows(cov: DMatrix<f64>) -> Option<DMatrix<f64>> {
+    let p = cov.nrows();
+    cov.cholesky()?.l().solve_lower_triangular(&DMatrix::identity(p, p))
+}
+
 /// The lab's one smoothness regulariser of a bias grid, for every fitter that has one
 /// (the cycling and static fits, discovery): one row per interior node,
 /// `weight·(c[off+i−1] − 2·c[off+i] + c[off+i+1]) = 0`, over the `g` nodes at column `off`

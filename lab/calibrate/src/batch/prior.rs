@@ -4,19 +4,20 @@
 //! # The model
 //! Per axis, every unit's bias is `θ · x(T, branch)` with
 //! `x = [1, u, u², u³, ±½]`, `u = (T − 25 °C) / 50 °C` (the common form of
-//! [`super::unit`], scaled so the 5 × 5 normal equations stay well conditioned; `±½` is
+//! [`super::unit`], scaled so the basis's columns are of one size; `±½` is
 //! the heating/cooling split). The fleet's units are draws `θ ~ N(μ, Σ)`; `μ` and `Σ` are
 //! the mean and covariance of the full-coverage, unflagged units' own least-squares `θ`
 //! (their sampling error is small beside the spread: the descriptor recovers each unit's
-//! slope to 1/25 of it, `lab/tests/batch.rs`). A unit's rows give `AᵀA θ ≈ Aᵀy` with the
+//! slope to 1/25 of it, `lab/tests/batch.rs`). A unit's rows give `A θ ≈ y` with the
 //! noise variance `σ²` measured on its own residuals: the variance of their 60-s means,
 //! times the rows per mean, so slow residuals count as what they are, not as white noise.
-//! The posterior mean is `(AᵀA/σ² + Σ⁻¹)⁻¹ (Aᵀy/σ² + Σ⁻¹μ)`: where the rows determine a
+//! The posterior mean is `(AᵀA/σ² + Σ⁻¹)⁻¹ (Aᵀy/σ² + Σ⁻¹μ)` (solved as stacked least squares by
+//! the lab's one solver, never formed): where the rows determine a
 //! direction of `θ` the data win, where they cannot (the split on a heating-only log, the
 //! curvature beyond a short span) the fleet does.
 //!
-//! The unit's stage stores its sufficient statistics (`AᵀA`, `Aᵀy`, `σ²`, covered bins)
-//! in `unit.json`, so the prior needs no rows at the fleet stage and a merged sharded run
+//! The unit's stage stores its sufficient statistics (the rows reduced by the lab's solver
+//! to `R` and `Qᵀy`, `σ²`, covered bins) in `unit.json`, so the prior needs no rows at the fleet stage and a merged sharded run
 //! forms it as one run would.
 //!
 //! # What is written, and when
@@ -28,7 +29,7 @@
 
 use std::fmt;
 
-use nalgebra::{Matrix5, Vector5};
+use nalgebra::{DMatrix, DVector, Matrix5, Vector5};
 use serde::{Deserialize, Serialize};
 
 use qfa_thermal::model::Branch;
@@ -62,20 +63,26 @@ pub(crate) fn basis(t_c: f64, branch: Branch) -> [f64; 5] {
 pub struct AxisNormal {
     /// Axis.
     pub axis: String,
-    /// `Aᵀy`, y in g.
-    pub aty: [f64; 5],
-    /// The unit's own least-squares `θ` (minimum norm where its rows leave a direction
-    /// undetermined).
+    /// The axis's mean over the unit's rows, g: the constant its tables are measured from.
+    pub mean_g: f64,
+    /// `Qᵀy`'s first five entries (y in g) for the unit's `R` ([`UnitNormal::r`]).
+    pub qty: [f64; 5],
+    /// The unit's own least-squares `θ` (minimum norm, in the column-scaled basis, where its
+    /// rows leave a direction undetermined).
     pub theta: [f64; 5],
     /// Noise variance per row, g² (see the module docs).
     pub sigma2: f64,
 }
 
-/// A unit's sufficient statistics for the prior.
+/// A unit's sufficient statistics for the prior: its rows reduced by the lab's solver
+/// (`‖A·θ − y‖² = ‖R·θ − Qᵀy‖² + const`), so the fleet stage solves without the rows.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct UnitNormal {
-    /// `AᵀA` (rows × basis), row-major; the same for every axis.
-    pub ata: [f64; 25],
+    /// Rows the statistics were formed from.
+    pub rows: usize,
+    /// `R` of the QR of the rows' basis (rows × 5), row-major, upper triangular; the same
+    /// for every axis.
+    pub r: [f64; 25],
     /// Per axis.
     pub axes: Vec<AxisNormal>,
     /// 1-°C bins covered: `(bin, heating)`, bin = floor(T).
@@ -88,27 +95,24 @@ pub struct UnitNormal {
 pub(crate) fn normal_of(time_s: &[f64], temp_c: &[f64], branch: &[Branch], axes: &[(&str, &[f64])]) -> UnitNormal {
     let n = temp_c.len();
     let xs: Vec<[f64; 5]> = (0..n).map(|i| basis(temp_c[i], branch[i])).collect();
-    let mut ata = Matrix5::<f64>::zeros();
-    for x in &xs {
-        let v = Vector5::from_row_slice(x);
-        ata += v * v.transpose();
-    }
-    let pinv = ata.pseudo_inverse(1e-12 * ata.norm()).unwrap_or_else(|_| Matrix5::zeros());
+    let ys: Vec<DVector<f64>> = axes.iter().map(|(_, y)| DVector::from_column_slice(&y[..n])).collect();
+    let reduced = crate::solver::reduce(DMatrix::from_fn(n, 5, |i, j| xs[i][j]), &ys);
     let out_axes = axes
         .iter()
-        .map(|(name, y)| {
-            let mut aty = Vector5::<f64>::zeros();
-            for (x, v) in xs.iter().zip(y.iter()) {
-                aty += Vector5::from_row_slice(x) * *v;
-            }
-            let theta = pinv * aty;
+        .zip(&reduced.qty)
+        .map(|((name, y), qty)| {
+            let theta: [f64; 5] = crate::solver::lstsq_matrix(reduced.r.clone(), qty)
+                .ok()
+                .and_then(|ls| ls.coef.try_into().ok())
+                .unwrap_or([0.0; 5]);
             // Residual means over NOISE_MEAN_S: their variance × rows per mean.
-            let resid = xs.iter().zip(y.iter()).map(|(x, v)| v - Vector5::from_row_slice(x).dot(&theta));
+            let resid = xs.iter().zip(y.iter()).map(|(x, v)| v - x.iter().zip(&theta).map(|(a, c)| a * c).sum::<f64>());
             let means = crate::metrics::time_bin_means(resid, time_s, NOISE_MEAN_S);
             let m = means.len().max(1) as f64;
             let mean_rows = means.iter().map(|b| b.2).sum::<usize>() as f64 / m;
             let sigma2 = means.iter().map(|b| b.1 * b.1).sum::<f64>() / m * mean_rows;
-            AxisNormal { axis: (*name).to_string(), aty: aty.into(), theta: theta.into(), sigma2 }
+            let mean_g = y.iter().take(n).sum::<f64>() / n.max(1) as f64;
+            AxisNormal { axis: (*name).to_string(), mean_g, qty: array5(qty.as_slice()), theta, sigma2 }
         })
         .collect();
     let mut count: std::collections::BTreeMap<(i32, bool), usize> = std::collections::BTreeMap::new();
@@ -118,10 +122,24 @@ pub(crate) fn normal_of(time_s: &[f64], temp_c: &[f64], branch: &[Branch], axes:
         }
     }
     UnitNormal {
-        ata: ata.transpose().as_slice().try_into().unwrap_or([0.0; 25]),
+        rows: n,
+        r: array25(&reduced.r.transpose()),
         axes: out_axes,
         covered: count.into_iter().filter(|(_, c)| *c >= BIN_ROWS).map(|(k, _)| k).collect(),
     }
+}
+
+fn array5(v: &[f64]) -> [f64; 5] {
+    let mut out = [0.0; 5];
+    out.iter_mut().zip(v).for_each(|(o, x)| *o = *x);
+    out
+}
+
+/// A 5 × 5 matrix's column-major entries (pass the transpose for row-major).
+fn array25(m: &DMatrix<f64>) -> [f64; 25] {
+    let mut out = [0.0; 25];
+    out.iter_mut().zip(m.as_slice()).for_each(|(o, x)| *o = *x);
+    out
 }
 
 /// The fleet's population per axis: mean and covariance of `θ`.
@@ -170,21 +188,30 @@ pub(crate) fn population(reference: &[&UnitNormal]) -> Vec<Population> {
 }
 
 /// The posterior mean `θ` of one axis of a unit (module docs); `None` when the
-/// population's covariance cannot be inverted (fewer units than directions that vary).
+/// population's covariance is not positive definite.
+///
+/// Solved by the lab's one solver as stacked least squares: the unit's reduced rows
+/// `R·θ ≈ Qᵀy` over `σ`, and the population's `L⁻¹·θ ≈ L⁻¹·μ` with `Σ = L·Lᵀ`, whose
+/// normal equations are the module docs' posterior.
 #[must_use]
 pub(crate) fn posterior(unit: &UnitNormal, axis: usize, pop: &Population) -> Option<[f64; 5]> {
     let a = unit.axes.get(axis)?;
-    let ata = Matrix5::from_row_slice(&unit.ata);
     let cov = Matrix5::from_row_slice(&pop.cov);
     // A floor on the prior's variance per direction (1e-9 of its largest) keeps Σ
-    // invertible when the fleet never varied a coefficient (a split of zero everywhere).
+    // positive definite when the fleet never varied a coefficient (a split of zero everywhere).
     let floor = 1e-9 * cov.diagonal().max().max(f64::MIN_POSITIVE);
-    let prec = (cov + Matrix5::from_diagonal_element(floor)).try_inverse()?;
-    let s2 = a.sigma2.max(f64::MIN_POSITIVE);
-    let lhs = ata / s2 + prec;
-    let rhs = Vector5::from(a.aty) / s2 + prec * Vector5::from(pop.mean);
-    let theta = lhs.try_inverse()? * rhs;
-    theta.iter().all(|v| v.is_finite()).then(|| theta.into())
+    let l_inv = crate::solver::prior_rows(
+        DMatrix::from_row_slice(5, 5, &pop.cov) + DMatrix::from_diagonal_element(5, 5, floor),
+    )?;
+    let s = a.sigma2.max(f64::MIN_POSITIVE).sqrt();
+    let mut m = DMatrix::zeros(10, 5);
+    m.rows_mut(0, 5).copy_from(&(Matrix5::from_row_slice(&unit.r) / s));
+    m.rows_mut(5, 5).copy_from(&l_inv);
+    let mut rhs = DVector::zeros(10);
+    rhs.rows_mut(0, 5).copy_from(&(Vector5::from(a.qty) / s));
+    rhs.rows_mut(5, 5).copy_from(&(&l_inv * DVector::from_column_slice(&pop.mean)));
+    let theta: [f64; 5] = crate::solver::lstsq_matrix(m, &rhs).ok()?.coef.try_into().ok()?;
+    theta.iter().all(|v| v.is_finite()).then_some(theta)
 }
 
 /// The share of the fleet's `span` (°C, both branches) a unit's covered bins hold.
@@ -293,6 +320,28 @@ mod tests {
         assert!((split[0] + 0.5 * split[4] - own[0]).abs() < 1e-5, "{split:?}");
     }
 
+    /// A unit logged over a narrow span (here 0.4 °C, u within 0.008): the cubic's columns
+    /// are nearly collinear, cond(A) about 10⁷, so `AᵀA` (cond 10¹⁴) keeps no digit of the
+    /// cubic term. The rows reduced by QR keep cond(A): exact data are fitted to their rounding.
+    #[test]
+    fn a_narrow_span_is_fitted_without_squaring_its_condition() {
+        let n = 400;
+        let temps: Vec<f64> = (0..n).map(|i| 30.0 + 0.001 * f64::from(i)).collect();
+        let time: Vec<f64> = (0..n).map(f64::from).collect();
+        let own = [0.01, 0.02, -0.3, 5.0, 0.0];
+        let y: Vec<f64> =
+            temps.iter().map(|&t| basis(t, Branch::Heating).iter().zip(&own).map(|(a, b)| a * b).sum()).collect();
+        let u = normal_of(&time, &temps, &[Branch::Heating; 400], &[("ax", &y)]);
+        let theta = u.axes[0].theta;
+        let worst = temps
+            .iter()
+            .zip(&y)
+            .map(|(&t, v)| (basis(t, Branch::Heating).iter().zip(&theta).map(|(a, b)| a * b).sum::<f64>() - v).abs())
+            .fold(0.0, f64::max);
+        // Independent check: the residual of an exact cubic is rounding, far below 1 ng.
+        assert!(worst < 1e-12, "worst residual {worst:e} g, theta {theta:?}");
+    }
+
     #[test]
     fn a_unit_without_a_population_gets_no_prior_table_and_is_told_which_axis() {
         let temps: Vec<f64> = (0..100).map(|i| 20.0 + 0.1 * f64::from(i)).collect();
@@ -324,8 +373,8 @@ pub struct PriorUse {
 pub enum PriorError {
     /// The fleet has no population for this axis of the unit.
     NoPopulation(String),
-    /// The posterior of this axis cannot be formed: the population's covariance, or the
-    /// posterior's normal equations, cannot be inverted.
+    /// The posterior of this axis cannot be formed: the population's covariance is not
+    /// positive definite, or the stacked solve failed.
     NotInvertible(String),
     /// The table of the posterior curves was refused.
     Table(FitError),
@@ -362,13 +411,12 @@ pub fn prior_table(
     span: (f64, f64),
     deadband: f32,
 ) -> Result<qfa_thermal::Table, PriorError> {
-    let n_rows = unit.ata[0].max(1.0);
     let mut axes = Vec::new();
     for (k, a) in unit.axes.iter().enumerate() {
         let pop = pops.iter().find(|p| p.axis == a.axis).ok_or_else(|| PriorError::NoPopulation(a.axis.clone()))?;
         let theta = posterior(unit, k, pop).ok_or_else(|| PriorError::NotInvertible(a.axis.clone()))?;
         // The bias is measured from the unit's own mean over its rows, as its own table's.
-        axes.push(axis_model(&theta, span, a.aty[0] / n_rows, deadband));
+        axes.push(axis_model(&theta, span, a.mean_g, deadband));
     }
     crate::fit::table_of_axes(qfa_thermal::Input::Samples, axes).map_err(PriorError::Table)
 }

@@ -452,7 +452,7 @@ pub(crate) fn cross_fit(r: &[f64], x: &[f64], masks: &[Vec<bool>], trains: &[Vec
         }
         let a = nalgebra::DMatrix::from_fn(rows.len(), 3, |k, j| z(rows[k]).powi(j as i32));
         let y = nalgebra::DVector::from_fn(rows.len(), |k, _| r[rows[k]]);
-        let Ok(c) = a.svd(true, true).solve(&y, 1e-12) else { continue };
+        let Ok(c) = crate::solver::lstsq_matrix(a, &y).map(|ls| ls.coef) else { continue };
         for &i in fin.iter().filter(|&&i| test[i]) {
             out[i] = c[0] + c[1] * z(i) + c[2] * z(i).powi(2);
         }
