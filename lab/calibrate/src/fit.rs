@@ -246,7 +246,7 @@ fn rows_of(
 /// Ranges `[s, e)` of consecutive rows averaged into one equation: `block` rows each,
 /// restarting at every index in `starts` (a block never straddles a program boundary or a
 /// gap), the last of a segment shorter.
-fn block_ranges(n: usize, block: usize, starts: &[usize]) -> Vec<(usize, usize)> {
+pub(crate) fn block_ranges(n: usize, block: usize, starts: &[usize]) -> Vec<(usize, usize)> {
     let block = block.max(1);
     let mut bounds = starts.to_vec();
     bounds.push(n);
@@ -276,11 +276,17 @@ pub(crate) fn block_average(x: &[f64], y: &[f64], p: usize, block: usize, starts
     (xo, yo)
 }
 
-/// Hat-function weights of temperature `t` on the grid, added into `row` at `offset`.
-pub(crate) fn hat(row: &mut [f64], offset: usize, t: f64, start: f64, step: f64, n: usize, w: f64) {
+/// The grid node at or below temperature `t` (clamped to the grid) and the fraction of the
+/// way to the next: the hat weights are `1 − f` on node `i` and `f` on node `i + 1`.
+pub(crate) fn hat_node(t: f64, start: f64, step: f64, n: usize) -> (usize, f64) {
     let x = ((t - start) / step).clamp(0.0, (n - 1) as f64);
     let i = (x.floor() as usize).min(n - 2);
-    let f = x - i as f64;
+    (i, x - i as f64)
+}
+
+/// Hat-function weights of temperature `t` on the grid, added into `row` at `offset`.
+pub(crate) fn hat(row: &mut [f64], offset: usize, t: f64, start: f64, step: f64, n: usize, w: f64) {
+    let (i, f) = hat_node(t, start, step, n);
     row[offset + i] += w * (1.0 - f);
     row[offset + i + 1] += w * f;
 }

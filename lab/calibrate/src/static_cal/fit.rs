@@ -297,8 +297,8 @@ pub(crate) fn fit_static_traced(
     let c = structure.shape.unknowns(g);
     let nb = structure.branches.unknowns(c);
     let basis = node_basis(structure.shape, g, c);
-    let (x, y, max_rate) = design_rows(series, traces, &idx, &basis, reference_g, start, step);
-    let (ls, block_rms_g) = solve_blocks(&x, &y, &idx, structure, g, block)?;
+    let (xb, yb, max_rate) = design_blocks(series, traces, &idx, &basis, reference_g, start, step, block);
+    let (ls, block_rms_g) = solve_blocks(xb, yb, structure, g)?;
     let (heating, cooling) = branch_nodes(structure, &basis, &ls.coef, c);
     let (creep_gain, play_weight) = extension_weights(structure, &ls.coef, nb);
     let axis = AxisModel {
@@ -376,9 +376,17 @@ fn node_basis(shape: CurveShape, g: usize, c: usize) -> Vec<Vec<f64>> {
         .collect()
 }
 
-/// One equation per training row: the design matrix (row-major, the structure's unknowns
-/// per row), the output less `reference_g`, and the largest rate seen, °C/min.
-fn design_rows(
+/// One equation per block of `block` consecutive training rows (a block never spans a gap
+/// in the training set): the block means of the rows' design (row-major, the structure's
+/// unknowns per row) and of the output less `reference_g`, and the largest rate seen,
+/// °C/min.
+///
+/// Each row's design has a few nonzero entries (two hat weights per curve through the
+/// basis, the branch step, the extensions' columns), so only those are summed into the
+/// block's equation: the same sums, in the same order, as averaging the full rows, without
+/// forming an `n × p` matrix (that and its average were 40 % of a static calibration).
+#[allow(clippy::too_many_arguments)]
+fn design_blocks(
     series: &StaticSeries<'_>,
     traces: &StaticTraces,
     idx: &[usize],
@@ -386,6 +394,7 @@ fn design_rows(
     reference_g: f64,
     start: f64,
     step: f64,
+    block: usize,
 ) -> (Vec<f64>, Vec<f64>, f64) {
     let structure = &traces.structure;
     let (base, creep, play) = (&traces.base, &traces.creep, &traces.play);
@@ -393,75 +402,91 @@ fn design_rows(
     let p = structure.unknowns(g);
     let c = structure.shape.unknowns(g);
     let nb = structure.branches.unknowns(c);
-    let mut h = vec![0.0; 2 * g];
-    let mut x = vec![0.0; idx.len() * p];
-    let mut y = Vec::with_capacity(idx.len());
+    // Each node's nonzero basis entries (one for free nodes, four for the cubic).
+    let nonzero: Vec<Vec<(usize, f64)>> =
+        basis.iter().map(|bj| bj.iter().copied().enumerate().filter(|(_, v)| *v != 0.0).collect()).collect();
+    let mut row = vec![0.0; p];
+    let mut touched: Vec<usize> = Vec::with_capacity(p);
+    let mut xb = Vec::new();
+    let mut yb = Vec::new();
     let mut max_rate: f64 = 0.0;
-    for (k, &i) in idx.iter().enumerate() {
-        let row = &mut x[k * p..(k + 1) * p];
-        let (t, b) = (base.model_temp_c[i], base.branch[i]);
-        // Hat weights on the nodes (heating curve at 0, cooling at g), then onto the curves'
-        // unknowns through the basis.
-        h.iter_mut().for_each(|v| *v = 0.0);
-        match structure.branches {
-            BranchMode::Single | BranchMode::Offset => hat(&mut h, 0, t, start, step, g, 1.0),
-            BranchMode::Free => grid_row(&mut h, t, b, start, step, g, 1.0),
-        }
-        let curves = if structure.branches == BranchMode::Free { 2 } else { 1 };
-        for cv in 0..curves {
-            for (j, bj) in basis.iter().enumerate() {
-                let w = h[cv * g + j];
-                if w != 0.0 {
-                    for (kk, v) in bj.iter().enumerate() {
-                        row[cv * c + kk] += w * v;
+    let mut starts = vec![0];
+    starts.extend((1..idx.len()).filter(|&k| idx[k] != idx[k - 1] + 1));
+    let mut acc = vec![0.0; p];
+    for (s, e) in crate::fit::block_ranges(idx.len(), block, &starts) {
+        acc.iter_mut().for_each(|v| *v = 0.0);
+        let mut y_sum = 0.0;
+        for &i in &idx[s..e] {
+            let (t, b) = (base.model_temp_c[i], base.branch[i]);
+            // The hat weights on the two nodes around T (heating curve, then cooling), onto
+            // the curves' unknowns through the basis, in node order.
+            let (j, f) = hat_node(t, start, step, g);
+            let weights: [(usize, f64); 2] = match (structure.branches, b) {
+                (BranchMode::Free, Branch::Cooling) => [(1, 1.0), (0, 0.0)],
+                (BranchMode::Free, Branch::Unknown) => [(0, 0.5), (1, 0.5)],
+                _ => [(0, 1.0), (0, 0.0)],
+            };
+            for (cv, w) in weights {
+                if w == 0.0 {
+                    continue;
+                }
+                for (node, hw) in [(j, w * (1.0 - f)), (j + 1, w * f)] {
+                    if hw != 0.0 {
+                        for &(kk, v) in &nonzero[node] {
+                            let col = cv * c + kk;
+                            if !touched.contains(&col) {
+                                touched.push(col);
+                            }
+                            row[col] += hw * v;
+                        }
                     }
                 }
             }
+            if structure.branches == BranchMode::Offset {
+                row[c] = match b {
+                    Branch::Heating => 1.0,
+                    Branch::Cooling => -1.0,
+                    Branch::Unknown => 0.0,
+                };
+                touched.push(c);
+            }
+            let mut col = nb;
+            if let Some(tr) = creep {
+                row[col] = tr.ext_k0_g[i];
+                touched.push(col);
+                col += 1;
+            }
+            if let Some(tr) = play {
+                row[col] = tr.ext_k0_g[i];
+                touched.push(col);
+            }
+            for &j in &touched {
+                acc[j] += row[j];
+                row[j] = 0.0;
+            }
+            touched.clear();
+            y_sum += series.accel_g[i] - reference_g;
+            max_rate = max_rate.max(base.rate_c_per_min[i].abs());
         }
-        if structure.branches == BranchMode::Offset {
-            row[c] = match b {
-                Branch::Heating => 1.0,
-                Branch::Cooling => -1.0,
-                Branch::Unknown => 0.0,
-            };
-        }
-        let mut col = nb;
-        if let Some(tr) = creep {
-            row[col] = tr.ext_k0_g[i];
-            col += 1;
-        }
-        if let Some(tr) = play {
-            row[col] = tr.ext_k0_g[i];
-        }
-        y.push(series.accel_g[i] - reference_g);
-        max_rate = max_rate.max(base.rate_c_per_min[i].abs());
+        let n = (e - s) as f64;
+        xb.extend(acc.iter().map(|v| v / n));
+        yb.push(y_sum / n);
     }
-    (x, y, max_rate)
+    (xb, yb, max_rate)
 }
 
-/// Average the equations over blocks of `block` consecutive training rows (a block never
-/// spans a gap in the training set), add the structure's smoothing and tie rows, and
-/// solve.
+/// Add the structure's smoothing and tie rows to the block equations and solve.
 /// The solve, and the RMS residual of its block-averaged rows (the regularisers left out):
 /// the error the table leaves at the blocks' time scale, with the white noise averaged
 /// down, which the table records as its `residual_rms_g`.
 fn solve_blocks(
-    x: &[f64],
-    y: &[f64],
-    idx: &[usize],
+    mut xb: Vec<f64>,
+    mut yb: Vec<f64>,
     structure: &StaticStructure,
     g: usize,
-    block: usize,
 ) -> Result<(LsResult, f64), FitError> {
     let p = structure.unknowns(g);
     let c = structure.shape.unknowns(g);
-    let mut starts = vec![0];
-    for k in 1..idx.len() {
-        if idx[k] != idx[k - 1] + 1 {
-            starts.push(k);
-        }
-    }
-    let (mut xb, mut yb) = block_average(x, y, p, block, &starts);
     let rows = yb.len();
     match structure.shape {
         CurveShape::Nodes => structure.branches.push_regularisers(&mut xb, &mut yb, p, g),
