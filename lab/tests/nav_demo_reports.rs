@@ -184,6 +184,10 @@ fn the_reduced_demo_tells_one_story_links_every_sub_page_loads_and_stays_under_2
     browser::assert_page(&out.join("kt8-1/discover/report.html"), 1);
     browser::assert_page(&out.join("navigation/report.html"), 1);
     browser::assert_page(&out.join("report.html"), 4);
+    // Every CSV of the demo (discovery's residuals, the flight's time series) reads as
+    // pandas reads a file given no options.
+    let csvs = common::assert_plain_csvs(&out);
+    assert!(csvs >= 2, "{csvs} CSV files in the demo's outputs");
     let lines = assert_one_story(&out, &stdout);
     assert!(
         stdout.trim_end().lines().last().is_some_and(|l| l.starts_with("detail: ")),

@@ -193,6 +193,8 @@ fn discover_real(log_s: &str, out: &std::path::Path) -> serde_json::Value {
     for axis in ["ax", "ay", "az"] {
         assert!(text.lines().next().unwrap().contains(&format!("{axis}: ")), "{text}");
     }
+    // Every CSV it writes (each axis's residuals.csv) reads without options.
+    assert_eq!(common::assert_plain_csvs(out), 3);
     serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap()
 }
 

@@ -211,3 +211,41 @@ pub fn upper_bound(k: usize, n: usize) -> f64 {
     }
     hi
 }
+
+/// Every `.csv` under `dir` reads as `pandas.read_csv(path)` and Python's `csv` read a
+/// file given no options: the first line is the header (no `#` comment), every line has
+/// the header's field count, and every field is finite where it parses as a number (a
+/// column of NaN is a figure that could not be computed). Returns the files checked.
+pub fn assert_plain_csvs(dir: &std::path::Path) -> usize {
+    let mut checked = 0;
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap().flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p.extension().is_some_and(|x| x == "csv") {
+                let text = std::fs::read_to_string(&p).unwrap();
+                let mut lines = text.lines();
+                let header = lines.next().unwrap_or_else(|| panic!("{}: empty", p.display()));
+                assert!(!header.starts_with('#'), "{}: opens with a comment line: {header}", p.display());
+                let fields = header.split(',').count();
+                for (i, line) in lines.enumerate() {
+                    let row: Vec<&str> = line.split(',').collect();
+                    assert_eq!(row.len(), fields, "{} line {}: {line}", p.display(), i + 2);
+                    for f in row {
+                        let lower = f.trim().to_ascii_lowercase();
+                        assert!(
+                            !matches!(lower.as_str(), "nan" | "inf" | "-inf" | "null" | ""),
+                            "{} line {}: `{f}` in {line}",
+                            p.display(),
+                            i + 2
+                        );
+                    }
+                }
+                checked += 1;
+            }
+        }
+    }
+    checked
+}

@@ -575,17 +575,31 @@ fn rows(ch: &Channels) -> Vec<Row> {
 }
 
 fn write_csv(ch: &Channels, r: &Report, path: &Path) -> Result<()> {
+    write_file(path, residuals_csv(ch, r))
+}
+
+/// `residuals.csv`: one line per bin, its first line the header, each figure's unit in its
+/// column's name (`pandas.read_csv` reads it without options). A static log has no scale
+/// factor, so no scale-factor columns (never a column of NaN); a bias in the log's own units
+/// is `bias_*_value`.
+fn residuals_csv(ch: &Channels, r: &Report) -> String {
     let (b, a) = &r.residuals;
-    let mut s = String::from("program,time_s,temp_c,direction,sf_before_ppm,sf_after_ppm,bias_before,bias_after\n");
+    let cycling = ch.kind == LogKind::Cycling;
+    let unit = if ch.bias_unit == BiasUnit::Value { "value" } else { "ug" };
+    let mut s = String::from("program,time_s,temp_c,direction,");
+    if cycling {
+        s.push_str("sf_before_ppm,sf_after_ppm,");
+    }
+    let _ = writeln!(s, "bias_before_{unit},bias_after_{unit}");
     for (i, row) in rows(ch).iter().enumerate() {
         let d = ["cooling", "hold", "heating"][(row.dir + 1) as usize];
-        let _ = writeln!(
-            s,
-            "{},{:.1},{:.3},{d},{:.4},{:.4},{:.6},{:.6}",
-            ch.traces[row.trace].program, row.time_s, row.temp_c, b.sf[i], a.sf[i], b.bias[i], a.bias[i]
-        );
+        let _ = write!(s, "{},{:.1},{:.3},{d},", ch.traces[row.trace].program, row.time_s, row.temp_c);
+        if cycling {
+            let _ = write!(s, "{:.4},{:.4},", b.sf[i], a.sf[i]);
+        }
+        let _ = writeln!(s, "{:.6},{:.6}", b.bias[i], a.bias[i]);
     }
-    write_file(path, s)
+    s
 }
 
 /// The channels plotted: `(file stem, name in a title, axis label, unit)`.
