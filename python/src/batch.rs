@@ -18,13 +18,13 @@ use crate::logs::read_flags;
 impl Kind for LabBatchError {
     fn kind(&self) -> &'static str {
         match self {
-            Self::Manifest(_) => "Manifest",
-            Self::Chamber(_) => "Chamber",
+            Self::Manifest { .. } | Self::NoInput => "Manifest",
+            Self::Chamber { .. } => "Chamber",
             Self::Serial(_) => "Serial",
             Self::Unit(_) => "Unit",
-            Self::Shard(_) => "Shard",
-            Self::Merge(_) => "Merge",
-            Self::Io(_) => "Io",
+            Self::Shard { .. } => "Shard",
+            Self::NothingToMerge { .. } | Self::MergeClash { .. } => "Merge",
+            Self::Io { .. } | Self::Json { .. } | Self::Table { .. } | Self::Toml { .. } | Self::Plot { .. } => "Io",
             _ => "Other",
         }
     }
@@ -69,15 +69,15 @@ pub fn batch_shard(
     let flags = read_flags(py, columns, time_unit, accel_unit, temp_unit, decimal_comma)?;
     let unit = options(py, holdout, limits)?;
     if n == 0 || k >= n {
-        return Err(err(py, &LabBatchError::Shard(format!("k={k}, n={n}"))));
+        return Err(err(py, &LabBatchError::Shard { given: format!("{k}/{n}") }));
     }
     let units = match (log, manifest) {
         (Some(l), None) => {
-            let bytes = std::fs::read(&l).map_err(|e| err(py, &LabBatchError::Io(format!("{}: {e}", l.display()))))?;
+            let bytes = std::fs::read(&l).map_err(|source| err(py, &LabBatchError::Io { path: l.clone(), source }))?;
             input::from_chamber_log(&l, &bytes, &flags)
         }
         (None, Some(m)) => input::from_manifest(&m, &flags),
-        _ => Err(LabBatchError::Manifest("give log= (a chamber log) or manifest= (batch.toml), one of them".into())),
+        _ => Err(LabBatchError::NoInput),
     }
     .map_err(|e| err(py, &e))?;
     let opts = BatchOptions { unit, threads, shard: Some(Shard { k, n }), progress: false };
@@ -92,5 +92,6 @@ pub fn batch_shard(
 pub fn batch_merge(py: Python<'_>, out: PathBuf, limits: Option<PathBuf>) -> PyResult<String> {
     let unit = options(py, "auto", limits)?;
     let (_, fleet) = py.detach(|| batch::merge(&out, &unit)).map_err(|e| err(py, &e))?;
-    serde_json::to_string_pretty(&fleet).map_err(|e| err(py, &LabBatchError::Io(e.to_string())))
+    serde_json::to_string_pretty(&fleet)
+        .map_err(|source| err(py, &LabBatchError::Json { path: out.join("fleet.json"), source }))
 }

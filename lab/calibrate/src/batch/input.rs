@@ -13,9 +13,10 @@ use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
-use super::BatchError;
+use super::{BatchError, ChamberFault, ManifestFault, SerialFault};
 use qfa_log::open::ReadFlags;
 use qfa_log::static_log::columns::{AccelUnit, ColumnMap, TimeUnit};
+use qfa_log::static_log::StaticError;
 use qfa_log::units::TempUnit;
 
 /// The roles a chamber log's unit columns carry, after the serial and a dot.
@@ -53,7 +54,7 @@ impl UnitInput {
             UnitRows::Bytes(b) => Ok(std::borrow::Cow::Borrowed(b)),
             UnitRows::File(p) => std::fs::read(p)
                 .map(std::borrow::Cow::Owned)
-                .map_err(|e| BatchError::Io(format!("unit {}: {}: {e}", self.serial, p.display()))),
+                .map_err(|source| BatchError::Io { path: p.clone(), source }),
         }
     }
 }
@@ -120,20 +121,23 @@ impl Manifest {
 
 impl Reading {
     /// These settings over `base` (the command line's), each one set here replacing it.
-    fn flags(&self, base: &ReadFlags, at: &str) -> Result<ReadFlags, BatchError> {
-        let bad = |key: &str, e: &dyn std::fmt::Display| BatchError::Manifest(format!("{at}: {key}: {e}"));
+    fn flags(&self, base: &ReadFlags, path: &Path, serial: Option<&str>) -> Result<ReadFlags, BatchError> {
+        let bad = |key: &'static str, source: StaticError| BatchError::Manifest {
+            path: path.to_path_buf(),
+            fault: ManifestFault::Setting { serial: serial.map(str::to_string), key, source: Box::new(source) },
+        };
         let mut f = base.clone();
         if let Some(c) = &self.columns {
-            f.columns = Some(c.parse::<ColumnMap>().map_err(|e| bad("columns", &e))?);
+            f.columns = Some(c.parse::<ColumnMap>().map_err(|e| bad("columns", e))?);
         }
         if let Some(u) = &self.time_unit {
-            f.time_unit = Some(u.parse::<TimeUnit>().map_err(|e| bad("time_unit", &e))?);
+            f.time_unit = Some(u.parse::<TimeUnit>().map_err(|e| bad("time_unit", StaticError::BadUnit(e)))?);
         }
         if let Some(u) = &self.accel_unit {
-            f.accel_unit = Some(u.parse::<AccelUnit>().map_err(|e| bad("accel_unit", &e))?);
+            f.accel_unit = Some(u.parse::<AccelUnit>().map_err(|e| bad("accel_unit", StaticError::BadUnit(e)))?);
         }
         if let Some(u) = &self.temp_unit {
-            f.temp_unit = Some(u.parse::<TempUnit>().map_err(|e| bad("temp_unit", &e))?);
+            f.temp_unit = Some(u.parse::<TempUnit>().map_err(|e| bad("temp_unit", StaticError::BadUnit(e)))?);
         }
         if let Some(d) = self.decimal_comma {
             f.decimal_comma = d;
@@ -155,17 +159,10 @@ pub(crate) fn check_serials<'a>(serials: impl IntoIterator<Item = &'a str>) -> R
             && !s.starts_with('.')
             && s.chars().all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.'));
         if !ok {
-            return Err(BatchError::Serial(format!(
-                "`{s}`: a serial names its unit's output folder, so it may hold only letters, digits, `-`, `_` and \
-                 `.`, not start with a dot, and be at most 64 characters"
-            )));
+            return Err(BatchError::Serial(SerialFault::NotAFolderName(s.to_string())));
         }
         if let Some(first) = seen.insert(s.to_string(), i) {
-            return Err(BatchError::Serial(format!(
-                "`{s}` is given to units {} and {}: every unit needs its own serial (its table is flashed under it)",
-                first + 1,
-                i + 1
-            )));
+            return Err(BatchError::Serial(SerialFault::Shared { serial: s.to_string(), units: [first + 1, i + 1] }));
         }
     }
     Ok(())
@@ -178,24 +175,22 @@ pub(crate) fn check_serials<'a>(serials: impl IntoIterator<Item = &'a str>) -> R
 /// The manifest unreadable or unknown keys in it (a typo is refused, never ignored), a bad
 /// unit name, a serial rule broken, or a log that does not exist.
 pub fn from_manifest(path: &Path, base: &ReadFlags) -> Result<Vec<UnitInput>, BatchError> {
-    let text = std::fs::read_to_string(path).map_err(|e| BatchError::Io(format!("{}: {e}", path.display())))?;
-    let m: Manifest = toml::from_str(&text).map_err(|e| BatchError::Manifest(format!("{}: {e}", path.display())))?;
+    let text = std::fs::read_to_string(path).map_err(|source| BatchError::Io { path: path.to_path_buf(), source })?;
+    let manifest = |fault| BatchError::Manifest { path: path.to_path_buf(), fault };
+    let m: Manifest = toml::from_str(&text).map_err(|e| manifest(ManifestFault::Toml(e)))?;
     if m.unit.is_empty() {
-        return Err(BatchError::Manifest(format!(
-            "{}: no [[unit]] entries: each unit is a [[unit]] table with `serial` and `log`",
-            path.display()
-        )));
+        return Err(manifest(ManifestFault::NoUnits));
     }
     check_serials(m.unit.iter().map(|u| u.serial.as_str()))?;
     let dir = path.parent().unwrap_or_else(|| Path::new("."));
-    let defaults = m.reading().flags(base, &path.display().to_string())?;
+    let defaults = m.reading().flags(base, path, None)?;
     m.unit
         .iter()
         .map(|u| {
-            let flags = u.reading().flags(&defaults, &format!("{}: unit {}", path.display(), u.serial))?;
+            let flags = u.reading().flags(&defaults, path, Some(&u.serial))?;
             let log = dir.join(&u.log);
             if !log.is_file() {
-                return Err(BatchError::Io(format!("unit {}: {}: no such file", u.serial, log.display())));
+                return Err(manifest(ManifestFault::NoLog { serial: u.serial.clone(), log }));
             }
             Ok(UnitInput {
                 serial: u.serial.clone(),
@@ -205,6 +200,10 @@ pub fn from_manifest(path: &Path, base: &ReadFlags) -> Result<Vec<UnitInput>, Ba
             })
         })
         .collect()
+}
+
+fn chamber(path: &Path, fault: ChamberFault) -> BatchError {
+    BatchError::Chamber { path: path.to_path_buf(), fault }
 }
 
 /// The units of a chamber log: every header column `SERIAL.ROLE` (`UNIT_ROLES`) is unit
@@ -220,12 +219,8 @@ pub fn from_chamber_log(path: &Path, bytes: &[u8], base: &ReadFlags) -> Result<V
     let delim =
         [b'\t', b',', b';'].into_iter().max_by_key(|d| first.iter().filter(|c| *c == d).count()).unwrap_or(b',');
     let mut rd = csv::ReaderBuilder::new().delimiter(delim).flexible(true).from_reader(bytes);
-    let header: Vec<String> = rd
-        .headers()
-        .map_err(|e| BatchError::Chamber(format!("{}: header: {e}", path.display())))?
-        .iter()
-        .map(|h| h.trim().to_string())
-        .collect();
+    let header: Vec<String> =
+        rd.headers().map_err(|e| chamber(path, ChamberFault::Csv(e)))?.iter().map(|h| h.trim().to_string()).collect();
     let (mut order, mut others) = (Vec::new(), Vec::new());
     let cols = serial_columns(path, &header, &mut order, &mut others)?;
     let time_col = time_column(path, &header, &others, base)?;
@@ -243,7 +238,7 @@ pub fn from_chamber_log(path: &Path, bytes: &[u8], base: &ReadFlags) -> Result<V
         units.push(Split { serial: s.clone(), picked, text });
     }
     for rec in rd.records() {
-        let rec = rec.map_err(|e| BatchError::Chamber(format!("{}: {e}", path.display())))?;
+        let rec = rec.map_err(|e| chamber(path, ChamberFault::Csv(e)))?;
         let field = |i: usize| rec.get(i).unwrap_or("").trim();
         let t = field(time_col);
         for u in &mut units {
@@ -255,9 +250,9 @@ pub fn from_chamber_log(path: &Path, bytes: &[u8], base: &ReadFlags) -> Result<V
             u.text.push('\n');
         }
     }
-    let columns: ColumnMap = "time=time,temp=temp,ax=ax,ay=ay,az=az"
-        .parse()
-        .map_err(|e| BatchError::Chamber(format!("internal column map: {e}")))?;
+    // Each unit's one-unit log names its columns by their roles.
+    let columns =
+        ColumnMap { roles: ["time", "temp", "ax", "ay", "az"].map(|r| (r.to_string(), r.to_string())).to_vec() };
     Ok(units
         .into_iter()
         .map(|Split { serial, picked, text }| unit_input(path, &header, &columns, base, serial, &picked, text))
@@ -282,18 +277,14 @@ fn serial_columns(
                     order.push(serial.to_string());
                 }
                 if cols.entry(serial.to_string()).or_default().insert(role, i).is_some() {
-                    return Err(BatchError::Chamber(format!("{}: column `{h}` appears twice", path.display())));
+                    return Err(chamber(path, ChamberFault::DuplicateColumn(h.clone())));
                 }
             }
             _ => others.push(i),
         }
     }
     if order.is_empty() {
-        return Err(BatchError::Chamber(format!(
-            "{}: no unit columns: a chamber log names each unit's columns SERIAL.temp, SERIAL.ax, SERIAL.ay, \
-             SERIAL.az (for one log per unit, use --manifest)",
-            path.display()
-        )));
+        return Err(chamber(path, ChamberFault::NoUnitColumns));
     }
     Ok(cols)
 }
@@ -304,24 +295,16 @@ fn time_column(path: &Path, header: &[String], others: &[usize], base: &ReadFlag
     let time_name =
         base.columns.as_ref().and_then(|c| c.roles.iter().find(|(r, _)| r == "time").map(|(_, c)| c.clone()));
     let time_col = match time_name {
-        Some(name) => header.iter().position(|h| *h == name).ok_or_else(|| {
-            BatchError::Chamber(format!("{}: no column `{name}` (from --columns time=…)", path.display()))
-        })?,
+        Some(name) => header
+            .iter()
+            .position(|h| *h == name)
+            .ok_or_else(|| chamber(path, ChamberFault::NoNamedTimeColumn(name)))?,
         None => match others {
             [i] => *i,
-            [] => {
-                return Err(BatchError::Chamber(format!(
-                    "{}: no time column (a column without a serial)",
-                    path.display()
-                )))
-            }
+            [] => return Err(chamber(path, ChamberFault::NoTimeColumn)),
             many => {
-                return Err(BatchError::Chamber(format!(
-                    "{}: {} columns without a serial ({}): name the time column with --columns time=NAME",
-                    path.display(),
-                    many.len(),
-                    many.iter().map(|&i| format!("`{}`", header[i])).collect::<Vec<_>>().join(", ")
-                )))
+                let names = many.iter().map(|&i| header[i].clone()).collect();
+                return Err(chamber(path, ChamberFault::SeveralTimeColumns(names)));
             }
         },
     };
@@ -336,11 +319,10 @@ fn unit_roles(
     roles: &BTreeMap<&'static str, usize>,
 ) -> Result<Vec<(&'static str, usize)>, BatchError> {
     if !roles.contains_key("temp") || roles.len() < 2 {
-        return Err(BatchError::Chamber(format!(
-            "{}: unit {s} has columns {}: each unit needs SERIAL.temp and at least one of SERIAL.ax, .ay, .az",
-            path.display(),
-            roles.keys().copied().collect::<Vec<_>>().join(", ")
-        )));
+        return Err(chamber(
+            path,
+            ChamberFault::UnitColumns { serial: s.to_string(), roles: roles.keys().copied().collect() },
+        ));
     }
     Ok(UNIT_ROLES.iter().filter_map(|r| roles.get(r).map(|&i| (*r, i))).collect())
 }

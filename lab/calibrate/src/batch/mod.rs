@@ -14,57 +14,35 @@
 //! `i` in the batch has `i mod N = K` and writes only their folders; `qfa-lab batch merge OUT` then forms the fleet and certificates from every
 //! `unit.json` under OUT, as one run would have.
 
+mod error;
 pub mod fleet;
 pub mod input;
 pub(crate) mod pages;
 pub mod prior;
 pub mod unit;
 
-use std::fmt;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use rayon::prelude::*;
 
+pub use self::error::{BatchError, ChamberFault, ManifestFault, SerialFault, UnitFault};
 use self::fleet::{Decision, Fleet};
 use self::input::UnitInput;
 use self::unit::{calibrate_unit, UnitOptions, UnitOutcome, UnitResult};
 use qfa_report::verdict::Outcome;
 
-/// Why a batch (or one of its units) could not go on.
-#[derive(Debug)]
-#[non_exhaustive]
-pub enum BatchError {
-    /// The manifest is unreadable or holds an unknown key.
-    Manifest(String),
-    /// The chamber log cannot be split into units.
-    Chamber(String),
-    /// A serial cannot name a folder, or two units share one.
-    Serial(String),
-    /// One unit's calibration failed (the batch goes on).
-    Unit(String),
-    /// `--shard` is not `K/N` with 0 ≤ K < N.
-    Shard(String),
-    /// `batch merge` found no `unit.json`, or two with one index.
-    Merge(String),
-    /// A file could not be read or written.
-    Io(String),
+/// A table's bytes as `table.bin` holds them, and the CRC-32 its header carries (taken
+/// from the encoded value, not read back from a file). `dir` names the unit in an error.
+pub(crate) fn encoded(
+    table: &qfa_thermal::Table,
+    dir: &Path,
+) -> Result<(heapless::Vec<u8, { qfa_thermal::table::MAX_TABLE_BYTES }>, u32), BatchError> {
+    let bin = table.to_bytes().map_err(|source| BatchError::Table { path: dir.to_path_buf(), source })?;
+    let mut crc = [0u8; 4];
+    crc.copy_from_slice(&bin[12..qfa_thermal::table::HEADER_LEN]);
+    Ok((bin, u32::from_le_bytes(crc)))
 }
-
-impl fmt::Display for BatchError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::Manifest(m) => write!(f, "manifest: {m}"),
-            Self::Chamber(m) => write!(f, "chamber log: {m}"),
-            Self::Serial(m) => write!(f, "serial {m}"),
-            Self::Unit(m) | Self::Io(m) => f.write_str(m),
-            Self::Shard(m) => write!(f, "--shard {m}: give K/N with 0 ≤ K < N (units i with i mod N = K)"),
-            Self::Merge(m) => write!(f, "merge: {m}"),
-        }
-    }
-}
-
-impl std::error::Error for BatchError {}
 
 /// Name of each unit's result file in its folder.
 pub(crate) const UNIT_JSON: &str = "unit.json";
@@ -81,7 +59,7 @@ pub struct Shard {
 impl std::str::FromStr for Shard {
     type Err = BatchError;
     fn from_str(s: &str) -> Result<Self, BatchError> {
-        let bad = || BatchError::Shard(format!("`{s}`"));
+        let bad = || BatchError::Shard { given: s.to_string() };
         let (k, n) = s.split_once('/').ok_or_else(bad)?;
         let (k, n): (usize, usize) = (k.trim().parse().map_err(|_| bad())?, n.trim().parse().map_err(|_| bad())?);
         if n == 0 || k >= n {
@@ -139,20 +117,17 @@ fn progress_bar(len: usize, show: bool) -> indicatif::ProgressBar {
 /// The thread pool cannot be built, or a file cannot be written. A unit that fails is a
 /// result, not an error.
 pub fn run(units: &[UnitInput], out: &Path, opts: &BatchOptions) -> Result<BatchRun, BatchError> {
-    std::fs::create_dir_all(out).map_err(|e| BatchError::Io(format!("{}: {e}", out.display())))?;
+    std::fs::create_dir_all(out).map_err(|source| BatchError::Io { path: out.to_path_buf(), source })?;
     let mine: Vec<(usize, &UnitInput)> =
         units.iter().enumerate().filter(|(i, _)| opts.shard.is_none_or(|s| i % s.n == s.k)).collect();
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(opts.threads)
-        .build()
-        .map_err(|e| BatchError::Io(format!("thread pool: {e}")))?;
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(opts.threads).build().map_err(BatchError::ThreadPool)?;
     let pb = progress_bar(mine.len(), opts.progress);
     let (failed, limit_failed) = (AtomicUsize::new(0), AtomicUsize::new(0));
     let results: Vec<Result<(usize, UnitResult), BatchError>> = pool.install(|| {
         mine.par_iter()
             .map(|&(i, u)| {
                 let dir = out.join(&u.serial);
-                std::fs::create_dir_all(&dir).map_err(|e| BatchError::Io(format!("{}: {e}", dir.display())))?;
+                std::fs::create_dir_all(&dir).map_err(|source| BatchError::Io { path: dir.clone(), source })?;
                 let r = calibrate_unit(u, &dir, &opts.unit);
                 match &r.outcome {
                     UnitOutcome::Failed { .. } => failed.fetch_add(1, Ordering::Relaxed),
@@ -161,10 +136,10 @@ pub fn run(units: &[UnitInput], out: &Path, opts: &BatchOptions) -> Result<Batch
                     }
                     UnitOutcome::Calibrated(_) => 0,
                 };
+                let path = dir.join(UNIT_JSON);
                 let json = serde_json::to_string_pretty(&IndexedResult { index: i, result: r.clone() })
-                    .map_err(|e| BatchError::Io(e.to_string()))?;
-                std::fs::write(dir.join(UNIT_JSON), json + "\n")
-                    .map_err(|e| BatchError::Io(format!("{}: {e}", dir.display())))?;
+                    .map_err(|source| BatchError::Json { path: path.clone(), source })?;
+                std::fs::write(&path, json + "\n").map_err(|source| BatchError::Io { path, source })?;
                 pb.set_message(format!(
                     "{} not calibrated, {} failing a limit",
                     failed.load(Ordering::Relaxed),
@@ -201,18 +176,20 @@ pub(crate) fn finish_fleet(
         let use_ = match &r.outcome {
             UnitOutcome::Calibrated(c) if f.partial && !fleet.population.is_empty() => {
                 let dir = out.join(&r.serial);
-                let io = |e: &dyn fmt::Display| BatchError::Io(format!("{}: {e}", dir.display()));
                 match prior::prior_table(&c.normal, &fleet.population, span, opts.cal.deadband_c_per_min) {
                     Ok(table) => {
-                        let bin = table.to_bytes().map_err(|e| io(&e))?;
-                        let toml = toml::to_string_pretty(&table).map_err(|e| io(&e))?;
-                        std::fs::write(dir.join("table_prior.bin"), &bin).map_err(|e| io(&e))?;
+                        let (bin, crc) = encoded(&table, &dir)?;
+                        let toml = toml::to_string_pretty(&table)
+                            .map_err(|source| BatchError::Toml { path: dir.clone(), source })?;
+                        let io = |path: PathBuf| move |source| BatchError::Io { path, source };
+                        let bin_path = dir.join("table_prior.bin");
+                        std::fs::write(&bin_path, &bin).map_err(io(bin_path.clone()))?;
+                        let toml_path = dir.join("table_prior.toml");
                         std::fs::write(
-                            dir.join("table_prior.toml"),
+                            &toml_path,
                             format!("# qfa-thermal table from the population prior (the lab guide's \"Production batches\")\n{toml}"),
                         )
-                        .map_err(|e| io(&e))?;
-                        let crc = u32::from_le_bytes([bin[12], bin[13], bin[14], bin[15]]);
+                        .map_err(io(toml_path.clone()))?;
                         let share = prior::covered_share(&c.normal, span);
                         Some(prior::PriorUse {
                             table: "table_prior.bin".into(),
@@ -258,34 +235,30 @@ pub(crate) fn finish_fleet(
 /// # Errors
 /// No `unit.json`, two with one index, or an unreadable one.
 pub fn merge(out: &Path, opts: &UnitOptions) -> Result<(Vec<(usize, UnitResult)>, Fleet), BatchError> {
-    let io = |p: &Path, e: &dyn fmt::Display| BatchError::Io(format!("{}: {e}", p.display()));
     let mut found: Vec<(usize, UnitResult)> = Vec::new();
     let mut dirs: Vec<PathBuf> = std::fs::read_dir(out)
-        .map_err(|e| io(out, &e))?
+        .map_err(|source| BatchError::Io { path: out.to_path_buf(), source })?
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.join(UNIT_JSON).is_file())
         .collect();
     dirs.sort();
     for d in dirs {
         let p = d.join(UNIT_JSON);
-        let text = std::fs::read_to_string(&p).map_err(|e| io(&p, &e))?;
-        let r: IndexedResult = serde_json::from_str(&text).map_err(|e| io(&p, &e))?;
+        let text = std::fs::read_to_string(&p).map_err(|source| BatchError::Io { path: p.clone(), source })?;
+        let r: IndexedResult =
+            serde_json::from_str(&text).map_err(|source| BatchError::Json { path: p.clone(), source })?;
         found.push((r.index, r.result));
     }
     if found.is_empty() {
-        return Err(BatchError::Merge(format!(
-            "no SERIAL/{UNIT_JSON} under {}: run `qfa-lab batch … --shard K/N --out {}` for every K first",
-            out.display(),
-            out.display()
-        )));
+        return Err(BatchError::NothingToMerge { out: out.to_path_buf() });
     }
     found.sort_by_key(|(i, _)| *i);
     for w in found.windows(2) {
         if w[0].0 == w[1].0 {
-            return Err(BatchError::Merge(format!(
-                "{} and {} both hold batch place {}: the folder mixes two batches",
-                w[0].1.serial, w[1].1.serial, w[0].0
-            )));
+            return Err(BatchError::MergeClash {
+                serials: [w[0].1.serial.clone(), w[1].1.serial.clone()],
+                place: w[0].0,
+            });
         }
     }
     let fleet = finish_fleet(out, &found, opts)?;

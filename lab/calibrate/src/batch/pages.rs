@@ -60,11 +60,11 @@ pub(crate) fn write_certificate(
     f: &FleetUnit,
     limits_from: &str,
 ) -> Result<(), BatchError> {
-    let io = |e: &dyn std::fmt::Display| BatchError::Io(format!("{}: {e}", dir.display()));
-    std::fs::create_dir_all(dir).map_err(|e| io(&e))?;
+    std::fs::create_dir_all(dir).map_err(BatchError::io(dir))?;
     let cert = certificate_of(r, f, limits_from);
-    let json = serde_json::to_string_pretty(&cert).map_err(|e| io(&e))?;
-    std::fs::write(dir.join("certificate.json"), json + "\n").map_err(|e| io(&e))?;
+    let json_path = dir.join("certificate.json");
+    let json = serde_json::to_string_pretty(&cert).map_err(BatchError::json(&json_path))?;
+    std::fs::write(&json_path, json + "\n").map_err(BatchError::io(&json_path))?;
     // A certificate reads the same however the batch was run (one process, shards, a
     // cluster): it names the batch, not the command line of the process that merged it.
     let mut p = Page::with_command(
@@ -79,7 +79,8 @@ pub(crate) fn write_certificate(
         files.insert(0, ("table_prior.bin (flash this)", "table_prior.bin"));
     }
     p.section("Files").links(&files);
-    std::fs::write(dir.join("certificate.html"), p.html()).map_err(|e| io(&e))?;
+    let html = dir.join("certificate.html");
+    std::fs::write(&html, p.html()).map_err(BatchError::io(&html))?;
     Ok(())
 }
 
@@ -188,9 +189,9 @@ pub(crate) fn write_fleet(
     results: &[UnitResult],
     limits_from: &str,
 ) -> Result<(), BatchError> {
-    let io = |e: &dyn std::fmt::Display| BatchError::Io(format!("{}: {e}", out.display()));
-    let json = serde_json::to_string_pretty(fleet).map_err(|e| io(&e))?;
-    std::fs::write(out.join("fleet.json"), json + "\n").map_err(|e| io(&e))?;
+    let json_path = out.join("fleet.json");
+    let json = serde_json::to_string_pretty(fleet).map_err(BatchError::json(&json_path))?;
+    std::fs::write(&json_path, json + "\n").map_err(BatchError::io(&json_path))?;
     let plots = replace_plots(out, fleet, results)?;
     let mut p = Page::new("Fleet");
     p.raw(&verdict_html(fleet, limits_from));
@@ -198,26 +199,28 @@ pub(crate) fn write_fleet(
     figures_section(&mut p, out, fleet, plots)?;
     prior_section(&mut p, fleet);
     units_section(&mut p, fleet, results);
-    std::fs::write(out.join("fleet.html"), p.html()).map_err(|e| io(&e))?;
+    let html = out.join("fleet.html");
+    std::fs::write(&html, p.html()).map_err(BatchError::io(&html))?;
     Ok(())
 }
 
 /// Remove an older batch's plots from `out` and draw this fleet's; false (none drawn)
 /// without a calibrated unit.
 fn replace_plots(out: &Path, fleet: &Fleet, results: &[UnitResult]) -> Result<bool, BatchError> {
-    let io = |e: &dyn std::fmt::Display| BatchError::Io(format!("{}: {e}", out.display()));
     // Without a calibrated unit there is nothing to draw: the plots are not written (an
     // old batch's plots in the folder are removed, so none is taken for this one's).
     let plots = !fleet.stats.is_empty();
     for name in ["fleet_figures.png", "fleet_held_out.png"] {
-        match std::fs::remove_file(out.join(name)) {
-            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(io(&e)),
+        let path = out.join(name);
+        match std::fs::remove_file(&path) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(BatchError::io(&path)(e)),
             _ => {}
         }
     }
     if plots {
-        plot_figures(&out.join("fleet_figures.png"), fleet).map_err(|e| io(&e))?;
-        plot_held_out(&out.join("fleet_held_out.png"), fleet, results).map_err(|e| io(&e))?;
+        let (figures, held_out) = (out.join("fleet_figures.png"), out.join("fleet_held_out.png"));
+        plot_figures(&figures, fleet).map_err(BatchError::plot(&figures))?;
+        plot_held_out(&held_out, fleet, results).map_err(BatchError::plot(&held_out))?;
     }
     Ok(plots)
 }
@@ -277,16 +280,15 @@ fn capability_section(p: &mut Page, fleet: &Fleet) {
 /// Each figure's spread across the fleet: the plots (or why there are none) and the
 /// robust statistics.
 fn figures_section(p: &mut Page, out: &Path, fleet: &Fleet, plots: bool) -> Result<(), BatchError> {
-    let io = |e: &dyn std::fmt::Display| BatchError::Io(format!("{}: {e}", out.display()));
     p.section("Figures across the fleet").para(&format!(
         "Robust distance z = (x − median) / (1.4826·MAD) over the units with full coverage; a unit is flagged beyond \
          ±{} (held-out RMS: above only). Red: flagged.",
         fleet.z_flag
     ));
     if plots {
-        p.image(&out.join("fleet_figures.png"), "each figure's robust distance, one dot per unit")
-            .map_err(|e| io(&e))?;
-        p.image(&out.join("fleet_held_out.png"), "held-out bias RMS per axis against its limit").map_err(|e| io(&e))?;
+        let (figures, held_out) = (out.join("fleet_figures.png"), out.join("fleet_held_out.png"));
+        p.image(&figures, "each figure's robust distance, one dot per unit").map_err(BatchError::io(&figures))?;
+        p.image(&held_out, "held-out bias RMS per axis against its limit").map_err(BatchError::io(&held_out))?;
     } else {
         p.warning("No unit was calibrated, so no figure can be compared: the verdict above says why.");
     }
@@ -360,7 +362,7 @@ fn units_section(p: &mut Page, fleet: &Fleet, results: &[UnitResult]) {
     p.links(&links);
 }
 
-fn plot_figures(path: &Path, fleet: &Fleet) -> Result<(), Box<dyn std::error::Error>> {
+fn plot_figures(path: &Path, fleet: &Fleet) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
     use plotters::prelude::*;
     qfa_report::plot_font::register();
     let rows = fleet.stats.len().max(1);
@@ -407,7 +409,11 @@ fn plot_figures(path: &Path, fleet: &Fleet) -> Result<(), Box<dyn std::error::Er
     Ok(())
 }
 
-fn plot_held_out(path: &Path, fleet: &Fleet, results: &[UnitResult]) -> Result<(), Box<dyn std::error::Error>> {
+fn plot_held_out(
+    path: &Path,
+    fleet: &Fleet,
+    results: &[UnitResult],
+) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
     use plotters::prelude::*;
     qfa_report::plot_font::register();
     let caps: Vec<_> = fleet.capability.iter().filter(|c| c.limit == "held_out_bias_mg").collect();

@@ -15,7 +15,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use super::input::UnitInput;
-use super::BatchError;
+use super::{BatchError, UnitFault};
 use crate::fit::{fit_static_traced, BranchMode, CurveShape, StaticSeries, StaticStructure, StaticTraces};
 use crate::lint::Severity;
 use crate::static_cal::{self, is_one_branch, StaticCalOptions};
@@ -123,13 +123,9 @@ pub(crate) fn calibrate_unit(input: &UnitInput, dir: &Path, opts: &UnitOptions) 
 
 fn calibrate(input: &UnitInput, dir: &Path, opts: &UnitOptions) -> Result<Calibrated, BatchError> {
     let bytes = input.bytes()?;
-    let log = match open_bytes(&bytes, &input.flags).map_err(|e| BatchError::Unit(e.to_string()))? {
+    let log = match open_bytes(&bytes, &input.flags).map_err(|e| BatchError::Unit(UnitFault::Open(Box::new(e))))? {
         OpenedLog::Static(l) => l,
-        _ => {
-            return Err(BatchError::Unit(
-                "not a static log (time, temperature and acceleration columns): a batch calibrates static logs".into(),
-            ))
-        }
+        _ => return Err(BatchError::Unit(UnitFault::NotStatic)),
     };
     let notes: Vec<String> = crate::lint::lint_static(&bytes, &log)
         .iter()
@@ -148,10 +144,9 @@ fn calibrate(input: &UnitInput, dir: &Path, opts: &UnitOptions) -> Result<Calibr
         progress: false,
         command: Some(&command),
     };
-    let (cal, v) =
-        static_cal::calibrate_static_into(dir, &log, &run, &notes).map_err(|e| BatchError::Unit(e.to_string()))?;
-    let bin = std::fs::read(dir.join("table.bin")).map_err(|e| BatchError::Io(format!("{}: {e}", dir.display())))?;
-    let crc = bin.get(12..16).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]])).unwrap_or_default();
+    let (cal, v) = static_cal::calibrate_static_into(dir, &log, &run, &notes)
+        .map_err(|e| BatchError::Unit(UnitFault::Calibration(Box::new(e))))?;
+    let (bin, crc) = super::encoded(&cal.table, dir)?;
     let r = &cal.report;
     Ok(Calibrated {
         outcome: v.outcome,
@@ -202,8 +197,9 @@ pub(crate) fn describe(
         .iter()
         .map(|a| {
             let series = StaticSeries { time_s: &log.time_s, temp_c: &log.temp_c, accel_g: &a.accel_g };
-            let fit = fit_static_traced(&series, &traces, &train, opts.grid_points, opts.block)
-                .map_err(|e| BatchError::Unit(format!("{}: descriptor fit: {e}", a.name)))?;
+            let fit = fit_static_traced(&series, &traces, &train, opts.grid_points, opts.block).map_err(|source| {
+                BatchError::Unit(UnitFault::Descriptor { axis: a.name.clone(), source: Box::new(source) })
+            })?;
             let b = &fit.axis.bias;
             // The nodes lie on a cubic in T: fit it back in d = T − 25 °C, exactly.
             let g = b.heating_g.len();
@@ -215,7 +211,9 @@ pub(crate) fn describe(
                 y.push(0.5 * (f64::from(b.heating_g[j]) + f64::from(b.cooling_g[j])));
             }
             let c = crate::solver::lstsq(&x, 4, &y)
-                .map_err(|e| BatchError::Unit(format!("{}: descriptor: {e}", a.name)))?
+                .map_err(|source| {
+                    BatchError::Unit(UnitFault::Descriptor { axis: a.name.clone(), source: Box::new(source) })
+                })?
                 .coef;
             let split = f64::from(b.heating_g[0]) - f64::from(b.cooling_g[0]);
             Ok(AxisDescriptor {

@@ -1,0 +1,303 @@
+//! Why a batch, or one of its units, could not go on: typed down to the leaves, each
+//! variant holding what its message names (a path, a column, a serial) and the error it
+//! came from, so a caller decides by matching, never by reading the text.
+
+use std::fmt;
+use std::path::PathBuf;
+
+use crate::fit::FitError;
+use crate::static_cal::StaticCalError;
+
+/// Why a batch (or one of its units) could not go on.
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum BatchError {
+    /// The manifest cannot be used.
+    Manifest {
+        /// The manifest file.
+        path: PathBuf,
+        /// What is wrong with it.
+        fault: ManifestFault,
+    },
+    /// Neither a chamber log nor a manifest was given, or both were (the Python call).
+    NoInput,
+    /// The chamber log cannot be split into units.
+    Chamber {
+        /// The chamber log.
+        path: PathBuf,
+        /// What is wrong with it.
+        fault: ChamberFault,
+    },
+    /// A serial cannot name a folder, or two units share one.
+    Serial(SerialFault),
+    /// One unit's calibration failed (the batch goes on).
+    Unit(UnitFault),
+    /// `--shard` is not `K/N` with 0 ≤ K < N.
+    Shard {
+        /// What was given.
+        given: String,
+    },
+    /// `batch merge` found no `unit.json` under `out`.
+    NothingToMerge {
+        /// The folder searched.
+        out: PathBuf,
+    },
+    /// `batch merge` found two units at one place in the batch.
+    MergeClash {
+        /// The two serials.
+        serials: [String; 2],
+        /// Their place.
+        place: usize,
+    },
+    /// A file or folder could not be read or written.
+    Io {
+        /// The file or folder.
+        path: PathBuf,
+        /// The system's error.
+        source: std::io::Error,
+    },
+    /// A result file could not be written or read as JSON.
+    Json {
+        /// The file.
+        path: PathBuf,
+        /// The parser's or writer's error.
+        source: serde_json::Error,
+    },
+    /// A table could not be encoded (the root crate's encoder refused it).
+    Table {
+        /// The unit's folder.
+        path: PathBuf,
+        /// The encoder's error.
+        source: qfa_thermal::table::Error,
+    },
+    /// A table could not be written as TOML.
+    Toml {
+        /// The unit's folder.
+        path: PathBuf,
+        /// The writer's error.
+        source: toml::ser::Error,
+    },
+    /// A plot could not be drawn.
+    Plot {
+        /// The image file.
+        path: PathBuf,
+        /// The plotting library's error.
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
+    /// The worker threads could not be started.
+    ThreadPool(rayon::ThreadPoolBuildError),
+}
+
+/// What is wrong with a manifest.
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum ManifestFault {
+    /// Not TOML, or a key the manifest does not have (a typo is refused, never ignored).
+    Toml(toml::de::Error),
+    /// No `[[unit]]` entry.
+    NoUnits,
+    /// A reader setting's value is refused.
+    Setting {
+        /// The unit it is set for (`None`: the manifest's default).
+        serial: Option<String>,
+        /// The key (`columns`, `time_unit`, `accel_unit`, `temp_unit`).
+        key: &'static str,
+        /// The reader's own error.
+        source: Box<qfa_log::static_log::StaticError>,
+    },
+    /// A unit's log does not exist.
+    NoLog {
+        /// The unit.
+        serial: String,
+        /// Where its log was looked for.
+        log: PathBuf,
+    },
+}
+
+/// What is wrong with a chamber log.
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum ChamberFault {
+    /// The CSV reader refused a line.
+    Csv(csv::Error),
+    /// A `SERIAL.ROLE` column appears twice.
+    DuplicateColumn(String),
+    /// No `SERIAL.ROLE` column.
+    NoUnitColumns,
+    /// `--columns time=NAME` names a column the header lacks.
+    NoNamedTimeColumn(String),
+    /// No column without a serial to read the time from.
+    NoTimeColumn,
+    /// Several columns without a serial: which is the time is not known.
+    SeveralTimeColumns(Vec<String>),
+    /// A unit without `SERIAL.temp` or without any axis.
+    UnitColumns {
+        /// The unit.
+        serial: String,
+        /// The roles it has.
+        roles: Vec<&'static str>,
+    },
+}
+
+/// A serial that cannot be used.
+#[derive(Debug, Clone, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum SerialFault {
+    /// It cannot name a folder.
+    NotAFolderName(String),
+    /// Two units share it (1-based places).
+    Shared {
+        /// The serial.
+        serial: String,
+        /// The units' places in the batch, from 1.
+        units: [usize; 2],
+    },
+}
+
+/// Why one unit was not calibrated.
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum UnitFault {
+    /// The log cannot be read.
+    Open(Box<qfa_log::open::ReadError>),
+    /// The log is not a static log.
+    NotStatic,
+    /// The static calibration refused it.
+    Calibration(Box<StaticCalError>),
+    /// The fleet's descriptor of an axis cannot be fitted.
+    Descriptor {
+        /// The axis.
+        axis: String,
+        /// The fitter's error.
+        source: Box<FitError>,
+    },
+}
+
+impl BatchError {
+    /// `map_err` for an I/O error on `path`.
+    pub(crate) fn io(path: &std::path::Path) -> impl FnOnce(std::io::Error) -> Self + '_ {
+        move |source| Self::Io { path: path.to_path_buf(), source }
+    }
+
+    /// `map_err` for a JSON error on `path`.
+    pub(crate) fn json(path: &std::path::Path) -> impl FnOnce(serde_json::Error) -> Self + '_ {
+        move |source| Self::Json { path: path.to_path_buf(), source }
+    }
+
+    /// `map_err` for a plot that could not be drawn into `path`.
+    pub(crate) fn plot(path: &std::path::Path) -> impl FnOnce(Box<dyn std::error::Error + Send + Sync>) -> Self + '_ {
+        move |source| Self::Plot { path: path.to_path_buf(), source }
+    }
+}
+
+impl fmt::Display for BatchError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Manifest { path, fault } => write!(f, "manifest: {}: {fault}", path.display()),
+            Self::NoInput => f.write_str("give log= (a chamber log) or manifest= (batch.toml), one of them"),
+            Self::Chamber { path, fault } => write!(f, "chamber log: {}: {fault}", path.display()),
+            Self::Serial(s) => write!(f, "serial {s}"),
+            Self::Unit(u) => write!(f, "{u}"),
+            Self::Shard { given } => write!(f, "--shard `{given}`: give K/N with 0 ≤ K < N (units i with i mod N = K)"),
+            Self::NothingToMerge { out } => write!(
+                f,
+                "merge: no SERIAL/unit.json under {}: run `qfa-lab batch … --shard K/N --out {}` for every K first",
+                out.display(),
+                out.display()
+            ),
+            Self::MergeClash { serials, place } => write!(
+                f,
+                "merge: {} and {} both hold batch place {place}: the folder mixes two batches",
+                serials[0], serials[1]
+            ),
+            Self::Io { path, source } => write!(f, "{}: {source}", path.display()),
+            Self::Json { path, source } => write!(f, "{}: {source}", path.display()),
+            Self::Table { path, source } => write!(f, "{}: {source}", path.display()),
+            Self::Toml { path, source } => write!(f, "{}: {source}", path.display()),
+            Self::Plot { path, source } => write!(f, "{}: {source}", path.display()),
+            Self::ThreadPool(e) => write!(f, "thread pool: {e}"),
+        }
+    }
+}
+
+impl fmt::Display for ManifestFault {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Toml(e) => write!(f, "{e}"),
+            Self::NoUnits => f.write_str("no [[unit]] entries: each unit is a [[unit]] table with `serial` and `log`"),
+            Self::Setting { serial: Some(s), key, source } => write!(f, "unit {s}: {key}: {source}"),
+            Self::Setting { serial: None, key, source } => write!(f, "{key}: {source}"),
+            Self::NoLog { serial, log } => write!(f, "unit {serial}: {}: no such file", log.display()),
+        }
+    }
+}
+
+impl fmt::Display for ChamberFault {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Csv(e) => write!(f, "{e}"),
+            Self::DuplicateColumn(h) => write!(f, "column `{h}` appears twice"),
+            Self::NoUnitColumns => f.write_str(
+                "no unit columns: a chamber log names each unit's columns SERIAL.temp, SERIAL.ax, SERIAL.ay, \
+                 SERIAL.az (for one log per unit, use --manifest)",
+            ),
+            Self::NoNamedTimeColumn(name) => write!(f, "no column `{name}` (from --columns time=…)"),
+            Self::NoTimeColumn => f.write_str("no time column (a column without a serial)"),
+            Self::SeveralTimeColumns(cols) => write!(
+                f,
+                "{} columns without a serial ({}): name the time column with --columns time=NAME",
+                cols.len(),
+                cols.iter().map(|c| format!("`{c}`")).collect::<Vec<_>>().join(", ")
+            ),
+            Self::UnitColumns { serial, roles } => write!(
+                f,
+                "unit {serial} has columns {}: each unit needs SERIAL.temp and at least one of SERIAL.ax, .ay, .az",
+                roles.join(", ")
+            ),
+        }
+    }
+}
+
+impl fmt::Display for SerialFault {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::NotAFolderName(s) => write!(
+                f,
+                "`{s}`: a serial names its unit's output folder, so it may hold only letters, digits, `-`, `_` and \
+                 `.`, not start with a dot, and be at most 64 characters"
+            ),
+            Self::Shared { serial, units } => write!(
+                f,
+                "`{serial}` is given to units {} and {}: every unit needs its own serial (its table is flashed under it)",
+                units[0], units[1]
+            ),
+        }
+    }
+}
+
+impl fmt::Display for UnitFault {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Open(e) => write!(f, "{e}"),
+            Self::NotStatic => f.write_str(
+                "not a static log (time, temperature and acceleration columns): a batch calibrates static logs",
+            ),
+            Self::Calibration(e) => write!(f, "{e}"),
+            Self::Descriptor { axis, source } => write!(f, "{axis}: descriptor: {source}"),
+        }
+    }
+}
+
+impl std::error::Error for BatchError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        // Each message already ends with its cause's own text: the chain goes on from the
+        // cause's source, so a printer walking it does not repeat a line.
+        match self {
+            Self::Io { source, .. } => source.source(),
+            Self::Json { source, .. } => source.source(),
+            Self::Toml { source, .. } => source.source(),
+            Self::ThreadPool(e) => e.source(),
+            _ => None,
+        }
+    }
+}
