@@ -10,7 +10,7 @@
 //! with one verdict, the units' calibration verdicts and the navigation verdict merged
 //! ([`Verdict::merge`]); the console ends with the same lines.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use serde::Serialize;
@@ -112,18 +112,90 @@ pub fn dir_bytes(dir: &Path) -> std::io::Result<u64> {
     Ok(n)
 }
 
+/// Why the demo stopped: the step, the file or unit it was on, and the error it came from.
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum DemoError {
+    /// A file or folder could not be written, read or removed.
+    Io {
+        /// The file or folder.
+        path: PathBuf,
+        /// The system's error.
+        source: std::io::Error,
+    },
+    /// A report could not be written as JSON.
+    Json {
+        /// The file.
+        path: PathBuf,
+        /// The writer's error.
+        source: serde_json::Error,
+    },
+    /// A unit's truth could not be written as TOML.
+    Truth {
+        /// The unit.
+        unit: String,
+        /// The writer's error.
+        source: qfa_sim::truth::TruthError,
+    },
+    /// A unit's calibration failed.
+    Calibrate {
+        /// The unit.
+        unit: String,
+        /// The calibration's error.
+        source: qfa_calibrate::CalibrateError,
+    },
+    /// A unit's calibration wrote no verdict.
+    NoVerdict {
+        /// The unit.
+        unit: String,
+    },
+    /// The discovery workflow failed on a unit's log.
+    Discover {
+        /// The unit.
+        unit: String,
+        /// Discovery's error.
+        source: qfa_calibrate::discover::DiscoverError,
+    },
+    /// The navigation study failed.
+    Navigation(qfa_nav::NavError),
+}
+
+impl DemoError {
+    fn io(path: &Path) -> impl FnOnce(std::io::Error) -> Self + '_ {
+        move |source| Self::Io { path: path.to_path_buf(), source }
+    }
+}
+
+impl std::fmt::Display for DemoError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Io { path, source } => write!(f, "{}: {source}", path.display()),
+            Self::Json { path, source } => write!(f, "{}: {source}", path.display()),
+            Self::Truth { unit, source } => write!(f, "{unit}: truth.toml: {source}"),
+            Self::Calibrate { unit, source } => write!(f, "{unit}: calibration: {source}"),
+            Self::NoVerdict { unit } => write!(f, "{unit}: calibration wrote no verdict"),
+            // `{:#}`: with its causes (the file and the system's error).
+            Self::Discover { unit, source } => write!(f, "discovery on {unit}: {source:#}"),
+            Self::Navigation(e) => write!(f, "navigation: {}", error_chain(e)),
+        }
+    }
+}
+
+impl std::error::Error for DemoError {}
+
 /// Run the demo. `discovery` and `navigation` are the hooks for the discovery workflow and
 /// the navigation study.
 ///
 /// # Errors
-/// A message describing the failure (a failed hook included).
+/// A step that failed, with the file or unit it was on ([`DemoError`]; a failed hook
+/// included).
 pub fn run(
     opts: &DemoOptions,
     discovery: Option<DiscoveryHook>,
     navigation: Option<NavigationHook>,
-) -> Result<Vec<UnitResult>, String> {
+) -> Result<Vec<UnitResult>, DemoError> {
     let t_all = Instant::now();
-    std::fs::create_dir_all(&opts.out).map_err(|e| e.to_string())?;
+    std::fs::create_dir_all(&opts.out).map_err(DemoError::io(&opts.out))?;
     let mut results = Vec::new();
     let mut pages: Vec<UnitPage> = Vec::new();
     for unit in 1..=3u8 {
@@ -133,12 +205,12 @@ pub fn run(
     }
     let nav = navigate(opts, navigation)?;
     let v = write_reports(opts, &results, &pages, nav.as_ref())?;
-    let bytes = dir_bytes(&opts.out).map_err(|e| format!("{}: {e}", opts.out.display()))?;
+    let bytes = dir_bytes(&opts.out).map_err(DemoError::io(&opts.out))?;
     let total_s = t_all.elapsed().as_secs_f64();
     page(opts, &results, &pages, nav.as_ref(), &v, bytes, total_s)
         .and_then(|p| p.write(&opts.out))
-        .map_err(|e| format!("{}: {e}", opts.out.display()))?;
-    let bytes = dir_bytes(&opts.out).map_err(|e| format!("{}: {e}", opts.out.display()))?;
+        .map_err(DemoError::io(&opts.out))?;
+    let bytes = dir_bytes(&opts.out).map_err(DemoError::io(&opts.out))?;
     println!(
         "demo total {total_s:.1} s; outputs in {}: {:.2} MB{}",
         opts.out.display(),
@@ -152,10 +224,14 @@ pub fn run(
 
 /// One of the paper's units: simulated and written, calibrated, discovered (unit #1 only)
 /// and its log removed unless kept; its entry on the page and its Table 4 row.
-fn run_unit(opts: &DemoOptions, unit: u8, discovery: Option<DiscoveryHook>) -> Result<(UnitPage, UnitResult), String> {
+fn run_unit(
+    opts: &DemoOptions,
+    unit: u8,
+    discovery: Option<DiscoveryHook>,
+) -> Result<(UnitPage, UnitResult), DemoError> {
     let truth = Truth::jb_kt8(unit);
     let dir = opts.out.join(format!("kt8-{unit}"));
-    std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
+    std::fs::create_dir_all(&dir).map_err(DemoError::io(&dir))?;
     eprintln!("== {} ==", truth.name);
     let (log_path, rows, simulate_s, write_s) = simulate_unit(opts, unit, &truth, &dir)?;
     let t = Instant::now();
@@ -172,8 +248,8 @@ fn run_unit(opts: &DemoOptions, unit: u8, discovery: Option<DiscoveryHook>) -> R
             limits: LimitsChoice::default(),
         },
     )
-    .map_err(|e| e.to_string())?;
-    let verdict = cal.verdict.clone().ok_or_else(|| format!("{}: calibration wrote no verdict", truth.name))?;
+    .map_err(|source| DemoError::Calibrate { unit: truth.name.clone(), source })?;
+    let verdict = cal.verdict.clone().ok_or_else(|| DemoError::NoVerdict { unit: truth.name.clone() })?;
     let calibrate_s = t.elapsed().as_secs_f64();
     let p = PAPER_TABLE4[usize::from(unit) - 1];
     eprintln!(
@@ -191,7 +267,7 @@ fn run_unit(opts: &DemoOptions, unit: u8, discovery: Option<DiscoveryHook>) -> R
         None => None,
     };
     if !opts.full_logs {
-        std::fs::remove_file(&log_path).map_err(|e| format!("{}: {e}", log_path.display()))?;
+        std::fs::remove_file(&log_path).map_err(DemoError::io(&log_path))?;
     }
     let page = UnitPage { dir: dir.clone(), coverage: cal.report.coverage.clone(), discovery: discovery_line, verdict };
     let result = UnitResult {
@@ -214,7 +290,7 @@ fn simulate_unit(
     unit: u8,
     truth: &Truth,
     dir: &Path,
-) -> Result<(std::path::PathBuf, usize, f64, f64), String> {
+) -> Result<(PathBuf, usize, f64, f64), DemoError> {
     let t = Instant::now();
     let pb = if opts.progress { indicatif::ProgressBar::new(16) } else { indicatif::ProgressBar::hidden() };
     pb.set_style(
@@ -227,8 +303,10 @@ fn simulate_unit(
     let simulate_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let log_path = dir.join("log.csv");
-    write_log(&log_path, &log).map_err(|e| e.to_string())?;
-    std::fs::write(dir.join("truth.toml"), truth.to_toml().map_err(|e| e.to_string())?).map_err(|e| e.to_string())?;
+    write_log(&log_path, &log).map_err(DemoError::io(&log_path))?;
+    let toml = truth.to_toml().map_err(|source| DemoError::Truth { unit: truth.name.clone(), source })?;
+    let truth_path = dir.join("truth.toml");
+    std::fs::write(&truth_path, toml).map_err(DemoError::io(&truth_path))?;
     let write_s = t.elapsed().as_secs_f64();
     let rows = log.rows();
     drop(log);
@@ -242,9 +320,10 @@ fn discover_unit(
     truth: &Truth,
     log_path: &Path,
     dir: &Path,
-) -> Result<String, String> {
+) -> Result<String, DemoError> {
     let pb = spinner("discovery on unit #1's log", opts.progress);
-    let s = hook(log_path, &dir.join("discover")).map_err(|e| format!("discovery on {}: {e:#}", truth.name));
+    let s = hook(log_path, &dir.join("discover"))
+        .map_err(|source| DemoError::Discover { unit: truth.name.clone(), source });
     pb.finish_and_clear();
     let s = s?;
     eprintln!("   discovery: {s}");
@@ -255,12 +334,11 @@ fn discover_unit(
 fn navigate(
     opts: &DemoOptions,
     navigation: Option<NavigationHook>,
-) -> Result<Option<qfa_nav::NavigationOutcome>, String> {
+) -> Result<Option<qfa_nav::NavigationOutcome>, DemoError> {
     let mut nav = None;
     if let Some(hook) = navigation {
         let pb = spinner("navigation study (calibrate, align, fly)", opts.progress);
-        let s = hook(&opts.out.join(NAVIGATION_DIR), opts.nav_duration_s)
-            .map_err(|e| format!("navigation: {}", error_chain(&e)));
+        let s = hook(&opts.out.join(NAVIGATION_DIR), opts.nav_duration_s).map_err(DemoError::Navigation);
         pb.finish_and_clear();
         let s = s?;
         eprintln!("navigation: {}", s.verdict.answer);
@@ -276,15 +354,19 @@ fn write_reports(
     results: &[UnitResult],
     pages: &[UnitPage],
     nav: Option<&qfa_nav::NavigationOutcome>,
-) -> Result<Verdict, String> {
+) -> Result<Verdict, DemoError> {
     println!("{}", table4_text(results));
-    let json = serde_json::to_string_pretty(results).map_err(|e| e.to_string())?;
-    std::fs::write(opts.out.join("table4.json"), json).map_err(|e| e.to_string())?;
+    let table4 = opts.out.join("table4.json");
+    let json =
+        serde_json::to_string_pretty(results).map_err(|source| DemoError::Json { path: table4.clone(), source })?;
+    std::fs::write(&table4, json).map_err(DemoError::io(&table4))?;
     let v = verdict(results, pages, nav);
-    let json = qfa_report::verdict::json_with_verdict(&v, &DemoReport { units: results }).map_err(|e| e.to_string())?;
-    std::fs::write(opts.out.join("report.json"), json).map_err(|e| e.to_string())?;
-    std::fs::write(opts.out.join("report.md"), markdown(results, pages, nav.is_some(), &v))
-        .map_err(|e| e.to_string())?;
+    let report = opts.out.join("report.json");
+    let json = qfa_report::verdict::json_with_verdict(&v, &DemoReport { units: results })
+        .map_err(|source| DemoError::Json { path: report.clone(), source })?;
+    std::fs::write(&report, json).map_err(DemoError::io(&report))?;
+    let md = opts.out.join("report.md");
+    std::fs::write(&md, markdown(results, pages, nav.is_some(), &v)).map_err(DemoError::io(&md))?;
     Ok(v)
 }
 

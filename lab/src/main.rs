@@ -523,6 +523,12 @@ impl From<qfa_sim::population::PopulationError> for CliError {
     }
 }
 
+impl From<qfa_lab::demo::DemoError> for CliError {
+    fn from(e: qfa_lab::demo::DemoError) -> Self {
+        Self::Failed(e.to_string())
+    }
+}
+
 impl From<qfa_calibrate::CalibrateError> for CliError {
     fn from(e: qfa_calibrate::CalibrateError) -> Self {
         Self::Failed(e.to_string())

@@ -8,6 +8,12 @@
 //!   which adds a spike to the sensor's codes.
 //! - Heating, cooling and holding: `replay::Motion` and the firmware's `Branch::next`, the
 //!   only comparisons of a rate with the branch deadband.
+//! - Least squares: `qfa_calibrate`'s solver module, the only place a matrix is factored or
+//!   inverted for a fit. The navigation study's filters (`lab/nav`) are not fits and are not
+//!   searched; discovery's change-point scan whitens by a Kalman filter and sums, and calls
+//!   no factorization.
+//! - Errors are types: no public function of a lab library returns `Result<_, String>` (the
+//!   command line's own value parsers, in `lab/src/main.rs`, are clap's convention).
 
 use std::path::{Path, PathBuf};
 
@@ -82,4 +88,33 @@ fn heating_cooling_and_holding_are_told_apart_in_one_place() {
     let files = sources(&lab());
     let compare = offenders(&files, &["> deadband", "< -deadband", "> 0.05 {", "< -0.05 {"], &["log/src/replay.rs"]);
     assert!(compare.is_empty(), "a rate is classified outside replay::Motion:\n{}", compare.join("\n"));
+}
+
+#[test]
+fn least_squares_are_solved_in_one_module() {
+    let files: Vec<_> = sources(&lab()).into_iter().filter(|(p, _)| !p.starts_with(lab().join("nav"))).collect();
+    let solves = offenders(
+        &files,
+        &[".svd(", ".qr()", "pseudo_inverse", "try_inverse", ".cholesky()", ".lu()", "solve_lower_triangular"],
+        &["calibrate/src/solver.rs"],
+    );
+    assert!(solves.is_empty(), "a least-squares problem is solved outside the solver:\n{}", solves.join("\n"));
+}
+
+#[test]
+fn no_public_function_returns_its_error_as_text() {
+    let files: Vec<_> = sources(&lab()).into_iter().filter(|(p, _)| !p.ends_with("src/main.rs")).collect();
+    let mut found = Vec::new();
+    for (p, text) in &files {
+        // A public signature, possibly over several lines, up to its body.
+        for (i, _) in text.match_indices("pub fn ") {
+            let sig = &text[i..text[i..].find('{').map_or(text.len(), |e| i + e)];
+            let flat: String = sig.split_whitespace().collect::<Vec<_>>().join(" ");
+            if flat.contains("-> Result<") && flat.trim_end().ends_with(", String>") {
+                let line = text[..i].lines().count() + 1;
+                found.push(format!("{}:{line}: {flat}", p.strip_prefix(lab()).unwrap_or(p).display()));
+            }
+        }
+    }
+    assert!(found.is_empty(), "public functions returning their error as a String:\n{}", found.join("\n"));
 }

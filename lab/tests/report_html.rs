@@ -195,6 +195,11 @@ fn the_demo_fails_when_a_hook_fails() {
     };
     let fail = |_: &Path, _: &Path| Err(DiscoverError::NoModel { axis: "the hook's".into(), fold: None });
     let e = qfa_lab::demo::run(&opts, Some(fail), None).unwrap_err();
-    assert!(e.contains("the hook's: discovery gave no model"), "{e}");
+    // The error says which step and unit, and carries discovery's own error as a value.
+    assert!(
+        matches!(&e, qfa_lab::demo::DemoError::Discover { unit, source: DiscoverError::NoModel { .. } } if unit == "JB-KT8 #1"),
+        "{e:?}"
+    );
+    assert!(e.to_string().contains("the hook's: discovery gave no model"), "{e}");
     let _ = std::fs::remove_dir_all(&d);
 }
