@@ -203,13 +203,17 @@ def calibrate(
     axis: str = "x",
     px4_device_id: Optional[int] = None,
     export_range: Optional[Tuple[float, float]] = None,
+    lsb_per_g: Optional[float] = None,
     **reader: Any,
 ) -> Table:
     """``qfa-lab calibrate``: fit a table to a log (a ``Log``, or a path read with ``reader``
     options as in ``read_log``).
 
-    Static logs take ``holdout`` (auto, after-max, blocks:K, none); cycling logs take
-    ``fit_programs`` and ``axis`` (the IMU axis of its parameter files). The returned
+    Static logs take ``holdout`` (auto, after-max, blocks:K, none) and ``lsb_per_g``, the
+    part's sensitivity at the range it was logged at (4096 for ±8 g at 16 bits), which the
+    table records so that a firmware stating another ``sample_lsb_per_g`` refuses it
+    (``--lsb-per-g``); cycling logs take ``fit_programs`` and ``axis`` (the IMU axis of its
+    parameter files). The returned
     ``Table`` has ``to_bytes()`` (flash it), ``to_toml()``, ``report()`` (the report as a
     dict), ``exports()`` (PX4 / ArduPilot files) and ``write(dir)``.
 
@@ -228,6 +232,7 @@ def calibrate(
         axis=axis,
         px4_device_id=px4_device_id,
         export_range=export_range,
+        lsb_per_g=lsb_per_g,
     )
 
 

@@ -242,9 +242,21 @@ fn export_options(px4_device_id: Option<i64>, export_range: Option<(f64, f64)>) 
     Ok(ExportOptions { px4_device_id, range_c: export_range, ..ExportOptions::default() })
 }
 
+/// The part's sensitivity, LSB per g, within what a table takes (the CLI's `--lsb-per-g`).
+fn part_sensitivity(lsb_per_g: Option<f64>) -> PyResult<Option<f32>> {
+    let Some(v) = lsb_per_g else { return Ok(None) };
+    let (lo, hi) = qfa_thermal::table::limits::GAMMA;
+    if !(v.is_finite() && (f64::from(lo)..=f64::from(hi)).contains(&v)) {
+        return Err(CalibrationError::new_err(format!(
+            "lsb_per_g={v} is no part's LSB per g: 1 to 1e9, e.g. 4096 (±8 g, 16 bits)"
+        )));
+    }
+    Ok(Some(v as f32))
+}
+
 /// `qfa-lab calibrate` on a log already read.
 #[pyfunction]
-#[pyo3(signature = (log, *, holdout = "auto", fit_programs = None, axis = "x", px4_device_id = None, export_range = None))]
+#[pyo3(signature = (log, *, holdout = "auto", fit_programs = None, axis = "x", px4_device_id = None, export_range = None, lsb_per_g = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn calibrate(
     py: Python<'_>,
@@ -254,15 +266,17 @@ pub fn calibrate(
     axis: &str,
     px4_device_id: Option<i64>,
     export_range: Option<(f64, f64)>,
+    lsb_per_g: Option<f64>,
 ) -> PyResult<Table> {
     let exports = export_options(px4_device_id, export_range)?;
+    let part_lsb_per_g = part_sensitivity(lsb_per_g)?;
     let holdout: Holdout = holdout.parse().map_err(|e| static_cal_err::<CalibrationError>(py, &e))?;
     if !["x", "y", "z"].contains(&axis) {
         return Err(CalibrationError::new_err(format!("axis=\"{axis}\": expected \"x\", \"y\" or \"z\"")));
     }
     match &log.data {
         LogData::Static(l) => {
-            let opts = StaticCalOptions { holdout, ..Default::default() };
+            let opts = StaticCalOptions { holdout, part_lsb_per_g, ..Default::default() };
             let c = py
                 .detach(|| static_cal::calibrate_static(l, &opts, false))
                 .map_err(|e| static_cal_err::<CalibrationError>(py, &e))?;
@@ -270,6 +284,9 @@ pub fn calibrate(
         }
         LogData::Cycling(l) => {
             cycling_holdout(holdout).map_err(CalibrationError::new_err)?;
+            if part_lsb_per_g.is_some() {
+                return Err(CalibrationError::new_err("lsb_per_g: static logs only (a cycling log is pulse counts)"));
+            }
             let axis = format!("a{axis}");
             let opts = CalibrateOptions {
                 fit_programs: fit_programs.filter(|f| !f.is_empty()),

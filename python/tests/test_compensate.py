@@ -46,6 +46,18 @@ def test_static_calibrate_and_compensate_match_the_cli(static_log: Path, lab_bin
     assert (tmp_path / "py" / "table.bin").read_bytes() == (out / "table.bin").read_bytes()
 
 
+def test_the_parts_sensitivity_is_recorded_as_the_cli_records_it(static_log: Path, lab_bin: Path, tmp_path: Path) -> None:
+    out = tmp_path / "cal"
+    run_lab(lab_bin, ["calibrate", "--log", str(static_log), "--lsb-per-g", "4096", "--out", str(out)])
+    table = q.calibrate(static_log, lsb_per_g=4096)
+    assert table.to_bytes() == (out / "table.bin").read_bytes()
+    # Without it the table records none: the bytes differ.
+    assert q.calibrate(static_log).to_bytes() != table.to_bytes()
+    for bad in (0.0, float("nan"), 2e9):
+        with pytest.raises(q.CalibrationError, match="lsb_per_g="):
+            q.calibrate(static_log, lsb_per_g=bad)
+
+
 def test_arrays_go_through_the_reader(static_log: Path) -> None:
     log = q.read_log(static_log)
     again = q.log_from_arrays(
