@@ -16,6 +16,8 @@
 //! only linked (`panic_check`, `size_baseline`) print nothing worth a file: their result is
 //! the link and the size.
 
+mod host_tests;
+
 use std::io::{BufRead, BufReader, Read};
 use std::path::{Path, PathBuf};
 use std::process::{exit, Child, Command, ExitStatus, Stdio};
@@ -615,9 +617,7 @@ fn test(overwrite: bool) -> Result {
 
     step("host tests and doctests (default members; the README's example is a doctest)");
     ensure_chromium()?;
-    let mut c = cargo();
-    c.arg("test");
-    run(c)?;
+    host_tests::run_all(thread::available_parallelism().map_or(2, std::num::NonZero::get))?;
 
     step("rustdoc of the crate, the generator and the lab's crates, -D warnings");
     let mut c = cargo();
