@@ -12,6 +12,8 @@
 //!   inverted for a fit. The navigation study's filters (`lab/nav`) are not fits and are not
 //!   searched; discovery's change-point scan whitens by a Kalman filter and sums, and calls
 //!   no factorization.
+//! - Robust statistics: `qfa_log::robust`, the one median (the textbook one: the mean of
+//!   the two middle values of an even count) and the one MAD-to-SD constant.
 //! - Errors are types: no public function of a lab library returns `Result<_, String>` (the
 //!   command line's own value parsers, in `lab/src/main.rs`, are clap's convention).
 
@@ -117,4 +119,11 @@ fn no_public_function_returns_its_error_as_text() {
         }
     }
     assert!(found.is_empty(), "public functions returning their error as a String:\n{}", found.join("\n"));
+}
+
+#[test]
+fn the_median_and_its_scale_are_defined_once() {
+    let files = sources(&lab());
+    let copies = offenders(&files, &["fn median(", "fn median_of(", "1.4826"], &["log/src/robust.rs"]);
+    assert!(copies.is_empty(), "a median or the MAD's scale outside qfa_log::robust:\n{}", copies.join("\n"));
 }

@@ -11,6 +11,7 @@ pub(crate) mod lines;
 pub mod open;
 pub mod pairing;
 pub mod replay;
+pub mod robust;
 pub(crate) mod single;
 pub mod spelling;
 pub mod static_log;

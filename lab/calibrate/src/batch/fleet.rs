@@ -36,6 +36,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::unit::{Calibrated, UnitOutcome, UnitResult};
+use qfa_log::robust::{median, MAD_TO_SD};
 use qfa_report::verdict::{Limits, Measured, Outcome};
 
 /// Robust scales out that flag a unit. Set to 6 when this was written, after one 20-unit
@@ -252,17 +253,6 @@ fn value_of(c: &Calibrated, sensor: (&Measured, &Measured), name: &str) -> Optio
     }
 }
 
-/// Median of `v` (sorted in place); `None` when empty.
-#[must_use]
-pub(crate) fn median(v: &mut [f64]) -> Option<f64> {
-    if v.is_empty() {
-        return None;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    Some(if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) })
-}
-
 /// Each unit's sensor offset and drift against the fleet's median reading (module docs).
 fn sensors(cal: &[Option<&Calibrated>]) -> Vec<(Measured, Measured)> {
     use std::collections::BTreeMap;
@@ -398,7 +388,7 @@ fn feature_stats(
     let mut reference: Vec<f64> = values.iter().filter(|(i, _)| !partial[*i]).map(|(_, v)| *v).collect();
     let med = median(&mut reference)?;
     let mut dev: Vec<f64> = reference.iter().map(|v| (v - med).abs()).collect();
-    let scale = (1.4826 * median(&mut dev).unwrap_or(0.0)).max(feat.floor);
+    let scale = (MAD_TO_SD * median(&mut dev).unwrap_or(0.0)).max(feat.floor);
     for &(i, v) in &values {
         if feat.full_coverage_only && partial[i] {
             continue;
@@ -544,17 +534,4 @@ fn capability(cal: &[Option<&Calibrated>], axes: &[String], limits: &Limits) -> 
     let spans: Vec<f64> = cal.iter().flatten().map(|c| c.temp_c[1] - c.temp_c[0]).collect();
     out.push(one("min_span_c", "all", "min", limits.min_span_c, spans));
     out
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The median of odd and even counts, and none of nothing.
-    #[test]
-    fn median_of_odd_even_and_empty() {
-        assert_eq!(median(&mut [3.0, 1.0, 2.0]), Some(2.0));
-        assert_eq!(median(&mut [4.0, 1.0, 2.0, 3.0]), Some(2.5));
-        assert_eq!(median(&mut []), None);
-    }
 }

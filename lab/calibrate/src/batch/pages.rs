@@ -281,8 +281,9 @@ fn capability_section(p: &mut Page, fleet: &Fleet) {
 /// robust statistics.
 fn figures_section(p: &mut Page, out: &Path, fleet: &Fleet, plots: bool) -> Result<(), BatchError> {
     p.section("Figures across the fleet").para(&format!(
-        "Robust distance z = (x − median) / (1.4826·MAD) over the units with full coverage; a unit is flagged beyond \
+        "Robust distance z = (x − median) / ({:.4}·MAD) over the units with full coverage; a unit is flagged beyond \
          ±{} (held-out RMS: above only). Red: flagged.",
+        qfa_log::robust::MAD_TO_SD,
         fleet.z_flag
     ));
     if plots {

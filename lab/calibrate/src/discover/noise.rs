@@ -92,6 +92,7 @@
 use serde::Serialize;
 
 use super::Channels;
+use qfa_log::robust::{median, median_of, MAD_TO_SD};
 use qfa_rng::{normal, seeded};
 
 /// Lags of the structure function, bins.
@@ -268,17 +269,11 @@ pub(crate) fn runs_of(ch: &Channels, r: &[f64]) -> Vec<(usize, Vec<f64>, Vec<f64
     out
 }
 
-/// The upper median (the element at `len / 2` in sorted order), by selection: the null
-/// draws refit the model hundreds of times per test.
-fn median(v: &mut [f64]) -> f64 {
-    let mid = v.len() / 2;
-    *v.select_nth_unstable_by(mid, f64::total_cmp).1
-}
-
 /// |x − median| for each value of a non-empty run (the median absolute deviation's terms:
 /// the long-lag level of the fit takes its SD from them).
 fn abs_deviations(v: &[f64]) -> Vec<f64> {
-    let mid = median(&mut v.to_vec());
+    // An empty run has no deviations, whatever the centre.
+    let mid = median_of(v).unwrap_or(0.0);
     v.iter().map(|x| (x - mid).abs()).collect()
 }
 
@@ -288,7 +283,7 @@ pub(crate) fn fit(ch: &Channels, r: &[f64]) -> NoiseModel {
     let runs = runs_of(ch, r);
     let mut spacing: Vec<f64> =
         runs.iter().flat_map(|(_, _, t)| t.windows(2).map(|w| w[1] - w[0])).filter(|d| *d > 0.0).collect();
-    let bin_s = if spacing.is_empty() { 60.0 } else { median(&mut spacing) };
+    let bin_s = median(&mut spacing).unwrap_or(60.0);
     let values: Vec<&[f64]> = runs.iter().map(|(_, v, _)| v.as_slice()).collect();
     fit_runs(&values, bin_s)
 }
@@ -298,10 +293,8 @@ fn fit_runs(runs: &[&[f64]], bin_s: f64) -> NoiseModel {
     let mut d = Vec::new();
     for &k in &LAGS {
         let mut diffs: Vec<f64> = runs.iter().flat_map(|v| v.windows(k + 1).map(|w| (w[k] - w[0]).abs())).collect();
-        if diffs.len() < MIN_PAIRS {
-            break;
-        }
-        let s = 1.4826 * median(&mut diffs);
+        let (true, Some(mad)) = (diffs.len() >= MIN_PAIRS, median(&mut diffs)) else { break };
+        let s = MAD_TO_SD * mad;
         d.push((k as f64, (s * s).max(1e-300)));
     }
     // The residual's own variance bounds the model's: D(∞) = 2(W + Q), from the runs'
@@ -312,11 +305,12 @@ fn fit_runs(runs: &[&[f64]], bin_s: f64) -> NoiseModel {
     // noise with τ near a run's length is then partly a level per run, which the run-level
     // test weighs.
     let mut dev: Vec<f64> = runs.iter().filter(|v| !v.is_empty()).flat_map(|v| abs_deviations(v)).collect();
-    let far = if !d.is_empty() && dev.len() >= MIN_PAIRS {
-        let s = 1.4826 * median(&mut dev);
-        Some(2.0 * (s * s).max(1e-300))
-    } else {
-        None
+    let far = match median(&mut dev) {
+        Some(mad) if !d.is_empty() && dev.len() >= MIN_PAIRS => {
+            let s = MAD_TO_SD * mad;
+            Some(2.0 * (s * s).max(1e-300))
+        }
+        _ => None,
     };
     if d.is_empty() {
         let all: Vec<f64> = runs.iter().flat_map(|v| v.iter().copied()).collect();
@@ -398,8 +392,8 @@ fn max_split(model: &NoiseModel, v: &[f64]) -> Option<(f64, usize, f64)> {
 
 /// Clip at [`CLIP_SD`] model SDs around the run's median.
 fn clipped(model: &NoiseModel, v: &[f64]) -> Vec<f64> {
-    let mut s = v.to_vec();
-    let mid = median(&mut s);
+    // An empty run has nothing to clip.
+    let mid = median_of(v).unwrap_or(0.0);
     let c = CLIP_SD * model.total_sd();
     v.iter().map(|&x| x.clamp(mid - c, mid + c)).collect()
 }
@@ -612,14 +606,15 @@ fn max_run_noise(runs: &[&[f64]]) -> Option<(f64, usize)> {
         .filter(|(_, v)| v.len() >= RUN_NOISE_MIN_BINS)
         .map(|(k, v)| {
             let mut diffs: Vec<f64> = v.windows(2).map(|w| (w[1] - w[0]).abs()).collect();
-            (k, 1.4826 * median(&mut diffs) / std::f64::consts::SQRT_2)
+            // At least RUN_NOISE_MIN_BINS bins: never empty.
+            (k, MAD_TO_SD * median(&mut diffs).unwrap_or(0.0) / std::f64::consts::SQRT_2)
         })
         .collect();
     if sds.len() < 3 {
         return None;
     }
     let mut all: Vec<f64> = sds.iter().map(|x| x.1).collect();
-    let mid = median(&mut all).max(1e-300);
+    let mid = median(&mut all).unwrap_or(0.0).max(1e-300);
     sds.iter().map(|&(k, sd)| (sd / mid, k)).max_by(|a, b| a.0.total_cmp(&b.0))
 }
 
