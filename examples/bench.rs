@@ -20,7 +20,7 @@ mod target {
 
     use cortex_m::peripheral::{syst::SystClkSource, SYST};
     use cortex_m_rt::{entry, exception, ExceptionFrame};
-    use qfa_thermal::{Config, Extensions, PulseOutput, Status, Table, ThreeAxisSensorPerAxis, ThreeAxisSharedSensor};
+    use qfa_thermal::{Config, PulseOutput, Status, Table, ThreeAxisSensorPerAxis, ThreeAxisSharedSensor};
 
     use crate::common::rt;
 
@@ -81,29 +81,42 @@ mod target {
         (k.wrapping_mul(1000), 320 + tri as i16)
     }
 
-    fn compensator(ext: Extensions, misalignment: bool) -> ThreeAxisSharedSensor<Table> {
-        warmed(Config::default(), tables::table(ext, misalignment, 32))
-    }
-
-    /// The same model for a MEMS part read at the table's own 320 000 LSB per g: the
-    /// samples path measured on a compensator configured for samples (on a pulse one it
-    /// would time the `WRONG_INPUT` return).
-    fn samples_compensator() -> ThreeAxisSharedSensor<Table> {
-        let config = Config { input: qfa_thermal::Input::Samples, sample_lsb_per_g: 320_000.0, ..Config::default() };
-        let mut t = tables::table(Extensions::default(), false, 32);
-        t.input = qfa_thermal::Input::Samples;
-        for a in &mut t.axes {
-            a.scale = a.scale.in_units(qfa_thermal::table::SAMPLE_UNITS_PER_G / 320_000.0);
-        }
-        warmed(config, t)
-    }
-
-    fn warmed(config: Config, table: Table) -> ThreeAxisSharedSensor<Table> {
-        let mut c = ThreeAxisSharedSensor::<Table>::new(config).expect("a valid config");
+    /// A compensator with one shared sensor, holding `table` in flash, warmed up.
+    fn shared_sensor(config: Config, table: &'static Table) -> ThreeAxisSharedSensor {
+        let mut c = ThreeAxisSharedSensor::new(config).expect("a valid config");
         c.set_table(table).expect("fixture table validates");
         for k in 0..64 {
             let (t, raw) = sample(k);
             c.on_raw(0, t, raw).expect("warm-up readings are plausible");
+        }
+        c
+    }
+
+    /// The samples path measured on a compensator configured for samples at the table's own
+    /// part sensitivity (on a pulse one it would time the `WRONG_INPUT` return).
+    fn samples_compensator() -> ThreeAxisSharedSensor {
+        let config = Config {
+            input: qfa_thermal::Input::Samples,
+            sample_lsb_per_g: tables::SAMPLE_LSB_PER_G,
+            ..Config::default()
+        };
+        shared_sensor(config, &tables::SAMPLES)
+    }
+
+    /// Timestamp (ms), sensor and raw reading of slow-path call `k` with a sensor per axis:
+    /// the three sensors read in turn, each at 1 Hz on [`sample`]'s triangle.
+    fn sample_per_axis(k: u32) -> (u32, usize, i16) {
+        let (t, raw) = sample(k / 3);
+        (t.wrapping_add(k % 3), (k % 3) as usize, raw)
+    }
+
+    /// The recommended configuration: a sensor per axis, the table in flash, warmed up.
+    fn sensor_per_axis(table: &'static Table) -> ThreeAxisSensorPerAxis {
+        let mut c = ThreeAxisSensorPerAxis::new(Config::default()).expect("a valid config");
+        c.set_table(table).expect("fixture table validates");
+        for k in 0..3 * 64 {
+            let (t, sensor, raw) = sample_per_axis(k);
+            c.on_raw(sensor, t, raw).expect("warm-up readings are plausible");
         }
         c
     }
@@ -133,7 +146,7 @@ mod target {
             black_box(PulseOutput { dv_mps: black_box([0.0f32; 3]), status: Status::from_bits_retain(black_box(0)) });
         });
         // The fast path is measured through the split applier, as the IMU interrupt runs it.
-        let mut c = compensator(Extensions::default(), false);
+        let mut c = shared_sensor(Config::default(), &tables::SLOTS_OFF);
         let (_, mut ap) = c.split();
         let fast = time_calls(|_| {
             black_box(black_box(&mut ap).cycle(black_box(PULSES), black_box(DT)));
@@ -143,7 +156,7 @@ mod target {
         let fast_s = time_calls(|_| {
             black_box(black_box(&mut aps).cycle_samples(black_box(PULSES), black_box(DT)));
         });
-        let mut c = compensator(Extensions::default(), true);
+        let mut c = shared_sensor(Config::default(), &tables::MISALIGNED);
         let (_, mut ap) = c.split();
         let fast_m = time_calls(|_| {
             black_box(black_box(&mut ap).cycle(black_box(PULSES), black_box(DT)));
@@ -180,18 +193,31 @@ mod target {
             black_box(black_box(raw));
             let _ = black_box(Ok::<Status, qfa_thermal::SampleError>(Status::from_bits_retain(black_box(0))));
         });
-        let mut c = compensator(Extensions::default(), false);
+        let mut c = shared_sensor(Config::default(), &tables::SLOTS_OFF);
         let slow_off = time_calls(|k| {
             let (t, raw) = sample(k + 64);
             let _ = black_box(black_box(&mut c).on_raw(0, black_box(t), black_box(raw)));
         });
         let off_status = c.status();
-        let mut c = compensator(tables::all_slots_on(), false);
+        let mut c = shared_sensor(Config::default(), &tables::SLOTS_ON);
         let slow_on = time_calls(|k| {
             let (t, raw) = sample(k + 64);
             let _ = black_box(black_box(&mut c).on_raw(0, black_box(t), black_box(raw)));
         });
         let on_status = c.status();
+        let per_axis_empty = time_calls(|k| {
+            let (t, sensor, raw) = sample_per_axis(k + 3 * 64);
+            black_box(black_box(t));
+            black_box(black_box(sensor));
+            black_box(black_box(raw));
+            let _ = black_box(Ok::<Status, qfa_thermal::SampleError>(Status::from_bits_retain(black_box(0))));
+        });
+        let mut c = sensor_per_axis(&tables::SLOTS_ON);
+        let per_axis_on = time_calls(|k| {
+            let (t, sensor, raw) = sample_per_axis(k + 3 * 64);
+            let _ = black_box(black_box(&mut c).on_raw(black_box(sensor), black_box(t), black_box(raw)));
+        });
+        let per_axis_status = c.status();
 
         let _ = writeln!(out, "calls_per_figure={CALLS}");
         let _ = writeln!(out, "insns_per_systick_tick={ipt:.4}");
@@ -204,8 +230,10 @@ mod target {
         let _ = writeln!(out, "expf_micromath_max_rel_err={exp_err:.2e}");
         let _ = writeln!(out, "slow_path_insns_3axis_all_off={:.1}", per_call(slow_off, slow_empty, ipt));
         let _ = writeln!(out, "slow_path_insns_3axis_all_on={:.1}", per_call(slow_on, slow_empty, ipt));
+        let _ = writeln!(out, "slow_path_insns_sensor_per_axis={:.1}", per_call(per_axis_on, per_axis_empty, ipt));
         let _ = writeln!(out, "slow_path_status_all_off={:#06x}", off_status.bits());
         let _ = writeln!(out, "slow_path_status_all_on={:#06x}", on_status.bits());
+        let _ = writeln!(out, "slow_path_status_sensor_per_axis={:#06x}", per_axis_status.bits());
         // The core has no statics: its RAM is the compensator it is given. The recommended
         // configuration: one sensor per axis, the table in flash (`&'static Table`).
         let _ = writeln!(out, "core_ram_bytes={}", core::mem::size_of::<ThreeAxisSensorPerAxis>());
@@ -229,12 +257,13 @@ mod target {
         rt::on_panic(info)
     }
 
-    /// The tables the benchmark compensates with: the paper's JB-KT8 #1 on three axes.
+    /// The tables the benchmark compensates with: the paper's JB-KT8 #1 on three axes, each a
+    /// `static Table` built by `const fn`s, as the README keeps a table in flash.
     mod tables {
         use qfa_thermal::fixtures::JB_KT8_1;
         use qfa_thermal::model::{BranchHysteresis, Creep, SensorLag};
-        use qfa_thermal::table::MAX_AXES;
-        use qfa_thermal::{AxisModel, BiasGrid, Extensions, Table};
+        use qfa_thermal::table::SAMPLE_UNITS_PER_G;
+        use qfa_thermal::{AxisModel, BiasGrid, Extensions, Input, Table};
 
         /// First grid point, °C.
         const GRID_START_C: f32 = -40.0;
@@ -246,49 +275,52 @@ mod target {
         const BRANCH_SPLIT_G: f32 = 8e-6;
         /// A small misalignment / cross-axis matrix (row-major), within the table limits.
         const MISALIGNMENT: [f32; 9] = [1.0, 1.0e-3, -2.0e-3, 5.0e-4, 1.0, 1.5e-3, -1.0e-3, 2.0e-4, 1.0];
+        /// The rate window the tables are fitted for: the compensators' default.
+        const RATE_WINDOW: u16 = 32;
+        /// The part the samples table is read at, LSB per g.
+        pub const SAMPLE_LSB_PER_G: f32 = 320_000.0;
 
         /// A plausible bias grid for `axis`: ~100 µg at 22 °C, 1.5 µg/°C, slight curvature,
         /// and heating/cooling branches [`BRANCH_SPLIT_G`] apart.
-        fn bias_grid(axis: usize) -> BiasGrid {
+        const fn bias_grid(axis: usize) -> BiasGrid {
             let offset = 1.0e-4 + 2.0e-5 * axis as f32;
-            let k0 = |i: usize| {
+            let (mut heating, mut cooling) = ([0.0f32; GRID_POINTS], [0.0f32; GRID_POINTS]);
+            let mut i = 0;
+            while i < GRID_POINTS {
                 let d = GRID_START_C + GRID_STEP_C * i as f32 - 22.0;
-                offset + 1.5e-6 * d + 8.0e-9 * d * d
-            };
-            let mut g =
-                BiasGrid::single_valued(GRID_START_C, GRID_STEP_C, &[0.0; GRID_POINTS]).expect("2 to 16 grid values");
-            for (i, (h, c)) in g.heating_g.iter_mut().zip(g.cooling_g.iter_mut()).enumerate() {
-                *h = k0(i) + 0.5 * BRANCH_SPLIT_G;
-                *c = k0(i) - 0.5 * BRANCH_SPLIT_G;
+                let k0 = offset + 1.5e-6 * d + 8.0e-9 * d * d;
+                heating[i] = k0 + 0.5 * BRANCH_SPLIT_G;
+                cooling[i] = k0 - 0.5 * BRANCH_SPLIT_G;
+                i += 1;
             }
-            g
+            BiasGrid::with_branches(GRID_START_C, GRID_STEP_C, BiasGrid::DEFAULT_DEADBAND_C_PER_MIN, heating, cooling)
         }
 
         /// Every extension slot on, with plausible constants.
-        pub const fn all_slots_on() -> Extensions {
-            Extensions {
-                sensor_lag: Some(SensorLag { tau_s: 40.0 }),
-                bias_branch_hysteresis: Some(BranchHysteresis { half_width_c: 0.5, weight_g: 2e-5 }),
-                bias_creep: Some(Creep { gain_g_per_c: 2e-6, tau_ref_s: 600.0, t_ref_c: 22.0, activation_k: 4000.0 }),
-            }
+        const ALL_SLOTS_ON: Extensions = Extensions {
+            sensor_lag: Some(SensorLag { tau_s: 40.0 }),
+            bias_branch_hysteresis: Some(BranchHysteresis { half_width_c: 0.5, weight_g: 2e-5 }),
+            bias_creep: Some(Creep { gain_g_per_c: 2e-6, tau_ref_s: 600.0, t_ref_c: 22.0, activation_k: 4000.0 }),
+        };
+
+        const fn axis(i: usize, ext: Extensions, samples: bool) -> AxisModel {
+            let scale = if samples { JB_KT8_1.in_units(SAMPLE_UNITS_PER_G / SAMPLE_LSB_PER_G) } else { JB_KT8_1 };
+            AxisModel { scale, bias: bias_grid(i), rate_limit_c_per_min: 2.0, ext }
         }
 
-        /// A 3-axis JB-KT8 #1 table for a rate window of `rate_window` samples.
-        pub fn table(ext: Extensions, misalignment: bool, rate_window: u16) -> Table {
-            let mut axes = heapless::Vec::new();
-            for i in 0..MAX_AXES {
-                let axis = AxisModel { scale: JB_KT8_1, bias: bias_grid(i), rate_limit_c_per_min: 2.0, ext };
-                // Capacity is MAX_AXES and the loop pushes MAX_AXES.
-                let _ = axes.push(axis);
-            }
-            Table {
-                input: qfa_thermal::Input::PulseCounts,
-                rate_window,
-                axes,
-                misalignment: misalignment.then_some(MISALIGNMENT),
-                part_lsb_per_g: None,
-            }
+        const fn axes(ext: Extensions, samples: bool) -> [AxisModel; 3] {
+            [axis(0, ext, samples), axis(1, ext, samples), axis(2, ext, samples)]
         }
+
+        /// Pulse counts, every slot off.
+        pub static SLOTS_OFF: Table = Table::new(Input::PulseCounts, RATE_WINDOW, axes(Extensions::NONE, false), None);
+        /// Pulse counts, every slot on.
+        pub static SLOTS_ON: Table = Table::new(Input::PulseCounts, RATE_WINDOW, axes(ALL_SLOTS_ON, false), None);
+        /// Pulse counts, every slot off, with a misalignment matrix.
+        pub static MISALIGNED: Table =
+            Table::new(Input::PulseCounts, RATE_WINDOW, axes(Extensions::NONE, false), Some(MISALIGNMENT));
+        /// The same model for a MEMS part read at [`SAMPLE_LSB_PER_G`].
+        pub static SAMPLES: Table = Table::new(Input::Samples, RATE_WINDOW, axes(Extensions::NONE, true), None);
     }
 }
 

@@ -14,13 +14,12 @@ mod target {
     use cortex_m_rt::{entry, exception, ExceptionFrame};
 
     use crate::common::rt;
-    use qfa_thermal::table::MAX_TABLE_BYTES;
+    use crate::common::sized_statics::{self, TABLE_BYTES};
     use qfa_thermal::{Compensator, Config};
-
-    static TABLE_BYTES: [u8; MAX_TABLE_BYTES] = [0; MAX_TABLE_BYTES];
 
     #[entry]
     fn main() -> ! {
+        sized_statics::keep();
         // A refused config is an error value, not a panic: park on it.
         let Ok(mut c) = Compensator::<3, 32>::new(black_box(Config::default())) else { rt::exit(3) };
         let table: &[u8] = black_box(&TABLE_BYTES[..]);

@@ -1,5 +1,6 @@
-//! `panic_check`'s runtime and input buffer without the core: vector table, reset,
-//! semihosting exit. The difference of their flash is `core_flash_bytes`
+//! The size programs' runtime and statics without the core: vector table, reset, semihosting
+//! exit, a table's bytes and a table in flash. `panic_check`'s flash minus this is
+//! `core_flash_bytes`, `static_table_link`'s minus this `core_flash_bytes_static_table`
 //! (`cargo xtask bench-target`).
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
@@ -11,15 +12,11 @@ mod target {
 
     use cortex_m_rt::{entry, exception, ExceptionFrame};
 
-    use crate::common::rt;
-    use qfa_thermal::table::MAX_TABLE_BYTES;
-
-    /// The same input buffer as panic_check's, so the difference is the core's code alone.
-    static TABLE_BYTES: [u8; MAX_TABLE_BYTES] = [0; MAX_TABLE_BYTES];
+    use crate::common::{rt, sized_statics};
 
     #[entry]
     fn main() -> ! {
-        black_box(&TABLE_BYTES[..]);
+        sized_statics::keep();
         rt::exit(black_box(0))
     }
 

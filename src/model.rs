@@ -72,7 +72,7 @@ impl ScaleFactor {
     /// coefficient times `k` (a MEMS part's K1 in its LSB per g, brought to the 2²⁰ units
     /// per g of a samples table, is `.in_units(2²⁰ / lsb_per_g)`).
     #[must_use]
-    pub fn in_units(self, k: f32) -> Self {
+    pub const fn in_units(self, k: f32) -> Self {
         Self {
             t0_c: self.t0_c,
             gamma: self.gamma * k,

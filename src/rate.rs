@@ -145,9 +145,9 @@ pub struct RateEstimator<const RATE_WINDOW: usize> {
     /// `gap[i]`: ms from the previous sample to sample `i`.
     gap: [u16; RATE_WINDOW],
     raw: [i16; RATE_WINDOW],
-    /// Index of the oldest sample.
-    head: usize,
-    len: usize,
+    /// Index of the oldest sample (`RATE_WINDOW` ≤ 128, so a byte holds it and `len`).
+    head: u8,
+    len: u8,
     /// Absolute timestamp of the newest sample.
     last_ms: u32,
     /// Newest sample's time relative to the oldest.
@@ -156,6 +156,9 @@ pub struct RateEstimator<const RATE_WINDOW: usize> {
     s_tt: i64,
     s_y: i64,
     s_ty: i64,
+    /// The least-squares slope of the window, raw units per ms: formed once per sample
+    /// (two 64-bit → f32 conversions and a division), read by `estimate`.
+    slope: f32,
     smoothed: f32,
 }
 
@@ -181,6 +184,7 @@ impl<const RATE_WINDOW: usize> RateEstimator<RATE_WINDOW> {
             s_tt: 0,
             s_y: 0,
             s_ty: 0,
+            slope: 0.0,
             smoothed: 0.0,
         }
     }
@@ -199,7 +203,7 @@ impl<const RATE_WINDOW: usize> RateEstimator<RATE_WINDOW> {
     /// Samples in the window.
     #[must_use]
     pub const fn len(&self) -> usize {
-        self.len
+        self.len as usize
     }
 
     /// No samples.
@@ -211,7 +215,7 @@ impl<const RATE_WINDOW: usize> RateEstimator<RATE_WINDOW> {
     /// Enough samples for a rate.
     #[must_use]
     pub fn ready(&self) -> bool {
-        self.len >= usize::from(self.config.min_samples.max(3))
+        self.len >= self.config.min_samples.max(3)
     }
 
     /// Add a reading `raw` (1/16 °C) taken at `t_ms` (wrapping u32 ms). O(1).
@@ -229,31 +233,34 @@ impl<const RATE_WINDOW: usize> RateEstimator<RATE_WINDOW> {
                 self.reset();
                 outcome = Accepted::Restarted;
             } else {
-                if self.len == RATE_WINDOW {
+                if self.len() == RATE_WINDOW {
                     self.evict_oldest();
                 }
                 // d <= max_gap_ms <= u16::MAX, checked above.
                 let d16 = d as u16;
-                let idx = (self.head + self.len) % RATE_WINDOW;
+                let idx = (usize::from(self.head) + self.len()) % RATE_WINDOW;
                 self.gap[idx] = d16;
                 self.raw[idx] = raw;
                 self.len += 1;
                 self.newest_rel += i64::from(d16);
                 self.add_to_sums(self.newest_rel, raw);
                 self.last_ms = t_ms;
+                self.slope = self.slope_raw_per_ms();
                 self.update_smoothing();
                 return Ok(outcome);
             }
         }
         // First sample: it is the time origin. `head < RATE_WINDOW` always; `% RATE_WINDOW` shows the compiler,
         // so no bounds check (and no panic path) is emitted.
-        let head = self.head % RATE_WINDOW;
+        let head = usize::from(self.head) % RATE_WINDOW;
         self.gap[head] = 0;
         self.raw[head] = raw;
         self.len = 1;
         self.newest_rel = 0;
         self.add_to_sums(0, raw);
         self.last_ms = t_ms;
+        // One sample has no slope (`slope_raw_per_ms` gives 0 for it).
+        self.slope = 0.0;
         Ok(outcome)
     }
 
@@ -267,22 +274,25 @@ impl<const RATE_WINDOW: usize> RateEstimator<RATE_WINDOW> {
 
     /// Remove the oldest sample (at relative time 0) and move the origin to the next one.
     fn evict_oldest(&mut self) {
-        self.s_y -= i64::from(self.raw[self.head % RATE_WINDOW]);
-        self.head = (self.head + 1) % RATE_WINDOW;
+        let head = usize::from(self.head) % RATE_WINDOW;
+        self.s_y -= i64::from(self.raw[head]);
+        let head = (head + 1) % RATE_WINDOW;
+        // < RATE_WINDOW ≤ 128.
+        self.head = head as u8;
         self.len -= 1;
-        let d = i64::from(self.gap[self.head]);
-        let n = self.len as i64;
+        let d = i64::from(self.gap[head]);
+        let n = i64::from(self.len);
         // Σ(t−d)² = Σt² − 2dΣt + nd², Σ(t−d) = Σt − nd, Σ(t−d)y = Σty − dΣy; exact.
         self.s_tt = self.s_tt - 2 * d * self.s_t + n * d * d;
         self.s_t -= n * d;
         self.s_ty -= d * self.s_y;
         self.newest_rel -= d;
-        self.gap[self.head] = 0;
+        self.gap[head] = 0;
     }
 
     /// Least-squares slope in raw units per ms, from the exact sums.
     fn slope_raw_per_ms(&self) -> f32 {
-        let n = self.len as i64;
+        let n = i64::from(self.len);
         let den = n * self.s_tt - self.s_t * self.s_t;
         if den <= 0 {
             return 0.0;
@@ -292,7 +302,7 @@ impl<const RATE_WINDOW: usize> RateEstimator<RATE_WINDOW> {
     }
 
     fn update_smoothing(&mut self) {
-        let rate = self.slope_raw_per_ms() * RAW_PER_MS_TO_C_PER_MIN;
+        let rate = self.slope * RAW_PER_MS_TO_C_PER_MIN;
         if self.ready() {
             let a = self.config.smoothing_alpha;
             self.smoothed += a * (rate - self.smoothed);
@@ -309,21 +319,21 @@ impl<const RATE_WINDOW: usize> RateEstimator<RATE_WINDOW> {
             return None;
         }
         if !self.ready() {
-            let newest = self.raw[(self.head + self.len - 1) % RATE_WINDOW];
+            let newest = self.raw[(usize::from(self.head) + self.len() - 1) % RATE_WINDOW];
             #[cfg(qfa_mutant = "branch_on_unready_rate")]
-            let rate_c_per_min = self.slope_raw_per_ms() * RAW_PER_MS_TO_C_PER_MIN;
+            let rate_c_per_min = self.slope * RAW_PER_MS_TO_C_PER_MIN;
             #[cfg(not(qfa_mutant = "branch_on_unready_rate"))]
             let rate_c_per_min = 0.0;
             return Some(Estimate { temp_c: crate::ds18b20::raw_to_celsius(newest), rate_c_per_min, ready: false });
         }
-        let n = self.len as i64;
-        let slope = self.slope_raw_per_ms();
+        let n = i64::from(self.len);
+        let slope = self.slope;
         // T̂(t_new) = (Σy + slope·(n·t_new − Σt)) / n, the fitted line at the newest time.
         // Through i32, which is exact here (the bounds in the module doc: the lever is at most
         // n·2²³ ≤ 2³⁰ and |Σy| at most n·2¹⁵ ≤ 2²²), so each is one `vcvt` on a Cortex-M4
         // instead of a 64-bit conversion call (about 30 instructions), with the same bits.
         let lever = (n * self.newest_rel - self.s_t) as i32 as f32;
-        let raw_fit = (self.s_y as i32 as f32 + slope * lever) / self.len as f32;
+        let raw_fit = (self.s_y as i32 as f32 + slope * lever) / f32::from(self.len);
         Some(Estimate { temp_c: raw_fit * 0.0625, rate_c_per_min: self.smoothed, ready: true })
     }
 }

@@ -115,11 +115,14 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
     /// The status of the streams, the table and the evaluations as they stand.
     pub(super) fn status(&self) -> Status {
         let mut st = Status::empty();
+        // Once, not per stream: a float expression (kept out of the state, which it would
+        // grow by 8 B with the alignment).
+        let stale_ms = self.config.stale_after_ms();
         for s in &self.streams {
             if !s.rate.ready() {
                 st |= Status::RATE_NOT_READY;
             }
-            if !s.has_good || s.age_ms > self.config.stale_after_ms() {
+            if !s.has_good || s.age_ms > stale_ms {
                 st |= Status::TEMP_STALE;
             }
             if s.invalid {
