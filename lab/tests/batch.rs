@@ -9,12 +9,12 @@ use std::path::{Path, PathBuf};
 
 use qfa_calibrate::batch::fleet::Decision;
 use qfa_calibrate::batch::input::{from_chamber_log, UnitInput};
-use qfa_calibrate::batch::unit::{UnitOptions, UnitOutcome};
+use qfa_calibrate::batch::unit::{ResidualStep, UnitOptions, UnitOutcome, UnitResult};
 use qfa_calibrate::batch::{self, BatchOptions, Shard};
 use qfa_log::open::ReadFlags;
 use qfa_log::static_log::columns::{AccelUnit, TimeUnit};
 use qfa_log::units::TempUnit;
-use qfa_sim::population::{draw, write_chamber, Defect, PopulationSpec, PopulationTruth, SPREAD};
+use qfa_sim::population::{draw, write_chamber, Defect, PopulationSpec, PopulationTruth, UnitTruth, SPREAD};
 
 fn scratch(name: &str) -> PathBuf {
     let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
@@ -85,6 +85,36 @@ fn moved_by(d: Defect) -> &'static [&'static str] {
     }
 }
 
+/// The steps a unit's own residuals hold ([`ResidualStep`]).
+fn unit_steps(results: &[(usize, UnitResult)], serial: &str) -> Vec<ResidualStep> {
+    match &results.iter().find(|r| r.1.serial == serial).expect("the unit has a result").1.outcome {
+        UnitOutcome::Calibrated(c) => c.steps.clone(),
+        UnitOutcome::Failed { reason } => panic!("{serial} not calibrated: {reason}"),
+    }
+}
+
+/// The damaged unit's reasons name, on every axis, the shock the generator drew: its size
+/// and sign (within a tenth), its time (60 % of the rows, within 2 % of the run) and that it
+/// is not thermal.
+fn assert_names_the_shock(u: &UnitTruth, results: &[(usize, UnitResult)], reasons: &[String]) {
+    let steps = unit_steps(results, &u.serial);
+    for (k, axis) in ["ax", "ay", "az"].iter().enumerate() {
+        let s = steps
+            .iter()
+            .find(|s| s.axis == *axis)
+            .unwrap_or_else(|| panic!("{}: no step on {axis}: {steps:?}", u.serial));
+        let want_mg = u.shock_g[k] * 1e3;
+        assert!((s.size_mg - want_mg).abs() < 0.1 * want_mg.abs(), "{} {axis}: {s:?} against {want_mg} mg", u.serial);
+        assert!((s.at_s / s.run_s - 0.6).abs() < 0.02, "{} {axis}: {s:?}", u.serial);
+        assert!(s.thermal_share < 0.1, "{} {axis}: {s:?}", u.serial);
+        let said = reasons.iter().any(|r| {
+            r.starts_with(&format!("{axis} stepped by {:+.2} mg at t = {:.0} s", s.size_mg, s.at_s))
+                && r.ends_with("not thermal")
+        });
+        assert!(said, "{} {axis}: {reasons:?}", u.serial);
+    }
+}
+
 /// 20 units, one of each defect per started 50 (3 bad): every bad unit is held back
 /// (REVIEW or FAIL) with its strongest flag on a figure its defect moves; every good unit
 /// passes; and every good unit's fleet figures agree with the truth it was drawn from, to
@@ -119,11 +149,15 @@ fn a_chamber_run_flags_each_bad_unit_for_its_defect_and_passes_the_rest() {
                         u.serial,
                         f.reasons
                     );
+                    assert_names_the_shock(u, &run.results, &f.reasons);
                 }
             }
             None => {
                 good += 1;
                 assert_eq!(f.decision, Decision::Pass, "{}: {:?}", u.serial, f.reasons);
+                // No shock was drawn: no step stands out of its residual.
+                let steps = unit_steps(&run.results, &u.serial);
+                assert!(steps.is_empty(), "{}: {steps:?}", u.serial);
             }
         }
     }

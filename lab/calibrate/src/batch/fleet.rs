@@ -420,7 +420,34 @@ fn feature_stats(
     })
 }
 
-/// Each unit's decision and reasons (a failure, then its flags), counted in `counts`.
+/// What a flagged axis's residual says in the engineer's words: a step part-way through
+/// the run that the temperature did not make ([`super::unit::ResidualStep`]), on each axis
+/// the unit is flagged on.
+fn step_reasons(r: &UnitResult, flags: &[Flag]) -> Vec<String> {
+    let UnitOutcome::Calibrated(c) = &r.outcome else { return Vec::new() };
+    c.steps
+        .iter()
+        .filter(|s| s.thermal_share < super::unit::NOT_THERMAL_SHARE)
+        .filter(|s| flags.iter().any(|f| f.feature.split('.').next() == Some(s.axis.as_str())))
+        .map(|s| {
+            // No "−0.00 °C": a move that rounds to zero reads as zero.
+            let moved_c = if (s.temp_change_c * 100.0).round() == 0.0 { 0.0 } else { s.temp_change_c };
+            format!(
+                "{} stepped by {:+.2} mg at t = {:.0} s, {:.0} % of the way through the run, while the \
+                 temperature moved {:+.2} °C ({:.0} % of the step at the axis's thermal slope): a shift, not thermal",
+                s.axis,
+                s.size_mg,
+                s.at_s,
+                100.0 * s.at_s / s.run_s,
+                moved_c,
+                100.0 * s.thermal_share
+            )
+        })
+        .collect()
+}
+
+/// Each unit's decision and reasons (a failure, then what a flagged axis's residual says,
+/// then its flags), counted in `counts`.
 fn fleet_units(
     results: &[UnitResult],
     flags: &[Vec<Flag>],
@@ -440,6 +467,7 @@ fn fleet_units(
                 UnitOutcome::Calibrated(_) if !flags[i].is_empty() => (Decision::Review, Vec::new()),
                 UnitOutcome::Calibrated(_) => (Decision::Pass, Vec::new()),
             };
+            reasons.extend(step_reasons(r, &flags[i]));
             reasons.extend(flags[i].iter().map(|f| format!("outside the population: {}", f.text)));
             counts[decision as usize] += 1;
             FleetUnit {
