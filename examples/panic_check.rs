@@ -11,7 +11,7 @@ mod common;
 mod target {
     use core::hint::black_box;
 
-    use cortex_m_rt::{entry, exception, ExceptionFrame};
+    use cortex_m_rt::entry;
 
     use crate::common::rt;
     use crate::common::sized_statics::{self, TABLE_BYTES};
@@ -47,26 +47,7 @@ mod target {
         rt::exit(0)
     }
 
-    #[exception]
-    #[allow(unsafe_code)]
-    unsafe fn HardFault(_: &ExceptionFrame) -> ! {
-        rt::on_hard_fault_quiet()
-    }
-
-    #[allow(unsafe_code)]
-    extern "C" {
-        /// Defined nowhere: referencing it from a reachable panic breaks the link.
-        fn qfa_panic_is_reachable_from_the_core() -> !;
-    }
-
-    #[panic_handler]
-    fn panic(_: &core::panic::PanicInfo<'_>) -> ! {
-        // SAFETY: never runs; the link succeeds only if this handler is unreachable.
-        #[allow(unsafe_code)]
-        unsafe {
-            qfa_panic_is_reachable_from_the_core()
-        }
-    }
+    crate::common::panic_free_handlers!();
 }
 
 #[cfg(not(target_os = "none"))]

@@ -10,7 +10,7 @@ mod common;
 mod target {
     use core::hint::black_box;
 
-    use cortex_m_rt::{entry, exception, ExceptionFrame};
+    use cortex_m_rt::entry;
 
     use crate::common::{rt, sized_statics};
 
@@ -20,25 +20,7 @@ mod target {
         rt::exit(black_box(0))
     }
 
-    #[exception]
-    #[allow(unsafe_code)]
-    unsafe fn HardFault(_: &ExceptionFrame) -> ! {
-        rt::on_hard_fault_quiet()
-    }
-
-    #[allow(unsafe_code)]
-    extern "C" {
-        fn qfa_panic_is_reachable_from_the_core() -> !;
-    }
-
-    #[panic_handler]
-    fn panic(_: &core::panic::PanicInfo<'_>) -> ! {
-        // SAFETY: never runs; see panic_check.
-        #[allow(unsafe_code)]
-        unsafe {
-            qfa_panic_is_reachable_from_the_core()
-        }
-    }
+    crate::common::panic_free_handlers!();
 }
 
 #[cfg(not(target_os = "none"))]
