@@ -139,10 +139,12 @@ fn sqrt(x: f32) -> f32 {
     y
 }
 
-/// Sliding-window least-squares differentiator over `RATE_WINDOW` samples (3..=128).
+/// The state of a sliding-window least-squares differentiator over `RATE_WINDOW` samples
+/// (3..=128), without its configuration: each call takes the [`RateConfig`], so a
+/// compensator's streams share the one in its `Config` instead of a copy each (8 B per
+/// stream). [`RateEstimator`] is the same with its configuration kept beside it.
 #[derive(Clone, Debug)]
-pub struct RateEstimator<const RATE_WINDOW: usize> {
-    config: RateConfig,
+pub struct RateWindow<const RATE_WINDOW: usize> {
     /// `gap[i]`: ms from the previous sample to sample `i`.
     gap: [u16; RATE_WINDOW],
     raw: [i16; RATE_WINDOW],
@@ -168,15 +170,20 @@ pub struct RateEstimator<const RATE_WINDOW: usize> {
 /// Raw units per ms → °C/min: 60 000 ms/min ÷ 16 raw/°C.
 const RAW_PER_MS_TO_C_PER_MIN: f32 = 3750.0;
 
-impl<const RATE_WINDOW: usize> RateEstimator<RATE_WINDOW> {
+impl<const RATE_WINDOW: usize> Default for RateWindow<RATE_WINDOW> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const RATE_WINDOW: usize> RateWindow<RATE_WINDOW> {
     const BOUNDS: () = assert!(RATE_WINDOW >= 3 && RATE_WINDOW <= 128, "RATE_WINDOW must be 3..=128");
 
-    /// Empty estimator.
+    /// Empty window.
     #[must_use]
-    pub const fn new(config: RateConfig) -> Self {
+    pub const fn new() -> Self {
         let () = Self::BOUNDS;
         Self {
-            config,
             gap: [0; RATE_WINDOW],
             raw: [0; RATE_WINDOW],
             head: 0,
@@ -194,13 +201,7 @@ impl<const RATE_WINDOW: usize> RateEstimator<RATE_WINDOW> {
 
     /// Forget every sample (after a fault).
     pub fn reset(&mut self) {
-        *self = Self::new(self.config);
-    }
-
-    /// The configuration.
-    #[must_use]
-    pub const fn config(&self) -> RateConfig {
-        self.config
+        *self = Self::new();
     }
 
     /// Samples in the window.
@@ -215,24 +216,24 @@ impl<const RATE_WINDOW: usize> RateEstimator<RATE_WINDOW> {
         self.len == 0
     }
 
-    /// Enough samples for a rate.
+    /// Enough samples for a rate under `config`.
     #[must_use]
-    pub fn ready(&self) -> bool {
-        self.len >= self.config.min_samples.max(3)
+    pub fn ready(&self, config: &RateConfig) -> bool {
+        self.len >= config.min_samples.max(3)
     }
 
-    /// Add a reading `raw` (1/16 °C) taken at `t_ms` (wrapping u32 ms). O(1).
+    /// Add a reading `raw` (1/16 °C) taken at `t_ms` (wrapping u32 ms) under `config`. O(1).
     ///
     /// # Errors
     /// [`Error::NonMonotonic`] if `t_ms` is not after the previous sample; the state is unchanged.
-    pub fn push(&mut self, t_ms: u32, raw: i16) -> Result<Accepted, Error> {
+    pub fn push(&mut self, config: &RateConfig, t_ms: u32, raw: i16) -> Result<Accepted, Error> {
         let mut outcome = Accepted::Added;
         if self.len > 0 {
             let d = t_ms.wrapping_sub(self.last_ms);
             if d == 0 || d > i32::MAX as u32 {
                 return Err(Error::NonMonotonic);
             }
-            if d > u32::from(self.config.max_gap_ms) {
+            if d > u32::from(config.max_gap_ms) {
                 self.reset();
                 outcome = Accepted::Restarted;
             } else {
@@ -249,7 +250,7 @@ impl<const RATE_WINDOW: usize> RateEstimator<RATE_WINDOW> {
                 self.add_to_sums(self.newest_rel, raw);
                 self.last_ms = t_ms;
                 self.slope = self.slope_raw_per_ms();
-                self.update_smoothing();
+                self.update_smoothing(config);
                 return Ok(outcome);
             }
         }
@@ -305,24 +306,25 @@ impl<const RATE_WINDOW: usize> RateEstimator<RATE_WINDOW> {
         num as f32 / den as f32
     }
 
-    fn update_smoothing(&mut self) {
+    fn update_smoothing(&mut self, config: &RateConfig) {
         let rate = self.slope * RAW_PER_MS_TO_C_PER_MIN;
-        if self.ready() {
-            let a = self.config.smoothing_alpha;
+        if self.ready(config) {
+            let a = config.smoothing_alpha;
             self.smoothed += a * (rate - self.smoothed);
         } else {
             self.smoothed = rate;
         }
     }
 
-    /// Current estimate, or `None` before the first sample: "no estimate yet" is not a
-    /// number. Before it is ready, `temp_c` is the newest reading and the rate is 0.
+    /// Current estimate under `config`, or `None` before the first sample: "no estimate
+    /// yet" is not a number. Before it is ready, `temp_c` is the newest reading and the rate
+    /// is 0.
     #[must_use]
-    pub fn estimate(&self) -> Option<Estimate> {
+    pub fn estimate(&self, config: &RateConfig) -> Option<Estimate> {
         if self.len == 0 {
             return None;
         }
-        if !self.ready() {
+        if !self.ready(config) {
             let newest = self.raw[(usize::from(self.head) + self.len() - 1) % RATE_WINDOW];
             #[cfg(qfa_mutant = "branch_on_unready_rate")]
             let rate_c_per_min = self.slope * RAW_PER_MS_TO_C_PER_MIN;
@@ -339,6 +341,65 @@ impl<const RATE_WINDOW: usize> RateEstimator<RATE_WINDOW> {
         let lever = (n * i64::from(self.newest_rel) - i64::from(self.s_t)) as i32 as f32;
         let raw_fit = (self.s_y as f32 + slope * lever) / f32::from(self.len);
         Some(Estimate { temp_c: raw_fit * 0.0625, rate_c_per_min: self.smoothed, ready: true })
+    }
+}
+
+/// Sliding-window least-squares differentiator over `RATE_WINDOW` samples (3..=128): a
+/// [`RateWindow`] with its [`RateConfig`] kept beside it.
+#[derive(Clone, Debug)]
+pub struct RateEstimator<const RATE_WINDOW: usize> {
+    config: RateConfig,
+    window: RateWindow<RATE_WINDOW>,
+}
+
+impl<const RATE_WINDOW: usize> RateEstimator<RATE_WINDOW> {
+    /// Empty estimator.
+    #[must_use]
+    pub const fn new(config: RateConfig) -> Self {
+        Self { config, window: RateWindow::new() }
+    }
+
+    /// Forget every sample (after a fault).
+    pub fn reset(&mut self) {
+        self.window.reset();
+    }
+
+    /// The configuration.
+    #[must_use]
+    pub const fn config(&self) -> RateConfig {
+        self.config
+    }
+
+    /// Samples in the window.
+    #[must_use]
+    pub const fn len(&self) -> usize {
+        self.window.len()
+    }
+
+    /// No samples.
+    #[must_use]
+    pub const fn is_empty(&self) -> bool {
+        self.window.is_empty()
+    }
+
+    /// Enough samples for a rate.
+    #[must_use]
+    pub fn ready(&self) -> bool {
+        self.window.ready(&self.config)
+    }
+
+    /// Add a reading `raw` (1/16 °C) taken at `t_ms` (wrapping u32 ms). O(1).
+    ///
+    /// # Errors
+    /// [`Error::NonMonotonic`] if `t_ms` is not after the previous sample; the state is unchanged.
+    pub fn push(&mut self, t_ms: u32, raw: i16) -> Result<Accepted, Error> {
+        self.window.push(&self.config, t_ms, raw)
+    }
+
+    /// Current estimate, or `None` before the first sample: see [`RateWindow::estimate`].
+    #[must_use]
+    pub fn estimate(&self) -> Option<Estimate> {
+        self.window.estimate(&self.config)
     }
 }
 

@@ -73,7 +73,7 @@
 use core::borrow::Borrow;
 
 use crate::model::{AxisState, Evaluation};
-use crate::rate::{self, Estimate, RateEstimator};
+use crate::rate::{self, Estimate, RateWindow};
 use crate::table::{self, Table};
 
 mod applier;
@@ -216,7 +216,7 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
         }
         let dt_band = config.dt_band().ok_or(ConfigError::ImuPeriodInTicks)?;
         let stream = Stream {
-            rate: RateEstimator::new(config.rate),
+            rate: RateWindow::new(),
             last: Timed { t_ms: 0, raw: 0 },
             has_good: false,
             pending: Timed { t_ms: 0, raw: 0 },
@@ -309,14 +309,14 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
     /// Sensor 0's current estimate; `None` before its first good reading.
     #[must_use]
     pub fn estimate(&self) -> Option<Estimate> {
-        self.slow.streams[0].rate.estimate()
+        self.slow.streams[0].rate.estimate(&self.slow.config.rate)
     }
 
     /// Sensor `sensor`'s current estimate; `None` before its first good reading or for an
     /// index ≥ `SENSORS`.
     #[must_use]
     pub fn estimate_of(&self, sensor: usize) -> Option<Estimate> {
-        self.slow.streams.get(sensor).and_then(|s| s.rate.estimate())
+        self.slow.streams.get(sensor).and_then(|s| s.rate.estimate(&self.slow.config.rate))
     }
 
     /// The model evaluated at each axis's last good sample (K1 in pulses/(g·s), K0 in g).

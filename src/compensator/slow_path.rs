@@ -10,7 +10,7 @@ use super::seqlock::{Published, Set, AGE_STALE, AGE_STEPS};
 use super::{Config, Status, G0};
 use crate::ds18b20::{self, POWER_ON_RAW};
 use crate::model::{AxisState, Evaluation};
-use crate::rate::{self, Estimate, RateEstimator};
+use crate::rate::{self, Estimate, RateWindow};
 use crate::table::{self, Table};
 
 /// Why a temperature sample was not used.
@@ -63,7 +63,8 @@ pub(super) struct Timed {
 /// One temperature stream: its estimator, plausibility state and flags.
 #[derive(Clone, Debug)]
 pub(super) struct Stream<const RATE_WINDOW: usize> {
-    pub(super) rate: RateEstimator<RATE_WINDOW>,
+    /// Its rate window, under the compensator's `Config::rate`.
+    pub(super) rate: RateWindow<RATE_WINDOW>,
     /// The last good reading, meaningful once `has_good` (no `Option`: with the rate
     /// window's 8-byte alignment it would cost 8 B per stream).
     pub(super) last: Timed,
@@ -119,7 +120,7 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
         // grow by 8 B with the alignment).
         let stale_ms = self.config.stale_after_ms();
         for s in &self.streams {
-            if !s.rate.ready() {
+            if !s.rate.ready(&self.config.rate) {
                 st |= Status::RATE_NOT_READY;
             }
             if !s.has_good || s.age_ms > stale_ms {
@@ -234,7 +235,7 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
     /// index ≥ `SENSORS`.
     #[must_use]
     pub fn estimate_of(&self, sensor: usize) -> Option<Estimate> {
-        self.slow.streams.get(sensor).and_then(|s| s.rate.estimate())
+        self.slow.streams.get(sensor).and_then(|s| s.rate.estimate(&self.slow.config.rate))
     }
 
     /// Status as of the last slow-path call.
@@ -381,12 +382,13 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
             }
         }
         #[cfg(qfa_mutant = "one_reading_delay")]
-        let delayed = self.slow.streams[sensor].rate.estimate();
+        let delayed = self.slow.streams[sensor].rate.estimate(&self.slow.config.rate);
+        let rate_config = self.slow.config.rate;
         let s = &mut self.slow.streams[sensor];
         if restart {
             s.rate.reset();
         }
-        if let Err(e) = s.rate.push(t_ms, raw) {
+        if let Err(e) = s.rate.push(&rate_config, t_ms, raw) {
             return self.reject(sensor, SampleError::Time(e));
         }
         s.pending_count = 0;
@@ -501,7 +503,7 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
                     if sensor == Some(j) && slow.delayed.is_some() {
                         return slow.delayed;
                     }
-                    (s.has_good && sensor.is_none_or(|k| k == j)).then(|| s.rate.estimate()).flatten()
+                    (s.has_good && sensor.is_none_or(|k| k == j)).then(|| s.rate.estimate(&slow.config.rate)).flatten()
                 });
                 for (i, axis) in table.axes.iter().take(AXES).enumerate() {
                     let j = Self::sensor_of(i);

@@ -8,7 +8,7 @@ use core::sync::atomic::Ordering;
 use super::*;
 use crate::ds18b20;
 use crate::model::{AxisModel, BiasGrid, Extensions, ScaleFactor};
-use crate::rate::RateConfig;
+use crate::rate::{RateConfig, RateEstimator};
 
 fn table(axes: usize, window: u16) -> Table {
     let mut t = Table {
