@@ -73,13 +73,17 @@ pub struct Calibrated {
     /// What the population prior needs of its rows ([`super::prior`]).
     pub normal: super::prior::UnitNormal,
     /// The clearest step in each axis's residual after its own table, where one stands
-    /// out of the row-to-row noise ([`residual_steps`]).
+    /// out of the row-to-row noise ([`ResidualStep`] says how it is found).
     #[serde(default)]
     pub steps: Vec<ResidualStep>,
 }
 
 /// A step in one axis's residual after the unit's own table: the output shifted part-way
-/// through the run, in a few minutes, by more than the temperature moved it.
+/// through the run, within a minute. Found where the residual's means over
+/// [`STEP_WINDOW_S`] either side of a row differ by at least [`STEP_Z`] SDs of the
+/// row-to-row noise, the means over [`STEP_SHORT_WINDOW_S`] by at least
+/// [`STEP_SHARPNESS`] of that, the windows' medians and the output itself stepping too
+/// (the lab guide's "Production batches").
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ResidualStep {
     /// Axis (`ax`, `ay`, `az`).
