@@ -34,9 +34,30 @@ pub fn median_of(v: &[f64]) -> Option<f64> {
     median(&mut v.to_vec())
 }
 
+/// The noise of a series from its neighbours: 1.4826 × the median |difference of
+/// neighbouring values| / √2, the SD of white noise on it. A step or a slow wander moves
+/// one difference, or each a little, so neither counts as noise. `None` with fewer than two
+/// values.
+#[must_use]
+pub fn neighbour_noise(v: &[f64]) -> Option<f64> {
+    let mut diffs: Vec<f64> = v.windows(2).map(|w| (w[1] - w[0]).abs()).collect();
+    Some(MAD_TO_SD * median(&mut diffs)? / std::f64::consts::SQRT_2)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// By hand: differences 1, 2, 3 have the median 2; a step of 100 in a longer series
+    /// moves one difference and not the median; one value has no neighbour.
+    #[test]
+    fn neighbour_noise_is_the_median_difference_and_ignores_a_step() {
+        let want = MAD_TO_SD * 2.0 / std::f64::consts::SQRT_2;
+        assert_eq!(neighbour_noise(&[0.0, 1.0, 3.0, 6.0]), Some(want));
+        let stepped = [0.0, 2.0, 0.0, 2.0, 102.0, 100.0, 102.0, 100.0];
+        assert_eq!(neighbour_noise(&stepped), Some(want));
+        assert_eq!(neighbour_noise(&[1.0]), None);
+    }
 
     /// Against sorting, the definition itself, over random lengths and values, ties included.
     #[test]

@@ -131,8 +131,8 @@ struct Windows {
 ///
 /// At each row, the residual's mean over [`STEP_WINDOW_S`] after it against the mean over
 /// the window before it, in SDs of that difference under the row-to-row noise (the robust
-/// SD of successive differences over √2, so a slow misfit does not count as noise), and the
-/// same over [`STEP_SHORT_WINDOW_S`]. A step is where the long difference reaches
+/// noise from neighbouring rows, `qfa_log::robust::neighbour_noise`, so a slow misfit does
+/// not count as noise), and the same over [`STEP_SHORT_WINDOW_S`]. A step is where the long difference reaches
 /// [`STEP_Z`], the short one is at least [`STEP_SHARPNESS`] of it (sharp: not a thermal
 /// misfit along a ramp); the largest such, kept when the short windows' medians agree with
 /// their means to half (not a single-sample spike) and the output itself steps by at least
@@ -146,7 +146,7 @@ pub(crate) fn residual_steps(
     plot: &crate::static_cal::PlotRows,
     slopes_ug_per_c: &[f64],
 ) -> Vec<ResidualStep> {
-    use qfa_log::robust::{median_of, MAD_TO_SD};
+    use qfa_log::robust::{median_of, neighbour_noise};
     let mut out = Vec::new();
     let (Some(&t0), Some(&t1)) = (time_s.first(), time_s.last()) else { return out };
     for ((axis, accel, resid), &slope) in plot.axes.iter().zip(slopes_ug_per_c) {
@@ -154,13 +154,8 @@ pub(crate) fn residual_steps(
         if rows.len() < 20 {
             continue;
         }
-        let diffs: Vec<f64> = rows.windows(2).map(|w| resid[w[1]] - resid[w[0]]).collect();
-        let centre = median_of(&diffs).unwrap_or(0.0);
-        let dev: Vec<f64> = diffs.iter().map(|d| (d - centre).abs()).collect();
-        let sigma = MAD_TO_SD * median_of(&dev).unwrap_or(0.0) / std::f64::consts::SQRT_2;
-        if sigma <= 0.0 {
-            continue;
-        }
+        let values: Vec<f64> = rows.iter().map(|&i| resid[i]).collect();
+        let Some(sigma) = neighbour_noise(&values).filter(|s| *s > 0.0) else { continue };
         // Prefix sums over the finite rows: each window's mean in O(1).
         let mut prefix = Vec::with_capacity(rows.len() + 1);
         prefix.push(0.0);

@@ -92,7 +92,7 @@
 use serde::Serialize;
 
 use super::Channels;
-use qfa_log::robust::{median, median_of, MAD_TO_SD};
+use qfa_log::robust::{median, median_of, neighbour_noise, MAD_TO_SD};
 use qfa_rng::{normal, seeded};
 
 /// Lags of the structure function, bins.
@@ -604,11 +604,8 @@ fn max_run_noise(runs: &[&[f64]]) -> Option<(f64, usize)> {
         .iter()
         .enumerate()
         .filter(|(_, v)| v.len() >= RUN_NOISE_MIN_BINS)
-        .map(|(k, v)| {
-            let mut diffs: Vec<f64> = v.windows(2).map(|w| (w[1] - w[0]).abs()).collect();
-            // At least RUN_NOISE_MIN_BINS bins: never empty.
-            (k, MAD_TO_SD * median(&mut diffs).unwrap_or(0.0) / std::f64::consts::SQRT_2)
-        })
+        // At least RUN_NOISE_MIN_BINS bins: never `None`.
+        .map(|(k, v)| (k, neighbour_noise(v).unwrap_or(0.0)))
         .collect();
     if sds.len() < 3 {
         return None;
