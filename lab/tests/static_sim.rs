@@ -150,7 +150,8 @@ fn other_leg_ug(
     reference: f64,
 ) -> (f64, f64, f64) {
     let a = &log.axes[0].accel_g;
-    let series = StaticSeries { time_s: &log.time_s, temp_c: &log.temp_c, accel_g: a };
+    let view = StaticSeries::view_of(&log.time_s, &log.temp_c, axis.bias.deadband_c_per_min);
+    let series = StaticSeries { time_s: &log.time_s, temp_c: &log.temp_c, view: &view, accel_g: a };
     let tr = series.model_trace(axis);
     let mean = a[fit.clone()].iter().sum::<f64>() / fit.clone().count() as f64;
     let y: Vec<f64> = a[fit.clone()].iter().map(|v| v - mean).collect();
@@ -260,8 +261,9 @@ fn one_branch_rule_on_the_simulator() {
             for (leg, rows, eval) in [("heating", imin..=imax, heating_eval), ("cooling", 0..=imin, cooling_eval)] {
                 let part = cut(&log, rows.clone());
                 let a = &part.axes[0].accel_g;
-                let series = StaticSeries { time_s: &part.time_s, temp_c: &part.temp_c, accel_g: a };
                 let deadband = StaticCalOptions::default().deadband_c_per_min;
+                let view = StaticSeries::view_of(&part.time_s, &part.temp_c, deadband);
+                let series = StaticSeries { time_s: &part.time_s, temp_c: &part.temp_c, view: &view, accel_g: a };
                 let all = vec![true; part.rows()];
                 let on_other_leg = |st: &StaticStructure| {
                     let fit = fit_static_axis(&series, &all, st, 16, deadband, 10).unwrap();

@@ -21,7 +21,7 @@ use crate::static_cal::holdout::{check_coverage, split_index};
 use crate::static_cal::StaticCalOptions;
 use qfa_log::cycling::Log;
 use qfa_log::open::{open_bytes, OpenError, OpenedLog, ReadError, ReadFlags};
-use qfa_log::pairing::trace_readings;
+use qfa_log::pairing::trace_view;
 use qfa_log::replay::branch_deadband_c_per_min;
 use qfa_log::robust::{median_of, MAD_TO_SD};
 use qfa_log::spelling::Spelling;
@@ -442,12 +442,8 @@ fn coverage_static(log: &StaticLog, out: &mut Vec<Finding>) {
         ));
     }
     let deadband = branch_deadband_c_per_min();
-    let tr = trace_readings(
-        log.time_s.iter().zip(&log.temp_c).map(|(&t, &c)| (t, Some(c))),
-        log.rows(),
-        &qfa_thermal::Extensions::default(),
-        deadband,
-    );
+    let view = crate::fit::StaticSeries::view_of(&log.time_s, &log.temp_c, deadband);
+    let tr = trace_view(&view, &qfa_thermal::Extensions::default(), deadband);
     let samples = (0..tr.valid.len()).filter(|&i| tr.valid[i]).map(|i| (tr.temp_c[i], tr.rate_c_per_min[i]));
     let Ok(cov) = Coverage::of_samples(samples, f64::from(deadband)) else {
         return;

@@ -12,7 +12,7 @@ use qfa_thermal::model::{AxisState, Branch, Evaluation};
 use qfa_thermal::AxisModel;
 
 use crate::open::{open, open_bytes, OpenedLog, ReadFlags};
-use crate::replay::{FirmwareView, Motion, RowInstant, RowSeen};
+use crate::replay::{branch_deadband_c_per_min, FirmwareRows, Motion, RowInstant, RowSeen};
 use crate::single::SingleLog;
 
 /// Kind of log the channels came from.
@@ -141,7 +141,11 @@ impl Trace {
     pub fn new(program: String, rows: &[(f64, f32)], sf: Option<&[f64]>, bias: &[f64], bin_s: f64) -> Self {
         let n = rows.len();
         let instant = if sf.is_some() { RowInstant::IntervalCentre } else { RowInstant::OwnReading };
-        let mut view = FirmwareView::new();
+        let view = FirmwareRows::new(
+            rows.iter().map(|&(t, temp)| (t, Some(f64::from(temp)))),
+            instant,
+            branch_deadband_c_per_min(),
+        );
         let mut time_s = Vec::with_capacity(n);
         let mut temp_raw = Vec::with_capacity(n);
         let mut est_t = Vec::with_capacity(n);
@@ -150,26 +154,16 @@ impl Trace {
         let mut branch = Vec::with_capacity(n);
         let mut keep = Vec::with_capacity(n);
         let mut last: Option<f64> = None;
-        for (i, &(t, temp)) in rows.iter().enumerate() {
-            let (mut at_row, mut own_raw) = (None, 0);
-            let seen = view.row(t, Some(f64::from(temp)), instant, |s| {
-                if s.reading.stands_for_row {
-                    at_row = Some((s.estimate, s.branch));
-                }
-                if s.reading.own {
-                    own_raw = s.reading.raw;
-                    at_row = at_row.or(Some((s.estimate, s.branch)));
-                }
-            });
-            if seen != RowSeen::Accepted {
-                continue; // non-monotonic time: the firmware rejects it too
-            }
-            let (e, b) = at_row.expect("the row's own reading was accepted");
+        for (i, (&(t, _), row)) in rows.iter().zip(view.rows()).enumerate() {
+            // A row whose own reading was refused (time not after the previous) is dropped:
+            // the firmware rejects it too.
+            let (RowSeen::Accepted, Some(own)) = (row.seen, row.own) else { continue };
+            let at_row = row.standing.unwrap_or(own);
             time_s.push(t);
-            temp_raw.push(own_raw);
-            est_t.push(e.temp_c);
-            est_rate.push(e.rate_c_per_min);
-            branch.push(b);
+            temp_raw.push(own.raw);
+            est_t.push(at_row.estimate.temp_c);
+            est_rate.push(at_row.estimate.rate_c_per_min);
+            branch.push(at_row.branch);
             dt_s.push(last.map_or(0.0, |p| (t - p) as f32));
             last = Some(t);
             keep.push(i);

@@ -12,7 +12,7 @@
 //!
 //! # Trace
 //! [`trace_run`] replays a run's `temp_c` column through the firmware's view
-//! ([`crate::replay`]: its readings, its `RateEstimator<32>`, its branch) and
+//! ([`crate::replay::FirmwareRows`]: its readings, its `RateEstimator<32>`, its branch) and
 //! `AxisModel::evaluate` once per row ([`trace_axis`] says why not on every reading), so
 //! the fit sees the T̂, Ṫ and branch the firmware will see; a run's row (its pulses counted
 //! over the row's interval) is seen at the interval's centre.
@@ -21,7 +21,7 @@ use qfa_thermal::model::{AxisState, Branch};
 use qfa_thermal::{AxisModel, BiasGrid, Extensions, ScaleFactor};
 
 use crate::cycling::{Log, Run};
-use crate::replay::{FirmwareView, RowInstant};
+use crate::replay::{FirmwareRows, RowInstant};
 
 /// The firmware's view of one run, row by row.
 #[derive(Clone, Debug, Default)]
@@ -48,19 +48,15 @@ pub struct Trace {
 #[must_use]
 pub fn trace_run(run: &Run, ext: &Extensions, deadband: f32) -> Trace {
     let rows = run.samples.iter().map(|s| (s.time_s, s.temp_c));
-    trace_axis(rows, run.samples.len(), &probe_axis(ext, deadband), RowInstant::IntervalCentre)
+    let view = FirmwareRows::new(rows, RowInstant::IntervalCentre, deadband);
+    trace_axis(&view, run.samples.len(), &probe_axis(ext, deadband))
 }
 
-/// Replay rows `(time_s, reading °C or none)`, each one sample at its time, through the
-/// firmware's view and model (see [`trace_run`]); a static or single-channel log uses this.
+/// The extension slots `ext` at unit gains over `view`, each row seen as the view sees it,
+/// the branch switching past `deadband` (°C/min): what a fit regresses on.
 #[must_use]
-pub fn trace_readings(
-    rows: impl Iterator<Item = (f64, Option<f64>)>,
-    n: usize,
-    ext: &Extensions,
-    deadband: f32,
-) -> Trace {
-    trace_axis(rows, n, &probe_axis(ext, deadband), RowInstant::OwnReading)
+pub fn trace_view(view: &FirmwareRows, ext: &Extensions, deadband: f32) -> Trace {
+    trace_axis(view, view.rows().len(), &probe_axis(ext, deadband))
 }
 
 /// A model with unit gains and a flat zero grid over the sensor's range: its states are
@@ -72,8 +68,9 @@ fn probe_axis(ext: &Extensions, deadband: f32) -> AxisModel {
     AxisModel { scale: ScaleFactor::simple(22.0, 1.0, 0.0), bias, rate_limit_c_per_min: 20.0, ext: *ext }
 }
 
-/// Replay rows through the firmware's view and `axis.evaluate`; each row gets the state at
-/// the reading that stands for it (`instant`). `ext_k0_g` is then the model's K0 (g).
+/// `axis.evaluate` over the first `end` rows of the firmware's `view` (replayed under the
+/// axis's own deadband when the view's differs); each row gets the state at the reading
+/// that stands for it. `ext_k0_g` is then the model's K0 (g).
 ///
 /// T̂, Ṫ and the branch are the firmware's on every reading; the model's own states (lag,
 /// play, creep) step once per row, at the reading that stands for it, with the time since
@@ -82,14 +79,11 @@ fn probe_axis(ext: &Extensions, deadband: f32) -> AxisModel {
 /// static log at 10-s rows take 278 s instead of 83 s, for held-out figures that moved by
 /// about 1 % (`cargo test -p qfa-lab --test discover_independent`, its desk log).
 #[must_use]
-pub fn trace_axis(
-    rows: impl Iterator<Item = (f64, Option<f64>)>,
-    n: usize,
-    axis: &AxisModel,
-    instant: RowInstant,
-) -> Trace {
+pub fn trace_axis(view: &FirmwareRows, end: usize, axis: &AxisModel) -> Trace {
+    let view = view.for_deadband(axis.bias.deadband_c_per_min);
+    let rows = &view.rows()[..end.min(view.rows().len())];
+    let n = rows.len();
     let ext = &axis.ext;
-    let mut view = FirmwareView::with_deadband(axis.bias.deadband_c_per_min);
     let mut st = AxisState::default();
     let mut tr = Trace {
         valid: Vec::with_capacity(n),
@@ -103,21 +97,14 @@ pub fn trace_axis(
     // (valid, T̂, Ṫ, model temperature, branch, K0, clamped) at the latest row's reading.
     let mut cur = (false, f64::NAN, 0.0, f64::NAN, Branch::Unknown, 0.0, false);
     let mut last_ms: Option<u32> = None;
-    for (time_s, temp_c) in rows {
-        let mut evaluated = false;
-        let mut latest = None;
-        view.row(time_s, temp_c, instant, |seen| {
-            latest = Some(seen.branch);
-            if !seen.reading.stands_for_row {
-                return;
-            }
-            evaluated = true;
+    for row in rows {
+        if let Some(s) = row.standing {
             // The model's branch is the firmware's, which also saw the readings between rows:
             // `Branch::next` of the branch after this reading, at this reading's Ṫ, is itself.
-            st.branch = seen.branch;
-            let e = seen.estimate;
-            let dt = last_ms.map_or(0.0, |p| seen.reading.clock_ms.wrapping_sub(p) as f32 * 1e-3);
-            last_ms = Some(seen.reading.clock_ms);
+            st.branch = s.branch;
+            let e = s.estimate;
+            let dt = last_ms.map_or(0.0, |p| s.clock_ms.wrapping_sub(p) as f32 * 1e-3);
+            last_ms = Some(s.clock_ms);
             let ev = axis.evaluate(&mut st, e.temp_c, e.rate_c_per_min, dt);
             let te = if ext.sensor_lag.is_some() { st.element_c } else { e.temp_c.clamp(-60.0, 130.0) };
             cur = (
@@ -125,15 +112,14 @@ pub fn trace_axis(
                 f64::from(e.temp_c),
                 f64::from(e.rate_c_per_min),
                 f64::from(te),
-                seen.branch,
+                s.branch,
                 f64::from(ev.k0),
                 ev.temp_clamped || ev.rate_clamped,
             );
-        });
-        // The reading that stands for the row was refused (a time not after the previous
-        // one): the row keeps the previous row's state, as the firmware keeps its last good
-        // coefficients; its branch is the firmware's after the row's readings.
-        if let (false, Some(branch)) = (evaluated, latest) {
+        } else if let Some(branch) = row.branch_after {
+            // The reading that stands for the row was refused (a time not after the previous
+            // one): the row keeps the previous row's state, as the firmware keeps its last
+            // good coefficients; its branch is the firmware's after the row's readings.
             cur.4 = branch;
         }
         tr.valid.push(cur.0);
@@ -231,6 +217,25 @@ pub fn pair_program(log: &Log, program: &str) -> Option<ProgramPairs> {
 mod tests {
     use super::*;
     use crate::cycling::Sample;
+
+    /// A view replayed once serves a model of another deadband by replaying its rows under
+    /// that deadband: the branch a trace reports is the axis's own, never the view's. Rows:
+    /// a slow ramp at 0.1 °C/min, between the deadbands 0.05 and 0.182, so the two
+    /// deadbands give different branches.
+    #[test]
+    fn a_model_of_another_deadband_gets_its_own_branch() {
+        let rows: Vec<(f64, Option<f64>)> =
+            (0..3000).map(|i| (f64::from(i), Some(20.0 + f64::from(i) / 600.0))).collect();
+        let wide = FirmwareRows::new(rows.iter().copied(), RowInstant::OwnReading, 0.182);
+        let narrow = FirmwareRows::new(rows.iter().copied(), RowInstant::OwnReading, 0.05);
+        let axis = probe_axis(&Extensions::NONE, 0.05);
+        let through_wide = trace_axis(&wide, rows.len(), &axis);
+        let through_narrow = trace_axis(&narrow, rows.len(), &axis);
+        assert_eq!(through_wide.branch, through_narrow.branch);
+        assert!(through_narrow.branch.contains(&Branch::Heating), "the ramp heats past 0.05 °C/min");
+        let wide_axis = trace_axis(&wide, rows.len(), &probe_axis(&Extensions::NONE, 0.182));
+        assert!(!wide_axis.branch.contains(&Branch::Heating), "0.1 °C/min stays inside 0.182 °C/min");
+    }
 
     fn run(program: &str, input_g: f64, pulses: &[i64], t0: f64) -> Run {
         let samples = pulses

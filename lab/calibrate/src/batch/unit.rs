@@ -357,13 +357,14 @@ pub(crate) fn describe(
         creep_tau_s: None,
         play_half_width_c: None,
     };
-    let series0 = StaticSeries { time_s: &log.time_s, temp_c: &log.temp_c, accel_g: &log.axes[0].accel_g };
+    let view = StaticSeries::view_of(&log.time_s, &log.temp_c, opts.deadband_c_per_min);
+    let series0 = StaticSeries { time_s: &log.time_s, temp_c: &log.temp_c, view: &view, accel_g: &log.axes[0].accel_g };
     let traces = StaticTraces::new(&series0, &structure, opts.deadband_c_per_min);
     let train = vec![true; log.rows()];
     log.axes
         .iter()
         .map(|a| {
-            let series = StaticSeries { time_s: &log.time_s, temp_c: &log.temp_c, accel_g: &a.accel_g };
+            let series = StaticSeries { accel_g: &a.accel_g, ..series0 };
             let fit = fit_static_traced(&series, &traces, &train, opts.grid_points, opts.block).map_err(|source| {
                 BatchError::Unit(UnitFault::Descriptor { axis: a.name.clone(), source: Box::new(source) })
             })?;
@@ -403,8 +404,8 @@ pub(crate) fn describe(
 /// firmware's logic puts it (deadband `deadband`, °C/min).
 #[must_use]
 pub(crate) fn normal(log: &StaticLog, deadband: f32) -> super::prior::UnitNormal {
-    let series = StaticSeries { time_s: &log.time_s, temp_c: &log.temp_c, accel_g: &log.axes[0].accel_g };
-    let tr = series.trace(&qfa_thermal::Extensions::default(), deadband);
+    let view = StaticSeries::view_of(&log.time_s, &log.temp_c, deadband);
+    let tr = qfa_log::pairing::trace_view(&view, &qfa_thermal::Extensions::default(), deadband);
     let rows: Vec<usize> = (0..log.rows()).filter(|&i| tr.valid[i]).collect();
     let pick = |v: &[f64]| rows.iter().map(|&i| v[i]).collect::<Vec<f64>>();
     let (time, temp) = (pick(&log.time_s), pick(&tr.temp_c));

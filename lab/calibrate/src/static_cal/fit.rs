@@ -9,7 +9,7 @@ use qfa_thermal::{AxisModel, BiasGrid, Extensions, ScaleFactor};
 
 use crate::fit::*;
 use qfa_log::pairing::Trace;
-use qfa_log::replay::RowInstant;
+use qfa_log::replay::{FirmwareRows, RowInstant};
 
 /// How the two bias branches are tied in a static fit.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -172,26 +172,33 @@ pub struct StaticFit {
     pub reference_g: f64,
 }
 
-/// One static series: rows `(time_s, temp_c)` and one axis's output (g).
+/// One static series: rows `(time_s, temp_c)`, the firmware's view of them, and one
+/// axis's output (g).
 #[derive(Clone, Copy, Debug)]
 pub struct StaticSeries<'a> {
     /// Row times, s.
     pub time_s: &'a [f64],
     /// Temperature readings, °C.
     pub temp_c: &'a [f64],
+    /// The firmware's view of those rows ([`StaticSeries::view_of`]), shared by every axis
+    /// of a log and every model tried on it.
+    pub view: &'a FirmwareRows,
     /// Axis output, g.
     pub accel_g: &'a [f64],
 }
 
 impl StaticSeries<'_> {
-    fn rows(&self) -> impl Iterator<Item = (f64, Option<f64>)> + '_ {
-        self.time_s.iter().zip(self.temp_c).map(|(&t, &c)| (t, Some(c)))
+    /// The firmware's view of static rows at `time_s` reading `temp_c`, each row one sample
+    /// at its time, the branch switching past `deadband` (°C/min).
+    #[must_use]
+    pub fn view_of(time_s: &[f64], temp_c: &[f64], deadband: f32) -> FirmwareRows {
+        FirmwareRows::new(time_s.iter().zip(temp_c).map(|(&t, &c)| (t, Some(c))), RowInstant::OwnReading, deadband)
     }
 
-    /// The firmware's view of the series under `ext` (see [`qfa_log::pairing::trace_readings`]).
+    /// The firmware's view of the series under `ext` (see [`qfa_log::pairing::trace_view`]).
     #[must_use]
     pub(crate) fn trace(&self, ext: &Extensions, deadband: f32) -> Trace {
-        qfa_log::pairing::trace_readings(self.rows(), self.time_s.len(), ext, deadband)
+        qfa_log::pairing::trace_view(self.view, ext, deadband)
     }
 
     /// The model's K0 (g) per row through the root crate's `AxisModel::evaluate`.
@@ -205,8 +212,7 @@ impl StaticSeries<'_> {
     /// cross-validation block needs no row after it).
     #[must_use]
     pub(crate) fn model_trace_until(&self, axis: &AxisModel, end: usize) -> Trace {
-        let end = end.min(self.time_s.len());
-        qfa_log::pairing::trace_axis(self.rows().take(end), end, axis, RowInstant::OwnReading)
+        qfa_log::pairing::trace_axis(self.view, end, axis)
     }
 }
 
@@ -560,7 +566,8 @@ mod tests {
         let curve = |t: f64| 1e-4 * (t - 30.0) + 2e-7 * (t - 30.0).powi(3) / 10.0;
         let accel_g: Vec<f64> =
             time_s.iter().zip(&temp_c).map(|(s, t)| curve(*t) + if *s < 3600.0 { 1e-4 } else { -1e-4 }).collect();
-        let series = StaticSeries { time_s: &time_s, temp_c: &temp_c, accel_g: &accel_g };
+        let view = StaticSeries::view_of(&time_s, &temp_c, 0.05);
+        let series = StaticSeries { time_s: &time_s, temp_c: &temp_c, view: &view, accel_g: &accel_g };
         let structure = StaticStructure {
             shape: CurveShape::Cubic,
             branches: BranchMode::Offset,

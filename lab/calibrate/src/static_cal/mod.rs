@@ -80,6 +80,7 @@ use crate::metrics::rms;
 use crate::peers::{ardupilot_reason, PeerKind, Poly};
 use crate::static_cal::choice::cv_rms;
 use qfa_log::pairing::Trace;
+use qfa_log::replay::FirmwareRows;
 use qfa_log::static_log::{AxisColumn, StaticLog};
 
 pub use crate::static_cal::choice::{candidates, ONE_BRANCH};
@@ -162,6 +163,8 @@ struct RowSet {
 /// with its folds, the row sets and the rows' branches.
 struct Run<'a> {
     log: &'a StaticLog,
+    /// The firmware's view of the log's rows, under the options' deadband.
+    view: &'a FirmwareRows,
     opts: &'a StaticCalOptions,
     scheme: Scheme,
     /// Held-out rows of each fold.
@@ -179,7 +182,7 @@ struct Run<'a> {
 
 impl<'a> Run<'a> {
     /// The folds of `scheme` on `log`, the row sets they give, and the rows' branches.
-    fn new(log: &'a StaticLog, opts: &'a StaticCalOptions, scheme: Scheme) -> Self {
+    fn new(log: &'a StaticLog, view: &'a FirmwareRows, opts: &'a StaticCalOptions, scheme: Scheme) -> Self {
         let n = log.rows();
         let folds = scheme.folds(n);
         let k_sel = scheme.selection_folds();
@@ -188,16 +191,20 @@ impl<'a> Run<'a> {
             let mask: Vec<bool> = (0..n).map(|i| !f.contains(&i)).collect();
             sets.push(RowSet { rows: (0..n).filter(|&i| mask[i]).collect(), mask });
         }
-        let plain = StaticSeries { time_s: &log.time_s, temp_c: &log.temp_c, accel_g: &log.axes[0].accel_g }
-            .trace(&qfa_thermal::Extensions::default(), opts.deadband_c_per_min);
-        let mut run = Self { log, opts, scheme, folds, k_sel, sets, plain, one_branch: Vec::new() };
+        let plain = qfa_log::pairing::trace_view(view, &qfa_thermal::Extensions::default(), opts.deadband_c_per_min);
+        let mut run = Self { log, view, opts, scheme, folds, k_sel, sets, plain, one_branch: Vec::new() };
         run.one_branch = run.sets.iter().map(|set| is_one_branch(run.branch_rows(&set.rows))).collect();
         run
     }
 
     /// Axis `a` of the log.
     fn series(&self, a: usize) -> StaticSeries<'a> {
-        StaticSeries { time_s: &self.log.time_s, temp_c: &self.log.temp_c, accel_g: &self.log.axes[a].accel_g }
+        StaticSeries {
+            time_s: &self.log.time_s,
+            temp_c: &self.log.temp_c,
+            view: self.view,
+            accel_g: &self.log.axes[a].accel_g,
+        }
     }
 
     /// Rows on the heating and on the cooling branch among `rows`.
@@ -241,7 +248,8 @@ pub fn calibrate_static(
 ) -> Result<StaticCalibration, StaticCalError> {
     check_coverage(&log.temp_c, opts.grid_points, opts.block)?;
     let (scheme, rule) = resolve_holdout(log, opts.holdout, opts.block)?;
-    let run = Run::new(log, opts, scheme);
+    let view = StaticSeries::view_of(&log.time_s, &log.temp_c, opts.deadband_c_per_min);
+    let run = Run::new(log, &view, opts, scheme);
     let choices = choose_structures(&run, progress);
     let n = log.rows();
     let mut fits = Vec::new();
