@@ -14,10 +14,7 @@ pub(super) const CREEP_E_MAX: f64 = 20_000.0;
 
 /// Search the nonlinear parameters `e` adds, on the `train` bins.
 pub(super) fn search(setup: &Setup, s: &Structure, nl: &Nonlinear, e: Effect, train: &[bool]) -> Nonlinear {
-    let obj = |n: &Nonlinear| {
-        let f = setup.fit(s, n, train);
-        setup.score(&setup.residuals(&f.pred), train)
-    };
+    let obj = |n: &Nonlinear| setup.train_score(s, n, train);
     let grid_1d = |pts: &[f64], set: &dyn Fn(f64) -> Nonlinear| -> Nonlinear {
         let vals: Vec<f64> = pts.iter().map(|&p| obj(&set(p))).collect();
         let b = (0..pts.len()).min_by(|&i, &j| vals[i].total_cmp(&vals[j])).unwrap_or(0);

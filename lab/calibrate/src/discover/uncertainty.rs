@@ -66,7 +66,7 @@ pub(super) fn profile(
     thresh: f64,
 ) -> ([f64; 2], Vec<std::collections::BTreeMap<String, f64>>) {
     let all = vec![true; setup.ch.n_bins()];
-    let score = |n: &Nonlinear| setup.score(&setup.residuals(&setup.fit(s, n, &all).pred), &all);
+    let score = |n: &Nonlinear| setup.train_score(s, n, &all);
     let best_at = |x: f64| -> (f64, Nonlinear) {
         let n1 = (c.4)(nl, x);
         match other {
