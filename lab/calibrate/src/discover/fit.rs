@@ -10,7 +10,7 @@
 //! the residuals are formed from: what is scored is what the firmware would run.
 //!
 //! The search over the nonlinear parameters and their profile intervals take the least
-//! squares' own fitted values instead ([`Setup::train_score`]), one pass over the rows per
+//! squares' own fitted values instead (`Setup::train_score`), one pass over the rows per
 //! trial instead of two: on the real chamber log discovery took 3.3 s instead of 5.0, on
 //! the lab simulator's default cycling log 62 s instead of 100 (release, `qfa-lab
 //! discover`), for held-out figures that moved in the seventh digit and the same named
