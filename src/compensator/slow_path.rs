@@ -302,10 +302,14 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
         if sensor >= SENSORS {
             return Err(SampleError::NoSuchSensor { sensor });
         }
-        self.advance_clock(t_ms);
         match ds18b20::decode_scratchpad(sp) {
+            // `on_raw` advances the clock itself (advancing it here as well walked every
+            // stream's age a second time, by zero).
             Ok(r) => self.on_raw(sensor, t_ms, r.raw),
-            Err(e) => self.reject(sensor, SampleError::Decode(e)),
+            Err(e) => {
+                self.advance_clock(t_ms);
+                self.reject(sensor, SampleError::Decode(e))
+            }
         }
     }
 
