@@ -151,7 +151,7 @@ fn other_leg_ug(
 ) -> (f64, f64, f64) {
     let a = &log.axes[0].accel_g;
     let view = StaticSeries::view_of(&log.time_s, &log.temp_c, axis.bias.deadband_c_per_min);
-    let series = StaticSeries { time_s: &log.time_s, temp_c: &log.temp_c, view: &view, accel_g: a };
+    let series = StaticSeries { view: &view, accel_g: a };
     let tr = series.model_trace(axis);
     let mean = a[fit.clone()].iter().sum::<f64>() / fit.clone().count() as f64;
     let y: Vec<f64> = a[fit.clone()].iter().map(|v| v - mean).collect();
@@ -263,7 +263,7 @@ fn one_branch_rule_on_the_simulator() {
                 let a = &part.axes[0].accel_g;
                 let deadband = StaticCalOptions::default().deadband_c_per_min;
                 let view = StaticSeries::view_of(&part.time_s, &part.temp_c, deadband);
-                let series = StaticSeries { time_s: &part.time_s, temp_c: &part.temp_c, view: &view, accel_g: a };
+                let series = StaticSeries { view: &view, accel_g: a };
                 let all = vec![true; part.rows()];
                 let on_other_leg = |st: &StaticStructure| {
                     let fit = fit_static_axis(&series, &all, st, 16, deadband, 10).unwrap();
@@ -301,7 +301,7 @@ fn one_branch_rule_on_the_simulator() {
 /// 5-fold blocked CV RMS (g) of `st` over every row of `series` (contiguous blocks), as the
 /// static calibration's choice computes it; `None` when a fold's fit is refused.
 fn cv5(series: &StaticSeries<'_>, st: &StaticStructure, opts: &StaticCalOptions) -> Option<f64> {
-    let n = series.time_s.len();
+    let n = series.rows();
     let (mut sum, mut count) = (0.0, 0usize);
     for f in 0..5 {
         let held = n * f / 5..n * (f + 1) / 5;

@@ -358,7 +358,7 @@ pub(crate) fn describe(
         play_half_width_c: None,
     };
     let view = StaticSeries::view_of(&log.time_s, &log.temp_c, opts.deadband_c_per_min);
-    let series0 = StaticSeries { time_s: &log.time_s, temp_c: &log.temp_c, view: &view, accel_g: &log.axes[0].accel_g };
+    let series0 = StaticSeries { view: &view, accel_g: &log.axes[0].accel_g };
     let traces = StaticTraces::new(&series0, &structure, opts.deadband_c_per_min);
     let train = vec![true; log.rows()];
     log.axes

@@ -40,7 +40,7 @@ pub(crate) fn cv_rms(
     k: usize,
     opts: &StaticCalOptions,
 ) -> Result<f64, FitError> {
-    let (n, m) = (series.time_s.len(), rows.len());
+    let (n, m) = (series.rows(), rows.len());
     let mut sum = 0.0;
     let mut count = 0usize;
     for f in 0..k {

@@ -172,18 +172,15 @@ pub struct StaticFit {
     pub reference_g: f64,
 }
 
-/// One static series: rows `(time_s, temp_c)`, the firmware's view of them, and one
-/// axis's output (g).
+/// One static series: the firmware's view of its rows and one axis's output (g), row for
+/// row. The rows' times and temperatures are reached only through the view, so a series
+/// cannot pair one log's rows with another's view.
 #[derive(Clone, Copy, Debug)]
 pub struct StaticSeries<'a> {
-    /// Row times, s.
-    pub time_s: &'a [f64],
-    /// Temperature readings, °C.
-    pub temp_c: &'a [f64],
-    /// The firmware's view of those rows ([`StaticSeries::view_of`]), shared by every axis
-    /// of a log and every model tried on it.
+    /// The firmware's view of the rows ([`StaticSeries::view_of`]), shared by every axis of
+    /// a log and every model tried on it.
     pub view: &'a FirmwareRows,
-    /// Axis output, g.
+    /// Axis output, g, one value per row of `view`.
     pub accel_g: &'a [f64],
 }
 
@@ -195,6 +192,12 @@ impl StaticSeries<'_> {
         FirmwareRows::new(time_s.iter().zip(temp_c).map(|(&t, &c)| (t, Some(c))), RowInstant::OwnReading, deadband)
     }
 
+    /// Rows in the series.
+    #[must_use]
+    pub fn rows(&self) -> usize {
+        self.view.rows().len()
+    }
+
     /// The firmware's view of the series under `ext` (see [`qfa_log::pairing::trace_view`]).
     #[must_use]
     pub(crate) fn trace(&self, ext: &Extensions, deadband: f32) -> Trace {
@@ -204,7 +207,7 @@ impl StaticSeries<'_> {
     /// The model's K0 (g) per row through the root crate's `AxisModel::evaluate`.
     #[must_use]
     pub fn model_trace(&self, axis: &AxisModel) -> Trace {
-        self.model_trace_until(axis, self.time_s.len())
+        self.model_trace_until(axis, self.rows())
     }
 
     /// [`Self::model_trace`] of the first `end` rows only: the model's states depend on
@@ -567,7 +570,7 @@ mod tests {
         let accel_g: Vec<f64> =
             time_s.iter().zip(&temp_c).map(|(s, t)| curve(*t) + if *s < 3600.0 { 1e-4 } else { -1e-4 }).collect();
         let view = StaticSeries::view_of(&time_s, &temp_c, 0.05);
-        let series = StaticSeries { time_s: &time_s, temp_c: &temp_c, view: &view, accel_g: &accel_g };
+        let series = StaticSeries { view: &view, accel_g: &accel_g };
         let structure = StaticStructure {
             shape: CurveShape::Cubic,
             branches: BranchMode::Offset,

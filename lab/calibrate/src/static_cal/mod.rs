@@ -199,12 +199,7 @@ impl<'a> Run<'a> {
 
     /// Axis `a` of the log.
     fn series(&self, a: usize) -> StaticSeries<'a> {
-        StaticSeries {
-            time_s: &self.log.time_s,
-            temp_c: &self.log.temp_c,
-            view: self.view,
-            accel_g: &self.log.axes[a].accel_g,
-        }
+        StaticSeries { view: self.view, accel_g: &self.log.axes[a].accel_g }
     }
 
     /// Rows on the heating and on the cooling branch among `rows`.
