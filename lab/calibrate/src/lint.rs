@@ -23,7 +23,7 @@ use qfa_log::cycling::Log;
 use qfa_log::open::{open_bytes, OpenError, OpenedLog, ReadError, ReadFlags};
 use qfa_log::pairing::trace_view;
 use qfa_log::replay::branch_deadband_c_per_min;
-use qfa_log::robust::{median_of, MAD_TO_SD};
+use qfa_log::robust::{median, MAD_TO_SD};
 use qfa_log::spelling::Spelling;
 use qfa_log::static_log::{StaticError, StaticLog, COMMON_NAMES};
 use qfa_log::units::{ReaderOption, UnitSource};
@@ -565,7 +565,7 @@ fn compensation_on(log: &StaticLog, out: &mut Vec<Finding>) {
             bins[k].push(v);
         }
         let meds: Vec<(f64, usize)> =
-            bins.iter().filter(|b| b.len() >= 5).filter_map(|b| Some((median_of(b)?, b.len()))).collect();
+            bins.iter().filter(|b| b.len() >= 5).filter_map(|b| Some((median(b)?, b.len()))).collect();
         if meds.len() < 2 {
             return;
         }
@@ -573,7 +573,7 @@ fn compensation_on(log: &StaticLog, out: &mut Vec<Finding>) {
             - meds.iter().map(|m| m.0).fold(f64::INFINITY, f64::min);
         let d: Vec<f64> = a.accel_g.windows(2).map(|w| (w[1] - w[0]).abs()).collect();
         let (Some(mad), Some(per_bin)) =
-            (median_of(&d), median_of(&meds.iter().map(|m| m.1 as f64).collect::<Vec<_>>()))
+            (median(&d), median(&meds.iter().map(|m| m.1 as f64).collect::<Vec<_>>()))
         else {
             return;
         };

@@ -10,28 +10,37 @@
 /// 88 (1993), the consistency constant of the MAD).
 pub const MAD_TO_SD: f64 = 1.482_602_218_505_602;
 
-/// The median of `v` (reordered in place); `None` when `v` is empty. NaN sorts last
-/// (`f64::total_cmp`), so a NaN-free input is the caller's to ensure.
+/// The median of `v`; `None` when `v` is empty. NaN sorts last (`f64::total_cmp`), so a
+/// NaN-free input is the caller's to ensure.
 #[must_use]
-pub fn median(v: &mut [f64]) -> Option<f64> {
+pub fn median(v: &[f64]) -> Option<f64> {
     let n = v.len();
     if n == 0 {
         return None;
     }
-    let (lower, upper, _) = v.select_nth_unstable_by(n / 2, f64::total_cmp);
-    let upper = *upper;
+    // Selected on integer keys in `total_cmp`'s order, one integer compare per step in
+    // place of `total_cmp`'s work on both operands: the same values, and the change-point
+    // test's null draws (13 medians of about 5 000 values per draw) take half the time.
+    let mut keys: Vec<i64> = v.iter().map(|&x| order_key(x)).collect();
+    let (lower, upper, _) = keys.select_nth_unstable(n / 2);
+    let upper = from_order_key(*upper);
     if n % 2 == 1 {
         return Some(upper);
     }
     // The other middle value is the largest of the lower part.
-    let below = lower.iter().copied().max_by(f64::total_cmp).unwrap_or(upper);
+    let below = lower.iter().copied().max().map_or(upper, from_order_key);
     Some(0.5 * (below + upper))
 }
 
-/// [`median`] of a copy of `v`.
-#[must_use]
-pub fn median_of(v: &[f64]) -> Option<f64> {
-    median(&mut v.to_vec())
+/// An integer whose order is `f64::total_cmp`'s (the transform that function applies).
+fn order_key(x: f64) -> i64 {
+    let bits = x.to_bits() as i64;
+    bits ^ ((((bits >> 63) as u64) >> 1) as i64)
+}
+
+/// The value of an [`order_key`] (the transform is its own inverse).
+fn from_order_key(key: i64) -> f64 {
+    f64::from_bits((key ^ ((((key >> 63) as u64) >> 1) as i64)) as u64)
 }
 
 /// The noise of a series from its neighbours: 1.4826 × the median |difference of
@@ -40,8 +49,8 @@ pub fn median_of(v: &[f64]) -> Option<f64> {
 /// values.
 #[must_use]
 pub fn neighbour_noise(v: &[f64]) -> Option<f64> {
-    let mut diffs: Vec<f64> = v.windows(2).map(|w| (w[1] - w[0]).abs()).collect();
-    Some(MAD_TO_SD * median(&mut diffs)? / std::f64::consts::SQRT_2)
+    let diffs: Vec<f64> = v.windows(2).map(|w| (w[1] - w[0]).abs()).collect();
+    Some(MAD_TO_SD * median(&diffs)? / std::f64::consts::SQRT_2)
 }
 
 #[cfg(test)]
@@ -75,10 +84,10 @@ mod tests {
             let mut s = v.clone();
             s.sort_by(f64::total_cmp);
             let want = if n % 2 == 1 { s[n / 2] } else { 0.5 * (s[n / 2 - 1] + s[n / 2]) };
-            assert_eq!(median_of(&v), Some(want), "{v:?}");
+            assert_eq!(median(&v), Some(want), "{v:?}");
         }
-        assert_eq!(median_of(&[]), None);
-        assert_eq!(median_of(&[4.0, 1.0, 2.0, 3.0]), Some(2.5));
+        assert_eq!(median(&[]), None);
+        assert_eq!(median(&[4.0, 1.0, 2.0, 3.0]), Some(2.5));
     }
 
     /// The constant is 1/Φ⁻¹(0.75): Φ(1/MAD_TO_SD) = 0.75, with Φ from erf's series.

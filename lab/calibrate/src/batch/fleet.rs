@@ -265,7 +265,7 @@ fn sensors(cal: &[Option<&Calibrated>]) -> Vec<(Measured, Measured)> {
     let med: BTreeMap<i64, f64> = per_minute
         .into_iter()
         .filter(|(_, v)| v.len() >= MIN_UNITS_PER_MINUTE)
-        .filter_map(|(k, mut v)| median(&mut v).map(|m| (k, m)))
+        .filter_map(|(k, v)| median(&v).map(|m| (k, m)))
         .collect();
     let steady: BTreeMap<i64, f64> = med
         .iter()
@@ -288,8 +288,8 @@ fn sensors(cal: &[Option<&Calibrated>]) -> Vec<(Measured, Measured)> {
                 );
                 return (not(&why), not(&why));
             }
-            let mut diffs: Vec<f64> = d.iter().map(|p| p.1).collect();
-            let offset = median(&mut diffs).map_or_else(|| not("no minute"), Measured::Value);
+            let diffs: Vec<f64> = d.iter().map(|p| p.1).collect();
+            let offset = median(&diffs).map_or_else(|| not("no minute"), Measured::Value);
             let n = d.len() as f64;
             let (mh, md) = (d.iter().map(|p| p.0).sum::<f64>() / n, d.iter().map(|p| p.1).sum::<f64>() / n);
             let sxx: f64 = d.iter().map(|p| (p.0 - mh).powi(2)).sum();
@@ -328,9 +328,9 @@ pub(crate) fn fleet(results: &[UnitResult], limits: &Limits) -> Fleet {
     let unit = fleet_units(results, &flags, &partial, &sensor, &mut counts);
     let reference: Vec<&Calibrated> =
         (0..results.len()).filter(|&i| !partial[i] && flags[i].is_empty()).filter_map(|i| cal[i]).collect();
-    let mut lo: Vec<f64> = reference.iter().map(|c| c.temp_c[0]).collect();
-    let mut hi: Vec<f64> = reference.iter().map(|c| c.temp_c[1]).collect();
-    let span_c = [median(&mut lo).unwrap_or(0.0), median(&mut hi).unwrap_or(0.0)];
+    let lo: Vec<f64> = reference.iter().map(|c| c.temp_c[0]).collect();
+    let hi: Vec<f64> = reference.iter().map(|c| c.temp_c[1]).collect();
+    let span_c = [median(&lo).unwrap_or(0.0), median(&hi).unwrap_or(0.0)];
     let population = super::prior::population(&reference.iter().map(|c| &c.normal).collect::<Vec<_>>());
     Fleet {
         units: results.len(),
@@ -360,8 +360,8 @@ fn fleet_axes(cal: &[Option<&Calibrated>]) -> Vec<String> {
 /// Per unit, whether its coverage is partial: not calibrated, one branch only, or a span
 /// short of [`FULL_SPAN_SHARE`] of the fleet's median span.
 fn partial_units(cal: &[Option<&Calibrated>]) -> Vec<bool> {
-    let mut spans: Vec<f64> = cal.iter().flatten().map(|c| c.temp_c[1] - c.temp_c[0]).collect();
-    let median_span = median(&mut spans).unwrap_or(0.0);
+    let spans: Vec<f64> = cal.iter().flatten().map(|c| c.temp_c[1] - c.temp_c[0]).collect();
+    let median_span = median(&spans).unwrap_or(0.0);
     cal.iter()
         .map(|c| c.is_none_or(|c| c.one_branch || c.temp_c[1] - c.temp_c[0] < FULL_SPAN_SHARE * median_span))
         .collect()
@@ -385,10 +385,10 @@ fn feature_stats(
             value_of(c, (&sensor[i].0, &sensor[i].1), &feat.name).filter(|v| v.is_finite()).map(|v| (i, v))
         })
         .collect();
-    let mut reference: Vec<f64> = values.iter().filter(|(i, _)| !partial[*i]).map(|(_, v)| *v).collect();
-    let med = median(&mut reference)?;
-    let mut dev: Vec<f64> = reference.iter().map(|v| (v - med).abs()).collect();
-    let scale = (MAD_TO_SD * median(&mut dev).unwrap_or(0.0)).max(feat.floor);
+    let reference: Vec<f64> = values.iter().filter(|(i, _)| !partial[*i]).map(|(_, v)| *v).collect();
+    let med = median(&reference)?;
+    let dev: Vec<f64> = reference.iter().map(|v| (v - med).abs()).collect();
+    let scale = (MAD_TO_SD * median(&dev).unwrap_or(0.0)).max(feat.floor);
     for &(i, v) in &values {
         if feat.full_coverage_only && partial[i] {
             continue;

@@ -146,7 +146,7 @@ pub(crate) fn residual_steps(
     plot: &crate::static_cal::PlotRows,
     slopes_ug_per_c: &[f64],
 ) -> Vec<ResidualStep> {
-    use qfa_log::robust::{median_of, neighbour_noise};
+    use qfa_log::robust::{median, neighbour_noise};
     let mut out = Vec::new();
     let (Some(&t0), Some(&t1)) = (time_s.first(), time_s.last()) else { return out };
     for ((axis, accel, resid), &slope) in plot.axes.iter().zip(slopes_ug_per_c) {
@@ -212,7 +212,7 @@ pub(crate) fn residual_steps(
             continue;
         };
         // A single-sample spike moves the short windows' means, not their medians.
-        let median_in = |a: usize, b: usize| median_of(&(a..b).map(|j| resid[rows[j]]).collect::<Vec<f64>>());
+        let median_in = |a: usize, b: usize| median(&(a..b).map(|j| resid[rows[j]]).collect::<Vec<f64>>());
         let (Some(rb), Some(ra)) = (median_in(s_lo, k), median_in(k, s_hi)) else { continue };
         let d_short = mean(k, s_hi) - mean(s_lo, k);
         // And the output itself steps: a transient of the residual along a ramp (a lag the

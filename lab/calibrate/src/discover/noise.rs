@@ -92,7 +92,7 @@
 use serde::Serialize;
 
 use super::Channels;
-use qfa_log::robust::{median, median_of, neighbour_noise, MAD_TO_SD};
+use qfa_log::robust::{median, neighbour_noise, MAD_TO_SD};
 use qfa_rng::{normal, seeded};
 
 /// Lags of the structure function, bins.
@@ -158,19 +158,10 @@ impl NoiseModel {
         (self.white.powi(2) + self.slow_sd.powi(2)).sqrt()
     }
 
-    /// Σ_{i,j<n} φ^|i−j|: the slow part's variance of a sum of `n` bins over Q.
-    fn sum_corr(&self, n: usize) -> f64 {
-        let (phi, n) = (self.phi(), n as f64);
-        if phi < 1e-12 {
-            return n;
-        }
-        n * (1.0 + phi) / (1.0 - phi) - 2.0 * phi * (1.0 - phi.powf(n)) / (1.0 - phi).powi(2)
-    }
-
     /// Variance of the sum of `n` consecutive bins.
     #[must_use]
     pub(crate) fn var_sum(&self, n: usize) -> f64 {
-        self.white.powi(2) * n as f64 + self.slow_sd.powi(2) * self.sum_corr(n)
+        self.powers(n).var_sum(n)
     }
 
     /// Variance of the mean of `n` consecutive bins.
@@ -179,13 +170,10 @@ impl NoiseModel {
         self.var_sum(n) / (n as f64).powi(2).max(1.0)
     }
 
-    /// Covariance of the sums of two adjacent segments of `a` and `b` bins.
-    fn cov_adjacent(&self, a: usize, b: usize) -> f64 {
+    /// φ^k for k = 0..=`n`, for the segment sums' variances of a search over splits.
+    fn powers(&self, n: usize) -> Powers<'_> {
         let phi = self.phi();
-        if phi < 1e-12 {
-            return 0.0;
-        }
-        self.slow_sd.powi(2) * phi * (1.0 - phi.powf(a as f64)) * (1.0 - phi.powf(b as f64)) / (1.0 - phi).powi(2)
+        Powers { model: self, phi, pow: (0..=n).map(|k| phi.powf(k as f64)).collect() }
     }
 
     /// The innovations form of the model: white + Gauss–Markov is ARMA(1, 1),
@@ -273,7 +261,7 @@ pub(crate) fn runs_of(ch: &Channels, r: &[f64]) -> Vec<(usize, Vec<f64>, Vec<f64
 /// the long-lag level of the fit takes its SD from them).
 fn abs_deviations(v: &[f64]) -> Vec<f64> {
     // An empty run has no deviations, whatever the centre.
-    let mid = median_of(v).unwrap_or(0.0);
+    let mid = median(v).unwrap_or(0.0);
     v.iter().map(|x| (x - mid).abs()).collect()
 }
 
@@ -281,9 +269,9 @@ fn abs_deviations(v: &[f64]) -> Vec<f64> {
 #[must_use]
 pub(crate) fn fit(ch: &Channels, r: &[f64]) -> NoiseModel {
     let runs = runs_of(ch, r);
-    let mut spacing: Vec<f64> =
+    let spacing: Vec<f64> =
         runs.iter().flat_map(|(_, _, t)| t.windows(2).map(|w| w[1] - w[0])).filter(|d| *d > 0.0).collect();
-    let bin_s = median(&mut spacing).unwrap_or(60.0);
+    let bin_s = median(&spacing).unwrap_or(60.0);
     let values: Vec<&[f64]> = runs.iter().map(|(_, v, _)| v.as_slice()).collect();
     fit_runs(&values, bin_s)
 }
@@ -292,8 +280,8 @@ pub(crate) fn fit(ch: &Channels, r: &[f64]) -> NoiseModel {
 fn fit_runs(runs: &[&[f64]], bin_s: f64) -> NoiseModel {
     let mut d = Vec::new();
     for &k in &LAGS {
-        let mut diffs: Vec<f64> = runs.iter().flat_map(|v| v.windows(k + 1).map(|w| (w[k] - w[0]).abs())).collect();
-        let (true, Some(mad)) = (diffs.len() >= MIN_PAIRS, median(&mut diffs)) else { break };
+        let diffs: Vec<f64> = runs.iter().flat_map(|v| v.windows(k + 1).map(|w| (w[k] - w[0]).abs())).collect();
+        let (true, Some(mad)) = (diffs.len() >= MIN_PAIRS, median(&diffs)) else { break };
         let s = MAD_TO_SD * mad;
         d.push((k as f64, (s * s).max(1e-300)));
     }
@@ -304,8 +292,8 @@ fn fit_runs(runs: &[&[f64]], bin_s: f64) -> NoiseModel {
     // SD 30 ppm (τ 33 h), against which no change point or run level could show. Slow
     // noise with τ near a run's length is then partly a level per run, which the run-level
     // test weighs.
-    let mut dev: Vec<f64> = runs.iter().filter(|v| !v.is_empty()).flat_map(|v| abs_deviations(v)).collect();
-    let far = match median(&mut dev) {
+    let dev: Vec<f64> = runs.iter().filter(|v| !v.is_empty()).flat_map(|v| abs_deviations(v)).collect();
+    let far = match median(&dev) {
         Some(mad) if !d.is_empty() && dev.len() >= MIN_PAIRS => {
             let s = MAD_TO_SD * mad;
             Some(2.0 * (s * s).max(1e-300))
@@ -375,13 +363,14 @@ fn max_split(model: &NoiseModel, v: &[f64]) -> Option<(f64, usize, f64)> {
     }
     let total: f64 = v.iter().sum();
     let mut s1 = v[..MIN_SEGMENT_BINS - 1].iter().sum::<f64>();
+    let powers = model.powers(n);
     let mut best: Option<(f64, usize, f64)> = None;
     for m in MIN_SEGMENT_BINS..=n - MIN_SEGMENT_BINS {
         s1 += v[m - 1];
         let (a, b) = (m as f64, (n - m) as f64);
         let delta = (total - s1) / b - s1 / a;
-        let var =
-            model.var_sum(n - m) / (b * b) + model.var_sum(m) / (a * a) - 2.0 * model.cov_adjacent(m, n - m) / (a * b);
+        let var = powers.var_sum(n - m) / (b * b) + powers.var_sum(m) / (a * a)
+            - 2.0 * powers.cov_adjacent(m, n - m) / (a * b);
         let z = delta.abs() / var.max(1e-300).sqrt();
         if best.is_none_or(|x| z > x.0) {
             best = Some((z, m, delta));
@@ -390,10 +379,43 @@ fn max_split(model: &NoiseModel, v: &[f64]) -> Option<(f64, usize, f64)> {
     best
 }
 
+/// A model's φ^k for k up to a run's length ([`NoiseModel::powers`]): the segment sums'
+/// variances a split search asks for at every split, without a power per question.
+struct Powers<'a> {
+    model: &'a NoiseModel,
+    phi: f64,
+    pow: Vec<f64>,
+}
+
+impl Powers<'_> {
+    /// Σ_{i,j<n} φ^|i−j|: the slow part's variance of a sum of `n` bins over Q.
+    fn sum_corr(&self, n: usize) -> f64 {
+        let phi = self.phi;
+        if phi < 1e-12 {
+            return n as f64;
+        }
+        n as f64 * (1.0 + phi) / (1.0 - phi) - 2.0 * phi * (1.0 - self.pow[n]) / (1.0 - phi).powi(2)
+    }
+
+    /// [`NoiseModel::var_sum`] of `n` bins.
+    fn var_sum(&self, n: usize) -> f64 {
+        self.model.white.powi(2) * n as f64 + self.model.slow_sd.powi(2) * self.sum_corr(n)
+    }
+
+    /// Covariance of the sums of two adjacent segments of `a` and `b` bins.
+    fn cov_adjacent(&self, a: usize, b: usize) -> f64 {
+        let phi = self.phi;
+        if phi < 1e-12 {
+            return 0.0;
+        }
+        self.model.slow_sd.powi(2) * phi * (1.0 - self.pow[a]) * (1.0 - self.pow[b]) / (1.0 - phi).powi(2)
+    }
+}
+
 /// Clip at [`CLIP_SD`] model SDs around the run's median.
 fn clipped(model: &NoiseModel, v: &[f64]) -> Vec<f64> {
     // An empty run has nothing to clip.
-    let mid = median_of(v).unwrap_or(0.0);
+    let mid = median(v).unwrap_or(0.0);
     let c = CLIP_SD * model.total_sd();
     v.iter().map(|&x| x.clamp(mid - c, mid + c)).collect()
 }
@@ -409,11 +431,7 @@ fn clipped(model: &NoiseModel, v: &[f64]) -> Vec<f64> {
 /// evidence on the slow part's wander; whitened, the jump at the split and the level after
 /// it each count for what the model says they are worth.
 ///
-/// O(n) per run once the filter's gain has settled: a step entering a settled filter at `m`
-/// is whitened to `(c∞ + (1 − c∞)·ρ^k)/√F` k bins after it (ρ = φ(1 − K), c∞ = 1 − φK/(1 − ρ),
-/// K and F the settled gain and innovation variance), so its products with the innovations
-/// and with the whitened level are running sums. A split before the gain has settled
-/// (within 10⁻⁶ of its limit) is whitened bin by bin.
+/// O(n) per run for all its splits together (see [`gls_splits`]).
 fn max_split_gls(model: &NoiseModel, v: &[f64], allowed: &[bool]) -> Option<(f64, usize, f64)> {
     let n = v.len();
     if n < 2 * MIN_SEGMENT_BINS {
@@ -436,71 +454,56 @@ fn kalman_gains(model: &NoiseModel, n: usize) -> Vec<(f64, f64)> {
         .collect()
 }
 
-/// `x` whitened by the filter of gains `gains`, from bin `from` on (earlier bins are 0 in
-/// `x`): the standardized innovations.
-fn whitened_column(phi: f64, gains: &[(f64, f64)], x: impl Fn(usize) -> f64, from: usize) -> Vec<f64> {
-    let mut pred = 0.0;
-    (from..gains.len())
-        .map(|i| {
-            let (k, f) = gains[i];
-            let nu = x(i) - pred;
-            pred = phi * (pred + k * nu);
-            nu / f.sqrt()
-        })
-        .collect()
-}
-
 /// [`max_split_gls`] over the splits `splits` (each inside the run).
+///
+/// With `a_i = φ(1 − K_i)` and `P_i` the filter's prediction of the whitened level (a
+/// column of ones from bin 0), a unit step entering at bin `m` is predicted at
+/// `P_i − P_m·a_m·…·a_{i−1}` for `i ≥ m`, so its whitened column is the level's column
+/// `c_i` plus `P_m·a_m·…·a_{i−1}/√F_i`. Its products with the innovations `u`, with `c` and
+/// with itself are then suffix sums and three backward recursions, O(n) for all splits
+/// together.
 fn gls_splits(model: &NoiseModel, v: &[f64], splits: impl Iterator<Item = usize>) -> Option<(f64, usize, f64)> {
     let n = v.len();
     let phi = model.phi();
     let gains = kalman_gains(model, n);
+    let sd: Vec<f64> = gains.iter().map(|g| g.1.sqrt()).collect();
     // The run's innovations, clipped, in SDs; the filter goes on with the clipped value.
     let mut u = Vec::with_capacity(n);
     let mut pred = 0.0;
     for (i, &e) in v.iter().enumerate() {
-        let (k, f) = gains[i];
-        let sd = f.sqrt();
-        let nu = (e - pred).clamp(-CLIP_SD * sd, CLIP_SD * sd);
+        let k = gains[i].0;
+        let nu = (e - pred).clamp(-CLIP_SD * sd[i], CLIP_SD * sd[i]);
         pred = phi * (pred + k * nu);
-        u.push(nu / sd);
+        u.push(nu / sd[i]);
     }
-    let c = whitened_column(phi, &gains, |_| 1.0, 0);
-    let cc: f64 = c.iter().map(|x| x * x).sum();
-    let cu: f64 = c.iter().zip(&u).map(|(a, b)| a * b).sum();
-    // The settled filter, and the first bin from which it holds.
-    let (k_inf, f_inf) = gains[n - 1];
-    let settled = gains.iter().position(|g| (g.0 - k_inf).abs() <= 1e-6 * k_inf.max(1e-12)).unwrap_or(n);
-    let rho = phi * (1.0 - k_inf);
-    let c_inf = 1.0 - phi * k_inf / (1.0 - rho).max(1e-300);
-    let d = 1.0 - c_inf;
-    let sf = f_inf.sqrt();
-    // Σ_{k<L} s_k² of the settled step; suffix sums of u and c, and Σ_{i≥m} ρ^{i−m}·(u, c)_i.
-    let mut s2 = vec![0.0; n + 1];
-    let mut pw = 1.0;
-    for k in 0..n {
-        s2[k + 1] = s2[k] + ((c_inf + d * pw) / sf).powi(2);
-        pw *= rho;
+    // The level's prediction P_i and whitened column c_i.
+    let (mut level_pred, mut c) = (Vec::with_capacity(n), Vec::with_capacity(n));
+    let mut pred = 0.0;
+    for (i, &(k, _)) in gains.iter().enumerate() {
+        level_pred.push(pred);
+        let nu = 1.0 - pred;
+        pred = phi * (pred + k * nu);
+        c.push(nu / sd[i]);
     }
-    let (mut su, mut sc, mut vu, mut vc) = (vec![0.0; n + 1], vec![0.0; n + 1], vec![0.0; n + 1], vec![0.0; n + 1]);
+    // From bin m on: Σ c·u, Σ c², and the homogeneous response's products with u, with c
+    // and with itself.
+    let (mut cu_from, mut cc_from) = (vec![0.0; n + 1], vec![0.0; n + 1]);
+    let (mut hu, mut hc, mut hh) = (vec![0.0; n + 1], vec![0.0; n + 1], vec![0.0; n + 1]);
     for i in (0..n).rev() {
-        su[i] = su[i + 1] + u[i];
-        sc[i] = sc[i + 1] + c[i];
-        vu[i] = u[i] + rho * vu[i + 1];
-        vc[i] = c[i] + rho * vc[i + 1];
+        let a = phi * (1.0 - gains[i].0);
+        cu_from[i] = cu_from[i + 1] + c[i] * u[i];
+        cc_from[i] = cc_from[i + 1] + c[i] * c[i];
+        hu[i] = u[i] / sd[i] + a * hu[i + 1];
+        hc[i] = c[i] / sd[i] + a * hc[i + 1];
+        hh[i] = 1.0 / gains[i].1 + a * a * hh[i + 1];
     }
+    let (cc, cu) = (cc_from[0], cu_from[0]);
     let mut best: Option<(f64, usize, f64)> = None;
     for m in splits.filter(|&m| m > 0 && m < n) {
-        let (xu, xc, xx) = if m >= settled {
-            ((c_inf * su[m] + d * vu[m]) / sf, (c_inf * sc[m] + d * vc[m]) / sf, s2[n - m])
-        } else {
-            let x = whitened_column(phi, &gains, |i| if i >= m { 1.0 } else { 0.0 }, m);
-            (
-                x.iter().zip(&u[m..]).map(|(a, b)| a * b).sum(),
-                x.iter().zip(&c[m..]).map(|(a, b)| a * b).sum(),
-                x.iter().map(|a| a * a).sum(),
-            )
-        };
+        let p = level_pred[m];
+        let xu = cu_from[m] + p * hu[m];
+        let xc = cc_from[m] + p * hc[m];
+        let xx = cc_from[m] + 2.0 * p * hc[m] + p * p * hh[m];
         let num = xu - xc * cu / cc;
         let den = (xx - xc * xc / cc).max(1e-300);
         let z = num.abs() / den.sqrt();
@@ -610,8 +613,8 @@ fn max_run_noise(runs: &[&[f64]]) -> Option<(f64, usize)> {
     if sds.len() < 3 {
         return None;
     }
-    let mut all: Vec<f64> = sds.iter().map(|x| x.1).collect();
-    let mid = median(&mut all).unwrap_or(0.0).max(1e-300);
+    let all: Vec<f64> = sds.iter().map(|x| x.1).collect();
+    let mid = median(&all).unwrap_or(0.0).max(1e-300);
     sds.iter().map(|&(k, sd)| (sd / mid, k)).max_by(|a, b| a.0.total_cmp(&b.0))
 }
 
@@ -1367,7 +1370,7 @@ mod tests {
                 // The size is the difference of the segments' means at the split, whose SD
                 // under the true model (300 bins each side) is 1.62: within 3 SDs.
                 let truth = NoiseModel { white: 1.0, slow_sd: 2.0, tau_s: 80.0 * 60.0, bin_s: 60.0, lags: 12 };
-                let sd = (2.0 * truth.var_mean(300) - 2.0 * truth.cov_adjacent(300, 300) / 300f64.powi(2)).sqrt();
+                let sd = (2.0 * truth.var_mean(300) - 2.0 * truth.powers(300).cov_adjacent(300, 300) / 300f64.powi(2)).sqrt();
                 assert_eq!(cp.run, "r3 (run 4 of 8)", "seed {seed}: {cp:?}");
                 assert!(
                     (cp.at_h - 5.0).abs() < 0.25 && (cp.size - 4.0).abs() < 3.0 * sd,
@@ -1421,10 +1424,10 @@ mod tests {
         for n in [1usize, 2, 7, 40] {
             let brute: f64 =
                 (0..n).flat_map(|i| (0..n).map(move |j| phi.powi((i as i32 - j as i32).abs()))).sum::<f64>();
-            assert!((m.sum_corr(n) - brute).abs() < 1e-9 * brute, "{n}");
+            assert!((m.powers(n).sum_corr(n) - brute).abs() < 1e-9 * brute, "{n}");
         }
         let (a, b) = (5usize, 9usize);
         let brute: f64 = (0..a).flat_map(|i| (a..a + b).map(move |j| phi.powi((j - i) as i32))).sum::<f64>() * 1.69;
-        assert!((m.cov_adjacent(a, b) - brute).abs() < 1e-9 * brute);
+        assert!((m.powers(b).cov_adjacent(a, b) - brute).abs() < 1e-9 * brute);
     }
 }

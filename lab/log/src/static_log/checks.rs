@@ -3,14 +3,14 @@
 
 use serde::Serialize;
 
-use crate::robust::{median_of, MAD_TO_SD};
+use crate::robust::{median, MAD_TO_SD};
 use crate::static_log::*;
 
 /// Median of the up-to-5 values centred on `v[i]` (fewer at the ends, always an odd count,
 /// so a monotone sequence is its own median).
 pub(crate) fn centred_median(v: &[f64], i: usize) -> f64 {
     let h = 2.min(i).min(v.len() - 1 - i);
-    median_of(&v[i - h..=i + h]).unwrap_or(v[i])
+    median(&v[i - h..=i + h]).unwrap_or(v[i])
 }
 
 /// Rows (indices into `v`) that deviate from their ±5-row neighbourhood by more than
@@ -37,10 +37,10 @@ pub(crate) fn glitches(v: &[f64], floor: f64) -> Vec<usize> {
             let diffs = |a: usize, b: usize| -> Vec<f64> { v[a..b].windows(2).map(|w| w[1] - w[0]).collect() };
             let off_line = |d: &[f64]| {
                 // No difference (a one-row side): no line, nothing to deviate from.
-                let Some(slope) = median_of(d) else { return f64::INFINITY };
+                let Some(slope) = median(d) else { return f64::INFINITY };
                 let moved: Vec<f64> = (lo..hi).map(|j| v[j] - slope * (j as f64 - i as f64)).collect();
                 // `moved` holds row i itself: never empty.
-                (v[i] - median_of(&moved).unwrap_or(v[i])).abs()
+                (v[i] - median(&moved).unwrap_or(v[i])).abs()
             };
             let window = off_line(&diffs(lo, hi));
             let best = window.min(off_line(&diffs(lo, i + 1))).min(off_line(&diffs(i, hi)));
@@ -50,7 +50,7 @@ pub(crate) fn glitches(v: &[f64], floor: f64) -> Vec<usize> {
         .unzip();
     // The channel's noise from the window's line (the smallest of three deviations would
     // understate it: 3× on the real log's axes, which took its last row for a glitch).
-    let sigma = MAD_TO_SD * median_of(&window).unwrap_or(0.0);
+    let sigma = MAD_TO_SD * median(&window).unwrap_or(0.0);
     let thr = (GLITCH_SIGMAS * sigma).max(floor);
     (0..n).filter(|&i| best[i] > thr).collect()
 }

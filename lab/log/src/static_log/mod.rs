@@ -54,7 +54,7 @@ use std::io::Read;
 
 use serde::Serialize;
 
-use crate::robust::median_of;
+use crate::robust::median;
 use crate::static_log::checks::{centred_median, glitches};
 pub(crate) use crate::static_log::checks::{max_slew, Slew};
 pub use crate::static_log::columns::{AccelUnit, ColumnMap, TimeUnit, COMMON_NAMES};
@@ -624,7 +624,7 @@ fn drop_glitches(rows: &mut Rows) -> Result<Vec<usize>, StaticError> {
 fn check_time_unit(time_s: &[f64], temp_c: &[f64], lines: &[u64], layout: &Layout) -> Result<Sampling, StaticError> {
     let intervals: Vec<f64> = time_s.windows(2).map(|w| w[1] - w[0]).collect();
     // At least MIN_ROWS − 1 intervals (the rows were counted before).
-    let med = median_of(&intervals).unwrap_or(0.0);
+    let med = median(&intervals).unwrap_or(0.0);
     let slew = max_slew(time_s, temp_c);
     if !INTERVAL_S.contains(&med) || slew.c_per_min > MAX_SLEW_C_PER_MIN {
         return Err(time_unit_mismatch(time_s, temp_c, lines, med, &slew, layout));
@@ -697,7 +697,7 @@ fn check_accel_unit(axes: &[AxisColumn], rows: usize, layout: &Layout) -> Result
     // sides, with fewer axes (a projection) only from above.
     let mag: Vec<f64> =
         (0..rows).map(|k| axes.iter().map(|a| a.accel_g[k] * a.accel_g[k]).sum::<f64>().sqrt()).collect();
-    let med_mag = median_of(&mag).unwrap_or(0.0);
+    let med_mag = median(&mag).unwrap_or(0.0);
     let all_axes = axes.len() == 3;
     let lo = if all_axes { REST_G.0 } else { 0.0 };
     if !(lo..=REST_G.1).contains(&med_mag) {
