@@ -549,6 +549,36 @@ impl AxisModel {
         dt_s: f32,
         deadband: f32,
     ) -> Evaluation {
+        let step = self.advance(state, t_c, rate, dt_s, deadband);
+        let (te, r) = (step.element_c, step.rate_c_per_min);
+        let k1 = self.scale.k1(te, r);
+        // Before a decisive rate the branch is unknown: the mean of the two, within half
+        // their difference of either, which settling counts.
+        let (mut k0, branch_unknown_g) = self.bias.k0_and_doubt(te, state.branch);
+        if let Some(h) = self.ext.bias_branch_hysteresis {
+            // Te ± r rounds to Te's ulp, so the fraction can reach 1.0002 with the smallest
+            // half-width: held to ±1, the term never exceeds its weight.
+            let fraction = (te - state.play_c) / h.half_width_c;
+            k0 += h.weight_g * fraction.clamp(-1.0, 1.0);
+        }
+        if let Some(c) = self.ext.bias_creep {
+            k0 += c.gain_g_per_c * (te - state.creep_c);
+        }
+        let settled_g = self.bias.settled_within_g();
+        let settling = state.settling(settled_g) || branch_unknown_g > settled_g;
+        #[cfg(qfa_mutant = "settling_never_flagged")]
+        let settling = false;
+        Evaluation { k1, k0, temp_clamped: step.temp_clamped, rate_clamped: step.rate_clamped, settling }
+    }
+
+    /// The state step of [`evaluate_with_deadband`](Self::evaluate_with_deadband) alone:
+    /// clamp T and Ṫ, then step the element temperature, the branch, the play and the
+    /// creep states (and their doubts) exactly as it does, without forming K1, K0 or the
+    /// settling flag. For replays that read the states only (the lab's search over lags,
+    /// play widths and creep times reads Te and the play and creep states of a model at
+    /// unit gains, about half the work of a whole evaluation).
+    #[inline]
+    pub fn advance(&self, state: &mut AxisState, t_c: f32, rate: f32, dt_s: f32, deadband: f32) -> Advanced {
         let (t, temp_clamped) = clamp(t_c, self.bias.t_start_c, self.bias.t_end_c());
         let lim = self.rate_limit_c_per_min;
         let (r, rate_clamped) = clamp(rate, -lim, lim);
@@ -591,10 +621,6 @@ impl AxisModel {
         #[cfg(qfa_mutant = "clamp_after_state_update")]
         let te = clamp(te, self.bias.t_start_c, self.bias.t_end_c()).0;
         state.branch = state.branch.next(r, deadband);
-        let k1 = self.scale.k1(te, r);
-        // Before a decisive rate the branch is unknown: the mean of the two, within half
-        // their difference of either, which settling counts.
-        let (mut k0, branch_unknown_g) = self.bias.k0_and_doubt(te, state.branch);
         if let Some(h) = self.ext.bias_branch_hysteresis {
             let lo = te - h.half_width_c;
             let hi = te + h.half_width_c;
@@ -603,10 +629,6 @@ impl AxisModel {
             let g_per_c = abs(h.weight_g) / h.half_width_c;
             state.play_unknown_g =
                 larger(state.play_unknown_g - abs(state.play_c - before) * g_per_c, state.lag_unknown_c * g_per_c);
-            // Te ± r rounds to Te's ulp, so the fraction can reach 1.0002 with the smallest
-            // half-width: held to ±1, the term never exceeds its weight.
-            let fraction = (te - state.play_c) / h.half_width_c;
-            k0 += h.weight_g * fraction.clamp(-1.0, 1.0);
         }
         if let Some(c) = self.ext.bias_creep {
             if dt_s > 0.0 {
@@ -615,14 +637,22 @@ impl AxisModel {
                 state.creep_unknown_g =
                     (1.0 - w) * state.creep_unknown_g + w * abs(c.gain_g_per_c) * state.lag_unknown_c;
             }
-            k0 += c.gain_g_per_c * (te - state.creep_c);
         }
-        let settled_g = self.bias.settled_within_g();
-        let settling = state.settling(settled_g) || branch_unknown_g > settled_g;
-        #[cfg(qfa_mutant = "settling_never_flagged")]
-        let settling = false;
-        Evaluation { k1, k0, temp_clamped, rate_clamped, settling }
+        Advanced { element_c: te, rate_c_per_min: r, temp_clamped, rate_clamped }
     }
+}
+
+/// One state step of a model ([`AxisModel::advance`]): the clamped inputs it stepped on.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Advanced {
+    /// Element temperature Te after the step, °C (the clamped T when `sensor_lag` is off).
+    pub element_c: f32,
+    /// Ṫ clamped to the table's rate limit, °C/min.
+    pub rate_c_per_min: f32,
+    /// T was outside the calibrated range and was clamped.
+    pub temp_clamped: bool,
+    /// |Ṫ| exceeded the calibrated limit and was clamped.
+    pub rate_clamped: bool,
 }
 
 #[cfg(test)]
@@ -678,6 +708,38 @@ mod tests {
         assert_eq!(g.k0(20.0, Branch::Heating), 3.0);
         assert_eq!(g.k0(5.0, Branch::Unknown), 1.0);
         assert_eq!(g.t_end_c(), 20.0);
+    }
+
+    /// `advance` steps every state (and its doubt) as `evaluate` does, bit for bit, and
+    /// returns the clamped inputs `evaluate` used: over a random walk through the grid's
+    /// range and beyond, rates past the limit, and a dt of 0 now and then, with every
+    /// extension on.
+    #[test]
+    fn advance_steps_the_states_as_evaluate_does() {
+        let m = axis(Extensions {
+            sensor_lag: Some(SensorLag { tau_s: 90.0 }),
+            bias_branch_hysteresis: Some(BranchHysteresis { half_width_c: 1.5, weight_g: -2e-4 }),
+            bias_creep: Some(Creep { gain_g_per_c: 3e-6, tau_ref_s: 1800.0, t_ref_c: 25.0, activation_k: 4000.0 }),
+        });
+        let (mut by_evaluate, mut by_advance) = (AxisState::default(), AxisState::default());
+        let mut x = 0x9e37_79b9_u32;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            (x >> 8) as f32 / (1u32 << 24) as f32
+        };
+        let mut t = 20.0f32;
+        for k in 0..20_000 {
+            t += 4.0 * next() - 2.0;
+            let rate = 8.0 * next() - 4.0;
+            let dt = if k % 97 == 0 { 0.0 } else { 0.5 + next() };
+            let e = m.evaluate_with_deadband(&mut by_evaluate, t, rate, dt, 0.2);
+            let a = m.advance(&mut by_advance, t, rate, dt, 0.2);
+            assert_eq!(by_evaluate, by_advance, "step {k}");
+            assert_eq!((a.temp_clamped, a.rate_clamped), (e.temp_clamped, e.rate_clamped), "step {k}");
+            assert!(a.rate_c_per_min.abs() <= m.rate_limit_c_per_min);
+        }
     }
 
     #[test]

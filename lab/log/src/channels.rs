@@ -8,7 +8,7 @@
 
 use std::path::Path;
 
-use qfa_thermal::model::{AxisState, Branch, Evaluation};
+use qfa_thermal::model::{Advanced, AxisState, Branch, Evaluation};
 use qfa_thermal::AxisModel;
 
 use crate::open::{open, open_bytes, OpenedLog, ReadFlags};
@@ -184,13 +184,32 @@ impl Trace {
     /// T̂, Ṫ and the branch are the firmware's either way (calibration's trace steps the same
     /// way, [`crate::pairing::trace_axis`]).
     pub fn evaluate_rows(&self, model: &AxisModel, mut at_row: impl FnMut(usize, &AxisState, &Evaluation)) {
+        self.step_rows(|i, st| {
+            let e = model.evaluate(st, self.est_t[i], self.est_rate[i], self.dt_s[i]);
+            at_row(i, st, &e);
+        });
+    }
+
+    /// [`Self::evaluate_rows`] stepping the model's states only ([`AxisModel::advance`],
+    /// at the table's deadband as `evaluate` steps them): for a caller that reads the states
+    /// (Te, play, creep) and not K1, K0 or the settling flag.
+    pub fn advance_rows(&self, model: &AxisModel, mut at_row: impl FnMut(usize, &AxisState, &Advanced)) {
+        let deadband = model.bias.deadband_c_per_min;
+        self.step_rows(|i, st| {
+            let a = model.advance(st, self.est_t[i], self.est_rate[i], self.dt_s[i], deadband);
+            at_row(i, st, &a);
+        });
+    }
+
+    /// `step(row, state)` for each row, one model state carried through, its branch set to
+    /// the firmware's at the row before the step.
+    fn step_rows(&self, mut step: impl FnMut(usize, &mut AxisState)) {
         let mut st = AxisState::default();
         for i in 0..self.est_t.len() {
             // The model's branch is the firmware's, which also saw the readings between rows
             // (`Branch::next` of the branch after a reading, at its Ṫ, is itself).
             st.branch = self.branch[i];
-            let e = model.evaluate(&mut st, self.est_t[i], self.est_rate[i], self.dt_s[i]);
-            at_row(i, &st, &e);
+            step(i, &mut st);
         }
     }
 

@@ -381,16 +381,6 @@ fn offset_limit_s(ch: &Channels) -> f64 {
     (1.5 * f64::from(dt[dt.len() / 2])).max(2.0)
 }
 
-fn clampf(x: f32, lo: f32, hi: f32) -> f32 {
-    if x < lo {
-        lo
-    } else if x > hi {
-        hi
-    } else {
-        x
-    }
-}
-
 /// A fitted model and its per-bin predictions (K1, K0) over every bin.
 #[derive(Clone, Debug)]
 pub(crate) struct Fitted {
@@ -442,15 +432,11 @@ impl Setup<'_> {
             play: Vec::with_capacity(n),
             creep: Vec::with_capacity(n),
         };
-        let t_end = probe.bias.t_end_c();
-        let lim = self.rate_limit;
         for tr in &self.ch.traces {
             let mut bi = 0;
             let (mut s6, mut h, mut pl, mut cr) = ([0.0f64; 6], [0.0f64; GRID_POINTS], 0.0, 0.0);
-            tr.evaluate_rows(&probe, |i, st, _| {
-                let t = clampf(tr.est_t[i], self.grid_start, t_end);
-                let te = if nl.lag_tau_s.is_some() { st.element_c } else { t };
-                let r = f64::from(clampf(tr.est_rate[i], -lim, lim));
+            tr.advance_rows(&probe, |i, st, step| {
+                let (te, r) = (step.element_c, f64::from(step.rate_c_per_min));
                 let d = f64::from(te - T0_C);
                 let row = crate::fit::eq11_regressors(d, r);
                 for k in 0..6 {
