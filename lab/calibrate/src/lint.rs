@@ -572,8 +572,7 @@ fn compensation_on(log: &StaticLog, out: &mut Vec<Finding>) {
         let range = meds.iter().map(|m| m.0).fold(f64::NEG_INFINITY, f64::max)
             - meds.iter().map(|m| m.0).fold(f64::INFINITY, f64::min);
         let d: Vec<f64> = a.accel_g.windows(2).map(|w| (w[1] - w[0]).abs()).collect();
-        let (Some(mad), Some(per_bin)) =
-            (median(&d), median(&meds.iter().map(|m| m.1 as f64).collect::<Vec<_>>()))
+        let (Some(mad), Some(per_bin)) = (median(&d), median(&meds.iter().map(|m| m.1 as f64).collect::<Vec<_>>()))
         else {
             return;
         };
