@@ -17,6 +17,8 @@
 //! the fit sees the T̂, Ṫ and branch the firmware will see; a run's row (its pulses counted
 //! over the row's interval) is seen at the interval's centre.
 
+use std::ops::Range;
+
 use qfa_thermal::model::{AxisState, Branch};
 use qfa_thermal::{AxisModel, BiasGrid, Extensions, ScaleFactor};
 
@@ -80,9 +82,23 @@ fn probe_axis(ext: &Extensions, deadband: f32) -> AxisModel {
 /// about 1 % (`cargo test -p qfa-lab --test discover_independent`, its desk log).
 #[must_use]
 pub fn trace_axis(view: &FirmwareRows, end: usize, axis: &AxisModel) -> Trace {
+    trace_axis_rows(view, 0..end, axis)
+}
+
+/// [`trace_axis`] of the rows `rows` only (entry `k` of the trace is row `rows.start + k`):
+/// the model's states step through the earlier rows with `AxisModel::advance`, which steps
+/// them as `evaluate` does without forming K1 and K0 nobody reads there. A
+/// cross-validation block needs its own rows' K0 alone, and stepping the rows before it
+/// was about half the cost of evaluating them.
+#[must_use]
+pub fn trace_axis_rows(view: &FirmwareRows, rows: Range<usize>, axis: &AxisModel) -> Trace {
     let view = view.for_deadband(axis.bias.deadband_c_per_min);
-    let rows = &view.rows()[..end.min(view.rows().len())];
-    let n = rows.len();
+    let all = &view.rows()[..rows.end.min(view.rows().len())];
+    let start = rows.start.min(all.len());
+    // A row whose reading was refused keeps the previous row's values, so the last row
+    // before `start` with a reading of its own is evaluated whole.
+    let evaluate_from = all[..start].iter().rposition(|r| r.standing.is_some()).unwrap_or(start);
+    let n = all.len() - start;
     let ext = &axis.ext;
     let mut st = AxisState::default();
     let mut tr = Trace {
@@ -97,7 +113,7 @@ pub fn trace_axis(view: &FirmwareRows, end: usize, axis: &AxisModel) -> Trace {
     // (valid, T̂, Ṫ, model temperature, branch, K0, clamped) at the latest row's reading.
     let mut cur = (false, f64::NAN, 0.0, f64::NAN, Branch::Unknown, 0.0, false);
     let mut last_ms: Option<u32> = None;
-    for row in rows {
+    for (i, row) in all.iter().enumerate() {
         if let Some(s) = row.standing {
             // The model's branch is the firmware's, which also saw the readings between rows:
             // `Branch::next` of the branch after this reading, at this reading's Ṫ, is itself.
@@ -105,6 +121,10 @@ pub fn trace_axis(view: &FirmwareRows, end: usize, axis: &AxisModel) -> Trace {
             let e = s.estimate;
             let dt = last_ms.map_or(0.0, |p| s.clock_ms.wrapping_sub(p) as f32 * 1e-3);
             last_ms = Some(s.clock_ms);
+            if i < evaluate_from {
+                axis.advance(&mut st, e.temp_c, e.rate_c_per_min, dt, axis.bias.deadband_c_per_min);
+                continue;
+            }
             let ev = axis.evaluate(&mut st, e.temp_c, e.rate_c_per_min, dt);
             let te = if ext.sensor_lag.is_some() { st.element_c } else { e.temp_c.clamp(-60.0, 130.0) };
             cur = (
@@ -121,6 +141,9 @@ pub fn trace_axis(view: &FirmwareRows, end: usize, axis: &AxisModel) -> Trace {
             // one): the row keeps the previous row's state, as the firmware keeps its last
             // good coefficients; its branch is the firmware's after the row's readings.
             cur.4 = branch;
+        }
+        if i < start {
+            continue;
         }
         tr.valid.push(cur.0);
         tr.temp_c.push(cur.1);
@@ -235,6 +258,63 @@ mod tests {
         assert!(through_narrow.branch.contains(&Branch::Heating), "the ramp heats past 0.05 °C/min");
         let wide_axis = trace_axis(&wide, rows.len(), &probe_axis(&Extensions::NONE, 0.182));
         assert!(!wide_axis.branch.contains(&Branch::Heating), "0.1 °C/min stays inside 0.182 °C/min");
+    }
+
+    /// A trace of some rows is those rows of the whole trace, bit for bit: over random
+    /// ranges of a log with rows refused now and then (a time not after the previous, so a
+    /// range may open on rows that carry an earlier row's values), missing readings, and a
+    /// model with every extension slot.
+    #[test]
+    fn a_trace_of_some_rows_is_those_rows_of_the_whole_trace() {
+        let mut x = 0x2545_f491_u32;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            f64::from(x >> 8) / f64::from(1u32 << 24)
+        };
+        let (mut t, mut temp) = (0.0, 20.0);
+        let rows: Vec<(f64, Option<f64>)> = (0..4000)
+            .map(|i| {
+                if i % 37 != 0 {
+                    t += 1.0 + 9.0 * next();
+                }
+                temp += 0.4 * next() - 0.19;
+                (t, (i % 53 != 0).then_some(temp))
+            })
+            .collect();
+        let view = FirmwareRows::new(rows.iter().copied(), RowInstant::OwnReading, 0.182);
+        let mut axis = probe_axis(
+            &Extensions {
+                sensor_lag: Some(qfa_thermal::model::SensorLag { tau_s: 120.0 }),
+                bias_branch_hysteresis: Some(qfa_thermal::model::BranchHysteresis {
+                    half_width_c: 0.8,
+                    weight_g: 3e-4,
+                }),
+                bias_creep: Some(qfa_thermal::model::Creep {
+                    gain_g_per_c: 2e-6,
+                    tau_ref_s: 900.0,
+                    t_ref_c: 25.0,
+                    activation_k: 3000.0,
+                }),
+            },
+            0.182,
+        );
+        axis.bias.heating_g.iter_mut().enumerate().for_each(|(j, v)| *v = 1e-4 * j as f32);
+        let whole = trace_axis(&view, rows.len(), &axis);
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        for _ in 0..40 {
+            let a = (next() * rows.len() as f64) as usize;
+            let b = (a + (next() * 600.0) as usize).min(rows.len());
+            let part = trace_axis_rows(&view, a..b, &axis);
+            assert_eq!(part.valid, whole.valid[a..b]);
+            assert_eq!(bits(&part.temp_c), bits(&whole.temp_c[a..b]));
+            assert_eq!(bits(&part.rate_c_per_min), bits(&whole.rate_c_per_min[a..b]));
+            assert_eq!(bits(&part.model_temp_c), bits(&whole.model_temp_c[a..b]));
+            assert_eq!(part.branch, whole.branch[a..b]);
+            assert_eq!(bits(&part.ext_k0_g), bits(&whole.ext_k0_g[a..b]), "rows {a}..{b}");
+            assert_eq!(part.clamped, whole.clamped[a..b]);
+        }
     }
 
     fn run(program: &str, input_g: f64, pulses: &[i64], t0: f64) -> Run {

@@ -53,10 +53,11 @@ pub(crate) fn cv_rms(
             train[i] = false;
         }
         let fit = fit_static_traced(series, traces, &train, opts.grid_points, opts.block)?;
-        let tr = series.model_trace_until(&fit.axis, chunk.last().map_or(0, |&i| i + 1));
+        let (Some(&lo), Some(&hi)) = (chunk.first(), chunk.last()) else { continue };
+        let tr = series.model_trace_rows(&fit.axis, lo..hi + 1);
         for &i in chunk {
-            if tr.valid[i] {
-                let r = series.accel_g[i] - fit.reference_g - tr.ext_k0_g[i];
+            if tr.valid[i - lo] {
+                let r = series.accel_g[i] - fit.reference_g - tr.ext_k0_g[i - lo];
                 sum += r * r;
                 count += 1;
             }

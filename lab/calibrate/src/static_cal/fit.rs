@@ -207,15 +207,16 @@ impl StaticSeries<'_> {
     /// The model's K0 (g) per row through the root crate's `AxisModel::evaluate`.
     #[must_use]
     pub fn model_trace(&self, axis: &AxisModel) -> Trace {
-        self.model_trace_until(axis, self.rows())
+        self.model_trace_rows(axis, 0..self.rows())
     }
 
-    /// [`Self::model_trace`] of the first `end` rows only: the model's states depend on
-    /// earlier rows alone, so these rows' values are the whole series' (a
-    /// cross-validation block needs no row after it).
+    /// [`Self::model_trace`] of the rows `rows` only (entry `k` is row `rows.start + k`): the
+    /// model's states depend on earlier rows alone, so these rows' values are the whole
+    /// series' (a cross-validation block needs no row outside it; see
+    /// [`qfa_log::pairing::trace_axis_rows`]).
     #[must_use]
-    pub(crate) fn model_trace_until(&self, axis: &AxisModel, end: usize) -> Trace {
-        qfa_log::pairing::trace_axis(self.view, end, axis)
+    pub(crate) fn model_trace_rows(&self, axis: &AxisModel, rows: std::ops::Range<usize>) -> Trace {
+        qfa_log::pairing::trace_axis_rows(self.view, rows, axis)
     }
 }
 
