@@ -266,13 +266,8 @@ mod tests {
     /// model with every extension slot.
     #[test]
     fn a_trace_of_some_rows_is_those_rows_of_the_whole_trace() {
-        let mut x = 0x2545_f491_u32;
-        let mut next = || {
-            x ^= x << 13;
-            x ^= x >> 17;
-            x ^= x << 5;
-            f64::from(x >> 8) / f64::from(1u32 << 24)
-        };
+        let mut rng = qfa_rng::seeded(17);
+        let mut next = || qfa_rng::uniform(&mut rng);
         let (mut t, mut temp) = (0.0, 20.0);
         let rows: Vec<(f64, Option<f64>)> = (0..4000)
             .map(|i| {

@@ -71,16 +71,10 @@ mod tests {
     /// Against sorting, the definition itself, over random lengths and values, ties included.
     #[test]
     fn the_median_is_the_middle_of_the_sorted_values() {
-        let mut state = 0x2545_f491_4f6c_dd1d_u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut rng = qfa_rng::seeded(5);
         for _ in 0..2000 {
-            let n = (next() % 40) as usize + 1;
-            let v: Vec<f64> = (0..n).map(|_| (next() % 21) as f64 - 10.0).collect();
+            let n = qfa_rng::below(&mut rng, 40) + 1;
+            let v: Vec<f64> = (0..n).map(|_| qfa_rng::below(&mut rng, 21) as f64 - 10.0).collect();
             let mut s = v.clone();
             s.sort_by(f64::total_cmp);
             let want = if n % 2 == 1 { s[n / 2] } else { 0.5 * (s[n / 2 - 1] + s[n / 2]) };
