@@ -1,5 +1,6 @@
 //! The lab's concepts that decide its answers exist once. Each check reads the lab's
-//! library sources (their test modules left out) and names every place that breaks it.
+//! library sources (their test modules left out, inline or in a `tests.rs` their parent
+//! declares under `#[cfg(test)]`) and names every place that breaks it.
 //!
 //! - The firmware's view of a log's temperatures (`qfa_log::replay`): the only module that
 //!   constructs the rate estimator or turns a temperature into a DS18B20 code. The
@@ -30,6 +31,12 @@ fn sources(dir: &Path) -> Vec<(PathBuf, String)> {
                 if p.file_name().is_some_and(|n| n != "tests" && n != "examples") {
                     stack.push(p);
                 }
+            } else if p.file_name().is_some_and(|n| n == "tests.rs") {
+                // A test module in a file of its own: its parent declares it under
+                // `#[cfg(test)]`, or it would be library code and is read as such.
+                if !declared_as_test_module(&p) {
+                    out.push((p.clone(), std::fs::read_to_string(&p).expect("readable source")));
+                }
             } else if p.extension().is_some_and(|x| x == "rs") && p.to_string_lossy().contains("/src/") {
                 let text = std::fs::read_to_string(&p).expect("readable source");
                 let library = text.split("\n#[cfg(test)]").next().unwrap_or("").to_string();
@@ -38,6 +45,16 @@ fn sources(dir: &Path) -> Vec<(PathBuf, String)> {
         }
     }
     out
+}
+
+/// Whether `dir/tests.rs` is declared `#[cfg(test)] mod tests;` by its parent module,
+/// `dir.rs` or `dir/mod.rs`.
+fn declared_as_test_module(tests_rs: &Path) -> bool {
+    let dir = tests_rs.parent().expect("a folder");
+    [dir.with_extension("rs"), dir.join("mod.rs"), dir.join("lib.rs")]
+        .iter()
+        .filter_map(|p| std::fs::read_to_string(p).ok())
+        .any(|t| t.contains("#[cfg(test)]\nmod tests;"))
 }
 
 fn lab() -> PathBuf {
