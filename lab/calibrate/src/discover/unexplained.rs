@@ -35,8 +35,9 @@
 
 use serde::Serialize;
 
-use super::fit::{Effect, Residuals};
+use super::fit::Residuals;
 use super::noise::{self, BranchLevel, ChangePoint, NoiseModel, NoiseTest, NoisyRun};
+use super::structure::Effect;
 use super::{localize, noise_floor, stats, Channels, LogKind, ALPHA};
 use crate::metrics::rms_of_finite as rms;
 use qfa_log::replay::Motion;
