@@ -16,7 +16,7 @@
 //! - Robust statistics: `qfa_log::robust`, the one median (the textbook one: the mean of
 //!   the two middle values of an even count) and the one MAD-to-SD constant.
 //! - Errors are types: no public function of a lab library returns `Result<_, String>` (the
-//!   command line's own value parsers, in `lab/src/main.rs`, are clap's convention).
+//!   command line's own value parsers, in the binary's `lab/src/cli_args.rs`, are clap's convention).
 
 use std::path::{Path, PathBuf};
 
@@ -122,7 +122,10 @@ fn least_squares_are_solved_in_one_module() {
 
 #[test]
 fn no_public_function_returns_its_error_as_text() {
-    let files: Vec<_> = sources(&lab()).into_iter().filter(|(p, _)| !p.ends_with("src/main.rs")).collect();
+    let files: Vec<_> = sources(&lab())
+        .into_iter()
+        .filter(|(p, _)| !p.ends_with("src/main.rs") && !p.ends_with("src/cli_args.rs"))
+        .collect();
     let mut found = Vec::new();
     for (p, text) in &files {
         // A public signature, possibly over several lines, up to its body.
