@@ -152,3 +152,39 @@ fn only_measured_figures_are_masked() {
         assert!(first_difference(expected, &normalise(&broken, Figures::Measured)).is_some(), "{broken}");
     }
 }
+
+/// The longest a source file may be: past it, a file holds more than one idea and is split
+/// along them (the repository's layout is its architecture).
+const MAX_SOURCE_LINES: usize = 700;
+
+/// Every Rust source file of the repository (build output and hidden folders left out).
+fn rust_sources(dir: &Path, out: &mut Vec<PathBuf>) {
+    for e in std::fs::read_dir(dir).expect("a readable folder").flatten() {
+        let p = e.path();
+        let name = e.file_name().to_string_lossy().to_string();
+        if p.is_dir() {
+            if name != "target" && !name.starts_with('.') {
+                rust_sources(&p, out);
+            }
+        } else if name.ends_with(".rs") {
+            out.push(p);
+        }
+    }
+}
+
+/// No source file is over [`MAX_SOURCE_LINES`] lines; the check reads this repository's
+/// own files, so a long file added anywhere fails it.
+#[test]
+fn no_source_file_is_over_its_line_limit() {
+    let mut files = Vec::new();
+    rust_sources(&root(), &mut files);
+    assert!(files.len() > 100, "the walk found the sources: {}", files.len());
+    let long: Vec<String> = files
+        .iter()
+        .filter_map(|p| {
+            let n = std::fs::read_to_string(p).expect("readable source").lines().count();
+            (n > MAX_SOURCE_LINES).then(|| format!("{}: {n} lines", p.strip_prefix(root()).unwrap_or(p).display()))
+        })
+        .collect();
+    assert!(long.is_empty(), "over {MAX_SOURCE_LINES} lines:\n{}", long.join("\n"));
+}
