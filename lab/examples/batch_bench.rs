@@ -1,7 +1,7 @@
 //! Benchmark (asserts nothing; `cargo xtask experiment batch_bench [N …]`): a production
 //! batch's speed and memory. For each batch size N (default 10 and 100): the simulator's
 //! chamber run of N units (8 550 one-second rows each, the size of the real chamber log),
-//! split into units and calibrated by `qfa_calibrate::batch::run` at 1 worker thread (N ≤ 10
+//! split into units and calibrated by `qfa_batch::run` at 1 worker thread (N ≤ 10
 //! only: it takes N × the single-core cost) and at 2, each run into a fresh folder. Prints
 //! one `key=value` line per run:
 //! `units threads seconds units_per_min cpu_s_per_unit seconds_per_unit vmhwm_mb`, where
@@ -11,8 +11,8 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use qfa_calibrate::batch::input::from_chamber_log;
-use qfa_calibrate::batch::{self, BatchOptions};
+use qfa_batch::input::from_chamber_log;
+use qfa_batch::BatchOptions;
 use qfa_log::open::ReadFlags;
 use qfa_log::static_log::columns::{AccelUnit, TimeUnit};
 use qfa_log::units::TempUnit;
@@ -63,7 +63,7 @@ fn main() {
             let units = from_chamber_log(&path, &bytes, &flags).expect("split");
             let out = dir.join(format!("out{t}"));
             let (t0, c0) = (Instant::now(), cpu_s());
-            batch::run(&units, &out, &BatchOptions { threads: t, ..BatchOptions::default() }).expect("batch");
+            qfa_batch::run(&units, &out, &BatchOptions { threads: t, ..BatchOptions::default() }).expect("batch");
             let (secs, cpu) = (t0.elapsed().as_secs_f64(), cpu_s() - c0);
             let peak = vmhwm_mb();
             println!(

@@ -281,8 +281,8 @@ pub(crate) struct BatchCli {
     pub(crate) threads: usize,
     /// Run only shard K of N (0 ≤ K < N: units i with i mod N = K), all shards writing into
     /// the same --out; then `qfa-lab batch merge OUT`.
-    #[arg(long, value_parser = str::parse::<qfa_calibrate::batch::Shard>)]
-    pub(crate) shard: Option<qfa_calibrate::batch::Shard>,
+    #[arg(long, value_parser = str::parse::<qfa_batch::Shard>)]
+    pub(crate) shard: Option<qfa_batch::Shard>,
     /// Draw each unit's bias plot (off: a batch's pages are its certificates and the fleet).
     #[arg(long)]
     pub(crate) plots: bool,

@@ -97,8 +97,8 @@ impl From<qfa_calibrate::CalibrateError> for CliError {
     }
 }
 
-impl From<qfa_calibrate::discover::DiscoverError> for CliError {
-    fn from(e: qfa_calibrate::discover::DiscoverError) -> Self {
+impl From<qfa_discover::DiscoverError> for CliError {
+    fn from(e: qfa_discover::DiscoverError) -> Self {
         // `{:#}`: with its causes (the file and the system's error).
         Self::Failed(format!("{e:#}"))
     }

@@ -67,7 +67,7 @@ pub struct UnitResult {
 
 /// Where the discovery workflow plugs in: called with a unit's log and output directory
 /// after calibration. Returns a one-line summary to print; an error fails the demo.
-pub type DiscoveryHook = fn(log: &Path, out: &Path) -> Result<String, qfa_calibrate::discover::DiscoverError>;
+pub type DiscoveryHook = fn(log: &Path, out: &Path) -> Result<String, qfa_discover::DiscoverError>;
 /// Where the navigation study plugs in: called once with its output directory after all
 /// units are calibrated, and the flight's length limit, s. Returns its verdict and the
 /// caption of its flight plot; an error fails the demo.
@@ -154,7 +154,7 @@ pub enum DemoError {
         /// The unit.
         unit: String,
         /// Discovery's error.
-        source: qfa_calibrate::discover::DiscoverError,
+        source: qfa_discover::DiscoverError,
     },
     /// The navigation study failed.
     Navigation(qfa_nav::NavError),

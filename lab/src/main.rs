@@ -7,11 +7,11 @@ use std::time::Instant;
 use clap::{Parser, Subcommand, ValueEnum};
 
 use qfa_calibrate::compensate::compensate_log;
-use qfa_calibrate::discover::{static_axes, Start};
 use qfa_calibrate::export::ExportOptions;
 use qfa_calibrate::lint::Severity;
 use qfa_calibrate::static_cal::{self, Holdout};
 use qfa_calibrate::{calibrate_into, CalibrateOptions};
+use qfa_discover::{static_axes, Start};
 use qfa_lab::out_path::OutError;
 use qfa_log::channels::Channels;
 use qfa_log::cycling::{write_compensated, write_log};
@@ -269,7 +269,7 @@ fn discover_cmd(
             cycling_holdout(holdout)?;
             let ch = Channels::from_opened(&opened, 60.0)?;
             let pb = qfa_lab::demo::spinner("discovery", true);
-            let r = qfa_calibrate::discover::discover_with_verdict(&ch, start, out);
+            let r = qfa_discover::discover_with_verdict(&ch, start, out);
             pb.finish_and_clear();
             let (r, v) = r?;
             let j = if json { Some(json_with_verdict(&v, &r).map_err(to_json)?) } else { None };
@@ -411,7 +411,7 @@ fn run(cli: Cli) -> Result<(), CliError> {
             let opts =
                 qfa_lab::demo::DemoOptions { out, row_s, seed, threads, progress: true, full_logs, nav_duration_s };
             // Discovery (on unit #1) and navigation run inside the demo.
-            qfa_lab::demo::run(&opts, Some(qfa_calibrate::discover::demo_hook), Some(qfa_nav::demo_hook))?;
+            qfa_lab::demo::run(&opts, Some(qfa_discover::demo_hook), Some(qfa_nav::demo_hook))?;
             Ok(())
         }
         Cmd::Plan { scenario, lab_program, json } => plan_cmd(scenario, lab_program, json),
@@ -444,7 +444,7 @@ fn run(cli: Cli) -> Result<(), CliError> {
 }
 
 fn batch_cmd(a: BatchCli) -> Result<(), CliError> {
-    use qfa_calibrate::batch::{self, input, unit::UnitOptions, BatchOptions};
+    use qfa_batch::{input, unit::UnitOptions, BatchOptions};
     let limits = LimitsChoice::from_arg(match &a.sub {
         Some(BatchCmd::Merge { limits, .. }) => limits.as_deref(),
         None => a.limits.as_deref(),
@@ -453,7 +453,7 @@ fn batch_cmd(a: BatchCli) -> Result<(), CliError> {
     limits.check_applies("static", &STATIC_KEYS).map_err(|e| CliError::Usage(e.to_string()))?;
     let cal = static_cal::StaticCalOptions { holdout: a.holdout, ..Default::default() };
     let unit = UnitOptions { cal, limits: limits.clone(), plots: a.plots };
-    let fail_status = |fleet: &batch::fleet::Fleet| -> Result<(), CliError> {
+    let fail_status = |fleet: &qfa_batch::fleet::Fleet| -> Result<(), CliError> {
         // As `calibrate`: the default limits are reported but change no exit status; a unit
         // that could not be calibrated always does.
         let [_, _, fail] = fleet.counts;
@@ -464,8 +464,8 @@ fn batch_cmd(a: BatchCli) -> Result<(), CliError> {
         Ok(())
     };
     if let Some(BatchCmd::Merge { out, .. }) = &a.sub {
-        let (_, fleet) = batch::merge(out, &unit).map_err(|e| CliError::Failed(e.to_string()))?;
-        print!("{}", batch::console(&fleet, out));
+        let (_, fleet) = qfa_batch::merge(out, &unit).map_err(|e| CliError::Failed(e.to_string()))?;
+        print!("{}", qfa_batch::console(&fleet, out));
         return fail_status(&fleet);
     }
     let out = a.out.clone().ok_or_else(|| CliError::Usage("batch needs --out DIR".into()))?;
@@ -482,12 +482,12 @@ fn batch_cmd(a: BatchCli) -> Result<(), CliError> {
     eprintln!("{} units; calibrating into {}", units.len(), out.display());
     let t0 = Instant::now();
     let opts = BatchOptions { unit, threads: a.threads, shard: a.shard, progress: true };
-    let run = batch::run(&units, &out, &opts).map_err(|e| CliError::Failed(e.to_string()))?;
+    let run = qfa_batch::run(&units, &out, &opts).map_err(|e| CliError::Failed(e.to_string()))?;
     let secs = t0.elapsed().as_secs_f64();
     eprintln!("{} units in {secs:.1} s ({:.1} units/min)", run.results.len(), run.results.len() as f64 * 60.0 / secs);
     match &run.fleet {
         Some(fleet) => {
-            print!("{}", batch::console(fleet, &out));
+            print!("{}", qfa_batch::console(fleet, &out));
             fail_status(fleet)
         }
         None => {

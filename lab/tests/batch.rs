@@ -7,10 +7,10 @@ mod common;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use qfa_calibrate::batch::fleet::Decision;
-use qfa_calibrate::batch::input::{from_chamber_log, UnitInput};
-use qfa_calibrate::batch::unit::{ResidualStep, UnitOptions, UnitOutcome, UnitResult};
-use qfa_calibrate::batch::{self, BatchOptions, Shard};
+use qfa_batch::fleet::Decision;
+use qfa_batch::input::{from_chamber_log, UnitInput};
+use qfa_batch::unit::{ResidualStep, UnitOptions, UnitOutcome, UnitResult};
+use qfa_batch::{BatchOptions, Shard};
 use qfa_log::open::ReadFlags;
 use qfa_log::static_log::columns::{AccelUnit, TimeUnit};
 use qfa_log::units::TempUnit;
@@ -126,7 +126,7 @@ fn a_chamber_run_flags_each_bad_unit_for_its_defect_and_passes_the_rest() {
     let spec = PopulationSpec { units: 20, seed: 3, bad: true, truncated: 0 };
     let (truth, units) = chamber(&dir, &spec);
     let out = dir.join("out");
-    let run = batch::run(&units, &out, &BatchOptions { threads: 2, ..BatchOptions::default() }).unwrap();
+    let run = qfa_batch::run(&units, &out, &BatchOptions { threads: 2, ..BatchOptions::default() }).unwrap();
     let fleet = run.fleet.unwrap();
     let (mut bad, mut good) = (0, 0);
     for (u, f) in truth.unit.iter().zip(&fleet.unit) {
@@ -208,8 +208,8 @@ fn threads_and_shards_do_not_change_a_byte() {
     let spec = PopulationSpec { units: 2, seed: 9, bad: true, truncated: 0 };
     let (_, units) = chamber(&dir, &spec);
     let opts = |threads, shard| BatchOptions { unit: UnitOptions::default(), threads, shard, progress: false };
-    batch::run(&units, &dir.join("one"), &opts(1, None)).unwrap();
-    batch::run(&units, &dir.join("two"), &opts(2, None)).unwrap();
+    qfa_batch::run(&units, &dir.join("one"), &opts(1, None)).unwrap();
+    qfa_batch::run(&units, &dir.join("two"), &opts(2, None)).unwrap();
     let (one, two) = (tree(&dir.join("one")), tree(&dir.join("two")));
     assert_eq!(one.len(), two.len());
     for (path, bytes) in &one {
@@ -217,11 +217,11 @@ fn threads_and_shards_do_not_change_a_byte() {
     }
     let sharded = dir.join("sharded");
     for k in [1, 0] {
-        let run = batch::run(&units, &sharded, &opts(2, Some(Shard { k, n: 2 }))).unwrap();
+        let run = qfa_batch::run(&units, &sharded, &opts(2, Some(Shard { k, n: 2 }))).unwrap();
         assert!(run.fleet.is_none());
         assert_eq!(run.results.len(), 1);
     }
-    batch::merge(&sharded, &UnitOptions::default()).unwrap();
+    qfa_batch::merge(&sharded, &UnitOptions::default()).unwrap();
     let merged = tree(&sharded);
     assert_eq!(merged.len(), one.len());
     for (path, bytes) in &one {
@@ -236,8 +236,8 @@ fn a_refused_unit_fails_alone_with_its_reason() {
     let dir = scratch("batch-refused");
     let spec = PopulationSpec { units: 3, seed: 2, bad: false, truncated: 0 };
     let (_, mut units) = chamber(&dir, &spec);
-    units[1].rows = qfa_calibrate::batch::input::UnitRows::Bytes(b"time\ttemp\tax\n0\t20\t0.1\n".to_vec());
-    let run = batch::run(&units, &dir.join("out"), &BatchOptions::default()).unwrap();
+    units[1].rows = qfa_batch::input::UnitRows::Bytes(b"time\ttemp\tax\n0\t20\t0.1\n".to_vec());
+    let run = qfa_batch::run(&units, &dir.join("out"), &BatchOptions::default()).unwrap();
     let fleet = run.fleet.unwrap();
     assert_eq!(fleet.unit[1].decision, Decision::Fail);
     assert!(fleet.unit[1].reasons[0].starts_with("not calibrated: "), "{:?}", fleet.unit[1].reasons);
@@ -306,15 +306,15 @@ type PriorRow = (String, bool, f64, f64);
 /// Each unit's error against its truth, own table and the prior's, per axis. The prior's table for a full unit is formed in memory
 /// from the same population (which that unit is part of).
 fn prior_study(units: usize, truncated: usize, seed: u64, name: &str) -> Vec<PriorRow> {
-    use qfa_calibrate::batch::input::from_manifest;
-    use qfa_calibrate::batch::prior::prior_table;
+    use qfa_batch::input::from_manifest;
+    use qfa_batch::prior::prior_table;
     use qfa_sim::population::write_manifest_run;
     let dir = scratch(name);
     let truth = draw(&PopulationSpec { units, seed, bad: false, truncated });
     write_manifest_run(&dir, &truth).unwrap();
     let inputs = from_manifest(&dir.join("batch.toml"), &ReadFlags::default()).unwrap();
     let out = dir.join("out");
-    let run = batch::run(&inputs, &out, &BatchOptions { threads: 2, ..BatchOptions::default() }).unwrap();
+    let run = qfa_batch::run(&inputs, &out, &BatchOptions { threads: 2, ..BatchOptions::default() }).unwrap();
     let fleet = run.fleet.unwrap();
     let span = (fleet.span_c[0], fleet.span_c[1]);
     let mut rows = Vec::new();
@@ -388,7 +388,7 @@ fn flag_study() {
         let dir = scratch(&format!("batch-flag-study-{seed}"));
         let (truth, units) = chamber(&dir, &PopulationSpec { units: 100, seed, bad: true, truncated: 0 });
         let run =
-            batch::run(&units, &dir.join("out"), &BatchOptions { threads: 2, ..BatchOptions::default() }).unwrap();
+            qfa_batch::run(&units, &dir.join("out"), &BatchOptions { threads: 2, ..BatchOptions::default() }).unwrap();
         let fleet = run.fleet.unwrap();
         let good_max = fleet
             .stats

@@ -4,7 +4,7 @@
 
 mod common;
 
-use qfa_calibrate::discover::{analyze, Gaps, Report, Start};
+use qfa_discover::{analyze, Gaps, Report, Start};
 use qfa_sim::synth::{cycling_channels, kt8_1_scale, truth, SynthConfig};
 use qfa_thermal::model::{BranchHysteresis, Creep, Extensions, ScaleFactor, SensorLag};
 
@@ -199,7 +199,7 @@ fn discover_paper_structure_from_simple() {
 
 #[test]
 fn discover_single_channel_log_and_outputs() {
-    use qfa_calibrate::discover::{discover, Channels};
+    use qfa_discover::{discover, Channels};
     use qfa_sim::synth::single_csv;
     let ext = Extensions {
         bias_branch_hysteresis: Some(BranchHysteresis { half_width_c: 1.5, weight_g: 1.5e-5 }),
@@ -250,7 +250,7 @@ fn discover_single_channel_log_and_outputs() {
 
 #[test]
 fn discover_from_lab_format_csv_with_pulses() {
-    use qfa_calibrate::discover::{discover, Channels};
+    use qfa_discover::{discover, Channels};
     use qfa_sim::synth::cycling_csv;
     let ext = Extensions { sensor_lag: Some(SensorLag { tau_s: 450.0 }), ..Default::default() };
     let csv = cycling_csv(&quick(21), &truth(kt8_1_scale(), paper_bias(), ext), 20.0);
@@ -301,7 +301,7 @@ fn discover_from_lab_format_csv_with_pulses() {
 
 #[test]
 fn reader_reports_malformed_rows_with_line_numbers() {
-    use qfa_calibrate::discover::Channels;
+    use qfa_discover::Channels;
     let bad = "program,run,time_s,input_g,temp_c,pulses,interval_s\np,0,1,1,22.0,100,1\np,0,x,1,22.0,100,1\np,1,2,-1,22.0,abc,1\n";
     let e = format!("{:#}", Channels::parse(bad, 60.0).unwrap_err());
     assert!(e.contains("line 3") && e.contains("line 4"), "{e}");

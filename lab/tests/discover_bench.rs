@@ -3,7 +3,7 @@
 //! A full four-rate, four-position paper log (−60..70 °C, 120-min hold, 3-min dwells) at
 //! 10-s rows, written as a lab-format CSV with I/F pulses, read back, and discovered.
 
-use qfa_calibrate::discover::{discover, Channels, Start};
+use qfa_discover::{discover, Channels, Start};
 use qfa_sim::synth::{cycling_csv, kt8_1_scale, truth, SynthConfig};
 use qfa_thermal::model::{Extensions, SensorLag};
 

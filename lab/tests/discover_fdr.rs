@@ -15,7 +15,7 @@ mod common;
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use qfa_calibrate::discover::{analyze, Channels, Start};
+use qfa_discover::{analyze, Channels, Start};
 use qfa_log::cycling::write_log_to;
 use qfa_sim::profile::{Position, Program, PAPER_RATES};
 use qfa_sim::simulate;

@@ -22,9 +22,9 @@
 
 mod truth;
 
-use qfa_calibrate::discover::static_axes::discover_static;
-use qfa_calibrate::discover::{analyze, Channels, Report, Start};
 use qfa_calibrate::static_cal::Holdout;
+use qfa_discover::static_axes::discover_static;
+use qfa_discover::{analyze, Channels, Report, Start};
 use qfa_log::static_log::{read_static_from, StaticOptions};
 use rayon::prelude::*;
 use truth::CyclingTruth;
@@ -136,7 +136,7 @@ fn a_residual_far_above_its_floor_is_reported_in_words() {
     let t = CyclingTruth { campaign_ageing_ug_per_h: 0.3, ..CyclingTruth::default() };
     let ch = Channels::parse(&truth::cycling(t, 1), 60.0).expect("parses");
     let dir = std::env::temp_dir().join(format!("qfa-discover-floor-{}", std::process::id()));
-    let r = qfa_calibrate::discover::discover(&ch, Start::Paper, &dir).expect("discovery writes its outputs");
+    let r = qfa_discover::discover(&ch, Start::Paper, &dir).expect("discovery writes its outputs");
     let md = std::fs::read_to_string(dir.join("report.md")).expect("report.md");
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).expect("report.json")).expect("json");

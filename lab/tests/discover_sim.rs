@@ -9,7 +9,7 @@
 //! recovered within 25 %, and its channel's held-out gap shrunk ≥ 3× or to within 1.5×
 //! of that baseline. Units, seeds and parameters differ from the truth presets.
 
-use qfa_calibrate::discover::{analyze, Channels, Gaps, Report, Start};
+use qfa_discover::{analyze, Channels, Gaps, Report, Start};
 use qfa_log::cycling::write_log_to;
 use qfa_sim::simulate_paper;
 use qfa_sim::truth::Truth;

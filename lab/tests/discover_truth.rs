@@ -38,7 +38,7 @@
 
 mod truth;
 
-use qfa_calibrate::discover::{analyze, Channels, Gaps, Report, Start};
+use qfa_discover::{analyze, Channels, Gaps, Report, Start};
 use rayon::prelude::*;
 use truth::{chamber, Xs};
 
@@ -187,8 +187,7 @@ fn param(r: &Report, name: &str, p: &str) -> f64 {
 /// `family` among the equally good candidates, and the family is named, listed that way,
 /// or the leftover is reported as unexplained.
 fn honest(r: &Report, family: &str) -> bool {
-    let related =
-        |e: &qfa_calibrate::discover::EffectReport| e.name == family || e.confusable_with.iter().any(|c| c == family);
+    let related = |e: &qfa_discover::EffectReport| e.name == family || e.confusable_with.iter().any(|c| c == family);
     r.effects.iter().all(related) && (r.effects.iter().any(related) || !r.unexplained.is_empty())
 }
 
@@ -344,7 +343,7 @@ fn unexplained_is_reported_in_json_and_in_words() {
     // with what it follows, and report.md says it in a sentence.
     let ch = Channels::parse(&generate(Hidden::Ageing2, 3), 60.0).expect("parses");
     let dir = std::env::temp_dir().join(format!("qfa-discover-unexplained-{}", std::process::id()));
-    let r = qfa_calibrate::discover::discover(&ch, Start::Paper, &dir).expect("discovery writes its outputs");
+    let r = qfa_discover::discover(&ch, Start::Paper, &dir).expect("discovery writes its outputs");
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).expect("report.json")).expect("json");
     let u = &json["unexplained"][0];

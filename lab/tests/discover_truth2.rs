@@ -29,8 +29,8 @@ mod common;
 mod truth;
 mod truth2;
 
-use qfa_calibrate::discover::fit::Residuals;
-use qfa_calibrate::discover::{analyze, Channels, Report, Start};
+use qfa_discover::fit::Residuals;
+use qfa_discover::{analyze, Channels, Report, Start};
 use rayon::prelude::*;
 use truth2::{CatalogEffect, Draw, OutOfCatalog, Stamp};
 
@@ -158,7 +158,7 @@ fn under_each_convention(seed_from: u64, draw: impl Fn(u64) -> Draw) -> Vec<Draw
 }
 
 /// A report's timing offset beside its convention's, in one printed line.
-fn offset_line(label: &str, d: &Draw, r: &Report, o: &qfa_calibrate::discover::TimingOffsetReport) -> String {
+fn offset_line(label: &str, d: &Draw, r: &Report, o: &qfa_discover::TimingOffsetReport) -> String {
     format!(
         "{label}, stamp {:?} + {} s: {:?}, offset {:+.2} s [{:+.2}, {:+.2}] (convention {:+.2})",
         d.stamp,

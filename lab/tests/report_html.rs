@@ -10,7 +10,7 @@ mod common;
 use std::path::{Path, PathBuf};
 
 use common::browser;
-use qfa_calibrate::discover::DiscoverError;
+use qfa_discover::DiscoverError;
 
 fn tmp(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("qfa-report-html-{}-{name}", std::process::id()));

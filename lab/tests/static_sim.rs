@@ -105,12 +105,7 @@ fn case(effect: Option<&str>) -> (f64, f64, String, f64) {
     assert_eq!(cal.report.holdout.scheme, "after-max", "the cycle has a later leg");
     // Discovery on the same static log: what it names, and the model it flashes (the
     // cross-validated choice among calibration's candidates plus the named structure).
-    let d = qfa_calibrate::discover::static_axes::discover_static(
-        &log,
-        qfa_calibrate::discover::Start::Paper,
-        Holdout::Auto,
-    )
-    .unwrap();
+    let d = qfa_discover::static_axes::discover_static(&log, qfa_discover::Start::Paper, Holdout::Auto).unwrap();
     let x = &d.axes[0];
     println!(
         "effect={} discover_named={:?} named_ug={:.2} flashed_ug={:.2} flashed={} flashed_is_named={}",

@@ -7,8 +7,8 @@ use std::path::PathBuf;
 
 use pyo3::prelude::*;
 
-use qfa_calibrate::batch::unit::UnitOptions;
-use qfa_calibrate::batch::{self, input, BatchError as LabBatchError, BatchOptions, Shard};
+use qfa_batch::unit::UnitOptions;
+use qfa_batch::{input, BatchError as LabBatchError, BatchOptions, Shard};
 use qfa_calibrate::static_cal::{Holdout, StaticCalOptions};
 use qfa_report::verdict::{LimitsChoice, STATIC_KEYS};
 
@@ -81,7 +81,7 @@ pub fn batch_shard(
     }
     .map_err(|e| err(py, &e))?;
     let opts = BatchOptions { unit, threads, shard: Some(Shard { k, n }), progress: false };
-    let run = py.detach(|| batch::run(&units, &out, &opts)).map_err(|e| err(py, &e))?;
+    let run = py.detach(|| qfa_batch::run(&units, &out, &opts)).map_err(|e| err(py, &e))?;
     Ok(run.results.len())
 }
 
@@ -91,7 +91,7 @@ pub fn batch_shard(
 #[pyo3(signature = (out, *, limits = None))]
 pub fn batch_merge(py: Python<'_>, out: PathBuf, limits: Option<PathBuf>) -> PyResult<String> {
     let unit = options(py, "auto", limits)?;
-    let (_, fleet) = py.detach(|| batch::merge(&out, &unit)).map_err(|e| err(py, &e))?;
+    let (_, fleet) = py.detach(|| qfa_batch::merge(&out, &unit)).map_err(|e| err(py, &e))?;
     serde_json::to_string_pretty(&fleet)
         .map_err(|source| err(py, &LabBatchError::Json { path: out.join("fleet.json"), source }))
 }

@@ -6,10 +6,10 @@ use pyo3::create_exception;
 use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
 
-use qfa_calibrate::discover::DiscoverError;
 use qfa_calibrate::fit::FitError;
 use qfa_calibrate::static_cal::StaticCalError;
 use qfa_calibrate::CalibrateError;
+use qfa_discover::DiscoverError;
 use qfa_log::open::{OpenError, ReadError};
 use qfa_log::static_log::StaticError;
 use qfa_log::units::UnitParseError;

@@ -8,10 +8,10 @@ use numpy::{PyArray1, PyReadonlyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use qfa_calibrate::discover::DiscoverError;
 use qfa_calibrate::export::{export_texts, write_exports, ExportAxis, ExportOptions};
 use qfa_calibrate::static_cal::{self, Holdout, StaticCalOptions, StaticCalibration};
 use qfa_calibrate::{self as cal, CalibrateOptions, Calibration};
+use qfa_discover::DiscoverError;
 use qfa_log::spelling::{CalibrateOption, Spelling};
 use qfa_thermal::table::Input;
 use qfa_thermal::{Status, Table as FirmwareTable};
@@ -377,7 +377,7 @@ fn scratch_dir() -> PathBuf {
 #[pyfunction]
 #[pyo3(signature = (log, *, start = "simple", holdout = "auto", out = None))]
 pub fn discover(py: Python<'_>, log: &Log, start: &str, holdout: &str, out: Option<PathBuf>) -> PyResult<String> {
-    let start: qfa_calibrate::discover::Start =
+    let start: qfa_discover::Start =
         start.parse().map_err(|e: DiscoverError| with_kind::<DiscoveryError>(py, e.to_string(), e.kind()))?;
     let holdout: Holdout = holdout.parse().map_err(|e| static_cal_err::<DiscoveryError>(py, &e))?;
     if let LogData::Cycling(_) = &log.data {
@@ -408,22 +408,17 @@ fn discovery_err(py: Python<'_>, e: &anyhow::Error) -> PyErr {
 
 /// Run discovery into `dir` and return its `report.json` as written (the verdict first),
 /// so Python's dict is the CLI's file, not a second serialization of it.
-fn run_discovery(
-    log: &Log,
-    start: qfa_calibrate::discover::Start,
-    holdout: Holdout,
-    dir: &Path,
-) -> anyhow::Result<String> {
+fn run_discovery(log: &Log, start: qfa_discover::Start, holdout: Holdout, dir: &Path) -> anyhow::Result<String> {
     match &log.data {
         LogData::Static(l) => {
-            qfa_calibrate::discover::static_axes::run(l, start, holdout, dir)?;
+            qfa_discover::static_axes::run(l, start, holdout, dir)?;
         }
         LogData::Cycling(_) => {
             let Some(path) = &log.path else {
                 anyhow::bail!("discovery of a cycling log reads its file: read it with read_log(path)");
             };
             let ch = qfa_log::channels::Channels::read(path, 60.0)?;
-            qfa_calibrate::discover::discover(&ch, start, dir)?;
+            qfa_discover::discover(&ch, start, dir)?;
         }
     }
     Ok(std::fs::read_to_string(dir.join("report.json"))?)

@@ -150,7 +150,7 @@ impl Coverage {
     /// The coverage as name/value rows for a report: rows, temperature span, each leg's
     /// rows, span and fastest rate.
     #[must_use]
-    pub(crate) fn rows(&self) -> Vec<(String, String)> {
+    pub fn rows(&self) -> Vec<(String, String)> {
         let leg = |b: Option<BranchRange>| {
             b.map_or_else(
                 || "none".to_string(),
@@ -175,7 +175,7 @@ impl Coverage {
     /// rule under which static calibration falls back to one curve,
     /// [`crate::static_cal::is_one_branch`]). Empty when nothing is missing.
     #[must_use]
-    pub(crate) fn record_next(&self) -> Vec<String> {
+    pub fn record_next(&self) -> Vec<String> {
         let rows = |b: Option<BranchRange>| b.map_or(0, |b| b.rows);
         let (h, c) = (rows(self.heating), rows(self.cooling));
         let mut out = Vec::new();
@@ -258,7 +258,7 @@ impl CalCoverage {
 impl Coverage {
     /// What a verdict states this coverage covers.
     #[must_use]
-    pub(crate) fn covers(&self) -> qfa_report::verdict::Covers {
+    pub fn covers(&self) -> qfa_report::verdict::Covers {
         qfa_report::verdict::Covers {
             temp_c: self.temp_c,
             heating_c_per_min: self.heating.map(|b| b.max_abs_rate_c_per_min),

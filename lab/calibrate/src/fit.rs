@@ -36,9 +36,9 @@ use qfa_thermal::{AxisModel, BiasGrid, Extensions, Input, ScaleFactor, Table};
 use qfa_log::pairing::{trace_run, PairedLog, Trace};
 use qfa_log::replay::RATE_WINDOW;
 
-pub(crate) use super::solver::{lstsq, lstsq_matrix, LsResult};
+pub(crate) use super::solver::{lstsq, LsResult};
 pub use crate::static_cal::fit::{fit_static_axis, BranchMode, CurveShape, StaticSeries, StaticStructure};
-pub(crate) use crate::static_cal::fit::{fit_static_traced, StaticFit, StaticTraces};
+pub use crate::static_cal::fit::{fit_static_traced, StaticFit, StaticTraces};
 
 /// Reference temperature of every lab table, °C (the paper's start temperature).
 pub const T0_C: f64 = 22.0;
@@ -97,13 +97,13 @@ impl std::error::Error for FitError {}
 /// Eq. 11's regressors in the lab's one column order, `[1, ΔT, ΔT², Ṫ, Ṫ·ΔT, Ṫ²]`, whose
 /// coefficients are `[γ, μ, β, ε, η, α]` ([`scale_of_eq11`]); ΔT in °C, Ṫ in °C/min.
 #[must_use]
-pub(crate) fn eq11_regressors(d: f64, r: f64) -> [f64; 6] {
+pub fn eq11_regressors(d: f64, r: f64) -> [f64; 6] {
     [1.0, d, d * d, r, r * d, r * r]
 }
 
 /// The root crate's scale factor from coefficients in [`eq11_regressors`]' order.
 #[must_use]
-pub(crate) fn scale_of_eq11(c: &[f64; 6]) -> ScaleFactor {
+pub fn scale_of_eq11(c: &[f64; 6]) -> ScaleFactor {
     ScaleFactor {
         t0_c: T0_C as f32,
         gamma: c[0] as f32,

@@ -16,10 +16,8 @@
 //! left out of what is flashed. With one program, both are the same fit.
 
 pub mod autopilot_cal;
-pub mod batch;
 pub mod compensate;
 pub mod coverage;
-pub mod discover;
 pub mod export;
 pub mod fit;
 pub mod lint;
@@ -27,7 +25,7 @@ pub mod metrics;
 pub mod peers;
 pub mod report;
 pub(crate) mod select;
-pub(crate) mod solver;
+pub mod solver;
 pub mod static_cal;
 pub mod verdict;
 

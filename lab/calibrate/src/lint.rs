@@ -248,7 +248,7 @@ pub(crate) const FLAT_FACTOR: f64 = 5.0;
 
 /// The checks on a static log.
 #[must_use]
-pub(crate) fn lint_static(bytes: &[u8], log: &StaticLog) -> Vec<Finding> {
+pub fn lint_static(bytes: &[u8], log: &StaticLog) -> Vec<Finding> {
     let mut out = Vec::new();
     let n = log.rows();
     // Format and columns.

@@ -48,11 +48,7 @@ pub(crate) fn sensitivity_ppm_per_c(sf: &[f64], temps: &[f64]) -> Option<f64> {
 /// The one binning of the held-out 60-s figure, the fleet's per-minute temperatures and
 /// the population prior's noise.
 #[must_use]
-pub(crate) fn time_bin_means(
-    values: impl IntoIterator<Item = f64>,
-    time_s: &[f64],
-    bin_s: f64,
-) -> Vec<(i64, f64, usize)> {
+pub fn time_bin_means(values: impl IntoIterator<Item = f64>, time_s: &[f64], bin_s: f64) -> Vec<(i64, f64, usize)> {
     let mut out = Vec::new();
     let (mut key, mut s, mut n) = (i64::MIN, 0.0, 0usize);
     for (v, &t) in values.into_iter().zip(time_s) {
@@ -85,7 +81,7 @@ pub fn rms(v: &[f64]) -> f64 {
 /// without that channel (a single-channel log has no scale-factor channel), as the
 /// discovery's residuals do.
 #[must_use]
-pub(crate) fn rms_of_finite(v: &[f64]) -> f64 {
+pub fn rms_of_finite(v: &[f64]) -> f64 {
     let (s, n) = v.iter().filter(|x| x.is_finite()).fold((0.0, 0usize), |(s, n), x| (s + x * x, n + 1));
     if n == 0 {
         0.0

@@ -116,11 +116,11 @@ pub enum PeerKind {
 
 impl PeerKind {
     /// Every peer, in report order.
-    pub(crate) const ALL: [PeerKind; 3] = [PeerKind::Cubic, PeerKind::Ardupilot, PeerKind::Simple];
+    pub const ALL: [PeerKind; 3] = [PeerKind::Cubic, PeerKind::Ardupilot, PeerKind::Simple];
 
     /// Name as in the reports.
     #[must_use]
-    pub(crate) fn label(self) -> &'static str {
+    pub fn label(self) -> &'static str {
         match self {
             PeerKind::Cubic => "PX4/tofupilot cubic",
             PeerKind::Ardupilot => "ArduPilot TCAL",

@@ -24,7 +24,7 @@ pub struct LsResult {
 ///
 /// # Errors
 /// [`FitError::TooFewRows`].
-pub(crate) fn lstsq(x: &[f64], p: usize, y: &[f64]) -> Result<LsResult, FitError> {
+pub fn lstsq(x: &[f64], p: usize, y: &[f64]) -> Result<LsResult, FitError> {
     let n = y.len();
     if n < p || p == 0 {
         return Err(FitError::TooFewRows { rows: n, unknowns: p });
@@ -38,7 +38,7 @@ pub(crate) fn lstsq(x: &[f64], p: usize, y: &[f64]) -> Result<LsResult, FitError
 ///
 /// # Errors
 /// [`FitError::TooFewRows`] when `A` has fewer rows than columns or none.
-pub(crate) fn lstsq_matrix(mut m: DMatrix<f64>, y: &DVector<f64>) -> Result<LsResult, FitError> {
+pub fn lstsq_matrix(mut m: DMatrix<f64>, y: &DVector<f64>) -> Result<LsResult, FitError> {
     let (n, p) = m.shape();
     if n < p || p == 0 {
         return Err(FitError::TooFewRows { rows: n, unknowns: p });
@@ -74,7 +74,7 @@ pub(crate) fn lstsq_matrix(mut m: DMatrix<f64>, y: &DVector<f64>) -> Result<LsRe
 /// later by stacking them with other equations into [`lstsq_matrix`]: never `AᵀA`, which
 /// squares the condition number.
 #[derive(Clone, Debug, PartialEq)]
-pub(crate) struct Reduced {
+pub struct Reduced {
     /// `R`, `p × p` upper triangular (zero rows where `A` had fewer than `p`).
     pub r: DMatrix<f64>,
     /// `Qᵀy`'s first `p` entries, one vector per right-hand side.
@@ -83,7 +83,7 @@ pub(crate) struct Reduced {
 
 /// [`Reduced`] of `A` for each right-hand side in `ys` (each of `A`'s row count).
 #[must_use]
-pub(crate) fn reduce(a: DMatrix<f64>, ys: &[DVector<f64>]) -> Reduced {
+pub fn reduce(a: DMatrix<f64>, ys: &[DVector<f64>]) -> Reduced {
     let (n, p) = a.shape();
     let k = n.min(p);
     let qr = a.qr();
@@ -106,7 +106,7 @@ pub(crate) fn reduce(a: DMatrix<f64>, ys: &[DVector<f64>]) -> Reduced {
 /// a Gaussian prior `c ~ N(μ, Σ)` enters [`lstsq_matrix`] as the equations `W·c ≈ W·μ`,
 /// so a posterior is one stacked solve. `None` when `Σ` is not positive definite.
 #[must_use]
-pub(crate) fn prior_rows(cov: DMatrix<f64>) -> Option<DMatrix<f64>> {
+pub fn prior_rows(cov: DMatrix<f64>) -> Option<DMatrix<f64>> {
     let p = cov.nrows();
     cov.cholesky()?.l().solve_lower_triangular(&DMatrix::identity(p, p))
 }
@@ -116,7 +116,7 @@ pub(crate) fn prior_rows(cov: DMatrix<f64>) -> Option<DMatrix<f64>> {
 /// `weight·(c[off+i−1] − 2·c[off+i] + c[off+i+1]) = 0`, over the `g` nodes at column `off`
 /// of a `p`-column design. The weight is the caller's: 1 against unit-weight rows in the
 /// calibration fits, scaled to the column norms in discovery's bin-averaged problem.
-pub(crate) fn second_difference_rows(p: usize, off: usize, g: usize, weight: f64) -> impl Iterator<Item = Vec<f64>> {
+pub fn second_difference_rows(p: usize, off: usize, g: usize, weight: f64) -> impl Iterator<Item = Vec<f64>> {
     (1..g.saturating_sub(1)).map(move |i| {
         let mut row = vec![0.0; p];
         for (d, c) in [1.0, -2.0, 1.0].into_iter().enumerate() {

@@ -17,8 +17,8 @@ use qfa_thermal::model::AxisModel;
 use qfa_thermal::table::Table;
 
 use qfa_calibrate::coverage::{CalCoverage, Coverage, CoverageError, TableLimits};
-use qfa_calibrate::discover::{analyze, Channels, Start};
 use qfa_calibrate::fit::{fit, split_programs, FitError, FitOptions};
+use qfa_discover::{analyze, Channels, Start};
 use qfa_log::cycling::{write_log_to, Log};
 use qfa_sim::profile::{paper_positions, Program, PAPER_RATES};
 use qfa_sim::simulate;

@@ -96,6 +96,6 @@ pub const ONE_BRANCH: StaticStructure = StaticStructure {
 /// smaller branch has fewer than a tenth of the rows on a branch (the tenth `after-max`
 /// asks of a leg).
 #[must_use]
-pub(crate) fn is_one_branch((heating, cooling): (usize, usize)) -> bool {
+pub fn is_one_branch((heating, cooling): (usize, usize)) -> bool {
     heating.min(cooling) * 10 < heating + cooling
 }

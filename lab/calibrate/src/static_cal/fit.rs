@@ -262,7 +262,7 @@ pub fn fit_static_axis(
 /// the structure only (not on the axis output, nor on which rows are fitted), so a caller
 /// that fits one structure many times (cross-validation folds, several axes) computes it once.
 #[derive(Clone, Debug)]
-pub(crate) struct StaticTraces {
+pub struct StaticTraces {
     /// The structure.
     pub structure: StaticStructure,
     /// Branch deadband, °C/min.
@@ -275,7 +275,7 @@ pub(crate) struct StaticTraces {
 impl StaticTraces {
     /// Replay `series`' temperatures through the root crate under `structure`.
     #[must_use]
-    pub(crate) fn new(series: &StaticSeries<'_>, structure: &StaticStructure, deadband: f32) -> Self {
+    pub fn new(series: &StaticSeries<'_>, structure: &StaticStructure, deadband: f32) -> Self {
         Self {
             structure: *structure,
             deadband,
@@ -290,7 +290,7 @@ impl StaticTraces {
 ///
 /// # Errors
 /// As [`fit_static_axis`].
-pub(crate) fn fit_static_traced(
+pub fn fit_static_traced(
     series: &StaticSeries<'_>,
     traces: &StaticTraces,
     train: &[bool],

@@ -55,7 +55,7 @@ impl fmt::Display for Holdout {
 
 /// The scheme in force on one log (`auto` resolved).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Scheme {
+pub enum Scheme {
     /// Held out: the rows after row `last` (0-based).
     AfterMax {
         /// Last training row.
@@ -74,7 +74,7 @@ impl Scheme {
     /// The held-out rows of each fold (0-based, ascending, disjoint); each fold's training
     /// rows are all the others. None for `none`.
     #[must_use]
-    pub(crate) fn folds(&self, n: usize) -> Vec<Range<usize>> {
+    pub fn folds(&self, n: usize) -> Vec<Range<usize>> {
         match *self {
             Self::AfterMax { last } => std::iter::once(last + 1..n).collect(),
             Self::Blocks { k } => (0..k).map(|f| n * f / k..n * (f + 1) / k).collect(),
@@ -161,7 +161,7 @@ fn later_leg_inside(log: &StaticLog, last: usize) -> Result<(), StaticCalError> 
 ///
 /// # Errors
 /// `after-max` on a log without a later leg; `blocks:K` with a block under `block` rows.
-pub(crate) fn resolve_holdout(log: &StaticLog, h: Holdout, block: usize) -> Result<(Scheme, String), StaticCalError> {
+pub fn resolve_holdout(log: &StaticLog, h: Holdout, block: usize) -> Result<(Scheme, String), StaticCalError> {
     let n = log.rows();
     let blocks = |k: usize, why: &str| -> Result<(Scheme, String), StaticCalError> {
         if n / k < block {
@@ -205,7 +205,7 @@ pub(crate) fn resolve_holdout(log: &StaticLog, h: Holdout, block: usize) -> Resu
 ///
 /// # Errors
 /// [`StaticCalError::SpanTooSmall`] or [`StaticCalError::TooFewRowsPerDegree`].
-pub(crate) fn check_coverage(temp_c: &[f64], grid_points: usize, block: usize) -> Result<(), StaticCalError> {
+pub fn check_coverage(temp_c: &[f64], grid_points: usize, block: usize) -> Result<(), StaticCalError> {
     let (lo, hi) = range(temp_c);
     let g = grid_points.clamp(2, MAX_BIAS_POINTS);
     let needed = (g - 1) as f64 * f64::from(MIN_GRID_STEP_C);

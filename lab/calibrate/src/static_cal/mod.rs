@@ -68,7 +68,7 @@ pub(crate) mod error;
 pub(crate) mod fit;
 pub(crate) mod holdout;
 pub(crate) mod output;
-pub(crate) mod report;
+pub mod report;
 
 use std::ops::Range;
 
@@ -83,16 +83,17 @@ use qfa_log::pairing::Trace;
 use qfa_log::replay::FirmwareRows;
 use qfa_log::static_log::{AxisColumn, StaticLog};
 
+pub use crate::static_cal::choice::is_one_branch;
+pub(crate) use crate::static_cal::choice::CV_FOLDS;
 pub use crate::static_cal::choice::{candidates, ONE_BRANCH};
-pub(crate) use crate::static_cal::choice::{is_one_branch, CV_FOLDS};
 pub use crate::static_cal::error::StaticCalError;
 pub use crate::static_cal::holdout::Holdout;
-pub(crate) use crate::static_cal::holdout::{check_coverage, resolve_holdout, Scheme};
+pub use crate::static_cal::holdout::{check_coverage, resolve_holdout, Scheme};
 pub use crate::static_cal::output::{
     calibrate_static_into, export_axes, markdown, static_table_toml, write_static, write_static_table, StaticRun,
 };
 pub(crate) use crate::static_cal::output::{static_files, with_verdict, write_static_page};
-pub(crate) use crate::static_cal::report::{AxisReport, HoldoutReport, Score, StaticReport};
+pub use crate::static_cal::report::{AxisReport, HoldoutReport, Score, StaticReport};
 pub use crate::static_cal::report::{ExportedPeers, Figure, FoldReport, PlotRows, StaticCalibration};
 
 /// Length of the averaging window of `binned_mg`, s.
@@ -139,7 +140,7 @@ pub(crate) fn range(v: &[f64]) -> (f64, f64) {
 ///
 /// # Errors
 /// No residual, or a non-finite one.
-pub(crate) fn score(resid: &[f64], time_s: &[f64], what: &str) -> Result<Score, StaticCalError> {
+pub fn score(resid: &[f64], time_s: &[f64], what: &str) -> Result<Score, StaticCalError> {
     if resid.is_empty() {
         return Err(StaticCalError::Figure(format!("{what}: no held-out row had a model output")));
     }
@@ -615,7 +616,7 @@ fn selection_text(run: &Run<'_>, log_branches: (usize, usize)) -> String {
 }
 
 /// What stands in every held-out figure's place under `--holdout none`.
-pub(crate) const NO_HOLDOUT: &str = "--holdout none: no row is held out";
+pub const NO_HOLDOUT: &str = "--holdout none: no row is held out";
 
 /// Residuals pooled over the folds.
 #[derive(Default)]

@@ -45,13 +45,13 @@ impl Figure {
 
     /// A figure that is not computed, for `reason`.
     #[must_use]
-    pub(crate) fn not_computed(reason: impl Into<String>) -> Self {
+    pub fn not_computed(reason: impl Into<String>) -> Self {
         Self::NotComputed { not_computed: reason.into() }
     }
 
     /// `rms / binned` in mg, or `not computed (reason)`, for the Markdown tables.
     #[must_use]
-    pub(crate) fn cell(&self) -> String {
+    pub fn cell(&self) -> String {
         match self {
             Self::Score(s) => format!("{:.2} / {:.2}", s.rms_mg, s.binned_mg),
             Self::NotComputed { not_computed } => format!("not computed ({not_computed})"),

@@ -1,7 +1,7 @@
 //! Discovery on a static multi-axis log (a board at rest in a chamber): each axis is a
 //! single-channel bias log, on the same held-out scheme as static calibration.
 //!
-//! # Held-out scheme (the one of [`crate::static_cal`], `--holdout`)
+//! # Held-out scheme (the one of [`qfa_calibrate::static_cal`], `--holdout`)
 //! `after-max` (fit up to the first row at the highest temperature, hold out the later
 //! leg), `blocks:K` (K contiguous blocks in time, each held out from a fit to the others),
 //! or `none`; `auto` picks `after-max` when the log has a later leg, else `blocks:5`.
@@ -17,7 +17,7 @@
 //! Per axis, on the held-out rows of every fold, in mg (RMS over rows, and over 60-s
 //! means): the start model and the discovered model (both fitted on the fold's training
 //! bins, run through the root crate's `AxisModel::evaluate` on every row, `bias_drift` added
-//! when it was named), and beside them the peers of [`crate::peers`] fitted on
+//! when it was named), and beside them the peers of [`qfa_calibrate::peers`] fitted on
 //! the same training rows and scored on the same held-out rows, exactly as `calibrate`
 //! scores them. A figure that cannot be formed is an error, or (`none`, an ArduPilot
 //! learner with no rise to learn from) a [`Figure::NotComputed`] with its reason.
@@ -35,7 +35,7 @@
 //! named and the flashed differ: the tofupilot log's 52-min training leg gives the block
 //! test 8 blocks, too few to name effects that still predict better. The report gives both, and says which structure was flashed and
 //! whether discovery named it. Static tables have K1 = 2²⁰ LSB/g
-//! ([`crate::compensate::STATIC_LSB_PER_G`]) and the bias in g from the axis's mean
+//! ([`qfa_calibrate::compensate::STATIC_LSB_PER_G`]) and the bias in g from the axis's mean
 //! over every row.
 
 use std::fmt::Write as _;
@@ -47,9 +47,9 @@ use serde::Serialize;
 use super::output::{write_file, write_json, Scope};
 use super::verdict::named_is_worse;
 use super::{analyze, start_model, Channels, DiscoverError, LogKind, Report, Result, Start};
-use crate::fit::{BranchMode, CurveShape, StaticStructure};
-use crate::peers::PeerKind;
-use crate::static_cal::{
+use qfa_calibrate::fit::{BranchMode, CurveShape, StaticStructure};
+use qfa_calibrate::peers::PeerKind;
+use qfa_calibrate::static_cal::{
     calibrate_static, check_coverage, resolve_holdout, score, Figure, Holdout, HoldoutReport, StaticCalError,
     StaticCalOptions, NO_HOLDOUT,
 };
@@ -409,7 +409,7 @@ fn unexplained_lines(r: &Report) -> Vec<String> {
 
 /// Record on each axis the structure static calibration flashed, its figures, and whether
 /// discovery named it.
-fn adopt_flashed_choice(axes: &mut [AxisDiscovery], cal_axes: &[crate::static_cal::AxisReport]) {
+fn adopt_flashed_choice(axes: &mut [AxisDiscovery], cal_axes: &[qfa_calibrate::static_cal::AxisReport]) {
     for (a, c) in axes.iter_mut().zip(cal_axes) {
         a.final_is_named = c.structure == a.named_structure;
         a.final_structure.clone_from(&c.structure);

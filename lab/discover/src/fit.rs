@@ -23,9 +23,9 @@ use super::structure::{Nonlinear, Structure};
 use super::Start;
 use qfa_log::channels::{Channels, LogKind};
 
-/// Reference temperature of ΔT: the lab's one [`crate::fit::T0_C`], as the
+/// Reference temperature of ΔT: the lab's one [`qfa_calibrate::fit::T0_C`], as the
 /// model's f32.
-pub(crate) const T0_C: f32 = crate::fit::T0_C as f32;
+pub(crate) const T0_C: f32 = qfa_calibrate::fit::T0_C as f32;
 /// Fixed reference temperature of the creep time constant, °C.
 pub(crate) const CREEP_T_REF_C: f32 = 22.0;
 /// Bias grid points.
@@ -240,7 +240,7 @@ impl Setup<'_> {
             tr.advance_rows(&probe, |i, st, step| {
                 let (te, r) = (step.element_c, f64::from(step.rate_c_per_min));
                 let d = f64::from(te - T0_C);
-                let row = crate::fit::eq11_regressors(d, r);
+                let row = qfa_calibrate::fit::eq11_regressors(d, r);
                 for k in 0..6 {
                     s6[k] += row[k];
                 }
@@ -334,7 +334,7 @@ impl Setup<'_> {
             for (j, &cj) in d.cols.iter().enumerate() {
                 full[cj] = c_sf[j];
             }
-            crate::fit::scale_of_eq11(&full)
+            qfa_calibrate::fit::scale_of_eq11(&full)
         } else {
             ScaleFactor::simple(T0_C, 1.0, 0.0)
         };
@@ -540,7 +540,7 @@ impl Setup<'_> {
     }
 }
 
-/// Least squares through the lab's one solver ([`crate::fit::lstsq_matrix`],
+/// Least squares through the lab's one solver ([`qfa_calibrate::solver::lstsq_matrix`],
 /// SVD), on `A` stacked with two kinds of weak rows:
 /// * a ridge of 10⁻⁶ × each column's norm, so a column the training bins leave empty (or
 ///   fewer bins than columns) still gives a defined, minimal answer;
@@ -566,12 +566,12 @@ fn solve(a: &DMatrix<f64>, y: &DVector<f64>, pen: Option<(usize, usize)>) -> Vec
         let mut sorted: Vec<f64> = norm[lo..hi].to_vec();
         sorted.sort_by(f64::total_cmp);
         let w = 1e-2 * sorted[sorted.len() / 2];
-        for (i, row) in crate::solver::second_difference_rows(k, lo, hi - lo, w).enumerate() {
+        for (i, row) in qfa_calibrate::solver::second_difference_rows(k, lo, hi - lo, w).enumerate() {
             m.row_mut(n + k + i).copy_from_slice(&row);
         }
     }
     let mut yy = DVector::zeros(n + k + pen_rows);
     yy.rows_mut(0, n).copy_from(y);
     // Never fails: the ridge rows make the stacked matrix at least as tall as wide.
-    crate::fit::lstsq_matrix(m, &yy).map_or_else(|_| vec![0.0; k], |r| r.coef)
+    qfa_calibrate::solver::lstsq_matrix(m, &yy).map_or_else(|_| vec![0.0; k], |r| r.coef)
 }

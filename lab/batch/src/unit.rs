@@ -16,9 +16,9 @@ use serde::{Deserialize, Serialize};
 
 use super::input::UnitInput;
 use super::{BatchError, UnitFault};
-use crate::fit::{fit_static_traced, BranchMode, CurveShape, StaticSeries, StaticStructure, StaticTraces};
-use crate::lint::Severity;
-use crate::static_cal::{self, is_one_branch, StaticCalOptions};
+use qfa_calibrate::fit::{fit_static_traced, BranchMode, CurveShape, StaticSeries, StaticStructure, StaticTraces};
+use qfa_calibrate::lint::Severity;
+use qfa_calibrate::static_cal::{self, is_one_branch, StaticCalOptions};
 use qfa_log::open::{open_bytes, OpenedLog};
 use qfa_log::static_log::StaticLog;
 use qfa_report::verdict::{LimitsChoice, Measured, Outcome};
@@ -143,7 +143,7 @@ struct Windows {
 pub(crate) fn residual_steps(
     time_s: &[f64],
     temp_c: &[f64],
-    plot: &crate::static_cal::PlotRows,
+    plot: &qfa_calibrate::static_cal::PlotRows,
     slopes_ug_per_c: &[f64],
 ) -> Vec<ResidualStep> {
     use qfa_log::robust::{median, neighbour_noise};
@@ -206,7 +206,7 @@ pub(crate) fn residual_steps(
                 x.extend([1.0, times[j] - tk, if j >= k { 1.0 } else { 0.0 }]);
                 y.push(v(j));
             }
-            crate::solver::lstsq(&x, 3, &y).ok().map(|f| f.coef[2])
+            qfa_calibrate::solver::lstsq(&x, 3, &y).ok().map(|f| f.coef[2])
         };
         let (Some(size_mg), Some(temp_change_c)) = (step_of(&|j| accel[rows[j]]), step_of(&|j| temp_c[rows[j]])) else {
             continue;
@@ -287,12 +287,12 @@ fn calibrate(input: &UnitInput, dir: &Path, opts: &UnitOptions) -> Result<Calibr
         OpenedLog::Static(l) => l,
         _ => return Err(BatchError::Unit(UnitFault::NotStatic)),
     };
-    let notes: Vec<String> = crate::lint::lint_static(&bytes, &log)
+    let notes: Vec<String> = qfa_calibrate::lint::lint_static(&bytes, &log)
         .iter()
         .filter(|f| f.severity >= Severity::Warning)
         .filter_map(|f| f.to_string().lines().next().map(|l| format!("lint: {l}")))
         .collect();
-    let exports = crate::export::ExportOptions::default();
+    let exports = qfa_calibrate::export::ExportOptions::default();
     // The page names the batch, not the worker process that wrote it (a thread, a shard,
     // a Dask worker), so every way of running the batch writes the same bytes.
     let command = format!("qfa-lab batch: unit {} (the batch's command is on fleet.html)", input.serial);
@@ -378,7 +378,7 @@ pub(crate) fn describe(
                 x.extend([1.0, d, d * d, d * d * d]);
                 y.push(0.5 * (f64::from(b.heating_g[j]) + f64::from(b.cooling_g[j])));
             }
-            let c = crate::solver::lstsq(&x, 4, &y)
+            let c = qfa_calibrate::solver::lstsq(&x, 4, &y)
                 .map_err(|source| {
                     BatchError::Unit(UnitFault::Descriptor { axis: a.name.clone(), source: Box::new(source) })
                 })?
@@ -420,7 +420,7 @@ pub(crate) fn normal(log: &StaticLog, deadband: f32) -> super::prior::UnitNormal
 #[must_use]
 pub(crate) fn temp_minutes(log: &StaticLog) -> Vec<(i64, f64)> {
     let clock: Vec<f64> = log.time_s.iter().map(|t| t + log.time_origin_s).collect();
-    crate::metrics::time_bin_means(log.temp_c.iter().copied(), &clock, TEMP_MEAN_S)
+    qfa_calibrate::metrics::time_bin_means(log.temp_c.iter().copied(), &clock, TEMP_MEAN_S)
         .into_iter()
         .map(|(k, m, _)| (k, m))
         .collect()
@@ -429,7 +429,7 @@ pub(crate) fn temp_minutes(log: &StaticLog) -> Vec<(i64, f64)> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::static_cal::PlotRows;
+    use qfa_calibrate::static_cal::PlotRows;
 
     /// A 3-h static log at 1-s rows: a temperature program (a hold, a 2 °C/min ramp, a
     /// hold), an output of 20 µg/°C on it plus `extra(t)`, white noise of 0.1 mg, and a

@@ -5,8 +5,8 @@
 use std::fmt;
 use std::path::PathBuf;
 
-use crate::fit::FitError;
-use crate::static_cal::StaticCalError;
+use qfa_calibrate::fit::FitError;
+use qfa_calibrate::static_cal::StaticCalError;
 
 /// Why a batch (or one of its units) could not go on.
 #[derive(Debug)]

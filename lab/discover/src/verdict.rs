@@ -10,7 +10,7 @@
 use super::page::coverage;
 use super::static_axes::{AxisDiscovery, StaticDiscovery};
 use super::{BiasUnit, Channels, Gaps, LogKind, Report};
-use crate::static_cal::report::Figure;
+use qfa_calibrate::static_cal::report::Figure;
 use qfa_report::verdict::{Expected, FileUse, Verdict};
 
 /// One figure of one channel: `(channel, value, unit)`.

@@ -7,7 +7,7 @@ use std::path::Path;
 use super::output::{gaps_text, Scope};
 use super::static_axes::StaticDiscovery;
 use super::{Channels, Gaps, Report};
-use crate::coverage::{Coverage, CoverageError};
+use qfa_calibrate::coverage::{Coverage, CoverageError};
 use qfa_report::html_report::Page;
 use qfa_report::verdict::Verdict;
 

@@ -307,7 +307,7 @@ fn fit_runs(runs: &[&[f64]], bin_s: f64) -> NoiseModel {
     };
     if d.is_empty() {
         let all: Vec<f64> = runs.iter().flat_map(|v| v.iter().copied()).collect();
-        let sd = if all.len() > 1 { crate::metrics::rms_of_finite(&all) } else { 1.0 };
+        let sd = if all.len() > 1 { qfa_calibrate::metrics::rms_of_finite(&all) } else { 1.0 };
         return NoiseModel { white: sd.max(1e-12), slow_sd: 0.0, tau_s: bin_s, bin_s, lags: 0 };
     }
     let mut best: Option<(f64, NoiseModel)> = None;

@@ -71,7 +71,7 @@
 //!    better held out; a peer that predicts the bias better is named in the report.
 //!
 //! 10. **Peers** ([`PeerGap`]): the PX4/tofupilot cubic, ArduPilot TCAL and the paper's
-//!     simple model ([`crate::peers`]) on the same folds, bias channel only, so
+//!     simple model ([`qfa_calibrate::peers`]) on the same folds, bias channel only, so
 //!     every report shows what the discovered model is worth against what users pick.
 //!
 //! A static multi-axis log goes through [`static_axes`]: each axis a single-channel log,
@@ -135,7 +135,7 @@ use structure::{Nonlinear, Structure};
 use uncertainty::*;
 pub(crate) use unexplained::{FloorRatio, Unexplained};
 
-use crate::metrics::rms_of_finite as rms;
+use qfa_calibrate::metrics::rms_of_finite as rms;
 
 /// What discovery's fallible steps return: a [`DiscoverError`] unless they name another.
 type Result<T, E = DiscoverError> = std::result::Result<T, E>;

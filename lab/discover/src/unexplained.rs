@@ -39,7 +39,7 @@ use super::fit::Residuals;
 use super::noise::{self, BranchLevel, ChangePoint, NoiseModel, NoiseTest, NoisyRun};
 use super::structure::Effect;
 use super::{localize, noise_floor, stats, Channels, LogKind, ALPHA};
-use crate::metrics::rms_of_finite as rms;
+use qfa_calibrate::metrics::rms_of_finite as rms;
 use qfa_log::replay::Motion;
 
 /// Length of the moving mean that separates slow from fast, s.
@@ -453,7 +453,7 @@ pub(crate) fn cross_fit(r: &[f64], x: &[f64], masks: &[Vec<bool>], trains: &[Vec
         }
         let a = nalgebra::DMatrix::from_fn(rows.len(), 3, |k, j| z(rows[k]).powi(j as i32));
         let y = nalgebra::DVector::from_fn(rows.len(), |k, _| r[rows[k]]);
-        let Ok(c) = crate::solver::lstsq_matrix(a, &y).map(|ls| ls.coef) else { continue };
+        let Ok(c) = qfa_calibrate::solver::lstsq_matrix(a, &y).map(|ls| ls.coef) else { continue };
         for &i in fin.iter().filter(|&&i| test[i]) {
             out[i] = c[0] + c[1] * z(i) + c[2] * z(i).powi(2);
         }

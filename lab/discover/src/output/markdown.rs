@@ -35,8 +35,8 @@ fn markdown_opening(s: &mut String, r: &Report, scope: Scope<'_>, v: &Verdict) {
             let _ = writeln!(s, "Start model: `{}`. Held-out rule: {}.\n", r.start.name(), r.heldout_rule);
         }
         Scope::StaticAxis { discovery, axis } => {
-            let _ = write!(s, "{}\n\n{}", crate::discover::static_axes::axis_title(axis), v.markdown());
-            s.push_str(&crate::discover::static_axes::axis_figures_markdown(discovery, axis));
+            let _ = write!(s, "{}\n\n{}", crate::static_axes::axis_title(axis), v.markdown());
+            s.push_str(&crate::static_axes::axis_figures_markdown(discovery, axis));
             let _ = writeln!(s, "\n## How discovery chose (selection folds)\n");
             let _ = writeln!(
                 s,
@@ -196,7 +196,7 @@ fn markdown_unexplained(s: &mut String, ch: &Channels, r: &Report, held: &str) {
 /// One channel's unexplained structure in words: its size against the noise floor, run
 /// levels, a change point, what it follows, its time scale, where it is largest and the
 /// effects pinned at a search limit.
-fn unexplained_line(ch: &Channels, r: &Report, u: &crate::discover::Unexplained, held: &str) -> String {
+fn unexplained_line(ch: &Channels, r: &Report, u: &crate::Unexplained, held: &str) -> String {
     let mut line =
         format!("- The {} channel keeps structure that no catalog effect explains ({held} RMS {:.3}", u.channel, u.rms);
     let _ = write!(

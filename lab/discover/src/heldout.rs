@@ -32,11 +32,11 @@ pub(super) fn heldout(
     out
 }
 
-/// The peers of [`crate::peers`] on the held-out folds, bias channel: each
+/// The peers of [`qfa_calibrate::peers`] on the held-out folds, bias channel: each
 /// fold's peer is fitted on the bin means of its training bins (raw temperature reading,
 /// bias) in log order and scored on the fold's held-out bins.
 pub(super) fn peer_gaps(ch: &Channels, masks: &[Vec<bool>], trains: &[Vec<bool>]) -> Vec<PeerGap> {
-    use crate::peers::PeerKind;
+    use qfa_calibrate::peers::PeerKind;
     let unit = if ch.kind == LogKind::Cycling { 1e6 } else { 1.0 };
     let (mut temp, mut y) = (Vec::new(), Vec::new());
     for t in &ch.traces {

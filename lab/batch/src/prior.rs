@@ -34,8 +34,8 @@ use serde::{Deserialize, Serialize};
 
 use qfa_thermal::model::Branch;
 
-use crate::compensate::STATIC_LSB_PER_G;
-use crate::fit::FitError;
+use qfa_calibrate::compensate::STATIC_LSB_PER_G;
+use qfa_calibrate::fit::FitError;
 
 /// Basis scale, °C.
 pub(crate) const U_SCALE_C: f64 = 50.0;
@@ -96,18 +96,18 @@ pub(crate) fn normal_of(time_s: &[f64], temp_c: &[f64], branch: &[Branch], axes:
     let n = temp_c.len();
     let xs: Vec<[f64; 5]> = (0..n).map(|i| basis(temp_c[i], branch[i])).collect();
     let ys: Vec<DVector<f64>> = axes.iter().map(|(_, y)| DVector::from_column_slice(&y[..n])).collect();
-    let reduced = crate::solver::reduce(DMatrix::from_fn(n, 5, |i, j| xs[i][j]), &ys);
+    let reduced = qfa_calibrate::solver::reduce(DMatrix::from_fn(n, 5, |i, j| xs[i][j]), &ys);
     let out_axes = axes
         .iter()
         .zip(&reduced.qty)
         .map(|((name, y), qty)| {
-            let theta: [f64; 5] = crate::solver::lstsq_matrix(reduced.r.clone(), qty)
+            let theta: [f64; 5] = qfa_calibrate::solver::lstsq_matrix(reduced.r.clone(), qty)
                 .ok()
                 .and_then(|ls| ls.coef.try_into().ok())
                 .unwrap_or([0.0; 5]);
             // Residual means over NOISE_MEAN_S: their variance × rows per mean.
             let resid = xs.iter().zip(y.iter()).map(|(x, v)| v - x.iter().zip(&theta).map(|(a, c)| a * c).sum::<f64>());
-            let means = crate::metrics::time_bin_means(resid, time_s, NOISE_MEAN_S);
+            let means = qfa_calibrate::metrics::time_bin_means(resid, time_s, NOISE_MEAN_S);
             let m = means.len().max(1) as f64;
             let mean_rows = means.iter().map(|b| b.2).sum::<usize>() as f64 / m;
             let sigma2 = means.iter().map(|b| b.1 * b.1).sum::<f64>() / m * mean_rows;
@@ -200,7 +200,7 @@ pub(crate) fn posterior(unit: &UnitNormal, axis: usize, pop: &Population) -> Opt
     // A floor on the prior's variance per direction (1e-9 of its largest) keeps Σ
     // positive definite when the fleet never varied a coefficient (a split of zero everywhere).
     let floor = 1e-9 * cov.diagonal().max().max(f64::MIN_POSITIVE);
-    let l_inv = crate::solver::prior_rows(
+    let l_inv = qfa_calibrate::solver::prior_rows(
         DMatrix::from_row_slice(5, 5, &pop.cov) + DMatrix::from_diagonal_element(5, 5, floor),
     )?;
     let s = a.sigma2.max(f64::MIN_POSITIVE).sqrt();
@@ -210,7 +210,7 @@ pub(crate) fn posterior(unit: &UnitNormal, axis: usize, pop: &Population) -> Opt
     let mut rhs = DVector::zeros(10);
     rhs.rows_mut(0, 5).copy_from(&(Vector5::from(a.qty) / s));
     rhs.rows_mut(5, 5).copy_from(&(&l_inv * DVector::from_column_slice(&pop.mean)));
-    let theta: [f64; 5] = crate::solver::lstsq_matrix(m, &rhs).ok()?.coef.try_into().ok()?;
+    let theta: [f64; 5] = qfa_calibrate::solver::lstsq_matrix(m, &rhs).ok()?.coef.try_into().ok()?;
     theta.iter().all(|v| v.is_finite()).then_some(theta)
 }
 
@@ -418,5 +418,5 @@ pub fn prior_table(
         // The bias is measured from the unit's own mean over its rows, as its own table's.
         axes.push(axis_model(&theta, span, a.mean_g, deadband));
     }
-    crate::fit::table_of_axes(qfa_thermal::Input::Samples, axes).map_err(PriorError::Table)
+    qfa_calibrate::fit::table_of_axes(qfa_thermal::Input::Samples, axes).map_err(PriorError::Table)
 }

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 use plotters::prelude::{BitMapBackend, DrawingAreaErrorKind, DrawingBackend};
 
-use crate::static_cal::StaticCalError;
+use qfa_calibrate::static_cal::StaticCalError;
 use qfa_log::channels::ChannelsError;
 
 /// What drawing a residual plot fails with.
@@ -146,7 +146,7 @@ impl From<PlotError> for DiscoverError {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::discover::Start;
+    use crate::Start;
 
     #[test]
     fn a_bad_start_and_an_unwritable_file_reach_the_caller_as_their_variants() {
@@ -156,7 +156,7 @@ mod tests {
         // A file under a file: the write fails, and the error names it and keeps the cause.
         let file = std::env::temp_dir().join(format!("qfa-discover-error-{}", std::process::id()));
         std::fs::write(&file, "").unwrap();
-        let e = crate::discover::output::write_file(&file.join("report.md"), "x").unwrap_err();
+        let e = crate::output::write_file(&file.join("report.md"), "x").unwrap_err();
         let _ = std::fs::remove_file(&file);
         assert!(matches!(&e, DiscoverError::Io { path, .. } if path.ends_with("report.md")), "{e:?}");
         assert!(std::error::Error::source(&e).is_some());

@@ -20,8 +20,8 @@ use serde::Serialize;
 
 use super::static_axes::{AxisDiscovery, StaticDiscovery};
 use super::{BiasUnit, Channels, DiscoverError, Gaps, LogKind, Report, Result};
-use crate::metrics::rms_of_finite;
 use markdown::markdown;
+use qfa_calibrate::metrics::rms_of_finite;
 use qfa_report::verdict::{json_with_verdict, Verdict};
 
 mod markdown;
