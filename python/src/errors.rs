@@ -67,7 +67,7 @@ const OTHER: &str = "Other";
 impl Kind for StaticError {
     fn kind(&self) -> &'static str {
         match self {
-            Self::Io(_) => "Io",
+            Self::Csv { .. } => "Csv",
             Self::Empty => "Empty",
             Self::NoRows => "NoRows",
             Self::UnknownColumn { .. } => "UnknownColumn",
@@ -131,7 +131,7 @@ impl Kind for CalibrateError {
             Self::Fit(e) => e.kind(),
             Self::Evaluate(e) => e.kind(),
             Self::NotComputable(_) => "NotComputable",
-            Self::Peers(_) => "Peers",
+            Self::NoPeerPair | Self::PeerFit(_) => "Peers",
             Self::Coverage(_) => "Coverage",
             Self::Table(_) => "Table",
             Self::Toml(_) => "Toml",

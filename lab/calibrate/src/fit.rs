@@ -61,7 +61,7 @@ pub enum FitError {
     /// The root crate refused the table.
     Table(qfa_thermal::table::Error),
     /// A cross-validation figure could not be formed.
-    Cv(String),
+    Cv(CvFault),
     /// A heating/cooling step fitted on rows that hold (almost) one branch only: it would be
     /// set by a handful of rows, or split arbitrarily from the curve it is collinear with,
     /// and then applied to the whole other branch.
@@ -73,6 +73,42 @@ pub enum FitError {
         /// Rows each branch needs (one averaged equation).
         needed: usize,
     },
+}
+
+/// Why a cross-validation figure could not be formed.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum CvFault {
+    /// A fold holds no block.
+    EmptyFold {
+        /// The fold, from 0.
+        fold: usize,
+        /// Folds.
+        folds: usize,
+        /// Rows per block.
+        block: usize,
+        /// Paired rows.
+        rows: usize,
+    },
+    /// Fewer than two folds: no standard error.
+    TooFewFolds(usize),
+    /// A fold's mean squared error is not finite.
+    NonFiniteMse(f64),
+    /// No candidate to choose from.
+    NoCandidate,
+}
+
+impl fmt::Display for CvFault {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::EmptyFold { fold, folds, block, rows } => {
+                write!(f, "fold {fold} of {folds} holds no block of {block} rows ({rows} paired rows)")
+            }
+            Self::TooFewFolds(k) => write!(f, "{k} cross-validation fold(s): a standard error needs 2 or more"),
+            Self::NonFiniteMse(x) => write!(f, "non-finite fold MSE {x}"),
+            Self::NoCandidate => f.write_str("no candidate"),
+        }
+    }
 }
 
 impl fmt::Display for FitError {
@@ -580,19 +616,19 @@ fn choose_branch_mode(
                 }
             }
             if m == 0 {
-                return Err(FitError::Cv(format!("fold {f} of {k} holds no block of {block} rows ({n} paired rows)")));
+                return Err(FitError::Cv(CvFault::EmptyFold { fold: f, folds: k, block, rows: n }));
             }
             fold_mse.push(sse / m as f64 * 1e12);
         }
         cands.push((mode, p, crate::select::CvFigure::of_folds(&fold_mse)?));
     }
     let figs: Vec<(usize, crate::select::CvFigure)> = cands.iter().map(|&(_, p, f)| (p, f)).collect();
-    let chosen = crate::select::one_se_rule(&figs).ok_or_else(|| FitError::Cv("no candidate".to_string()))?;
+    let chosen = crate::select::one_se_rule(&figs).ok_or(FitError::Cv(CvFault::NoCandidate))?;
     let best = figs
         .iter()
         .map(|(_, f)| *f)
         .min_by(|a, b| a.mse.total_cmp(&b.mse))
-        .ok_or_else(|| FitError::Cv("no candidate".to_string()))?;
+        .ok_or(FitError::Cv(CvFault::NoCandidate))?;
     Ok(BranchChoice {
         mode: cands[chosen].0,
         candidates: cands

@@ -104,15 +104,17 @@ pub enum CalibrateError {
     /// The held-out compensation failed.
     Evaluate(crate::compensate::Error),
     /// A held-out figure that cannot be computed, and why (never NaN, `null` or 0.0).
-    NotComputable(String),
+    NotComputable(NotComputable),
     /// The peers could not be fitted: no ±1 g pair with temperatures in the programs.
-    Peers(String),
+    NoPeerPair,
+    /// The peers' fit failed.
+    PeerFit(FitError),
     /// The coverage of the fitted rows or of the table could not be formed.
-    Coverage(String),
+    Coverage(crate::coverage::CoverageError),
     /// A table the root crate refuses to encode.
     Table(qfa_thermal::table::Error),
-    /// A table that does not serialize as TOML (the `toml` crate's message).
-    Toml(String),
+    /// A table that does not serialize as TOML.
+    Toml(toml::ser::Error),
     /// An accelerometer axis other than `ax`, `ay` or `az`.
     Axis(String),
     /// An output file, folder or plot that could not be written, with the system's message.
@@ -127,14 +129,66 @@ impl fmt::Display for CalibrateError {
             Self::Evaluate(e) => write!(f, "{e}"),
             Self::Table(e) => write!(f, "{e}"),
             Self::Axis(axis) => write!(f, "axis `{axis}`: expected ax, ay or az"),
-            Self::NotComputable(m) | Self::Peers(m) | Self::Coverage(m) | Self::Toml(m) | Self::Output(m) => {
-                f.write_str(m)
-            }
+            Self::NotComputable(e) => write!(f, "{e}"),
+            Self::NoPeerPair => f.write_str("peers: no +1 g / -1 g pair with temperatures in the fit programs"),
+            Self::PeerFit(e) => write!(f, "peers: {e}"),
+            Self::Coverage(e) => write!(f, "{e}"),
+            Self::Toml(e) => write!(f, "{e}"),
+            Self::Output(m) => f.write_str(m),
         }
     }
 }
 
 impl std::error::Error for CalibrateError {}
+
+/// A held-out figure that cannot be formed (it is an error, never NaN, `null` or 0.0).
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum NotComputable {
+    /// No held-out bin qualified for the bias residual of a model.
+    NoBiasBin {
+        /// `no compensation`, `simple` or `hysteresis`.
+        model: &'static str,
+    },
+    /// Fewer than two held-out scale-factor bins for a model.
+    TooFewSfBins {
+        /// `no compensation`, `simple` or `hysteresis`.
+        model: &'static str,
+        /// The bins there were.
+        bins: usize,
+    },
+    /// A figure whose held-out bins span no temperature range.
+    NoTemperatureSpan {
+        /// The figure, e.g. `sensitivity (simple)`.
+        figure: &'static str,
+    },
+    /// No held-out bin qualified for the peers' bias residual.
+    NoPeerBiasBin,
+}
+
+impl fmt::Display for NotComputable {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let min_s = crate::metrics::MIN_BIN_S;
+        match self {
+            Self::NoBiasBin { model } => write!(
+                f,
+                "bias residual ({model}) not computable: no held-out bin qualified (a bin is one program, branch \
+                 segment and 1 °C of T-hat with at least {min_s} s of rows the compensator marked compensated)"
+            ),
+            Self::TooFewSfBins { model, bins } => write!(
+                f,
+                "sensitivity ({model}) not computable: {bins} held-out scale-factor bin(s); needs 2 or more (held-out \
+                 programs need both +1 g and -1 g runs, and bins at least {min_s} s of compensated rows)"
+            ),
+            Self::NoTemperatureSpan { figure } => {
+                write!(f, "{figure} not computable: the held-out bins span no temperature range")
+            }
+            Self::NoPeerBiasBin => {
+                write!(f, "peer bias residual not computable: no held-out bin qualified (bins need {min_s} s of rows)")
+            }
+        }
+    }
+}
 
 /// An output that could not be written, as a [`CalibrateError::Output`].
 fn output(e: impl fmt::Display) -> CalibrateError {
@@ -221,10 +275,8 @@ fn fit_and_eval_programs(programs: &[String], fit_programs: Option<&[String]>) -
 fn cal_coverage(log: &Log, fit_p: &[String], fitted: &Fitted) -> Result<crate::coverage::CalCoverage, CalibrateError> {
     let deadband = qfa_log::replay::branch_deadband_c_per_min();
     Ok(crate::coverage::CalCoverage {
-        covered: crate::coverage::Coverage::of_log(log, fit_p, deadband)
-            .map_err(|e| CalibrateError::Coverage(e.to_string()))?,
-        table: crate::coverage::TableLimits::of(&fitted.hysteresis)
-            .map_err(|e| CalibrateError::Coverage(e.to_string()))?,
+        covered: crate::coverage::Coverage::of_log(log, fit_p, deadband).map_err(CalibrateError::Coverage)?,
+        table: crate::coverage::TableLimits::of(&fitted.hysteresis).map_err(CalibrateError::Coverage)?,
         programs: fit_p.to_vec(),
     })
 }
@@ -264,21 +316,13 @@ fn fit_summary(fitted: &Fitted) -> FitSummary {
 /// The first figure that could not be formed, and why.
 pub fn check_figures(ev: &crate::report::Evaluation) -> Result<(), CalibrateError> {
     let names = ["no compensation", "simple", "hysteresis"];
-    for (v, name) in names.iter().enumerate() {
+    for (v, &name) in names.iter().enumerate() {
         if ev.bins[v].bias.is_empty() {
-            return Err(CalibrateError::NotComputable(format!(
-                "bias residual ({name}) not computable: no held-out bin qualified (a bin is one program, branch \
-                 segment and 1 °C of T-hat with at least {} s of rows the compensator marked compensated)",
-                crate::metrics::MIN_BIN_S
-            )));
+            return Err(CalibrateError::NotComputable(NotComputable::NoBiasBin { model: name }));
         }
         if ev.bins[v].sf.len() < 2 {
-            return Err(CalibrateError::NotComputable(format!(
-                "sensitivity ({name}) not computable: {} held-out scale-factor bin(s); needs 2 or more (held-out \
-                 programs need both +1 g and -1 g runs, and bins at least {} s of compensated rows)",
-                ev.bins[v].sf.len(),
-                crate::metrics::MIN_BIN_S
-            )));
+            let bins = ev.bins[v].sf.len();
+            return Err(CalibrateError::NotComputable(NotComputable::TooFewSfBins { model: name, bins }));
         }
     }
     let s = ev.sensitivity_ppm_per_c;
@@ -292,9 +336,7 @@ pub fn check_figures(ev: &crate::report::Evaluation) -> Result<(), CalibrateErro
         (b.hysteresis, "bias residual (hysteresis)"),
     ] {
         if !x.is_finite() {
-            return Err(CalibrateError::NotComputable(format!(
-                "{what} not computable: the held-out bins span no temperature range"
-            )));
+            return Err(CalibrateError::NotComputable(NotComputable::NoTemperatureSpan { figure: what }));
         }
     }
     Ok(())
@@ -306,7 +348,7 @@ pub fn check_figures(ev: &crate::report::Evaluation) -> Result<(), CalibrateErro
 /// # Errors
 /// The table does not serialize.
 pub fn table_toml(table: &qfa_thermal::Table) -> Result<String, CalibrateError> {
-    let toml = toml::to_string_pretty(table).map_err(|e| CalibrateError::Toml(e.to_string()))?;
+    let toml = toml::to_string_pretty(table).map_err(CalibrateError::Toml)?;
     let header = "# qfa-thermal coefficient table (K1 pulses/(g*s), K0 g, T degC, rate degC/min)\n";
     Ok(format!("{header}{toml}"))
 }

@@ -453,10 +453,7 @@ pub(crate) fn peer_bias(
         }
     }
     if bins[0].is_empty() {
-        return Err(crate::CalibrateError::NotComputable(format!(
-            "peer bias residual not computable: no held-out bin qualified (bins need {} s of rows)",
-            crate::metrics::MIN_BIN_S
-        )));
+        return Err(crate::CalibrateError::NotComputable(crate::NotComputable::NoPeerBiasBin));
     }
     let r = |b: &[Bin]| rms(&b.iter().map(|x| x.value * 1e6).collect::<Vec<_>>());
     Ok((PeerBias { cubic: r(&bins[0]), ardupilot: r(&bins[1]) }, peers))
@@ -486,9 +483,7 @@ pub(crate) fn peer_fit(
         }
     }
     if t.is_empty() {
-        return Err(crate::CalibrateError::Peers(
-            "peers: no +1 g / -1 g pair with temperatures in the fit programs".to_string(),
-        ));
+        return Err(crate::CalibrateError::NoPeerPair);
     }
-    crate::peers::fit_peers(&t, &k0).map_err(|e| crate::CalibrateError::Peers(format!("peers: {e}")))
+    crate::peers::fit_peers(&t, &k0).map_err(crate::CalibrateError::PeerFit)
 }

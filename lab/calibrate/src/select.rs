@@ -14,7 +14,7 @@
 
 use serde::Serialize;
 
-use crate::fit::FitError;
+use crate::fit::{CvFault, FitError};
 
 /// Cross-validation figures of one candidate (units of the squared residual).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -36,10 +36,10 @@ impl CvFigure {
     pub(crate) fn of_folds(fold_mse: &[f64]) -> Result<Self, FitError> {
         let k = fold_mse.len();
         if k < 2 {
-            return Err(FitError::Cv(format!("{k} cross-validation fold(s): a standard error needs 2 or more")));
+            return Err(FitError::Cv(CvFault::TooFewFolds(k)));
         }
         if let Some(x) = fold_mse.iter().find(|x| !x.is_finite()) {
-            return Err(FitError::Cv(format!("non-finite fold MSE {x}")));
+            return Err(FitError::Cv(CvFault::NonFiniteMse(*x)));
         }
         let mse = fold_mse.iter().sum::<f64>() / k as f64;
         let var = fold_mse.iter().map(|x| (x - mse).powi(2)).sum::<f64>() / (k - 1) as f64;

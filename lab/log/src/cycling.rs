@@ -16,6 +16,8 @@ use std::fmt;
 use std::io::{BufWriter, Read, Write};
 use std::path::Path;
 
+use crate::io_fault::IoFault;
+
 /// The header, in order.
 pub(crate) const COLUMNS: [&str; 7] = ["program", "run", "time_s", "input_g", "temp_c", "pulses", "interval_s"];
 
@@ -97,8 +99,10 @@ pub enum RowFault {
     TimeNotIncreasing,
     /// `input_g` differs from the run's first row.
     InputChanged,
-    /// The CSV layer failed (I/O, bad quoting).
-    Csv(String),
+    /// The CSV layer failed.
+    Csv(crate::io_fault::CsvFault),
+    /// The file could not be opened.
+    Open(crate::io_fault::IoFault),
 }
 
 impl fmt::Display for RowFault {
@@ -110,6 +114,7 @@ impl fmt::Display for RowFault {
             Self::TimeNotIncreasing => f.write_str("time_s not after the run's previous row"),
             Self::InputChanged => f.write_str("input_g changed within a run"),
             Self::Csv(e) => write!(f, "csv: {e}"),
+            Self::Open(e) => write!(f, "{e}"),
         }
     }
 }
@@ -238,7 +243,7 @@ fn check_header(rdr: &mut csv::Reader<&[u8]>, rec: &mut csv::ByteRecord) -> Resu
             Ok(())
         }
         Ok(false) => Err(LogError::single(1, RowFault::Header(String::new()))),
-        Err(e) => Err(LogError::single(1, RowFault::Csv(e.to_string()))),
+        Err(e) => Err(LogError::single(1, RowFault::Csv(crate::io_fault::CsvFault::of(&e)))),
     }
 }
 
@@ -269,7 +274,9 @@ fn run_index(log: &mut Log, current: Option<usize>, prog: &[u8], run: &[u8], inp
 /// Every malformed row, with line numbers.
 pub fn read_log_from<R: Read>(mut reader: R) -> Result<Log, LogError> {
     let mut text = Vec::new();
-    reader.read_to_end(&mut text).map_err(|e| LogError::single(0, RowFault::Csv(e.to_string())))?;
+    reader
+        .read_to_end(&mut text)
+        .map_err(|e| LogError::single(0, RowFault::Csv(crate::io_fault::CsvFault::Io(e.kind()))))?;
     let mut lines = super::lines::LineCounter::new(&text);
     let mut rdr = csv::ReaderBuilder::new().has_headers(false).flexible(true).from_reader(&text[..]);
     let mut rec = csv::ByteRecord::new();
@@ -291,7 +298,7 @@ pub fn read_log_from<R: Read>(mut reader: R) -> Result<Log, LogError> {
             Ok(false) => break,
             Ok(true) => {}
             Err(e) => {
-                push_err(&mut errors, line, RowFault::Csv(e.to_string()));
+                push_err(&mut errors, line, RowFault::Csv(crate::io_fault::CsvFault::of(&e)));
                 continue;
             }
         }
@@ -332,8 +339,7 @@ pub fn read_log_from<R: Read>(mut reader: R) -> Result<Log, LogError> {
 /// # Errors
 /// The file cannot be opened, or the rows' errors.
 pub fn read_log(path: &Path) -> Result<Log, LogError> {
-    let f = std::fs::File::open(path)
-        .map_err(|e| LogError::single(0, RowFault::Csv(format!("{}: {e}", path.display()))))?;
+    let f = std::fs::File::open(path).map_err(|e| LogError::single(0, RowFault::Open(IoFault::new(path, &e))))?;
     read_log_from(f)
 }
 

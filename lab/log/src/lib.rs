@@ -7,6 +7,7 @@ pub mod autopilot;
 pub mod channels;
 pub mod cycling;
 pub(crate) mod dataflash;
+pub mod io_fault;
 pub(crate) mod lines;
 pub mod open;
 pub mod pairing;
@@ -17,3 +18,5 @@ pub mod spelling;
 pub mod static_log;
 pub(crate) mod ulog;
 pub mod units;
+
+pub use io_fault::IoFault;

@@ -34,7 +34,7 @@ pub struct SingleLog {
 #[non_exhaustive]
 pub enum SingleError {
     /// The file is not readable text.
-    Io(String),
+    Csv(crate::io_fault::CsvFault),
     /// The header lacks a column.
     MissingColumn(&'static str),
     /// Malformed rows: the first [`SingleError::KEPT`] with their lines, and the count.
@@ -63,7 +63,7 @@ impl SingleError {
 impl fmt::Display for SingleError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Self::Io(e) => write!(f, "{e}")?,
+            Self::Csv(e) => write!(f, "{e}")?,
             Self::MissingColumn(c) => write!(f, "single-channel log without a `{c}` column")?,
             Self::Rows { errors, total } => write!(f, "{total} malformed row(s):\n{}", errors.join("\n"))?,
             Self::TooFewRows(n) => write!(f, "too few rows: {n} with a reading, {MIN_ROWS} needed")?,
@@ -103,13 +103,13 @@ fn number(text: &str, column: &'static str) -> Result<f64, SingleError> {
 /// line), too few rows.
 pub(crate) fn read_single_from<R: Read>(mut reader: R) -> Result<SingleLog, SingleError> {
     let mut text = Vec::new();
-    reader.read_to_end(&mut text).map_err(|e| SingleError::Io(e.to_string()))?;
+    reader.read_to_end(&mut text).map_err(|e| SingleError::Csv(crate::io_fault::CsvFault::Io(e.kind())))?;
     let mut rdr =
         csv::ReaderBuilder::new().has_headers(false).flexible(true).trim(csv::Trim::All).from_reader(&text[..]);
     let mut lines = LineCounter::new(&text);
     let mut rec = csv::StringRecord::new();
     let next = |rdr: &mut csv::Reader<&[u8]>, rec: &mut csv::StringRecord| -> Result<bool, SingleError> {
-        rdr.read_record(rec).map_err(|e| SingleError::Io(e.to_string()))
+        rdr.read_record(rec).map_err(|e| SingleError::Csv(crate::io_fault::CsvFault::of(&e)))
     };
     // The header: the first record (the csv crate skips blank lines).
     if !next(&mut rdr, &mut rec)? {

@@ -12,7 +12,7 @@
 //! with [`EXIT_LIMIT_FAILED`] after every file is written.
 
 use std::fmt;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
@@ -425,10 +425,20 @@ pub fn json_with_verdict<T: Serialize>(verdict: &Verdict, report: &T) -> serde_j
 #[non_exhaustive]
 pub enum LimitsError {
     /// The file cannot be read.
-    Read(String),
+    Read {
+        /// The file.
+        file: PathBuf,
+        /// What the system said, as its kind (`io::Error` is neither `Clone` nor `PartialEq`).
+        kind: std::io::ErrorKind,
+    },
     /// It is not TOML of the documented keys (unknown keys are refused: a typo would
     /// otherwise leave a default in force).
-    Parse(String),
+    Parse {
+        /// The file, when the text came from one.
+        file: Option<PathBuf>,
+        /// The `toml` crate's error, with its line and column.
+        error: toml::de::Error,
+    },
     /// A value outside what the key's unit allows (both sides checked: a limit in the
     /// wrong unit is refused, not quietly made loose or tight).
     OutOfRange {
@@ -461,7 +471,9 @@ pub enum LimitsError {
 impl fmt::Display for LimitsError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Self::Read(m) | Self::Parse(m) => f.write_str(m),
+            Self::Read { file, kind } => write!(f, "{}: {kind}", file.display()),
+            Self::Parse { file: Some(file), error } => write!(f, "{}: {error}", file.display()),
+            Self::Parse { file: None, error } => write!(f, "{error}"),
             Self::OutOfRange { key, value, lo, hi, unit, hint } => {
                 // The unit hint explains a value too large; one at or below zero is no unit mistake.
                 let why = if *value > 0.0 { *hint } else { "a limit is a positive number" };
@@ -506,6 +518,11 @@ impl Default for Limits {
     }
 }
 
+/// The text of a limits file.
+fn read_limits(path: &Path) -> Result<String, LimitsError> {
+    std::fs::read_to_string(path).map_err(|e| LimitsError::Read { file: path.to_path_buf(), kind: e.kind() })
+}
+
 impl Limits {
     /// The limits in `path`, checked.
     ///
@@ -513,9 +530,8 @@ impl Limits {
     /// The file cannot be read, is not the documented TOML, or holds a value outside its
     /// unit's range.
     pub fn from_file(path: &Path) -> Result<Self, LimitsError> {
-        let text = std::fs::read_to_string(path).map_err(|e| LimitsError::Read(format!("{}: {e}", path.display())))?;
-        Self::from_toml(&text).map_err(|e| match e {
-            LimitsError::Read(m) | LimitsError::Parse(m) => LimitsError::Parse(format!("{}: {m}", path.display())),
+        Self::from_toml(&read_limits(path)?).map_err(|e| match e {
+            LimitsError::Parse { file: None, error } => LimitsError::Parse { file: Some(path.to_path_buf()), error },
             other => other,
         })
     }
@@ -525,7 +541,7 @@ impl Limits {
     /// # Errors
     /// See [`Limits::from_file`].
     pub fn from_toml(text: &str) -> Result<Self, LimitsError> {
-        let l: Self = toml::from_str(text).map_err(|e| LimitsError::Parse(e.to_string()))?;
+        let l: Self = toml::from_str(text).map_err(|error| LimitsError::Parse { file: None, error })?;
         l.check()?;
         Ok(l)
     }
@@ -617,10 +633,14 @@ impl LimitsChoice {
     /// See [`Limits::from_file`].
     pub fn from_arg(file: Option<&Path>) -> Result<Self, LimitsError> {
         let Some(p) = file else { return Ok(Self::default()) };
-        let limits = Limits::from_file(p)?;
-        // Read again as a table only for its keys: `Limits` fills the missing ones.
-        let text = std::fs::read_to_string(p).map_err(|e| LimitsError::Read(format!("{}: {e}", p.display())))?;
-        let table: toml::Table = toml::from_str(&text).map_err(|e| LimitsError::Parse(e.to_string()))?;
+        let text = read_limits(p)?;
+        let parse = |error| LimitsError::Parse { file: Some(p.to_path_buf()), error };
+        // The keys set come from the text as a table: `Limits` fills the missing ones.
+        let table: toml::Table = toml::from_str(&text).map_err(parse)?;
+        let limits = Limits::from_toml(&text).map_err(|e| match e {
+            LimitsError::Parse { file: None, error } => parse(error),
+            other => other,
+        })?;
         Ok(Self { limits, file: Some(p.to_path_buf()), keys_set: table.keys().cloned().collect() })
     }
 

@@ -343,7 +343,7 @@ pub fn write_manifest_run(dir: &Path, truth: &PopulationTruth) -> Result<(), Pop
 }
 
 fn write_truth(dir: &Path, truth: &PopulationTruth) -> Result<(), PopulationError> {
-    let text = toml::to_string(truth).map_err(|e| PopulationError::Toml(e.to_string()))?;
+    let text = toml::to_string(truth).map_err(PopulationError::Toml)?;
     write(dir, "truth.toml", &text)
 }
 
@@ -367,15 +367,15 @@ pub enum PopulationError {
         /// The system's message.
         message: String,
     },
-    /// The truth did not serialize (the `toml` crate's message).
-    Toml(String),
+    /// The truth did not serialize.
+    Toml(toml::ser::Error),
 }
 
 impl std::fmt::Display for PopulationError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             Self::Io { path, message } => write!(f, "{}: {message}", path.display()),
-            Self::Toml(m) => f.write_str(m),
+            Self::Toml(e) => write!(f, "{e}"),
         }
     }
 }

@@ -126,15 +126,18 @@ pub enum TruthError {
         /// The name given.
         name: String,
     },
-    /// A truth TOML that does not parse or serialize (the `toml` crate's message).
-    Toml(String),
+    /// A truth TOML that does not parse.
+    TomlParse(toml::de::Error),
+    /// A truth that does not serialize as TOML.
+    TomlWrite(toml::ser::Error),
 }
 
 impl std::fmt::Display for TruthError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             Self::UnknownEffect { name } => write!(f, "unknown effect `{name}`; known: {}", EFFECTS.join(", ")),
-            Self::Toml(m) => f.write_str(m),
+            Self::TomlParse(e) => write!(f, "{e}"),
+            Self::TomlWrite(e) => write!(f, "{e}"),
         }
     }
 }
@@ -213,7 +216,7 @@ impl Truth {
     /// # Errors
     /// Serialization errors.
     pub fn to_toml(&self) -> Result<String, TruthError> {
-        toml::to_string_pretty(self).map_err(|e| TruthError::Toml(e.to_string()))
+        toml::to_string_pretty(self).map_err(TruthError::TomlWrite)
     }
 
     /// From TOML text.
@@ -221,7 +224,7 @@ impl Truth {
     /// # Errors
     /// Parse errors.
     pub fn from_toml(text: &str) -> Result<Self, TruthError> {
-        toml::from_str(text).map_err(|e| TruthError::Toml(e.to_string()))
+        toml::from_str(text).map_err(TruthError::TomlParse)
     }
 
     /// The element lag's time constant: the `sensor_lag` τ when that effect is on.
@@ -345,7 +348,7 @@ mod tests {
         assert!(e.to_string().starts_with("unknown effect `sensor_lags`; known: "), "{e}");
         let t = Truth::jb_kt8(3).with_effect("bias_creep").unwrap();
         assert_eq!(Truth::from_toml(&t.to_toml().unwrap()).unwrap().to_toml().unwrap(), t.to_toml().unwrap());
-        assert!(matches!(Truth::from_toml("name = 3"), Err(TruthError::Toml(_))));
+        assert!(matches!(Truth::from_toml("name = 3"), Err(TruthError::TomlParse(_))));
     }
     use qfa_thermal::model::AxisState;
     use qfa_thermal::{AxisModel, BiasGrid};

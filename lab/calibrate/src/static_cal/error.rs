@@ -13,7 +13,7 @@ use qfa_log::spelling::{CalibrateOption, Spelling};
 #[non_exhaustive]
 pub enum StaticCalError {
     /// `--holdout after-max` on a log without a later leg.
-    Split(String),
+    Split(SplitFault),
     /// A `--holdout` value that is none of the schemes (the value given).
     UnknownHoldout(String),
     /// `--holdout blocks:K` cuts the log into blocks shorter than a held-out block needs.
@@ -53,6 +53,8 @@ pub enum StaticCalError {
     Fit(String, FitError),
     /// A figure could not be computed.
     Figure(String),
+    /// The coverage of the fitted rows could not be formed.
+    Coverage(crate::coverage::CoverageError),
     /// Writing an output failed.
     Io(String),
 }
@@ -100,9 +102,72 @@ impl fmt::Display for StaticCalError {
             ),
             Self::Fit(axis, e) => write!(f, "fit of {axis}: {e}"),
             Self::Figure(s) => write!(f, "figure not computable: {s}"),
+            Self::Coverage(e) => write!(f, "figure not computable: coverage: {e}"),
             Self::Io(s) => write!(f, "{s}"),
         }
     }
 }
 
 impl std::error::Error for StaticCalError {}
+
+/// Why a log has no later leg to hold out (`--holdout after-max`, and `auto`'s test of it).
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum SplitFault {
+    /// Fewer than a tenth of the rows lie after the highest temperature.
+    NoLaterLeg {
+        /// The highest temperature, °C.
+        max_c: f64,
+        /// Its row, from 1.
+        row: usize,
+        /// Rows of the log.
+        rows: usize,
+    },
+    /// Fewer than a tenth of the rows lie up to the highest temperature.
+    TooFewToFit {
+        /// The highest temperature, °C.
+        max_c: f64,
+        /// Its row, from 1.
+        row: usize,
+        /// Rows of the log.
+        rows: usize,
+    },
+    /// The rows up to the highest temperature cannot hold the bias grid.
+    TrainingCannotHoldTheGrid(Box<StaticCalError>),
+    /// More than a tenth of the later leg lies outside the temperatures before it.
+    LaterLegOutside {
+        /// Later rows outside.
+        outside: usize,
+        /// Rows of the later leg.
+        later: usize,
+        /// The lowest temperature before it, °C.
+        lo_c: f64,
+        /// The highest, °C.
+        hi_c: f64,
+    },
+}
+
+impl fmt::Display for SplitFault {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::NoLaterLeg { max_c, row, rows } => write!(
+                f,
+                "the highest temperature ({max_c:.2} °C) is at row {row} of {rows}: fewer than a tenth of the rows lie \
+                 after it, no later leg to evaluate on"
+            ),
+            Self::TooFewToFit { max_c, row, rows } => write!(
+                f,
+                "the highest temperature ({max_c:.2} °C) is at row {row} of {rows}: fewer than a tenth of the rows to \
+                 fit on"
+            ),
+            Self::TrainingCannotHoldTheGrid(e) => {
+                write!(f, "the rows up to the highest temperature cannot hold the bias grid ({e})")
+            }
+            Self::LaterLegOutside { outside, later, lo_c, hi_c } => write!(
+                f,
+                "{outside} of the {later} rows after the highest temperature lie outside the {lo_c:.1}..{hi_c:.1} °C \
+                 the rows before it cover: the later leg would score an extrapolation"
+            ),
+        }
+    }
+}

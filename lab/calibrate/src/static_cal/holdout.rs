@@ -114,19 +114,10 @@ pub(crate) fn split_index(log: &StaticLog) -> Result<usize, StaticCalError> {
     let imax = (0..n).fold(0, |b, i| if log.temp_c[i] > log.temp_c[b] { i } else { b });
     let tenth = (n / 10).max(1);
     if n - imax - 1 < tenth {
-        return Err(StaticCalError::Split(format!(
-            "the highest temperature ({:.2} °C) is at row {} of {n}: fewer than a tenth of the rows lie after it, \
-             no later leg to evaluate on",
-            log.temp_c[imax],
-            imax + 1
-        )));
+        return Err(StaticCalError::Split(SplitFault::NoLaterLeg { max_c: log.temp_c[imax], row: imax + 1, rows: n }));
     }
     if imax + 1 < tenth {
-        return Err(StaticCalError::Split(format!(
-            "the highest temperature ({:.2} °C) is at row {} of {n}: fewer than a tenth of the rows to fit on",
-            log.temp_c[imax],
-            imax + 1
-        )));
+        return Err(StaticCalError::Split(SplitFault::TooFewToFit { max_c: log.temp_c[imax], row: imax + 1, rows: n }));
     }
     Ok(imax)
 }
@@ -142,17 +133,17 @@ pub(crate) fn split_index(log: &StaticLog) -> Result<usize, StaticCalError> {
 fn later_leg_inside(log: &StaticLog, last: usize) -> Result<(), StaticCalError> {
     let (train, later) = log.temp_c.split_at(last + 1);
     let o = StaticCalOptions::default();
-    check_coverage(train, o.grid_points, o.block).map_err(|e| {
-        StaticCalError::Split(format!("the rows up to the highest temperature cannot hold the bias grid ({e})"))
-    })?;
+    check_coverage(train, o.grid_points, o.block)
+        .map_err(|e| StaticCalError::Split(SplitFault::TrainingCannotHoldTheGrid(Box::new(e))))?;
     let (lo, hi) = range(train);
     let outside = later.iter().filter(|t| **t < lo || **t > hi).count();
     if outside * 10 > later.len() {
-        return Err(StaticCalError::Split(format!(
-            "{outside} of the {} rows after the highest temperature lie outside the {lo:.1}..{hi:.1} °C the rows \
-             before it cover: the later leg would score an extrapolation",
-            later.len()
-        )));
+        return Err(StaticCalError::Split(SplitFault::LaterLegOutside {
+            outside,
+            later: later.len(),
+            lo_c: lo,
+            hi_c: hi,
+        }));
     }
     Ok(())
 }

@@ -86,7 +86,7 @@ use qfa_log::static_log::{AxisColumn, StaticLog};
 pub use crate::static_cal::choice::is_one_branch;
 pub(crate) use crate::static_cal::choice::CV_FOLDS;
 pub use crate::static_cal::choice::{candidates, ONE_BRANCH};
-pub use crate::static_cal::error::StaticCalError;
+pub use crate::static_cal::error::{SplitFault, StaticCalError};
 pub use crate::static_cal::holdout::Holdout;
 pub use crate::static_cal::holdout::{check_coverage, resolve_holdout, Scheme};
 pub use crate::static_cal::output::{
@@ -570,7 +570,7 @@ fn coverage_and_next(run: &Run<'_>) -> Result<(crate::coverage::Coverage, Vec<St
         (0..n).filter(|&i| plain.valid[i]).map(|i| (plain.temp_c[i], plain.rate_c_per_min[i])),
         f64::from(run.opts.deadband_c_per_min),
     )
-    .map_err(|e| StaticCalError::Figure(format!("coverage: {e}")))?;
+    .map_err(StaticCalError::Coverage)?;
     let mut record_next = coverage.record_next();
     if run.one_branch[0] {
         record_next.push(format!(

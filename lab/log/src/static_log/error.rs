@@ -51,8 +51,13 @@ impl fmt::Display for StaticRowFault {
 #[derive(Clone, Debug, PartialEq)]
 #[non_exhaustive]
 pub enum StaticError {
-    /// The file could not be read.
-    Io(String),
+    /// The text could not be read as CSV.
+    Csv {
+        /// The line, when the parser got that far.
+        line: Option<u64>,
+        /// What the parser said.
+        fault: crate::io_fault::CsvFault,
+    },
     /// No header line (an empty file).
     Empty,
     /// A header but no data rows.
@@ -122,7 +127,8 @@ impl StaticError {
     #[must_use]
     pub fn message(&self, sp: Spelling) -> String {
         match self {
-            Self::Io(e) => format!("cannot read the log: {e}"),
+            Self::Csv { line: Some(line), fault } => format!("cannot read the log: line {line}: {fault}"),
+            Self::Csv { line: None, fault } => format!("cannot read the log: {fault}"),
             Self::Empty => "empty log: no header line".to_string(),
             Self::NoRows => "the log has a header but no data rows".to_string(),
             Self::UnknownColumn { role, column, header } => {

@@ -293,12 +293,17 @@ fn parse_field(b: &[u8], column: &str, decimal_comma: bool) -> Result<Option<f64
 pub fn read_static_from<R: Read>(reader: R, opts: &StaticOptions) -> Result<StaticLog, StaticError> {
     let mut text = Vec::new();
     let mut reader = reader;
-    reader.read_to_end(&mut text).map_err(|e| StaticError::Io(e.to_string()))?;
+    reader
+        .read_to_end(&mut text)
+        .map_err(|e| StaticError::Csv { line: None, fault: crate::io_fault::CsvFault::Io(e.kind()) })?;
     let delim = delimiter(&text, opts)?;
     let mut rdr = csv::ReaderBuilder::new().delimiter(delim).has_headers(false).flexible(true).from_reader(&text[..]);
     let mut lines_of = crate::lines::LineCounter::new(&text);
     let mut rec = csv::ByteRecord::new();
-    if !rdr.read_byte_record(&mut rec).map_err(|e| StaticError::Io(e.to_string()))? {
+    if !rdr
+        .read_byte_record(&mut rec)
+        .map_err(|e| StaticError::Csv { line: Some(1), fault: crate::io_fault::CsvFault::of(&e) })?
+    {
         return Err(StaticError::Empty);
     }
     let header: Vec<String> = rec.iter().map(|b| String::from_utf8_lossy(b).trim().to_string()).collect();
@@ -480,7 +485,7 @@ fn read_rows(
         match rdr.read_byte_record(rec) {
             Ok(true) => {}
             Ok(false) => break,
-            Err(e) => return Err(StaticError::Io(format!("line {line}: {e}"))),
+            Err(e) => return Err(StaticError::Csv { line: Some(line), fault: crate::io_fault::CsvFault::of(&e) }),
         }
         if let Some(p) = rec.position() {
             line = lines_of.line_of(p.byte());
