@@ -17,6 +17,10 @@
 //!   the two middle values of an even count) and the one MAD-to-SD constant.
 //! - Errors are types: no public function of a lab library returns `Result<_, String>` (the
 //!   command line's own value parsers, in the binary's `lab/src/cli_args.rs`, are clap's convention).
+//! - Error enums hold types, not text: a `String` in a library error enum (`…Error`,
+//!   `…Fault`) is a name or a value the user or the log gave (a column, a serial, a
+//!   program, the text of a field), each listed below with its variant; any other is text
+//!   built from an error, and this check names it.
 
 use std::path::{Path, PathBuf};
 
@@ -39,11 +43,49 @@ fn sources(dir: &Path) -> Vec<(PathBuf, String)> {
                 }
             } else if p.extension().is_some_and(|x| x == "rs") && p.to_string_lossy().contains("/src/") {
                 let text = std::fs::read_to_string(&p).expect("readable source");
-                let library = text.split("\n#[cfg(test)]").next().unwrap_or("").to_string();
+                let library = without_test_modules(&text);
                 out.push((p, library));
             }
         }
     }
+    out
+}
+
+/// `text` without its `#[cfg(test)]` items (a test module, with its braces matched, or a
+/// `mod tests;` line): library code after a test module is kept.
+fn without_test_modules(text: &str) -> String {
+    let mut out = String::new();
+    let mut rest = text;
+    while let Some(at) = rest.find("\n#[cfg(test)]") {
+        out.push_str(&rest[..at]);
+        let item = &rest[at + "\n#[cfg(test)]".len()..];
+        let (brace, semi) = (item.find('{'), item.find(';'));
+        let end = match (brace, semi) {
+            (Some(b), Some(s)) if s < b => s + 1,
+            (Some(b), _) => {
+                let mut depth = 0usize;
+                let mut end = item.len();
+                for (i, c) in item[b..].char_indices() {
+                    match c {
+                        '{' => depth += 1,
+                        '}' => {
+                            depth -= 1;
+                            if depth == 0 {
+                                end = b + i + 1;
+                                break;
+                            }
+                        }
+                        _ => {}
+                    }
+                }
+                end
+            }
+            (None, Some(s)) => s + 1,
+            (None, None) => item.len(),
+        };
+        rest = &item[end..];
+    }
+    out.push_str(rest);
     out
 }
 
@@ -146,4 +188,116 @@ fn the_median_and_its_scale_are_defined_once() {
     let files = sources(&lab());
     let copies = offenders(&files, &["fn median(", "fn median(", "1.4826"], &["log/src/robust.rs"]);
     assert!(copies.is_empty(), "a median or the MAD's scale outside qfa_log::robust:\n{}", copies.join("\n"));
+}
+
+/// The `String` fields of library error enums that hold a name or a value the user or the
+/// log gave, not a message: `Enum::Variant`. The last three hold text from elsewhere and
+/// are listed apart.
+const NAMES_AND_VALUES: &[&str] = &[
+    "BatchError::Shard",
+    "BatchError::MergeClash",
+    "ManifestFault::Setting",
+    "ManifestFault::NoLog",
+    "ChamberFault::DuplicateColumn",
+    "ChamberFault::NoNamedTimeColumn",
+    "ChamberFault::SeveralTimeColumns",
+    "ChamberFault::UnitColumns",
+    "SerialFault::NotAFolderName",
+    "SerialFault::Shared",
+    "UnitFault::Descriptor",
+    "PriorError::NoPopulation",
+    "PriorError::NotInvertible",
+    "CoverageError::NoValidRow",
+    "FitError::NoPair",
+    "CalibrateError::Axis",
+    "StaticCalError::UnknownHoldout",
+    "StaticCalError::Fit",
+    "FigureFault::NoModelOutput",
+    "FigureFault::NonFinite",
+    "FigureFault::NoCandidate",
+    "DiscoverError::UnknownStart",
+    "DiscoverError::NoModel",
+    "ChannelsError::AutopilotLog",
+    "RowFault::Header",
+    "RowFault::Field",
+    "DataflashError::NoImu",
+    "StaticRowFault::NotANumber",
+    "StaticError::UnknownColumn",
+    "StaticError::MissingColumn",
+    "StaticError::BadColumnSpec",
+    "StaticError::UnitUnknown",
+    "StaticError::DecimalComma",
+    "UlogError::NoAccel",
+    "CalibError::LabProgram",
+    "CalibError::ValidationFit",
+    "CalibError::HeldOut",
+    "CalibError::Figures",
+    "CalibError::Fit",
+    "FaultsError::ReplacedTable",
+    "ReportError::Flags",
+    "SummaryError::Column",
+    "LimitsError::NoneApply",
+    "ProfileError::Header",
+    "ProfileError::Row",
+    "TruthError::UnknownEffect",
+    // Text from elsewhere: the ULog parser's own description (its error type is neither
+    // `Clone` nor `PartialEq`), and each refused autopilot instance's reason as its report
+    // records it.
+    "UlogError::Parse",
+    "AutopilotCalError::NothingCalibrated",
+];
+
+/// `Enum::Variant` of every field typed `String` (alone, in a `Vec`, an `Option` or an
+/// array) in the `pub enum …Error` and `pub enum …Fault` blocks of `text`.
+fn string_fields_of_error_enums(text: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut rest = text;
+    while let Some(at) = rest.find("pub enum ") {
+        rest = &rest[at + "pub enum ".len()..];
+        let name: String = rest.chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
+        let Some(open) = rest.find('{') else { break };
+        let (mut depth, mut end) = (0usize, open);
+        for (i, c) in rest[open..].char_indices() {
+            match c {
+                '{' => depth += 1,
+                '}' => depth -= 1,
+                _ => {}
+            }
+            if depth == 0 {
+                end = open + i;
+                break;
+            }
+        }
+        if name.ends_with("Error") || name.ends_with("Fault") {
+            let mut variant = String::new();
+            for line in rest[open + 1..end].lines() {
+                let code = line.trim();
+                if code.starts_with("//") || code.starts_with('#') {
+                    continue;
+                }
+                // A variant starts at the enum's own indentation (four spaces).
+                if line.starts_with("    ") && !line.starts_with("     ") {
+                    variant = code.chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
+                }
+                let typed = code.split_once(':').map_or(code, |(_, t)| t);
+                if typed.contains("String") || code.contains("(String") {
+                    out.push(format!("{name}::{variant}"));
+                }
+            }
+        }
+        rest = &rest[end..];
+    }
+    out.dedup();
+    out
+}
+
+#[test]
+fn error_enums_hold_types_and_names_not_messages() {
+    let files: Vec<_> = sources(&lab()).into_iter().filter(|(p, _)| !p.starts_with(lab().join("src"))).collect();
+    let all: Vec<String> = files.iter().flat_map(|(_, text)| string_fields_of_error_enums(text)).collect();
+    assert!(all.len() >= 30, "only {} `String` fields found: the scan is broken", all.len());
+    let messages: Vec<&String> = all.iter().filter(|v| !NAMES_AND_VALUES.contains(&v.as_str())).collect();
+    assert!(messages.is_empty(), "error variants holding text built from an error:\n{messages:#?}");
+    let gone: Vec<&&str> = NAMES_AND_VALUES.iter().filter(|n| !all.iter().any(|v| v == *n)).collect();
+    assert!(gone.is_empty(), "listed variants that no longer hold a `String`: take them off the list\n{gone:#?}");
 }

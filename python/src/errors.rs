@@ -116,7 +116,8 @@ impl Kind for StaticCalError {
             Self::TooFewRowsPerDegree { .. } => "TooFewRowsPerDegree",
             Self::Fit(..) => "Fit",
             Self::Figure(_) => "Figure",
-            Self::Io(_) => "Io",
+            Self::Coverage(_) => "Coverage",
+            Self::Output(_) => "Io",
             _ => OTHER,
         }
     }
@@ -157,7 +158,7 @@ impl Kind for DiscoverError {
             Self::Json { .. } => "Json",
             Self::Table(_) => "Table",
             Self::Page(_) => "Page",
-            Self::Plot(_) | Self::PlotLegend { .. } => "Plot",
+            Self::Plot(_) => "Plot",
             _ => OTHER,
         }
     }
@@ -194,7 +195,7 @@ impl Kind for qfa_calibrate::compensate::StaticCompensateError {
             Self::Length { .. } => "Length",
             Self::Table(_) => "Table",
             Self::Config(_) => "Config",
-            Self::Io(_) => "Io",
+            Self::Write(_) => "Io",
             _ => OTHER,
         }
     }

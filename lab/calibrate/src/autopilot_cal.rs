@@ -25,7 +25,8 @@ use serde::Serialize;
 use crate::export::{
     export_texts, ExportNote, ExportOptions, ARDUPILOT_ENABLE_FILE, ARDUPILOT_VALUES_FILE, EXPORT_FILES, PX4_FILE,
 };
-use crate::static_cal::{self, Figure, StaticCalOptions};
+use crate::output_error::OutputError;
+use crate::static_cal::{self, Figure, StaticCalError, StaticCalOptions};
 use crate::verdict::static_verdict;
 use qfa_log::autopilot::{check, AutopilotLog, Stack, Temperature};
 use qfa_report::verdict::{FileUse, LimitsChoice, Verdict};
@@ -85,7 +86,15 @@ pub enum AutopilotCalError {
     /// Every instance was refused: their reasons.
     NothingCalibrated(Vec<String>),
     /// A file could not be written.
-    Io(String),
+    Output(OutputError),
+    /// An instance's folder could not be written.
+    Instance(StaticCalError),
+}
+
+impl From<OutputError> for AutopilotCalError {
+    fn from(e: OutputError) -> Self {
+        Self::Output(e)
+    }
 }
 
 impl fmt::Display for AutopilotCalError {
@@ -94,7 +103,8 @@ impl fmt::Display for AutopilotCalError {
             Self::NothingCalibrated(r) => {
                 write!(f, "no accelerometer instance could be calibrated:\n  {}", r.join("\n  "))
             }
-            Self::Io(e) => f.write_str(e),
+            Self::Output(e) => write!(f, "{e}"),
+            Self::Instance(e) => write!(f, "{e}"),
         }
     }
 }
@@ -136,7 +146,6 @@ pub fn calibrate_autopilot(
     progress: bool,
     limits: &LimitsChoice,
 ) -> Result<AutopilotCalibration, AutopilotCalError> {
-    let io = |e: &dyn fmt::Display| AutopilotCalError::Io(format!("{}: {e}", out.display()));
     remove_old_exports(out)?;
     let mut outcomes = Vec::new();
     let mut verdicts = Vec::new();
@@ -166,7 +175,8 @@ pub fn calibrate_autopilot(
     };
     let mut written = Vec::new();
     for (name, text) in files {
-        std::fs::write(out.join(name), text).map_err(|e| io(&e))?;
+        let path = out.join(name);
+        std::fs::write(&path, text).map_err(OutputError::io(&path))?;
         written.push(name.to_string());
     }
     let verdict = merged_verdict(&verdicts, limits, &written, &outcomes, &export_notes);
@@ -187,11 +197,11 @@ pub fn calibrate_autopilot(
 /// Create `out` and remove the export files an older run left in it, so none is taken
 /// for this run's.
 fn remove_old_exports(out: &Path) -> Result<(), AutopilotCalError> {
-    let io = |e: &dyn fmt::Display| AutopilotCalError::Io(format!("{}: {e}", out.display()));
-    std::fs::create_dir_all(out).map_err(|e| io(&e))?;
+    std::fs::create_dir_all(out).map_err(OutputError::io(out))?;
     for f in EXPORT_FILES {
-        match std::fs::remove_file(out.join(f)) {
-            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(io(&e)),
+        let path = out.join(f);
+        match std::fs::remove_file(&path) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(OutputError::io(&path)(e).into()),
             _ => {}
         }
     }
@@ -242,13 +252,12 @@ fn write_instance(
     limits: &LimitsChoice,
     o: &mut InstanceOutcome,
 ) -> Result<Verdict, AutopilotCalError> {
-    let io = |e: &dyn fmt::Display| AutopilotCalError::Io(format!("{}: {e}", out.display()));
     let dir = format!("instance{}", o.index);
     let d = out.join(&dir);
     let files = static_cal::static_files(plots, &[]);
     let v = static_verdict(cal, limits, &files, &o.warnings);
-    static_cal::write_static(&d, cal, &v).map_err(|e| io(&e))?;
-    static_cal::write_static_page(&d, cal, plots, &v).map_err(|e| io(&e))?;
+    static_cal::write_static(&d, cal, &v).map_err(AutopilotCalError::Instance)?;
+    static_cal::write_static_page(&d, cal, plots, &v).map_err(AutopilotCalError::Instance)?;
     o.heldout_rms_mg = cal.report.axes.iter().map(|a| (a.axis.clone(), figure(&a.ours), figure(&a.cubic))).collect();
     o.dir = Some(dir);
     Ok(v)
@@ -374,12 +383,12 @@ fn merged_verdict(
 
 /// Write the log's `report.json`, `report.md` and `report.html` into `out`.
 fn write_reports(out: &Path, cal: &AutopilotCalibration) -> Result<(), AutopilotCalError> {
-    let io = |e: &dyn fmt::Display| AutopilotCalError::Io(format!("{}: {e}", out.display()));
-    let json = qfa_report::verdict::json_with_verdict(&cal.verdict, cal).map_err(|e| io(&e))?;
-    std::fs::write(out.join("report.json"), json).map_err(|e| io(&e))?;
-    std::fs::write(out.join("report.md"), static_cal::with_verdict(&cal.verdict, &markdown(cal)))
-        .map_err(|e| io(&e))?;
-    page(cal).write(out).map_err(|e| io(&e))?;
+    let (json_path, md_path) = (out.join("report.json"), out.join("report.md"));
+    let json = qfa_report::verdict::json_with_verdict(&cal.verdict, cal).map_err(OutputError::json(&json_path))?;
+    std::fs::write(&json_path, json).map_err(OutputError::io(&json_path))?;
+    std::fs::write(&md_path, static_cal::with_verdict(&cal.verdict, &markdown(cal)))
+        .map_err(OutputError::io(&md_path))?;
+    page(cal).write(out).map_err(OutputError::io(out))?;
     Ok(())
 }
 

@@ -254,8 +254,8 @@ pub enum StaticCompensateError {
     Table(qfa_thermal::table::Error),
     /// The log's row spacing gives a configuration the firmware refuses.
     Config(qfa_thermal::ConfigError),
-    /// Writing failed.
-    Io(String),
+    /// Writing failed: the system's error kind (the writer has no path).
+    Write(std::io::ErrorKind),
 }
 
 impl std::fmt::Display for StaticCompensateError {
@@ -272,7 +272,7 @@ impl std::fmt::Display for StaticCompensateError {
             }
             Self::Table(e) => write!(f, "table refused: {e}"),
             Self::Config(e) => write!(f, "rows too far apart for the firmware's settings: {e}"),
-            Self::Io(e) => write!(f, "{e}"),
+            Self::Write(kind) => write!(f, "cannot write the compensated rows: {kind}"),
         }
     }
 }
@@ -466,19 +466,22 @@ pub fn compensate_static<W: std::io::Write>(
 ) -> Result<FlagSummary, StaticCompensateError> {
     let columns: Vec<&[f64]> = log.axes.iter().map(|a| a.accel_g.as_slice()).collect();
     let out = compensate_samples(table, &log.time_s, &log.temp_c, &columns)?;
-    let io = |e: &dyn std::fmt::Display| StaticCompensateError::Io(e.to_string());
+    let io = |e: csv::Error| match e.into_kind() {
+        csv::ErrorKind::Io(e) => StaticCompensateError::Write(e.kind()),
+        _ => StaticCompensateError::Write(std::io::ErrorKind::InvalidData),
+    };
     let summary = FlagSummary::of(out.status.iter().copied());
     let mut wr = csv::Writer::from_writer(w);
     let mut head = vec!["time_s".to_string(), "temp_c".to_string()];
     head.extend(log.axes.iter().map(|a| a.name.clone()));
     head.push("status".to_string());
-    wr.write_record(&head).map_err(|e| io(&e))?;
+    wr.write_record(&head).map_err(io)?;
     for i in 0..log.rows() {
         let mut rec = vec![format!("{:.6}", log.time_s[i]), format!("{:.4}", log.temp_c[i])];
         rec.extend(out.accel_g.iter().map(|a| format!("{:.9}", a[i])));
         rec.push(static_status(out.status[i]));
-        wr.write_record(&rec).map_err(|e| io(&e))?;
+        wr.write_record(&rec).map_err(io)?;
     }
-    wr.flush().map_err(|e| io(&e))?;
+    wr.flush().map_err(|e| StaticCompensateError::Write(e.kind()))?;
     Ok(summary)
 }

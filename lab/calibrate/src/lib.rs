@@ -22,6 +22,7 @@ pub mod export;
 pub mod fit;
 pub mod lint;
 pub mod metrics;
+pub mod output_error;
 pub mod peers;
 pub mod report;
 pub(crate) mod select;
@@ -34,6 +35,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use crate::fit::{fit, split_programs, FitError, FitOptions, Fitted};
+use crate::output_error::OutputError;
 use crate::report::{
     evaluate, plot_residual_vs_time, plot_sf_vs_temp, Evaluation, FitSummary, Report, Timings, METRIC_TEXT,
 };
@@ -117,8 +119,8 @@ pub enum CalibrateError {
     Toml(toml::ser::Error),
     /// An accelerometer axis other than `ax`, `ay` or `az`.
     Axis(String),
-    /// An output file, folder or plot that could not be written, with the system's message.
-    Output(String),
+    /// An output file, folder or plot that could not be written.
+    Output(output_error::OutputError),
 }
 
 impl fmt::Display for CalibrateError {
@@ -134,7 +136,7 @@ impl fmt::Display for CalibrateError {
             Self::PeerFit(e) => write!(f, "peers: {e}"),
             Self::Coverage(e) => write!(f, "{e}"),
             Self::Toml(e) => write!(f, "{e}"),
-            Self::Output(m) => f.write_str(m),
+            Self::Output(e) => write!(f, "{e}"),
         }
     }
 }
@@ -190,9 +192,10 @@ impl fmt::Display for NotComputable {
     }
 }
 
-/// An output that could not be written, as a [`CalibrateError::Output`].
-fn output(e: impl fmt::Display) -> CalibrateError {
-    CalibrateError::Output(e.to_string())
+impl From<output_error::OutputError> for CalibrateError {
+    fn from(e: output_error::OutputError) -> Self {
+        Self::Output(e)
+    }
 }
 
 /// Fit and evaluate an in-memory log (no files).
@@ -375,9 +378,11 @@ pub fn cycling_export_axis(cal: &Calibration, axis: &str) -> Result<export::Expo
 /// # Errors
 /// Encoding or I/O errors.
 pub fn write_table(dir: &Path, stem: &str, table: &qfa_thermal::Table) -> Result<(), CalibrateError> {
-    std::fs::write(dir.join(format!("{stem}.toml")), table_toml(table)?).map_err(output)?;
+    let toml_path = dir.join(format!("{stem}.toml"));
+    std::fs::write(&toml_path, table_toml(table)?).map_err(OutputError::io(&toml_path))?;
     let bin = table.to_bytes().map_err(CalibrateError::Table)?;
-    std::fs::write(dir.join(format!("{stem}.bin")), bin).map_err(output)
+    let bin_path = dir.join(format!("{stem}.bin"));
+    Ok(std::fs::write(&bin_path, bin).map_err(OutputError::io(&bin_path))?)
 }
 
 /// Calibrate an in-memory log and write every output file into `out`.
@@ -391,14 +396,13 @@ pub fn calibrate_into(
     read_s: f64,
 ) -> Result<Calibration, CalibrateError> {
     let t0 = Instant::now();
-    std::fs::create_dir_all(out).map_err(|e| output(format!("{}: {e}", out.display())))?;
+    std::fs::create_dir_all(out).map_err(OutputError::io(out))?;
     let mut cal = calibrate_log(log, opts)?;
     write_table(out, "table", &cal.table.hysteresis)?;
     write_table(out, "table_simple", &cal.table.simple)?;
     // One accelerometer: a one-axis export, so the shared fields need opts.exports.range_c.
     let one = cycling_export_axis(&cal, opts.axis.as_deref().unwrap_or("ax"))?;
-    cal.exports =
-        export::write_exports(out, &[one], &opts.exports).map_err(|e| output(format!("{}: {e}", out.display())))?;
+    cal.exports = export::write_exports(out, &[one], &opts.exports).map_err(OutputError::io(out))?;
     let t = Instant::now();
     if opts.plots {
         let held = format!(
@@ -407,8 +411,9 @@ pub fn calibrate_into(
             cal.report.fit_programs.join(", ")
         );
         let title = if opts.title.is_empty() { held } else { format!("{}, {held}", opts.title) };
-        plot_sf_vs_temp(&out.join("sf_vs_temp.png"), &title, &cal.eval).map_err(output)?;
-        plot_residual_vs_time(&out.join("residual_vs_time.png"), &title, &cal.eval).map_err(output)?;
+        let (sf, residual) = (out.join("sf_vs_temp.png"), out.join("residual_vs_time.png"));
+        plot_sf_vs_temp(&sf, &title, &cal.eval).map_err(OutputError::plot(&sf))?;
+        plot_residual_vs_time(&residual, &title, &cal.eval).map_err(OutputError::plot(&residual))?;
     }
     cal.report.timings_s.plots = t.elapsed().as_secs_f64();
     cal.report.timings_s.read = read_s;
@@ -425,12 +430,14 @@ pub fn calibrate_into(
     let axis = opts.axis.as_deref().unwrap_or("ax");
     let notes: Vec<String> = cal.exports.notes.iter().map(ToString::to_string).collect();
     let v = verdict::cycling_verdict(&cal.report, axis, &opts.limits, &files, &notes);
-    let json = qfa_report::verdict::json_with_verdict(&v, &cal.report).map_err(output)?;
-    std::fs::write(out.join("report.json"), json).map_err(output)?;
+    let json_path = out.join("report.json");
+    let json = qfa_report::verdict::json_with_verdict(&v, &cal.report).map_err(OutputError::json(&json_path))?;
+    std::fs::write(&json_path, json).map_err(OutputError::io(&json_path))?;
     let md = format!("# Calibration report\n\n{}{}", v.markdown(), report::markdown(&cal.report));
-    std::fs::write(out.join("report.md"), md).map_err(output)?;
+    let md_path = out.join("report.md");
+    std::fs::write(&md_path, md).map_err(OutputError::io(&md_path))?;
     cal.verdict = Some(v);
-    page(&cal, out, opts).map_err(output)?.write(out).map_err(output)?;
+    page(&cal, out, opts).map_err(OutputError::io(out))?.write(out).map_err(OutputError::io(out))?;
     Ok(cal)
 }
 

@@ -268,7 +268,7 @@ fn branch_color(b: Branch) -> plotters::style::RGBColor {
     }
 }
 
-type PlotResult = Result<(), Box<dyn std::error::Error>>;
+type PlotResult = Result<(), qfa_report::plot_legend::DrawError>;
 
 /// Room above the data for a legend of `entries` lines, in data units: the y range grows
 /// by 12 % of the data's span per entry (a legend line is about 20 px of a 370–430 px

@@ -5,13 +5,11 @@ use std::fmt;
 use std::io;
 use std::path::PathBuf;
 
-use plotters::prelude::{BitMapBackend, DrawingAreaErrorKind, DrawingBackend};
-
 use qfa_calibrate::static_cal::StaticCalError;
 use qfa_log::channels::ChannelsError;
 
-/// What drawing a residual plot fails with.
-type PlotError = DrawingAreaErrorKind<<BitMapBackend<'static> as DrawingBackend>::ErrorType>;
+// What drawing a residual plot fails with.
+use qfa_report::plot_legend::DrawError as PlotError;
 
 /// Why a discovery run failed.
 ///
@@ -69,16 +67,8 @@ pub enum DiscoverError {
     /// `report.html` not written: a plot it embeds could not be read, or the page not written
     /// (the error names the file).
     Page(io::Error),
-    /// A residual plot that could not be drawn.
+    /// A residual plot (its chart, title or legend) that could not be drawn.
     Plot(PlotError),
-    /// A residual plot whose legend could not be drawn: the legend's error as text, since
-    /// it comes as a `Box<dyn Error>`, which is neither an `Error` itself nor `Send`.
-    PlotLegend {
-        /// The plot's file name.
-        file: String,
-        /// The legend's error.
-        message: String,
-    },
 }
 
 impl fmt::Display for DiscoverError {
@@ -96,7 +86,6 @@ impl fmt::Display for DiscoverError {
             Self::Table(_) => f.write_str("encoding table.bin")?,
             Self::Page(_) => f.write_str("writing report.html")?,
             Self::Plot(e) => write!(f, "{e}")?,
-            Self::PlotLegend { file, message } => write!(f, "{file}: {message}")?,
         }
         if f.alternate() {
             let mut cause = std::error::Error::source(self);
@@ -120,7 +109,7 @@ impl std::error::Error for DiscoverError {
             Self::Toml { source, .. } => Some(source),
             Self::Json { source, .. } => Some(source),
             Self::Table(e) => Some(e),
-            Self::UnknownStart(_) | Self::NoModel { .. } | Self::PlotLegend { .. } => None,
+            Self::UnknownStart(_) | Self::NoModel { .. } => None,
         }
     }
 }

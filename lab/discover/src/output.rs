@@ -362,8 +362,7 @@ fn plots(ch: &Channels, r: &Report, dir: &Path, scope: Scope<'_>) -> Result<Vec<
                     p,
                     &format!("{name}, every bin from a fit that never saw it: {title}"),
                     &entries,
-                )
-                .map_err(|e| DiscoverError::PlotLegend { file: file_name.clone(), message: e.to_string() })?;
+                )?;
                 let mut chart = ChartBuilder::on(&area)
                     .margin(8)
                     .x_label_area_size(30)

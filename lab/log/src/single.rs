@@ -39,8 +39,8 @@ pub enum SingleError {
     MissingColumn(&'static str),
     /// Malformed rows: the first [`SingleError::KEPT`] with their lines, and the count.
     Rows {
-        /// `line N: what`, in line order.
-        errors: Vec<String>,
+        /// Each row's line and why, in line order.
+        errors: Vec<(u64, SingleError)>,
         /// How many rows were malformed in all.
         total: usize,
     },
@@ -65,7 +65,12 @@ impl fmt::Display for SingleError {
         match self {
             Self::Csv(e) => write!(f, "{e}")?,
             Self::MissingColumn(c) => write!(f, "single-channel log without a `{c}` column")?,
-            Self::Rows { errors, total } => write!(f, "{total} malformed row(s):\n{}", errors.join("\n"))?,
+            Self::Rows { errors, total } => {
+                write!(f, "{total} malformed row(s):")?;
+                for (line, e) in errors {
+                    write!(f, "\nline {line}: {e:#}")?;
+                }
+            }
             Self::TooFewRows(n) => write!(f, "too few rows: {n} with a reading, {MIN_ROWS} needed")?,
             Self::Field { column, parse: Some(_) } => f.write_str(column)?,
             Self::Field { column, parse: None } => write!(f, "{column}: not finite")?,
@@ -142,7 +147,7 @@ pub(crate) fn read_single_from<R: Read>(mut reader: R) -> Result<SingleLog, Sing
             Err(e) => {
                 total += 1;
                 if errors.len() < SingleError::KEPT {
-                    errors.push(format!("line {line}: {e:#}"));
+                    errors.push((line, e));
                 }
             }
         }

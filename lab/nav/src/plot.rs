@@ -12,18 +12,14 @@ use qfa_report::plot_legend::{heading, Entry, Mark};
 
 type PlotResult = Result<(), PlotError>;
 
-/// The drawing errors of the bitmap backend (plotters does not re-export its error type).
-type DrawError = DrawingAreaErrorKind<<BitMapBackend<'static> as DrawingBackend>::ErrorType>;
+use qfa_report::plot_legend::DrawError;
 
 /// Why a plot could not be drawn or written.
 #[derive(Debug)]
 #[non_exhaustive]
 pub enum PlotError {
-    /// plotters could not draw or write the PNG.
+    /// plotters could not draw or write the PNG (a chart, or a panel's title and legend).
     Draw(DrawError),
-    /// A panel's title and legend could not be drawn. `qfa_report`'s legend returns a
-    /// `Box<dyn Error>` (not `Send`, and not itself an `Error`), so its message is kept.
-    Legend(String),
     /// No finite value to plot.
     NoFiniteValues,
 }
@@ -32,7 +28,6 @@ impl fmt::Display for PlotError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Self::Draw(e) => write!(f, "{e}"),
-            Self::Legend(m) => f.write_str(m),
             Self::NoFiniteValues => f.write_str("no finite values to plot"),
         }
     }
@@ -43,7 +38,7 @@ impl std::error::Error for PlotError {
         match self {
             // Printed as it is (above): its cause comes next.
             Self::Draw(e) => e.source(),
-            Self::Legend(_) | Self::NoFiniteValues => None,
+            Self::NoFiniteValues => None,
         }
     }
 }
@@ -52,11 +47,6 @@ impl From<DrawError> for PlotError {
     fn from(e: DrawError) -> Self {
         Self::Draw(e)
     }
-}
-
-/// [`PlotError::Legend`] from the legend's boxed error.
-fn legend(e: Box<dyn std::error::Error>) -> PlotError {
-    PlotError::Legend(e.to_string())
 }
 
 const COLORS: [RGBColor; 5] = [
@@ -87,7 +77,7 @@ fn panel(
     let xmax = t_h.last().copied().unwrap_or(1.0);
     let entries: Vec<Entry> =
         series.iter().enumerate().map(|(k, (name, _))| (name.clone(), color_of(name, k), Mark::Line)).collect();
-    let body = heading(area, title, &entries).map_err(legend)?;
+    let body = heading(area, title, &entries)?;
     let mut chart = ChartBuilder::on(&body)
         .margin(10)
         .x_label_area_size(35)
@@ -151,7 +141,7 @@ pub fn plot_distributions(path: &Path, title: &str, x_desc: &str, series: &[(Str
     let mut entries: Vec<Entry> =
         series.iter().enumerate().map(|(k, (name, _))| (name.clone(), color_of(name, k), Mark::Line)).collect();
     entries.push(("dot: the curve's median".to_string(), BLACK, Mark::Dot));
-    let body = heading(&root, title, &entries).map_err(legend)?;
+    let body = heading(&root, title, &entries)?;
     let mut chart = ChartBuilder::on(&body)
         .margin(15)
         .x_label_area_size(40)

@@ -17,7 +17,12 @@ pub enum Mark {
 /// One legend entry: the series' name, colour and mark.
 pub type Entry = (String, RGBColor, Mark);
 
-type DrawResult = Result<(), Box<dyn std::error::Error>>;
+/// Why a drawing on a bitmap failed (plotters does not name this type): the backend's
+/// error (writing or encoding the image) or the drawing area's own. It is `Send` and
+/// `Sync`, so error enums can hold it.
+pub type DrawError = DrawingAreaErrorKind<<BitMapBackend<'static> as DrawingBackend>::ErrorType>;
+
+type DrawResult = Result<(), DrawError>;
 
 /// Height of one line of a heading, px (a 16-px title or a 14-px legend row).
 pub const LINE_PX: u32 = 22;
@@ -59,7 +64,7 @@ pub fn heading<'a>(
     area: &DrawingArea<BitMapBackend<'a>, Shift>,
     title: &str,
     entries: &[Entry],
-) -> Result<DrawingArea<BitMapBackend<'a>, Shift>, Box<dyn std::error::Error>> {
+) -> Result<DrawingArea<BitMapBackend<'a>, Shift>, DrawError> {
     let lines = 1 + rows_needed(area, entries);
     let (head, chart) = area.split_vertically(LINE_PX * lines + 4);
     let (title_area, legend_area) = head.split_vertically(LINE_PX);

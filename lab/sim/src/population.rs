@@ -349,7 +349,7 @@ fn write_truth(dir: &Path, truth: &PopulationTruth) -> Result<(), PopulationErro
 
 fn write(dir: &Path, name: &str, text: &str) -> Result<(), PopulationError> {
     let p = dir.join(name);
-    let io = |path: &Path, e: std::io::Error| PopulationError::Io { path: path.to_path_buf(), message: e.to_string() };
+    let io = |path: &Path, e: std::io::Error| PopulationError::Io(qfa_log::IoFault::new(path, &e));
     if let Some(parent) = p.parent() {
         std::fs::create_dir_all(parent).map_err(|e| io(parent, e))?;
     }
@@ -361,12 +361,7 @@ fn write(dir: &Path, name: &str, text: &str) -> Result<(), PopulationError> {
 #[non_exhaustive]
 pub enum PopulationError {
     /// A file or folder that could not be written.
-    Io {
-        /// The file or folder.
-        path: std::path::PathBuf,
-        /// The system's message.
-        message: String,
-    },
+    Io(qfa_log::IoFault),
     /// The truth did not serialize.
     Toml(toml::ser::Error),
 }
@@ -374,7 +369,7 @@ pub enum PopulationError {
 impl std::fmt::Display for PopulationError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            Self::Io { path, message } => write!(f, "{}: {message}", path.display()),
+            Self::Io(e) => write!(f, "{e}"),
             Self::Toml(e) => write!(f, "{e}"),
         }
     }

@@ -155,8 +155,7 @@ impl Program {
     /// # Errors
     /// A message naming the line.
     pub fn from_file(path: &Path, id: &str) -> Result<Self, ProfileError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| ProfileError::Io { path: path.to_path_buf(), message: e.to_string() })?;
+        let text = std::fs::read_to_string(path).map_err(|e| ProfileError::Io(qfa_log::IoFault::new(path, &e)))?;
         let mut pts: Vec<(f64, f64)> = Vec::new();
         for (i, line) in text.lines().enumerate() {
             let l = line.trim();
@@ -193,12 +192,7 @@ impl Program {
 #[non_exhaustive]
 pub enum ProfileError {
     /// The file could not be read.
-    Io {
-        /// The file.
-        path: std::path::PathBuf,
-        /// The system's message.
-        message: String,
-    },
+    Io(qfa_log::IoFault),
     /// Line 1 is not `time_s,temp_c`.
     Header {
         /// What line 1 holds.
@@ -228,7 +222,7 @@ pub enum ProfileError {
 impl std::fmt::Display for ProfileError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            Self::Io { path, message } => write!(f, "{}: {message}", path.display()),
+            Self::Io(e) => write!(f, "{e}"),
             Self::Header { got } => write!(f, "line 1: header must be `time_s,temp_c`, got `{got}`"),
             Self::Row { line, got } => write!(f, "line {line}: expected `time_s,temp_c`, got `{got}`"),
             Self::OutOfRange { line } => write!(f, "line {line}: value out of range"),
@@ -260,7 +254,7 @@ mod tests {
         assert_eq!(read("time_s,temp_c\n0,20\n0,21\n").unwrap_err(), ProfileError::Time { line: 3 });
         assert_eq!(read("time_s,temp_c\n0,20\n").unwrap_err(), ProfileError::TooFewPoints);
         assert!(read("time_s,temp_c\n0,20\n60,21\n").is_ok());
-        assert!(matches!(Program::from_file(&dir.join("absent.csv"), "p"), Err(ProfileError::Io { .. })));
+        assert!(matches!(Program::from_file(&dir.join("absent.csv"), "p"), Err(ProfileError::Io(_))));
         let _ = std::fs::remove_dir_all(&dir);
     }
 

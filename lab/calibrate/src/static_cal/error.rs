@@ -52,11 +52,11 @@ pub enum StaticCalError {
     /// A fit failed.
     Fit(String, FitError),
     /// A figure could not be computed.
-    Figure(String),
+    Figure(FigureFault),
     /// The coverage of the fitted rows could not be formed.
     Coverage(crate::coverage::CoverageError),
     /// Writing an output failed.
-    Io(String),
+    Output(crate::output_error::OutputError),
 }
 
 impl StaticCalError {
@@ -103,7 +103,7 @@ impl fmt::Display for StaticCalError {
             Self::Fit(axis, e) => write!(f, "fit of {axis}: {e}"),
             Self::Figure(s) => write!(f, "figure not computable: {s}"),
             Self::Coverage(e) => write!(f, "figure not computable: coverage: {e}"),
-            Self::Io(s) => write!(f, "{s}"),
+            Self::Output(e) => write!(f, "{e}"),
         }
     }
 }
@@ -168,6 +168,56 @@ impl fmt::Display for SplitFault {
                 "{outside} of the {later} rows after the highest temperature lie outside the {lo_c:.1}..{hi_c:.1} °C \
                  the rows before it cover: the later leg would score an extrapolation"
             ),
+        }
+    }
+}
+
+impl From<crate::output_error::OutputError> for StaticCalError {
+    fn from(e: crate::output_error::OutputError) -> Self {
+        Self::Output(e)
+    }
+}
+
+/// Why a static calibration's figure could not be computed.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum FigureFault {
+    /// No held-out row had a model output.
+    NoModelOutput {
+        /// The figure (axis and model).
+        figure: String,
+    },
+    /// A residual that is not finite.
+    NonFinite {
+        /// The figure (axis and model).
+        figure: String,
+    },
+    /// No candidate model could be fitted in cross-validation.
+    NoCandidate {
+        /// The axis.
+        axis: String,
+        /// The fold whose training rows were tried; `None`: every row.
+        fold: Option<usize>,
+        /// The first candidate refused (its name) and why.
+        first_refusal: Option<Box<(String, FitError)>>,
+    },
+}
+
+impl fmt::Display for FigureFault {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::NoModelOutput { figure } => write!(f, "{figure}: no held-out row had a model output"),
+            Self::NonFinite { figure } => write!(f, "{figure}: non-finite residual"),
+            Self::NoCandidate { axis, fold, first_refusal } => {
+                write!(f, "{axis}: no candidate model could be fitted in cross-validation")?;
+                if let Some(k) = fold {
+                    write!(f, " inside the training rows of fold {k}")?;
+                }
+                match first_refusal.as_deref() {
+                    Some((name, e)) => write!(f, " (first refusal: {name}: {e})"),
+                    None => f.write_str(" (first refusal: none)"),
+                }
+            }
         }
     }
 }

@@ -86,7 +86,7 @@ use qfa_log::static_log::{AxisColumn, StaticLog};
 pub use crate::static_cal::choice::is_one_branch;
 pub(crate) use crate::static_cal::choice::CV_FOLDS;
 pub use crate::static_cal::choice::{candidates, ONE_BRANCH};
-pub use crate::static_cal::error::{SplitFault, StaticCalError};
+pub use crate::static_cal::error::{FigureFault, SplitFault, StaticCalError};
 pub use crate::static_cal::holdout::Holdout;
 pub use crate::static_cal::holdout::{check_coverage, resolve_holdout, Scheme};
 pub use crate::static_cal::output::{
@@ -142,13 +142,13 @@ pub(crate) fn range(v: &[f64]) -> (f64, f64) {
 /// No residual, or a non-finite one.
 pub fn score(resid: &[f64], time_s: &[f64], what: &str) -> Result<Score, StaticCalError> {
     if resid.is_empty() {
-        return Err(StaticCalError::Figure(format!("{what}: no held-out row had a model output")));
+        return Err(StaticCalError::Figure(FigureFault::NoModelOutput { figure: what.to_string() }));
     }
     let bins: Vec<f64> =
         crate::metrics::time_bin_means(resid.iter().copied(), time_s, BIN_S).into_iter().map(|b| b.1).collect();
     let out = Score { rms_mg: rms(resid) * 1e3, binned_mg: rms(&bins) * 1e3 };
     if !out.rms_mg.is_finite() || !out.binned_mg.is_finite() {
-        return Err(StaticCalError::Figure(format!("{what}: non-finite residual")));
+        return Err(StaticCalError::Figure(FigureFault::NonFinite { figure: what.to_string() }));
     }
     Ok(out)
 }
@@ -276,10 +276,11 @@ pub fn calibrate_static(
 struct AxisChoice {
     /// Per set, the best (CV RMS in g, structure).
     best: Vec<Option<(f64, StaticStructure)>>,
-    /// The table's refusals: every candidate that could not be fitted on every row, and why.
-    refused: Vec<String>,
+    /// The table's refusals: every candidate (its name) that could not be fitted on every
+    /// row, and why.
+    refused: Vec<(String, crate::fit::FitError)>,
     /// Per set, the first refusal, so a fold where nothing could be fitted says why.
-    fold_refused: Vec<Option<String>>,
+    fold_refused: Vec<Option<(String, crate::fit::FitError)>>,
 }
 
 impl AxisChoice {
@@ -287,12 +288,12 @@ impl AxisChoice {
     /// candidate could be fitted there.
     fn chosen(&self, s: usize, axis: &str) -> Result<(f64, StaticStructure), StaticCalError> {
         self.best[s].ok_or_else(|| {
-            StaticCalError::Figure(format!(
-                "{axis}: no candidate model could be fitted in cross-validation{} (first refusal: {})",
-                if s == 0 { String::new() } else { format!(" inside the training rows of fold {s}") },
-                if s == 0 { self.refused.first() } else { self.fold_refused[s].as_ref() }
-                    .map_or("none", String::as_str)
-            ))
+            StaticCalError::Figure(FigureFault::NoCandidate {
+                axis: axis.to_string(),
+                fold: (s > 0).then_some(s),
+                first_refusal: if s == 0 { self.refused.first() } else { self.fold_refused[s].as_ref() }
+                    .map(|r| Box::new(r.clone())),
+            })
         })
     }
 }
@@ -335,9 +336,9 @@ fn choose_structures(run: &Run<'_>, progress: bool) -> Vec<AxisChoice> {
                 match cv_rms(&run.series(a), &traces, &set.rows, run.k_sel, opts) {
                     Ok(r) if choice.best[s].is_none_or(|(b, _)| r < b) => choice.best[s] = Some((r, *st)),
                     Ok(_) => {}
-                    Err(e) if s == 0 => choice.refused.push(format!("{}: {e}", st.name())),
+                    Err(e) if s == 0 => choice.refused.push((st.name(), e)),
                     Err(e) => {
-                        choice.fold_refused[s].get_or_insert_with(|| format!("{}: {e}", st.name()));
+                        choice.fold_refused[s].get_or_insert_with(|| (st.name(), e));
                     }
                 }
             }
@@ -394,7 +395,7 @@ fn calibrate_axis(run: &Run<'_>, a: usize, choice: AxisChoice) -> Result<AxisOut
         simple: fig(&ho.peers[2], &ho.t, "simple", &ho.peer_err[2])?,
         none: fig(&ho.none, &ho.t, "none", &None)?,
         clamped_rows: ho.clamped,
-        refused_candidates: choice.refused,
+        refused_candidates: choice.refused.iter().map(|(name, e)| format!("{name}: {e}")).collect(),
     };
     Ok(AxisOutcome { report, fit, exported, plot: (ax.name.clone(), before_mg, after_mg) })
 }

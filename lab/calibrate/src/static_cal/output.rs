@@ -1,13 +1,14 @@
 //! Static calibration's outputs: `report.md`, `table.toml`, the bias plot, `report.html`
 //! and the per-axis export coefficients.
 
-use std::fmt;
 use std::path::Path;
 
 use qfa_thermal::model::Branch;
 
 use crate::static_cal::*;
 use qfa_report::verdict::Verdict;
+
+use crate::output_error::OutputError;
 
 /// The report in Markdown: the scheme, the held-out table (mg, per axis) and the table's
 /// own figures.
@@ -140,7 +141,7 @@ pub fn calibrate_static_into(
     let cal = crate::static_cal::calibrate_static(log, opts, progress)?;
     write_static_table(out, &cal)?;
     let ex = crate::export::write_exports(out, &export_axes(&cal), exports)
-        .map_err(|e| StaticCalError::Io(format!("{}: {e}", out.display())))?;
+        .map_err(|e| StaticCalError::Output(OutputError::io(out)(e)))?;
     let files = static_files(plots, &ex.written);
     let notes: Vec<String> = notes.iter().cloned().chain(ex.notes.iter().map(ToString::to_string)).collect();
     let v = crate::verdict::static_verdict(&cal, limits, &files, &notes);
@@ -154,10 +155,12 @@ pub fn calibrate_static_into(
 /// # Errors
 /// I/O or encoding errors.
 pub fn write_static_table(out: &Path, cal: &StaticCalibration) -> Result<(), StaticCalError> {
-    let io = |e: &dyn fmt::Display| StaticCalError::Io(format!("{}: {e}", out.display()));
-    std::fs::create_dir_all(out).map_err(|e| io(&e))?;
-    std::fs::write(out.join("table.toml"), static_table_toml(cal).map_err(|e| io(&e))?).map_err(|e| io(&e))?;
-    std::fs::write(out.join("table.bin"), cal.table.to_bytes().map_err(|e| io(&e))?).map_err(|e| io(&e))?;
+    let (toml_path, bin_path) = (out.join("table.toml"), out.join("table.bin"));
+    std::fs::create_dir_all(out).map_err(OutputError::io(out))?;
+    std::fs::write(&toml_path, static_table_toml(cal).map_err(OutputError::toml(out))?)
+        .map_err(OutputError::io(&toml_path))?;
+    std::fs::write(&bin_path, cal.table.to_bytes().map_err(OutputError::table(out))?)
+        .map_err(OutputError::io(&bin_path))?;
     Ok(())
 }
 
@@ -168,11 +171,11 @@ pub fn write_static_table(out: &Path, cal: &StaticCalibration) -> Result<(), Sta
 /// # Errors
 /// I/O or encoding errors.
 pub fn write_static(out: &Path, cal: &StaticCalibration, verdict: &Verdict) -> Result<(), StaticCalError> {
-    let io = |e: &dyn fmt::Display| StaticCalError::Io(format!("{}: {e}", out.display()));
     write_static_table(out, cal)?;
-    let json = qfa_report::verdict::json_with_verdict(verdict, &cal.report).map_err(|e| io(&e))?;
-    std::fs::write(out.join("report.json"), json).map_err(|e| io(&e))?;
-    std::fs::write(out.join("report.md"), with_verdict(verdict, &markdown(&cal.report))).map_err(|e| io(&e))?;
+    let (json_path, md_path) = (out.join("report.json"), out.join("report.md"));
+    let json = qfa_report::verdict::json_with_verdict(verdict, &cal.report).map_err(OutputError::json(&json_path))?;
+    std::fs::write(&json_path, json).map_err(OutputError::io(&json_path))?;
+    std::fs::write(&md_path, with_verdict(verdict, &markdown(&cal.report))).map_err(OutputError::io(&md_path))?;
     Ok(())
 }
 
@@ -196,7 +199,11 @@ pub(crate) const BIAS_PLOT: &str = "bias_vs_temp.png";
 ///
 /// # Errors
 /// Drawing or file errors.
-pub(crate) fn plot_bias_vs_temp(path: &Path, title: &str, rows: &PlotRows) -> Result<(), Box<dyn std::error::Error>> {
+pub(crate) fn plot_bias_vs_temp(
+    path: &Path,
+    title: &str,
+    rows: &PlotRows,
+) -> Result<(), qfa_report::plot_legend::DrawError> {
     use plotters::prelude::*;
     qfa_report::plot_font::register();
     let na = rows.axes.len().max(1);
@@ -296,11 +303,11 @@ pub(crate) fn write_static_page_as(
     verdict: &Verdict,
     command: Option<&str>,
 ) -> Result<(), StaticCalError> {
-    let io = |e: &dyn fmt::Display| StaticCalError::Io(format!("{}: {e}", out.display()));
     let r = &cal.report;
     if plots {
         let title = format!("bias against temperature per axis; held-out scheme {}", r.holdout.scheme);
-        plot_bias_vs_temp(&out.join(BIAS_PLOT), &title, &cal.plot).map_err(|e| io(&e))?;
+        let plot = out.join(BIAS_PLOT);
+        plot_bias_vs_temp(&plot, &title, &cal.plot).map_err(OutputError::plot(&plot))?;
     }
     let mut p = match command {
         Some(c) => qfa_report::html_report::Page::with_command("Static calibration report", c),
@@ -314,9 +321,10 @@ pub(crate) fn write_static_page_as(
     table_section(&mut p, r);
     if plots {
         p.section("Plots");
-        p.image(&out.join(BIAS_PLOT), &bias_plot_caption(verdict)).map_err(|e| io(&e))?;
+        let plot = out.join(BIAS_PLOT);
+        p.image(&plot, &bias_plot_caption(verdict)).map_err(OutputError::io(&plot))?;
     }
-    p.write(out).map_err(|e| io(&e))?;
+    p.write(out).map_err(OutputError::io(out))?;
     Ok(())
 }
 
