@@ -116,3 +116,22 @@ fn no_lab_crate_is_over_8000_lines() {
     let over = lab_crates_over(root, 8000);
     assert!(over.is_empty(), "lab crates over 8 000 lines:\n{}", over.join("\n"));
 }
+
+/// Every lab library crate is built at opt-level 2 in the dev profile (`.cargo/config.toml`):
+/// the lab's tests spend their time in these crates' numerics, several times slower at
+/// opt-level 0 (discovery's unit tests took 123 s instead of 30 when its new crate was left
+/// off the list).
+#[test]
+fn every_lab_library_is_optimized_in_the_tests() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("the repository");
+    let config = std::fs::read_to_string(root.join(".cargo/config.toml")).expect(".cargo/config.toml");
+    let optimized = |name: &str| config.contains(&format!("[profile.dev.package.{name}]\nopt-level = 2\n"));
+    let missing: Vec<String> = resolved(root)
+        .into_iter()
+        .filter(|(_, (folder, _))| folder.starts_with("lab/") || folder == "rng")
+        .map(|(name, _)| name)
+        .filter(|name| !optimized(name))
+        .collect();
+    assert!(optimized("qfa-calibrate"), "the check reads .cargo/config.toml wrongly");
+    assert!(missing.is_empty(), "lab crates at opt-level 0 in the tests (add them to .cargo/config.toml): {missing:?}");
+}
