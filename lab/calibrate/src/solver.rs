@@ -38,33 +38,64 @@ pub fn lstsq(x: &[f64], p: usize, y: &[f64]) -> Result<LsResult, FitError> {
 ///
 /// # Errors
 /// [`FitError::TooFewRows`] when `A` has fewer rows than columns or none.
-pub fn lstsq_matrix(mut m: DMatrix<f64>, y: &DVector<f64>) -> Result<LsResult, FitError> {
-    let (n, p) = m.shape();
-    if n < p || p == 0 {
-        return Err(FitError::TooFewRows { rows: n, unknowns: p });
+pub fn lstsq_matrix(m: DMatrix<f64>, y: &DVector<f64>) -> Result<LsResult, FitError> {
+    Factored::new(m)?.solve(y)
+}
+
+/// A design matrix factored once, for several right-hand sides (a static log's axes share
+/// their rows, so their fits share the design): [`lstsq_matrix`] is [`Factored::new`] then
+/// [`Factored::solve`], so one right-hand side solved either way gives the same bits.
+pub struct Factored {
+    /// `A` with each column divided by its norm.
+    scaled: DMatrix<f64>,
+    /// The column norms.
+    norms: Vec<f64>,
+    qr: nalgebra::linalg::QR<f64, nalgebra::Dyn, nalgebra::Dyn>,
+    svd: nalgebra::linalg::SVD<f64, nalgebra::Dyn, nalgebra::Dyn>,
+}
+
+impl Factored {
+    /// Scale `m`'s columns, then its Householder QR and the SVD of the `p × p` factor.
+    ///
+    /// # Errors
+    /// [`FitError::TooFewRows`] when `m` has fewer rows than columns or none.
+    pub fn new(mut m: DMatrix<f64>) -> Result<Self, FitError> {
+        let (n, p) = m.shape();
+        if n < p || p == 0 {
+            return Err(FitError::TooFewRows { rows: n, unknowns: p });
+        }
+        let norms: Vec<f64> = (0..p).map(|j| m.column(j).norm().max(f64::MIN_POSITIVE)).collect();
+        for (j, nj) in norms.iter().enumerate() {
+            m.column_mut(j).scale_mut(1.0 / nj);
+        }
+        // Householder QR first, then the SVD of the small `p × p` factor: `A = Q·R` has the
+        // singular values of `R`, and `Qᵀ·y` carries everything of `y` the fit can reach. The
+        // SVD of the tall `A` itself (with its `n × p` left vectors) cost 40 % of a static
+        // calibration; this costs one Householder pass over `A`.
+        let qr = m.clone().qr();
+        let svd = qr.r().svd(true, true);
+        Ok(Self { scaled: m, norms, qr, svd })
     }
-    let norms: Vec<f64> = (0..p).map(|j| m.column(j).norm().max(f64::MIN_POSITIVE)).collect();
-    for (j, nj) in norms.iter().enumerate() {
-        m.column_mut(j).scale_mut(1.0 / nj);
+
+    /// The solution for the right-hand side `y` (one value per row of `A`).
+    ///
+    /// # Errors
+    /// [`FitError::TooFewRows`] when the SVD cannot solve it.
+    pub fn solve(&self, y: &DVector<f64>) -> Result<LsResult, FitError> {
+        let (n, p) = self.scaled.shape();
+        let mut qty = y.clone();
+        self.qr.q_tr_mul(&mut qty);
+        let qty = qty.rows(0, p).into_owned();
+        let svd = &self.svd;
+        let cond = svd.singular_values.max() / svd.singular_values.min();
+        let c = svd
+            .solve(&qty, 1e-12 * svd.singular_values.max())
+            .map_err(|_| FitError::TooFewRows { rows: n, unknowns: p })?;
+        let resid = &self.scaled * &c - y;
+        let rms = (resid.norm_squared() / n as f64).sqrt();
+        let coef = c.iter().zip(&self.norms).map(|(ci, nj)| ci / nj).collect();
+        Ok(LsResult { coef, cond, rms, rows: n })
     }
-    // Householder QR first, then the SVD of the small `p × p` factor: `A = Q·R` has the
-    // singular values of `R`, and `Qᵀ·y` carries everything of `y` the fit can reach. The
-    // SVD of the tall `A` itself (with its `n × p` left vectors) cost 40 % of a static
-    // calibration; this costs one Householder pass over `A`.
-    let qr = m.clone().qr();
-    let r = qr.r();
-    let mut qty = y.clone();
-    qr.q_tr_mul(&mut qty);
-    let qty = qty.rows(0, p).into_owned();
-    let svd = r.svd(true, true);
-    let cond = svd.singular_values.max() / svd.singular_values.min();
-    let c = svd
-        .solve(&qty, 1e-12 * svd.singular_values.max())
-        .map_err(|_| FitError::TooFewRows { rows: n, unknowns: p })?;
-    let resid = &m * &c - y;
-    let rms = (resid.norm_squared() / n as f64).sqrt();
-    let coef = c.iter().zip(&norms).map(|(ci, nj)| ci / nj).collect();
-    Ok(LsResult { coef, cond, rms, rows: n })
 }
 
 /// A least-squares problem `min ‖A·c − y‖` reduced to `p` equations by the Householder QR

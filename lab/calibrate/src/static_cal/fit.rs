@@ -8,6 +8,7 @@ use qfa_thermal::model::{Branch, MAX_BIAS_POINTS};
 use qfa_thermal::{AxisModel, BiasGrid, Extensions, ScaleFactor};
 
 use crate::fit::*;
+use crate::solver::Factored;
 use qfa_log::pairing::Trace;
 use qfa_log::replay::{FirmwareRows, RowInstant};
 
@@ -297,35 +298,115 @@ pub fn fit_static_traced(
     grid_points: usize,
     block: usize,
 ) -> Result<StaticFit, FitError> {
-    let structure = &traces.structure;
-    let deadband = traces.deadband;
-    let base = &traces.base;
-    let g = grid_points.clamp(2, MAX_BIAS_POINTS);
-    let idx = training_rows(traces, train, g, block)?;
-    let reference_g = idx.iter().map(|&i| series.accel_g[i]).sum::<f64>() / idx.len() as f64;
-    let (start, step) = grid_span(base, &idx, g);
-    let c = structure.shape.unknowns(g);
-    let nb = structure.branches.unknowns(c);
-    let basis = node_basis(structure.shape, g, c);
-    let (xb, yb, max_rate) = design_blocks(series, traces, &idx, &basis, reference_g, start, step, block);
-    let (ls, block_rms_g) = solve_blocks(xb, yb, structure, g)?;
-    let (heating, cooling) = branch_nodes(structure, &basis, &ls.coef, c);
-    let (creep_gain, play_weight) = extension_weights(structure, &ls.coef, nb);
-    let axis = AxisModel {
-        scale: ScaleFactor::simple(T0_C as f32, crate::compensate::STATIC_LSB_PER_G, 0.0),
-        bias: BiasGrid {
-            t_start_c: start as f32,
-            t_step_c: step as f32,
-            deadband_c_per_min: deadband,
-            heating_g: f32v(&heating),
-            cooling_g: f32v(&cooling),
-            residual_rms_g: residual_for_table(block_rms_g),
-        },
-        rate_limit_c_per_min: (max_rate * 1.25).clamp(0.5, 20.0) as f32,
-        ext: structure.ext(creep_gain, play_weight),
-    };
-    table_of(axis.clone())?;
-    Ok(StaticFit { axis, structure: *structure, ls, reference_g })
+    StaticDesign::new(traces, train, grid_points, block)?.fit(series.accel_g)
+}
+
+/// The half of a static fit that does not depend on the axis: one structure's block
+/// equations on one set of training rows, factored once. A log's axes share their rows'
+/// times and temperatures, so every axis (and [`StaticDesign::fit`] on each) shares this:
+/// the same bits as [`fit_static_traced`] per axis, one design and one factorization
+/// instead of one per axis.
+pub struct StaticDesign<'t> {
+    traces: &'t StaticTraces,
+    /// The training rows with a valid trace.
+    idx: Vec<usize>,
+    /// Grid nodes.
+    g: usize,
+    /// The grid's first node and step, °C.
+    start: f64,
+    step: f64,
+    /// Node values of the curve's unknowns.
+    basis: Vec<Vec<f64>>,
+    /// The block equations' row ranges in `idx`.
+    blocks: Vec<(usize, usize)>,
+    /// Block equations and all equations (with the regularisers).
+    block_rows: usize,
+    rows: usize,
+    /// The equations, row-major (for the block RMS).
+    xb: Vec<f64>,
+    /// Largest rate seen, °C/min.
+    max_rate: f64,
+    solver: Factored,
+}
+
+impl<'t> StaticDesign<'t> {
+    /// The block equations of `traces`' structure on the rows where `train` is true.
+    ///
+    /// # Errors
+    /// As [`fit_static_axis`], but for a table the root crate refuses (that depends on the
+    /// axis: [`StaticDesign::fit`]).
+    pub fn new(traces: &'t StaticTraces, train: &[bool], grid_points: usize, block: usize) -> Result<Self, FitError> {
+        let structure = &traces.structure;
+        let g = grid_points.clamp(2, MAX_BIAS_POINTS);
+        let idx = training_rows(traces, train, g, block)?;
+        let (start, step) = grid_span(&traces.base, &idx, g);
+        let c = structure.shape.unknowns(g);
+        let basis = node_basis(structure.shape, g, c);
+        let mut starts = vec![0];
+        starts.extend((1..idx.len()).filter(|&k| idx[k] != idx[k - 1] + 1));
+        let blocks = crate::fit::block_ranges(idx.len(), block, &starts);
+        let (mut xb, max_rate) = design_blocks(traces, &idx, &blocks, &basis, start, step);
+        let block_rows = blocks.len();
+        let p = structure.unknowns(g);
+        let mut zeros = Vec::new();
+        match structure.shape {
+            CurveShape::Nodes => structure.branches.push_regularisers(&mut xb, &mut zeros, p, g),
+            // A cubic needs no smoothing rows; two branches are tied coefficient by
+            // coefficient (weakly, as the nodes are), so a branch no row reaches follows the other.
+            CurveShape::Cubic if structure.branches == BranchMode::Free => push_branch_ties(&mut xb, &mut zeros, p, c),
+            CurveShape::Cubic => {}
+        }
+        let rows = block_rows + zeros.len();
+        if rows < p {
+            return Err(FitError::TooFewRows { rows, unknowns: p });
+        }
+        let solver = Factored::new(nalgebra::DMatrix::from_row_slice(rows, p, &xb))?;
+        Ok(Self { traces, idx, g, start, step, basis, blocks, block_rows, rows, xb, max_rate, solver })
+    }
+
+    /// The fit of one axis's output `accel_g` (one value per row of the series).
+    ///
+    /// # Errors
+    /// A solve that fails, or a table the root crate refuses.
+    pub fn fit(&self, accel_g: &[f64]) -> Result<StaticFit, FitError> {
+        let (structure, g) = (&self.traces.structure, self.g);
+        let reference_g = self.idx.iter().map(|&i| accel_g[i]).sum::<f64>() / self.idx.len() as f64;
+        // The output's block means, less `reference_g`, then zeros for the regularisers.
+        let mut yb = Vec::with_capacity(self.rows);
+        for &(s, e) in &self.blocks {
+            let y_sum: f64 = self.idx[s..e].iter().fold(0.0, |acc, &i| acc + (accel_g[i] - reference_g));
+            yb.push(y_sum / (e - s) as f64);
+        }
+        yb.resize(self.rows, 0.0);
+        let ls = self.solver.solve(&nalgebra::DVector::from_vec(yb.clone()))?;
+        let p = structure.unknowns(g);
+        let ss: f64 = (0..self.block_rows)
+            .map(|k| {
+                let fit: f64 = (0..p).map(|j| self.xb[k * p + j] * ls.coef[j]).sum();
+                (yb[k] - fit).powi(2)
+            })
+            .sum();
+        let block_rms_g = (ss / self.block_rows.max(1) as f64).sqrt();
+        let c = structure.shape.unknowns(g);
+        let nb = structure.branches.unknowns(c);
+        let (heating, cooling) = branch_nodes(structure, &self.basis, &ls.coef, c);
+        let (creep_gain, play_weight) = extension_weights(structure, &ls.coef, nb);
+        let axis = AxisModel {
+            scale: ScaleFactor::simple(T0_C as f32, crate::compensate::STATIC_LSB_PER_G, 0.0),
+            bias: BiasGrid {
+                t_start_c: self.start as f32,
+                t_step_c: self.step as f32,
+                deadband_c_per_min: self.traces.deadband,
+                heating_g: f32v(&heating),
+                cooling_g: f32v(&cooling),
+                residual_rms_g: residual_for_table(block_rms_g),
+            },
+            rate_limit_c_per_min: (self.max_rate * 1.25).clamp(0.5, 20.0) as f32,
+            ext: structure.ext(creep_gain, play_weight),
+        };
+        table_of(axis.clone())?;
+        Ok(StaticFit { axis, structure: *structure, ls, reference_g })
+    }
 }
 
 /// The training rows with a valid trace, refused when they are too few for the
@@ -386,26 +467,23 @@ fn node_basis(shape: CurveShape, g: usize, c: usize) -> Vec<Vec<f64>> {
         .collect()
 }
 
-/// One equation per block of `block` consecutive training rows (a block never spans a gap
-/// in the training set): the block means of the rows' design (row-major, the structure's
-/// unknowns per row) and of the output less `reference_g`, and the largest rate seen,
-/// °C/min.
+/// One equation per block of consecutive training rows (`blocks`, ranges in `idx`; a block
+/// never spans a gap in the training set): the block means of the rows' design (row-major,
+/// the structure's unknowns per row), and the largest rate seen, °C/min. The output's
+/// block means are the axis's own ([`StaticDesign::fit`]).
 ///
 /// Each row's design has a few nonzero entries (two hat weights per curve through the
 /// basis, the branch step, the extensions' columns), so only those are summed into the
 /// block's equation: the same sums, in the same order, as averaging the full rows, without
 /// forming an `n × p` matrix (that and its average were 40 % of a static calibration).
-#[allow(clippy::too_many_arguments)]
 fn design_blocks(
-    series: &StaticSeries<'_>,
     traces: &StaticTraces,
     idx: &[usize],
+    blocks: &[(usize, usize)],
     basis: &[Vec<f64>],
-    reference_g: f64,
     start: f64,
     step: f64,
-    block: usize,
-) -> (Vec<f64>, Vec<f64>, f64) {
+) -> (Vec<f64>, f64) {
     let structure = &traces.structure;
     let (base, creep, play) = (&traces.base, &traces.creep, &traces.play);
     let g = basis.len();
@@ -417,15 +495,11 @@ fn design_blocks(
         basis.iter().map(|bj| bj.iter().copied().enumerate().filter(|(_, v)| *v != 0.0).collect()).collect();
     let mut row = vec![0.0; p];
     let mut touched: Vec<usize> = Vec::with_capacity(p);
-    let mut xb = Vec::new();
-    let mut yb = Vec::new();
+    let mut xb = Vec::with_capacity(blocks.len() * p);
     let mut max_rate: f64 = 0.0;
-    let mut starts = vec![0];
-    starts.extend((1..idx.len()).filter(|&k| idx[k] != idx[k - 1] + 1));
     let mut acc = vec![0.0; p];
-    for (s, e) in crate::fit::block_ranges(idx.len(), block, &starts) {
+    for &(s, e) in blocks {
         acc.iter_mut().for_each(|v| *v = 0.0);
-        let mut y_sum = 0.0;
         for &i in &idx[s..e] {
             let (t, b) = (base.model_temp_c[i], base.branch[i]);
             // The hat weights on the two nodes around T (heating curve, then cooling), onto
@@ -475,45 +549,12 @@ fn design_blocks(
                 row[j] = 0.0;
             }
             touched.clear();
-            y_sum += series.accel_g[i] - reference_g;
             max_rate = max_rate.max(base.rate_c_per_min[i].abs());
         }
         let n = (e - s) as f64;
         xb.extend(acc.iter().map(|v| v / n));
-        yb.push(y_sum / n);
     }
-    (xb, yb, max_rate)
-}
-
-/// Add the structure's smoothing and tie rows to the block equations and solve.
-/// The solve, and the RMS residual of its block-averaged rows (the regularisers left out):
-/// the error the table leaves at the blocks' time scale, with the white noise averaged
-/// down, which the table records as its `residual_rms_g`.
-fn solve_blocks(
-    mut xb: Vec<f64>,
-    mut yb: Vec<f64>,
-    structure: &StaticStructure,
-    g: usize,
-) -> Result<(LsResult, f64), FitError> {
-    let p = structure.unknowns(g);
-    let c = structure.shape.unknowns(g);
-    let rows = yb.len();
-    match structure.shape {
-        CurveShape::Nodes => structure.branches.push_regularisers(&mut xb, &mut yb, p, g),
-        // A cubic needs no smoothing rows; two branches are tied coefficient by coefficient
-        // (weakly, as the nodes are), so a branch no row reaches follows the other.
-        CurveShape::Cubic if structure.branches == BranchMode::Free => push_branch_ties(&mut xb, &mut yb, p, c),
-        CurveShape::Cubic => {}
-    }
-    let ls = lstsq(&xb, p, &yb)?;
-    let ss: f64 = (0..rows)
-        .map(|k| {
-            let fit: f64 = (0..p).map(|j| xb[k * p + j] * ls.coef[j]).sum();
-            (yb[k] - fit).powi(2)
-        })
-        .sum();
-    let rms = (ss / rows.max(1) as f64).sqrt();
-    Ok((ls, rms))
+    (xb, max_rate)
 }
 
 /// The heating and cooling node values from the solved coefficients.

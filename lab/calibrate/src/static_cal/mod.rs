@@ -78,7 +78,7 @@ use qfa_thermal::Input;
 use crate::fit::{fit_static_traced, table_of_axes, StaticFit, StaticSeries, StaticStructure, StaticTraces};
 use crate::metrics::rms;
 use crate::peers::{ardupilot_reason, PeerKind, Poly};
-use crate::static_cal::choice::cv_rms;
+use crate::static_cal::choice::cv_rms_axes;
 use qfa_log::pairing::Trace;
 use qfa_log::replay::FirmwareRows;
 use qfa_log::static_log::{AxisColumn, StaticLog};
@@ -311,7 +311,7 @@ fn candidate_union(run: &Run<'_>) -> Vec<StaticStructure> {
     union
 }
 
-/// Per axis, the structure with the lowest blocked cross-validation RMS ([`cv_rms`]) on each
+/// Per axis, the structure with the lowest blocked cross-validation RMS ([`cv_rms_axes`]) on each
 /// row set, and the refusals. The traces depend on the temperatures only, so each
 /// structure's are computed once for every axis and set.
 fn choose_structures(run: &Run<'_>, progress: bool) -> Vec<AxisChoice> {
@@ -326,14 +326,17 @@ fn choose_structures(run: &Run<'_>, progress: bool) -> Vec<AxisChoice> {
     let mut choices: Vec<AxisChoice> = (0..na)
         .map(|_| AxisChoice { best: vec![None; sets.len()], refused: Vec::new(), fold_refused: vec![None; sets.len()] })
         .collect();
+    let axes: Vec<StaticSeries<'_>> = (0..na).map(|a| run.series(a)).collect();
     for st in &union {
         let traces = StaticTraces::new(&run.series(0), st, opts.deadband_c_per_min);
-        for (a, choice) in choices.iter_mut().enumerate() {
-            for (s, set) in sets.iter().enumerate() {
-                if !run.candidates(s).contains(st) {
-                    continue;
-                }
-                match cv_rms(&run.series(a), &traces, &set.rows, run.k_sel, opts) {
+        for (s, set) in sets.iter().enumerate() {
+            if !run.candidates(s).contains(st) {
+                continue;
+            }
+            // Every axis at once: they share the rows, so each fold's design and its
+            // factorization (each axis's figure is the one its own fit gives).
+            for (choice, cv) in choices.iter_mut().zip(cv_rms_axes(&axes, &traces, &set.rows, run.k_sel, opts)) {
+                match cv {
                     Ok(r) if choice.best[s].is_none_or(|(b, _)| r < b) => choice.best[s] = Some((r, *st)),
                     Ok(_) => {}
                     Err(e) if s == 0 => choice.refused.push((st.name(), e)),
@@ -342,8 +345,8 @@ fn choose_structures(run: &Run<'_>, progress: bool) -> Vec<AxisChoice> {
                     }
                 }
             }
-            pb.inc(1);
         }
+        pb.inc(na as u64);
     }
     pb.finish_and_clear();
     choices
