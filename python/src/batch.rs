@@ -9,6 +9,7 @@ use pyo3::prelude::*;
 
 use qfa_batch::unit::UnitOptions;
 use qfa_batch::{input, BatchError as LabBatchError, BatchOptions, Shard};
+use qfa_calibrate::output_error::OutputError;
 use qfa_calibrate::static_cal::{Holdout, StaticCalOptions};
 use qfa_report::verdict::{LimitsChoice, STATIC_KEYS};
 
@@ -24,7 +25,7 @@ impl Kind for LabBatchError {
             Self::Unit(_) => "Unit",
             Self::Shard { .. } => "Shard",
             Self::NothingToMerge { .. } | Self::MergeClash { .. } => "Merge",
-            Self::Io { .. } | Self::Json { .. } | Self::Table { .. } | Self::Toml { .. } | Self::Plot { .. } => "Io",
+            Self::Io { .. } | Self::Json { .. } | Self::Output(_) => "Io",
             _ => "Other",
         }
     }
@@ -93,5 +94,5 @@ pub fn batch_merge(py: Python<'_>, out: PathBuf, limits: Option<PathBuf>) -> PyR
     let unit = options(py, "auto", limits)?;
     let (_, fleet) = py.detach(|| qfa_batch::merge(&out, &unit)).map_err(|e| err(py, &e))?;
     serde_json::to_string_pretty(&fleet)
-        .map_err(|source| err(py, &LabBatchError::Json { path: out.join("fleet.json"), source }))
+        .map_err(|e| err(py, &LabBatchError::Output(OutputError::json(&out.join("fleet.json"))(e))))
 }

@@ -6,6 +6,7 @@ use std::fmt;
 use std::path::PathBuf;
 
 use qfa_calibrate::fit::FitError;
+use qfa_calibrate::output_error::OutputError;
 use qfa_calibrate::static_cal::StaticCalError;
 
 /// Why a batch (or one of its units) could not go on.
@@ -49,41 +50,24 @@ pub enum BatchError {
         /// Their place.
         place: usize,
     },
-    /// A file or folder could not be read or written.
+    /// A file or folder could not be read (a unit's log, the manifest, a shard's folder or
+    /// its `unit.json`).
     Io {
         /// The file or folder.
         path: PathBuf,
         /// The system's error.
         source: std::io::Error,
     },
-    /// A result file could not be written or read as JSON.
+    /// A shard's `unit.json` could not be read as JSON.
     Json {
         /// The file.
         path: PathBuf,
-        /// The parser's or writer's error.
+        /// The parser's error.
         source: serde_json::Error,
     },
-    /// A table could not be encoded (the root crate's encoder refused it).
-    Table {
-        /// The unit's folder.
-        path: PathBuf,
-        /// The encoder's error.
-        source: qfa_thermal::table::Error,
-    },
-    /// A table could not be written as TOML.
-    Toml {
-        /// The unit's folder.
-        path: PathBuf,
-        /// The writer's error.
-        source: toml::ser::Error,
-    },
-    /// A plot could not be drawn.
-    Plot {
-        /// The image file.
-        path: PathBuf,
-        /// The plotting library's error.
-        source: Box<dyn std::error::Error + Send + Sync>,
-    },
+    /// An output could not be written (the file, and the error it came from; the same type
+    /// calibration's outputs fail with).
+    Output(OutputError),
     /// The worker threads could not be started.
     ThreadPool(rayon::ThreadPoolBuildError),
 }
@@ -173,20 +157,9 @@ pub enum UnitFault {
     },
 }
 
-impl BatchError {
-    /// `map_err` for an I/O error on `path`.
-    pub(crate) fn io(path: &std::path::Path) -> impl FnOnce(std::io::Error) -> Self + '_ {
-        move |source| Self::Io { path: path.to_path_buf(), source }
-    }
-
-    /// `map_err` for a JSON error on `path`.
-    pub(crate) fn json(path: &std::path::Path) -> impl FnOnce(serde_json::Error) -> Self + '_ {
-        move |source| Self::Json { path: path.to_path_buf(), source }
-    }
-
-    /// `map_err` for a plot that could not be drawn into `path`.
-    pub(crate) fn plot(path: &std::path::Path) -> impl FnOnce(Box<dyn std::error::Error + Send + Sync>) -> Self + '_ {
-        move |source| Self::Plot { path: path.to_path_buf(), source }
+impl From<OutputError> for BatchError {
+    fn from(e: OutputError) -> Self {
+        Self::Output(e)
     }
 }
 
@@ -212,9 +185,7 @@ impl fmt::Display for BatchError {
             ),
             Self::Io { path, source } => write!(f, "{}: {source}", path.display()),
             Self::Json { path, source } => write!(f, "{}: {source}", path.display()),
-            Self::Table { path, source } => write!(f, "{}: {source}", path.display()),
-            Self::Toml { path, source } => write!(f, "{}: {source}", path.display()),
-            Self::Plot { path, source } => write!(f, "{}: {source}", path.display()),
+            Self::Output(e) => write!(f, "{e}"),
             Self::ThreadPool(e) => write!(f, "thread pool: {e}"),
         }
     }
@@ -295,7 +266,7 @@ impl std::error::Error for BatchError {
         match self {
             Self::Io { source, .. } => source.source(),
             Self::Json { source, .. } => source.source(),
-            Self::Toml { source, .. } => source.source(),
+            Self::Output(e) => std::error::Error::source(e).and_then(std::error::Error::source),
             Self::ThreadPool(e) => e.source(),
             _ => None,
         }

@@ -30,6 +30,7 @@ pub use self::error::{BatchError, ChamberFault, ManifestFault, SerialFault, Unit
 use self::fleet::{Decision, Fleet};
 use self::input::UnitInput;
 use self::unit::{calibrate_unit, UnitOptions, UnitOutcome, UnitResult};
+use qfa_calibrate::output_error::OutputError;
 use qfa_report::verdict::Outcome;
 
 /// A table's bytes as `table.bin` holds them, and the CRC-32 its header carries (taken
@@ -38,7 +39,7 @@ pub(crate) fn encoded(
     table: &qfa_thermal::Table,
     dir: &Path,
 ) -> Result<(heapless::Vec<u8, { qfa_thermal::table::MAX_TABLE_BYTES }>, u32), BatchError> {
-    let bin = table.to_bytes().map_err(|source| BatchError::Table { path: dir.to_path_buf(), source })?;
+    let bin = table.to_bytes().map_err(OutputError::table(dir))?;
     let mut crc = [0u8; 4];
     crc.copy_from_slice(&bin[12..qfa_thermal::table::HEADER_LEN]);
     Ok((bin, u32::from_le_bytes(crc)))
@@ -117,7 +118,7 @@ fn progress_bar(len: usize, show: bool) -> indicatif::ProgressBar {
 /// The thread pool cannot be built, or a file cannot be written. A unit that fails is a
 /// result, not an error.
 pub fn run(units: &[UnitInput], out: &Path, opts: &BatchOptions) -> Result<BatchRun, BatchError> {
-    std::fs::create_dir_all(out).map_err(|source| BatchError::Io { path: out.to_path_buf(), source })?;
+    std::fs::create_dir_all(out).map_err(OutputError::io(out))?;
     let mine: Vec<(usize, &UnitInput)> =
         units.iter().enumerate().filter(|(i, _)| opts.shard.is_none_or(|s| i % s.n == s.k)).collect();
     let pool = rayon::ThreadPoolBuilder::new().num_threads(opts.threads).build().map_err(BatchError::ThreadPool)?;
@@ -127,7 +128,7 @@ pub fn run(units: &[UnitInput], out: &Path, opts: &BatchOptions) -> Result<Batch
         mine.par_iter()
             .map(|&(i, u)| {
                 let dir = out.join(&u.serial);
-                std::fs::create_dir_all(&dir).map_err(|source| BatchError::Io { path: dir.clone(), source })?;
+                std::fs::create_dir_all(&dir).map_err(OutputError::io(&dir))?;
                 let r = calibrate_unit(u, &dir, &opts.unit);
                 match &r.outcome {
                     UnitOutcome::Failed { .. } => failed.fetch_add(1, Ordering::Relaxed),
@@ -138,8 +139,8 @@ pub fn run(units: &[UnitInput], out: &Path, opts: &BatchOptions) -> Result<Batch
                 };
                 let path = dir.join(UNIT_JSON);
                 let json = serde_json::to_string_pretty(&IndexedResult { index: i, result: r.clone() })
-                    .map_err(|source| BatchError::Json { path: path.clone(), source })?;
-                std::fs::write(&path, json + "\n").map_err(|source| BatchError::Io { path, source })?;
+                    .map_err(OutputError::json(&path))?;
+                std::fs::write(&path, json + "\n").map_err(OutputError::io(&path))?;
                 pb.set_message(format!(
                     "{} not calibrated, {} failing a limit",
                     failed.load(Ordering::Relaxed),
@@ -179,17 +180,15 @@ pub(crate) fn finish_fleet(
                 match prior::prior_table(&c.normal, &fleet.population, span, opts.cal.deadband_c_per_min) {
                     Ok(table) => {
                         let (bin, crc) = encoded(&table, &dir)?;
-                        let toml = toml::to_string_pretty(&table)
-                            .map_err(|source| BatchError::Toml { path: dir.clone(), source })?;
-                        let io = |path: PathBuf| move |source| BatchError::Io { path, source };
+                        let toml = toml::to_string_pretty(&table).map_err(OutputError::toml(&dir))?;
                         let bin_path = dir.join("table_prior.bin");
-                        std::fs::write(&bin_path, &bin).map_err(io(bin_path.clone()))?;
+                        std::fs::write(&bin_path, &bin).map_err(OutputError::io(&bin_path))?;
                         let toml_path = dir.join("table_prior.toml");
                         std::fs::write(
                             &toml_path,
                             format!("# qfa-thermal table from the population prior (the lab guide's \"Production batches\")\n{toml}"),
                         )
-                        .map_err(io(toml_path.clone()))?;
+                        .map_err(OutputError::io(&toml_path))?;
                         let share = prior::covered_share(&c.normal, span);
                         Some(prior::PriorUse {
                             table: "table_prior.bin".into(),

@@ -10,6 +10,7 @@ use serde::Serialize;
 use super::fleet::{Decision, Fleet, FleetUnit};
 use super::unit::{UnitOutcome, UnitResult};
 use super::BatchError;
+use qfa_calibrate::output_error::OutputError;
 use qfa_report::html_report::{escape, Page};
 use qfa_report::verdict::Measured;
 
@@ -60,11 +61,11 @@ pub(crate) fn write_certificate(
     f: &FleetUnit,
     limits_from: &str,
 ) -> Result<(), BatchError> {
-    std::fs::create_dir_all(dir).map_err(BatchError::io(dir))?;
+    std::fs::create_dir_all(dir).map_err(OutputError::io(dir))?;
     let cert = certificate_of(r, f, limits_from);
     let json_path = dir.join("certificate.json");
-    let json = serde_json::to_string_pretty(&cert).map_err(BatchError::json(&json_path))?;
-    std::fs::write(&json_path, json + "\n").map_err(BatchError::io(&json_path))?;
+    let json = serde_json::to_string_pretty(&cert).map_err(OutputError::json(&json_path))?;
+    std::fs::write(&json_path, json + "\n").map_err(OutputError::io(&json_path))?;
     // A certificate reads the same however the batch was run (one process, shards, a
     // cluster): it names the batch, not the command line of the process that merged it.
     let mut p = Page::with_command(
@@ -80,7 +81,7 @@ pub(crate) fn write_certificate(
     }
     p.section("Files").links(&files);
     let html = dir.join("certificate.html");
-    std::fs::write(&html, p.html()).map_err(BatchError::io(&html))?;
+    std::fs::write(&html, p.html()).map_err(OutputError::io(&html))?;
     Ok(())
 }
 
@@ -190,8 +191,8 @@ pub(crate) fn write_fleet(
     limits_from: &str,
 ) -> Result<(), BatchError> {
     let json_path = out.join("fleet.json");
-    let json = serde_json::to_string_pretty(fleet).map_err(BatchError::json(&json_path))?;
-    std::fs::write(&json_path, json + "\n").map_err(BatchError::io(&json_path))?;
+    let json = serde_json::to_string_pretty(fleet).map_err(OutputError::json(&json_path))?;
+    std::fs::write(&json_path, json + "\n").map_err(OutputError::io(&json_path))?;
     let plots = replace_plots(out, fleet, results)?;
     let mut p = Page::new("Fleet");
     p.raw(&verdict_html(fleet, limits_from));
@@ -200,7 +201,7 @@ pub(crate) fn write_fleet(
     prior_section(&mut p, fleet);
     units_section(&mut p, fleet, results);
     let html = out.join("fleet.html");
-    std::fs::write(&html, p.html()).map_err(BatchError::io(&html))?;
+    std::fs::write(&html, p.html()).map_err(OutputError::io(&html))?;
     Ok(())
 }
 
@@ -213,14 +214,14 @@ fn replace_plots(out: &Path, fleet: &Fleet, results: &[UnitResult]) -> Result<bo
     for name in ["fleet_figures.png", "fleet_held_out.png"] {
         let path = out.join(name);
         match std::fs::remove_file(&path) {
-            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(BatchError::io(&path)(e)),
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(OutputError::io(&path)(e).into()),
             _ => {}
         }
     }
     if plots {
         let (figures, held_out) = (out.join("fleet_figures.png"), out.join("fleet_held_out.png"));
-        plot_figures(&figures, fleet).map_err(BatchError::plot(&figures))?;
-        plot_held_out(&held_out, fleet, results).map_err(BatchError::plot(&held_out))?;
+        plot_figures(&figures, fleet).map_err(OutputError::plot(&figures))?;
+        plot_held_out(&held_out, fleet, results).map_err(OutputError::plot(&held_out))?;
     }
     Ok(plots)
 }
@@ -288,8 +289,8 @@ fn figures_section(p: &mut Page, out: &Path, fleet: &Fleet, plots: bool) -> Resu
     ));
     if plots {
         let (figures, held_out) = (out.join("fleet_figures.png"), out.join("fleet_held_out.png"));
-        p.image(&figures, "each figure's robust distance, one dot per unit").map_err(BatchError::io(&figures))?;
-        p.image(&held_out, "held-out bias RMS per axis against its limit").map_err(BatchError::io(&held_out))?;
+        p.image(&figures, "each figure's robust distance, one dot per unit").map_err(OutputError::io(&figures))?;
+        p.image(&held_out, "held-out bias RMS per axis against its limit").map_err(OutputError::io(&held_out))?;
     } else {
         p.warning("No unit was calibrated, so no figure can be compared: the verdict above says why.");
     }
@@ -363,7 +364,7 @@ fn units_section(p: &mut Page, fleet: &Fleet, results: &[UnitResult]) {
     p.links(&links);
 }
 
-fn plot_figures(path: &Path, fleet: &Fleet) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
+fn plot_figures(path: &Path, fleet: &Fleet) -> Result<(), qfa_report::plot_legend::DrawError> {
     use plotters::prelude::*;
     qfa_report::plot_font::register();
     let rows = fleet.stats.len().max(1);
@@ -410,11 +411,7 @@ fn plot_figures(path: &Path, fleet: &Fleet) -> Result<(), Box<dyn std::error::Er
     Ok(())
 }
 
-fn plot_held_out(
-    path: &Path,
-    fleet: &Fleet,
-    results: &[UnitResult],
-) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
+fn plot_held_out(path: &Path, fleet: &Fleet, results: &[UnitResult]) -> Result<(), qfa_report::plot_legend::DrawError> {
     use plotters::prelude::*;
     qfa_report::plot_font::register();
     let caps: Vec<_> = fleet.capability.iter().filter(|c| c.limit == "held_out_bias_mg").collect();
