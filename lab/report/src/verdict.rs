@@ -430,6 +430,8 @@ pub enum LimitsError {
         file: PathBuf,
         /// What the system said, as its kind (`io::Error` is neither `Clone` nor `PartialEq`).
         kind: std::io::ErrorKind,
+        /// The OS error code, when the system gave one (printed as the system words it).
+        os_code: Option<i32>,
     },
     /// It is not TOML of the documented keys (unknown keys are refused: a typo would
     /// otherwise leave a default in force).
@@ -471,7 +473,10 @@ pub enum LimitsError {
 impl fmt::Display for LimitsError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Self::Read { file, kind } => write!(f, "{}: {kind}", file.display()),
+            Self::Read { file, os_code: Some(code), .. } => {
+                write!(f, "{}: {}", file.display(), std::io::Error::from_raw_os_error(*code))
+            }
+            Self::Read { file, kind, os_code: None } => write!(f, "{}: {kind}", file.display()),
             Self::Parse { file: Some(file), error } => write!(f, "{}: {error}", file.display()),
             Self::Parse { file: None, error } => write!(f, "{error}"),
             Self::OutOfRange { key, value, lo, hi, unit, hint } => {
@@ -520,7 +525,11 @@ impl Default for Limits {
 
 /// The text of a limits file.
 fn read_limits(path: &Path) -> Result<String, LimitsError> {
-    std::fs::read_to_string(path).map_err(|e| LimitsError::Read { file: path.to_path_buf(), kind: e.kind() })
+    std::fs::read_to_string(path).map_err(|e| LimitsError::Read {
+        file: path.to_path_buf(),
+        kind: e.kind(),
+        os_code: e.raw_os_error(),
+    })
 }
 
 impl Limits {

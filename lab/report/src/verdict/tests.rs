@@ -93,3 +93,14 @@ fn defaults_never_change_the_exit_status_a_limits_file_does() {
     assert!(c.enforced_failure(&v));
     assert!(!c.enforced_failure(&verdict(&[1.0])));
 }
+
+/// A limits file that is not there is refused naming it, in the system's words (as
+/// `std::io::Error` says it), and typed: the file and the error's kind.
+#[test]
+fn a_missing_limits_file_is_named_with_what_the_system_said() {
+    let path = std::env::temp_dir().join("qfa-no-such-limits-file.toml");
+    let system = std::fs::read_to_string(&path).expect_err("the file is not there");
+    let e = Limits::from_file(&path).expect_err("refused");
+    assert!(matches!(&e, LimitsError::Read { file, kind: std::io::ErrorKind::NotFound, .. } if *file == path), "{e:?}");
+    assert_eq!(e.to_string(), format!("{}: {system}", path.display()));
+}
