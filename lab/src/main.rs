@@ -205,7 +205,7 @@ fn calibrate_cmd(a: CalibrateArgs) -> Result<(), CliError> {
                 )));
             }
             let opts = static_cal::StaticCalOptions { holdout: a.holdout, ..Default::default() };
-            let cal = qfa_calibrate::autopilot_cal::calibrate_autopilot(&l, &a.out, &opts, !a.no_plots, true, &limits)
+            let cal = qfa_autopilot::calibrate_autopilot(&l, &a.out, &opts, !a.no_plots, true, &limits)
                 .map_err(|e| e.to_string())?;
             finish(&cal.verdict, &limits, &a.out)
         }

@@ -10,14 +10,14 @@ use qfa_log::spelling::{CalibrateOption, Spelling};
 use qfa_log::static_log::G0_MPS2;
 
 /// The first ArduPilot file: only `INS_TCAL1_ENABLE` (see [`write_exports`]).
-pub(crate) const ARDUPILOT_ENABLE_FILE: &str = "ardupilot_tcal_1_enable.parm";
+pub const ARDUPILOT_ENABLE_FILE: &str = "ardupilot_tcal_1_enable.parm";
 /// The second ArduPilot file: the range and the coefficients.
-pub(crate) const ARDUPILOT_VALUES_FILE: &str = "ardupilot_tcal_2_values.parm";
+pub const ARDUPILOT_VALUES_FILE: &str = "ardupilot_tcal_2_values.parm";
 /// The PX4 file.
-pub(crate) const PX4_FILE: &str = "px4_tc.params";
+pub const PX4_FILE: &str = "px4_tc.params";
 /// Every file [`write_exports`] manages in an output directory (older names included, so a
 /// file from an earlier run never sits beside this run's as if it were current).
-pub(crate) const EXPORT_FILES: [&str; 4] =
+pub const EXPORT_FILES: [&str; 4] =
     [PX4_FILE, ARDUPILOT_ENABLE_FILE, ARDUPILOT_VALUES_FILE, "ardupilot_tcal.parm"];
 
 /// The range ArduPilot accepts for `INS_TCALn_TMIN` / `TMAX`, °C (their `@Range: -70 80`

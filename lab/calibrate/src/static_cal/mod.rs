@@ -92,7 +92,7 @@ pub use crate::static_cal::holdout::{check_coverage, resolve_holdout, Scheme};
 pub use crate::static_cal::output::{
     calibrate_static_into, export_axes, markdown, static_table_toml, write_static, write_static_table, StaticRun,
 };
-pub(crate) use crate::static_cal::output::{static_files, with_verdict, write_static_page};
+pub use crate::static_cal::output::{static_files, with_verdict, write_static_page};
 pub use crate::static_cal::report::{AxisReport, HoldoutReport, Score, StaticReport};
 pub use crate::static_cal::report::{ExportedPeers, Figure, FoldReport, PlotRows, StaticCalibration};
 

@@ -98,7 +98,7 @@ pub(crate) const STATIC_FILES: [&str; 5] = ["table.bin", "table.toml", "report.j
 /// The files a static calibration writes into its folder, in the verdict's order: the
 /// table, the reports, the plot (with `plots`), then the exports written.
 #[must_use]
-pub(crate) fn static_files(plots: bool, exports: &[&str]) -> Vec<String> {
+pub fn static_files(plots: bool, exports: &[&str]) -> Vec<String> {
     let mut f: Vec<String> = STATIC_FILES.iter().map(|s| (*s).to_string()).collect();
     if plots {
         f.push(BIAS_PLOT.to_string());
@@ -181,7 +181,7 @@ pub fn write_static(out: &Path, cal: &StaticCalibration, verdict: &Verdict) -> R
 
 /// A Markdown report with the verdict after its title line.
 #[must_use]
-pub(crate) fn with_verdict(verdict: &Verdict, md: &str) -> String {
+pub fn with_verdict(verdict: &Verdict, md: &str) -> String {
     match md.split_once('\n') {
         Some((title, rest)) if title.starts_with("# ") => {
             format!("{title}\n\n{}{}", verdict.markdown(), rest.trim_start())
@@ -283,7 +283,7 @@ pub(crate) fn plot_bias_vs_temp(
 ///
 /// # Errors
 /// Drawing, encoding or I/O errors.
-pub(crate) fn write_static_page(
+pub fn write_static_page(
     out: &Path,
     cal: &StaticCalibration,
     plots: bool,

@@ -1,6 +1,6 @@
 //! Calibration of an autopilot's own log (PX4 ULog, ArduPilot DataFlash): each
 //! accelerometer instance the log holds is checked ([`qfa_log::autopilot::check`]),
-//! calibrated as a static log ([`super::static_cal`]) into its own folder `instance{I}/`,
+//! calibrated as a static log ([`qfa_calibrate::static_cal`]) into its own folder `instance{I}/`,
 //! and exported to that stack's parameter file with the identity the log gives it, so
 //! nothing is typed:
 //!
@@ -22,12 +22,12 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use crate::export::{
+use qfa_calibrate::export::{
     export_texts, ExportNote, ExportOptions, ARDUPILOT_ENABLE_FILE, ARDUPILOT_VALUES_FILE, EXPORT_FILES, PX4_FILE,
 };
-use crate::output_error::OutputError;
-use crate::static_cal::{self, Figure, StaticCalError, StaticCalOptions};
-use crate::verdict::static_verdict;
+use qfa_calibrate::output_error::OutputError;
+use qfa_calibrate::static_cal::{self, Figure, StaticCalError, StaticCalOptions};
+use qfa_calibrate::verdict::static_verdict;
 use qfa_log::autopilot::{check, AutopilotLog, Stack, Temperature};
 use qfa_report::verdict::{FileUse, LimitsChoice, Verdict};
 
@@ -268,7 +268,7 @@ fn write_instance(
 /// gets its slot, `notes` the export's notes that concern PX4.
 fn px4_export(
     log: &AutopilotLog,
-    calibrated: &[(u8, Option<u32>, Vec<crate::export::ExportAxis>, usize)],
+    calibrated: &[(u8, Option<u32>, Vec<qfa_calibrate::export::ExportAxis>, usize)],
     outcomes: &mut [InstanceOutcome],
     notes_out: &mut Vec<String>,
 ) -> Vec<(&'static str, String)> {
@@ -321,7 +321,7 @@ fn px4_export(
 /// each exported outcome gets its parameters, `notes` the export's notes that concern
 /// ArduPilot.
 fn ardupilot_export(
-    calibrated: &[(u8, Option<u32>, Vec<crate::export::ExportAxis>, usize)],
+    calibrated: &[(u8, Option<u32>, Vec<qfa_calibrate::export::ExportAxis>, usize)],
     outcomes: &mut [InstanceOutcome],
     notes_out: &mut Vec<String>,
 ) -> Vec<(&'static str, String)> {
