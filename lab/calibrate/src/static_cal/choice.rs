@@ -2,6 +2,8 @@
 //! structures, their blocked cross-validation on the rows a model is fitted on, the
 //! structures discovery adds, and the one model for rows that hold one branch.
 
+use serde::Serialize;
+
 use crate::fit::{BranchMode, CurveShape, FitError, StaticSeries, StaticStructure, StaticTraces};
 use crate::static_cal::fit::StaticDesign;
 use crate::static_cal::StaticCalOptions;
@@ -31,29 +33,128 @@ pub fn candidates() -> Vec<StaticStructure> {
     out
 }
 
-/// Blocked cross-validation RMS (g) of one structure (its `traces`) on the rows `rows`
-/// (ascending), for each axis of `axes` (the series of one log: the same rows, each its own
-/// output): the rows are cut into `k` contiguous chunks, each predicted by a fit to the
-/// other rows of `rows`. Each fold's design is formed and factored once for every axis
-/// ([`StaticDesign`]); each axis's figure is the one a fit of that axis alone gives, and
-/// its error the first its own folds meet.
-pub(crate) fn cv_rms_axes(
+/// One step of the model search ([`crate::static_cal`], *Model choice*): the structure
+/// reached and its blocked cross-validation RMS, g.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct SearchStep {
+    /// The structure after this step.
+    pub structure: StaticStructure,
+    /// Its cross-validation RMS on the rows searched, g.
+    pub cv_rms_g: f64,
+}
+
+/// Whether `to` is `from` with one thing added: one slot switched on (`sensor_lag`,
+/// `bias_creep` or play, at any of its τ or widths), the branch tie loosened one level
+/// (single → constant step → free), or the curve's shape freed (cubic → nodes).
+#[must_use]
+pub fn is_step(from: &StaticStructure, to: &StaticStructure) -> bool {
+    let level = |b: BranchMode| -> usize {
+        match b {
+            BranchMode::Single => 0,
+            BranchMode::Offset => 1,
+            BranchMode::Free => 2,
+        }
+    };
+    let shape = match (from.shape, to.shape) {
+        (a, b) if a == b => Some(0),
+        (CurveShape::Cubic, CurveShape::Nodes) => Some(1),
+        _ => None,
+    };
+    let branches = match level(to.branches).checked_sub(level(from.branches)) {
+        Some(d @ (0 | 1)) => Some(d),
+        _ => None,
+    };
+    let slot = |a: Option<f32>, b: Option<f32>| match (a, b) {
+        (None, None) => Some(0),
+        (Some(x), Some(y)) if x == y => Some(0),
+        (None, Some(_)) => Some(1),
+        _ => None,
+    };
+    [
+        shape,
+        branches,
+        slot(from.lag_tau_s, to.lag_tau_s),
+        slot(from.creep_tau_s, to.creep_tau_s),
+        slot(from.play_half_width_c, to.play_half_width_c),
+    ]
+    .into_iter()
+    .sum::<Option<usize>>()
+        == Some(1)
+}
+
+/// Whether `to` holds everything `from` does and more: every slot of `from` on in `to` at
+/// the same τ or width, a branch tie at least as loose, a curve at least as free, and `to`
+/// not `from`.
+#[must_use]
+pub fn is_below(from: &StaticStructure, to: &StaticStructure) -> bool {
+    let level = |b: BranchMode| -> usize {
+        match b {
+            BranchMode::Single => 0,
+            BranchMode::Offset => 1,
+            BranchMode::Free => 2,
+        }
+    };
+    let shape = from.shape == to.shape || (from.shape == CurveShape::Cubic && to.shape == CurveShape::Nodes);
+    let slot = |a: Option<f32>, b: Option<f32>| a.is_none() || a == b;
+    from != to
+        && shape
+        && level(from.branches) <= level(to.branches)
+        && slot(from.lag_tau_s, to.lag_tau_s)
+        && slot(from.creep_tau_s, to.creep_tau_s)
+        && slot(from.play_half_width_c, to.play_half_width_c)
+}
+
+/// Which rows predict a cross-validation block.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CvOrder {
+    /// Every other block, before and after it in time (blocked cross-validation).
+    Both,
+    /// Only the blocks before it in time (forward chaining: fit on the past, score on the
+    /// future); the first block is predicted by nothing and is not scored.
+    Forward,
+}
+
+/// Squared residuals (g²) of a cross-validation, with their row counts: per scored fold,
+/// and over every fold (summed row by row in time order, so its bits do not depend on how
+/// the rows are cut into folds).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FoldSums {
+    /// Per scored fold: (sum, rows).
+    pub folds: Vec<(f64, usize)>,
+    /// Over every scored fold: (sum, rows).
+    pub total: (f64, usize),
+}
+
+/// Blocked cross-validation of one structure (its `traces`) on the rows `rows` (ascending),
+/// for each axis of `axes` (the series of one log: the same rows, each its own output): the
+/// rows are cut into `k` contiguous chunks, each predicted by a fit to the rows `order`
+/// allows. Per axis, each scored fold's sum of squared residuals (g²) and rows. Each fold's
+/// design is formed and factored once for every axis ([`StaticDesign`]); each axis's figure
+/// is the one a fit of that axis alone gives, and its error the first its own folds meet.
+pub fn cv_fold_sums_axes(
     axes: &[StaticSeries<'_>],
     traces: &StaticTraces,
     rows: &[usize],
     k: usize,
+    order: CvOrder,
     opts: &StaticCalOptions,
-) -> Vec<Result<f64, FitError>> {
+) -> Vec<Result<FoldSums, FitError>> {
     let m = rows.len();
     let n = axes.first().map_or(0, StaticSeries::rows);
-    let mut acc: Vec<Result<(f64, usize), FitError>> = vec![Ok((0.0, 0)); axes.len()];
-    for f in 0..k {
+    let mut acc: Vec<Result<FoldSums, FitError>> = vec![Ok(FoldSums::default()); axes.len()];
+    let first = usize::from(order == CvOrder::Forward);
+    for f in first..k {
         if acc.iter().all(Result::is_err) {
             break;
         }
-        let chunk = &rows[m * f / k..m * (f + 1) / k];
+        let (lo_f, hi_f) = (m * f / k, m * (f + 1) / k);
+        let chunk = &rows[lo_f..hi_f];
         let mut train = vec![false; n];
-        for &i in rows {
+        let before = match order {
+            CvOrder::Both => rows.len(),
+            CvOrder::Forward => lo_f,
+        };
+        for &i in &rows[..before] {
             train[i] = true;
         }
         for &i in chunk {
@@ -67,7 +168,7 @@ pub(crate) fn cv_rms_axes(
             }
         };
         for (series, a) in axes.iter().zip(acc.iter_mut()) {
-            let Ok((sum, count)) = a else { continue };
+            let Ok(sums) = a else { continue };
             let fit = match design.fit(series.accel_g) {
                 Ok(fit) => fit,
                 Err(e) => {
@@ -77,19 +178,39 @@ pub(crate) fn cv_rms_axes(
             };
             let (Some(&lo), Some(&hi)) = (chunk.first(), chunk.last()) else { continue };
             let tr = series.model_trace_rows(&fit.axis, lo..hi + 1);
+            let (mut sum, mut count) = (0.0, 0usize);
             for &i in chunk {
                 if tr.valid[i - lo] {
                     let r = series.accel_g[i] - fit.reference_g - tr.ext_k0_g[i - lo];
-                    *sum += r * r;
-                    *count += 1;
+                    sum += r * r;
+                    count += 1;
+                    sums.total.0 += r * r;
+                    sums.total.1 += 1;
                 }
             }
+            sums.folds.push((sum, count));
         }
     }
-    acc.into_iter()
-        .map(|a| match a? {
-            (_, 0) => Err(FitError::TooFewRows { rows: 0, unknowns: traces.structure.unknowns(opts.grid_points) }),
-            (sum, count) => Ok((sum / count as f64).sqrt()),
+    acc
+}
+
+/// Blocked cross-validation RMS (g) of one structure on the rows `rows`, per axis: the RMS
+/// over every block of [`cv_fold_sums_axes`] under [`CvOrder::Both`].
+pub(crate) fn cv_rms_axes(
+    axes: &[StaticSeries<'_>],
+    traces: &StaticTraces,
+    rows: &[usize],
+    k: usize,
+    opts: &StaticCalOptions,
+) -> Vec<Result<f64, FitError>> {
+    cv_fold_sums_axes(axes, traces, rows, k, CvOrder::Both, opts)
+        .into_iter()
+        .map(|a| {
+            let (sum, count) = a?.total;
+            match count {
+                0 => Err(FitError::TooFewRows { rows: 0, unknowns: traces.structure.unknowns(opts.grid_points) }),
+                _ => Ok((sum / count as f64).sqrt()),
+            }
         })
         .collect()
 }

@@ -38,7 +38,19 @@
 //! are cut into contiguous blocks (`CV_FOLDS`, or K under `blocks:K`); each block is
 //! predicted by a fit to the others (the firmware's states still run through every row);
 //! the candidate with the lowest RMS over all blocks wins, then is refitted on all of those
-//! rows. The held-out figures apply this whole procedure to each fold's training rows, so
+//! rows. This is the lab's one model search for a static log: `discover` names what it
+//! chooses. Its path says how it got there: from the simplest candidate that can be
+//! fitted, one part at a time (a branch tie loosened one level, a lag, a creep), each step
+//! to the structure with the lowest RMS among the choice's remaining parts (every such
+//! structure is a candidate, so each has its figure); per fold, each step is also fitted on
+//! the training rows and scored on the held-out rows (`heldout_paths`). Other rules were
+//! measured on the real log, the simulator's chamber cycles and the desk generator
+//! (`cargo xtask experiment selection_study`; docs/measurements.md, "Real data"): a
+//! forward-chained cross-validation inside the training rows (each block predicted by the
+//! blocks before it only), the one-standard-error rule, a stepwise search that stops when a
+//! step's paired gain is within one standard error, and the cubic shape among the
+//! candidates. None predicted the later legs better than the lowest blocked
+//! cross-validation RMS over the grid's candidates. The held-out figures apply this whole procedure to each fold's training rows, so
 //! the choice never sees the rows it is scored on; under `blocks:K` the choice for the table
 //! is scored on the scheme's own K blocks. (Choosing on the held-out rows themselves would
 //! make the held-out figure a selection figure, better than what a new log would give.)
@@ -69,6 +81,7 @@ pub(crate) mod fit;
 pub(crate) mod holdout;
 pub(crate) mod output;
 pub mod report;
+mod search;
 
 use std::ops::Range;
 
@@ -78,7 +91,8 @@ use qfa_thermal::Input;
 use crate::fit::{fit_static_traced, table_of_axes, StaticFit, StaticSeries, StaticStructure, StaticTraces};
 use crate::metrics::rms;
 use crate::peers::{ardupilot_reason, PeerKind, Poly};
-use crate::static_cal::choice::cv_rms_axes;
+pub use crate::static_cal::choice::{cv_fold_sums_axes, is_step, CvOrder, FoldSums, SearchStep};
+use crate::static_cal::search::{choose_structures, AxisChoice};
 use qfa_log::pairing::Trace;
 use qfa_log::replay::FirmwareRows;
 use qfa_log::static_log::{AxisColumn, StaticLog};
@@ -93,7 +107,7 @@ pub use crate::static_cal::output::{
     calibrate_static_into, export_axes, markdown, static_table_toml, write_static, write_static_table, StaticRun,
 };
 pub use crate::static_cal::output::{static_files, with_verdict, write_static_page};
-pub use crate::static_cal::report::{AxisReport, HoldoutReport, Score, StaticReport};
+pub use crate::static_cal::report::{AxisReport, HeldOutStep, HoldoutReport, PathStep, Score, StaticReport};
 pub use crate::static_cal::report::{ExportedPeers, Figure, FoldReport, PlotRows, StaticCalibration};
 
 /// Length of the averaging window of `binned_mg`, s.
@@ -257,6 +271,7 @@ pub fn calibrate_static(
         heldout: (0..n).map(|i| run.folds.iter().any(|f| f.contains(&i))).collect(),
         axes: Vec::new(),
     };
+    let paths: Vec<Vec<Vec<SearchStep>>> = choices.iter().map(|c| c.paths.clone()).collect();
     for (a, choice) in choices.into_iter().enumerate() {
         let axis = calibrate_axis(&run, a, choice)?;
         axes.push(axis.report);
@@ -269,87 +284,7 @@ pub fn calibrate_static(
     table.part_lsb_per_g = opts.part_lsb_per_g;
     table.validate().map_err(|e| StaticCalError::Fit("table".to_string(), crate::fit::FitError::Table(e)))?;
     let report = static_report(&run, rule, axes)?;
-    Ok(StaticCalibration { table, fits, peers, report, plot })
-}
-
-/// What cross-validation chose for one axis.
-struct AxisChoice {
-    /// Per set, the best (CV RMS in g, structure).
-    best: Vec<Option<(f64, StaticStructure)>>,
-    /// The table's refusals: every candidate (its name) that could not be fitted on every
-    /// row, and why.
-    refused: Vec<(String, crate::fit::FitError)>,
-    /// Per set, the first refusal, so a fold where nothing could be fitted says why.
-    fold_refused: Vec<Option<(String, crate::fit::FitError)>>,
-}
-
-impl AxisChoice {
-    /// The best (CV RMS, structure) on set `s`; an error, with the first refusal, when no
-    /// candidate could be fitted there.
-    fn chosen(&self, s: usize, axis: &str) -> Result<(f64, StaticStructure), StaticCalError> {
-        self.best[s].ok_or_else(|| {
-            StaticCalError::Figure(FigureFault::NoCandidate {
-                axis: axis.to_string(),
-                fold: (s > 0).then_some(s),
-                first_refusal: if s == 0 { self.refused.first() } else { self.fold_refused[s].as_ref() }
-                    .map(|r| Box::new(r.clone())),
-            })
-        })
-    }
-}
-
-/// Every structure a set can choose from, each once, in the order the sets first name them.
-fn candidate_union(run: &Run<'_>) -> Vec<StaticStructure> {
-    let mut union: Vec<StaticStructure> = Vec::new();
-    for s in 0..run.sets.len() {
-        for st in run.candidates(s) {
-            if !union.contains(&st) {
-                union.push(st);
-            }
-        }
-    }
-    union
-}
-
-/// Per axis, the structure with the lowest blocked cross-validation RMS ([`cv_rms_axes`]) on each
-/// row set, and the refusals. The traces depend on the temperatures only, so each
-/// structure's are computed once for every axis and set.
-fn choose_structures(run: &Run<'_>, progress: bool) -> Vec<AxisChoice> {
-    let (opts, sets) = (run.opts, &run.sets);
-    let union = candidate_union(run);
-    let na = run.log.axes.len();
-    let pb = if progress {
-        indicatif::ProgressBar::new((na * union.len()) as u64)
-    } else {
-        indicatif::ProgressBar::hidden()
-    };
-    let mut choices: Vec<AxisChoice> = (0..na)
-        .map(|_| AxisChoice { best: vec![None; sets.len()], refused: Vec::new(), fold_refused: vec![None; sets.len()] })
-        .collect();
-    let axes: Vec<StaticSeries<'_>> = (0..na).map(|a| run.series(a)).collect();
-    for st in &union {
-        let traces = StaticTraces::new(&run.series(0), st, opts.deadband_c_per_min);
-        for (s, set) in sets.iter().enumerate() {
-            if !run.candidates(s).contains(st) {
-                continue;
-            }
-            // Every axis at once: they share the rows, so each fold's design and its
-            // factorization (each axis's figure is the one its own fit gives).
-            for (choice, cv) in choices.iter_mut().zip(cv_rms_axes(&axes, &traces, &set.rows, run.k_sel, opts)) {
-                match cv {
-                    Ok(r) if choice.best[s].is_none_or(|(b, _)| r < b) => choice.best[s] = Some((r, *st)),
-                    Ok(_) => {}
-                    Err(e) if s == 0 => choice.refused.push((st.name(), e)),
-                    Err(e) => {
-                        choice.fold_refused[s].get_or_insert_with(|| (st.name(), e));
-                    }
-                }
-            }
-        }
-        pb.inc(na as u64);
-    }
-    pb.finish_and_clear();
-    choices
+    Ok(StaticCalibration { table, fits, peers, report, plot, paths })
 }
 
 /// One axis calibrated: its report, the table's fit, the exported peers and its plot rows.
@@ -377,7 +312,8 @@ fn calibrate_axis(run: &Run<'_>, a: usize, choice: AxisChoice) -> Result<AxisOut
     let before_mg: Vec<f64> = ax.accel_g.iter().map(|a| (a - reference) * 1e3).collect();
     let mut after_mg: Vec<f64> = (0..n).map(|i| resid_mg(&ax.accel_g, &tr, reference, i)).collect();
     let (exported, exported_cubic, exported_ardupilot) = exported_peers(log, ax, reference)?;
-    let (ho, heldout_structures) = held_out(run, &series, ax, &choice, &mut after_mg)?;
+    let mut ho = held_out(run, &series, ax, &choice, &mut after_mg)?;
+    let (heldout_structures, heldout_paths) = (std::mem::take(&mut ho.structures), std::mem::take(&mut ho.paths));
     let no_folds = run.folds.is_empty();
     let fig = |resid: &[f64], t: &[f64], what: &str, err: &Option<String>| {
         heldout_figure(no_folds, &ax.name, resid, t, what, err)
@@ -388,10 +324,12 @@ fn calibrate_axis(run: &Run<'_>, a: usize, choice: AxisChoice) -> Result<AxisOut
         reference_g: reference,
         structure: structure.name(),
         cv_rms_mg: cv * 1e3,
+        search_path: choice.paths[0].iter().map(PathStep::from).collect(),
         table_rms_mg,
         exported_cubic,
         exported_ardupilot,
         heldout_structures,
+        heldout_paths,
         ours: fig(&ho.ours, &ho.ours_t, "ours", &None)?,
         cubic: fig(&ho.peers[0], &ho.t, "cubic", &ho.peer_err[0])?,
         ardupilot: fig(&ho.peers[1], &ho.t, "ardupilot", &ho.peer_err[1])?,
@@ -450,14 +388,16 @@ fn held_out(
     ax: &AxisColumn,
     choice: &AxisChoice,
     after_mg: &mut [f64],
-) -> Result<(HeldOut, Vec<String>), StaticCalError> {
+) -> Result<HeldOut, StaticCalError> {
     let (log, folds, n) = (run.log, &run.folds, run.log.rows());
     let mut ho = HeldOut::default();
     let mut heldout_structures = Vec::new();
+    let mut heldout_paths = Vec::new();
     for (f, rows) in folds.iter().enumerate() {
         let s = f + 1;
         let (_, st) = choice.chosen(s, &ax.name)?;
         heldout_structures.push(st.name());
+        heldout_paths.push(held_out_path(run, series, ax, &choice.paths[s], s, rows)?);
         let fit = run.fit_on(series, s, &st, &ax.name)?;
         let tr = series.model_trace(&fit.axis);
         let r0 = fit.reference_g;
@@ -474,7 +414,38 @@ fn held_out(
         ho.none.extend(rows.clone().map(|i| ax.accel_g[i] - r0));
         ho.t.extend(rows.clone().map(|i| log.time_s[i]));
     }
-    Ok((ho, heldout_structures))
+    ho.structures = heldout_structures;
+    ho.paths = heldout_paths;
+    Ok(ho)
+}
+
+/// Each step of set `s`'s search `path` fitted on its rows and scored on the fold's held-out
+/// `rows`, as the chosen structure's own held-out figure is.
+fn held_out_path(
+    run: &Run<'_>,
+    series: &StaticSeries<'_>,
+    ax: &AxisColumn,
+    path: &[SearchStep],
+    s: usize,
+    rows: &Range<usize>,
+) -> Result<Vec<HeldOutStep>, StaticCalError> {
+    path.iter()
+        .map(|step| {
+            let fit = run.fit_on(series, s, &step.structure, &ax.name)?;
+            let tr = series.model_trace(&fit.axis);
+            let (resid, t): (Vec<f64>, Vec<f64>) = rows
+                .clone()
+                .filter(|&i| tr.valid[i])
+                .map(|i| (ax.accel_g[i] - fit.reference_g - tr.ext_k0_g[i], run.log.time_s[i]))
+                .unzip();
+            let what = format!("{} {} (fold {s})", ax.name, step.structure.name());
+            Ok(HeldOutStep {
+                structure: step.structure.name(),
+                cv_rms_mg: step.cv_rms_g * 1e3,
+                held_out: score(&resid, &t, &what).map(Figure::Score)?,
+            })
+        })
+        .collect()
 }
 
 /// The peers fitted on fold `f`'s training rows and scored on its held-out `rows`, with the
@@ -633,6 +604,10 @@ struct HeldOut {
     peer_err: [Option<String>; 3],
     none: Vec<f64>,
     t: Vec<f64>,
+    /// The structure chosen in each fold.
+    structures: Vec<String>,
+    /// Each fold's search path, held out.
+    paths: Vec<Vec<HeldOutStep>>,
 }
 
 /// Which rows each figure comes from, in words.

@@ -8,6 +8,7 @@ use qfa_thermal::Table;
 
 use crate::fit::{FitError, StaticFit};
 use crate::peers::Poly;
+use crate::static_cal::SearchStep;
 use qfa_log::static_log::{Sampling, Skipped};
 
 /// Held-out figures of one model on one axis, mg.
@@ -73,6 +74,9 @@ pub struct AxisReport {
     /// Its cross-validation RMS over every row, mg (the choice's own figure: the lowest of
     /// many, so not a held-out figure).
     pub cv_rms_mg: f64,
+    /// How the search reached that structure over every row: the simplest structure that
+    /// could be fitted, then one part added per step, each with its cross-validation RMS.
+    pub search_path: Vec<PathStep>,
     /// RMS over every row of the table (fitted on every row, through the root crate), mg:
     /// in-sample, what `compensate` with `table.bin` gives back.
     pub table_rms_mg: f64,
@@ -85,6 +89,10 @@ pub struct AxisReport {
     /// The structure chosen inside each fold's training rows (what the held-out figure of
     /// ours is of).
     pub heldout_structures: Vec<String>,
+    /// Per fold, the search's path inside its training rows, each step fitted there and
+    /// scored on the fold's held-out rows: what each part added to the model did on rows it
+    /// never saw (the last step is `heldout_structures`' entry).
+    pub heldout_paths: Vec<Vec<HeldOutStep>>,
     /// Ours (the chosen structure through the root crate), held out.
     pub ours: Figure,
     /// PX4 / tofupilot cubic, held out.
@@ -101,6 +109,32 @@ pub struct AxisReport {
     /// Held-out rows the model flagged as clamped (T or Ṫ outside the range its fold's
     /// training rows calibrated).
     pub clamped_rows: usize,
+}
+
+/// One step of the model search's path, as the report gives it.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PathStep {
+    /// The structure after the step.
+    pub structure: String,
+    /// Its cross-validation RMS, mg.
+    pub cv_rms_mg: f64,
+}
+
+impl From<&SearchStep> for PathStep {
+    fn from(s: &SearchStep) -> Self {
+        Self { structure: s.structure.name(), cv_rms_mg: s.cv_rms_g * 1e3 }
+    }
+}
+
+/// One step of a fold's search path, with its held-out figure.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct HeldOutStep {
+    /// The structure after the step.
+    pub structure: String,
+    /// Its cross-validation RMS inside the fold's training rows, mg.
+    pub cv_rms_mg: f64,
+    /// That structure fitted on the fold's training rows, on its held-out rows.
+    pub held_out: Figure,
 }
 
 /// One fold of the held-out scheme.
@@ -208,4 +242,7 @@ pub struct StaticCalibration {
     pub report: StaticReport,
     /// Per-row residuals for the plots.
     pub plot: PlotRows,
+    /// Per axis, per row set (0: every row, the table's; 1 + f: fold f's training rows), the
+    /// model search's path ([`SearchStep`]): its last step is the structure chosen there.
+    pub paths: Vec<Vec<Vec<SearchStep>>>,
 }
