@@ -162,13 +162,13 @@ fn desk_log_flashes_at_least_the_cubic() {
             let mut bad = Vec::new();
             let mut cells = Vec::new();
             for a in &d.axes {
-                let (flashed, cubic) = (a.final_model.score().unwrap().rms_mg, a.cubic.score().unwrap().rms_mg);
-                cells.push(format!("{} {flashed:.3} / {cubic:.3} mg ({})", a.axis, a.final_structure));
+                let (flashed, cubic) = (a.after.score().unwrap().rms_mg, a.cubic.score().unwrap().rms_mg);
+                cells.push(format!("{} {flashed:.3} / {cubic:.3} mg ({})", a.axis, a.named_structure));
                 if flashed > 1.10 * cubic {
                     bad.push(format!("{}: flashed {flashed:.3} mg, cubic {cubic:.3}", a.axis));
                 }
-                if a.effects.iter().any(|e| !e.starts_with("temp_quadratic")) {
-                    spurious.push(format!("seed {seed} {}: {:?}", a.axis, a.effects));
+                if a.identified.iter().any(|e| !e.starts_with("temp_quadratic")) {
+                    spurious.push(format!("seed {seed} {}: {:?}", a.axis, a.identified));
                 }
             }
             let line = format!(
@@ -185,7 +185,9 @@ fn desk_log_flashes_at_least_the_cubic() {
         println!("desk log, flashed / cubic held out: {r}");
     }
     assert!(rows.iter().all(|r| !r.contains("BAD")), "{rows:#?}");
-    // Named: at most `temp_quadratic` (the truth's bias curves), with one spurious name
+    // Identified by the block test (the claim about the physics, whose false-discovery rate
+    // the cycling logs measure; the named structure is the table's, a prediction): at most
+    // `temp_quadratic` (the truth's bias curves), with one spurious name
     // allowed over the 9 axes (6 in CI), as for the cycling logs (the first run had one: a drift on
     // seed 3's z axis, reported as not identified).
     assert!(spurious.len() <= 1, "{spurious:#?}");

@@ -164,11 +164,15 @@ fn a_static_discovery_tells_one_story_on_every_rendering() {
     args.extend(flags);
     let r = discover(&args, &out, false);
     assert_one_story(&r);
-    // One clause per axis, each naming table.bin's structure.
-    for axis in ["ax", "ay", "az"] {
-        assert!(r.console[0].contains(&format!("{axis}: ")), "{axis} in {}", r.console[0]);
+    // One clause per axis, each naming table.bin's structure as the named one.
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    for a in json["axes"].as_array().unwrap() {
+        let clause =
+            format!("{}: named {} = table.bin", a["axis"].as_str().unwrap(), a["named_structure"].as_str().unwrap());
+        assert!(r.console[0].contains(&clause), "{clause} in {}", r.console[0]);
     }
-    assert_eq!(r.console[0].matches("; table.bin: ").count(), 3, "{}", r.console[0]);
+    assert_eq!(r.console[0].matches(" = table.bin").count(), 3, "{}", r.console[0]);
     // The page: tables as tables, and no figure of another scheme called held-out.
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     assert!(!html.contains("<pre") && !html.contains("|---|"), "Markdown on the page");
@@ -186,11 +190,14 @@ fn a_static_discovery_tells_one_story_on_every_rendering() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
-/// The real log: wherever `report.json` has the named model above the start model held
-/// out, the console, `report.md`, `report.json` and the page say so in words on that axis,
-/// and nowhere else.
+/// The real log: each axis's clause names the structure `table.bin` holds and states how its
+/// held-out figure stands against the start model's, in the words and figures of
+/// `report.json`; a warning says so on exactly the axes where the named model is worse; and
+/// the block test's own model is scored beside it. (Before the search was one, the named
+/// model was the block test's, worse than the start on x and z: 1.99 against 1.15 mg and
+/// 15.57 against 6.45 mg.)
 #[test]
-fn the_real_log_says_the_named_model_is_worse_held_out() {
+fn the_real_log_says_how_the_named_model_stands_on_every_rendering() {
     let Some(log) = common::real_log() else { return };
     let d = tmp("real");
     let out = d.join("disc");
@@ -210,23 +217,34 @@ fn the_real_log_says_the_named_model_is_worse_held_out() {
     assert_one_story(&r);
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
-    let mut worse_axes = 0;
-    for a in json["axes"].as_array().unwrap() {
+    let axes = json["axes"].as_array().unwrap();
+    for (k, a) in axes.iter().enumerate() {
         let axis = a["axis"].as_str().unwrap();
         let (start, named) = (a["before"]["rms_mg"].as_f64().unwrap(), a["after"]["rms_mg"].as_f64().unwrap());
         let worse = format!("{named:.2}") != format!("{start:.2}") && named > start;
-        worse_axes += usize::from(worse);
+        let head = format!("{axis}: named {} = table.bin", a["named_structure"].as_str().unwrap());
         let clause = r.console[0]
-            .split(&format!("{axis}: "))
+            .split(&head)
             .nth(1)
-            .and_then(|c| c.split("; table.bin").next())
-            .unwrap_or_else(|| panic!("{axis} in {}", r.console[0]));
-        let says = format!("worse held out than the start model `paper` (named {named:.2} mg, start {start:.2} mg)");
-        assert_eq!(clause.contains(&says), worse, "{axis}: {clause}");
-        let warning = format!("warning: {axis}: the named model is worse held out than the start model");
+            .map(|c| {
+                axes.get(k + 1)
+                    .map_or(c, |n| c.split(&format!("; {}: named", n["axis"].as_str().unwrap())).next().unwrap())
+            })
+            .unwrap_or_else(|| panic!("{head} in {}", r.console[0]));
+        let words = if format!("{named:.2}") == format!("{start:.2}") {
+            "holds out the same as the start model `paper`"
+        } else if worse {
+            "is worse held out than the start model `paper`"
+        } else {
+            "beats the start model `paper` held out"
+        };
+        let says = format!("{words} (named {named:.2} mg, start {start:.2} mg)");
+        assert!(clause.contains(&says), "{axis}: {says} in {clause}");
+        let warning = format!("warning: {axis}: the named model (table.bin) is worse held out than the start model");
         assert_eq!(r.console.iter().any(|l| l.starts_with(&warning)), worse, "{axis}: {:?}", r.console);
+        assert!(a["block_test_model"]["rms_mg"].as_f64().is_some_and(|x| x > 0.0), "{a}");
     }
-    // Measured: x 1.15 → 1.99 mg, y 3.56 → 6.14 mg; z the same (6.45 mg).
-    assert!(worse_axes >= 2, "the named model is worse held out on x and y: {}", r.console[0]);
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(md.contains("the search, step by step, held out"), "{md}");
     let _ = std::fs::remove_dir_all(&d);
 }

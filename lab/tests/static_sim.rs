@@ -108,16 +108,19 @@ fn case(effect: Option<&str>) -> (f64, f64, String, f64) {
     let d = qfa_discover::static_axes::discover_static(&log, qfa_discover::Start::Paper, Holdout::Auto).unwrap();
     let x = &d.axes[0];
     println!(
-        "effect={} discover_named={:?} named_ug={:.2} flashed_ug={:.2} flashed={} flashed_is_named={}",
+        "effect={} discover_named={} ({:?}) identified={:?} named_ug={:.2} block_test_model_ug={:.2}",
         effect.unwrap_or("none"),
+        x.named_structure,
         x.effects,
+        x.identified,
         mg(&x.after) * 1e3,
-        mg(&x.final_model) * 1e3,
-        x.final_structure,
-        x.final_is_named
+        mg(&x.block_test_model) * 1e3,
     );
+    // One search: discovery names the structure calibration chose, with its held-out figure.
+    assert_eq!(x.named_structure, a.structure);
+    assert_eq!(x.after, a.ours);
     // The held-out figure is of the structure chosen inside the training rows.
-    (mg(&a.ours), mg(&a.cubic), a.heldout_structures[0].clone(), mg(&x.final_model))
+    (mg(&a.ours), mg(&a.cubic), a.heldout_structures[0].clone(), mg(&x.after))
 }
 
 #[test]

@@ -100,3 +100,17 @@ def test_discover_returns_the_report(static_log: Path, tmp_path: Path) -> None:
     report = q.discover(static_log, start="paper", out=tmp_path / "disc")
     assert [a["axis"] for a in report["axes"]] == ["ax", "ay", "az"]
     assert (tmp_path / "disc" / "report.json").is_file()
+
+
+def test_a_static_discovery_names_what_calibrate_flashes(static_log: Path, tmp_path: Path) -> None:
+    """One search: each axis's named structure is the one calibrate chose for table.bin, its
+    held-out figure calibrate's, its steps end there, and each fold's last step is that figure."""
+    report = q.discover(static_log, start="paper", out=tmp_path / "disc")
+    table = q.calibrate(static_log)
+    assert (tmp_path / "disc" / "table.bin").read_bytes() == table.to_bytes()
+    for a, c in zip(report["axes"], table.report()["axes"]):
+        assert a["named_structure"] == c["structure"]
+        assert a["after"] == c["ours"]
+        assert a["steps"][-1]["structure"] == a["named_structure"]
+        for fold, structure in zip(a["heldout_steps"], c["heldout_structures"]):
+            assert fold[-1]["structure"] == structure

@@ -76,6 +76,9 @@
 //!
 //! A static multi-axis log goes through [`static_axes`]: each axis a single-channel log,
 //! on static calibration's split (fit up to the temperature maximum, hold out the rest).
+//! There the model is named by static calibration's one search (so what is named is what
+//! `table.bin` holds), and the steps above identify its parts, say what it does not hold,
+//! what is left, and where.
 //!
 //! The catalog's `bias_drift` (bias linear in time since the program start: ageing or a
 //! long turn-on settling) has no root-crate slot yet, so it is reported but not flashed

@@ -123,6 +123,17 @@ impl Scope<'_> {
         }
     }
 
+    /// What this run's reports call the model its own search added effects to: the named
+    /// model of a discovery of its own log; on a static axis the block test's own model
+    /// (the named model there is static calibration's search's, `table.bin`).
+    #[must_use]
+    pub(crate) fn model_name(self) -> &'static str {
+        match self {
+            Self::Own => "named model",
+            Self::StaticAxis { .. } => "block test's model",
+        }
+    }
+
     /// Whether this folder gets a `table.bin` of its own.
     #[must_use]
     pub(crate) fn flashable(self) -> bool {
@@ -341,7 +352,11 @@ fn plots(ch: &Channels, r: &Report, dir: &Path, scope: Scope<'_>) -> Result<Vec<
                 (0..rows.len()).map(x_of).fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| (l.min(x), h.max(x)));
             let ymax =
                 before.iter().chain(after.iter()).filter(|v| v.is_finite()).fold(1e-12f64, |m, v| m.max(v.abs()));
-            let named = if worse(r) { "named model, worse than the start" } else { "named model" };
+            let named = if worse(r) {
+                format!("{}, worse than the start", scope.model_name())
+            } else {
+                scope.model_name().to_string()
+            };
             let titles = [
                 format!("start model `{}`: {held} RMS {:.2} {unit}", r.start.name(), rms_of_finite(before)),
                 format!("{named}: {held} RMS {:.2} {unit}", rms_of_finite(after)),

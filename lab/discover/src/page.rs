@@ -54,16 +54,18 @@ pub(crate) fn caption(file: &str, ch: &Channels, r: &Report, scope: Scope<'_>) -
     let unit = if name == "Scale-factor" { "ppm" } else { ch.bias_unit.label() };
     let (start, named, floor) = (pick(&r.heldout_gap_before), pick(&r.heldout_gap_after), pick(&r.noise_floor));
     let mut s = format!(
-        "{name} residual of every bin, each from a fit that never saw it ({}): start model above, named model \
-         below, on one scale, against {}; red heating, blue cooling, grey hold.",
+        "{name} residual of every bin, each from a fit that never saw it ({}): start model above, {} below, on \
+         one scale, against {}; red heating, blue cooling, grey hold.",
         scope.folds_name(),
+        scope.model_name(),
         if vs_time { "time" } else { "temperature" }
     );
     if vs_time {
         s.push_str(&format!(
             " Look at the lower panel: a band about as wide as the noise ({floor:.2} {unit} bin to bin) means nothing \
-             is left; steps between runs, slow trends, or heating sitting apart from cooling are what the named model \
-             misses."
+             is left; steps between runs, slow trends, or heating sitting apart from cooling are what the {} \
+             misses.",
+            scope.model_name()
         ));
     } else {
         s.push_str(
@@ -94,21 +96,22 @@ pub(crate) fn caption(file: &str, ch: &Channels, r: &Report, scope: Scope<'_>) -
         ));
     } else if format!("{named:.2}") != format!("{start:.2}") && named > start {
         s.push_str(&format!(
-            " The lower panel is the worse one: on this channel the named model's {held} RMS ({named:.2} {unit}) is \
-             above the start model's ({start:.2} {unit}); the verdict says what to expect."
+            " The lower panel is the worse one: on this channel the {}'s {held} RMS ({named:.2} {unit}) is \
+             above the start model's ({start:.2} {unit}); the verdict says what to expect.",
+            scope.model_name()
         ));
     }
     if let Scope::StaticAxis { axis, .. } = scope {
-        if let (true, Some(b), Some(n)) = (
-            super::verdict::named_is_worse(axis),
-            axis.before.score().map(|x| x.rms_mg),
-            axis.after.score().map(|x| x.rms_mg),
-        ) {
-            s.push_str(&format!(
-                " These selection folds are the rows the effects were chosen on, so they flatter the named model: \
-                 held out on the log's scheme it is worse than the start model ({n:.2} mg against {b:.2} mg), the \
-                 verdict's figures."
-            ));
+        if let (Some(b), Some(n)) =
+            (axis.before.score().map(|x| x.rms_mg), axis.block_test_model.score().map(|x| x.rms_mg))
+        {
+            if n > b {
+                s.push_str(&format!(
+                    " These selection folds are the rows the block test chose on, so they flatter its model: held \
+                     out on the log's scheme it is worse than the start model ({n:.2} mg against {b:.2} mg). The \
+                     named model is the search's, the verdict's figures."
+                ));
+            }
         }
     }
     s
@@ -132,7 +135,7 @@ pub(crate) fn page(ch: &Channels, r: &Report, dir: &Path, scope: Scope<'_>, v: &
     page_gaps(&mut p, ch, r, scope);
     page_effects(&mut p, r, scope);
     page_unexplained(&mut p, ch, r, held);
-    page_peers(&mut p, ch, r, held);
+    page_peers(&mut p, ch, r, scope);
     page_coverage(&mut p, ch);
     page_where(&mut p, ch, r, held);
     page_rounds(&mut p, ch, r, held);
@@ -152,8 +155,9 @@ fn page_scheme(p: &mut Page, r: &Report, scope: Scope<'_>) {
             super::static_axes::axis_figures(discovery, axis).into_iter().map(Vec::from).collect();
         p.table(&["model", "held-out, mg"], &rows);
         p.section("How discovery chose (selection folds)").para(
-            "Everything below comes from discovery's own folds over every row of this axis: they decided what is \
-             named, so their figures are called selection-fold figures (in µg).",
+            "Everything below comes from the block test's own folds over every row of this axis: they decided what \
+             the block test names, so their figures are called selection-fold figures (in µg), and its model the \
+             block test's model (the named model is the table's, above).",
         );
         p.kv(&[
             ("start model", r.start.name().to_string()),
@@ -175,7 +179,7 @@ fn page_gaps(p: &mut Page, ch: &Channels, r: &Report, scope: Scope<'_>) {
     let (held, held_cap) = (scope.folds_word(), scope.folds_word_capital());
     let mut gap_rows = vec![
         ("start model".to_string(), gaps_text(ch.bias_unit, &r.heldout_gap_before)),
-        ("named model".to_string(), gaps_text(ch.bias_unit, &r.heldout_gap_after)),
+        (scope.model_name().to_string(), gaps_text(ch.bias_unit, &r.heldout_gap_after)),
     ];
     if let Scope::Own = scope {
         gap_rows.push((
@@ -272,14 +276,15 @@ fn page_unexplained(p: &mut Page, ch: &Channels, r: &Report, held: &str) {
 }
 
 /// The peers' table: every model's held-out RMS of the bias channel on the same split.
-fn page_peers(p: &mut Page, ch: &Channels, r: &Report, held: &str) {
+fn page_peers(p: &mut Page, ch: &Channels, r: &Report, scope: Scope<'_>) {
+    let held = scope.folds_word();
     let bias_gap = |g: &Gaps| match g {
         Gaps::Cycling { bias_ug, .. } => *bias_ug,
         Gaps::Single { value_rms } => *value_rms,
     };
     let mut peers: Vec<Vec<String>> = vec![
         vec![format!("start model (`{}`)", r.start.name()), format!("{:.4}", bias_gap(&r.heldout_gap_before))],
-        vec!["named model".to_string(), format!("{:.4}", bias_gap(&r.heldout_gap_after))],
+        vec![scope.model_name().to_string(), format!("{:.4}", bias_gap(&r.heldout_gap_after))],
     ];
     peers.extend(r.peers.iter().map(|x| {
         vec![
@@ -375,12 +380,13 @@ pub(crate) fn static_page(d: &StaticDiscovery, v: &Verdict, dir: &Path) -> std::
     let (header, rows) = super::static_axes::table_rows(d);
     p.table(&header, &rows);
     p.para(&named_flashed);
-    for a in d.axes.iter().filter(|a| !a.not_in_table.is_empty()) {
-        p.warning(&format!(
-            "{}: named but with no root-crate slot (not in table.bin): {}",
-            a.axis,
-            a.not_in_table.join(", ")
-        ));
+    for a in &d.axes {
+        p.section(&format!("{}: the search, step by step, held out", a.axis));
+        let rows: Vec<Vec<String>> = super::static_axes::step_rows(a).into_iter().map(Vec::from).collect();
+        p.table(&["step", "structure", "CV RMS in the training rows, mg", "held out, mg"], &rows);
+        for n in &a.not_added {
+            p.warning(&format!("{}: named by the block test, not added: {n}", a.axis));
+        }
     }
     if let Some(ch) = d.channels.first() {
         p.section("What the log covers, against what the models need");

@@ -15,26 +15,34 @@
 //!
 //! # Figures
 //! Per axis, on the held-out rows of every fold, in mg (RMS over rows, and over 60-s
-//! means): the start model and the discovered model (both fitted on the fold's training
-//! bins, run through the root crate's `AxisModel::evaluate` on every row, `bias_drift` added
-//! when it was named), and beside them the peers of [`qfa_calibrate::peers`] fitted on
-//! the same training rows and scored on the same held-out rows, exactly as `calibrate`
-//! scores them. A figure that cannot be formed is an error, or (`none`, an ArduPilot
-//! learner with no rise to learn from) a [`Figure::NotComputed`] with its reason.
+//! means): the start model, the named model and the block test's own model (each chosen and
+//! fitted on the fold's training rows, run through the root crate's `AxisModel::evaluate`
+//! on every row), and beside them the peers of [`qfa_calibrate::peers`] fitted on the same
+//! training rows and scored on the same held-out rows, exactly as `calibrate` scores them.
+//! A figure that cannot be formed is an error, or (`none`, an ArduPilot learner with no rise
+//! to learn from) a [`Figure::NotComputed`] with its reason.
 //!
-//! # Table: what is named and what is flashed
-//! The block test decides what is *named*: a claim about the physics, made only when it is
-//! significant, with the false-discovery rate docs/measurements.md states ("Lab:
-//! discovery"). The names in the report are discovery's on **every row** (those of each
-//! fold's training rows are listed too).
-//! What is *flashed* (`DIR/table.bin`, what `qfa-lab compensate` loads) is a prediction:
-//! static calibration's cross-validated choice among its candidates, by the very call
-//! `calibrate` makes ([`calibrate_static`]), so `discover` and `calibrate` write the same
-//! table for the same log and flags and cannot disagree. The named structure
-//! (`structure_of`) is reported beside it with its held-out figure. On a short log the
-//! named and the flashed differ: the tofupilot log's 52-min training leg gives the block
-//! test 8 blocks, too few to name effects that still predict better. The report gives both, and says which structure was flashed and
-//! whether discovery named it. Static tables have K1 = 2²⁰ LSB/g
+//! # One search: what is named is what is flashed
+//! The model is named by one search, the one `calibrate` runs ([`calibrate_static`]):
+//! every candidate structure's blocked cross-validation RMS inside the rows it is fitted on,
+//! the lowest chosen. So the named structure is the one `DIR/table.bin` holds, byte for
+//! byte the table `calibrate` writes, and its held-out figure is the one `calibrate`
+//! reports. The search's path explains it: from the simplest structure, one part at a time
+//! (a branch tie loosened, a lag, a creep), each step to the lowest cross-validation RMS,
+//! each with its figure over every row and, per fold, its held-out figure
+//! ([`AxisDiscovery::heldout_steps`]). A step that raises the figure is shown as one (a part
+//! that pays only with a later one).
+//!
+//! The block test (discovery's catalog search, [`super::analyze`], on single-channel bins
+//! of the axis) no longer names the model. It says which of the search's parts it
+//! identifies (a claim about the physics, with the false-discovery rate
+//! docs/measurements.md states, "Lab: discovery"), which effects it names that the model
+//! does not hold and why (`bias_drift`: no slot; a trend in time fitted inside the training
+//! rows is extrapolated past them), what is left unexplained, and where. Its own model is
+//! scored held out beside the named one. On the tofupilot log it was worse than the start
+//! model on two axes (x 1.99 against 1.15 mg, z 15.57 against 6.45: a drift fitted inside
+//! the training rows, extrapolated over the later leg), which is why it does not name the
+//! model. Static tables have K1 = 2²⁰ LSB/g
 //! ([`qfa_calibrate::compensate::STATIC_LSB_PER_G`]) and the bias in g from the axis's mean
 //! over every row.
 
@@ -47,11 +55,11 @@ use serde::Serialize;
 use super::output::{write_file, write_json, Scope};
 use super::verdict::named_is_worse;
 use super::{analyze, start_model, Channels, DiscoverError, LogKind, Report, Result, Start};
-use qfa_calibrate::fit::{BranchMode, CurveShape, StaticStructure};
+use qfa_calibrate::fit::{BranchMode, StaticStructure};
 use qfa_calibrate::peers::PeerKind;
 use qfa_calibrate::static_cal::{
-    calibrate_static, check_coverage, resolve_holdout, score, Figure, Holdout, HoldoutReport, StaticCalError,
-    StaticCalOptions, NO_HOLDOUT,
+    calibrate_static, check_coverage, resolve_holdout, score, Figure, HeldOutStep, Holdout, HoldoutReport,
+    StaticCalError, StaticCalOptions, NO_HOLDOUT,
 };
 use qfa_log::channels::{BiasUnit, Trace};
 use qfa_log::static_log::StaticLog;
@@ -78,34 +86,40 @@ pub struct AxisDiscovery {
     pub column: String,
     /// Mean over every row the table's bias is measured from, g.
     pub reference_g: f64,
-    /// Effects named on every row, `name (channel)`, in order (empty: none).
+    /// What the model search added over every row, one part per step, as `effect (form)`
+    /// (empty: the simplest structure): the parts of `named_structure`, the table's.
     pub effects: Vec<String>,
-    /// Effects named on each fold's training rows.
+    /// The same inside each fold's training rows (the parts of the model `after` is of).
     pub effects_per_fold: Vec<Vec<String>>,
-    /// Effects named on every row but not in `table.bin` (no root-crate slot).
-    pub not_in_table: Vec<String>,
+    /// The search's steps over every row, each with its cross-validation figure and whether
+    /// the block test identifies its effect.
+    pub steps: Vec<Step>,
+    /// Effects the block test names on every row (a claim about the physics, with the
+    /// false-discovery rate docs/measurements.md states), `effect (channel)`.
+    pub identified: Vec<String>,
+    /// Effects the block test names that the model does not hold, each with why.
+    pub not_added: Vec<String>,
     /// Unexplained structure left in the residual on every row, in words.
     pub unexplained: Vec<String>,
     /// Start model, held out.
     pub before: Figure,
-    /// Named model (what discovery named on the fold's training rows), held out.
+    /// The named model, held out: `named_structure`'s search made and fitted inside each
+    /// fold's training rows (the figure `calibrate` reports for `table.bin`).
     pub after: Figure,
-    /// The structure discovery named on every row, as the one static fitter writes it
-    /// (`bias_drift`, which has no slot, and a creep's activation energy dropped).
+    /// The structure the search named over every row: the one `table.bin` holds.
     pub named_structure: String,
-    /// The workflow's model, the one in `table.bin`: the lowest cross-validation RMS over
-    /// every row among static calibration's candidates and every axis's named structure
-    /// (see the module docs).
-    pub final_structure: String,
-    /// Whether that is the structure discovery named on this axis (else one of
-    /// calibration's candidates or another axis's).
-    pub final_is_named: bool,
     /// Its cross-validation RMS over every row, mg.
-    pub final_cv_rms_mg: f64,
-    /// The workflow's model, held out (chosen and fitted on each fold's training rows).
-    pub final_model: Figure,
+    pub cv_rms_mg: f64,
+    /// Per fold, the search inside its training rows, each step fitted there and scored on
+    /// the fold's held-out rows (the last step's figure is `after`'s, on one fold).
+    pub heldout_steps: Vec<Vec<HeldOutStep>>,
     /// RMS over every row of the table in `table.bin` (fitted on every row: in-sample), mg.
-    pub final_table_rms_mg: f64,
+    pub table_rms_mg: f64,
+    /// The block test's own model (its catalog search inside each fold's training rows,
+    /// drift included), held out: what naming by the block test alone would predict.
+    pub block_test_model: Figure,
+    /// The effects that model holds, per fold.
+    pub block_test_effects_per_fold: Vec<Vec<String>>,
     /// PX4 / tofupilot cubic, held out.
     pub cubic: Figure,
     /// ArduPilot TCAL, held out.
@@ -114,6 +128,19 @@ pub struct AxisDiscovery {
     pub simple: Figure,
     /// No compensation (training mean removed), held out.
     pub none: Figure,
+}
+
+/// One step of the model search over every row.
+#[derive(Clone, Debug, Serialize)]
+pub struct Step {
+    /// The part added, `effect (form)`; `start` for the search's first structure.
+    pub effect: String,
+    /// The structure after the step.
+    pub structure: String,
+    /// Its cross-validation RMS over every row, mg.
+    pub cv_rms_mg: f64,
+    /// Whether the block test names the step's effect on every row.
+    pub identified: bool,
 }
 
 /// `DIR/report.json` of a static discovery.
@@ -140,18 +167,41 @@ pub struct StaticDiscovery {
     pub table: qfa_thermal::Table,
 }
 
-/// The static fitter's structure for a discovered model: one bias curve (discovery's grid
-/// is single-valued) with its lag, play and creep slots. A creep's activation energy is
-/// dropped (the static fitter's creep has a constant τ) and `bias_drift` has no slot.
+/// The part `to` adds to `from` (one search step, [`qfa_calibrate::static_cal::is_step`]):
+/// its catalog effect and its form. A loosened branch tie is the catalog's
+/// `bias_branch_hysteresis` (heating and cooling curves apart), in the static fitter's form.
 #[must_use]
-pub(crate) fn structure_of(m: &AxisModel) -> StaticStructure {
-    StaticStructure {
-        shape: CurveShape::Nodes,
-        branches: BranchMode::Single,
-        lag_tau_s: m.ext.sensor_lag.map(|l| l.tau_s),
-        creep_tau_s: m.ext.bias_creep.map(|c| c.tau_ref_s),
-        play_half_width_c: m.ext.bias_branch_hysteresis.map(|h| h.half_width_c),
+pub(crate) fn part_added(from: &StaticStructure, to: &StaticStructure) -> (&'static str, String) {
+    if from.branches != to.branches {
+        let form = match to.branches {
+            BranchMode::Offset => "a constant heating/cooling step",
+            _ => "free heating and cooling curves",
+        };
+        return ("bias_branch_hysteresis", form.to_string());
     }
+    if let (None, Some(t)) = (from.lag_tau_s, to.lag_tau_s) {
+        return ("sensor_lag", format!("tau {t} s"));
+    }
+    if let (None, Some(t)) = (from.creep_tau_s, to.creep_tau_s) {
+        return ("bias_creep", format!("tau {t} s"));
+    }
+    if let (None, Some(r)) = (from.play_half_width_c, to.play_half_width_c) {
+        return ("bias_branch_hysteresis", format!("play, half-width {r} °C"));
+    }
+    if from.shape != to.shape {
+        return ("temp_curve", "free grid nodes".to_string());
+    }
+    ("start", to.name())
+}
+
+/// A path's steps as labels, `effect (form)`, its start left out.
+fn path_labels(path: &[StaticStructure]) -> Vec<String> {
+    path.windows(2)
+        .map(|w| {
+            let (e, form) = part_added(&w[0], &w[1]);
+            format!("{e} ({form})")
+        })
+        .collect()
 }
 
 /// Multiply every bias term of `m` (grid, play weight, creep gain) by `k`.
@@ -240,9 +290,9 @@ pub fn discover_static(log: &StaticLog, start: Start, holdout: Holdout) -> Resul
     let mut channels = Vec::new();
     for (a, ax) in log.axes.iter().enumerate() {
         let (r, ch, _, reference) = discover_rows(log, a, &all, start, bin_s);
-        let disc_all = r.model.clone().ok_or_else(|| DiscoverError::NoModel { axis: ax.name.clone(), fold: None })?;
+        r.model.as_ref().ok_or_else(|| DiscoverError::NoModel { axis: ax.name.clone(), fold: None })?;
         let held_out = held_out_residuals(log, a, &folds, start, bin_s)?;
-        axes.push(axis_discovery(log, a, &r, &disc_all, reference, held_out, folds.is_empty())?);
+        axes.push(axis_discovery(log, a, &r, reference, held_out, folds.is_empty())?);
         reports.push(r);
         channels.push(ch);
     }
@@ -251,9 +301,14 @@ pub fn discover_static(log: &StaticLog, start: Start, holdout: Holdout) -> Resul
     // block test decides what is *named* (a claim about the physics, with a known
     // false-discovery rate); the cross-validation decides what is *flashed* (a
     // prediction); the report gives both figures.
+    // The model: the one search, the very call `calibrate` makes, so `discover` names what
+    // `calibrate` flashes. The block test says which of its parts it identifies, and which
+    // effects it names that the model does not hold.
     opts.holdout = holdout;
     let cal = calibrate_static(log, &opts, false)?;
-    adopt_flashed_choice(&mut axes, &cal.report.axes);
+    for (a, (x, r)) in axes.iter_mut().zip(&reports).enumerate() {
+        adopt_search(x, r, &cal.report.axes[a], &cal.paths[a]);
+    }
     Ok(StaticDiscovery {
         table: cal.table,
         start,
@@ -268,12 +323,12 @@ pub fn discover_static(log: &StaticLog, start: Start, holdout: Holdout) -> Resul
 }
 
 /// One axis's held-out residuals, pooled over the folds in time order: the start and the
-/// discovered model (each with the times of its rows), the peers, and no compensation.
+/// block test's model (each with the times of its rows), the peers, and no compensation.
 struct HeldOutResiduals {
     before: Vec<f64>,
-    after: Vec<f64>,
+    block: Vec<f64>,
     t_before: Vec<f64>,
-    t_after: Vec<f64>,
+    t_block: Vec<f64>,
     peers: [Vec<f64>; 3],
     peer_err: [Option<String>; 3],
     none: Vec<f64>,
@@ -294,9 +349,9 @@ fn held_out_residuals(
     let n = log.rows();
     let mut h = HeldOutResiduals {
         before: Vec::new(),
-        after: Vec::new(),
+        block: Vec::new(),
         t_before: Vec::new(),
-        t_after: Vec::new(),
+        t_block: Vec::new(),
         peers: [Vec::new(), Vec::new(), Vec::new()],
         peer_err: [None, None, None],
         none: Vec::new(),
@@ -311,7 +366,7 @@ fn held_out_residuals(
         h.effects_per_fold.push(rf.effect_labels());
         let drift = 1e-6 * rf.effects.iter().find_map(|e| e.params.get("drift_ug_per_h").copied()).unwrap_or(0.0);
         for (m, d, res, t) in
-            [(&base, 0.0, &mut h.before, &mut h.t_before), (&disc, drift, &mut h.after, &mut h.t_after)]
+            [(&base, 0.0, &mut h.before, &mut h.t_before), (&disc, drift, &mut h.block, &mut h.t_block)]
         {
             let b = row_bias(log, m, d, bin_s);
             for i in held.clone() {
@@ -359,7 +414,6 @@ fn axis_discovery(
     log: &StaticLog,
     a: usize,
     r: &Report,
-    disc_all: &AxisModel,
     reference: f64,
     h: HeldOutResiduals,
     no_folds: bool,
@@ -379,19 +433,21 @@ fn axis_discovery(
         axis: ax.name.clone(),
         column: ax.column.clone(),
         reference_g: reference,
-        effects: r.effect_labels(),
-        effects_per_fold: h.effects_per_fold,
-        not_in_table: r.effects.iter().filter(|e| !e.in_table).map(|e| e.name.clone()).collect(),
+        // Filled in by `adopt_search`, once the search has run.
+        effects: Vec::new(),
+        effects_per_fold: Vec::new(),
+        steps: Vec::new(),
+        identified: r.effect_labels(),
+        not_added: Vec::new(),
         unexplained: unexplained_lines(r),
         before: fig(&h.before, &h.t_before, "start model", &None)?,
-        after: fig(&h.after, &h.t_after, "discovered model", &None)?,
-        named_structure: structure_of(disc_all).name(),
-        // Filled in by `adopt_flashed_choice`, once every axis's named structure is known.
-        final_structure: String::new(),
-        final_is_named: false,
-        final_cv_rms_mg: f64::NAN,
-        final_model: Figure::not_computed("not yet chosen"),
-        final_table_rms_mg: f64::NAN,
+        after: Figure::not_computed("not yet searched"),
+        named_structure: String::new(),
+        cv_rms_mg: f64::NAN,
+        heldout_steps: Vec::new(),
+        table_rms_mg: f64::NAN,
+        block_test_model: fig(&h.block, &h.t_block, "block test's model", &None)?,
+        block_test_effects_per_fold: h.effects_per_fold,
         cubic: fig(&h.peers[0], &h.ho_t, PeerKind::Cubic.label(), &h.peer_err[0])?,
         ardupilot: fig(&h.peers[1], &h.ho_t, PeerKind::Ardupilot.label(), &h.peer_err[1])?,
         simple: fig(&h.peers[2], &h.ho_t, PeerKind::Simple.label(), &h.peer_err[2])?,
@@ -407,16 +463,70 @@ fn unexplained_lines(r: &Report) -> Vec<String> {
     r.unexplained.iter().map(|u| u.evidence(unit, unit)).collect()
 }
 
-/// Record on each axis the structure static calibration flashed, its figures, and whether
-/// discovery named it.
-fn adopt_flashed_choice(axes: &mut [AxisDiscovery], cal_axes: &[qfa_calibrate::static_cal::AxisReport]) {
-    for (a, c) in axes.iter_mut().zip(cal_axes) {
-        a.final_is_named = c.structure == a.named_structure;
-        a.final_structure.clone_from(&c.structure);
-        a.final_cv_rms_mg = c.cv_rms_mg;
-        a.final_model = c.ours.clone();
-        a.final_table_rms_mg = c.table_rms_mg;
-    }
+/// Record on axis `x` what the one search found (`c`, its `paths`: every row, then each
+/// fold's training rows): the named structure and its steps, their figures, which of them
+/// the block test (`r`, every row) identifies, and which of its names the model does not
+/// hold, with why.
+fn adopt_search(
+    x: &mut AxisDiscovery,
+    r: &Report,
+    c: &qfa_calibrate::static_cal::AxisReport,
+    paths: &[Vec<qfa_calibrate::static_cal::SearchStep>],
+) {
+    let named: Vec<&str> = r.effects.iter().map(|e| e.name.as_str()).collect();
+    let structures = |p: &[qfa_calibrate::static_cal::SearchStep]| p.iter().map(|s| s.structure).collect::<Vec<_>>();
+    let all = paths.first().map(|p| structures(p)).unwrap_or_default();
+    x.effects = path_labels(&all);
+    x.effects_per_fold = paths.iter().skip(1).map(|p| path_labels(&structures(p))).collect();
+    x.steps = paths
+        .first()
+        .map(|p| {
+            p.iter()
+                .enumerate()
+                .map(|(i, st)| {
+                    let (effect, identified) = match i {
+                        0 => ("start".to_string(), true),
+                        _ => {
+                            let (e, form) = part_added(&p[i - 1].structure, &st.structure);
+                            (format!("{e} ({form})"), named.contains(&e))
+                        }
+                    };
+                    Step { effect, structure: st.structure.name(), cv_rms_mg: st.cv_rms_g * 1e3, identified }
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    x.named_structure.clone_from(&c.structure);
+    x.after = c.ours.clone();
+    x.cv_rms_mg = c.cv_rms_mg;
+    x.heldout_steps.clone_from(&c.heldout_paths);
+    x.table_rms_mg = c.table_rms_mg;
+    let held = |f: &Figure| f.score().map(|s| s.rms_mg);
+    let (block, after) = (held(&x.block_test_model), held(&x.after));
+    let folds = &x.block_test_effects_per_fold;
+    x.not_added = r
+        .effects
+        .iter()
+        // The bias curve's shape is the grid's (or the cubic's) own: every structure holds it.
+        .filter(|e| e.name != "temp_quadratic")
+        .filter(|e| !x.effects.iter().any(|l| l.starts_with(&format!("{} (", e.name))))
+        .map(|e| {
+            let why = if e.in_table {
+                "the search's lowest cross-validation does not hold it"
+            } else {
+                "the table has no slot for it (a trend in time, extrapolated past the log)"
+            };
+            let in_block_model = folds.iter().any(|f| f.iter().any(|l| l.starts_with(&format!("{} (", e.name))));
+            let carry = match (block, after) {
+                (Some(b), Some(n)) if in_block_model && b > n => format!(
+                    "; the block test's model, which holds it, holds out {b:.2} mg against the named model's {n:.2} \
+                     mg: it does not carry forward"
+                ),
+                _ => String::new(),
+            };
+            format!("{}: {why}{carry}", e.name)
+        })
+        .collect();
 }
 
 /// The title line of one axis's report.
@@ -429,20 +539,47 @@ pub(crate) fn axis_title(a: &AxisDiscovery) -> String {
 /// (RMS over rows / over 60-s means, mg).
 #[must_use]
 pub(crate) fn axis_figures(d: &StaticDiscovery, a: &AxisDiscovery) -> Vec<[String; 2]> {
+    let list = |v: &[String], none: &str| if v.is_empty() { none.to_string() } else { v.join(", ") };
     vec![
         [format!("start model `{}`", d.start.name()), a.before.cell()],
         [
             format!(
-                "named model ({}){}",
-                if a.effects.is_empty() { "nothing named".to_string() } else { a.effects.join(", ") },
+                "named model = table.bin (`../table.bin`, {}: {}){}",
+                a.named_structure,
+                list(&a.effects, "nothing added"),
                 if named_is_worse(a) { ", worse than the start held out" } else { "" }
             ),
             a.after.cell(),
         ],
-        [format!("table.bin of all axes (`../table.bin`, structure {})", a.final_structure), a.final_model.cell()],
+        [
+            format!(
+                "the block test's own model ({}), for comparison",
+                a.block_test_effects_per_fold.iter().map(|f| list(f, "nothing")).collect::<Vec<_>>().join(" | ")
+            ),
+            a.block_test_model.cell(),
+        ],
         ["PX4/tofupilot cubic".to_string(), a.cubic.cell()],
         ["ArduPilot TCAL".to_string(), a.ardupilot.cell()],
     ]
+}
+
+/// Each fold's search, step by step, held out: `[step, structure, CV mg, held-out mg]`.
+#[must_use]
+pub(crate) fn step_rows(a: &AxisDiscovery) -> Vec<[String; 4]> {
+    let mut out = Vec::new();
+    for (f, (steps, labels)) in a.heldout_steps.iter().zip(&a.effects_per_fold).enumerate() {
+        for (i, st) in steps.iter().enumerate() {
+            let label = if i == 0 { "start of the search".to_string() } else { labels[i - 1].clone() };
+            let fold = if a.heldout_steps.len() > 1 { format!("fold {}: ", f + 1) } else { String::new() };
+            out.push([
+                format!("{fold}{label}"),
+                st.structure.clone(),
+                format!("{:.3}", st.cv_rms_mg),
+                st.held_out.cell(),
+            ]);
+        }
+    }
+    out
 }
 
 /// What [`axis_figures`] are, in one sentence.
@@ -470,41 +607,40 @@ pub(crate) fn axis_figures_markdown(d: &StaticDiscovery, a: &AxisDiscovery) -> S
 pub(crate) fn table_rows(d: &StaticDiscovery) -> (Vec<&'static str>, Vec<Vec<String>>) {
     let header = vec![
         "axis",
-        "effects named (every row)",
-        "named on the training rows (the named model's)",
+        "named = table.bin structure (every row)",
+        "its parts, in the search's order",
+        "identified by the block test",
+        "not added, and why",
+        "parts inside the training rows (the held-out model's)",
         "start model, held out",
-        "named model, held out",
-        "table.bin, held out (chosen inside the training rows)",
-        "table.bin structure (CV choice on every row)",
-        "CV RMS of that structure, mg",
+        "named model = table.bin, held out",
+        "CV RMS of the named structure, mg",
+        "the block test's own model, held out",
         "PX4/tofupilot cubic, held out",
         "ArduPilot TCAL, held out",
         "paper simple, held out",
         "none, held out",
     ];
+    let list = |v: &[String]| if v.is_empty() { "none".to_string() } else { v.join(", ") };
     let rows = d
         .axes
         .iter()
         .map(|a| {
-            let mut names = if a.effects.is_empty() { "none".to_string() } else { a.effects.join(", ") };
+            let mut identified = list(&a.identified);
             if !a.unexplained.is_empty() {
-                let _ = write!(names, "; unexplained: {}", a.unexplained.join("; "));
+                let _ = write!(identified, "; unexplained: {}", a.unexplained.join("; "));
             }
-            let per_fold = a
-                .effects_per_fold
-                .iter()
-                .map(|f| if f.is_empty() { "none".to_string() } else { f.join(", ") })
-                .collect::<Vec<_>>()
-                .join(" | ");
             vec![
                 a.axis.clone(),
-                names,
-                per_fold,
+                a.named_structure.clone(),
+                list(&a.effects),
+                identified,
+                list(&a.not_added),
+                a.effects_per_fold.iter().map(|f| list(f)).collect::<Vec<_>>().join(" | "),
                 a.before.cell(),
                 if named_is_worse(a) { format!("{} (worse than the start)", a.after.cell()) } else { a.after.cell() },
-                a.final_model.cell(),
-                format!("{}{}", a.final_structure, if a.final_is_named { " (the named structure)" } else { "" }),
-                format!("{:.2}", a.final_cv_rms_mg),
+                format!("{:.2}", a.cv_rms_mg),
+                a.block_test_model.cell(),
                 a.cubic.cell(),
                 a.ardupilot.cell(),
                 a.simple.cell(),
@@ -520,14 +656,17 @@ pub(crate) fn table_rows(d: &StaticDiscovery) -> (Vec<&'static str>, Vec<Vec<Str
 pub(crate) fn how_to_read(d: &StaticDiscovery) -> [String; 3] {
     [
         format!("Which rows each figure comes from: {}.", d.figures),
-        "For each held-out figure, discovery sees only that fold's training rows (its own selection folds, time \
-         blocks, inside them); every figure called held out is on the held-out rows, RMS over rows / over 60-s \
-         means, mg. Peers fitted on the same training rows, as `calibrate` fits them. Effects named: on every row."
+        "Every figure called held out is on the held-out rows, RMS over rows / over 60-s means, mg, from models \
+         chosen and fitted on each fold's training rows only; peers are fitted on the same training rows, as \
+         `calibrate` fits them."
             .to_string(),
-        "Named: the block test (a claim about the physics). Flashed (`table.bin`): the lowest blocked \
-         cross-validation (CV) RMS among static calibration's candidates (a prediction), chosen and fitted on every \
-         row by the same call `calibrate` makes, so both write this table; its held-out figure is the same choice \
-         made inside each fold's training rows."
+        "Named is flashed: one model search, the one `calibrate` runs (every candidate structure's blocked \
+         cross-validation (CV) RMS inside the rows it is fitted on, the lowest chosen), names the structure and \
+         `table.bin` holds it. Its parts are listed in the order a path from the simplest structure adds them, \
+         one at a time, each to the lowest CV. A part is identified when the block test, a claim about the \
+         physics with a known false-discovery rate, names its effect on every row; the block test's own model \
+         is shown held out beside it, and what it names that the table does not hold is listed under not added, \
+         with why."
             .to_string(),
     ]
 }
@@ -555,17 +694,18 @@ pub(crate) fn markdown(d: &StaticDiscovery) -> String {
         let _ = writeln!(s, "| {} |", r.join(" | "));
     }
     let _ = writeln!(s, "\n{named_flashed}");
-    let missing: Vec<String> = d
-        .axes
-        .iter()
-        .filter(|a| !a.not_in_table.is_empty())
-        .map(|a| format!("{}: {}", a.axis, a.not_in_table.join(", ")))
-        .collect();
-    if !missing.is_empty() {
-        let _ =
-            writeln!(s, "\nNamed but with no root-crate slot (not in any flashed structure): {}.", missing.join("; "));
+    for a in &d.axes {
+        let _ = writeln!(
+            s,
+            "\n**{}: the search, step by step, held out** (each step fitted on the training rows, scored on the \
+             held-out rows):\n\n| step | structure | CV RMS in the training rows, mg | held out, mg |\n|---|---|---|---|",
+            a.axis
+        );
+        for r in step_rows(a) {
+            let _ = writeln!(s, "| {} |", r.join(" | "));
+        }
     }
-    s.push_str("\nPer-axis discovery reports (candidates, tests, intervals): `ax/`, `ay/`, `az/` (their `model.toml` is the named model, for reading, not a table to flash). `table.bin` (all axes): `qfa-lab compensate --table DIR/table.bin`.\n");
+    s.push_str("\nPer-axis discovery reports (candidates, tests, intervals): `ax/`, `ay/`, `az/` (their `model.toml` is the block test's own model, for reading, not a table to flash). `table.bin` (all axes): `qfa-lab compensate --table DIR/table.bin`.\n");
     s
 }
 

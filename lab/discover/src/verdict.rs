@@ -92,8 +92,8 @@ fn file_uses(files: &[String], axis: bool) -> Vec<FileUse> {
             "model.bin" => FileUse { file: f.clone(), action: "the same bytes as table.bin (its older name)".into() },
             "model.toml" if axis => FileUse {
                 file: f.clone(),
-                action: "read only: the named model in µg (K1 = 1, `bias_drift` without a slot), not a table to \
-                         flash; the table of all axes is ../table.bin"
+                action: "read only: the block test's own model in µg (K1 = 1, `bias_drift` without a slot), not \
+                         a table to flash; the named model is the table of all axes, ../table.bin"
                     .into(),
             },
             "model.toml" => FileUse { file: f.clone(), action: "keep: table.bin as text, to read and diff".into() },
@@ -209,58 +209,51 @@ pub(crate) fn named_is_worse(a: &AxisDiscovery) -> bool {
     matches!((rms(&a.before), rms(&a.after)), (Some(s), Some(n)) if compare(s, n) == Compared::Worse)
 }
 
-/// One axis's answer: what was named, how it stands held out against the start model, and
-/// the structure of `table.bin` with its held-out figure.
+/// One axis's answer: what the search named (the structure `table.bin` holds) and its
+/// parts, which of them the block test identifies, how it stands held out against the start
+/// model, and what the block test names that it does not hold.
 fn axis_answer(d: &StaticDiscovery, a: &AxisDiscovery) -> String {
+    let parts: Vec<String> = a
+        .steps
+        .iter()
+        .skip(1)
+        .map(|st| format!("{}{}", st.effect, if st.identified { ", identified" } else { ", not identified" }))
+        .collect();
+    let mut s = format!("{}: named {} = table.bin", a.axis, a.named_structure);
+    if !parts.is_empty() {
+        s.push_str(&format!(" ({})", parts.join("; ")));
+    }
     let named = static_labels(&a.effects);
-    let mut s =
-        if a.effects.is_empty() { format!("{}: nothing named", a.axis) } else { format!("{}: named {named}", a.axis) };
-    // The held-out figure's model is named on each fold's training rows, which may differ.
     let folds: Vec<String> = a.effects_per_fold.iter().map(|f| static_labels(f)).collect();
     if folds.iter().any(|f| *f != named) {
-        s.push_str(&format!(" (on the training rows: {})", folds.join(" | ")));
+        s.push_str(&format!(" (inside the training rows: {})", folds.join(" | ")));
     }
     let start = d.start.name();
     match (rms(&a.before), rms(&a.after)) {
-        (Some(b), Some(_)) if a.effects.is_empty() && a.effects_per_fold.iter().all(Vec::is_empty) => {
-            s.push_str(&format!(", so the named model is the start model `{start}` (held out {b:.2} mg)"));
-        }
         (Some(b), Some(n)) => {
             let (words, _) = standing(start, &[("bias", b, "mg")], &[("bias", n, "mg")]);
             s.push_str(&format!(", which {words} (named {n:.2} mg, start {b:.2} mg)"));
         }
         _ => s.push_str(", with no held-out figure (see the held-out scheme)"),
     }
-    let how = if a.final_is_named {
-        "calibrate's CV choice, the named structure"
-    } else {
-        "calibrate's CV choice, not the named structure"
-    };
-    match rms(&a.final_model) {
-        Some(f) => s.push_str(&format!("; table.bin: {} ({how}), held out {f:.2} mg", a.final_structure)),
-        None => s.push_str(&format!("; table.bin: {} ({how})", a.final_structure)),
+    if !a.not_added.is_empty() {
+        s.push_str(&format!("; not added: {}", a.not_added.join("; ")));
     }
     s
 }
 
-/// The figures to expect on `axes`: each axis's named model's (or the start model's when
-/// the named one is worse), then each axis's `table.bin` figure.
+/// The figures to expect on `axes`: each axis's named model's, `table.bin`.
 fn expect(axes: &[AxisDiscovery]) -> Vec<Expected> {
-    let (models, tables): (Vec<_>, Vec<_>) = axes.iter().map(axis_expect).unzip();
-    models.into_iter().chain(tables).flatten().collect()
-}
-
-/// One axis's figures to expect: `(its model's, table.bin's)`.
-fn axis_expect(a: &AxisDiscovery) -> (Option<Expected>, Option<Expected>) {
-    let worse = named_is_worse(a);
-    let model = if worse { &a.before } else { &a.after };
-    let what = if worse {
-        "held-out bias RMS of the start model (the named model is worse)"
-    } else {
-        "held-out bias RMS of the named model"
-    };
-    let fig = |what: &str, x: f64| Expected { axis: a.axis.clone(), what: what.into(), value: x, unit: "mg".into() };
-    (rms(model).map(|x| fig(what, x)), rms(&a.final_model).map(|x| fig("held-out bias RMS of table.bin", x)))
+    axes.iter()
+        .filter_map(|a| {
+            rms(&a.after).map(|x| Expected {
+                axis: a.axis.clone(),
+                what: "held-out bias RMS of the named model (table.bin)".into(),
+                value: x,
+                unit: "mg".into(),
+            })
+        })
+        .collect()
 }
 
 /// One axis's warnings, each starting with the axis.
@@ -268,30 +261,14 @@ fn axis_warnings(d: &StaticDiscovery, a: &AxisDiscovery) -> Vec<String> {
     let mut w = Vec::new();
     if let (true, Some(b), Some(n)) = (named_is_worse(a), rms(&a.before), rms(&a.after)) {
         w.push(format!(
-            "{}: the named model is worse held out than the start model `{}` ({n:.2} mg against {b:.2} mg): from \
-             discovery's models expect the start model's figure; table.bin is chosen apart from the naming (CV)",
+            "{}: the named model (table.bin) is worse held out than the start model `{}` ({n:.2} mg against {b:.2} \
+             mg): the structure the search picks inside the training rows does worse on the held-out rows",
             a.axis,
             d.start.name()
         ));
     }
-    // What the axis's expect line gives first: the named model's figure, or the start's.
-    let model = if named_is_worse(a) { rms(&a.before) } else { rms(&a.after) };
-    if let (Some(m), Some(t)) = (model, rms(&a.final_model)) {
-        if compare(m, t) == Compared::Worse {
-            w.push(format!(
-                "{}: table.bin holds out worse ({t:.2} mg) than discovery's {} model ({m:.2} mg): the structure CV \
-                 picks inside the training rows does worse on the held-out rows",
-                a.axis,
-                if named_is_worse(a) { "start" } else { "named" }
-            ));
-        }
-    }
-    if !a.not_in_table.is_empty() {
-        w.push(format!(
-            "{}: {} named but not in table.bin (no root-crate slot yet)",
-            a.axis,
-            a.not_in_table.join(", ")
-        ));
+    for n in &a.not_added {
+        w.push(format!("{}: named by the block test, not added: {n}", a.axis));
     }
     for u in &a.unexplained {
         w.push(format!("{}: structure left that no catalog effect explains: {u}", a.axis));
@@ -303,9 +280,9 @@ fn axis_warnings(d: &StaticDiscovery, a: &AxisDiscovery) -> Vec<String> {
 /// discovery's own folds and of the structure choice are named for what they are.
 fn static_held_out(d: &StaticDiscovery) -> String {
     format!(
-        "scheme `{}` (asked `{}`), {}; figures from discovery's own folds inside the rows it saw (which decided what \
-         is named) are called selection-fold figures, and those of the cross-validation that chose table.bin's \
-         structure CV figures",
+        "scheme `{}` (asked `{}`), {}; figures of the block test's own folds inside the rows it saw are called \
+         selection-fold figures, and those of the cross-validation that chose the named structure (table.bin's) \
+         CV figures",
         d.holdout.scheme, d.holdout.requested, d.holdout.rule
     )
 }

@@ -17,7 +17,7 @@ pub(super) fn markdown(ch: &Channels, r: &Report, scope: Scope<'_>, v: &Verdict)
         flashed_line(&mut s, ch, r);
     }
     let _ = writeln!(s, "Selection: {}.\n", scope.relabel(&r.selection_rule));
-    markdown_peers(&mut s, ch, r, held);
+    markdown_peers(&mut s, ch, r, scope);
     markdown_effects(&mut s, r, scope);
     markdown_unexplained(&mut s, ch, r, held);
     markdown_where(&mut s, ch, r, held);
@@ -40,9 +40,10 @@ fn markdown_opening(s: &mut String, r: &Report, scope: Scope<'_>, v: &Verdict) {
             let _ = writeln!(s, "\n## How discovery chose (selection folds)\n");
             let _ = writeln!(
                 s,
-                "The figures in this section come from discovery's own folds inside the rows it saw (they decide \
-                 what is named), so they are called selection-fold figures; the held-out figures of the axis are \
-                 the ones above.\n"
+                "The figures in this section come from the block test's own folds inside the rows it saw (they \
+                 decide what the block test names), so they are called selection-fold figures; its model is called \
+                 the block test's model (the named model is the table's, above); the held-out figures of the axis \
+                 are the ones above.\n"
             );
             let _ = writeln!(
                 s,
@@ -61,7 +62,8 @@ fn markdown_gaps(s: &mut String, ch: &Channels, r: &Report, scope: Scope<'_>) {
     let _ = writeln!(s, "- {held_cap} gap, start model: {}", gaps_text(ch.bias_unit, &r.heldout_gap_before));
     let _ = writeln!(
         s,
-        "- {held_cap} gap, named model{}: {}",
+        "- {held_cap} gap, {}{}: {}",
+        scope.model_name(),
         if worse(r) { " (worse than the start)" } else { "" },
         gaps_text(ch.bias_unit, &r.heldout_gap_after)
     );
@@ -124,7 +126,8 @@ fn summary_text(ch: &Channels, r: &Report, held: &str) -> String {
 }
 
 /// The peers' table: every model's held-out RMS of the bias channel on the same split.
-fn markdown_peers(s: &mut String, ch: &Channels, r: &Report, held: &str) {
+fn markdown_peers(s: &mut String, ch: &Channels, r: &Report, scope: Scope<'_>) {
+    let held = scope.folds_word();
     let unit = ch.bias_unit.label();
     let _ = writeln!(
         s,
@@ -135,7 +138,7 @@ fn markdown_peers(s: &mut String, ch: &Channels, r: &Report, held: &str) {
         Gaps::Single { value_rms } => *value_rms,
     };
     let _ = writeln!(s, "| start model (`{}`) | {:.4} |", r.start.name(), bias_gap(&r.heldout_gap_before));
-    let _ = writeln!(s, "| named model | {:.4} |", bias_gap(&r.heldout_gap_after));
+    let _ = writeln!(s, "| {} | {:.4} |", scope.model_name(), bias_gap(&r.heldout_gap_after));
     for p in &r.peers {
         match (&p.heldout_rms, &p.error) {
             (Some(x), _) => {
@@ -315,6 +318,6 @@ fn markdown_files(s: &mut String, scope: Scope<'_>) {
     if scope.flashable() {
         let _ = writeln!(s, "Files: `report.json`, `table.bin` (root-crate table, 1 axis, rate window 32: `qfa-lab compensate --table DIR/table.bin`), `model.bin` (same bytes), `model.toml`, `residuals.csv`, `residual_*.png`.");
     } else {
-        let _ = writeln!(s, "Files: `report.json`, `model.toml` (the named model, for reading: its K1 is 1 and `bias_drift` has no slot, so it is not a table to flash; the flashable table of all axes is `../table.bin`), `residuals.csv`, `residual_*.png`.");
+        let _ = writeln!(s, "Files: `report.json`, `model.toml` (the block test's model, for reading: its K1 is 1 and `bias_drift` has no slot, so it is not a table to flash; the flashable table of all axes is `../table.bin`), `residuals.csv`, `residual_*.png`.");
     }
 }
