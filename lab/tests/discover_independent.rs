@@ -167,8 +167,8 @@ fn desk_log_flashes_at_least_the_cubic() {
                 if flashed > 1.10 * cubic {
                     bad.push(format!("{}: flashed {flashed:.3} mg, cubic {cubic:.3}", a.axis));
                 }
-                if a.identified.iter().any(|e| !e.starts_with("temp_quadratic")) {
-                    spurious.push(format!("seed {seed} {}: {:?}", a.axis, a.identified));
+                if a.block_test_names.iter().any(|e| !e.starts_with("temp_quadratic")) {
+                    spurious.push(format!("seed {seed} {}: {:?}", a.axis, a.block_test_names));
                 }
             }
             let line = format!(

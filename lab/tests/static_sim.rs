@@ -112,7 +112,7 @@ fn case(effect: Option<&str>) -> (f64, f64, String, f64) {
         effect.unwrap_or("none"),
         x.named_structure,
         x.effects,
-        x.identified,
+        x.block_test_names,
         mg(&x.after) * 1e3,
         mg(&x.block_test_model) * 1e3,
     );

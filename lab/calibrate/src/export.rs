@@ -17,8 +17,7 @@ pub const ARDUPILOT_VALUES_FILE: &str = "ardupilot_tcal_2_values.parm";
 pub const PX4_FILE: &str = "px4_tc.params";
 /// Every file [`write_exports`] manages in an output directory (older names included, so a
 /// file from an earlier run never sits beside this run's as if it were current).
-pub const EXPORT_FILES: [&str; 4] =
-    [PX4_FILE, ARDUPILOT_ENABLE_FILE, ARDUPILOT_VALUES_FILE, "ardupilot_tcal.parm"];
+pub const EXPORT_FILES: [&str; 4] = [PX4_FILE, ARDUPILOT_ENABLE_FILE, ARDUPILOT_VALUES_FILE, "ardupilot_tcal.parm"];
 
 /// The range ArduPilot accepts for `INS_TCALn_TMIN` / `TMAX`, °C (their `@Range: -70 80`
 /// in `AP_InertialSensor_tempcal.cpp`).

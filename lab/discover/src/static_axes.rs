@@ -95,8 +95,8 @@ pub struct AxisDiscovery {
     /// the block test identifies its effect.
     pub steps: Vec<Step>,
     /// Effects the block test names on every row (a claim about the physics, with the
-    /// false-discovery rate docs/measurements.md states), `effect (channel)`.
-    pub identified: Vec<String>,
+    /// false-discovery rate docs/measurements.md states), as its report labels them.
+    pub block_test_names: Vec<String>,
     /// Effects the block test names that the model does not hold, each with why.
     pub not_added: Vec<String>,
     /// Unexplained structure left in the residual on every row, in words.
@@ -139,8 +139,12 @@ pub struct Step {
     pub structure: String,
     /// Its cross-validation RMS over every row, mg.
     pub cv_rms_mg: f64,
-    /// Whether the block test names the step's effect on every row.
+    /// Whether the block test names the step's effect on every row and tells it from every
+    /// other effect.
     pub identified: bool,
+    /// What the block test says of it, in words: `identified`, `not identified: as good as
+    /// …`, or `not named by the block test`.
+    pub evidence: String,
 }
 
 /// `DIR/report.json` of a static discovery.
@@ -192,6 +196,21 @@ pub(crate) fn part_added(from: &StaticStructure, to: &StaticStructure) -> (&'sta
         return ("temp_curve", "free grid nodes".to_string());
     }
     ("start", to.name())
+}
+
+/// What the block test (`r`, every row) says of `effect`: whether it names it and tells it
+/// from the others, and that in words.
+fn evidence_for(r: &Report, effect: &str) -> (bool, String) {
+    if let Some(e) = r.effects.iter().find(|e| e.name == effect) {
+        if e.confusable_with.is_empty() {
+            return (true, "identified".to_string());
+        }
+        return (false, format!("not identified: as good as {}", e.confusable_with.join(", ")));
+    }
+    match r.effects.iter().find(|e| e.confusable_with.iter().any(|c| c == effect)) {
+        Some(e) => (false, format!("not identified: the block test named {} as good", e.name)),
+        None => (false, "not named by the block test".to_string()),
+    }
 }
 
 /// A path's steps as labels, `effect (form)`, its start left out.
@@ -437,7 +456,7 @@ fn axis_discovery(
         effects: Vec::new(),
         effects_per_fold: Vec::new(),
         steps: Vec::new(),
-        identified: r.effect_labels(),
+        block_test_names: r.effect_labels(),
         not_added: Vec::new(),
         unexplained: unexplained_lines(r),
         before: fig(&h.before, &h.t_before, "start model", &None)?,
@@ -473,7 +492,6 @@ fn adopt_search(
     c: &qfa_calibrate::static_cal::AxisReport,
     paths: &[Vec<qfa_calibrate::static_cal::SearchStep>],
 ) {
-    let named: Vec<&str> = r.effects.iter().map(|e| e.name.as_str()).collect();
     let structures = |p: &[qfa_calibrate::static_cal::SearchStep]| p.iter().map(|s| s.structure).collect::<Vec<_>>();
     let all = paths.first().map(|p| structures(p)).unwrap_or_default();
     x.effects = path_labels(&all);
@@ -484,14 +502,14 @@ fn adopt_search(
             p.iter()
                 .enumerate()
                 .map(|(i, st)| {
-                    let (effect, identified) = match i {
-                        0 => ("start".to_string(), true),
+                    let (effect, (identified, evidence)) = match i {
+                        0 => ("start".to_string(), (true, "the search's start".to_string())),
                         _ => {
                             let (e, form) = part_added(&p[i - 1].structure, &st.structure);
-                            (format!("{e} ({form})"), named.contains(&e))
+                            (format!("{e} ({form})"), evidence_for(r, e))
                         }
                     };
-                    Step { effect, structure: st.structure.name(), cv_rms_mg: st.cv_rms_g * 1e3, identified }
+                    Step { effect, structure: st.structure.name(), cv_rms_mg: st.cv_rms_g * 1e3, identified, evidence }
                 })
                 .collect()
         })
@@ -609,7 +627,7 @@ pub(crate) fn table_rows(d: &StaticDiscovery) -> (Vec<&'static str>, Vec<Vec<Str
         "axis",
         "named = table.bin structure (every row)",
         "its parts, in the search's order",
-        "identified by the block test",
+        "what the block test says of each part",
         "not added, and why",
         "parts inside the training rows (the held-out model's)",
         "start model, held out",
@@ -626,7 +644,17 @@ pub(crate) fn table_rows(d: &StaticDiscovery) -> (Vec<&'static str>, Vec<Vec<Str
         .axes
         .iter()
         .map(|a| {
-            let mut identified = list(&a.identified);
+            let mut identified = a
+                .steps
+                .iter()
+                .skip(1)
+                .map(|st| format!("{}: {}", st.effect, st.evidence))
+                .collect::<Vec<_>>()
+                .join("; ");
+            if identified.is_empty() {
+                identified = "nothing added".to_string();
+            }
+            let _ = write!(identified, "; the block test names: {}", list(&a.block_test_names));
             if !a.unexplained.is_empty() {
                 let _ = write!(identified, "; unexplained: {}", a.unexplained.join("; "));
             }

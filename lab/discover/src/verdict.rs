@@ -213,12 +213,7 @@ pub(crate) fn named_is_worse(a: &AxisDiscovery) -> bool {
 /// parts, which of them the block test identifies, how it stands held out against the start
 /// model, and what the block test names that it does not hold.
 fn axis_answer(d: &StaticDiscovery, a: &AxisDiscovery) -> String {
-    let parts: Vec<String> = a
-        .steps
-        .iter()
-        .skip(1)
-        .map(|st| format!("{}{}", st.effect, if st.identified { ", identified" } else { ", not identified" }))
-        .collect();
+    let parts: Vec<String> = a.steps.iter().skip(1).map(|st| format!("{}, {}", st.effect, st.evidence)).collect();
     let mut s = format!("{}: named {} = table.bin", a.axis, a.named_structure);
     if !parts.is_empty() {
         s.push_str(&format!(" ({})", parts.join("; ")));
