@@ -1,0 +1,315 @@
+//! Study: which rule, applied to static calibration's cross-validation inside the training
+//! rows, chooses the structure that predicts the later leg best. For every axis of every
+//! case it scores every structure of the lattice (curve shape × branch tie × lag × creep)
+//! held out (fitted on the rows up to the highest temperature, scored on the rest), and
+//! prints the held-out RMS of what each rule chooses against the best any structure gives.
+//!
+//! Cases: the real chamber log (`QFA_REAL_LOG`, else the shared folder beside the
+//! repository), the simulator's chamber cycle with each hidden effect (seeds 11–13), and the
+//! independent desk generator (seeds 1–2; seed 1's log has no later leg and is skipped).
+//! `cargo xtask experiment selection_study` (about 8 s in release). Prints one line per axis
+//! (the oracle, the best any structure gives held out, then each rule's pick), and per rule
+//! the geometric mean over axes of its held-out RMS over the oracle's, and on how many clean
+//! axes (nothing hidden, the desk logs) it added any part to its start. The figures are in
+//! docs/measurements.md ("Real data").
+
+#[path = "../tests/truth/mod.rs"]
+mod truth;
+
+use qfa_calibrate::fit::{fit_static_traced, BranchMode, CurveShape, StaticSeries, StaticStructure, StaticTraces};
+use qfa_calibrate::static_cal::{
+    cv_fold_sums_axes, resolve_holdout, CvOrder, FoldSums, Holdout, Scheme, StaticCalOptions,
+};
+use qfa_log::static_log::{read_static_from, AccelUnit, StaticLog, StaticOptions, TimeUnit};
+use qfa_sim::profile::{Position, Program};
+
+fn lattice() -> Vec<StaticStructure> {
+    let mut out = Vec::new();
+    for shape in [CurveShape::Cubic, CurveShape::Nodes] {
+        for branches in [BranchMode::Single, BranchMode::Offset, BranchMode::Free] {
+            for lag in [None, Some(30.0), Some(60.0), Some(120.0), Some(240.0), Some(480.0)] {
+                for creep in [None, Some(60.0), Some(180.0), Some(600.0)] {
+                    out.push(StaticStructure {
+                        shape,
+                        branches,
+                        lag_tau_s: lag,
+                        creep_tau_s: creep,
+                        play_half_width_c: None,
+                    });
+                }
+            }
+        }
+    }
+    out
+}
+
+fn chamber_log(effect: Option<&str>, seed: u64) -> StaticLog {
+    let mut truth = qfa_sim::truth::Truth::jb_kt8(1);
+    if let Some(e) = effect {
+        truth = truth.with_effect(e).unwrap();
+    }
+    let min = 60.0;
+    let program = Program {
+        id: "chamber".into(),
+        points: vec![(0.0, 22.0), (21.0 * min, -20.0), (68.5 * min, 75.0), (88.5 * min, 35.0), (100.0 * min, 35.0)],
+    };
+    let run = qfa_sim::simulate_run(&truth, &program, Position { run: 1, input_g: 0.0 }, 1, seed);
+    let gamma = f64::from(truth.scale.gamma);
+    let mut text = String::from("time_s\ttemp_c\taz\n");
+    for s in &run.samples {
+        if let Some(t) = s.temp_c {
+            text.push_str(&format!("{}\t{t}\t{:.12}\n", s.time_s, s.pulses as f64 / (s.interval_s * gamma)));
+        }
+    }
+    let opts = StaticOptions { time_unit: Some(TimeUnit::S), accel_unit: Some(AccelUnit::G), ..Default::default() };
+    read_static_from(text.as_bytes(), &opts).unwrap()
+}
+
+/// Per axis and structure: CV fold sums (both orders) on the training rows, and the held-out
+/// mean square on the later leg.
+struct Scores {
+    both: Vec<Vec<Option<FoldSums>>>,
+    forward: Vec<Vec<Option<FoldSums>>>,
+    held: Vec<Vec<Option<f64>>>,
+}
+
+fn scores(log: &StaticLog, lat: &[StaticStructure]) -> Option<Scores> {
+    let opts = StaticCalOptions::default();
+    let (scheme, _) = resolve_holdout(log, Holdout::Auto, opts.block).ok()?;
+    let Scheme::AfterMax { last } = scheme else { return None };
+    let n = log.rows();
+    let view = StaticSeries::view_of(&log.time_s, &log.temp_c, opts.deadband_c_per_min);
+    let axes: Vec<StaticSeries<'_>> =
+        log.axes.iter().map(|a| StaticSeries { view: &view, accel_g: &a.accel_g }).collect();
+    let train: Vec<usize> = (0..=last).collect();
+    let mask: Vec<bool> = (0..n).map(|i| i <= last).collect();
+    let na = axes.len();
+    let mut s = Scores { both: vec![vec![]; na], forward: vec![vec![]; na], held: vec![vec![]; na] };
+    for st in lat {
+        let traces = StaticTraces::new(&axes[0], st, opts.deadband_c_per_min);
+        let b = cv_fold_sums_axes(&axes, &traces, &train, 5, CvOrder::Both, &opts);
+        let f = cv_fold_sums_axes(&axes, &traces, &train, 5, CvOrder::Forward, &opts);
+        for a in 0..na {
+            s.both[a].push(b[a].clone().ok());
+            s.forward[a].push(f[a].clone().ok());
+            let h = fit_static_traced(&axes[a], &traces, &mask, opts.grid_points, opts.block).ok().map(|fit| {
+                let tr = axes[a].model_trace(&fit.axis);
+                let r: Vec<f64> = (last + 1..n)
+                    .filter(|&i| tr.valid[i])
+                    .map(|i| axes[a].accel_g[i] - fit.reference_g - tr.ext_k0_g[i])
+                    .collect();
+                r.iter().map(|x| x * x).sum::<f64>() / r.len() as f64
+            });
+            s.held[a].push(h);
+        }
+    }
+    Some(s)
+}
+
+fn mse(f: &FoldSums) -> f64 {
+    f.total.0 / f.total.1 as f64
+}
+
+fn fold_mses(f: &FoldSums) -> Vec<f64> {
+    f.folds.iter().map(|&(s, c)| s / c as f64).collect()
+}
+
+fn unknowns(st: &StaticStructure) -> usize {
+    let g = 16;
+    let shape = match st.shape {
+        CurveShape::Nodes => g,
+        CurveShape::Cubic => 4,
+    };
+    let b = match st.branches {
+        BranchMode::Single => shape,
+        BranchMode::Offset => shape + 1,
+        BranchMode::Free => 2 * shape,
+    };
+    b + usize::from(st.creep_tau_s.is_some()) + usize::from(st.lag_tau_s.is_some())
+}
+
+/// Lowest CV.
+fn lowest(cv: &[Option<FoldSums>], allowed: &dyn Fn(usize) -> bool) -> Option<usize> {
+    (0..cv.len())
+        .filter(|&i| allowed(i) && cv[i].is_some())
+        .min_by(|&a, &b| mse(cv[a].as_ref().unwrap()).total_cmp(&mse(cv[b].as_ref().unwrap())))
+}
+
+/// Classic one-SE (unpaired) over fold MSEs.
+fn one_se(cv: &[Option<FoldSums>], lat: &[StaticStructure]) -> Option<usize> {
+    let best = lowest(cv, &|_| true)?;
+    let fm = fold_mses(cv[best].as_ref().unwrap());
+    let k = fm.len() as f64;
+    let m = fm.iter().sum::<f64>() / k;
+    let se = (fm.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (k - 1.0) / k).sqrt();
+    let lim = mse(cv[best].as_ref().unwrap()) + se;
+    (0..cv.len()).filter(|&i| cv[i].as_ref().is_some_and(|f| mse(f) <= lim)).min_by(|&a, &b| {
+        unknowns(&lat[a])
+            .cmp(&unknowns(&lat[b]))
+            .then(mse(cv[a].as_ref().unwrap()).total_cmp(&mse(cv[b].as_ref().unwrap())))
+    })
+}
+
+/// Neighbours of `st` in the lattice: one dimension moved up.
+fn is_step(from: &StaticStructure, to: &StaticStructure) -> bool {
+    let mut diffs = 0;
+    if from.shape != to.shape {
+        if !(from.shape == CurveShape::Cubic && to.shape == CurveShape::Nodes) {
+            return false;
+        }
+        diffs += 1;
+    }
+    if from.branches != to.branches {
+        let ord = |b: BranchMode| match b {
+            BranchMode::Single => 0,
+            BranchMode::Offset => 1,
+            BranchMode::Free => 2,
+        };
+        if ord(to.branches) <= ord(from.branches) {
+            return false;
+        }
+        diffs += 1;
+    }
+    if from.lag_tau_s != to.lag_tau_s {
+        if from.lag_tau_s.is_some() {
+            return false;
+        }
+        diffs += 1;
+    }
+    if from.creep_tau_s != to.creep_tau_s {
+        if from.creep_tau_s.is_some() {
+            return false;
+        }
+        diffs += 1;
+    }
+    diffs == 1
+}
+
+/// Stepwise from `start`: take the neighbour with the lowest CV when its paired gain over
+/// the current structure's folds exceeds `z` standard errors of the per-fold gains.
+fn stepwise(cv: &[Option<FoldSums>], lat: &[StaticStructure], start: usize, z: f64) -> Option<usize> {
+    let mut cur = start;
+    cv[cur].as_ref()?;
+    loop {
+        let c = fold_mses(cv[cur].as_ref().unwrap());
+        let mut best: Option<(usize, f64)> = None;
+        for j in 0..lat.len() {
+            if !is_step(&lat[cur], &lat[j]) {
+                continue;
+            }
+            let Some(fj) = cv[j].as_ref() else { continue };
+            let m = mse(fj);
+            if best.is_none_or(|(_, b)| m < b) {
+                best = Some((j, m));
+            }
+        }
+        let Some((j, _)) = best else { return Some(cur) };
+        let g: Vec<f64> = c.iter().zip(fold_mses(cv[j].as_ref().unwrap())).map(|(a, b)| a - b).collect();
+        let k = g.len() as f64;
+        let mean = g.iter().sum::<f64>() / k;
+        let se = (g.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (k - 1.0) / k).sqrt();
+        if mean > z * se && mse(cv[j].as_ref().unwrap()) < mse(cv[cur].as_ref().unwrap()) {
+            cur = j;
+        } else {
+            return Some(cur);
+        }
+    }
+}
+
+/// A selection rule: the structure it picks for an axis.
+type Rule<'a> = Box<dyn Fn(&Scores, usize) -> Option<usize> + 'a>;
+
+fn main() {
+    let lat = lattice();
+    let nodes_only = |i: usize| lat[i].shape == CurveShape::Nodes;
+    let plain = lat.iter().position(|s| s.shape == CurveShape::Nodes && *s == StaticStructure::PLAIN).unwrap();
+    let cubic0 = lat
+        .iter()
+        .position(|s| {
+            s.shape == CurveShape::Cubic
+                && s.branches == BranchMode::Single
+                && s.lag_tau_s.is_none()
+                && s.creep_tau_s.is_none()
+        })
+        .unwrap();
+    let mut cases: Vec<(String, StaticLog)> = Vec::new();
+    let real = std::env::var("QFA_REAL_LOG")
+        .unwrap_or_else(|_| "../shared/real/tofupilot-imu-thermal-cycle/imu_raw_data.tsv".into());
+    if let Ok(text) = std::fs::read(&real) {
+        let opts = StaticOptions {
+            columns: "time=timestamp,temp=imu.temperature,ax=imu.acc.x,ay=imu.acc.y,az=imu.acc.z".parse().unwrap(),
+            time_unit: Some(TimeUnit::Us),
+            accel_unit: Some(AccelUnit::Mps2),
+            ..Default::default()
+        };
+        cases.push(("real".into(), read_static_from(&text[..], &opts).unwrap()));
+    } else {
+        println!("SKIPPED real log: set QFA_REAL_LOG");
+    }
+    for seed in [11, 12, 13] {
+        for e in [None, Some("sensor_lag"), Some("bias_creep"), Some("bias_branch_hysteresis")] {
+            cases.push((format!("sim {} s{seed}", e.unwrap_or("none")), chamber_log(e, seed)));
+        }
+    }
+    for seed in [1, 2] {
+        let text = truth::desk(58.0, seed);
+        cases.push((format!("desk s{seed}"), read_static_from(text.as_bytes(), &StaticOptions::default()).unwrap()));
+    }
+    let rules: Vec<(&str, Rule<'_>)> = vec![
+        ("lowest CV, grid (calibrate's search)", Box::new(|s: &Scores, a| lowest(&s.both[a], &nodes_only))),
+        ("lowest forward CV, grid", Box::new(|s: &Scores, a| lowest(&s.forward[a], &nodes_only))),
+        ("lowest CV, grid and cubic", Box::new(|s: &Scores, a| lowest(&s.both[a], &|_| true))),
+        ("lowest forward CV, grid and cubic", Box::new(|s: &Scores, a| lowest(&s.forward[a], &|_| true))),
+        ("one-SE rule, grid and cubic", Box::new(|s: &Scores, a| one_se(&s.both[a], &lat))),
+        ("stepwise from the grid, any CV drop", Box::new(|s: &Scores, a| stepwise(&s.both[a], &lat, plain, 0.0))),
+        ("stepwise from the grid, paired gain > 0.5 SE", Box::new(|s: &Scores, a| stepwise(&s.both[a], &lat, plain, 0.5))),
+        ("stepwise from the grid, paired gain > 1 SE", Box::new(|s: &Scores, a| stepwise(&s.both[a], &lat, plain, 1.0))),
+        ("stepwise from the grid, paired gain > 2 SE", Box::new(|s: &Scores, a| stepwise(&s.both[a], &lat, plain, 2.0))),
+        ("stepwise from the grid, forward CV, > 1 SE", Box::new(|s: &Scores, a| stepwise(&s.forward[a], &lat, plain, 1.0))),
+        ("stepwise from the cubic, > 1 SE", Box::new(|s: &Scores, a| stepwise(&s.both[a], &lat, cubic0, 1.0))),
+        ("stepwise from the cubic, forward CV, > 1 SE", Box::new(|s: &Scores, a| stepwise(&s.forward[a], &lat, cubic0, 1.0))),
+        ("stepwise from the cubic, > 2 SE", Box::new(|s: &Scores, a| stepwise(&s.both[a], &lat, cubic0, 2.0))),
+        ("stepwise from the cubic, any CV drop", Box::new(|s: &Scores, a| stepwise(&s.both[a], &lat, cubic0, 0.0))),
+    ];
+    let mut totals = vec![0.0; rules.len()];
+    let mut clean_named = vec![0usize; rules.len()];
+    let mut clean_axes = 0usize;
+    let mut count = 0;
+    for (name, log) in &cases {
+        let Some(s) = scores(log, &lat) else {
+            println!("{name}: no after-max leg");
+            continue;
+        };
+        for (a, ax) in log.axes.iter().enumerate() {
+            let oracle =
+                (0..lat.len()).filter_map(|i| s.held[a][i].map(|h| (i, h))).min_by(|x, y| x.1.total_cmp(&y.1)).unwrap();
+            let mut line =
+                format!("{name} {}: oracle {:.4} mg ({})", ax.name, oracle.1.sqrt() * 1e3, lat[oracle.0].name());
+            for (r, (rn, rule)) in rules.iter().enumerate() {
+                match rule(&s, a) {
+                    Some(i) => {
+                        let h = s.held[a][i].unwrap_or(f64::NAN).sqrt();
+                        totals[r] += (h * h / oracle.1).ln();
+                        let clean = name.contains("none") || name.contains("desk");
+                        let base = if lat[i].shape == CurveShape::Cubic { cubic0 } else { plain };
+                        if clean && i != base {
+                            clean_named[r] += 1;
+                        }
+                        line.push_str(&format!(" | {rn} {:.4} {}", h * 1e3, lat[i].name()));
+                    }
+                    None => line.push_str(&format!(" | {rn} none")),
+                }
+            }
+            count += 1;
+            clean_axes += usize::from(name.contains("none") || name.contains("desk"));
+            println!("{line}");
+        }
+    }
+    for (r, (rn, _)) in rules.iter().enumerate() {
+        println!(
+            "rule=\"{rn}\" geo_mean_ratio_to_oracle={:.4} clean_axes_with_a_part_added={} of {clean_axes}",
+            (totals[r] / count as f64 / 2.0).exp(),
+            clean_named[r]
+        );
+    }
+}
