@@ -262,12 +262,27 @@ fn main() {
         ("lowest forward CV, grid and cubic", Box::new(|s: &Scores, a| lowest(&s.forward[a], &|_| true))),
         ("one-SE rule, grid and cubic", Box::new(|s: &Scores, a| one_se(&s.both[a], &lat))),
         ("stepwise from the grid, any CV drop", Box::new(|s: &Scores, a| stepwise(&s.both[a], &lat, plain, 0.0))),
-        ("stepwise from the grid, paired gain > 0.5 SE", Box::new(|s: &Scores, a| stepwise(&s.both[a], &lat, plain, 0.5))),
-        ("stepwise from the grid, paired gain > 1 SE", Box::new(|s: &Scores, a| stepwise(&s.both[a], &lat, plain, 1.0))),
-        ("stepwise from the grid, paired gain > 2 SE", Box::new(|s: &Scores, a| stepwise(&s.both[a], &lat, plain, 2.0))),
-        ("stepwise from the grid, forward CV, > 1 SE", Box::new(|s: &Scores, a| stepwise(&s.forward[a], &lat, plain, 1.0))),
+        (
+            "stepwise from the grid, paired gain > 0.5 SE",
+            Box::new(|s: &Scores, a| stepwise(&s.both[a], &lat, plain, 0.5)),
+        ),
+        (
+            "stepwise from the grid, paired gain > 1 SE",
+            Box::new(|s: &Scores, a| stepwise(&s.both[a], &lat, plain, 1.0)),
+        ),
+        (
+            "stepwise from the grid, paired gain > 2 SE",
+            Box::new(|s: &Scores, a| stepwise(&s.both[a], &lat, plain, 2.0)),
+        ),
+        (
+            "stepwise from the grid, forward CV, > 1 SE",
+            Box::new(|s: &Scores, a| stepwise(&s.forward[a], &lat, plain, 1.0)),
+        ),
         ("stepwise from the cubic, > 1 SE", Box::new(|s: &Scores, a| stepwise(&s.both[a], &lat, cubic0, 1.0))),
-        ("stepwise from the cubic, forward CV, > 1 SE", Box::new(|s: &Scores, a| stepwise(&s.forward[a], &lat, cubic0, 1.0))),
+        (
+            "stepwise from the cubic, forward CV, > 1 SE",
+            Box::new(|s: &Scores, a| stepwise(&s.forward[a], &lat, cubic0, 1.0)),
+        ),
         ("stepwise from the cubic, > 2 SE", Box::new(|s: &Scores, a| stepwise(&s.both[a], &lat, cubic0, 2.0))),
         ("stepwise from the cubic, any CV drop", Box::new(|s: &Scores, a| stepwise(&s.both[a], &lat, cubic0, 0.0))),
     ];

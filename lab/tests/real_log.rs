@@ -107,7 +107,7 @@ fn calibrate_beats_the_cubic_on_every_axis_and_compensate_agrees() {
     // Discovery on each axis (a static log's axis is a single-channel bias log for it), on
     // the same scheme: its peer figures are calibrate's, formed by a different path.
     let disc = dir.join("disc");
-    let drep = discover_real(log_s, "paper", &disc);
+    let (drep, _) = discover_real(log_s, "paper", &disc);
     let daxes = drep["axes"].as_array().unwrap();
     assert_eq!(daxes.len(), 3);
     assert_eq!(drep["holdout"], report["holdout"]);
@@ -181,8 +181,9 @@ fn cubic_of(rows: &[(f64, [f64; 3])], range: std::ops::Range<usize>, k: usize) -
     Cubic { tref, tmin, tmax, coef }
 }
 
-/// Run `qfa-lab discover --start START` on the real log into `out`; its `report.json`.
-fn discover_real(log_s: &str, start: &str, out: &std::path::Path) -> serde_json::Value {
+/// Run `qfa-lab discover --start START` on the real log into `out`; its `report.json` and
+/// its console.
+fn discover_real(log_s: &str, start: &str, out: &std::path::Path) -> (serde_json::Value, String) {
     let mut args = vec!["discover", "--start", start, "--log", log_s, "--out", out.to_str().unwrap()];
     args.extend(FLAGS);
     let o = lab(&args);
@@ -195,7 +196,7 @@ fn discover_real(log_s: &str, start: &str, out: &std::path::Path) -> serde_json:
     }
     // Every CSV it writes (each axis's residuals.csv) reads without options.
     assert_eq!(common::assert_plain_csvs(out), 3);
-    serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap()
+    (serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap(), text.into_owned())
 }
 
 /// One model search on the real log, from both start models, on every axis: the structure
@@ -218,7 +219,7 @@ fn discovery_names_what_the_table_holds_and_is_never_worse_than_its_start() {
     let mut worse = Vec::new();
     for start in ["paper", "simple"] {
         let out = dir.join(start);
-        let d = discover_real(log_s, start, &out);
+        let (d, console) = discover_real(log_s, start, &out);
         for (a, c) in d["axes"].as_array().unwrap().iter().zip(cal["axes"].as_array().unwrap()) {
             let g = |k: &str| a[k]["rms_mg"].as_f64().unwrap();
             let (named, before, cubic, none) = (g("after"), g("before"), g("cubic"), g("none"));
@@ -243,6 +244,24 @@ fn discovery_names_what_the_table_holds_and_is_never_worse_than_its_start() {
             assert_eq!(steps.last().unwrap()["structure"], a["named_structure"], "{a}");
             let fold = a["heldout_steps"][0].as_array().unwrap();
             assert!((fold.last().unwrap()["held_out"]["rms_mg"].as_f64().unwrap() - named).abs() < 1e-12, "{a}");
+            // Every step of the training rows' search that raised the held-out figure (at
+            // the printed precision) is a warning on the console, and no other step is.
+            let held: Vec<f64> = fold.iter().map(|s| s["held_out"]["rms_mg"].as_f64().unwrap()).collect();
+            let raised: Vec<String> = held
+                .windows(2)
+                .filter(|w| format!("{:.2}", w[1]) != format!("{:.2}", w[0]) && w[1] > w[0])
+                .map(|w| format!("raised the RMS on the held-out rows {:.2} → {:.2} mg", w[0], w[1]))
+                .collect();
+            let warned = console
+                .lines()
+                .filter(|l| {
+                    l.starts_with(&format!("warning: {}: inside the training rows", a["axis"].as_str().unwrap()))
+                })
+                .count();
+            assert_eq!(warned, raised.len(), "{console}");
+            for r in &raised {
+                assert!(console.contains(r.as_str()), "{r} in {console}");
+            }
             // One held-out figure per model per axis, in mg, at the top of each axis's report;
             // the named model called worse when it is; no unit-less "value" or g/h drift.
             let axis = a["axis"].as_str().unwrap();

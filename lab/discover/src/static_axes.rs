@@ -583,18 +583,54 @@ pub(crate) fn axis_figures(d: &StaticDiscovery, a: &AxisDiscovery) -> Vec<[Strin
 
 /// Each fold's search, step by step, held out: `[step, structure, CV mg, held-out mg]`.
 #[must_use]
-pub(crate) fn step_rows(a: &AxisDiscovery) -> Vec<[String; 4]> {
+pub(crate) fn step_rows(a: &AxisDiscovery) -> Vec<[String; 5]> {
     let mut out = Vec::new();
     for (f, (steps, labels)) in a.heldout_steps.iter().zip(&a.effects_per_fold).enumerate() {
         for (i, st) in steps.iter().enumerate() {
             let label = if i == 0 { "start of the search".to_string() } else { labels[i - 1].clone() };
             let fold = if a.heldout_steps.len() > 1 { format!("fold {}: ", f + 1) } else { String::new() };
+            let change = match (i.checked_sub(1).map(|j| rms_of(&steps[j].held_out)), rms_of(&st.held_out)) {
+                (Some(Some(b)), Some(n)) if format!("{n:.2}") == format!("{b:.2}") => "0.00".to_string(),
+                (Some(Some(b)), Some(n)) if carries_forward(b, n) => format!("{:+.2}", n - b),
+                (Some(Some(b)), Some(n)) => format!("{:+.2}: does not carry forward", n - b),
+                _ => String::new(),
+            };
             out.push([
                 format!("{fold}{label}"),
                 st.structure.clone(),
                 format!("{:.3}", st.cv_rms_mg),
                 st.held_out.cell(),
+                change,
             ]);
+        }
+    }
+    out
+}
+
+/// A figure's held-out RMS, mg.
+fn rms_of(f: &Figure) -> Option<f64> {
+    f.score().map(|s| s.rms_mg)
+}
+
+/// Whether a step from held-out RMS `before` to `after` (mg) did not raise it at the printed
+/// precision (two decimals).
+fn carries_forward(before: f64, after: f64) -> bool {
+    format!("{after:.2}") == format!("{before:.2}") || after < before
+}
+
+/// The search's steps inside the training rows that raised the held-out RMS, in words:
+/// `effect (form) raised … → … mg`, with its fold when there are several.
+#[must_use]
+pub(crate) fn steps_not_carried(a: &AxisDiscovery) -> Vec<String> {
+    let mut out = Vec::new();
+    for (f, (steps, labels)) in a.heldout_steps.iter().zip(&a.effects_per_fold).enumerate() {
+        for (i, w) in steps.windows(2).enumerate() {
+            if let (Some(b), Some(n)) = (rms_of(&w[0].held_out), rms_of(&w[1].held_out)) {
+                if !carries_forward(b, n) {
+                    let fold = if a.heldout_steps.len() > 1 { format!(" (fold {})", f + 1) } else { String::new() };
+                    out.push(format!("{}{fold} raised the RMS on the held-out rows {b:.2} → {n:.2} mg", labels[i]));
+                }
+            }
         }
     }
     out
@@ -626,8 +662,8 @@ pub(crate) fn table_rows(d: &StaticDiscovery) -> (Vec<&'static str>, Vec<Vec<Str
     let header = vec![
         "axis",
         "named = table.bin structure (every row)",
-        "its parts, in the search's order",
-        "what the block test says of each part",
+        "its parts, in the search's order: what the block test says of each",
+        "the block test names (every row)",
         "not added, and why",
         "parts inside the training rows (the held-out model's)",
         "start model, held out",
@@ -644,24 +680,24 @@ pub(crate) fn table_rows(d: &StaticDiscovery) -> (Vec<&'static str>, Vec<Vec<Str
         .axes
         .iter()
         .map(|a| {
-            let mut identified = a
+            let mut parts = a
                 .steps
                 .iter()
                 .skip(1)
                 .map(|st| format!("{}: {}", st.effect, st.evidence))
                 .collect::<Vec<_>>()
                 .join("; ");
-            if identified.is_empty() {
-                identified = "nothing added".to_string();
+            if parts.is_empty() {
+                parts = "nothing added".to_string();
             }
-            let _ = write!(identified, "; the block test names: {}", list(&a.block_test_names));
+            let mut identified = list(&a.block_test_names);
             if !a.unexplained.is_empty() {
                 let _ = write!(identified, "; unexplained: {}", a.unexplained.join("; "));
             }
             vec![
                 a.axis.clone(),
                 a.named_structure.clone(),
-                list(&a.effects),
+                parts,
                 identified,
                 list(&a.not_added),
                 a.effects_per_fold.iter().map(|f| list(f)).collect::<Vec<_>>().join(" | "),
@@ -726,7 +762,7 @@ pub(crate) fn markdown(d: &StaticDiscovery) -> String {
         let _ = writeln!(
             s,
             "\n**{}: the search, step by step, held out** (each step fitted on the training rows, scored on the \
-             held-out rows):\n\n| step | structure | CV RMS in the training rows, mg | held out, mg |\n|---|---|---|---|",
+             held-out rows):\n\n| step | structure | CV RMS in the training rows, mg | held out, mg | change held out, mg |\n|---|---|---|---|---|",
             a.axis
         );
         for r in step_rows(a) {

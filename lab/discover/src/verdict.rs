@@ -262,6 +262,13 @@ fn axis_warnings(d: &StaticDiscovery, a: &AxisDiscovery) -> Vec<String> {
             d.start.name()
         ));
     }
+    for s in crate::static_axes::steps_not_carried(a) {
+        w.push(format!(
+            "{}: inside the training rows the search's step {s}: it lowered the cross-validation there but does not \
+             carry forward to the held-out rows",
+            a.axis
+        ));
+    }
     for n in &a.not_added {
         w.push(format!("{}: named by the block test, not added: {n}", a.axis));
     }
