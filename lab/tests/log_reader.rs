@@ -1,5 +1,7 @@
 //! The cycling-log reader: every malformed row reported with its line number; round trip.
 
+mod common;
+
 use qfa_log::cycling::{read_log_from, write_log_to, Log, RowFault, Run, Sample};
 
 const HEADER: &str = "program,run,time_s,input_g,temp_c,pulses,interval_s\n";
@@ -66,6 +68,7 @@ fn write_then_read_round_trips_and_groups_runs() {
             mk("paper-0.3", "rate0.3_pos2", -1.0, 10.0),
             mk("b", "1", 0.0, 10.0),
         ],
+        glitches: Vec::new(),
     };
     let mut buf = Vec::new();
     write_log_to(&mut buf, &log).unwrap();
@@ -76,4 +79,49 @@ fn write_then_read_round_trips_and_groups_runs() {
     let l = read_log_from(text.as_bytes()).unwrap();
     assert_eq!(l.runs.len(), 2);
     assert_eq!(l.runs[1].samples.iter().map(|s| s.pulses).collect::<Vec<_>>(), vec![-5, -6]);
+}
+
+/// A burst of pulses in one row of a run (here 50 000 extra pulses in a 10-s row of a
+/// +1 g ramp with ±3 pulses of noise) is skipped by the reader and recorded with its run,
+/// time and count; a turn of the ramp, a step of the level and the noise are not. The same
+/// row through `qfa-lab calibrate` is said in the verdict and listed in `report.json`.
+#[test]
+fn a_burst_in_one_row_is_skipped_recorded_and_said() {
+    let mut rng = qfa_rng::seeded(qfa_rng::stream_seed(53, 1));
+    let mut text = String::from(HEADER);
+    for (run, g) in [("pos0", 1.0f64), ("pos2", -1.0)] {
+        for i in 0..400u32 {
+            let t = 10.0 * f64::from(i + 1);
+            // Up 0.5 °C per row for 200 rows, then down; the level steps by 400 pulses at row 300.
+            let leg = if i < 200 { f64::from(i) } else { f64::from(400 - i) };
+            let temp = -10.0 + 0.5 * leg / 6.0;
+            let step = if i >= 300 { 400.0 } else { 0.0 };
+            let noise = (3.0 * qfa_rng::normal(&mut rng)).round();
+            let mut pulses = g * 3_200_000.0 - 300.0 * temp + step + noise;
+            if run == "pos0" && i == 123 {
+                pulses += 50_000.0;
+            }
+            text.push_str(&format!("p,{run},{t},{g},{:.4},{pulses:.0},10\n", (temp * 16.0).round() / 16.0));
+        }
+    }
+    let log = read_log_from(text.as_bytes()).unwrap();
+    assert_eq!(log.glitches.len(), 1, "{:?}", log.glitches);
+    let g = &log.glitches[0];
+    assert_eq!((g.program.as_str(), g.run.as_str(), g.time_s), ("p", "pos0", 1240.0));
+    assert_eq!(log.rows(), 799);
+    assert!(log.runs[0].samples.iter().all(|s| s.time_s != 1240.0));
+    let dir = std::env::temp_dir().join(format!("qfa-burst-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("burst.csv");
+    std::fs::write(&path, &text).unwrap();
+    let out = dir.join("cal");
+    let (ok, console) =
+        common::lab(&["calibrate", "--log", path.to_str().unwrap(), "--no-plots", "--out", out.to_str().unwrap()]);
+    println!("{console}");
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap_or_default()).unwrap_or_default();
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(console.contains("the reader skipped 1 row(s) as one-row glitches"), "ok {ok}: {console}");
+    assert!(console.contains("p pos0 at t = 1240 s"), "{console}");
+    assert_eq!(report["skipped_glitches"][0]["time_s"], 1240.0, "{report}");
 }

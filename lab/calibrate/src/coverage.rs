@@ -277,7 +277,7 @@ mod tests {
     fn no_valid_row_is_an_error_naming_its_programs() {
         let nan = [(f64::NAN, 0.0), (20.0, f64::INFINITY)];
         assert_eq!(Coverage::of_samples(nan.into_iter(), 0.05), Err(CoverageError::NoValidRow { programs: None }));
-        let log = Log { runs: Vec::new() };
+        let log = Log::default();
         let e = Coverage::of_log(&log, &["p1".to_string()], 0.05).unwrap_err();
         assert_eq!(e.to_string(), "programs [\"p1\"]: no valid row: coverage not computed");
     }

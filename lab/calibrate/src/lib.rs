@@ -249,6 +249,7 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
         metric: METRIC_TEXT.to_string(),
         fit: fit_summary(&fitted),
         rejected_readings: eval.rejected_readings,
+        skipped_glitches: log.glitches.clone(),
         timings_s: Timings { fit: t_fit, evaluate: t_eval, ..Timings::default() },
     };
     Ok(Calibration {

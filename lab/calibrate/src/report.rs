@@ -205,6 +205,9 @@ pub struct Report {
     pub fit: FitSummary,
     /// Readings the compensator rejected in the held-out runs, by reason.
     pub rejected_readings: crate::compensate::Rejections,
+    /// Rows the reader skipped as one-row glitches in the pulse rate (`qfa_log::cycling::Glitch`):
+    /// not fitted, not scored.
+    pub skipped_glitches: Vec<qfa_log::cycling::Glitch>,
     /// Temperature and rate ranges the fit programs cover (heating, cooling) and the
     /// limits `table.bin` clamps to: beyond them the firmware clamps and flags.
     pub coverage: crate::coverage::CalCoverage,

@@ -162,6 +162,10 @@ pub(crate) fn cycling_verdict(
             rej.other
         ));
     }
+    v.warnings.extend(
+        qfa_log::cycling::glitches_sentence(&r.skipped_glitches)
+            .map(|s| format!("{s}; each is in report.json's skipped_glitches")),
+    );
     let (pc, pa) = (r.peers_bias_residual_ug.cubic, r.peers_bias_residual_ug.ardupilot);
     if b > pc.min(pa) {
         v.warnings.push(format!(

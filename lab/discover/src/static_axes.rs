@@ -279,6 +279,8 @@ fn discover_rows(
         kind: LogKind::Single,
         bias_unit: BiasUnit::Ug,
         traces: vec![Trace::new(ax.name.clone(), &rows_of(log, rows), None, &value_ug, bin_s)],
+        // The static reader skips its own glitch rows and counts them (`Skipped::glitch`).
+        skipped_glitches: Vec::new(),
     };
     let mut r = analyze(&ch, start);
     if let Some(m) = r.model.as_mut() {

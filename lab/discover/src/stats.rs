@@ -255,7 +255,7 @@ mod tests {
                 Trace::new(format!("r{k}"), &rows, None, &vec![0.0; rows.len()], 60.0)
             })
             .collect();
-        let ch = Channels { kind: LogKind::Single, bias_unit: BiasUnit::Value, traces };
+        let ch = Channels { kind: LogKind::Single, bias_unit: BiasUnit::Value, traces, skipped_glitches: Vec::new() };
         let slow: Vec<f64> = (0..ch.n_bins()).map(|i| (i as f64 / 900.0).sin()).collect();
         let len = block_len(&ch, &[&slow]);
         let n_blocks = blocks(&ch, len).n;

@@ -674,7 +674,12 @@ mod tests {
             .filter(|(&t, &r)| (80.0 * 60.0..100.0 * 60.0).contains(&t) && r.abs() > 0.05)
             .count();
         assert!(crossings > 0, "the estimator's Ṫ stays inside ±0.05 °C/min in the dwell: nothing is tested");
-        let ch = Channels { kind: LogKind::Single, bias_unit: BiasUnit::Value, traces: vec![trace] };
+        let ch = Channels {
+            kind: LogKind::Single,
+            bias_unit: BiasUnit::Value,
+            traces: vec![trace],
+            skipped_glitches: Vec::new(),
+        };
         let d = drivers(&ch);
         let get = |name: &str| d.iter().find(|x| x.0 == name).map(|x| x.1.clone()).expect("a driver");
         let (branch, since) = (get("branch"), get("time_since_reversal"));

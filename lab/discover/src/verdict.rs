@@ -185,6 +185,7 @@ pub(crate) fn discovery_verdict(ch: &Channels, r: &Report, files: &[String], not
             u.evidence(unit, ch.bias_unit.label())
         ));
     }
+    v.warnings.extend(qfa_log::cycling::glitches_sentence(&ch.skipped_glitches));
     v.warnings.extend(notes.iter().cloned());
     v.files = file_uses(files, false);
     covers_and_advice(&mut v, ch);

@@ -256,6 +256,8 @@ pub struct Channels {
     pub bias_unit: BiasUnit,
     /// One trace per program.
     pub traces: Vec<Trace>,
+    /// Rows the cycling reader skipped as one-row glitches ([`crate::cycling::Glitch`]).
+    pub skipped_glitches: Vec<crate::cycling::Glitch>,
 }
 
 /// Why a log gives no discovery channels.
@@ -338,7 +340,7 @@ impl Channels {
         if traces.is_empty() {
             return Err(ChannelsError::NoPairedRuns);
         }
-        Ok(Self { kind: LogKind::Cycling, bias_unit: BiasUnit::G, traces })
+        Ok(Self { kind: LogKind::Cycling, bias_unit: BiasUnit::G, traces, skipped_glitches: log.glitches.clone() })
     }
 
     /// Channels of a single-channel log: its value is the bias channel, in its own unit.
@@ -349,6 +351,7 @@ impl Channels {
             kind: LogKind::Single,
             bias_unit: BiasUnit::Value,
             traces: vec![Trace::new("log".into(), &rows, None, &log.value, bin_s)],
+            skipped_glitches: Vec::new(),
         }
     }
 

@@ -53,6 +53,77 @@ pub struct Run {
 pub struct Log {
     /// Runs.
     pub runs: Vec<Run>,
+    /// Rows the reader skipped as one-row glitches in the pulse rate, run by run in time
+    /// order ([`Glitch`]); the runs do not hold them.
+    pub glitches: Vec<Glitch>,
+}
+
+/// A row skipped as a one-row glitch: its pulse rate (pulses / interval) deviates from its
+/// run's ±5-row neighbourhood by more than [`crate::robust::GLITCH_SIGMAS`] robust σ of
+/// that run's rate and by at least [`GLITCH_MIN_PULSES`] pulses over its interval (the rule
+/// of [`crate::robust::glitches`], the static reader's). A burst of pulses in one row
+/// (electrical noise, a counter fault) is not thermal, and a least-squares fit would spread
+/// it over the model.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Glitch {
+    /// Program id.
+    pub program: String,
+    /// Run name.
+    pub run: String,
+    /// End of the row's interval, s.
+    pub time_s: f64,
+    /// Its pulses.
+    pub pulses: i64,
+    /// Its interval, s.
+    pub interval_s: f64,
+}
+
+/// What a log's skipped glitch rows mean to its user, in one sentence; none when there are
+/// none.
+#[must_use]
+pub fn glitches_sentence(glitches: &[Glitch]) -> Option<String> {
+    let g = glitches.first()?;
+    Some(format!(
+        "the reader skipped {} row(s) as one-row glitches in the pulse counts (a burst in one row is not thermal, and \
+         a fit would spread it over the model), the first in {} {} at t = {} s ({} pulses in {} s)",
+        glitches.len(),
+        g.program,
+        g.run,
+        g.time_s,
+        g.pulses,
+        g.interval_s
+    ))
+}
+
+/// Smallest deviation of a row's pulses from its neighbourhood's line that counts as a
+/// glitch, pulses over the row's interval (a count is exact to a pulse, so a quiet run can
+/// have a robust σ near 0; 4 pulses, as the temperature floor is 4 DS18B20 steps).
+pub const GLITCH_MIN_PULSES: f64 = 4.0;
+
+/// Skip every run's one-row glitches ([`Glitch`]), recording them in `log.glitches`.
+fn drop_glitches(log: &mut Log) {
+    for r in &mut log.runs {
+        let rate: Vec<f64> = r.samples.iter().map(|s| s.pulses as f64 / s.interval_s).collect();
+        let Some(interval) = crate::robust::median(&r.samples.iter().map(|s| s.interval_s).collect::<Vec<_>>()) else {
+            continue;
+        };
+        let bad = crate::robust::glitches(&rate, crate::robust::GLITCH_SIGMAS, GLITCH_MIN_PULSES / interval);
+        for &i in &bad {
+            let s = r.samples[i];
+            log.glitches.push(Glitch {
+                program: r.program.clone(),
+                run: r.run.clone(),
+                time_s: s.time_s,
+                pulses: s.pulses,
+                interval_s: s.interval_s,
+            });
+        }
+        let mut k = 0;
+        r.samples.retain(|_| {
+            k += 1;
+            !bad.contains(&(k - 1))
+        });
+    }
 }
 
 impl Log {
@@ -330,6 +401,7 @@ pub fn read_log_from<R: Read>(mut reader: R) -> Result<Log, LogError> {
     if errors.total > 0 {
         Err(errors)
     } else {
+        drop_glitches(&mut log);
         Ok(log)
     }
 }

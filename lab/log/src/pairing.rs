@@ -324,7 +324,10 @@ mod tests {
     #[test]
     fn pairing_by_time_gives_k1_and_k0() {
         // K1 = 1000, K0 = 0.01: A₊ = 1010, A₋ = −990.
-        let log = Log { runs: vec![run("p", 1.0, &[1010, 1010, 1010], 1.0), run("p", -1.0, &[-990, -990], 2.0)] };
+        let log = Log {
+            runs: vec![run("p", 1.0, &[1010, 1010, 1010], 1.0), run("p", -1.0, &[-990, -990], 2.0)],
+            glitches: Vec::new(),
+        };
         let pp = pair_program(&log, "p").unwrap();
         assert_eq!(pp.rows, vec![(1, 0), (2, 1)]);
         let (k1, k0) = pp.k1_k0(&log, 0);

@@ -1,5 +1,5 @@
-//! Robust statistics, once for the lab: the median, and the scale that turns a median
-//! absolute deviation into a normal standard deviation.
+//! Robust statistics, once for the lab: the median, the scale that turns a median absolute
+//! deviation into a normal standard deviation, and the one rule for a one-row glitch.
 //!
 //! One convention: the median of an even count is the mean of its two middle values (the
 //! textbook definition, symmetric: the median of `−v` is minus the median of `v`). Found by
@@ -53,9 +53,73 @@ pub fn neighbour_noise(v: &[f64]) -> Option<f64> {
     Some(MAD_TO_SD * median(&diffs)? / std::f64::consts::SQRT_2)
 }
 
+/// Robust σ above which a one-row deviation is a glitch ([`glitches`]), in every reader.
+pub const GLITCH_SIGMAS: f64 = 10.0;
+
+/// The lab's one rule for a one-row glitch (a spike in one row of a series: a static log's
+/// channel, a cycling run's pulse rate): rows (indices into `v`) that deviate from their ±5-row neighbourhood by more than
+/// `sigmas` robust σ (and at least `floor`; σ is `MAD_TO_SD` × the median deviation
+/// from the window's line). The neighbourhood's prediction for row `i` is
+/// `median_j(v[j] − slope·(j − i))`, a robust local line; the row's deviation is the
+/// smallest under three slopes: the median of the whole window's differences, of those
+/// before row `i` and of those after it. A steady ramp deviates by nothing, also at the ends
+/// of the log where the window is one-sided, and so does a corner (a heating ramp turning
+/// into a cooling one): the line from its side fits it. A one-row glitch fits none.
+///
+/// (The window's slope alone, under the median of an even count of differences, is 0 at a
+/// symmetric corner: the corner then deviated by the ramp's rate times the window and was
+/// dropped as a glitch. The upper median of those differences had hidden this by always
+/// taking the later slope.)
+#[must_use]
+pub fn glitches(v: &[f64], sigmas: f64, floor: f64) -> Vec<usize> {
+    const HALF: usize = 5;
+    let n = v.len();
+    // Per row: the deviation from the window's line, and the smallest from the three lines.
+    let (window, best): (Vec<f64>, Vec<f64>) = (0..n)
+        .map(|i| {
+            let lo = i.saturating_sub(HALF);
+            let hi = (i + HALF + 1).min(n);
+            let diffs = |a: usize, b: usize| -> Vec<f64> { v[a..b].windows(2).map(|w| w[1] - w[0]).collect() };
+            let off_line = |d: &[f64]| {
+                // No difference (a one-row side): no line, nothing to deviate from.
+                let Some(slope) = median(d) else { return f64::INFINITY };
+                let moved: Vec<f64> = (lo..hi).map(|j| v[j] - slope * (j as f64 - i as f64)).collect();
+                // `moved` holds row i itself: never empty.
+                (v[i] - median(&moved).unwrap_or(v[i])).abs()
+            };
+            let window = off_line(&diffs(lo, hi));
+            let best = window.min(off_line(&diffs(lo, i + 1))).min(off_line(&diffs(i, hi)));
+            let finite = |x: f64| if x.is_finite() { x } else { 0.0 };
+            (finite(window), finite(best))
+        })
+        .unzip();
+    // The channel's noise from the window's line (the smallest of three deviations would
+    // understate it: 3× on the real log's axes, which took its last row for a glitch).
+    let sigma = MAD_TO_SD * median(&window).unwrap_or(0.0);
+    let thr = (sigmas * sigma).max(floor);
+    (0..n).filter(|&i| best[i] > thr).collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A ramp that turns (heating into cooling, cooling into heating, at any rate) has no
+    /// glitch, its corner included; a one-row spike on it, anywhere, is the one glitch.
+    #[test]
+    fn a_corner_is_no_glitch_and_a_spike_is_one() {
+        for rate in [0.01, 0.1, 1.0] {
+            for sign in [1.0, -1.0] {
+                let v: Vec<f64> = (0..200).map(|i| sign * rate * (100.0 - (f64::from(i) - 100.0).abs())).collect();
+                assert_eq!(glitches(&v, GLITCH_SIGMAS, 0.05), Vec::<usize>::new(), "rate {rate}, sign {sign}");
+                for at in [0, 3, 99, 100, 101, 150, 199] {
+                    let mut w = v.clone();
+                    w[at] += 5.0;
+                    assert_eq!(glitches(&w, GLITCH_SIGMAS, 0.05), vec![at], "rate {rate}, sign {sign}, spike at {at}");
+                }
+            }
+        }
+    }
 
     /// By hand: differences 1, 2, 3 have the median 2; a step of 100 in a longer series
     /// moves one difference and not the median; one value has no neighbour.

@@ -204,7 +204,7 @@ pub fn simulate(
             }
         }
     });
-    Log { runs: out.into_iter().flatten().collect() }
+    Log { runs: out.into_iter().flatten().collect(), glitches: Vec::new() }
 }
 
 /// The paper's full test (Steps 1–6, four rates × four positions) for one unit.

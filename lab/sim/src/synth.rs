@@ -165,7 +165,7 @@ pub fn cycling_channels(c: &SynthConfig, truth: &Truth, bin_s: f64) -> Channels 
         let bias: Vec<f64> = rows.iter().map(|r| r.3 + c.bias_noise_ug * 1e-6 * normal(&mut rng)).collect();
         traces.push(Trace::new(format!("paper-{rate:.1}"), &temps, Some(&sf), &bias, bin_s));
     }
-    Channels { kind: LogKind::Cycling, bias_unit: qfa_log::channels::BiasUnit::G, traces }
+    Channels { kind: LogKind::Cycling, bias_unit: qfa_log::channels::BiasUnit::G, traces, skipped_glitches: Vec::new() }
 }
 
 /// A single-channel log (`time_s,temp_c,value`) of the first program: value = K0 in µg.
@@ -189,7 +189,7 @@ pub fn single_csv(c: &SynthConfig, truth: &Truth) -> String {
 #[must_use]
 pub fn cycling_csv(c: &SynthConfig, truth: &Truth, accel_noise_ug: f64) -> String {
     let mut rng = seeded(c.seed);
-    let mut log = Log { runs: Vec::new() };
+    let mut log = Log::default();
     for &rate in &c.rates {
         let rows = program_rows(c, rate, truth, &mut rng);
         for (run, g) in [1.0f64, 0.0, -1.0, 0.0].into_iter().enumerate() {

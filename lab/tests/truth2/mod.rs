@@ -46,7 +46,7 @@ pub const TAU_CASE_S: f64 = 400.0;
 pub const RATES: [f64; 4] = [0.3, 0.5, 0.7, 0.9];
 /// Glitch probability per second and its size, pulses/s.
 pub const GLITCH_PER_S: f64 = 1.0 / 5000.0;
-/// Glitch size, pulses/s over one second.
+/// Default glitch size, pulses/s over one second ([`Draw::glitch_pulses_per_s`]).
 pub const GLITCH_PULSES_PER_S: f64 = 200.0;
 
 /// The chamber schedule of one program: (s, °C) knots joined by straight lines, and the
@@ -343,7 +343,7 @@ pub fn cycling_traced(d: &Draw) -> (String, Trace) {
                     // A new second: a glitch for the next four steps, or none.
                     spike = 0.0;
                     if d.glitches && glitch.uniform() < GLITCH_PER_S {
-                        spike = glitch.sign() * GLITCH_PULSES_PER_S;
+                        spike = glitch.sign() * d.glitch_pulses_per_s;
                         trace.glitch_seconds += 1;
                     }
                     trace.counted_seconds += 1;

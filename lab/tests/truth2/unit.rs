@@ -248,8 +248,11 @@ pub struct Draw {
     pub white_ug_per_10s: f64,
     /// White noise Student-t (3 dof) instead of Gaussian, same SD.
     pub heavy_tails: bool,
-    /// About one second in 5 000 carries a ±200 pulses/s spike.
+    /// About one second in 5 000 carries a spike of ±`glitch_pulses_per_s`.
     pub glitches: bool,
+    /// A glitch's size, pulses/s over its one second ([`super::GLITCH_PULSES_PER_S`] by
+    /// default).
+    pub glitch_pulses_per_s: f64,
     /// Gauss–Markov bias instability: (SD g, τ s); τ 0 = independent each step.
     pub bias_instability: (f64, f64),
     /// Cold and hot ends of the programs, °C.
@@ -278,6 +281,7 @@ impl Draw {
             white_ug_per_10s: 3.0,
             heavy_tails: false,
             glitches: false,
+            glitch_pulses_per_s: super::GLITCH_PULSES_PER_S,
             bias_instability: (1e-6, 1200.0),
             span_c: (-10.0, 50.0),
             heating_only: false,

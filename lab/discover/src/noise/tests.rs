@@ -13,7 +13,7 @@ fn channels(runs: usize, n: usize) -> Channels {
             Trace::new(format!("r{k}"), &rows, None, &bias, 60.0)
         })
         .collect();
-    Channels { kind: LogKind::Single, bias_unit: BiasUnit::Value, traces }
+    Channels { kind: LogKind::Single, bias_unit: BiasUnit::Value, traces, skipped_glitches: Vec::new() }
 }
 
 fn series(ch: &Channels, white: f64, slow: f64, tau_bins: f64, seed: u64) -> Vec<f64> {

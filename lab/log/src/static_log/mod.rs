@@ -57,8 +57,9 @@ use std::io::Read;
 
 use serde::Serialize;
 
+use crate::robust::glitches;
 use crate::robust::median;
-use crate::static_log::checks::{centred_median, glitches};
+use crate::static_log::checks::centred_median;
 pub(crate) use crate::static_log::checks::{max_slew, Slew};
 pub use crate::static_log::columns::{AccelUnit, ColumnMap, TimeUnit, COMMON_NAMES};
 pub use crate::static_log::error::{StaticError, StaticRowFault};
@@ -67,8 +68,7 @@ use crate::units::{ReaderOption, TempUnit, UnitEvidence, UnitMismatch, UnitSourc
 /// Standard gravity, m/s², to convert m/s² to g.
 pub const G0_MPS2: f64 = 9.806_65;
 
-/// Robust σ above which a one-row deviation is a glitch.
-pub(crate) const GLITCH_SIGMAS: f64 = 10.0;
+pub(crate) use crate::robust::GLITCH_SIGMAS;
 
 /// Smallest temperature deviation that counts as a glitch, °C (4 DS18B20 LSB).
 pub(crate) const GLITCH_MIN_TEMP_C: f64 = 0.25;
@@ -608,11 +608,11 @@ fn faults_error(rows: Rows, temp_unit: TempUnit, temp_src: UnitSource) -> Static
 fn drop_glitches(rows: &mut Rows) -> Result<Vec<usize>, StaticError> {
     // Glitch rows: any channel spiking marks the row.
     let mut glitch = vec![false; rows.raw_t.len()];
-    for i in glitches(&rows.temp, GLITCH_MIN_TEMP_C) {
+    for i in glitches(&rows.temp, GLITCH_SIGMAS, GLITCH_MIN_TEMP_C) {
         glitch[i] = true;
     }
     for a in &rows.acc {
-        for i in glitches(a, GLITCH_MIN_ACCEL_G) {
+        for i in glitches(a, GLITCH_SIGMAS, GLITCH_MIN_ACCEL_G) {
             glitch[i] = true;
         }
     }
