@@ -46,8 +46,13 @@
 //! ([`qfa_calibrate::compensate::STATIC_LSB_PER_G`]) and the bias in g from the axis's mean
 //! over every row.
 
+mod story;
+
 use std::fmt::Write as _;
 use std::path::Path;
+
+use story::adopt_search;
+pub(crate) use story::{step_rows, steps_not_carried};
 
 use qfa_thermal::model::AxisModel;
 use serde::Serialize;
@@ -55,7 +60,6 @@ use serde::Serialize;
 use super::output::{write_file, write_json, Scope};
 use super::verdict::named_is_worse;
 use super::{analyze, start_model, Channels, DiscoverError, LogKind, Report, Result, Start};
-use qfa_calibrate::fit::{BranchMode, StaticStructure};
 use qfa_calibrate::peers::PeerKind;
 use qfa_calibrate::static_cal::{
     calibrate_static, check_coverage, resolve_holdout, score, Figure, HeldOutStep, Holdout, HoldoutReport,
@@ -169,58 +173,6 @@ pub struct StaticDiscovery {
     /// The workflow's table (one axis per log axis), fitted on every row.
     #[serde(skip)]
     pub table: qfa_thermal::Table,
-}
-
-/// The part `to` adds to `from` (one search step, [`qfa_calibrate::static_cal::is_step`]):
-/// its catalog effect and its form. A loosened branch tie is the catalog's
-/// `bias_branch_hysteresis` (heating and cooling curves apart), in the static fitter's form.
-#[must_use]
-pub(crate) fn part_added(from: &StaticStructure, to: &StaticStructure) -> (&'static str, String) {
-    if from.branches != to.branches {
-        let form = match to.branches {
-            BranchMode::Offset => "a constant heating/cooling step",
-            _ => "free heating and cooling curves",
-        };
-        return ("bias_branch_hysteresis", form.to_string());
-    }
-    if let (None, Some(t)) = (from.lag_tau_s, to.lag_tau_s) {
-        return ("sensor_lag", format!("tau {t} s"));
-    }
-    if let (None, Some(t)) = (from.creep_tau_s, to.creep_tau_s) {
-        return ("bias_creep", format!("tau {t} s"));
-    }
-    if let (None, Some(r)) = (from.play_half_width_c, to.play_half_width_c) {
-        return ("bias_branch_hysteresis", format!("play, half-width {r} °C"));
-    }
-    if from.shape != to.shape {
-        return ("temp_curve", "free grid nodes".to_string());
-    }
-    ("start", to.name())
-}
-
-/// What the block test (`r`, every row) says of `effect`: whether it names it and tells it
-/// from the others, and that in words.
-fn evidence_for(r: &Report, effect: &str) -> (bool, String) {
-    if let Some(e) = r.effects.iter().find(|e| e.name == effect) {
-        if e.confusable_with.is_empty() {
-            return (true, "identified".to_string());
-        }
-        return (false, format!("not identified: as good as {}", e.confusable_with.join(", ")));
-    }
-    match r.effects.iter().find(|e| e.confusable_with.iter().any(|c| c == effect)) {
-        Some(e) => (false, format!("not identified: the block test named {} as good", e.name)),
-        None => (false, "not named by the block test".to_string()),
-    }
-}
-
-/// A path's steps as labels, `effect (form)`, its start left out.
-fn path_labels(path: &[StaticStructure]) -> Vec<String> {
-    path.windows(2)
-        .map(|w| {
-            let (e, form) = part_added(&w[0], &w[1]);
-            format!("{e} ({form})")
-        })
-        .collect()
 }
 
 /// Multiply every bias term of `m` (grid, play weight, creep gain) by `k`.
@@ -484,71 +436,6 @@ fn unexplained_lines(r: &Report) -> Vec<String> {
     r.unexplained.iter().map(|u| u.evidence(unit, unit)).collect()
 }
 
-/// Record on axis `x` what the one search found (`c`, its `paths`: every row, then each
-/// fold's training rows): the named structure and its steps, their figures, which of them
-/// the block test (`r`, every row) identifies, and which of its names the model does not
-/// hold, with why.
-fn adopt_search(
-    x: &mut AxisDiscovery,
-    r: &Report,
-    c: &qfa_calibrate::static_cal::AxisReport,
-    paths: &[Vec<qfa_calibrate::static_cal::SearchStep>],
-) {
-    let structures = |p: &[qfa_calibrate::static_cal::SearchStep]| p.iter().map(|s| s.structure).collect::<Vec<_>>();
-    let all = paths.first().map(|p| structures(p)).unwrap_or_default();
-    x.effects = path_labels(&all);
-    x.effects_per_fold = paths.iter().skip(1).map(|p| path_labels(&structures(p))).collect();
-    x.steps = paths
-        .first()
-        .map(|p| {
-            p.iter()
-                .enumerate()
-                .map(|(i, st)| {
-                    let (effect, (identified, evidence)) = match i {
-                        0 => ("start".to_string(), (true, "the search's start".to_string())),
-                        _ => {
-                            let (e, form) = part_added(&p[i - 1].structure, &st.structure);
-                            (format!("{e} ({form})"), evidence_for(r, e))
-                        }
-                    };
-                    Step { effect, structure: st.structure.name(), cv_rms_mg: st.cv_rms_g * 1e3, identified, evidence }
-                })
-                .collect()
-        })
-        .unwrap_or_default();
-    x.named_structure.clone_from(&c.structure);
-    x.after = c.ours.clone();
-    x.cv_rms_mg = c.cv_rms_mg;
-    x.heldout_steps.clone_from(&c.heldout_paths);
-    x.table_rms_mg = c.table_rms_mg;
-    let held = |f: &Figure| f.score().map(|s| s.rms_mg);
-    let (block, after) = (held(&x.block_test_model), held(&x.after));
-    let folds = &x.block_test_effects_per_fold;
-    x.not_added = r
-        .effects
-        .iter()
-        // The bias curve's shape is the grid's (or the cubic's) own: every structure holds it.
-        .filter(|e| e.name != "temp_quadratic")
-        .filter(|e| !x.effects.iter().any(|l| l.starts_with(&format!("{} (", e.name))))
-        .map(|e| {
-            let why = if e.in_table {
-                "the search's lowest cross-validation does not hold it"
-            } else {
-                "the table has no slot for it (a trend in time, extrapolated past the log)"
-            };
-            let in_block_model = folds.iter().any(|f| f.iter().any(|l| l.starts_with(&format!("{} (", e.name))));
-            let carry = match (block, after) {
-                (Some(b), Some(n)) if in_block_model && b > n => format!(
-                    "; the block test's model, which holds it, holds out {b:.2} mg against the named model's {n:.2} \
-                     mg: it does not carry forward"
-                ),
-                _ => String::new(),
-            };
-            format!("{}: {why}{carry}", e.name)
-        })
-        .collect();
-}
-
 /// The title line of one axis's report.
 #[must_use]
 pub(crate) fn axis_title(a: &AxisDiscovery) -> String {
@@ -581,61 +468,6 @@ pub(crate) fn axis_figures(d: &StaticDiscovery, a: &AxisDiscovery) -> Vec<[Strin
         ["PX4/tofupilot cubic".to_string(), a.cubic.cell()],
         ["ArduPilot TCAL".to_string(), a.ardupilot.cell()],
     ]
-}
-
-/// Each fold's search, step by step, held out: `[step, structure, CV mg, held-out mg]`.
-#[must_use]
-pub(crate) fn step_rows(a: &AxisDiscovery) -> Vec<[String; 5]> {
-    let mut out = Vec::new();
-    for (f, (steps, labels)) in a.heldout_steps.iter().zip(&a.effects_per_fold).enumerate() {
-        for (i, st) in steps.iter().enumerate() {
-            let label = if i == 0 { "start of the search".to_string() } else { labels[i - 1].clone() };
-            let fold = if a.heldout_steps.len() > 1 { format!("fold {}: ", f + 1) } else { String::new() };
-            let change = match (i.checked_sub(1).map(|j| rms_of(&steps[j].held_out)), rms_of(&st.held_out)) {
-                (Some(Some(b)), Some(n)) if format!("{n:.2}") == format!("{b:.2}") => "0.00".to_string(),
-                (Some(Some(b)), Some(n)) if carries_forward(b, n) => format!("{:+.2}", n - b),
-                (Some(Some(b)), Some(n)) => format!("{:+.2}: does not carry forward", n - b),
-                _ => String::new(),
-            };
-            out.push([
-                format!("{fold}{label}"),
-                st.structure.clone(),
-                format!("{:.3}", st.cv_rms_mg),
-                st.held_out.cell(),
-                change,
-            ]);
-        }
-    }
-    out
-}
-
-/// A figure's held-out RMS, mg.
-fn rms_of(f: &Figure) -> Option<f64> {
-    f.score().map(|s| s.rms_mg)
-}
-
-/// Whether a step from held-out RMS `before` to `after` (mg) did not raise it at the printed
-/// precision (two decimals).
-fn carries_forward(before: f64, after: f64) -> bool {
-    format!("{after:.2}") == format!("{before:.2}") || after < before
-}
-
-/// The search's steps inside the training rows that raised the held-out RMS, in words:
-/// `effect (form) raised … → … mg`, with its fold when there are several.
-#[must_use]
-pub(crate) fn steps_not_carried(a: &AxisDiscovery) -> Vec<String> {
-    let mut out = Vec::new();
-    for (f, (steps, labels)) in a.heldout_steps.iter().zip(&a.effects_per_fold).enumerate() {
-        for (i, w) in steps.windows(2).enumerate() {
-            if let (Some(b), Some(n)) = (rms_of(&w[0].held_out), rms_of(&w[1].held_out)) {
-                if !carries_forward(b, n) {
-                    let fold = if a.heldout_steps.len() > 1 { format!(" (fold {})", f + 1) } else { String::new() };
-                    out.push(format!("{}{fold} raised the RMS on the held-out rows {b:.2} → {n:.2} mg", labels[i]));
-                }
-            }
-        }
-    }
-    out
 }
 
 /// What [`axis_figures`] are, in one sentence.

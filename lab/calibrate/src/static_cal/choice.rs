@@ -129,7 +129,7 @@ pub struct FoldSums {
 /// for each axis of `axes` (the series of one log: the same rows, each its own output): the
 /// rows are cut into `k` contiguous chunks, each predicted by a fit to the rows `order`
 /// allows. Per axis, each scored fold's sum of squared residuals (g²) and rows. Each fold's
-/// design is formed and factored once for every axis ([`StaticDesign`]); each axis's figure
+/// design is formed and factored once for every axis (`StaticDesign`); each axis's figure
 /// is the one a fit of that axis alone gives, and its error the first its own folds meet.
 pub fn cv_fold_sums_axes(
     axes: &[StaticSeries<'_>],
