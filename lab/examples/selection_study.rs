@@ -13,15 +13,18 @@
 //! axes (nothing hidden, the desk logs) it added any part to its start. The figures are in
 //! docs/measurements.md ("Real data").
 
+#[path = "../tests/chamber/mod.rs"]
+mod chamber;
 #[path = "../tests/truth/mod.rs"]
 mod truth;
+
+use chamber::chamber_log;
 
 use qfa_calibrate::fit::{fit_static_traced, BranchMode, CurveShape, StaticSeries, StaticStructure, StaticTraces};
 use qfa_calibrate::static_cal::{
     cv_fold_sums_axes, resolve_holdout, CvOrder, FoldSums, Holdout, Scheme, StaticCalOptions,
 };
 use qfa_log::static_log::{read_static_from, AccelUnit, StaticLog, StaticOptions, TimeUnit};
-use qfa_sim::profile::{Position, Program};
 
 fn lattice() -> Vec<StaticStructure> {
     let mut out = Vec::new();
@@ -41,28 +44,6 @@ fn lattice() -> Vec<StaticStructure> {
         }
     }
     out
-}
-
-fn chamber_log(effect: Option<&str>, seed: u64) -> StaticLog {
-    let mut truth = qfa_sim::truth::Truth::jb_kt8(1);
-    if let Some(e) = effect {
-        truth = truth.with_effect(e).unwrap();
-    }
-    let min = 60.0;
-    let program = Program {
-        id: "chamber".into(),
-        points: vec![(0.0, 22.0), (21.0 * min, -20.0), (68.5 * min, 75.0), (88.5 * min, 35.0), (100.0 * min, 35.0)],
-    };
-    let run = qfa_sim::simulate_run(&truth, &program, Position { run: 1, input_g: 0.0 }, 1, seed);
-    let gamma = f64::from(truth.scale.gamma);
-    let mut text = String::from("time_s\ttemp_c\taz\n");
-    for s in &run.samples {
-        if let Some(t) = s.temp_c {
-            text.push_str(&format!("{}\t{t}\t{:.12}\n", s.time_s, s.pulses as f64 / (s.interval_s * gamma)));
-        }
-    }
-    let opts = StaticOptions { time_unit: Some(TimeUnit::S), accel_unit: Some(AccelUnit::G), ..Default::default() };
-    read_static_from(text.as_bytes(), &opts).unwrap()
 }
 
 /// Per axis and structure: CV fold sums (both orders) on the training rows, and the held-out
