@@ -110,22 +110,15 @@ pub struct FlagCounts {
     pub cycles: u64,
     /// Cycles with any flag set.
     pub any: u64,
-    /// Cycles per status bit (bit 0 = `TEMP_STALE` … bit 8 = `MODEL_SETTLING`).
-    pub counts: [u64; 9],
+    /// Cycles per bit of the status word (`counts[b]`: bit `b`), every bit the word has, so
+    /// a flag the firmware adds is counted without a change here; named by the firmware's
+    /// own `Status` (its `iter_names`). A list of nine names kept here once missed
+    /// `DT_IMPLAUSIBLE`, bit 9.
+    pub counts: [u64; STATUS_BITS],
 }
 
-/// The status bits in [`FlagCounts::counts`] order, by name.
-pub const FLAG_NAMES: [&str; 9] = [
-    "TEMP_STALE",
-    "TEMP_INVALID",
-    "RATE_NOT_READY",
-    "TEMP_OUT_OF_RANGE",
-    "RATE_OUT_OF_RANGE",
-    "NO_TABLE",
-    "NO_COUNTER_BASE",
-    "WRONG_INPUT",
-    "MODEL_SETTLING",
-];
+/// Bits in the firmware's status word.
+pub const STATUS_BITS: usize = u16::BITS as usize;
 
 impl FlagCounts {
     /// Count one cycle's status.
@@ -144,7 +137,7 @@ impl FlagCounts {
     /// The counts since `earlier` (a snapshot of the same counter).
     #[must_use]
     pub fn since(&self, earlier: &Self) -> Self {
-        let mut c = [0u64; 9];
+        let mut c = [0u64; STATUS_BITS];
         for (b, x) in c.iter_mut().enumerate() {
             *x = self.counts[b] - earlier.counts[b];
         }
@@ -171,11 +164,11 @@ impl FlagCounts {
             rate_clamped: self.share(compensator::Status::RATE_OUT_OF_RANGE)?,
             temp_clamped: self.share(compensator::Status::TEMP_OUT_OF_RANGE)?,
             any_flag: self.any as f64 / self.cycles as f64,
-            by_flag: FLAG_NAMES
-                .iter()
-                .zip(self.counts)
+            by_flag: compensator::Status::all()
+                .iter_names()
+                .map(|(n, f)| (n, self.counts[f.bits().trailing_zeros() as usize]))
                 .filter(|(_, c)| *c > 0)
-                .map(|(n, c)| ((*n).to_string(), c as f64 / self.cycles as f64))
+                .map(|(n, c)| (n.to_string(), c as f64 / self.cycles as f64))
                 .collect(),
         })
     }
@@ -373,5 +366,30 @@ impl AccelCompensation for OracleCompensation {
         let dt = f64::from(dt_ticks) * 1e-6;
         let v = Vector3::from_fn(|i, _| G0 * (f64::from(pulses[i]) / truth[i].0 - truth[i].1 * dt));
         self.misalignment.map_or(v, |m| m * v)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every flag the firmware's status word defines is counted and named by its own name,
+    /// alone and together with the others; a cycle with none is counted as a cycle only.
+    #[test]
+    fn every_flag_of_the_status_word_is_counted_by_its_name() {
+        let mut c = FlagCounts::default();
+        let flags: Vec<(&str, compensator::Status)> = compensator::Status::all().iter_names().collect();
+        for (_, f) in &flags {
+            c.add(*f);
+        }
+        c.add(compensator::Status::all());
+        c.add(compensator::Status::empty());
+        let shares = c.shares().unwrap();
+        assert_eq!(shares.cycles, flags.len() as u64 + 2);
+        assert_eq!(shares.by_flag.len(), flags.len(), "{:?}", shares.by_flag);
+        for (n, _) in &flags {
+            assert_eq!(shares.by_flag[*n], 2.0 / shares.cycles as f64, "{n}");
+        }
+        assert!(shares.by_flag.contains_key("DT_IMPLAUSIBLE"));
     }
 }
