@@ -226,6 +226,8 @@ pub(crate) fn features(axes: &[String]) -> Vec<Feature> {
     }
     out.push(f("sensor.offset_c".into(), "°C", 0.05, Side::Both, false));
     out.push(f("sensor.drift_c_per_h".into(), "°C/h", 0.05, Side::Both, false));
+    // One glitch row an hour is the scale's floor: a fleet with none has no spread.
+    out.push(f("log.glitches_per_h".into(), "rows/h", 1.0, Side::High, false));
     out
 }
 
@@ -237,6 +239,7 @@ fn value_of(c: &Calibrated, sensor: (&Measured, &Measured), name: &str) -> Optio
     match name {
         "sensor.offset_c" => return num(sensor.0),
         "sensor.drift_c_per_h" => return num(sensor.1),
+        "log.glitches_per_h" => return Some(c.glitches_per_h),
         _ => {}
     }
     let (axis, what) = name.split_once('.')?;

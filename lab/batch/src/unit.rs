@@ -76,6 +76,12 @@ pub struct Calibrated {
     /// out of the row-to-row noise ([`ResidualStep`] says how it is found).
     #[serde(default)]
     pub steps: Vec<ResidualStep>,
+    /// Rows the static reader skipped as one-row glitches (`qfa_log::robust::glitches`), per
+    /// hour of the unit's log: a fleet figure of its own, so a unit whose output spikes
+    /// more than its peers' is seen, and a spike never moves the held-out figure it is
+    /// judged by (the skipped rows are neither fitted nor scored).
+    #[serde(default)]
+    pub glitches_per_h: f64,
 }
 
 /// A step in one axis's residual after the unit's own table: the output shifted part-way
@@ -327,6 +333,7 @@ fn calibrate(input: &UnitInput, dir: &Path, opts: &UnitOptions) -> Result<Calibr
         temp_c: [r.coverage.temp_c[0], r.coverage.temp_c[1]],
         one_branch: is_one_branch(r.branch_rows),
         rows: r.rows,
+        glitches_per_h: glitches_per_hour(&log),
         table_crc32: format!("{crc:08x}"),
         table_bytes: bin.len(),
         steps: residual_steps(
@@ -424,6 +431,16 @@ pub(crate) fn temp_minutes(log: &StaticLog) -> Vec<(i64, f64)> {
         .into_iter()
         .map(|(k, m, _)| (k, m))
         .collect()
+}
+
+/// The rows `log`'s reader skipped as glitches, per hour between its first and last kept
+/// rows (0 for a log shorter than a second, which calibration refuses before this).
+fn glitches_per_hour(log: &StaticLog) -> f64 {
+    let span_h = match (log.time_s.first(), log.time_s.last()) {
+        (Some(a), Some(b)) if b - a >= 1.0 => (b - a) / 3600.0,
+        _ => return 0.0,
+    };
+    log.skipped.glitch.count as f64 / span_h
 }
 
 #[cfg(test)]
