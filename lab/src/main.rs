@@ -311,7 +311,10 @@ fn compensate_cmd(log: &Path, table: &Path, out: &Path, fmt: &StaticFlags) -> Re
             );
             let acc: Vec<Vec<f64>> = c.into_iter().map(|c| c.accel_g).collect();
             write_compensated(f, &l, &acc).map_err(io_at(out))?;
-            eprintln!("{} rows → {}", l.rows(), out.display());
+            eprintln!("{} rows ({} skipped as glitches) → {}", l.rows(), l.glitches.len(), out.display());
+            if let Some(s) = qfa_log::cycling::glitches_sentence(&l.glitches) {
+                eprintln!("{s}");
+            }
             eprintln!("status flags (the firmware's, per row; the output has no status column):");
             for line in flags.lines() {
                 eprintln!("  {line}");

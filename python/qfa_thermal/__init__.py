@@ -94,7 +94,9 @@ class Log:
     ``columns`` holds numpy arrays by name (static: ``time_s``, ``temp_c``, one array per
     axis in g, ``line``; cycling: ``program``, ``run``, ``time_s``, ``input_g``,
     ``temp_c`` with NaN before the first reading, ``pulses``, ``interval_s``). ``reader``
-    says what the static reader skipped and how the log is sampled.
+    says what the static reader skipped and how the log is sampled; for a cycling log, the
+    rows its reader skipped as one-row glitches (``reader["glitches"]``: program, run,
+    time, pulses, interval), which no column holds.
     """
 
     native: Any = _field(repr=False)

@@ -191,7 +191,8 @@ impl Log {
     }
 
     /// What the static reader skipped and how the log is sampled, as JSON text (`skipped`,
-    /// `sampling`, `columns`: role, column, unit); `null` fields for a cycling log.
+    /// `sampling`, `columns`: role, column, unit); for a cycling log `null` fields, its
+    /// programs and the rows its reader skipped as glitches (`glitches`).
     fn reader_json(&self) -> String {
         match &self.data {
             LogData::Static(l) => serde_json::json!({
@@ -207,6 +208,7 @@ impl Log {
                 "sampling": null,
                 "columns": null,
                 "programs": l.programs(),
+                "glitches": l.glitches,
             })
             .to_string(),
         }

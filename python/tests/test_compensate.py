@@ -96,6 +96,23 @@ def test_cycling_log_compensates_as_the_cli(lab_bin: Path, tmp_path: Path) -> No
     assert list(frame_cols)[:7] == ["program", "run", "time_s", "input_g", "temp_c", "pulses", "interval_s"]
 
 
+def test_a_burst_in_a_cycling_row_is_in_the_reader_info_not_in_the_columns(tmp_path: Path) -> None:
+    """The cycling reader skips a row whose pulses burst (50 000 extra in a 10-s row of a
+    quiet ramp) and says so in ``reader["glitches"]``; the columns hold the rows kept."""
+    rows = ["program,run,time_s,input_g,temp_c,pulses,interval_s"]
+    for run, g in (("pos0", 1), ("pos2", -1)):
+        for i in range(200):
+            temp = round((-10.0 + 0.05 * i) * 16) / 16
+            pulses = g * 3_200_000 - round(300 * temp) + (50_000 if run == "pos0" and i == 77 else 0)
+            rows.append(f"p,{run},{10 * (i + 1)},{g},{temp:.4f},{pulses},10")
+    path = tmp_path / "burst.csv"
+    path.write_text("\n".join(rows) + "\n")
+    log = q.read_log(path)
+    assert len(log.reader["glitches"]) == 1
+    assert log.reader["glitches"][0]["run"] == "pos0" and log.reader["glitches"][0]["time_s"] == 780.0
+    assert len(log.columns["pulses"]) == 399
+
+
 def test_discover_returns_the_report(static_log: Path, tmp_path: Path) -> None:
     report = q.discover(static_log, start="paper", out=tmp_path / "disc")
     assert [a["axis"] for a in report["axes"]] == ["ax", "ay", "az"]

@@ -60,8 +60,9 @@ pub struct Log {
 
 /// A row skipped as a one-row glitch: its pulse rate (pulses / interval) deviates from its
 /// run's ±5-row neighbourhood by more than [`crate::robust::GLITCH_SIGMAS`] robust σ of
-/// that run's rate and by at least [`GLITCH_MIN_PULSES`] pulses over its interval (the rule
-/// of [`crate::robust::glitches`], the static reader's). A burst of pulses in one row
+/// that run's rate, by at least [`GLITCH_MIN_PULSES`] pulses over its interval, and by at
+/// least [`crate::robust::GLITCH_MIN_ACCEL_G`] at its program's scale factor (the rule of
+/// [`crate::robust::glitches`] and the floor of the static reader's axes). A burst of pulses in one row
 /// (electrical noise, a counter fault) is not thermal, and a least-squares fit would spread
 /// it over the model.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -100,14 +101,42 @@ pub fn glitches_sentence(glitches: &[Glitch]) -> Option<String> {
 /// have a robust σ near 0; 4 pulses, as the temperature floor is 4 DS18B20 steps).
 pub const GLITCH_MIN_PULSES: f64 = 4.0;
 
+/// Each program's scale factor, pulses/(g·s), as its runs' median rates tell it: half the
+/// difference of the +1 g and −1 g runs' medians over their inputs' difference (0 for a
+/// program without runs on both sides).
+fn scale_factors(log: &Log) -> Vec<(String, f64)> {
+    log.programs()
+        .into_iter()
+        .map(|p| {
+            let side = |up: bool| -> Option<(f64, f64)> {
+                let rates: Vec<f64> = log
+                    .runs_of(&p)
+                    .filter(|r| if up { r.input_g > 0.5 } else { r.input_g < -0.5 })
+                    .flat_map(|r| r.samples.iter().map(move |s| s.pulses as f64 / s.interval_s / r.input_g.abs()))
+                    .collect();
+                let g = log.runs_of(&p).find(|r| if up { r.input_g > 0.5 } else { r.input_g < -0.5 })?.input_g;
+                Some((crate::robust::median(&rates)?, g))
+            };
+            let k1 = match (side(true), side(false)) {
+                (Some((a, _)), Some((b, _))) => (0.5 * (a - b)).abs(),
+                _ => 0.0,
+            };
+            (p, k1)
+        })
+        .collect()
+}
+
 /// Skip every run's one-row glitches ([`Glitch`]), recording them in `log.glitches`.
 fn drop_glitches(log: &mut Log) {
+    let k1 = scale_factors(log);
     for r in &mut log.runs {
         let rate: Vec<f64> = r.samples.iter().map(|s| s.pulses as f64 / s.interval_s).collect();
         let Some(interval) = crate::robust::median(&r.samples.iter().map(|s| s.interval_s).collect::<Vec<_>>()) else {
             continue;
         };
-        let bad = crate::robust::glitches(&rate, crate::robust::GLITCH_SIGMAS, GLITCH_MIN_PULSES / interval);
+        let k1 = k1.iter().find(|(p, _)| *p == r.program).map_or(0.0, |(_, k)| *k);
+        let floor = (GLITCH_MIN_PULSES / interval).max(crate::robust::GLITCH_MIN_ACCEL_G * k1);
+        let bad = crate::robust::glitches(&rate, crate::robust::GLITCH_SIGMAS, floor);
         for &i in &bad {
             let s = r.samples[i];
             log.glitches.push(Glitch {

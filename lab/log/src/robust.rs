@@ -56,6 +56,12 @@ pub fn neighbour_noise(v: &[f64]) -> Option<f64> {
 /// Robust σ above which a one-row deviation is a glitch ([`glitches`]), in every reader.
 pub const GLITCH_SIGMAS: f64 = 10.0;
 
+/// Smallest acceleration deviation that counts as a glitch, g, in every reader (2 mg: a
+/// quantised output can have a median deviation of 0, and a noise-free cycling log's
+/// pulse rate steps with each 1/16-°C step of its reading through the scale factor's
+/// temperature slope).
+pub const GLITCH_MIN_ACCEL_G: f64 = 0.002;
+
 /// The lab's one rule for a one-row glitch (a spike in one row of a series: a static log's
 /// channel, a cycling run's pulse rate): rows (indices into `v`) that deviate from their ±5-row neighbourhood by more than
 /// `sigmas` robust σ (and at least `floor`; σ is `MAD_TO_SD` × the median deviation

@@ -73,9 +73,7 @@ pub(crate) use crate::robust::GLITCH_SIGMAS;
 /// Smallest temperature deviation that counts as a glitch, °C (4 DS18B20 LSB).
 pub(crate) const GLITCH_MIN_TEMP_C: f64 = 0.25;
 
-/// Smallest acceleration deviation that counts as a glitch, g (2 mg: a quantised output can
-/// have a median deviation of 0).
-pub(crate) const GLITCH_MIN_ACCEL_G: f64 = 0.002;
+pub(crate) use crate::robust::GLITCH_MIN_ACCEL_G;
 
 /// Fewest good rows a static log must keep.
 pub(crate) const MIN_ROWS: usize = 16;
