@@ -16,15 +16,16 @@ use qfa_report::verdict::{Expected, FileUse, Verdict};
 /// One figure of one channel: `(channel, value, unit)`.
 type ChannelFigure = (&'static str, f64, &'static str);
 
-/// How the named model's figure compares with the start model's, at the printed precision.
+/// How a figure compares with the one before it (the named model's with the start model's,
+/// a search step's with the step before), at the printed precision.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Compared {
+pub(crate) enum Compared {
     Better,
     Same,
     Worse,
 }
 
-fn compare(start: f64, named: f64) -> Compared {
+pub(crate) fn compare(start: f64, named: f64) -> Compared {
     if format!("{named:.2}") == format!("{start:.2}") {
         Compared::Same
     } else if named < start {
@@ -192,7 +193,8 @@ pub(crate) fn discovery_verdict(ch: &Channels, r: &Report, files: &[String], not
     v
 }
 
-fn rms(f: &Figure) -> Option<f64> {
+/// A figure's held-out RMS over rows, mg, when it was computed.
+pub(crate) fn rms(f: &Figure) -> Option<f64> {
     f.score().map(|s| s.rms_mg)
 }
 

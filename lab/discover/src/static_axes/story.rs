@@ -2,8 +2,8 @@
 //! order, what the block test says of each, what it names that the table does not hold, and
 //! each fold's steps held out.
 
+use crate::verdict::{compare, rms, Compared};
 use qfa_calibrate::fit::{BranchMode, StaticStructure};
-use qfa_calibrate::static_cal::Figure;
 
 use super::{AxisDiscovery, Step};
 use crate::Report;
@@ -97,8 +97,7 @@ pub(super) fn adopt_search(
     x.cv_rms_mg = c.cv_rms_mg;
     x.heldout_steps.clone_from(&c.heldout_paths);
     x.table_rms_mg = c.table_rms_mg;
-    let held = |f: &Figure| f.score().map(|s| s.rms_mg);
-    let (block, after) = (held(&x.block_test_model), held(&x.after));
+    let (block, after) = (rms(&x.block_test_model), rms(&x.after));
     let folds = &x.block_test_effects_per_fold;
     x.not_added = r
         .effects
@@ -114,7 +113,7 @@ pub(super) fn adopt_search(
             };
             let in_block_model = folds.iter().any(|f| f.iter().any(|l| l.starts_with(&format!("{} (", e.name))));
             let carry = match (block, after) {
-                (Some(b), Some(n)) if in_block_model && b > n => format!(
+                (Some(b), Some(n)) if in_block_model && compare(n, b) == Compared::Worse => format!(
                     "; the block test's model, which holds it, holds out {b:.2} mg against the named model's {n:.2} \
                      mg: it does not carry forward"
                 ),
@@ -133,10 +132,12 @@ pub(crate) fn step_rows(a: &AxisDiscovery) -> Vec<[String; 5]> {
         for (i, st) in steps.iter().enumerate() {
             let label = if i == 0 { "start of the search".to_string() } else { labels[i - 1].clone() };
             let fold = if a.heldout_steps.len() > 1 { format!("fold {}: ", f + 1) } else { String::new() };
-            let change = match (i.checked_sub(1).map(|j| rms_of(&steps[j].held_out)), rms_of(&st.held_out)) {
-                (Some(Some(b)), Some(n)) if format!("{n:.2}") == format!("{b:.2}") => "0.00".to_string(),
-                (Some(Some(b)), Some(n)) if carries_forward(b, n) => format!("{:+.2}", n - b),
-                (Some(Some(b)), Some(n)) => format!("{:+.2}: does not carry forward", n - b),
+            let change = match (i.checked_sub(1).map(|j| rms(&steps[j].held_out)), rms(&st.held_out)) {
+                (Some(Some(b)), Some(n)) => match compare(b, n) {
+                    Compared::Same => "0.00".to_string(),
+                    Compared::Better => format!("{:+.2}", n - b),
+                    Compared::Worse => format!("{:+.2}: does not carry forward", n - b),
+                },
                 _ => String::new(),
             };
             out.push([
@@ -151,17 +152,6 @@ pub(crate) fn step_rows(a: &AxisDiscovery) -> Vec<[String; 5]> {
     out
 }
 
-/// A figure's held-out RMS, mg.
-fn rms_of(f: &Figure) -> Option<f64> {
-    f.score().map(|s| s.rms_mg)
-}
-
-/// Whether a step from held-out RMS `before` to `after` (mg) did not raise it at the printed
-/// precision (two decimals).
-fn carries_forward(before: f64, after: f64) -> bool {
-    format!("{after:.2}") == format!("{before:.2}") || after < before
-}
-
 /// The search's steps inside the training rows that raised the held-out RMS, in words:
 /// `effect (form) raised … → … mg`, with its fold when there are several.
 #[must_use]
@@ -169,8 +159,8 @@ pub(crate) fn steps_not_carried(a: &AxisDiscovery) -> Vec<String> {
     let mut out = Vec::new();
     for (f, (steps, labels)) in a.heldout_steps.iter().zip(&a.effects_per_fold).enumerate() {
         for (i, w) in steps.windows(2).enumerate() {
-            if let (Some(b), Some(n)) = (rms_of(&w[0].held_out), rms_of(&w[1].held_out)) {
-                if !carries_forward(b, n) {
+            if let (Some(b), Some(n)) = (rms(&w[0].held_out), rms(&w[1].held_out)) {
+                if compare(b, n) == Compared::Worse {
                     let fold = if a.heldout_steps.len() > 1 { format!(" (fold {})", f + 1) } else { String::new() };
                     out.push(format!("{}{fold} raised the RMS on the held-out rows {b:.2} → {n:.2} mg", labels[i]));
                 }
