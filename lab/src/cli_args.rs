@@ -138,7 +138,8 @@ pub(crate) enum Cmd {
     /// page; `batch merge OUT` forms the fleet of a sharded run.
     Batch(BatchCli),
     /// Simulate a production batch of static units (one chamber log and a manifest of
-    /// one-unit logs), with each unit's truth.
+    /// one-unit logs), or with --qfa of QFA units (a manifest of cycling logs), with each
+    /// unit's truth.
     SimulateBatch {
         /// Units.
         #[arg(long, default_value_t = 100)]
@@ -152,6 +153,10 @@ pub(crate) enum Cmd {
         /// Good units whose own log (manifest run) is truncated: heating only, or the first half.
         #[arg(long, default_value_t = 0)]
         truncated: usize,
+        /// QFA units through the paper's four-position cycling test (pulse counts), drawn
+        /// around JB-KT8 #1: batch.toml with units/SN….csv, truth.toml.
+        #[arg(long, conflicts_with = "truncated")]
+        qfa: bool,
         /// Output directory: chamber.tsv, batch.toml with units/, truth.toml.
         #[arg(long)]
         out: PathBuf,

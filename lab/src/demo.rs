@@ -246,18 +246,20 @@ fn run_unit(
             axis: None,
             exports: qfa_calibrate::export::ExportOptions::default(),
             limits: LimitsChoice::default(),
+            reproducible: false,
         },
     )
     .map_err(|source| DemoError::Calibrate { unit: truth.name.clone(), source })?;
     let verdict = cal.verdict.clone().ok_or_else(|| DemoError::NoVerdict { unit: truth.name.clone() })?;
     let calibrate_s = t.elapsed().as_secs_f64();
     let p = PAPER_TABLE4[usize::from(unit) - 1];
+    let steps = cal.report.timings_s.map_or_else(
+        || "steps not timed".to_string(),
+        |t| format!("read {:.1}, fit {:.1}, held-out compensation {:.1}", t.read, t.fit, t.evaluate),
+    );
     eprintln!(
         "   {rows} rows: simulate {simulate_s:.1} s, write {write_s:.1} s, calibrate {calibrate_s:.1} s \
-         (read {:.1}, fit {:.1}, held-out compensation {:.1}); Eq. 11 cond {:.1}",
-        cal.report.timings_s.read,
-        cal.report.timings_s.fit,
-        cal.report.timings_s.evaluate,
+         ({steps}); Eq. 11 cond {:.1}",
         cal.report.fit.cond_sf_hysteresis
     );
     // One discovery run, on the first unit: enough to show the workflow, and it keeps

@@ -191,6 +191,7 @@ fn calibrate_cmd(a: CalibrateArgs) -> Result<(), CliError> {
                 axis: Some(format!("a{}", a.axis)),
                 exports,
                 limits: limits.clone(),
+                reproducible: false,
             };
             let cal = calibrate_into(&l, &a.out, &opts, t0.elapsed().as_secs_f64())?;
             let v = cal.verdict.as_ref().ok_or_else(|| CliError::Failed("no verdict written".into()))?;
@@ -428,7 +429,21 @@ fn run(cli: Cli) -> Result<(), CliError> {
         }
         Cmd::Navigate(a) => navigate_cmd(a),
         Cmd::Batch(a) => batch_cmd(a),
-        Cmd::SimulateBatch { units, seed, no_bad, truncated, out } => {
+        Cmd::SimulateBatch { units, seed, no_bad, qfa: true, out, .. } => {
+            use qfa_sim::qfa_population::{draw_qfa, write_qfa_manifest, QfaPopulationSpec};
+            let t0 = Instant::now();
+            let truth = draw_qfa(&QfaPopulationSpec { units, seed, bad: !no_bad });
+            write_qfa_manifest(&out, &truth, 2)?;
+            let bad = truth.unit.iter().filter(|u| u.defect.is_some()).count();
+            eprintln!(
+                "{units} QFA units ({bad} deliberately bad) in {:.1} s → {}: batch.toml with units/ (one cycling log \
+                 per unit), truth.toml",
+                t0.elapsed().as_secs_f64(),
+                out.display()
+            );
+            Ok(())
+        }
+        Cmd::SimulateBatch { units, seed, no_bad, truncated, out, .. } => {
             use qfa_sim::population::{draw, write_chamber, write_manifest_run, PopulationSpec};
             let t0 = Instant::now();
             let truth = draw(&PopulationSpec { units, seed, bad: !no_bad, truncated });
@@ -453,7 +468,7 @@ fn batch_cmd(a: BatchCli) -> Result<(), CliError> {
         None => a.limits.as_deref(),
     })
     .map_err(|e| CliError::Usage(e.to_string()))?;
-    limits.check_applies("static", &STATIC_KEYS).map_err(|e| CliError::Usage(e.to_string()))?;
+    qfa_batch::check_limits(&limits).map_err(|e| CliError::Usage(e.to_string()))?;
     let cal = static_cal::StaticCalOptions { holdout: a.holdout, ..Default::default() };
     let unit = UnitOptions { cal, limits: limits.clone(), plots: a.plots };
     let fail_status = |fleet: &qfa_batch::fleet::Fleet| -> Result<(), CliError> {

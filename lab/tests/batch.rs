@@ -322,7 +322,9 @@ fn prior_study(units: usize, truncated: usize, seed: u64, name: &str) -> Vec<Pri
         let UnitOutcome::Calibrated(c) = &r.outcome else { panic!("{}: not calibrated", r.serial) };
         let own = qfa_thermal::Table::decode(&std::fs::read(out.join(&r.serial).join("table.bin")).unwrap()).unwrap();
         let deadband = qfa_calibrate::static_cal::StaticCalOptions::default().deadband_c_per_min;
-        let prior = prior_table(&c.normal, &fleet.population, span, deadband).unwrap();
+        let prior =
+            prior_table(c.normal.as_ref().expect("a static unit's statistics"), &fleet.population, span, deadband)
+                .unwrap();
         for k in 0..3 {
             rows.push((
                 r.serial.clone(),

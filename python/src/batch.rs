@@ -11,7 +11,7 @@ use qfa_batch::unit::UnitOptions;
 use qfa_batch::{input, BatchError as LabBatchError, BatchOptions, Shard};
 use qfa_calibrate::output_error::OutputError;
 use qfa_calibrate::static_cal::{Holdout, StaticCalOptions};
-use qfa_report::verdict::{LimitsChoice, STATIC_KEYS};
+use qfa_report::verdict::LimitsChoice;
 
 use crate::errors::{with_kind, BatchError, Kind};
 use crate::logs::read_flags;
@@ -40,7 +40,7 @@ fn options(py: Python<'_>, holdout: &str, limits: Option<PathBuf>) -> PyResult<U
         with_kind::<BatchError>(py, e.to_string(), "UnknownHoldout")
     })?;
     let limits = LimitsChoice::from_arg(limits.as_deref())
-        .and_then(|l| l.check_applies("static", &STATIC_KEYS).map(|()| l))
+        .and_then(|l| qfa_batch::check_limits(&l).map(|()| l))
         .map_err(|e| with_kind::<BatchError>(py, e.to_string(), "Limits"))?;
     Ok(UnitOptions { cal: StaticCalOptions { holdout, ..StaticCalOptions::default() }, limits, plots: false })
 }

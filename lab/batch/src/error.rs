@@ -144,10 +144,16 @@ pub enum SerialFault {
 pub enum UnitFault {
     /// The log cannot be read.
     Open(Box<qfa_log::open::ReadError>),
-    /// The log is not a static log.
-    NotStatic,
+    /// The log is neither a static log nor a cycling log.
+    NotBatchable,
+    /// The limits file sets none of the keys this unit's kind of log is checked against.
+    Limits(qfa_report::verdict::LimitsError),
     /// The static calibration refused it.
     Calibration(Box<StaticCalError>),
+    /// The cycling calibration refused it.
+    Cycling(Box<qfa_calibrate::CalibrateError>),
+    /// The cycling calibration wrote no verdict.
+    NoVerdict,
     /// The fleet's descriptor of an axis cannot be fitted.
     Descriptor {
         /// The axis.
@@ -250,10 +256,14 @@ impl fmt::Display for UnitFault {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Self::Open(e) => write!(f, "{e}"),
-            Self::NotStatic => f.write_str(
-                "not a static log (time, temperature and acceleration columns): a batch calibrates static logs",
+            Self::NotBatchable => f.write_str(
+                "neither a static log (time, temperature and acceleration columns) nor a cycling log (program, run, \
+                 time_s, input_g, temp_c, pulses, interval_s): a batch calibrates those two",
             ),
+            Self::Limits(e) => write!(f, "{e}"),
             Self::Calibration(e) => write!(f, "{e}"),
+            Self::Cycling(e) => write!(f, "{e}"),
+            Self::NoVerdict => f.write_str("the cycling calibration wrote no verdict"),
             Self::Descriptor { axis, source } => write!(f, "{axis}: descriptor: {source}"),
         }
     }

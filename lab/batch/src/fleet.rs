@@ -206,9 +206,10 @@ pub struct Fleet {
     pub span_c: [f64; 2],
 }
 
-/// The figures compared, for axes `axes`.
+/// The figures compared, for the static units' axes `axes`, and a QFA unit's figures
+/// when `qfa` (a batch of cycling logs).
 #[must_use]
-pub(crate) fn features(axes: &[String]) -> Vec<Feature> {
+pub(crate) fn features(axes: &[String], qfa: bool) -> Vec<Feature> {
     let f = |name: String, unit: &str, floor: f64, side: Side, full_coverage_only: bool| Feature {
         name,
         unit: unit.to_string(),
@@ -223,6 +224,14 @@ pub(crate) fn features(axes: &[String]) -> Vec<Feature> {
         out.push(f(format!("{a}.curvature_ug_per_c2"), "µg/°C²", 0.01, Side::Both, true));
         out.push(f(format!("{a}.split_mg"), "mg", 0.01, Side::Both, true));
         out.push(f(format!("{a}.held_out_mg"), "mg", 0.02, Side::High, true));
+    }
+    if qfa {
+        for (name, unit, floor, high) in super::qfa::FLEET_FIGURES {
+            let side = if high { Side::High } else { Side::Both };
+            // The held-out figures and the model's shape need the fleet's span, as a static
+            // unit's do.
+            out.push(f(format!("qfa.{name}"), unit, floor, side, true));
+        }
     }
     out.push(f("sensor.offset_c".into(), "°C", 0.05, Side::Both, false));
     out.push(f("sensor.drift_c_per_h".into(), "°C/h", 0.05, Side::Both, false));
@@ -243,6 +252,9 @@ fn value_of(c: &Calibrated, sensor: (&Measured, &Measured), name: &str) -> Optio
         _ => {}
     }
     let (axis, what) = name.split_once('.')?;
+    if axis == "qfa" {
+        return c.qfa.as_ref()?.value(what);
+    }
     if what == "held_out_mg" {
         return c.held_out_mg.iter().find(|(a, _)| a == axis).and_then(|(_, m)| num(m));
     }
@@ -282,6 +294,10 @@ fn sensors(cal: &[Option<&Calibrated>]) -> Vec<(Measured, Measured)> {
     cal.iter()
         .map(|c| {
             let Some(c) = c else { return (not("not calibrated"), not("not calibrated")) };
+            if c.qfa.is_some() {
+                let why = "a cycling log's clock restarts with each run: no minute shared with the fleet";
+                return (not(why), not(why));
+            }
             let d: Vec<(f64, f64)> =
                 c.temp_minutes.iter().filter_map(|(k, t)| steady.get(k).map(|m| (*k as f64 / 60.0, t - m))).collect();
             if d.len() < MIN_STEADY_MINUTES {
@@ -318,7 +334,8 @@ pub(crate) fn fleet(results: &[UnitResult], limits: &Limits) -> Fleet {
     let partial = partial_units(&cal);
     let mut stats = Vec::new();
     let mut flags: Vec<Vec<Flag>> = vec![Vec::new(); results.len()];
-    for feat in features(&axes) {
+    let qfa = cal.iter().flatten().any(|c| c.qfa.is_some());
+    for feat in features(&axes, qfa) {
         if let Some(s) = feature_stats(feat, results, &cal, &sensor, &partial, &mut flags) {
             stats.push(s);
         }
@@ -334,7 +351,7 @@ pub(crate) fn fleet(results: &[UnitResult], limits: &Limits) -> Fleet {
     let lo: Vec<f64> = reference.iter().map(|c| c.temp_c[0]).collect();
     let hi: Vec<f64> = reference.iter().map(|c| c.temp_c[1]).collect();
     let span_c = [median(&lo).unwrap_or(0.0), median(&hi).unwrap_or(0.0)];
-    let population = super::prior::population(&reference.iter().map(|c| &c.normal).collect::<Vec<_>>());
+    let population = super::prior::population(&reference.iter().filter_map(|c| c.normal.as_ref()).collect::<Vec<_>>());
     Fleet {
         units: results.len(),
         counts,
@@ -561,6 +578,13 @@ fn capability(cal: &[Option<&Calibrated>], axes: &[String], limits: &Limits) -> 
             })
             .collect();
         out.push(one("held_out_bias_mg", a, "max", limits.held_out_bias_mg, v));
+    }
+    let qfa: Vec<&super::qfa::QfaFigures> = cal.iter().flatten().filter_map(|c| c.qfa.as_ref()).collect();
+    if !qfa.is_empty() {
+        let v = qfa.iter().map(|q| q.held_out_bias_ug).collect();
+        out.push(one("held_out_bias_ug", "qfa", "max", limits.held_out_bias_ug, v));
+        let v = qfa.iter().map(|q| q.held_out_sensitivity_ppm_per_c).collect();
+        out.push(one("held_out_sensitivity_ppm_per_c", "qfa", "max", limits.held_out_sensitivity_ppm_per_c, v));
     }
     let spans: Vec<f64> = cal.iter().flatten().map(|c| c.temp_c[1] - c.temp_c[0]).collect();
     out.push(one("min_span_c", "all", "min", limits.min_span_c, spans));

@@ -19,6 +19,7 @@ pub mod fleet;
 pub mod input;
 pub(crate) mod pages;
 pub mod prior;
+pub mod qfa;
 pub mod unit;
 
 use std::path::{Path, PathBuf};
@@ -43,6 +44,18 @@ pub(crate) fn encoded(
     let mut crc = [0u8; 4];
     crc.copy_from_slice(&bin[12..qfa_thermal::table::HEADER_LEN]);
     Ok((bin, u32::from_le_bytes(crc)))
+}
+
+/// The limits a batch may be given: a batch holds static or cycling (QFA) units, so a file
+/// must set a key of either kind; each unit then checks its own kind's keys and is refused
+/// when the file sets none of them.
+///
+/// # Errors
+/// [`qfa_report::verdict::LimitsError::NoneApply`]: the file sets no key a batch checks.
+pub fn check_limits(limits: &qfa_report::verdict::LimitsChoice) -> Result<(), qfa_report::verdict::LimitsError> {
+    use qfa_report::verdict::{CYCLING_KEYS, STATIC_KEYS};
+    let either: Vec<&'static str> = STATIC_KEYS.iter().chain(&CYCLING_KEYS).copied().collect();
+    limits.check_applies("batch", &either)
 }
 
 /// Name of each unit's result file in its folder.
@@ -174,10 +187,14 @@ pub(crate) fn finish_fleet(
     let mut uses = Vec::with_capacity(plain.len());
     let mut prior_failed: Vec<(String, prior::PriorError)> = Vec::new();
     for (r, f) in plain.iter().zip(&fleet.unit) {
-        let use_ = match &r.outcome {
-            UnitOutcome::Calibrated(c) if f.partial && !fleet.population.is_empty() => {
+        let normal = match &r.outcome {
+            UnitOutcome::Calibrated(c) => c.normal.as_ref(),
+            UnitOutcome::Failed { .. } => None,
+        };
+        let use_ = match normal {
+            Some(normal) if f.partial && !fleet.population.is_empty() => {
                 let dir = out.join(&r.serial);
-                match prior::prior_table(&c.normal, &fleet.population, span, opts.cal.deadband_c_per_min) {
+                match prior::prior_table(normal, &fleet.population, span, opts.cal.deadband_c_per_min) {
                     Ok(table) => {
                         let (bin, crc) = encoded(&table, &dir)?;
                         let toml = toml::to_string_pretty(&table).map_err(OutputError::toml(&dir))?;
@@ -189,7 +206,7 @@ pub(crate) fn finish_fleet(
                             format!("# qfa-thermal table from the population prior (the lab guide's \"Production batches\")\n{toml}"),
                         )
                         .map_err(OutputError::io(&toml_path))?;
-                        let share = prior::covered_share(&c.normal, span);
+                        let share = prior::covered_share(normal, span);
                         Some(prior::PriorUse {
                             table: "table_prior.bin".into(),
                             table_crc32: format!("{crc:08x}"),

@@ -172,6 +172,24 @@ fn certificate_rows(
             for (a, s) in &c.structures {
                 kv.push((format!("{a}: model"), s.clone()));
             }
+            if let Some(q) = &c.qfa {
+                kv.push((
+                    "held-out scale-factor sensitivity (Table 4, ppm/°C)".into(),
+                    format!("{:.3}", q.held_out_sensitivity_ppm_per_c),
+                ));
+                kv.push(("held-out bias residual (µg RMS)".into(), format!("{:.1}", q.held_out_bias_ug)));
+                kv.push(("scale factor γ at T0 (pulses/(g·s))".into(), format!("{:.1} at {:.1} °C", q.gamma, q.t0_c)));
+                kv.push(("temperature coefficient μ/γ (ppm/°C)".into(), format!("{:.2}", q.mu_ppm_per_c)));
+                kv.push((
+                    "heating/cooling split of the scale factor at 0.5 °C/min (ppm)".into(),
+                    format!("{:.1}", q.sf_split_ppm),
+                ));
+                kv.push((
+                    "bias at T0 (µg); its slope (µg/°C)".into(),
+                    format!("{:.1}; {:.2}", q.bias_level_ug, q.bias_slope_ug_per_c),
+                ));
+                kv.push(("bias ageing on the log's clock (µg/h)".into(), m(&q.ageing_ug_per_h, 3)));
+            }
         }
         UnitOutcome::Failed { reason } => kv.push(("not calibrated".into(), reason.clone())),
     }

@@ -21,7 +21,7 @@ use qfa_calibrate::lint::Severity;
 use qfa_calibrate::static_cal::{self, is_one_branch, StaticCalOptions};
 use qfa_log::open::{open_bytes, OpenedLog};
 use qfa_log::static_log::StaticLog;
-use qfa_report::verdict::{LimitsChoice, Measured, Outcome};
+use qfa_report::verdict::{LimitsChoice, Measured, Outcome, STATIC_KEYS};
 
 /// Temperature the descriptor is read at, °C.
 pub(crate) const DESCRIPTOR_T_C: f64 = 25.0;
@@ -70,8 +70,9 @@ pub struct Calibrated {
     pub descriptor: Vec<AxisDescriptor>,
     /// Mean temperature reading per minute of its clock: `(minute, °C)`.
     pub temp_minutes: Vec<(i64, f64)>,
-    /// What the population prior needs of its rows ([`super::prior`]).
-    pub normal: super::prior::UnitNormal,
+    /// What the population prior needs of its rows ([`super::prior`]); `None` for a QFA
+    /// unit, whose cycling calibration has no prior.
+    pub normal: Option<super::prior::UnitNormal>,
     /// The clearest step in each axis's residual after its own table, where one stands
     /// out of the row-to-row noise ([`ResidualStep`] says how it is found).
     #[serde(default)]
@@ -82,6 +83,10 @@ pub struct Calibrated {
     /// judged by (the skipped rows are neither fitted nor scored).
     #[serde(default)]
     pub glitches_per_h: f64,
+    /// A QFA unit's figures (a cycling log); `None` for a static unit, whose figures are
+    /// the `descriptor`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub qfa: Option<super::qfa::QfaFigures>,
 }
 
 /// A step in one axis's residual after the unit's own table: the output shifted part-way
@@ -289,11 +294,23 @@ pub(crate) fn calibrate_unit(input: &UnitInput, dir: &Path, opts: &UnitOptions) 
 
 fn calibrate(input: &UnitInput, dir: &Path, opts: &UnitOptions) -> Result<Calibrated, BatchError> {
     let bytes = input.bytes()?;
-    let log = match open_bytes(&bytes, &input.flags).map_err(|e| BatchError::Unit(UnitFault::Open(Box::new(e))))? {
-        OpenedLog::Static(l) => l,
-        _ => return Err(BatchError::Unit(UnitFault::NotStatic)),
-    };
-    let notes: Vec<String> = qfa_calibrate::lint::lint_static(&bytes, &log)
+    match open_bytes(&bytes, &input.flags).map_err(|e| BatchError::Unit(UnitFault::Open(Box::new(e))))? {
+        OpenedLog::Static(log) => calibrate_static(input, &bytes, &log, dir, opts),
+        OpenedLog::Cycling(log) => super::qfa::calibrate(input, &log, dir, opts),
+        OpenedLog::Single(_) | OpenedLog::Autopilot(_) => Err(BatchError::Unit(UnitFault::NotBatchable)),
+    }
+}
+
+/// A static (MEMS) unit: calibrated as `qfa-lab calibrate` calibrates a static log.
+fn calibrate_static(
+    input: &UnitInput,
+    bytes: &[u8],
+    log: &StaticLog,
+    dir: &Path,
+    opts: &UnitOptions,
+) -> Result<Calibrated, BatchError> {
+    opts.limits.check_applies("static", &STATIC_KEYS).map_err(|e| BatchError::Unit(UnitFault::Limits(e)))?;
+    let notes: Vec<String> = qfa_calibrate::lint::lint_static(bytes, log)
         .iter()
         .filter(|f| f.severity >= Severity::Warning)
         .filter_map(|f| f.to_string().lines().next().map(|l| format!("lint: {l}")))
@@ -310,11 +327,11 @@ fn calibrate(input: &UnitInput, dir: &Path, opts: &UnitOptions) -> Result<Calibr
         progress: false,
         command: Some(&command),
     };
-    let (cal, v) = static_cal::calibrate_static_into(dir, &log, &run, &notes)
+    let (cal, v) = static_cal::calibrate_static_into(dir, log, &run, &notes)
         .map_err(|e| BatchError::Unit(UnitFault::Calibration(Box::new(e))))?;
     let (bin, crc) = super::encoded(&cal.table, dir)?;
     let r = &cal.report;
-    let descriptor = describe(&log, &opts.cal, is_one_branch(r.branch_rows))?;
+    let descriptor = describe(log, &opts.cal, is_one_branch(r.branch_rows))?;
     Ok(Calibrated {
         outcome: v.outcome,
         failed_limits: v.failed(),
@@ -333,7 +350,7 @@ fn calibrate(input: &UnitInput, dir: &Path, opts: &UnitOptions) -> Result<Calibr
         temp_c: [r.coverage.temp_c[0], r.coverage.temp_c[1]],
         one_branch: is_one_branch(r.branch_rows),
         rows: r.rows,
-        glitches_per_h: glitches_per_hour(&log),
+        glitches_per_h: glitches_per_hour(log),
         table_crc32: format!("{crc:08x}"),
         table_bytes: bin.len(),
         steps: residual_steps(
@@ -343,8 +360,9 @@ fn calibrate(input: &UnitInput, dir: &Path, opts: &UnitOptions) -> Result<Calibr
             &descriptor.iter().map(|d| d.slope_ug_per_c).collect::<Vec<f64>>(),
         ),
         descriptor,
-        temp_minutes: temp_minutes(&log),
-        normal: normal(&log, opts.cal.deadband_c_per_min),
+        temp_minutes: temp_minutes(log),
+        normal: Some(normal(log, opts.cal.deadband_c_per_min)),
+        qfa: None,
     })
 }
 

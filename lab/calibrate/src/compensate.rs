@@ -226,7 +226,7 @@ pub fn compensate_log(
 
 /// Whether a status word means "no temperature-based compensation yet".
 #[must_use]
-pub(crate) fn not_compensated(status: u16) -> bool {
+pub fn not_compensated(status: u16) -> bool {
     Status::from_bits_retain(status).intersects(Status::NO_TABLE | Status::TEMP_STALE)
 }
 

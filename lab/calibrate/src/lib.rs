@@ -15,6 +15,7 @@
 //! branch tie the fit programs chose ([`FitOptions::branch_mode`]), so no program's rows are
 //! left out of what is flashed. With one program, both are the same fit.
 
+pub mod ageing;
 pub mod compensate;
 pub mod coverage;
 pub mod export;
@@ -59,6 +60,9 @@ pub struct CalibrateOptions {
     pub exports: export::ExportOptions,
     /// The limits the verdict checks.
     pub limits: qfa_report::verdict::LimitsChoice,
+    /// Leave the step timings out of the reports, so every file's bytes depend on the log
+    /// alone (a batch's units, whatever thread or shard ran them).
+    pub reproducible: bool,
 }
 
 /// Result of a calibration.
@@ -250,7 +254,7 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
         fit: fit_summary(&fitted),
         rejected_readings: eval.rejected_readings,
         skipped_glitches: log.glitches.clone(),
-        timings_s: Timings { fit: t_fit, evaluate: t_eval, ..Timings::default() },
+        timings_s: Some(Timings { fit: t_fit, evaluate: t_eval, ..Timings::default() }),
     };
     Ok(Calibration {
         fitted,
@@ -415,9 +419,13 @@ pub fn calibrate_into(
         plot_sf_vs_temp(&sf, &title, &cal.eval).map_err(OutputError::plot(&sf))?;
         plot_residual_vs_time(&residual, &title, &cal.eval).map_err(OutputError::plot(&residual))?;
     }
-    cal.report.timings_s.plots = t.elapsed().as_secs_f64();
-    cal.report.timings_s.read = read_s;
-    cal.report.timings_s.total = read_s + t0.elapsed().as_secs_f64();
+    if opts.reproducible {
+        cal.report.timings_s = None;
+    } else if let Some(timings) = cal.report.timings_s.as_mut() {
+        timings.plots = t.elapsed().as_secs_f64();
+        timings.read = read_s;
+        timings.total = read_s + t0.elapsed().as_secs_f64();
+    }
     let mut files: Vec<String> = ["table.bin", "table.toml", "table_simple.bin", "table_simple.toml"]
         .into_iter()
         .chain(["report.json", "report.md", "report.html"])
@@ -476,11 +484,12 @@ pub(crate) fn page(
     if opts.plots {
         plots_section(&mut p, out)?;
     }
-    let t = r.timings_s;
-    p.section("Timings").para(&format!(
-        "read {:.2} s, fit {:.2} s, held-out compensation {:.2} s, plots {:.2} s",
-        t.read, t.fit, t.evaluate, t.plots
-    ));
+    if let Some(t) = r.timings_s {
+        p.section("Timings").para(&format!(
+            "read {:.2} s, fit {:.2} s, held-out compensation {:.2} s, plots {:.2} s",
+            t.read, t.fit, t.evaluate, t.plots
+        ));
+    }
     Ok(p)
 }
 

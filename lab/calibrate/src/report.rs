@@ -211,8 +211,10 @@ pub struct Report {
     /// Temperature and rate ranges the fit programs cover (heating, cooling) and the
     /// limits `table.bin` clamps to: beyond them the firmware clamps and flags.
     pub coverage: crate::coverage::CalCoverage,
-    /// Step timings, s.
-    pub timings_s: Timings,
+    /// Step timings, s (left out when [`crate::CalibrateOptions::reproducible`] asks for
+    /// bytes that depend on the log alone).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub timings_s: Option<Timings>,
 }
 
 /// Step timings, s.

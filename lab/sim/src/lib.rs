@@ -12,6 +12,7 @@
 
 pub mod population;
 pub mod profile;
+pub mod qfa_population;
 pub mod synth;
 pub mod thermal;
 pub mod truth;
@@ -89,13 +90,29 @@ pub struct Accelerometer {
     model: TruthModel,
     noise: NoiseGen,
     counter: IfConverter,
+    /// Powered time since the log's first run started, s (what the ageing term reads).
+    elapsed_s: f64,
+    ageing_g_per_s: f64,
 }
 
 impl Accelerometer {
     /// From a truth configuration and a noise seed.
     #[must_use]
     pub fn new(truth: &Truth, seed: u64) -> Self {
-        Self { model: truth.model(), noise: NoiseGen::new(truth.noise, seed), counter: IfConverter::default() }
+        Self::started_at(truth, seed, 0.0)
+    }
+
+    /// As [`Accelerometer::new`], for a run that starts `start_s` after the log's first run
+    /// started (the ageing term's clock, [`Truth::ageing_ug_per_h`]).
+    #[must_use]
+    pub fn started_at(truth: &Truth, seed: u64, start_s: f64) -> Self {
+        Self {
+            model: truth.model(),
+            noise: NoiseGen::new(truth.noise, seed),
+            counter: IfConverter::default(),
+            elapsed_s: start_s,
+            ageing_g_per_s: truth.ageing_ug_per_h * 1e-6 / 3600.0,
+        }
     }
 
     /// Advance by `dt_s` at case temperature `case_c` (°C) and case rate (°C/min) with
@@ -106,7 +123,11 @@ impl Accelerometer {
             return 0;
         }
         let n = self.noise.step(dt_s);
-        self.counter.count(e.k1 * (e.k0 + input_g + n) * dt_s)
+        // The ageing at the step's middle; exactly 0.0 without ageing, so a unit without it
+        // counts the same pulses as before the term existed.
+        let ageing = self.ageing_g_per_s * (self.elapsed_s + 0.5 * dt_s);
+        self.elapsed_s += dt_s;
+        self.counter.count(e.k1 * (e.k0 + ageing + input_g + n) * dt_s)
     }
 }
 
@@ -124,14 +145,29 @@ pub fn run_seed(seed: u64, program: usize, run: u32) -> u64 {
     qfa_rng::splitmix64(seed ^ ((program as u64 + 1) << 32) ^ u64::from(run))
 }
 
-/// Simulate one run of `program` at `pos`.
+/// Simulate one run of `program` at `pos`, the log's first (its ageing clock at 0).
 #[must_use]
 pub fn simulate_run(truth: &Truth, program: &Program, pos: Position, row_s: u32, seed: u64) -> Run {
+    simulate_run_from(truth, program, pos, row_s, seed, 0.0)
+}
+
+/// Seconds of rows one run of `program` logs at `row_s`: what the next run's ageing clock
+/// starts after.
+#[must_use]
+pub fn run_length_s(program: &Program, row_s: u32) -> f64 {
+    let row_s = u64::from(row_s.max(1));
+    ((program.duration_s().floor() as u64 / row_s) * row_s) as f64
+}
+
+/// Simulate one run of `program` at `pos` that starts `start_s` after the log's first run
+/// started.
+#[must_use]
+pub fn simulate_run_from(truth: &Truth, program: &Program, pos: Position, row_s: u32, seed: u64, start_s: f64) -> Run {
     let row_s = row_s.max(1);
     let dt = 1.0;
     let start_air = program.temp_at(0.0);
     let mut chain = truth.thermal.start(start_air, dt, truth.element_tau_s());
-    let mut acc = Accelerometer::new(truth, seed);
+    let mut acc = Accelerometer::started_at(truth, seed, start_s);
     let mut srng = seeded(seed ^ 0xD518_B20D_518B_20D5);
     let steps = program.duration_s().floor() as u64;
     let rows = steps / u64::from(row_s);
@@ -176,6 +212,15 @@ pub fn simulate(
 ) -> Log {
     let jobs: Vec<(usize, Position)> =
         (0..programs.len()).flat_map(|p| positions.iter().map(move |&pos| (p, pos))).collect();
+    // Each run's start on the ageing clock: the runs before it, back to back.
+    let starts: Vec<f64> = jobs
+        .iter()
+        .scan(0.0, |t, &(p, _)| {
+            let start = *t;
+            *t += run_length_s(&programs[p], row_s);
+            Some(start)
+        })
+        .collect();
     let mut out: Vec<Option<Run>> = vec![None; jobs.len()];
     let threads = threads.max(1);
     let chunks: Vec<Vec<usize>> = (0..threads).map(|t| (t..jobs.len()).step_by(threads).collect()).collect();
@@ -183,12 +228,13 @@ pub fn simulate(
         let handles: Vec<_> = chunks
             .iter()
             .map(|idx| {
-                let jobs = &jobs;
+                let (jobs, starts) = (&jobs, &starts);
                 s.spawn(move || {
                     idx.iter()
                         .map(|&i| {
                             let (p, pos) = jobs[i];
-                            let r = simulate_run(truth, &programs[p], pos, row_s, run_seed(seed, p, pos.run));
+                            let seed = run_seed(seed, p, pos.run);
+                            let r = simulate_run_from(truth, &programs[p], pos, row_s, seed, starts[i]);
                             if let Some(pb) = progress {
                                 pb.inc(1);
                             }

@@ -112,6 +112,17 @@ pub struct Truth {
     pub noise: NoiseTruth,
     /// Temperature sensor.
     pub sensor: SensorTruth,
+    /// Bias ageing, µg per hour of the unit's powered time since the log's first run
+    /// started, the runs back to back in the log's order (a level that moves from run to
+    /// run and program to program, which no thermal effect makes). 0: none, and then it is
+    /// not written.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub ageing_ug_per_h: f64,
+}
+
+#[allow(clippy::trivially_copy_pass_by_ref)] // serde's `skip_serializing_if` passes a reference
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
 }
 
 /// Names of the extension effects (the discovery catalog's names).
@@ -166,6 +177,7 @@ impl Truth {
             thermal: ThermalChain::default(),
             noise: NoiseTruth { white_ug_per_rthz: 10.0, bias_instability_ug: 10.0, bias_instability_tau_s: 1800.0 },
             sensor: SensorTruth { offset_c: offset, noise_c: 0.01, period_s: 1.0, first_s: 1.5 },
+            ageing_ug_per_h: 0.0,
         }
     }
 

@@ -1,0 +1,213 @@
+//! A QFA unit of a batch: a cycling log (pulse counts through the paper's four-position
+//! program) calibrated exactly as `qfa-lab calibrate` calibrates one (the same function
+//! writes the same files), and the figures the fleet compares, read from the unit's own
+//! flashed model.
+//!
+//! Why the unit's own model: a cycling calibration fits one structure for every QFA (Eq. 11
+//! and a bias grid per branch), so each unit's coefficients already mean the same thing
+//! across the fleet, and a figure fitted beside the model could contradict it. The
+//! scale-factor terms are given relative to the unit's γ (ppm), so units whose γ differs
+//! by a fraction of a percent compare on their thermal behaviour alone.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use super::input::UnitInput;
+use super::unit::{Calibrated, UnitOptions};
+use super::{BatchError, UnitFault};
+use qfa_calibrate::{calibrate_into, CalibrateOptions};
+use qfa_log::cycling::Log;
+use qfa_report::verdict::{Measured, CYCLING_KEYS};
+use qfa_thermal::model::Branch;
+
+/// The rate the scale factor's heating/cooling split is read at, °C/min (the middle of the
+/// paper's 0.3–0.9 °C/min programs).
+pub const SPLIT_RATE_C_PER_MIN: f64 = 0.5;
+/// Half the span the bias slope is read over, either side of T0, °C.
+pub const SLOPE_HALF_SPAN_C: f64 = 10.0;
+
+/// What the fleet compares of a QFA unit: the held-out figures of its certificate, and its
+/// flashed model's coefficients.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct QfaFigures {
+    /// Held-out Table-4 scale-factor sensitivity of the table's model, ppm/°C.
+    pub held_out_sensitivity_ppm_per_c: f64,
+    /// Held-out bias residual of the table's model, µg RMS.
+    pub held_out_bias_ug: f64,
+    /// Eq. 11's reference temperature T0, °C.
+    pub t0_c: f64,
+    /// γ: K1 at T0 and Ṫ = 0, pulses/(g·s).
+    pub gamma: f64,
+    /// μ/γ: the scale factor's temperature coefficient, ppm/°C.
+    pub mu_ppm_per_c: f64,
+    /// β/γ, ppm/°C².
+    pub beta_ppm_per_c2: f64,
+    /// η/γ, the rate-by-temperature term, ppm per °C·°C/min.
+    pub eta_ppm_per_c2_per_min: f64,
+    /// α/γ, the rate-squared term, ppm per (°C/min)².
+    pub alpha_ppm_per_c2_per_min2: f64,
+    /// The scale factor's heating/cooling split at T0: K1 heating at
+    /// [`SPLIT_RATE_C_PER_MIN`] minus cooling at the same rate, over γ, ppm (2·ε·r/γ, Eq. 11's
+    /// rate term ε as the thermal hysteresis the paper models; at 0.5 °C/min it equals ε/γ
+    /// in ppm per °C/min).
+    pub sf_split_ppm: f64,
+    /// The bias at T0 between the branches, µg.
+    pub bias_level_ug: f64,
+    /// The bias's slope at T0 (over ±[`SLOPE_HALF_SPAN_C`]), µg/°C.
+    pub bias_slope_ug_per_c: f64,
+    /// The bias grid's heating minus cooling, mean over its nodes, µg (not computed when the
+    /// fit tied the branches).
+    pub bias_split_ug: Measured,
+    /// The bias's ageing on the log's clock ([`qfa_calibrate::ageing`]), µg/h.
+    pub ageing_ug_per_h: Measured,
+}
+
+/// The figures the fleet compares, with their units, robust-scale floors (a resolution far
+/// under any population's spread) and which way each is bad: `(name, unit, floor, high
+/// only)`. Names are `qfa.` and the field's name.
+pub(crate) const FLEET_FIGURES: [(&str, &str, f64, bool); 12] = [
+    ("held_out_sensitivity_ppm_per_c", "ppm/°C", 0.02, true),
+    ("held_out_bias_ug", "µg", 0.5, true),
+    ("gamma", "pulses/(g·s)", 1.0, false),
+    ("mu_ppm_per_c", "ppm/°C", 0.5, false),
+    ("beta_ppm_per_c2", "ppm/°C²", 0.005, false),
+    ("sf_split_ppm", "ppm", 2.0, false),
+    ("eta_ppm_per_c2_per_min", "ppm/(°C·°C/min)", 0.005, false),
+    ("alpha_ppm_per_c2_per_min2", "ppm/(°C/min)²", 2.0, false),
+    ("bias_level_ug", "µg", 1.0, false),
+    ("bias_slope_ug_per_c", "µg/°C", 0.05, false),
+    ("bias_split_ug", "µg", 0.5, false),
+    ("ageing_ug_per_h", "µg/h", 0.005, false),
+];
+
+impl QfaFigures {
+    /// The figure [`FLEET_FIGURES`] names `what` (without `qfa.`); `None` when it was not
+    /// computed for this unit.
+    #[must_use]
+    pub(crate) fn value(&self, what: &str) -> Option<f64> {
+        let num = |m: &Measured| match m {
+            Measured::Value(v) => Some(*v),
+            Measured::NotComputed { .. } => None,
+        };
+        Some(match what {
+            "held_out_sensitivity_ppm_per_c" => self.held_out_sensitivity_ppm_per_c,
+            "held_out_bias_ug" => self.held_out_bias_ug,
+            "gamma" => self.gamma,
+            "mu_ppm_per_c" => self.mu_ppm_per_c,
+            "beta_ppm_per_c2" => self.beta_ppm_per_c2,
+            "sf_split_ppm" => self.sf_split_ppm,
+            "eta_ppm_per_c2_per_min" => self.eta_ppm_per_c2_per_min,
+            "alpha_ppm_per_c2_per_min2" => self.alpha_ppm_per_c2_per_min2,
+            "bias_level_ug" => self.bias_level_ug,
+            "bias_slope_ug_per_c" => self.bias_slope_ug_per_c,
+            "bias_split_ug" => return num(&self.bias_split_ug),
+            "ageing_ug_per_h" => return num(&self.ageing_ug_per_h),
+            _ => return None,
+        })
+    }
+}
+
+/// Calibrate the cycling log `log` of `input` into `dir`, as `qfa-lab calibrate` would.
+///
+/// # Errors
+/// The limits set none of a cycling log's keys, or the calibration refused the log.
+pub(crate) fn calibrate(
+    input: &UnitInput,
+    log: &Log,
+    dir: &Path,
+    opts: &UnitOptions,
+) -> Result<Calibrated, BatchError> {
+    opts.limits.check_applies("cycling", &CYCLING_KEYS).map_err(|e| BatchError::Unit(UnitFault::Limits(e)))?;
+    let copts = CalibrateOptions {
+        plots: opts.plots,
+        title: input.serial.clone(),
+        limits: opts.limits.clone(),
+        reproducible: true,
+        ..CalibrateOptions::default()
+    };
+    let cal = calibrate_into(log, dir, &copts, 0.0).map_err(|e| BatchError::Unit(UnitFault::Cycling(Box::new(e))))?;
+    let v = cal.verdict.as_ref().ok_or(BatchError::Unit(UnitFault::NoVerdict))?;
+    let (bin, crc) = super::encoded(&cal.table.hysteresis, dir)?;
+    let r = &cal.report;
+    let ageing = match qfa_calibrate::ageing::ageing(log, &cal.table.hysteresis) {
+        Ok(a) => Measured::Value(a.ug_per_h),
+        Err(e) => Measured::NotComputed { not_computed: e.to_string() },
+    };
+    let covered = r.coverage.covered.temp_c;
+    Ok(Calibrated {
+        outcome: v.outcome,
+        failed_limits: v.failed(),
+        held_out_mg: Vec::new(),
+        structures: vec![("qfa".into(), structure(r.fit.branch.mode))],
+        temp_c: covered,
+        one_branch: false,
+        rows: r.rows,
+        table_crc32: format!("{crc:08x}"),
+        table_bytes: bin.len(),
+        descriptor: Vec::new(),
+        temp_minutes: Vec::new(),
+        normal: None,
+        steps: Vec::new(),
+        glitches_per_h: glitches_per_hour(log),
+        qfa: Some(figures(
+            &cal.table.hysteresis.axes[0],
+            r.sensitivity_ppm_per_c.hysteresis,
+            r.bias_residual_ug.hysteresis,
+            ageing,
+        )),
+    })
+}
+
+/// The flashed model's structure in words.
+fn structure(mode: qfa_calibrate::fit::BranchMode) -> String {
+    use qfa_calibrate::fit::BranchMode;
+    let bias = match mode {
+        BranchMode::Single => "one bias curve for both branches",
+        BranchMode::Offset => "a bias curve and a constant heating/cooling step",
+        BranchMode::Free => "a bias curve per branch",
+    };
+    format!("Eq. 11 scale factor, {bias}")
+}
+
+/// The fleet's figures of one flashed axis model and its held-out figures.
+fn figures(axis: &qfa_thermal::AxisModel, sensitivity: f64, bias_ug: f64, ageing: Measured) -> QfaFigures {
+    let s = &axis.scale;
+    let gamma = f64::from(s.gamma);
+    let ppm = |x: f32| f64::from(x) / gamma * 1e6;
+    let b = &axis.bias;
+    let t0 = f64::from(s.t0_c);
+    let mean_at = |t: f64| 1e6 * f64::from(b.k0(t as f32, Branch::Unknown));
+    let splits: Vec<f64> = b.heating_g.iter().zip(&b.cooling_g).map(|(h, c)| f64::from(h - c) * 1e6).collect();
+    let tied = splits.iter().all(|d| *d == 0.0);
+    QfaFigures {
+        held_out_sensitivity_ppm_per_c: sensitivity,
+        held_out_bias_ug: bias_ug,
+        t0_c: t0,
+        gamma,
+        mu_ppm_per_c: ppm(s.mu),
+        beta_ppm_per_c2: ppm(s.beta),
+        eta_ppm_per_c2_per_min: ppm(s.eta),
+        alpha_ppm_per_c2_per_min2: ppm(s.alpha),
+        sf_split_ppm: 2.0 * SPLIT_RATE_C_PER_MIN * ppm(s.epsilon),
+        bias_level_ug: mean_at(t0),
+        bias_slope_ug_per_c: (mean_at(t0 + SLOPE_HALF_SPAN_C) - mean_at(t0 - SLOPE_HALF_SPAN_C))
+            / (2.0 * SLOPE_HALF_SPAN_C),
+        bias_split_ug: if tied {
+            Measured::NotComputed { not_computed: "the fit tied the bias grid's branches".into() }
+        } else {
+            Measured::Value(splits.iter().sum::<f64>() / splits.len() as f64)
+        },
+        ageing_ug_per_h: ageing,
+    }
+}
+
+/// The rows the cycling reader skipped as one-row glitches, per hour of the log's runs.
+fn glitches_per_hour(log: &Log) -> f64 {
+    let hours: f64 = log.runs.iter().filter_map(|r| r.samples.last()).map(|s| s.time_s / 3600.0).sum();
+    if hours > 0.0 {
+        log.glitches.len() as f64 / hours
+    } else {
+        0.0
+    }
+}
