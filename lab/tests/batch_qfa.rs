@@ -137,3 +137,59 @@ fn a_static_limits_file_is_refused_for_a_qfa_unit() {
     assert!(reason.contains("held_out_bias_ug"), "{reason}");
     assert_eq!(run.fleet.unwrap().unit[0].decision, Decision::Fail);
 }
+
+/// The flag study behind docs/measurements.md's "QFA batches": ten 20-unit batches (seeds
+/// 1–10, one unit of each defect in each) and five 50-unit batches (seeds 11–15), each bad
+/// unit caught by its defect's figure or not, every good unit flagged or not, and the
+/// largest robust distance a good unit reached. Run with
+/// `cargo test --release -p qfa-lab --test batch_qfa -- --ignored qfa_flag_study --nocapture`.
+#[test]
+#[ignore = "a study: about 4 minutes in release"]
+fn qfa_flag_study() {
+    for (units, seeds) in [(20, 1..=10u64), (50, 11..=15)] {
+        let (mut good, mut false_review, mut bad, mut caught) = (0, 0, 0, 0);
+        let (mut worst_good, mut weakest_bad) = ((0.0f64, String::new()), (f64::INFINITY, String::new()));
+        for seed in seeds.clone() {
+            let dir = scratch(&format!("qfa_flag_study_{units}_{seed}"));
+            let (truth, _, fleet) = run(&dir, &QfaPopulationSpec { units, seed, bad: true });
+            for (u, f) in truth.unit.iter().zip(&fleet.unit) {
+                match u.defect {
+                    None => {
+                        good += 1;
+                        if f.decision != Decision::Pass {
+                            false_review += 1;
+                            println!("seed {seed} {}: good, flagged: {:?}", u.serial, f.reasons);
+                        }
+                    }
+                    Some(d) => {
+                        bad += 1;
+                        match f.flags.iter().find(|x| x.feature == moved_by(d)) {
+                            Some(x) => {
+                                caught += 1;
+                                if x.z.abs() < weakest_bad.0 {
+                                    weakest_bad = (x.z.abs(), format!("seed {seed} {} {d:?}", u.serial));
+                                }
+                            }
+                            None => println!("seed {seed} {}: {d:?} missed: {:?}", u.serial, f.reasons),
+                        }
+                    }
+                }
+            }
+            for s in &fleet.stats {
+                for (serial, v) in &s.values {
+                    let z = ((v - s.median) / s.scale).abs();
+                    let is_good = truth.unit.iter().any(|u| &u.serial == serial && u.defect.is_none());
+                    if is_good && z > worst_good.0 {
+                        worst_good = (z, format!("seed {seed} {serial} {}", s.feature.name));
+                    }
+                }
+            }
+        }
+        println!(
+            "units={units} seeds={seeds:?} good={good} false_review={false_review} bad={bad} \
+             caught_by_its_figure={caught} worst_good_z={:.2} ({}) weakest_bad_z={:.2} ({})",
+            worst_good.0, worst_good.1, weakest_bad.0, weakest_bad.1
+        );
+        assert_eq!(caught, bad, "every bad unit caught by its defect's figure");
+    }
+}

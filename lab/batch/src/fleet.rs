@@ -226,7 +226,7 @@ pub(crate) fn features(axes: &[String], qfa: bool) -> Vec<Feature> {
         out.push(f(format!("{a}.held_out_mg"), "mg", 0.02, Side::High, true));
     }
     if qfa {
-        for (name, unit, floor, high) in super::qfa::FLEET_FIGURES {
+        for (name, unit, floor, high, _) in super::qfa::FLEET_FIGURES {
             let side = if high { Side::High } else { Side::Both };
             // The held-out figures and the model's shape need the fleet's span, as a static
             // unit's do.
@@ -238,6 +238,25 @@ pub(crate) fn features(axes: &[String], qfa: bool) -> Vec<Feature> {
     // One glitch row an hour is the scale's floor: a fleet with none has no spread.
     out.push(f("log.glitches_per_h".into(), "rows/h", 1.0, Side::High, false));
     out
+}
+
+/// What a figure is, in a production engineer's words (the flag's text starts with it).
+fn words(name: &str) -> Option<&'static str> {
+    let (scope, what) = name.split_once('.')?;
+    if scope == "qfa" {
+        return super::qfa::FLEET_FIGURES.iter().find(|f| f.0 == what).map(|f| f.4);
+    }
+    Some(match what {
+        "level_mg" => "output at 25 °C",
+        "slope_ug_per_c" => "temperature slope",
+        "curvature_ug_per_c2" => "temperature curvature",
+        "split_mg" => "heating/cooling split",
+        "held_out_mg" => "held-out bias RMS",
+        "offset_c" => "temperature sensor's offset from the fleet",
+        "drift_c_per_h" => "temperature sensor's drift against the fleet",
+        "glitches_per_h" => "spikes skipped per hour",
+        _ => return None,
+    })
 }
 
 fn value_of(c: &Calibrated, sensor: (&Measured, &Measured), name: &str) -> Option<f64> {
@@ -425,8 +444,12 @@ fn feature_stats(
                 median: med,
                 z,
                 text: format!(
-                    "{} {v:.3} {} against the fleet's {med:.3} ({z:+.1} robust SDs; flagged beyond ±{Z_FLAG})",
-                    feat.name, feat.unit
+                    "{}{} {v:.3} {} against the fleet's {:.3} ({z:+.1} robust SDs; flagged beyond ±{Z_FLAG})",
+                    words(&feat.name).map_or_else(String::new, |w| format!("{w}: ")),
+                    feat.name,
+                    feat.unit,
+                    // No "-0.000": a median that rounds to zero reads as zero.
+                    if (med * 1e3).round() == 0.0 { 0.0 } else { med },
                 ),
             });
         }

@@ -46,6 +46,8 @@ pub(crate) struct Certificate<'a> {
 
 fn m(v: &Measured, digits: usize) -> String {
     match v {
+        // No "-0.000": a figure that rounds to zero reads as zero.
+        Measured::Value(x) if (x.abs() * 10f64.powi(digits as i32)).round() == 0.0 => format!("{:.digits$}", 0.0),
         Measured::Value(x) => format!("{x:.digits$}"),
         Measured::NotComputed { not_computed } => format!("not computed ({not_computed})"),
     }
@@ -345,6 +347,13 @@ fn prior_section(p: &mut Page, fleet: &Fleet) {
             })
         })
         .collect();
+    if fleet.population.is_empty() && partial.is_empty() {
+        p.section("Population prior").para(
+            "No population prior: it is formed from the units of static logs with full coverage, and this batch has \
+             none (a QFA unit's cycling calibration has no prior).",
+        );
+        return;
+    }
     p.section("Population prior").para(&format!(
         "Units with partial coverage (one branch, or under 0.8 of the fleet's median span) get a table from their rows \
          and the population together (empirical Bayes over the units with full coverage: {}), over the fleet's span \
@@ -432,7 +441,9 @@ fn plot_figures(path: &Path, fleet: &Fleet) -> Result<(), qfa_report::plot_legen
 fn plot_held_out(path: &Path, fleet: &Fleet, results: &[UnitResult]) -> Result<(), qfa_report::plot_legend::DrawError> {
     use plotters::prelude::*;
     qfa_report::plot_font::register();
-    let caps: Vec<_> = fleet.capability.iter().filter(|c| c.limit == "held_out_bias_mg").collect();
+    // A static unit's held-out bias per axis in mg, a QFA unit's in µg: each row says its unit.
+    let caps: Vec<_> =
+        fleet.capability.iter().filter(|c| c.limit == "held_out_bias_mg" || c.limit == "held_out_bias_ug").collect();
     let root = BitMapBackend::new(path, (1200, 120 + 60 * caps.len().max(1) as u32)).into_drawing_area();
     root.fill(&WHITE)?;
     let mut hi: f64 = 0.0;
@@ -441,9 +452,14 @@ fn plot_held_out(path: &Path, fleet: &Fleet, results: &[UnitResult]) -> Result<(
         hi = hi.max(c.bound);
         for (r, u) in results.iter().zip(&fleet.unit) {
             if let UnitOutcome::Calibrated(cal) = &r.outcome {
-                if let Some((_, Measured::Value(v))) = cal.held_out_mg.iter().find(|(a, _)| *a == c.axis) {
-                    hi = hi.max(*v);
-                    pts.push((k, *v, u.decision != Decision::Pass));
+                let v = match (&cal.qfa, cal.held_out_mg.iter().find(|(a, _)| *a == c.axis)) {
+                    (Some(q), _) if c.limit == "held_out_bias_ug" => Some(q.held_out_bias_ug),
+                    (None, Some((_, Measured::Value(v)))) if c.limit == "held_out_bias_mg" => Some(*v),
+                    _ => None,
+                };
+                if let Some(v) = v {
+                    hi = hi.max(v);
+                    pts.push((k, v, u.decision != Decision::Pass));
                 }
             }
         }
@@ -457,10 +473,13 @@ fn plot_held_out(path: &Path, fleet: &Fleet, results: &[UnitResult]) -> Result<(
         .x_label_area_size(35)
         .y_label_area_size(60)
         .build_cartesian_2d(0.0..hi * 1.1, (0..caps.len().max(1)).into_segmented())?;
-    let names: Vec<String> = caps.iter().map(|c| c.axis.clone()).collect();
+    let names: Vec<String> = caps
+        .iter()
+        .map(|c| format!("{} ({})", c.axis, if c.limit == "held_out_bias_ug" { "µg" } else { "mg" }))
+        .collect();
     chart
         .configure_mesh()
-        .x_desc("held-out bias RMS (mg)")
+        .x_desc("held-out bias RMS (each row's unit)")
         .y_labels(caps.len().max(1))
         .y_label_formatter(&|y| match y {
             SegmentValue::CenterOf(k) => names.get(*k).cloned().unwrap_or_default(),

@@ -64,21 +64,21 @@ pub struct QfaFigures {
 }
 
 /// The figures the fleet compares, with their units, robust-scale floors (a resolution far
-/// under any population's spread) and which way each is bad: `(name, unit, floor, high
-/// only)`. Names are `qfa.` and the field's name.
-pub(crate) const FLEET_FIGURES: [(&str, &str, f64, bool); 12] = [
-    ("held_out_sensitivity_ppm_per_c", "ppm/°C", 0.02, true),
-    ("held_out_bias_ug", "µg", 0.5, true),
-    ("gamma", "pulses/(g·s)", 1.0, false),
-    ("mu_ppm_per_c", "ppm/°C", 0.5, false),
-    ("beta_ppm_per_c2", "ppm/°C²", 0.005, false),
-    ("sf_split_ppm", "ppm", 2.0, false),
-    ("eta_ppm_per_c2_per_min", "ppm/(°C·°C/min)", 0.005, false),
-    ("alpha_ppm_per_c2_per_min2", "ppm/(°C/min)²", 2.0, false),
-    ("bias_level_ug", "µg", 1.0, false),
-    ("bias_slope_ug_per_c", "µg/°C", 0.05, false),
-    ("bias_split_ug", "µg", 0.5, false),
-    ("ageing_ug_per_h", "µg/h", 0.005, false),
+/// under any population's spread), which way each is bad and what it is in words: `(name,
+/// unit, floor, high only, words)`. Names are `qfa.` and the field's name.
+pub(crate) const FLEET_FIGURES: [(&str, &str, f64, bool, &str); 12] = [
+    ("held_out_sensitivity_ppm_per_c", "ppm/°C", 0.02, true, "held-out scale-factor sensitivity"),
+    ("held_out_bias_ug", "µg", 0.5, true, "held-out bias residual"),
+    ("gamma", "pulses/(g·s)", 1.0, false, "scale factor at T0"),
+    ("mu_ppm_per_c", "ppm/°C", 0.5, false, "scale-factor temperature coefficient"),
+    ("beta_ppm_per_c2", "ppm/°C²", 0.005, false, "scale-factor temperature curvature"),
+    ("sf_split_ppm", "ppm", 2.0, false, "scale-factor heating/cooling split (thermal hysteresis)"),
+    ("eta_ppm_per_c2_per_min", "ppm/(°C·°C/min)", 0.005, false, "scale-factor rate-by-temperature term"),
+    ("alpha_ppm_per_c2_per_min2", "ppm/(°C/min)²", 2.0, false, "scale-factor rate-squared term"),
+    ("bias_level_ug", "µg", 1.0, false, "bias at T0"),
+    ("bias_slope_ug_per_c", "µg/°C", 0.05, false, "bias temperature slope"),
+    ("bias_split_ug", "µg", 0.5, false, "bias heating/cooling split"),
+    ("ageing_ug_per_h", "µg/h", 0.005, false, "bias ageing over the run (not thermal)"),
 ];
 
 impl QfaFigures {
