@@ -154,7 +154,8 @@ pub(crate) enum Cmd {
         #[arg(long, default_value_t = 0)]
         truncated: usize,
         /// QFA units through the paper's four-position cycling test (pulse counts), drawn
-        /// around JB-KT8 #1: batch.toml with units/SN….csv, truth.toml.
+        /// around JB-KT8 #1: chamber.csv (every unit), batch.toml with units/SN….csv,
+        /// truth.toml.
         #[arg(long, conflicts_with = "truncated")]
         qfa: bool,
         /// Output directory: chamber.tsv, batch.toml with units/, truth.toml.
@@ -269,7 +270,8 @@ pub(crate) struct BatchCli {
     #[command(subcommand)]
     pub(crate) sub: Option<BatchCmd>,
     /// One chamber log holding every unit: `time`, then SERIAL.temp, SERIAL.ax, SERIAL.ay,
-    /// SERIAL.az per unit.
+    /// SERIAL.az per unit; or a multi-unit cycling log: program, run, time_s, input_g,
+    /// interval_s, then SERIAL.temp_c and SERIAL.pulses per unit.
     #[arg(long, conflicts_with = "manifest")]
     pub(crate) log: Option<PathBuf>,
     /// A manifest naming one log per serial (`batch.toml`; the lab guide's "Production batches").

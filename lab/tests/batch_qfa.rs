@@ -5,11 +5,13 @@
 use std::path::{Path, PathBuf};
 
 use qfa_batch::fleet::{Decision, Fleet};
-use qfa_batch::input::from_manifest;
+use qfa_batch::input::{from_chamber_log, from_manifest};
 use qfa_batch::unit::{UnitOptions, UnitOutcome, UnitResult};
 use qfa_batch::BatchOptions;
 use qfa_log::open::ReadFlags;
-use qfa_sim::qfa_population::{draw_qfa, write_qfa_manifest, QfaDefect, QfaPopulationSpec, QfaPopulationTruth};
+use qfa_sim::qfa_population::{
+    draw_qfa, write_qfa_chamber, write_qfa_manifest, QfaDefect, QfaPopulationSpec, QfaPopulationTruth,
+};
 
 fn scratch(name: &str) -> PathBuf {
     let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
@@ -120,6 +122,34 @@ fn a_qfa_units_figures_are_its_truths_and_the_threads_do_not_change_a_byte() {
     assert!(fleet("out") == fleet("out1"), "fleet.json differs between 1 and 2 threads");
 }
 
+/// One multi-unit cycling log (every unit on one index head) and a manifest of one log per
+/// unit are the same rows through two inputs: every unit's `table.bin`, `report.json` and
+/// fleet figures come out the same bytes either way.
+#[test]
+fn a_multi_unit_cycling_log_calibrates_each_unit_as_its_own_log_does() {
+    let dir = scratch("qfa_batch_chamber");
+    let truth = draw_qfa(&QfaPopulationSpec { units: 3, seed: 4, bad: false });
+    write_qfa_manifest(&dir, &truth, 2).unwrap();
+    write_qfa_chamber(&dir, &truth, 2).unwrap();
+    let (manifest, _) = calibrate(&dir, "by_manifest", 2);
+    let path = dir.join("chamber.csv");
+    let units = from_chamber_log(&path, &std::fs::read(&path).unwrap(), &ReadFlags::default()).unwrap();
+    let opts = BatchOptions { unit: UnitOptions::default(), threads: 2, shard: None, progress: false };
+    let chamber = qfa_batch::run(&units, &dir.join("by_chamber"), &opts).unwrap();
+    assert_eq!(chamber.results.len(), 3);
+    for ((_, c), m) in chamber.results.iter().zip(&manifest) {
+        assert_eq!(c.serial, m.serial);
+        let (UnitOutcome::Calibrated(a), UnitOutcome::Calibrated(b)) = (&c.outcome, &m.outcome) else {
+            panic!("{}: {:?} / {:?}", c.serial, c.outcome, m.outcome)
+        };
+        assert_eq!(a.qfa, b.qfa, "{}", c.serial);
+        for f in ["table.bin", "report.json"] {
+            let read = |out: &str| std::fs::read(dir.join(out).join(&c.serial).join(f)).unwrap();
+            assert!(read("by_chamber") == read("by_manifest"), "{}: {f} differs", c.serial);
+        }
+    }
+}
+
 /// A limits file that sets only a static key leaves a QFA unit unchecked under the file's
 /// name: each unit is refused, with the keys a cycling log is checked against.
 #[test]
@@ -144,7 +174,7 @@ fn a_static_limits_file_is_refused_for_a_qfa_unit() {
 /// largest robust distance a good unit reached. Run with
 /// `cargo test --release -p qfa-lab --test batch_qfa -- --ignored qfa_flag_study --nocapture`.
 #[test]
-#[ignore = "a study: about 4 minutes in release"]
+#[ignore = "a study: about 2 minutes in release"]
 fn qfa_flag_study() {
     for (units, seeds) in [(20, 1..=10u64), (50, 11..=15)] {
         let (mut good, mut false_review, mut bad, mut caught) = (0, 0, 0, 0);

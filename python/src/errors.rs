@@ -102,6 +102,7 @@ impl Kind for OpenError {
             Self::Read { error: ReadError::Single(_), .. } => "Single",
             Self::Read { error: ReadError::Ulog(_), .. } => "Ulog",
             Self::Read { error: ReadError::Dataflash(_), .. } => "Dataflash",
+            Self::Read { error: ReadError::OptionsOnCyclingLog, .. } => "OptionsOnCyclingLog",
         }
     }
 }

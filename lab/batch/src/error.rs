@@ -114,6 +114,18 @@ pub enum ChamberFault {
     NoTimeColumn,
     /// Several columns without a serial: which is the time is not known.
     SeveralTimeColumns(Vec<String>),
+    /// A multi-unit cycling log without one of the cycling log's shared columns.
+    CyclingColumns {
+        /// The shared columns it lacks.
+        missing: Vec<&'static str>,
+    },
+    /// A unit of a multi-unit cycling log without `SERIAL.temp_c` or `SERIAL.pulses`.
+    CyclingUnit {
+        /// The unit.
+        serial: String,
+        /// The roles it has.
+        roles: Vec<&'static str>,
+    },
     /// A unit without `SERIAL.temp` or without any axis.
     UnitColumns {
         /// The unit.
@@ -225,6 +237,17 @@ impl fmt::Display for ChamberFault {
                 "{} columns without a serial ({}): name the time column with --columns time=NAME",
                 cols.len(),
                 cols.iter().map(|c| format!("`{c}`")).collect::<Vec<_>>().join(", ")
+            ),
+            Self::CyclingColumns { missing } => write!(
+                f,
+                "a multi-unit cycling log (SERIAL.pulses columns) needs the shared columns program, run, time_s, \
+                 input_g and interval_s; missing: {}",
+                missing.join(", ")
+            ),
+            Self::CyclingUnit { serial, roles } => write!(
+                f,
+                "unit {serial} has {}: each unit of a cycling log needs {serial}.temp_c and {serial}.pulses",
+                if roles.is_empty() { "neither".to_string() } else { format!("only {serial}.{}", roles.join(", ")) }
             ),
             Self::UnitColumns { serial, roles } => write!(
                 f,

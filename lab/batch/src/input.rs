@@ -221,6 +221,9 @@ pub fn from_chamber_log(path: &Path, bytes: &[u8], base: &ReadFlags) -> Result<V
     let mut rd = csv::ReaderBuilder::new().delimiter(delim).flexible(true).from_reader(bytes);
     let header: Vec<String> =
         rd.headers().map_err(|e| chamber(path, ChamberFault::Csv(e)))?.iter().map(|h| h.trim().to_string()).collect();
+    if header.iter().any(|h| h.ends_with(".pulses")) {
+        return from_cycling_chamber(path, &header, rd, base);
+    }
     let (mut order, mut others) = (Vec::new(), Vec::new());
     let cols = serial_columns(path, &header, &mut order, &mut others)?;
     let time_col = time_column(path, &header, &others, base)?;
@@ -257,6 +260,78 @@ pub fn from_chamber_log(path: &Path, bytes: &[u8], base: &ReadFlags) -> Result<V
         .into_iter()
         .map(|Split { serial, picked, text }| unit_input(path, &header, &columns, base, serial, &picked, text))
         .collect())
+}
+
+/// A cycling chamber log's columns per unit, after the serial and a dot: the unit's own
+/// temperature sensor and pulse count.
+pub(crate) const CYCLING_UNIT_ROLES: [&str; 2] = ["temp_c", "pulses"];
+
+/// The units of a multi-unit cycling log (QFA units on one index head through one program
+/// and one position sequence): the cycling log's shared columns (`program`, `run`,
+/// `time_s`, `input_g`, `interval_s`) once, and per unit `SERIAL.temp_c` and
+/// `SERIAL.pulses`. Each unit becomes the text of a one-unit cycling log, its fields as
+/// written, for the one cycling reader.
+///
+/// # Errors
+/// A shared column missing, a unit without both of its columns, a serial rule broken, or a
+/// CSV error.
+fn from_cycling_chamber(
+    path: &Path,
+    header: &[String],
+    mut rd: csv::Reader<&[u8]>,
+    base: &ReadFlags,
+) -> Result<Vec<UnitInput>, BatchError> {
+    use qfa_log::cycling::COLUMNS;
+    let shared: Vec<&'static str> = COLUMNS.into_iter().filter(|c| !CYCLING_UNIT_ROLES.contains(c)).collect();
+    let missing: Vec<&'static str> = shared.iter().copied().filter(|c| !header.iter().any(|h| h == c)).collect();
+    if !missing.is_empty() {
+        return Err(chamber(path, ChamberFault::CyclingColumns { missing }));
+    }
+    let col = |name: &str| header.iter().position(|h| h == name);
+    let mut order: Vec<String> = Vec::new();
+    for h in header {
+        if let Some((serial, role)) = h.rsplit_once('.') {
+            if CYCLING_UNIT_ROLES.contains(&role) && !serial.is_empty() && !order.iter().any(|s| s == serial) {
+                order.push(serial.to_string());
+            }
+        }
+    }
+    check_serials(order.iter().map(String::as_str))?;
+    // Per unit: serial, the columns of its one-unit log in the cycling reader's order, and a
+    // writer of that log's text.
+    let mut units: Vec<(String, Vec<usize>, csv::Writer<Vec<u8>>)> = Vec::with_capacity(order.len());
+    for s in order {
+        let picked: Vec<Option<usize>> = COLUMNS
+            .iter()
+            .map(|c| if CYCLING_UNIT_ROLES.contains(c) { col(&format!("{s}.{c}")) } else { col(c) })
+            .collect();
+        if picked.iter().any(Option::is_none) {
+            let roles = CYCLING_UNIT_ROLES.into_iter().filter(|r| col(&format!("{s}.{r}")).is_some()).collect();
+            return Err(chamber(path, ChamberFault::CyclingUnit { serial: s, roles }));
+        }
+        let mut w = csv::Writer::from_writer(Vec::new());
+        w.write_record(COLUMNS).map_err(|e| chamber(path, ChamberFault::Csv(e)))?;
+        units.push((s, picked.into_iter().flatten().collect(), w));
+    }
+    for rec in rd.records() {
+        let rec = rec.map_err(|e| chamber(path, ChamberFault::Csv(e)))?;
+        for (_, picked, w) in &mut units {
+            w.write_record(picked.iter().map(|&i| rec.get(i).unwrap_or("").trim()))
+                .map_err(|e| chamber(path, ChamberFault::Csv(e)))?;
+        }
+    }
+    units
+        .into_iter()
+        .map(|(serial, picked, w)| {
+            let text = w.into_inner().map_err(|e| chamber(path, ChamberFault::Csv(e.into_error().into())))?;
+            let source = format!(
+                "{}, columns {}",
+                path.display(),
+                picked.iter().map(|&i| format!("`{}`", header[i])).collect::<Vec<_>>().join(", ")
+            );
+            Ok(UnitInput { serial, source, rows: UnitRows::Bytes(text), flags: base.clone() })
+        })
+        .collect()
 }
 
 /// The header's unit columns, serial → role → column index; the serials in the header's
@@ -398,6 +473,32 @@ mod tests {
             assert!(e.contains(want), "{log:?}: {e}");
         }
         assert!(check_serials(["A", "B", "A"]).unwrap_err().to_string().contains("units 1 and 3"));
+    }
+
+    /// A multi-unit cycling log splits into one cycling log per unit, the shared columns
+    /// with the unit's own temperature and pulses, fields as written; a unit without its
+    /// pulses or a log without `input_g` is refused with what is missing.
+    #[test]
+    fn a_cycling_chamber_log_splits_by_serial() {
+        let log = "program,run,time_s,input_g,interval_s,Q2.temp_c,Q2.pulses,Q1.temp_c,Q1.pulses\n\
+                   p,0,10,1,10,,3203545,,3100001\np,0,20,1,10,22.125,3203561,21.9375,3100020\n";
+        let u = from_chamber_log(Path::new("c.csv"), log.as_bytes(), &ReadFlags::default()).unwrap();
+        assert_eq!(u.iter().map(|u| u.serial.as_str()).collect::<Vec<_>>(), ["Q2", "Q1"]);
+        assert_eq!(
+            String::from_utf8(u[1].bytes().unwrap().into_owned()).unwrap(),
+            "program,run,time_s,input_g,temp_c,pulses,interval_s\np,0,10,1,,3100001,10\np,0,20,1,21.9375,3100020,10\n"
+        );
+        let f = ReadFlags::default();
+        let e = from_chamber_log(Path::new("c.csv"), b"program,run,time_s,input_g,interval_s,Q.temp_c\n", &f);
+        assert!(e.is_err(), "no pulses column at all: not a cycling chamber log, and no static unit either");
+        let e = from_chamber_log(Path::new("c.csv"), b"program,run,time_s,interval_s,Q.temp_c,Q.pulses\n", &f)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("input_g"), "{e}");
+        let e = from_chamber_log(Path::new("c.csv"), b"program,run,time_s,input_g,interval_s,Q.pulses\n", &f)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("Q.temp_c"), "{e}");
     }
 
     /// A manifest's keys override the command line's, a unit's override the manifest's, and

@@ -215,6 +215,7 @@ fn refused(e: &ReadError) -> Finding {
         ReadError::Ulog(_) | ReadError::Dataflash(_) => {
             ("format", "re-download the log from the vehicle; a truncated file is refused whole".to_string())
         }
+        ReadError::OptionsOnCyclingLog => ("format", "drop the reader options: a cycling log takes none".to_string()),
     };
     Finding {
         severity: Severity::Error,

@@ -19,7 +19,7 @@ use std::path::Path;
 use crate::io_fault::IoFault;
 
 /// The header, in order.
-pub(crate) const COLUMNS: [&str; 7] = ["program", "run", "time_s", "input_g", "temp_c", "pulses", "interval_s"];
+pub const COLUMNS: [&str; 7] = ["program", "run", "time_s", "input_g", "temp_c", "pulses", "interval_s"];
 
 /// One counting interval.
 #[derive(Clone, Copy, Debug, PartialEq)]

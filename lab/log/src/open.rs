@@ -170,6 +170,12 @@ pub(crate) fn format_of_header(header: &str, flags: &ReadFlags) -> LogFormat {
     }
 }
 
+/// Whether `header` is a cycling log's: it names both `program` and `pulses`.
+fn is_cycling_header(header: &str) -> bool {
+    let names: Vec<String> = header.split([',', '\t', ';']).map(|c| c.trim().to_ascii_lowercase()).collect();
+    ["program", "pulses"].iter().all(|n| names.iter().any(|c| c == n))
+}
+
 /// Open the log at `path`: its format from `format_of_header`, read by that format's
 /// reader.
 ///
@@ -193,6 +199,10 @@ pub enum ReadError {
     Ulog(UlogError),
     /// The DataFlash reader's error.
     Dataflash(DataflashError),
+    /// The static reader's options given for a log whose header is a cycling log's (it
+    /// has `program` and `pulses`): its columns and units are fixed, so an option meant for
+    /// a static log would read it as one and fail on a column it does not have.
+    OptionsOnCyclingLog,
 }
 
 impl ReadError {
@@ -206,6 +216,10 @@ impl ReadError {
             Self::Single(e) => e.to_string(),
             Self::Ulog(e) => e.to_string(),
             Self::Dataflash(e) => e.to_string(),
+            Self::OptionsOnCyclingLog => "this is a cycling log (its header has program and pulses: time_s in s, \
+                 input_g in g, temp_c in °C), and the static reader's options (columns, time, accel and temp units, \
+                 decimal comma) do not apply to it: give none"
+                .to_string(),
         }
     }
 }
@@ -238,6 +252,7 @@ pub fn open_bytes(bytes: &[u8], flags: &ReadFlags) -> Result<OpenedLog, ReadErro
             OpenedLog::Autopilot(Box::new(read_dataflash(bytes).map_err(ReadError::Dataflash)?))
         }
         LogFormat::Cycling => OpenedLog::Cycling(read_log_from(bytes).map_err(ReadError::Cycling)?),
+        LogFormat::Static if flags.any() && is_cycling_header(&header) => return Err(ReadError::OptionsOnCyclingLog),
         LogFormat::Static => OpenedLog::Static(Box::new(
             read_static_from(bytes, &flags.static_options()).map_err(|e| ReadError::Static(Box::new(e)))?,
         )),
@@ -278,5 +293,10 @@ mod tests {
         assert!(matches!(e, Err(ReadError::Cycling(_))), "{e:?}");
         let e = open_bytes(b"time,temp,az\n", &none).unwrap_err();
         assert!(matches!(e, ReadError::Static(_)), "{e:?}");
+        // A static reader's option on a cycling log: refused as that, not as a static log
+        // without axes.
+        let unit = ReadFlags { time_unit: Some(crate::static_log::columns::TimeUnit::S), ..ReadFlags::default() };
+        let e = open_bytes(b"program,run,time_s,input_g,temp_c,pulses,interval_s\np,a,1,1,20,1,1\n", &unit);
+        assert!(matches!(e, Err(ReadError::OptionsOnCyclingLog)), "{e:?}");
     }
 }

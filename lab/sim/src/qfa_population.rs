@@ -206,6 +206,45 @@ pub fn write_qfa_manifest(dir: &Path, truth: &QfaPopulationTruth, threads: usize
     std::fs::write(&path, text).map_err(|e| io(&path, e))
 }
 
+/// Write one multi-unit cycling log (`chamber.csv`: the cycling log's shared columns, then
+/// `SERIAL.temp_c` and `SERIAL.pulses` per unit, every unit through the same program and
+/// positions, as on one index head) and the truth (`truth.toml`) into `dir`.
+///
+/// # Errors
+/// [`PopulationError`]: a file not written, or the truth not serialized.
+pub fn write_qfa_chamber(dir: &Path, truth: &QfaPopulationTruth, threads: usize) -> Result<(), PopulationError> {
+    let io = |path: &Path, e: std::io::Error| PopulationError::Io(qfa_log::IoFault::new(path, &e));
+    std::fs::create_dir_all(dir).map_err(|e| io(dir, e))?;
+    let logs: Vec<qfa_log::cycling::Log> =
+        truth.unit.iter().map(|u| crate::simulate_paper(&u.truth, QFA_ROW_S, u.noise_seed, threads, None)).collect();
+    let mut s = String::from("program,run,time_s,input_g,interval_s");
+    for u in &truth.unit {
+        let _ = write!(s, ",{0}.temp_c,{0}.pulses", u.serial);
+    }
+    s.push('\n');
+    if let Some(first) = logs.first() {
+        for (k, run) in first.runs.iter().enumerate() {
+            for (i, row) in run.samples.iter().enumerate() {
+                let _ = write!(s, "{},{},{},{},{}", run.program, run.run, row.time_s, run.input_g, row.interval_s);
+                for log in &logs {
+                    let r = &log.runs[k].samples[i];
+                    match r.temp_c {
+                        Some(t) => write!(s, ",{t},{}", r.pulses),
+                        None => write!(s, ",,{}", r.pulses),
+                    }
+                    .unwrap_or(());
+                }
+                s.push('\n');
+            }
+        }
+    }
+    let path = dir.join("chamber.csv");
+    std::fs::write(&path, s).map_err(|e| io(&path, e))?;
+    let text = toml::to_string(truth).map_err(PopulationError::Toml)?;
+    let path = dir.join("truth.toml");
+    std::fs::write(&path, text).map_err(|e| io(&path, e))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
