@@ -98,3 +98,33 @@ def test_mistakes_raise_batch_error(tmp_path: Path, chamber: Path) -> None:
     with pytest.raises(q.BatchError) as e:
         q.batch(manifest=bad, out=tmp_path / "o", **READER)
     assert e.value.kind == "Manifest" and "time_units" in str(e.value)
+
+
+def test_a_qfa_batch_reads_the_units_own_models(tmp_path: Path, lab_bin: Path) -> None:
+    """QFA units through the paper's cycling test, from one multi-unit cycling log: each
+    unit's fleet figures are its own model's, checked against the simulator's truth (not the
+    code under test), and a manifest of one log per unit gives the same tables. A static
+    reader option on a cycling log fails each unit with why, not with a missing axis."""
+    import json
+
+    if os.environ.get("CI") == "true":
+        import tomllib  # Python 3.11 and later, as CI runs: missing is a failure there
+    else:
+        tomllib = pytest.importorskip("tomllib", reason="reading the simulator's truth needs Python 3.11's tomllib")
+    sim = tmp_path / "qsim"
+    run_lab(lab_bin, ["simulate-batch", "--qfa", "--units", "4", "--seed", "2", "--out", str(sim)])
+    fleet = q.batch(log=sim / "chamber.csv", out=tmp_path / "by_log", shards=2)
+    q.batch(manifest=sim / "batch.toml", out=tmp_path / "by_manifest", shards=1)
+    truth = {u["serial"]: u for u in tomllib.loads((sim / "truth.toml").read_text())["unit"]}
+    figures = {s["feature"]["name"]: dict(s["values"]) for s in fleet["stats"]}
+    for serial, u in truth.items():
+        scale = u["truth"]["scale"]
+        want = scale["mu"] / scale["gamma"] * 1e6
+        assert abs(figures["qfa.mu_ppm_per_c"][serial] - want) < 0.5, (serial, figures["qfa.mu_ppm_per_c"][serial], want)
+        a = (tmp_path / "by_log" / serial / "table.bin").read_bytes()
+        assert a == (tmp_path / "by_manifest" / serial / "table.bin").read_bytes(), serial
+        unit = json.loads((tmp_path / "by_log" / serial / "unit.json").read_text())
+        assert unit["outcome"]["calibrated"]["qfa"]["held_out_bias_ug"] > 0
+    wrong = q.batch(log=sim / "chamber.csv", out=tmp_path / "wrong", shards=1, time_unit="s")
+    assert [u["decision"] for u in wrong["unit"]] == ["fail"] * 4
+    assert all("cycling log" in u["reasons"][0] for u in wrong["unit"]), wrong["unit"][0]["reasons"]

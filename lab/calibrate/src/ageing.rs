@@ -1,9 +1,13 @@
 //! Bias ageing of a cycling log: how fast the bias moves with the unit's powered time, not
 //! with its temperature.
 //!
-//! The table (fitted on every program) compensates every zero-g run through the root
-//! crate's compensator; what is left on the rows it marks compensated is the bias the table
-//! does not explain. Its least-squares slope against the log's clock is the ageing, µg/h.
+//! The table (fitted on every program) compensates every run through the root crate's
+//! compensator; what is left on the rows it marks compensated is the bias the table does not
+//! explain: a zero-g run's output itself, and on each ±1 g pair's matched rows the mean of
+//! the two outputs less the mean of their inputs (a scale-factor error cancels there, and
+//! for a bias linear in time the mean is the bias at the mean of the two rows' times). Its
+//! least-squares slope against the log's clock is the ageing, µg/h. A log of ±1 g runs only
+//! (a two-position test) has a figure too.
 //! A thermal misfit repeats in every program; a level that moves from program to program,
 //! hours apart, does not, and the held-out figure cannot see it when the held-out programs
 //! sit between the fit programs in time (the paper's 0.5 and 0.7 °C/min between 0.3 and
@@ -21,8 +25,8 @@ use qfa_thermal::Table;
 
 use crate::compensate::{compensate_run, not_compensated};
 
-/// Zero-g rows spread over less than this many hours give no ageing figure: within one
-/// run the ageing cannot be told from the run's own thermal history.
+/// Rows spread over less than this many hours give no ageing figure: within one run the
+/// ageing cannot be told from the run's own thermal history.
 pub const MIN_SPAN_H: f64 = 24.0;
 
 /// A log's ageing figure.
@@ -30,7 +34,7 @@ pub const MIN_SPAN_H: f64 = 24.0;
 pub struct Ageing {
     /// The bias's slope on the log's clock, µg/h.
     pub ug_per_h: f64,
-    /// Zero-g rows it is fitted on.
+    /// Rows it is fitted on (zero-g rows and matched ±1 g row pairs).
     pub rows: usize,
     /// Hours between the first and last of them on the log's clock.
     pub span_h: f64,
@@ -40,7 +44,8 @@ pub struct Ageing {
 #[derive(Clone, Debug, PartialEq)]
 #[non_exhaustive]
 pub enum AgeingError {
-    /// Its zero-g rows span under [`MIN_SPAN_H`] hours (or there are none).
+    /// Its compensated zero-g rows and ±1 g pairs span under [`MIN_SPAN_H`] hours (or
+    /// there are none).
     TooShort {
         /// Their span, h.
         span_h: f64,
@@ -54,7 +59,8 @@ impl fmt::Display for AgeingError {
         match self {
             Self::TooShort { span_h } => write!(
                 f,
-                "ageing not computable: the zero-g rows the table compensates span {span_h:.1} h of the log's clock; \
+                "ageing not computable: the zero-g rows and ±1 g pairs the table compensates span {span_h:.1} h of the \
+                 log's clock; \
                  {MIN_SPAN_H} h needed (runs hours apart at the same temperatures)"
             ),
             Self::Compensate(e) => write!(f, "ageing: {e}"),
@@ -69,17 +75,44 @@ impl std::error::Error for AgeingError {}
 /// # Errors
 /// [`AgeingError`]: too short a span of zero-g rows, or a table the compensator refuses.
 pub fn ageing(log: &Log, table: &Table) -> Result<Ageing, AgeingError> {
-    let (mut start_s, mut points) = (0.0, Vec::<(f64, f64)>::new());
+    // Each run's start on the log's clock, and its rows' outputs where compensated.
+    let mut start_s = Vec::with_capacity(log.runs.len());
+    let mut t = 0.0;
     for run in &log.runs {
+        start_s.push(t);
+        t += run.samples.last().map_or(0.0, |s| s.time_s);
+    }
+    let compensated = |k: usize| -> Result<Vec<Option<f64>>, AgeingError> {
+        let c = compensate_run(table, &log.runs[k]).map_err(AgeingError::Compensate)?;
+        Ok(c.accel_g
+            .iter()
+            .zip(&c.status)
+            .map(|(a, st)| (!not_compensated(*st) && a.is_finite()).then_some(*a))
+            .collect())
+    };
+    let hours = |k: usize, i: usize| {
+        let s = &log.runs[k].samples[i];
+        (start_s[k] + s.time_s - 0.5 * s.interval_s) / 3600.0
+    };
+    let mut points = Vec::<(f64, f64)>::new();
+    for (k, run) in log.runs.iter().enumerate() {
         if run.input_g == 0.0 {
-            let c = compensate_run(table, run).map_err(AgeingError::Compensate)?;
-            for ((s, a), st) in run.samples.iter().zip(&c.accel_g).zip(&c.status) {
-                if !not_compensated(*st) && a.is_finite() {
-                    points.push(((start_s + s.time_s - 0.5 * s.interval_s) / 3600.0, a * 1e6));
+            for (i, a) in compensated(k)?.into_iter().enumerate() {
+                if let Some(a) = a {
+                    points.push((hours(k, i), a * 1e6));
                 }
             }
         }
-        start_s += run.samples.last().map_or(0.0, |s| s.time_s);
+    }
+    let paired = qfa_log::pairing::PairedLog::new(log);
+    for pp in log.programs().iter().filter_map(|p| paired.program(p)) {
+        let (plus, minus) = (compensated(pp.plus)?, compensated(pp.minus)?);
+        let input = 0.5 * (log.runs[pp.plus].input_g + log.runs[pp.minus].input_g);
+        for &(i, j) in &pp.rows {
+            if let (Some(a), Some(b)) = (plus[i], minus[j]) {
+                points.push((0.5 * (hours(pp.plus, i) + hours(pp.minus, j)), (0.5 * (a + b) - input) * 1e6));
+            }
+        }
     }
     let (lo, hi) = points.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.0), b.max(p.0)));
     let span_h = if points.is_empty() { 0.0 } else { hi - lo };
@@ -99,8 +132,8 @@ mod tests {
     use qfa_log::cycling::{Run, Sample};
 
     /// A unit whose output is exactly the table's bias plus `rate × t` on the log's clock
-    /// reads `rate` back, whatever the runs' lengths; the ±1 g runs between them count on
-    /// the clock and not in the fit.
+    /// reads `rate` back, whatever the runs' lengths, from its zero-g runs and ±1 g pairs
+    /// together or from the pairs alone (a two-position test).
     #[test]
     fn a_bias_that_moves_on_the_logs_clock_reads_back_its_rate() {
         let axis = qfa_thermal::AxisModel {
@@ -111,10 +144,14 @@ mod tests {
         };
         let table = crate::fit::table_of(axis).unwrap();
         let gamma = f64::from(table.axes[0].scale.gamma);
-        for (rate, lengths) in [(0.3, [30_000, 50_000, 70_000, 20_000]), (-1.2, [90_000, 10_000, 40_000, 60_000])] {
+        // Two programs of four positions each, runs of different lengths.
+        for (rate, lengths) in [
+            (0.3, [30_000, 50_000, 70_000, 20_000, 40_000, 20_000, 30_000, 60_000]),
+            (-1.2, [90_000, 10_000, 40_000, 60_000, 20_000, 30_000, 50_000, 10_000]),
+        ] {
             let (mut start, mut runs) = (0.0, Vec::new());
             for (k, len) in lengths.into_iter().enumerate() {
-                let g = [1.0, 0.0, -1.0, 0.0][k];
+                let g = [1.0, 0.0, -1.0, 0.0][k % 4];
                 let samples: Vec<Sample> = (1..=len / 10)
                     .map(|i| {
                         let t = f64::from(i) * 10.0;
@@ -124,11 +161,25 @@ mod tests {
                     })
                     .collect();
                 start += f64::from(len);
-                runs.push(Run { program: "p".into(), run: k.to_string(), input_g: g, samples });
+                let program = if k < 4 { "p" } else { "q" };
+                runs.push(Run { program: program.into(), run: (k % 4).to_string(), input_g: g, samples });
             }
-            let a = ageing(&Log { runs, glitches: Vec::new() }, &table).unwrap();
+            let a = ageing(&Log { runs: runs.clone(), glitches: Vec::new() }, &table).unwrap();
             // One pulse in 10 s is 0.31 µg: the rounding's share of the slope is far under 1 %.
             assert!((a.ug_per_h - rate).abs() < 0.01 * rate.abs(), "{a:?} against {rate}");
+            // The pairs alone: the zero-g runs turned into runs at 2 g, which the figure does
+            // not use, so they keep their place on the clock only.
+            let pairs_only: Vec<Run> = runs
+                .into_iter()
+                .map(|mut r| {
+                    if r.input_g == 0.0 {
+                        r.input_g = 2.0;
+                    }
+                    r
+                })
+                .collect();
+            let a = ageing(&Log { runs: pairs_only, glitches: Vec::new() }, &table).unwrap();
+            assert!((a.ug_per_h - rate).abs() < 0.01 * rate.abs(), "pairs only: {a:?} against {rate}");
         }
     }
 }

@@ -262,6 +262,9 @@ pub struct Draw {
     /// DS18B20 reading noise before the 1/16-°C quantisation, °C RMS (an addition to the
     /// brief's fields; 0.01 °C by default).
     pub sensor_noise_c: f64,
+    /// μ, after its draw, times this: a unit with that many times its own temperature
+    /// coefficient (1 by default; an addition for the batch tests' defects).
+    pub mu_factor: f64,
     /// Seed of the unit's coefficients and every noise stream.
     pub seed: u64,
 }
@@ -286,6 +289,7 @@ impl Draw {
             span_c: (-10.0, 50.0),
             heating_only: false,
             sensor_noise_c: 0.01,
+            mu_factor: 1.0,
             seed,
         }
     }
@@ -323,6 +327,7 @@ pub fn unit(d: &Draw) -> Unit {
         creep: None,
         drift_g_per_h: 0.0,
     };
+    u.mu *= d.mu_factor;
     for e in &d.catalog {
         match *e {
             CatalogEffect::TempQuadSf { beta } => u.beta = beta,
