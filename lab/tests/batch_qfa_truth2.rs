@@ -8,7 +8,6 @@
 //! tails and glitches on every unit. Its bad units: ε at three times that nominal, a bias
 //! that ages 0.3 µg/h on the campaign clock, μ five times the unit's own.
 
-#[allow(dead_code)]
 mod truth2;
 
 use std::fmt::Write as _;
