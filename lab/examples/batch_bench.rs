@@ -54,7 +54,7 @@ fn main() {
     for &n in &sizes {
         let dir: PathBuf = root.join(format!("n{n}"));
         std::fs::create_dir_all(&dir).expect("scratch folder");
-        let truth = draw(&PopulationSpec { units: n, seed: 1, bad: true, truncated: 0 });
+        let truth = draw(&PopulationSpec { units: n, seed: 1, bad: true, truncated: 0, die_lags: false });
         write_chamber(&dir, &truth).expect("chamber log");
         let path = dir.join("chamber.tsv");
         let bytes = std::fs::read(&path).expect("chamber log");

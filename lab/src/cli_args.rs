@@ -153,6 +153,11 @@ pub(crate) enum Cmd {
         /// Good units whose own log (manifest run) is truncated: heating only, or the first half.
         #[arg(long, default_value_t = 0)]
         truncated: usize,
+        /// Each static unit's die lags its case (the sensor) by its own time constant,
+        /// 0–240 s: its output shows an apparent heating/cooling split that its own split
+        /// is not.
+        #[arg(long, conflicts_with = "qfa")]
+        die_lags: bool,
         /// QFA units through the paper's four-position cycling test (pulse counts), drawn
         /// around JB-KT8 #1: chamber.csv (every unit), batch.toml with units/SN….csv,
         /// truth.toml.

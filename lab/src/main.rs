@@ -444,10 +444,10 @@ fn run(cli: Cli) -> Result<(), CliError> {
             );
             Ok(())
         }
-        Cmd::SimulateBatch { units, seed, no_bad, truncated, out, .. } => {
+        Cmd::SimulateBatch { units, seed, no_bad, truncated, die_lags, out, .. } => {
             use qfa_sim::population::{draw, write_chamber, write_manifest_run, PopulationSpec};
             let t0 = Instant::now();
-            let truth = draw(&PopulationSpec { units, seed, bad: !no_bad, truncated });
+            let truth = draw(&PopulationSpec { units, seed, bad: !no_bad, truncated, die_lags });
             write_chamber(&out, &truth)?;
             write_manifest_run(&out, &truth)?;
             let bad = truth.unit.iter().filter(|u| u.defect.is_some()).count();

@@ -123,7 +123,7 @@ fn assert_names_the_shock(u: &UnitTruth, results: &[(usize, UnitResult)], reason
 fn a_chamber_run_flags_each_bad_unit_for_its_defect_and_passes_the_rest() {
     let dir = scratch("batch-flags");
     // 20 units in CI (about 2 s of CPU each); `flag_study` below runs hundreds.
-    let spec = PopulationSpec { units: 20, seed: 3, bad: true, truncated: 0 };
+    let spec = PopulationSpec { units: 20, seed: 3, bad: true, truncated: 0, die_lags: false };
     let (truth, units) = chamber(&dir, &spec);
     let out = dir.join("out");
     let run = qfa_batch::run(&units, &out, &BatchOptions { threads: 2, ..BatchOptions::default() }).unwrap();
@@ -205,7 +205,7 @@ fn a_chamber_run_flags_each_bad_unit_for_its_defect_and_passes_the_rest() {
 fn threads_and_shards_do_not_change_a_byte() {
     let dir = scratch("batch-threads");
     // Two units: each thread and each shard gets one.
-    let spec = PopulationSpec { units: 2, seed: 9, bad: true, truncated: 0 };
+    let spec = PopulationSpec { units: 2, seed: 9, bad: true, truncated: 0, die_lags: false };
     let (_, units) = chamber(&dir, &spec);
     let opts = |threads, shard| BatchOptions { unit: UnitOptions::default(), threads, shard, progress: false };
     qfa_batch::run(&units, &dir.join("one"), &opts(1, None)).unwrap();
@@ -234,7 +234,7 @@ fn threads_and_shards_do_not_change_a_byte() {
 #[test]
 fn a_refused_unit_fails_alone_with_its_reason() {
     let dir = scratch("batch-refused");
-    let spec = PopulationSpec { units: 3, seed: 2, bad: false, truncated: 0 };
+    let spec = PopulationSpec { units: 3, seed: 2, bad: false, truncated: 0, die_lags: false };
     let (_, mut units) = chamber(&dir, &spec);
     units[1].rows = qfa_batch::input::UnitRows::Bytes(b"time\ttemp\tax\n0\t20\t0.1\n".to_vec());
     let run = qfa_batch::run(&units, &dir.join("out"), &BatchOptions::default()).unwrap();
@@ -310,7 +310,7 @@ fn prior_study(units: usize, truncated: usize, seed: u64, name: &str) -> Vec<Pri
     use qfa_batch::prior::prior_table;
     use qfa_sim::population::write_manifest_run;
     let dir = scratch(name);
-    let truth = draw(&PopulationSpec { units, seed, bad: false, truncated });
+    let truth = draw(&PopulationSpec { units, seed, bad: false, truncated, die_lags: false });
     write_manifest_run(&dir, &truth).unwrap();
     let inputs = from_manifest(&dir.join("batch.toml"), &ReadFlags::default()).unwrap();
     let out = dir.join("out");
@@ -388,7 +388,8 @@ fn prior_study_100() {
 fn flag_study() {
     for seed in [1, 2, 3] {
         let dir = scratch(&format!("batch-flag-study-{seed}"));
-        let (truth, units) = chamber(&dir, &PopulationSpec { units: 100, seed, bad: true, truncated: 0 });
+        let (truth, units) =
+            chamber(&dir, &PopulationSpec { units: 100, seed, bad: true, truncated: 0, die_lags: false });
         let run =
             qfa_batch::run(&units, &dir.join("out"), &BatchOptions { threads: 2, ..BatchOptions::default() }).unwrap();
         let fleet = run.fleet.unwrap();
@@ -424,7 +425,7 @@ fn flag_study() {
 #[test]
 fn a_unit_that_spikes_is_flagged_by_its_glitch_rate_not_by_its_held_out_figure() {
     let dir = scratch("batch-spikes");
-    let spec = PopulationSpec { units: 6, seed: 5, bad: false, truncated: 0 };
+    let spec = PopulationSpec { units: 6, seed: 5, bad: false, truncated: 0, die_lags: false };
     let truth = draw(&spec);
     write_chamber(&dir, &truth).unwrap();
     let clean = std::fs::read_to_string(dir.join("chamber.tsv")).unwrap();

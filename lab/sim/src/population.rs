@@ -124,6 +124,11 @@ pub struct UnitTruth {
     pub shock_g: [f64; 3],
     /// Axes `ax`, `ay`, `az`.
     pub axes: [AxisCurve; 3],
+    /// The die's lag behind the case the sensor reads, s: the output follows the die, so
+    /// a unit whose die lags shows an apparent heating/cooling split of its slope × rate ×
+    /// lag on top of its own (0: none, the die at the case's temperature).
+    #[serde(default)]
+    pub die_lag_s: f64,
 }
 
 /// The batch's truth, as written beside its logs.
@@ -147,7 +152,13 @@ pub struct PopulationSpec {
     pub bad: bool,
     /// Good units whose own log is truncated (manifest runs), alternating [`Truncation`]s.
     pub truncated: usize,
+    /// Each unit's die lags its case by its own time constant, uniform in 0..[`MAX_DIE_LAG_S`]
+    /// (`false`: none, the populations drawn before this option existed).
+    pub die_lags: bool,
 }
+
+/// The longest die lag a population with [`PopulationSpec::die_lags`] draws, s.
+pub const MAX_DIE_LAG_S: f64 = 240.0;
 
 /// Serial of unit `i`.
 #[must_use]
@@ -208,6 +219,8 @@ pub fn draw(spec: &PopulationSpec) -> PopulationTruth {
                 noise_g: 2.0e-4 * (0.8 + 0.45 * uniform(&mut r)),
                 shock_g: if d == Some(Defect::Damaged) { [6.0e-3, -6.0e-3, 6.0e-3] } else { [0.0; 3] },
                 axes,
+                // Drawn last, and only when asked for: the draws before it stay as they were.
+                die_lag_s: if spec.die_lags { MAX_DIE_LAG_S * uniform(&mut r) } else { 0.0 },
             }
         })
         .collect();
@@ -237,16 +250,23 @@ pub(crate) fn chamber_air() -> Vec<f64> {
 pub(crate) fn unit_rows(u: &UnitTruth, air: &[f64], seed: u64, index: usize) -> Vec<(f64, [f64; 3])> {
     let mut r = seeded(stream_seed(seed ^ 0x5A5A_5A5A, index as u64));
     let mut lag = Lag::new(u.case_tau_s, 1.0, air[0]);
+    let mut die_lag = (u.die_lag_s > 0.0).then(|| Lag::new(u.die_lag_s, 1.0, air[0]));
     let n = air.len();
     let shock_row = n * 6 / 10;
     // The unit was brought down to 25 °C: it starts on the cooling branch.
     let mut heating = false;
-    let mut prev = air[0];
+    let (mut prev, mut prev_case) = (air[0], air[0]);
     let mut out = Vec::with_capacity(n);
     for (i, &a) in air.iter().enumerate() {
         let case = if i == 0 { a } else { lag.step(air[i - 1], a) };
-        let rate = (case - prev) * 60.0;
-        prev = case;
+        // The output's temperature: the die's, which follows the case through its own lag.
+        let die = match die_lag.as_mut() {
+            Some(d) if i > 0 => d.step(prev_case, case),
+            _ => case,
+        };
+        prev_case = case;
+        let rate = (die - prev) * 60.0;
+        prev = die;
         if rate > TRUTH_DEADBAND_C_PER_MIN {
             heating = true;
         } else if rate < -TRUTH_DEADBAND_C_PER_MIN {
@@ -257,7 +277,7 @@ pub(crate) fn unit_rows(u: &UnitTruth, air: &[f64], seed: u64, index: usize) -> 
         let mut acc = [0.0; 3];
         for (k, c) in u.axes.iter().enumerate() {
             let shock = if i >= shock_row { u.shock_g[k] } else { 0.0 };
-            acc[k] = c.at(case, heating) + shock + u.noise_g * normal(&mut r);
+            acc[k] = c.at(die, heating) + shock + u.noise_g * normal(&mut r);
         }
         out.push((reading, acc));
     }
@@ -401,7 +421,7 @@ mod tests {
     /// same for the same seed.
     #[test]
     fn defects_are_placed_as_documented() {
-        let spec = PopulationSpec { units: 100, seed: 5, bad: true, truncated: 4 };
+        let spec = PopulationSpec { units: 100, seed: 5, bad: true, truncated: 4, die_lags: false };
         let p = draw(&spec);
         for d in Defect::ALL {
             assert_eq!(p.unit.iter().filter(|u| u.defect == Some(d)).count(), 2, "{d:?}");
@@ -416,7 +436,7 @@ mod tests {
     /// its heating curve at the sensor's reading less its offset, to within the noise.
     #[test]
     fn rows_follow_the_truth_curve() {
-        let spec = PopulationSpec { units: 3, seed: 1, bad: false, truncated: 0 };
+        let spec = PopulationSpec { units: 3, seed: 1, bad: false, truncated: 0, die_lags: false };
         let p = draw(&spec);
         let air = chamber_air();
         let u = &p.unit[1];
