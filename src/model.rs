@@ -627,8 +627,13 @@ impl AxisModel {
             let before = state.play_c;
             state.play_c = clamp(state.play_c, lo, hi).0;
             let g_per_c = abs(h.weight_g) / h.half_width_c;
-            state.play_unknown_g =
+            let shrunk =
                 larger(state.play_unknown_g - abs(state.play_c - before) * g_per_c, state.lag_unknown_c * g_per_c);
+            // Two plays lie within their half-widths of their elements, so their positions
+            // differ by at most twice the half-width plus the elements' difference: the
+            // doubt never exceeds that, whatever the lag's doubt was when it started.
+            let most = (2.0 * h.half_width_c + state.lag_unknown_c) * g_per_c;
+            state.play_unknown_g = if shrunk < most { shrunk } else { most };
         }
         if let Some(c) = self.ext.bias_creep {
             if dt_s > 0.0 {

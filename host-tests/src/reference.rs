@@ -305,7 +305,9 @@ fn eval_axis(m: &AxisModel, s: &mut AxisRef, t: f64, r: f64, dt: f64) -> (f64, f
         let r = f64::from(p.half_width_c);
         let before = s.play;
         s.play = s.play.clamp(te - r, te + r);
-        s.play_unknown = (s.play_unknown - (s.play - before).abs()).max(s.lag_unknown);
+        // At most twice the half-width plus the element's doubt: both plays lie within
+        // their half-widths of their elements.
+        s.play_unknown = (s.play_unknown - (s.play - before).abs()).max(s.lag_unknown).min(2.0 * r + s.lag_unknown);
         k0 += f64::from(p.weight_g) * (te - s.play) / r;
     }
     if let Some(cr) = m.ext.bias_creep {

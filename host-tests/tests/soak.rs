@@ -36,6 +36,13 @@ fn short_soak_crosses_every_wrap_without_a_stale_cycle() {
         assert_eq!(f.stale_fraction, 0.0, "{f:?}");
         // ±1/32 °C quantization amplified ≤ 2× by the line fit, plus the fit's curvature.
         assert!(f.max_temp_error_c < 0.075, "{f:?}");
+        // The silent-wrong check judges the cycles with status OK: on a healthy soak those
+        // must be most cycles, or "no silent wrong cycle" checked nothing. (It was 0: the
+        // soak ran its IMU at 5–10 Hz against the default 400-Hz period, so every cycle was
+        // DT_IMPLAUSIBLE.)
+        let flag = |name: &str| f.flags.iter().find(|(n, _)| *n == name).map_or(0, |(_, c)| *c);
+        assert_eq!(flag("DT_IMPLAUSIBLE"), 0, "{f:?}");
+        assert!(f.ok_cycles * 2 > f.healthy_cycles, "{f:?}");
     }
 }
 

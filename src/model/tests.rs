@@ -206,3 +206,31 @@ fn a_creep_settles_to_a_quarter_of_the_tables_residual() {
     let strict = settle_min(BiasGrid::DEFAULT_RESIDUAL_RMS_G).expect("settles");
     assert!(strict > 95.0, "{strict:.1} min");
 }
+
+/// A play's term lies within its weight of zero whatever its state (`evaluate` holds the
+/// fraction to ±1), so two states' terms differ by at most twice the weight, and the
+/// play's position by at most twice its half-width plus the element's own doubt. After
+/// power-up with a lag the play's doubt was floored at the lag's doubt times the play's
+/// slope (80 °C × 60 µg/°C = 4.8 mg for a 30-µg play) and then shrank only as the play
+/// moved: on a ±25-°C daily swing it stayed over its 1-µg threshold for hours, so
+/// `MODEL_SETTLING` was set on every cycle of a 2.5-h soak. Now it is settled once the lag
+/// has settled (τ·ln(80·64) = 342 s for τ 40 s) and the play has moved twice its
+/// half-width: on a swing of 0.44 °C/min at its fastest, under 8 minutes.
+#[test]
+fn a_play_started_without_its_history_settles_once_it_has_moved_twice_its_half_width() {
+    let m = axis(Extensions {
+        sensor_lag: Some(SensorLag { tau_s: 40.0 }),
+        bias_branch_hysteresis: Some(BranchHysteresis { half_width_c: 0.5, weight_g: 3e-5 }),
+        ..Default::default()
+    });
+    let mut s = AxisState::default();
+    let two_pi = 2.0 * core::f64::consts::PI;
+    let settled_at = (0..9_000u32).find(|&k| {
+        let t = f64::from(k);
+        let temp = 20.0 + 25.0 * (two_pi * t / 21_600.0).sin();
+        let rate = 25.0 * two_pi / 21_600.0 * 60.0 * (two_pi * t / 21_600.0).cos();
+        !m.evaluate(&mut s, temp as f32, rate as f32, if k == 0 { 0.0 } else { 1.0 }).settling
+    });
+    let got = settled_at.expect("settles within the 2.5 h");
+    assert!(got < 8 * 60, "settled after {got} s");
+}
