@@ -166,21 +166,25 @@ pub(crate) fn serial(i: usize) -> String {
     format!("SN{:04}", i + 1)
 }
 
-/// Draw a population.
-#[must_use]
-pub fn draw(spec: &PopulationSpec) -> PopulationTruth {
-    let mut rng = seeded(stream_seed(spec.seed, 0));
-    let n = spec.units;
-    // Where the bad units go: a seeded shuffle's first places.
+/// Where a population's bad units go: a shuffle of its `n` places drawn from `rng`, whose
+/// first places take the defects, one of each of `kinds` (in that order) per started 50
+/// units when `bad`. Returns each place's defect, the shuffle, and how many of its first
+/// places the defects took (the places after them may take other roles).
+pub(crate) fn place_defects<D: Copy>(
+    rng: &mut qfa_rng::LabRng,
+    n: usize,
+    kinds: &[D],
+    bad: bool,
+) -> (Vec<Option<D>>, Vec<usize>, usize) {
     let mut order: Vec<usize> = (0..n).collect();
     for i in (1..n).rev() {
-        let j = (uniform(&mut rng) * (i + 1) as f64) as usize;
+        let j = (uniform(rng) * (i + 1) as f64) as usize;
         order.swap(i, j.min(i));
     }
-    let per_kind = if spec.bad { n.div_ceil(50) } else { 0 };
+    let per_kind = if bad { n.div_ceil(50) } else { 0 };
     let mut defect = vec![None; n];
     let mut k = 0;
-    for d in Defect::ALL {
+    for &d in kinds {
         for _ in 0..per_kind {
             if k < n {
                 defect[order[k]] = Some(d);
@@ -188,6 +192,15 @@ pub fn draw(spec: &PopulationSpec) -> PopulationTruth {
             }
         }
     }
+    (defect, order, k)
+}
+
+/// Draw a population.
+#[must_use]
+pub fn draw(spec: &PopulationSpec) -> PopulationTruth {
+    let mut rng = seeded(stream_seed(spec.seed, 0));
+    let n = spec.units;
+    let (defect, order, k) = place_defects(&mut rng, n, &Defect::ALL, spec.bad);
     let mut truncation = vec![None; n];
     for (j, &i) in order[k..].iter().take(spec.truncated).enumerate() {
         truncation[i] = Some(if j % 2 == 0 { Truncation::HeatingOnly } else { Truncation::FirstHalf });

@@ -24,7 +24,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::population::{serial, PopulationError};
 use crate::truth::Truth;
-use qfa_rng::{normal, seeded, stream_seed, uniform};
+use qfa_rng::{normal, seeded, stream_seed};
 
 /// The stream of a seed that QFA batches draw from.
 const QFA_STREAM: u64 = 1 << 40;
@@ -130,16 +130,7 @@ pub fn draw_qfa(spec: &QfaPopulationSpec) -> QfaPopulationTruth {
     let base = stream_seed(spec.seed, QFA_STREAM);
     let mut rng = seeded(stream_seed(base, 0));
     let n = spec.units;
-    let mut order: Vec<usize> = (0..n).collect();
-    for i in (1..n).rev() {
-        let j = (uniform(&mut rng) * (i + 1) as f64) as usize;
-        order.swap(i, j.min(i));
-    }
-    let per_kind = if spec.bad { n.div_ceil(50) } else { 0 };
-    let mut defect = vec![None; n];
-    for (k, d) in QfaDefect::ALL.iter().flat_map(|&d| std::iter::repeat_n(d, per_kind)).enumerate().take(n) {
-        defect[order[k]] = Some(d);
-    }
+    let (defect, _, _) = crate::population::place_defects(&mut rng, n, &QfaDefect::ALL, spec.bad);
     let s = QFA_SPREAD;
     let nominal = Truth::jb_kt8(1).scale;
     let unit = (0..n)
