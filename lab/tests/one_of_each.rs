@@ -202,6 +202,7 @@ const NAMES_AND_VALUES: &[&str] = &[
     "ChamberFault::NoNamedTimeColumn",
     "ChamberFault::SeveralTimeColumns",
     "ChamberFault::UnitColumns",
+    "ChamberFault::CyclingUnit",
     "SerialFault::NotAFolderName",
     "SerialFault::Shared",
     "UnitFault::Descriptor",

@@ -14,6 +14,7 @@
 //! `i` in the batch has `i mod N = K` and writes only their folders; `qfa-lab batch merge OUT` then forms the fleet and certificates from every
 //! `unit.json` under OUT, as one run would have.
 
+pub mod ageing;
 mod error;
 pub mod fleet;
 pub mod input;

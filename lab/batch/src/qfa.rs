@@ -59,7 +59,7 @@ pub struct QfaFigures {
     /// The bias grid's heating minus cooling, mean over its nodes, µg (not computed when the
     /// fit tied the branches).
     pub bias_split_ug: Measured,
-    /// The bias's ageing on the log's clock ([`qfa_calibrate::ageing`]), µg/h.
+    /// The bias's ageing on the log's clock ([`super::ageing`]), µg/h.
     pub ageing_ug_per_h: Measured,
 }
 
@@ -130,7 +130,7 @@ pub(crate) fn calibrate(
     let v = cal.verdict.as_ref().ok_or(BatchError::Unit(UnitFault::NoVerdict))?;
     let (bin, crc) = super::encoded(&cal.table.hysteresis, dir)?;
     let r = &cal.report;
-    let ageing = match qfa_calibrate::ageing::ageing(log, &cal.table.hysteresis) {
+    let ageing = match super::ageing::ageing(log, &cal.table.hysteresis) {
         Ok(a) => Measured::Value(a.ug_per_h),
         Err(e) => Measured::NotComputed { not_computed: e.to_string() },
     };

@@ -15,7 +15,6 @@
 //! branch tie the fit programs chose ([`FitOptions::branch_mode`]), so no program's rows are
 //! left out of what is flashed. With one program, both are the same fit.
 
-pub mod ageing;
 pub mod compensate;
 pub mod coverage;
 pub mod export;

@@ -23,7 +23,7 @@ use std::fmt;
 use qfa_log::cycling::Log;
 use qfa_thermal::Table;
 
-use crate::compensate::{compensate_run, not_compensated};
+use qfa_calibrate::compensate::{compensate_run, not_compensated};
 
 /// Rows spread over less than this many hours give no ageing figure: within one run the
 /// ageing cannot be told from the run's own thermal history.
@@ -51,7 +51,7 @@ pub enum AgeingError {
         span_h: f64,
     },
     /// The table does not load into the compensator.
-    Compensate(crate::compensate::Error),
+    Compensate(qfa_calibrate::compensate::Error),
 }
 
 impl fmt::Display for AgeingError {
@@ -142,7 +142,7 @@ mod tests {
             rate_limit_c_per_min: 5.0,
             ext: qfa_thermal::Extensions::NONE,
         };
-        let table = crate::fit::table_of(axis).unwrap();
+        let table = qfa_calibrate::fit::table_of(axis).unwrap();
         let gamma = f64::from(table.axes[0].scale.gamma);
         // Two programs of four positions each, runs of different lengths.
         for (rate, lengths) in [
