@@ -119,6 +119,8 @@ pub enum ChamberFault {
         /// The shared columns it lacks.
         missing: Vec<&'static str>,
     },
+    /// Static reader options given with a multi-unit cycling log.
+    OptionsOnCyclingLog,
     /// A unit of a multi-unit cycling log without `SERIAL.temp_c` or `SERIAL.pulses`.
     CyclingUnit {
         /// The unit.
@@ -228,7 +230,8 @@ impl fmt::Display for ChamberFault {
             Self::DuplicateColumn(h) => write!(f, "column `{h}` appears twice"),
             Self::NoUnitColumns => f.write_str(
                 "no unit columns: a chamber log names each unit's columns SERIAL.temp, SERIAL.ax, SERIAL.ay, \
-                 SERIAL.az (for one log per unit, use --manifest)",
+                 SERIAL.az, a multi-unit cycling log SERIAL.temp_c and SERIAL.pulses (for one log per unit, use \
+                 --manifest)",
             ),
             Self::NoNamedTimeColumn(name) => write!(f, "no column `{name}` (from --columns time=…)"),
             Self::NoTimeColumn => f.write_str("no time column (a column without a serial)"),
@@ -243,6 +246,11 @@ impl fmt::Display for ChamberFault {
                 "a multi-unit cycling log (SERIAL.pulses columns) needs the shared columns program, run, time_s, \
                  input_g and interval_s; missing: {}",
                 missing.join(", ")
+            ),
+            Self::OptionsOnCyclingLog => f.write_str(
+                "a multi-unit cycling log (SERIAL.pulses columns): its columns and units are fixed, so the static \
+                 reader's options (--columns, --time-unit, --accel-unit, --temp-unit, --decimal-comma) do not apply: \
+                 give none",
             ),
             Self::CyclingUnit { serial, roles } => write!(
                 f,

@@ -282,6 +282,11 @@ fn from_cycling_chamber(
     base: &ReadFlags,
 ) -> Result<Vec<UnitInput>, BatchError> {
     use qfa_log::cycling::COLUMNS;
+    // A cycling log's columns and units are fixed: a static reader option given with one is
+    // a mistake of the command, refused here once, not as a failure of every unit.
+    if base.any() {
+        return Err(chamber(path, ChamberFault::OptionsOnCyclingLog));
+    }
     let shared: Vec<&'static str> = COLUMNS.into_iter().filter(|c| !CYCLING_UNIT_ROLES.contains(c)).collect();
     let missing: Vec<&'static str> = shared.iter().copied().filter(|c| !header.iter().any(|h| h == c)).collect();
     if !missing.is_empty() {
@@ -499,6 +504,9 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("Q.temp_c"), "{e}");
+        let unit = ReadFlags { time_unit: Some(TimeUnit::S), ..ReadFlags::default() };
+        let e = from_chamber_log(Path::new("c.csv"), log.as_bytes(), &unit).unwrap_err().to_string();
+        assert!(e.contains("give none"), "{e}");
     }
 
     /// A manifest's keys override the command line's, a unit's override the manifest's, and

@@ -66,7 +66,7 @@ pub struct ReadFlags {
 impl ReadFlags {
     /// Whether any flag was given.
     #[must_use]
-    pub(crate) fn any(&self) -> bool {
+    pub fn any(&self) -> bool {
         self.columns.is_some()
             || self.time_unit.is_some()
             || self.accel_unit.is_some()
