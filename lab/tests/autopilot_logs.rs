@@ -17,8 +17,16 @@ use std::process::Command;
 
 use common::{ardupilot_correction_imu, lab, px4_offset_slot, read_parm, read_px4_params, G0};
 
-/// The generated logs' directory, or None (SKIPPED) without python3.
+/// The generated logs' directory, or None (SKIPPED) without python3. Generated once per
+/// test process: the tests run in parallel, and a second run of the generator rewrote the
+/// files one test was reading (a samples line cut short, seen once in CI).
 fn generated() -> Option<PathBuf> {
+    static DIR: std::sync::OnceLock<Option<PathBuf>> = std::sync::OnceLock::new();
+    DIR.get_or_init(generate).clone()
+}
+
+/// Run the generator into this process's directory.
+fn generate() -> Option<PathBuf> {
     let dir = std::env::temp_dir().join(format!("qfa-aplogs-{}", std::process::id()));
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/autopilot_logs.py");
     let status = Command::new("python3").arg(&script).arg("--out").arg(&dir).status();
