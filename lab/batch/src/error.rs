@@ -78,6 +78,12 @@ pub enum BatchError {
 pub enum ManifestFault {
     /// Not TOML, or a key the manifest does not have (a typo is refused, never ignored).
     Toml(toml::de::Error),
+    /// A log given as the manifest: its first line is a header of comma- or tab-separated
+    /// columns, not TOML.
+    IsALog {
+        /// How many columns that first line has.
+        columns: usize,
+    },
     /// No `[[unit]]` entry.
     NoUnits,
     /// A reader setting's value is refused.
@@ -215,6 +221,11 @@ impl fmt::Display for ManifestFault {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Self::Toml(e) => write!(f, "{e}"),
+            Self::IsALog { columns } => write!(
+                f,
+                "this is a log, not a manifest: its first line is a header of {columns} columns; a chamber log of \
+                 every unit goes to --log, a manifest (batch.toml) names one log per [[unit]]"
+            ),
             Self::NoUnits => f.write_str("no [[unit]] entries: each unit is a [[unit]] table with `serial` and `log`"),
             Self::Setting { serial: Some(s), key, source } => write!(f, "unit {s}: {key}: {source}"),
             Self::Setting { serial: None, key, source } => write!(f, "{key}: {source}"),

@@ -177,7 +177,16 @@ pub(crate) fn check_serials<'a>(serials: impl IntoIterator<Item = &'a str>) -> R
 pub fn from_manifest(path: &Path, base: &ReadFlags) -> Result<Vec<UnitInput>, BatchError> {
     let text = std::fs::read_to_string(path).map_err(|source| BatchError::Io { path: path.to_path_buf(), source })?;
     let manifest = |fault| BatchError::Manifest { path: path.to_path_buf(), fault };
-    let m: Manifest = toml::from_str(&text).map_err(|e| manifest(ManifestFault::Toml(e)))?;
+    let m: Manifest = toml::from_str(&text).map_err(|e| {
+        // A log given by mistake: a header line of separated columns, with no `=` or `[`.
+        let first = text.lines().next().unwrap_or("");
+        let columns = first.split([',', '\t']).count();
+        if columns > 2 && !first.contains('=') && !first.trim_start().starts_with('[') {
+            manifest(ManifestFault::IsALog { columns })
+        } else {
+            manifest(ManifestFault::Toml(e))
+        }
+    })?;
     if m.unit.is_empty() {
         return Err(manifest(ManifestFault::NoUnits));
     }
@@ -527,6 +536,10 @@ mod tests {
         assert!(from_manifest(&m, &base).unwrap_err().to_string().contains("accel_units"));
         std::fs::write(&m, "[[units]]\nserial = \"A\"\nlog = \"a.tsv\"\n").unwrap();
         assert!(from_manifest(&m, &base).is_err());
+        // A chamber log given as the manifest says what it is and where it goes.
+        std::fs::write(&m, "program,run,time_s,input_g,interval_s,A.temp_c,A.pulses\np,0,10,1,10,,3\n").unwrap();
+        let e = from_manifest(&m, &base).unwrap_err().to_string();
+        assert!(e.contains("not a manifest") && e.contains("--log"), "{e}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }
