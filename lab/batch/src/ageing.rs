@@ -52,6 +52,8 @@ pub enum AgeingError {
     },
     /// The table does not load into the compensator.
     Compensate(qfa_calibrate::compensate::Error),
+    /// The level and slope cannot be solved.
+    Fit(qfa_calibrate::fit::FitError),
 }
 
 impl fmt::Display for AgeingError {
@@ -64,6 +66,7 @@ impl fmt::Display for AgeingError {
                  {MIN_SPAN_H} h needed (runs hours apart at the same temperatures)"
             ),
             Self::Compensate(e) => write!(f, "ageing: {e}"),
+            Self::Fit(e) => write!(f, "ageing: {e}"),
         }
     }
 }
@@ -119,11 +122,12 @@ pub fn ageing(log: &Log, table: &Table) -> Result<Ageing, AgeingError> {
     if span_h < MIN_SPAN_H {
         return Err(AgeingError::TooShort { span_h });
     }
-    let n = points.len() as f64;
-    let (mt, mb) = points.iter().fold((0.0, 0.0), |(a, b), p| (a + p.0 / n, b + p.1 / n));
-    let (sxy, sxx) =
-        points.iter().fold((0.0, 0.0), |(xy, xx), p| (xy + (p.0 - mt) * (p.1 - mb), xx + (p.0 - mt).powi(2)));
-    Ok(Ageing { ug_per_h: sxy / sxx, rows: points.len(), span_h })
+    // A level and a slope by the lab's one solver, time measured from the span's middle.
+    let mid = 0.5 * (lo + hi);
+    let x: Vec<f64> = points.iter().flat_map(|p| [1.0, p.0 - mid]).collect();
+    let y: Vec<f64> = points.iter().map(|p| p.1).collect();
+    let fit = qfa_calibrate::solver::lstsq(&x, 2, &y).map_err(AgeingError::Fit)?;
+    Ok(Ageing { ug_per_h: fit.coef[1], rows: points.len(), span_h })
 }
 
 #[cfg(test)]
