@@ -216,6 +216,13 @@ impl<const RATE_WINDOW: usize> RateWindow<RATE_WINDOW> {
         self.len == 0
     }
 
+    /// The newest sample's timestamp (ms) and reading (1/16 °C); `None` while empty.
+    #[must_use]
+    pub fn newest(&self) -> Option<(u32, i16)> {
+        let newest = (usize::from(self.head) + self.len().max(1) - 1) % RATE_WINDOW;
+        (self.len > 0).then_some((self.last_ms, self.raw[newest]))
+    }
+
     /// Enough samples for a rate under `config`.
     #[must_use]
     pub fn ready(&self, config: &RateConfig) -> bool {

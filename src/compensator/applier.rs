@@ -178,7 +178,7 @@ impl<'a, const AXES: usize> Applier<'a, AXES> {
         }
         let s = &self.fast.set;
         let dt = dt_ticks as f32;
-        let dv: [f32; AXES] = core::array::from_fn(|i| pulses[i] as f32 * s.scale[i] - s.bias_tick[i] * dt);
+        let dv: [f32; AXES] = core::array::from_fn(|i| pulses[i] as f32 * s.scale[i] - s.bias[i] * dt);
         match &s.misalign {
             None => PulseOutput { dv_mps: dv, status },
             Some(m) => PulseOutput { dv_mps: misalign(m, dv), status },
@@ -199,7 +199,7 @@ impl<'a, const AXES: usize> Applier<'a, AXES> {
             return SampleOutput { accel_mps2: [0.0; AXES], status };
         }
         let s = &self.fast.set;
-        let a: [f32; AXES] = core::array::from_fn(|i| raw[i] as f32 * s.scale[i] - s.bias_acc[i]);
+        let a: [f32; AXES] = core::array::from_fn(|i| raw[i] as f32 * s.scale[i] - s.bias[i]);
         match &s.misalign {
             None => SampleOutput { accel_mps2: a, status },
             Some(m) => SampleOutput { accel_mps2: misalign(m, a), status },

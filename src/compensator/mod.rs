@@ -88,6 +88,8 @@ use applier::FastState;
 pub use applier::{Applier, CountingApplier, PulseOutput, SampleOutput};
 pub use config::{Config, ConfigError, IMU_PERIOD_TOLERANCE};
 // Crate-private unless the benchmark's feature asks for it (its size is a figure there).
+#[cfg(all(test, not(loom)))]
+use seqlock::Changes;
 #[cfg(feature = "bench-internals")]
 #[doc(hidden)]
 pub use seqlock::Published;
@@ -217,8 +219,6 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
         let dt_band = config.dt_band().ok_or(ConfigError::ImuPeriodInTicks)?;
         let stream = Stream {
             rate: RateWindow::new(),
-            last: Timed { t_ms: 0, raw: 0 },
-            has_good: false,
             pending: Timed { t_ms: 0, raw: 0 },
             pending_count: 0,
             invalid: false,
@@ -227,6 +227,7 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
         let mut c = Self {
             slow: SlowState {
                 config,
+                stale_ms: config.stale_after_ms(),
                 clock_ms: 0,
                 epoch: 0,
                 deadband_floor: rate::flicker_deadband_c_per_min(RATE_WINDOW, config.sample_period_ms),

@@ -59,7 +59,7 @@ pub(super) const AGE_STEPS: u16 = AGE_STALE - 1;
 /// The coefficient set shared by an [`Updater`](super::Updater) and an
 /// [`Applier`](super::Applier), behind a sequence number (a seqlock): odd while the updater
 /// writes, even when the set is whole. Const-constructible, so it can live in a `static`
-/// (except under `--cfg loom`, whose atomics are not). 80 bytes for 3 axes.
+/// (except under `--cfg loom`, whose atomics are not). 68 bytes for 3 axes.
 #[derive(Debug)]
 pub struct Published<const AXES: usize> {
     /// Odd while a publication is being written; +2 per publication (wrapping: 2³¹
@@ -67,10 +67,10 @@ pub struct Published<const AXES: usize> {
     pub(super) seq: AtomicU32,
     /// g0/K1, m/s per pulse (m/s² per LSB for samples).
     scale: [AtomicU32; AXES],
-    /// K0·g0·tick, m/s per tick.
-    bias_tick: [AtomicU32; AXES],
-    /// K0·g0, m/s².
-    bias_acc: [AtomicU32; AXES],
+    /// The bias in the configured input's form: K0·g0·tick, m/s per tick, for pulse counts;
+    /// K0·g0, m/s², for samples. The other form is never applied (the other entry returns
+    /// zeros with [`Status::WRONG_INPUT`]), so it is not published.
+    bias: [AtomicU32; AXES],
     /// Row-major misalignment matrix (valid when the flags have [`HAS_MISALIGN`]).
     misalign: [[AtomicU32; AXES]; AXES],
     /// Status bits (0–8), the epoch (9–16), [`HAS_MISALIGN`] (17), the oldest stream's age
@@ -89,8 +89,10 @@ impl<const AXES: usize> Default for Published<AXES> {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Set<const AXES: usize> {
     pub(super) scale: [f32; AXES],
-    pub(super) bias_tick: [f32; AXES],
-    pub(super) bias_acc: [f32; AXES],
+    /// K0·g0·tick (m/s per tick) for pulse counts, K0·g0 (m/s²) for samples.
+    pub(super) bias: [f32; AXES],
+    /// Written only by a publication that [`Changes::matrix`]; read whenever the flags say
+    /// the set has one.
     pub(super) misalign: Option<[[f32; AXES]; AXES]>,
     pub(super) status: Status,
     /// Age of the oldest stream's last good reading as of the latest reading's time, in
@@ -111,13 +113,37 @@ pub(super) struct Set<const AXES: usize> {
 impl<const AXES: usize> Set<AXES> {
     pub(super) const EMPTY: Self = Self {
         scale: [0.0; AXES],
-        bias_tick: [0.0; AXES],
-        bias_acc: [0.0; AXES],
+        bias: [0.0; AXES],
         misalign: None,
         status: Status::empty(),
         age: AGE_STALE,
         epoch: 0,
     };
+}
+
+/// What a publication writes besides the flags word (status, epoch, age), which every
+/// publication writes: the coefficients of some axes, and the misalignment matrix. The words
+/// it leaves alone keep the values of the set in force, which are still right: a reading
+/// from one sensor of a sensor per axis changes one axis, and the matrix changes only with
+/// the table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct Changes {
+    /// Bit `i`: axis `i`'s scale and bias.
+    pub(super) axes: u8,
+    /// The matrix (and whether there is one), from [`Set::misalign`].
+    pub(super) matrix: bool,
+}
+
+impl Changes {
+    /// Everything: at construction and at each table.
+    pub(super) const ALL: Self = Self { axes: u8::MAX, matrix: true };
+    /// The flags word alone: a rejected or missed reading.
+    pub(super) const FLAGS: Self = Self { axes: 0, matrix: false };
+
+    /// Axis `axis`'s coefficients.
+    pub(super) const fn axis(axis: usize) -> Self {
+        Self { axes: 1 << axis, matrix: false }
+    }
 }
 
 /// A whole set as read by [`Published::read_with`].
@@ -142,8 +168,7 @@ impl<const AXES: usize> Published<AXES> {
         Self {
             seq: AtomicU32::new(seq),
             scale: [const { AtomicU32::new(0) }; AXES],
-            bias_tick: [const { AtomicU32::new(0) }; AXES],
-            bias_acc: [const { AtomicU32::new(0) }; AXES],
+            bias: [const { AtomicU32::new(0) }; AXES],
             misalign: [const { [const { AtomicU32::new(0) }; AXES] }; AXES],
             flags: AtomicU32::new(0),
         }
@@ -166,8 +191,7 @@ impl<const AXES: usize> Published<AXES> {
         Self {
             seq: AtomicU32::new(seq),
             scale: zeros(),
-            bias_tick: zeros(),
-            bias_acc: zeros(),
+            bias: zeros(),
             misalign: core::array::from_fn(|_| zeros()),
             flags: AtomicU32::new(0),
         }
@@ -182,16 +206,17 @@ impl<const AXES: usize> Published<AXES> {
         Self {
             seq: copy(&self.seq),
             scale: core::array::from_fn(|i| copy(&self.scale[i])),
-            bias_tick: core::array::from_fn(|i| copy(&self.bias_tick[i])),
-            bias_acc: core::array::from_fn(|i| copy(&self.bias_acc[i])),
+            bias: core::array::from_fn(|i| copy(&self.bias[i])),
             misalign: core::array::from_fn(|r| core::array::from_fn(|c| copy(&self.misalign[r][c]))),
             flags: copy(&self.flags),
         }
     }
 
-    /// Write `set` (seqlock writer). `after_store` runs after every single store (a test hook that preempts the writer
-    /// there; a no-op closure otherwise). Only the updater calls this: one writer at a time.
-    pub(super) fn publish_with(&self, set: &Set<AXES>, mut after_store: impl FnMut()) {
+    /// Write what `changes` names of `set`, and its flags word (seqlock writer). `after_store`
+    /// runs after every single store (a test hook that preempts the writer there; a no-op
+    /// closure otherwise). Only the updater calls this: one writer at a time, so it may read
+    /// back its own last flags word.
+    pub(super) fn publish_with(&self, set: &Set<AXES>, changes: Changes, mut after_store: impl FnMut()) {
         let seq = self.seq.load(Ordering::Relaxed);
         self.seq.store(seq.wrapping_add(1), Ordering::Relaxed);
         // The odd sequence is visible before any value changes: a reader's Acquire fence
@@ -200,17 +225,19 @@ impl<const AXES: usize> Published<AXES> {
         fence(Ordering::Release);
         after_store();
         for i in 0..AXES {
-            self.scale[i].store(set.scale[i].to_bits(), Ordering::Relaxed);
-            after_store();
-            self.bias_tick[i].store(set.bias_tick[i].to_bits(), Ordering::Relaxed);
-            after_store();
-            self.bias_acc[i].store(set.bias_acc[i].to_bits(), Ordering::Relaxed);
-            after_store();
+            if changes.axes & (1 << i) != 0 {
+                self.scale[i].store(set.scale[i].to_bits(), Ordering::Relaxed);
+                after_store();
+                self.bias[i].store(set.bias[i].to_bits(), Ordering::Relaxed);
+                after_store();
+            }
         }
         let mut flags = u32::from(set.status.bits())
             | (u32::from(set.epoch) << EPOCH_SHIFT)
             | (u32::from(set.age.min(AGE_STALE)) << AGE_SHIFT);
-        if let Some(m) = &set.misalign {
+        if !changes.matrix {
+            flags |= self.flags.load(Ordering::Relaxed) & HAS_MISALIGN;
+        } else if let Some(m) = &set.misalign {
             for (dst, src) in self.misalign.iter().zip(m.iter()) {
                 for (d, s) in dst.iter().zip(src.iter()) {
                     d.store(s.to_bits(), Ordering::Relaxed);
@@ -248,8 +275,7 @@ impl<const AXES: usize> Published<AXES> {
         let flags = self.flags.load(Ordering::Relaxed);
         let set = Set {
             scale: core::array::from_fn(|i| load(&self.scale[i])),
-            bias_tick: core::array::from_fn(|i| load(&self.bias_tick[i])),
-            bias_acc: core::array::from_fn(|i| load(&self.bias_acc[i])),
+            bias: core::array::from_fn(|i| load(&self.bias[i])),
             misalign: (flags & HAS_MISALIGN != 0)
                 .then(|| core::array::from_fn(|r| core::array::from_fn(|c| load(&self.misalign[r][c])))),
             status: Status::from_bits_retain((flags & STATUS_BITS) as u16),
@@ -277,8 +303,8 @@ mod tests {
     static SHARED: Published<3> = Published::new();
 
     #[test]
-    fn a_published_set_is_a_static_of_80_bytes_for_3_axes() {
-        assert_eq!(core::mem::size_of_val(&SHARED), 80);
+    fn a_published_set_is_a_static_of_68_bytes_for_3_axes() {
+        assert_eq!(core::mem::size_of_val(&SHARED), 68);
         let empty = Set { age: 0, ..Set::EMPTY };
         assert_eq!(SHARED.read_with(|| {}).map(|s| (s.seq, s.set)), Some((0, empty)));
     }
@@ -292,12 +318,15 @@ mod tests {
 /// value of publication `i` is derived from `i`, so a copy that mixes two publications, or
 /// whose sequence names another publication than its values, fails an assertion.
 ///
-/// One axis and no misalignment matrix: four words per set (scale, two biases, flags), so a
-/// copy has four Relaxed loads that can each come from a different publication. The 1×1
-/// matrix would be a fifth word loaded and stored the same way; it multiplies the
+/// One axis and no misalignment matrix: three words per set (scale, bias, flags), so a
+/// copy has three Relaxed loads that can each come from a different publication. The 1×1
+/// matrix would be a fourth word loaded and stored the same way; it multiplies the
 /// executions by about 9 (measured as 785 362 against 89 453 for one publication, before the
-/// flags word carried the age and the epoch) and checks nothing the
-/// other words do not.
+/// flags word carried the age and the epoch, and before the set had one bias) and checks
+/// nothing the other words do not. Every publication here writes every word
+/// ([`Changes::ALL`]): one that writes fewer ([`Changes::axis`], [`Changes::FLAGS`]) makes a
+/// subset of the same stores between the same sequence stores and fences, which is what the
+/// argument rests on.
 #[cfg(all(test, loom))]
 mod model {
     use super::*;
@@ -314,8 +343,7 @@ mod model {
         let word = |w: u32| (8 * i + w) as f32;
         Set {
             scale: [word(1)],
-            bias_tick: [word(2)],
-            bias_acc: [word(3)],
+            bias: [word(2)],
             misalign: None,
             status: Status::from_bits_retain(i as u16 & 0xFF),
             age: i as u16 + 5,
@@ -349,12 +377,12 @@ mod model {
         builder.check(move || {
             counter.fetch_add(1, StdOrdering::Relaxed);
             let p = Arc::new(Published::<1>::starting_at(start));
-            p.publish_with(&set_of(0), || {});
+            p.publish_with(&set_of(0), Changes::ALL, || {});
             let writer = {
                 let p = p.clone();
                 loom::thread::spawn(move || {
                     for i in 1..=publications {
-                        p.publish_with(&set_of(i), || {});
+                        p.publish_with(&set_of(i), Changes::ALL, || {});
                     }
                 })
             };

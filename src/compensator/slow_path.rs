@@ -6,7 +6,7 @@ use super::Compensator;
 use core::borrow::Borrow;
 use core::fmt;
 
-use super::seqlock::{Published, Set, AGE_STALE, AGE_STEPS};
+use super::seqlock::{Changes, Published, Set, AGE_STALE, AGE_STEPS};
 use super::{Config, Status, G0};
 use crate::ds18b20::{self, POWER_ON_RAW};
 use crate::model::{AxisState, Evaluation};
@@ -63,12 +63,10 @@ pub(super) struct Timed {
 /// One temperature stream: its estimator, plausibility state and flags.
 #[derive(Clone, Debug)]
 pub(super) struct Stream<const RATE_WINDOW: usize> {
-    /// Its rate window, under the compensator's `Config::rate`.
+    /// Its rate window, under the compensator's `Config::rate`. Its newest sample is the
+    /// stream's last good reading (every good reading is pushed, and a restart empties it
+    /// only to push the reading that restarted it): kept once, there.
     pub(super) rate: RateWindow<RATE_WINDOW>,
-    /// The last good reading, meaningful once `has_good` (no `Option`: with the rate
-    /// window's 8-byte alignment it would cost 8 B per stream).
-    pub(super) last: Timed,
-    pub(super) has_good: bool,
     /// The latest rejected reading, counted towards a confirmed step; meaningful only while
     /// `pending_count > 0` (no `Option`: 4 B less per stream).
     pub(super) pending: Timed,
@@ -83,7 +81,11 @@ pub(super) struct Stream<const RATE_WINDOW: usize> {
 
 impl<const RATE_WINDOW: usize> Stream<RATE_WINDOW> {
     fn last_good(&self) -> Option<Timed> {
-        self.has_good.then_some(self.last)
+        self.rate.newest().map(|(t_ms, raw)| Timed { t_ms, raw })
+    }
+
+    fn has_good(&self) -> bool {
+        !self.rate.is_empty()
     }
 }
 
@@ -91,6 +93,9 @@ impl<const RATE_WINDOW: usize> Stream<RATE_WINDOW> {
 #[derive(Clone, Debug)]
 pub(super) struct SlowState<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T> {
     pub(super) config: Config,
+    /// `config.stale_after_ms()`, formed once (an f32 expression the slow path needed at
+    /// each reading four times).
+    pub(super) stale_ms: u32,
     /// The latest slow-path time seen (readings, rejections and missed readings alike): the
     /// clock that advances every stream's `age_ms`. Starts at 0: ages before a stream's
     /// first good reading do not matter, since it is stale until then.
@@ -113,23 +118,34 @@ pub(super) struct SlowState<const AXES: usize, const RATE_WINDOW: usize, const S
 impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borrow<Table>>
     SlowState<AXES, RATE_WINDOW, SENSORS, T>
 {
-    /// The status of the streams, the table and the evaluations as they stand.
-    pub(super) fn status(&self) -> Status {
+    /// The status of the streams, the table and the evaluations as they stand, and the
+    /// oldest stream's age (see `Set::age`): one pass over the streams.
+    pub(super) fn summary(&self) -> (Status, u16) {
         let mut st = Status::empty();
-        // Once, not per stream: a float expression (kept out of the state, which it would
-        // grow by 8 B with the alignment).
-        let stale_ms = self.config.stale_after_ms();
+        let stale_ms = self.stale_ms;
+        // The oldest good reading's age, ms; above `stale_ms` once any stream is stale.
+        let mut oldest_ms = 0u32;
         for s in &self.streams {
             if !s.rate.ready(&self.config.rate) {
                 st |= Status::RATE_NOT_READY;
             }
-            if !s.has_good || s.age_ms > stale_ms {
-                st |= Status::TEMP_STALE;
-            }
+            let age_ms = if s.has_good() { s.age_ms } else { u32::MAX };
+            oldest_ms = oldest_ms.max(age_ms);
             if s.invalid {
                 st |= Status::TEMP_INVALID;
             }
         }
+        let age = if oldest_ms > stale_ms {
+            st |= Status::TEMP_STALE;
+            AGE_STALE
+        } else {
+            // In 1/AGE_STEPS of the stale threshold, rounded down, in f32 (a 64-bit integer
+            // division would link 900 B of library code): within one unit, 0.18 ms at 3 s.
+            // Once, for the oldest: the rounding is monotonic, so it is the largest of the
+            // streams' ages rounded each.
+            let units_per_ms = f32::from(AGE_STEPS) / stale_ms as f32;
+            ((oldest_ms as f32 * units_per_ms) as u16).min(AGE_STEPS)
+        };
         if self.table.is_none() {
             st |= Status::NO_TABLE;
         } else {
@@ -145,50 +161,37 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
                 }
             }
         }
-        st
+        (st, age)
     }
 
-    /// The coefficient set of the current table, evaluations and status. Rebuilt at every
-    /// publication (three divisions, in the slow path) rather than kept beside the
-    /// published one: that copy would cost 80 B of RAM.
-    pub(super) fn set(&self) -> Set<AXES> {
-        // In 1/AGE_STEPS of the stale threshold, rounded down, in f32 (a 64-bit integer
-        // division would link 900 B of library code): within one unit, 0.18 ms at 3 s.
-        let stale_ms = self.config.stale_after_ms().max(1);
-        let units_per_ms = f32::from(AGE_STEPS) / stale_ms as f32;
-        let age = self.streams.iter().fold(0u16, |oldest, s| {
-            let age = if !s.has_good || s.age_ms > stale_ms {
-                AGE_STALE
-            } else {
-                ((s.age_ms as f32 * units_per_ms) as u16).min(AGE_STEPS)
-            };
-            oldest.max(age)
-        });
+    /// The coefficient set of the current table, evaluations and [`Self::summary`], formed
+    /// for the axes (and the matrix) in `changes` only: the other axes' words are not
+    /// published, so they are left at 0 here. Rebuilt at every publication (a division per
+    /// changed axis, in the slow path) rather than kept beside the published one: that copy
+    /// would cost RAM.
+    pub(super) fn set(&self, changes: Changes) -> Set<AXES> {
+        let (status, age) = self.summary();
+        let mut set = Set { status, age, epoch: self.epoch, ..Set::EMPTY };
         let Some(t) = &self.table else {
             let nominal = G0 / self.config.input_per_g();
-            return Set {
-                scale: [nominal; AXES],
-                bias_tick: [0.0; AXES],
-                bias_acc: [0.0; AXES],
-                misalign: None,
-                status: self.status,
-                age,
-                epoch: self.epoch,
-            };
+            set.scale = [nominal; AXES];
+            return set;
         };
         let table: &Table = t.borrow();
         // 1 for pulse counts (K1 · 1 is K1, bit for bit); the part's LSB per 2²⁰ for samples.
         let to_input = self.config.table_to_input();
-        Set {
-            scale: core::array::from_fn(|i| G0 / (self.evals[i].k1 * to_input)),
-            bias_tick: core::array::from_fn(|i| (self.evals[i].k0 * G0) * self.config.tick_s),
-            bias_acc: core::array::from_fn(|i| self.evals[i].k0 * G0),
-            // Validation allows a matrix only with 3 axes, so AXES == 3 here.
-            misalign: table.misalignment.map(|m| core::array::from_fn(|r| core::array::from_fn(|c| m[r * 3 + c]))),
-            status: self.status,
-            age,
-            epoch: self.epoch,
+        let pulses = self.config.input == table::Input::PulseCounts;
+        for (i, e) in self.evals.iter().enumerate() {
+            if changes.axes & (1 << i) != 0 {
+                set.scale[i] = G0 / (e.k1 * to_input);
+                set.bias[i] = if pulses { (e.k0 * G0) * self.config.tick_s } else { e.k0 * G0 };
+            }
         }
+        if changes.matrix {
+            // Validation allows a matrix only with 3 axes, so AXES == 3 here.
+            set.misalign = table.misalignment.map(|m| core::array::from_fn(|r| core::array::from_fn(|c| m[r * 3 + c])));
+        }
+        set
     }
 }
 
@@ -345,7 +348,7 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
         if !ds18b20::RAW_RANGE.contains(&raw) {
             return self.reject(sensor, SampleError::Decode(ds18b20::Error::OutOfRange { raw }));
         }
-        let stale_ms = self.slow.config.stale_after_ms();
+        let stale_ms = self.slow.stale_ms;
         let mut restart = false;
         let mut clock_restart = false;
         // ms since this stream's last good reading, `None` across a restarted clock.
@@ -398,8 +401,6 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
         s.pending_count = 0;
         s.invalid = false;
         s.age_ms = 0;
-        s.last = Timed { t_ms, raw };
-        s.has_good = true;
         // Across a restarted clock the elapsed time is unknown: the slot states hold.
         let dt_s = elapsed_ms.map_or(0.0, |ms| ms as f32 * 1e-3);
         #[cfg(qfa_mutant = "one_reading_delay")]
@@ -418,7 +419,7 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
         let slow = &mut *self.slow;
         let d = t_ms.wrapping_sub(slow.clock_ms);
         if d > i32::MAX as u32 {
-            if d.wrapping_neg() > slow.config.stale_after_ms() {
+            if d.wrapping_neg() > slow.stale_ms {
                 slow.clock_ms = t_ms;
             }
             return;
@@ -473,19 +474,22 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
     #[inline(never)]
     fn reject(&mut self, sensor: usize, e: SampleError) -> Result<Status, SampleError> {
         self.slow.streams[sensor].invalid = true;
-        self.publish(false);
+        // No coefficient changed: the status, the epoch and the age only.
+        self.publish(false, Changes::FLAGS);
         Err(e)
     }
 
-    /// Rebuild the status and publish the set. One out-of-line copy for the accepted and the
-    /// rejected reading: inlined into both it cost about 300 B of Cortex-M4 flash.
+    /// Rebuild the status and publish what `changes` names, with the flags. One
+    /// out-of-line copy for the accepted and the rejected reading: inlined into both it cost
+    /// about 300 B of Cortex-M4 flash.
     #[inline(never)]
-    fn publish(&mut self, good_sample: bool) {
-        self.slow.status = self.slow.status();
+    fn publish(&mut self, good_sample: bool, changes: Changes) {
         if good_sample {
             self.slow.epoch = self.slow.epoch.wrapping_add(1);
         }
-        self.shared.publish_with(&self.slow.set(), || {});
+        let set = self.slow.set(changes);
+        self.slow.status = set.status;
+        self.shared.publish_with(&set, changes, || {});
     }
 
     pub(super) fn refresh_all(&mut self, dt_s: f32) {
@@ -493,8 +497,15 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
     }
 
     /// Re-evaluate the axes served by `sensor` (every axis for `None`) at their stream's
-    /// estimate (or at T0 before its first reading), rebuild the status and publish.
+    /// estimate (or at T0 before its first reading), rebuild the status and publish those
+    /// axes (everything for `None`: a table or a construction).
     fn refresh(&mut self, sensor: Option<usize>, dt_s: f32, good_sample: bool) {
+        let changes = match sensor {
+            // One sensor serves every axis.
+            Some(_) if SENSORS == 1 => Changes { axes: u8::MAX, matrix: false },
+            Some(j) => Changes::axis(j),
+            None => Changes::ALL,
+        };
         let slow = &mut *self.slow;
         if let Some(t) = &slow.table {
             {
@@ -507,7 +518,9 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
                     if sensor == Some(j) && slow.delayed.is_some() {
                         return slow.delayed;
                     }
-                    (s.has_good && sensor.is_none_or(|k| k == j)).then(|| s.rate.estimate(&slow.config.rate)).flatten()
+                    (s.has_good() && sensor.is_none_or(|k| k == j))
+                        .then(|| s.rate.estimate(&slow.config.rate))
+                        .flatten()
                 });
                 for (i, axis) in table.axes.iter().take(AXES).enumerate() {
                     let j = Self::sensor_of(i);
@@ -526,6 +539,6 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
                 }
             }
         }
-        self.publish(good_sample);
+        self.publish(good_sample, changes);
     }
 }
