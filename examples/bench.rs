@@ -20,7 +20,10 @@ mod target {
 
     use cortex_m::peripheral::{syst::SystClkSource, SYST};
     use cortex_m_rt::{entry, exception, ExceptionFrame};
-    use qfa_thermal::{Config, PulseOutput, Status, Table, ThreeAxisSensorPerAxis, ThreeAxisSharedSensor};
+    use qfa_thermal::{
+        Config, PulseOutput, Status, Table, ThreeAxisSensorPerAxis, ThreeAxisSharedSensor,
+        ThreeAxisSharedSensorWithMatrix,
+    };
 
     use crate::common::rt;
 
@@ -84,6 +87,17 @@ mod target {
     /// A compensator with one shared sensor, holding `table` in flash, warmed up.
     fn shared_sensor(config: Config, table: &'static Table) -> ThreeAxisSharedSensor {
         let mut c = ThreeAxisSharedSensor::new(config).expect("a valid config");
+        c.set_table(table).expect("fixture table validates");
+        for k in 0..64 {
+            let (t, raw) = sample(k);
+            c.on_raw(0, t, raw).expect("warm-up readings are plausible");
+        }
+        c
+    }
+
+    /// [`shared_sensor`] with a misalignment stage, for a table with a matrix.
+    fn shared_sensor_with_matrix(table: &'static Table) -> ThreeAxisSharedSensorWithMatrix {
+        let mut c = ThreeAxisSharedSensorWithMatrix::new(Config::default()).expect("a valid config");
         c.set_table(table).expect("fixture table validates");
         for k in 0..64 {
             let (t, raw) = sample(k);
@@ -156,7 +170,7 @@ mod target {
         let fast_s = time_calls(|_| {
             black_box(black_box(&mut aps).cycle_samples(black_box(PULSES), black_box(DT)));
         });
-        let mut c = shared_sensor(Config::default(), &tables::MISALIGNED);
+        let mut c = shared_sensor_with_matrix(&tables::MISALIGNED);
         let (_, mut ap) = c.split();
         let fast_m = time_calls(|_| {
             black_box(black_box(&mut ap).cycle(black_box(PULSES), black_box(DT)));

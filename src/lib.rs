@@ -132,8 +132,9 @@ pub mod time;
 pub use compensator::Published;
 pub use compensator::{
     Applier, Compensator, Config, ConfigError, CountingApplier, PulseOutput, SampleError, SampleOutput,
-    SensorPerAxisUpdater, SharedSensorUpdater, Status, ThreeAxisApplier, ThreeAxisSensorPerAxis, ThreeAxisSharedSensor,
-    Updater, DEFAULT_RATE_WINDOW, G0, IMU_PERIOD_TOLERANCE,
+    SensorPerAxisUpdater, SensorPerAxisUpdaterWithMatrix, SharedSensorUpdater, SharedSensorUpdaterWithMatrix, Status,
+    ThreeAxisApplier, ThreeAxisApplierWithMatrix, ThreeAxisSensorPerAxis, ThreeAxisSensorPerAxisWithMatrix,
+    ThreeAxisSharedSensor, ThreeAxisSharedSensorWithMatrix, Updater, DEFAULT_RATE_WINDOW, G0, IMU_PERIOD_TOLERANCE,
 };
 /// The `heapless` this crate's types are built on ([`Table::axes`], [`BiasGrid`]'s
 /// branches), so a table can be built at run time without a dependency of your own.

@@ -373,8 +373,9 @@ pub fn run(set: &Settings, mut progress: impl FnMut(f64)) -> Figures {
     // was DT_IMPLAUSIBLE, so no cycle was OK and the silent-wrong check judged none.
     let cfg = Config { imu_period_s: 1.0 / imu_hz as f32, ..Config::default() };
     let stale_ns = (f64::from(cfg.stale_after_ticks) * f64::from(cfg.tick_s) * 1e9).round() as u64;
-    let mut c3 = Compensator::<3, 32, 3>::new(cfg).expect("valid config");
-    let mut c1 = Compensator::<3, 32, 1>::new(cfg).expect("valid config");
+    // With the misalignment stage: the table has a matrix.
+    let mut c3 = Compensator::<3, 32, 3, Table, 3>::new(cfg).expect("valid config");
+    let mut c1 = Compensator::<3, 32, 1, Table, 3>::new(cfg).expect("valid config");
     let per_axis = sensors == 3;
     c3.load_table(&table).expect("table");
     c1.load_table(&table).expect("table");
@@ -472,10 +473,10 @@ pub fn run(set: &Settings, mut progress: impl FnMut(f64)) -> Figures {
         // The IMU cycles of this second, each run when the simulated clock reaches it.
         let mut next_cycle = 0u32;
         let mut run_cycles = |upto_ns: u64,
-                              up3: &qfa_thermal::Updater<'_, 3, 32, 3, Table>,
-                              up1: &qfa_thermal::Updater<'_, 3, 32, 1, Table>,
-                              ap3: &mut qfa_thermal::Applier<'_, 3>,
-                              ap1: &mut qfa_thermal::Applier<'_, 3>,
+                              up3: &qfa_thermal::Updater<'_, 3, 32, 3, Table, 3>,
+                              up1: &qfa_thermal::Updater<'_, 3, 32, 1, Table, 3>,
+                              ap3: &mut qfa_thermal::Applier<'_, 3, 3>,
+                              ap1: &mut qfa_thermal::Applier<'_, 3, 3>,
                               truth: &[StreamTruth; 3],
                               f: &mut Figures| {
             while next_cycle < imu_hz && t0_ns + u64::from(next_cycle) * period_ns <= upto_ns {
@@ -612,8 +613,8 @@ pub fn run(set: &Settings, mut progress: impl FnMut(f64)) -> Figures {
 fn reload(
     f: &mut Figures,
     good: &[u8],
-    up3: &mut qfa_thermal::Updater<'_, 3, 32, 3, Table>,
-    up1: &mut qfa_thermal::Updater<'_, 3, 32, 1, Table>,
+    up3: &mut qfa_thermal::Updater<'_, 3, 32, 3, Table, 3>,
+    up1: &mut qfa_thermal::Updater<'_, 3, 32, 1, Table, 3>,
 ) {
     let mut bad_crc = good.to_vec();
     bad_crc[qfa_thermal::table::HEADER_LEN + 3] ^= 0x01;

@@ -216,7 +216,8 @@ struct Model<const S: usize> {
     cov: Coverage,
 }
 
-type Comp<const S: usize> = Compensator<3, 32, S>;
+// With the misalignment stage: the tables have a matrix.
+type Comp<const S: usize> = Compensator<3, 32, S, qfa_thermal::Table, 3>;
 
 impl<const S: usize> Model<S> {
     fn new(h: &History, check: bool, strict: bool) -> (Self, Comp<S>) {

@@ -24,6 +24,7 @@ use qfa_thermal::compensator::{Compensator, Config, SampleError, Status};
 use qfa_thermal::ds18b20::{self, Resolution};
 use qfa_thermal::ds18b20_driver::{self as drv, Ds18b20};
 use qfa_thermal::onewire as ow;
+use qfa_thermal::Table;
 
 /// Scheduler tick (IMU cycle), µs.
 const TICK_US: u64 = 5_000;
@@ -122,10 +123,10 @@ fn driver_and_compensator_come_through_every_fault() {
     let mut sensor = Ds18b20::single().with_retries(1);
     sensor.set_resolution(&mut bus, Resolution::Bits12).unwrap();
 
-    let mut comp = Compensator::<3, 32>::new(Config::default()).expect("the default config is valid");
+    let mut comp = Compensator::<3, 32, 1, Table, 3>::new(Config::default()).expect("the default config is valid");
     comp.load_table(&stream_table()).unwrap();
     let stale_after_us = u64::from(comp.config().stale_after_ticks); // 1 tick = 1 µs
-    let probe = |c: &Compensator<3, 32>| c.clone().cycle(PROBE, 2_500).dv_mps;
+    let probe = |c: &Compensator<3, 32, 1, Table, 3>| c.clone().cycle(PROBE, 2_500).dv_mps;
 
     let mut clock = qfa_thermal::time::MsClock::new();
     let mut app = App::Idle { at_us: 0 };

@@ -24,13 +24,15 @@ use crate::tables::Table;
 pub const RATE_WINDOW: usize = qfa_thermal::DEFAULT_RATE_WINDOW;
 
 /// The instantiations Python can pick: axes 1..=3, one temperature stream or one per axis
-/// (boxed: their sizes differ by the per-axis state).
+/// (boxed: their sizes differ by the per-axis state). Three axes have the misalignment
+/// stage, so a table with a matrix loads: without a matrix its outputs are the plain
+/// type's, bit for bit (the root crate tests it).
 enum Inner {
     A1S1(Box<Firmware<1, RATE_WINDOW, 1>>),
     A2S1(Box<Firmware<2, RATE_WINDOW, 1>>),
     A2S2(Box<Firmware<2, RATE_WINDOW, 2>>),
-    A3S1(Box<Firmware<3, RATE_WINDOW, 1>>),
-    A3S3(Box<Firmware<3, RATE_WINDOW, 3>>),
+    A3S1(Box<Firmware<3, RATE_WINDOW, 1, qfa_thermal::Table, 3>>),
+    A3S3(Box<Firmware<3, RATE_WINDOW, 3, qfa_thermal::Table, 3>>),
 }
 
 /// Run `$body` with `$c` bound to whichever instantiation `$inner` holds.

@@ -5,7 +5,7 @@
 use super::Compensator;
 use core::sync::atomic::Ordering;
 
-use super::seqlock::{Published, Set, AGE_STALE};
+use super::seqlock::{Published, AGE_STALE};
 use super::Status;
 
 /// [`Status::DT_IMPLAUSIBLE`]'s bit number.
@@ -36,7 +36,7 @@ pub struct SampleOutput<const AXES: usize> {
 /// Fast-path state: the applier's own copy of the last whole coefficient set, its
 /// staleness clock and its counter base. Never touched by the updater.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(super) struct FastState<const AXES: usize> {
+pub(super) struct FastState<const AXES: usize, const MATRIX: usize> {
     pub(super) stale_after_ticks: u32,
     /// The fewest `dt_ticks` a cycle may take without [`Status::DT_IMPLAUSIBLE`], and how
     /// many more ([`Config::imu_period_s`]'s band): one unsigned compare per cycle.
@@ -49,9 +49,16 @@ pub(super) struct FastState<const AXES: usize> {
     /// reading came since the last copy, otherwise only if shorter. A countdown costs two
     /// instructions per cycle less than counting up and comparing.
     pub(super) ticks_left: u32,
-    /// Sequence of the set copied into `set`.
+    /// Sequence of the set copied into `coefs`, `misalign` and `epoch`.
     pub(super) seen_seq: u32,
-    pub(super) set: Set<AXES>,
+    /// Each entry's coefficients, `[pulses, samples]`: the configured entry's from the last
+    /// whole set; the other entry's are 0 from construction on, so a cycle there gives zeros
+    /// (flagged [`Status::WRONG_INPUT`]) through the same arithmetic, without a branch.
+    pub(super) coefs: [Coefs<AXES>; 2],
+    /// The last whole set's matrix (`None` without a misalignment stage or a matrix).
+    pub(super) misalign: Option<[[f32; AXES]; MATRIX]>,
+    /// The last whole set's epoch (`Set::epoch`).
+    pub(super) epoch: u8,
     /// The set's status as each entry sees it, `[pulses, samples]`: the entry that does not
     /// match [`Config::input`] carries [`Status::WRONG_INPUT`] from construction on (the
     /// bit is kept at each copy, so it needs no field of its own). Formed when a set is
@@ -60,6 +67,21 @@ pub(super) struct FastState<const AXES: usize> {
     /// The unsplit compensator's counter base ([`Compensator::cycle_counters`]); `None`
     /// before the first counter cycle and after any other kind of cycle.
     pub(super) counters: Option<[u32; AXES]>,
+}
+
+/// One entry's coefficients: g0/K1 per axis, and the bias in that entry's form (m/s per tick
+/// for pulse counts, m/s² for samples).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Coefs<const AXES: usize> {
+    pub(super) scale: [f32; AXES],
+    pub(super) bias: [f32; AXES],
+}
+
+impl<const AXES: usize> Coefs<AXES> {
+    /// The wrong entry's coefficients. The bias is −0: `n·0 − (−0)·dt` is +0 for every
+    /// input `n` (a +0 bias would leave −0 for a negative one), so the output is the same
+    /// +0.0 bits the entry returned when it branched.
+    pub(super) const ZERO: Self = Self { scale: [0.0; AXES], bias: [-0.0; AXES] };
 }
 
 /// The fast path of a split compensator: owns the IMU-cycle state and a copy of the
@@ -107,12 +129,12 @@ pub(super) struct FastState<const AXES: usize> {
 /// });
 /// ```
 #[derive(Debug)]
-pub struct Applier<'a, const AXES: usize> {
-    pub(super) fast: &'a mut FastState<AXES>,
-    pub(super) shared: &'a Published<AXES>,
+pub struct Applier<'a, const AXES: usize, const MATRIX: usize = 0> {
+    pub(super) fast: &'a mut FastState<AXES, MATRIX>,
+    pub(super) shared: &'a Published<AXES, MATRIX>,
 }
 
-impl<'a, const AXES: usize> Applier<'a, AXES> {
+impl<'a, const AXES: usize, const MATRIX: usize> Applier<'a, AXES, MATRIX> {
     /// Copy the published set if it is whole (seqlock reader); the rare path.
     #[cold]
     #[inline(never)]
@@ -130,6 +152,11 @@ impl<'a, const AXES: usize> Applier<'a, AXES> {
         let f = &mut *self.fast;
         let [pulses, samples] = f.path_status.map(|st| st & Status::WRONG_INPUT);
         f.path_status = [s.set.status | pulses, s.set.status | samples];
+        // The configured entry is the one without WRONG_INPUT; the other keeps its zeros.
+        let entry = usize::from(!pulses.is_empty());
+        if let Some(c) = f.coefs.get_mut(entry) {
+            *c = Coefs { scale: s.set.scale, bias: s.set.bias };
+        }
         let budget = if s.set.age >= AGE_STALE {
             0
         } else {
@@ -142,8 +169,9 @@ impl<'a, const AXES: usize> Applier<'a, AXES> {
         // (a rejection, a missed reading: the slow path's clock moved; a table load) can only
         // shorten it, so its own tick count and the slow path's clock never make a stale set
         // fresh between them.
-        f.ticks_left = if s.set.epoch != f.set.epoch { budget } else { f.ticks_left.min(budget) };
-        f.set = s.set;
+        f.ticks_left = if s.set.epoch != f.epoch { budget } else { f.ticks_left.min(budget) };
+        f.misalign = s.set.misalign;
+        f.epoch = s.set.epoch;
         f.seen_seq = s.seq;
     }
 
@@ -173,16 +201,11 @@ impl<'a, const AXES: usize> Applier<'a, AXES> {
     #[inline]
     pub fn cycle(&mut self, pulses: [i32; AXES], dt_ticks: u32) -> PulseOutput<AXES> {
         let status = self.begin::<false>(dt_ticks);
-        if status.contains(Status::WRONG_INPUT) {
-            return PulseOutput { dv_mps: [0.0; AXES], status };
-        }
-        let s = &self.fast.set;
+        // On a samples compensator this entry's coefficients are 0: Δv is 0 (WRONG_INPUT).
+        let [c, _] = &self.fast.coefs;
         let dt = dt_ticks as f32;
-        let dv: [f32; AXES] = core::array::from_fn(|i| pulses[i] as f32 * s.scale[i] - s.bias[i] * dt);
-        match &s.misalign {
-            None => PulseOutput { dv_mps: dv, status },
-            Some(m) => PulseOutput { dv_mps: misalign(m, dv), status },
-        }
+        let dv: [f32; AXES] = core::array::from_fn(|i| pulses[i] as f32 * c.scale[i] - c.bias[i] * dt);
+        PulseOutput { dv_mps: misalign(&self.fast.misalign, dv), status }
     }
 
     /// Fast path for MEMS samples: raw readings (LSB) of this cycle and the ticks since
@@ -195,15 +218,10 @@ impl<'a, const AXES: usize> Applier<'a, AXES> {
     #[inline]
     pub fn cycle_samples(&mut self, raw: [i32; AXES], dt_ticks: u32) -> SampleOutput<AXES> {
         let status = self.begin::<true>(dt_ticks);
-        if status.contains(Status::WRONG_INPUT) {
-            return SampleOutput { accel_mps2: [0.0; AXES], status };
-        }
-        let s = &self.fast.set;
-        let a: [f32; AXES] = core::array::from_fn(|i| raw[i] as f32 * s.scale[i] - s.bias[i]);
-        match &s.misalign {
-            None => SampleOutput { accel_mps2: a, status },
-            Some(m) => SampleOutput { accel_mps2: misalign(m, a), status },
-        }
+        // On a pulse compensator this entry's coefficients are 0: a is 0 (WRONG_INPUT).
+        let [_, c] = &self.fast.coefs;
+        let a: [f32; AXES] = core::array::from_fn(|i| raw[i] as f32 * c.scale[i] - c.bias[i]);
+        SampleOutput { accel_mps2: misalign(&self.fast.misalign, a), status }
     }
 
     /// This applier for wrapping cumulative u32 counters, from `counters` as their base.
@@ -221,7 +239,7 @@ impl<'a, const AXES: usize> Applier<'a, AXES> {
     /// applier.cycle([1_601, 0, 0], 5_000); // moved into `counting`: does not build
     /// ```
     #[must_use]
-    pub fn counting(self, counters: [u32; AXES]) -> CountingApplier<'a, AXES> {
+    pub fn counting(self, counters: [u32; AXES]) -> CountingApplier<'a, AXES, MATRIX> {
         CountingApplier { applier: self, base: counters }
     }
 }
@@ -229,12 +247,12 @@ impl<'a, const AXES: usize> Applier<'a, AXES> {
 /// The fast path from wrapping cumulative u32 counters ([`Applier::counting`]): each cycle's
 /// increments are the counters' advance since the previous cycle, as signed counts.
 #[derive(Debug)]
-pub struct CountingApplier<'a, const AXES: usize> {
-    applier: Applier<'a, AXES>,
+pub struct CountingApplier<'a, const AXES: usize, const MATRIX: usize = 0> {
+    applier: Applier<'a, AXES, MATRIX>,
     base: [u32; AXES],
 }
 
-impl<const AXES: usize> CountingApplier<'_, AXES> {
+impl<const AXES: usize, const MATRIX: usize> CountingApplier<'_, AXES, MATRIX> {
     /// Fast path: the counters now and the cycle's length in ticks; see [`Applier::cycle`].
     #[inline]
     pub fn cycle(&mut self, counters: [u32; AXES], dt_ticks: u32) -> PulseOutput<AXES> {
@@ -249,9 +267,15 @@ impl<const AXES: usize> CountingApplier<'_, AXES> {
     }
 }
 
+/// `M·v` with the set's matrix, `v` without one. Without a misalignment stage (`MATRIX`
+/// 0) this is `v` at compile time: the fast path has no branch for it.
 #[inline(always)]
-fn misalign<const AXES: usize>(m: &[[f32; AXES]; AXES], v: [f32; AXES]) -> [f32; AXES] {
-    let mut out = [0.0f32; AXES];
+fn misalign<const AXES: usize, const MATRIX: usize>(m: &Option<[[f32; AXES]; MATRIX]>, v: [f32; AXES]) -> [f32; AXES] {
+    let Some(m) = (MATRIX > 0).then_some(m).and_then(Option::as_ref) else {
+        return v;
+    };
+    // MATRIX is AXES here (`Compensator`'s bounds): every output row is formed.
+    let mut out = v;
     for (o, row) in out.iter_mut().zip(m.iter()) {
         let mut acc = 0.0f32;
         for (a, b) in row.iter().zip(v.iter()) {

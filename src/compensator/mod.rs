@@ -84,8 +84,8 @@ mod status;
 #[cfg(all(test, not(loom)))]
 mod tests;
 
-use applier::FastState;
 pub use applier::{Applier, CountingApplier, PulseOutput, SampleOutput};
+use applier::{Coefs, FastState};
 pub use config::{Config, ConfigError, IMU_PERIOD_TOLERANCE};
 // Crate-private unless the benchmark's feature asks for it (its size is a figure there).
 #[cfg(all(test, not(loom)))]
@@ -108,31 +108,53 @@ pub const G0: f32 = 9.806_65;
 pub const DEFAULT_RATE_WINDOW: usize = 32;
 
 /// The recommended configuration: three axes, one temperature sensor (DS18B20) per
-/// accelerometer case as in the paper, the default rate window, and the table in flash
-/// (`&'static Table`). `ThreeAxisSensorPerAxis<Table>` owns its table instead, loadable from
-/// bytes at run time ([`Compensator::load_table`]).
+/// accelerometer case as in the paper, the default rate window, the table in flash
+/// (`&'static Table`), and no misalignment stage (a table with a matrix is refused:
+/// [`ThreeAxisSensorPerAxisWithMatrix`] applies it). `ThreeAxisSensorPerAxis<Table>` owns
+/// its table instead, loadable from bytes at run time ([`Compensator::load_table`]).
 pub type ThreeAxisSensorPerAxis<T = &'static Table> = Compensator<3, DEFAULT_RATE_WINDOW, 3, T>;
 
+/// [`ThreeAxisSensorPerAxis`] with a misalignment stage: the table's 3×3 matrix, when it has
+/// one, is applied each IMU cycle (9 multiply-adds and 36 B more of the shared set, 36 B of
+/// the applier's copy).
+pub type ThreeAxisSensorPerAxisWithMatrix<T = &'static Table> = Compensator<3, DEFAULT_RATE_WINDOW, 3, T, 3>;
+
 /// Three axes sharing one temperature sensor (temperature stream 0 serves every axis), the
-/// default rate window, and the table in flash; `ThreeAxisSharedSensor<Table>` owns it.
+/// default rate window, the table in flash and no misalignment stage;
+/// `ThreeAxisSharedSensor<Table>` owns its table.
 pub type ThreeAxisSharedSensor<T = &'static Table> = Compensator<3, DEFAULT_RATE_WINDOW, 1, T>;
+
+/// [`ThreeAxisSharedSensor`] with a misalignment stage.
+pub type ThreeAxisSharedSensorWithMatrix<T = &'static Table> = Compensator<3, DEFAULT_RATE_WINDOW, 1, T, 3>;
 
 /// The slow half of a [`ThreeAxisSensorPerAxis`] (from [`Compensator::split`]): the type a
 /// task that owns it names, `SensorPerAxisUpdater<'static>` for a table in flash.
 pub type SensorPerAxisUpdater<'a, T = &'static Table> = Updater<'a, 3, DEFAULT_RATE_WINDOW, 3, T>;
 
+/// The slow half of a [`ThreeAxisSensorPerAxisWithMatrix`].
+pub type SensorPerAxisUpdaterWithMatrix<'a, T = &'static Table> = Updater<'a, 3, DEFAULT_RATE_WINDOW, 3, T, 3>;
+
 /// The slow half of a [`ThreeAxisSharedSensor`].
 pub type SharedSensorUpdater<'a, T = &'static Table> = Updater<'a, 3, DEFAULT_RATE_WINDOW, 1, T>;
 
-/// The fast half of either three-axis configuration, for the IMU interrupt:
-/// `ThreeAxisApplier<'static>`.
+/// The slow half of a [`ThreeAxisSharedSensorWithMatrix`].
+pub type SharedSensorUpdaterWithMatrix<'a, T = &'static Table> = Updater<'a, 3, DEFAULT_RATE_WINDOW, 1, T, 3>;
+
+/// The fast half of either three-axis configuration without a matrix, for the IMU
+/// interrupt: `ThreeAxisApplier<'static>`.
 pub type ThreeAxisApplier<'a> = Applier<'a, 3>;
+
+/// The fast half of either three-axis configuration with a matrix.
+pub type ThreeAxisApplierWithMatrix<'a> = Applier<'a, 3, 3>;
 
 /// Temperature compensation for `AXES` accelerometers with a `RATE_WINDOW`-reading rate
 /// window and `SENSORS` temperature streams (1, or one per axis). The table is held as `T`:
 /// an owned [`Table`] (708 B, loadable from bytes at run time) or a `&'static Table` in
-/// flash. [`ThreeAxisSensorPerAxis`] and [`ThreeAxisSharedSensor`] name the recommended
-/// configurations.
+/// flash. `MATRIX` is the misalignment stage's rows: 0, none (the fast path has no code for
+/// it, and [`set_table`](Self::set_table) refuses a table with a matrix with
+/// [`table::Error::NoMisalignmentStage`]), or 3 (three axes only: the table's 3×3 matrix,
+/// when it has one). [`ThreeAxisSensorPerAxis`] and [`ThreeAxisSharedSensor`] name the
+/// recommended configurations, each with a `WithMatrix` twin.
 ///
 /// Unsplit, it is one value with both paths (`&mut self` each); [`split`](Self::split)
 /// hands the two paths to two execution contexts. Here one axis, unsplit, whose temperature
@@ -165,14 +187,20 @@ pub struct Compensator<
     const RATE_WINDOW: usize = DEFAULT_RATE_WINDOW,
     const SENSORS: usize = 1,
     T = Table,
+    const MATRIX: usize = 0,
 > {
     slow: SlowState<AXES, RATE_WINDOW, SENSORS, T>,
-    shared: Published<AXES>,
-    fast: FastState<AXES>,
+    shared: Published<AXES, MATRIX>,
+    fast: FastState<AXES, MATRIX>,
 }
 
-impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Clone + Borrow<Table>> Clone
-    for Compensator<AXES, RATE_WINDOW, SENSORS, T>
+impl<
+        const AXES: usize,
+        const RATE_WINDOW: usize,
+        const SENSORS: usize,
+        T: Clone + Borrow<Table>,
+        const MATRIX: usize,
+    > Clone for Compensator<AXES, RATE_WINDOW, SENSORS, T, MATRIX>
 {
     /// An independent copy in the same state: its own shared set holds every word
     /// of the original's, the sequence included, so its applier sees exactly what the
@@ -187,13 +215,17 @@ const NOT_YET: Status = Status::NO_TABLE.union(Status::TEMP_STALE);
 
 const NO_EVAL: Evaluation = Evaluation { k1: 0.0, k0: 0.0, temp_clamped: false, rate_clamped: false, settling: false };
 
-impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borrow<Table>>
-    Compensator<AXES, RATE_WINDOW, SENSORS, T>
+impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borrow<Table>, const MATRIX: usize>
+    Compensator<AXES, RATE_WINDOW, SENSORS, T, MATRIX>
 {
     /// Checked at compile time (evaluated in [`new`](Self::new)): a wrong count does not build.
     const BOUNDS: () = {
         assert!(AXES >= 1 && AXES <= table::MAX_AXES, "AXES must be 1..=3");
         assert!(SENSORS == 1 || SENSORS == AXES, "SENSORS must be 1 (one shared sensor) or AXES (one per axis)");
+        assert!(
+            MATRIX == 0 || (MATRIX == 3 && AXES == 3),
+            "MATRIX must be 0 (no misalignment stage) or 3 (with 3 axes)"
+        );
     };
 
     /// A compensator with no table: the raw input passes through at
@@ -247,7 +279,9 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
                 ticks_per_age: config.stale_after_ticks as f32 / f32::from(AGE_STEPS),
                 ticks_left: 0,
                 seen_seq: 0,
-                set: Set::EMPTY,
+                coefs: [Coefs::ZERO; 2],
+                misalign: None,
+                epoch: Set::<AXES, MATRIX>::EMPTY.epoch,
                 // Until the first set is copied, nothing is calibrated.
                 path_status: match config.input {
                     table::Input::PulseCounts => [NOT_YET, NOT_YET | Status::WRONG_INPUT],
@@ -263,11 +297,11 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
         Ok(c)
     }
 
-    fn updater(&mut self) -> Updater<'_, AXES, RATE_WINDOW, SENSORS, T> {
+    fn updater(&mut self) -> Updater<'_, AXES, RATE_WINDOW, SENSORS, T, MATRIX> {
         Updater { slow: &mut self.slow, shared: &self.shared }
     }
 
-    fn applier(&mut self) -> Applier<'_, AXES> {
+    fn applier(&mut self) -> Applier<'_, AXES, MATRIX> {
         Applier { fast: &mut self.fast, shared: &self.shared }
     }
 
@@ -278,7 +312,7 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
     /// The applier leaves with a copy of the set in force (the compensator is borrowed
     /// whole here, so no publication can tear it): whatever the first IMU interrupt
     /// preempts, it has a whole set to use.
-    pub fn split(&mut self) -> (Updater<'_, AXES, RATE_WINDOW, SENSORS, T>, Applier<'_, AXES>) {
+    pub fn split(&mut self) -> (Updater<'_, AXES, RATE_WINDOW, SENSORS, T, MATRIX>, Applier<'_, AXES, MATRIX>) {
         self.applier().refresh();
         (Updater { slow: &mut self.slow, shared: &self.shared }, Applier { fast: &mut self.fast, shared: &self.shared })
     }
@@ -402,7 +436,9 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
     }
 }
 
-impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize> Compensator<AXES, RATE_WINDOW, SENSORS, Table> {
+impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, const MATRIX: usize>
+    Compensator<AXES, RATE_WINDOW, SENSORS, Table, MATRIX>
+{
     /// Decode, validate and activate a table from its wire bytes. Atomic: on any error
     /// the active table and every state are unchanged.
     ///

@@ -59,9 +59,10 @@ pub(super) const AGE_STEPS: u16 = AGE_STALE - 1;
 /// The coefficient set shared by an [`Updater`](super::Updater) and an
 /// [`Applier`](super::Applier), behind a sequence number (a seqlock): odd while the updater
 /// writes, even when the set is whole. Const-constructible, so it can live in a `static`
-/// (except under `--cfg loom`, whose atomics are not). 68 bytes for 3 axes.
+/// (except under `--cfg loom`, whose atomics are not). 32 bytes for 3 axes without a
+/// misalignment stage (`MATRIX` 0), 68 with one (`MATRIX` 3).
 #[derive(Debug)]
-pub struct Published<const AXES: usize> {
+pub struct Published<const AXES: usize, const MATRIX: usize = 0> {
     /// Odd while a publication is being written; +2 per publication (wrapping: 2³¹
     /// publications, 68 years at 1 Hz, before a sequence repeats).
     pub(super) seq: AtomicU32,
@@ -71,14 +72,15 @@ pub struct Published<const AXES: usize> {
     /// K0·g0, m/s², for samples. The other form is never applied (the other entry returns
     /// zeros with [`Status::WRONG_INPUT`]), so it is not published.
     bias: [AtomicU32; AXES],
-    /// Row-major misalignment matrix (valid when the flags have [`HAS_MISALIGN`]).
-    misalign: [[AtomicU32; AXES]; AXES],
+    /// Row-major misalignment matrix (valid when the flags have [`HAS_MISALIGN`]): `MATRIX`
+    /// rows, none without a misalignment stage.
+    misalign: [[AtomicU32; AXES]; MATRIX],
     /// Status bits (0–8), the epoch (9–16), [`HAS_MISALIGN`] (17), the oldest stream's age
     /// (18–31).
     pub(super) flags: AtomicU32,
 }
 
-impl<const AXES: usize> Default for Published<AXES> {
+impl<const AXES: usize, const MATRIX: usize> Default for Published<AXES, MATRIX> {
     fn default() -> Self {
         Self::new()
     }
@@ -87,13 +89,13 @@ impl<const AXES: usize> Default for Published<AXES> {
 /// One coefficient set as plain values: built by the updater at each publication, and
 /// the applier's own copy of the last whole set it read.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(super) struct Set<const AXES: usize> {
+pub(super) struct Set<const AXES: usize, const MATRIX: usize> {
     pub(super) scale: [f32; AXES],
     /// K0·g0·tick (m/s per tick) for pulse counts, K0·g0 (m/s²) for samples.
     pub(super) bias: [f32; AXES],
     /// Written only by a publication that [`Changes::matrix`]; read whenever the flags say
     /// the set has one.
-    pub(super) misalign: Option<[[f32; AXES]; AXES]>,
+    pub(super) misalign: Option<[[f32; AXES]; MATRIX]>,
     pub(super) status: Status,
     /// Age of the oldest stream's last good reading as of the latest reading's time, in
     /// `1/AGE_STEPS` of the stale threshold, rounded down; [`AGE_STALE`] when older than
@@ -110,7 +112,7 @@ pub(super) struct Set<const AXES: usize> {
     pub(super) epoch: u8,
 }
 
-impl<const AXES: usize> Set<AXES> {
+impl<const AXES: usize, const MATRIX: usize> Set<AXES, MATRIX> {
     pub(super) const EMPTY: Self = Self {
         scale: [0.0; AXES],
         bias: [0.0; AXES],
@@ -148,14 +150,14 @@ impl Changes {
 
 /// A whole set as read by [`Published::read_with`].
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(super) struct Snapshot<const AXES: usize> {
+pub(super) struct Snapshot<const AXES: usize, const MATRIX: usize> {
     /// The (even) sequence the set was published under.
     pub(super) seq: u32,
-    pub(super) set: Set<AXES>,
+    pub(super) set: Set<AXES, MATRIX>,
 }
 
 #[cfg(not(loom))]
-impl<const AXES: usize> Published<AXES> {
+impl<const AXES: usize, const MATRIX: usize> Published<AXES, MATRIX> {
     /// Empty: every coefficient zero and no status until the first publication (the
     /// compensator publishes at construction).
     #[must_use]
@@ -169,7 +171,7 @@ impl<const AXES: usize> Published<AXES> {
             seq: AtomicU32::new(seq),
             scale: [const { AtomicU32::new(0) }; AXES],
             bias: [const { AtomicU32::new(0) }; AXES],
-            misalign: [const { [const { AtomicU32::new(0) }; AXES] }; AXES],
+            misalign: [const { [const { AtomicU32::new(0) }; AXES] }; MATRIX],
             flags: AtomicU32::new(0),
         }
     }
@@ -177,7 +179,7 @@ impl<const AXES: usize> Published<AXES> {
 
 // loom's `AtomicU32::new` registers the atomic with the running model, so it is not `const`.
 #[cfg(loom)]
-impl<const AXES: usize> Published<AXES> {
+impl<const AXES: usize, const MATRIX: usize> Published<AXES, MATRIX> {
     /// Empty: every coefficient zero and no status until the first publication (the
     /// compensator publishes at construction). Not `const` under loom.
     #[must_use]
@@ -198,7 +200,7 @@ impl<const AXES: usize> Published<AXES> {
     }
 }
 
-impl<const AXES: usize> Published<AXES> {
+impl<const AXES: usize, const MATRIX: usize> Published<AXES, MATRIX> {
     /// A word-for-word copy. Only for [`Compensator::clone`](super::Compensator): `&self` there means no split is
     /// alive, so no publication is in progress and the words are one whole set.
     pub(super) fn snapshot(&self) -> Self {
@@ -216,7 +218,7 @@ impl<const AXES: usize> Published<AXES> {
     /// runs after every single store (a test hook that preempts the writer there; a no-op
     /// closure otherwise). Only the updater calls this: one writer at a time, so it may read
     /// back its own last flags word.
-    pub(super) fn publish_with(&self, set: &Set<AXES>, changes: Changes, mut after_store: impl FnMut()) {
+    pub(super) fn publish_with(&self, set: &Set<AXES, MATRIX>, changes: Changes, mut after_store: impl FnMut()) {
         let seq = self.seq.load(Ordering::Relaxed);
         self.seq.store(seq.wrapping_add(1), Ordering::Relaxed);
         // The odd sequence is visible before any value changes: a reader's Acquire fence
@@ -261,7 +263,7 @@ impl<const AXES: usize> Published<AXES> {
     /// waits. `mid` runs between the copy and the re-check (a test hook: the updater
     /// preempting the reader there; a no-op closure otherwise).
     #[inline(always)]
-    pub(super) fn read_with(&self, mid: impl FnOnce()) -> Option<Snapshot<AXES>> {
+    pub(super) fn read_with(&self, mid: impl FnOnce()) -> Option<Snapshot<AXES, MATRIX>> {
         // Acquire: the values of the publication that made this sequence even are visible.
         #[cfg(not(qfa_mutant = "reader_relaxed_seq_load"))]
         let seq = self.seq.load(Ordering::Acquire);
@@ -301,10 +303,12 @@ mod tests {
 
     /// Needs `Published::new` to be `const`, as a board's `static` does.
     static SHARED: Published<3> = Published::new();
+    static SHARED_WITH_MATRIX: Published<3, 3> = Published::new();
 
     #[test]
-    fn a_published_set_is_a_static_of_68_bytes_for_3_axes() {
-        assert_eq!(core::mem::size_of_val(&SHARED), 68);
+    fn a_published_set_is_a_static_of_32_bytes_for_3_axes_and_68_with_a_matrix() {
+        assert_eq!(core::mem::size_of_val(&SHARED), 32);
+        assert_eq!(core::mem::size_of_val(&SHARED_WITH_MATRIX), 68);
         let empty = Set { age: 0, ..Set::EMPTY };
         assert_eq!(SHARED.read_with(|| {}).map(|s| (s.seq, s.set)), Some((0, empty)));
     }
@@ -339,7 +343,7 @@ mod model {
 
     /// Publication `i`: word `w` of the set holds `8·i + w` (exact in f32), the status bits
     /// hold `i`, the age is `i + 5` units and the epoch `i + 1`.
-    fn set_of(i: u32) -> Set<1> {
+    fn set_of(i: u32) -> Set<1, 0> {
         let word = |w: u32| (8 * i + w) as f32;
         Set {
             scale: [word(1)],
@@ -353,7 +357,7 @@ mod model {
 
     /// The publication a copy comes from; panics unless every word, the status, the age
     /// and the sequence name the same one.
-    fn publication_of(start: u32, s: &Snapshot<1>) -> u32 {
+    fn publication_of(start: u32, s: &Snapshot<1, 0>) -> u32 {
         let i = u32::from(s.set.status.bits());
         assert_eq!(s.set, set_of(i), "copy mixes publications: status says {i}, {s:?}");
         // Publication i leaves the sequence at start + 2·(i + 1).

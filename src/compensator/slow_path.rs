@@ -169,7 +169,7 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
     /// published, so they are left at 0 here. Rebuilt at every publication (a division per
     /// changed axis, in the slow path) rather than kept beside the published one: that copy
     /// would cost RAM.
-    pub(super) fn set(&self, changes: Changes) -> Set<AXES> {
+    pub(super) fn set<const MATRIX: usize>(&self, changes: Changes) -> Set<AXES, MATRIX> {
         let (status, age) = self.summary();
         let mut set = Set { status, age, epoch: self.epoch, ..Set::EMPTY };
         let Some(t) = &self.table else {
@@ -187,8 +187,9 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
                 set.bias[i] = if pulses { (e.k0 * G0) * self.config.tick_s } else { e.k0 * G0 };
             }
         }
-        if changes.matrix {
-            // Validation allows a matrix only with 3 axes, so AXES == 3 here.
+        if changes.matrix && MATRIX > 0 {
+            // Validation allows a matrix only with 3 axes, and `set_table` one only with a
+            // misalignment stage (MATRIX == AXES == 3): every index is in the 9 values.
             set.misalign = table.misalignment.map(|m| core::array::from_fn(|r| core::array::from_fn(|c| m[r * 3 + c])));
         }
         set
@@ -217,13 +218,13 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
 /// assert!(matches!(updater.on_scratchpad(2, 1_000, &corrupt), Err(SampleError::Decode(_))));
 /// ```
 #[derive(Debug)]
-pub struct Updater<'a, const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T> {
+pub struct Updater<'a, const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T, const MATRIX: usize = 0> {
     pub(super) slow: &'a mut SlowState<AXES, RATE_WINDOW, SENSORS, T>,
-    pub(super) shared: &'a Published<AXES>,
+    pub(super) shared: &'a Published<AXES, MATRIX>,
 }
 
-impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borrow<Table>>
-    Updater<'_, AXES, RATE_WINDOW, SENSORS, T>
+impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borrow<Table>, const MATRIX: usize>
+    Updater<'_, AXES, RATE_WINDOW, SENSORS, T, MATRIX>
 {
     /// The stream serving axis `axis`.
     const fn sensor_of(axis: usize) -> usize {
@@ -262,6 +263,10 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
         }
         if usize::from(tb.rate_window) != RATE_WINDOW {
             return Err(table::Error::RateWindow { table: tb.rate_window, firmware: RATE_WINDOW as u16 });
+        }
+        // A matrix the compensator cannot apply is refused, never dropped with the status OK.
+        if tb.misalignment.is_some() && MATRIX == 0 {
+            return Err(table::Error::NoMisalignmentStage);
         }
         // Every axis's γ within a factor of 2 of the nominal scale: a table in another unit
         // scale is refused, never applied 256 (or 9.8) times off with the status OK.

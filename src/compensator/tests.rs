@@ -38,11 +38,14 @@ fn table(axes: usize, window: u16) -> Table {
     t
 }
 
-fn comp3() -> Compensator<3, 32> {
+/// With a misalignment stage, so every test can load a table with a matrix.
+type Comp3 = Compensator<3, 32, 1, Table, 3>;
+
+fn comp3() -> Comp3 {
     Compensator::new(Config::default()).unwrap()
 }
 
-fn warm(c: &mut Compensator<3, 32>, n: u32) {
+fn warm<const MATRIX: usize>(c: &mut Compensator<3, 32, 1, Table, MATRIX>, n: u32) {
     for k in 0..n {
         c.on_raw(0, 1000 * k, 352).unwrap();
     }
@@ -374,7 +377,7 @@ fn reader_preempting_the_writer_at_every_store_sees_whole_sets() {
     new.bias = [0.5, 0.25, 0.125];
     new.status = Status::TEMP_OUT_OF_RANGE;
     let pulses = [800, -7, 3];
-    let reference = |s: &Set<3>| {
+    let reference = |s: &Set<3, 3>| {
         let shared = Published::new();
         shared.publish_with(s, Changes::ALL, || {});
         // An odd `seen_seq` never matches a whole set's sequence: the reference copies it.
@@ -415,7 +418,7 @@ fn a_copy_torn_by_the_writer_is_dropped() {
     c.set_table(table(3, 32)).unwrap();
     warm(&mut c, 12);
     let before = c.cycle([800, -7, 3], 2500);
-    let old_scale = c.fast.set.scale;
+    let old_scale = c.fast.coefs[0].scale;
     let mut new = c.slow.set(Changes::ALL);
     new.scale = [1.0, 2.0, 3.0];
     c.shared.publish_with(&new, Changes::ALL, || {});
@@ -425,7 +428,7 @@ fn a_copy_torn_by_the_writer_is_dropped() {
     let old_seq = ap.fast.seen_seq;
     ap.refresh_with(|| shared.publish_with(&new, Changes::ALL, || {}));
     assert_eq!(ap.fast.seen_seq, old_seq, "torn copy dropped");
-    assert_eq!(ap.fast.set.scale, old_scale, "old set kept");
+    assert_eq!(ap.fast.coefs[0].scale, old_scale, "old set kept");
     let after = ap.cycle([800, -7, 3], 2500);
     assert_eq!(after.dv_mps[0], 800.0 * 1.0 - new.bias[0] * 2500.0);
     // A sequence left odd (a writer stopped mid-publication) keeps the old set too.
@@ -505,7 +508,7 @@ fn dt_in_cpu_cycles_given_as_microsecond_ticks_is_flagged_on_every_cycle() {
 #[test]
 fn the_dt_band_is_a_factor_of_four_either_side_of_the_imu_period() {
     let mut c = comp3();
-    let flagged = |c: &mut Compensator<3, 32>, dt: u32| {
+    let flagged = |c: &mut Comp3, dt: u32| {
         let pulses = c.cycle([0; 3], dt).status.contains(Status::DT_IMPLAUSIBLE);
         assert_eq!(c.cycle_samples([0; 3], dt).status.contains(Status::DT_IMPLAUSIBLE), pulses, "{dt}");
         pulses
@@ -570,7 +573,7 @@ fn a_partial_publication_leaves_the_whole_set_right() {
     };
     let mut t = table(3, 32);
     t.misalignment = Some([1.0, 1e-3, -2e-3, 5e-4, 1.0, 1.5e-3, -1e-3, 2e-4, 1.0]);
-    let mut c = Compensator::<3, 32, 3, Table>::new(Config::default()).unwrap();
+    let mut c = Compensator::<3, 32, 3, Table, 3>::new(Config::default()).unwrap();
     c.set_table(t.clone()).unwrap();
     let mut raw = [352i16; 3];
     let mut t_ms = [0u32; 3];
@@ -591,5 +594,77 @@ fn a_partial_publication_leaves_the_whole_set_right() {
         let published = c.shared.read_with(|| {}).expect("no publication under way").set;
         let whole = c.slow.set(Changes::ALL);
         assert_eq!(published, whole, "step {step}, sensor {sensor}");
+    }
+}
+
+/// A compensator without a misalignment stage refuses a table with a matrix by type, where
+/// dropping the matrix would have left every output wrong with the status OK; with a
+/// stage it is applied.
+#[test]
+fn a_matrix_needs_a_misalignment_stage() {
+    let mut t = table(3, 32);
+    t.misalignment = Some([1.0, 1e-3, -2e-3, 5e-4, 1.0, 1.5e-3, -1e-3, 2e-4, 1.0]);
+    let mut plain = Compensator::<3, 32>::new(Config::default()).unwrap();
+    assert_eq!(plain.set_table(t.clone()), Err(table::Error::NoMisalignmentStage));
+    assert!(plain.cycle([1_601, 0, 0], 2_500).status.contains(Status::NO_TABLE), "the refused table is not in force");
+    let mut staged = comp3();
+    staged.set_table(t).unwrap();
+    warm(&mut staged, 12);
+    let out = staged.cycle([320_320, 0, 0], 2_500);
+    assert!(out.dv_mps[1] != 0.0 && out.dv_mps[2] != 0.0, "the matrix moves x into y and z: {out:?}");
+}
+
+/// Without a matrix in the table, the two stages give the same bits on both entries:
+/// random tables' gains, readings and inputs through a compensator with a stage and one
+/// without.
+#[test]
+fn with_no_matrix_in_the_table_both_stages_give_the_same_bits() {
+    let mut rng = 0x853C_49E6_748F_EA9Bu64;
+    let mut next = move |n: u64| {
+        rng ^= rng << 13;
+        rng ^= rng >> 7;
+        rng ^= rng << 17;
+        rng % n
+    };
+    for _ in 0..20 {
+        let mut t = table(3, 32);
+        for a in t.axes.iter_mut() {
+            a.scale.gamma += next(1_000) as f32;
+        }
+        let mut plain = Compensator::<3, 32>::new(Config::default()).unwrap();
+        let mut staged = comp3();
+        plain.set_table(t.clone()).unwrap();
+        staged.set_table(t).unwrap();
+        let mut raw = 352i16;
+        for k in 0..200u32 {
+            raw += next(3) as i16 - 1;
+            assert_eq!(plain.on_raw(0, 1_000 * k, raw), staged.on_raw(0, 1_000 * k, raw));
+            let pulses = [next(400_000) as i32 - 200_000, next(400_000) as i32 - 200_000, next(400_000) as i32];
+            let dt = 2_400 + next(200) as u32;
+            let (a, b) = (plain.cycle(pulses, dt), staged.cycle(pulses, dt));
+            assert_eq!(a.dv_mps.map(f32::to_bits), b.dv_mps.map(f32::to_bits));
+            assert_eq!(a.status, b.status);
+        }
+    }
+}
+
+/// The wrong entry gives +0.0, bit for bit, whatever the sign of its input, with a matrix
+/// or without: its coefficients are zeros (a −0 bias), not a branch.
+#[test]
+fn the_wrong_entry_gives_positive_zeros() {
+    let mut t = table(3, 32);
+    t.misalignment = Some([1.0, -1e-3, -2e-3, 5e-4, 1.0, 1.5e-3, -1e-3, 2e-4, 1.0]);
+    let mut staged = comp3();
+    staged.set_table(t.clone()).unwrap();
+    warm(&mut staged, 12);
+    let mut plain = Compensator::<3, 32>::new(Config::default()).unwrap();
+    t.misalignment = None;
+    plain.set_table(t).unwrap();
+    warm(&mut plain, 12);
+    for raw in [[-5, 7, -320_000], [0, 0, 0], [i32::MIN, i32::MAX, -1]] {
+        for out in [staged.cycle_samples(raw, 2_500), plain.cycle_samples(raw, 2_500)] {
+            assert!(out.status.contains(Status::WRONG_INPUT));
+            assert_eq!(out.accel_mps2.map(f32::to_bits), [0; 3], "{raw:?}: {out:?}");
+        }
     }
 }

@@ -180,6 +180,9 @@ pub enum Error {
         /// Window of this firmware.
         firmware: u16,
     },
+    /// The table has a misalignment matrix and the compensator has no misalignment stage
+    /// (its `MATRIX` is 0): use a `...WithMatrix` type, or a table without one.
+    NoMisalignmentStage,
 }
 
 impl fmt::Display for Error {
@@ -216,6 +219,10 @@ impl fmt::Display for Error {
             Self::RateWindow { table, firmware } => {
                 write!(f, "table fitted with rate window {table}, firmware uses {firmware}")
             }
+            Self::NoMisalignmentStage => f.write_str(
+                "table has a misalignment matrix, the compensator has no misalignment stage \
+                 (use a compensator type WithMatrix, MATRIX = 3)",
+            ),
         }
     }
 }

@@ -248,8 +248,9 @@ pub type AxisCompensator = Compensator<1, 32>;
 
 /// The configuration the navigation study flies, the one the firmware recommends: one
 /// 3-axis compensator with one temperature stream per axis (each DS18B20 on its own case)
-/// and one misalignment matrix.
-pub type ImuCompensator = Compensator<3, 32, 3>;
+/// and a misalignment stage for the matrix (`ThreeAxisSensorPerAxisWithMatrix`, with the
+/// table owned).
+pub type ImuCompensator = Compensator<3, 32, 3, qfa_thermal::Table, 3>;
 
 /// The firmware's default settings (1 µs ticks) for an IMU cycling at `imu_rate_hz`: the
 /// IMU period is the one setting a flight must state, or every cycle of another rate than
