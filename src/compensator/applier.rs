@@ -34,39 +34,43 @@ pub struct SampleOutput<const AXES: usize> {
 }
 
 /// Fast-path state: the applier's own copy of the last whole coefficient set, its
-/// staleness clock and its counter base. Never touched by the updater.
+/// staleness clock and its counter base. Never touched by the updater. In declaration
+/// order (`repr(C)`): the per-cycle words first, the band's two adjacent for one `ldrd`.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
 pub(super) struct FastState<const AXES: usize, const MATRIX: usize> {
-    pub(super) stale_after_ticks: u32,
-    /// The fewest `dt_ticks` a cycle may take without [`Status::DT_IMPLAUSIBLE`], and how
-    /// many more ([`Config::imu_period_s`]'s band): one unsigned compare per cycle.
-    pub(super) dt_lowest: u32,
-    pub(super) dt_span: u32,
-    /// Ticks per age unit (`stale_after_ticks / AGE_STEPS`): turns a set's age into ticks.
-    pub(super) ticks_per_age: f32,
+    /// Sequence of the set copied into `coefs`, `misalign` and `epoch`.
+    pub(super) seen_seq: u32,
     /// Ticks left before the set is stale, counted down and held at 0. At each copy, the
     /// budget `stale_after_ticks + 1` less the oldest stream's age: taken when a good
     /// reading came since the last copy, otherwise only if shorter. A countdown costs two
     /// instructions per cycle less than counting up and comparing.
     pub(super) ticks_left: u32,
-    /// Sequence of the set copied into `coefs`, `misalign` and `epoch`.
-    pub(super) seen_seq: u32,
+    /// The fewest `dt_ticks` a cycle may take without [`Status::DT_IMPLAUSIBLE`], and how
+    /// many more ([`Config::imu_period_s`]'s band): one unsigned compare per cycle.
+    pub(super) dt_lowest: u32,
+    pub(super) dt_span: u32,
+    pub(super) stale_after_ticks: u32,
+    /// Ticks per age unit (`stale_after_ticks / AGE_STEPS`): turns a set's age into ticks.
+    pub(super) ticks_per_age: f32,
     /// Each entry's coefficients, `[pulses, samples]`: the configured entry's from the last
     /// whole set; the other entry's are 0 from construction on, so a cycle there gives zeros
     /// (flagged [`Status::WRONG_INPUT`]) through the same arithmetic, without a branch.
     pub(super) coefs: [Coefs<AXES>; 2],
-    /// The last whole set's matrix (`None` without a misalignment stage or a matrix).
-    pub(super) misalign: Option<[[f32; AXES]; MATRIX]>,
-    /// The last whole set's epoch (`Set::epoch`).
-    pub(super) epoch: u8,
+    /// The unsplit compensator's counter base ([`Compensator::cycle_counters`]), meaningful
+    /// once `has_counters`: from the first counter cycle until any other kind of cycle.
+    pub(super) counters: [u32; AXES],
     /// The set's status as each entry sees it, `[pulses, samples]`: the entry that does not
     /// match [`Config::input`] carries [`Status::WRONG_INPUT`] from construction on (the
     /// bit is kept at each copy, so it needs no field of its own). Formed when a set is
     /// copied, so the per-cycle path only picks a field.
     pub(super) path_status: [Status; 2],
-    /// The unsplit compensator's counter base ([`Compensator::cycle_counters`]); `None`
-    /// before the first counter cycle and after any other kind of cycle.
-    pub(super) counters: Option<[u32; AXES]>,
+    /// The last whole set's matrix (`None` without a misalignment stage or a matrix).
+    pub(super) misalign: Option<[[f32; AXES]; MATRIX]>,
+    /// The last whole set's epoch (`Set::epoch`).
+    pub(super) epoch: u8,
+    /// `counters` holds a base (no `Option`: its 4-byte tag cost 4 B more with the padding).
+    pub(super) has_counters: bool,
 }
 
 /// One entry's coefficients: g0/K1 per axis, and the bias in that entry's form (m/s per tick

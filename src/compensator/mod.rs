@@ -287,7 +287,8 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
                     table::Input::PulseCounts => [NOT_YET, NOT_YET | Status::WRONG_INPUT],
                     table::Input::Samples => [NOT_YET | Status::WRONG_INPUT, NOT_YET],
                 },
-                counters: None,
+                counters: [0; AXES],
+                has_counters: false,
             },
         };
         c.updater().refresh_all(0.0);
@@ -399,7 +400,7 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
     /// [`cycle_counters`](Self::cycle_counters), whose pulses this cycle may have reported.
     #[inline]
     pub fn cycle(&mut self, pulses: [i32; AXES], dt_ticks: u32) -> PulseOutput<AXES> {
-        self.fast.counters = None;
+        self.fast.has_counters = false;
         self.applier().cycle(pulses, dt_ticks)
     }
 
@@ -407,7 +408,7 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
     /// base, as [`cycle`](Self::cycle) does.
     #[inline]
     pub fn cycle_samples(&mut self, raw: [i32; AXES], dt_ticks: u32) -> SampleOutput<AXES> {
-        self.fast.counters = None;
+        self.fast.has_counters = false;
         self.applier().cycle_samples(raw, dt_ticks)
     }
 
@@ -420,7 +421,10 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
     #[inline]
     pub fn cycle_counters(&mut self, counters: [u32; AXES], dt_ticks: u32) -> PulseOutput<AXES> {
         // One call of the fast path for both outcomes (two inlined copies cost flash).
-        let prev = self.fast.counters.replace(counters);
+        let f = &mut self.fast;
+        // The new base is taken either way; the old one only if there was one.
+        let old = core::mem::replace(&mut f.counters, counters);
+        let prev = core::mem::replace(&mut f.has_counters, true).then_some(old);
         let pulses: [i32; AXES] = core::array::from_fn(|i| prev.map_or(0, |p| counters[i].wrapping_sub(p[i]) as i32));
         let mut out = self.applier().cycle(pulses, dt_ticks);
         if prev.is_none() {
@@ -432,7 +436,7 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
 
     /// Set the cumulative counters' base without producing output.
     pub fn prime_counters(&mut self, counters: [u32; AXES]) {
-        self.fast.counters = Some(counters);
+        (self.fast.counters, self.fast.has_counters) = (counters, true);
     }
 }
 
