@@ -187,14 +187,32 @@ pub struct RateWindow<const RATE_WINDOW: usize> {
     newest_rel: i32,
     /// Σt, below 2³⁰; Σt², below 2⁶⁰.
     s_t: i32,
-    s_tt: i64,
+    s_tt: Sum64,
     /// Σy, below 2²² in magnitude; Σty, below 2⁶⁰.
     s_y: i32,
-    s_ty: i64,
+    s_ty: Sum64,
     /// The least-squares slope of the window, raw units per ms: formed once per sample
     /// (two 64-bit → f32 conversions and a division), read by `estimate`.
     slope: f32,
     smoothed: f32,
+}
+
+/// An i64 kept as two 32-bit words: 4-byte aligned, where an `i64` field makes the whole
+/// window (and every struct holding one) 8-byte aligned, with up to 7 bytes of padding at
+/// each level. On a Cortex-M4 the two words load and store as one `ldrd`/`strd` either way.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Sum64([u32; 2]);
+
+impl Sum64 {
+    const ZERO: Self = Self([0; 2]);
+
+    fn get(self) -> i64 {
+        (u64::from(self.0[1]) << 32 | u64::from(self.0[0])) as i64
+    }
+
+    fn set(&mut self, v: i64) {
+        self.0 = [v as u32, (v >> 32) as u32];
+    }
 }
 
 /// Raw units per ms → °C/min: 60 000 ms/min ÷ 16 raw/°C.
@@ -221,9 +239,9 @@ impl<const RATE_WINDOW: usize> RateWindow<RATE_WINDOW> {
             last_ms: 0,
             newest_rel: 0,
             s_t: 0,
-            s_tt: 0,
+            s_tt: Sum64::ZERO,
             s_y: 0,
-            s_ty: 0,
+            s_ty: Sum64::ZERO,
             slope: 0.0,
             smoothed: 0.0,
         }
@@ -307,9 +325,9 @@ impl<const RATE_WINDOW: usize> RateWindow<RATE_WINDOW> {
 
     fn add_to_sums(&mut self, t: i32, raw: i16) {
         self.s_t += t;
-        self.s_tt += i64::from(t) * i64::from(t);
+        self.s_tt.set(self.s_tt.get() + i64::from(t) * i64::from(t));
         self.s_y += i32::from(raw);
-        self.s_ty += i64::from(t) * i64::from(raw);
+        self.s_ty.set(self.s_ty.get() + i64::from(t) * i64::from(raw));
     }
 
     /// Remove the oldest sample (at relative time 0) and move the origin to the next one.
@@ -324,9 +342,9 @@ impl<const RATE_WINDOW: usize> RateWindow<RATE_WINDOW> {
         let n = i64::from(self.len);
         // Σ(t−d)² = Σt² − 2dΣt + nd², Σ(t−d) = Σt − nd, Σ(t−d)y = Σty − dΣy; exact. n·d is
         // below 2²³ (at most 127 gaps of at most 65 535 ms).
-        self.s_tt = self.s_tt - 2 * d * i64::from(self.s_t) + n * d * d;
+        self.s_tt.set(self.s_tt.get() - 2 * d * i64::from(self.s_t) + n * d * d);
         self.s_t -= i32::from(self.len) * i32::from(self.gap[head]);
-        self.s_ty -= d * i64::from(self.s_y);
+        self.s_ty.set(self.s_ty.get() - d * i64::from(self.s_y));
         self.newest_rel -= i32::from(self.gap[head]);
         self.gap[head] = 0;
     }
@@ -335,11 +353,11 @@ impl<const RATE_WINDOW: usize> RateWindow<RATE_WINDOW> {
     fn slope_raw_per_ms(&self) -> f32 {
         let n = i64::from(self.len);
         let s_t = i64::from(self.s_t);
-        let den = n * self.s_tt - s_t * s_t;
+        let den = n * self.s_tt.get() - s_t * s_t;
         if den <= 0 {
             return 0.0;
         }
-        let num = n * self.s_ty - s_t * i64::from(self.s_y);
+        let num = n * self.s_ty.get() - s_t * i64::from(self.s_y);
         i64_to_f32(num) / u64_to_f32(den as u64)
     }
 

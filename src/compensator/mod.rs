@@ -97,7 +97,7 @@ pub use seqlock::Published;
 use seqlock::Published;
 use seqlock::{Set, AGE_STEPS};
 pub use slow_path::{SampleError, Updater};
-use slow_path::{SlowState, Stream, Timed};
+use slow_path::{SlowState, Stream};
 pub use status::Status;
 
 /// Standard gravity, m/s² (the unit the tables' g refers to).
@@ -251,7 +251,8 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
         let dt_band = config.dt_band().ok_or(ConfigError::ImuPeriodInTicks)?;
         let stream = Stream {
             rate: RateWindow::new(),
-            pending: Timed { t_ms: 0, raw: 0 },
+            pending_t_ms: 0,
+            pending_raw: 0,
             pending_count: 0,
             invalid: false,
             age_ms: 0,

@@ -67,9 +67,11 @@ pub(super) struct Stream<const RATE_WINDOW: usize> {
     /// stream's last good reading (every good reading is pushed, and a restart empties it
     /// only to push the reading that restarted it): kept once, there.
     pub(super) rate: RateWindow<RATE_WINDOW>,
-    /// The latest rejected reading, counted towards a confirmed step; meaningful only while
-    /// `pending_count > 0` (no `Option`: 4 B less per stream).
-    pub(super) pending: Timed,
+    /// The latest rejected reading's time and value, counted towards a confirmed step;
+    /// meaningful only while `pending_count > 0` (no `Option`, and two fields rather than a
+    /// `Timed`, whose padding cost 2 B: 8 B less per stream in all).
+    pub(super) pending_t_ms: u32,
+    pub(super) pending_raw: i16,
     /// Consecutive mutually consistent rejected readings, the latest being `pending`.
     pub(super) pending_count: u8,
     /// The latest reading was rejected.
@@ -460,7 +462,8 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
     /// replaced sensor) or a restarted clock.
     fn confirm_step(&mut self, sensor: usize, t_ms: u32, raw: i16) -> bool {
         let s = &self.slow.streams[sensor];
-        let consistent = match (s.pending_count > 0).then_some(s.pending) {
+        let pending = Timed { t_ms: s.pending_t_ms, raw: s.pending_raw };
+        let consistent = match (s.pending_count > 0).then_some(pending) {
             Some(p) => {
                 let d = t_ms.wrapping_sub(p.t_ms);
                 d != 0 && d < i32::MAX as u32 && self.plausible(p, d, raw)
@@ -469,7 +472,7 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
         };
         let s = &mut self.slow.streams[sensor];
         s.pending_count = if consistent { s.pending_count.saturating_add(1) } else { 1 };
-        s.pending = Timed { t_ms, raw };
+        (s.pending_t_ms, s.pending_raw) = (t_ms, raw);
         s.pending_count >= self.slow.config.confirm_samples
     }
 
