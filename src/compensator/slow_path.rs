@@ -145,8 +145,9 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
             // division would link 900 B of library code): within one unit, 0.18 ms at 3 s.
             // Once, for the oldest: the rounding is monotonic, so it is the largest of the
             // streams' ages rounded each.
+            // Through u32, one saturating `vcvt` (to u16 it is clamped twice more).
             let units_per_ms = f32::from(AGE_STEPS) / stale_ms as f32;
-            ((oldest_ms as f32 * units_per_ms) as u16).min(AGE_STEPS)
+            ((oldest_ms as f32 * units_per_ms) as u32).min(u32::from(AGE_STEPS)) as u16
         };
         if self.table.is_none() {
             st |= Status::NO_TABLE;
