@@ -6,6 +6,73 @@
 #[cfg(target_os = "none")]
 pub mod rt;
 
+#[cfg(all(target_os = "none", feature = "fixtures"))]
+/// The tables the benchmark compensates with: the paper's JB-KT8 #1 on three axes, each a
+/// `static Table` built by `const fn`s, as the README keeps a table in flash.
+pub mod tables {
+    use qfa_thermal::fixtures::JB_KT8_1;
+    use qfa_thermal::model::{BranchHysteresis, Creep, SensorLag};
+    use qfa_thermal::table::SAMPLE_UNITS_PER_G;
+    use qfa_thermal::{AxisModel, BiasGrid, Extensions, Input, Table};
+
+    /// First grid point, °C.
+    const GRID_START_C: f32 = -40.0;
+    /// Grid spacing, °C.
+    const GRID_STEP_C: f32 = 10.0;
+    /// Grid points: −40..=80 °C.
+    const GRID_POINTS: usize = 13;
+    /// Heating branch above the cooling branch by this much, g.
+    const BRANCH_SPLIT_G: f32 = 8e-6;
+    /// A small misalignment / cross-axis matrix (row-major), within the table limits.
+    const MISALIGNMENT: [f32; 9] = [1.0, 1.0e-3, -2.0e-3, 5.0e-4, 1.0, 1.5e-3, -1.0e-3, 2.0e-4, 1.0];
+    /// The rate window the tables are fitted for: the compensators' default.
+    const RATE_WINDOW: u16 = 32;
+    /// The part the samples table is read at, LSB per g.
+    pub const SAMPLE_LSB_PER_G: f32 = 320_000.0;
+
+    /// A plausible bias grid for `axis`: ~100 µg at 22 °C, 1.5 µg/°C, slight curvature,
+    /// and heating/cooling branches [`BRANCH_SPLIT_G`] apart.
+    const fn bias_grid(axis: usize) -> BiasGrid {
+        let offset = 1.0e-4 + 2.0e-5 * axis as f32;
+        let (mut heating, mut cooling) = ([0.0f32; GRID_POINTS], [0.0f32; GRID_POINTS]);
+        let mut i = 0;
+        while i < GRID_POINTS {
+            let d = GRID_START_C + GRID_STEP_C * i as f32 - 22.0;
+            let k0 = offset + 1.5e-6 * d + 8.0e-9 * d * d;
+            heating[i] = k0 + 0.5 * BRANCH_SPLIT_G;
+            cooling[i] = k0 - 0.5 * BRANCH_SPLIT_G;
+            i += 1;
+        }
+        BiasGrid::with_branches(GRID_START_C, GRID_STEP_C, BiasGrid::DEFAULT_DEADBAND_C_PER_MIN, heating, cooling)
+    }
+
+    /// Every extension slot on, with plausible constants.
+    const ALL_SLOTS_ON: Extensions = Extensions {
+        sensor_lag: Some(SensorLag { tau_s: 40.0 }),
+        bias_branch_hysteresis: Some(BranchHysteresis { half_width_c: 0.5, weight_g: 2e-5 }),
+        bias_creep: Some(Creep { gain_g_per_c: 2e-6, tau_ref_s: 600.0, t_ref_c: 22.0, activation_k: 4000.0 }),
+    };
+
+    const fn axis(i: usize, ext: Extensions, samples: bool) -> AxisModel {
+        let scale = if samples { JB_KT8_1.in_units(SAMPLE_UNITS_PER_G / SAMPLE_LSB_PER_G) } else { JB_KT8_1 };
+        AxisModel { scale, bias: bias_grid(i), rate_limit_c_per_min: 2.0, ext }
+    }
+
+    const fn axes(ext: Extensions, samples: bool) -> [AxisModel; 3] {
+        [axis(0, ext, samples), axis(1, ext, samples), axis(2, ext, samples)]
+    }
+
+    /// Pulse counts, every slot off.
+    pub static SLOTS_OFF: Table = Table::new(Input::PulseCounts, RATE_WINDOW, axes(Extensions::NONE, false), None);
+    /// Pulse counts, every slot on.
+    pub static SLOTS_ON: Table = Table::new(Input::PulseCounts, RATE_WINDOW, axes(ALL_SLOTS_ON, false), None);
+    /// Pulse counts, every slot off, with a misalignment matrix.
+    pub static MISALIGNED: Table =
+        Table::new(Input::PulseCounts, RATE_WINDOW, axes(Extensions::NONE, false), Some(MISALIGNMENT));
+    /// The same model for a MEMS part read at [`SAMPLE_LSB_PER_G`].
+    pub static SAMPLES: Table = Table::new(Input::Samples, RATE_WINDOW, axes(Extensions::NONE, true), None);
+}
+
 /// The statics the size programs share (`size_baseline`, `panic_check`, `static_table_link`):
 /// each references both, so the differences of their flash are the core's code alone.
 #[cfg(target_os = "none")]

@@ -21,6 +21,7 @@ mod host_tests;
 mod loom_model;
 mod snapshot;
 mod tools;
+mod trace;
 
 use figures::*;
 use loom_model::*;
@@ -98,6 +99,8 @@ commands:
                 instruction counts (QEMU -icount shift=0, SysTick), flash/RAM of the core and
                 of the STM32F405 board example; the figures against xtask/budgets.txt
   panic-check   link-time proof that no panic is reachable from the core's paths
+  trace-target  where the paths' instructions go: examples/trace_paths.rs under QEMU one
+                instruction at a time, per function and per call (needs llvm-nm)
   loom          the seqlock's loom model (clippy and tests under --cfg loom), then each seqlock
                 mutant, which the model must fail: prints mutants_caught=N of M
   oracle [--histories N] [--seed S] [--mutants]
@@ -134,6 +137,7 @@ fn main() {
         Some(command @ "demo-qemu") => overwrite_flag(command, &args[1..]).and_then(demo_qemu),
         Some(command @ "bench-target") => overwrite_flag(command, &args[1..]).and_then(bench_target),
         Some("panic-check") => panic_check(),
+        Some("trace-target") => trace::trace_target(),
         Some("loom") => loom(),
         Some("oracle") => oracle(&args[1..]),
         Some("experiment") => experiment(&args[1..]),
