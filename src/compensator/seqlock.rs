@@ -124,28 +124,26 @@ impl<const AXES: usize, const MATRIX: usize> Set<AXES, MATRIX> {
 }
 
 /// What a publication writes besides the flags word (status, epoch, age), which every
-/// publication writes: the coefficients of some axes, and the misalignment matrix. The words
-/// it leaves alone keep the values of the set in force, which are still right: a reading
-/// from one sensor of a sensor per axis changes one axis, and the matrix changes only with
-/// the table.
+/// publication writes. The words it leaves alone keep the values of the set in force, which
+/// are still right: a rejected reading changes no coefficient, and the matrix changes only
+/// with the table. (Writing only the axis a reading serves, with a sensor per axis, was
+/// measured too: the mask cost more instructions and flash than the stores and divisions it
+/// skipped; see docs/measurements.md.)
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) struct Changes {
-    /// Bit `i`: axis `i`'s scale and bias.
-    pub(super) axes: u8,
+    /// Every axis's scale and bias.
+    pub(super) coefficients: bool,
     /// The matrix (and whether there is one), from [`Set::misalign`].
     pub(super) matrix: bool,
 }
 
 impl Changes {
     /// Everything: at construction and at each table.
-    pub(super) const ALL: Self = Self { axes: u8::MAX, matrix: true };
+    pub(super) const ALL: Self = Self { coefficients: true, matrix: true };
+    /// The coefficients, not the matrix: a reading.
+    pub(super) const COEFFICIENTS: Self = Self { coefficients: true, matrix: false };
     /// The flags word alone: a rejected or missed reading.
-    pub(super) const FLAGS: Self = Self { axes: 0, matrix: false };
-
-    /// Axis `axis`'s coefficients.
-    pub(super) const fn axis(axis: usize) -> Self {
-        Self { axes: 1 << axis, matrix: false }
-    }
+    pub(super) const FLAGS: Self = Self { coefficients: false, matrix: false };
 }
 
 /// A whole set as read by [`Published::read_with`].
@@ -226,8 +224,8 @@ impl<const AXES: usize, const MATRIX: usize> Published<AXES, MATRIX> {
         #[cfg(not(qfa_mutant = "writer_no_release_fence"))]
         fence(Ordering::Release);
         after_store();
-        for i in 0..AXES {
-            if changes.axes & (1 << i) != 0 {
+        if changes.coefficients {
+            for i in 0..AXES {
                 self.scale[i].store(set.scale[i].to_bits(), Ordering::Relaxed);
                 after_store();
                 self.bias[i].store(set.bias[i].to_bits(), Ordering::Relaxed);
@@ -328,7 +326,7 @@ mod tests {
 /// executions by about 9 (measured as 785 362 against 89 453 for one publication, before the
 /// flags word carried the age and the epoch, and before the set had one bias) and checks
 /// nothing the other words do not. Every publication here writes every word
-/// ([`Changes::ALL`]): one that writes fewer ([`Changes::axis`], [`Changes::FLAGS`]) makes a
+/// ([`Changes::ALL`]): one that writes fewer ([`Changes::COEFFICIENTS`], [`Changes::FLAGS`]) makes a
 /// subset of the same stores between the same sequence stores and fences, which is what the
 /// argument rests on.
 #[cfg(all(test, loom))]

@@ -168,8 +168,7 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
     }
 
     /// The coefficient set of the current table, evaluations and [`Self::summary`], formed
-    /// for the axes (and the matrix) in `changes` only: the other axes' words are not
-    /// published, so they are left at 0 here. Rebuilt at every publication (a division per
+    /// for what `changes` names only: the words not published are left at 0 here. Rebuilt at every publication (a division per
     /// changed axis, in the slow path) rather than kept beside the published one: that copy
     /// would cost RAM.
     pub(super) fn set<const MATRIX: usize>(&self, changes: Changes) -> Set<AXES, MATRIX> {
@@ -184,8 +183,8 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
         // 1 for pulse counts (K1 · 1 is K1, bit for bit); the part's LSB per 2²⁰ for samples.
         let to_input = self.config.table_to_input();
         let pulses = self.config.input == table::Input::PulseCounts;
-        for (i, e) in self.evals.iter().enumerate() {
-            if changes.axes & (1 << i) != 0 {
+        if changes.coefficients {
+            for (i, e) in self.evals.iter().enumerate() {
                 set.scale[i] = G0 / (e.k1 * to_input);
                 set.bias[i] = if pulses { (e.k0 * G0) * self.config.tick_s } else { e.k0 * G0 };
             }
@@ -506,15 +505,10 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
     }
 
     /// Re-evaluate the axes served by `sensor` (every axis for `None`) at their stream's
-    /// estimate (or at T0 before its first reading), rebuild the status and publish those
-    /// axes (everything for `None`: a table or a construction).
+    /// estimate (or at T0 before its first reading), rebuild the status and publish the
+    /// coefficients (and the matrix for `None`: a table or a construction).
     fn refresh(&mut self, sensor: Option<usize>, dt_s: f32, good_sample: bool) {
-        let changes = match sensor {
-            // One sensor serves every axis.
-            Some(_) if SENSORS == 1 => Changes { axes: u8::MAX, matrix: false },
-            Some(j) => Changes::axis(j),
-            None => Changes::ALL,
-        };
+        let changes = if sensor.is_some() { Changes::COEFFICIENTS } else { Changes::ALL };
         let slow = &mut *self.slow;
         if let Some(t) = &slow.table {
             {

@@ -558,10 +558,10 @@ fn dividing_the_us_clock_costs_seconds_of_flags_at_each_wrap_not_an_hour() {
     assert!(ok_after > 100, "{ok_after}");
 }
 
-/// A sensor per axis publishes only the axis its reading serves (and a rejection only the
-/// flags). Whatever the order of readings, rejections and tables, the published words must
-/// equal the whole set formed afresh: an axis left behind, or another axis's words written,
-/// would differ. Random sensors, temperatures and gaps, with a matrix.
+/// A reading publishes the coefficients without the matrix, a rejection the flags alone.
+/// Whatever the order of readings, rejections and tables, the published words must equal
+/// the whole set formed afresh: a word left behind would differ. Random sensors,
+/// temperatures and gaps, a sensor per axis, with a matrix.
 #[test]
 fn a_partial_publication_leaves_the_whole_set_right() {
     let mut rng = 0x2545_F491_4F6C_DD1Du64;
