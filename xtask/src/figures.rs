@@ -178,3 +178,23 @@ pub(super) fn bench_target(overwrite: bool) -> Result {
     printed.push_str(&board_figures()?);
     check_figures(&printed)
 }
+
+pub(super) fn build_board() -> Result {
+    run(board_cargo(&["build", "--release", "--target", TARGET])?)
+}
+
+/// Berkeley `text data bss` of an ELF.
+pub(super) fn berkeley(tool: &Path, file: &Path) -> Result<(u64, u64, u64)> {
+    let mut c = Command::new(tool);
+    c.arg("-B").arg(file);
+    let (status, out, err) = capture(c)?;
+    if !status.success() {
+        return fail(format!("{} {}: {err}", tool.display(), file.display()));
+    }
+    let nums: Vec<u64> =
+        out.lines().nth(1).unwrap_or("").split_whitespace().take(3).filter_map(|w| w.parse().ok()).collect();
+    match nums[..] {
+        [t, d, b] => Ok((t, d, b)),
+        _ => fail(format!("unexpected size output:\n{out}")),
+    }
+}

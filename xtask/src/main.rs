@@ -559,26 +559,6 @@ fn run_demo_example(overwrite: bool) -> Result {
     run_snapshot(&DEMO_SNAPSHOT, &example_elf(DEMO_EXAMPLE)?, false, overwrite).map(drop)
 }
 
-fn build_board() -> Result {
-    run(board_cargo(&["build", "--release", "--target", TARGET])?)
-}
-
-/// Berkeley `text data bss` of an ELF.
-fn berkeley(tool: &Path, file: &Path) -> Result<(u64, u64, u64)> {
-    let mut c = Command::new(tool);
-    c.arg("-B").arg(file);
-    let (status, out, err) = capture(c)?;
-    if !status.success() {
-        return fail(format!("{} {}: {err}", tool.display(), file.display()));
-    }
-    let nums: Vec<u64> =
-        out.lines().nth(1).unwrap_or("").split_whitespace().take(3).filter_map(|w| w.parse().ok()).collect();
-    match nums[..] {
-        [t, d, b] => Ok((t, d, b)),
-        _ => fail(format!("unexpected size output:\n{out}")),
-    }
-}
-
 /// Build panic_check; on a link failure, return the linker's lines about the panic symbol.
 fn build_panic_check() -> Result {
     build_panic_free(PANIC_CHECK)
