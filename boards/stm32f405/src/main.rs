@@ -38,6 +38,8 @@ mod cycle;
 mod poll;
 #[cfg(any(test, target_os = "none"))]
 mod widen;
+#[cfg(target_os = "none")]
+mod wiring;
 
 /// On the host: say how to build and flash it.
 #[cfg(not(target_os = "none"))]
