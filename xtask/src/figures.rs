@@ -159,15 +159,18 @@ pub(super) fn check_figures(printed: &str) -> Result {
     Ok(())
 }
 
-/// Build the board example and print its flash and RAM as `key=value` lines, which it
-/// returns for the budgets.
-pub(super) fn board_figures() -> Result<String> {
-    step("flash and RAM of the STM32F405 board example (whole image, release)");
-    build_board()?;
+/// Build each firmware image (the board example and the apps) and print its flash and RAM
+/// as `key=value` lines, which it returns for the budgets.
+pub(super) fn firmware_figures() -> Result<String> {
+    step("flash and RAM of the STM32F405 board example and apps (whole images, release)");
     let tool = ensure_size_tool()?;
-    let (t, d, b) = berkeley(&tool, &target_dir()?.join(TARGET).join("release").join(BOARD))?;
-    println!("{BOARD}: text={t} data={d} bss={b}");
-    let lines = format!("board_flash_bytes={}\nboard_ram_bytes={}\n", t + d, d + b);
+    let mut lines = String::new();
+    for (dir, bin, key) in FIRMWARES {
+        run(firmware_cargo(dir, &["build", "--release", "--target", TARGET])?)?;
+        let (t, d, b) = berkeley(&tool, &target_dir()?.join(TARGET).join("release").join(bin))?;
+        println!("{bin}: text={t} data={d} bss={b}");
+        lines.push_str(&format!("{key}_flash_bytes={}\n{key}_ram_bytes={}\n", t + d, d + b));
+    }
     print!("{lines}");
     Ok(lines)
 }
@@ -175,12 +178,8 @@ pub(super) fn board_figures() -> Result<String> {
 pub(super) fn bench_target(overwrite: bool) -> Result {
     ensure_target()?;
     let mut printed = measure_figures(overwrite)?;
-    printed.push_str(&board_figures()?);
+    printed.push_str(&firmware_figures()?);
     check_figures(&printed)
-}
-
-pub(super) fn build_board() -> Result {
-    run(board_cargo(&["build", "--release", "--target", TARGET])?)
 }
 
 /// Berkeley `text data bss` of an ELF.

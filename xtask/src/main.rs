@@ -41,10 +41,16 @@ const CORE: &str = "qfa-thermal";
 /// but the demo builds with them, so panic_check links the same library the benchmark
 /// measures.
 const EXAMPLE_FEATURES: &str = "fixtures,bench-internals";
-/// The STM32F405 board example (built, not run: no hardware in CI), its own workspace.
-const BOARD: &str = "qfa-board-stm32f405";
-/// The board's workspace, relative to the repository root.
-const BOARD_DIR: &str = "boards/stm32f405";
+/// The firmware images of the STM32F405 (built, not run: no hardware in CI), each its own
+/// workspace: (directory from the repository root, binary, the prefix of its printed
+/// figures). The board example, and the same wiring as an RTIC 2 app and as an embassy app.
+const FIRMWARES: [(&str, &str, &str); 3] = [
+    ("boards/stm32f405", "qfa-board-stm32f405", "board"),
+    ("boards/stm32f405-rtic", "qfa-app-rtic-stm32f405", "app_rtic"),
+    ("boards/stm32f405-embassy", "qfa-app-embassy-stm32f405", "app_embassy"),
+];
+/// The board example's workspace: the one with host tests.
+const BOARD_DIR: &str = FIRMWARES[0].0;
 /// The root crate's example that runs under QEMU (examples/qemu_demo.rs).
 const DEMO_EXAMPLE: &str = "qemu_demo";
 const QEMU: &str = "qemu-system-arm";
@@ -177,13 +183,18 @@ fn cargo() -> Command {
     c
 }
 
-/// Cargo in the board's own workspace: run from its directory, so its `.cargo/config.toml`
-/// and `memory.x` apply, with the repository's target directory (shared build cache, and
-/// the ELF where `elf` looks for it).
+/// Cargo in the board example's own workspace (see [`firmware_cargo`]).
 fn board_cargo(args: &[&str]) -> Result<Command> {
+    firmware_cargo(BOARD_DIR, args)
+}
+
+/// Cargo in a firmware's own workspace: run from its directory, so its
+/// `.cargo/config.toml` and `memory.x` apply, with the repository's target directory
+/// (shared build cache, and the ELF where the size step looks for it).
+fn firmware_cargo(dir: &str, args: &[&str]) -> Result<Command> {
     let target = target_dir()?;
     let mut c = cargo();
-    c.current_dir(root().join(BOARD_DIR));
+    c.current_dir(root().join(dir));
     let (sub, rest) = args.split_first().map_or((None, args), |(s, r)| (Some(s), r));
     c.args(sub).arg("--target-dir").arg(target).args(rest);
     Ok(c)
@@ -402,19 +413,23 @@ fn test(overwrite: bool) -> Result {
     ensure_target()?;
     let target_half = Alongside::start("test-target", overwrite)?;
 
-    step("rustfmt --check (rustfmt.toml: 120 columns), workspace and board");
+    step("rustfmt --check (rustfmt.toml: 120 columns), workspace, board and apps");
     let mut c = cargo();
     c.args(["fmt", "--all", "--check"]);
     run(c)?;
-    let mut c = cargo();
-    c.current_dir(root().join(BOARD_DIR)).args(["fmt", "--all", "--check"]);
-    run(c)?;
+    for (dir, _, _) in FIRMWARES {
+        let mut c = cargo();
+        c.current_dir(root().join(dir)).args(["fmt", "--all", "--check"]);
+        run(c)?;
+    }
 
-    step("clippy, host (workspace and board, all targets)");
+    step("clippy, host (workspace, board and apps, all targets)");
     let mut c = cargo();
     c.args(["clippy", "--workspace", "--all-targets", "--", "-D", "warnings"]);
     run(c)?;
-    run(board_cargo(&["clippy", "--all-targets", "--", "-D", "warnings"])?)?;
+    for (dir, _, _) in FIRMWARES {
+        run(firmware_cargo(dir, &["clippy", "--all-targets", "--", "-D", "warnings"])?)?;
+    }
 
     step("host tests and doctests (default members; the README's example is a doctest)");
     ensure_chromium()?;
@@ -448,13 +463,15 @@ fn test(overwrite: bool) -> Result {
 fn test_target(overwrite: bool) -> Result {
     ensure_target()?;
 
-    step(&format!("clippy, {TARGET} (core and its examples, board example)"));
+    step(&format!("clippy, {TARGET} (core and its examples, board example and apps)"));
     let mut c = cargo();
     // With the measuring features, or the benchmark (required-features) is skipped unseen.
     c.args(["clippy", "-p", CORE, "--lib", "--examples", "--features", EXAMPLE_FEATURES, "--target", TARGET]);
     c.args(["--", "-D", "warnings"]);
     run(c)?;
-    run(board_cargo(&["clippy", "--target", TARGET, "--", "-D", "warnings"])?)?;
+    for (dir, _, _) in FIRMWARES {
+        run(firmware_cargo(dir, &["clippy", "--target", TARGET, "--", "-D", "warnings"])?)?;
+    }
 
     step("loom model of the seqlock (clean; `cargo xtask loom` adds the mutants)");
     loom_model_passes(&target_dir()?.join("loom"))?;
@@ -465,10 +482,10 @@ fn test_target(overwrite: bool) -> Result {
     step("reference vectors on QEMU mps2-an386 (Cortex-M4F)");
     run_snapshot(&VECTORS_SNAPSHOT, &example_elf(VECTORS_SNAPSHOT.program)?, false, overwrite)?;
 
-    // The benchmark's and the board's figures against their budgets and the docs (as
-    // `bench-target` does).
+    // The benchmark's, the board's and the apps' figures against their budgets and the
+    // docs (as `bench-target` does).
     let mut printed = measure_figures(overwrite)?;
-    printed.push_str(&board_figures()?);
+    printed.push_str(&firmware_figures()?);
     check_figures(&printed)?;
 
     step(&format!("demo example ({DEMO_EXAMPLE}) on QEMU mps2-an386, the root memory.x"));
