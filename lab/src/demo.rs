@@ -244,6 +244,7 @@ fn run_unit(
             title: truth.name.clone(),
             progress: opts.progress,
             axis: None,
+            unit: None,
             exports: qfa_calibrate::export::ExportOptions::default(),
             limits: LimitsChoice::default(),
             reproducible: false,

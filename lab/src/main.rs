@@ -189,6 +189,7 @@ fn calibrate_cmd(a: CalibrateArgs) -> Result<(), CliError> {
                 title: a.log.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default(),
                 progress: true,
                 axis: Some(format!("a{}", a.axis)),
+                unit: None,
                 exports,
                 limits: limits.clone(),
                 reproducible: false,
@@ -498,10 +499,16 @@ fn batch_cmd(a: BatchCli) -> Result<(), CliError> {
         _ => return Err(CliError::Usage("batch needs --log CHAMBER_LOG or --manifest batch.toml".into())),
     }
     .map_err(|e| CliError::Usage(e.to_string()))?;
+    // Before the first line that says a calibration starts (`run` checks it too).
+    qfa_batch::check_limits_for(&limits, &units).map_err(|e| CliError::Usage(e.to_string()))?;
     eprintln!("{} units; calibrating into {}", units.len(), out.display());
     let t0 = Instant::now();
     let opts = BatchOptions { unit, threads: a.threads, shard: a.shard, progress: true };
-    let run = qfa_batch::run(&units, &out, &opts).map_err(|e| CliError::Failed(e.to_string()))?;
+    let run = qfa_batch::run(&units, &out, &opts).map_err(|e| match e {
+        // A limits file that no kind of unit in the batch can use: a usage error, before any unit.
+        qfa_batch::BatchError::Limits(_) => CliError::Usage(e.to_string()),
+        _ => CliError::Failed(e.to_string()),
+    })?;
     let secs = t0.elapsed().as_secs_f64();
     eprintln!("{} units in {secs:.1} s ({:.1} units/min)", run.results.len(), run.results.len() as f64 * 60.0 / secs);
     match &run.fleet {

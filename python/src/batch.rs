@@ -26,6 +26,7 @@ impl Kind for LabBatchError {
             Self::Shard { .. } => "Shard",
             Self::NothingToMerge { .. } | Self::MergeClash { .. } => "Merge",
             Self::Io { .. } | Self::Json { .. } | Self::Output(_) => "Io",
+            Self::Limits(_) => "Limits",
             _ => "Other",
         }
     }

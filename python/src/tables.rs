@@ -294,6 +294,7 @@ pub fn calibrate(
                 title: String::new(),
                 progress: false,
                 axis: Some(axis.clone()),
+                unit: None,
                 exports,
                 limits: qfa_report::verdict::LimitsChoice::default(),
                 reproducible: false,

@@ -70,6 +70,8 @@ pub enum BatchError {
     Output(OutputError),
     /// The worker threads could not be started.
     ThreadPool(rayon::ThreadPoolBuildError),
+    /// The limits file sets no key that a kind of unit in the batch checks.
+    Limits(qfa_report::verdict::LimitsError),
 }
 
 /// What is wrong with a manifest.
@@ -213,6 +215,7 @@ impl fmt::Display for BatchError {
             Self::Json { path, source } => write!(f, "{}: {source}", path.display()),
             Self::Output(e) => write!(f, "{e}"),
             Self::ThreadPool(e) => write!(f, "thread pool: {e}"),
+            Self::Limits(e) => write!(f, "{e}"),
         }
     }
 }

@@ -49,6 +49,15 @@ use qfa_report::verdict::{Limits, Measured, Outcome};
 /// threshold keeps this margin. `a_chamber_run_flags_each_bad_unit_for_its_defect_and_passes_the_rest`
 /// fails when it is set so that a good unit is flagged or a bad one passes.
 pub(crate) const Z_FLAG: f64 = 6.0;
+/// Units of full coverage a fleet needs before units are flagged outside it: below, the
+/// median and MAD of a handful of units are too unsteady a yardstick, and good units land
+/// beyond `Z_FLAG` of it. Set to 10 after measuring fleets of good QFA units only (eight
+/// seeds per size, `cargo test --release -p qfa-lab --test batch_qfa -- --ignored
+/// fleet_size_study --nocapture`): good units flagged 8/24 at 3 units, 5/32 at 4, 10/40 at 5,
+/// 1/48 at 6, 0/56 at 7, 2/64 at 8, 1/80 at 10, 1/96 at 12 (0/170 at 20, the flag study's).
+/// Below it the fleet says so and judges its units by their limits alone
+/// (`a_fleet_too_small_to_compare_says_so_and_flags_no_unit` fails when it is 0).
+pub(crate) const MIN_FLEET: usize = 10;
 /// A unit whose span is under this share of the fleet's median span has partial coverage.
 pub(crate) const FULL_SPAN_SHARE: f64 = 0.8;
 /// The fleet's median reading moves less than this on a steady minute, °C/min.
@@ -128,6 +137,20 @@ pub enum Decision {
     Fail,
 }
 
+impl Fleet {
+    /// Why no unit was compared with the fleet, in words; `None` when they were.
+    #[must_use]
+    pub fn not_compared(&self) -> Option<String> {
+        (!self.compared).then(|| {
+            format!(
+                "only {} unit(s) of full coverage: a fleet needs {MIN_FLEET} before a unit is compared with it (with \
+                 fewer, good units sit far outside so unsteady a yardstick); each unit is judged by its limits alone",
+                self.reference_units
+            )
+        })
+    }
+}
+
 impl std::fmt::Display for Decision {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(match self {
@@ -204,6 +227,11 @@ pub struct Fleet {
     pub population: Vec<super::prior::Population>,
     /// The fleet's span: the median of those units' lowest and highest readings, °C.
     pub span_c: [f64; 2],
+    /// Units of full coverage, the yardstick of every figure.
+    pub reference_units: usize,
+    /// The units were compared with the fleet: it has at least [`MIN_FLEET`] units of full
+    /// coverage. When not, no unit is flagged outside the population and the page says so.
+    pub compared: bool,
 }
 
 /// The figures compared, for the static units' axes `axes`, and a QFA unit's figures
@@ -328,14 +356,26 @@ fn sensors(cal: &[Option<&Calibrated>]) -> Vec<(Measured, Measured)> {
             }
             let diffs: Vec<f64> = d.iter().map(|p| p.1).collect();
             let offset = median(&diffs).map_or_else(|| not("no minute"), Measured::Value);
-            let n = d.len() as f64;
-            let (mh, md) = (d.iter().map(|p| p.0).sum::<f64>() / n, d.iter().map(|p| p.1).sum::<f64>() / n);
-            let sxx: f64 = d.iter().map(|p| (p.0 - mh).powi(2)).sum();
-            let sxy: f64 = d.iter().map(|p| (p.0 - mh) * (p.1 - md)).sum();
-            let drift = if sxx > 0.0 { Measured::Value(sxy / sxx) } else { not("the steady minutes span no time") };
-            (offset, drift)
+            (offset, drift_c_per_h(&d))
         })
         .collect()
+}
+
+/// The slope of `(hour, °C)` points, °C/h, by the lab's one solver (time from the middle
+/// of the span); not computed when the points span no time, where any slope fits.
+fn drift_c_per_h(points: &[(f64, f64)]) -> Measured {
+    let not = |why: String| Measured::NotComputed { not_computed: why };
+    let (lo, hi) = points.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| (l.min(p.0), h.max(p.0)));
+    if hi <= lo {
+        return not("the steady minutes span no time".to_string());
+    }
+    let mid = 0.5 * (lo + hi);
+    let x: Vec<f64> = points.iter().flat_map(|p| [1.0, p.0 - mid]).collect();
+    let y: Vec<f64> = points.iter().map(|p| p.1).collect();
+    match qfa_calibrate::solver::lstsq(&x, 2, &y) {
+        Ok(fit) => Measured::Value(fit.coef[1]),
+        Err(e) => not(format!("the drift could not be fitted: {e}")),
+    }
 }
 
 /// The fleet's figures, flags and decisions over `results` (in batch order).
@@ -359,6 +399,12 @@ pub(crate) fn fleet(results: &[UnitResult], limits: &Limits) -> Fleet {
             stats.push(s);
         }
     }
+    // Too few units for a yardstick: the figures are shown, no unit is flagged by them.
+    let reference_units = (0..results.len()).filter(|&i| !partial[i] && cal[i].is_some()).count();
+    let compared = reference_units >= MIN_FLEET;
+    if !compared {
+        flags.iter_mut().for_each(Vec::clear);
+    }
     // The strongest first: a reader's first reason is the figure furthest out.
     for f in &mut flags {
         f.sort_by(|a, b| b.z.abs().total_cmp(&a.z.abs()));
@@ -380,6 +426,8 @@ pub(crate) fn fleet(results: &[UnitResult], limits: &Limits) -> Fleet {
         unit,
         population,
         span_c,
+        reference_units,
+        compared,
     }
 }
 
@@ -612,4 +660,20 @@ fn capability(cal: &[Option<&Calibrated>], axes: &[String], limits: &Limits) -> 
     let spans: Vec<f64> = cal.iter().flatten().map(|c| c.temp_c[1] - c.temp_c[0]).collect();
     out.push(one("min_span_c", "all", "min", limits.min_span_c, spans));
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A sensor's drift: the slope of points on a line, whatever their spacing and level;
+    /// points at one time have no slope and say so (never 0).
+    #[test]
+    fn a_drift_is_the_slope_of_the_points_and_none_without_a_span() {
+        let points: Vec<(f64, f64)> = [0.0, 0.5, 1.7, 3.0, 4.2].iter().map(|&h| (h, 0.3 - 0.02 * h)).collect();
+        let Measured::Value(d) = drift_c_per_h(&points) else { panic!("no drift") };
+        assert!((d + 0.02).abs() < 1e-12, "{d}");
+        let flat: Vec<(f64, f64)> = (0..5).map(|i| (2.0, f64::from(i))).collect();
+        assert!(matches!(drift_c_per_h(&flat), Measured::NotComputed { .. }));
+    }
 }

@@ -57,6 +57,23 @@ impl UnitInput {
                 .map_err(|source| BatchError::Io { path: p.clone(), source }),
         }
     }
+
+    /// The kind of log it is, from its first 64 KiB (the magic bytes and the header line):
+    /// the decision its reader will take. `None` when the file cannot be read now (its
+    /// unit then fails when its turn comes, saying why).
+    pub(crate) fn format(&self) -> Option<qfa_log::open::LogFormat> {
+        use std::io::Read;
+        const HEAD: u64 = 64 * 1024;
+        let mut head = Vec::new();
+        let bytes: &[u8] = match &self.rows {
+            UnitRows::Bytes(b) => b,
+            UnitRows::File(p) => {
+                std::fs::File::open(p).ok()?.take(HEAD).read_to_end(&mut head).ok()?;
+                &head
+            }
+        };
+        Some(qfa_log::open::format_of_bytes(bytes, &self.flags))
+    }
 }
 
 /// Reader settings a manifest may give once for every unit and override per unit.

@@ -47,9 +47,9 @@ pub(crate) fn encoded(
     Ok((bin, u32::from_le_bytes(crc)))
 }
 
-/// The limits a batch may be given: a batch holds static or cycling (QFA) units, so a file
-/// must set a key of either kind; each unit then checks its own kind's keys and is refused
-/// when the file sets none of them.
+/// The limits a batch may be given, before its units are known: a batch holds static or
+/// cycling (QFA) units, so a file must set a key of either kind. [`run`] then checks them
+/// against the kinds its units are ([`check_limits_for`]).
 ///
 /// # Errors
 /// [`qfa_report::verdict::LimitsError::NoneApply`]: the file sets no key a batch checks.
@@ -57,6 +57,26 @@ pub fn check_limits(limits: &qfa_report::verdict::LimitsChoice) -> Result<(), qf
     use qfa_report::verdict::{CYCLING_KEYS, STATIC_KEYS};
     let either: Vec<&'static str> = STATIC_KEYS.iter().chain(&CYCLING_KEYS).copied().collect();
     limits.check_applies("batch", &either)
+}
+
+/// The limits against the kinds of log `units` hold: a file must set a key that each kind
+/// present checks, or the batch is refused before any unit is calibrated. (Checked per unit
+/// only, a QFA batch given a file of static keys calibrated every unit and failed each one
+/// for the same reason.)
+///
+/// # Errors
+/// [`BatchError::Limits`]: the file sets no key one of the kinds checks.
+pub fn check_limits_for(limits: &qfa_report::verdict::LimitsChoice, units: &[UnitInput]) -> Result<(), BatchError> {
+    use qfa_log::open::LogFormat;
+    use qfa_report::verdict::{CYCLING_KEYS, STATIC_KEYS};
+    let formats: Vec<LogFormat> = units.iter().filter_map(UnitInput::format).collect();
+    if formats.contains(&LogFormat::Static) {
+        limits.check_applies("static", &STATIC_KEYS).map_err(BatchError::Limits)?;
+    }
+    if formats.contains(&LogFormat::Cycling) {
+        limits.check_applies("cycling", &CYCLING_KEYS).map_err(BatchError::Limits)?;
+    }
+    Ok(())
 }
 
 /// Name of each unit's result file in its folder.
@@ -132,6 +152,7 @@ fn progress_bar(len: usize, show: bool) -> indicatif::ProgressBar {
 /// The thread pool cannot be built, or a file cannot be written. A unit that fails is a
 /// result, not an error.
 pub fn run(units: &[UnitInput], out: &Path, opts: &BatchOptions) -> Result<BatchRun, BatchError> {
+    check_limits_for(&opts.unit.limits, units)?;
     std::fs::create_dir_all(out).map_err(OutputError::io(out))?;
     let mine: Vec<(usize, &UnitInput)> =
         units.iter().enumerate().filter(|(i, _)| opts.shard.is_none_or(|s| i % s.n == s.k)).collect();
@@ -331,6 +352,9 @@ pub fn console(fleet: &Fleet, out: &Path) -> String {
         "verdict: {} units: {pass} PASS, {review} REVIEW (limits met, outside the population), {fail} FAIL\n",
         fleet.units
     );
+    if let Some(why) = fleet.not_compared() {
+        s.push_str(&format!("fleet: {why}\n"));
+    }
     for (decision, reasons, serials) in grouped(fleet) {
         let key = if decision == Decision::Fail { "fail" } else { "review" };
         s.push_str(&format!("{key}: {}: {reasons}\n", serial_list(&serials)));

@@ -262,6 +262,9 @@ fn verdict_html(fleet: &Fleet, limits_from: &str) -> String {
          {review} REVIEW (limits met, outside the population), {fail} FAIL</li>",
         fleet.units
     );
+    if let Some(why) = fleet.not_compared() {
+        let _ = write!(v, "<li class=\"warn\">fleet: {}</li>", escape(&why));
+    }
     for (decision, reasons, serials) in super::grouped(fleet) {
         let c = if decision == Decision::Fail { "fail" } else { "warn" };
         let links: Vec<String> =

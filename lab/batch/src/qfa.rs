@@ -122,6 +122,8 @@ pub(crate) fn calibrate(
     let copts = CalibrateOptions {
         plots: opts.plots,
         title: input.serial.clone(),
+        // The verdict's lines name the unit, not the IMU axis `calibrate` defaults to.
+        unit: Some(input.serial.clone()),
         limits: opts.limits.clone(),
         reproducible: true,
         ..CalibrateOptions::default()

@@ -55,6 +55,9 @@ pub struct CalibrateOptions {
     /// IMU axis this accelerometer is (`ax`, `ay` or `az`) in the PX4 / ArduPilot
     /// parameter files; `None` is `ax`.
     pub axis: Option<String>,
+    /// What the verdict's lines call the accelerometer: a batch gives its serial; `None`
+    /// names its IMU axis (`axis`).
+    pub unit: Option<String>,
     /// How to write those files.
     pub exports: export::ExportOptions,
     /// The limits the verdict checks.
@@ -434,9 +437,9 @@ pub fn calibrate_into(
         files.extend(["sf_vs_temp.png".to_string(), "residual_vs_time.png".to_string()]);
     }
     files.extend(cal.exports.written.iter().map(|f| (*f).to_string()));
-    let axis = opts.axis.as_deref().unwrap_or("ax");
+    let who = opts.unit.as_deref().or(opts.axis.as_deref()).unwrap_or("ax");
     let notes: Vec<String> = cal.exports.notes.iter().map(ToString::to_string).collect();
-    let v = verdict::cycling_verdict(&cal.report, axis, &opts.limits, &files, &notes);
+    let v = verdict::cycling_verdict(&cal.report, who, &opts.limits, &files, &notes);
     let json_path = out.join("report.json");
     let json = qfa_report::verdict::json_with_verdict(&v, &cal.report).map_err(OutputError::json(&json_path))?;
     std::fs::write(&json_path, json).map_err(OutputError::io(&json_path))?;

@@ -104,8 +104,8 @@ pub fn static_verdict(cal: &StaticCalibration, limits: &LimitsChoice, files: &[S
     v
 }
 
-/// The verdict of a cycling calibration of accelerometer `axis` written into a folder
-/// holding `files`.
+/// The verdict of a cycling calibration of accelerometer `axis` (its IMU axis, or its
+/// serial in a batch) written into a folder holding `files`.
 #[must_use]
 pub(crate) fn cycling_verdict(
     r: &Report,

@@ -170,6 +170,26 @@ pub(crate) fn format_of_header(header: &str, flags: &ReadFlags) -> LogFormat {
     }
 }
 
+/// The first line that is not blank (lossily as text).
+fn first_line(bytes: &[u8]) -> std::borrow::Cow<'_, str> {
+    let first = bytes.split(|b| *b == b'\n').find(|l| !l.iter().all(u8::is_ascii_whitespace));
+    String::from_utf8_lossy(first.unwrap_or_default())
+}
+
+/// The format of a log that starts with `head` (its first few kilobytes are enough: the
+/// magic bytes and the first line), read with `flags`: the one decision [`open_bytes`]
+/// takes, for a caller that must know a log's kind before reading it.
+#[must_use]
+pub fn format_of_bytes(head: &[u8], flags: &ReadFlags) -> LogFormat {
+    if head.starts_with(&crate::ulog::MAGIC) {
+        LogFormat::Autopilot(Stack::Px4)
+    } else if head.starts_with(&crate::dataflash::MAGIC) {
+        LogFormat::Autopilot(Stack::ArduPilot)
+    } else {
+        format_of_header(&first_line(head), flags)
+    }
+}
+
 /// Whether `header` is a cycling log's: it names both `program` and `pulses`.
 fn is_cycling_header(header: &str) -> bool {
     let names: Vec<String> = header.split([',', '\t', ';']).map(|c| c.trim().to_ascii_lowercase()).collect();
@@ -237,16 +257,8 @@ impl std::error::Error for ReadError {}
 /// # Errors
 /// [`ReadError`]: the reader's own error.
 pub fn open_bytes(bytes: &[u8], flags: &ReadFlags) -> Result<OpenedLog, ReadError> {
-    let first = bytes.split(|b| *b == b'\n').find(|l| !l.iter().all(u8::is_ascii_whitespace));
-    let header = String::from_utf8_lossy(first.unwrap_or_default());
-    let format = if bytes.starts_with(&crate::ulog::MAGIC) {
-        LogFormat::Autopilot(Stack::Px4)
-    } else if bytes.starts_with(&crate::dataflash::MAGIC) {
-        LogFormat::Autopilot(Stack::ArduPilot)
-    } else {
-        format_of_header(&header, flags)
-    };
-    Ok(match format {
+    let header = first_line(bytes);
+    Ok(match format_of_bytes(bytes, flags) {
         LogFormat::Autopilot(Stack::Px4) => OpenedLog::Autopilot(Box::new(read_ulog(bytes).map_err(ReadError::Ulog)?)),
         LogFormat::Autopilot(Stack::ArduPilot) => {
             OpenedLog::Autopilot(Box::new(read_dataflash(bytes).map_err(ReadError::Dataflash)?))
