@@ -306,9 +306,14 @@ fn capability_section(p: &mut Page, fleet: &Fleet) {
 fn figures_section(p: &mut Page, out: &Path, fleet: &Fleet, plots: bool) -> Result<(), BatchError> {
     p.section("Figures across the fleet").para(&format!(
         "Robust distance z = (x − median) / ({:.4}·MAD) over the units with full coverage; a unit is flagged beyond \
-         ±{} (held-out RMS: above only). Red: flagged.",
+         ±{} (held-out RMS: above only). Red: flagged.{}",
         qfa_log::robust::MAD_TO_SD,
-        fleet.z_flag
+        fleet.z_flag,
+        if fleet.compared {
+            ""
+        } else {
+            " This fleet is too small to flag a unit (the verdict says why): the distances below are shown, not judged."
+        }
     ));
     if plots {
         let (figures, held_out) = (out.join("fleet_figures.png"), out.join("fleet_held_out.png"));
