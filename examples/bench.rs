@@ -25,6 +25,7 @@ mod target {
         ThreeAxisSharedSensor, ThreeAxisSharedSensorWithMatrix,
     };
 
+    use crate::common::inputs::{self, sample};
     use crate::common::rt;
     use crate::common::tables;
 
@@ -76,35 +77,14 @@ mod target {
         total
     }
 
-    /// Timestamp (ms) and raw reading of slow-path call `k`: 1 Hz samples, a triangle of
-    /// ±1/2 °C around 20.5 °C at 1/16 °C per 4 s (0.94 °C/min), so every reading is accepted,
-    /// and the branch switches.
-    fn sample(k: u32) -> (u32, i16) {
-        let p = (k >> 2) & 31;
-        let tri = if p < 16 { p } else { 31 - p };
-        (k.wrapping_mul(1000), 320 + tri as i16)
-    }
-
     /// A compensator with one shared sensor, holding `table` in flash, warmed up.
     fn shared_sensor(config: Config, table: &'static Table) -> ThreeAxisSharedSensor {
-        let mut c = ThreeAxisSharedSensor::new(config).expect("a valid config");
-        c.set_table(table).expect("fixture table validates");
-        for k in 0..64 {
-            let (t, raw) = sample(k);
-            c.on_raw(0, t, raw).expect("warm-up readings are plausible");
-        }
-        c
+        inputs::shared_sensor(config, table)
     }
 
     /// [`shared_sensor`] with a misalignment stage, for a table with a matrix.
     fn shared_sensor_with_matrix(table: &'static Table) -> ThreeAxisSharedSensorWithMatrix {
-        let mut c = ThreeAxisSharedSensorWithMatrix::new(Config::default()).expect("a valid config");
-        c.set_table(table).expect("fixture table validates");
-        for k in 0..64 {
-            let (t, raw) = sample(k);
-            c.on_raw(0, t, raw).expect("warm-up readings are plausible");
-        }
-        c
+        inputs::shared_sensor(Config::default(), table)
     }
 
     /// The samples path measured on a compensator configured for samples at the table's own

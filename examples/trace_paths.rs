@@ -16,6 +16,7 @@ mod target {
     use cortex_m_rt::{entry, exception, ExceptionFrame};
     use qfa_thermal::{Config, Table, ThreeAxisSensorPerAxis, ThreeAxisSharedSensor};
 
+    use crate::common::inputs::{self, sample};
     use crate::common::{rt, tables};
 
     /// Readings per slow-path segment.
@@ -29,21 +30,8 @@ mod target {
         black_box(n);
     }
 
-    /// As the benchmark's `sample`: 1 Hz, a triangle of ±1/2 °C around 20.5 °C.
-    fn sample(k: u32) -> (u32, i16) {
-        let p = (k >> 2) & 31;
-        let tri = if p < 16 { p } else { 31 - p };
-        (k.wrapping_mul(1000), 320 + tri as i16)
-    }
-
     fn shared_sensor(table: &'static Table) -> ThreeAxisSharedSensor {
-        let mut c = ThreeAxisSharedSensor::new(Config::default()).expect("a valid config");
-        c.set_table(table).expect("fixture table validates");
-        for k in 0..64 {
-            let (t, raw) = sample(k);
-            c.on_raw(0, t, raw).expect("warm-up readings are plausible");
-        }
-        c
+        inputs::shared_sensor(Config::default(), table)
     }
 
     #[entry]

@@ -133,8 +133,9 @@ pub use compensator::Published;
 pub use compensator::{
     Applier, Compensator, Config, ConfigError, CountingApplier, PulseOutput, SampleError, SampleOutput,
     SensorPerAxisUpdater, SensorPerAxisUpdaterWithMatrix, SharedSensorUpdater, SharedSensorUpdaterWithMatrix, Status,
-    ThreeAxisApplier, ThreeAxisApplierWithMatrix, ThreeAxisSensorPerAxis, ThreeAxisSensorPerAxisWithMatrix,
-    ThreeAxisSharedSensor, ThreeAxisSharedSensorWithMatrix, Updater, DEFAULT_RATE_WINDOW, G0, IMU_PERIOD_TOLERANCE,
+    ThreeAxisApplier, ThreeAxisApplierWithMatrix, ThreeAxisCountingApplier, ThreeAxisCountingApplierWithMatrix,
+    ThreeAxisSensorPerAxis, ThreeAxisSensorPerAxisWithMatrix, ThreeAxisSharedSensor, ThreeAxisSharedSensorWithMatrix,
+    Updater, DEFAULT_RATE_WINDOW, G0, IMU_PERIOD_TOLERANCE,
 };
 /// The `heapless` this crate's types are built on ([`Table::axes`], [`BiasGrid`]'s
 /// branches), so a table can be built at run time without a dependency of your own.

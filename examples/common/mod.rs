@@ -6,6 +6,36 @@
 #[cfg(target_os = "none")]
 pub mod rt;
 
+/// The slow path's inputs the benchmark and the traced example share.
+#[cfg(target_os = "none")]
+pub mod inputs {
+    use qfa_thermal::{Compensator, Config, Table};
+
+    /// Timestamp (ms) and raw reading of slow-path call `k`: 1 Hz samples, a triangle of
+    /// ±1/2 °C around 20.5 °C at 1/16 °C per 4 s (0.94 °C/min), so every reading is accepted,
+    /// and the branch switches.
+    pub fn sample(k: u32) -> (u32, i16) {
+        let p = (k >> 2) & 31;
+        let tri = if p < 16 { p } else { 31 - p };
+        (k.wrapping_mul(1000), 320 + tri as i16)
+    }
+
+    /// A compensator with one shared sensor (and the misalignment stage `MATRIX`), holding
+    /// `table` in flash, warmed up on 64 of [`sample`]'s readings.
+    pub fn shared_sensor<const MATRIX: usize>(
+        config: Config,
+        table: &'static Table,
+    ) -> Compensator<3, 32, 1, &'static Table, MATRIX> {
+        let mut c = Compensator::new(config).expect("a valid config");
+        c.set_table(table).expect("fixture table validates");
+        for k in 0..64 {
+            let (t, raw) = sample(k);
+            c.on_raw(0, t, raw).expect("warm-up readings are plausible");
+        }
+        c
+    }
+}
+
 #[cfg(all(target_os = "none", feature = "fixtures"))]
 /// The tables the benchmark compensates with: the paper's JB-KT8 #1 on three axes, each a
 /// `static Table` built by `const fn`s, as the README keeps a table in flash.

@@ -147,6 +147,13 @@ pub type ThreeAxisApplier<'a> = Applier<'a, 3>;
 /// The fast half of either three-axis configuration with a matrix.
 pub type ThreeAxisApplierWithMatrix<'a> = Applier<'a, 3, 3>;
 
+/// [`ThreeAxisApplier`] counting wrapping cumulative counters ([`Applier::counting`]): the
+/// type an IMU interrupt that reads pulse counters owns, `ThreeAxisCountingApplier<'static>`.
+pub type ThreeAxisCountingApplier<'a> = CountingApplier<'a, 3>;
+
+/// [`ThreeAxisApplierWithMatrix`] counting wrapping cumulative counters.
+pub type ThreeAxisCountingApplierWithMatrix<'a> = CountingApplier<'a, 3, 3>;
+
 /// Temperature compensation for `AXES` accelerometers with a `RATE_WINDOW`-reading rate
 /// window and `SENSORS` temperature streams (1, or one per axis). The table is held as `T`:
 /// an owned [`Table`] (708 B, loadable from bytes at run time) or a `&'static Table` in

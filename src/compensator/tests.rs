@@ -558,19 +558,24 @@ fn dividing_the_us_clock_costs_seconds_of_flags_at_each_wrap_not_an_hour() {
     assert!(ok_after > 100, "{ok_after}");
 }
 
+/// Draws below `n` from a xorshift64 stream of `seed`: the randomized tests' inputs, the same
+/// on every run.
+fn draws(mut state: u64) -> impl FnMut(u64) -> u64 {
+    move |n| {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        state % n
+    }
+}
+
 /// A reading publishes the coefficients without the matrix, a rejection the flags alone.
 /// Whatever the order of readings, rejections and tables, the published words must equal
 /// the whole set formed afresh: a word left behind would differ. Random sensors,
 /// temperatures and gaps, a sensor per axis, with a matrix.
 #[test]
 fn a_partial_publication_leaves_the_whole_set_right() {
-    let mut rng = 0x2545_F491_4F6C_DD1Du64;
-    let mut next = move |n: u64| {
-        rng ^= rng << 13;
-        rng ^= rng >> 7;
-        rng ^= rng << 17;
-        rng % n
-    };
+    let mut next = draws(0x2545_F491_4F6C_DD1Du64);
     let mut t = table(3, 32);
     t.misalignment = Some([1.0, 1e-3, -2e-3, 5e-4, 1.0, 1.5e-3, -1e-3, 2e-4, 1.0]);
     let mut c = Compensator::<3, 32, 3, Table, 3>::new(Config::default()).unwrap();
@@ -619,13 +624,7 @@ fn a_matrix_needs_a_misalignment_stage() {
 /// without.
 #[test]
 fn with_no_matrix_in_the_table_both_stages_give_the_same_bits() {
-    let mut rng = 0x853C_49E6_748F_EA9Bu64;
-    let mut next = move |n: u64| {
-        rng ^= rng << 13;
-        rng ^= rng >> 7;
-        rng ^= rng << 17;
-        rng % n
-    };
+    let mut next = draws(0x853C_49E6_748F_EA9Bu64);
     for _ in 0..20 {
         let mut t = table(3, 32);
         for a in t.axes.iter_mut() {

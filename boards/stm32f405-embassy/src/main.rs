@@ -52,7 +52,7 @@ mod app {
     use qfa_thermal::ds18b20_driver::{self as drv, Ds18b20, PowerSupply};
     use qfa_thermal::model::{AxisModel, BiasGrid, Extensions, ScaleFactor};
     use qfa_thermal::onewire::OneWire;
-    use qfa_thermal::{Config, CountingApplier, Input, Status, Table, ThreeAxisSensorPerAxis};
+    use qfa_thermal::{Config, Input, Status, Table, ThreeAxisCountingApplier, ThreeAxisSensorPerAxis};
     use static_cell::StaticCell;
 
     use crate::widen::Widen16;
@@ -176,7 +176,7 @@ mod app {
 
     /// The fast path, 400 times a second, above everything else: never blocks, never logs.
     #[embassy_executor::task]
-    async fn imu(mut applier: CountingApplier<'static, 3>, mut widen: [Widen16; 3]) {
+    async fn imu(mut applier: ThreeAxisCountingApplier<'static>, mut widen: [Widen16; 3]) {
         let mut ticker = Ticker::every(Duration::from_micros(PERIOD_US));
         let mut last = Instant::now();
         loop {
@@ -188,7 +188,9 @@ mod app {
             let dt_us = (now - last).as_micros() as u32;
             last = now;
             let out = applier.cycle(counters, dt_us);
-            // The navigation filter takes `out.dv_mps` here, and judges it by `out.status`.
+            // The navigation filter takes `out.dv_mps` here, and judges it by `out.status`: in
+            // this task, or through an `embassy_sync` channel on a `CriticalSectionRawMutex`
+            // with `try_send` (never `.await` or a thread-mode mutex in an interrupt executor).
             IMU_STATUS.store(u32::from(out.status.bits()), Ordering::Relaxed);
         }
     }
@@ -219,12 +221,17 @@ mod app {
                     }
                 };
             }
-            let result = if ready {
-                ds.measure_async(&mut bus, &mut Delay, now_us()).await.map(|s| s.scratchpad)
+            let (t_ms, result) = if ready {
+                match ds.measure_async(&mut bus, &mut Delay, now_us()).await {
+                    // Stamped when the conversion completed, not after the ~6 ms read: the
+                    // µs clock's distance back to it, off the ms clock now.
+                    Ok(s) => (now_ms().wrapping_sub(now_us().wrapping_sub(s.completed_us) / 1_000), Ok(s.scratchpad)),
+                    Err(e) => (now_ms(), Err(e)),
+                }
             } else {
-                Err(drv::Error::NotReady)
+                (now_ms(), Err(drv::Error::NotReady))
             };
-            READINGS.send(Reading { axis, t_ms: now_ms(), result }).await;
+            READINGS.send(Reading { axis, t_ms, result }).await;
         }
     }
 
@@ -265,6 +272,8 @@ mod app {
         let c = counts();
         let widen = [Widen16::new(c[0]), Widen16::new(c[1]), Widen16::new(c[2])];
         let applier = applier.counting(widen.map(|w| w.total()));
+        // NVIC numbering: lower is more urgent (P0 the most); the thread executor is below
+        // every interrupt. (RTIC numbers the other way: higher is more urgent.)
         interrupt::UART4.set_priority(Priority::P6);
         let high = EXECUTOR_HIGH.start(interrupt::UART4);
         high.must_spawn(imu(applier, widen));

@@ -57,7 +57,9 @@ mod app {
     use qfa_thermal::model::{AxisModel, BiasGrid, Extensions, ScaleFactor};
     use qfa_thermal::onewire::OneWire;
     use qfa_thermal::time::MsClock;
-    use qfa_thermal::{Config, CountingApplier, Input, SensorPerAxisUpdater, Status, Table, ThreeAxisSensorPerAxis};
+    use qfa_thermal::{
+        Config, Input, SensorPerAxisUpdater, Status, Table, ThreeAxisCountingApplier, ThreeAxisSensorPerAxis,
+    };
     use rtic_monotonics::systick::prelude::*;
     use stm32f4xx_hal::dwt::{Delay, DwtExt};
     use stm32f4xx_hal::gpio::{alt, OpenDrain, Output, PartiallyErasedPin, PinState};
@@ -95,6 +97,8 @@ mod app {
     /// The table, in flash; the compensator validates it where it lies.
     static TABLE: Table = Table::new(Input::PulseCounts, 32, [AXIS; 3], None);
 
+    // The DS18B20s' port: its letter is part of the pin type, so pins on another port change
+    // it here as well as in `init` (the compiler otherwise points at the pins, not here).
     type OneWirePin = PartiallyErasedPin<'B', Output<OpenDrain>>;
     type Channel = poll::Channel<OneWirePin, Delay>;
 
@@ -116,7 +120,9 @@ mod app {
 
     /// What the IMU task owns: the fast path and the registers it reads.
     pub struct Fast {
-        applier: CountingApplier<'static, 3>,
+        // With a misalignment stage: `ThreeAxisCountingApplierWithMatrix`, and the
+        // `...WithMatrix` compensator and updater.
+        applier: ThreeAxisCountingApplier<'static>,
         /// TIM7: the 400 Hz cycle; its counter (1 MHz) also times each read.
         tick: CounterUs<TIM7>,
         x: TIM3,

@@ -28,6 +28,8 @@ use crate::wiring::{cnt16_tim3, cnt16_tim4, cnt16_tim8, etr_counter, now_us, slo
 /// rate window, the table held by reference.
 type Comp = ThreeAxisSensorPerAxis;
 type Slow = Updater<'static, 3, DEFAULT_RATE_WINDOW, 3, &'static Table>;
+/// The DS18B20s' pins: the port's letter is part of the type (pins on another port change
+/// it here as well as in `main`).
 type OneWirePin = PartiallyErasedPin<'B', Output<OpenDrain>>;
 
 /// IMU cycles per logged summary (1 s).

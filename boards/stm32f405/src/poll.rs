@@ -114,9 +114,9 @@ where
 
     /// One step at `now_us` (µs, wrapping): at most one bus operation (setup, start, a
     /// poll and its read) and one updater call. `axis` is the updater's sensor index.
-    pub fn step<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>>(
+    pub fn step<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>, const M: usize>(
         &mut self,
-        updater: &mut Updater<'_, AXES, N, SENSORS, T>,
+        updater: &mut Updater<'_, AXES, N, SENSORS, T, M>,
         clock: &mut MsClock,
         axis: usize,
         now_us: u32,
@@ -180,8 +180,8 @@ where
         }
     }
 
-    fn missed<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>>(
-        updater: &mut Updater<'_, AXES, N, SENSORS, T>,
+    fn missed<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>, const M: usize>(
+        updater: &mut Updater<'_, AXES, N, SENSORS, T, M>,
         clock: &mut MsClock,
         axis: usize,
         due_us: u32,
@@ -190,9 +190,9 @@ where
         Event::Missed { cause, result: updater.on_missed_reading(axis, clock.ms(due_us)) }
     }
 
-    fn poll<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>>(
+    fn poll<const AXES: usize, const N: usize, const SENSORS: usize, T: Borrow<Table>, const M: usize>(
         &mut self,
-        updater: &mut Updater<'_, AXES, N, SENSORS, T>,
+        updater: &mut Updater<'_, AXES, N, SENSORS, T, M>,
         clock: &mut MsClock,
         axis: usize,
         now_us: u32,
