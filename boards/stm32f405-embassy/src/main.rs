@@ -22,6 +22,9 @@
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 #[cfg(target_os = "none")]
+#[path = "../../stm32f405/src/app_table.rs"]
+mod app_table;
+#[cfg(target_os = "none")]
 #[path = "../../stm32f405/src/widen.rs"]
 mod widen;
 
@@ -50,36 +53,15 @@ mod app {
     use panic_probe as _;
     use qfa_thermal::ds18b20::Resolution;
     use qfa_thermal::ds18b20_driver::{self as drv, Ds18b20, PowerSupply};
-    use qfa_thermal::model::{AxisModel, BiasGrid, Extensions, ScaleFactor};
     use qfa_thermal::onewire::OneWire;
-    use qfa_thermal::{Config, Input, Status, Table, ThreeAxisCountingApplier, ThreeAxisSensorPerAxis};
+    use qfa_thermal::{Config, Status, ThreeAxisCountingApplier, ThreeAxisSensorPerAxis};
     use static_cell::StaticCell;
 
+    use crate::app_table::TABLE;
     use crate::widen::Widen16;
 
     /// The IMU cycle, µs (400 Hz).
     const PERIOD_US: u64 = 2_500;
-
-    /// One axis of the table: JB-KT8 #1's scale factor (Zhang et al. 2021, Eq. 15) and a
-    /// flat placeholder bias, written with `const fn`s so the table is a `static` in flash.
-    /// Not a calibration: a real table comes from `qfa-lab table-rs`.
-    const AXIS: AxisModel = AxisModel {
-        scale: ScaleFactor {
-            t0_c: 22.0,
-            gamma: 320_320.0,
-            mu: -32.76,
-            beta: 0.1008,
-            epsilon: 88.14,
-            eta: -0.02409,
-            alpha: 273.0,
-        },
-        bias: BiasGrid::flat(-40.0, 10.0, [1e-4; 13]),
-        rate_limit_c_per_min: 2.0,
-        ext: Extensions::NONE,
-    };
-
-    /// The table, in flash; the compensator validates it where it lies.
-    static TABLE: Table = Table::new(Input::PulseCounts, 32, [AXIS; 3], None);
 
     /// The compensator; `split` lends both halves for `'static`.
     static COMP: StaticCell<ThreeAxisSensorPerAxis> = StaticCell::new();

@@ -25,6 +25,9 @@
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 #[cfg(target_os = "none")]
+#[path = "../../stm32f405/src/app_table.rs"]
+mod app_table;
+#[cfg(target_os = "none")]
 #[path = "../../stm32f405/src/cycle.rs"]
 mod cycle;
 #[cfg(target_os = "none")]
@@ -51,55 +54,23 @@ fn main() {
 mod app {
     use core::mem::MaybeUninit;
 
-    use cortex_m::peripheral::DWT;
     use defmt_rtt as _;
     use panic_probe as _;
-    use qfa_thermal::model::{AxisModel, BiasGrid, Extensions, ScaleFactor};
     use qfa_thermal::onewire::OneWire;
     use qfa_thermal::time::MsClock;
-    use qfa_thermal::{
-        Config, Input, SensorPerAxisUpdater, Status, Table, ThreeAxisCountingApplier, ThreeAxisSensorPerAxis,
-    };
+    use qfa_thermal::{Config, SensorPerAxisUpdater, Status, ThreeAxisCountingApplier, ThreeAxisSensorPerAxis};
     use rtic_monotonics::systick::prelude::*;
     use stm32f4xx_hal::dwt::{Delay, DwtExt};
-    use stm32f4xx_hal::gpio::{alt, OpenDrain, Output, PartiallyErasedPin, PinState};
-    use stm32f4xx_hal::pac::{TIM2, TIM3, TIM4, TIM7, TIM8};
+    use stm32f4xx_hal::pac::TIM2;
     use stm32f4xx_hal::prelude::*;
-    use stm32f4xx_hal::rcc::Config as RccConfig;
-    use stm32f4xx_hal::timer::{CounterUs, Event, FTimerUs, Timer};
 
-    use crate::cycle::{self, PERIOD_US};
+    use crate::app_table::TABLE;
+    use crate::cycle::PERIOD_US;
     use crate::poll::{self, Event as SensorEvent};
-    use crate::widen::Widen16;
-    use crate::wiring::{cnt16_tim3, cnt16_tim4, cnt16_tim8, etr_counter, now_us, slot_lock};
+    use crate::wiring::{self, now_us, slot_lock, OneWirePin};
 
     systick_monotonic!(Mono, 1_000);
 
-    /// One axis of the table: JB-KT8 #1's scale factor (Zhang et al. 2021, Eq. 15) and a
-    /// flat placeholder bias, written with `const fn`s so the table is a `static` in flash.
-    /// Not a calibration: a real table comes from `qfa-lab table-rs` (or the board
-    /// example's build.rs).
-    const AXIS: AxisModel = AxisModel {
-        scale: ScaleFactor {
-            t0_c: 22.0,
-            gamma: 320_320.0,
-            mu: -32.76,
-            beta: 0.1008,
-            epsilon: 88.14,
-            eta: -0.02409,
-            alpha: 273.0,
-        },
-        bias: BiasGrid::flat(-40.0, 10.0, [1e-4; 13]),
-        rate_limit_c_per_min: 2.0,
-        ext: Extensions::NONE,
-    };
-
-    /// The table, in flash; the compensator validates it where it lies.
-    static TABLE: Table = Table::new(Input::PulseCounts, 32, [AXIS; 3], None);
-
-    // The DS18B20s' port: its letter is part of the pin type, so pins on another port change
-    // it here as well as in `init` (the compiler otherwise points at the pins, not here).
-    type OneWirePin = PartiallyErasedPin<'B', Output<OpenDrain>>;
     type Channel = poll::Channel<OneWirePin, Delay>;
 
     /// Resources two tasks share.
@@ -123,15 +94,8 @@ mod app {
         // With a misalignment stage: `ThreeAxisCountingApplierWithMatrix`, and the
         // `...WithMatrix` compensator and updater.
         applier: ThreeAxisCountingApplier<'static>,
-        /// TIM7: the 400 Hz cycle; its counter (1 MHz) also times each read.
-        tick: CounterUs<TIM7>,
-        x: TIM3,
-        y: TIM4,
-        z: TIM8,
-        widen: [Widen16; 3],
-        /// TIM7 count at the previous read, and the DWT cycle counter then.
-        last_lat: u32,
-        last_cyc: u32,
+        /// TIM7, the pulse counters and the cycle timing's clocks.
+        inputs: wiring::ImuInputs,
     }
 
     /// What the temperature task owns: the slow path, the sensors and the clocks.
@@ -148,17 +112,12 @@ mod app {
     fn init(cx: init::Context) -> (Shared, Local) {
         let dp = cx.device;
         let cp = cx.core;
-        // 8 MHz crystal, 168 MHz core; APB1 42 MHz (its timers 84 MHz), APB2 84 MHz.
-        let mut rcc = dp.RCC.freeze(RccConfig::hse(8.MHz()).sysclk(168.MHz()).pclk1(42.MHz()).pclk2(84.MHz()));
+        // The board's clocks, µs clock, pins and counters (`wiring.rs`, shared with it).
+        let mut rcc = wiring::clocks(dp.RCC);
         Mono::start(cp.SYST, 168_000_000);
         // 1-Wire slot delays from the cycle counter (which the IMU task's timing reads too).
         let delay = cp.DWT.constrain(cp.DCB, &rcc.clocks).delay();
-
-        // TIM2: the µs clock, free-running over all 32 bits (as MsClock expects).
-        let tim2 = FTimerUs::new(dp.TIM2, &mut rcc).release();
-        tim2.arr().write(|w| w.arr().set(u32::MAX));
-        tim2.egr().write(|w| w.ug().set_bit());
-        tim2.cr1().write(|w| w.cen().enabled());
+        let tim2 = wiring::us_clock(dp.TIM2, &mut rcc);
 
         // The compensator lives in `init`'s `'static` local; `split` lends both halves for
         // `'static`. TIM7's 400-Hz cycle in seconds: a dt in another unit is flagged.
@@ -171,47 +130,28 @@ mod app {
         }
         let (updater, applier) = comp.split();
 
-        // Three DS18B20s, each alone on an open-drain pin, released (high) from the start.
         let gpiob = dp.GPIOB.split(&mut rcc);
-        let pins: [OneWirePin; 3] = [
-            gpiob.pb6.into_open_drain_output_in_state(PinState::High).erase_number(),
-            gpiob.pb7.into_open_drain_output_in_state(PinState::High).erase_number(),
-            gpiob.pb8.into_open_drain_output_in_state(PinState::High).erase_number(),
-        ];
+        let pins = wiring::onewire_pins(gpiob.pb6, gpiob.pb7, gpiob.pb8);
         let first_us = now_us(&tim2);
         let chans = pins.map(|pin| Channel::new(OneWire::new(pin, delay).with_slot_lock(slot_lock), first_us));
 
-        // Pulse counters on the timers' ETR pins (typed pins check the pin/AF pairs).
-        let gpioa = dp.GPIOA.split(&mut rcc);
-        let gpiod = dp.GPIOD.split(&mut rcc);
-        let gpioe = dp.GPIOE.split(&mut rcc);
-        let _etr_x: alt::tim3::Etr = gpiod.pd2.into();
-        let _etr_y: alt::tim4::Etr = gpioe.pe0.into();
-        let _etr_z: alt::tim8::Etr = gpioa.pa0.into();
-        let x = Timer::new(dp.TIM3, &mut rcc).release();
-        let y = Timer::new(dp.TIM4, &mut rcc).release();
-        let z = Timer::new(dp.TIM8, &mut rcc).release();
-        etr_counter!(x);
-        etr_counter!(y);
-        etr_counter!(z);
+        let (gpioa, gpiod, gpioe) = (dp.GPIOA.split(&mut rcc), dp.GPIOD.split(&mut rcc), dp.GPIOE.split(&mut rcc));
+        let (x, y, z) =
+            wiring::pulse_counters((dp.TIM3, dp.TIM4, dp.TIM8), (gpiod.pd2, gpioe.pe0, gpioa.pa0), &mut rcc);
 
-        // TIM7: the 400 Hz IMU cycle; RTIC unmasks its interrupt after `init`.
-        let mut tick = dp.TIM7.counter_us(&mut rcc);
-        if let Err(e) = tick.start(PERIOD_US.micros()) {
-            defmt::panic!("TIM7 start: {}", e);
-        }
-        tick.listen(Event::Update);
-        // Base the counters and the latency now, so the first cycle has a real dt.
-        let _ = tick.wait();
-        let last_lat = tick.now().ticks();
-        let last_cyc = DWT::cycle_count();
-        let widen = [Widen16::new(cnt16_tim3(&x)), Widen16::new(cnt16_tim4(&y)), Widen16::new(cnt16_tim8(&z))];
-        let applier = applier.counting(widen.map(|w| w.total()));
+        // TIM7: the 400 Hz IMU cycle, no update pending; RTIC unmasks its interrupt after
+        // `init`. The counters and the latency are based now, so the first cycle has a real dt.
+        let tick = match wiring::imu_tick(dp.TIM7, PERIOD_US, &mut rcc) {
+            Ok(t) => t,
+            Err(e) => defmt::panic!("TIM7 start: {}", e),
+        };
+        let inputs = wiring::ImuInputs::new(tick, (x, y, z));
+        let applier = applier.counting(inputs.totals());
 
         if temperature::spawn().is_err() {
             defmt::panic!("the temperature task was already spawned");
         }
-        let fast = Fast { applier, tick, x, y, z, widen, last_lat, last_cyc };
+        let fast = Fast { applier, inputs };
         let slow = Slow { updater, chans, tim2, clock: MsClock::new() };
         (Shared { status: Status::empty() }, Local { fast, slow })
     }
@@ -220,18 +160,8 @@ mod app {
     #[task(binds = TIM7, priority = 3, local = [fast], shared = [status])]
     fn imu(mut cx: imu::Context) {
         let f = cx.local.fast;
-        // Clear the update flag first (clearing it last can re-enter the handler).
-        let _ = f.tick.wait();
-        let lat = f.tick.now().ticks();
-        let cyc = DWT::cycle_count();
-        let counters = [
-            f.widen[0].update(cnt16_tim3(&f.x)),
-            f.widen[1].update(cnt16_tim4(&f.y)),
-            f.widen[2].update(cnt16_tim8(&f.z)),
-        ];
-        // dt in µs ticks, exact however late the task runs (the board example's `cycle.rs`).
-        let t = cycle::timing(lat, f.last_lat, cyc.wrapping_sub(f.last_cyc));
-        (f.last_lat, f.last_cyc) = (lat, cyc);
+        // The counts and the time since the last read, exact however late the task runs.
+        let (counters, t) = f.inputs.read();
         let out = f.applier.cycle(counters, t.dt_us);
         // The navigation filter takes `out.dv_mps` here, and judges it by `out.status`.
         cx.shared.status.lock(|s| *s = out.status);

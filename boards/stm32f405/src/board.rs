@@ -3,7 +3,6 @@
 use core::cell::RefCell;
 use core::sync::atomic::{AtomicU32, Ordering};
 
-use cortex_m::peripheral::DWT;
 use critical_section::Mutex;
 use defmt_rtt as _;
 use panic_probe as _;
@@ -12,25 +11,18 @@ use qfa_thermal::time::MsClock;
 use qfa_thermal::{Config, CountingApplier, Status, Table, ThreeAxisSensorPerAxis, Updater, DEFAULT_RATE_WINDOW};
 use static_cell::StaticCell;
 use stm32f4xx_hal::dwt::{Delay, DwtExt};
-use stm32f4xx_hal::gpio::{alt, OpenDrain, Output, PartiallyErasedPin, PinState};
-use stm32f4xx_hal::pac::{self, interrupt, Interrupt, TIM3, TIM4, TIM7, TIM8};
+use stm32f4xx_hal::pac::{self, interrupt, Interrupt};
 use stm32f4xx_hal::prelude::*;
-use stm32f4xx_hal::rcc::Config as RccConfig;
-use stm32f4xx_hal::timer::{CounterUs, Event, FTimerUs, Timer};
 
 use crate::calibration;
-use crate::cycle::{self, PERIOD_US};
+use crate::cycle::PERIOD_US;
 use crate::poll::{self, Event as SensorEvent};
-use crate::widen::Widen16;
-use crate::wiring::{cnt16_tim3, cnt16_tim4, cnt16_tim8, etr_counter, now_us, slot_lock};
+use crate::wiring::{self, now_us, slot_lock, OneWirePin};
 
 /// The recommended configuration: 3 axes, one DS18B20 per accelerometer case, the default
 /// rate window, the table held by reference.
 type Comp = ThreeAxisSensorPerAxis;
 type Slow = Updater<'static, 3, DEFAULT_RATE_WINDOW, 3, &'static Table>;
-/// The DS18B20s' pins: the port's letter is part of the type (pins on another port change
-/// it here as well as in `main`).
-type OneWirePin = PartiallyErasedPin<'B', Output<OpenDrain>>;
 
 /// IMU cycles per logged summary (1 s).
 const CYCLES_PER_SUMMARY: u32 = 1_000_000 / PERIOD_US;
@@ -42,16 +34,8 @@ static COMP: StaticCell<Comp> = StaticCell::new();
 /// [`FAST_HANDOFF`].
 struct Fast {
     applier: CountingApplier<'static, 3>,
-    /// TIM7: the 400 Hz cycle; its counter (1 MHz) also times each read.
-    tick: CounterUs<TIM7>,
-    x: TIM3,
-    y: TIM4,
-    z: TIM8,
-    widen: [Widen16; 3],
-    /// TIM7 count (µs after the update event) at the previous read.
-    last_lat: u32,
-    /// DWT cycle counter at the previous read: tells how many periods passed.
-    last_cyc: u32,
+    /// TIM7, the pulse counters and the cycle timing's clocks.
+    inputs: wiring::ImuInputs,
     sum: [f32; 3],
     status: Status,
     /// TIM7 periods in the summary being summed (runs and lost ones).
@@ -91,23 +75,7 @@ impl Fast {
     /// critical section and copies into the RTT buffer, time the cycle does not have.
     #[inline(always)]
     fn cycle(&mut self) {
-        // Clear the update flag first (clearing it last can re-enter the handler).
-        let _ = self.tick.wait();
-        // µs since this cycle's update event, and the second clock that tells whether whole
-        // periods passed unseen; the counters are read right after them.
-        let lat = self.tick.now().ticks();
-        let cyc = DWT::cycle_count();
-        let counters = [
-            self.widen[0].update(cnt16_tim3(&self.x)),
-            self.widen[1].update(cnt16_tim4(&self.y)),
-            self.widen[2].update(cnt16_tim8(&self.z)),
-        ];
-        // The time between two reads in µs ticks (Config::tick_s = 1 µs), exact however late
-        // the interrupt runs, and the update events it missed when held off past a whole
-        // period (cycle::timing): counted, not silent. The counts stay exact too (widen.rs).
-        let t = cycle::timing(lat, self.last_lat, cyc.wrapping_sub(self.last_cyc));
-        self.last_lat = lat;
-        self.last_cyc = cyc;
+        let (counters, t) = self.inputs.read();
         self.lost = self.lost.saturating_add(t.lost);
 
         let out = self.applier.cycle(counters, t.dt_us);
@@ -216,18 +184,10 @@ fn main() -> ! {
     let (Some(dp), Some(cp)) = (pac::Peripherals::take(), cortex_m::Peripherals::take()) else {
         defmt::panic!("peripherals taken twice");
     };
-    // 8 MHz crystal, 168 MHz core; APB1 42 MHz (its timers 84 MHz), APB2 84 MHz (168 MHz).
-    let mut rcc = dp.RCC.freeze(RccConfig::hse(8.MHz()).sysclk(168.MHz()).pclk1(42.MHz()).pclk2(84.MHz()));
+    let mut rcc = wiring::clocks(dp.RCC);
     // 1-Wire slot delays from the cycle counter: exact, and `Copy`, so each bus has one.
     let delay = cp.DWT.constrain(cp.DCB, &rcc.clocks).delay();
-
-    // TIM2: the µs clock. The HAL enables it and sets the 1 MHz prescaler; the PAC makes it
-    // free-running over all 32 bits (ARR = 2^32 - 1, so it wraps at exactly 2^32 µs, as
-    // MsClock expects: the HAL's Counter::start would make ARR one tick short of that).
-    let tim2 = FTimerUs::new(dp.TIM2, &mut rcc).release();
-    tim2.arr().write(|w| w.arr().set(u32::MAX));
-    tim2.egr().write(|w| w.ug().set_bit());
-    tim2.cr1().write(|w| w.cen().enabled());
+    let tim2 = wiring::us_clock(dp.TIM2, &mut rcc);
 
     defmt::println!(
         "qfa-board-stm32f405: RAM compensator {=usize} B; table {=usize} B in flash",
@@ -247,62 +207,25 @@ fn main() -> ! {
     }
     let (updater, applier) = comp.split();
 
-    // Three DS18B20s, each alone on an open-drain pin with a 4.7 kΩ pull-up to 3.3 V.
     let gpiob = dp.GPIOB.split(&mut rcc);
-    // Released (high) from the start: a pin that came up driving low would hold the bus
-    // down and make the first reset see it stuck low.
-    let pins: [OneWirePin; 3] = [
-        gpiob.pb6.into_open_drain_output_in_state(PinState::High).erase_number(),
-        gpiob.pb7.into_open_drain_output_in_state(PinState::High).erase_number(),
-        gpiob.pb8.into_open_drain_output_in_state(PinState::High).erase_number(),
-    ];
+    let pins = wiring::onewire_pins(gpiob.pb6, gpiob.pb7, gpiob.pb8);
     // Each channel's first step sets 12 bits and reads the power supply (a parasite-powered
     // sensor is refused); a sensor that does not answer is set up again every second.
     let first_us = now_us(&tim2);
     let chans = pins.map(|pin| Channel::new(OneWire::new(pin, delay).with_slot_lock(slot_lock), first_us));
 
-    // Pulse counters: TIM3 ETR on PD2 (AF2), TIM4 ETR on PE0 (AF2), TIM8 ETR on PA0 (AF3).
-    // The HAL's typed ETR pins check the pin/AF pairs at compile time.
-    let gpioa = dp.GPIOA.split(&mut rcc);
-    let gpiod = dp.GPIOD.split(&mut rcc);
-    let gpioe = dp.GPIOE.split(&mut rcc);
-    let _etr_x: alt::tim3::Etr = gpiod.pd2.into();
-    let _etr_y: alt::tim4::Etr = gpioe.pe0.into();
-    let _etr_z: alt::tim8::Etr = gpioa.pa0.into();
-    let x = Timer::new(dp.TIM3, &mut rcc).release();
-    let y = Timer::new(dp.TIM4, &mut rcc).release();
-    let z = Timer::new(dp.TIM8, &mut rcc).release();
-    etr_counter!(x);
-    etr_counter!(y);
-    etr_counter!(z);
+    let (gpioa, gpiod, gpioe) = (dp.GPIOA.split(&mut rcc), dp.GPIOD.split(&mut rcc), dp.GPIOE.split(&mut rcc));
+    let (x, y, z) = wiring::pulse_counters((dp.TIM3, dp.TIM4, dp.TIM8), (gpiod.pd2, gpioe.pe0, gpioa.pa0), &mut rcc);
 
-    // TIM7: the 400 Hz IMU cycle.
-    let mut tick = dp.TIM7.counter_us(&mut rcc);
-    if let Err(e) = tick.start(PERIOD_US.micros()) {
-        defmt::panic!("TIM7 start: {}", e);
-    }
-    tick.listen(Event::Update);
-    // Base the counters and the latency now, with no update pending, so the first cycle
-    // gives real increments (no NO_COUNTER_BASE) over a real dt.
-    let _ = tick.wait();
-    let last_lat = tick.now().ticks();
-    let last_cyc = DWT::cycle_count();
-    let widen = [Widen16::new(cnt16_tim3(&x)), Widen16::new(cnt16_tim4(&y)), Widen16::new(cnt16_tim8(&z))];
-    let applier = applier.counting(widen.map(|w| w.total()));
-    let fast = Fast {
-        applier,
-        tick,
-        x,
-        y,
-        z,
-        widen,
-        last_lat,
-        last_cyc,
-        sum: [0.0; 3],
-        status: Status::empty(),
-        cycles: 0,
-        lost: 0,
+    // TIM7: the 400 Hz IMU cycle. Base the counters and the latency now, with no update
+    // pending, so the first cycle gives real increments (no NO_COUNTER_BASE) over a real dt.
+    let tick = match wiring::imu_tick(dp.TIM7, PERIOD_US, &mut rcc) {
+        Ok(t) => t,
+        Err(e) => defmt::panic!("TIM7 start: {}", e),
     };
+    let inputs = wiring::ImuInputs::new(tick, (x, y, z));
+    let applier = applier.counting(inputs.totals());
+    let fast = Fast { applier, inputs, sum: [0.0; 3], status: Status::empty(), cycles: 0, lost: 0 };
     critical_section::with(|cs| *FAST_HANDOFF.borrow_ref_mut(cs) = Some(fast));
     // Unmasking is unsafe because it can break a critical section built on masking this
     // interrupt; this program's only critical sections disable all interrupts (PRIMASK),
