@@ -15,6 +15,7 @@ use std::time::Instant;
 
 use serde::Serialize;
 
+use qfa_calibrate::output_error::OutputError;
 use qfa_calibrate::report::Variants;
 use qfa_calibrate::{calibrate_file, CalibrateOptions};
 use qfa_log::cycling::write_log;
@@ -116,20 +117,9 @@ pub fn dir_bytes(dir: &Path) -> std::io::Result<u64> {
 #[derive(Debug)]
 #[non_exhaustive]
 pub enum DemoError {
-    /// A file or folder could not be written, read or removed.
-    Io {
-        /// The file or folder.
-        path: PathBuf,
-        /// The system's error.
-        source: std::io::Error,
-    },
-    /// A report could not be written as JSON.
-    Json {
-        /// The file.
-        path: PathBuf,
-        /// The writer's error.
-        source: serde_json::Error,
-    },
+    /// A file or folder could not be written, read or removed, or a report could not be
+    /// written as JSON: the type calibration's and the batch's outputs fail with.
+    Output(OutputError),
     /// A unit's truth could not be written as TOML.
     Truth {
         /// The unit.
@@ -162,15 +152,14 @@ pub enum DemoError {
 
 impl DemoError {
     fn io(path: &Path) -> impl FnOnce(std::io::Error) -> Self + '_ {
-        move |source| Self::Io { path: path.to_path_buf(), source }
+        move |e| Self::Output(OutputError::io(path)(e))
     }
 }
 
 impl std::fmt::Display for DemoError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            Self::Io { path, source } => write!(f, "{}: {source}", path.display()),
-            Self::Json { path, source } => write!(f, "{}: {source}", path.display()),
+            Self::Output(e) => write!(f, "{e}"),
             Self::Truth { unit, source } => write!(f, "{unit}: truth.toml: {source}"),
             Self::Calibrate { unit, source } => write!(f, "{unit}: calibration: {source}"),
             Self::NoVerdict { unit } => write!(f, "{unit}: calibration wrote no verdict"),
@@ -360,13 +349,12 @@ fn write_reports(
 ) -> Result<Verdict, DemoError> {
     println!("{}", table4_text(results));
     let table4 = opts.out.join("table4.json");
-    let json =
-        serde_json::to_string_pretty(results).map_err(|source| DemoError::Json { path: table4.clone(), source })?;
+    let json = serde_json::to_string_pretty(results).map_err(|e| DemoError::Output(OutputError::json(&table4)(e)))?;
     std::fs::write(&table4, json).map_err(DemoError::io(&table4))?;
     let v = verdict(results, pages, nav);
     let report = opts.out.join("report.json");
     let json = qfa_report::verdict::json_with_verdict(&v, &DemoReport { units: results })
-        .map_err(|source| DemoError::Json { path: report.clone(), source })?;
+        .map_err(|e| DemoError::Output(OutputError::json(&report)(e)))?;
     std::fs::write(&report, json).map_err(DemoError::io(&report))?;
     let md = opts.out.join("report.md");
     std::fs::write(&md, markdown(results, pages, nav.is_some(), &v)).map_err(DemoError::io(&md))?;

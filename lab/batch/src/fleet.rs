@@ -229,7 +229,7 @@ pub struct Fleet {
     pub span_c: [f64; 2],
     /// Units of full coverage, the yardstick of every figure.
     pub reference_units: usize,
-    /// The units were compared with the fleet: it has at least [`MIN_FLEET`] units of full
+    /// The units were compared with the fleet: it has at least 10 (`MIN_FLEET`) units of full
     /// coverage. When not, no unit is flagged outside the population and the page says so.
     pub compared: bool,
 }

@@ -141,7 +141,7 @@ pub(crate) fn calibrate(
         outcome: v.outcome,
         failed_limits: v.failed(),
         held_out_mg: Vec::new(),
-        structures: vec![("qfa".into(), structure(r.fit.branch.mode))],
+        structures: vec![("qfa".into(), structure(r.fit.branch.mode, r.fit.branch.shape))],
         temp_c: covered,
         one_branch: false,
         rows: r.rows,
@@ -162,14 +162,18 @@ pub(crate) fn calibrate(
 }
 
 /// The flashed model's structure in words.
-fn structure(mode: qfa_calibrate::fit::BranchMode) -> String {
-    use qfa_calibrate::fit::BranchMode;
+fn structure(mode: qfa_calibrate::fit::BranchMode, shape: qfa_calibrate::fit::CurveShape) -> String {
+    use qfa_calibrate::fit::{BranchMode, CurveShape};
     let bias = match mode {
         BranchMode::Single => "one bias curve for both branches",
         BranchMode::Offset => "a bias curve and a constant heating/cooling step",
         BranchMode::Free => "a bias curve per branch",
     };
-    format!("Eq. 11 scale factor, {bias}")
+    let on = match shape {
+        CurveShape::Nodes => "",
+        CurveShape::Cubic => ", each curve a cubic in temperature",
+    };
+    format!("Eq. 11 scale factor, {bias}{on}")
 }
 
 /// The fleet's figures of one flashed axis model and its held-out figures.

@@ -168,6 +168,9 @@ pub struct FitOptions {
     /// (`choose_branch_mode`). `Some(mode)` forces it (the CV figures are still
     /// reported, the rule says it was forced): for tests that must show a wrong tie fails.
     pub branch_mode: Option<BranchMode>,
+    /// `None`: the curves' shape is chosen with the tie. `Some` forces it (the table fit on
+    /// every program takes the shape the held-out fit chose).
+    pub curve_shape: Option<CurveShape>,
 }
 
 impl FitOptions {
@@ -182,6 +185,7 @@ impl FitOptions {
             block: 30,
             grid_points: MAX_BIAS_POINTS,
             branch_mode: None,
+            curve_shape: None,
         }
     }
 }
@@ -379,7 +383,7 @@ pub fn fit(
     let bias_simple = lstsq(&xb, 2, &yb)?;
     let grid = grid_spec(&rows, opts.grid_points);
     let (branch, bias_hysteresis) = fit_bias_grid(&rows, &starts, grid, opts)?;
-    let (heating, cooling) = branch.mode.expand(&bias_hysteresis.coef, grid.g);
+    let (heating, cooling) = branch.mode.expand_shaped(branch.shape, &bias_hysteresis.coef, grid.g);
     // The limit is what the fit rows covered plus a stated 25 % margin (the rate estimate
     // of the same program varies run to run), floored only at the branch deadband (below
     // it a rate is not told from the estimator's flicker), so `RATE_OUT_OF_RANGE` marks
@@ -450,15 +454,18 @@ fn fit_bias_grid(
     // How the branches are tied is the data's call (cross-validation, one-SE rule), then
     // the chosen mode is fitted on all fit rows with the fit's own blocks.
     let mut branch = choose_branch_mode(rows, &y_k0x, starts, grid, opts.block)?;
-    if let Some(m) = opts.branch_mode {
-        branch.mode = m;
-        branch.rule =
-            format!("forced to {m:?} by the caller (FitOptions::branch_mode); the CV figures are for reference");
+    if opts.branch_mode.is_some() || opts.curve_shape.is_some() {
+        branch.mode = opts.branch_mode.unwrap_or(branch.mode);
+        branch.shape = opts.curve_shape.unwrap_or(branch.shape);
+        branch.rule = format!(
+            "forced to {:?} on {:?} curves by the caller (FitOptions); the CV figures are for reference",
+            branch.mode, branch.shape
+        );
     }
-    let (xg, p) = bias_design(rows, branch.mode, grid);
+    let (xg, p) = bias_design(rows, branch.shape, branch.mode, grid);
     let (mut xb, mut yb) = block_average(&xg, &y_k0x, p, opts.block, starts);
     drop(xg);
-    branch.mode.push_regularisers(&mut xb, &mut yb, p, grid.g);
+    branch.mode.push_shaped_regularisers(branch.shape, &mut xb, &mut yb, p, grid.g);
     let bias_hysteresis = lstsq(&xb, p, &yb)?;
     Ok((branch, bias_hysteresis))
 }
@@ -496,11 +503,22 @@ struct GridSpec {
     g: usize,
 }
 
-/// The K0 design of the paired rows in branch mode `mode` (row-major, and its column
-/// count): each row is the mean of its two runs' hat functions (see [`Row`]); Offset adds
-/// the half-step column, +1 on heating, −1 on cooling, 0 on Unknown (as `BiasGrid::k0`
-/// takes the mean of both branches there).
-fn bias_design(rows: &[Row], mode: BranchMode, gs: GridSpec) -> (Vec<f64>, usize) {
+/// The K0 design of the paired rows in branch mode `mode` on curves of `shape` (row-major,
+/// and its column count): each row is the mean of its two runs' hat functions (see
+/// [`Row`]), through the shape's node basis (a cubic's nodes, as the static fit's);
+/// Offset adds the half-step column, +1 on heating, −1 on cooling, 0 on Unknown (as
+/// `BiasGrid::k0` takes the mean of both branches there).
+fn bias_design(rows: &[Row], shape: CurveShape, mode: BranchMode, gs: GridSpec) -> (Vec<f64>, usize) {
+    let (x, p) = node_design(rows, mode, gs);
+    if shape == CurveShape::Nodes {
+        return (x, p);
+    }
+    let q = mode.shaped_unknowns(shape, gs.g);
+    (x.chunks(p).flat_map(|row| mode.shaped_row(shape, row, gs.g)).collect(), q)
+}
+
+/// [`bias_design`] on free nodes.
+fn node_design(rows: &[Row], mode: BranchMode, gs: GridSpec) -> (Vec<f64>, usize) {
     let GridSpec { start, step, g } = gs;
     let p = mode.unknowns(g);
     let sign = |b: Branch| match b {
@@ -536,11 +554,13 @@ fn bias_design(rows: &[Row], mode: BranchMode, gs: GridSpec) -> (Vec<f64>, usize
 /// beyond the 30-min correlation time of the simulated bias instability.
 pub(crate) const CYCLING_CV_FOLDS: usize = 10;
 
-/// Cross-validation figures of one branch mode, µg.
+/// Cross-validation figures of one branch mode on one curve shape, µg.
 #[derive(Clone, Copy, Debug, Serialize)]
 pub struct BranchCv {
     /// The mode.
     pub mode: BranchMode,
+    /// The curves' shape.
+    pub shape: CurveShape,
     /// Its linear unknowns.
     pub unknowns: usize,
     /// √(CV MSE), µg.
@@ -556,7 +576,10 @@ pub struct BranchCv {
 pub struct BranchChoice {
     /// The chosen mode.
     pub mode: BranchMode,
-    /// Every candidate's figures (Single, Offset, Free).
+    /// The chosen curves' shape: free nodes, or nodes on a cubic (the stacks' own shape,
+    /// which the grid holds too).
+    pub shape: CurveShape,
+    /// Every candidate's figures (Single, Offset, Free, each on free nodes and on a cubic).
     pub candidates: Vec<BranchCv>,
     /// The limit the chosen mode had to meet: best CV MSE + its SE, µg².
     pub limit_ug2: f64,
@@ -592,8 +615,11 @@ fn choose_branch_mode(
     let ranges = block_ranges(n, block, &st);
     let fold_of: Vec<usize> = ranges.iter().map(|&(s, _)| s * k / n.max(1)).collect();
     let mut cands = Vec::new();
-    for mode in [BranchMode::Single, BranchMode::Offset, BranchMode::Free] {
-        let (x, p) = bias_design(rows, mode, gs);
+    let shapes_and_modes = [CurveShape::Nodes, CurveShape::Cubic]
+        .into_iter()
+        .flat_map(|s| [BranchMode::Single, BranchMode::Offset, BranchMode::Free].map(|m| (s, m)));
+    for (shape, mode) in shapes_and_modes {
+        let (x, p) = bias_design(rows, shape, mode, gs);
         let (xb, yb) = block_average(&x, y, p, block, &st);
         drop(x);
         let mut fold_mse = Vec::with_capacity(k);
@@ -605,7 +631,7 @@ fn choose_branch_mode(
                     yt.push(yb[b]);
                 }
             }
-            mode.push_regularisers(&mut xt, &mut yt, p, gs.g);
+            mode.push_shaped_regularisers(shape, &mut xt, &mut yt, p, gs.g);
             let c = lstsq(&xt, p, &yt)?.coef;
             let (mut sse, mut m) = (0.0, 0usize);
             for (b, &fb) in fold_of.iter().enumerate() {
@@ -620,9 +646,9 @@ fn choose_branch_mode(
             }
             fold_mse.push(sse / m as f64 * 1e12);
         }
-        cands.push((mode, p, crate::select::CvFigure::of_folds(&fold_mse)?));
+        cands.push((shape, mode, p, crate::select::CvFigure::of_folds(&fold_mse)?));
     }
-    let figs: Vec<(usize, crate::select::CvFigure)> = cands.iter().map(|&(_, p, f)| (p, f)).collect();
+    let figs: Vec<(usize, crate::select::CvFigure)> = cands.iter().map(|&(_, _, p, f)| (p, f)).collect();
     let chosen = crate::select::one_se_rule(&figs).ok_or(FitError::Cv(CvFault::NoCandidate))?;
     let best = figs
         .iter()
@@ -630,18 +656,27 @@ fn choose_branch_mode(
         .min_by(|a, b| a.mse.total_cmp(&b.mse))
         .ok_or(FitError::Cv(CvFault::NoCandidate))?;
     Ok(BranchChoice {
-        mode: cands[chosen].0,
+        shape: cands[chosen].0,
+        mode: cands[chosen].1,
         candidates: cands
             .iter()
-            .map(|&(mode, unknowns, f)| BranchCv { mode, unknowns, cv_rms_ug: f.mse.sqrt(), cv_mse_ug2: f.mse, cv_se_ug2: f.se })
+            .map(|&(shape, mode, unknowns, f)| BranchCv {
+                mode,
+                shape,
+                unknowns,
+                cv_rms_ug: f.mse.sqrt(),
+                cv_mse_ug2: f.mse,
+                cv_se_ug2: f.se,
+            })
             .collect(),
         limit_ug2: best.mse + best.se,
         folds: k,
         rule: format!(
-            "bias-grid branch tie (Single: one curve; Offset: one curve ± a constant half-step; Free: a curve per branch) \
-             by {k}-fold blocked cross-validation over the fit programs' paired rows (contiguous equal chunks in time), \
-             scored on the held-out chunk's {block}-row K0 means; the mode with the fewest unknowns whose CV MSE is within \
-             one standard error of the best's (one-SE rule)"
+            "bias-grid branch tie (Single: one curve; Offset: one curve ± a constant half-step; Free: a curve per branch), \
+             each curve free nodes or nodes on a cubic in temperature (the stacks' own shape), by {k}-fold blocked \
+             cross-validation over the fit programs' paired rows (contiguous equal chunks in time), \
+             scored on the held-out chunk's {block}-row K0 means; the candidate with the fewest unknowns whose CV MSE is \
+             within one standard error of the best's (one-SE rule)"
         ),
     })
 }

@@ -233,7 +233,11 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
         (fitted.clone(), fit_peers)
     } else {
         let t = Instant::now();
-        let o = FitOptions { branch_mode: Some(fitted.branch.mode), ..FitOptions::new(table_p.clone()) };
+        let o = FitOptions {
+            branch_mode: Some(fitted.branch.mode),
+            curve_shape: Some(fitted.branch.shape),
+            ..FitOptions::new(table_p.clone())
+        };
         let table = fit(&paired, &o, None).map_err(CalibrateError::Fit)?;
         let deadband = table.hysteresis.axes[0].bias.deadband_c_per_min;
         let p = crate::report::peer_fit(&paired, &table_p, deadband)?;
@@ -524,7 +528,7 @@ fn fit_section(p: &mut qfa_report::html_report::Page, f: &FitSummary) {
             format!("{:.1}, {:.1}, {:.1}", f.cond_sf_simple, f.cond_sf_hysteresis, f.cond_bias_grid),
         ),
         ("Eq. 11 [γ, μ, β, ε, η, α]", f.eq11.iter().map(|c| format!("{c:.6e}")).collect::<Vec<_>>().join(", ")),
-        ("bias grid branch tie", format!("{:?}: {}", f.branch.mode, f.branch.rule)),
+        ("bias grid branch tie", format!("{:?} on {:?} curves: {}", f.branch.mode, f.branch.shape, f.branch.rule)),
     ]);
     let branch_rows: Vec<Vec<String>> = f
         .branch
