@@ -82,6 +82,7 @@ pub(crate) mod holdout;
 pub(crate) mod output;
 pub mod report;
 mod search;
+mod shape;
 
 use std::ops::Range;
 
