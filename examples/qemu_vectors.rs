@@ -7,7 +7,7 @@ mod common;
 
 #[cfg(target_os = "none")]
 mod target {
-    use cortex_m_rt::{entry, exception, ExceptionFrame};
+    use cortex_m_rt::entry;
 
     use crate::common::rt;
 
@@ -21,16 +21,7 @@ mod target {
         rt::exit(code)
     }
 
-    #[exception]
-    #[allow(unsafe_code)]
-    unsafe fn HardFault(ef: &ExceptionFrame) -> ! {
-        rt::on_hard_fault(ef)
-    }
-
-    #[panic_handler]
-    fn panic(info: &core::panic::PanicInfo<'_>) -> ! {
-        rt::on_panic(info)
-    }
+    crate::common::printing_handlers!();
 }
 
 /// On the host: the same replay, for comparison.

@@ -13,7 +13,7 @@ mod common;
 mod target {
     use core::hint::black_box;
 
-    use cortex_m_rt::{entry, exception, ExceptionFrame};
+    use cortex_m_rt::entry;
     use qfa_thermal::{Config, Table, ThreeAxisSensorPerAxis, ThreeAxisSharedSensor};
 
     use crate::common::inputs::{self, sample};
@@ -72,16 +72,7 @@ mod target {
         rt::exit(0)
     }
 
-    #[exception]
-    #[allow(unsafe_code)]
-    unsafe fn HardFault(ef: &ExceptionFrame) -> ! {
-        rt::on_hard_fault(ef)
-    }
-
-    #[panic_handler]
-    fn panic(info: &core::panic::PanicInfo<'_>) -> ! {
-        rt::on_panic(info)
-    }
+    crate::common::printing_handlers!();
 }
 
 #[cfg(not(target_os = "none"))]

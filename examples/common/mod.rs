@@ -134,7 +134,7 @@ pub mod sized_statics {
 /// link fails if a panic is reachable. A macro, not a module: the programs that print
 /// (`bench`, `qemu_vectors`) have a panic handler of their own, and a `#[panic_handler]` in
 /// a module every example compiles would be a second one.
-// The printing programs share this module and never call the macro.
+// The printing programs share this module and call `printing_handlers!` instead.
 #[cfg(target_os = "none")]
 #[allow(unused_macros)]
 macro_rules! panic_free_handlers {
@@ -161,6 +161,28 @@ macro_rules! panic_free_handlers {
         }
     };
 }
+
+/// The printing programs' handlers (`bench`, `qemu_vectors`, `trace_paths`): a HardFault
+/// and a panic each print what happened and exit with a failure status (`rt`).
+#[cfg(target_os = "none")]
+#[allow(unused_macros)]
+macro_rules! printing_handlers {
+    () => {
+        #[cortex_m_rt::exception]
+        #[allow(unsafe_code)]
+        unsafe fn HardFault(ef: &cortex_m_rt::ExceptionFrame) -> ! {
+            $crate::common::rt::on_hard_fault(ef)
+        }
+
+        #[panic_handler]
+        fn panic(info: &core::panic::PanicInfo<'_>) -> ! {
+            $crate::common::rt::on_panic(info)
+        }
+    };
+}
 #[cfg(target_os = "none")]
 #[allow(unused_imports)]
 pub(crate) use panic_free_handlers;
+#[cfg(target_os = "none")]
+#[allow(unused_imports)]
+pub(crate) use printing_handlers;
