@@ -416,6 +416,11 @@ const RESTART_SILENTLY: u8 = 0x80;
 /// DS18B20 LSB).
 pub const SETTLED_LAG_C: f32 = 1.0 / 64.0;
 
+/// The temperatures a DS18B20 reads, °C (datasheet: −55…+125 °C): where the unit's element
+/// and creep states may lie when they start without their history.
+const SENSOR_MIN_C: f32 = -55.0;
+const SENSOR_MAX_C: f32 = 125.0;
+
 /// What the history states depend on, as bits: the slots, with a word saying which are on,
 /// and the calibrated range. Compared as one array: field by field, with the `Option`s and
 /// the float comparisons, it took 390 B of Cortex-M4 flash.
@@ -534,10 +539,15 @@ impl AxisModel {
     /// Advance `state` by `dt_s` seconds to sensor temperature `t_c` and rate `rate`
     /// (°C/min), and evaluate K1 and K0.
     ///
-    /// Order: clamp T and Ṫ to the calibrated range; the element temperature Te follows T
-    /// through `sensor_lag` (Te = T when off); the branch follows Ṫ; play and creep states
-    /// follow Te; K1 = Eq. 11 at (Te, Ṫ); K0 = grid(Te, branch) + play term + creep term.
-    /// On the first call (or after [`AxisState::default`]) every state starts at T.
+    /// Order: clamp Ṫ to the calibrated limit; the element temperature Te follows T, as
+    /// read, through `sensor_lag` (Te = T when off); the branch follows Ṫ; play and creep
+    /// states follow Te; then Te is held to the calibrated range for the evaluation, and the
+    /// creep's Te − x to the range's span (flagged `temp_clamped` when T or Te is outside
+    /// the range or Te − x past its span);
+    /// K1 = Eq. 11 at (Te, Ṫ); K0 = grid(Te, branch) + play term + creep term. The states
+    /// are not held to the calibrated range: they are the unit's, and the unit does not stop
+    /// at the range's edge (only at the DS18B20's, −55…125 °C, which every reading is
+    /// within). On the first call (or after [`AxisState::default`]) every state starts at T.
     pub fn evaluate(&self, state: &mut AxisState, t_c: f32, rate: f32, dt_s: f32) -> Evaluation {
         self.evaluate_with_deadband(state, t_c, rate, dt_s, self.bias.deadband_c_per_min)
     }
@@ -567,7 +577,11 @@ impl AxisModel {
             k0 += h.weight_g * fraction.clamp(-1.0, 1.0);
         }
         if let Some(c) = self.ext.bias_creep {
-            k0 += c.gain_g_per_c * (te - state.creep_c);
+            // Te − x held to the grid's span (flagged when it is past it, `advance`): the term
+            // stays within its gain times that span, which validation bounds. The state itself
+            // may lie outside the range, where the unit was.
+            let span = self.bias.t_end_c() - self.bias.t_start_c;
+            k0 += c.gain_g_per_c * clamp(te - state.creep_c, -span, span).0;
         }
         let settled_g = self.bias.settled_within_g();
         let settling = state.settling(settled_g) || branch_unknown_g > settled_g;
@@ -577,14 +591,14 @@ impl AxisModel {
     }
 
     /// The state step of [`evaluate_with_deadband`](Self::evaluate_with_deadband) alone:
-    /// clamp T and Ṫ, then step the element temperature, the branch, the play and the
-    /// creep states (and their doubts) exactly as it does, without forming K1, K0 or the
+    /// clamp Ṫ, step the element temperature, the branch, the play and the creep states
+    /// (and their doubts), then hold Te to the range, exactly as it does, without forming K1, K0 or the
     /// settling flag. For replays that read the states only (the lab's search over lags,
     /// play widths and creep times reads Te and the play and creep states of a model at
     /// unit gains, about half the work of a whole evaluation).
     #[inline]
     pub fn advance(&self, state: &mut AxisState, t_c: f32, rate: f32, dt_s: f32, deadband: f32) -> Advanced {
-        let (t, temp_clamped) = clamp(t_c, self.bias.t_start_c, self.bias.t_end_c());
+        let (lo, hi) = (self.bias.t_start_c, self.bias.t_end_c());
         let lim = self.rate_limit_c_per_min;
         let (r, rate_clamped) = clamp(rate, -lim, lim);
         if !state.initialized {
@@ -592,15 +606,27 @@ impl AxisModel {
             state.branch = Branch::Unknown;
             state.restart = RESTART;
         }
+        // The states are the unit's: the element follows the case wherever it goes, past the
+        // calibrated range too, and the play and creep follow the element. Only the model's
+        // evaluation is held to the range (and flagged). Clamping the temperature before the
+        // lag, as this did before, left the element at the range's edge while the unit was
+        // beyond it, and reported it right as soon as the case came back.
+        // Held to what a DS18B20 reads, which every reading is (the decoder refuses others):
+        // the states stay finite, and so does the creep's τ, whatever a caller passes.
+        #[cfg(not(qfa_mutant = "clamp_before_state_update"))]
+        let t = clamp(t_c, SENSOR_MIN_C, SENSOR_MAX_C).0;
+        #[cfg(qfa_mutant = "clamp_before_state_update")]
+        let t = clamp(t_c, lo, hi).0;
         if state.restart != 0 {
             // Started without the history (power-up, or a reload that changed the slots):
             // from the temperature now, with what the history could have made of them. The
-            // element and creep states are averages of past clamped temperatures, so they lie
-            // inside the grid: no further from T than the grid's farther end. (The table's
-            // rate limit times τ is no bound: the case may have moved faster while the unit
-            // was off, and the oracle found such a history.) The play output lies within its
-            // half-width of the element temperature, which bounds the play term by its weight.
-            let farther_end = larger(self.bias.t_end_c() - t, t - self.bias.t_start_c);
+            // element and creep states are averages of past temperatures of the unit, which a
+            // DS18B20 reads within −55…125 °C: no further from T than that range's farther
+            // end. (The table's rate limit times τ is no bound: the case may have moved faster
+            // while the unit was off, and the oracle found such a history.) The play output
+            // lies within its half-width of the element temperature, which bounds the play
+            // term by its weight.
+            let farther_end = larger(SENSOR_MAX_C - t, t - SENSOR_MIN_C);
             (state.element_c, state.play_c, state.creep_c) = (t, t, t);
             state.lag_unknown_c = if self.ext.sensor_lag.is_some() { farther_end } else { 0.0 };
             state.play_unknown_g = self.ext.bias_branch_hysteresis.map_or(0.0, |h| abs(h.weight_g));
@@ -611,8 +637,6 @@ impl AxisModel {
             }
             state.restart = 0;
         }
-        #[cfg(qfa_mutant = "clamp_after_state_update")]
-        let t = t_c;
         let te = match self.ext.sensor_lag {
             Some(lag) if dt_s > 0.0 => {
                 let w = lag_weight(dt_s, lag.tau_s);
@@ -623,8 +647,6 @@ impl AxisModel {
             Some(_) => state.element_c,
             None => t,
         };
-        #[cfg(qfa_mutant = "clamp_after_state_update")]
-        let te = clamp(te, self.bias.t_start_c, self.bias.t_end_c()).0;
         state.branch = state.branch.next(r, deadband);
         if let Some(h) = self.ext.bias_branch_hysteresis {
             let lo = te - h.half_width_c;
@@ -648,6 +670,12 @@ impl AxisModel {
                     (1.0 - w) * state.creep_unknown_g + w * abs(c.gain_g_per_c) * state.lag_unknown_c;
             }
         }
+        // The model is evaluated within its range: at the element temperature held to it,
+        // flagged while the case (the reading) or the element is outside, or while the
+        // creep's Te − x is past the range's span (the term is held there: see `evaluate`).
+        let (te, element_clamped) = clamp(te, lo, hi);
+        let creep_held = self.ext.bias_creep.is_some() & (abs(te - state.creep_c) > hi - lo);
+        let temp_clamped = element_clamped | creep_held | (t_c < lo) | (t_c > hi);
         Advanced { element_c: te, rate_c_per_min: r, temp_clamped, rate_clamped }
     }
 }

@@ -277,6 +277,34 @@ impl<const RATE_WINDOW: usize> RateWindow<RATE_WINDOW> {
         self.len >= config.min_samples.max(3)
     }
 
+    /// The flicker floor of the window as it is filled now, °C/min, from `full`, the floor
+    /// of a full window ([`flicker_deadband_c_per_min`]): `full·√(N(N² − 1)/(n(n² − 1)))`
+    /// for n of N readings, since the floor goes as `1/√S` and `S ∝ n(n² − 1)` at the
+    /// nominal period (a missed reading only widens S, so this stays on the safe side).
+    /// 1.47 °C/min for 8 of 32 readings against 0.182 full: a branch decided on a partial
+    /// window at the full window's floor was decided on its noise (the physics oracle found
+    /// such a history, power-up at rest). `full` itself once the window is full, so the
+    /// steady state costs one compare; `f32::MAX` below two readings (no slope).
+    #[must_use]
+    pub fn flicker_floor(&self, full: f32) -> f32 {
+        let n = u32::from(self.len);
+        // The mutants decide on the full window's floor whatever the window holds (the old
+        // rule; with an unready window's slope too).
+        if n as usize >= RATE_WINDOW
+            || cfg!(qfa_mutant = "full_window_floor")
+            || cfg!(qfa_mutant = "branch_on_unready_rate")
+        {
+            return full;
+        }
+        if n < 2 {
+            return f32::MAX;
+        }
+        // N ≤ 128: N(N² − 1) < 2²¹, exact in u32 and in f32.
+        let big = RATE_WINDOW as u32;
+        let ratio = (big * (big * big - 1)) as f32 / (n * (n * n - 1)) as f32;
+        full * sqrt(ratio)
+    }
+
     /// Add a reading `raw` (1/16 °C) taken at `t_ms` (wrapping u32 ms) under `config`. O(1).
     ///
     /// # Errors
@@ -441,6 +469,13 @@ impl<const RATE_WINDOW: usize> RateEstimator<RATE_WINDOW> {
     #[must_use]
     pub fn ready(&self) -> bool {
         self.window.ready(&self.config)
+    }
+
+    /// The flicker floor of the window as it is filled now: see
+    /// [`RateWindow::flicker_floor`].
+    #[must_use]
+    pub fn flicker_floor(&self, full: f32) -> f32 {
+        self.window.flicker_floor(full)
     }
 
     /// Add a reading `raw` (1/16 °C) taken at `t_ms` (wrapping u32 ms). O(1).

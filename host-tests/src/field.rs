@@ -31,6 +31,7 @@ use qfa_thermal::time::MsClock;
 use qfa_thermal::{Compensator, Config, PulseOutput, Status};
 
 use crate::oracle::{Oracle, LSB_C};
+use crate::physics::{Physics, Profile, CONVERSION_DELAY_S};
 use crate::scenarios;
 
 const AXES: usize = 3;
@@ -304,6 +305,11 @@ pub struct Verdict {
     pub silent_wrong_cycles: u64,
     /// The first such cycle, described.
     pub first: Option<String>,
+    /// Cycles with status OK and an output outside the physics oracle's tolerance of the
+    /// simulated unit ([`crate::physics`]), or OK where no correct compensator can be.
+    pub physics_wrong_cycles: u64,
+    /// The first such cycle, described.
+    pub first_physics: Option<String>,
     /// Cycles per status bit (bit 0 `TEMP_STALE` … the last, [`FLAGS`] − 1).
     pub flagged: [u64; FLAGS],
 }
@@ -347,6 +353,13 @@ pub fn run(h: &History) -> Verdict {
     let mut counters = [0u32; AXES];
     let mut oracle = Oracle::new(AXES, &tables, 1e-6);
     let before = h.before_power_up_s;
+    // The unit itself: where each axis stood before the history (its branch, its play
+    // output within the half-width) is drawn, as nobody knows it.
+    let drawn: [u64; AXES] = core::array::from_fn(|j| qfa_rng::splitmix64(h.flicker_seed ^ 0xB7A2_0000 ^ j as u64));
+    let branches = drawn.map(|d| if d & 1 == 0 { 1i8 } else { -1 });
+    let play_fracs = drawn.map(|d| ((d >> 8) % 2_001) as f64 / 1_000.0 - 1.0);
+    let mut physics =
+        Physics::new(Profile::new(h.start_c, &h.segments), &h.offsets_c, &tables, &branches, &play_fracs, 1e-6);
     for j in 0..AXES {
         // One step a second, at the instants (ms from power-up) the sensor would have read.
         let steps: Vec<(i64, f64, f64)> = (0..before)
@@ -362,6 +375,7 @@ pub fn run(h: &History) -> Verdict {
     comp.set_table(loaded[0].clone()).expect("drawn tables are valid");
     comp.prime_counters(counters);
     oracle.load(0);
+    physics.load(0);
     let mut clock = MsClock::new();
     let mut verdict = Verdict::default();
     let mut dead_until = [0u32; AXES];
@@ -371,11 +385,13 @@ pub fn run(h: &History) -> Verdict {
                 Event::ReloadSame => {
                     comp.set_table(loaded[current].clone()).expect("valid");
                     oracle.load(current);
+                    physics.load(current);
                 }
                 Event::LoadOther => {
                     current = 1 - current;
                     comp.set_table(loaded[current].clone()).expect("valid");
                     oracle.load(current);
+                    physics.load(current);
                 }
                 Event::LoadCorrupt => {
                     let mut buf = [0u8; MAX_TABLE_BYTES];
@@ -395,7 +411,9 @@ pub fn run(h: &History) -> Verdict {
             let t_ms_true = i64::from(s) * 1_000 + 100 + 150 * j as i64;
             let us = h.clock_start_us.wrapping_add((t_ms_true * 1_000) as u32);
             let t_ms = clock.ms(us);
-            let true_c = h.temperature(f64::from(before) + t_ms_true as f64 * 1e-3) + h.offsets_c[j];
+            // The conversion reports the temperature of its middle, before the stamp.
+            let stamp_s = f64::from(before) + t_ms_true as f64 * 1e-3;
+            let true_c = h.temperature(stamp_s - CONVERSION_DELAY_S) + h.offsets_c[j];
             let here = h.events.iter().find(|e| e.0 == s && e.1 == j).map(|e| e.2);
             if s < dead_until[j] || matches!(here, Some(Event::Missed)) {
                 let _ = comp.on_missed_reading(j, t_ms);
@@ -416,6 +434,7 @@ pub fn run(h: &History) -> Verdict {
                 _ => {
                     if comp.on_raw(j, t_ms, raw).is_ok() {
                         oracle.reading(j, t_ms_true, true_c, f64::from(raw) * LSB_C);
+                        physics.reading(j, stamp_s);
                     } else {
                         // A refused true reading (a step the plausibility rules hold back)
                         // is flagged; the oracle does not count it as good either.
@@ -449,6 +468,8 @@ pub fn run(h: &History) -> Verdict {
                 }
             };
             let out = PulseOutput { dv_mps: out_v, status };
+            // The cycle's instant: after the second's readings, before the next second's.
+            let t_cycle = f64::from(before) + f64::from(s) + 0.45 + 0.25 * f64::from(c) / f64::from(h.cycles_per_s);
             verdict.cycles += 1;
             for (b, n) in verdict.flagged.iter_mut().enumerate() {
                 *n += u64::from(out.status.bits() >> b & 1);
@@ -476,6 +497,29 @@ pub fn run(h: &History) -> Verdict {
                     verdict.silent_wrong_cycles += 1;
                     if verdict.first.is_none() {
                         verdict.first =
+                            Some(format!("t = {s} s, cycle {c}, axis {i}: {why} (status {:?})", out.status));
+                    }
+                }
+                let truth = match h.entry {
+                    Entry::Samples => physics.accel(i, t_cycle, i64::from(raw[i])),
+                    _ => physics.dv(i, t_cycle, i64::from(pulses[i]), dt),
+                };
+                let wrong = match truth {
+                    None => Some("status OK where no compensator can know (no table, or no rate yet)".to_string()),
+                    Some((want, tol)) => {
+                        let got = f64::from(out.dv_mps[i]);
+                        ((got - want).abs() > tol).then(|| {
+                            format!(
+                                "{got:.9e} vs the unit's {want:.9e}, |Δ| {:.3e} > tol {tol:.3e}",
+                                (got - want).abs()
+                            )
+                        })
+                    }
+                };
+                if let Some(why) = wrong {
+                    verdict.physics_wrong_cycles += 1;
+                    if verdict.first_physics.is_none() {
+                        verdict.first_physics =
                             Some(format!("t = {s} s, cycle {c}, axis {i}: {why} (status {:?})", out.status));
                     }
                 }

@@ -5,6 +5,7 @@ pub mod field;
 pub mod fuzzing;
 pub mod onewire_sim;
 pub mod oracle;
+pub mod physics;
 pub mod reference;
 pub mod scenarios;
 pub mod soak;

@@ -172,11 +172,12 @@ fn settled_bias_g(m: &AxisModel) -> f64 {
     0.25 * f64::from(m.bias.residual_rms_g)
 }
 
-/// The flicker floor of a 32-reading window at 1 s, from its derivation in the firmware's
-/// docs (`rate::flicker_deadband_c_per_min`): σ = 60·q/(2·√S), times √(2·ln(M/α)) for
-/// M = 3 600 readings and α = 1 %.
-fn flicker_floor() -> f64 {
-    let s: f64 = (0..WINDOW).map(|i| (i as f64 - 15.5).powi(2)).sum();
+/// The flicker floor of a window of `n` readings at 1 s, from its derivation in the
+/// firmware's docs (`rate::flicker_deadband_c_per_min`, `RateWindow::flicker_floor`):
+/// σ = 60·q/(2·√S), times √(2·ln(M/α)) for M = 3 600 readings and α = 1 %.
+fn flicker_floor(n: usize) -> f64 {
+    let mid = (n as f64 - 1.0) / 2.0;
+    let s: f64 = (0..n).map(|i| (i as f64 - mid).powi(2)).sum();
     60.0 * LSB_C / (2.0 * s.sqrt()) * (2.0 * (3600.0f64 / 0.01).ln()).sqrt()
 }
 
@@ -210,9 +211,9 @@ struct Line {
 /// Advance one axis's states under `m` by `dt_s` to the line `l`; (Te bound, play and
 /// creep terms' tolerance contributions). States start at the first line.
 fn step_states(m: &AxisModel, a: &mut AxisIdeal, l: Line, dt_s: f64) -> Bound {
-    let lo = f64::from(m.bias.t_start_c);
-    let hi = f64::from(m.bias.t_end_c());
-    let t = l.t.clamp(lo, hi);
+    // The states follow the temperature as read, never clamped: the unit does not stop at
+    // the calibrated range's edge (the evaluation holds Te to it).
+    let t = l.t.clamp(-55.0, 125.0);
     let start = Bound { value: t, err: l.err_t };
     if !a.init {
         *a = AxisIdeal { init: true, element: start, play: start, creep: start };
@@ -259,7 +260,7 @@ impl Oracle {
             windows: vec![Window::default(); axes],
             branch: vec![(0, Branches { unknown: true, ..Branches::default() }); axes],
             ideal: vec![None; axes],
-            deadband_floor: flicker_floor(),
+            deadband_floor: flicker_floor(WINDOW),
             tick_s,
         }
     }
@@ -330,7 +331,9 @@ impl Oracle {
         let r = rate.clamp(-lim, lim);
         // The branch: the ideal's from the ideal rate; the firmware's may be any branch its
         // rate (within d_r of the ideal) could have chosen since the last decisive rate.
-        let db = f64::from(m.bias.deadband_c_per_min).max(self.deadband_floor);
+        // The floor of the window as filled now (its full floor once full).
+        let n = self.windows[i].readings.len();
+        let db = f64::from(m.bias.deadband_c_per_min).max(flicker_floor(n).max(self.deadband_floor));
         let (ideal_branch, branches) = &mut self.branch[i];
         if r > db {
             *ideal_branch = 1;
@@ -348,6 +351,8 @@ impl Oracle {
         let (ideal_branch, branches) = (*ideal_branch, *branches);
         // Not yet settled in the firmware's terms: what an unflagged state may still be off by.
         let dte = te.err + if m.ext.sensor_lag.is_some() { SETTLED_LAG_C } else { 0.0 };
+        // Evaluated at Te held to the range (which never widens a difference).
+        let te = Bound { value: te.value.clamp(f64::from(m.bias.t_start_c), f64::from(m.bias.t_end_c())), err: te.err };
         let sf = &m.scale;
         let d = te.value - f64::from(sf.t0_c);
         let (al, be, et, ep, mu) =
@@ -381,7 +386,7 @@ impl Oracle {
         let mut k0_tol = branch_tol + slope * dte;
         if let Some(p) = m.ext.bias_branch_hysteresis {
             let half = f64::from(p.half_width_c);
-            k0 += f64::from(p.weight_g) * (te.value - a.play.value) / half;
+            k0 += f64::from(p.weight_g) * ((te.value - a.play.value) / half).clamp(-1.0, 1.0);
             k0_tol += f64::from(p.weight_g).abs() * (dte + a.play.err) / half + settled_bias_g(m);
         }
         if let Some(cr) = m.ext.bias_creep {

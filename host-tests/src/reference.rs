@@ -228,22 +228,27 @@ fn interp(values: &[f32], start: f64, step: f64, t: f64) -> f64 {
     a + (b - a) * (x - i as f64)
 }
 
-/// The compensator's smallest branch deadband for window 32 at 1 s, °C/min, from its
-/// derivation (`qfa_thermal::rate::flicker_deadband_c_per_min`): the one-LSB flicker's
-/// largest rate σ = 60·q/(2·√S), S = Σ(tᵢ − t̄)², times √(2·ln(M/α)) for M = 3600 readings
-/// and α = 1 %.
-fn flicker_floor() -> f64 {
-    let s: f64 = (0..32).map(|i| (f64::from(i) - 15.5).powi(2)).sum();
+/// The compensator's smallest branch deadband for a window holding `n` of its 32 readings
+/// a second apart, °C/min, from its derivation (`qfa_thermal::rate::flicker_deadband_c_per_min`
+/// and `RateWindow::flicker_floor`): the one-LSB flicker's largest rate σ = 60·q/(2·√S),
+/// S = Σ(tᵢ − t̄)² over those n instants, times √(2·ln(M/α)) for M = 3600 readings and
+/// α = 1 %.
+fn flicker_floor(n: usize) -> f64 {
+    let mid = (n as f64 - 1.0) / 2.0;
+    let s: f64 = (0..n).map(|i| (i as f64 - mid).powi(2)).sum();
     let sigma = 60.0 * 0.0625 / (2.0 * s.sqrt());
     sigma * (2.0 * (3600.0f64 / 0.01).ln()).sqrt()
 }
 
 /// Evaluate one axis in f64: (K1, K0, temp clamped, rate clamped, settling).
-fn eval_axis(m: &AxisModel, s: &mut AxisRef, t: f64, r: f64, dt: f64) -> (f64, f64, bool, bool, bool) {
+fn eval_axis(m: &AxisModel, s: &mut AxisRef, t: f64, r: f64, dt: f64, n: usize) -> (f64, f64, bool, bool, bool) {
     let lo = f64::from(m.bias.t_start_c);
     let step = f64::from(m.bias.t_step_c);
     let hi = lo + step * (m.bias.heating_g.len() - 1) as f64;
     let tc = t.clamp(lo, hi);
+    // The states follow the reading, held only to what a DS18B20 reads.
+    let t_in = t;
+    let t = t.clamp(-55.0, 125.0);
     let lim = f64::from(m.rate_limit_c_per_min);
     let rc = r.clamp(-lim, lim);
     if !s.init {
@@ -251,14 +256,15 @@ fn eval_axis(m: &AxisModel, s: &mut AxisRef, t: f64, r: f64, dt: f64) -> (f64, f
     }
     let settled_g = 0.25 * f64::from(m.bias.residual_rms_g);
     if s.restart != 0 {
-        // The documented bound: a state is an average of past clamped temperatures, inside
-        // the grid, so no further from T than the grid's farther end.
-        let farther = (hi - tc).max(tc - lo);
+        // The documented bound: a state is an average of past temperatures of the unit,
+        // which a DS18B20 reads within -55..125 °C, so no further from T than that range's
+        // farther end. The states follow T as read, never clamped.
+        let farther = (125.0 - t).max(t + 55.0);
         if s.restart & 1 != 0 {
-            s.te = tc;
+            s.te = t;
             s.lag_unknown = if m.ext.sensor_lag.is_some() { farther } else { 0.0 };
         }
-        let te0 = if m.ext.sensor_lag.is_some() { s.te } else { tc };
+        let te0 = if m.ext.sensor_lag.is_some() { s.te } else { t };
         if s.restart & 2 != 0 {
             s.play = te0;
             s.play_unknown = m.ext.bias_branch_hysteresis.map_or(0.0, |h| f64::from(h.half_width_c));
@@ -273,29 +279,31 @@ fn eval_axis(m: &AxisModel, s: &mut AxisRef, t: f64, r: f64, dt: f64) -> (f64, f
         Some(l) => {
             if dt > 0.0 {
                 let w = 1.0 - (-dt / f64::from(l.tau_s)).exp();
-                s.te += w * (tc - s.te);
+                s.te += w * (t - s.te);
                 s.lag_unknown *= 1.0 - w;
             }
             s.te
         }
-        None => tc,
+        None => t,
     };
-    let db = f64::from(m.bias.deadband_c_per_min).max(flicker_floor());
+    let db = f64::from(m.bias.deadband_c_per_min).max(flicker_floor(n));
     if rc > db {
         s.branch = 1;
     } else if rc < -db {
         s.branch = -1;
     }
+    // The model is evaluated at Te held to the calibrated range; the states above are not.
+    let te_eval = te.clamp(lo, hi);
     let sf = &m.scale;
-    let d = te - f64::from(sf.t0_c);
+    let d = te_eval - f64::from(sf.t0_c);
     let k1 = f64::from(sf.alpha) * rc * rc
         + f64::from(sf.beta) * d * d
         + f64::from(sf.eta) * rc * d
         + f64::from(sf.epsilon) * rc
         + f64::from(sf.mu) * d
         + f64::from(sf.gamma);
-    let h = interp(&m.bias.heating_g, lo, step, te);
-    let c = interp(&m.bias.cooling_g, lo, step, te);
+    let h = interp(&m.bias.heating_g, lo, step, te_eval);
+    let c = interp(&m.bias.cooling_g, lo, step, te_eval);
     let mut k0 = match s.branch {
         1 => h,
         -1 => c,
@@ -308,7 +316,9 @@ fn eval_axis(m: &AxisModel, s: &mut AxisRef, t: f64, r: f64, dt: f64) -> (f64, f
         // At most twice the half-width plus the element's doubt: both plays lie within
         // their half-widths of their elements.
         s.play_unknown = (s.play_unknown - (s.play - before).abs()).max(s.lag_unknown).min(2.0 * r + s.lag_unknown);
-        k0 += f64::from(p.weight_g) * (te - s.play) / r;
+        // The term's fraction held to ±1, as the firmware holds it (Te held to the range may
+        // be further than r from a play that followed the element beyond it).
+        k0 += f64::from(p.weight_g) * ((te_eval - s.play) / r).clamp(-1.0, 1.0);
     }
     if let Some(cr) = m.ext.bias_creep {
         let tau = f64::from(cr.tau_ref_s)
@@ -318,15 +328,16 @@ fn eval_axis(m: &AxisModel, s: &mut AxisRef, t: f64, r: f64, dt: f64) -> (f64, f
             s.creep += w * (te - s.creep);
             s.creep_unknown = (1.0 - w) * s.creep_unknown + w * s.lag_unknown;
         }
-        k0 += f64::from(cr.gain_g_per_c) * (te - s.creep);
+        k0 += f64::from(cr.gain_g_per_c) * (te_eval - s.creep).clamp(lo - hi, hi - lo);
     }
+    let creep_outside = m.ext.bias_creep.is_some() && (te_eval - s.creep).abs() > hi - lo;
     let settling = (s.branch == 0 && (h - c).abs() * 0.5 > settled_g)
         || s.lag_unknown > SETTLED_LAG_C
         || m.ext
             .bias_branch_hysteresis
             .is_some_and(|h| f64::from(h.weight_g).abs() * s.play_unknown > settled_g * f64::from(h.half_width_c))
         || m.ext.bias_creep.is_some_and(|c| f64::from(c.gain_g_per_c).abs() * s.creep_unknown > settled_g);
-    (k1, k0, tc != t, rc != r, settling)
+    (k1, k0, tc != t_in || te_eval != te || creep_outside, rc != r, settling)
 }
 
 impl Reference {
@@ -383,9 +394,9 @@ impl Reference {
         let have = self.last_good.is_some();
         for (i, m) in table.axes.iter().enumerate() {
             let (k1, k0, tcl, rcl, settling) = if have {
-                eval_axis(m, &mut self.axes[i], temp, rate, dt)
+                eval_axis(m, &mut self.axes[i], temp, rate, dt, self.window.len())
             } else {
-                eval_axis(m, &mut AxisRef::default(), f64::from(m.scale.t0_c), 0.0, 0.0)
+                eval_axis(m, &mut AxisRef::default(), f64::from(m.scale.t0_c), 0.0, 0.0, self.window.len())
             };
             if tcl {
                 st |= Status::TEMP_OUT_OF_RANGE;

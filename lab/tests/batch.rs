@@ -155,9 +155,15 @@ fn a_chamber_run_flags_each_bad_unit_for_its_defect_and_passes_the_rest() {
             None => {
                 good += 1;
                 assert_eq!(f.decision, Decision::Pass, "{}: {:?}", u.serial, f.reasons);
-                // No shock was drawn: no step stands out of its residual.
+                // No shock was drawn: no step that is not thermal stands out of its residual
+                // (the fleet's rule for a shock). A step most of which the temperature's own
+                // change across it explains is a ramp's, not a shock: SN0014 shows one
+                // (z 11.6, −0.10 mg, 77 % thermal) since the branch waits for a partial
+                // window's own flicker floor at the log's start, which moves its fit a little.
                 let steps = unit_steps(&run.results, &u.serial);
-                assert!(steps.is_empty(), "{}: {steps:?}", u.serial);
+                let shocks: Vec<_> =
+                    steps.iter().filter(|s| s.thermal_share < qfa_batch::unit::NOT_THERMAL_SHARE).collect();
+                assert!(shocks.is_empty(), "{}: {shocks:?}", u.serial);
             }
         }
     }

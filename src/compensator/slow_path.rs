@@ -532,7 +532,10 @@ impl<const AXES: usize, const RATE_WINDOW: usize, const SENSORS: usize, T: Borro
                     }
                     let e = match estimates[j] {
                         Some(est) => {
-                            let db = crate::model::larger(axis.bias.deadband_c_per_min, slow.deadband_floor);
+                            // The floor of the window as filled now: on a partial window the
+                            // full window's floor would let flicker decide the branch.
+                            let floor = slow.streams[j].rate.flicker_floor(slow.deadband_floor);
+                            let db = crate::model::larger(axis.bias.deadband_c_per_min, floor);
                             axis.evaluate_with_deadband(&mut slow.states[i], est.temp_c, est.rate_c_per_min, dt_s, db)
                         }
                         // No reading yet: T0 and Ṫ = 0, without touching the state; flagged stale.

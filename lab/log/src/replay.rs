@@ -275,7 +275,9 @@ impl FirmwareView {
             let dt_s = self.last_ms.map_or(0.0, |p| reading.clock_ms.wrapping_sub(p) as f32 * 1e-3);
             self.last_ms = Some(reading.clock_ms);
             let estimate = self.est.estimate().expect("a reading was just accepted");
-            self.branch = self.branch.next(estimate.rate_c_per_min, self.deadband);
+            // The firmware's deadband: the table's, at least the window's floor as filled now.
+            let deadband = self.deadband.max(self.est.flicker_floor(self.deadband));
+            self.branch = self.branch.next(estimate.rate_c_per_min, deadband);
             each(&Seen { reading, estimate, dt_s, branch: self.branch });
         }
         self.buf = buf;

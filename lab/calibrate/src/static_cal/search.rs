@@ -2,7 +2,7 @@
 //! candidate's cross-validation on each row set, the lowest chosen, and the path of one part
 //! at a time that leads to it.
 
-use crate::fit::{StaticSeries, StaticStructure, StaticTraces};
+use crate::fit::{fit_static_traced, StaticSeries, StaticStructure, StaticTraces};
 use crate::static_cal::choice::{self, cv_rms_axes, SearchStep};
 use crate::static_cal::{FigureFault, Run, StaticCalError};
 
@@ -93,9 +93,37 @@ pub(crate) fn choose_structures(run: &Run<'_>, progress: bool) -> Vec<AxisChoice
         pb.inc(na as u64);
     }
     pb.finish_and_clear();
-    for (s, t) in tried.iter().enumerate() {
+    // The traces of the structures checked below, built once each (they depend on the
+    // temperatures alone, like the search's).
+    let mut checked: Vec<(StaticStructure, StaticTraces)> = Vec::new();
+    for (s, t) in tried.iter_mut().enumerate() {
         for (a, ch) in choices.iter_mut().enumerate() {
-            ch.paths[s] = path_to(t, a, opts.grid_points);
+            // A choice is a table the set's rows give: when that table is refused (its terms
+            // past the root crate's bounds on these rows' grid, where the folds' narrower
+            // grids passed), the structure is refused on this set and the search takes the
+            // next. Held-out states that follow the temperature past a fold's grid moved a
+            // choice of the real log's whole-degree cut to a creep whose table was refused.
+            loop {
+                ch.paths[s] = path_to(t, a, opts.grid_points);
+                let Some(end) = ch.paths[s].last().map(|x| x.structure) else { break };
+                let k = match checked.iter().position(|c| c.0 == end) {
+                    Some(k) => k,
+                    None => {
+                        checked.push((end, StaticTraces::new(&axes[0], &end, opts.deadband_c_per_min)));
+                        checked.len() - 1
+                    }
+                };
+                let fit = fit_static_traced(&axes[a], &checked[k].1, &run.sets[s].mask, opts.grid_points, opts.block);
+                let Err(e) = fit else { break };
+                if let Some(j) = t.structures.iter().position(|x| *x == end) {
+                    t.cv[j][a] = Err(e.clone());
+                }
+                if s == 0 {
+                    ch.refused.push((end.name(), e));
+                } else {
+                    ch.fold_refused[s].get_or_insert_with(|| (end.name(), e));
+                }
+            }
         }
     }
     choices
