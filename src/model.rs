@@ -416,10 +416,11 @@ const RESTART_SILENTLY: u8 = 0x80;
 /// DS18B20 LSB).
 pub const SETTLED_LAG_C: f32 = 1.0 / 64.0;
 
-/// The temperatures a DS18B20 reads, °C (datasheet: −55…+125 °C): where the unit's element
-/// and creep states may lie when they start without their history.
-const SENSOR_MIN_C: f32 = -55.0;
-const SENSOR_MAX_C: f32 = 125.0;
+/// The temperatures a table may describe, °C (`table::limits::TEMP_C`, −60…130 °C, which
+/// holds a DS18B20's −55…125 °C): what the unit's states follow, and where they may lie when
+/// they start without their history.
+const STATE_MIN_C: f32 = crate::table::limits::TEMP_C.0;
+const STATE_MAX_C: f32 = crate::table::limits::TEMP_C.1;
 
 /// What the history states depend on, as bits: the slots, with a word saying which are on,
 /// and the calibrated range. Compared as one array: field by field, with the `Option`s and
@@ -546,8 +547,8 @@ impl AxisModel {
     /// the range or Te − x past its span);
     /// K1 = Eq. 11 at (Te, Ṫ); K0 = grid(Te, branch) + play term + creep term. The states
     /// are not held to the calibrated range: they are the unit's, and the unit does not stop
-    /// at the range's edge (only at the DS18B20's, −55…125 °C, which every reading is
-    /// within). On the first call (or after [`AxisState::default`]) every state starts at T.
+    /// at the range's edge (only at the −60…130 °C any table may describe, which holds every
+    /// DS18B20 reading). On the first call (or after [`AxisState::default`]) every state starts at T.
     pub fn evaluate(&self, state: &mut AxisState, t_c: f32, rate: f32, dt_s: f32) -> Evaluation {
         self.evaluate_with_deadband(state, t_c, rate, dt_s, self.bias.deadband_c_per_min)
     }
@@ -611,22 +612,22 @@ impl AxisModel {
         // evaluation is held to the range (and flagged). Clamping the temperature before the
         // lag, as this did before, left the element at the range's edge while the unit was
         // beyond it, and reported it right as soon as the case came back.
-        // Held to what a DS18B20 reads, which every reading is (the decoder refuses others):
-        // the states stay finite, and so does the creep's τ, whatever a caller passes.
+        // Held to the temperatures a table may describe, which hold every DS18B20 reading
+        // (the decoder refuses others): the states stay finite, and so does the creep's τ,
+        // whatever a caller passes.
         #[cfg(not(qfa_mutant = "clamp_before_state_update"))]
-        let t = clamp(t_c, SENSOR_MIN_C, SENSOR_MAX_C).0;
+        let t = clamp(t_c, STATE_MIN_C, STATE_MAX_C).0;
         #[cfg(qfa_mutant = "clamp_before_state_update")]
         let t = clamp(t_c, lo, hi).0;
         if state.restart != 0 {
             // Started without the history (power-up, or a reload that changed the slots):
             // from the temperature now, with what the history could have made of them. The
-            // element and creep states are averages of past temperatures of the unit, which a
-            // DS18B20 reads within −55…125 °C: no further from T than that range's farther
-            // end. (The table's rate limit times τ is no bound: the case may have moved faster
+            // element and creep states are averages of past temperatures of the unit, held to
+            // −60…130 °C: no further from T than that range's farther end. (The table's rate limit times τ is no bound: the case may have moved faster
             // while the unit was off, and the oracle found such a history.) The play output
             // lies within its half-width of the element temperature, which bounds the play
             // term by its weight.
-            let farther_end = larger(SENSOR_MAX_C - t, t - SENSOR_MIN_C);
+            let farther_end = larger(STATE_MAX_C - t, t - STATE_MIN_C);
             (state.element_c, state.play_c, state.creep_c) = (t, t, t);
             state.lag_unknown_c = if self.ext.sensor_lag.is_some() { farther_end } else { 0.0 };
             state.play_unknown_g = self.ext.bias_branch_hysteresis.map_or(0.0, |h| abs(h.weight_g));

@@ -213,7 +213,7 @@ struct Line {
 fn step_states(m: &AxisModel, a: &mut AxisIdeal, l: Line, dt_s: f64) -> Bound {
     // The states follow the temperature as read, never clamped: the unit does not stop at
     // the calibrated range's edge (the evaluation holds Te to it).
-    let t = l.t.clamp(-55.0, 125.0);
+    let t = l.t.clamp(-60.0, 130.0);
     let start = Bound { value: t, err: l.err_t };
     if !a.init {
         *a = AxisIdeal { init: true, element: start, play: start, creep: start };

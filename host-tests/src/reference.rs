@@ -246,9 +246,9 @@ fn eval_axis(m: &AxisModel, s: &mut AxisRef, t: f64, r: f64, dt: f64, n: usize) 
     let step = f64::from(m.bias.t_step_c);
     let hi = lo + step * (m.bias.heating_g.len() - 1) as f64;
     let tc = t.clamp(lo, hi);
-    // The states follow the reading, held only to what a DS18B20 reads.
+    // The states follow the reading, held only to the range any table may describe.
     let t_in = t;
-    let t = t.clamp(-55.0, 125.0);
+    let t = t.clamp(-60.0, 130.0);
     let lim = f64::from(m.rate_limit_c_per_min);
     let rc = r.clamp(-lim, lim);
     if !s.init {
@@ -257,9 +257,9 @@ fn eval_axis(m: &AxisModel, s: &mut AxisRef, t: f64, r: f64, dt: f64, n: usize) 
     let settled_g = 0.25 * f64::from(m.bias.residual_rms_g);
     if s.restart != 0 {
         // The documented bound: a state is an average of past temperatures of the unit,
-        // which a DS18B20 reads within -55..125 °C, so no further from T than that range's
-        // farther end. The states follow T as read, never clamped.
-        let farther = (125.0 - t).max(t + 55.0);
+        // held to -60..130 °C, so no further from T than that range's farther end. The
+        // states follow T as read, held only to that range.
+        let farther = (130.0 - t).max(t + 60.0);
         if s.restart & 1 != 0 {
             s.te = t;
             s.lag_unknown = if m.ext.sensor_lag.is_some() { farther } else { 0.0 };

@@ -252,8 +252,8 @@ proptest! {
                 let walked = a.evaluate(&mut walk, temp, rate, dt);
                 // The element behind a lag, and the creep state, may be outside the range
                 // while the reading is not.
-                // The states follow the reading held to what a DS18B20 reads (−55…125 °C).
-                let read = temp.clamp(-55.0, 125.0);
+                // The states follow the reading held to what a table may describe (−60…130 °C).
+                let read = temp.clamp(-60.0, 130.0);
                 let walked_te = if a.ext.sensor_lag.is_some() { walk.element_c } else { read };
                 let walked_creep = if a.ext.bias_creep.is_some() { walk.creep_c } else { read };
                 for (e, te, creep) in [(fresh, read, read), (walked, walked_te, walked_creep)] {

@@ -144,15 +144,16 @@ fn creep_tau_is_arrhenius() {
 
 /// After power-up a lag state is flagged until its error bound has shrunk by e^(−t/τ)
 /// below ¼ LSB. The bound at the start is what the history could have made of it: the
-/// state is an average of past clamped temperatures, so no further from T than the grid's
-/// farther end (80 °C from 20 °C on −60…70 °C): t = τ·ln(80·64) = 8.54 τ, checked here
-/// against that formula to the second. Before, it was the grid's whole span (130 °C,
-/// 9.03 τ).
+/// state is an average of past temperatures of the unit, held to the −60…130 °C any table
+/// may describe, so no further from T than that range's farther end (110 °C from 20 °C):
+/// t = τ·ln(110·64) = 8.86 τ, checked here against that formula to the second. While the
+/// states were held to the grid it was the grid's farther end (80 °C on −60…70 °C, 8.54 τ);
+/// before that, the grid's whole span (130 °C, 9.03 τ).
 #[test]
 fn a_lag_started_without_its_history_settles_when_its_bound_says() {
     let m = axis(Extensions { sensor_lag: Some(SensorLag { tau_s: 600.0 }), ..Default::default() });
-    let bound_c = (70.0 - 20.0f64).max(20.0 - -60.0);
-    assert_eq!(bound_c, 80.0);
+    let bound_c = (130.0 - 20.0f64).max(20.0 - -60.0);
+    assert_eq!(bound_c, 110.0);
     let want_s = 600.0 * (bound_c * 64.0).ln();
     let mut s = AxisState::default();
     let mut settled_at = None;
@@ -169,10 +170,11 @@ fn a_lag_started_without_its_history_settles_when_its_bound_says() {
 
 /// The real chamber log's z axis, as `qfa-lab calibrate` fits it: a grid over −18…74 °C, a
 /// 30-s lag, a 600-s creep of 0.26 mg/°C, a rate limit of 11.1 °C/min, and a fit residual
-/// of 2 mg. Powered up at 52 °C, the creep state may be as far as the grid's farther end
-/// (70 °C), 18.5 mg of bias; it is settled once that has shrunk
-/// below a quarter of the residual, 0.5 mg: ln(37.0) = 3.61 τ, 36 min. With the threshold
-/// at 1 µg, as before the table recorded its residual, it took 100 min: the whole 70-min
+/// of 2 mg. Powered up at 52 °C, the creep state may be as far as the farther end of the
+/// −60…130 °C the states are held to (112 °C), 29.6 mg of bias; it is settled once that has
+/// shrunk below a quarter of the residual, 0.5 mg: ln(59.3) = 4.08 τ, 41 min (36 min while
+/// the states were held to the grid, whose farther end was 70 °C away). With the threshold at
+/// 1 µg, as before the table recorded its residual, it took over 100 min: the whole 70-min
 /// log was flagged.
 #[test]
 fn a_creep_settles_to_a_quarter_of_the_tables_residual() {
@@ -199,7 +201,7 @@ fn a_creep_settles_to_a_quarter_of_the_tables_residual() {
             .find(|&k| !m.evaluate(&mut s, 52.0, 0.0, if k == 0 { 0.0 } else { 1.0 }).settling)
             .map(|k| f64::from(k) / 60.0)
     };
-    let want_min = 600.0 * (2.645_932e-4 * 70.0 / 0.5e-3f64).ln() / 60.0;
+    let want_min = 600.0 * (2.645_932e-4 * 112.0 / 0.5e-3f64).ln() / 60.0;
     let got = settle_min(2e-3).expect("settles");
     // The lag's own doubt feeds the creep's for its first minutes: a little later.
     assert!(got >= want_min && got < want_min + 2.0, "settled after {got:.1} min, the bound says {want_min:.1}");

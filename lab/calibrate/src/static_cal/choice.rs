@@ -179,8 +179,9 @@ pub fn cv_fold_sums_axes(
             let (Some(&lo), Some(&hi)) = (chunk.first(), chunk.last()) else { continue };
             let tr = series.model_trace_rows(&fit.axis, lo..hi + 1);
             let (mut sum, mut count) = (0.0, 0usize);
+            let (t_lo, t_hi) = (f64::from(fit.axis.bias.t_start_c), f64::from(fit.axis.bias.t_end_c()));
             for &i in chunk {
-                if tr.valid[i - lo] {
+                if tr.valid[i - lo] && (t_lo..=t_hi).contains(&tr.temp_c[i - lo]) {
                     let r = series.accel_g[i] - fit.reference_g - tr.ext_k0_g[i - lo];
                     sum += r * r;
                     count += 1;

@@ -93,40 +93,36 @@ pub(crate) fn choose_structures(run: &Run<'_>, progress: bool) -> Vec<AxisChoice
         pb.inc(na as u64);
     }
     pb.finish_and_clear();
-    // The traces of the structures checked below, built once each (they depend on the
-    // temperatures alone, like the search's).
+    // A choice is a table the set's rows give: a structure whose table is refused there
+    // (its terms past the root crate's bounds on that grid, where the folds' passed) is
+    // refused on the set and the search takes the next. Traces built once per structure.
     let mut checked: Vec<(StaticStructure, StaticTraces)> = Vec::new();
     for (s, t) in tried.iter_mut().enumerate() {
         for (a, ch) in choices.iter_mut().enumerate() {
-            // A choice is a table the set's rows give: when that table is refused (its terms
-            // past the root crate's bounds on these rows' grid, where the folds' narrower
-            // grids passed), the structure is refused on this set and the search takes the
-            // next. Held-out states that follow the temperature past a fold's grid moved a
-            // choice of the real log's whole-degree cut to a creep whose table was refused.
-            loop {
-                ch.paths[s] = path_to(t, a, opts.grid_points);
-                let Some(end) = ch.paths[s].last().map(|x| x.structure) else { break };
-                let k = match checked.iter().position(|c| c.0 == end) {
-                    Some(k) => k,
-                    None => {
-                        checked.push((end, StaticTraces::new(&axes[0], &end, opts.deadband_c_per_min)));
-                        checked.len() - 1
-                    }
-                };
+            while let Some(end) = path_to_end(&mut ch.paths[s], t, a, opts.grid_points) {
+                let k = checked.iter().position(|c| c.0 == end).unwrap_or_else(|| {
+                    checked.push((end, StaticTraces::new(&axes[0], &end, opts.deadband_c_per_min)));
+                    checked.len() - 1
+                });
                 let fit = fit_static_traced(&axes[a], &checked[k].1, &run.sets[s].mask, opts.grid_points, opts.block);
                 let Err(e) = fit else { break };
-                if let Some(j) = t.structures.iter().position(|x| *x == end) {
-                    t.cv[j][a] = Err(e.clone());
-                }
+                t.cv.iter_mut().zip(&t.structures).filter(|c| *c.1 == end).for_each(|c| c.0[a] = Err(e.clone()));
+                let refusal = (end.name(), e);
                 if s == 0 {
-                    ch.refused.push((end.name(), e));
+                    ch.refused.push(refusal)
                 } else {
-                    ch.fold_refused[s].get_or_insert_with(|| (end.name(), e));
+                    ch.fold_refused[s].get_or_insert(refusal);
                 }
             }
         }
     }
     choices
+}
+
+/// Set `path` to axis `a`'s [`path_to`] on `t`; its end, the choice.
+fn path_to_end(path: &mut Vec<SearchStep>, t: &Tried, a: usize, g: usize) -> Option<StaticStructure> {
+    *path = path_to(t, a, g);
+    path.last().map(|x| x.structure)
 }
 
 /// Axis `a`'s path on one set: the simplest structure tried that could be fitted, then one

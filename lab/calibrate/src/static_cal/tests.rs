@@ -91,20 +91,6 @@ fn several_cycles_hold_out_everything_after_the_first_maximum() {
 }
 
 #[test]
-fn holdout_values_parse_and_bad_ones_say_what_is_allowed() {
-    assert_eq!("auto".parse::<Holdout>().unwrap(), Holdout::Auto);
-    assert_eq!("after-max".parse::<Holdout>().unwrap(), Holdout::AfterMax);
-    assert_eq!("blocks:7".parse::<Holdout>().unwrap(), Holdout::Blocks(7));
-    assert_eq!("none".parse::<Holdout>().unwrap(), Holdout::None);
-    for bad in ["blocks:1", "blocks:x", "ramps", ""] {
-        let e = bad.parse::<Holdout>().unwrap_err().to_string();
-        assert_eq!(e, format!("--holdout `{bad}`: expected auto, after-max, blocks:K (K ≥ 2) or none"));
-    }
-    let e = "ramps".parse::<Holdout>().unwrap_err();
-    assert_eq!(e.message(Spelling::Python), "holdout=\"ramps\": expected auto, after-max, blocks:K (K ≥ 2) or none");
-}
-
-#[test]
 fn coverage_refuses_a_small_span_and_a_sparse_part_of_the_span() {
     let e = check_coverage(&(0..300).map(|i| 25.0 + 0.001 * f64::from(i)).collect::<Vec<_>>(), 16, 10);
     assert_eq!(
