@@ -253,8 +253,8 @@ mod tests {
     use crate::fit::fit_static_traced;
 
     /// Each axis's figure, as cross-validation fitted it before the axes shared a design: a
-    /// fit of that axis alone per fold (`fit_static_traced`, a design of its own), which
-    /// `cv_rms_axes` must equal. So this checks the sharing (each axis's own fits, errors
+    /// fit of that axis alone per fold (`fit_static_traced`, a design of its own), scored on
+    /// the held-out rows inside the fold's grid, which `cv_rms_axes` must equal. So this checks the sharing (each axis's own fits, errors
     /// and sums); that a fit's bits did not move is shown by the outputs of the real log and
     /// the simulated ones, byte for byte, before and after.
     fn cv_rms_alone(
@@ -274,7 +274,8 @@ mod tests {
             let fit = fit_static_traced(series, traces, &train, opts.grid_points, opts.block)?;
             let (Some(&lo), Some(&hi)) = (chunk.first(), chunk.last()) else { continue };
             let tr = series.model_trace_rows(&fit.axis, lo..hi + 1);
-            for &i in chunk.iter().filter(|&&i| tr.valid[i - lo]) {
+            let grid = f64::from(fit.axis.bias.t_start_c)..=f64::from(fit.axis.bias.t_end_c());
+            for &i in chunk.iter().filter(|&&i| tr.valid[i - lo] && grid.contains(&tr.temp_c[i - lo])) {
                 let r = series.accel_g[i] - fit.reference_g - tr.ext_k0_g[i - lo];
                 sum += r * r;
                 count += 1;
