@@ -578,11 +578,8 @@ impl AxisModel {
             k0 += h.weight_g * fraction.clamp(-1.0, 1.0);
         }
         if let Some(c) = self.ext.bias_creep {
-            // Te − x held to the grid's span (flagged when it is past it, `advance`): the term
-            // stays within its gain times that span, which validation bounds. The state itself
-            // may lie outside the range, where the unit was.
-            let span = self.bias.t_end_c() - self.bias.t_start_c;
-            k0 += c.gain_g_per_c * clamp(te - state.creep_c, -span, span).0;
+            // Te − x, held to the grid's span (`advance`, flagged when it is).
+            k0 += c.gain_g_per_c * step.creep_gap_c;
         }
         let settled_g = self.bias.settled_within_g();
         let settling = state.settling(settled_g) || branch_unknown_g > settled_g;
@@ -663,6 +660,11 @@ impl AxisModel {
             let most = (2.0 * h.half_width_c + state.lag_unknown_c) * g_per_c;
             state.play_unknown_g = if shrunk < most { shrunk } else { most };
         }
+        // The model is evaluated within its range: at the element temperature held to it,
+        // flagged while the case (the reading) or the element is outside, or while the
+        // creep's Te − x is past the range's span (the term is held there: `evaluate`).
+        let (te_held, element_clamped) = clamp(te, lo, hi);
+        let (mut creep_gap_c, mut creep_held) = (0.0, false);
         if let Some(c) = self.ext.bias_creep {
             if dt_s > 0.0 {
                 let w = lag_weight(dt_s, c.tau_s(te));
@@ -670,28 +672,38 @@ impl AxisModel {
                 state.creep_unknown_g =
                     (1.0 - w) * state.creep_unknown_g + w * abs(c.gain_g_per_c) * state.lag_unknown_c;
             }
+            // Held to the range's span, so the term stays within its gain times that span,
+            // which validation bounds; the state itself may lie outside, where the unit was.
+            (creep_gap_c, creep_held) = clamp(te_held - state.creep_c, lo - hi, hi - lo);
         }
-        // The model is evaluated within its range: at the element temperature held to it,
-        // flagged while the case (the reading) or the element is outside, or while the
-        // creep's Te − x is past the range's span (the term is held there: see `evaluate`).
-        let (te, element_clamped) = clamp(te, lo, hi);
-        let creep_held = self.ext.bias_creep.is_some() & (abs(te - state.creep_c) > hi - lo);
-        let temp_clamped = element_clamped | creep_held | (t_c < lo) | (t_c > hi);
-        Advanced { element_c: te, rate_c_per_min: r, temp_clamped, rate_clamped }
+        let temp_clamped = creep_held
+            | match self.ext.sensor_lag {
+                // Without a lag Te is T held to −60…130 °C, which holds the grid (validation):
+                // held to the grid too, it differs from T exactly when T is outside (one compare
+                // where the reading's own range test took four).
+                None => te_held != t_c,
+                Some(_) => element_clamped | (t_c < lo) | (t_c > hi),
+            };
+        Advanced { element_c: te_held, rate_c_per_min: r, temp_clamped, rate_clamped, creep_gap_c }
     }
 }
 
 /// One state step of a model ([`AxisModel::advance`]): the clamped inputs it stepped on.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Advanced {
-    /// Element temperature Te after the step, °C (the clamped T when `sensor_lag` is off).
+    /// Element temperature Te after the step, held to the calibrated range, °C (T when
+    /// `sensor_lag` is off): what the model is evaluated at.
     pub element_c: f32,
     /// Ṫ clamped to the table's rate limit, °C/min.
     pub rate_c_per_min: f32,
-    /// T was outside the calibrated range and was clamped.
+    /// T or Te was outside the calibrated range (the evaluation held to it), or the creep's
+    /// Te − x past its span.
     pub temp_clamped: bool,
     /// |Ṫ| exceeded the calibrated limit and was clamped.
     pub rate_clamped: bool,
+    /// The creep's Te − x, °C, held to the grid's span (`temp_clamped` when it was); 0
+    /// without a creep slot.
+    pub creep_gap_c: f32,
 }
 
 #[cfg(test)]
