@@ -49,6 +49,14 @@ use qfa_report::verdict::{Limits, Measured, Outcome};
 /// threshold keeps this margin. `a_chamber_run_flags_each_bad_unit_for_its_defect_and_passes_the_rest`
 /// fails when it is set so that a good unit is flagged or a bad one passes.
 pub(crate) const Z_FLAG: f64 = 6.0;
+/// The smallest robust scale of a heating/cooling split, mg: what one chamber cycle
+/// resolves. A unit's split is read from its own model, whose search ties the branches
+/// when the split is within its cross-validation's noise: on the simulator's population
+/// about half the units with a true split of 0.06 mg read 0 and the rest read the split,
+/// so the fleet's median absolute deviation collapses to 0 and, at the old floor of
+/// 0.01 mg, a good unit that kept its 0.07-mg split stood 6.9 robust SDs out. Set after
+/// that run, so checked by the die-lag study (lab guide, "Production batches").
+pub(crate) const SPLIT_RESOLUTION_MG: f64 = 0.05;
 /// Units of full coverage a fleet needs before units are flagged outside it: below, the
 /// median and MAD of a handful of units are too unsteady a yardstick, and good units land
 /// beyond `Z_FLAG` of it. Set to 10 after measuring fleets of good QFA units only (eight
@@ -250,7 +258,11 @@ pub(crate) fn features(axes: &[String], qfa: bool) -> Vec<Feature> {
         out.push(f(format!("{a}.level_mg"), "mg", 0.05, Side::Both, true));
         out.push(f(format!("{a}.slope_ug_per_c"), "µg/°C", 0.5, Side::Both, true));
         out.push(f(format!("{a}.curvature_ug_per_c2"), "µg/°C²", 0.01, Side::Both, true));
-        out.push(f(format!("{a}.split_mg"), "mg", 0.01, Side::Both, true));
+        // A split below 0.05 mg is below what one chamber cycle resolves: the search ties
+        // the branches of about half the units whose true split is 0.06 mg, so the fleet
+        // reads 0 or the split itself (set after the die-lag study, lab guide).
+        out.push(f(format!("{a}.split_mg"), "mg", SPLIT_RESOLUTION_MG, Side::Both, true));
+        out.push(f(format!("{a}.ramp_split_mg"), "mg", 0.01, Side::Both, true));
         out.push(f(format!("{a}.held_out_mg"), "mg", 0.02, Side::High, true));
     }
     if qfa {
@@ -279,6 +291,7 @@ fn words(name: &str) -> Option<&'static str> {
         "slope_ug_per_c" => "temperature slope",
         "curvature_ug_per_c2" => "temperature curvature",
         "split_mg" => "heating/cooling split",
+        "ramp_split_mg" => "heating/cooling split on the program's ramps (a die's lag included)",
         "held_out_mg" => "held-out bias RMS",
         "offset_c" => "temperature sensor's offset from the fleet",
         "drift_c_per_h" => "temperature sensor's drift against the fleet",
@@ -311,6 +324,7 @@ fn value_of(c: &Calibrated, sensor: (&Measured, &Measured), name: &str) -> Optio
         "slope_ug_per_c" => Some(d.slope_ug_per_c),
         "curvature_ug_per_c2" => Some(d.curvature_ug_per_c2),
         "split_mg" => num(&d.split_mg),
+        "ramp_split_mg" => num(&d.ramp_split_mg),
         _ => None,
     }
 }

@@ -3,12 +3,12 @@
 //!
 //! # The model
 //! Per axis, every unit's bias is `θ · x(T, branch)` with
-//! `x = [1, u, u², u³, ±½]`, `u = (T − 25 °C) / 50 °C` (the common form of
-//! [`super::unit`], scaled so the basis's columns are of one size; `±½` is
-//! the heating/cooling split). The fleet's units are draws `θ ~ N(μ, Σ)`; `μ` and `Σ` are
+//! `x = [1, u, u², u³, ±½]`, `u = (T − 25 °C) / 50 °C` (a cubic and a constant split,
+//! scaled so the basis's columns are of one size; `±½` is the heating/cooling split: the
+//! form a partial log can borrow, whatever structure each unit's own table took). The fleet's units are draws `θ ~ N(μ, Σ)`; `μ` and `Σ` are
 //! the mean and covariance of the full-coverage, unflagged units' own least-squares `θ`
-//! (their sampling error is small beside the spread: the descriptor recovers each unit's
-//! slope to 1/25 of it, `lab/tests/batch.rs`). A unit's rows give `A θ ≈ y` with the
+//! (their sampling error is small beside the spread: `lab/tests/batch.rs` checks the units'
+//! slopes to a tenth of it). A unit's rows give `A θ ≈ y` with the
 //! noise variance `σ²` measured on its own residuals: the variance of their 60-s means,
 //! times the rows per mean, so slow residuals count as what they are, not as white noise.
 //! The posterior mean is `(AᵀA/σ² + Σ⁻¹)⁻¹ (Aᵀy/σ² + Σ⁻¹μ)` (solved as stacked least squares by

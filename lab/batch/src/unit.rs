@@ -4,11 +4,17 @@
 //!
 //! Why a common form: each unit's table takes the structure its own cross-validation
 //! chose (a grid, a branch step, a lag…), so two tables' numbers need not mean the same
-//! thing. The fleet compares units through one descriptor fitted to every unit alike: per
-//! axis, a cubic in `d = T − 25 °C` plus a constant heating/cooling step (the lab's one
-//! static fitter with that structure, on every row), read as the output at 25 °C, the
-//! slope and curvature there, and the split. A unit whose rows hold one branch gets the
-//! cubic alone; its split is not computed.
+//! thing. The fleet reads the same figures from every unit's own model, per axis: the
+//! branches' mean curve as a cubic in `d = T − 25 °C` through the grid's nodes (the output at
+//! 25 °C, the slope and the curvature there), the heating/cooling split at 25 °C as the rate
+//! goes to zero (the grid's branches and the play; a lag or a creep, whose apparent split
+//! grows with the ramp's rate, is the model's own slot and not counted), and the lag.
+//! Beside it, one figure is measured on the rows themselves: the heating/cooling step on
+//! the log's own ramps (a cubic and a constant step, no lag), which holds a die's lag and
+//! also a hysteresis the unit's model gave to a creep. A split read only from a fit with no
+//! lag hid a unit with three times the fleet's split inside the spread of the units' lags;
+//! read only from the model, it missed one whose model carried the split as a creep. A
+//! unit whose rows hold one branch gets neither.
 
 use std::path::Path;
 
@@ -16,12 +22,19 @@ use serde::{Deserialize, Serialize};
 
 use super::input::UnitInput;
 use super::{BatchError, UnitFault};
-use qfa_calibrate::fit::{fit_static_traced, BranchMode, CurveShape, StaticSeries, StaticStructure, StaticTraces};
+use qfa_calibrate::fit::{
+    fit_static_traced, BranchMode, CurveShape, StaticFit, StaticSeries, StaticStructure, StaticTraces,
+};
 use qfa_calibrate::lint::Severity;
 use qfa_calibrate::static_cal::{self, is_one_branch, StaticCalOptions};
 use qfa_log::open::{open_bytes, OpenedLog};
 use qfa_log::static_log::StaticLog;
 use qfa_report::verdict::{LimitsChoice, Measured, Outcome, STATIC_KEYS};
+
+/// What a `unit.json` written before a figure existed holds for it.
+fn not_read() -> Measured {
+    Measured::NotComputed { not_computed: "not in this unit.json".into() }
+}
 
 /// Temperature the descriptor is read at, °C.
 pub(crate) const DESCRIPTOR_T_C: f64 = 25.0;
@@ -41,8 +54,18 @@ pub struct AxisDescriptor {
     pub curvature_ug_per_c2: f64,
     /// The `d³` coefficient, µg/°C³.
     pub cubic_ug_per_c3: f64,
-    /// Heating minus cooling, mg (not computed on one branch).
+    /// Heating minus cooling at 25 °C as the rate goes to zero, mg (not computed on one
+    /// branch): the grid's branches there and twice the play's weight; a lag or a creep is left out.
     pub split_mg: Measured,
+    /// Heating minus cooling on the log's own ramps, mg (not computed on one branch): a
+    /// cubic and a constant step fitted on every row, a die's lag included
+    /// (the module docs).
+    #[serde(default = "not_read")]
+    pub ramp_split_mg: Measured,
+    /// The model's sensor lag, s (0: it holds none). Shown, not flagged: the search's lags
+    /// are 30, 60, 120, 240 and 480 s, so two units with the same die may differ by one step.
+    #[serde(default)]
+    pub lag_s: f64,
 }
 
 /// Everything the fleet needs of a calibrated unit.
@@ -331,7 +354,7 @@ fn calibrate_static(
         .map_err(|e| BatchError::Unit(UnitFault::Calibration(Box::new(e))))?;
     let (bin, crc) = super::encoded(&cal.table, dir)?;
     let r = &cal.report;
-    let descriptor = describe(log, &opts.cal, is_one_branch(r.branch_rows))?;
+    let descriptor = describe(log, &cal.fits, &opts.cal, is_one_branch(r.branch_rows))?;
     Ok(Calibrated {
         outcome: v.outcome,
         failed_limits: v.failed(),
@@ -366,18 +389,71 @@ fn calibrate_static(
     })
 }
 
-/// The fleet's common form of every axis of `log` (see the module docs).
+/// The fleet's common form of every axis, read from the unit's own models `fits` (what its
+/// `table.bin` holds, one per axis of `log`; see the module docs).
 ///
 /// # Errors
-/// The descriptor fit failed.
+/// The cubic through an axis's nodes cannot be solved.
 pub(crate) fn describe(
     log: &StaticLog,
+    fits: &[StaticFit],
     opts: &StaticCalOptions,
     one_branch: bool,
 ) -> Result<Vec<AxisDescriptor>, BatchError> {
+    let ramp_splits = ramp_splits_g(log, opts, one_branch)?;
+    log.axes
+        .iter()
+        .zip(fits)
+        .zip(ramp_splits)
+        .map(|((a, fit), ramp_split_g)| {
+            let model = &fit.axis;
+            let b = &model.bias;
+            // The branches' mean lies on the curve the element temperature drives (a lag is
+            // the model's own slot, not part of the curve): its cubic in d = T − 25 °C by
+            // least squares through the nodes.
+            let g = b.heating_g.len();
+            let mut x = Vec::with_capacity(4 * g);
+            let mut y = Vec::with_capacity(g);
+            for j in 0..g {
+                let d = f64::from(b.t_start_c) + f64::from(b.t_step_c) * j as f64 - DESCRIPTOR_T_C;
+                x.extend([1.0, d, d * d, d * d * d]);
+                y.push(0.5 * (f64::from(b.heating_g[j]) + f64::from(b.cooling_g[j])));
+            }
+            let c = qfa_calibrate::solver::lstsq(&x, 4, &y)
+                .map_err(|source| {
+                    BatchError::Unit(UnitFault::Descriptor { axis: a.name.clone(), source: Box::new(source) })
+                })?
+                .coef;
+            let one = || Measured::NotComputed { not_computed: "the rows hold one branch".into() };
+            Ok(AxisDescriptor {
+                axis: a.name.clone(),
+                level_mg: (fit.reference_g + c[0]) * 1e3,
+                slope_ug_per_c: c[1] * 1e6,
+                curvature_ug_per_c2: c[2] * 1e6,
+                cubic_ug_per_c3: c[3] * 1e6,
+                split_mg: if one_branch {
+                    one()
+                } else {
+                    Measured::Value(f64::from(quasi_static_split_g(model)) * 1e3)
+                },
+                ramp_split_mg: ramp_split_g.map_or_else(one, |s| Measured::Value(s * 1e3)),
+                lag_s: model.ext.sensor_lag.map_or(0.0, |l| f64::from(l.tau_s)),
+            })
+        })
+        .collect()
+}
+
+/// Each axis's heating-minus-cooling on the log's own ramps, g (`None` on one branch): the
+/// constant step of a cubic and a step fitted on every row, with no lag, so a die's lag is
+/// in it (its apparent split is the slope × τ × the ramp's rate). On a fleet whose dies do
+/// not lag, the unit's split itself; the unit's own model may carry it as a creep instead.
+fn ramp_splits_g(log: &StaticLog, opts: &StaticCalOptions, one_branch: bool) -> Result<Vec<Option<f64>>, BatchError> {
+    if one_branch {
+        return Ok(vec![None; log.axes.len()]);
+    }
     let structure = StaticStructure {
         shape: CurveShape::Cubic,
-        branches: if one_branch { BranchMode::Single } else { BranchMode::Offset },
+        branches: BranchMode::Offset,
         lag_tau_s: None,
         creep_tau_s: None,
         play_half_width_c: None,
@@ -394,35 +470,23 @@ pub(crate) fn describe(
                 BatchError::Unit(UnitFault::Descriptor { axis: a.name.clone(), source: Box::new(source) })
             })?;
             let b = &fit.axis.bias;
-            // The nodes lie on a cubic in T: fit it back in d = T − 25 °C, exactly.
-            let g = b.heating_g.len();
-            let mut x = Vec::with_capacity(4 * g);
-            let mut y = Vec::with_capacity(g);
-            for j in 0..g {
-                let d = f64::from(b.t_start_c) + f64::from(b.t_step_c) * j as f64 - DESCRIPTOR_T_C;
-                x.extend([1.0, d, d * d, d * d * d]);
-                y.push(0.5 * (f64::from(b.heating_g[j]) + f64::from(b.cooling_g[j])));
-            }
-            let c = qfa_calibrate::solver::lstsq(&x, 4, &y)
-                .map_err(|source| {
-                    BatchError::Unit(UnitFault::Descriptor { axis: a.name.clone(), source: Box::new(source) })
-                })?
-                .coef;
-            let split = f64::from(b.heating_g[0]) - f64::from(b.cooling_g[0]);
-            Ok(AxisDescriptor {
-                axis: a.name.clone(),
-                level_mg: (fit.reference_g + c[0]) * 1e3,
-                slope_ug_per_c: c[1] * 1e6,
-                curvature_ug_per_c2: c[2] * 1e6,
-                cubic_ug_per_c3: c[3] * 1e6,
-                split_mg: if one_branch {
-                    Measured::NotComputed { not_computed: "the rows hold one branch".into() }
-                } else {
-                    Measured::Value(split * 1e3)
-                },
-            })
+            Ok(Some(f64::from(b.heating_g[0]) - f64::from(b.cooling_g[0])))
         })
         .collect()
+}
+
+/// The heating-minus-cooling bias `model` holds at 25 °C as the rate goes to zero, g: the
+/// grid's branches there and twice the play's weight. A lag and a creep add to a ramp's
+/// apparent split in proportion to its rate (the slope × τ × Ṫ, the creep's gain × τ × Ṫ)
+/// and vanish on a slow one, so they are left out: the split is the unit's hysteresis, not
+/// its die's lag.
+#[must_use]
+pub(crate) fn quasi_static_split_g(model: &qfa_thermal::AxisModel) -> f32 {
+    use qfa_thermal::model::Branch;
+    let b = &model.bias;
+    let t = (DESCRIPTOR_T_C as f32).clamp(b.t_start_c, b.t_end_c());
+    let play = model.ext.bias_branch_hysteresis.map_or(0.0, |h| 2.0 * h.weight_g);
+    b.k0(t, Branch::Heating) - b.k0(t, Branch::Cooling) + play
 }
 
 /// The prior's statistics of `log`: its rows with a temperature, each on the branch the

@@ -10,7 +10,7 @@ use crate::static_cal::StaticCalOptions;
 
 /// Contiguous cross-validation blocks of the model choice (`blocks:K` uses K), and the
 /// blocks of `--holdout auto` when the log has no later leg.
-pub(crate) const CV_FOLDS: usize = 5;
+pub const CV_FOLDS: usize = 5;
 
 /// The candidate structures: branch tie (single, constant step, free) × `sensor_lag` τ
 /// (none, 30…480 s) × `bias_creep` τ (none, 60…600 s).

@@ -85,7 +85,7 @@ impl Scheme {
     /// Cross-validation blocks of the model choice: the scheme's K under `blocks:K`, else
     /// [`CV_FOLDS`].
     #[must_use]
-    pub(crate) fn selection_folds(&self) -> usize {
+    pub fn selection_folds(&self) -> usize {
         match *self {
             Self::Blocks { k } => k,
             _ => CV_FOLDS,

@@ -99,8 +99,7 @@ use qfa_log::replay::FirmwareRows;
 use qfa_log::static_log::{AxisColumn, StaticLog};
 
 pub use crate::static_cal::choice::is_one_branch;
-pub(crate) use crate::static_cal::choice::CV_FOLDS;
-pub use crate::static_cal::choice::{candidates, ONE_BRANCH};
+pub use crate::static_cal::choice::{candidates, CV_FOLDS, ONE_BRANCH};
 pub use crate::static_cal::error::{FigureFault, SplitFault, StaticCalError};
 pub use crate::static_cal::holdout::Holdout;
 pub use crate::static_cal::holdout::{check_coverage, resolve_holdout, Scheme};
@@ -631,6 +630,3 @@ fn figures_text(scheme: &Scheme, n: usize) -> String {
          axis's mean over all rows); table_rms_mg: that table on all rows (in-sample)"
     )
 }
-
-#[cfg(test)]
-mod tests;

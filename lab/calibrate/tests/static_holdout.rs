@@ -1,8 +1,9 @@
-//! Unit tests of static calibration: the held-out schemes, their refusals, and the coverage
-//! a log needs before any fit.
+//! Static calibration's held-out schemes, their refusals, and the coverage a log needs
+//! before any fit.
 
-use super::*;
+use qfa_calibrate::static_cal::{check_coverage, resolve_holdout, Holdout, Scheme, StaticCalError, CV_FOLDS};
 use qfa_log::spelling::Spelling;
+use qfa_log::static_log::StaticLog;
 use qfa_log::static_log::{read_static_from, AccelUnit, StaticOptions, TimeUnit};
 
 /// A static log of `temps` at 1-s rows, one axis `az` = −1 g + 0.1 mg/°C.
