@@ -505,15 +505,19 @@ fn held_out_figures_section(p: &mut qfa_report::html_report::Page, r: &Report) {
     p.section("Held-out figures").table(
         &["model", "scale-factor sensitivity, ppm/°C", "bias residual, µg RMS"],
         &[
-            vec!["no compensation".to_string(), format!("{:.2}", s.none), format!("{:.1}", b.none)],
-            vec!["simple (Eq. 3–4)".to_string(), format!("{:.2}", s.simple), format!("{:.1}", b.simple)],
+            vec!["no compensation".to_string(), format!("{:.2}", s.none), format!("{:.2}", b.none)],
+            vec!["simple (Eq. 3–4)".to_string(), format!("{:.2}", s.simple), format!("{:.2}", b.simple)],
             vec![
                 "hysteresis (Eq. 11 + branched bias), table.bin".to_string(),
                 format!("{:.2}", s.hysteresis),
-                format!("{:.1}", b.hysteresis),
+                format!("{:.2}", b.hysteresis),
             ],
-            vec!["PX4 / tofupilot cubic (bias only)".to_string(), "-".to_string(), format!("{:.1}", pb.cubic)],
-            vec!["ArduPilot TCAL (bias only)".to_string(), "-".to_string(), format!("{:.1}", pb.ardupilot)],
+            vec![
+                "PX4 / tofupilot cubic (bias only, in the table's place)".into(),
+                "-".into(),
+                format!("{:.2}", pb.cubic),
+            ],
+            vec!["ArduPilot TCAL (bias only, in the table's place)".into(), "-".into(), format!("{:.2}", pb.ardupilot)],
         ],
     );
 }

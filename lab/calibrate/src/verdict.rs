@@ -166,15 +166,44 @@ pub(crate) fn cycling_verdict(
         qfa_log::cycling::glitches_sentence(&r.skipped_glitches)
             .map(|s| format!("{s}; each is in report.json's skipped_glitches")),
     );
-    let (pc, pa) = (r.peers_bias_residual_ug.cubic, r.peers_bias_residual_ug.ardupilot);
-    if b > pc.min(pa) {
-        v.warnings.push(format!(
-            "the bias residual ({b:.1} µg) is worse held out than a bias-only peer (PX4 cubic {pc:.1}, ArduPilot {pa:.1} µg)"
-        ));
-    }
+    v.warnings.extend(worse_than_a_peer(b, r.peers_bias_residual_ug));
     v.warnings.extend(notes.iter().cloned());
     v.files = files.iter().map(|f| FileUse::of(f)).collect();
     v.hold_back_if_failed();
     v.advice = c.record_next();
     v
+}
+
+/// How much worse than a bias-only peer the table's held-out bias residual may be before
+/// the verdict says so: two fits of one cubic on the same rows, one the table's 16-node grid
+/// and one the peer's formula, differ held out by up to 0.2 % on six simulated units
+/// (the lab guide's "Peers"); 1 % is five times that, set after that measurement.
+pub(crate) const PEER_TOLERANCE: f64 = 0.01;
+
+/// The warning when the table's held-out bias residual `b` (µg) is worse than a peer's by
+/// more than [`PEER_TOLERANCE`], both scored in the table's place.
+fn worse_than_a_peer(b: f64, p: crate::report::PeerBias) -> Option<String> {
+    (b > p.cubic.min(p.ardupilot) * (1.0 + PEER_TOLERANCE)).then(|| {
+        format!(
+            "the bias residual ({b:.2} µg) is worse held out than a bias-only peer in the table's place (PX4 cubic \
+             {:.2}, ArduPilot {:.2} µg): a bias model the search did not hold",
+            p.cubic, p.ardupilot
+        )
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::report::PeerBias;
+
+    #[test]
+    fn a_peer_within_the_figures_resolution_is_not_a_warning_beyond_it_is() {
+        let p = PeerBias { cubic: 9.679, ardupilot: 10.04 };
+        assert_eq!(worse_than_a_peer(9.684, p), None);
+        assert_eq!(worse_than_a_peer(9.0, p), None);
+        let w = worse_than_a_peer(9.80, p).expect("1.2 % worse");
+        assert!(w.starts_with("the bias residual (9.80 µg) is worse held out than a bias-only peer"), "{w}");
+        assert!(worse_than_a_peer(10.2, PeerBias { cubic: 11.0, ardupilot: 10.0 }).is_some());
+    }
 }
