@@ -621,6 +621,15 @@ fn the_real_logs_unit_mistakes_are_refused_and_linted() {
     let out = lab(&c);
     let verdict = String::from_utf8_lossy(&out.stdout);
     assert!(verdict.contains("\ncovers: -17.6..74.0 °C;"), "{verdict}");
+    // The later leg sits off the earlier rows on y and z: the warning says what the offset
+    // looks like there, with its evidence, and since that leg is one cooling ramp, that time
+    // and temperature move together on it (a trend cannot be told from a thermal misfit).
+    for axis in ["ay", "az"] {
+        let line = verdict.lines().find(|l| l.starts_with(&format!("warning: {axis}: the held-out rows sit")));
+        let line = line.unwrap_or_else(|| panic!("no later-leg warning on {axis}:\n{verdict}"));
+        assert!(line.contains("over the later leg it looks like a "), "{line}");
+        assert!(line.contains("time and temperature move together there (r = -1.00)"), "{line}");
+    }
     let report = std::fs::read_to_string(cal.join("report.md")).unwrap();
     assert!(report.contains("Rows: 8399, -17.6..74.0 °C"), "{report}");
 

@@ -547,6 +547,7 @@ mod tests {
             resid.push(extra(t) + misfit(t) + noise);
         }
         let plot = PlotRows {
+            time_s: time.clone(),
             temp_c: temp.clone(),
             branch: Vec::new(),
             heldout: vec![false; time.len()],

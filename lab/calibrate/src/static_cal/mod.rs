@@ -266,6 +266,7 @@ pub fn calibrate_static(
     let mut peers = Vec::new();
     let mut axes = Vec::new();
     let mut plot = PlotRows {
+        time_s: log.time_s.clone(),
         temp_c: log.temp_c.clone(),
         branch: run.plain.branch.clone(),
         heldout: (0..n).map(|i| run.folds.iter().any(|f| f.contains(&i))).collect(),

@@ -206,6 +206,8 @@ pub struct StaticReport {
 /// row's branch and whether it is held out.
 #[derive(Clone, Debug, Default)]
 pub struct PlotRows {
+    /// Time since the first row, s.
+    pub time_s: Vec<f64>,
     /// Temperature reading, °C.
     pub temp_c: Vec<f64>,
     /// Branch in force (the firmware's branch logic).
