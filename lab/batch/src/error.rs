@@ -183,6 +183,13 @@ pub enum UnitFault {
         /// The fitter's error.
         source: Box<FitError>,
     },
+    /// The ramp split's fit under one die lag cannot be solved.
+    RampSplit {
+        /// The lag tried, s.
+        lag_s: f32,
+        /// The fitter's error.
+        source: Box<FitError>,
+    },
 }
 
 impl From<OutputError> for BatchError {
@@ -310,6 +317,7 @@ impl fmt::Display for UnitFault {
             Self::Cycling(e) => write!(f, "{e}"),
             Self::NoVerdict => f.write_str("the cycling calibration wrote no verdict"),
             Self::Descriptor { axis, source } => write!(f, "{axis}: descriptor: {source}"),
+            Self::RampSplit { lag_s, source } => write!(f, "ramp split under a {lag_s:.0}-s die lag: {source}"),
         }
     }
 }

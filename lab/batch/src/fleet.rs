@@ -291,7 +291,7 @@ fn words(name: &str) -> Option<&'static str> {
         "slope_ug_per_c" => "temperature slope",
         "curvature_ug_per_c2" => "temperature curvature",
         "split_mg" => "heating/cooling split",
-        "ramp_split_mg" => "heating/cooling split on the program's ramps (a die's lag included)",
+        "ramp_split_mg" => "heating/cooling split on the program's ramps (the die's lag fitted out)",
         "held_out_mg" => "held-out bias RMS",
         "offset_c" => "temperature sensor's offset from the fleet",
         "drift_c_per_h" => "temperature sensor's drift against the fleet",

@@ -38,7 +38,7 @@ pub(crate) use super::solver::{lstsq, LsResult};
 
 mod branch;
 pub use crate::static_cal::fit::{fit_static_axis, BranchMode, CurveShape, StaticSeries, StaticStructure};
-pub use crate::static_cal::fit::{fit_static_traced, StaticFit, StaticTraces};
+pub use crate::static_cal::fit::{fit_static_traced, StaticDesign, StaticFit, StaticTraces};
 use branch::choose_branch_mode;
 pub use branch::{BranchChoice, BranchCv};
 
