@@ -6,12 +6,14 @@
 //! one `key=value` line per run:
 //! `units threads seconds units_per_min cpu_s_per_unit seconds_per_unit vmhwm_mb`, where
 //! `vmhwm_mb` is the process's peak resident memory so far (`VmHWM`), and a last line with
-//! the memory each further unit adds, from the two largest batches.
+//! the memory each further unit adds, from the two largest batches. The chamber log is
+//! written by a child process (this program with `write N DIR`) and read as `qfa-lab batch
+//! --log` reads it, streamed (`from_chamber_file`), so the memory is the batch's alone.
 
 use std::path::PathBuf;
 use std::time::Instant;
 
-use qfa_batch::input::from_chamber_log;
+use qfa_batch::input::from_chamber_file;
 use qfa_batch::BatchOptions;
 use qfa_log::open::ReadFlags;
 use qfa_log::static_log::columns::{AccelUnit, TimeUnit};
@@ -41,7 +43,16 @@ fn cpu_s() -> f64 {
 }
 
 fn main() {
-    let sizes: Vec<usize> = std::env::args().skip(1).filter_map(|a| a.parse().ok()).collect();
+    let args: Vec<String> = std::env::args().collect();
+    if let [_, cmd, n, dir] = args.as_slice() {
+        if cmd == "write" {
+            let n: usize = n.parse().expect("units");
+            let truth = draw(&PopulationSpec { units: n, seed: 1, bad: true, truncated: 0, die_lags: false });
+            write_chamber(std::path::Path::new(dir), &truth).expect("chamber log");
+            return;
+        }
+    }
+    let sizes: Vec<usize> = args.iter().skip(1).filter_map(|a| a.parse().ok()).collect();
     let sizes = if sizes.is_empty() { vec![10, 100] } else { sizes };
     let root = std::env::temp_dir().join(format!("qfa-batch-bench-{}", std::process::id()));
     let flags = ReadFlags {
@@ -54,16 +65,17 @@ fn main() {
     for &n in &sizes {
         let dir: PathBuf = root.join(format!("n{n}"));
         std::fs::create_dir_all(&dir).expect("scratch folder");
-        let truth = draw(&PopulationSpec { units: n, seed: 1, bad: true, truncated: 0, die_lags: false });
-        write_chamber(&dir, &truth).expect("chamber log");
+        let exe = std::env::current_exe().expect("this program");
+        let wrote = std::process::Command::new(exe).arg("write").arg(n.to_string()).arg(&dir).status();
+        assert!(wrote.is_ok_and(|s| s.success()), "the chamber log of {n} units not written");
         let path = dir.join("chamber.tsv");
-        let bytes = std::fs::read(&path).expect("chamber log");
         let threads: &[usize] = if n <= 10 { &[1, 2] } else { &[2] };
         for &t in threads {
-            let units = from_chamber_log(&path, &bytes, &flags).expect("split");
             let out = dir.join(format!("out{t}"));
             let (t0, c0) = (Instant::now(), cpu_s());
-            qfa_batch::run(&units, &out, &BatchOptions { threads: t, ..BatchOptions::default() }).expect("batch");
+            let chamber = from_chamber_file(&path, &flags, &out).expect("split");
+            qfa_batch::run(&chamber.units, &out, &BatchOptions { threads: t, ..BatchOptions::default() })
+                .expect("batch");
             let (secs, cpu) = (t0.elapsed().as_secs_f64(), cpu_s() - c0);
             let peak = vmhwm_mb();
             println!(

@@ -490,12 +490,11 @@ fn batch_cmd(a: BatchCli) -> Result<(), CliError> {
     }
     let out = a.out.clone().ok_or_else(|| CliError::Usage("batch needs --out DIR".into()))?;
     let flags = a.fmt.flags();
-    let units = match (&a.log, &a.manifest) {
-        (Some(log), None) => {
-            let bytes = std::fs::read(log).map_err(io_at(log))?;
-            input::from_chamber_log(log, &bytes, &flags)
-        }
-        (None, Some(m)) => input::from_manifest(m, &flags),
+    // A chamber log is streamed: its units' rows wait in a folder in `out` (removed when
+    // `chamber` goes, after the batch) and each is read when its unit's turn comes.
+    let (units, _chamber) = match (&a.log, &a.manifest) {
+        (Some(log), None) => input::from_chamber_file(log, &flags, &out).map(|c| (c.units.clone(), Some(c))),
+        (None, Some(m)) => input::from_manifest(m, &flags).map(|u| (u, None)),
         _ => return Err(CliError::Usage("batch needs --log CHAMBER_LOG or --manifest batch.toml".into())),
     }
     .map_err(|e| CliError::Usage(e.to_string()))?;

@@ -73,12 +73,11 @@ pub fn batch_shard(
     if n == 0 || k >= n {
         return Err(err(py, &LabBatchError::Shard { given: format!("{k}/{n}") }));
     }
-    let units = match (log, manifest) {
-        (Some(l), None) => {
-            let bytes = std::fs::read(&l).map_err(|source| err(py, &LabBatchError::Io { path: l.clone(), source }))?;
-            input::from_chamber_log(&l, &bytes, &flags)
-        }
-        (None, Some(m)) => input::from_manifest(&m, &flags),
+    // A chamber log is streamed, its units' rows waiting in a folder in `out` until
+    // `_chamber` goes.
+    let (units, _chamber) = match (log, manifest) {
+        (Some(l), None) => input::from_chamber_file(&l, &flags, &out).map(|c| (c.units.clone(), Some(c))),
+        (None, Some(m)) => input::from_manifest(&m, &flags).map(|u| (u, None)),
         _ => Err(LabBatchError::NoInput),
     }
     .map_err(|e| err(py, &e))?;
