@@ -32,6 +32,31 @@ pub(crate) fn heldout_steps(plot: &PlotRows) -> Vec<(String, f64, f64)> {
     out
 }
 
+/// Per axis of `plot` whose held-out rows sit off the training rows' mean residual by most
+/// of their error (the step above half the held-out RMS): the axis and the warning, with what the leg looks like
+/// ([`leg_shape`]). Calibration's verdict and discovery's say it in these words.
+#[must_use]
+pub fn later_leg_warnings(plot: &PlotRows) -> Vec<(String, String)> {
+    let mut out = Vec::new();
+    for (axis, step, rms) in heldout_steps(plot) {
+        if step.abs() <= STEP_SHARE * rms {
+            continue;
+        }
+        let after = plot.axes.iter().find(|a| a.0 == axis).map_or(&[][..], |a| &a.2[..]);
+        let rows: Vec<usize> = (0..after.len()).filter(|&i| plot.heldout[i] && after[i].is_finite()).collect();
+        let pick = |v: &[f64]| rows.iter().map(|&i| v[i]).collect::<Vec<f64>>();
+        let shape = leg_shape(&pick(&plot.time_s), &pick(after), &pick(&plot.temp_c));
+        let w = format!(
+            "{axis}: the held-out rows sit {step:+.2} mg off the training rows (held-out RMS {rms:.2} mg): the later \
+             rows' bias differs from the earlier rows' at the same temperature, which the training rows could not \
+             show; expect such a step in use{}",
+            shape.map_or(String::new(), |s| format!("; {s}"))
+        );
+        out.push((axis, w));
+    }
+    out
+}
+
 /// What the held-out leg's residual `r` (mg; times `t` s, temperatures `temp` °C) looks
 /// like, with its evidence: the share of the mean square about the leg's mean that a line in
 /// time takes (a drift) and a settling `a + b·exp(−t/τ)`, τ 2…64 min (a creep), by the lab's
@@ -116,21 +141,7 @@ pub fn static_verdict(cal: &StaticCalibration, limits: &LimitsChoice, files: &[S
         .map(|(a, x)| Expected { axis: a.clone(), what: "held-out bias RMS".into(), value: *x, unit: "mg".into() })
         .collect();
     v.covers = Some(r.coverage.covers());
-    for (axis, step, rms) in heldout_steps(&cal.plot) {
-        if step.abs() > STEP_SHARE * rms {
-            let p = &cal.plot;
-            let after = p.axes.iter().find(|a| a.0 == axis).map_or(&[][..], |a| &a.2[..]);
-            let rows: Vec<usize> = (0..after.len()).filter(|&i| p.heldout[i] && after[i].is_finite()).collect();
-            let pick = |v: &[f64]| rows.iter().map(|&i| v[i]).collect::<Vec<f64>>();
-            let shape = leg_shape(&pick(&p.time_s), &pick(after), &pick(&p.temp_c));
-            v.warnings.push(format!(
-                "{axis}: the held-out rows sit {step:+.2} mg off the training rows (held-out RMS {rms:.2} mg): the \
-                 later rows' bias differs from the earlier rows' at the same temperature, which the training rows \
-                 could not show; expect such a step in use{}",
-                shape.map_or(String::new(), |s| format!("; {s}"))
-            ));
-        }
-    }
+    v.warnings.extend(later_leg_warnings(&cal.plot).into_iter().map(|(_, w)| w));
     for a in &r.axes {
         let (Some(ours), Some(cubic)) = (a.ours.score(), a.cubic.score()) else { continue };
         // Said when it shows at the printed precision (0.01 mg): a difference the reader

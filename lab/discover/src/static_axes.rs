@@ -132,6 +132,10 @@ pub struct AxisDiscovery {
     pub simple: Figure,
     /// No compensation (training mean removed), held out.
     pub none: Figure,
+    /// When the named model's held-out rows sit off its training rows by most of their
+    /// error: that warning, with what the later leg looks like (calibration's words, from
+    /// the same fit: `qfa_calibrate::verdict::later_leg_warnings`).
+    pub later_leg: Option<String>,
 }
 
 /// One step of the model search over every row.
@@ -279,8 +283,10 @@ pub fn discover_static(log: &StaticLog, start: Start, holdout: Holdout) -> Resul
     // effects it names that the model does not hold.
     opts.holdout = holdout;
     let cal = calibrate_static(log, &opts, false)?;
+    let later = qfa_calibrate::verdict::later_leg_warnings(&cal.plot);
     for (a, (x, r)) in axes.iter_mut().zip(&reports).enumerate() {
         adopt_search(x, r, &cal.report.axes[a], &cal.paths[a]);
+        x.later_leg = later.iter().find(|(axis, _)| *axis == x.axis).map(|(_, w)| w.clone());
     }
     Ok(StaticDiscovery {
         table: cal.table,
@@ -425,6 +431,8 @@ fn axis_discovery(
         ardupilot: fig(&h.peers[1], &h.ho_t, PeerKind::Ardupilot.label(), &h.peer_err[1])?,
         simple: fig(&h.peers[2], &h.ho_t, PeerKind::Simple.label(), &h.peer_err[2])?,
         none: fig(&h.none, &h.ho_t, "none", &None)?,
+        // Filled in with the search's result.
+        later_leg: None,
     })
 }
 

@@ -278,6 +278,7 @@ fn axis_warnings(d: &StaticDiscovery, a: &AxisDiscovery) -> Vec<String> {
     for u in &a.unexplained {
         w.push(format!("{}: structure left that no catalog effect explains: {u}", a.axis));
     }
+    w.extend(a.later_leg.clone());
     w
 }
 

@@ -137,7 +137,7 @@ impl StaticStructure {
 
     /// Linear unknowns for `g` grid nodes.
     #[must_use]
-    pub(crate) fn unknowns(&self, g: usize) -> usize {
+    pub fn unknowns(&self, g: usize) -> usize {
         self.branches.unknowns(self.shape.unknowns(g))
             + usize::from(self.creep_tau_s.is_some())
             + usize::from(self.play_half_width_c.is_some())
@@ -216,7 +216,7 @@ impl StaticSeries<'_> {
     /// series' (a cross-validation block needs no row outside it; see
     /// [`qfa_log::pairing::trace_axis_rows`]).
     #[must_use]
-    pub(crate) fn model_trace_rows(&self, axis: &AxisModel, rows: std::ops::Range<usize>) -> Trace {
+    pub fn model_trace_rows(&self, axis: &AxisModel, rows: std::ops::Range<usize>) -> Trace {
         qfa_log::pairing::trace_axis_rows(self.view, rows, axis)
     }
 }

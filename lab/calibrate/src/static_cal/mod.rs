@@ -99,7 +99,7 @@ use qfa_log::replay::FirmwareRows;
 use qfa_log::static_log::{AxisColumn, StaticLog};
 
 pub use crate::static_cal::choice::is_one_branch;
-pub use crate::static_cal::choice::{candidates, CV_FOLDS, ONE_BRANCH};
+pub use crate::static_cal::choice::{candidates, cv_rms_axes, CV_FOLDS, ONE_BRANCH};
 pub use crate::static_cal::error::{FigureFault, SplitFault, StaticCalError};
 pub use crate::static_cal::holdout::Holdout;
 pub use crate::static_cal::holdout::{check_coverage, resolve_holdout, Scheme};
