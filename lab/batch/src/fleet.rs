@@ -534,20 +534,7 @@ fn step_reasons(r: &UnitResult, flags: &[Flag]) -> Vec<String> {
         .iter()
         .filter(|s| s.thermal_share < super::unit::NOT_THERMAL_SHARE)
         .filter(|s| flags.iter().any(|f| f.feature.split('.').next() == Some(s.axis.as_str())))
-        .map(|s| {
-            // No "−0.00 °C": a move that rounds to zero reads as zero.
-            let moved_c = if (s.temp_change_c * 100.0).round() == 0.0 { 0.0 } else { s.temp_change_c };
-            format!(
-                "{} stepped by {:+.2} mg at t = {:.0} s, {:.0} % of the way through the run, while the \
-                 temperature moved {:+.2} °C ({:.0} % of the step at the axis's thermal slope): a shift, not thermal",
-                s.axis,
-                s.size_mg,
-                s.at_s,
-                100.0 * s.at_s / s.run_s,
-                moved_c,
-                100.0 * s.thermal_share
-            )
-        })
+        .map(super::unit::ResidualStep::words)
         .collect()
 }
 

@@ -19,6 +19,12 @@
 
 use std::path::Path;
 
+mod steps;
+use steps::residual_steps;
+pub use steps::{
+    ResidualStep, NOT_THERMAL_SHARE, STEP_SHARPNESS, STEP_SHORT_WINDOW_S, STEP_WINDOW_S, STEP_Z, TURN_WINDOW_S,
+};
+
 use serde::{Deserialize, Serialize};
 
 use super::input::UnitInput;
@@ -111,162 +117,6 @@ pub struct Calibrated {
     /// the `descriptor`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub qfa: Option<super::qfa::QfaFigures>,
-}
-
-/// A step in one axis's residual after the unit's own table: the output shifted part-way
-/// through the run, within a minute. Found where the residual's means over
-/// [`STEP_WINDOW_S`] either side of a row differ by at least [`STEP_Z`] SDs of the
-/// row-to-row noise, the means over [`STEP_SHORT_WINDOW_S`] by at least
-/// [`STEP_SHARPNESS`] of that, the windows' medians and the output itself stepping too
-/// (the lab guide's "Production batches").
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct ResidualStep {
-    /// Axis (`ax`, `ay`, `az`).
-    pub axis: String,
-    /// Time of the step since the unit's first row, s.
-    pub at_s: f64,
-    /// The run's length, s (so a reader sees how far through it the step came).
-    pub run_s: f64,
-    /// Its size, mg: the step at that time in a fit of a straight line and a step to the
-    /// axis's output over [`STEP_WINDOW_S`] either side.
-    pub size_mg: f64,
-    /// The size in SDs of the two windows' mean difference under the row-to-row noise.
-    pub z: f64,
-    /// The temperature reading's step at the same time, fitted alike, °C: a ramp through
-    /// the step is a line, not a step.
-    pub temp_change_c: f64,
-    /// What the axis's thermal slope at 25 °C makes of that move, as a share of the step:
-    /// well under 1 means the temperature cannot have made it.
-    pub thermal_share: f64,
-}
-
-/// The long window of the step search, s: long against the row-to-row noise, short
-/// against the chamber's temperature program.
-pub const STEP_WINDOW_S: f64 = 300.0;
-/// The short window, s: a step moves the short windows' difference as much as the long
-/// ones'; a thermal misfit, smooth over minutes, moves it about a fifth as much (for a
-/// trend, the difference of adjacent windows' means grows with their length).
-pub const STEP_SHORT_WINDOW_S: f64 = 60.0;
-/// The short windows' difference must be at least this share of the long ones' (a trend
-/// gives 0.2, a step 1).
-pub const STEP_SHARPNESS: f64 = 0.6;
-/// A step is reported from this many SDs of the long windows' difference under the
-/// row-to-row noise. Set before looking at any unit's figure.
-pub const STEP_Z: f64 = 10.0;
-/// A step whose temperature move explains less than this share of it is "not thermal".
-pub const NOT_THERMAL_SHARE: f64 = 0.1;
-
-/// The rows of the windows before and after a row: `before_lo..k` and `k..after_hi`.
-struct Windows {
-    before_lo: usize,
-    after_hi: usize,
-}
-
-/// The clearest step in each axis's residual (`plot.axes`' residual after the table, mg).
-///
-/// At each row, the residual's mean over [`STEP_WINDOW_S`] after it against the mean over
-/// the window before it, in SDs of that difference under the row-to-row noise (the robust
-/// noise from neighbouring rows, `qfa_log::robust::neighbour_noise`, so a slow misfit does
-/// not count as noise), and the same over [`STEP_SHORT_WINDOW_S`]. A step is where the long difference reaches
-/// [`STEP_Z`], the short one is at least [`STEP_SHARPNESS`] of it (sharp: not a thermal
-/// misfit along a ramp); the largest such, kept when the short windows' medians agree with
-/// their means to half (not a single-sample spike) and the output itself steps by at least
-/// half of it (not a transient of the residual along a ramp). Its size in the output, and
-/// the temperature's step there, from a line and a step fitted over the long windows. `slopes_ug_per_c` is each axis's
-/// thermal slope at 25 °C, in `plot`'s order.
-#[must_use]
-pub(crate) fn residual_steps(
-    time_s: &[f64],
-    temp_c: &[f64],
-    plot: &qfa_calibrate::static_cal::PlotRows,
-    slopes_ug_per_c: &[f64],
-) -> Vec<ResidualStep> {
-    use qfa_log::robust::{median, neighbour_noise};
-    let mut out = Vec::new();
-    let (Some(&t0), Some(&t1)) = (time_s.first(), time_s.last()) else { return out };
-    for ((axis, accel, resid), &slope) in plot.axes.iter().zip(slopes_ug_per_c) {
-        let rows: Vec<usize> = (0..resid.len().min(time_s.len())).filter(|&i| resid[i].is_finite()).collect();
-        if rows.len() < 20 {
-            continue;
-        }
-        let values: Vec<f64> = rows.iter().map(|&i| resid[i]).collect();
-        let Some(sigma) = neighbour_noise(&values).filter(|s| *s > 0.0) else { continue };
-        // Prefix sums over the finite rows: each window's mean in O(1).
-        let mut prefix = Vec::with_capacity(rows.len() + 1);
-        prefix.push(0.0);
-        for &i in &rows {
-            prefix.push(prefix[prefix.len() - 1] + resid[i]);
-        }
-        let times: Vec<f64> = rows.iter().map(|&i| time_s[i]).collect();
-        let mean = |a: usize, b: usize| (prefix[b] - prefix[a]) / (b - a) as f64;
-        let mut long = Windows { before_lo: 0, after_hi: 0 };
-        let mut short = Windows { before_lo: 0, after_hi: 0 };
-        // (z, row, long windows' ends, short windows' ends)
-        let mut best: Option<(f64, usize, usize, usize, usize, usize)> = None;
-        for k in 1..rows.len() {
-            for (w, span) in [(&mut long, STEP_WINDOW_S), (&mut short, STEP_SHORT_WINDOW_S)] {
-                while times[k] - times[w.before_lo] > span {
-                    w.before_lo += 1;
-                }
-                w.after_hi = w.after_hi.max(k);
-                while w.after_hi < rows.len() && times[w.after_hi] - times[k] < span {
-                    w.after_hi += 1;
-                }
-            }
-            // Whole windows only: a step at the log's ends is not a step part-way through.
-            let (nb, na) = (k - long.before_lo, long.after_hi - k);
-            if k - short.before_lo < 3
-                || short.after_hi - k < 3
-                || times[k] - t0 < STEP_WINDOW_S
-                || t1 - times[k] < STEP_WINDOW_S
-            {
-                continue;
-            }
-            let d_long = mean(k, long.after_hi) - mean(long.before_lo, k);
-            let d_short = mean(k, short.after_hi) - mean(short.before_lo, k);
-            let z = d_long.abs() / (sigma * (1.0 / nb as f64 + 1.0 / na as f64).sqrt());
-            let sharp = d_short / d_long >= STEP_SHARPNESS;
-            if z >= STEP_Z && sharp && best.is_none_or(|b| z > b.0) {
-                best = Some((z, k, long.before_lo, long.after_hi, short.before_lo, short.after_hi));
-            }
-        }
-        let Some((z, k, lo, hi, s_lo, s_hi)) = best else { continue };
-        // The step at row k over the long windows, beside a straight line in time, in the
-        // output itself (the table's branch offset may have taken up part of it in the
-        // residual) and in the temperature reading: a ramp through it is a line, not a step.
-        let tk = times[k];
-        let step_of = |v: &dyn Fn(usize) -> f64| -> Option<f64> {
-            let (mut x, mut y) = (Vec::with_capacity(3 * (hi - lo)), Vec::with_capacity(hi - lo));
-            for j in (lo..hi).filter(|&j| v(j).is_finite()) {
-                x.extend([1.0, times[j] - tk, if j >= k { 1.0 } else { 0.0 }]);
-                y.push(v(j));
-            }
-            qfa_calibrate::solver::lstsq(&x, 3, &y).ok().map(|f| f.coef[2])
-        };
-        let (Some(size_mg), Some(temp_change_c)) = (step_of(&|j| accel[rows[j]]), step_of(&|j| temp_c[rows[j]])) else {
-            continue;
-        };
-        // A single-sample spike moves the short windows' means, not their medians.
-        let median_in = |a: usize, b: usize| median(&(a..b).map(|j| resid[rows[j]]).collect::<Vec<f64>>());
-        let (Some(rb), Some(ra)) = (median_in(s_lo, k), median_in(k, s_hi)) else { continue };
-        let d_short = mean(k, s_hi) - mean(s_lo, k);
-        // And the output itself steps: a transient of the residual along a ramp (a lag the
-        // table does not hold) is a kink in the output, not a step.
-        if (ra - rb) / d_short < 0.5 || size_mg / d_short < 0.5 {
-            continue;
-        }
-        let thermal_mg = (slope * temp_change_c).abs() * 1e-3;
-        out.push(ResidualStep {
-            axis: axis.clone(),
-            at_s: times[k] - t0,
-            run_s: t1 - t0,
-            size_mg,
-            z,
-            temp_change_c,
-            thermal_share: thermal_mg / size_mg.abs(),
-        });
-    }
-    out
 }
 
 /// A unit's result: calibrated, or why not.
@@ -565,66 +415,4 @@ fn glitches_per_hour(log: &StaticLog) -> f64 {
         _ => return 0.0,
     };
     log.skipped.glitch.count as f64 / span_h
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use qfa_calibrate::static_cal::PlotRows;
-
-    /// A 3-h static log at 1-s rows: a temperature program (a hold, a 2 °C/min ramp, a
-    /// hold), an output of 20 µg/°C on it plus `extra(t)`, white noise of 0.1 mg, and a
-    /// residual that is the output minus a model that knows the thermal curve only to
-    /// `misfit(t)`.
-    fn log(extra: impl Fn(f64) -> f64, misfit: impl Fn(f64) -> f64, seed: u64) -> (Vec<f64>, Vec<f64>, PlotRows) {
-        let mut rng = qfa_rng::seeded(seed);
-        let n = 3 * 3600u32;
-        let time: Vec<f64> = (0..n).map(f64::from).collect();
-        let temp: Vec<f64> = time.iter().map(|&t| 20.0 + (2.0 * (t - 3600.0) / 60.0).clamp(0.0, 40.0)).collect();
-        let (mut accel, mut resid) = (Vec::with_capacity(time.len()), Vec::with_capacity(time.len()));
-        for (&t, &tc) in time.iter().zip(&temp) {
-            let noise = 0.1 * qfa_rng::normal(&mut rng);
-            let a = 0.02 * tc + extra(t) + noise;
-            accel.push(a);
-            resid.push(extra(t) + misfit(t) + noise);
-        }
-        let plot = PlotRows {
-            time_s: time.clone(),
-            temp_c: temp.clone(),
-            branch: Vec::new(),
-            heldout: vec![false; time.len()],
-            axes: vec![("ax".into(), accel, resid)],
-        };
-        (time, temp, plot)
-    }
-
-    #[test]
-    fn a_shock_is_found_where_and_as_large_as_it_is_and_called_not_thermal() {
-        for (seed, at, size) in [(1, 2000.0, 1.0), (2, 4000.0, -3.0), (3, 8000.0, 0.5)] {
-            // A misfit of the thermal curve along the ramp, up to 3 mg: slow, not a step, but
-            // its long windows differ by more than the smallest shock's.
-            let misfit = |t: f64| 3.0 * ((t - 3600.0) / 1200.0).clamp(0.0, 1.0);
-            let (time, temp, plot) = log(|t| if t >= at { size } else { 0.0 }, misfit, seed);
-            let steps = residual_steps(&time, &temp, &plot, &[20.0]);
-            assert_eq!(steps.len(), 1, "seed {seed}: {steps:?}");
-            let s = &steps[0];
-            assert!((s.at_s - at).abs() <= 5.0, "{s:?}");
-            assert!((s.size_mg - size).abs() < 0.05 * size.abs(), "{s:?}");
-            assert!(s.thermal_share < NOT_THERMAL_SHARE, "{s:?}");
-        }
-    }
-
-    #[test]
-    fn spikes_a_slow_misfit_and_a_ramps_transient_are_not_steps() {
-        for seed in 1..=5 {
-            // Rare single-sample spikes of 5 mg, a misfit along the ramp, and the decaying
-            // transient a lag the table does not hold leaves at the ramp's start.
-            let spike = |t: f64| if (t as u64).is_multiple_of(997) { 5.0 } else { 0.0 };
-            let transient = |t: f64| if t >= 3600.0 { 0.8 * (-(t - 3600.0) / 90.0).exp() } else { 0.0 };
-            let misfit = |t: f64| 0.6 * ((t - 3600.0) / 1200.0).clamp(0.0, 1.0) + transient(t);
-            let (time, temp, plot) = log(spike, misfit, seed);
-            let steps = residual_steps(&time, &temp, &plot, &[20.0]);
-            assert!(steps.is_empty(), "seed {seed}: {steps:?}");
-        }
-    }
 }
