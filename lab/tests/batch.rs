@@ -369,23 +369,10 @@ fn the_command_refuses_a_users_mistakes_with_what_to_do() {
     assert!(page.contains("No unit was calibrated") && !dir.join("f").join("fleet_figures.png").exists());
 }
 
-/// RMS (mg) over the fleet's span in 1-°C steps, both branches, of the truth's curve less
-/// what `table`'s axis `k` applies at the unit's reading (the truth is in case
-/// temperature, the table in the sensor's), after removing their mean difference (a
-/// constant is the orientation's, which no static log tells apart).
+/// The error of `table`'s axis `k` against unit `u`'s truth over `span` (the truth is in
+/// case temperature, the table in the sensor's).
 fn table_error_mg(table: &qfa_thermal::Table, k: usize, u: &qfa_sim::population::UnitTruth, span: [f64; 2]) -> f64 {
-    use qfa_thermal::model::Branch;
-    let mut d = Vec::new();
-    let mut t = span[0].ceil();
-    while t <= span[1].floor() {
-        for (b, heating) in [(Branch::Heating, true), (Branch::Cooling, false)] {
-            let reading = (t + u.sensor_offset_c) as f32;
-            d.push(u.axes[k].at(t, heating) - f64::from(table.axes[k].bias.k0(reading, b)));
-        }
-        t += 1.0;
-    }
-    let m = d.iter().sum::<f64>() / d.len() as f64;
-    (d.iter().map(|x| (x - m).powi(2)).sum::<f64>() / d.len() as f64).sqrt() * 1e3
+    common::table_error_mg(table, k, u.sensor_offset_c, span, |t, heating| u.axes[k].at(t, heating))
 }
 
 /// One unit axis's error against its truth: serial, truncated, own table (mg), the prior's (mg).
@@ -481,17 +468,9 @@ fn flag_study() {
         let run =
             qfa_batch::run(&units, &dir.join("out"), &BatchOptions { threads: 2, ..BatchOptions::default() }).unwrap();
         let fleet = run.fleet.unwrap();
-        let good_max = fleet
-            .stats
-            .iter()
-            .flat_map(|s| {
-                let (m, sc) = (s.median, s.scale);
-                s.values
-                    .iter()
-                    .filter(|(serial, _)| truth.unit.iter().any(|u| &u.serial == serial && u.defect.is_none()))
-                    .map(move |(_, v)| ((v - m) / sc).abs())
-            })
-            .fold(0.0, f64::max);
+        let good_max = common::largest_good_distance(&fleet, |serial| {
+            truth.unit.iter().any(|u| u.serial == serial && u.defect.is_none())
+        });
         let bad_min = fleet
             .unit
             .iter()

@@ -5,6 +5,7 @@
 //! figure its defect moves and pass the good ones, as it does on the lab's own population
 //! (`tests/batch.rs`).
 
+mod common;
 mod population2;
 
 use std::path::{Path, PathBuf};
@@ -88,17 +89,8 @@ fn judge(truth: &[Unit], inputs: &[qfa_batch::input::UnitInput], out: &Path) -> 
             }
         }
     }
-    o.good_max_z = fleet
-        .stats
-        .iter()
-        .flat_map(|s| {
-            let (m, sc) = (s.median, s.scale);
-            s.values
-                .iter()
-                .filter(|(serial, _)| truth.iter().any(|u| &u.serial == serial && u.defect.is_none()))
-                .map(move |(_, v)| ((v - m) / sc).abs())
-        })
-        .fold(0.0, f64::max);
+    o.good_max_z =
+        common::largest_good_distance(&fleet, |serial| truth.iter().any(|u| u.serial == serial && u.defect.is_none()));
     (o, fleet)
 }
 
@@ -193,24 +185,10 @@ fn population2_flag_study() {
     }
 }
 
-/// RMS (mg) over the fleet's span in 1-°C steps, both branches, of the generator's steady
-/// curve less what `table`'s axis `k` applies at the unit's reading (the truth is in the
-/// die's temperature, at rest equal to the case the sensor reads less its offset), after
-/// removing their mean difference (a constant is the orientation's, which no static log
-/// tells apart).
+/// The error of `table`'s axis `k` against unit `u`'s steady curve over `span` (the die at
+/// rest is at the case the sensor reads, less the sensor's offset).
 fn table_error_mg(table: &qfa_thermal::Table, k: usize, u: &Unit, span: [f64; 2]) -> f64 {
-    use qfa_thermal::model::Branch;
-    let mut d = Vec::new();
-    let mut t = span[0].ceil();
-    while t <= span[1].floor() {
-        for (b, heating) in [(Branch::Heating, true), (Branch::Cooling, false)] {
-            let reading = (t + u.sensor_offset_c) as f32;
-            d.push(u.axes[k].at(t, heating) - f64::from(table.axes[k].bias.k0(reading, b)));
-        }
-        t += 1.0;
-    }
-    let m = d.iter().sum::<f64>() / d.len() as f64;
-    (d.iter().map(|x| (x - m).powi(2)).sum::<f64>() / d.len() as f64).sqrt() * 1e3
+    common::table_error_mg(table, k, u.sensor_offset_c, span, |t, heating| u.axes[k].at(t, heating))
 }
 
 /// A manifest batch of `units` good units (`truncated` of them with truncated logs): per

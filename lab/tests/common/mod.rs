@@ -249,3 +249,45 @@ pub fn assert_plain_csvs(dir: &std::path::Path) -> usize {
     }
     checked
 }
+
+/// RMS (mg) over `span` (°C) in 1-°C steps, both branches, of a unit's true bias `truth(t,
+/// heating)` (g, at the temperature `t` it is written in) less what `table`'s axis `k`
+/// applies at the unit's reading `t + offset_c`, after removing their mean difference (a
+/// constant is the orientation's, which no static log tells apart). The population studies'
+/// error of a table against the truth, for either generator.
+pub fn table_error_mg(
+    table: &qfa_thermal::Table,
+    k: usize,
+    offset_c: f64,
+    span: [f64; 2],
+    truth: impl Fn(f64, bool) -> f64,
+) -> f64 {
+    use qfa_thermal::model::Branch;
+    let mut d = Vec::new();
+    let mut t = span[0].ceil();
+    while t <= span[1].floor() {
+        for (b, heating) in [(Branch::Heating, true), (Branch::Cooling, false)] {
+            d.push(truth(t, heating) - f64::from(table.axes[k].bias.k0((t + offset_c) as f32, b)));
+        }
+        t += 1.0;
+    }
+    let m = d.iter().sum::<f64>() / d.len() as f64;
+    (d.iter().map(|x| (x - m).powi(2)).sum::<f64>() / d.len() as f64).sqrt() * 1e3
+}
+
+/// The largest robust distance any unit `good` says is good reached on any of `fleet`'s
+/// figures (the flag studies' margin below the flag line).
+pub fn largest_good_distance(fleet: &qfa_batch::fleet::Fleet, good: impl Fn(&str) -> bool) -> f64 {
+    fleet
+        .stats
+        .iter()
+        .flat_map(|s| {
+            let (m, sc) = (s.median, s.scale);
+            s.values
+                .iter()
+                .filter(|(serial, _)| good(serial))
+                .map(move |(_, v)| ((v - m) / sc).abs())
+                .collect::<Vec<_>>()
+        })
+        .fold(0.0, f64::max)
+}
