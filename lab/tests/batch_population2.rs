@@ -64,6 +64,11 @@ struct Outcome {
     /// Steps in good units that are neither thermal nor at a turn of the branch: shocks
     /// that were not drawn.
     false_shocks: Vec<String>,
+    /// The lots the fleet found (sizes), and how many of the units it placed are in the
+    /// other lot than the one they were drawn from.
+    lots: Option<([usize; 2], usize)>,
+    /// Units of full coverage drawn from each lot.
+    drawn_lots: [usize; 2],
 }
 
 /// Run the batch of `inputs` into `out` and judge it against `truth`.
@@ -101,6 +106,16 @@ fn judge(truth: &[Unit], inputs: &[qfa_batch::input::UnitInput], out: &Path) -> 
     }
     o.good_max_z =
         common::largest_good_distance(&fleet, |serial| truth.iter().any(|u| u.serial == serial && u.defect.is_none()));
+    for (u, f) in truth.iter().zip(&fleet.unit) {
+        o.drawn_lots[u.lot] += usize::from(!f.partial && f.calibrated);
+    }
+    o.lots = fleet.lots.as_ref().map(|l| {
+        // The fleet numbers its lots by size: count the misplaced under either naming.
+        let placed: Vec<(usize, usize)> =
+            truth.iter().zip(&fleet.unit).filter_map(|(u, f)| f.lot.map(|l| (u.lot, l.0))).collect();
+        let same = placed.iter().filter(|(a, b)| a == b).count();
+        (l.sizes, same.min(placed.len() - same))
+    });
     (o, fleet)
 }
 
@@ -145,17 +160,20 @@ fn chamber_run(dir: &Path, spec: &Spec) -> (Vec<Unit>, Outcome, Fleet) {
     (truth, o, fleet)
 }
 
-/// 20 units of two lots (4 bad: one of each defect), every die lagging its sensor by its
+/// 32 units of two lots (4 bad: one of each defect), every die lagging its sensor by its
 /// own 0–240 s, Student-t noise with spikes: every bad unit is held back for the figure its
-/// defect moves, the shock is named where and how large it is, and no good unit is held
-/// back.
+/// defect moves, the shock is named where and how large it is, no good unit is held
+/// back, and the two lots are found, every unit in the lot it was drawn from.
 #[test]
 fn a_second_generators_fleet_flags_each_defect_and_passes_the_rest() {
     let dir = scratch("batch-population2");
-    let (truth, o, _) = chamber_run(&dir, &Spec { units: 20, seed: 1, bad: true, truncated: 0 });
+    let (_, o, _) = chamber_run(&dir, &Spec { units: 32, seed: 1, bad: true, truncated: 0 });
     println!("{o:#?}");
     assert_eq!(o.bad.len(), 4, "{o:?}");
-    assert!(truth.iter().any(|u| u.lot == 0) && truth.iter().any(|u| u.lot == 1));
+    // The draw holds two lots a fleet can tell apart (each a yardstick of its own).
+    assert!(o.drawn_lots.iter().all(|&n| n >= qfa_batch::lots::MIN_LOT), "{:?}", o.drawn_lots);
+    let (sizes, misplaced) = o.lots.expect("the two lots found");
+    assert_eq!((sizes[0] + sizes[1], misplaced), (o.drawn_lots[0] + o.drawn_lots[1], 0), "{o:?}");
     for (serial, d, z) in &o.bad {
         assert!(z.is_some(), "{serial} ({d:?}) not held back for its figure: {o:#?}");
     }
@@ -179,13 +197,16 @@ fn population2_flag_study() {
         let [pass, review, fail] = fleet.counts;
         println!(
             "seed={seed} pass={pass} review={review} fail={fail} good={} good_held_back={} good_max_z={:.2} \
-             bad_flagged={} of {} bad_min_z={bad_min:.1} shocks_named={} missed={missed:?}",
+             bad_flagged={} of {} bad_min_z={bad_min:.1} shocks_named={} missed={missed:?} drawn_lots={:?} \
+             lots_and_misplaced={:?}",
             o.good,
             o.held_back.len(),
             o.good_max_z,
             o.bad.len() - missed.len(),
             o.bad.len(),
             o.bad.iter().filter(|b| b.1 == Defect::Damaged).count() - o.shocks_not_named.len(),
+            o.drawn_lots,
+            o.lots,
         );
         for h in &o.held_back {
             println!("  held back: {h}");

@@ -35,6 +35,9 @@
 
 use serde::{Deserialize, Serialize};
 
+mod sensor;
+
+use self::sensor::sensors;
 use super::unit::{Calibrated, UnitOutcome, UnitResult};
 use qfa_log::robust::{median, MAD_TO_SD};
 use qfa_report::verdict::{Limits, Measured, Outcome};
@@ -68,13 +71,6 @@ pub(crate) const SPLIT_RESOLUTION_MG: f64 = 0.05;
 pub(crate) const MIN_FLEET: usize = 10;
 /// A unit whose span is under this share of the fleet's median span has partial coverage.
 pub(crate) const FULL_SPAN_SHARE: f64 = 0.8;
-/// The fleet's median reading moves less than this on a steady minute, °C/min.
-pub(crate) const STEADY_C_PER_MIN: f64 = 0.1;
-/// Units a minute needs for its median to be formed.
-const MIN_UNITS_PER_MINUTE: usize = 3;
-/// Steady minutes a sensor comparison needs.
-const MIN_STEADY_MINUTES: usize = 10;
-
 /// Which way a figure is bad.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -101,6 +97,10 @@ pub struct Feature {
     /// out by another scheme, blocks instead of the later leg, so its figure measures
     /// something else).
     pub full_coverage_only: bool,
+    /// Part of a lot's signature ([`super::lots`]): what the unit's curve and sensor are,
+    /// not how well it was measured or how it is failing.
+    #[serde(default)]
+    pub signature: bool,
 }
 
 /// The distribution of one figure over the fleet.
@@ -116,6 +116,26 @@ pub struct FeatureStats {
     pub scale: f64,
     /// Every unit's value, by serial (units without one left out).
     pub values: Vec<(String, f64)>,
+    /// Per lot when the fleet has two ([`Fleet::lots`]): its median and robust scale, the
+    /// yardstick of its units.
+    #[serde(default)]
+    pub lots: Vec<[f64; 2]>,
+}
+
+impl FeatureStats {
+    /// The median and robust scale a unit of `lot` is compared with: its lot's, or the
+    /// fleet's for a fleet of one lot and a unit in none (partial coverage).
+    #[must_use]
+    pub fn yardstick(&self, lot: Option<usize>) -> [f64; 2] {
+        lot.and_then(|k| self.lots.get(k).copied()).unwrap_or([self.median, self.scale])
+    }
+
+    /// The robust distance of `value` for a unit of `lot`, scales.
+    #[must_use]
+    pub fn distance(&self, value: f64, lot: Option<usize>) -> f64 {
+        let [median, scale] = self.yardstick(lot);
+        (value - median) / scale
+    }
 }
 
 /// One figure outside the population.
@@ -191,6 +211,10 @@ pub struct FleetUnit {
     pub sensor_drift_c_per_h: Measured,
     /// The population prior's table, for a unit with partial coverage.
     pub prior: Option<super::prior::PriorUse>,
+    /// Its lot (0 or 1) and the mixture's probability of it, when the fleet holds two
+    /// ([`Fleet::lots`]).
+    #[serde(default)]
+    pub lot: Option<(usize, f64)>,
 }
 
 /// Process capability of one limit on one axis.
@@ -240,13 +264,20 @@ pub struct Fleet {
     /// The units were compared with the fleet: it has at least 10 (`MIN_FLEET`) units of full
     /// coverage. When not, no unit is flagged outside the population and the page says so.
     pub compared: bool,
+    /// Two production lots, when the fleet holds them ([`super::lots`]): each unit of full
+    /// coverage is then compared with its own lot.
+    #[serde(default)]
+    pub lots: Option<super::lots::Lots>,
 }
 
 /// The figures compared, for the static units' axes `axes`, and a QFA unit's figures
 /// when `qfa` (a batch of cycling logs).
 #[must_use]
 pub(crate) fn features(axes: &[String], qfa: bool) -> Vec<Feature> {
+    // The signature of a lot: every figure either side of the fleet but the sensor's drift
+    // and the unit's ageing, which say a unit is failing.
     let f = |name: String, unit: &str, floor: f64, side: Side, full_coverage_only: bool| Feature {
+        signature: side == Side::Both && !name.ends_with("drift_c_per_h") && !name.ends_with("ageing_ug_per_h"),
         name,
         unit: unit.to_string(),
         floor,
@@ -329,69 +360,6 @@ fn value_of(c: &Calibrated, sensor: (&Measured, &Measured), name: &str) -> Optio
     }
 }
 
-/// Each unit's sensor offset and drift against the fleet's median reading (module docs).
-fn sensors(cal: &[Option<&Calibrated>]) -> Vec<(Measured, Measured)> {
-    use std::collections::BTreeMap;
-    let mut per_minute: BTreeMap<i64, Vec<f64>> = BTreeMap::new();
-    for c in cal.iter().flatten() {
-        for &(k, t) in &c.temp_minutes {
-            per_minute.entry(k).or_default().push(t);
-        }
-    }
-    let med: BTreeMap<i64, f64> = per_minute
-        .into_iter()
-        .filter(|(_, v)| v.len() >= MIN_UNITS_PER_MINUTE)
-        .filter_map(|(k, v)| median(&v).map(|m| (k, m)))
-        .collect();
-    let steady: BTreeMap<i64, f64> = med
-        .iter()
-        .filter(|(k, _)| match (med.get(&(**k - 1)), med.get(&(**k + 1))) {
-            (Some(a), Some(b)) => ((b - a) / 2.0).abs() < STEADY_C_PER_MIN,
-            _ => false,
-        })
-        .map(|(k, v)| (*k, *v))
-        .collect();
-    let not = |why: &str| Measured::NotComputed { not_computed: why.to_string() };
-    cal.iter()
-        .map(|c| {
-            let Some(c) = c else { return (not("not calibrated"), not("not calibrated")) };
-            if c.qfa.is_some() {
-                let why = "a cycling log's clock restarts with each run: no minute shared with the fleet";
-                return (not(why), not(why));
-            }
-            let d: Vec<(f64, f64)> =
-                c.temp_minutes.iter().filter_map(|(k, t)| steady.get(k).map(|m| (*k as f64 / 60.0, t - m))).collect();
-            if d.len() < MIN_STEADY_MINUTES {
-                let why = format!(
-                    "{} steady minutes shared with at least {MIN_UNITS_PER_MINUTE} units; {MIN_STEADY_MINUTES} needed",
-                    d.len()
-                );
-                return (not(&why), not(&why));
-            }
-            let diffs: Vec<f64> = d.iter().map(|p| p.1).collect();
-            let offset = median(&diffs).map_or_else(|| not("no minute"), Measured::Value);
-            (offset, drift_c_per_h(&d))
-        })
-        .collect()
-}
-
-/// The slope of `(hour, °C)` points, °C/h, by the lab's one solver (time from the middle
-/// of the span); not computed when the points span no time, where any slope fits.
-fn drift_c_per_h(points: &[(f64, f64)]) -> Measured {
-    let not = |why: String| Measured::NotComputed { not_computed: why };
-    let (lo, hi) = points.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| (l.min(p.0), h.max(p.0)));
-    if hi <= lo {
-        return not("the steady minutes span no time".to_string());
-    }
-    let mid = 0.5 * (lo + hi);
-    let x: Vec<f64> = points.iter().flat_map(|p| [1.0, p.0 - mid]).collect();
-    let y: Vec<f64> = points.iter().map(|p| p.1).collect();
-    match qfa_calibrate::solver::lstsq(&x, 2, &y) {
-        Ok(fit) => Measured::Value(fit.coef[1]),
-        Err(e) => not(format!("the drift could not be fitted: {e}")),
-    }
-}
-
 /// The fleet's figures, flags and decisions over `results` (in batch order).
 #[must_use]
 pub(crate) fn fleet(results: &[UnitResult], limits: &Limits) -> Fleet {
@@ -405,16 +373,23 @@ pub(crate) fn fleet(results: &[UnitResult], limits: &Limits) -> Fleet {
     let axes = fleet_axes(&cal);
     let sensor = sensors(&cal);
     let partial = partial_units(&cal);
-    let mut stats = Vec::new();
-    let mut flags: Vec<Vec<Flag>> = vec![Vec::new(); results.len()];
     let qfa = cal.iter().flatten().any(|c| c.qfa.is_some());
-    for feat in features(&axes, qfa) {
-        if let Some(s) = feature_stats(feat, results, &cal, &sensor, &partial, &mut flags) {
-            stats.push(s);
-        }
+    let mut flags: Vec<Vec<Flag>> = vec![Vec::new(); results.len()];
+    let all_stats = |lots: Option<&super::lots::Lots>, flags: &mut [Vec<Flag>]| -> Vec<FeatureStats> {
+        let yard = Yardstick { results, cal: &cal, sensor: &sensor, partial: &partial, lots };
+        features(&axes, qfa).into_iter().filter_map(|feat| feature_stats(feat, &yard, flags)).collect()
+    };
+    let mut stats = all_stats(None, &mut flags);
+    let reference_idx: Vec<usize> = (0..results.len()).filter(|&i| !partial[i] && cal[i].is_some()).collect();
+    let serials: Vec<String> = results.iter().map(|r| r.serial.clone()).collect();
+    // Two lots: every figure again, each unit of full coverage against its own lot.
+    let lots = super::lots::find(&stats, &serials, &reference_idx);
+    if lots.is_some() {
+        flags.iter_mut().for_each(Vec::clear);
+        stats = all_stats(lots.as_ref(), &mut flags);
     }
     // Too few units for a yardstick: the figures are shown, no unit is flagged by them.
-    let reference_units = (0..results.len()).filter(|&i| !partial[i] && cal[i].is_some()).count();
+    let reference_units = reference_idx.len();
     let compared = reference_units >= MIN_FLEET;
     if !compared {
         flags.iter_mut().for_each(Vec::clear);
@@ -424,7 +399,10 @@ pub(crate) fn fleet(results: &[UnitResult], limits: &Limits) -> Fleet {
         f.sort_by(|a, b| b.z.abs().total_cmp(&a.z.abs()));
     }
     let mut counts = [0; 3];
-    let unit = fleet_units(results, &flags, &partial, &sensor, &mut counts);
+    let mut unit = fleet_units(results, &flags, &partial, &sensor, &mut counts);
+    for (i, u) in unit.iter_mut().enumerate() {
+        u.lot = lots.as_ref().and_then(|l| l.unit[i]);
+    }
     let reference: Vec<&Calibrated> =
         (0..results.len()).filter(|&i| !partial[i] && flags[i].is_empty()).filter_map(|i| cal[i]).collect();
     let lo: Vec<f64> = reference.iter().map(|c| c.temp_c[0]).collect();
@@ -442,6 +420,7 @@ pub(crate) fn fleet(results: &[UnitResult], limits: &Limits) -> Fleet {
         span_c,
         reference_units,
         compared,
+        lots,
     }
 }
 
@@ -468,33 +447,60 @@ fn partial_units(cal: &[Option<&Calibrated>]) -> Vec<bool> {
         .collect()
 }
 
+/// What a figure's units are compared with: the fleet's units of full coverage, or, when
+/// the fleet holds two lots, a unit's own lot.
+struct Yardstick<'a> {
+    results: &'a [UnitResult],
+    cal: &'a [Option<&'a Calibrated>],
+    sensor: &'a [(Measured, Measured)],
+    partial: &'a [bool],
+    lots: Option<&'a super::lots::Lots>,
+}
+
+/// The median and robust scale (at least `floor`) of `values`.
+fn median_scale(values: &[f64], floor: f64) -> Option<[f64; 2]> {
+    let med = median(values)?;
+    let dev: Vec<f64> = values.iter().map(|v| (v - med).abs()).collect();
+    Some([med, (MAD_TO_SD * median(&dev).unwrap_or(0.0)).max(floor)])
+}
+
 /// The fleet's robust statistics of `feat` (median and scale over the units of full
-/// coverage), each unit outside them flagged in `flags`; `None` when no unit gives a value.
-fn feature_stats(
-    feat: Feature,
-    results: &[UnitResult],
-    cal: &[Option<&Calibrated>],
-    sensor: &[(Measured, Measured)],
-    partial: &[bool],
-    flags: &mut [Vec<Flag>],
-) -> Option<FeatureStats> {
-    let values: Vec<(usize, f64)> = cal
+/// coverage, and over each lot's), each unit outside its yardstick flagged in `flags`;
+/// `None` when no unit gives a value.
+fn feature_stats(feat: Feature, y: &Yardstick<'_>, flags: &mut [Vec<Flag>]) -> Option<FeatureStats> {
+    let values: Vec<(usize, f64)> = y
+        .cal
         .iter()
         .enumerate()
         .filter_map(|(i, c)| {
             let c = (*c)?;
-            value_of(c, (&sensor[i].0, &sensor[i].1), &feat.name).filter(|v| v.is_finite()).map(|v| (i, v))
+            value_of(c, (&y.sensor[i].0, &y.sensor[i].1), &feat.name).filter(|v| v.is_finite()).map(|v| (i, v))
         })
         .collect();
-    let reference: Vec<f64> = values.iter().filter(|(i, _)| !partial[*i]).map(|(_, v)| *v).collect();
-    let med = median(&reference)?;
-    let dev: Vec<f64> = reference.iter().map(|v| (v - med).abs()).collect();
-    let scale = (MAD_TO_SD * median(&dev).unwrap_or(0.0)).max(feat.floor);
+    let of = |keep: &dyn Fn(usize) -> bool| -> Vec<f64> {
+        values.iter().filter(|(i, _)| !y.partial[*i] && keep(*i)).map(|(_, v)| *v).collect()
+    };
+    let [med, scale] = median_scale(&of(&|_| true), feat.floor)?;
+    let lot_of = |i: usize| y.lots.and_then(|l| l.lot_of(i));
+    let lots: Vec<[f64; 2]> = (0..if y.lots.is_some() { 2 } else { 0 })
+        .map(|k| median_scale(&of(&|i| lot_of(i) == Some(k)), feat.floor).unwrap_or([med, scale]))
+        .collect();
+    let stats = FeatureStats {
+        n: values.len(),
+        median: med,
+        scale,
+        values: values.iter().map(|(i, v)| (y.results[*i].serial.clone(), *v)).collect(),
+        feature: feat,
+        lots,
+    };
+    let feat = &stats.feature;
     for &(i, v) in &values {
-        if feat.full_coverage_only && partial[i] {
+        if feat.full_coverage_only && y.partial[i] {
             continue;
         }
-        let z = (v - med) / scale;
+        let against = lot_of(i).map_or_else(|| "the fleet's".to_string(), |k| format!("its lot's (lot {})", k + 1));
+        let z = stats.distance(v, lot_of(i));
+        let med = stats.yardstick(lot_of(i))[0];
         let out = match feat.side {
             Side::Both => z.abs() > Z_FLAG,
             Side::High => z > Z_FLAG,
@@ -506,7 +512,7 @@ fn feature_stats(
                 median: med,
                 z,
                 text: format!(
-                    "{}{} {v:.3} {} against the fleet's {:.3} ({z:+.1} robust SDs; flagged beyond ±{Z_FLAG})",
+                    "{}{} {v:.3} {} against {against} {:.3} ({z:+.1} robust SDs; flagged beyond ±{Z_FLAG})",
                     words(&feat.name).map_or_else(String::new, |w| format!("{w}: ")),
                     feat.name,
                     feat.unit,
@@ -516,13 +522,7 @@ fn feature_stats(
             });
         }
     }
-    Some(FeatureStats {
-        n: values.len(),
-        median: med,
-        scale,
-        values: values.iter().map(|(i, v)| (results[*i].serial.clone(), *v)).collect(),
-        feature: feat,
-    })
+    Some(stats)
 }
 
 /// What a flagged axis's residual says in the engineer's words: a step part-way through
@@ -572,6 +572,7 @@ fn fleet_units(
                 sensor_offset_c: sensor[i].0.clone(),
                 sensor_drift_c_per_h: sensor[i].1.clone(),
                 prior: None,
+                lot: None,
             }
         })
         .collect()
@@ -661,20 +662,4 @@ fn capability(cal: &[Option<&Calibrated>], axes: &[String], limits: &Limits) -> 
     let spans: Vec<f64> = cal.iter().flatten().map(|c| c.temp_c[1] - c.temp_c[0]).collect();
     out.push(one("min_span_c", "all", "min", limits.min_span_c, spans));
     out
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// A sensor's drift: the slope of points on a line, whatever their spacing and level;
-    /// points at one time have no slope and say so (never 0).
-    #[test]
-    fn a_drift_is_the_slope_of_the_points_and_none_without_a_span() {
-        let points: Vec<(f64, f64)> = [0.0, 0.5, 1.7, 3.0, 4.2].iter().map(|&h| (h, 0.3 - 0.02 * h)).collect();
-        let Measured::Value(d) = drift_c_per_h(&points) else { panic!("no drift") };
-        assert!((d + 0.02).abs() < 1e-12, "{d}");
-        let flat: Vec<(f64, f64)> = (0..5).map(|i| (2.0, f64::from(i))).collect();
-        assert!(matches!(drift_c_per_h(&flat), Measured::NotComputed { .. }));
-    }
 }

@@ -18,6 +18,7 @@ pub mod ageing;
 mod error;
 pub mod fleet;
 pub mod input;
+pub mod lots;
 pub(crate) mod pages;
 pub mod prior;
 pub mod qfa;
@@ -354,6 +355,15 @@ pub fn console(fleet: &Fleet, out: &Path) -> String {
     );
     if let Some(why) = fleet.not_compared() {
         s.push_str(&format!("fleet: {why}\n"));
+    }
+    if let Some(l) = &fleet.lots {
+        let top: Vec<&str> = l.figures.iter().take(3).map(|f| f.name.as_str()).collect();
+        s.push_str(&format!(
+            "lots: two, {} and {} units, told apart most by {}; each unit compared with its own lot\n",
+            l.sizes[0],
+            l.sizes[1],
+            top.join(", ")
+        ));
     }
     for (decision, reasons, serials) in grouped(fleet) {
         let key = if decision == Decision::Fail { "fail" } else { "review" };

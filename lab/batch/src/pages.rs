@@ -195,6 +195,12 @@ fn certificate_rows(
         }
         UnitOutcome::Failed { reason } => kv.push(("not calibrated".into(), reason.clone())),
     }
+    if let Some((k, prob)) = f.lot {
+        kv.push((
+            "lot".into(),
+            format!("lot {} of the fleet's two (probability {prob:.3}); compared with its own lot's units", k + 1),
+        ));
+    }
     kv.push(("sensor offset against the fleet (°C)".into(), m(&f.sensor_offset_c, 2)));
     kv.push(("sensor drift against the fleet (°C/h)".into(), m(&f.sensor_drift_c_per_h, 3)));
     kv
@@ -218,6 +224,7 @@ pub(crate) fn write_fleet(
     p.raw(&verdict_html(fleet, limits_from));
     capability_section(&mut p, fleet);
     figures_section(&mut p, out, fleet, plots)?;
+    lots_section(&mut p, fleet);
     prior_section(&mut p, fleet);
     units_section(&mut p, fleet, results);
     let html = out.join("fleet.html");
@@ -337,6 +344,55 @@ fn figures_section(p: &mut Page, out: &Path, fleet: &Fleet, plots: bool) -> Resu
         .collect();
     p.table(&["figure", "unit", "units", "median", "robust SD"], &rows);
     Ok(())
+}
+
+/// Two lots, what tells them apart and which units are in each; or why the fleet is one.
+fn lots_section(p: &mut Page, fleet: &Fleet) {
+    use super::lots::{BIC_MARGIN, MIN_LOT};
+    p.section("Lots");
+    let Some(lots) = &fleet.lots else {
+        p.para(&if fleet.reference_units < 2 * MIN_LOT {
+            format!(
+                "Not looked for: two lots need {MIN_LOT} units of full coverage each, and this fleet has {}.",
+                fleet.reference_units
+            )
+        } else {
+            format!(
+                "One lot: no split of the units of full coverage into two lots of at least {MIN_LOT} units, shifted \
+                 together on the figures of the units' curves and sensors, is preferred to one lot by more than \
+                 {BIC_MARGIN} (Bayesian information criterion)."
+            )
+        });
+        return;
+    };
+    p.para(&format!(
+        "The units of full coverage form two lots ({} and {} units; two lots preferred to one by {:.0}, Bayesian \
+         information criterion): each unit is compared with its own lot's median and robust SD, not flagged for the \
+         lot it is in. What tells them apart, the most first (the difference of the lots' means in their shared \
+         SD):",
+        lots.sizes[0], lots.sizes[1], lots.bic_preference
+    ));
+    let rows: Vec<Vec<String>> = lots
+        .figures
+        .iter()
+        .take(6)
+        .map(|f| {
+            vec![
+                f.name.clone(),
+                f.unit.clone(),
+                format!("{:.4}", f.mean[0]),
+                format!("{:.4}", f.mean[1]),
+                format!("{:+.1}", f.separation_sd),
+            ]
+        })
+        .collect();
+    p.table(&["figure", "unit", "lot 1 mean", "lot 2 mean", "lot 2 − lot 1 (SD)"], &rows);
+    let in_lot = |k: usize| -> String {
+        let s: Vec<String> =
+            fleet.unit.iter().filter(|u| u.lot.is_some_and(|l| l.0 == k)).map(|u| u.serial.clone()).collect();
+        s.join(", ")
+    };
+    p.para(&format!("Lot 1: {}.", in_lot(0))).para(&format!("Lot 2: {}.", in_lot(1)));
 }
 
 /// The units with partial coverage and the population prior's table each gets.

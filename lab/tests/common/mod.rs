@@ -276,17 +276,18 @@ pub fn table_error_mg(
 }
 
 /// The largest robust distance any unit `good` says is good reached on any of `fleet`'s
-/// figures (the flag studies' margin below the flag line).
+/// figures (the flag studies' margin below the flag line), each against the yardstick the
+/// fleet compares it with (its lot's, when the fleet holds two).
 pub fn largest_good_distance(fleet: &qfa_batch::fleet::Fleet, good: impl Fn(&str) -> bool) -> f64 {
     fleet
         .stats
         .iter()
         .flat_map(|s| {
-            let (m, sc) = (s.median, s.scale);
+            let lot = |serial: &str| fleet.unit.iter().find(|u| u.serial == serial).and_then(|u| u.lot).map(|l| l.0);
             s.values
                 .iter()
                 .filter(|(serial, _)| good(serial))
-                .map(move |(_, v)| ((v - m) / sc).abs())
+                .map(|(serial, v)| s.distance(*v, lot(serial)).abs())
                 .collect::<Vec<_>>()
         })
         .fold(0.0, f64::max)

@@ -1,0 +1,90 @@
+//! The temperature sensor against the fleet: each unit's offset and drift from the fleet's
+//! median reading on the steady minutes of the shared clock (the fleet's module docs).
+
+use super::{median, Calibrated, Measured};
+
+/// The fleet's median reading moves less than this on a steady minute, °C/min.
+pub(crate) const STEADY_C_PER_MIN: f64 = 0.1;
+/// Units a minute needs for its median to be formed.
+pub(super) const MIN_UNITS_PER_MINUTE: usize = 3;
+/// Steady minutes a sensor comparison needs.
+const MIN_STEADY_MINUTES: usize = 10;
+
+/// Each unit's sensor offset and drift against the fleet's median reading (module docs).
+pub(super) fn sensors(cal: &[Option<&Calibrated>]) -> Vec<(Measured, Measured)> {
+    use std::collections::BTreeMap;
+    let mut per_minute: BTreeMap<i64, Vec<f64>> = BTreeMap::new();
+    for c in cal.iter().flatten() {
+        for &(k, t) in &c.temp_minutes {
+            per_minute.entry(k).or_default().push(t);
+        }
+    }
+    let med: BTreeMap<i64, f64> = per_minute
+        .into_iter()
+        .filter(|(_, v)| v.len() >= MIN_UNITS_PER_MINUTE)
+        .filter_map(|(k, v)| median(&v).map(|m| (k, m)))
+        .collect();
+    let steady: BTreeMap<i64, f64> = med
+        .iter()
+        .filter(|(k, _)| match (med.get(&(**k - 1)), med.get(&(**k + 1))) {
+            (Some(a), Some(b)) => ((b - a) / 2.0).abs() < STEADY_C_PER_MIN,
+            _ => false,
+        })
+        .map(|(k, v)| (*k, *v))
+        .collect();
+    let not = |why: &str| Measured::NotComputed { not_computed: why.to_string() };
+    cal.iter()
+        .map(|c| {
+            let Some(c) = c else { return (not("not calibrated"), not("not calibrated")) };
+            if c.qfa.is_some() {
+                let why = "a cycling log's clock restarts with each run: no minute shared with the fleet";
+                return (not(why), not(why));
+            }
+            let d: Vec<(f64, f64)> =
+                c.temp_minutes.iter().filter_map(|(k, t)| steady.get(k).map(|m| (*k as f64 / 60.0, t - m))).collect();
+            if d.len() < MIN_STEADY_MINUTES {
+                let why = format!(
+                    "{} steady minutes shared with at least {MIN_UNITS_PER_MINUTE} units; {MIN_STEADY_MINUTES} needed",
+                    d.len()
+                );
+                return (not(&why), not(&why));
+            }
+            let diffs: Vec<f64> = d.iter().map(|p| p.1).collect();
+            let offset = median(&diffs).map_or_else(|| not("no minute"), Measured::Value);
+            (offset, drift_c_per_h(&d))
+        })
+        .collect()
+}
+
+/// The slope of `(hour, °C)` points, °C/h, by the lab's one solver (time from the middle
+/// of the span); not computed when the points span no time, where any slope fits.
+fn drift_c_per_h(points: &[(f64, f64)]) -> Measured {
+    let not = |why: String| Measured::NotComputed { not_computed: why };
+    let (lo, hi) = points.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| (l.min(p.0), h.max(p.0)));
+    if hi <= lo {
+        return not("the steady minutes span no time".to_string());
+    }
+    let mid = 0.5 * (lo + hi);
+    let x: Vec<f64> = points.iter().flat_map(|p| [1.0, p.0 - mid]).collect();
+    let y: Vec<f64> = points.iter().map(|p| p.1).collect();
+    match qfa_calibrate::solver::lstsq(&x, 2, &y) {
+        Ok(fit) => Measured::Value(fit.coef[1]),
+        Err(e) => not(format!("the drift could not be fitted: {e}")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A sensor's drift: the slope of points on a line, whatever their spacing and level;
+    /// points at one time have no slope and say so (never 0).
+    #[test]
+    fn a_drift_is_the_slope_of_the_points_and_none_without_a_span() {
+        let points: Vec<(f64, f64)> = [0.0, 0.5, 1.7, 3.0, 4.2].iter().map(|&h| (h, 0.3 - 0.02 * h)).collect();
+        let Measured::Value(d) = drift_c_per_h(&points) else { panic!("no drift") };
+        assert!((d + 0.02).abs() < 1e-12, "{d}");
+        let flat: Vec<(f64, f64)> = (0..5).map(|i| (2.0, f64::from(i))).collect();
+        assert!(matches!(drift_c_per_h(&flat), Measured::NotComputed { .. }));
+    }
+}
