@@ -108,11 +108,16 @@ fn judge(truth: &[Unit], inputs: &[qfa_batch::input::UnitInput], out: &Path) -> 
         common::largest_good_distance(&fleet, |serial| truth.iter().any(|u| u.serial == serial && u.defect.is_none()));
     for (u, f) in truth.iter().zip(&fleet.unit) {
         o.drawn_lots[u.lot] += usize::from(!f.partial && f.calibrated);
+        // A flag's distance is the one the fleet's statistics give (what its plot draws).
+        for g in &f.flags {
+            let s = fleet.stats.iter().find(|s| s.feature.name == g.feature).expect("the flag's figure");
+            assert_eq!(s.distance(g.value, fleet.lot_of(&f.serial)), g.z, "{}: {}", f.serial, g.text);
+        }
     }
     o.lots = fleet.lots.as_ref().map(|l| {
         // The fleet numbers its lots by size: count the misplaced under either naming.
         let placed: Vec<(usize, usize)> =
-            truth.iter().zip(&fleet.unit).filter_map(|(u, f)| f.lot.map(|l| (u.lot, l.0))).collect();
+            truth.iter().zip(&fleet.unit).filter_map(|(u, f)| f.lot.map(|l| (u.lot, l.lot))).collect();
         let same = placed.iter().filter(|(a, b)| a == b).count();
         (l.sizes, same.min(placed.len() - same))
     });

@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use qfa_batch::fleet::{Decision, Fleet};
+use qfa_batch::fleet::{Decision, Fleet, Side};
 use qfa_batch::input::{from_chamber_log, from_manifest};
 use qfa_batch::unit::{UnitOptions, UnitOutcome, UnitResult};
 use qfa_batch::BatchOptions;
@@ -264,17 +264,31 @@ fn qfa_flag_study() {
 }
 
 /// How small a fleet may be before its robust distances flag good units: fleets of only
-/// good units, 3 to 12 of them, eight seeds each; the share of good units flagged REVIEW.
+/// good units, 5 to 30 of them, eight seeds each; the share of good units beyond the flag
+/// line on some figure (what a compared fleet would flag REVIEW).
 /// Run with `cargo test --release -p qfa-lab --test batch_qfa -- --ignored fleet_size_study --nocapture`.
 #[test]
 #[ignore = "a study: about 2 minutes in release"]
 fn fleet_size_study() {
-    for units in [3usize, 4, 5, 6, 7, 8, 10, 12] {
+    for units in [5usize, 8, 10, 12, 15, 20, 30] {
         let (mut good, mut flagged, mut fleets_flagging) = (0, 0, 0);
         for seed in 1..=8u64 {
             let dir = scratch(&format!("fleet_size_{units}_{seed}"));
             let (_, _, fleet) = run(&dir, &QfaPopulationSpec { units, seed: 100 + seed, bad: false });
-            let n = fleet.unit.iter().filter(|f| f.decision != Decision::Pass).count();
+            // Units a fleet of this size would flag, were it compared (a fleet under
+            // `MIN_FLEET` is not): a distance beyond the flag line on the figure's bad side.
+            let beyond = |u: &qfa_batch::fleet::FleetUnit| {
+                fleet.stats.iter().any(|s| {
+                    s.values.iter().filter(|(serial, _)| *serial == u.serial).any(|(_, v)| {
+                        let z = s.distance(*v, fleet.lot_of(&u.serial));
+                        match s.feature.side {
+                            Side::Both => z.abs() > fleet.z_flag,
+                            Side::High => z > fleet.z_flag,
+                        }
+                    })
+                })
+            };
+            let n = fleet.unit.iter().filter(|u| beyond(u)).count();
             good += fleet.unit.len();
             flagged += n;
             fleets_flagging += usize::from(n > 0);

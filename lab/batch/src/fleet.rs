@@ -36,8 +36,10 @@
 use serde::{Deserialize, Serialize};
 
 mod sensor;
+mod yardstick;
 
 use self::sensor::sensors;
+use self::yardstick::{feature_stats, Yardstick};
 use super::unit::{Calibrated, UnitOutcome, UnitResult};
 use qfa_log::robust::{median, MAD_TO_SD};
 use qfa_report::verdict::{Limits, Measured, Outcome};
@@ -60,15 +62,18 @@ pub(crate) const Z_FLAG: f64 = 6.0;
 /// 0.01 mg, a good unit that kept its 0.07-mg split stood 6.9 robust SDs out. Set after
 /// that run, so checked by the die-lag study (lab guide, "Production batches").
 pub(crate) const SPLIT_RESOLUTION_MG: f64 = 0.05;
-/// Units of full coverage a fleet needs before units are flagged outside it: below, the
-/// median and MAD of a handful of units are too unsteady a yardstick, and good units land
-/// beyond `Z_FLAG` of it. Set to 10 after measuring fleets of good QFA units only (eight
-/// seeds per size, `cargo test --release -p qfa-lab --test batch_qfa -- --ignored
-/// fleet_size_study --nocapture`): good units flagged 8/24 at 3 units, 5/32 at 4, 10/40 at 5,
-/// 1/48 at 6, 0/56 at 7, 2/64 at 8, 1/80 at 10, 1/96 at 12 (0/170 at 20, the flag study's).
+/// Units of full coverage a fleet (or a lot) needs before units are compared with it:
+/// below, the median and MAD of a handful of units are too unsteady a yardstick, and good
+/// units land beyond `Z_FLAG` of it. Measured on fleets of good QFA units only (eight seeds
+/// per size, `cargo test --release -p qfa-lab --test batch_qfa -- --ignored
+/// fleet_size_study --nocapture`), good units beyond the line: 10/40 at 5 units, 2/64 at 8,
+/// 5/80 at 10, 2/96 at 12, 2/120 at 15, 2/160 at 20, 1/240 at 30. Set to 15 after that run
+/// (it was 10, from a run whose seeds drew overlapping fleets), the smallest size under the
+/// goal of one good unit in 50; on normal figures the rate is 2.7 % at 10 units and 1.0 %
+/// at 15 (`a_fleet_of_min_fleet_units_flags_under_one_good_unit_in_50`, which fails at 10).
 /// Below it the fleet says so and judges its units by their limits alone
 /// (`a_fleet_too_small_to_compare_says_so_and_flags_no_unit` fails when it is 0).
-pub(crate) const MIN_FLEET: usize = 10;
+pub(crate) const MIN_FLEET: usize = 15;
 /// A unit whose span is under this share of the fleet's median span has partial coverage.
 pub(crate) const FULL_SPAN_SHARE: f64 = 0.8;
 /// Which way a figure is bad.
@@ -120,6 +125,16 @@ pub struct FeatureStats {
     /// yardstick of its units.
     #[serde(default)]
     pub lots: Vec<[f64; 2]>,
+}
+
+impl Fleet {
+    /// The lot whose yardstick the unit `serial` is compared with ([`FeatureStats::distance`]):
+    /// its lot when the fleet holds two, each of `MIN_FLEET` (15) units, and the unit has full
+    /// coverage; else `None`, the whole fleet's.
+    #[must_use]
+    pub fn lot_of(&self, serial: &str) -> Option<usize> {
+        self.unit.iter().find(|u| u.serial == serial).and_then(|u| u.lot).filter(|l| l.compared_within).map(|l| l.lot)
+    }
 }
 
 impl FeatureStats {
@@ -211,10 +226,21 @@ pub struct FleetUnit {
     pub sensor_drift_c_per_h: Measured,
     /// The population prior's table, for a unit with partial coverage.
     pub prior: Option<super::prior::PriorUse>,
-    /// Its lot (0 or 1) and the mixture's probability of it, when the fleet holds two
-    /// ([`Fleet::lots`]).
+    /// Its lot, when the fleet holds two ([`Fleet::lots`]).
     #[serde(default)]
-    pub lot: Option<(usize, f64)>,
+    pub lot: Option<UnitLot>,
+}
+
+/// A unit's lot.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct UnitLot {
+    /// 0 for lot 1 (the larger), 1 for lot 2.
+    pub lot: usize,
+    /// The mixture's probability of it.
+    pub probability: f64,
+    /// The unit was compared with its own lot (both lots hold `MIN_FLEET` units), not the
+    /// whole fleet.
+    pub compared_within: bool,
 }
 
 /// Process capability of one limit on one axis.
@@ -261,7 +287,7 @@ pub struct Fleet {
     pub span_c: [f64; 2],
     /// Units of full coverage, the yardstick of every figure.
     pub reference_units: usize,
-    /// The units were compared with the fleet: it has at least 10 (`MIN_FLEET`) units of full
+    /// The units were compared with the fleet: it has at least 15 (`MIN_FLEET`) units of full
     /// coverage. When not, no unit is flagged outside the population and the page says so.
     pub compared: bool,
     /// Two production lots, when the fleet holds them ([`super::lots`]): each unit of full
@@ -401,7 +427,9 @@ pub(crate) fn fleet(results: &[UnitResult], limits: &Limits) -> Fleet {
     let mut counts = [0; 3];
     let mut unit = fleet_units(results, &flags, &partial, &sensor, &mut counts);
     for (i, u) in unit.iter_mut().enumerate() {
-        u.lot = lots.as_ref().and_then(|l| l.unit[i]);
+        u.lot = lots.as_ref().and_then(|l| {
+            l.unit[i].map(|(lot, probability)| UnitLot { lot, probability, compared_within: l.compared_within })
+        });
     }
     let reference: Vec<&Calibrated> =
         (0..results.len()).filter(|&i| !partial[i] && flags[i].is_empty()).filter_map(|i| cal[i]).collect();
@@ -445,84 +473,6 @@ fn partial_units(cal: &[Option<&Calibrated>]) -> Vec<bool> {
     cal.iter()
         .map(|c| c.is_none_or(|c| c.one_branch || c.temp_c[1] - c.temp_c[0] < FULL_SPAN_SHARE * median_span))
         .collect()
-}
-
-/// What a figure's units are compared with: the fleet's units of full coverage, or, when
-/// the fleet holds two lots, a unit's own lot.
-struct Yardstick<'a> {
-    results: &'a [UnitResult],
-    cal: &'a [Option<&'a Calibrated>],
-    sensor: &'a [(Measured, Measured)],
-    partial: &'a [bool],
-    lots: Option<&'a super::lots::Lots>,
-}
-
-/// The median and robust scale (at least `floor`) of `values`.
-fn median_scale(values: &[f64], floor: f64) -> Option<[f64; 2]> {
-    let med = median(values)?;
-    let dev: Vec<f64> = values.iter().map(|v| (v - med).abs()).collect();
-    Some([med, (MAD_TO_SD * median(&dev).unwrap_or(0.0)).max(floor)])
-}
-
-/// The fleet's robust statistics of `feat` (median and scale over the units of full
-/// coverage, and over each lot's), each unit outside its yardstick flagged in `flags`;
-/// `None` when no unit gives a value.
-fn feature_stats(feat: Feature, y: &Yardstick<'_>, flags: &mut [Vec<Flag>]) -> Option<FeatureStats> {
-    let values: Vec<(usize, f64)> = y
-        .cal
-        .iter()
-        .enumerate()
-        .filter_map(|(i, c)| {
-            let c = (*c)?;
-            value_of(c, (&y.sensor[i].0, &y.sensor[i].1), &feat.name).filter(|v| v.is_finite()).map(|v| (i, v))
-        })
-        .collect();
-    let of = |keep: &dyn Fn(usize) -> bool| -> Vec<f64> {
-        values.iter().filter(|(i, _)| !y.partial[*i] && keep(*i)).map(|(_, v)| *v).collect()
-    };
-    let [med, scale] = median_scale(&of(&|_| true), feat.floor)?;
-    let lot_of = |i: usize| y.lots.and_then(|l| l.lot_of(i));
-    let lots: Vec<[f64; 2]> = (0..if y.lots.is_some() { 2 } else { 0 })
-        .map(|k| median_scale(&of(&|i| lot_of(i) == Some(k)), feat.floor).unwrap_or([med, scale]))
-        .collect();
-    let stats = FeatureStats {
-        n: values.len(),
-        median: med,
-        scale,
-        values: values.iter().map(|(i, v)| (y.results[*i].serial.clone(), *v)).collect(),
-        feature: feat,
-        lots,
-    };
-    let feat = &stats.feature;
-    for &(i, v) in &values {
-        if feat.full_coverage_only && y.partial[i] {
-            continue;
-        }
-        let against = lot_of(i).map_or_else(|| "the fleet's".to_string(), |k| format!("its lot's (lot {})", k + 1));
-        let z = stats.distance(v, lot_of(i));
-        let med = stats.yardstick(lot_of(i))[0];
-        let out = match feat.side {
-            Side::Both => z.abs() > Z_FLAG,
-            Side::High => z > Z_FLAG,
-        };
-        if out {
-            flags[i].push(Flag {
-                feature: feat.name.clone(),
-                value: v,
-                median: med,
-                z,
-                text: format!(
-                    "{}{} {v:.3} {} against {against} {:.3} ({z:+.1} robust SDs; flagged beyond ±{Z_FLAG})",
-                    words(&feat.name).map_or_else(String::new, |w| format!("{w}: ")),
-                    feat.name,
-                    feat.unit,
-                    // No "-0.000": a median that rounds to zero reads as zero.
-                    if (med * 1e3).round() == 0.0 { 0.0 } else { med },
-                ),
-            });
-        }
-    }
-    Some(stats)
 }
 
 /// What a flagged axis's residual says in the engineer's words: a step part-way through

@@ -359,10 +359,15 @@ pub fn console(fleet: &Fleet, out: &Path) -> String {
     if let Some(l) = &fleet.lots {
         let top: Vec<&str> = l.figures.iter().take(3).map(|f| f.name.as_str()).collect();
         s.push_str(&format!(
-            "lots: two, {} and {} units, told apart most by {}; each unit compared with its own lot\n",
+            "lots: two, {} and {} units, told apart most by {}; {}\n",
             l.sizes[0],
             l.sizes[1],
-            top.join(", ")
+            top.join(", "),
+            if l.compared_within {
+                "each unit compared with its own lot"
+            } else {
+                "each unit compared with the whole fleet (a lot under 15 units is too few to compare with)"
+            }
         ));
     }
     for (decision, reasons, serials) in grouped(fleet) {

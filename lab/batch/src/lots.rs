@@ -19,11 +19,14 @@
 //! Every figure's variance is kept at or above its resolution (`(floor / scale)²`, at least
 //! `1e-4`), so a figure whose units read the same to the last digit cannot make a
 //! likelihood without bound. Two lots are shown when both hold at least [`MIN_LOT`] units
-//! (each must be a yardstick of its own: the fleet's `MIN_FLEET`) and the Bayesian
+//! and the Bayesian
 //! information criterion prefers them by more than [`BIC_MARGIN`] (Kass and Raftery's
 //! "very strong" evidence, 1995). The fit starts from a split of every figure at its 30th,
 //! 50th and 70th percentiles and keeps the most likely solution whose lots are both that
-//! large: a solution with a lot of two units is a pair of outliers, not a lot.
+//! large: a solution with a lot of two units is a pair of outliers, not a lot. A unit is
+//! compared with its own lot when each lot holds a fleet's worth of units (the fleet's
+//! `MIN_FLEET`, 15): a smaller lot is too unsteady a yardstick, so its units are compared
+//! with the whole fleet and the page says so.
 //!
 //! Written here rather than taken from a crate: `linfa-clustering`'s mixture has full
 //! covariances only, which 16–20 figures and a lot of 10–30 units cannot estimate, and
@@ -41,9 +44,9 @@ use serde::{Deserialize, Serialize};
 
 use super::fleet::FeatureStats;
 
-/// Units each lot needs: a lot is compared with its own median and scale, which need as
-/// many units as a fleet does.
-pub const MIN_LOT: usize = super::fleet::MIN_FLEET;
+/// Units each lot needs to be shown: a split with a smaller part is a few outliers, not a
+/// lot (`one_lot_with_outliers_and_long_tails_is_never_split` fails at 2).
+pub const MIN_LOT: usize = 10;
 /// The Bayesian information criterion must prefer two lots by more than this.
 pub const BIC_MARGIN: f64 = 10.0;
 /// Expectation–maximisation steps at most (the fits seen converge in under 30).
@@ -77,6 +80,9 @@ pub struct Lots {
     pub unit: Vec<Option<(usize, f64)>>,
     /// The signature figures, the most separating first.
     pub figures: Vec<LotFigure>,
+    /// Each lot holds a fleet's worth of units (`MIN_FLEET`), so each unit of full coverage
+    /// is compared with its own lot; when not, with the whole fleet.
+    pub compared_within: bool,
 }
 
 impl Lots {
@@ -148,7 +154,8 @@ pub(crate) fn find(stats: &[FeatureStats], serials: &[String], reference: &[usiz
         })
         .collect();
     figures.sort_by(|a, b| b.separation_sd.abs().total_cmp(&a.separation_sd.abs()));
-    Some(Lots { sizes, bic_preference, unit, figures })
+    let compared_within = sizes.iter().all(|&s| s >= super::fleet::MIN_FLEET);
+    Some(Lots { sizes, bic_preference, unit, figures, compared_within })
 }
 
 /// One normal per figure.

@@ -195,10 +195,15 @@ fn certificate_rows(
         }
         UnitOutcome::Failed { reason } => kv.push(("not calibrated".into(), reason.clone())),
     }
-    if let Some((k, prob)) = f.lot {
+    if let Some(l) = f.lot {
         kv.push((
             "lot".into(),
-            format!("lot {} of the fleet's two (probability {prob:.3}); compared with its own lot's units", k + 1),
+            format!(
+                "lot {} of the fleet's two (probability {:.3}); compared with {}",
+                l.lot + 1,
+                l.probability,
+                if l.compared_within { "its own lot's units" } else { "the whole fleet (a lot under 15 units)" }
+            ),
         ));
     }
     kv.push(("sensor offset against the fleet (°C)".into(), m(&f.sensor_offset_c, 2)));
@@ -312,8 +317,8 @@ fn capability_section(p: &mut Page, fleet: &Fleet) {
 /// robust statistics.
 fn figures_section(p: &mut Page, out: &Path, fleet: &Fleet, plots: bool) -> Result<(), BatchError> {
     p.section("Figures across the fleet").para(&format!(
-        "Robust distance z = (x − median) / ({:.4}·MAD) over the units with full coverage; a unit is flagged beyond \
-         ±{} (held-out RMS: above only). Red: flagged.{}",
+        "Robust distance z = (x − median) / ({:.4}·MAD) over the units with full coverage (over its own lot's, when \
+         the fleet holds two lots: below); a unit is flagged beyond ±{} (held-out RMS: above only). Red: flagged.{}",
         qfa_log::robust::MAD_TO_SD,
         fleet.z_flag,
         if fleet.compared {
@@ -367,10 +372,17 @@ fn lots_section(p: &mut Page, fleet: &Fleet) {
     };
     p.para(&format!(
         "The units of full coverage form two lots ({} and {} units; two lots preferred to one by {:.0}, Bayesian \
-         information criterion): each unit is compared with its own lot's median and robust SD, not flagged for the \
-         lot it is in. What tells them apart, the most first (the difference of the lots' means in their shared \
-         SD):",
-        lots.sizes[0], lots.sizes[1], lots.bic_preference
+         information criterion): {} What tells them apart, the most first (the difference of the lots' means in \
+         their shared SD):",
+        lots.sizes[0],
+        lots.sizes[1],
+        lots.bic_preference,
+        if lots.compared_within {
+            "each unit is compared with its own lot's median and robust SD, not flagged for the lot it is in."
+        } else {
+            "a lot of fewer than 15 units is too unsteady a yardstick, so each unit is compared with the whole \
+             fleet: a flag on a figure that tells the lots apart may be the unit's lot, not the unit."
+        }
     ));
     let rows: Vec<Vec<String>> = lots
         .figures
@@ -389,7 +401,7 @@ fn lots_section(p: &mut Page, fleet: &Fleet) {
     p.table(&["figure", "unit", "lot 1 mean", "lot 2 mean", "lot 2 − lot 1 (SD)"], &rows);
     let in_lot = |k: usize| -> String {
         let s: Vec<String> =
-            fleet.unit.iter().filter(|u| u.lot.is_some_and(|l| l.0 == k)).map(|u| u.serial.clone()).collect();
+            fleet.unit.iter().filter(|u| u.lot.is_some_and(|l| l.lot == k)).map(|u| u.serial.clone()).collect();
         s.join(", ")
     };
     p.para(&format!("Lot 1: {}.", in_lot(0))).para(&format!("Lot 2: {}.", in_lot(1)));
@@ -463,7 +475,10 @@ fn plot_figures(path: &Path, fleet: &Fleet) -> Result<(), qfa_report::plot_legen
     root.fill(&WHITE)?;
     let lim = 3.0 * fleet.z_flag;
     let mut chart = ChartBuilder::on(&root)
-        .caption("Each figure against the fleet (robust SDs; clipped at ±3× the flag line)", ("sans-serif", 18))
+        .caption(
+            "Each figure against the fleet, or its unit's lot (robust SDs; clipped at ±3× the flag line)",
+            ("sans-serif", 18),
+        )
         .margin(10)
         .x_label_area_size(35)
         .y_label_area_size(230)
@@ -487,7 +502,7 @@ fn plot_figures(path: &Path, fleet: &Fleet) -> Result<(), qfa_report::plot_legen
     }
     for (k, s) in fleet.stats.iter().enumerate() {
         for (serial, v) in &s.values {
-            let z = ((v - s.median) / s.scale).clamp(-lim, lim);
+            let z = s.distance(*v, fleet.lot_of(serial)).clamp(-lim, lim);
             let flagged =
                 fleet.unit.iter().any(|u| &u.serial == serial && u.flags.iter().any(|f| f.feature == s.feature.name));
             let y = SegmentValue::CenterOf(k);

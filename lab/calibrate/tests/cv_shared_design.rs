@@ -44,7 +44,7 @@ fn cv_rms_alone(
 /// axis whose tables the root crate refuses while the others are fitted.
 #[test]
 fn axes_sharing_a_design_get_what_their_own_fits_give() {
-    let mut rng = qfa_rng::seeded(qfa_rng::stream_seed(11, 0));
+    let mut rng = qfa_rng::seeded(qfa_rng::stream_seed(11, qfa_rng::Stream::named("shared design test"), 0));
     let opts = StaticCalOptions::default();
     let (mut compared, mut refused) = (0usize, 0usize);
     for _ in 0..3 {

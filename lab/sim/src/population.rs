@@ -24,7 +24,14 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::thermal::Lag;
-use qfa_rng::{normal, seeded, stream_seed, uniform};
+use qfa_rng::{normal, seeded, stream_seed, uniform, Stream};
+
+/// Where the defects and truncations fall.
+const PLACES: Stream = Stream::named("population: places");
+/// Each unit's curve, lags and sensor (index: the unit's place).
+const UNITS: Stream = Stream::named("population: units");
+/// Each unit's rows: noise and sensor quantisation (index: the unit's place).
+const ROWS: Stream = Stream::named("population: rows");
 
 /// The chamber program: (target °C, rate °C/min, hold at the target s) legs from 25 °C.
 /// 25 → −20 → 70 → 40 °C at 2 °C/min with 15-min holds: 8 550 one-second rows, the size
@@ -198,7 +205,7 @@ pub(crate) fn place_defects<D: Copy>(
 /// Draw a population.
 #[must_use]
 pub fn draw(spec: &PopulationSpec) -> PopulationTruth {
-    let mut rng = seeded(stream_seed(spec.seed, 0));
+    let mut rng = seeded(stream_seed(spec.seed, PLACES, 0));
     let n = spec.units;
     let (defect, order, k) = place_defects(&mut rng, n, &Defect::ALL, spec.bad);
     let mut truncation = vec![None; n];
@@ -207,7 +214,7 @@ pub fn draw(spec: &PopulationSpec) -> PopulationTruth {
     }
     let unit = (0..n)
         .map(|i| {
-            let mut r = seeded(stream_seed(spec.seed, 1 + i as u64));
+            let mut r = seeded(stream_seed(spec.seed, UNITS, i as u64));
             let mut axes = NOMINAL;
             for a in &mut axes {
                 a.level_g += SPREAD.level_g * normal(&mut r);
@@ -261,7 +268,7 @@ pub(crate) fn chamber_air() -> Vec<f64> {
 /// One unit's rows: (sensor reading °C, [ax, ay, az] g), one per chamber row.
 #[must_use]
 pub(crate) fn unit_rows(u: &UnitTruth, air: &[f64], seed: u64, index: usize) -> Vec<(f64, [f64; 3])> {
-    let mut r = seeded(stream_seed(seed ^ 0x5A5A_5A5A, index as u64));
+    let mut r = seeded(stream_seed(seed, ROWS, index as u64));
     let mut lag = Lag::new(u.case_tau_s, 1.0, air[0]);
     let mut die_lag = (u.die_lag_s > 0.0).then(|| Lag::new(u.die_lag_s, 1.0, air[0]));
     let n = air.len();
@@ -443,6 +450,27 @@ mod tests {
         assert!(p.unit.iter().all(|u| u.defect.is_none() || u.truncation.is_none()));
         assert_eq!(p, draw(&spec));
         assert_ne!(p, draw(&PopulationSpec { seed: 6, ..spec }));
+    }
+
+    /// Two seeds draw two populations: no unit of seed 2 has the curves of any unit of
+    /// seed 1, and no unit's rows repeat another's noise (the studies that run seeds 1–3
+    /// count them as independent fleets). Before the seeds were mixed, seed 2's unit `i`
+    /// was seed 1's unit `i + 1`.
+    #[test]
+    fn consecutive_seeds_share_no_unit() {
+        let spec = PopulationSpec { units: 30, seed: 1, bad: false, truncated: 0, die_lags: false };
+        let (a, b) = (draw(&spec), draw(&PopulationSpec { seed: 2, ..spec }));
+        for u in &b.unit {
+            assert!(a.unit.iter().all(|v| v.axes != u.axes), "{} repeats a unit of seed 1", u.serial);
+        }
+        let air = &chamber_air()[..200];
+        let rows = |p: &PopulationTruth, i: usize| unit_rows(&p.unit[i], air, p.seed, i);
+        let noise = |r: Vec<(f64, [f64; 3])>| r.windows(2).map(|w| w[1].1[0] - w[0].1[0]).collect::<Vec<f64>>();
+        for i in 0..5 {
+            for j in 0..5 {
+                assert_ne!(noise(rows(&b, i)), noise(rows(&a, j)), "rows of seed 2's {i} and seed 1's {j}");
+            }
+        }
     }
 
     /// The rows follow the truth: over the last 300 s of the hold at 70 °C, an axis reads

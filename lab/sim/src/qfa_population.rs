@@ -24,12 +24,14 @@ use serde::{Deserialize, Serialize};
 
 use crate::population::{serial, PopulationError};
 use crate::truth::Truth;
-use qfa_rng::{normal, seeded, stream_seed};
+use qfa_rng::{normal, seeded, stream_seed, Stream};
 
-/// The stream of a seed that QFA batches draw from.
-const QFA_STREAM: u64 = 1 << 40;
-/// Within it, the units' noise seeds start here (their coefficients are streams 1 + i).
-const NOISE_STREAMS: u64 = 1 << 32;
+/// Where the defects fall.
+const PLACES: Stream = Stream::named("qfa population: places");
+/// Each unit's coefficients, sensor and ageing (index: the unit's place).
+const UNITS: Stream = Stream::named("qfa population: units");
+/// Each unit's noise seed (index: the unit's place).
+const NOISE: Stream = Stream::named("qfa population: noise");
 
 /// Row (counting interval) of the simulated logs, s.
 pub const QFA_ROW_S: u32 = 10;
@@ -125,17 +127,15 @@ pub struct QfaPopulationSpec {
 /// Draw a population of QFA units.
 #[must_use]
 pub fn draw_qfa(spec: &QfaPopulationSpec) -> QfaPopulationTruth {
-    // A stream of its own: a QFA batch and a static batch of one seed share no draw (a
-    // static batch's streams are 0 and 1 + its unit index).
-    let base = stream_seed(spec.seed, QFA_STREAM);
-    let mut rng = seeded(stream_seed(base, 0));
+    // Streams of their own: a QFA batch and a static batch of one seed share no draw.
+    let mut rng = seeded(stream_seed(spec.seed, PLACES, 0));
     let n = spec.units;
     let (defect, _, _) = crate::population::place_defects(&mut rng, n, &QfaDefect::ALL, spec.bad);
     let s = QFA_SPREAD;
     let nominal = Truth::jb_kt8(1).scale;
     let unit = (0..n)
         .map(|i| {
-            let mut r = seeded(stream_seed(base, 1 + i as u64));
+            let mut r = seeded(stream_seed(spec.seed, UNITS, i as u64));
             let mut t = Truth::jb_kt8(1);
             t.name = serial(i);
             let rel = |r: &mut qfa_rng::LabRng, x: f32, sd: f64| (f64::from(x) * (1.0 + sd * normal(r))) as f32;
@@ -162,7 +162,7 @@ pub fn draw_qfa(spec: &QfaPopulationSpec) -> QfaPopulationTruth {
             QfaUnitTruth {
                 serial: serial(i),
                 defect: defect[i],
-                noise_seed: stream_seed(base, NOISE_STREAMS + i as u64),
+                noise_seed: stream_seed(spec.seed, NOISE, i as u64),
                 truth: t,
             }
         })

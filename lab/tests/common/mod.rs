@@ -283,11 +283,10 @@ pub fn largest_good_distance(fleet: &qfa_batch::fleet::Fleet, good: impl Fn(&str
         .stats
         .iter()
         .flat_map(|s| {
-            let lot = |serial: &str| fleet.unit.iter().find(|u| u.serial == serial).and_then(|u| u.lot).map(|l| l.0);
             s.values
                 .iter()
                 .filter(|(serial, _)| good(serial))
-                .map(|(serial, v)| s.distance(*v, lot(serial)).abs())
+                .map(|(serial, v)| s.distance(*v, fleet.lot_of(serial)).abs())
                 .collect::<Vec<_>>()
         })
         .fold(0.0, f64::max)
