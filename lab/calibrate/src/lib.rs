@@ -24,7 +24,7 @@ pub mod metrics;
 pub mod output_error;
 pub mod peers;
 pub mod report;
-pub(crate) mod select;
+pub mod select;
 pub mod solver;
 pub mod static_cal;
 pub mod verdict;

@@ -1,6 +1,7 @@
-//! Model choice by blocked cross-validation with the one-standard-error rule, shared by the
-//! calibration fits that choose a structure from the data (the cycling fit's bias-grid
-//! branch tie, [`crate::fit::fit`]).
+//! Model choice by the one-standard-error rule, the lab's one rule for "the simplest
+//! candidate the data cannot tell from the best": the cycling fit's bias-grid branch tie
+//! ([`crate::fit::fit`], on blocked cross-validation's MSE) and discovery's pick among its
+//! significant effects (on their held-out gain, as a loss of −gain).
 //!
 //! The rule (Hastie, Tibshirani & Friedman, *Elements of Statistical Learning*, §7.10):
 //! each candidate's CV error is the mean of its per-fold held-out mean squared errors, with
@@ -47,33 +48,55 @@ impl CvFigure {
     }
 }
 
-/// The one-SE choice among `(unknowns, figure)` candidates: the index of the candidate with
-/// the fewest unknowns whose `mse` ≤ best `mse` + best `se` (among equal unknowns, the
-/// lower `mse`). `None` for no candidates.
+/// A candidate of the one-SE rule: its unknowns, its loss (lower is better) and the
+/// loss's standard error.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Candidate {
+    /// Unknowns (parameters) of the candidate.
+    pub unknowns: usize,
+    /// Its loss: a CV MSE, or a held-out gain's negative.
+    pub loss: f64,
+    /// The loss's standard error.
+    pub se: f64,
+}
+
+/// The one-SE choice: the index of the candidate with the fewest unknowns whose loss is
+/// at most the best's plus the best's standard error (among equal unknowns, the lower
+/// loss; among equal losses, the first), and the indices of every candidate within that
+/// limit. `None` for no candidates.
 #[must_use]
-pub(crate) fn one_se_rule(cands: &[(usize, CvFigure)]) -> Option<usize> {
-    let best = (0..cands.len()).min_by(|&a, &b| cands[a].1.mse.total_cmp(&cands[b].1.mse))?;
-    let limit = cands[best].1.mse + cands[best].1.se;
-    (0..cands.len())
-        .filter(|&i| cands[i].1.mse <= limit)
-        .min_by(|&a, &b| cands[a].0.cmp(&cands[b].0).then(cands[a].1.mse.total_cmp(&cands[b].1.mse)))
+pub fn one_se_rule(cands: &[Candidate]) -> Option<(usize, Vec<usize>)> {
+    let best = (0..cands.len()).min_by(|&a, &b| cands[a].loss.total_cmp(&cands[b].loss))?;
+    let limit = cands[best].loss + cands[best].se;
+    let within: Vec<usize> = (0..cands.len()).filter(|&i| cands[i].loss <= limit).collect();
+    let pick = within
+        .iter()
+        .copied()
+        .min_by(|&a, &b| cands[a].unknowns.cmp(&cands[b].unknowns).then(cands[a].loss.total_cmp(&cands[b].loss)))?;
+    Some((pick, within))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    fn fig(mse: f64, se: f64) -> CvFigure {
-        CvFigure { mse, se, folds: 10 }
+    fn pick(c: &[(usize, f64, f64)]) -> Option<usize> {
+        let c: Vec<Candidate> = c.iter().map(|&(unknowns, loss, se)| Candidate { unknowns, loss, se }).collect();
+        one_se_rule(&c).map(|p| p.0)
     }
 
     #[test]
     fn simpler_within_one_se_wins_and_beyond_it_loses() {
-        // Best (30 unknowns) 1.0 ± 0.2: the 16-unknown candidate at 1.19 is within, at 1.21 not.
-        assert_eq!(one_se_rule(&[(16, fig(1.19, 0.1)), (17, fig(1.1, 0.1)), (32, fig(1.0, 0.2))]), Some(0));
-        assert_eq!(one_se_rule(&[(16, fig(1.21, 0.1)), (17, fig(1.1, 0.1)), (32, fig(1.0, 0.2))]), Some(1));
-        assert_eq!(one_se_rule(&[(16, fig(1.21, 0.1)), (17, fig(1.25, 0.1)), (32, fig(1.0, 0.2))]), Some(2));
-        assert_eq!(one_se_rule(&[]), None);
+        // Best (32 unknowns) 1.0 ± 0.2: the 16-unknown candidate at 1.19 is within, at 1.21 not.
+        assert_eq!(pick(&[(16, 1.19, 0.1), (17, 1.1, 0.1), (32, 1.0, 0.2)]), Some(0));
+        assert_eq!(pick(&[(16, 1.21, 0.1), (17, 1.1, 0.1), (32, 1.0, 0.2)]), Some(1));
+        assert_eq!(pick(&[(16, 1.21, 0.1), (17, 1.25, 0.1), (32, 1.0, 0.2)]), Some(2));
+        assert_eq!(pick(&[]), None);
+        // A gain as a loss: gains 5 ± 1 (3 unknowns), 4.5 (1), 3.9 (1): the 1-unknown one
+        // within one SE of the best is picked, and the best and it are within.
+        let gains = [(3, -5.0, 1.0), (1, -4.5, 0.3), (1, -3.9, 0.2)];
+        let c: Vec<Candidate> = gains.iter().map(|&(unknowns, loss, se)| Candidate { unknowns, loss, se }).collect();
+        assert_eq!(one_se_rule(&c), Some((1, vec![0, 1])));
     }
 
     #[test]

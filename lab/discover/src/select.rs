@@ -317,28 +317,33 @@ fn try_candidates(
     (trials, sig, pinned)
 }
 
-/// The one-standard-error rule on the significant candidates `sig` (best gain first): of
-/// those whose gain is within one SE of the best's, on a channel the best also acts on,
-/// the one with the fewest parameters (on a tie, the larger gain). Returns its index and
-/// the names of the others confusable with it.
+/// The lab's one-standard-error rule ([`qfa_calibrate::select::one_se_rule`]) on the
+/// significant candidates `sig` (best gain first) that act on a channel the best also acts
+/// on, each gain taken as a loss: the one with the fewest parameters whose gain is within
+/// one SE of the best's (on a tie, the larger gain). Returns its index and the names of the
+/// others within that SE, confusable with it.
 fn one_se_pick(sig: &[Significant], cyc: bool) -> (usize, Vec<String>) {
-    let mut pick = 0;
-    let mut confusable = Vec::new();
-    for j in 1..sig.len() {
-        // Effects on disjoint channels explain different data: never confusable
-        // (`temp_quadratic` on the scale factor and on the bias both get added).
-        let (a, b) = (sig[0].1, sig[j].1);
-        let overlap = (cyc && a.touches_sf() && b.touches_sf()) || (a.touches_bias() && b.touches_bias());
-        if overlap && sig[0].4.gain - sig[j].4.gain < sig[0].4.se {
-            confusable.push(j);
-            let (pj, pp) = (sig[j].1.n_params(), sig[pick].1.n_params());
-            if pj < pp || (pj == pp && sig[j].4.gain > sig[pick].4.gain) {
-                pick = j;
-            }
-        }
-    }
+    // Effects on disjoint channels explain different data: never confusable
+    // (`temp_quadratic` on the scale factor and on the bias both get added).
+    let a = sig[0].1;
+    let rivals: Vec<usize> = (0..sig.len())
+        .filter(|&j| {
+            let b = sig[j].1;
+            j == 0 || (cyc && a.touches_sf() && b.touches_sf()) || (a.touches_bias() && b.touches_bias())
+        })
+        .collect();
+    let cands: Vec<qfa_calibrate::select::Candidate> = rivals
+        .iter()
+        .map(|&j| qfa_calibrate::select::Candidate {
+            unknowns: sig[j].1.n_params(),
+            loss: -sig[j].4.gain,
+            se: sig[j].4.se,
+        })
+        .collect();
+    let (pick, within) = qfa_calibrate::select::one_se_rule(&cands).map_or((0, vec![0]), |(p, w)| (rivals[p], w));
+    let within: Vec<usize> = within.iter().map(|&k| rivals[k]).collect();
     let conf_names: Vec<String> =
-        std::iter::once(0).chain(confusable).filter(|&j| j != pick).map(|j| sig[j].1.name().to_string()).collect();
+        within.into_iter().filter(|&j| j != pick).map(|j| sig[j].1.name().to_string()).collect();
     (pick, conf_names)
 }
 

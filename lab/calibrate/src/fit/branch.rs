@@ -108,7 +108,9 @@ pub(super) fn choose_branch_mode(
         cands.push((shape, mode, p, crate::select::CvFigure::of_folds(&fold_mse)?));
     }
     let figs: Vec<(usize, crate::select::CvFigure)> = cands.iter().map(|&(_, _, p, f)| (p, f)).collect();
-    let chosen = crate::select::one_se_rule(&figs).ok_or(FitError::Cv(CvFault::NoCandidate))?;
+    let rule: Vec<crate::select::Candidate> =
+        figs.iter().map(|&(unknowns, f)| crate::select::Candidate { unknowns, loss: f.mse, se: f.se }).collect();
+    let chosen = crate::select::one_se_rule(&rule).ok_or(FitError::Cv(CvFault::NoCandidate))?.0;
     let best = figs
         .iter()
         .map(|(_, f)| *f)
