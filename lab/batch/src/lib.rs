@@ -364,9 +364,12 @@ pub fn console(fleet: &Fleet, out: &Path) -> String {
             l.sizes[1],
             top.join(", "),
             if l.compared_within {
-                "each unit compared with its own lot"
+                "each unit compared with its own lot".to_string()
             } else {
-                "each unit compared with the whole fleet (a lot under 15 units is too few to compare with)"
+                format!(
+                    "each unit compared with the whole fleet (a lot under {} units is too few to compare with)",
+                    fleet::MIN_FLEET
+                )
             }
         ));
     }

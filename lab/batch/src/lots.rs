@@ -112,7 +112,7 @@ pub(crate) fn find(stats: &[FeatureStats], serials: &[String], reference: &[usiz
     // the fit and placed afterwards on the figures it has.
     let z_of = |i: usize| -> Vec<Option<f64>> {
         sig.iter()
-            .map(|s| s.values.iter().find(|(ser, _)| *ser == serials[i]).map(|(_, v)| (v - s.median) / s.scale))
+            .map(|s| s.values.iter().find(|(ser, _)| *ser == serials[i]).map(|(_, v)| s.distance(*v, None)))
             .collect()
     };
     let rows: Vec<(usize, Vec<f64>)> =
@@ -141,8 +141,8 @@ pub(crate) fn find(stats: &[FeatureStats], serials: &[String], reference: &[usiz
         let p2 = if swap { 1.0 - p2 } else { p2 };
         unit[i] = Some(if p2 > 0.5 { (1, p2) } else { (0, 1.0 - p2) });
     }
-    let sizes = [rows.iter().filter(|r| unit[r.0].is_some_and(|u| u.0 == 0)).count(), 0];
-    let sizes = [sizes[0], rows.len() - sizes[0]];
+    let first_size = rows.iter().filter(|r| unit[r.0].is_some_and(|u| u.0 == 0)).count();
+    let sizes = [first_size, rows.len() - first_size];
     let mut figures: Vec<LotFigure> = sig
         .iter()
         .enumerate()

@@ -202,7 +202,11 @@ fn certificate_rows(
                 "lot {} of the fleet's two (probability {:.3}); compared with {}",
                 l.lot + 1,
                 l.probability,
-                if l.compared_within { "its own lot's units" } else { "the whole fleet (a lot under 15 units)" }
+                if l.compared_within {
+                    "its own lot's units".to_string()
+                } else {
+                    format!("the whole fleet (a lot under {} units)", super::fleet::MIN_FLEET)
+                }
             ),
         ));
     }
@@ -379,9 +383,13 @@ fn lots_section(p: &mut Page, fleet: &Fleet) {
         lots.bic_preference,
         if lots.compared_within {
             "each unit is compared with its own lot's median and robust SD, not flagged for the lot it is in."
+                .to_string()
         } else {
-            "a lot of fewer than 15 units is too unsteady a yardstick, so each unit is compared with the whole \
-             fleet: a flag on a figure that tells the lots apart may be the unit's lot, not the unit."
+            format!(
+                "a lot of fewer than {} units is too unsteady a yardstick, so each unit is compared with the whole \
+                 fleet: a flag on a figure that tells the lots apart may be the unit's lot, not the unit.",
+                super::fleet::MIN_FLEET
+            )
         }
     ));
     let rows: Vec<Vec<String>> = lots
