@@ -150,7 +150,8 @@ pub(crate) enum Cmd {
         /// No deliberately bad units (default: one of each defect per started 50 units).
         #[arg(long)]
         no_bad: bool,
-        /// Good units whose own log (manifest run) is truncated: heating only, or the first half.
+        /// Good units whose own log (manifest run) is truncated: heating only, or the first
+        /// half (with --qfa, every run of the unit's cycling log cut alike).
         #[arg(long, default_value_t = 0)]
         truncated: usize,
         /// Each static unit's die lags its case (the sensor) by its own time constant,
@@ -161,7 +162,7 @@ pub(crate) enum Cmd {
         /// QFA units through the paper's four-position cycling test (pulse counts), drawn
         /// around JB-KT8 #1: chamber.csv (every unit), batch.toml with units/SN….csv,
         /// truth.toml.
-        #[arg(long, conflicts_with = "truncated")]
+        #[arg(long)]
         qfa: bool,
         /// Output directory: chamber.tsv, batch.toml with units/, truth.toml.
         #[arg(long)]

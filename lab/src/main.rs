@@ -430,16 +430,17 @@ fn run(cli: Cli) -> Result<(), CliError> {
         }
         Cmd::Navigate(a) => navigate_cmd(a),
         Cmd::Batch(a) => batch_cmd(a),
-        Cmd::SimulateBatch { units, seed, no_bad, qfa: true, out, .. } => {
+        Cmd::SimulateBatch { units, seed, no_bad, truncated, qfa: true, out, .. } => {
             use qfa_sim::qfa_population::{draw_qfa, write_qfa_chamber, write_qfa_manifest, QfaPopulationSpec};
             let t0 = Instant::now();
-            let truth = draw_qfa(&QfaPopulationSpec { units, seed, bad: !no_bad });
+            let truth = draw_qfa(&QfaPopulationSpec { units, seed, bad: !no_bad, truncated });
             write_qfa_chamber(&out, &truth, 2)?;
             write_qfa_manifest(&out, &truth, 2)?;
             let bad = truth.unit.iter().filter(|u| u.defect.is_some()).count();
             eprintln!(
-                "{units} QFA units ({bad} deliberately bad) in {:.1} s → {}: chamber.csv (every unit on one index \
-                 head), batch.toml with units/ (one cycling log per unit), truth.toml",
+                "{units} QFA units ({bad} deliberately bad, {truncated} truncated in the manifest run) in {:.1} s → {}: \
+                 chamber.csv (every unit on one index head, whole), batch.toml with units/ (one cycling log per unit), \
+                 truth.toml",
                 t0.elapsed().as_secs_f64(),
                 out.display()
             );

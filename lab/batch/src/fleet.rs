@@ -436,7 +436,13 @@ pub(crate) fn fleet(results: &[UnitResult], limits: &Limits) -> Fleet {
     let lo: Vec<f64> = reference.iter().map(|c| c.temp_c[0]).collect();
     let hi: Vec<f64> = reference.iter().map(|c| c.temp_c[1]).collect();
     let span_c = [median(&lo).unwrap_or(0.0), median(&hi).unwrap_or(0.0)];
-    let population = super::prior::population(&reference.iter().filter_map(|c| c.normal.as_ref()).collect::<Vec<_>>());
+    // A static unit's axes, or a QFA unit's scale factor and bias (`k1`, `k0`).
+    let of = |f: fn(&Calibrated) -> Option<&super::prior::UnitNormal>| {
+        super::prior::population(&reference.iter().filter_map(|c| f(c)).collect::<Vec<_>>())
+    };
+    let mut population = of(|c| c.normal.as_ref());
+    population.extend(of(|c| c.qfa_normal.as_ref().map(|q| &q.scale)));
+    population.extend(of(|c| c.qfa_normal.as_ref().map(|q| &q.bias)));
     Fleet {
         units: results.len(),
         counts,

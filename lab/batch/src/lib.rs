@@ -210,14 +210,23 @@ pub(crate) fn finish_fleet(
     let mut uses = Vec::with_capacity(plain.len());
     let mut prior_failed: Vec<(String, prior::PriorError)> = Vec::new();
     for (r, f) in plain.iter().zip(&fleet.unit) {
-        let normal = match &r.outcome {
-            UnitOutcome::Calibrated(c) => c.normal.as_ref(),
-            UnitOutcome::Failed { .. } => None,
+        let deadband = opts.cal.deadband_c_per_min;
+        // A static unit's axes, or a QFA unit's scale factor and bias; the bins its bias
+        // rows cover.
+        let formed = match &r.outcome {
+            UnitOutcome::Calibrated(c) if f.partial && !fleet.population.is_empty() => {
+                match (&c.normal, &c.qfa_normal) {
+                    (Some(n), _) => Some((prior::prior_table(n, &fleet.population, span, deadband), n)),
+                    (None, Some(q)) => Some((qfa::qfa_prior_table(q, &fleet.population, span, deadband), &q.bias)),
+                    (None, None) => None,
+                }
+            }
+            _ => None,
         };
-        let use_ = match normal {
-            Some(normal) if f.partial && !fleet.population.is_empty() => {
+        let use_ = match formed {
+            Some((formed, covered)) => {
                 let dir = out.join(&r.serial);
-                match prior::prior_table(normal, &fleet.population, span, opts.cal.deadband_c_per_min) {
+                match formed {
                     Ok(table) => {
                         let (bin, crc) = encoded(&table, &dir)?;
                         let toml = toml::to_string_pretty(&table).map_err(OutputError::toml(&dir))?;
@@ -229,7 +238,7 @@ pub(crate) fn finish_fleet(
                             format!("# qfa-thermal table from the population prior (the lab guide's \"Production batches\")\n{toml}"),
                         )
                         .map_err(OutputError::io(&toml_path))?;
-                        let share = prior::covered_share(normal, span);
+                        let share = prior::covered_share(covered, span);
                         Some(prior::PriorUse {
                             table: "table_prior.bin".into(),
                             table_crc32: format!("{crc:08x}"),
@@ -244,7 +253,7 @@ pub(crate) fn finish_fleet(
                     }
                 }
             }
-            _ => None,
+            None => None,
         };
         uses.push(use_);
     }

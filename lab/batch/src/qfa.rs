@@ -137,19 +137,27 @@ pub(crate) fn calibrate(
         Err(e) => Measured::NotComputed { not_computed: e.to_string() },
     };
     let covered = r.coverage.covered.temp_c;
+    let rows = &cal.table.rows;
+    let (heating, cooling) = rows.temps().fold((0, 0), |(h, c), (_, b)| match b {
+        Branch::Heating => (h + 1, c),
+        Branch::Cooling => (h, c + 1),
+        Branch::Unknown => (h, c),
+    });
+    let rate_limit = cal.table.hysteresis.axes[0].rate_limit_c_per_min;
     Ok(Calibrated {
         outcome: v.outcome,
         failed_limits: v.failed(),
         held_out_mg: Vec::new(),
         structures: vec![("qfa".into(), structure(r.fit.branch.mode, r.fit.branch.shape))],
         temp_c: covered,
-        one_branch: false,
+        one_branch: qfa_calibrate::static_cal::is_one_branch((heating, cooling)),
         rows: r.rows,
         table_crc32: format!("{crc:08x}"),
         table_bytes: bin.len(),
         descriptor: Vec::new(),
         temp_minutes: Vec::new(),
         normal: None,
+        qfa_normal: Some(normal(rows, rate_limit)),
         steps: Vec::new(),
         glitches_per_h: glitches_per_hour(log),
         qfa: Some(figures(
@@ -159,6 +167,70 @@ pub(crate) fn calibrate(
             ageing,
         )),
     })
+}
+
+/// Scale of Eq. 11's ΔT in the prior's basis, °C (so the basis's columns are of one size,
+/// as the static prior's `U_SCALE_C`).
+const D_SCALE_C: f64 = 50.0;
+
+/// A QFA unit's statistics for the population prior ([`super::prior`]): the equations its
+/// table was fitted on (every program, 30-row blocks), reduced.
+///
+/// * `scale` (axis `k1`): K1 in Eq. 11's regressors `[1, δ, δ², Ṫ, Ṫ·δ, Ṫ²]`, δ = ΔT / 50 °C.
+/// * `bias` (axis `k0`): K0 (g, absolute) in the static prior's cubic and split,
+///   `[1, u, u², u³, ±½]`, from both runs' branches as the firmware classified them.
+///
+/// The noise variance is the mean square of the block equations' residuals: the blocks
+/// are 5 min at the paper's 10-s rows, longer than the static prior's 60-s means.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct QfaNormal {
+    /// The scale factor's statistics (axis `k1`).
+    pub scale: super::prior::UnitNormal,
+    /// The bias's statistics (axis `k0`).
+    pub bias: super::prior::UnitNormal,
+    /// The unit's own table's rate limit, °C/min, which its prior table keeps.
+    pub rate_limit_c_per_min: f32,
+}
+
+fn mean_square(resid: &[f64]) -> f64 {
+    resid.iter().map(|r| r * r).sum::<f64>() / resid.len().max(1) as f64
+}
+
+/// [`QfaNormal`] of a table's fit rows.
+fn normal(rows: &qfa_calibrate::fit::FitRows, rate_limit_c_per_min: f32) -> QfaNormal {
+    let (eq11, k1) = rows.eq11_equations();
+    let scaled: Vec<[f64; 6]> =
+        eq11.iter().map(|x| [x[0], x[1] / D_SCALE_C, x[2] / D_SCALE_C.powi(2), x[3], x[4] / D_SCALE_C, x[5]]).collect();
+    let scale = super::prior::reduced_normal(&scaled, &[("k1", &k1)], rows.temps(), mean_square);
+    let (xb, k0) = rows.bias_equations(super::prior::basis);
+    let bias = super::prior::reduced_normal(&xb, &[("k0", &k0)], rows.temps(), mean_square);
+    QfaNormal { scale, bias, rate_limit_c_per_min }
+}
+
+/// The prior's table of a QFA unit over the fleet's `span`: Eq. 11 from the `k1`
+/// population's posterior, the bias grid from the `k0` one's (see [`super::prior`]).
+///
+/// # Errors
+/// No population for `k1` or `k0`, a posterior that cannot be formed, or a table the root
+/// crate refuses ([`PriorError`](super::prior::PriorError)).
+pub fn qfa_prior_table(
+    unit: &QfaNormal,
+    pops: &[super::prior::Population],
+    span: (f64, f64),
+    deadband: f32,
+) -> Result<qfa_thermal::Table, super::prior::PriorError> {
+    use super::prior::{posterior, PriorError};
+    let post = |n: &super::prior::UnitNormal| -> Result<Vec<f64>, PriorError> {
+        let axis = n.axes.first().map_or_else(String::new, |a| a.axis.clone());
+        let pop = pops.iter().find(|p| p.axis == axis).ok_or_else(|| PriorError::NoPopulation(axis.clone()))?;
+        posterior(n, 0, pop).ok_or(PriorError::NotInvertible(axis))
+    };
+    let s = post(&unit.scale)?;
+    let b = post(&unit.bias)?;
+    let eq11 = [s[0], s[1] / D_SCALE_C, s[2] / D_SCALE_C.powi(2), s[3], s[4] / D_SCALE_C, s[5]];
+    let scale = qfa_calibrate::fit::scale_of_eq11(&eq11);
+    let axis = super::prior::axis_model(&b, span, 0.0, deadband, scale, unit.rate_limit_c_per_min);
+    qfa_calibrate::fit::table_of(axis).map_err(PriorError::Table)
 }
 
 /// The flashed model's structure in words.

@@ -100,9 +100,12 @@ pub struct Calibrated {
     pub descriptor: Vec<AxisDescriptor>,
     /// Mean temperature reading per minute of its clock: `(minute, °C)`.
     pub temp_minutes: Vec<(i64, f64)>,
-    /// What the population prior needs of its rows ([`super::prior`]); `None` for a QFA
-    /// unit, whose cycling calibration has no prior.
+    /// What the population prior needs of a static unit's rows ([`super::prior`]); `None`
+    /// for a QFA unit, whose statistics are `qfa_normal`.
     pub normal: Option<super::prior::UnitNormal>,
+    /// What the population prior needs of a QFA unit's rows ([`super::qfa::QfaNormal`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub qfa_normal: Option<super::qfa::QfaNormal>,
     /// The clearest step in each axis's residual after its own table, where one stands
     /// out of the row-to-row noise ([`ResidualStep`] says how it is found).
     #[serde(default)]
@@ -236,6 +239,7 @@ fn calibrate_static(
         descriptor,
         temp_minutes: temp_minutes(log),
         normal: Some(normal(log, opts.cal.deadband_c_per_min)),
+        qfa_normal: None,
         qfa: None,
     })
 }

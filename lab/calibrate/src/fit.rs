@@ -226,6 +226,54 @@ pub struct Fitted {
     pub branch: BranchChoice,
     /// Paired rows used.
     pub pairs: usize,
+    /// The paired rows the fit solved, for a fit beside this one on the same equations
+    /// (a production batch's population prior); shared, not copied, by a clone.
+    pub rows: FitRows,
+}
+
+/// The paired rows of a fit and the blocks its equations average (see the module docs).
+#[derive(Clone, Debug)]
+pub struct FitRows {
+    rows: std::sync::Arc<[Row]>,
+    starts: Vec<usize>,
+    block: usize,
+}
+
+impl FitRows {
+    /// The scale factor's equations: per block, the mean of Eq. 11's regressors (in
+    /// [`eq11_regressors`]' order, each averaged over the pair's two runs) and of K1.
+    #[must_use]
+    pub fn eq11_equations(&self) -> (Vec<[f64; 6]>, Vec<f64>) {
+        let x: Vec<f64> = self.rows.iter().flat_map(|r| [1.0, r.d, r.d2, r.r, r.rd, r.r2]).collect();
+        let y: Vec<f64> = self.rows.iter().map(|r| r.k1).collect();
+        Self::rows_of(&block_average(&x, &y, 6, self.block, &self.starts))
+    }
+
+    /// The bias's equations in a caller's basis: per block, the mean over its rows of the
+    /// mean of `basis` at the pair's two runs' (model temperature, branch), and of K0 minus
+    /// the extension slots' bias, g.
+    #[must_use]
+    pub fn bias_equations<const N: usize>(&self, basis: impl Fn(f64, Branch) -> [f64; N]) -> (Vec<[f64; N]>, Vec<f64>) {
+        let x: Vec<f64> = self
+            .rows
+            .iter()
+            .flat_map(|r| {
+                let (p, m) = (basis(r.tp, r.bp), basis(r.tm, r.bm));
+                std::array::from_fn::<f64, N, _>(|j| 0.5 * (p[j] + m[j]))
+            })
+            .collect();
+        let y: Vec<f64> = self.rows.iter().map(|r| r.k0 - r.ext_k0).collect();
+        Self::rows_of(&block_average(&x, &y, N, self.block, &self.starts))
+    }
+
+    /// Every run's (model temperature, branch) of every paired row, both runs of a pair.
+    pub fn temps(&self) -> impl Iterator<Item = (f64, Branch)> + '_ {
+        self.rows.iter().flat_map(|r| [(r.tp, r.bp), (r.tm, r.bm)])
+    }
+
+    fn rows_of<const N: usize>((x, y): &(Vec<f64>, Vec<f64>)) -> (Vec<[f64; N]>, Vec<f64>) {
+        (x.chunks_exact(N).map(|c| std::array::from_fn(|j| c[j])).collect(), y.clone())
+    }
 }
 
 /// Features of one paired row.
@@ -407,7 +455,8 @@ pub fn fit(
     };
     let hysteresis =
         table_of(AxisModel { scale: scale_h, bias: grid_h, rate_limit_c_per_min: rate_limit, ext: opts.ext })?;
-    Ok(Fitted { simple, hysteresis, sf_simple, sf_hysteresis, bias_simple, bias_hysteresis, branch, pairs: n })
+    let rows = FitRows { rows: rows.into(), starts, block: opts.block };
+    Ok(Fitted { simple, hysteresis, sf_simple, sf_hysteresis, bias_simple, bias_hysteresis, branch, pairs: n, rows })
 }
 
 /// The paired rows of `opts.fit_programs`, in order, with the row each program starts at

@@ -22,7 +22,8 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::population::{serial, PopulationError};
+use crate::population::{serial, PopulationError, Truncation};
+use crate::profile::{Program, PAPER_RATES};
 use crate::truth::Truth;
 use qfa_rng::{normal, seeded, stream_seed, Stream};
 
@@ -99,6 +100,9 @@ pub struct QfaUnitTruth {
     pub defect: Option<QfaDefect>,
     /// The seed of its log's noise.
     pub noise_seed: u64,
+    /// Its log's truncation, if any (every run cut alike).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub truncation: Option<Truncation>,
     /// The unit.
     pub truth: Truth,
 }
@@ -122,6 +126,9 @@ pub struct QfaPopulationSpec {
     /// Bad units: one of each [`QfaDefect`] per started 50 units, at places drawn from the
     /// seed; `false` for none.
     pub bad: bool,
+    /// Good units whose log is truncated, alternating [`Truncation`]s (every run of the
+    /// unit's log cut alike).
+    pub truncated: usize,
 }
 
 /// Draw a population of QFA units.
@@ -130,7 +137,11 @@ pub fn draw_qfa(spec: &QfaPopulationSpec) -> QfaPopulationTruth {
     // Streams of their own: a QFA batch and a static batch of one seed share no draw.
     let mut rng = seeded(stream_seed(spec.seed, PLACES, 0));
     let n = spec.units;
-    let (defect, _, _) = crate::population::place_defects(&mut rng, n, &QfaDefect::ALL, spec.bad);
+    let (defect, order, k) = crate::population::place_defects(&mut rng, n, &QfaDefect::ALL, spec.bad);
+    let mut truncation = vec![None; n];
+    for (j, &i) in order[k..].iter().take(spec.truncated).enumerate() {
+        truncation[i] = Some(if j % 2 == 0 { Truncation::HeatingOnly } else { Truncation::FirstHalf });
+    }
     let s = QFA_SPREAD;
     let nominal = Truth::jb_kt8(1).scale;
     let unit = (0..n)
@@ -163,6 +174,7 @@ pub fn draw_qfa(spec: &QfaPopulationSpec) -> QfaPopulationTruth {
                 serial: serial(i),
                 defect: defect[i],
                 noise_seed: stream_seed(spec.seed, NOISE, i as u64),
+                truncation: truncation[i],
                 truth: t,
             }
         })
@@ -185,7 +197,8 @@ pub fn write_qfa_manifest(dir: &Path, truth: &QfaPopulationTruth, threads: usize
     let units = dir.join("units");
     std::fs::create_dir_all(&units).map_err(|e| io(&units, e))?;
     for u in &truth.unit {
-        let log = crate::simulate_paper(&u.truth, QFA_ROW_S, u.noise_seed, threads, None);
+        let mut log = crate::simulate_paper(&u.truth, QFA_ROW_S, u.noise_seed, threads, None);
+        truncate(&mut log, u.truncation);
         let path = units.join(format!("{}.csv", u.serial));
         qfa_log::cycling::write_log(&path, &log).map_err(|e| io(&path, e))?;
         let _ = write!(manifest, "\n[[unit]]\nserial = \"{}\"\nlog = \"units/{}.csv\"\n", u.serial, u.serial);
@@ -195,6 +208,22 @@ pub fn write_qfa_manifest(dir: &Path, truth: &QfaPopulationTruth, threads: usize
     let text = toml::to_string(truth).map_err(PopulationError::Toml)?;
     let path = dir.join("truth.toml");
     std::fs::write(&path, text).map_err(|e| io(&path, e))
+}
+
+/// Cut every run of `log` as `truncation` says, on its program's air temperature (the
+/// static population's rule, [`crate::population::kept_rows`]).
+fn truncate(log: &mut qfa_log::cycling::Log, truncation: Option<Truncation>) {
+    if truncation.is_none() {
+        return;
+    }
+    for run in &mut log.runs {
+        let Some(program) = PAPER_RATES.iter().map(|&r| Program::paper(r)).find(|p| p.id == run.program) else {
+            continue;
+        };
+        let air: Vec<f64> = run.samples.iter().map(|s| program.temp_at(s.time_s)).collect();
+        let keep = crate::population::kept_rows(truncation, &air);
+        run.samples = run.samples[keep].to_vec();
+    }
 }
 
 /// Write one multi-unit cycling log (`chamber.csv`: the cycling log's shared columns, then
@@ -244,7 +273,7 @@ mod tests {
     /// coefficient its name says; the draw is the same for the same seed.
     #[test]
     fn defects_are_placed_and_made_as_documented() {
-        let spec = QfaPopulationSpec { units: 60, seed: 3, bad: true };
+        let spec = QfaPopulationSpec { units: 60, seed: 3, bad: true, truncated: 0 };
         let p = draw_qfa(&spec);
         for d in QfaDefect::ALL {
             assert_eq!(p.unit.iter().filter(|u| u.defect == Some(d)).count(), 2, "{d:?}");
