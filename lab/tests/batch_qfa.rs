@@ -2,6 +2,8 @@
 //! judged against the truth the simulator wrote (which units are bad and why, and every
 //! unit's coefficients), and the outputs' independence of threads.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 
 use qfa_batch::fleet::{Decision, Fleet, Side};
@@ -298,35 +300,15 @@ fn fleet_size_study() {
     }
 }
 
-/// A QFA table's error against its unit's truth over the fleet's span (1-°C steps; the
-/// truth in case temperature at rest, the table in the sensor's): the scale factor's RMS
-/// over rates of 0, ±0.15 and ±0.3 °C/min (the rates the paper's staircases hold the case
-/// at) relative to the true γ, ppm, and the bias's RMS on both branches, µg. Independent of
-/// the table's fit: Eq. 11 and the cubic bias evaluated from the simulator's coefficients.
+/// A QFA table's error against its unit's truth ([`common::qfa_table_error`]).
 fn qfa_table_error(table: &qfa_thermal::Table, truth: &qfa_sim::truth::Truth, span: [f64; 2]) -> (f64, f64) {
-    use qfa_thermal::model::Branch;
-    let (axis, s) = (&table.axes[0], &truth.scale);
-    let k1_of = |c: &qfa_thermal::ScaleFactor, d: f64, r: f64| {
-        let f = |x: f32| f64::from(x);
-        f(c.gamma) + f(c.mu) * d + f(c.beta) * d * d + f(c.epsilon) * r + f(c.eta) * r * d + f(c.alpha) * r * r
+    let s = &truth.scale;
+    let t0 = f64::from(s.t0_c);
+    let k1 = |t: f64, r: f64| {
+        let (f, d) = (|x: f32| f64::from(x), t - t0);
+        f(s.gamma) + f(s.mu) * d + f(s.beta) * d * d + f(s.epsilon) * r + f(s.eta) * r * d + f(s.alpha) * r * r
     };
-    let (mut sf, mut bias) = (Vec::new(), Vec::new());
-    let mut t = span[0].ceil();
-    while t <= span[1].floor() {
-        let sensor = t + truth.sensor.offset_c;
-        for r in [-0.3, -0.15, 0.0, 0.15, 0.3] {
-            let got = k1_of(&axis.scale, sensor - f64::from(axis.scale.t0_c), r);
-            let want = k1_of(s, t - f64::from(s.t0_c), r);
-            sf.push((got - want) / f64::from(s.gamma) * 1e6);
-        }
-        for b in [Branch::Heating, Branch::Cooling] {
-            let got = f64::from(axis.bias.k0(sensor as f32, b));
-            bias.push((got - truth.bias.at(t - f64::from(s.t0_c))) * 1e6);
-        }
-        t += 1.0;
-    }
-    let rms = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt();
-    (rms(&sf), rms(&bias))
+    common::qfa_table_error(table, truth.sensor.offset_c, span, k1, |t| truth.bias.at(t - t0))
 }
 
 /// One good unit's errors against its truth: how its log was cut, and its own table's and

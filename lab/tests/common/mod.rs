@@ -275,6 +275,43 @@ pub fn table_error_mg(
     (d.iter().map(|x| (x - m).powi(2)).sum::<f64>() / d.len() as f64).sqrt() * 1e3
 }
 
+/// A QFA table's (axis 0) error against its unit's truth over `span` in 1-°C steps, the
+/// truth in case temperature at rest and the table in the sensor's (`offset_c` above it):
+/// the scale factor's RMS over rates of 0, ±0.15 and ±0.3 °C/min (the rates the paper's
+/// staircases hold the case at) relative to the truth's K1 at rest, ppm, and the bias's RMS
+/// on both branches, µg. `k1(T, Ṫ)` in pulses/(g·s) and `k0(T)` in g are the truth's own;
+/// the table's Eq. 11 is evaluated here in f64 from its coefficients, not by the crate.
+pub fn qfa_table_error(
+    table: &qfa_thermal::Table,
+    offset_c: f64,
+    span: [f64; 2],
+    k1: impl Fn(f64, f64) -> f64,
+    k0: impl Fn(f64) -> f64,
+) -> (f64, f64) {
+    use qfa_thermal::model::Branch;
+    let axis = &table.axes[0];
+    let c = &axis.scale;
+    let f = |x: f32| f64::from(x);
+    let table_k1 = |d: f64, r: f64| {
+        f(c.gamma) + f(c.mu) * d + f(c.beta) * d * d + f(c.epsilon) * r + f(c.eta) * r * d + f(c.alpha) * r * r
+    };
+    let (mut sf, mut bias) = (Vec::new(), Vec::new());
+    let mut t = span[0].ceil();
+    while t <= span[1].floor() {
+        let sensor = t + offset_c;
+        let at_rest = k1(t, 0.0);
+        for r in [-0.3, -0.15, 0.0, 0.15, 0.3] {
+            sf.push((table_k1(sensor - f(c.t0_c), r) - k1(t, r)) / at_rest * 1e6);
+        }
+        for b in [Branch::Heating, Branch::Cooling] {
+            bias.push((f(axis.bias.k0(sensor as f32, b)) - k0(t)) * 1e6);
+        }
+        t += 1.0;
+    }
+    let rms = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt();
+    (rms(&sf), rms(&bias))
+}
+
 /// The largest robust distance any unit `good` says is good reached on any of `fleet`'s
 /// figures (the flag studies' margin below the flag line), each against the yardstick the
 /// fleet compares it with (its lot's, when the fleet holds two).

@@ -28,9 +28,10 @@ pub struct ResidualStep {
     /// What the axis's thermal slope at 25 °C makes of that move, as a share of the step:
     /// well under 1 means the temperature cannot have made it.
     pub thermal_share: f64,
-    /// Where the firmware's branch turned within [`TURN_WINDOW_S`] of the step: the time of
-    /// that turn since the first row (s) and whether it turned to heating. A step there is
-    /// a heating/cooling split the table does not hold, not a shock.
+    /// The turn of the firmware's branch the step follows, when the step is the unit's
+    /// heating/cooling split: the time of that turn since the first row (s) and whether it
+    /// turned to heating. A split the table does not hold repeats, the other way, after
+    /// every turn the other way; a shock happens once (`split_at_turns` says how it is told).
     #[serde(default)]
     pub at_turn: Option<(f64, bool)>,
 }
@@ -63,9 +64,11 @@ impl ResidualStep {
     }
 }
 
-/// How near a step the firmware's branch must turn for the step to be the turn's, s: the
-/// branch changes when the estimated rate passes its deadband, about a minute after the
-/// temperature turns on the chamber's programs, so twice the short window.
+/// How long before the firmware's branch turns a step may come and still follow that turn,
+/// s: the branch changes when the estimated rate passes its deadband, about a minute after
+/// the temperature turns on the chamber's programs, so twice the short window. In a log
+/// with no turn the other way to compare with, it is also how soon after a turn a step must
+/// come to be called the turn's.
 pub const TURN_WINDOW_S: f64 = 2.0 * STEP_SHORT_WINDOW_S;
 
 /// The long window of the step search, s: long against the row-to-row noise, short
@@ -130,7 +133,7 @@ pub(crate) fn residual_steps(
             z: found.z,
             temp_change_c: found.temp_change_c,
             thermal_share: thermal_mg / found.size_mg.abs(),
-            at_turn: branch_turn_near(plot, found.at_s),
+            at_turn: axis_rows.split_at_turns(resid, plot, found.at_s),
         });
     }
     out
@@ -213,14 +216,7 @@ impl AxisRows<'_> {
         // output itself (the table's branch offset may have taken up part of it in the
         // residual) and in the temperature reading: a ramp through it is a line, not a step.
         let tk = times[k];
-        let step_of = |v: &dyn Fn(usize) -> f64| -> Option<f64> {
-            let (mut x, mut y) = (Vec::with_capacity(3 * (hi - lo)), Vec::with_capacity(hi - lo));
-            for j in (lo..hi).filter(|&j| v(j).is_finite()) {
-                x.extend([1.0, times[j] - tk, if j >= k { 1.0 } else { 0.0 }]);
-                y.push(v(j));
-            }
-            qfa_calibrate::solver::lstsq(&x, 3, &y).ok().map(|f| f.coef[2])
-        };
+        let step_of = |v: &dyn Fn(usize) -> f64| line_and_step((lo..hi).map(|j| (times[j], v(j))), tk);
         let size_mg = step_of(&|j| accel[rows[j]])?;
         let temp_change_c = step_of(&|j| temp_c[rows[j]])?;
         // A single-sample spike moves the short windows' means, not their medians.
@@ -247,25 +243,81 @@ impl AxisRows<'_> {
     }
 }
 
-/// The firmware's branch turn in `plot` nearest `at_s` (s since the first row) within
-/// [`TURN_WINDOW_S`]: its time and whether it turned to heating.
-fn branch_turn_near(plot: &qfa_calibrate::static_cal::PlotRows, at_s: f64) -> Option<(f64, bool)> {
+impl AxisRows<'_> {
+    /// Whether a step at `at_s` (s since the first row) in `series` is the unit's split: the
+    /// turn of the firmware's branch it follows (the last at or before `at_s` +
+    /// [`TURN_WINDOW_S`]) and whether it turned to heating, when the step is within
+    /// [`TURN_WINDOW_S`] of that turn, or when `series` steps the other way, by at least
+    /// half as much, at the same time after every turn the other way that has whole windows
+    /// there. A split the table does not hold repeats so however long the output takes to
+    /// cross from one branch to the other (a die lag and a play of a few °C: on the second
+    /// population generator about 200 s after the branch turned), and a shock does not. A
+    /// step that does not repeat is not told a shock when it is that near the turn: the
+    /// other turn may lie in the rows the table was fitted on, where the residual holds
+    /// the split in-sample (the lab population's top turn is held out, its bottom turn
+    /// fitted), so a shock within [`TURN_WINDOW_S`] of a turn reads as the turn's.
+    fn split_at_turns(
+        &self,
+        series: &[f64],
+        plot: &qfa_calibrate::static_cal::PlotRows,
+        at_s: f64,
+    ) -> Option<(f64, bool)> {
+        let turns = branch_turns(plot);
+        let &(turn_s, to_heating) = turns.iter().rev().find(|(t, _)| *t <= at_s + TURN_WINDOW_S)?;
+        let here = self.step_at(series, at_s)?;
+        let others: Vec<f64> = turns
+            .iter()
+            .filter(|(_, h)| *h != to_heating)
+            .filter_map(|(t, _)| self.step_at(series, t + (at_s - turn_s)))
+            .collect();
+        let near = (at_s - turn_s).abs() <= TURN_WINDOW_S;
+        let repeats = !others.is_empty() && others.iter().all(|s| s * here < 0.0 && s.abs() >= 0.5 * here.abs());
+        (near || repeats).then_some((turn_s, to_heating))
+    }
+
+    /// The step of `series` at `at_s` (s since the first row): a line and a step fitted
+    /// over [`STEP_WINDOW_S`] either side; `None` where the windows are not whole.
+    fn step_at(&self, series: &[f64], at_s: f64) -> Option<f64> {
+        let (&t0, &t1) = (self.time_s.first()?, self.time_s.last()?);
+        let t = t0 + at_s;
+        if t - t0 < STEP_WINDOW_S || t1 - t < STEP_WINDOW_S {
+            return None;
+        }
+        let (lo, hi) = (
+            self.time_s.partition_point(|&x| x < t - STEP_WINDOW_S),
+            self.time_s.partition_point(|&x| x < t + STEP_WINDOW_S).min(series.len()),
+        );
+        line_and_step((lo..hi).map(|j| (self.time_s[j], series[j])), t)
+    }
+}
+
+/// The step at time `tk` of a straight line in time and a step fitted to `(time, value)`
+/// rows (non-finite values skipped): the step's coefficient, or `None` when the fit fails.
+fn line_and_step(rows: impl Iterator<Item = (f64, f64)>, tk: f64) -> Option<f64> {
+    let (mut x, mut y) = (Vec::new(), Vec::new());
+    for (t, v) in rows.filter(|(_, v)| v.is_finite()) {
+        x.extend([1.0, t - tk, if t >= tk { 1.0 } else { 0.0 }]);
+        y.push(v);
+    }
+    qfa_calibrate::solver::lstsq(&x, 3, &y).ok().map(|f| f.coef[2])
+}
+
+/// Every turn of the firmware's branch in `plot`: its time (s, `plot`'s clock) and whether
+/// it turned to heating.
+fn branch_turns(plot: &qfa_calibrate::static_cal::PlotRows) -> Vec<(f64, bool)> {
     use qfa_thermal::model::Branch;
     let mut last: Option<Branch> = None;
-    let mut best: Option<(f64, bool)> = None;
+    let mut out = Vec::new();
     for (&t, &b) in plot.time_s.iter().zip(&plot.branch) {
         if b == Branch::Unknown {
             continue;
         }
-        if last.is_some_and(|l| l != b)
-            && (t - at_s).abs() <= TURN_WINDOW_S
-            && best.is_none_or(|(bt, _)| (t - at_s).abs() < (bt - at_s).abs())
-        {
-            best = Some((t, b == Branch::Heating));
+        if last.is_some_and(|l| l != b) {
+            out.push((t, b == Branch::Heating));
         }
         last = Some(b);
     }
-    best
+    out
 }
 
 #[cfg(test)]
@@ -351,6 +403,73 @@ mod tests {
                 assert!(words.ends_with("a shift, not thermal"), "{words}");
             }
         }
+    }
+
+    /// A unit whose split the table does not hold at all, crossing late: its die lags the
+    /// sensor by 200 s and a play of half-width 0.5 °C makes the split (±1 mg), so the
+    /// output crosses from one branch to the other about 2.5 minutes after the firmware's
+    /// branch turns, and the step is found there, past [`TURN_WINDOW_S`]. It repeats the
+    /// other way at the other turn: the unit's split. A shock at the same place does not
+    /// repeat: a shift. (The second population generator's three 3× units were told "a
+    /// shift, not thermal" by the 2-minute window alone; the first case fails on that rule.)
+    #[test]
+    fn a_split_crossing_slowly_is_told_from_a_shock_by_its_repeat_at_the_other_turn() {
+        use qfa_thermal::model::Branch;
+        // 20 °C, up to 60 °C at 2 °C/min (turn at 3 000 s), down to 20 (turn at 4 200 s),
+        // up to 60, hold.
+        let program = |t: f64| {
+            let r = 2.0 / 60.0;
+            if t < 1800.0 {
+                20.0
+            } else if t < 3000.0 {
+                20.0 + r * (t - 1800.0)
+            } else if t < 4200.0 {
+                60.0 - r * (t - 3000.0)
+            } else {
+                (20.0 + r * (t - 4200.0)).min(60.0)
+            }
+        };
+        let time: Vec<f64> = (0..9000u32).map(f64::from).collect();
+        let temp: Vec<f64> = time.iter().map(|&t| program(t)).collect();
+        // The play on the die's temperature, the die a 200-s lag behind the sensor.
+        let (mut die, mut play): (f64, f64) = (20.0, 20.0 - 0.5);
+        let split: Vec<f64> = temp
+            .iter()
+            .map(|&tc| {
+                die += (tc - die) / 200.0;
+                play = play.clamp(die - 0.5, die + 0.5);
+                (die - play) / 0.5
+            })
+            .collect();
+        // The branch turns a minute after the temperature.
+        let branch: Vec<Branch> = time
+            .iter()
+            .map(|&t| if (3060.0..4260.0).contains(&t) { Branch::Cooling } else { Branch::Heating })
+            .collect();
+        let run = |extra: &dyn Fn(usize) -> f64, seed: u64| {
+            let mut rng = qfa_rng::seeded(seed);
+            let resid: Vec<f64> = (0..time.len()).map(|i| extra(i) + 0.1 * qfa_rng::normal(&mut rng)).collect();
+            let accel: Vec<f64> = resid.iter().zip(&temp).map(|(r, t)| r + 0.02 * t).collect();
+            let plot = PlotRows {
+                time_s: time.clone(),
+                temp_c: temp.clone(),
+                branch: branch.clone(),
+                heldout: vec![false; time.len()],
+                axes: vec![("ay".into(), accel, resid)],
+            };
+            let steps = residual_steps(&time, &temp, &plot, &[20.0]);
+            assert_eq!(steps.len(), 1, "{steps:?}");
+            steps[0].clone()
+        };
+        let s = run(&|i| split[i], 1);
+        assert!(s.at_s - 3060.0 > TURN_WINDOW_S, "found past the 2-minute window: {s:?}");
+        assert_eq!(s.at_turn, Some((3060.0, false)), "{s:?}");
+        assert!(s.words().ends_with("not a shock"), "{}", s.words());
+        let shock_at = s.at_s;
+        let s = run(&|i| if time[i] >= shock_at { -2.0 } else { 0.0 }, 2);
+        assert!((s.at_s - shock_at).abs() <= 5.0, "{s:?}");
+        assert_eq!(s.at_turn, None, "{s:?}");
+        assert!(s.words().ends_with("a shift, not thermal"), "{}", s.words());
     }
 
     /// A shock on a ramp that the table took into its curve (the residual holds no step) is
