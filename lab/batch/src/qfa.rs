@@ -169,9 +169,10 @@ pub(crate) fn calibrate(
     })
 }
 
-/// Scale of Eq. 11's ΔT in the prior's basis, °C (so the basis's columns are of one size,
-/// as the static prior's `U_SCALE_C`).
-const D_SCALE_C: f64 = 50.0;
+/// Eq. 11's regressors over these are the prior's basis, `[1, δ, δ², Ṫ, Ṫ·δ, Ṫ²]` with
+/// δ = ΔT / 50 °C (so the basis's columns are of one size, as the static prior's
+/// `U_SCALE_C`); the basis's coefficients over them are Eq. 11's.
+const EQ11_BASIS_SCALE: [f64; 6] = [1.0, 50.0, 2500.0, 1.0, 50.0, 1.0];
 
 /// A QFA unit's statistics for the population prior ([`super::prior`]): the equations its
 /// table was fitted on (every program, 30-row blocks), reduced.
@@ -199,8 +200,7 @@ fn mean_square(resid: &[f64]) -> f64 {
 /// [`QfaNormal`] of a table's fit rows.
 fn normal(rows: &qfa_calibrate::fit::FitRows, rate_limit_c_per_min: f32) -> QfaNormal {
     let (eq11, k1) = rows.eq11_equations();
-    let scaled: Vec<[f64; 6]> =
-        eq11.iter().map(|x| [x[0], x[1] / D_SCALE_C, x[2] / D_SCALE_C.powi(2), x[3], x[4] / D_SCALE_C, x[5]]).collect();
+    let scaled: Vec<[f64; 6]> = eq11.iter().map(|x| std::array::from_fn(|j| x[j] / EQ11_BASIS_SCALE[j])).collect();
     let scale = super::prior::reduced_normal(&scaled, &[("k1", &k1)], rows.temps(), mean_square);
     let (xb, k0) = rows.bias_equations(super::prior::basis);
     let bias = super::prior::reduced_normal(&xb, &[("k0", &k0)], rows.temps(), mean_square);
@@ -227,7 +227,7 @@ pub fn qfa_prior_table(
     };
     let s = post(&unit.scale)?;
     let b = post(&unit.bias)?;
-    let eq11 = [s[0], s[1] / D_SCALE_C, s[2] / D_SCALE_C.powi(2), s[3], s[4] / D_SCALE_C, s[5]];
+    let eq11: [f64; 6] = std::array::from_fn(|j| s[j] / EQ11_BASIS_SCALE[j]);
     let scale = qfa_calibrate::fit::scale_of_eq11(&eq11);
     let axis = super::prior::axis_model(&b, span, 0.0, deadband, scale, unit.rate_limit_c_per_min);
     qfa_calibrate::fit::table_of(axis).map_err(PriorError::Table)
