@@ -304,10 +304,7 @@ fn fleet_size_study() {
 fn qfa_table_error(table: &qfa_thermal::Table, truth: &qfa_sim::truth::Truth, span: [f64; 2]) -> (f64, f64) {
     let s = &truth.scale;
     let t0 = f64::from(s.t0_c);
-    let k1 = |t: f64, r: f64| {
-        let (f, d) = (|x: f32| f64::from(x), t - t0);
-        f(s.gamma) + f(s.mu) * d + f(s.beta) * d * d + f(s.epsilon) * r + f(s.eta) * r * d + f(s.alpha) * r * r
-    };
+    let k1 = |t: f64, r: f64| common::eq11_k1(s, t - t0, r);
     common::qfa_table_error(table, truth.sensor.offset_c, span, k1, |t| truth.bias.at(t - t0))
 }
 

@@ -275,6 +275,13 @@ pub fn table_error_mg(
     (d.iter().map(|x| (x - m).powi(2)).sum::<f64>() / d.len() as f64).sqrt() * 1e3
 }
 
+/// Eq. 11's K1 of `c` at ΔT `d` (°C) and Ṫ `r` (°C/min), pulses/(g·s), in f64 (written
+/// here from the paper, not by the crate).
+pub fn eq11_k1(c: &qfa_thermal::ScaleFactor, d: f64, r: f64) -> f64 {
+    let f = |x: f32| f64::from(x);
+    f(c.gamma) + f(c.mu) * d + f(c.beta) * d * d + f(c.epsilon) * r + f(c.eta) * r * d + f(c.alpha) * r * r
+}
+
 /// A QFA table's (axis 0) error against its unit's truth over `span` in 1-°C steps, the
 /// truth in case temperature at rest and the table in the sensor's (`offset_c` above it):
 /// the scale factor's RMS over rates of 0, ±0.15 and ±0.3 °C/min (the rates the paper's
@@ -292,9 +299,7 @@ pub fn qfa_table_error(
     let axis = &table.axes[0];
     let c = &axis.scale;
     let f = |x: f32| f64::from(x);
-    let table_k1 = |d: f64, r: f64| {
-        f(c.gamma) + f(c.mu) * d + f(c.beta) * d * d + f(c.epsilon) * r + f(c.eta) * r * d + f(c.alpha) * r * r
-    };
+    let table_k1 = |d: f64, r: f64| eq11_k1(c, d, r);
     let (mut sf, mut bias) = (Vec::new(), Vec::new());
     let mut t = span[0].ceil();
     while t <= span[1].floor() {
