@@ -63,9 +63,13 @@ fn a_qfa_batch_flags_each_bad_unit_by_the_figure_its_defect_moves_and_passes_the
         assert!(dir.join("out").join(&u.serial).join("table.bin").is_file(), "{}", u.serial);
         let cert = std::fs::read_to_string(dir.join("out").join(&u.serial).join("certificate.html")).unwrap();
         let q = c.qfa.as_ref().expect("a QFA unit's figures");
+        let value = |m: &qfa_report::verdict::Measured| match m {
+            qfa_report::verdict::Measured::Value(v) => *v,
+            qfa_report::verdict::Measured::NotComputed { not_computed } => panic!("{}: {not_computed}", u.serial),
+        };
         for line in [
-            format!("{:.3}", q.held_out_sensitivity_ppm_per_c),
-            format!("{:.1}", q.held_out_bias_ug),
+            format!("{:.3}", value(&q.held_out_sensitivity_ppm_per_c)),
+            format!("{:.1}", value(&q.held_out_bias_ug)),
             "held-out scale-factor sensitivity".to_string(),
         ] {
             assert!(cert.contains(&line), "{}: certificate lacks {line}", u.serial);
@@ -186,6 +190,65 @@ fn a_static_limits_file_is_refused_for_a_qfa_batch_before_any_unit() {
             c.failed_limits
         );
     }
+}
+
+/// A unit whose chamber run went through one program only (a mistake of a short run): its
+/// figures are in-sample, so it FAILs, and every place that says so says why. Before, its
+/// verdict failed with no limit failed, so the batch's console read "fail: SN0002: " with
+/// nothing after it, its certificate had no reason, and `calibrate --limits` on its log
+/// exited "the unit fails 0 limit(s): ". The log is cut here by its `program` column, with
+/// no code of the lab's.
+#[test]
+fn a_unit_logged_through_one_program_fails_saying_why_everywhere() {
+    let dir = scratch("qfa_batch_one_program");
+    let truth = draw_qfa(&QfaPopulationSpec { units: 3, seed: 4, bad: false, truncated: 0 });
+    write_qfa_manifest(&dir, &truth, 2).unwrap();
+    let serial = &truth.unit[1].serial;
+    let log = dir.join("units").join(format!("{serial}.csv"));
+    let text = std::fs::read_to_string(&log).unwrap();
+    let kept: Vec<&str> = text.lines().filter(|l| l.starts_with("program,") || l.starts_with("paper-0.5,")).collect();
+    assert!(kept.len() > 1000 && kept.len() < text.lines().count() / 2, "one program of four kept");
+    std::fs::write(&log, kept.join("\n") + "\n").unwrap();
+
+    let (_, fleet) = calibrate(&dir, "out", 2);
+    for u in &fleet.unit {
+        assert_eq!(u.decision == Decision::Fail, &u.serial == serial, "{}: {:?}", u.serial, u.reasons);
+    }
+    let unit = fleet.unit.iter().find(|u| &u.serial == serial).unwrap();
+    assert!(!unit.reasons.is_empty(), "a FAIL without a reason");
+    assert!(unit.reasons.iter().all(|r| r.contains("in-sample")), "{:?}", unit.reasons);
+    let console = qfa_batch::console(&fleet, &dir.join("out"));
+    let line = console.lines().find(|l| l.starts_with("fail:")).expect("a fail line");
+    assert!(line.contains("one program only"), "{line}");
+    let cert = std::fs::read_to_string(dir.join("out").join(serial).join("certificate.json")).unwrap();
+    let cert: serde_json::Value = serde_json::from_str(&cert).unwrap();
+    assert!(cert["reasons"].as_array().is_some_and(|r| !r.is_empty()), "{cert}");
+    // Its in-sample figures are not shown as held out, and no table is named to flash.
+    let qfa = &cert["unit"]["calibrated"]["qfa"];
+    for key in ["held_out_sensitivity_ppm_per_c", "held_out_bias_ug"] {
+        assert!(qfa[key]["not_computed"].as_str().is_some_and(|w| w.contains("in-sample")), "{key}: {qfa}");
+    }
+    let page = std::fs::read_to_string(dir.join("out").join(serial).join("certificate.html")).unwrap();
+    assert!(page.contains("none: the unit FAILs, so its tables are held back"), "table to flash");
+
+    // The same log alone, with a limits file: the exit names each limit that could not be judged.
+    let limits = dir.join("limits.toml");
+    std::fs::write(&limits, "held_out_bias_ug = 50\n").unwrap();
+    let out = dir.join("alone");
+    let (ok, text) = common::lab(&[
+        "calibrate",
+        "--log",
+        log.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--limits",
+        limits.to_str().unwrap(),
+        "--no-plots",
+    ]);
+    assert!(!ok, "{text}");
+    assert!(text.contains("fails 2 limit(s)") && text.contains("in-sample"), "{text}");
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(!report.contains("never saw"), "the held-out line claims rows the fit never saw");
 }
 
 /// A fleet of four (three of them bad) is too few to compare units with: no unit is flagged

@@ -231,6 +231,16 @@ pub struct FleetUnit {
     pub lot: Option<UnitLot>,
 }
 
+impl FleetUnit {
+    /// Whether a table of the unit may be flashed: it was calibrated and does not FAIL (a
+    /// FAIL holds its tables back, the prior's included). Every page and the console name
+    /// a table to flash by this alone.
+    #[must_use]
+    pub fn flashable(&self) -> bool {
+        self.calibrated && self.decision != Decision::Fail
+    }
+}
+
 /// A unit's lot.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct UnitLot {
@@ -610,9 +620,17 @@ fn capability(cal: &[Option<&Calibrated>], axes: &[String], limits: &Limits) -> 
     }
     let qfa: Vec<&super::qfa::QfaFigures> = cal.iter().flatten().filter_map(|c| c.qfa.as_ref()).collect();
     if !qfa.is_empty() {
-        let v = qfa.iter().map(|q| q.held_out_bias_ug).collect();
+        let values = |f: fn(&super::qfa::QfaFigures) -> &Measured| -> Vec<f64> {
+            qfa.iter()
+                .filter_map(|q| match f(q) {
+                    Measured::Value(v) => Some(*v),
+                    Measured::NotComputed { .. } => None,
+                })
+                .collect()
+        };
+        let v = values(|q| &q.held_out_bias_ug);
         out.push(one("held_out_bias_ug", "qfa", "max", limits.held_out_bias_ug, v));
-        let v = qfa.iter().map(|q| q.held_out_sensitivity_ppm_per_c).collect();
+        let v = values(|q| &q.held_out_sensitivity_ppm_per_c);
         out.push(one("held_out_sensitivity_ppm_per_c", "qfa", "max", limits.held_out_sensitivity_ppm_per_c, v));
     }
     let spans: Vec<f64> = cal.iter().flatten().map(|c| c.temp_c[1] - c.temp_c[0]).collect();

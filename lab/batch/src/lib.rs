@@ -387,7 +387,7 @@ pub fn console(fleet: &Fleet, out: &Path) -> String {
         s.push_str(&format!("{key}: {}: {reasons}\n", serial_list(&serials)));
     }
     for u in &fleet.unit {
-        if let Some(p) = &u.prior {
+        if let Some(p) = u.prior.as_ref().filter(|_| u.flashable()) {
             s.push_str(&format!(
                 "prior: {}: partial coverage, flash {} (CRC-32 {}; its own rows cover {:.0} % of the fleet's span × both \
                  branches)\n",

@@ -98,14 +98,24 @@ fn certificate_of<'a>(r: &'a UnitResult, f: &'a FleetUnit, limits_from: &'a str)
         sensor_offset_c: &f.sensor_offset_c,
         sensor_drift_c_per_h: &f.sensor_drift_c_per_h,
         shape_compared: !f.partial,
-        flash: match (&r.outcome, &f.prior) {
-            (_, Some(p)) => Some((p.table.clone(), p.table_crc32.clone())),
-            (UnitOutcome::Calibrated(c), None) => Some(("table.bin".into(), c.table_crc32.clone())),
-            (UnitOutcome::Failed { .. }, None) => None,
-        },
+        flash: table_to_flash(r, f),
         prior: &f.prior,
         limits_from,
         written_by: format!("qfa-lab {}", env!("CARGO_PKG_VERSION")),
+    }
+}
+
+/// The table to flash under unit `r`'s serial and its header's CRC-32, as every page
+/// names it: the prior's table for a unit of partial coverage, else its own `table.bin`;
+/// none for a unit that FAILs (its tables are held back) or was not calibrated.
+fn table_to_flash(r: &UnitResult, f: &FleetUnit) -> Option<(String, String)> {
+    if !f.flashable() {
+        return None;
+    }
+    match (&r.outcome, &f.prior) {
+        (_, Some(p)) => Some((p.table.clone(), p.table_crc32.clone())),
+        (UnitOutcome::Calibrated(c), None) => Some(("table.bin".into(), c.table_crc32.clone())),
+        (UnitOutcome::Failed { .. }, None) => None,
     }
 }
 
@@ -146,8 +156,14 @@ fn certificate_rows(
         ("source".into(), r.source.clone()),
         ("limits".into(), limits_from.to_string()),
     ];
-    if let Some((file, crc)) = flash {
-        kv.push(("table to flash".into(), format!("{file}, CRC-32 {crc} (its header's, what the firmware checks)")));
+    match flash {
+        Some((file, crc)) => {
+            kv.push(("table to flash".into(), format!("{file}, CRC-32 {crc} (its header's, what the firmware checks)")))
+        }
+        None if matches!(r.outcome, UnitOutcome::Calibrated(_)) => {
+            kv.push(("table to flash".into(), "none: the unit FAILs, so its tables are held back".into()));
+        }
+        None => {}
     }
     if let Some(p) = &f.prior {
         kv.push((
@@ -177,9 +193,9 @@ fn certificate_rows(
             if let Some(q) = &c.qfa {
                 kv.push((
                     "held-out scale-factor sensitivity (Table 4, ppm/°C)".into(),
-                    format!("{:.3}", q.held_out_sensitivity_ppm_per_c),
+                    m(&q.held_out_sensitivity_ppm_per_c, 3),
                 ));
-                kv.push(("held-out bias residual (µg RMS)".into(), format!("{:.1}", q.held_out_bias_ug)));
+                kv.push(("held-out bias residual (µg RMS)".into(), m(&q.held_out_bias_ug, 1)));
                 kv.push(("scale factor γ at T0 (pulses/(g·s))".into(), format!("{:.1} at {:.1} °C", q.gamma, q.t0_c)));
                 kv.push(("temperature coefficient μ/γ (ppm/°C)".into(), format!("{:.2}", q.mu_ppm_per_c)));
                 kv.push((
@@ -424,7 +440,11 @@ fn prior_section(p: &mut Page, fleet: &Fleet) {
             u.prior.as_ref().map(|p| {
                 vec![
                     u.serial.clone(),
-                    format!("{} {}", p.table, p.table_crc32),
+                    if u.flashable() {
+                        format!("{} {}", p.table, p.table_crc32)
+                    } else {
+                        format!("none: held back, the unit FAILs ({} {})", p.table, p.table_crc32)
+                    },
                     format!("{:.0} %", 100.0 * p.covered_share),
                     if p.mostly_prior { "the prior" } else { "its rows" }.to_string(),
                 ]
@@ -432,10 +452,8 @@ fn prior_section(p: &mut Page, fleet: &Fleet) {
         })
         .collect();
     if fleet.population.is_empty() && partial.is_empty() {
-        p.section("Population prior").para(
-            "No population prior: it is formed from the units of static logs with full coverage, and this batch has \
-             none (a QFA unit's cycling calibration has no prior).",
-        );
+        p.section("Population prior")
+            .para("No population prior: it is formed from the units with full coverage, and this batch has none.");
         return;
     }
     p.section("Population prior").para(&format!(
@@ -461,10 +479,10 @@ fn units_section(p: &mut Page, fleet: &Fleet, results: &[UnitResult]) {
         .iter()
         .zip(results)
         .map(|(u, r)| {
-            let crc = match (&r.outcome, &u.prior) {
-                (_, Some(p)) => format!("{} {}", p.table, p.table_crc32),
-                (UnitOutcome::Calibrated(c), None) => format!("table.bin {}", c.table_crc32),
-                (UnitOutcome::Failed { .. }, None) => "—".into(),
+            let crc = match table_to_flash(r, u) {
+                Some((table, crc)) => format!("{table} {crc}"),
+                None if matches!(r.outcome, UnitOutcome::Calibrated(_)) => "none: held back".into(),
+                None => "—".into(),
             };
             vec![u.serial.clone(), u.decision.to_string(), crc, u.reasons.join("; ")]
         })
@@ -539,8 +557,9 @@ fn plot_held_out(path: &Path, fleet: &Fleet, results: &[UnitResult]) -> Result<(
         hi = hi.max(c.bound);
         for (r, u) in results.iter().zip(&fleet.unit) {
             if let UnitOutcome::Calibrated(cal) = &r.outcome {
-                let v = match (&cal.qfa, cal.held_out_mg.iter().find(|(a, _)| *a == c.axis)) {
-                    (Some(q), _) if c.limit == "held_out_bias_ug" => Some(q.held_out_bias_ug),
+                let qfa = cal.qfa.as_ref().map(|q| &q.held_out_bias_ug);
+                let v = match (qfa, cal.held_out_mg.iter().find(|(a, _)| *a == c.axis)) {
+                    (Some(Measured::Value(v)), _) if c.limit == "held_out_bias_ug" => Some(*v),
                     (None, Some((_, Measured::Value(v)))) if c.limit == "held_out_bias_mg" => Some(*v),
                     _ => None,
                 };

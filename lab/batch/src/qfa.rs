@@ -31,10 +31,11 @@ pub const SLOPE_HALF_SPAN_C: f64 = 10.0;
 /// flashed model's coefficients.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct QfaFigures {
-    /// Held-out Table-4 scale-factor sensitivity of the table's model, ppm/°C.
-    pub held_out_sensitivity_ppm_per_c: f64,
-    /// Held-out bias residual of the table's model, µg RMS.
-    pub held_out_bias_ug: f64,
+    /// Held-out Table-4 scale-factor sensitivity of the table's model, ppm/°C (not computed
+    /// for a log of one program, whose figures are in-sample).
+    pub held_out_sensitivity_ppm_per_c: Measured,
+    /// Held-out bias residual of the table's model, µg RMS (not computed as the above).
+    pub held_out_bias_ug: Measured,
     /// Eq. 11's reference temperature T0, °C.
     pub t0_c: f64,
     /// γ: K1 at T0 and Ṫ = 0, pulses/(g·s).
@@ -91,8 +92,8 @@ impl QfaFigures {
             Measured::NotComputed { .. } => None,
         };
         Some(match what {
-            "held_out_sensitivity_ppm_per_c" => self.held_out_sensitivity_ppm_per_c,
-            "held_out_bias_ug" => self.held_out_bias_ug,
+            "held_out_sensitivity_ppm_per_c" => return num(&self.held_out_sensitivity_ppm_per_c),
+            "held_out_bias_ug" => return num(&self.held_out_bias_ug),
             "gamma" => self.gamma,
             "mu_ppm_per_c" => self.mu_ppm_per_c,
             "beta_ppm_per_c2" => self.beta_ppm_per_c2,
@@ -144,6 +145,7 @@ pub(crate) fn calibrate(
         Branch::Unknown => (h, c),
     });
     let rate_limit = cal.table.hysteresis.axes[0].rate_limit_c_per_min;
+    let (sensitivity, bias_ug) = r.held_out_table_figures();
     Ok(Calibrated {
         outcome: v.outcome,
         failed_limits: v.failed(),
@@ -160,12 +162,7 @@ pub(crate) fn calibrate(
         qfa_normal: Some(normal(rows, rate_limit)),
         steps: Vec::new(),
         glitches_per_h: glitches_per_hour(log),
-        qfa: Some(figures(
-            &cal.table.hysteresis.axes[0],
-            r.sensitivity_ppm_per_c.hysteresis,
-            r.bias_residual_ug.hysteresis,
-            ageing,
-        )),
+        qfa: Some(figures(&cal.table.hysteresis.axes[0], sensitivity, bias_ug, ageing)),
     })
 }
 
@@ -249,7 +246,7 @@ fn structure(mode: qfa_calibrate::fit::BranchMode, shape: qfa_calibrate::fit::Cu
 }
 
 /// The fleet's figures of one flashed axis model and its held-out figures.
-fn figures(axis: &qfa_thermal::AxisModel, sensitivity: f64, bias_ug: f64, ageing: Measured) -> QfaFigures {
+fn figures(axis: &qfa_thermal::AxisModel, sensitivity: Measured, bias_ug: Measured, ageing: Measured) -> QfaFigures {
     let s = &axis.scale;
     let gamma = f64::from(s.gamma);
     let ppm = |x: f32| f64::from(x) / gamma * 1e6;

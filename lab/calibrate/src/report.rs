@@ -16,6 +16,7 @@ use crate::compensate::{compensate_run, not_compensated};
 use crate::metrics::{bin_series, bins_sensitivity, rms, Bin};
 use qfa_log::cycling::Run;
 use qfa_log::pairing::{trace_run, PairedLog, Trace};
+use qfa_report::verdict::Measured;
 
 /// Figures per compensation variant.
 #[derive(Clone, Copy, Debug, Default, Serialize, PartialEq)]
@@ -215,6 +216,27 @@ pub struct Report {
     /// bytes that depend on the log alone).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub timings_s: Option<Timings>,
+}
+
+/// Why a one-program log's held-out figures are not computed.
+pub const IN_SAMPLE: &str = "one program only: the figures are in-sample, not held out";
+
+impl Report {
+    /// `table.bin`'s held-out Table-4 sensitivity (ppm/°C) and bias residual (µg RMS): what
+    /// its limits judge, its verdict expects in use and a batch compares. Not computed on a
+    /// one-program log ([`IN_SAMPLE`]): its figures were scored on the rows they were
+    /// fitted on.
+    #[must_use]
+    pub fn held_out_table_figures(&self) -> (Measured, Measured) {
+        let figure = |x: f64| {
+            if self.held_out {
+                Measured::Value(x)
+            } else {
+                Measured::NotComputed { not_computed: IN_SAMPLE.into() }
+            }
+        };
+        (figure(self.sensitivity_ppm_per_c.hysteresis), figure(self.bias_residual_ug.hysteresis))
+    }
 }
 
 /// Step timings, s.

@@ -3,7 +3,7 @@
 
 use crate::report::Report;
 use crate::static_cal::report::{PlotRows, StaticCalibration};
-use qfa_report::verdict::{Expected, FileUse, LimitsChoice, Verdict};
+use qfa_report::verdict::{Expected, FileUse, LimitsChoice, Measured, Verdict};
 
 /// The held-out rows' mean residual minus the training rows', per axis, mg, with the
 /// held-out RMS: `(axis, step_mg, heldout_rms_mg)`. Axes without held-out or training rows
@@ -113,11 +113,20 @@ const STEP_SHARE: f64 = 0.5;
 #[must_use]
 pub fn static_verdict(cal: &StaticCalibration, limits: &LimitsChoice, files: &[String], notes: &[String]) -> Verdict {
     let r = &cal.report;
-    let held: Vec<(String, f64)> =
-        r.axes.iter().map(|a| (a.axis.clone(), a.ours.score().map_or(f64::NAN, |s| s.rms_mg))).collect();
+    let held: Vec<(String, Measured)> = r
+        .axes
+        .iter()
+        .map(|a| {
+            let m = a.ours.score().map_or_else(
+                || Measured::NotComputed { not_computed: "no held-out figure could be formed".into() },
+                |s| Measured::Value(s.rms_mg),
+            );
+            (a.axis.clone(), m)
+        })
+        .collect();
     let span = r.coverage.temp_c[1] - r.coverage.temp_c[0];
     let checks = limits.limits.static_checks(&held, span);
-    let answer = match held.iter().find(|(_, v)| !v.is_finite()) {
+    let answer = match held.iter().find(|(_, v)| matches!(v, Measured::NotComputed { .. })) {
         Some(_) => "no held-out figure could be formed, so nothing says what to expect in use".to_string(),
         None if checks.iter().all(|c| c.pass) => {
             "table.bin meets every limit held out; flash it, or load the exported parameters".to_string()
@@ -137,8 +146,12 @@ pub fn static_verdict(cal: &StaticCalibration, limits: &LimitsChoice, files: &[S
     v.limits_from = limits.source_for(&v.checks);
     v.expect = held
         .iter()
-        .filter(|(_, x)| x.is_finite())
-        .map(|(a, x)| Expected { axis: a.clone(), what: "held-out bias RMS".into(), value: *x, unit: "mg".into() })
+        .filter_map(|(a, x)| match x {
+            Measured::Value(x) => {
+                Some(Expected { axis: a.clone(), what: "held-out bias RMS".into(), value: *x, unit: "mg".into() })
+            }
+            Measured::NotComputed { .. } => None,
+        })
         .collect();
     v.covers = Some(r.coverage.covers());
     v.warnings.extend(later_leg_warnings(&cal.plot).into_iter().map(|(_, w)| w));
@@ -176,10 +189,12 @@ pub(crate) fn cycling_verdict(
     files: &[String],
     notes: &[String],
 ) -> Verdict {
-    let (s, b) = (r.sensitivity_ppm_per_c.hysteresis, r.bias_residual_ug.hysteresis);
+    let (sensitivity, bias) = r.held_out_table_figures();
     let c = &r.coverage.covered;
     let span = c.temp_c[1] - c.temp_c[0];
-    let checks = limits.limits.cycling_checks(axis, s, b, span);
+    // One program: the held-out limits have no figure to judge, and each check fails saying
+    // why (so the reasons a batch or `--limits` gives are those checks, never an empty list).
+    let checks = limits.limits.cycling_checks(axis, sensitivity.clone(), bias.clone(), span);
     let answer = if !r.held_out {
         "one program only: the figures are in-sample, so nothing says what to expect in use".to_string()
     } else if checks.iter().all(|c| c.pass) {
@@ -187,26 +202,35 @@ pub(crate) fn cycling_verdict(
     } else {
         format!("table.bin fails {}", checks.iter().filter(|c| !c.pass).map(|c| c.limit).collect::<Vec<_>>().join(", "))
     };
-    let held_out = format!(
-        "tables fitted on programs {}, scored on programs {} (whole programs the fit never saw)",
-        r.fit_programs.join(", "),
-        r.eval_programs.join(", ")
-    );
+    let held_out = if r.held_out {
+        format!(
+            "tables fitted on programs {}, scored on programs {} (whole programs the fit never saw)",
+            r.fit_programs.join(", "),
+            r.eval_programs.join(", ")
+        )
+    } else {
+        format!(
+            "none: the log holds one program ({}), so the tables were scored on the rows they were fitted on",
+            r.fit_programs.join(", ")
+        )
+    };
     let mut v = Verdict::new(answer, held_out, checks);
-    if !r.held_out {
-        // In-sample figures are not held out: the verdict cannot pass on them.
-        v.outcome = qfa_report::verdict::Outcome::Fail;
-    }
     v.limits_from = limits.source_for(&v.checks);
-    v.expect = vec![
-        Expected {
-            axis: axis.into(),
-            what: "held-out scale-factor sensitivity".into(),
-            value: s,
-            unit: "ppm/°C".into(),
-        },
-        Expected { axis: axis.into(), what: "held-out bias residual RMS".into(), value: b, unit: "µg".into() },
-    ];
+    // In-sample figures say nothing of use: the report's figures section shows them,
+    // marked in-sample, and nothing is expected in use.
+    let expect = |what: &str, m: &Measured, unit: &str| match m {
+        Measured::Value(value) => {
+            Some(Expected { axis: axis.into(), what: what.into(), value: *value, unit: unit.into() })
+        }
+        Measured::NotComputed { .. } => None,
+    };
+    v.expect = [
+        expect("held-out scale-factor sensitivity", &sensitivity, "ppm/°C"),
+        expect("held-out bias residual RMS", &bias, "µg"),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
     v.covers = Some(c.covers());
     let rej = r.rejected_readings;
     if rej.outside_sensor_range > 0 {
@@ -228,7 +252,7 @@ pub(crate) fn cycling_verdict(
         qfa_log::cycling::glitches_sentence(&r.skipped_glitches)
             .map(|s| format!("{s}; each is in report.json's skipped_glitches")),
     );
-    v.warnings.extend(worse_than_a_peer(b, r.peers_bias_residual_ug));
+    v.warnings.extend(worse_than_a_peer(r.bias_residual_ug.hysteresis, r.peers_bias_residual_ug));
     v.warnings.extend(notes.iter().cloned());
     v.files = files.iter().map(|f| FileUse::of(f)).collect();
     v.hold_back_if_failed();

@@ -121,13 +121,24 @@ pub struct Check {
 }
 
 impl Check {
-    /// A check of `value` (a figure that is not finite was not measured: it fails, named
-    /// as such).
-    fn new(limit: &'static str, axis: &str, value: f64, bound: f64, sense: &'static str, unit: &'static str) -> Self {
-        let (value, pass) = if value.is_finite() {
-            (Measured::Value(value), if sense == "max" { value <= bound } else { value >= bound })
-        } else {
-            (Measured::NotComputed { not_computed: "no held-out figure could be formed".into() }, false)
+    /// A check of `value`: a figure that was not computed fails, with its reason; one that
+    /// is not finite was not measured and fails, named as such.
+    fn new(
+        limit: &'static str,
+        axis: &str,
+        value: Measured,
+        bound: f64,
+        sense: &'static str,
+        unit: &'static str,
+    ) -> Self {
+        let (value, pass) = match value {
+            Measured::Value(v) if v.is_finite() => {
+                (Measured::Value(v), if sense == "max" { v <= bound } else { v >= bound })
+            }
+            Measured::Value(_) => {
+                (Measured::NotComputed { not_computed: "no held-out figure could be formed".into() }, false)
+            }
+            not @ Measured::NotComputed { .. } => (not, false),
         };
         Self { limit, axis: axis.to_string(), value, bound, sense, unit, pass }
     }
@@ -517,18 +528,24 @@ impl Limits {
 
     /// The static-log checks: each axis's held-out bias RMS (rows), and the span.
     #[must_use]
-    pub fn static_checks(&self, held_out_mg: &[(String, f64)], span_c: f64) -> Vec<Check> {
+    pub fn static_checks(&self, held_out_mg: &[(String, Measured)], span_c: f64) -> Vec<Check> {
         let mut c: Vec<Check> = held_out_mg
             .iter()
-            .map(|(axis, v)| Check::new("held_out_bias_mg", axis, *v, self.held_out_bias_mg, "max", "mg"))
+            .map(|(axis, v)| Check::new("held_out_bias_mg", axis, v.clone(), self.held_out_bias_mg, "max", "mg"))
             .collect();
-        c.push(Check::new("min_span_c", "all", span_c, self.min_span_c, "min", "°C"));
+        c.push(Check::new("min_span_c", "all", Measured::Value(span_c), self.min_span_c, "min", "°C"));
         c
     }
 
     /// The cycling-log checks: held-out sensitivity and bias residual, and the span.
     #[must_use]
-    pub fn cycling_checks(&self, axis: &str, sensitivity_ppm_per_c: f64, bias_ug: f64, span_c: f64) -> Vec<Check> {
+    pub fn cycling_checks(
+        &self,
+        axis: &str,
+        sensitivity_ppm_per_c: Measured,
+        bias_ug: Measured,
+        span_c: f64,
+    ) -> Vec<Check> {
         vec![
             Check::new(
                 "held_out_sensitivity_ppm_per_c",
@@ -539,7 +556,7 @@ impl Limits {
                 "ppm/°C",
             ),
             Check::new("held_out_bias_ug", axis, bias_ug, self.held_out_bias_ug, "max", "µg"),
-            Check::new("min_span_c", "all", span_c, self.min_span_c, "min", "°C"),
+            Check::new("min_span_c", "all", Measured::Value(span_c), self.min_span_c, "min", "°C"),
         ]
     }
 }

@@ -23,7 +23,8 @@ fn limits_refuse_a_unit_mistake_on_either_side_and_unknown_keys() {
 
 fn verdict(values: &[f64]) -> Verdict {
     let l = Limits::default();
-    let axes: Vec<(String, f64)> = values.iter().enumerate().map(|(i, v)| (format!("a{i}"), *v)).collect();
+    let axes: Vec<(String, Measured)> =
+        values.iter().enumerate().map(|(i, v)| (format!("a{i}"), Measured::Value(*v))).collect();
     Verdict::new("a unit", "held out on the later leg", l.static_checks(&axes, 40.0))
 }
 
@@ -72,7 +73,7 @@ fn a_limits_file_for_the_other_kind_of_log_is_refused_and_partial_files_name_the
     let c = LimitsChoice::from_arg(Some(&cyc)).unwrap();
     assert!(matches!(c.check_applies("static", &STATIC_KEYS), Err(LimitsError::NoneApply { .. })));
     assert!(c.check_applies("cycling", &CYCLING_KEYS).is_ok());
-    let checks = c.limits.cycling_checks("ax", 0.3, 9.0, 100.0);
+    let checks = c.limits.cycling_checks("ax", Measured::Value(0.3), Measured::Value(9.0), 100.0);
     let from = c.source_for(&checks);
     assert!(from.ends_with("(defaults for held_out_sensitivity_ppm_per_c, min_span_c)"), "{from}");
     let empty = dir.join("empty.toml");
@@ -103,4 +104,41 @@ fn a_missing_limits_file_is_named_with_what_the_system_said() {
     let e = Limits::from_file(&path).expect_err("refused");
     assert!(matches!(&e, LimitsError::Read { file, kind: std::io::ErrorKind::NotFound, .. } if *file == path), "{e:?}");
     assert_eq!(e.to_string(), format!("{}: {system}", path.display()));
+}
+
+/// Over random figures (values, figures not computed, not finite) and merges of random
+/// parts: a verdict fails exactly when it has a failed line to give, and each such line
+/// says why (its figure, or why none). A FAIL with nothing to say is what a batch once
+/// printed as "fail: SN0002: " for a unit logged through one program.
+#[test]
+fn a_verdict_fails_exactly_when_it_can_say_which_limit_and_why() {
+    let l = Limits::default();
+    let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
+    let mut next = move || {
+        seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let mut figure = || match next() {
+        x if x < 0.15 => Measured::NotComputed { not_computed: "one program only".into() },
+        x if x < 0.2 => Measured::Value(f64::NAN),
+        x => Measured::Value(10.0 * x),
+    };
+    for _ in 0..500 {
+        let parts: Vec<(String, Verdict)> = (0..3)
+            .map(|p| {
+                let axes: Vec<(String, Measured)> = (0..3).map(|a| (format!("a{a}"), figure())).collect();
+                let cyc = l.cycling_checks("u", figure(), figure(), 40.0);
+                let checks = if p % 2 == 0 { l.static_checks(&axes, 40.0) } else { cyc };
+                (format!("p{p}"), Verdict::new("a unit", "held out", checks))
+            })
+            .collect();
+        let merged = Verdict::merge(&parts, "default limits", vec![]);
+        for v in parts.iter().map(|(_, v)| v).chain([&merged]) {
+            let failed = v.failed();
+            assert_eq!(v.outcome == Outcome::Fail, !failed.is_empty(), "{failed:?}");
+            for line in &failed {
+                assert!(line.ends_with("(FAIL)") && !line.contains("NaN"), "{line}");
+            }
+        }
+    }
 }
