@@ -251,11 +251,13 @@ impl AxisRows<'_> {
     /// half as much, at the same time after every turn the other way that has whole windows
     /// there. A split the table does not hold repeats so however long the output takes to
     /// cross from one branch to the other (a die lag and a play of a few °C: on the second
-    /// population generator about 200 s after the branch turned), and a shock does not. A
-    /// step that does not repeat is not told a shock when it is that near the turn: the
-    /// other turn may lie in the rows the table was fitted on, where the residual holds
-    /// the split in-sample (the lab population's top turn is held out, its bottom turn
-    /// fitted), so a shock within [`TURN_WINDOW_S`] of a turn reads as the turn's.
+    /// population generator about 200 s after the branch turned), and a shock does not.
+    ///
+    /// Within [`TURN_WINDOW_S`] of the turn the repeat is asked only of the other turns in
+    /// the held-out rows: a turn in the rows the table was fitted on holds the split
+    /// in-sample, so its residual shows no step either way (the lab population's top turn is
+    /// held out, its bottom turn fitted). With no other turn held out, a step that near the
+    /// turn reads as the turn's: there is nothing to tell a shock there from the split.
     fn split_at_turns(
         &self,
         series: &[f64],
@@ -265,14 +267,24 @@ impl AxisRows<'_> {
         let turns = branch_turns(plot);
         let &(turn_s, to_heating) = turns.iter().rev().find(|(t, _)| *t <= at_s + TURN_WINDOW_S)?;
         let here = self.step_at(series, at_s)?;
-        let others: Vec<f64> = turns
+        // (step, whether the probe falls in the held-out rows) after each turn the other way.
+        let others: Vec<(f64, bool)> = turns
             .iter()
             .filter(|(_, h)| *h != to_heating)
-            .filter_map(|(t, _)| self.step_at(series, t + (at_s - turn_s)))
+            .filter_map(|(t, _)| {
+                let probe = t + (at_s - turn_s);
+                let step = self.step_at(series, probe)?;
+                let row = plot.time_s.partition_point(|&x| x < probe);
+                Some((step, plot.heldout.get(row).copied().unwrap_or(false)))
+            })
             .collect();
-        let near = (at_s - turn_s).abs() <= TURN_WINDOW_S;
-        let repeats = !others.is_empty() && others.iter().all(|s| s * here < 0.0 && s.abs() >= 0.5 * here.abs());
-        (near || repeats).then_some((turn_s, to_heating))
+        let repeat = |s: f64| s * here < 0.0 && s.abs() >= 0.5 * here.abs();
+        let split = if (at_s - turn_s).abs() <= TURN_WINDOW_S {
+            others.iter().filter(|o| o.1).all(|o| repeat(o.0))
+        } else {
+            !others.is_empty() && others.iter().all(|o| repeat(o.0))
+        };
+        split.then_some((turn_s, to_heating))
     }
 
     /// The step of `series` at `at_s` (s since the first row): a line and a step fitted
@@ -412,11 +424,14 @@ mod tests {
     /// other way at the other turn: the unit's split. A shock at the same place does not
     /// repeat: a shift. (The second population generator's three 3× units were told "a
     /// shift, not thermal" by the 2-minute window alone; the first case fails on that rule.)
-    #[test]
-    fn a_split_crossing_slowly_is_told_from_a_shock_by_its_repeat_at_the_other_turn() {
+    /// 20 °C, up to 60 °C at 2 °C/min (the temperature turns at 3 000 s), down to 20 (turns
+    /// at 4 200 s), up to 60, hold, at 1-s rows; the firmware's branch turns a minute after
+    /// the temperature. Returns the times, temperatures and branches, and the clearest step
+    /// of a residual `extra(row)` plus white noise of 0.1 mg (seed `seed`), the rows from
+    /// `heldout_from_s` on held out.
+    type Probe<'a> = &'a dyn Fn(&dyn Fn(usize) -> f64, u64, f64) -> ResidualStep;
+    fn three_turns(check: impl FnOnce(&[f64], &[f64], Probe<'_>)) {
         use qfa_thermal::model::Branch;
-        // 20 °C, up to 60 °C at 2 °C/min (turn at 3 000 s), down to 20 (turn at 4 200 s),
-        // up to 60, hold.
         let program = |t: f64| {
             let r = 2.0 / 60.0;
             if t < 1800.0 {
@@ -431,22 +446,11 @@ mod tests {
         };
         let time: Vec<f64> = (0..9000u32).map(f64::from).collect();
         let temp: Vec<f64> = time.iter().map(|&t| program(t)).collect();
-        // The play on the die's temperature, the die a 200-s lag behind the sensor.
-        let (mut die, mut play): (f64, f64) = (20.0, 20.0 - 0.5);
-        let split: Vec<f64> = temp
-            .iter()
-            .map(|&tc| {
-                die += (tc - die) / 200.0;
-                play = play.clamp(die - 0.5, die + 0.5);
-                (die - play) / 0.5
-            })
-            .collect();
-        // The branch turns a minute after the temperature.
         let branch: Vec<Branch> = time
             .iter()
             .map(|&t| if (3060.0..4260.0).contains(&t) { Branch::Cooling } else { Branch::Heating })
             .collect();
-        let run = |extra: &dyn Fn(usize) -> f64, seed: u64| {
+        let run = |extra: &dyn Fn(usize) -> f64, seed: u64, heldout_from_s: f64| {
             let mut rng = qfa_rng::seeded(seed);
             let resid: Vec<f64> = (0..time.len()).map(|i| extra(i) + 0.1 * qfa_rng::normal(&mut rng)).collect();
             let accel: Vec<f64> = resid.iter().zip(&temp).map(|(r, t)| r + 0.02 * t).collect();
@@ -454,22 +458,71 @@ mod tests {
                 time_s: time.clone(),
                 temp_c: temp.clone(),
                 branch: branch.clone(),
-                heldout: vec![false; time.len()],
+                heldout: time.iter().map(|&t| t >= heldout_from_s).collect(),
                 axes: vec![("ay".into(), accel, resid)],
             };
             let steps = residual_steps(&time, &temp, &plot, &[20.0]);
             assert_eq!(steps.len(), 1, "{steps:?}");
             steps[0].clone()
         };
-        let s = run(&|i| split[i], 1);
-        assert!(s.at_s - 3060.0 > TURN_WINDOW_S, "found past the 2-minute window: {s:?}");
-        assert_eq!(s.at_turn, Some((3060.0, false)), "{s:?}");
-        assert!(s.words().ends_with("not a shock"), "{}", s.words());
-        let shock_at = s.at_s;
-        let s = run(&|i| if time[i] >= shock_at { -2.0 } else { 0.0 }, 2);
-        assert!((s.at_s - shock_at).abs() <= 5.0, "{s:?}");
-        assert_eq!(s.at_turn, None, "{s:?}");
-        assert!(s.words().ends_with("a shift, not thermal"), "{}", s.words());
+        check(&time, &temp, &run);
+    }
+
+    /// A play on a die that lags the sensor by `lag_s`: the split (±1 mg) per row of `temp`.
+    fn lagged_play(temp: &[f64], lag_s: f64) -> Vec<f64> {
+        let (mut die, mut play): (f64, f64) = (20.0, 20.0 - 0.5);
+        temp.iter()
+            .map(|&tc| {
+                die += (tc - die) / lag_s;
+                play = play.clamp(die - 0.5, die + 0.5);
+                (die - play) / 0.5
+            })
+            .collect()
+    }
+
+    /// A unit whose split the table does not hold at all, crossing late: its die lags the
+    /// sensor by 200 s and a play of half-width 0.5 °C makes the split (±1 mg), so the
+    /// output crosses from one branch to the other about 2.5 minutes after the firmware's
+    /// branch turns, and the step is found there, past [`TURN_WINDOW_S`]. It repeats the
+    /// other way at the other turn: the unit's split. A shock at the same place does not
+    /// repeat: a shift. (The second population generator's three 3× units were told "a
+    /// shift, not thermal" by the 2-minute window alone; the first case fails on that rule.)
+    #[test]
+    fn a_split_crossing_slowly_is_told_from_a_shock_by_its_repeat_at_the_other_turn() {
+        three_turns(|time, temp, run| {
+            let split = lagged_play(temp, 200.0);
+            let s = run(&|i| split[i], 1, f64::INFINITY);
+            assert!(s.at_s - 3060.0 > TURN_WINDOW_S, "found past the 2-minute window: {s:?}");
+            assert_eq!(s.at_turn, Some((3060.0, false)), "{s:?}");
+            assert!(s.words().ends_with("not a shock"), "{}", s.words());
+            let shock_at = s.at_s;
+            let s = run(&|i| if time[i] >= shock_at { -2.0 } else { 0.0 }, 2, f64::INFINITY);
+            assert!((s.at_s - shock_at).abs() <= 5.0, "{s:?}");
+            assert_eq!(s.at_turn, None, "{s:?}");
+            assert!(s.words().ends_with("a shift, not thermal"), "{}", s.words());
+        });
+    }
+
+    /// Within the 2-minute window a step is the turn's split only if it repeats the other way
+    /// after every other turn in the held-out rows. Rows from 3 500 s on held out (the turn
+    /// to heating at 4 260 s among them): a shock 40 s after the turn to cooling does not
+    /// repeat there, and is a shift (before, the window alone called it the split); a split
+    /// crossing fast (a 20-s die lag) repeats and is the split. With no other turn held out
+    /// the window decides, as before.
+    #[test]
+    fn a_shock_just_after_a_turn_is_a_shift_when_a_held_out_turn_shows_no_split() {
+        three_turns(|time, temp, run| {
+            let shock = |i: usize| if time[i] >= 3100.0 { -2.0 } else { 0.0 };
+            let s = run(&shock, 3, 3500.0);
+            assert!((s.at_s - 3100.0).abs() <= 5.0, "{s:?}");
+            assert_eq!(s.at_turn, None, "{s:?}");
+            assert!(s.words().ends_with("a shift, not thermal"), "{}", s.words());
+            let split = lagged_play(temp, 20.0);
+            let s = run(&|i| split[i], 4, 3500.0);
+            assert!(s.at_turn.is_some() && s.words().ends_with("not a shock"), "{s:?}");
+            let s = run(&shock, 3, f64::INFINITY);
+            assert_eq!(s.at_turn, Some((3060.0, false)), "nothing held out to tell it by: {s:?}");
+        });
     }
 
     /// A shock on a ramp that the table took into its curve (the residual holds no step) is
