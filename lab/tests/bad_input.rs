@@ -340,6 +340,34 @@ fn static_log_bad_inputs_get_their_exact_errors() {
 
 const CYCLING_HEADER: &str = "program,run,time_s,input_g,temp_c,pulses,interval_s\n";
 
+/// An axis that reads one value on every row (a stuck output, or a column the logger filled
+/// with a constant) is refused, by `calibrate`, `discover` and `lint` alike, naming the axis,
+/// its column and the value. Before, such a unit got a flat table whose held-out residual
+/// was zero, and its verdict, and a batch's, was PASS. The column is overwritten here as
+/// text, with no code of the lab's.
+#[test]
+fn a_stuck_axis_is_refused_not_passed() {
+    let d = dir();
+    let stuck = d.join("stuck.tsv");
+    static_log(&stuck, |_, r| {
+        let mut f: Vec<String> = r.split('\t').map(str::to_string).collect();
+        f[4] = "-9.806650".into();
+        f.join("\t")
+    });
+    let log = stuck.to_str().unwrap();
+    for cmd in ["calibrate", "discover"] {
+        let out = d.join(format!("stuck-{cmd}"));
+        fails_with(
+            &static_args(cmd, log, out.to_str().unwrap(), "", &FLAGS),
+            "az (column `acc_z`) reads -1 g on every one of its",
+        );
+    }
+    let mut args = vec!["lint", "--log", log];
+    args.extend(FLAGS);
+    let (_, text) = lab(&args);
+    assert!(text.contains("[error] outputs: az (column `acc_z`) reads -1 g"), "{text}");
+}
+
 fn cycling(rows: &[(&str, &str, f64)], n: usize) -> String {
     let mut s = CYCLING_HEADER.to_string();
     for &(prog, run, g) in rows {

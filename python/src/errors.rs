@@ -115,6 +115,7 @@ impl Kind for StaticCalError {
             Self::BlocksTooShort { .. } => "BlocksTooShort",
             Self::SpanTooSmall { .. } => "SpanTooSmall",
             Self::TooFewRowsPerDegree { .. } => "TooFewRowsPerDegree",
+            Self::StuckAxis { .. } => "StuckAxis",
             Self::Fit(..) => "Fit",
             Self::Figure(_) => "Figure",
             Self::Coverage(_) => "Coverage",

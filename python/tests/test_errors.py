@@ -80,6 +80,17 @@ def test_unequal_columns_and_bad_holdout() -> None:
         q.calibrate(q.log_from_arrays(np.arange(100.0), np.linspace(20, 30, 100), {"ax": np.zeros(100)}), holdout="sideways")
 
 
+def test_a_stuck_axis_is_refused_with_its_kind() -> None:
+    """An axis that reads one value on every row is a stuck output or a constant column:
+    refused, not calibrated into a flat table that meets every limit."""
+    t = np.arange(3000.0)
+    temp = 25.0 + 35.0 * np.sin(t / 300.0)
+    log = q.log_from_arrays(t, temp, {"ax": 1e-3 + 1e-6 * temp, "az": np.full(3000, 1.0)})
+    with pytest.raises(q.CalibrationError, match="az .* reads 1 g on every one of its 3000 rows") as e:
+        q.calibrate(log)
+    assert e.value.kind == "StuckAxis"
+
+
 def test_firmware_errors_are_typed() -> None:
     with pytest.raises(q.ConfigError) as e:
         q.Compensator(confirm_samples=1)
@@ -132,7 +143,7 @@ def _hot_log() -> q.Log:
     """Three axes at rest over 15..85 °C: above the 80 °C ArduPilot's TMAX accepts."""
     t = np.arange(3000.0)
     temp = 50.0 + 35.0 * np.sin(t / 300.0)
-    return q.log_from_arrays(t, temp, {"ax": 1e-3 + 1e-6 * temp, "ay": -2e-3 + 0 * t, "az": 1.0 + 2e-6 * temp})
+    return q.log_from_arrays(t, temp, {"ax": 1e-3 + 1e-6 * temp, "ay": -2e-3 - 1e-6 * temp, "az": 1.0 + 2e-6 * temp})
 
 
 def _write(path: Path, text: str) -> Path:

@@ -283,6 +283,16 @@ pub fn lint_static(bytes: &[u8], log: &StaticLog) -> Vec<Finding> {
     }
     coverage_static(log, &mut out);
     glitches(log, &mut out);
+    if let Err(e) = crate::static_cal::check_outputs(log) {
+        out.push(Finding::new(
+            Severity::Error,
+            "outputs",
+            e.to_string(),
+            "every row of that column holds the same number".into(),
+            "check the sensor (a stuck output fails the unit) and --columns (a column the logger filled with a \
+             constant is not an axis)",
+        ));
+    }
     compensation_on(log, &mut out);
     out
 }

@@ -49,6 +49,18 @@ pub enum StaticCalError {
         /// Intervals the span is cut into.
         intervals: usize,
     },
+    /// An axis reads one value on every row: a stuck output or a constant column, whose
+    /// flat table would meet every limit.
+    StuckAxis {
+        /// Axis (`ax`, `ay` or `az`).
+        axis: String,
+        /// Its column in the log.
+        column: String,
+        /// The one value, g.
+        value_g: f64,
+        /// Rows.
+        rows: usize,
+    },
     /// A fit failed.
     Fit(String, FitError),
     /// A figure could not be computed.
@@ -99,6 +111,12 @@ impl fmt::Display for StaticCalError {
                  bias-grid intervals over {lo:.2}..{hi:.2} °C",
                 *rows as f64 / (b - a),
                 *needed as f64 / (b - a)
+            ),
+            Self::StuckAxis { axis, column, value_g, rows } => write!(
+                f,
+                "{axis} (column `{column}`) reads {value_g} g on every one of its {rows} rows: a stuck output or a \
+                 constant column, whose flat table would meet every limit (an accelerometer's output moves with its \
+                 noise and its temperature); check the sensor and the column mapping"
             ),
             Self::Fit(axis, e) => write!(f, "fit of {axis}: {e}"),
             Self::Figure(s) => write!(f, "figure not computable: {s}"),

@@ -192,6 +192,28 @@ pub fn resolve_holdout(log: &StaticLog, h: Holdout, block: usize) -> Result<(Sch
     }
 }
 
+/// Refuse an axis of `log` that reads one value on every row: a stuck output, or a column
+/// the logger filled with a constant. An accelerometer's output moves with its noise and with
+/// its temperature, so no axis of a chamber log holds one value throughout; calibrated, such
+/// an axis gets a flat table and a held-out residual of zero, which meets every limit.
+///
+/// # Errors
+/// [`StaticCalError::StuckAxis`] for the first such axis.
+pub fn check_outputs(log: &qfa_log::static_log::StaticLog) -> Result<(), StaticCalError> {
+    for a in &log.axes {
+        let Some(&first) = a.accel_g.first() else { continue };
+        if a.accel_g.len() > 1 && a.accel_g.iter().all(|v| v.to_bits() == first.to_bits()) {
+            return Err(StaticCalError::StuckAxis {
+                axis: a.name.clone(),
+                column: a.column.clone(),
+                value_g: first,
+                rows: a.accel_g.len(),
+            });
+        }
+    }
+    Ok(())
+}
+
 /// Refuse a log whose temperatures cannot hold the bias grid (see the module docs).
 ///
 /// # Errors

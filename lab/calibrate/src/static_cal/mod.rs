@@ -102,7 +102,7 @@ pub use crate::static_cal::choice::is_one_branch;
 pub use crate::static_cal::choice::{candidates, cv_rms_axes, CV_FOLDS, ONE_BRANCH};
 pub use crate::static_cal::error::{FigureFault, SplitFault, StaticCalError};
 pub use crate::static_cal::holdout::Holdout;
-pub use crate::static_cal::holdout::{check_coverage, resolve_holdout, Scheme};
+pub use crate::static_cal::holdout::{check_coverage, check_outputs, resolve_holdout, Scheme};
 pub use crate::static_cal::output::{
     calibrate_static_into, export_axes, markdown, static_table_toml, write_static, write_static_table, StaticRun,
 };
@@ -249,7 +249,7 @@ impl<'a> Run<'a> {
 /// Calibrate a static log (see the module docs).
 ///
 /// # Errors
-/// A log refused by `check_coverage`, a held-out scheme the log cannot hold, a failed
+/// A log refused by `check_coverage` or `check_outputs`, a held-out scheme the log cannot hold, a failed
 /// fit, or a figure that cannot be formed.
 pub fn calibrate_static(
     log: &StaticLog,
@@ -257,6 +257,7 @@ pub fn calibrate_static(
     progress: bool,
 ) -> Result<StaticCalibration, StaticCalError> {
     check_coverage(&log.temp_c, opts.grid_points, opts.block)?;
+    check_outputs(log)?;
     let (scheme, rule) = resolve_holdout(log, opts.holdout, opts.block)?;
     let view = StaticSeries::view_of(&log.time_s, &log.temp_c, opts.deadband_c_per_min);
     let run = Run::new(log, &view, opts, scheme);
