@@ -8,11 +8,11 @@ use clap::{Parser, Subcommand, ValueEnum};
 
 use qfa_calibrate::compensate::compensate_log;
 use qfa_calibrate::export::ExportOptions;
-use qfa_calibrate::lint::Severity;
 use qfa_calibrate::static_cal::{self, Holdout};
 use qfa_calibrate::{calibrate_into, CalibrateOptions};
 use qfa_discover::{static_axes, Start};
 use qfa_lab::out_path::OutError;
+use qfa_lint::Severity;
 use qfa_log::channels::Channels;
 use qfa_log::cycling::{write_compensated, write_log};
 use qfa_log::open::{open, LogFormat, OpenError, OpenedLog, ReadFlags};
@@ -139,7 +139,7 @@ fn calibrate_cmd(a: CalibrateArgs) -> Result<(), CliError> {
     let exports = ExportOptions { px4_device_id: a.px4_device_id, range_c: a.export_range, ..ExportOptions::default() };
     // Lint first: its warnings on the console, then the log it read (a refused log is the
     // error itself).
-    let lint = qfa_calibrate::lint::lint(&a.log, &a.fmt.flags());
+    let lint = qfa_lint::lint(&a.log, &a.fmt.flags());
     let warnings: Vec<String> = lint.at_least(Severity::Warning).map(ToString::to_string).collect();
     if !warnings.is_empty() && lint.log.is_ok() {
         eprintln!("lint: {} finding(s) to act on (`qfa-lab lint` lists every check):", warnings.len());
@@ -335,7 +335,7 @@ fn compensate_cmd(log: &Path, table: &Path, out: &Path, fmt: &StaticFlags) -> Re
 }
 
 fn lint_cmd(log: &Path, fmt: &StaticFlags) -> Result<(), CliError> {
-    let lint = qfa_calibrate::lint::lint(log, &fmt.flags());
+    let lint = qfa_lint::lint(log, &fmt.flags());
     println!("lint {}:", log.display());
     for f in &lint.findings {
         println!("{f}");

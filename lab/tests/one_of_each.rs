@@ -213,6 +213,7 @@ const NAMES_AND_VALUES: &[&str] = &[
     "CalibrateError::Axis",
     "StaticCalError::UnknownHoldout",
     "StaticCalError::Fit",
+    "StaticCalError::StuckAxis",
     "FigureFault::NoModelOutput",
     "FigureFault::NonFinite",
     "FigureFault::NoCandidate",

@@ -442,7 +442,7 @@ fn test(overwrite: bool) -> Result {
     c.arg("doc").env("RUSTDOCFLAGS", "-D warnings");
     // The published crate, the generator and every lab crate (a new lab crate goes here too).
     let packages =
-        "qfa-thermal qfa-rng qfa-report qfa-log qfa-sim qfa-calibrate qfa-discover qfa-batch qfa-autopilot qfa-nav qfa-lab";
+        "qfa-thermal qfa-rng qfa-report qfa-log qfa-sim qfa-calibrate qfa-lint qfa-discover qfa-batch qfa-autopilot qfa-nav qfa-lab";
     for package in packages.split(' ') {
         c.args(["-p", package]);
     }

@@ -32,8 +32,8 @@ use super::{BatchError, UnitFault};
 use qfa_calibrate::fit::{
     BranchMode, CurveShape, StaticDesign, StaticFit, StaticSeries, StaticStructure, StaticTraces,
 };
-use qfa_calibrate::lint::Severity;
 use qfa_calibrate::static_cal::{self, is_one_branch, StaticCalOptions};
+use qfa_lint::Severity;
 use qfa_log::open::{open_bytes, OpenedLog};
 use qfa_log::static_log::StaticLog;
 use qfa_report::verdict::{LimitsChoice, Measured, Outcome, STATIC_KEYS};
@@ -187,7 +187,7 @@ fn calibrate_static(
     opts: &UnitOptions,
 ) -> Result<Calibrated, BatchError> {
     opts.limits.check_applies("static", &STATIC_KEYS).map_err(|e| BatchError::Unit(UnitFault::Limits(e)))?;
-    let notes: Vec<String> = qfa_calibrate::lint::lint_static(bytes, log)
+    let notes: Vec<String> = qfa_lint::lint_static(bytes, log)
         .iter()
         .filter(|f| f.severity >= Severity::Warning)
         .filter_map(|f| f.to_string().lines().next().map(|l| format!("lint: {l}")))

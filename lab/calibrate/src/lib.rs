@@ -19,7 +19,6 @@ pub mod compensate;
 pub mod coverage;
 pub mod export;
 pub mod fit;
-pub mod lint;
 pub mod metrics;
 pub mod output_error;
 pub mod peers;

@@ -109,7 +109,7 @@ impl Scheme {
 /// # Errors
 /// Fewer than a tenth of the rows on either side: the log has no later leg to evaluate on
 /// (or nothing before it to fit on).
-pub(crate) fn split_index(log: &StaticLog) -> Result<usize, StaticCalError> {
+pub fn split_index(log: &StaticLog) -> Result<usize, StaticCalError> {
     let n = log.rows();
     let imax = (0..n).fold(0, |b, i| if log.temp_c[i] > log.temp_c[b] { i } else { b });
     let tenth = (n / 10).max(1);

@@ -102,7 +102,7 @@ pub use crate::static_cal::choice::is_one_branch;
 pub use crate::static_cal::choice::{candidates, cv_rms_axes, CV_FOLDS, ONE_BRANCH};
 pub use crate::static_cal::error::{FigureFault, SplitFault, StaticCalError};
 pub use crate::static_cal::holdout::Holdout;
-pub use crate::static_cal::holdout::{check_coverage, check_outputs, resolve_holdout, Scheme};
+pub use crate::static_cal::holdout::{check_coverage, check_outputs, resolve_holdout, split_index, Scheme};
 pub use crate::static_cal::output::{
     calibrate_static_into, export_axes, markdown, static_table_toml, write_static, write_static_table, StaticRun,
 };

@@ -1,4 +1,4 @@
-//! `qfa-lab lint`: every check the lab makes on a log before a fit, as a list of findings a
+//! qfa-lint, `qfa-lab lint`: every check the lab makes on a log before a fit, as a list of findings a
 //! person acts on (what, the evidence, the fix), for a log the reader takes and for one it
 //! refuses. `calibrate` runs it first and prints its warnings.
 //!
@@ -15,10 +15,8 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use crate::coverage::Coverage;
-use crate::static_cal::choice::is_one_branch;
-use crate::static_cal::holdout::{check_coverage, split_index};
-use crate::static_cal::StaticCalOptions;
+use qfa_calibrate::coverage::Coverage;
+use qfa_calibrate::static_cal::{check_coverage, check_outputs, is_one_branch, split_index, StaticCalOptions};
 use qfa_log::cycling::Log;
 use qfa_log::open::{open_bytes, OpenError, OpenedLog, ReadError, ReadFlags};
 use qfa_log::pairing::trace_view;
@@ -283,7 +281,7 @@ pub fn lint_static(bytes: &[u8], log: &StaticLog) -> Vec<Finding> {
     }
     coverage_static(log, &mut out);
     glitches(log, &mut out);
-    if let Err(e) = crate::static_cal::check_outputs(log) {
+    if let Err(e) = check_outputs(log) {
         out.push(Finding::new(
             Severity::Error,
             "outputs",
@@ -453,7 +451,7 @@ fn coverage_static(log: &StaticLog, out: &mut Vec<Finding>) {
         ));
     }
     let deadband = branch_deadband_c_per_min();
-    let view = crate::fit::StaticSeries::view_of(&log.time_s, &log.temp_c, deadband);
+    let view = qfa_calibrate::fit::StaticSeries::view_of(&log.time_s, &log.temp_c, deadband);
     let tr = trace_view(&view, &qfa_thermal::Extensions::default(), deadband);
     let samples = (0..tr.valid.len()).filter(|&i| tr.valid[i]).map(|i| (tr.temp_c[i], tr.rate_c_per_min[i]));
     let Ok(cov) = Coverage::of_samples(samples, f64::from(deadband)) else {
@@ -473,7 +471,7 @@ fn coverage_static(log: &StaticLog, out: &mut Vec<Finding>) {
 
 /// The legs and rates of `cov`, against what the model needs.
 fn coverage_findings(cov: &Coverage, out: &mut Vec<Finding>) {
-    let leg = |b: Option<crate::coverage::BranchRange>| {
+    let leg = |b: Option<qfa_calibrate::coverage::BranchRange>| {
         b.map_or("none".to_string(), |b| {
             format!(
                 "{} rows, {:.1}..{:.1} °C, fastest {:.2} °C/min",
