@@ -368,12 +368,63 @@ fn a_stuck_axis_is_refused_not_passed() {
     assert!(text.contains("[error] outputs: az (column `acc_z`) reads -1 g"), "{text}");
 }
 
+/// A cycling log with a stuck counter in one run, or a stuck temperature sensor, is refused
+/// naming it, before any fit, by `calibrate`, `discover` and `lint` alike. Before, in a
+/// batch the counter failed as "cross-validation: non-finite fold MSE NaN" and the sensor
+/// as "table rejected: bias.t_step_c out of range"; `calibrate` alone exited 0 on the
+/// counter, and `discover` wrote a `table.bin` for it. The columns are overwritten as
+/// text, with no code of the lab's.
+#[test]
+fn a_stuck_counter_or_sensor_on_a_cycling_log_is_named() {
+    let d = dir().join("stuck-cycling");
+    std::fs::create_dir_all(&d).unwrap();
+    let log = d.join("log.csv");
+    let (ok, text) =
+        lab(&["simulate", "--out", log.to_str().unwrap(), "--unit", "kt8-1", "--rates", "0.3,0.9", "--row-s", "10"]);
+    assert!(ok, "{text}");
+    let text = std::fs::read_to_string(&log).unwrap();
+    let header = text.lines().next().unwrap();
+    assert_eq!(header, CYCLING_HEADER.trim_end(), "the simulator's columns");
+    let edit = |name: &str, f: &dyn Fn(&mut Vec<String>)| {
+        let mut out = String::from(CYCLING_HEADER);
+        for line in text.lines().skip(1) {
+            let mut fields: Vec<String> = line.split(',').map(str::to_string).collect();
+            f(&mut fields);
+            out.push_str(&fields.join(","));
+            out.push('\n');
+        }
+        let p = d.join(name);
+        std::fs::write(&p, out).unwrap();
+        p
+    };
+    // Columns: program, run, time_s, input_g, temp_c, pulses, interval_s.
+    let counter = edit("counter.csv", &|f| {
+        if f[0] == "paper-0.3" && f[1] == "2" {
+            f[5] = "-3203000".into();
+        }
+    });
+    let sensor = edit("sensor.csv", &|f| f[4] = "22.0625".into());
+    for (log, want) in [
+        (&counter, "run 2 of program paper-0.3 counts -3203000 pulses on every one of its"),
+        (&sensor, "the temperature span is too small: 0.00 °C (22.06..22.06 °C)"),
+    ] {
+        let out = d.join("out");
+        fails_with(&["calibrate", "--log", log.to_str().unwrap(), "--out", out.to_str().unwrap(), "--no-plots"], want);
+        fails_with(&["discover", "--log", log.to_str().unwrap(), "--out", out.to_str().unwrap()], want);
+        let (_, text) = lab(&["lint", "--log", log.to_str().unwrap()]);
+        assert!(text.contains(&format!("[error] outputs: {want}")), "{text}");
+    }
+}
+
 fn cycling(rows: &[(&str, &str, f64)], n: usize) -> String {
     let mut s = CYCLING_HEADER.to_string();
     for &(prog, run, g) in rows {
         for i in 0..n {
             let t = 20.0 + 0.01 * i as f64;
-            s.push_str(&format!("{prog},{run},{},{g},{t:.4},{},10\n", 10 * (i + 1), (g * 3_200_000.0) as i64 + 100));
+            // The count moves row to row, as an I/F converter's does (a count that never
+            // moves is refused as a stuck counter).
+            let pulses = (g * 3_200_000.0) as i64 + 100 + (i % 7) as i64;
+            s.push_str(&format!("{prog},{run},{},{g},{t:.4},{pulses},10\n", 10 * (i + 1)));
         }
     }
     s

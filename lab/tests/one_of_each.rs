@@ -214,6 +214,7 @@ const NAMES_AND_VALUES: &[&str] = &[
     "StaticCalError::UnknownHoldout",
     "StaticCalError::Fit",
     "StaticCalError::StuckAxis",
+    "ContentFault::StuckPulses",
     "FigureFault::NoModelOutput",
     "FigureFault::NonFinite",
     "FigureFault::NoCandidate",

@@ -125,6 +125,17 @@ impl Kind for StaticCalError {
     }
 }
 
+/// What a cycling log's fitted runs hold that no fit can be right on.
+impl Kind for qfa_log::cycling::ContentFault {
+    fn kind(&self) -> &'static str {
+        match self {
+            Self::StuckPulses { .. } => "StuckPulses",
+            Self::SpanTooSmall { .. } => "SpanTooSmall",
+            _ => OTHER,
+        }
+    }
+}
+
 /// A cycling calibration's kind: the fit's or the compensation's own kind when one of them
 /// failed, else the stage that did.
 impl Kind for CalibrateError {
@@ -140,6 +151,7 @@ impl Kind for CalibrateError {
             Self::Toml(_) => "Toml",
             Self::Axis(_) => "Axis",
             Self::Output(_) => "Output",
+            Self::Contents(e) => e.kind(),
             _ => OTHER,
         }
     }

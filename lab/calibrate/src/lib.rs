@@ -125,6 +125,8 @@ pub enum CalibrateError {
     Axis(String),
     /// An output file, folder or plot that could not be written.
     Output(output_error::OutputError),
+    /// The runs to be fitted hold what no fit can be right on (a stuck counter or sensor).
+    Contents(qfa_log::cycling::ContentFault),
 }
 
 impl fmt::Display for CalibrateError {
@@ -141,8 +143,25 @@ impl fmt::Display for CalibrateError {
             Self::Coverage(e) => write!(f, "{e}"),
             Self::Toml(e) => write!(f, "{e}"),
             Self::Output(e) => write!(f, "{e}"),
+            Self::Contents(e) => write!(f, "{e}"),
         }
     }
+}
+
+/// Refuse the rows a cycling fit is about to be made on when it cannot be right on them,
+/// naming what they hold: a run of the fit programs whose pulse count never moves, or
+/// readings that span less than the bias grid needs. Without this a stuck counter failed
+/// as "cross-validation: non-finite fold MSE NaN" and a stuck sensor as "table rejected:
+/// bias.t_step_c out of range". A fit program without a ±1 g pair is the fit's to refuse
+/// (`FitError::NoPair`): the log's shape comes before its contents.
+///
+/// # Errors
+/// [`CalibrateError::Contents`] ([`qfa_log::cycling::Log::check_contents`]).
+pub fn check_inputs(log: &Log, paired: &PairedLog, fit_programs: &[String]) -> Result<(), CalibrateError> {
+    if fit_programs.iter().any(|p| paired.program(p).is_none()) {
+        return Ok(());
+    }
+    log.check_contents(fit_programs).map_err(CalibrateError::Contents)
 }
 
 impl std::error::Error for CalibrateError {}
@@ -211,6 +230,7 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
     // Paired once; the fit, the evaluation, the peers and the table's refit read these pairs.
     let paired = PairedLog::new(log);
     let (fit_p, eval_p) = fit_and_eval_programs(&programs, opts.fit_programs.as_deref());
+    check_inputs(log, &paired, &fit_p)?;
     let t = Instant::now();
     let pb = bar(fit_p.len() as u64, "fitting", opts.progress);
     let fitted = fit(&paired, &FitOptions::new(fit_p.clone()), Some(&pb)).map_err(CalibrateError::Fit)?;

@@ -672,6 +672,16 @@ pub(crate) fn lint_cycling(log: &Log) -> Vec<Finding> {
             "nothing to do: the firmware flags them TEMP_STALE",
         ));
     }
+    let paired_programs: Vec<String> = paired.into_iter().cloned().collect();
+    if let Err(e) = qfa_calibrate::check_inputs(log, &qfa_log::pairing::PairedLog::new(log), &paired_programs) {
+        out.push(Finding::new(
+            Severity::Error,
+            "outputs",
+            e.to_string(),
+            "calibrate refuses the log for it".into(),
+            "check the converter's count and the temperature sensor, and the columns they are logged in",
+        ));
+    }
     let deadband = branch_deadband_c_per_min();
     if let Ok(cov) = Coverage::of_log(log, &programs, deadband) {
         coverage_findings(&cov, &mut out);

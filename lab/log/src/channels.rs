@@ -270,6 +270,8 @@ pub enum ChannelsError {
     Read(crate::open::ReadError),
     /// A cycling log in which no program has paired ±1 g runs with at least 8 rows.
     NoPairedRuns,
+    /// The paired runs hold what no fit can be right on (a stuck counter or sensor).
+    Contents(crate::cycling::ContentFault),
     /// A static multi-axis log: its channels are formed per axis, by discovery's own reader.
     StaticLog,
     /// An autopilot log (PX4 ULog or ArduPilot DataFlash): calibrated, not discovered.
@@ -285,6 +287,7 @@ impl std::fmt::Display for ChannelsError {
             Self::Open(e) => write!(f, "{e}"),
             Self::Read(e) => write!(f, "{e}"),
             Self::NoPairedRuns => f.write_str("no program has paired +1 g and -1 g runs with at least 8 rows"),
+            Self::Contents(e) => write!(f, "{e}"),
             Self::StaticLog => f.write_str(
                 "a static multi-axis log: its channels are formed per axis (discover reads it with the static \
                  reader's flags); expected program,run,time_s,input_g,temp_c,pulses,interval_s or time_s,temp_c,value",
@@ -315,6 +318,11 @@ impl Channels {
     /// # Errors
     /// No program has paired ±1 g runs with at least 8 rows.
     pub(crate) fn from_cycling(log: &crate::cycling::Log, bin_s: f64) -> Result<Self, ChannelsError> {
+        // The programs with a ±1 g pair are the ones discovery fits: checked as calibration
+        // checks its fit programs, so a stuck counter or sensor is named, not fitted.
+        let paired: Vec<String> =
+            log.programs().into_iter().filter(|p| crate::pairing::pair_program(log, p).is_some()).collect();
+        log.check_contents(&paired).map_err(ChannelsError::Contents)?;
         let mut traces = Vec::new();
         for prog in log.programs() {
             let Some(pp) = crate::pairing::pair_program(log, &prog) else {

@@ -178,7 +178,90 @@ impl Log {
     pub fn runs_of<'a>(&'a self, program: &'a str) -> impl Iterator<Item = &'a Run> + 'a {
         self.runs.iter().filter(move |r| r.program == program)
     }
+
+    /// Whether the runs of `programs` hold what a fit can be right on: no run whose pulse
+    /// count never moves (an I/F converter's count moves with its noise and its
+    /// temperature), and readings that span what the core's bias grid needs (its
+    /// `MAX_BIAS_POINTS` nodes at least `MIN_GRID_STEP_C` apart). Calibration and discovery
+    /// both ask it of the programs they fit.
+    ///
+    /// # Errors
+    /// The first [`ContentFault`].
+    pub fn check_contents(&self, programs: &[String]) -> Result<(), ContentFault> {
+        let runs: Vec<&Run> = self.runs.iter().filter(|r| programs.contains(&r.program)).collect();
+        for r in &runs {
+            let Some(first) = r.samples.first() else { continue };
+            if r.samples.len() > 1 && r.samples.iter().all(|s| s.pulses == first.pulses) {
+                return Err(ContentFault::StuckPulses {
+                    program: r.program.clone(),
+                    run: r.run.clone(),
+                    pulses: first.pulses,
+                    rows: r.samples.len(),
+                });
+            }
+        }
+        let temps = runs.iter().flat_map(|r| r.samples.iter().filter_map(|s| s.temp_c));
+        let (lo_c, hi_c) = temps.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), t| (lo.min(t), hi.max(t)));
+        let step = qfa_thermal::table::limits::MIN_GRID_STEP_C;
+        let needed_c = (qfa_thermal::model::MAX_BIAS_POINTS - 1) as f64 * f64::from(step);
+        if lo_c.is_finite() && hi_c - lo_c < needed_c {
+            return Err(ContentFault::SpanTooSmall { lo_c, hi_c, needed_c });
+        }
+        Ok(())
+    }
 }
+
+/// Why the runs a fit is about to be made on cannot give a right table ([`Log::check_contents`]).
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum ContentFault {
+    /// A run's pulse count is the same on every row: a stuck counter, or a column the
+    /// logger filled with a constant.
+    StuckPulses {
+        /// Program.
+        program: String,
+        /// Run.
+        run: String,
+        /// The one count.
+        pulses: i64,
+        /// Rows of the run.
+        rows: usize,
+    },
+    /// The temperature readings span less than the bias grid needs: a stuck sensor, or a
+    /// program that never moved the temperature.
+    SpanTooSmall {
+        /// Lowest reading, °C.
+        lo_c: f64,
+        /// Highest reading, °C.
+        hi_c: f64,
+        /// Span needed, °C.
+        needed_c: f64,
+    },
+}
+
+impl fmt::Display for ContentFault {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::StuckPulses { program, run, pulses, rows } => write!(
+                f,
+                "run {run} of program {program} counts {pulses} pulses on every one of its {rows} rows: a stuck counter \
+                 or a constant column (an I/F converter's count moves with its noise and its temperature); check the \
+                 converter and the log's `pulses` column"
+            ),
+            Self::SpanTooSmall { lo_c, hi_c, needed_c } => write!(
+                f,
+                "the temperature span is too small: {:.2} °C ({lo_c:.2}..{hi_c:.2} °C); the bias grid needs at least \
+                 {needed_c:.2} °C ({} nodes at least {} °C apart, the root crate's smallest grid step): a stuck \
+                 temperature sensor, or a program that never moved the temperature",
+                hi_c - lo_c,
+                qfa_thermal::model::MAX_BIAS_POINTS,
+                qfa_thermal::table::limits::MIN_GRID_STEP_C
+            ),
+        }
+    }
+}
+
+impl std::error::Error for ContentFault {}
 
 /// What is wrong with a row.
 #[derive(Clone, Debug, PartialEq)]
