@@ -17,7 +17,6 @@ use serde::Serialize;
 
 use qfa_calibrate::coverage::Coverage;
 use qfa_calibrate::static_cal::{check_coverage, check_outputs, is_one_branch, split_index, StaticCalOptions};
-use qfa_log::cycling::Log;
 use qfa_log::open::{open_bytes, OpenError, OpenedLog, ReadError, ReadFlags};
 use qfa_log::pairing::trace_view;
 use qfa_log::replay::branch_deadband_c_per_min;
@@ -25,6 +24,9 @@ use qfa_log::robust::{median, MAD_TO_SD};
 use qfa_log::spelling::Spelling;
 use qfa_log::static_log::{StaticError, StaticLog, COMMON_NAMES};
 use qfa_log::units::{ReaderOption, UnitSource};
+
+mod cycling;
+use cycling::lint_cycling;
 
 /// How much a finding matters.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize)]
@@ -624,69 +626,6 @@ fn compensation_on(log: &StaticLog, out: &mut Vec<Finding>) {
             "",
         ));
     }
-}
-
-/// The checks on a cycling log.
-#[must_use]
-pub(crate) fn lint_cycling(log: &Log) -> Vec<Finding> {
-    let mut out = Vec::new();
-    let programs = log.programs();
-    out.push(Finding::new(
-        Severity::Ok,
-        "format",
-        format!("cycling log, {} rows, {} runs, {} program(s)", log.rows(), log.runs.len(), programs.len()),
-        format!("programs {}", programs.join(", ")),
-        "",
-    ));
-    let paired: Vec<&String> = programs
-        .iter()
-        .filter(|p| {
-            let ins: Vec<f64> = log.runs_of(p).map(|r| r.input_g).collect();
-            ins.iter().any(|g| *g > 0.5) && ins.iter().any(|g| *g < -0.5)
-        })
-        .collect();
-    if paired.is_empty() {
-        out.push(Finding::new(
-            Severity::Error,
-            "coverage",
-            "no program has a +1 g and a −1 g run: calibrate cannot form K1 and K0".into(),
-            format!("programs {}", programs.join(", ")),
-            "record the 0° and 180° positions (+1 g, −1 g) under each temperature program",
-        ));
-    } else {
-        out.push(Finding::new(
-            Severity::Ok,
-            "coverage",
-            format!("{} of {} program(s) have a ±1 g pair", paired.len(), programs.len()),
-            String::new(),
-            "",
-        ));
-    }
-    let no_temp: usize = log.runs.iter().map(|r| r.samples.iter().filter(|s| s.temp_c.is_none()).count()).sum();
-    if no_temp > 0 {
-        out.push(Finding::new(
-            Severity::Note,
-            "glitches",
-            format!("{no_temp} row(s) before the first temperature reading of their run"),
-            String::new(),
-            "nothing to do: the firmware flags them TEMP_STALE",
-        ));
-    }
-    let paired_programs: Vec<String> = paired.into_iter().cloned().collect();
-    if let Err(e) = qfa_calibrate::check_inputs(log, &qfa_log::pairing::PairedLog::new(log), &paired_programs) {
-        out.push(Finding::new(
-            Severity::Error,
-            "outputs",
-            e.to_string(),
-            "calibrate refuses the log for it".into(),
-            "check the converter's count and the temperature sensor, and the columns they are logged in",
-        ));
-    }
-    let deadband = branch_deadband_c_per_min();
-    if let Ok(cov) = Coverage::of_log(log, &programs, deadband) {
-        coverage_findings(&cov, &mut out);
-    }
-    out
 }
 
 #[cfg(test)]
