@@ -368,8 +368,10 @@ fn a_stuck_axis_is_refused_not_passed() {
     assert!(text.contains("[error] outputs: az (column `acc_z`) reads -1 g"), "{text}");
 }
 
-/// A cycling log with a stuck counter in one run, or a stuck temperature sensor, is refused
-/// naming it, before any fit, by `calibrate`, `discover` and `lint` alike. Before, in a
+/// A cycling log with a stuck counter in one run, a stuck temperature sensor, or one
+/// program's ±1 g positions labelled the other way round, is refused naming it, before any
+/// fit, by `calibrate`, `discover` and `lint` alike (the swap was "table rejected:
+/// scale.gamma out of range"). Before, in a
 /// batch the counter failed as "cross-validation: non-finite fold MSE NaN" and the sensor
 /// as "table rejected: bias.t_step_c out of range"; `calibrate` alone exited 0 on the
 /// counter, and `discover` wrote a `table.bin` for it. The columns are overwritten as
@@ -404,9 +406,16 @@ fn a_stuck_counter_or_sensor_on_a_cycling_log_is_named() {
         }
     });
     let sensor = edit("sensor.csv", &|f| f[4] = "22.0625".into());
+    // The +1 g and −1 g positions of one program labelled the other way round.
+    let swapped = edit("swapped.csv", &|f| {
+        if f[0] == "paper-0.9" && (f[3] == "1" || f[3] == "-1") {
+            f[3] = if f[3] == "1" { "-1".into() } else { "1".into() };
+        }
+    });
     for (log, want) in [
         (&counter, "run 2 of program paper-0.3 counts -3203000 pulses on every one of its"),
         (&sensor, "the temperature span is too small: 0.00 °C (22.06..22.06 °C)"),
+        (&swapped, "program paper-0.9: its ±1 g pair gives a negative scale factor"),
     ] {
         let out = d.join("out");
         fails_with(&["calibrate", "--log", log.to_str().unwrap(), "--out", out.to_str().unwrap(), "--no-plots"], want);

@@ -181,7 +181,8 @@ impl Log {
 
     /// Whether the runs of `programs` hold what a fit can be right on: no run whose pulse
     /// count never moves (an I/F converter's count moves with its noise and its
-    /// temperature), and readings that span what the core's bias grid needs (its
+    /// temperature), no ±1 g pair whose scale factor comes out negative (swapped
+    /// positions), and readings that span what the core's bias grid needs (its
     /// `MAX_BIAS_POINTS` nodes at least `MIN_GRID_STEP_C` apart). Calibration and discovery
     /// both ask it of the programs they fit.
     ///
@@ -198,6 +199,13 @@ impl Log {
                     pulses: first.pulses,
                     rows: r.samples.len(),
                 });
+            }
+        }
+        for p in programs {
+            let Some(pp) = crate::pairing::pair_program(self, p) else { continue };
+            let k1: Vec<f64> = (0..pp.rows.len()).map(|k| pp.k1_k0(self, k).0).collect();
+            if let Some(k1) = crate::robust::median(&k1).filter(|k1| *k1 < 0.0) {
+                return Err(ContentFault::NegativeScaleFactor { program: p.clone(), k1 });
             }
         }
         let temps = runs.iter().flat_map(|r| r.samples.iter().filter_map(|s| s.temp_c));
@@ -227,6 +235,14 @@ pub enum ContentFault {
         /// Rows of the run.
         rows: usize,
     },
+    /// A program's ±1 g pair gives a negative scale factor (median over its rows): its runs'
+    /// `input_g` are swapped, or the counter's sign is; a table holds a positive one.
+    NegativeScaleFactor {
+        /// Program.
+        program: String,
+        /// Median K1 = (A₊ − A₋)/(g₊ − g₋), pulses/(g·s).
+        k1: f64,
+    },
     /// The temperature readings span less than the bias grid needs: a stuck sensor, or a
     /// program that never moved the temperature.
     SpanTooSmall {
@@ -247,6 +263,12 @@ impl fmt::Display for ContentFault {
                 "run {run} of program {program} counts {pulses} pulses on every one of its {rows} rows: a stuck counter \
                  or a constant column (an I/F converter's count moves with its noise and its temperature); check the \
                  converter and the log's `pulses` column"
+            ),
+            Self::NegativeScaleFactor { program, k1 } => write!(
+                f,
+                "program {program}: its ±1 g pair gives a negative scale factor, K1 = (A₊ − A₋)/(g₊ − g₋) = {k1:.0} \
+                 pulses/(g·s) (the median over its rows): the runs' `input_g` look swapped, or the counter's sign is; \
+                 check which position is +1 g"
             ),
             Self::SpanTooSmall { lo_c, hi_c, needed_c } => write!(
                 f,
