@@ -196,12 +196,12 @@ fn a_static_limits_file_is_refused_for_a_qfa_batch_before_any_unit() {
 /// figures are in-sample, so it FAILs, and every place that says so says why. Before, its
 /// verdict failed with no limit failed, so the batch's console read "fail: SN0002: " with
 /// nothing after it, its certificate had no reason, and `calibrate --limits` on its log
-/// exited "the unit fails 0 limit(s): ". The log is cut here by its `program` column, with
-/// no code of the lab's.
+/// exited "the unit fails 0 limit(s): ", and its in-sample coefficients went into the
+/// population prior. The log is cut here by its `program` column, with no code of the lab's.
 #[test]
 fn a_unit_logged_through_one_program_fails_saying_why_everywhere() {
     let dir = scratch("qfa_batch_one_program");
-    let truth = draw_qfa(&QfaPopulationSpec { units: 3, seed: 4, bad: false, truncated: 0 });
+    let truth = draw_qfa(&QfaPopulationSpec { units: 4, seed: 4, bad: false, truncated: 0 });
     write_qfa_manifest(&dir, &truth, 2).unwrap();
     let serial = &truth.unit[1].serial;
     let log = dir.join("units").join(format!("{serial}.csv"));
@@ -216,6 +216,8 @@ fn a_unit_logged_through_one_program_fails_saying_why_everywhere() {
     }
     let unit = fleet.unit.iter().find(|u| &u.serial == serial).unwrap();
     assert!(!unit.reasons.is_empty(), "a FAIL without a reason");
+    // The units that ship define the population prior: the three others, not the FAIL.
+    assert!(fleet.population.len() == 2 && fleet.population.iter().all(|p| p.units == 3), "{:?}", fleet.population);
     assert!(unit.reasons.iter().all(|r| r.contains("in-sample")), "{:?}", unit.reasons);
     let console = qfa_batch::console(&fleet, &dir.join("out"));
     let line = console.lines().find(|l| l.starts_with("fail:")).expect("a fail line");

@@ -291,7 +291,7 @@ pub struct Fleet {
     pub capability: Vec<Capability>,
     /// Per unit, in serial order of the batch.
     pub unit: Vec<FleetUnit>,
-    /// The population prior per axis (from the full-coverage, unflagged units).
+    /// The population prior per axis (from the full-coverage, unflagged units that do not FAIL).
     pub population: Vec<super::prior::Population>,
     /// The fleet's span: the median of those units' lowest and highest readings, °C.
     pub span_c: [f64; 2],
@@ -441,8 +441,13 @@ pub(crate) fn fleet(results: &[UnitResult], limits: &Limits) -> Fleet {
             l.unit[i].map(|(lot, probability)| UnitLot { lot, probability, compared_within: l.compared_within })
         });
     }
-    let reference: Vec<&Calibrated> =
-        (0..results.len()).filter(|&i| !partial[i] && flags[i].is_empty()).filter_map(|i| cal[i]).collect();
+    // The units that ship define the population: full coverage, no flag, and not a FAIL (a
+    // unit held back by its own limits, a damaged one in a fleet too small to flag it, or
+    // one whose figures are in-sample, would move the prior's mean and covariance).
+    let reference: Vec<&Calibrated> = (0..results.len())
+        .filter(|&i| !partial[i] && flags[i].is_empty() && unit[i].decision != Decision::Fail)
+        .filter_map(|i| cal[i])
+        .collect();
     let lo: Vec<f64> = reference.iter().map(|c| c.temp_c[0]).collect();
     let hi: Vec<f64> = reference.iter().map(|c| c.temp_c[1]).collect();
     let span_c = [median(&lo).unwrap_or(0.0), median(&hi).unwrap_or(0.0)];

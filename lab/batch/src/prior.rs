@@ -6,7 +6,7 @@
 //! `x = [1, u, u², u³, ±½]`, `u = (T − 25 °C) / 50 °C` (a cubic and a constant split,
 //! scaled so the basis's columns are of one size; `±½` is the heating/cooling split: the
 //! form a partial log can borrow, whatever structure each unit's own table took). The fleet's units are draws `θ ~ N(μ, Σ)`; `μ` and `Σ` are
-//! the mean and covariance of the full-coverage, unflagged units' own least-squares `θ`
+//! the mean and covariance of the full-coverage, unflagged units' own least-squares `θ` (a unit that FAILs its limits is left out: the units that ship define the population)
 //! (their sampling error is small beside the spread: `lab/tests/batch.rs` checks the units'
 //! slopes to a tenth of it), the covariance's correlations shrunk toward none
 //! (`shrunk_covariance`: a few units' sample correlations are mostly noise). A unit's rows give `A θ ≈ y` with the
