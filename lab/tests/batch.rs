@@ -346,6 +346,38 @@ fn a_refused_unit_fails_alone_with_its_reason() {
     }
 }
 
+/// A unit whose column for one axis is missing from the chamber log (dropped or misnamed by
+/// the logger) gets a table of two axes: it FAILs, naming the axis, where it passed (its
+/// table met the limits on the axes it has). The column is cut from the log's text here.
+#[test]
+fn a_unit_missing_an_axis_column_fails_naming_it() {
+    let dir = scratch("batch-missing-axis");
+    let spec = PopulationSpec { units: 3, seed: 2, bad: false, truncated: 0, die_lags: false };
+    let truth = draw(&spec);
+    write_chamber(&dir, &truth).unwrap();
+    let text = std::fs::read_to_string(dir.join("chamber.tsv")).unwrap();
+    let gone = format!("{}.ay", truth.unit[1].serial);
+    let col = text.lines().next().unwrap().split('\t').position(|h| h == gone).expect("the column");
+    let cut: String = text
+        .lines()
+        .map(|l| {
+            l.split('\t').enumerate().filter(|(k, _)| *k != col).map(|(_, f)| f).collect::<Vec<_>>().join("\t") + "\n"
+        })
+        .collect();
+    let path = dir.join("cut.tsv");
+    std::fs::write(&path, &cut).unwrap();
+    let units = from_chamber_log(&path, cut.as_bytes(), &flags()).unwrap();
+    let fleet = qfa_batch::run(&units, &dir.join("out"), &BatchOptions::default()).unwrap().fleet.unwrap();
+    let decisions: Vec<Decision> = fleet.unit.iter().map(|u| u.decision).collect();
+    assert_eq!(decisions, [Decision::Pass, Decision::Fail, Decision::Pass], "{:?}", fleet.unit[1].reasons);
+    assert!(
+        fleet.unit[1].reasons.iter().any(|r| r.starts_with("its log holds no ay where")),
+        "{:?}",
+        fleet.unit[1].reasons
+    );
+    assert!(!fleet.unit[1].flashable());
+}
+
 /// The command as a production engineer types it: a manifest with a misspelt key is
 /// refused naming the key; without --log or --manifest the command says what it needs;
 /// `batch merge` on a folder no shard wrote says what to run first.

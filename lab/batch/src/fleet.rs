@@ -509,6 +509,34 @@ fn step_reasons(r: &UnitResult, flags: &[Flag]) -> Vec<String> {
         .collect()
 }
 
+/// Per unit, the axes it lacks that more than half of the batch's calibrated static units
+/// hold, and those axes, in words (`None` for a unit that lacks none, a QFA unit, or one not
+/// calibrated). A unit whose log lost a column got a table of fewer axes, which met its
+/// limits on the axes it has and passed.
+fn missing_axes(results: &[UnitResult]) -> Vec<Option<(String, String)>> {
+    let axes: Vec<Option<Vec<&str>>> = results
+        .iter()
+        .map(|r| match &r.outcome {
+            UnitOutcome::Calibrated(c) if c.qfa.is_none() => {
+                Some(c.structures.iter().map(|(a, _)| a.as_str()).collect())
+            }
+            _ => None,
+        })
+        .collect();
+    let held: Vec<&Vec<&str>> = axes.iter().flatten().collect();
+    let mut fleet: Vec<&str> = held.iter().flat_map(|a| a.iter().copied()).collect();
+    fleet.sort_unstable();
+    fleet.dedup();
+    fleet.retain(|axis| 2 * held.iter().filter(|a| a.contains(axis)).count() > held.len());
+    axes.iter()
+        .map(|a| {
+            let a = a.as_ref()?;
+            let lacks: Vec<&str> = fleet.iter().copied().filter(|x| !a.contains(x)).collect();
+            (!lacks.is_empty()).then(|| (lacks.join(", "), fleet.join(", ")))
+        })
+        .collect()
+}
+
 /// Each unit's decision and reasons (a failure, then what a flagged axis's residual says,
 /// then its flags), counted in `counts`.
 fn fleet_units(
@@ -518,11 +546,12 @@ fn fleet_units(
     sensor: &[(Measured, Measured)],
     counts: &mut [usize; 3],
 ) -> Vec<FleetUnit> {
+    let missing = missing_axes(results);
     results
         .iter()
         .enumerate()
         .map(|(i, r)| {
-            let (decision, mut reasons) = match &r.outcome {
+            let (mut decision, mut reasons) = match &r.outcome {
                 UnitOutcome::Failed { reason } => (Decision::Fail, vec![format!("not calibrated: {reason}")]),
                 UnitOutcome::Calibrated(c) if c.outcome == Outcome::Fail => {
                     (Decision::Fail, c.failed_limits.iter().map(|l| format!("limit: {l}")).collect())
@@ -530,6 +559,13 @@ fn fleet_units(
                 UnitOutcome::Calibrated(_) if !flags[i].is_empty() => (Decision::Review, Vec::new()),
                 UnitOutcome::Calibrated(_) => (Decision::Pass, Vec::new()),
             };
+            if let Some((lacks, fleet)) = &missing[i] {
+                decision = Decision::Fail;
+                reasons.push(format!(
+                    "its log holds no {lacks} where most of the batch's units hold {fleet}: its table leaves {lacks} \
+                     uncompensated (a column missing or misnamed in its log)"
+                ));
+            }
             reasons.extend(step_reasons(r, &flags[i]));
             reasons.extend(flags[i].iter().map(|f| format!("outside the population: {}", f.text)));
             counts[decision as usize] += 1;

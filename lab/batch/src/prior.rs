@@ -184,12 +184,13 @@ pub(crate) fn population(reference: &[&UnitNormal]) -> Vec<Population> {
     first
         .axes
         .iter()
-        .enumerate()
-        .filter_map(|(k, a)| {
+        .filter_map(|a| {
             let p = a.theta.len();
+            // Each unit's axis of the same name: units whose logs hold different axes line
+            // up by name, never by position.
             let thetas: Vec<DVector<f64>> = reference
                 .iter()
-                .filter_map(|u| u.axes.get(k))
+                .filter_map(|u| u.axes.iter().find(|x| x.axis == a.axis))
                 .filter(|x| x.theta.len() == p)
                 .map(|x| DVector::from_column_slice(&x.theta))
                 .collect();
