@@ -215,6 +215,7 @@ const NAMES_AND_VALUES: &[&str] = &[
     "StaticCalError::Fit",
     "StaticCalError::StuckAxis",
     "ContentFault::StuckPulses",
+    "ContentFault::NegativeScaleFactor",
     "FigureFault::NoModelOutput",
     "FigureFault::NonFinite",
     "FigureFault::NoCandidate",
