@@ -368,10 +368,11 @@ fn a_stuck_axis_is_refused_not_passed() {
     assert!(text.contains("[error] outputs: az (column `acc_z`) reads -1 g"), "{text}");
 }
 
-/// A cycling log with a stuck counter in one run, a stuck temperature sensor, or one
-/// program's ±1 g positions labelled the other way round, is refused naming it, before any
-/// fit, by `calibrate`, `discover` and `lint` alike (the swap was "table rejected:
-/// scale.gamma out of range"). Before, in a
+/// A cycling log with a stuck counter in one run, a stuck temperature sensor, one
+/// program's ±1 g positions labelled the other way round, or its counting intervals in ms,
+/// is refused naming it, before any fit, by `calibrate`, `discover` and `lint` alike (the
+/// swap was "table rejected: scale.gamma out of range", the ms "table K1 320 per g is not
+/// within a factor of 2 of the nominal 320000"). Before, in a
 /// batch the counter failed as "cross-validation: non-finite fold MSE NaN" and the sensor
 /// as "table rejected: bias.t_step_c out of range"; `calibrate` alone exited 0 on the
 /// counter, and `discover` wrote a `table.bin` for it. The columns are overwritten as
@@ -412,7 +413,10 @@ fn a_stuck_counter_or_sensor_on_a_cycling_log_is_named() {
             f[3] = if f[3] == "1" { "-1".into() } else { "1".into() };
         }
     });
+    // Counting intervals written in ms.
+    let ms = edit("ms.csv", &|f| f[6] = format!("{}", f[6].parse::<f64>().unwrap() * 1000.0));
     for (log, want) in [
+        (&ms, "wrong unit? the counting intervals (`interval_s`) are 1000 times the rows' spacing"),
         (&counter, "run 2 of program paper-0.3 counts -3203000 pulses on every one of its"),
         (&sensor, "the temperature span is too small: 0.00 °C (22.06..22.06 °C)"),
         (&swapped, "program paper-0.9: its ±1 g pair gives a negative scale factor"),

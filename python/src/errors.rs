@@ -130,6 +130,7 @@ impl Kind for qfa_log::cycling::ContentFault {
     fn kind(&self) -> &'static str {
         match self {
             Self::StuckPulses { .. } => "StuckPulses",
+            Self::IntervalUnit { .. } => "IntervalUnit",
             Self::NegativeScaleFactor { .. } => "NegativeScaleFactor",
             Self::SpanTooSmall { .. } => "SpanTooSmall",
             _ => OTHER,

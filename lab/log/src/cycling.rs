@@ -181,8 +181,8 @@ impl Log {
 
     /// Whether the runs of `programs` hold what a fit can be right on: no run whose pulse
     /// count never moves (an I/F converter's count moves with its noise and its
-    /// temperature), no ±1 g pair whose scale factor comes out negative (swapped
-    /// positions), and readings that span what the core's bias grid needs (its
+    /// temperature), counting intervals in the unit of the rows' spacing, no ±1 g pair whose
+    /// scale factor comes out negative (swapped positions), and readings that span what the core's bias grid needs (its
     /// `MAX_BIAS_POINTS` nodes at least `MIN_GRID_STEP_C` apart). Calibration and discovery
     /// both ask it of the programs they fit.
     ///
@@ -200,6 +200,17 @@ impl Log {
                     rows: r.samples.len(),
                 });
             }
+        }
+        // The counting interval against the rows' spacing: a rig counts over (about) the time
+        // between its rows, so an order of magnitude between them is a unit (ms in `interval_s`
+        // gives pulse rates 1000× low, which the table refused as "another unit scale").
+        let ratios: Vec<f64> = runs
+            .iter()
+            .flat_map(|r| r.samples.windows(2).map(|w| w[1].interval_s / (w[1].time_s - w[0].time_s)))
+            .filter(|x| x.is_finite() && *x > 0.0)
+            .collect();
+        if let Some(ratio) = crate::robust::median(&ratios).filter(|x| !(0.1..=10.0).contains(x)) {
+            return Err(ContentFault::IntervalUnit { ratio });
         }
         for p in programs {
             let Some(pp) = crate::pairing::pair_program(self, p) else { continue };
@@ -235,6 +246,12 @@ pub enum ContentFault {
         /// Rows of the run.
         rows: usize,
     },
+    /// The counting intervals (`interval_s`) are an order of magnitude off the rows' spacing
+    /// in `time_s` (the median ratio): one of the two columns is in another unit.
+    IntervalUnit {
+        /// Median of `interval_s` over the time since the run's previous row.
+        ratio: f64,
+    },
     /// A program's ±1 g pair gives a negative scale factor (median over its rows): its runs'
     /// `input_g` are swapped, or the counter's sign is; a table holds a positive one.
     NegativeScaleFactor {
@@ -263,6 +280,13 @@ impl fmt::Display for ContentFault {
                 "run {run} of program {program} counts {pulses} pulses on every one of its {rows} rows: a stuck counter \
                  or a constant column (an I/F converter's count moves with its noise and its temperature); check the \
                  converter and the log's `pulses` column"
+            ),
+            Self::IntervalUnit { ratio } => write!(
+                f,
+                "wrong unit? the counting intervals (`interval_s`) are {ratio} times the rows' spacing in `time_s` \
+                 (the median over the runs); a rig counts over the time between its rows, so both columns are in \
+                 seconds: {}",
+                if *ratio > 10.0 { "`interval_s` in ms or µs?" } else { "`time_s` in ms or µs?" }
             ),
             Self::NegativeScaleFactor { program, k1 } => write!(
                 f,
