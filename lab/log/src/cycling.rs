@@ -221,8 +221,7 @@ impl Log {
         }
         let temps = runs.iter().flat_map(|r| r.samples.iter().filter_map(|s| s.temp_c));
         let (lo_c, hi_c) = temps.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), t| (lo.min(t), hi.max(t)));
-        let step = qfa_thermal::table::limits::MIN_GRID_STEP_C;
-        let needed_c = (qfa_thermal::model::MAX_BIAS_POINTS - 1) as f64 * f64::from(step);
+        let needed_c = crate::grid_span_needed_c(qfa_thermal::model::MAX_BIAS_POINTS);
         if lo_c.is_finite() && hi_c - lo_c < needed_c {
             return Err(ContentFault::SpanTooSmall { lo_c, hi_c, needed_c });
         }

@@ -6,7 +6,6 @@ use std::ops::Range;
 use std::str::FromStr;
 
 use qfa_thermal::model::MAX_BIAS_POINTS;
-use qfa_thermal::table::limits::MIN_GRID_STEP_C;
 
 use crate::static_cal::*;
 use qfa_log::static_log::StaticLog;
@@ -221,7 +220,7 @@ pub fn check_outputs(log: &qfa_log::static_log::StaticLog) -> Result<(), StaticC
 pub fn check_coverage(temp_c: &[f64], grid_points: usize, block: usize) -> Result<(), StaticCalError> {
     let (lo, hi) = range(temp_c);
     let g = grid_points.clamp(2, MAX_BIAS_POINTS);
-    let needed = (g - 1) as f64 * f64::from(MIN_GRID_STEP_C);
+    let needed = qfa_log::grid_span_needed_c(g);
     if hi - lo < needed {
         return Err(StaticCalError::SpanTooSmall { lo_c: lo, hi_c: hi, needed_c: needed, nodes: g });
     }
