@@ -92,15 +92,84 @@ pub fn trace_axis(view: &FirmwareRows, end: usize, axis: &AxisModel) -> Trace {
 /// was about half the cost of evaluating them.
 #[must_use]
 pub fn trace_axis_rows(view: &FirmwareRows, rows: Range<usize>, axis: &AxisModel) -> Trace {
+    trace_axis_rows_from(view, rows, axis, &Resume::start())
+}
+
+/// A model's states part-way through a view, where a trace may resume instead of stepping
+/// every row before it again ([`resume_points`], [`trace_axis_rows_from`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Resume {
+    /// Rows stepped through.
+    row: usize,
+    state: AxisState,
+    /// The clock of the last reading stepped, ms.
+    last_ms: Option<u32>,
+}
+
+impl Resume {
+    /// Before the first row.
+    #[must_use]
+    pub fn start() -> Self {
+        Self { row: 0, state: AxisState::default(), last_ms: None }
+    }
+}
+
+/// The row a trace of the rows from `start` on evaluates from: a row whose reading was
+/// refused keeps the previous row's values, so the last row before `start` with a reading
+/// of its own is evaluated whole.
+fn evaluate_from(rows: &[crate::replay::RowView], start: usize) -> usize {
+    rows[..start].iter().rposition(|r| r.standing.is_some()).unwrap_or(start)
+}
+
+/// For each of `starts` (ascending rows of `view`), where a trace of the rows from it on
+/// ([`trace_axis_rows_from`]) resumes, for any model whose slots are `ext`'s at any gains and
+/// whose branch deadband is `deadband` (°C/min): one pass over the view for them all.
+///
+/// Why any gains: the states stepped before a trace's rows (the element temperature, the
+/// play's and the creep's) follow the temperatures through the slots' time constants and
+/// widths alone; the gains, the grid and the rate limit enter K0 and the state's doubts,
+/// never those states (`AxisModel::advance`), and the branch is set from the view at every
+/// reading. So a cross-validation's folds, each its own fit, share one pass (the
+/// states at each fold's first row) where each fold's trace stepped every row before it,
+/// once per axis. A test holds this bit for bit against a trace from the first row.
+#[must_use]
+pub fn resume_points(view: &FirmwareRows, ext: &Extensions, deadband: f32, starts: &[usize]) -> Vec<Resume> {
+    let view = view.for_deadband(deadband);
+    let all = view.rows();
+    let axis = probe_axis(ext, deadband);
+    let mut out = Vec::with_capacity(starts.len());
+    let mut at = Resume::start();
+    for &start in starts {
+        let to = evaluate_from(all, start.min(all.len()));
+        debug_assert!(to >= at.row, "starts ascending");
+        for row in &all[at.row.min(to)..to] {
+            if let Some(s) = row.standing {
+                at.state.branch = s.branch;
+                let dt = at.last_ms.map_or(0.0, |p| s.clock_ms.wrapping_sub(p) as f32 * 1e-3);
+                at.last_ms = Some(s.clock_ms);
+                axis.advance(&mut at.state, s.estimate.temp_c, s.estimate.rate_c_per_min, dt, deadband);
+            }
+        }
+        at.row = at.row.max(to);
+        out.push(at);
+    }
+    out
+}
+
+/// [`trace_axis_rows`], its states resumed at `from` (the states of a model with `axis`'s
+/// slots after the rows before it: [`resume_points`] or [`Resume::start`]); the same bits
+/// as a trace from the first row.
+#[must_use]
+pub fn trace_axis_rows_from(view: &FirmwareRows, rows: Range<usize>, axis: &AxisModel, from: &Resume) -> Trace {
     let view = view.for_deadband(axis.bias.deadband_c_per_min);
     let all = &view.rows()[..rows.end.min(view.rows().len())];
     let start = rows.start.min(all.len());
-    // A row whose reading was refused keeps the previous row's values, so the last row
-    // before `start` with a reading of its own is evaluated whole.
-    let evaluate_from = all[..start].iter().rposition(|r| r.standing.is_some()).unwrap_or(start);
+    let evaluate_from = evaluate_from(all, start);
+    // A resume point past the rows this trace evaluates cannot serve it: from the start.
+    let from = if from.row <= evaluate_from { *from } else { Resume::start() };
     let n = all.len() - start;
     let ext = &axis.ext;
-    let mut st = AxisState::default();
+    let mut st = from.state;
     let mut tr = Trace {
         valid: Vec::with_capacity(n),
         temp_c: Vec::with_capacity(n),
@@ -112,8 +181,8 @@ pub fn trace_axis_rows(view: &FirmwareRows, rows: Range<usize>, axis: &AxisModel
     };
     // (valid, T̂, Ṫ, model temperature, branch, K0, clamped) at the latest row's reading.
     let mut cur = (false, f64::NAN, 0.0, f64::NAN, Branch::Unknown, 0.0, false);
-    let mut last_ms: Option<u32> = None;
-    for (i, row) in all.iter().enumerate() {
+    let mut last_ms = from.last_ms;
+    for (i, row) in all.iter().enumerate().skip(from.row) {
         if let Some(s) = row.standing {
             // The model's branch is the firmware's, which also saw the readings between rows:
             // `Branch::next` of the branch after this reading, at this reading's Ṫ, is itself.
@@ -310,6 +379,71 @@ mod tests {
             assert_eq!(bits(&part.ext_k0_g), bits(&whole.ext_k0_g[a..b]), "rows {a}..{b}");
             assert_eq!(part.clamped, whole.clamped[a..b]);
         }
+    }
+
+    /// A trace resumed where [`resume_points`] put it, the points stepped by a model of the
+    /// same slots at other gains, another grid and another rate limit, is the trace from the
+    /// first row, bit for bit: over random logs (rows refused now and then, missing
+    /// readings), every combination of slots, and random sets of starts. A resume point
+    /// stepped with another lag's τ must not be (the check can fail).
+    #[test]
+    fn a_trace_resumed_at_its_resume_point_is_the_trace_from_the_first_row() {
+        let mut rng = qfa_rng::seeded(qfa_rng::stream_seed(49, qfa_rng::Stream::named("resume test"), 0));
+        let mut next = || qfa_rng::uniform(&mut rng);
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let (mut compared, mut other_tau_differs) = (0usize, 0usize);
+        for case in 0..8u32 {
+            let (mut t, mut temp) = (0.0, -20.0 + 60.0 * next());
+            let rows: Vec<(f64, Option<f64>)> = (0..3000)
+                .map(|i| {
+                    if i % 41 != 0 {
+                        t += 1.0 + 4.0 * next();
+                    }
+                    temp += 0.3 * next() - 0.14;
+                    (t, (i % 59 != 0).then_some(temp))
+                })
+                .collect();
+            let view = FirmwareRows::new(rows.iter().copied(), RowInstant::OwnReading, 0.182);
+            let slots = |gain: f32, tau: f32| Extensions {
+                sensor_lag: (case & 1 != 0).then_some(qfa_thermal::model::SensorLag { tau_s: tau }),
+                bias_branch_hysteresis: (case & 2 != 0)
+                    .then_some(qfa_thermal::model::BranchHysteresis { half_width_c: 0.6, weight_g: 2e-4 * gain }),
+                bias_creep: (case & 4 != 0).then_some(qfa_thermal::model::Creep {
+                    gain_g_per_c: 3e-6 * gain,
+                    tau_ref_s: 600.0,
+                    t_ref_c: 25.0,
+                    activation_k: 0.0,
+                }),
+            };
+            // The model traced: its own gains, a grid over part of the range, a low rate limit.
+            let mut axis = probe_axis(&slots(1.7, 120.0), 0.182);
+            axis.bias = BiasGrid::single_valued(-10.0, 2.0, &[0.0; 16]).expect("16 values");
+            axis.bias.heating_g.iter_mut().enumerate().for_each(|(j, v)| *v = 2e-4 * j as f32);
+            axis.bias.cooling_g.iter_mut().enumerate().for_each(|(j, v)| *v = -1e-4 * j as f32);
+            axis.bias.deadband_c_per_min = 0.182;
+            axis.rate_limit_c_per_min = 0.5;
+            let whole = trace_axis(&view, rows.len(), &axis);
+            let mut starts: Vec<usize> = (0..5).map(|_| (next() * rows.len() as f64) as usize).collect();
+            starts.sort_unstable();
+            let points = resume_points(&view, &slots(1.0, 120.0), 0.182, &starts);
+            let other = resume_points(&view, &slots(1.0, 240.0), 0.182, &starts);
+            for ((&a, from), other) in starts.iter().zip(&points).zip(&other) {
+                let b = (a + 1 + (next() * 400.0) as usize).min(rows.len());
+                let part = trace_axis_rows_from(&view, a..b, &axis, from);
+                assert_eq!(part.valid, whole.valid[a..b]);
+                assert_eq!(bits(&part.model_temp_c), bits(&whole.model_temp_c[a..b]), "case {case} rows {a}..{b}");
+                assert_eq!(part.branch, whole.branch[a..b]);
+                assert_eq!(bits(&part.ext_k0_g), bits(&whole.ext_k0_g[a..b]), "case {case} rows {a}..{b}");
+                assert_eq!(part.clamped, whole.clamped[a..b]);
+                compared += 1;
+                if case & 1 != 0 && a > 100 {
+                    let wrong = trace_axis_rows_from(&view, a..b, &axis, other);
+                    other_tau_differs += usize::from(bits(&wrong.ext_k0_g) != bits(&whole.ext_k0_g[a..b]));
+                }
+            }
+        }
+        assert_eq!(compared, 40);
+        assert!(other_tau_differs >= 10, "a resume point of another lag gave the same trace: {other_tau_differs}");
     }
 
     fn run(program: &str, input_g: f64, pulses: &[i64], t0: f64) -> Run {

@@ -143,6 +143,16 @@ pub fn cv_fold_sums_axes(
     let n = axes.first().map_or(0, StaticSeries::rows);
     let mut acc: Vec<Result<FoldSums, FitError>> = vec![Ok(FoldSums::default()); axes.len()];
     let first = usize::from(order == CvOrder::Forward);
+    // Every fold's trace resumes at its block's first row with the states one pass over the
+    // rows gives (any fit of this structure steps the same states: `resume_points`), where
+    // each axis's trace of each fold stepped every row before its block again.
+    let resumes = match axes.first() {
+        Some(series) => {
+            let starts: Vec<usize> = (first..k).filter_map(|f| rows.get(m * f / k).copied()).collect();
+            qfa_log::pairing::resume_points(series.view, &traces.structure.ext(1.0, 1.0), traces.deadband, &starts)
+        }
+        None => Vec::new(),
+    };
     for f in first..k {
         if acc.iter().all(Result::is_err) {
             break;
@@ -177,7 +187,8 @@ pub fn cv_fold_sums_axes(
                 }
             };
             let (Some(&lo), Some(&hi)) = (chunk.first(), chunk.last()) else { continue };
-            let tr = series.model_trace_rows(&fit.axis, lo..hi + 1);
+            let from = resumes.get(f - first).copied().unwrap_or_else(qfa_log::pairing::Resume::start);
+            let tr = qfa_log::pairing::trace_axis_rows_from(series.view, lo..hi + 1, &fit.axis, &from);
             let (mut sum, mut count) = (0.0, 0usize);
             let (t_lo, t_hi) = (f64::from(fit.axis.bias.t_start_c), f64::from(fit.axis.bias.t_end_c()));
             for &i in chunk {

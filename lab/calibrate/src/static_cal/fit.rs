@@ -143,7 +143,7 @@ impl StaticStructure {
             + usize::from(self.play_half_width_c.is_some())
     }
 
-    fn ext(&self, creep_gain: f32, play_weight: f32) -> Extensions {
+    pub(crate) fn ext(&self, creep_gain: f32, play_weight: f32) -> Extensions {
         Extensions {
             sensor_lag: self.lag_tau_s.map(|tau_s| qfa_thermal::model::SensorLag { tau_s }),
             bias_branch_hysteresis: self
@@ -498,8 +498,53 @@ fn design_blocks(
     let mut xb = Vec::with_capacity(blocks.len() * p);
     let mut max_rate: f64 = 0.0;
     let mut acc = vec![0.0; p];
+    // Free nodes: each hat weight is its own column's one term in the row (the basis is the
+    // identity, so `row[col] = 0 + w·1` is `w` exactly), added straight into the block's
+    // sums: the same bits as through `row`, without its bookkeeping (which was most of the
+    // cost of forming a fold's equations).
+    let identity = structure.shape == CurveShape::Nodes;
     for &(s, e) in blocks {
         acc.iter_mut().for_each(|v| *v = 0.0);
+        if identity {
+            for &i in &idx[s..e] {
+                let (t, b) = (base.model_temp_c[i], base.branch[i]);
+                let (j, f) = hat_node(t, start, step, g);
+                let weights: [(usize, f64); 2] = match (structure.branches, b) {
+                    (BranchMode::Free, Branch::Cooling) => [(1, 1.0), (0, 0.0)],
+                    (BranchMode::Free, Branch::Unknown) => [(0, 0.5), (1, 0.5)],
+                    _ => [(0, 1.0), (0, 0.0)],
+                };
+                for (cv, w) in weights {
+                    if w == 0.0 {
+                        continue;
+                    }
+                    for (node, hw) in [(j, w * (1.0 - f)), (j + 1, w * f)] {
+                        if hw != 0.0 {
+                            acc[cv * c + node] += hw;
+                        }
+                    }
+                }
+                if structure.branches == BranchMode::Offset {
+                    acc[c] += match b {
+                        Branch::Heating => 1.0,
+                        Branch::Cooling => -1.0,
+                        Branch::Unknown => 0.0,
+                    };
+                }
+                let mut col = nb;
+                if let Some(tr) = creep {
+                    acc[col] += tr.ext_k0_g[i];
+                    col += 1;
+                }
+                if let Some(tr) = play {
+                    acc[col] += tr.ext_k0_g[i];
+                }
+                max_rate = max_rate.max(base.rate_c_per_min[i].abs());
+            }
+            let n = (e - s) as f64;
+            xb.extend(acc.iter().map(|v| v / n));
+            continue;
+        }
         for &i in &idx[s..e] {
             let (t, b) = (base.model_temp_c[i], base.branch[i]);
             // The hat weights on the two nodes around T (heating curve, then cooling), onto
