@@ -378,6 +378,42 @@ fn a_unit_missing_an_axis_column_fails_naming_it() {
     assert!(!fleet.unit[1].flashable());
 }
 
+/// A unit whose logger wrote every row twice: the reader keeps one of each and the unit is
+/// judged on those (it passes, as the others do); the batch's console
+/// and the unit's certificate say what the log's checks found, where before only the
+/// unit's own `report.md` did. The units logged well get no such line.
+#[test]
+fn rows_written_twice_are_said_on_the_console_and_the_certificate() {
+    let dir = scratch("batch-rows-twice");
+    let sim = dir.join("sim");
+    let (ok, text) =
+        common::lab(&["simulate-batch", "--units", "3", "--no-bad", "--seed", "7", "--out", sim.to_str().unwrap()]);
+    assert!(ok, "{text}");
+    let log = sim.join("units").join("SN0002.tsv");
+    let rows = std::fs::read_to_string(&log).unwrap();
+    let mut lines = rows.lines();
+    let mut twice = format!("{}\n", lines.next().unwrap());
+    let mut written = 0usize;
+    for l in lines {
+        twice.push_str(&format!("{l}\n{l}\n"));
+        written += 1;
+    }
+    std::fs::write(&log, twice).unwrap();
+    let out = dir.join("out");
+    let (ok, console) =
+        common::lab(&["batch", "--manifest", sim.join("batch.toml").to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(ok, "{console}");
+    assert!(console.contains("verdict: 3 units: 3 PASS"), "{console}");
+    let said =
+        format!("log: SN0002: [warning] glitches: {written} row(s) skipped ({written} duplicate timestamp row(s)");
+    assert!(console.contains(&said), "{console}");
+    assert_eq!(console.matches("log: ").count(), 1, "{console}");
+    let page = std::fs::read_to_string(out.join("SN0002").join("certificate.html")).unwrap();
+    assert!(page.contains(&format!("{written} duplicate timestamp row(s) skipped")), "{page}");
+    let other = std::fs::read_to_string(out.join("SN0001").join("certificate.html")).unwrap();
+    assert!(!other.contains("checks warn"), "{other}");
+}
+
 /// The command as a production engineer types it: a manifest with a misspelt key is
 /// refused naming the key; without --log or --manifest the command says what it needs;
 /// `batch merge` on a folder no shard wrote says what to run first.

@@ -229,6 +229,10 @@ pub struct FleetUnit {
     /// Its lot, when the fleet holds two ([`Fleet::lots`]).
     #[serde(default)]
     pub lot: Option<UnitLot>,
+    /// What the checks of its log warned of ([`super::unit::Calibrated::log_warnings`]):
+    /// not a reason, shown so the logger is looked at.
+    #[serde(default)]
+    pub log_warnings: Vec<String>,
 }
 
 impl FleetUnit {
@@ -580,6 +584,10 @@ fn fleet_units(
                 sensor_drift_c_per_h: sensor[i].1.clone(),
                 prior: None,
                 lot: None,
+                log_warnings: match &r.outcome {
+                    UnitOutcome::Calibrated(c) => c.log_warnings.clone(),
+                    UnitOutcome::Failed { .. } => Vec::new(),
+                },
             }
         })
         .collect()

@@ -340,6 +340,22 @@ pub(crate) fn grouped(fleet: &Fleet) -> Vec<(Decision, String, Vec<String>)> {
     out
 }
 
+/// The units' log warnings ([`FleetUnit::log_warnings`]), the units with the same warning
+/// together, in batch order of each warning's first unit: `(warning, serials)`.
+#[must_use]
+pub(crate) fn log_warning_groups(fleet: &Fleet) -> Vec<(String, Vec<String>)> {
+    let mut out: Vec<(String, Vec<String>)> = Vec::new();
+    for u in &fleet.unit {
+        for w in &u.log_warnings {
+            match out.iter_mut().find(|(x, _)| x == w) {
+                Some(g) => g.1.push(u.serial.clone()),
+                None => out.push((w.clone(), vec![u.serial.clone()])),
+            }
+        }
+    }
+    out
+}
+
 /// `SN1`, or `3 units (SN1, SN2, SN3)`, or `40 units (SN1, SN2, SN3, … SN40)`.
 #[must_use]
 pub(crate) fn serial_list(serials: &[String]) -> String {
@@ -385,6 +401,9 @@ pub fn console(fleet: &Fleet, out: &Path) -> String {
     for (decision, reasons, serials) in grouped(fleet) {
         let key = if decision == Decision::Fail { "fail" } else { "review" };
         s.push_str(&format!("{key}: {}: {reasons}\n", serial_list(&serials)));
+    }
+    for (warning, serials) in log_warning_groups(fleet) {
+        s.push_str(&format!("log: {}: {warning}\n", serial_list(&serials)));
     }
     for u in &fleet.unit {
         if let Some(p) = u.prior.as_ref().filter(|_| u.flashable()) {

@@ -226,6 +226,9 @@ fn certificate_rows(
             ),
         ));
     }
+    for w in &f.log_warnings {
+        kv.push(("the log's checks warn".into(), w.clone()));
+    }
     kv.push(("sensor offset against the fleet (°C)".into(), m(&f.sensor_offset_c, 2)));
     kv.push(("sensor drift against the fleet (°C/h)".into(), m(&f.sensor_drift_c_per_h, 3)));
     kv

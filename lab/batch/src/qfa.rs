@@ -162,6 +162,7 @@ pub(crate) fn calibrate(
         qfa_normal: Some(normal(rows, rate_limit)),
         steps: Vec::new(),
         glitches_per_h: glitches_per_hour(log),
+        log_warnings: super::unit::log_warnings(&qfa_lint::lint_cycling(log)),
         qfa: Some(figures(&cal.table.hysteresis.axes[0], sensitivity, bias_ug, ageing)),
     })
 }

@@ -116,6 +116,12 @@ pub struct Calibrated {
     /// judged by (the skipped rows are neither fitted nor scored).
     #[serde(default)]
     pub glitches_per_h: f64,
+    /// What the log's checks (`qfa-lint`) warn of, one line each: rows the reader skipped
+    /// (rows written twice, empty fields), gaps, a unit assumed. Not a reason: the figures
+    /// are the rows kept, judged held out; shown on the certificate and the console so the
+    /// logger is looked at.
+    #[serde(default)]
+    pub log_warnings: Vec<String>,
     /// A QFA unit's figures (a cycling log); `None` for a static unit, whose figures are
     /// the `descriptor`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -187,11 +193,8 @@ fn calibrate_static(
     opts: &UnitOptions,
 ) -> Result<Calibrated, BatchError> {
     opts.limits.check_applies("static", &STATIC_KEYS).map_err(|e| BatchError::Unit(UnitFault::Limits(e)))?;
-    let notes: Vec<String> = qfa_lint::lint_static(bytes, log)
-        .iter()
-        .filter(|f| f.severity >= Severity::Warning)
-        .filter_map(|f| f.to_string().lines().next().map(|l| format!("lint: {l}")))
-        .collect();
+    let warnings = log_warnings(&qfa_lint::lint_static(bytes, log));
+    let notes: Vec<String> = warnings.iter().map(|w| format!("lint: {w}")).collect();
     let exports = qfa_calibrate::export::ExportOptions::default();
     // The page names the batch, not the worker process that wrote it (a thread, a shard,
     // a Dask worker), so every way of running the batch writes the same bytes.
@@ -228,6 +231,7 @@ fn calibrate_static(
         one_branch: is_one_branch(r.branch_rows),
         rows: r.rows,
         glitches_per_h: glitches_per_hour(log),
+        log_warnings: warnings,
         table_crc32: format!("{crc:08x}"),
         table_bytes: bin.len(),
         steps: residual_steps(
@@ -242,6 +246,20 @@ fn calibrate_static(
         qfa_normal: None,
         qfa: None,
     })
+}
+
+/// The log checks' warnings (and worse) among `findings`, each as one line: the check,
+/// what it found and its evidence (`[warning] glitches: 8550 row(s) skipped (8550
+/// duplicate timestamp row(s) skipped (line 3, 5, …))`).
+pub(crate) fn log_warnings(findings: &[qfa_lint::Finding]) -> Vec<String> {
+    findings
+        .iter()
+        .filter(|f| f.severity >= Severity::Warning)
+        .map(|f| match f.evidence.as_str() {
+            "" => format!("[{}] {}: {}", f.severity, f.check, f.what),
+            e => format!("[{}] {}: {} ({e})", f.severity, f.check, f.what),
+        })
+        .collect()
 }
 
 /// The fleet's common form of every axis, read from the unit's own models `fits` (what its

@@ -7,9 +7,9 @@ use qfa_log::replay::branch_deadband_c_per_min;
 
 use crate::{coverage_findings, Finding, Severity};
 
-/// The checks on a cycling log.
+/// The checks on a cycling log (`qfa-lab lint`; a QFA unit of a batch).
 #[must_use]
-pub(crate) fn lint_cycling(log: &Log) -> Vec<Finding> {
+pub fn lint_cycling(log: &Log) -> Vec<Finding> {
     let mut out = Vec::new();
     let programs = log.programs();
     out.push(Finding::new(

@@ -26,7 +26,7 @@ use qfa_log::static_log::{StaticError, StaticLog, COMMON_NAMES};
 use qfa_log::units::{ReaderOption, UnitSource};
 
 mod cycling;
-use cycling::lint_cycling;
+pub use cycling::lint_cycling;
 
 /// How much a finding matters.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize)]
