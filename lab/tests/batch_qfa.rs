@@ -157,6 +157,69 @@ fn a_multi_unit_cycling_log_calibrates_each_unit_as_its_own_log_does() {
     }
 }
 
+/// A unit the chamber log holds no count for on part of the run (its cells blank: taken off
+/// the head, or its counter not logged) is calibrated on the rows it has, exactly as its own
+/// log holding those rows alone is (`table.bin` and `report.json` byte for byte), and its
+/// certificate and the console say how many rows were left out. Before, the chamber split
+/// wrote the blank rows into the unit's log and the cycling reader refused the whole log
+/// ("not calibrated: 67764 malformed row(s)"): a unit the manifest's way got a table and
+/// the prior, the chamber's way FAILed.
+#[test]
+fn a_unit_blank_on_part_of_a_chamber_log_is_calibrated_on_the_rows_it_has() {
+    let dir = scratch("qfa_batch_chamber_blank");
+    let truth = draw_qfa(&QfaPopulationSpec { units: 3, seed: 4, bad: false, truncated: 1 });
+    write_qfa_manifest(&dir, &truth, 2).unwrap();
+    write_qfa_chamber(&dir, &truth, 2).unwrap();
+    let (manifest, _) = calibrate(&dir, "by_manifest", 2);
+    let cut = truth.unit.iter().position(|u| u.truncation.is_some()).expect("a cut unit");
+    let serial = truth.unit[cut].serial.clone();
+    // The rows of the unit's own (cut) log, by program, run and time.
+    let own_log = std::fs::read_to_string(dir.join("units").join(format!("{serial}.csv"))).unwrap();
+    let key = |f: &[&str]| format!("{},{},{}", f[0], f[1], f[2]);
+    let own: std::collections::HashSet<String> =
+        own_log.lines().skip(1).map(|l| key(&l.split(',').collect::<Vec<_>>())).collect();
+    let text = std::fs::read_to_string(dir.join("chamber.csv")).unwrap();
+    let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+    let cols = [format!("{serial}.temp_c"), format!("{serial}.pulses")]
+        .map(|c| header.iter().position(|h| *h == c).expect("the unit's column"));
+    let mut blanked = 0usize;
+    let mut out = format!("{}\n", header.join(","));
+    for l in text.lines().skip(1) {
+        let mut f: Vec<&str> = l.split(',').collect();
+        if !own.contains(&key(&f)) {
+            cols.iter().for_each(|&c| f[c] = "");
+            blanked += 1;
+        }
+        out.push_str(&(f.join(",") + "\n"));
+    }
+    assert!(blanked > 1000, "{blanked} rows blanked");
+    let path = dir.join("chamber_blank.csv");
+    std::fs::write(&path, &out).unwrap();
+    let units = from_chamber_log(&path, out.as_bytes(), &ReadFlags::default()).unwrap();
+    assert_eq!(units.iter().map(|u| u.left_out).collect::<Vec<_>>()[cut], blanked);
+    let opts = BatchOptions { unit: UnitOptions::default(), threads: 2, shard: None, progress: false };
+    let run = qfa_batch::run(&units, &dir.join("by_chamber"), &opts).unwrap();
+    let (UnitOutcome::Calibrated(a), UnitOutcome::Calibrated(b)) =
+        (&run.results[cut].1.outcome, &manifest[cut].outcome)
+    else {
+        panic!("{serial}: {:?}", run.results[cut].1.outcome)
+    };
+    assert_eq!(a.qfa, b.qfa);
+    for f in ["table.bin", "report.json"] {
+        let read = |out: &str| std::fs::read(dir.join(out).join(&serial).join(f)).unwrap();
+        assert!(read("by_chamber") == read("by_manifest"), "{serial}: {f} differs");
+    }
+    let said = format!("{blanked} row(s) of the chamber log hold no count of this unit");
+    let fleet = run.fleet.unwrap();
+    assert!(fleet.unit[cut].log_warnings.iter().any(|w| w.contains(&said)), "{:?}", fleet.unit[cut].log_warnings);
+    assert!(qfa_batch::console(&fleet, &dir).contains(&said));
+    let page = std::fs::read_to_string(dir.join("by_chamber").join(&serial).join("certificate.html")).unwrap();
+    assert!(page.contains(&said));
+    for (k, u) in fleet.unit.iter().enumerate().filter(|(k, _)| *k != cut) {
+        assert!(u.log_warnings.iter().all(|w| !w.contains("chamber log")), "unit {k}: {:?}", u.log_warnings);
+    }
+}
+
 /// A limits file that sets only a static key leaves a QFA unit unchecked under the file's
 /// name: the batch is refused before any unit is calibrated, with the keys a cycling log is
 /// checked against. (Before, every unit was calibrated and then failed for that one reason,

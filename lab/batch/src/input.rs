@@ -29,6 +29,10 @@ pub struct UnitInput {
     pub rows: UnitRows,
     /// How to read it.
     pub flags: ReadFlags,
+    /// Rows of a chamber log that hold no count of this unit (its `pulses` cell empty: the
+    /// unit was not on the head, or its counter was not logged), left out of its log; said
+    /// with its log's warnings. 0 for a manifest's log, which is the unit's own.
+    pub left_out: usize,
 }
 
 /// Where a unit's one-unit log is.
@@ -220,6 +224,7 @@ pub fn from_manifest(path: &Path, base: &ReadFlags) -> Result<Vec<UnitInput>, Ba
                 source: log.display().to_string(),
                 rows: UnitRows::File(log),
                 flags,
+                left_out: 0,
             })
         })
         .collect()

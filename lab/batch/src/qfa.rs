@@ -162,8 +162,23 @@ pub(crate) fn calibrate(
         qfa_normal: Some(normal(rows, rate_limit)),
         steps: Vec::new(),
         glitches_per_h: glitches_per_hour(log),
-        log_warnings: super::unit::log_warnings(&qfa_lint::lint_cycling(log)),
+        log_warnings: left_out_warning(input)
+            .into_iter()
+            .chain(super::unit::log_warnings(&qfa_lint::lint_cycling(log)))
+            .collect(),
         qfa: Some(figures(&cal.table.hysteresis.axes[0], sensitivity, bias_ug, ageing)),
+    })
+}
+
+/// The rows of a chamber log left out of the unit's log ([`UnitInput::left_out`]), in the
+/// words of the log's other warnings.
+fn left_out_warning(input: &UnitInput) -> Option<String> {
+    (input.left_out > 0).then(|| {
+        format!(
+            "[warning] rows: {} row(s) of the chamber log hold no count of this unit (its `pulses` cell empty), left out \
+             of its log: it is calibrated on the rows it has (the unit taken off the head, or its counter not logged?)",
+            input.left_out
+        )
     })
 }
 

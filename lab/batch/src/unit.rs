@@ -170,7 +170,13 @@ pub struct UnitOptions {
 pub(crate) fn calibrate_unit(input: &UnitInput, dir: &Path, opts: &UnitOptions) -> UnitResult {
     let outcome = match calibrate(input, dir, opts) {
         Ok(c) => UnitOutcome::Calibrated(Box::new(c)),
-        Err(e) => UnitOutcome::Failed { reason: e.to_string() },
+        // Rows left out of a chamber log's unit may be why (a unit blank on every row).
+        Err(e) => UnitOutcome::Failed {
+            reason: match input.left_out {
+                0 => e.to_string(),
+                n => format!("{e} ({n} row(s) of the chamber log hold no count of this unit, left out of its log)"),
+            },
+        },
     };
     UnitResult { serial: input.serial.clone(), source: input.source.clone(), outcome }
 }

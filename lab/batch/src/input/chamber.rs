@@ -181,9 +181,18 @@ fn split_chamber<R: std::io::Read>(
         .collect())
 }
 
-/// A unit of a cycling chamber log being split: its serial, its columns in the cycling
-/// reader's order, and the writer of its log's text.
-type CyclingUnit = (String, Vec<usize>, csv::Writer<Vec<u8>>);
+/// A unit of a cycling chamber log being split.
+struct CyclingUnit {
+    serial: String,
+    /// Its columns in the cycling reader's order.
+    picked: Vec<usize>,
+    /// Its `pulses` column.
+    pulses: usize,
+    /// The writer of its log's text.
+    writer: csv::Writer<Vec<u8>>,
+    /// Rows left out: its `pulses` cell empty.
+    left_out: usize,
+}
 
 /// A cycling chamber log's columns per unit, after the serial and a dot: the unit's own
 /// temperature sensor and pulse count.
@@ -240,17 +249,24 @@ fn from_cycling_chamber<R: std::io::Read>(
         }
         let mut w = csv::Writer::from_writer(Vec::new());
         w.write_record(COLUMNS).map_err(|e| chamber(path, ChamberFault::Csv(e)))?;
-        units.push((s, picked.into_iter().flatten().collect(), w));
+        let pulses = col(&format!("{s}.pulses")).unwrap_or(usize::MAX);
+        units.push(CyclingUnit {
+            serial: s,
+            picked: picked.into_iter().flatten().collect(),
+            pulses,
+            writer: w,
+            left_out: 0,
+        });
     }
     let csv_fault = |e: csv::Error| chamber(path, ChamberFault::Csv(e));
-    let serials: Vec<String> = units.iter().map(|u| u.0.clone()).collect();
+    let serials: Vec<String> = units.iter().map(|u| u.serial.clone()).collect();
     let mut logs = UnitLogs::new(spill, &serials, "csv");
     // The writers' bytes, each writer replaced by a new one (no header: the rows go on).
     let drained = |units: &mut [CyclingUnit]| -> Result<Vec<Vec<u8>>, BatchError> {
         units
             .iter_mut()
             .map(|u| {
-                let w = std::mem::replace(&mut u.2, csv::Writer::from_writer(Vec::new()));
+                let w = std::mem::replace(&mut u.writer, csv::Writer::from_writer(Vec::new()));
                 w.into_inner().map_err(|e| csv_fault(e.into_error().into()))
             })
             .collect()
@@ -258,10 +274,17 @@ fn from_cycling_chamber<R: std::io::Read>(
     for rec in rd.records() {
         let rec = rec.map_err(csv_fault)?;
         let mut added = 0;
-        for (_, picked, w) in &mut units {
-            let fields = picked.iter().map(|&i| rec.get(i).unwrap_or("").trim());
+        for u in &mut units {
+            // A row without the unit's count is not a row of its log: the unit was not
+            // counted then (taken off the head, or its counter not logged). Written, the
+            // cycling reader refused the unit's whole log as malformed.
+            if rec.get(u.pulses).is_none_or(|f| f.trim().is_empty()) {
+                u.left_out += 1;
+                continue;
+            }
+            let fields = u.picked.iter().map(|&i| rec.get(i).unwrap_or("").trim());
             added += fields.clone().map(|f| f.len() + 1).sum::<usize>();
-            w.write_record(fields).map_err(csv_fault)?;
+            u.writer.write_record(fields).map_err(csv_fault)?;
         }
         if logs.spill.is_some() && logs.held + added >= logs.budget {
             let mut bufs = drained(&mut units)?;
@@ -274,13 +297,13 @@ fn from_cycling_chamber<R: std::io::Read>(
     units
         .into_iter()
         .zip(rows)
-        .map(|((serial, picked, _), rows)| {
+        .map(|(u, rows)| {
             let source = format!(
                 "{}, columns {}",
                 path.display(),
-                picked.iter().map(|&i| format!("`{}`", header[i])).collect::<Vec<_>>().join(", ")
+                u.picked.iter().map(|&i| format!("`{}`", header[i])).collect::<Vec<_>>().join(", ")
             );
-            Ok(UnitInput { serial, source, rows, flags: base.clone() })
+            Ok(UnitInput { serial: u.serial, source, rows, flags: base.clone(), left_out: u.left_out })
         })
         .collect()
 }
@@ -382,7 +405,8 @@ fn unit_input(
         path.display(),
         picked.iter().map(|(_, i)| format!("`{}`", header[*i])).collect::<Vec<_>>().join(", ")
     );
-    UnitInput { serial, source, rows, flags: ReadFlags { columns: Some(roles), ..base.clone() } }
+    // The static reader skips a row with an empty field itself, and counts it.
+    UnitInput { serial, source, rows, flags: ReadFlags { columns: Some(roles), ..base.clone() }, left_out: 0 }
 }
 
 #[cfg(test)]
