@@ -393,9 +393,15 @@ impl Setup<'_> {
         let np = usize::from(nl.play_r_c.is_some());
         let nc = usize::from(nl.creep.is_some());
         let nd = usize::from(s.bias_drift);
+        // The paper start's basis is the identity: the sum below is then the hat weight
+        // itself (its other terms are zeros), read directly. Most of a discovery's time went
+        // to those sums of sixteen products.
+        let identity = s.start == Start::Paper;
         let a = DMatrix::from_fn(rows.len(), nb + np + nc + nd, |i, j| {
             let b = rows[i];
-            if j < nb {
+            if j < nb && identity {
+                f.hat[b][j]
+            } else if j < nb {
                 (0..GRID_POINTS).map(|g| f.hat[b][g] * basis[g][j]).sum()
             } else if j == nb && np == 1 {
                 f.play[b]
