@@ -476,9 +476,10 @@ fn batch_cmd(a: BatchCli) -> Result<(), CliError> {
     let unit = UnitOptions { cal, limits: limits.clone(), plots: a.plots };
     let fail_status = |fleet: &qfa_batch::fleet::Fleet| -> Result<(), CliError> {
         // As `calibrate`: the default limits are reported but change no exit status; a unit
-        // that could not be calibrated always does.
+        // that could not be calibrated always does, and so does one whose log does not fit
+        // the batch (an axis missing, another unit's readings).
         let [_, _, fail] = fleet.counts;
-        let uncalibrated = fleet.unit.iter().filter(|u| !u.calibrated).count();
+        let uncalibrated = fleet.unit.iter().filter(|u| !u.calibrated || u.input_fault).count();
         if (fail > 0 && limits.file.is_some()) || uncalibrated > 0 {
             return Err(CliError::UnitsFailed(if limits.file.is_some() { fail } else { uncalibrated }));
         }

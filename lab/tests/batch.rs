@@ -376,6 +376,8 @@ fn a_unit_missing_an_axis_column_fails_naming_it() {
         fleet.unit[1].reasons
     );
     assert!(!fleet.unit[1].flashable());
+    // A fault of the input: the command's exit status fails whatever the limits.
+    assert_eq!(fleet.unit.iter().map(|u| u.input_fault).collect::<Vec<_>>(), [false, true, false]);
 }
 
 /// A unit whose logger wrote every row twice: the reader keeps one of each and the unit is
@@ -412,6 +414,35 @@ fn rows_written_twice_are_said_on_the_console_and_the_certificate() {
     assert!(page.contains(&format!("{written} duplicate timestamp row(s) skipped")), "{page}");
     let other = std::fs::read_to_string(out.join("SN0001").join("certificate.html")).unwrap();
     assert!(!other.contains("checks warn"), "{other}");
+}
+
+/// A manifest that names one unit's log for a second serial (a copy-and-paste slip): both
+/// units FAIL, each naming the other, where before both PASSed and the second serial's
+/// certificate named the first's table to flash. A unit with its own log passes.
+#[test]
+fn one_log_named_for_two_serials_fails_both_naming_each_other() {
+    let dir = scratch("batch-one-log-twice");
+    let sim = dir.join("sim");
+    let (ok, text) =
+        common::lab(&["simulate-batch", "--units", "3", "--no-bad", "--seed", "7", "--out", sim.to_str().unwrap()]);
+    assert!(ok, "{text}");
+    let manifest = sim.join("batch.toml");
+    let m = std::fs::read_to_string(&manifest).unwrap();
+    assert_eq!(m.matches("units/SN0003.tsv").count(), 1, "{m}");
+    std::fs::write(&manifest, m.replace("units/SN0003.tsv", "units/SN0002.tsv")).unwrap();
+    let out = dir.join("out");
+    let (ok, console) =
+        common::lab(&["batch", "--manifest", manifest.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(!ok, "{console}");
+    assert!(
+        console.contains("verdict: 3 units: 1 PASS, 0 REVIEW (limits met, outside the population), 2 FAIL"),
+        "{console}"
+    );
+    for (unit, other) in [("SN0002", "SN0003"), ("SN0003", "SN0002")] {
+        assert!(console.contains(&format!("fail: {unit}: its table.bin is {other}'s, byte for byte")), "{console}");
+        let page = std::fs::read_to_string(out.join(unit).join("certificate.html")).unwrap();
+        assert!(page.contains("none: the unit FAILs"), "{unit}: {page}");
+    }
 }
 
 /// The command as a production engineer types it: a manifest with a misspelt key is

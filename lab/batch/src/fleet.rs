@@ -229,6 +229,11 @@ pub struct FleetUnit {
     /// Its lot, when the fleet holds two ([`Fleet::lots`]).
     #[serde(default)]
     pub lot: Option<UnitLot>,
+    /// Its log does not fit the batch (an axis the batch's units hold is missing, or it
+    /// holds another unit's readings): a fault of the input, which FAILs the unit and the
+    /// command's exit status whatever the limits, as a unit not calibrated does.
+    #[serde(default)]
+    pub input_fault: bool,
     /// What the checks of its log warned of ([`super::unit::Calibrated::log_warnings`]):
     /// not a reason, shown so the logger is looked at.
     #[serde(default)]
@@ -541,6 +546,29 @@ fn missing_axes(results: &[UnitResult]) -> Vec<Option<(String, String)>> {
         .collect()
 }
 
+/// Per unit, the other calibrated units whose `table.bin` is its own, byte for byte (the
+/// same CRC-32 and length). Two units' rows never give the same table unless they are the
+/// same rows: a manifest naming one log for two serials, a log copied to another serial's
+/// name, or a chamber log's column written under two serials. Each table then passed as
+/// its unit's, and one unit would be flashed with the other's.
+fn same_tables(results: &[UnitResult]) -> Vec<Vec<String>> {
+    let key = |r: &UnitResult| match &r.outcome {
+        UnitOutcome::Calibrated(c) => Some((c.table_crc32.clone(), c.table_bytes)),
+        UnitOutcome::Failed { .. } => None,
+    };
+    results
+        .iter()
+        .map(|r| {
+            let Some(k) = key(r) else { return Vec::new() };
+            results
+                .iter()
+                .filter(|o| o.serial != r.serial && key(o).as_ref() == Some(&k))
+                .map(|o| o.serial.clone())
+                .collect()
+        })
+        .collect()
+}
+
 /// Each unit's decision and reasons (a failure, then what a flagged axis's residual says,
 /// then its flags), counted in `counts`.
 fn fleet_units(
@@ -551,6 +579,7 @@ fn fleet_units(
     counts: &mut [usize; 3],
 ) -> Vec<FleetUnit> {
     let missing = missing_axes(results);
+    let same = same_tables(results);
     results
         .iter()
         .enumerate()
@@ -563,11 +592,21 @@ fn fleet_units(
                 UnitOutcome::Calibrated(_) if !flags[i].is_empty() => (Decision::Review, Vec::new()),
                 UnitOutcome::Calibrated(_) => (Decision::Pass, Vec::new()),
             };
+            let input_fault = missing[i].is_some() || !same[i].is_empty();
             if let Some((lacks, fleet)) = &missing[i] {
                 decision = Decision::Fail;
                 reasons.push(format!(
                     "its log holds no {lacks} where most of the batch's units hold {fleet}: its table leaves {lacks} \
                      uncompensated (a column missing or misnamed in its log)"
+                ));
+            }
+            if !same[i].is_empty() {
+                decision = Decision::Fail;
+                reasons.push(format!(
+                    "its table.bin is {}'s, byte for byte: their logs hold the same readings (one log named for two \
+                     serials, a log copied under another serial's name, or a column logged twice), so no table here \
+                     can be told to be this unit's",
+                    same[i].join(", ")
                 ));
             }
             reasons.extend(step_reasons(r, &flags[i]));
@@ -584,6 +623,7 @@ fn fleet_units(
                 sensor_drift_c_per_h: sensor[i].1.clone(),
                 prior: None,
                 lot: None,
+                input_fault,
                 log_warnings: match &r.outcome {
                     UnitOutcome::Calibrated(c) => c.log_warnings.clone(),
                     UnitOutcome::Failed { .. } => Vec::new(),
