@@ -35,9 +35,11 @@
 
 use serde::{Deserialize, Serialize};
 
+mod fits;
 mod sensor;
 mod yardstick;
 
+use self::fits::{missing_axes, same_tables};
 use self::sensor::sensors;
 use self::yardstick::{feature_stats, Yardstick};
 use super::unit::{Calibrated, UnitOutcome, UnitResult};
@@ -515,57 +517,6 @@ fn step_reasons(r: &UnitResult, flags: &[Flag]) -> Vec<String> {
         .filter(|s| s.thermal_share < super::unit::NOT_THERMAL_SHARE)
         .filter(|s| flags.iter().any(|f| f.feature.split('.').next() == Some(s.axis.as_str())))
         .map(super::unit::ResidualStep::words)
-        .collect()
-}
-
-/// Per unit, the axes it lacks that more than half of the batch's calibrated static units
-/// hold, and those axes, in words (`None` for a unit that lacks none, a QFA unit, or one not
-/// calibrated). A unit whose log lost a column got a table of fewer axes, which met its
-/// limits on the axes it has and passed.
-fn missing_axes(results: &[UnitResult]) -> Vec<Option<(String, String)>> {
-    let axes: Vec<Option<Vec<&str>>> = results
-        .iter()
-        .map(|r| match &r.outcome {
-            UnitOutcome::Calibrated(c) if c.qfa.is_none() => {
-                Some(c.structures.iter().map(|(a, _)| a.as_str()).collect())
-            }
-            _ => None,
-        })
-        .collect();
-    let held: Vec<&Vec<&str>> = axes.iter().flatten().collect();
-    let mut fleet: Vec<&str> = held.iter().flat_map(|a| a.iter().copied()).collect();
-    fleet.sort_unstable();
-    fleet.dedup();
-    fleet.retain(|axis| 2 * held.iter().filter(|a| a.contains(axis)).count() > held.len());
-    axes.iter()
-        .map(|a| {
-            let a = a.as_ref()?;
-            let lacks: Vec<&str> = fleet.iter().copied().filter(|x| !a.contains(x)).collect();
-            (!lacks.is_empty()).then(|| (lacks.join(", "), fleet.join(", ")))
-        })
-        .collect()
-}
-
-/// Per unit, the other calibrated units whose `table.bin` is its own, byte for byte (the
-/// same CRC-32 and length). Two units' rows never give the same table unless they are the
-/// same rows: a manifest naming one log for two serials, a log copied to another serial's
-/// name, or a chamber log's column written under two serials. Each table then passed as
-/// its unit's, and one unit would be flashed with the other's.
-fn same_tables(results: &[UnitResult]) -> Vec<Vec<String>> {
-    let key = |r: &UnitResult| match &r.outcome {
-        UnitOutcome::Calibrated(c) => Some((c.table_crc32.clone(), c.table_bytes)),
-        UnitOutcome::Failed { .. } => None,
-    };
-    results
-        .iter()
-        .map(|r| {
-            let Some(k) = key(r) else { return Vec::new() };
-            results
-                .iter()
-                .filter(|o| o.serial != r.serial && key(o).as_ref() == Some(&k))
-                .map(|o| o.serial.clone())
-                .collect()
-        })
         .collect()
 }
 
