@@ -505,46 +505,6 @@ fn design_blocks(
     let identity = structure.shape == CurveShape::Nodes;
     for &(s, e) in blocks {
         acc.iter_mut().for_each(|v| *v = 0.0);
-        if identity {
-            for &i in &idx[s..e] {
-                let (t, b) = (base.model_temp_c[i], base.branch[i]);
-                let (j, f) = hat_node(t, start, step, g);
-                let weights: [(usize, f64); 2] = match (structure.branches, b) {
-                    (BranchMode::Free, Branch::Cooling) => [(1, 1.0), (0, 0.0)],
-                    (BranchMode::Free, Branch::Unknown) => [(0, 0.5), (1, 0.5)],
-                    _ => [(0, 1.0), (0, 0.0)],
-                };
-                for (cv, w) in weights {
-                    if w == 0.0 {
-                        continue;
-                    }
-                    for (node, hw) in [(j, w * (1.0 - f)), (j + 1, w * f)] {
-                        if hw != 0.0 {
-                            acc[cv * c + node] += hw;
-                        }
-                    }
-                }
-                if structure.branches == BranchMode::Offset {
-                    acc[c] += match b {
-                        Branch::Heating => 1.0,
-                        Branch::Cooling => -1.0,
-                        Branch::Unknown => 0.0,
-                    };
-                }
-                let mut col = nb;
-                if let Some(tr) = creep {
-                    acc[col] += tr.ext_k0_g[i];
-                    col += 1;
-                }
-                if let Some(tr) = play {
-                    acc[col] += tr.ext_k0_g[i];
-                }
-                max_rate = max_rate.max(base.rate_c_per_min[i].abs());
-            }
-            let n = (e - s) as f64;
-            xb.extend(acc.iter().map(|v| v / n));
-            continue;
-        }
         for &i in &idx[s..e] {
             let (t, b) = (base.model_temp_c[i], base.branch[i]);
             // The hat weights on the two nodes around T (heating curve, then cooling), onto
@@ -560,34 +520,48 @@ fn design_blocks(
                     continue;
                 }
                 for (node, hw) in [(j, w * (1.0 - f)), (j + 1, w * f)] {
-                    if hw != 0.0 {
-                        for &(kk, v) in &nonzero[node] {
-                            let col = cv * c + kk;
-                            if !touched.contains(&col) {
-                                touched.push(col);
-                            }
-                            row[col] += hw * v;
+                    if hw == 0.0 {
+                        continue;
+                    }
+                    if identity {
+                        acc[cv * c + node] += hw;
+                        continue;
+                    }
+                    for &(kk, v) in &nonzero[node] {
+                        let col = cv * c + kk;
+                        if !touched.contains(&col) {
+                            touched.push(col);
                         }
+                        row[col] += hw * v;
                     }
                 }
             }
-            if structure.branches == BranchMode::Offset {
-                row[c] = match b {
-                    Branch::Heating => 1.0,
-                    Branch::Cooling => -1.0,
-                    Branch::Unknown => 0.0,
-                };
-                touched.push(c);
-            }
+            // The branch step and the extensions' columns: one term each in the row.
             let mut col = nb;
+            let mut one = |col: usize, v: f64| {
+                if identity {
+                    acc[col] += v;
+                } else {
+                    row[col] = v;
+                    touched.push(col);
+                }
+            };
+            if structure.branches == BranchMode::Offset {
+                one(
+                    c,
+                    match b {
+                        Branch::Heating => 1.0,
+                        Branch::Cooling => -1.0,
+                        Branch::Unknown => 0.0,
+                    },
+                );
+            }
             if let Some(tr) = creep {
-                row[col] = tr.ext_k0_g[i];
-                touched.push(col);
+                one(col, tr.ext_k0_g[i]);
                 col += 1;
             }
             if let Some(tr) = play {
-                row[col] = tr.ext_k0_g[i];
-                touched.push(col);
+                one(col, tr.ext_k0_g[i]);
             }
             for &j in &touched {
                 acc[j] += row[j];
