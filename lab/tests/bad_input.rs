@@ -376,7 +376,8 @@ fn a_stuck_axis_is_refused_not_passed() {
 /// batch the counter failed as "cross-validation: non-finite fold MSE NaN" and the sensor
 /// as "table rejected: bias.t_step_c out of range"; `calibrate` alone exited 0 on the
 /// counter, and `discover` wrote a `table.bin` for it. The columns are overwritten as
-/// text, with no code of the lab's.
+/// text, with no code of the lab's. A log of its header alone is refused as having no row
+/// to fit.
 #[test]
 fn a_stuck_counter_or_sensor_on_a_cycling_log_is_named() {
     let d = dir().join("stuck-cycling");
@@ -427,6 +428,16 @@ fn a_stuck_counter_or_sensor_on_a_cycling_log_is_named() {
         let (_, text) = lab(&["lint", "--log", log.to_str().unwrap()]);
         assert!(text.contains(&format!("[error] outputs: {want}")), "{text}");
     }
+    // The header alone (a chamber log's unit blank on every row gives the same): said as
+    // such, where the fit said "0 equations for 2 unknowns".
+    let header = d.join("header.csv");
+    std::fs::write(&header, CYCLING_HEADER).unwrap();
+    let want = "no row to fit: the log holds no run of a program with a +1 g and a -1 g run";
+    let out = d.join("out");
+    fails_with(&["calibrate", "--log", header.to_str().unwrap(), "--out", out.to_str().unwrap(), "--no-plots"], want);
+    fails_with(&["discover", "--log", header.to_str().unwrap(), "--out", out.to_str().unwrap()], want);
+    let (_, text) = lab(&["lint", "--log", header.to_str().unwrap()]);
+    assert!(text.contains(&format!("[error] outputs: {want}")), "{text}");
 }
 
 fn cycling(rows: &[(&str, &str, f64)], n: usize) -> String {

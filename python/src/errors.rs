@@ -129,6 +129,7 @@ impl Kind for StaticCalError {
 impl Kind for qfa_log::cycling::ContentFault {
     fn kind(&self) -> &'static str {
         match self {
+            Self::NoRows => "NoRows",
             Self::StuckPulses { .. } => "StuckPulses",
             Self::IntervalUnit { .. } => "IntervalUnit",
             Self::NegativeScaleFactor { .. } => "NegativeScaleFactor",

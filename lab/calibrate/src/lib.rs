@@ -158,7 +158,9 @@ impl fmt::Display for CalibrateError {
 /// # Errors
 /// [`CalibrateError::Contents`] ([`qfa_log::cycling::Log::check_contents`]).
 pub fn check_inputs(log: &Log, paired: &PairedLog, fit_programs: &[String]) -> Result<(), CalibrateError> {
-    if fit_programs.iter().any(|p| paired.program(p).is_none()) {
+    // No program to fit at all (a log with its header alone): said as such, where the fit
+    // said "0 equations for 2 unknowns".
+    if !fit_programs.is_empty() && fit_programs.iter().any(|p| paired.program(p).is_none()) {
         return Ok(());
     }
     log.check_contents(fit_programs).map_err(CalibrateError::Contents)

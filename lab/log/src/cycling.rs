@@ -179,7 +179,7 @@ impl Log {
         self.runs.iter().filter(move |r| r.program == program)
     }
 
-    /// Whether the runs of `programs` hold what a fit can be right on: no run whose pulse
+    /// Whether the runs of `programs` hold what a fit can be right on: rows, no run whose pulse
     /// count never moves (an I/F converter's count moves with its noise and its
     /// temperature), counting intervals in the unit of the rows' spacing, no ±1 g pair whose
     /// scale factor comes out negative (swapped positions), and readings that span what the core's bias grid needs (its
@@ -190,6 +190,9 @@ impl Log {
     /// The first [`ContentFault`].
     pub fn check_contents(&self, programs: &[String]) -> Result<(), ContentFault> {
         let runs: Vec<&Run> = self.runs.iter().filter(|r| programs.contains(&r.program)).collect();
+        if runs.iter().all(|r| r.samples.is_empty()) {
+            return Err(ContentFault::NoRows);
+        }
         for r in &runs {
             let Some(first) = r.samples.first() else { continue };
             if r.samples.len() > 1 && r.samples.iter().all(|s| s.pulses == first.pulses) {
@@ -233,6 +236,9 @@ impl Log {
 #[derive(Clone, Debug, PartialEq)]
 #[non_exhaustive]
 pub enum ContentFault {
+    /// No row to fit: the log holds no run of a program to fit (its header alone, or a
+    /// chamber log's unit whose cells are empty on every row).
+    NoRows,
     /// A run's pulse count is the same on every row: a stuck counter, or a column the
     /// logger filled with a constant.
     StuckPulses {
@@ -292,6 +298,10 @@ impl fmt::Display for ContentFault {
                 "program {program}: its ±1 g pair gives a negative scale factor, K1 = (A₊ − A₋)/(g₊ − g₋) = {k1:.0} \
                  pulses/(g·s) (the median over its rows): the runs' `input_g` look swapped, or the counter's sign is; \
                  check which position is +1 g"
+            ),
+            Self::NoRows => f.write_str(
+                "no row to fit: the log holds no run of a program with a +1 g and a -1 g run (a log with its header \
+                 alone, or a unit whose cells are empty on every row)",
             ),
             Self::SpanTooSmall { lo_c, hi_c, needed_c } => write!(
                 f,
