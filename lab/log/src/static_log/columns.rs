@@ -177,7 +177,8 @@ impl FromStr for AccelUnit {
 }
 
 /// Explicit column choices (`--columns time=...,temp=...,ax=...`); unset roles are found by
-/// common names.
+/// common names, but for the acceleration axes when the map names one of them (it names the
+/// axes then).
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct ColumnMap {
     /// `(role, column)`; roles are `time`, `temp`, `ax`, `ay`, `az`.

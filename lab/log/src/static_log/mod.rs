@@ -388,6 +388,7 @@ struct Layout {
 /// Find the time, temperature and acceleration columns in `header` and decide their units:
 /// a missing time, temperature or every acceleration column is refused, so is a time or
 /// acceleration unit neither given nor in the name; the temperature is °C when neither says.
+/// A `--columns` map that names an acceleration column names them all.
 fn layout_of(header: Vec<String>, opts: &StaticOptions) -> Result<Layout, StaticError> {
     let need = |role: &str| -> Result<usize, StaticError> {
         find_column(&header, role, opts)?
@@ -396,7 +397,14 @@ fn layout_of(header: Vec<String>, opts: &StaticOptions) -> Result<Layout, Static
     let ti = need("time")?;
     let tc = need("temp")?;
     let mut axes_idx: Vec<(&str, usize)> = Vec::new();
+    // A `--columns` map that names an axis names the axes: the others are not looked for
+    // by their common names. `ax=…,ay=…` on a log with an `az` column calibrated az too,
+    // and the table held an axis the user had left out.
+    let axes_named = opts.columns.roles.iter().any(|(r, _)| ["ax", "ay", "az"].contains(&r.as_str()));
     for role in ["ax", "ay", "az"] {
+        if axes_named && !opts.columns.roles.iter().any(|(r, _)| r == role) {
+            continue;
+        }
         if let Some(i) = find_column(&header, role, opts)? {
             axes_idx.push((role, i));
         }

@@ -78,3 +78,20 @@ fn duplicates_skipped_gaps_reported_units_from_names() {
     let e = read_static_from("timestamp,temp_c,ax_g\n0,20,0\n".as_bytes(), &StaticOptions::default()).unwrap_err();
     assert_eq!(e.to_string(), "the unit of column `timestamp` is not known: pass --time-unit s|ms|us|ns");
 }
+
+/// A `--columns` map that names an axis names the axes: `ax` and `ay` named on a log with an
+/// `az` column read two axes; a map naming none (the time alone) finds all three by their
+/// common names. Before, the first read `az` as well.
+#[test]
+fn a_columns_map_naming_axes_reads_those_axes_only() {
+    let text = String::from("time\ttemp\tax\tay\taz\n")
+        + &(0..40).map(|i| format!("{}\t{}\t1\t2\t-1000\n", i * 500, 20.0 + 0.01 * f64::from(i))).collect::<String>();
+    let with = |map: &str| StaticOptions { columns: map.parse().unwrap(), ..opts() };
+    let names = |o: &StaticOptions| {
+        read_static_from(text.as_bytes(), o).unwrap().axes.iter().map(|a| a.name.clone()).collect::<Vec<_>>()
+    };
+    assert_eq!(names(&with("time=time,temp=temp,ax=ax,ay=ay")), ["ax", "ay"]);
+    assert_eq!(names(&with("az=az")), ["az"]);
+    assert_eq!(names(&with("time=time")), ["ax", "ay", "az"]);
+    assert_eq!(names(&opts()), ["ax", "ay", "az"]);
+}
