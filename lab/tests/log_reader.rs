@@ -88,6 +88,23 @@ fn write_then_read_round_trips_and_groups_runs() {
     assert_eq!(l.runs[1].samples.iter().map(|s| s.pulses).collect::<Vec<_>>(), vec![-5, -6]);
 }
 
+/// A row written twice (the logger repeating itself) is named as such, not as "time_s not
+/// after the run's previous row"; a row whose time goes back with other values still is.
+#[test]
+fn a_row_written_twice_is_named_as_one() {
+    let text = format!(
+        "{HEADER}p,0,10,1,22.0625,320000,10\np,0,10,1,22.0625,320000,10\np,0,20,1,22.125,320010,10\n\
+         p,0,20,1,22.125,320011,10\n"
+    );
+    let err = read_log_from(text.as_bytes()).unwrap_err();
+    let faults: Vec<(u64, &RowFault)> = err.errors.iter().map(|e| (e.line, &e.fault)).collect();
+    assert_eq!(faults, [(3, &RowFault::Repeated), (5, &RowFault::TimeNotIncreasing)], "{err}");
+    assert!(
+        err.to_string().contains("line 3: repeats the run's previous row exactly: the row written twice?"),
+        "{err}"
+    );
+}
+
 /// A burst of pulses in one row of a run (here 50 000 extra pulses in a 10-s row of a
 /// +1 g ramp with ±3 pulses of noise) is skipped by the reader and recorded with its run,
 /// time and count; a turn of the ramp, a step of the level and the noise are not. The same

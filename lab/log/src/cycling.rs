@@ -335,6 +335,9 @@ pub enum RowFault {
     },
     /// `time_s` is not after the run's previous row.
     TimeNotIncreasing,
+    /// The row repeats the run's previous row exactly (time, temperature, count and
+    /// interval): the row written twice.
+    Repeated,
     /// `input_g` differs from the run's first row.
     InputChanged,
     /// The CSV layer failed.
@@ -350,6 +353,7 @@ impl fmt::Display for RowFault {
             Self::FieldCount(n) => write!(f, "{n} fields, expected 7"),
             Self::Field { column, text } => write!(f, "bad {column} `{text}`"),
             Self::TimeNotIncreasing => f.write_str("time_s not after the run's previous row"),
+            Self::Repeated => f.write_str("repeats the run's previous row exactly: the row written twice?"),
             Self::InputChanged => f.write_str("input_g changed within a run"),
             Self::Csv(e) => write!(f, "csv: {e}"),
             Self::Open(e) => write!(f, "{e}"),
@@ -558,6 +562,10 @@ pub fn read_log_from<R: Read>(mut reader: R) -> Result<Log, LogError> {
             continue;
         }
         if let Some(last) = r.samples.last() {
+            if *last == (Sample { time_s, temp_c, pulses, interval_s }) {
+                push_err(&mut errors, line, RowFault::Repeated);
+                continue;
+            }
             if time_s <= last.time_s {
                 push_err(&mut errors, line, RowFault::TimeNotIncreasing);
                 continue;
