@@ -190,7 +190,8 @@ impl Log {
     /// The first [`ContentFault`].
     pub fn check_contents(&self, programs: &[String]) -> Result<(), ContentFault> {
         let runs: Vec<&Run> = self.runs.iter().filter(|r| programs.contains(&r.program)).collect();
-        if runs.iter().all(|r| r.samples.is_empty()) {
+        // A log of no row at all; a log whose rows hold no ±1 g pair is the fit's to name.
+        if self.runs.iter().all(|r| r.samples.is_empty()) {
             return Err(ContentFault::NoRows);
         }
         for r in &runs {
@@ -236,8 +237,8 @@ impl Log {
 #[derive(Clone, Debug, PartialEq)]
 #[non_exhaustive]
 pub enum ContentFault {
-    /// No row to fit: the log holds no run of a program to fit (its header alone, or a
-    /// chamber log's unit whose cells are empty on every row).
+    /// No row to fit: the log holds no row (its header alone, or a chamber log's unit whose
+    /// cells are empty on every row).
     NoRows,
     /// A run's pulse count is the same on every row: a stuck counter, or a column the
     /// logger filled with a constant.
@@ -300,8 +301,7 @@ impl fmt::Display for ContentFault {
                  check which position is +1 g"
             ),
             Self::NoRows => f.write_str(
-                "no row to fit: the log holds no run of a program with a +1 g and a -1 g run (a log with its header \
-                 alone, or a unit whose cells are empty on every row)",
+                "no row to fit: the log holds no row (its header alone, or a unit whose cells are empty on every row)",
             ),
             Self::SpanTooSmall { lo_c, hi_c, needed_c } => write!(
                 f,
