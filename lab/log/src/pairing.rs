@@ -114,6 +114,18 @@ impl Resume {
     }
 }
 
+/// Step to the reading `s` that stands for a row: the state's branch is the firmware's
+/// (which also saw the readings between rows: `Branch::next` of the branch after this
+/// reading, at this reading's Ṫ, is itself), `last_ms` moves to its clock; the time since
+/// the previous reading stepped, s (0 at the first). One rule for a resume point's pass and a
+/// trace.
+fn next_reading(st: &mut AxisState, last_ms: &mut Option<u32>, s: &crate::replay::ReadingState) -> f32 {
+    st.branch = s.branch;
+    let dt = last_ms.map_or(0.0, |p| s.clock_ms.wrapping_sub(p) as f32 * 1e-3);
+    *last_ms = Some(s.clock_ms);
+    dt
+}
+
 /// The row a trace of the rows from `start` on evaluates from: a row whose reading was
 /// refused keeps the previous row's values, so the last row before `start` with a reading
 /// of its own is evaluated whole.
@@ -144,9 +156,7 @@ pub fn resume_points(view: &FirmwareRows, ext: &Extensions, deadband: f32, start
         debug_assert!(to >= at.row, "starts ascending");
         for row in &all[at.row.min(to)..to] {
             if let Some(s) = row.standing {
-                at.state.branch = s.branch;
-                let dt = at.last_ms.map_or(0.0, |p| s.clock_ms.wrapping_sub(p) as f32 * 1e-3);
-                at.last_ms = Some(s.clock_ms);
+                let dt = next_reading(&mut at.state, &mut at.last_ms, &s);
                 axis.advance(&mut at.state, s.estimate.temp_c, s.estimate.rate_c_per_min, dt, deadband);
             }
         }
@@ -184,12 +194,8 @@ pub fn trace_axis_rows_from(view: &FirmwareRows, rows: Range<usize>, axis: &Axis
     let mut last_ms = from.last_ms;
     for (i, row) in all.iter().enumerate().skip(from.row) {
         if let Some(s) = row.standing {
-            // The model's branch is the firmware's, which also saw the readings between rows:
-            // `Branch::next` of the branch after this reading, at this reading's Ṫ, is itself.
-            st.branch = s.branch;
             let e = s.estimate;
-            let dt = last_ms.map_or(0.0, |p| s.clock_ms.wrapping_sub(p) as f32 * 1e-3);
-            last_ms = Some(s.clock_ms);
+            let dt = next_reading(&mut st, &mut last_ms, &s);
             if i < evaluate_from {
                 axis.advance(&mut st, e.temp_c, e.rate_c_per_min, dt, axis.bias.deadband_c_per_min);
                 continue;
