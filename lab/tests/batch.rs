@@ -378,6 +378,10 @@ fn a_unit_missing_an_axis_column_fails_naming_it() {
     assert!(!fleet.unit[1].flashable());
     // A fault of the input: the command's exit status fails whatever the limits.
     assert_eq!(fleet.unit.iter().map(|u| u.input_fault).collect::<Vec<_>>(), [false, true, false]);
+    // Its figures measure no yardstick: two units of full coverage compare, and each
+    // capability row counts the two whose log fits the batch.
+    assert_eq!(fleet.reference_units, 2);
+    assert!(fleet.capability.iter().all(|c| c.n == 2), "{:?}", fleet.capability);
 }
 
 /// A unit whose logger wrote every row twice: the reader keeps one of each and the unit is
@@ -442,6 +446,14 @@ fn one_log_named_for_two_serials_fails_both_naming_each_other() {
         assert!(console.contains(&format!("fail: {unit}: its table.bin is {other}'s, byte for byte")), "{console}");
         let page = std::fs::read_to_string(out.join(unit).join("certificate.html")).unwrap();
         assert!(page.contains("none: the unit FAILs"), "{unit}: {page}");
+    }
+    // One unit's readings, counted twice, would weigh double in every yardstick and in the
+    // capability table: neither copy counts.
+    let fleet: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("fleet.json")).unwrap()).unwrap();
+    assert_eq!(fleet["reference_units"], 1, "{fleet}");
+    for c in fleet["capability"].as_array().unwrap() {
+        assert_eq!(c["n"], 1, "{c}");
     }
 }
 

@@ -417,17 +417,27 @@ pub(crate) fn fleet(results: &[UnitResult], limits: &Limits) -> Fleet {
             UnitOutcome::Failed { .. } => None,
         })
         .collect();
+    let missing = missing_axes(results);
+    let same = same_tables(results);
+    // A unit whose log does not fit the batch (an axis missing, or another serial's
+    // readings) FAILs; its figures are shown but measure no yardstick: a log named for two
+    // serials would count one unit twice, a unit without an axis would shift the others.
+    let input_fault: Vec<bool> = (0..results.len()).map(|i| missing[i].is_some() || !same[i].is_empty()).collect();
+    let fitting: Vec<Option<&Calibrated>> =
+        cal.iter().zip(&input_fault).map(|(c, &fault)| if fault { None } else { *c }).collect();
     let axes = fleet_axes(&cal);
-    let sensor = sensors(&cal);
-    let partial = partial_units(&cal);
+    let sensor = sensors(&cal, &input_fault);
+    let partial = partial_units(&cal, &input_fault);
+    let reference_unit: Vec<bool> = (0..results.len()).map(|i| !partial[i] && fitting[i].is_some()).collect();
     let qfa = cal.iter().flatten().any(|c| c.qfa.is_some());
     let mut flags: Vec<Vec<Flag>> = vec![Vec::new(); results.len()];
     let all_stats = |lots: Option<&super::lots::Lots>, flags: &mut [Vec<Flag>]| -> Vec<FeatureStats> {
-        let yard = Yardstick { results, cal: &cal, sensor: &sensor, partial: &partial, lots };
+        let yard =
+            Yardstick { results, cal: &cal, sensor: &sensor, partial: &partial, reference: &reference_unit, lots };
         features(&axes, qfa).into_iter().filter_map(|feat| feature_stats(feat, &yard, flags)).collect()
     };
     let mut stats = all_stats(None, &mut flags);
-    let reference_idx: Vec<usize> = (0..results.len()).filter(|&i| !partial[i] && cal[i].is_some()).collect();
+    let reference_idx: Vec<usize> = (0..results.len()).filter(|&i| reference_unit[i]).collect();
     let serials: Vec<String> = results.iter().map(|r| r.serial.clone()).collect();
     // Two lots: every figure again, each unit of full coverage against its own lot.
     let lots = super::lots::find(&stats, &serials, &reference_idx);
@@ -446,7 +456,7 @@ pub(crate) fn fleet(results: &[UnitResult], limits: &Limits) -> Fleet {
         f.sort_by(|a, b| b.z.abs().total_cmp(&a.z.abs()));
     }
     let mut counts = [0; 3];
-    let mut unit = fleet_units(results, &flags, &partial, &sensor, &mut counts);
+    let mut unit = fleet_units(results, (&missing, &same), &flags, &partial, &sensor, &mut counts);
     for (i, u) in unit.iter_mut().enumerate() {
         u.lot = lots.as_ref().and_then(|l| {
             l.unit[i].map(|(lot, probability)| UnitLot { lot, probability, compared_within: l.compared_within })
@@ -474,7 +484,7 @@ pub(crate) fn fleet(results: &[UnitResult], limits: &Limits) -> Fleet {
         counts,
         z_flag: Z_FLAG,
         stats,
-        capability: capability(&cal, &axes, limits),
+        capability: capability(&fitting, &axes, limits),
         unit,
         population,
         span_c,
@@ -498,9 +508,15 @@ fn fleet_axes(cal: &[Option<&Calibrated>]) -> Vec<String> {
 }
 
 /// Per unit, whether its coverage is partial: not calibrated, one branch only, or a span
-/// short of [`FULL_SPAN_SHARE`] of the fleet's median span.
-fn partial_units(cal: &[Option<&Calibrated>]) -> Vec<bool> {
-    let spans: Vec<f64> = cal.iter().flatten().map(|c| c.temp_c[1] - c.temp_c[0]).collect();
+/// short of [`FULL_SPAN_SHARE`] of the median span of the units whose log fits the batch
+/// (not `input_fault`).
+fn partial_units(cal: &[Option<&Calibrated>], input_fault: &[bool]) -> Vec<bool> {
+    let spans: Vec<f64> = cal
+        .iter()
+        .zip(input_fault)
+        .filter(|(_, f)| !**f)
+        .filter_map(|(c, _)| c.map(|c| c.temp_c[1] - c.temp_c[0]))
+        .collect();
     let median_span = median(&spans).unwrap_or(0.0);
     cal.iter()
         .map(|c| c.is_none_or(|c| c.one_branch || c.temp_c[1] - c.temp_c[0] < FULL_SPAN_SHARE * median_span))
@@ -524,13 +540,12 @@ fn step_reasons(r: &UnitResult, flags: &[Flag]) -> Vec<String> {
 /// then its flags), counted in `counts`.
 fn fleet_units(
     results: &[UnitResult],
+    (missing, same): (&[Option<(String, String)>], &[Vec<String>]),
     flags: &[Vec<Flag>],
     partial: &[bool],
     sensor: &[(Measured, Measured)],
     counts: &mut [usize; 3],
 ) -> Vec<FleetUnit> {
-    let missing = missing_axes(results);
-    let same = same_tables(results);
     results
         .iter()
         .enumerate()

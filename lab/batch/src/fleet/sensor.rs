@@ -10,11 +10,12 @@ pub(super) const MIN_UNITS_PER_MINUTE: usize = 3;
 /// Steady minutes a sensor comparison needs.
 const MIN_STEADY_MINUTES: usize = 10;
 
-/// Each unit's sensor offset and drift against the fleet's median reading (module docs).
-pub(super) fn sensors(cal: &[Option<&Calibrated>]) -> Vec<(Measured, Measured)> {
+/// Each unit's sensor offset and drift against the fleet's median reading (module docs),
+/// the median formed without the units whose log does not fit the batch (`input_fault`).
+pub(super) fn sensors(cal: &[Option<&Calibrated>], input_fault: &[bool]) -> Vec<(Measured, Measured)> {
     use std::collections::BTreeMap;
     let mut per_minute: BTreeMap<i64, Vec<f64>> = BTreeMap::new();
-    for c in cal.iter().flatten() {
+    for c in cal.iter().zip(input_fault).filter(|(_, f)| !**f).filter_map(|(c, _)| *c) {
         for &(k, t) in &c.temp_minutes {
             per_minute.entry(k).or_default().push(t);
         }

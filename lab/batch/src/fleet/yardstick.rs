@@ -12,6 +12,8 @@ pub(super) struct Yardstick<'a> {
     pub(super) cal: &'a [Option<&'a Calibrated>],
     pub(super) sensor: &'a [(Measured, Measured)],
     pub(super) partial: &'a [bool],
+    /// Whether a unit measures the yardstick: full coverage, and a log that fits the batch.
+    pub(super) reference: &'a [bool],
     pub(super) lots: Option<&'a crate::lots::Lots>,
 }
 
@@ -36,7 +38,7 @@ pub(super) fn feature_stats(feat: Feature, y: &Yardstick<'_>, flags: &mut [Vec<F
         })
         .collect();
     let of = |keep: &dyn Fn(usize) -> bool| -> Vec<f64> {
-        values.iter().filter(|(i, _)| !y.partial[*i] && keep(*i)).map(|(_, v)| *v).collect()
+        values.iter().filter(|(i, _)| y.reference[*i] && keep(*i)).map(|(_, v)| *v).collect()
     };
     let [med, scale] = median_scale(&of(&|_| true), feat.floor)?;
     let within = y.lots.filter(|l| l.compared_within);
