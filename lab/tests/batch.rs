@@ -410,8 +410,7 @@ fn rows_written_twice_are_said_on_the_console_and_the_certificate() {
         common::lab(&["batch", "--manifest", sim.join("batch.toml").to_str().unwrap(), "--out", out.to_str().unwrap()]);
     assert!(ok, "{console}");
     assert!(console.contains("verdict: 3 units: 3 PASS"), "{console}");
-    let said =
-        format!("log: SN0002: [warning] glitches: {written} row(s) skipped ({written} duplicate timestamp row(s)");
+    let said = format!("log: SN0002: [warning] rows: {written} row(s) skipped ({written} duplicate timestamp row(s)");
     assert!(console.contains(&said), "{console}");
     assert_eq!(console.matches("log: ").count(), 1, "{console}");
     let page = std::fs::read_to_string(out.join("SN0002").join("certificate.html")).unwrap();

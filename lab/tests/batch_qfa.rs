@@ -157,6 +157,44 @@ fn a_multi_unit_cycling_log_calibrates_each_unit_as_its_own_log_does() {
     }
 }
 
+/// A QFA unit whose logger wrote every row twice is calibrated exactly as its log written
+/// once (`table.bin` byte for byte), and its log's warning says how many rows were written
+/// twice, as a static unit's does. Before, the cycling reader refused the whole log ("not
+/// calibrated: N malformed row(s)") where the static reader skipped the repeats.
+#[test]
+fn a_qfa_unit_whose_rows_were_written_twice_is_calibrated_as_written_once() {
+    let dir = scratch("qfa_batch_rows_twice");
+    let truth = draw_qfa(&QfaPopulationSpec { units: 3, seed: 4, bad: false, truncated: 0 });
+    write_qfa_manifest(&dir, &truth, 2).unwrap();
+    let (once, _) = calibrate(&dir, "once", 2);
+    let log = dir.join("units").join("SN0002.csv");
+    let text = std::fs::read_to_string(&log).unwrap();
+    let mut lines = text.lines();
+    let mut twice = format!("{}\n", lines.next().unwrap());
+    let mut written = 0usize;
+    for l in lines {
+        twice.push_str(&format!("{l}\n{l}\n"));
+        written += 1;
+    }
+    std::fs::write(&log, twice).unwrap();
+    let (again, _) = calibrate(&dir, "twice", 2);
+    let read = |out: &str, serial: &str| std::fs::read(dir.join(out).join(serial).join("table.bin")).unwrap();
+    for serial in ["SN0001", "SN0002", "SN0003"] {
+        assert!(read("once", serial) == read("twice", serial), "{serial}: table.bin differs");
+    }
+    let warnings = |r: &[UnitResult]| match &r[1].outcome {
+        UnitOutcome::Calibrated(c) => c.log_warnings.clone(),
+        UnitOutcome::Failed { reason } => panic!("SN0002 not calibrated: {reason}"),
+    };
+    assert!(warnings(&once).is_empty(), "{:?}", warnings(&once));
+    let said = warnings(&again);
+    assert!(
+        said.iter().any(|w| w.starts_with(&format!("[warning] rows: {written} row(s) skipped"))
+            && w.contains(&format!("{written} row(s) written twice"))),
+        "{said:?}"
+    );
+}
+
 /// A unit the chamber log holds no count for on part of the run (its cells blank: taken off
 /// the head, or its counter not logged) is calibrated on the rows it has, exactly as its own
 /// log holding those rows alone is (`table.bin` and `report.json` byte for byte), and its
@@ -539,6 +577,61 @@ fn qfa_prior_study_50() {
                 "seed={seed} units={name}:{} sf_ppm={own_sf:.2}->{prior_sf:.2} worst_sf_ratio={worst_sf:.2} \
                  bias_ug={own_b:.2}->{prior_b:.2} worst_bias_ratio={worst_b:.2}",
                 of.len()
+            );
+        }
+    }
+}
+
+/// How far one unit's figures move when the unit is logged again: 24 copies of one unit's
+/// truth, each with its own noise seed, calibrated as one batch. The fleet's spread is then
+/// the figures' repeatability alone, and a distance beyond the flag line is a good unit
+/// flagged for its noise. Run with
+/// `cargo test --release -p qfa-lab --test batch_qfa -- --ignored repeatability_study --nocapture`.
+#[test]
+#[ignore = "a study: about 2 minutes in release"]
+fn repeatability_study() {
+    let drawn = draw_qfa(&QfaPopulationSpec { units: 18, seed: 3, bad: false, truncated: 0 });
+    // `REPEATS=240 UNITS=0` looks at one unit's tail.
+    let var = |name: &str, default: &str| std::env::var(name).unwrap_or_else(|_| default.to_string());
+    let repeats: u64 = var("REPEATS", "24").parse().unwrap();
+    let units: Vec<usize> = var("UNITS", "0,4,9").split(',').map(|k| k.parse().unwrap()).collect();
+    for k in units {
+        let unit = &drawn.unit[k];
+        let copies = QfaPopulationTruth {
+            seed: drawn.seed,
+            unit: (0..repeats)
+                .map(|j| {
+                    let mut u = unit.clone();
+                    u.serial = format!("R{j:02}");
+                    // The first copy is the unit's own log in the batch it was drawn for.
+                    if j > 0 {
+                        u.noise_seed = qfa_rng::stream_seed(j, qfa_rng::Stream::named("repeatability study"), k as u64);
+                    }
+                    u
+                })
+                .collect(),
+        };
+        let dir = scratch(&format!("repeatability_{k}"));
+        write_qfa_manifest(&dir, &copies, 2).unwrap();
+        let (_, fleet) = calibrate(&dir, "out", 2);
+        for s in &fleet.stats {
+            let v: Vec<f64> = s.values.iter().map(|(_, v)| *v).collect();
+            let n = v.len() as f64;
+            let mean = v.iter().sum::<f64>() / n;
+            let sd = (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+            let worst = v.iter().map(|x| s.distance(*x, None)).fold(0.0f64, |a, z| a.max(z.abs()));
+            let own = s.values.iter().find(|(serial, _)| serial == "R00").map_or(f64::NAN, |(_, v)| *v);
+            let mut sorted = v.clone();
+            sorted.sort_by(f64::total_cmp);
+            println!(
+                "unit={} feature={} median={:.4} robust_scale={:.4} floor={} sd={sd:.4} worst_z={worst:.2} \
+                 own_log={own:.3} top3={:.3?}",
+                unit.serial,
+                s.feature.name,
+                s.median,
+                s.scale,
+                s.feature.floor,
+                &sorted[sorted.len().saturating_sub(3)..]
             );
         }
     }

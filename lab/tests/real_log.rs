@@ -645,7 +645,7 @@ fn the_real_logs_unit_mistakes_are_refused_and_linted() {
     l.extend(FLAGS);
     let lint = String::from_utf8_lossy(&lab(&l).stdout).to_string();
     println!("{lint}");
-    for check in ["format", "units", "instances", "resolution", "coverage", "glitches", "gaps", "compensation"] {
+    for check in ["format", "units", "instances", "resolution", "coverage", "rows", "gaps", "compensation"] {
         assert!(lint.contains(&format!("] {check}: ")), "no {check} finding:\n{lint}");
     }
     assert!(lint.contains("[warning] units: temperature unit assumed C"), "{lint}");

@@ -96,7 +96,8 @@ class Log:
     ``temp_c`` with NaN before the first reading, ``pulses``, ``interval_s``). ``reader``
     says what the static reader skipped and how the log is sampled; for a cycling log, the
     rows its reader skipped as one-row glitches (``reader["glitches"]``: program, run,
-    time, pulses, interval), which no column holds.
+    time, pulses, interval) and as written twice (``reader["repeated"]``: count, lines),
+    which no column holds.
     """
 
     native: Any = _field(repr=False)

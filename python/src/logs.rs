@@ -192,7 +192,8 @@ impl Log {
 
     /// What the static reader skipped and how the log is sampled, as JSON text (`skipped`,
     /// `sampling`, `columns`: role, column, unit); for a cycling log `null` fields, its
-    /// programs and the rows its reader skipped as glitches (`glitches`).
+    /// programs and the rows its reader skipped as glitches (`glitches`) and as written
+    /// twice (`repeated`: count and lines).
     fn reader_json(&self) -> String {
         match &self.data {
             LogData::Static(l) => serde_json::json!({
@@ -209,6 +210,7 @@ impl Log {
                 "columns": null,
                 "programs": l.programs(),
                 "glitches": l.glitches,
+                "repeated": l.repeated,
             })
             .to_string(),
         }

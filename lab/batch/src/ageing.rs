@@ -168,7 +168,7 @@ mod tests {
                 let program = if k < 4 { "p" } else { "q" };
                 runs.push(Run { program: program.into(), run: (k % 4).to_string(), input_g: g, samples });
             }
-            let a = ageing(&Log { runs: runs.clone(), glitches: Vec::new() }, &table).unwrap();
+            let a = ageing(&Log { runs: runs.clone(), ..Log::default() }, &table).unwrap();
             // One pulse in 10 s is 0.31 µg: the rounding's share of the slope is far under 1 %.
             assert!((a.ug_per_h - rate).abs() < 0.01 * rate.abs(), "{a:?} against {rate}");
             // The pairs alone: the zero-g runs turned into runs at 2 g, which the figure does
@@ -182,7 +182,7 @@ mod tests {
                     r
                 })
                 .collect();
-            let a = ageing(&Log { runs: pairs_only, glitches: Vec::new() }, &table).unwrap();
+            let a = ageing(&Log { runs: pairs_only, ..Log::default() }, &table).unwrap();
             assert!((a.ug_per_h - rate).abs() < 0.01 * rate.abs(), "pairs only: {a:?} against {rate}");
         }
     }

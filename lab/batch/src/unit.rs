@@ -255,7 +255,7 @@ fn calibrate_static(
 }
 
 /// The log checks' warnings (and worse) among `findings`, each as one line: the check,
-/// what it found and its evidence (`[warning] glitches: 8550 row(s) skipped (8550
+/// what it found and its evidence (`[warning] rows: 8550 row(s) skipped (8550
 /// duplicate timestamp row(s) skipped (line 3, 5, …))`).
 pub(crate) fn log_warnings(findings: &[qfa_lint::Finding]) -> Vec<String> {
     findings

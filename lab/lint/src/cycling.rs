@@ -43,11 +43,12 @@ pub fn lint_cycling(log: &Log) -> Vec<Finding> {
             "",
         ));
     }
+    skipped_rows(log, &mut out);
     let no_temp: usize = log.runs.iter().map(|r| r.samples.iter().filter(|s| s.temp_c.is_none()).count()).sum();
     if no_temp > 0 {
         out.push(Finding::new(
             Severity::Note,
-            "glitches",
+            "rows",
             format!("{no_temp} row(s) before the first temperature reading of their run"),
             String::new(),
             "nothing to do: the firmware flags them TEMP_STALE",
@@ -68,4 +69,35 @@ pub fn lint_cycling(log: &Log) -> Vec<Finding> {
         coverage_findings(&cov, &mut out);
     }
     out
+}
+
+/// The rows the reader skipped (written twice, one-row glitches), by the static log's rule:
+/// a warning over 1 % of the rows, a note under.
+fn skipped_rows(log: &Log, out: &mut Vec<Finding>) {
+    let skipped = log.repeated.count + log.glitches.len();
+    if skipped == 0 {
+        out.push(Finding::new(Severity::Ok, "rows", "no row skipped".into(), String::new(), ""));
+        return;
+    }
+    let mut detail = Vec::new();
+    if log.repeated.count > 0 {
+        detail.push(format!(
+            "{} row(s) written twice (each repeats its run's previous row exactly) skipped (line {})",
+            log.repeated.count,
+            log.repeated.listed()
+        ));
+    }
+    detail.extend(qfa_log::cycling::glitches_sentence(&log.glitches));
+    let sev = if skipped * 100 > log.rows() { Severity::Warning } else { Severity::Note };
+    out.push(Finding::new(
+        sev,
+        "rows",
+        format!("{skipped} row(s) skipped"),
+        detail.join("; "),
+        if sev == Severity::Warning {
+            "more than 1 % of the rows: check the logger and the lines listed"
+        } else {
+            "nothing to do; the lines are listed if you want to look"
+        },
+    ));
 }

@@ -57,8 +57,8 @@ impl fmt::Display for Severity {
 pub struct Finding {
     /// How much it matters.
     pub severity: Severity,
-    /// The check (`format`, `units`, `instances`, `resolution`, `coverage`, `glitches`,
-    /// `compensation`).
+    /// The check (`format`, `units`, `instances`, `resolution`, `coverage`, `rows`,
+    /// `gaps`, `compensation`).
     pub check: &'static str,
     /// What was found.
     pub what: String,
@@ -282,7 +282,7 @@ pub fn lint_static(bytes: &[u8], log: &StaticLog) -> Vec<Finding> {
         out.push(Finding::new(Severity::Ok, "resolution", format!("temperature step {step_s} °C"), ev, ""));
     }
     coverage_static(log, &mut out);
-    glitches(log, &mut out);
+    skipped_rows(log, &mut out);
     if let Err(e) = check_outputs(log) {
         out.push(Finding::new(
             Severity::Error,
@@ -528,14 +528,14 @@ fn coverage_findings(cov: &Coverage, out: &mut Vec<Finding>) {
     ));
 }
 
-fn glitches(log: &StaticLog, out: &mut Vec<Finding>) {
+fn skipped_rows(log: &StaticLog, out: &mut Vec<Finding>) {
     let s = &log.skipped;
     let sampling = log.sampling.to_string();
     if s.total() > 0 {
         let sev = if s.total() * 100 > log.rows() { Severity::Warning } else { Severity::Note };
         out.push(Finding::new(
             sev,
-            "glitches",
+            "rows",
             format!("{} row(s) skipped", s.total()),
             s.to_string(),
             if sev == Severity::Warning {
@@ -545,7 +545,7 @@ fn glitches(log: &StaticLog, out: &mut Vec<Finding>) {
             },
         ));
     } else {
-        out.push(Finding::new(Severity::Ok, "glitches", "no row skipped".into(), String::new(), ""));
+        out.push(Finding::new(Severity::Ok, "rows", "no row skipped".into(), String::new(), ""));
     }
     if log.sampling.gaps_over_30s > 0 {
         out.push(Finding::new(

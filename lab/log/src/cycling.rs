@@ -56,6 +56,11 @@ pub struct Log {
     /// Rows the reader skipped as one-row glitches in the pulse rate, run by run in time
     /// order ([`Glitch`]); the runs do not hold them.
     pub glitches: Vec<Glitch>,
+    /// Rows the reader skipped as written twice: each repeats its run's previous row
+    /// exactly (time, temperature, count and interval), so it holds no reading of its own
+    /// and kept it would count that interval's pulses twice. The static reader skips such a
+    /// row too (as a repeated timestamp).
+    pub repeated: crate::lines::SkipCount,
 }
 
 /// A row skipped as a one-row glitch: its pulse rate (pulses / interval) deviates from its
@@ -335,9 +340,6 @@ pub enum RowFault {
     },
     /// `time_s` is not after the run's previous row.
     TimeNotIncreasing,
-    /// The row repeats the run's previous row exactly (time, temperature, count and
-    /// interval): the row written twice.
-    Repeated,
     /// `input_g` differs from the run's first row.
     InputChanged,
     /// The CSV layer failed.
@@ -353,7 +355,6 @@ impl fmt::Display for RowFault {
             Self::FieldCount(n) => write!(f, "{n} fields, expected 7"),
             Self::Field { column, text } => write!(f, "bad {column} `{text}`"),
             Self::TimeNotIncreasing => f.write_str("time_s not after the run's previous row"),
-            Self::Repeated => f.write_str("repeats the run's previous row exactly: the row written twice?"),
             Self::InputChanged => f.write_str("input_g changed within a run"),
             Self::Csv(e) => write!(f, "csv: {e}"),
             Self::Open(e) => write!(f, "{e}"),
@@ -563,7 +564,7 @@ pub fn read_log_from<R: Read>(mut reader: R) -> Result<Log, LogError> {
         }
         if let Some(last) = r.samples.last() {
             if *last == (Sample { time_s, temp_c, pulses, interval_s }) {
-                push_err(&mut errors, line, RowFault::Repeated);
+                log.repeated.add(line);
                 continue;
             }
             if time_s <= last.time_s {

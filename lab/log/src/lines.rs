@@ -78,3 +78,32 @@ mod tests {
         assert_eq!(lines("h\n\"a\nb\"\nc\n"), want(&[("h", 1), ("a\nb", 2), ("c", 4)]));
     }
 }
+
+/// Rows a reader skipped for one reason: the count and the first
+/// [`crate::static_log::KEPT_LINES`] line numbers (1-based; the header is line 1).
+#[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct SkipCount {
+    /// Rows skipped.
+    pub count: usize,
+    /// First line numbers.
+    pub lines: Vec<u64>,
+}
+
+impl SkipCount {
+    /// The lines kept, as a message lists them: `3, 7, 12, ...` (the dots when more rows
+    /// were counted than kept).
+    #[must_use]
+    pub fn listed(&self) -> String {
+        let lines: Vec<String> = self.lines.iter().map(u64::to_string).collect();
+        let more = if self.count > self.lines.len() { ", ..." } else { "" };
+        format!("{}{more}", lines.join(", "))
+    }
+
+    /// Count the row at `line`, keeping its number while fewer are kept than the limit.
+    pub(crate) fn add(&mut self, line: u64) {
+        self.count += 1;
+        if self.lines.len() < crate::static_log::KEPT_LINES {
+            self.lines.push(line);
+        }
+    }
+}

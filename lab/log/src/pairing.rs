@@ -466,7 +466,7 @@ mod tests {
         // K1 = 1000, K0 = 0.01: A₊ = 1010, A₋ = −990.
         let log = Log {
             runs: vec![run("p", 1.0, &[1010, 1010, 1010], 1.0), run("p", -1.0, &[-990, -990], 2.0)],
-            glitches: Vec::new(),
+            ..Log::default()
         };
         let pp = pair_program(&log, "p").unwrap();
         assert_eq!(pp.rows, vec![(1, 0), (2, 1)]);

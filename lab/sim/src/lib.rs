@@ -250,7 +250,7 @@ pub fn simulate(
             }
         }
     });
-    Log { runs: out.into_iter().flatten().collect(), glitches: Vec::new() }
+    Log { runs: out.into_iter().flatten().collect(), ..Log::default() }
 }
 
 /// The paper's full test (Steps 1–6, four rates × four positions) for one unit.

@@ -109,24 +109,7 @@ pub struct StaticOptions {
     pub decimal_comma: bool,
 }
 
-/// Rows skipped, per reason: count and the first `KEPT_LINES` line numbers (1-based; the
-/// header is line 1).
-#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
-pub struct SkipCount {
-    /// Rows skipped.
-    pub count: usize,
-    /// First line numbers.
-    pub lines: Vec<u64>,
-}
-
-impl SkipCount {
-    fn add(&mut self, line: u64) {
-        self.count += 1;
-        if self.lines.len() < KEPT_LINES {
-            self.lines.push(line);
-        }
-    }
-}
+pub use crate::lines::SkipCount;
 
 /// Rows the reader skipped.
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
@@ -160,9 +143,7 @@ impl fmt::Display for Skipped {
                 f.write_str("; ")?;
             }
             first = false;
-            let lines: Vec<String> = s.lines.iter().map(u64::to_string).collect();
-            let more = if s.count > s.lines.len() { ", ..." } else { "" };
-            write!(f, "{} {name} row(s) skipped (line {}{more})", s.count, lines.join(", "))?;
+            write!(f, "{} {name} row(s) skipped (line {})", s.count, s.listed())?;
         }
         if first {
             f.write_str("no rows skipped")?;
