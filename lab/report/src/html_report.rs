@@ -216,38 +216,22 @@ pub fn escape(text: &str) -> String {
     s
 }
 
+/// The bytes a URL path keeps as they are: RFC 3986's unreserved characters and `/`.
+const URL_PATH_KEEPS: &percent_encoding::AsciiSet =
+    &percent_encoding::NON_ALPHANUMERIC.remove(b'-').remove(b'.').remove(b'_').remove(b'~').remove(b'/');
+
 /// A relative path as a URL path: every byte outside RFC 3986's unreserved characters and
 /// `/` percent-encoded (a space, `#` or `?` in a folder name would otherwise end the path).
 #[must_use]
 pub fn percent_encode(path: &str) -> String {
-    let mut s = String::with_capacity(path.len());
-    for b in path.bytes() {
-        if b.is_ascii_alphanumeric() || b"-._~/".contains(&b) {
-            s.push(char::from(b));
-        } else {
-            let _ = write!(s, "%{b:02X}");
-        }
-    }
-    s
+    percent_encoding::utf8_percent_encode(path, URL_PATH_KEEPS).to_string()
 }
 
-/// Standard base64 (RFC 4648, with padding).
+/// Standard base64 (RFC 4648, with padding), as a data URI holds an image.
 #[must_use]
 pub fn base64(bytes: &[u8]) -> String {
-    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut s = String::with_capacity(bytes.len().div_ceil(3) * 4);
-    for c in bytes.chunks(3) {
-        let n =
-            (u32::from(c[0]) << 16) | (u32::from(*c.get(1).unwrap_or(&0)) << 8) | u32::from(*c.get(2).unwrap_or(&0));
-        for k in 0..4 {
-            if k <= c.len() {
-                s.push(char::from(A[((n >> (18 - 6 * k)) & 63) as usize]));
-            } else {
-                s.push('=');
-            }
-        }
-    }
-    s
+    use base64::Engine as _;
+    base64::engine::general_purpose::STANDARD.encode(bytes)
 }
 
 /// The process's command line, each argument quoted for a POSIX shell when it needs it.
@@ -272,6 +256,13 @@ mod tests {
             assert_eq!(base64(i.as_bytes()), o, "{i:?}");
         }
         assert_eq!(base64(&[0xff, 0xfe, 0xfd]), "//79");
+    }
+
+    /// The encoding a browser undoes (RFC 3986): unreserved bytes and `/` kept, the rest of
+    /// the UTF-8 bytes as `%XX`.
+    #[test]
+    fn a_path_is_percent_encoded_byte_by_byte() {
+        assert_eq!(percent_encode("run 1/a#b?c/Ω-x_y.z~w.html"), "run%201/a%23b%3Fc/%CE%A9-x_y.z~w.html");
     }
 
     #[test]
