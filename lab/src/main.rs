@@ -473,7 +473,7 @@ fn batch_cmd(a: BatchCli) -> Result<(), CliError> {
     .map_err(|e| CliError::Usage(e.to_string()))?;
     qfa_batch::check_limits(&limits).map_err(|e| CliError::Usage(e.to_string()))?;
     let cal = static_cal::StaticCalOptions { holdout: a.holdout, ..Default::default() };
-    let unit = UnitOptions { cal, limits: limits.clone(), plots: a.plots };
+    let unit = UnitOptions { cal, limits: limits.clone(), plots: a.plots, spelling: qfa_log::spelling::Spelling::Cli };
     let fail_status = |fleet: &qfa_batch::fleet::Fleet| -> Result<(), CliError> {
         // As `calibrate`: the default limits are reported but change no exit status; a unit
         // that could not be calibrated always does, and so does one whose log does not fit

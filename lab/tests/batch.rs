@@ -456,6 +456,56 @@ fn one_log_named_for_two_serials_fails_both_naming_each_other() {
     }
 }
 
+/// A manifest's unit logged in mg while the manifest says g: its failure names the key to
+/// set, in the manifest's words; the flag a user then tries, `--accel-unit mg`, which the
+/// manifest's own `accel_unit = "g"` overrides, is refused rather than dropped (before, the
+/// batch ran again and failed with the same message); the key on the unit's `[[unit]]`
+/// calibrates it.
+#[test]
+fn a_unit_in_another_unit_is_told_the_manifest_key_and_a_flag_the_manifest_overrides_is_refused() {
+    let dir = scratch("batch-manifest-units");
+    let sim = dir.join("sim");
+    let (ok, text) =
+        common::lab(&["simulate-batch", "--units", "3", "--no-bad", "--seed", "7", "--out", sim.to_str().unwrap()]);
+    assert!(ok, "{text}");
+    let log = sim.join("units").join("SN0002.tsv");
+    let rows = std::fs::read_to_string(&log).unwrap();
+    let mut lines = rows.lines();
+    let mut mg = format!("{}\n", lines.next().unwrap());
+    for l in lines {
+        let f: Vec<&str> = l.split('\t').collect();
+        let a = |k: usize| format!("{}", f[k].parse::<f64>().unwrap() * 1000.0);
+        mg.push_str(&format!("{}\t{}\t{}\t{}\t{}\n", f[0], f[1], a(2), a(3), a(4)));
+    }
+    std::fs::write(&log, mg).unwrap();
+    let manifest = sim.join("batch.toml");
+    let run = |out: &str, extra: &[&str]| {
+        let out = dir.join(out);
+        let mut args = vec!["batch", "--manifest", manifest.to_str().unwrap(), "--out", out.to_str().unwrap()];
+        args.extend_from_slice(extra);
+        common::lab(&args)
+    };
+    let (ok, console) = run("a", &[]);
+    assert!(!ok, "{console}");
+    assert!(
+        console.contains("fail: SN0002: not calibrated: wrong unit? read with accel_unit = \"g\"")
+            && console.contains("pass accel_unit = \"mg\""),
+        "{console}"
+    );
+    let (ok, console) = run("b", &["--accel-unit", "mg"]);
+    assert!(!ok, "{console}");
+    assert!(
+        console.contains("--accel-unit mg on the command line, and `accel_unit = \"g\"` here for every unit")
+            && console.contains("the flag would change nothing"),
+        "{console}"
+    );
+    let m = std::fs::read_to_string(&manifest).unwrap();
+    let m = m.replace("log = \"units/SN0002.tsv\"", "log = \"units/SN0002.tsv\"\naccel_unit = \"mg\"");
+    std::fs::write(&manifest, m).unwrap();
+    let (ok, console) = run("c", &[]);
+    assert!(ok && console.contains("verdict: 3 units: 3 PASS"), "{console}");
+}
+
 /// The command as a production engineer types it: a manifest with a misspelt key is
 /// refused naming the key; without --log or --manifest the command says what it needs;
 /// `batch merge` on a folder no shard wrote says what to run first.

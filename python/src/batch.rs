@@ -43,7 +43,12 @@ fn options(py: Python<'_>, holdout: &str, limits: Option<PathBuf>) -> PyResult<U
     let limits = LimitsChoice::from_arg(limits.as_deref())
         .and_then(|l| qfa_batch::check_limits(&l).map(|()| l))
         .map_err(|e| with_kind::<BatchError>(py, e.to_string(), "Limits"))?;
-    Ok(UnitOptions { cal: StaticCalOptions { holdout, ..StaticCalOptions::default() }, limits, plots: false })
+    Ok(UnitOptions {
+        cal: StaticCalOptions { holdout, ..StaticCalOptions::default() },
+        limits,
+        plots: false,
+        spelling: qfa_log::spelling::Spelling::Python,
+    })
 }
 
 /// Calibrate shard `k` of `n` of a batch (a chamber `log` or a `manifest`) into `out`, on

@@ -98,6 +98,11 @@ def test_mistakes_raise_batch_error(tmp_path: Path, chamber: Path) -> None:
     with pytest.raises(q.BatchError) as e:
         q.batch(manifest=bad, out=tmp_path / "o", **READER)
     assert e.value.kind == "Manifest" and "time_units" in str(e.value)
+    # A keyword every unit of a chamber log needs, forgotten: each unit fails naming the
+    # keyword to pass, as Python spells it (not the command line's flag).
+    fleet = q.batch(log=chamber, out=tmp_path / "f", accel_unit="g", temp_unit="C")
+    reasons = [u["reasons"][0] for u in fleet["unit"]]
+    assert all('pass time_unit="' in r and "--time-unit" not in r for r in reasons), reasons
 
 
 def test_a_qfa_batch_reads_the_units_own_models(tmp_path: Path, lab_bin: Path) -> None:

@@ -97,6 +97,16 @@ pub enum ManifestFault {
         /// The reader's own error.
         source: Box<qfa_log::static_log::StaticError>,
     },
+    /// The command line gives a reader option that the manifest's own key (for every unit)
+    /// sets otherwise: the key would win and the flag change nothing.
+    OverridesFlag {
+        /// The option.
+        option: qfa_log::units::ReaderOption,
+        /// The flag's value.
+        flag: String,
+        /// The manifest key's value.
+        key: String,
+    },
     /// A unit's log does not exist.
     NoLog {
         /// The unit.
@@ -240,6 +250,22 @@ impl fmt::Display for ManifestFault {
             Self::Setting { serial: Some(s), key, source } => write!(f, "unit {s}: {key}: {source}"),
             Self::Setting { serial: None, key, source } => write!(f, "{key}: {source}"),
             Self::NoLog { serial, log } => write!(f, "unit {serial}: {}: no such file", log.display()),
+            Self::OverridesFlag { option, flag, key } => {
+                let name = option.name(qfa_log::spelling::Spelling::Python);
+                // TOML: a flag's value is a boolean, the others are text.
+                let key = if *option == qfa_log::units::ReaderOption::DecimalComma {
+                    key.clone()
+                } else {
+                    format!("\"{key}\"")
+                };
+                write!(
+                    f,
+                    "{} on the command line, and `{name} = {key}` here for every unit: the manifest's keys override \
+                     the command line's, so the flag would change nothing; set `{name}` on the [[unit]] entries it is \
+                     for (a unit's key overrides the manifest's), or change the manifest's `{name}`",
+                    option.with(qfa_log::spelling::Spelling::Cli, flag)
+                )
+            }
         }
     }
 }
@@ -300,6 +326,30 @@ impl fmt::Display for SerialFault {
                 "`{serial}` is given to units {} and {}: every unit needs its own serial (its table is flashed under it)",
                 units[0], units[1]
             ),
+        }
+    }
+}
+
+impl UnitFault {
+    /// The message, with every option spelled for `sp`; `Display` is the command line's.
+    #[must_use]
+    pub fn message(&self, sp: qfa_log::spelling::Spelling) -> String {
+        match self {
+            Self::Open(e) => e.message(sp),
+            Self::Calibration(e) => e.message(sp),
+            e => e.to_string(),
+        }
+    }
+}
+
+impl BatchError {
+    /// The message, with a unit's reader and calibration options spelled for `sp`;
+    /// `Display` is the command line's.
+    #[must_use]
+    pub fn message(&self, sp: qfa_log::spelling::Spelling) -> String {
+        match self {
+            Self::Unit(u) => u.message(sp),
+            e => e.to_string(),
         }
     }
 }

@@ -16,7 +16,7 @@ use super::{BatchError, ManifestFault, SerialFault};
 use qfa_log::open::ReadFlags;
 use qfa_log::static_log::columns::{AccelUnit, ColumnMap, TimeUnit};
 use qfa_log::static_log::StaticError;
-use qfa_log::units::TempUnit;
+use qfa_log::units::{ReaderOption, TempUnit};
 
 /// One unit to calibrate.
 #[derive(Clone, Debug)]
@@ -33,6 +33,10 @@ pub struct UnitInput {
     /// unit was not on the head, or its counter was not logged), left out of its log; said
     /// with its log's warnings. 0 for a manifest's log, which is the unit's own.
     pub left_out: usize,
+    /// How a message about this unit names its reader options: a manifest's unit by the
+    /// manifest's keys (`accel_unit = "mg"`, where its reader is set); `None`, by the front
+    /// end's ([`crate::unit::UnitOptions::spelling`]).
+    pub spelling: Option<qfa_log::spelling::Spelling>,
 }
 
 /// Where a unit's one-unit log is.
@@ -144,6 +148,44 @@ impl Reading {
             path: path.to_path_buf(),
             fault: ManifestFault::Setting { serial: serial.map(str::to_string), key, source: Box::new(source) },
         };
+        // The manifest's own keys replace the command line's for every unit: a flag that
+        // says otherwise would change nothing, so it is refused (a unit's key is its own
+        // exception, and may differ).
+        if serial.is_none() {
+            let differs = |option: ReaderOption, flag: Option<String>, key: Option<String>| match (flag, key) {
+                (Some(flag), Some(key)) if flag != key => Err(BatchError::Manifest {
+                    path: path.to_path_buf(),
+                    fault: ManifestFault::OverridesFlag { option, flag, key },
+                }),
+                _ => Ok(()),
+            };
+            let parsed = |t: &Option<String>, name: fn(&str) -> Option<&'static str>| {
+                t.as_deref().map(|v| name(v).map_or_else(|| v.to_string(), str::to_string))
+            };
+            differs(
+                ReaderOption::TimeUnit,
+                base.time_unit.map(|u| u.name().to_string()),
+                parsed(&self.time_unit, |v| v.parse::<TimeUnit>().ok().map(TimeUnit::name)),
+            )?;
+            differs(
+                ReaderOption::AccelUnit,
+                base.accel_unit.map(|u| u.name().to_string()),
+                parsed(&self.accel_unit, |v| v.parse::<AccelUnit>().ok().map(AccelUnit::name)),
+            )?;
+            differs(
+                ReaderOption::TempUnit,
+                base.temp_unit.map(|u| u.name().to_string()),
+                parsed(&self.temp_unit, |v| v.parse::<TempUnit>().ok().map(TempUnit::name)),
+            )?;
+            differs(
+                ReaderOption::Columns,
+                base.columns.as_ref().map(ToString::to_string),
+                parsed(&self.columns, |_| None).map(|c| c.parse::<ColumnMap>().map_or(c, |m| m.to_string())),
+            )?;
+            if base.decimal_comma && self.decimal_comma == Some(false) {
+                differs(ReaderOption::DecimalComma, Some("true".into()), Some("false".into()))?;
+            }
+        }
         let mut f = base.clone();
         if let Some(c) = &self.columns {
             f.columns = Some(c.parse::<ColumnMap>().map_err(|e| bad("columns", e))?);
@@ -225,6 +267,7 @@ pub fn from_manifest(path: &Path, base: &ReadFlags) -> Result<Vec<UnitInput>, Ba
                 rows: UnitRows::File(log),
                 flags,
                 left_out: 0,
+                spelling: Some(qfa_log::spelling::Spelling::Manifest),
             })
         })
         .collect()
@@ -237,8 +280,9 @@ pub use chamber::{from_chamber_file, from_chamber_log, ChamberUnits, SPILL_BYTES
 mod tests {
     use super::*;
 
-    /// A manifest's keys override the command line's, a unit's override the manifest's, and
-    /// a misspelt key is refused rather than ignored.
+    /// A manifest's keys stand for the command line's where it gives none, a unit's override
+    /// both, a flag the manifest's own key contradicts is refused (it would change nothing),
+    /// and a misspelt key is refused rather than ignored.
     #[test]
     fn manifest_keys_override_and_typos_are_refused() {
         let dir = std::env::temp_dir().join(format!("qfa-manifest-{}", std::process::id()));
@@ -247,10 +291,17 @@ mod tests {
         let m = dir.join("batch.toml");
         std::fs::write(&m, "time_unit = \"ms\"\n[[unit]]\nserial = \"A\"\nlog = \"a.tsv\"\naccel_unit = \"mg\"\n")
             .unwrap();
-        let base = ReadFlags { time_unit: Some(TimeUnit::S), ..ReadFlags::default() };
+        let base = ReadFlags { accel_unit: Some(AccelUnit::G), ..ReadFlags::default() };
         let u = from_manifest(&m, &base).unwrap();
         assert_eq!(u[0].flags.time_unit, Some(TimeUnit::Ms));
         assert_eq!(u[0].flags.accel_unit, Some(AccelUnit::Mg));
+        // `--time-unit s` against the manifest's `time_unit = "ms"`: before, the flag was
+        // dropped without a word. The same unit spelt alike is no contradiction.
+        let e = from_manifest(&m, &ReadFlags { time_unit: Some(TimeUnit::S), ..ReadFlags::default() }).unwrap_err();
+        let e = e.to_string();
+        assert!(e.contains("--time-unit s on the command line, and `time_unit = \"ms\"` here"), "{e}");
+        assert!(from_manifest(&m, &ReadFlags { time_unit: Some(TimeUnit::Ms), ..ReadFlags::default() }).is_ok());
+        let base = ReadFlags::default();
         std::fs::write(&m, "[[unit]]\nserial = \"A\"\nlog = \"a.tsv\"\naccel_units = \"mg\"\n").unwrap();
         assert!(from_manifest(&m, &base).unwrap_err().to_string().contains("accel_units"));
         std::fs::write(&m, "[[units]]\nserial = \"A\"\nlog = \"a.tsv\"\n").unwrap();

@@ -162,6 +162,10 @@ pub struct UnitOptions {
     pub limits: LimitsChoice,
     /// Draw each unit's plot.
     pub plots: bool,
+    /// How a unit's failure names the options it needs: the front end's (`--accel-unit`
+    /// for `qfa-lab`, `accel_unit=` for Python); a manifest's unit names the manifest's
+    /// keys whichever ([`crate::input::UnitInput::spelling`]).
+    pub spelling: qfa_log::spelling::Spelling,
 }
 
 /// Calibrate one unit into `dir` (its folder) and describe it; a refusal is a
@@ -171,12 +175,15 @@ pub(crate) fn calibrate_unit(input: &UnitInput, dir: &Path, opts: &UnitOptions) 
     let outcome = match calibrate(input, dir, opts) {
         Ok(c) => UnitOutcome::Calibrated(Box::new(c)),
         // Rows left out of a chamber log's unit may be why (a unit blank on every row).
-        Err(e) => UnitOutcome::Failed {
-            reason: match input.left_out {
-                0 => e.to_string(),
-                n => format!("{e} ({n} row(s) of the chamber log hold no count of this unit, left out of its log)"),
-            },
-        },
+        Err(e) => {
+            let e = e.message(input.spelling.unwrap_or(opts.spelling));
+            UnitOutcome::Failed {
+                reason: match input.left_out {
+                    0 => e,
+                    n => format!("{e} ({n} row(s) of the chamber log hold no count of this unit, left out of its log)"),
+                },
+            }
+        }
     };
     UnitResult { serial: input.serial.clone(), source: input.source.clone(), outcome }
 }

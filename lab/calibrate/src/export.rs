@@ -107,7 +107,7 @@ impl ExportNote {
         let range = CalibrateOption::ExportRange;
         // A range as given: the CLI's sentence keeps its `lo..hi °C` form.
         let given = |(lo, hi): (f64, f64)| match sp {
-            Spelling::Cli => format!("{} {lo}..{hi} °C", range.name(sp)),
+            Spelling::Cli | Spelling::Manifest => format!("{} {lo}..{hi} °C", range.name(sp)),
             Spelling::Python => range.with(sp, &format!("{lo},{hi}")),
         };
         match self {

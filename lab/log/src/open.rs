@@ -229,7 +229,7 @@ impl ReadError {
     /// The message, with every reader option spelled for `sp` (only the static reader
     /// takes options).
     #[must_use]
-    pub(crate) fn message(&self, sp: Spelling) -> String {
+    pub fn message(&self, sp: Spelling) -> String {
         match self {
             Self::Cycling(e) => e.to_string(),
             Self::Static(e) => e.message(sp),

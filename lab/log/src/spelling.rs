@@ -15,6 +15,10 @@ pub enum Spelling {
     Cli,
     /// The Python package's keyword arguments: `accel_unit="m/s2"`.
     Python,
+    /// A batch manifest's TOML keys, set for the unit the message is about:
+    /// `accel_unit = "m/s2"` (the reader's options; the batch's own are its command's
+    /// flags).
+    Manifest,
 }
 
 /// An option of `qfa-lab calibrate` (and `discover`'s `--holdout`) that a message names.
@@ -34,6 +38,8 @@ impl CalibrateOption {
     #[must_use]
     pub fn name(self, sp: Spelling) -> &'static str {
         match (self, sp) {
+            // A manifest sets reader keys only: these are the batch command's flags.
+            (_, Spelling::Manifest) => self.name(Spelling::Cli),
             (Self::Holdout, Spelling::Cli) => "--holdout",
             (Self::ExportRange, Spelling::Cli) => "--export-range",
             (Self::Px4DeviceId, Spelling::Cli) => "--px4-device-id",
@@ -50,7 +56,7 @@ impl CalibrateOption {
     pub fn with(self, sp: Spelling, value: &str) -> String {
         let name = self.name(sp);
         match (self, sp) {
-            (_, Spelling::Cli) => format!("{name} {value}"),
+            (_, Spelling::Cli | Spelling::Manifest) => format!("{name} {value}"),
             (Self::Holdout, Spelling::Python) => format!("{name}=\"{value}\""),
             (Self::Px4DeviceId, Spelling::Python) => format!("{name}={value}"),
             (Self::ExportRange, Spelling::Python) => format!("{name}=({})", value.replace(',', ", ")),
@@ -62,7 +68,7 @@ impl CalibrateOption {
     #[must_use]
     pub fn refused(self, sp: Spelling, value: &str) -> String {
         match sp {
-            Spelling::Cli => format!("{} `{value}`", self.name(sp)),
+            Spelling::Cli | Spelling::Manifest => format!("{} `{value}`", self.name(sp)),
             Spelling::Python => self.with(sp, value),
         }
     }
@@ -85,5 +91,7 @@ mod tests {
         }
         assert_eq!(CalibrateOption::Holdout.refused(Spelling::Cli, "x"), "--holdout `x`");
         assert_eq!(CalibrateOption::Holdout.refused(Spelling::Python, "x"), "holdout=\"x\"");
+        // A manifest sets no calibration option: they are the batch command's flags.
+        assert_eq!(CalibrateOption::Holdout.with(Spelling::Manifest, "blocks:5"), "--holdout blocks:5");
     }
 }

@@ -61,11 +61,13 @@ impl ReaderOption {
             (Self::AccelUnit, Spelling::Python) => "accel_unit",
             (Self::TempUnit, Spelling::Python) => "temp_unit",
             (Self::DecimalComma, Spelling::Python) => "decimal_comma",
+            (_, Spelling::Manifest) => self.name(Spelling::Python),
         }
     }
 
-    /// The option with a value, as it is passed: `--accel-unit m/s2`, `accel_unit="m/s2"`;
-    /// the flag [`Self::DecimalComma`] ignores `value` (`--decimal-comma`, `decimal_comma=True`).
+    /// The option with a value, as it is passed: `--accel-unit m/s2`, `accel_unit="m/s2"`,
+    /// a manifest's `accel_unit = "m/s2"`; the flag [`Self::DecimalComma`] ignores `value`
+    /// (`--decimal-comma`, `decimal_comma=True`, `decimal_comma = true`).
     #[must_use]
     pub fn with(self, sp: Spelling, value: &str) -> String {
         match (self, sp) {
@@ -73,6 +75,8 @@ impl ReaderOption {
             (Self::DecimalComma, Spelling::Python) => "decimal_comma=True".to_string(),
             (_, Spelling::Cli) => format!("{} {value}", self.name(sp)),
             (_, Spelling::Python) => format!("{}=\"{value}\"", self.name(sp)),
+            (Self::DecimalComma, Spelling::Manifest) => "decimal_comma = true".to_string(),
+            (_, Spelling::Manifest) => format!("{} = \"{value}\"", self.name(sp)),
         }
     }
 
@@ -83,7 +87,7 @@ impl ReaderOption {
     pub(crate) fn refused(self, sp: Spelling, value: &str) -> String {
         match sp {
             Spelling::Cli => format!("{} `{value}`", self.name(sp)),
-            Spelling::Python => self.with(sp, value),
+            Spelling::Python | Spelling::Manifest => self.with(sp, value),
         }
     }
 
@@ -116,7 +120,7 @@ impl TempUnit {
 
     /// The name the option takes.
     #[must_use]
-    pub(crate) fn name(self) -> &'static str {
+    pub fn name(self) -> &'static str {
         match self {
             Self::C => "C",
             Self::F => "F",
@@ -290,6 +294,9 @@ mod tests {
         );
         let py = m.message(Spelling::Python);
         assert!(py.contains("accel_unit=\"m/s2\"") && !py.contains("--"), "{py}");
+        let manifest = m.message(Spelling::Manifest);
+        assert!(manifest.ends_with("pass accel_unit = \"m/s2\" (0.980 g)") && !manifest.contains("--"), "{manifest}");
+        assert_eq!(ReaderOption::DecimalComma.with(Spelling::Manifest, ""), "decimal_comma = true");
         let bad = UnitParseError { option: ReaderOption::TimeUnit, value: "hours".into() };
         assert_eq!(bad.to_string(), "--time-unit `hours`: expected s|ms|us|ns");
         assert_eq!(bad.message(Spelling::Python), "time_unit=\"hours\": expected s|ms|us|ns");

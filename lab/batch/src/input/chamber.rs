@@ -303,7 +303,7 @@ fn from_cycling_chamber<R: std::io::Read>(
                 path.display(),
                 u.picked.iter().map(|&i| format!("`{}`", header[i])).collect::<Vec<_>>().join(", ")
             );
-            Ok(UnitInput { serial: u.serial, source, rows, flags: base.clone(), left_out: u.left_out })
+            Ok(UnitInput { serial: u.serial, source, rows, flags: base.clone(), left_out: u.left_out, spelling: None })
         })
         .collect()
 }
@@ -406,7 +406,14 @@ fn unit_input(
         picked.iter().map(|(_, i)| format!("`{}`", header[*i])).collect::<Vec<_>>().join(", ")
     );
     // The static reader skips a row with an empty field itself, and counts it.
-    UnitInput { serial, source, rows, flags: ReadFlags { columns: Some(roles), ..base.clone() }, left_out: 0 }
+    UnitInput {
+        serial,
+        source,
+        rows,
+        flags: ReadFlags { columns: Some(roles), ..base.clone() },
+        left_out: 0,
+        spelling: None,
+    }
 }
 
 #[cfg(test)]

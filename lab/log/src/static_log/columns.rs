@@ -97,7 +97,7 @@ impl TimeUnit {
 
     /// The name `--time-unit` takes.
     #[must_use]
-    pub(crate) fn name(self) -> &'static str {
+    pub fn name(self) -> &'static str {
         match self {
             Self::S => "s",
             Self::Ms => "ms",
@@ -137,7 +137,7 @@ impl AccelUnit {
 
     /// The name `--accel-unit` takes.
     #[must_use]
-    pub(crate) fn name(self) -> &'static str {
+    pub fn name(self) -> &'static str {
         match self {
             Self::G => "g",
             Self::Mg => "mg",
@@ -183,6 +183,14 @@ impl FromStr for AccelUnit {
 pub struct ColumnMap {
     /// `(role, column)`; roles are `time`, `temp`, `ax`, `ay`, `az`.
     pub roles: Vec<(String, String)>,
+}
+
+/// As the option is written: `time=timestamp,temp=imu.temperature`.
+impl std::fmt::Display for ColumnMap {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let parts: Vec<String> = self.roles.iter().map(|(role, col)| format!("{role}={col}")).collect();
+        f.write_str(&parts.join(","))
+    }
 }
 
 impl FromStr for ColumnMap {
