@@ -11,6 +11,7 @@ use qfa_batch::input::{from_chamber_log, from_manifest};
 use qfa_batch::unit::{UnitOptions, UnitOutcome, UnitResult};
 use qfa_batch::BatchOptions;
 use qfa_log::open::ReadFlags;
+use qfa_report::verdict::Measured;
 use qfa_sim::population::Truncation;
 use qfa_sim::qfa_population::{
     draw_qfa, write_qfa_chamber, write_qfa_manifest, QfaDefect, QfaPopulationSpec, QfaPopulationTruth,
@@ -193,6 +194,51 @@ fn a_qfa_unit_whose_rows_were_written_twice_is_calibrated_as_written_once() {
             && w.contains(&format!("{written} row(s) written twice"))),
         "{said:?}"
     );
+}
+
+/// A QFA unit's temperature sensor against the fleet's, as a static unit's is: each run of
+/// a program is a leg every unit ran through alike, so its steady minutes are compared
+/// across units. The offsets read back the simulator's drawn sensor offsets (each against
+/// the fleet's median), and a drift written into one unit's readings (0.05 °C/h on its
+/// runs taken back to back) reads back as that drift. Before, both figures were "not
+/// computed: a cycling log's clock restarts with each run".
+#[test]
+fn a_qfa_units_sensor_is_compared_with_the_fleets_run_by_run() {
+    let dir = scratch("qfa_batch_sensor");
+    let truth = draw_qfa(&QfaPopulationSpec { units: 6, seed: 4, bad: false, truncated: 0 });
+    write_qfa_manifest(&dir, &truth, 2).unwrap();
+    // SN0004's sensor drifts: each reading plus 0.05 °C per hour of the unit's runs.
+    const DRIFT: f64 = 0.05;
+    let path = dir.join("units").join("SN0004.csv");
+    let mut log = qfa_log::cycling::read_log(&path).unwrap();
+    let mut start_s = 0.0;
+    for run in &mut log.runs {
+        for s in &mut run.samples {
+            s.temp_c = s.temp_c.map(|t| t + DRIFT * (start_s + s.time_s) / 3600.0);
+        }
+        start_s += run.samples.last().map_or(0.0, |s| s.time_s);
+    }
+    qfa_log::cycling::write_log(&path, &log).unwrap();
+    let (_, fleet) = calibrate(&dir, "out", 2);
+    // The fleet's median reading: SN0004's drifting sensor reads above every other unit's
+    // over most of the runs, so it sits at the top of each minute's six readings.
+    let mut sorted: Vec<f64> =
+        truth.unit.iter().map(|u| if u.serial == "SN0004" { f64::INFINITY } else { u.truth.sensor.offset_c }).collect();
+    sorted.sort_by(f64::total_cmp);
+    let median = 0.5 * (sorted[2] + sorted[3]);
+    for (u, f) in truth.unit.iter().zip(&fleet.unit) {
+        let value = |m: &Measured| match m {
+            Measured::Value(v) => *v,
+            Measured::NotComputed { not_computed } => panic!("{}: not computed: {not_computed}", u.serial),
+        };
+        let (offset, drift) = (value(&f.sensor_offset_c), value(&f.sensor_drift_c_per_h));
+        if u.serial == "SN0004" {
+            assert!((drift - DRIFT).abs() < 0.01, "{}: drift {drift}", u.serial);
+        } else {
+            assert!((offset - (u.truth.sensor.offset_c - median)).abs() < 0.05, "{}: offset {offset}", u.serial);
+            assert!(drift.abs() < 0.005, "{}: drift {drift}", u.serial);
+        }
+    }
 }
 
 /// A unit the chamber log holds no count for on part of the run (its cells blank: taken off

@@ -21,7 +21,9 @@
 //! `STEADY_C_PER_MIN` (the holds, where the units' different lags have died out) each
 //! unit's difference from it gives its offset (median) and its drift (the least-squares
 //! slope over time). A sensor that drifts shows there and nowhere else: its unit's own log
-//! only shows a bias curve that does not repeat.
+//! only shows a bias curve that does not repeat. A cycling log's clock restarts with each
+//! run, so its minutes are a run's (`PROGRAM/RUN`, which every unit ran through alike) and
+//! its drift is over the runs taken back to back ([`super::unit::SensorLeg`]).
 //!
 //! # Decision
 //! FAIL: not calibrated, or a limit failed. REVIEW: every limit met but flagged outside the

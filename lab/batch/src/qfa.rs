@@ -157,7 +157,7 @@ pub(crate) fn calibrate(
         table_crc32: format!("{crc:08x}"),
         table_bytes: bin.len(),
         descriptor: Vec::new(),
-        temp_minutes: Vec::new(),
+        temp_minutes: super::unit::cycling_temp_minutes(log),
         normal: None,
         qfa_normal: Some(normal(rows, rate_limit)),
         steps: Vec::new(),

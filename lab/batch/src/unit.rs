@@ -98,8 +98,9 @@ pub struct Calibrated {
     pub table_bytes: usize,
     /// The common form, per axis.
     pub descriptor: Vec<AxisDescriptor>,
-    /// Mean temperature reading per minute of its clock: `(minute, °C)`.
-    pub temp_minutes: Vec<(i64, f64)>,
+    /// Mean temperature reading per minute, per leg of the chamber run the fleet's units
+    /// share (a static log: one, on its own clock; a cycling log: each program's run).
+    pub temp_minutes: Vec<SensorLeg>,
     /// What the population prior needs of a static unit's rows ([`super::prior`]); `None`
     /// for a QFA unit, whose statistics are `qfa_normal`.
     pub normal: Option<super::prior::UnitNormal>,
@@ -431,14 +432,53 @@ pub(crate) fn normal(log: &StaticLog, deadband: f32) -> super::prior::UnitNormal
     super::prior::normal_of(&time, &temp, &branch, &views)
 }
 
-/// Mean temperature reading per [`TEMP_MEAN_S`] of the log's own clock (so the logs of
-/// one chamber run line up, whichever row each starts at).
+/// One leg of a chamber run as a unit's temperature sensor read it: the mean reading per
+/// [`TEMP_MEAN_S`] of the leg's clock, which every unit through that leg shares, and where
+/// the leg sits on the unit's own clock (for a drift in °C/h).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SensorLeg {
+    /// The leg: empty for a static log (one leg, its clock the log's); `PROGRAM/RUN` for a
+    /// cycling log's run (its clock restarts with each run, and every unit's run of that
+    /// name follows the same program).
+    pub leg: String,
+    /// The leg's start on the unit's own clock, h (a cycling log's runs back to back in the
+    /// log's order, as its ageing takes them; 0 for a static log).
+    pub start_h: f64,
+    /// `(minute of the leg's clock, mean °C)`.
+    pub minutes: Vec<(i64, f64)>,
+}
+
+/// A static log's one leg: the mean reading per [`TEMP_MEAN_S`] of the log's own clock
+/// (so the logs of one chamber run line up, whichever row each starts at).
 #[must_use]
-pub(crate) fn temp_minutes(log: &StaticLog) -> Vec<(i64, f64)> {
+pub(crate) fn temp_minutes(log: &StaticLog) -> Vec<SensorLeg> {
     let clock: Vec<f64> = log.time_s.iter().map(|t| t + log.time_origin_s).collect();
-    qfa_calibrate::metrics::time_bin_means(log.temp_c.iter().copied(), &clock, TEMP_MEAN_S)
+    let minutes = qfa_calibrate::metrics::time_bin_means(log.temp_c.iter().copied(), &clock, TEMP_MEAN_S)
         .into_iter()
         .map(|(k, m, _)| (k, m))
+        .collect();
+    vec![SensorLeg { leg: String::new(), start_h: 0.0, minutes }]
+}
+
+/// A cycling log's legs, one per run: its readings' mean per [`TEMP_MEAN_S`] of the run's
+/// clock (rows before the run's first reading left out), each run starting where the one
+/// before it ended on the unit's clock ([`super::ageing`]'s clock).
+#[must_use]
+pub(crate) fn cycling_temp_minutes(log: &qfa_log::cycling::Log) -> Vec<SensorLeg> {
+    let mut start_s = 0.0;
+    log.runs
+        .iter()
+        .map(|run| {
+            let read: Vec<(f64, f64)> = run.samples.iter().filter_map(|s| s.temp_c.map(|t| (s.time_s, t))).collect();
+            let time: Vec<f64> = read.iter().map(|r| r.0).collect();
+            let minutes = qfa_calibrate::metrics::time_bin_means(read.iter().map(|r| r.1), &time, TEMP_MEAN_S)
+                .into_iter()
+                .map(|(k, m, _)| (k, m))
+                .collect();
+            let leg = SensorLeg { leg: format!("{}/{}", run.program, run.run), start_h: start_s / 3600.0, minutes };
+            start_s += run.samples.last().map_or(0.0, |s| s.time_s);
+            leg
+        })
         .collect()
 }
 

@@ -12,22 +12,26 @@ const MIN_STEADY_MINUTES: usize = 10;
 
 /// Each unit's sensor offset and drift against the fleet's median reading (module docs),
 /// the median formed without the units whose log does not fit the batch (`input_fault`).
+/// A minute is one of a leg's ([`crate::unit::SensorLeg`]): a static log's shared clock,
+/// or one program's run of a cycling log, which every unit ran through alike.
 pub(super) fn sensors(cal: &[Option<&Calibrated>], input_fault: &[bool]) -> Vec<(Measured, Measured)> {
     use std::collections::BTreeMap;
-    let mut per_minute: BTreeMap<i64, Vec<f64>> = BTreeMap::new();
+    let mut per_minute: BTreeMap<(&str, i64), Vec<f64>> = BTreeMap::new();
     for c in cal.iter().zip(input_fault).filter(|(_, f)| !**f).filter_map(|(c, _)| *c) {
-        for &(k, t) in &c.temp_minutes {
-            per_minute.entry(k).or_default().push(t);
+        for leg in &c.temp_minutes {
+            for &(k, t) in &leg.minutes {
+                per_minute.entry((leg.leg.as_str(), k)).or_default().push(t);
+            }
         }
     }
-    let med: BTreeMap<i64, f64> = per_minute
+    let med: BTreeMap<(&str, i64), f64> = per_minute
         .into_iter()
         .filter(|(_, v)| v.len() >= MIN_UNITS_PER_MINUTE)
         .filter_map(|(k, v)| median(&v).map(|m| (k, m)))
         .collect();
-    let steady: BTreeMap<i64, f64> = med
+    let steady: BTreeMap<(&str, i64), f64> = med
         .iter()
-        .filter(|(k, _)| match (med.get(&(**k - 1)), med.get(&(**k + 1))) {
+        .filter(|((leg, k), _)| match (med.get(&(*leg, *k - 1)), med.get(&(*leg, *k + 1))) {
             (Some(a), Some(b)) => ((b - a) / 2.0).abs() < STEADY_C_PER_MIN,
             _ => false,
         })
@@ -37,12 +41,16 @@ pub(super) fn sensors(cal: &[Option<&Calibrated>], input_fault: &[bool]) -> Vec<
     cal.iter()
         .map(|c| {
             let Some(c) = c else { return (not("not calibrated"), not("not calibrated")) };
-            if c.qfa.is_some() {
-                let why = "a cycling log's clock restarts with each run: no minute shared with the fleet";
-                return (not(why), not(why));
-            }
-            let d: Vec<(f64, f64)> =
-                c.temp_minutes.iter().filter_map(|(k, t)| steady.get(k).map(|m| (*k as f64 / 60.0, t - m))).collect();
+            let d: Vec<(f64, f64)> = c
+                .temp_minutes
+                .iter()
+                .flat_map(|leg| {
+                    let steady = &steady;
+                    leg.minutes.iter().filter_map(move |(k, t)| {
+                        steady.get(&(leg.leg.as_str(), *k)).map(|m| (leg.start_h + *k as f64 / 60.0, t - m))
+                    })
+                })
+                .collect();
             if d.len() < MIN_STEADY_MINUTES {
                 let why = format!(
                     "{} steady minutes shared with at least {MIN_UNITS_PER_MINUTE} units; {MIN_STEADY_MINUTES} needed",
