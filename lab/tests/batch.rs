@@ -219,6 +219,24 @@ fn a_chamber_run_flags_each_bad_unit_for_its_defect_and_passes_the_rest() {
     );
     assert!(within * 4 >= sorted.len() * 3, "{within} of {} within 0.08 mg: {split_errors:?}", sorted.len());
     assert!(median_error.abs() < 0.03, "median split error {median_error} mg");
+    // The sensor's figures against the truth on the good units: no drift was drawn, and each
+    // offset is the drawn one less the fleet's median (its units' cases lag the air by
+    // 60–170 s each, so a minute where one unit's reading still moves is left out).
+    let good: Vec<(&qfa_sim::population::UnitTruth, &qfa_batch::fleet::FleetUnit)> =
+        truth.unit.iter().zip(&fleet.unit).filter(|(u, _)| u.defect.is_none()).collect();
+    let mut offsets: Vec<f64> = good.iter().map(|(u, _)| u.sensor_offset_c).collect();
+    offsets.sort_by(f64::total_cmp);
+    let value = |m: &qfa_report::verdict::Measured| match m {
+        qfa_report::verdict::Measured::Value(v) => *v,
+        qfa_report::verdict::Measured::NotComputed { not_computed } => panic!("not computed: {not_computed}"),
+    };
+    let drift = good.iter().map(|(_, f)| value(&f.sensor_drift_c_per_h).abs()).fold(0.0, f64::max);
+    let offset = good
+        .iter()
+        .map(|(u, f)| (value(&f.sensor_offset_c) - (u.sensor_offset_c - offsets[offsets.len() / 2])).abs())
+        .fold(0.0, f64::max);
+    println!("sensor: good units' largest drift {drift:.4} °C/h, largest offset error {offset:.4} °C");
+    assert!(drift < 0.02 && offset < 0.03, "drift {drift} °C/h, offset error {offset} °C");
     // Every unit has its certificate, naming the CRC in its table's header.
     for r in &run.results {
         let cert: serde_json::Value =
