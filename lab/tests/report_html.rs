@@ -113,11 +113,18 @@ fn calibrate_and_discover_on_a_cycling_log_write_pages_that_load() {
     }
     browser::assert_page(&cal.join("report.html"), 2);
     let disc = d.join("disc");
+    // A plot an earlier run left in the folder (a single-channel log's discovery writes
+    // this name; a cycling log's does not): before, the page inlined every PNG it found
+    // there, captioned as this run's residual.
+    std::fs::create_dir_all(&disc).unwrap();
+    std::fs::copy(cal.join("sf_vs_temp.png"), disc.join("residual_value_vs_time.png")).unwrap();
     lab_ok(&["discover", "--log", &s(&log), "--out", &s(&disc)]);
     let html = std::fs::read_to_string(disc.join("report.html")).unwrap();
     for want in ["Held-out scheme", "Effects added", "What the log covers", "report.md"] {
         assert!(html.contains(want), "discover's page lacks {want:?}");
     }
+    assert!(!html.contains("residual_value_vs_time.png"), "discover's page shows a plot it did not draw");
+    assert!(html.contains("residual_bias_vs_time.png"), "discover's page lacks its own plot");
     browser::assert_page(&disc.join("report.html"), 1);
     let _ = std::fs::remove_dir_all(&d);
 }

@@ -140,7 +140,7 @@ pub(crate) fn page(ch: &Channels, r: &Report, dir: &Path, scope: Scope<'_>, v: &
     page_where(&mut p, ch, r, held);
     page_rounds(&mut p, ch, r, held);
     p.section(&format!("Plots ({held} residuals)"));
-    p.images_in(dir, |name| caption(name, ch, r, scope))?;
+    p.images_of(dir, &v.files, |name| caption(name, ch, r, scope))?;
     p.para("Every figure on this page is also in report.md and report.json beside it.");
     Ok(p)
 }
@@ -362,7 +362,12 @@ fn page_rounds(p: &mut Page, ch: &Channels, r: &Report, held: &str) {
 ///
 /// # Errors
 /// A file in `dir` that cannot be read.
-pub(crate) fn static_page(d: &StaticDiscovery, v: &Verdict, dir: &Path) -> std::io::Result<Page> {
+pub(crate) fn static_page(
+    d: &StaticDiscovery,
+    v: &Verdict,
+    axis_files: &[Vec<qfa_report::verdict::FileUse>],
+    dir: &Path,
+) -> std::io::Result<Page> {
     let mut p = Page::new("Discovery report, static multi-axis log");
     v.to_page(&mut p);
     let h = &d.holdout;
@@ -405,16 +410,13 @@ pub(crate) fn static_page(d: &StaticDiscovery, v: &Verdict, dir: &Path) -> std::
             }
         }
     }
-    for ((a, r), ch) in d.axes.iter().zip(&d.reports).zip(&d.channels) {
-        let sub = dir.join(&a.axis);
-        if sub.is_dir() {
-            p.section(&format!(
-                "{} ({}): selection-fold residual plots (its own page: {}/report.html)",
-                a.axis, a.column, a.axis
-            ));
-            let scope = Scope::StaticAxis { discovery: d, axis: a };
-            p.images_in(&sub, |name| format!("{}: {}", a.axis, caption(name, ch, r, scope)))?;
-        }
+    for (((a, r), ch), files) in d.axes.iter().zip(&d.reports).zip(&d.channels).zip(axis_files) {
+        p.section(&format!(
+            "{} ({}): selection-fold residual plots (its own page: {}/report.html)",
+            a.axis, a.column, a.axis
+        ));
+        let scope = Scope::StaticAxis { discovery: d, axis: a };
+        p.images_of(&dir.join(&a.axis), files, |name| format!("{}: {}", a.axis, caption(name, ch, r, scope)))?;
     }
     Ok(p)
 }

@@ -87,7 +87,7 @@ pub fn page(
     }
     p.section("Plots (the flight: held out from every fit)");
     let alarms = verdict::alarms(r);
-    p.images_in(&args.out, |name| verdict::caption(name, &alarms))?;
+    p.images_of(&args.out, &v.files, |name| verdict::caption(name, &alarms))?;
     Ok(p)
 }
 
@@ -168,6 +168,6 @@ pub fn merge_page(out: &Path, sum: &mc::Summary, v: &Verdict) -> std::io::Result
     );
     p.section("Monte Carlo").pre(&mc::table(sum));
     p.section("Plots");
-    p.images_in(out, |name| verdict::caption(name, &[]))?;
+    p.images_of(out, &v.files, |name| verdict::caption(name, &[]))?;
     Ok(p)
 }

@@ -5,6 +5,7 @@
 //! Every command that writes a page (`calibrate`, `discover`, `navigate`, `demo`) goes
 //! through [`Page`]; the page always opens with the command line that produced it.
 
+use crate::verdict::FileUse;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -151,14 +152,26 @@ impl Page {
         Ok(self)
     }
 
-    /// Every `*.png` directly in `dir`, by name, each captioned by `caption(name)`.
+    /// The plots among `files` (what a run's verdict lists as written into `dir`), by name,
+    /// each captioned by `caption(name)`: a page shows the plots its own run drew, never a
+    /// PNG another run left in the folder (a stale plot read as this run's).
     ///
     /// # Errors
-    /// The directory or a file cannot be read.
-    pub fn images_in(&mut self, dir: &Path, caption: impl Fn(&str) -> String) -> std::io::Result<&mut Self> {
-        for p in pngs_in(dir)? {
-            let name = p.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned());
-            self.image(&p, &caption(&name))?;
+    /// A listed plot cannot be read or is not a PNG.
+    pub fn images_of(
+        &mut self,
+        dir: &Path,
+        files: &[FileUse],
+        caption: impl Fn(&str) -> String,
+    ) -> std::io::Result<&mut Self> {
+        let mut plots: Vec<&str> = files
+            .iter()
+            .map(|f| f.file.as_str())
+            .filter(|f| Path::new(f).extension().is_some_and(|x| x.eq_ignore_ascii_case("png")))
+            .collect();
+        plots.sort_unstable();
+        for name in plots {
+            self.image(&dir.join(name), &caption(name))?;
         }
         Ok(self)
     }
@@ -183,20 +196,6 @@ impl Page {
         std::fs::write(&p, self.html()).map_err(|e| std::io::Error::new(e.kind(), format!("{}: {e}", p.display())))?;
         Ok(p)
     }
-}
-
-/// The `*.png` files directly in `dir`, sorted by name.
-///
-/// # Errors
-/// The directory cannot be read.
-pub fn pngs_in(dir: &Path) -> std::io::Result<Vec<PathBuf>> {
-    let mut v: Vec<PathBuf> = std::fs::read_dir(dir)?
-        .filter_map(Result::ok)
-        .map(|e| e.path())
-        .filter(|p| p.is_file() && p.extension().is_some_and(|x| x.eq_ignore_ascii_case("png")))
-        .collect();
-    v.sort();
-    Ok(v)
 }
 
 /// `text` with `&`, `<`, `>`, `"` and `'` escaped, for element text and attribute values.
