@@ -524,6 +524,47 @@ fn a_unit_in_another_unit_is_told_the_manifest_key_and_a_flag_the_manifest_overr
     assert!(ok && console.contains("verdict: 3 units: 3 PASS"), "{console}");
 }
 
+/// A batch run again into the folder of an earlier one, with one unit's log now refused:
+/// that unit's folder keeps no table from the earlier batch. Before, its `table.bin`,
+/// `table.toml` and ArduPilot files stayed beside a certificate that says FAIL, ready to be
+/// flashed by a script that takes `SERIAL/table.bin`.
+#[test]
+fn a_unit_that_fails_keeps_no_table_an_earlier_batch_wrote() {
+    let dir = scratch("batch-rerun");
+    let sim = dir.join("sim");
+    let (ok, text) =
+        common::lab(&["simulate-batch", "--units", "3", "--no-bad", "--seed", "7", "--out", sim.to_str().unwrap()]);
+    assert!(ok, "{text}");
+    let out = dir.join("out");
+    let run = || {
+        common::lab(&[
+            "batch",
+            "--manifest",
+            sim.join("batch.toml").to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--plots",
+        ])
+    };
+    let (ok, console) = run();
+    assert!(ok, "{console}");
+    assert!(out.join("SN0002").join("table.bin").is_file());
+    common::assert_unit_files_are_listed(&out);
+    std::fs::write(sim.join("units").join("SN0002.tsv"), "time\ttemp\tax\tay\taz\n").unwrap();
+    let (ok, console) = run();
+    assert!(!ok && console.contains("fail: SN0002: not calibrated"), "{console}");
+    let left: Vec<String> = std::fs::read_dir(out.join("SN0002"))
+        .unwrap()
+        .filter_map(Result::ok)
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    for gone in ["table.bin", "table.toml", "report.json", "bias_vs_temp.png", "ardupilot_tcal_2_values.parm"] {
+        assert!(!left.iter().any(|f| f == gone), "SN0002 keeps {gone}: {left:?}");
+    }
+    assert!(left.iter().any(|f| f == "certificate.json"), "{left:?}");
+    assert!(out.join("SN0001").join("table.bin").is_file());
+}
+
 /// The command as a production engineer types it: a manifest with a misspelt key is
 /// refused naming the key; without --log or --manifest the command says what it needs;
 /// `batch merge` on a folder no shard wrote says what to run first.

@@ -536,6 +536,8 @@ struct QfaPriorRow {
 fn qfa_prior_study(units: usize, truncated: usize, seed: u64, name: &str) -> Vec<QfaPriorRow> {
     let dir = scratch(name);
     let (truth, results, fleet) = run(&dir, &QfaPopulationSpec { units, seed, bad: false, truncated });
+    // The prior's tables too are among the files a later batch clears.
+    common::assert_unit_files_are_listed(&dir.join("out"));
     let span = (fleet.span_c[0], fleet.span_c[1]);
     let deadband = qfa_log::replay::branch_deadband_c_per_min();
     let mut rows = Vec::new();

@@ -83,6 +83,46 @@ pub fn check_limits_for(limits: &qfa_report::verdict::LimitsChoice, units: &[Uni
 /// Name of each unit's result file in its folder.
 pub(crate) const UNIT_JSON: &str = "unit.json";
 
+/// Every file a batch may write into a unit's folder (a static or a QFA unit, with
+/// `--plots`, with a prior table, and the exports). Each is removed before the unit is
+/// calibrated, so its folder holds this batch's files only: a unit not calibrated now keeps
+/// no `table.bin` an earlier batch wrote there (its certificate says FAIL; the folder said
+/// otherwise). The batch's tests check that a unit's folder holds nothing else.
+pub const UNIT_FILES: [&str; 19] = [
+    "table.bin",
+    "table.toml",
+    "table_simple.bin",
+    "table_simple.toml",
+    "table_prior.bin",
+    "table_prior.toml",
+    "report.json",
+    "report.md",
+    "report.html",
+    "unit.json",
+    "certificate.json",
+    "certificate.html",
+    "bias_vs_temp.png",
+    "sf_vs_temp.png",
+    "residual_vs_time.png",
+    qfa_calibrate::export::EXPORT_FILES[0],
+    qfa_calibrate::export::EXPORT_FILES[1],
+    qfa_calibrate::export::EXPORT_FILES[2],
+    qfa_calibrate::export::EXPORT_FILES[3],
+];
+
+/// Remove from a unit's folder `dir` every file an earlier batch may have written there
+/// ([`UNIT_FILES`]).
+fn clear_unit_folder(dir: &Path) -> Result<(), BatchError> {
+    for name in UNIT_FILES {
+        let path = dir.join(name);
+        match std::fs::remove_file(&path) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(OutputError::io(&path)(e).into()),
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
 /// One shard of a job array: the units whose place `i` has `i mod n = k`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Shard {
@@ -165,6 +205,7 @@ pub fn run(units: &[UnitInput], out: &Path, opts: &BatchOptions) -> Result<Batch
             .map(|&(i, u)| {
                 let dir = out.join(&u.serial);
                 std::fs::create_dir_all(&dir).map_err(OutputError::io(&dir))?;
+                clear_unit_folder(&dir)?;
                 let r = calibrate_unit(u, &dir, &opts.unit);
                 match &r.outcome {
                     UnitOutcome::Failed { .. } => failed.fetch_add(1, Ordering::Relaxed),

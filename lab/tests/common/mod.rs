@@ -333,3 +333,19 @@ pub fn largest_good_distance(fleet: &qfa_batch::fleet::Fleet, good: impl Fn(&str
         })
         .fold(0.0, f64::max)
 }
+
+/// Every file in each unit's folder of `out` is one the batch clears before it calibrates
+/// the unit again ([`qfa_batch::UNIT_FILES`]): a new output missing from that list would
+/// outlive a later batch in which its unit failed.
+pub fn assert_unit_files_are_listed(out: &std::path::Path) {
+    for unit in std::fs::read_dir(out).unwrap().filter_map(Result::ok).filter(|e| e.path().is_dir()) {
+        for f in std::fs::read_dir(unit.path()).unwrap().filter_map(Result::ok) {
+            let name = f.file_name().to_string_lossy().into_owned();
+            assert!(
+                qfa_batch::UNIT_FILES.contains(&name.as_str()),
+                "{}: {name} is not in UNIT_FILES",
+                unit.path().display()
+            );
+        }
+    }
+}
