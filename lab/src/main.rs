@@ -282,6 +282,21 @@ fn discover_cmd(
     Ok(())
 }
 
+/// The firmware's status flags of a compensated log, on the console and beside its CSV
+/// (`<out>.flags.json`), for either kind of log: the CSV stays plain for pandas and Python's
+/// csv, and the sidecar is always this run's (a cycling run once left a static run's beside
+/// its own CSV).
+fn write_flag_summary(out: &Path, flags: &qfa_calibrate::compensate::FlagSummary) -> Result<(), CliError> {
+    let sidecar = out.with_extension("flags.json");
+    let text = serde_json::to_string_pretty(&flags.json()).map_err(|e| e.to_string())?;
+    std::fs::write(&sidecar, text + "\n").map_err(io_at(&sidecar))?;
+    eprintln!("status flags (the firmware's, per row; also in {}):", sidecar.display());
+    for line in flags.lines() {
+        eprintln!("  {line}");
+    }
+    Ok(())
+}
+
 fn compensate_cmd(log: &Path, table: &Path, out: &Path, fmt: &StaticFlags) -> Result<(), CliError> {
     // The table is read and the output created only for a log compensate takes.
     let table_and_out = || -> Result<_, CliError> {
@@ -293,15 +308,8 @@ fn compensate_cmd(log: &Path, table: &Path, out: &Path, fmt: &StaticFlags) -> Re
             let (t, f) = table_and_out()?;
             let flags = qfa_calibrate::compensate::compensate_static(&t, &l, std::io::BufWriter::new(f))
                 .map_err(|e| e.to_string())?;
-            // The counts go beside the CSV, which stays plain for pandas and Python's csv.
-            let sidecar = out.with_extension("flags.json");
-            let text = serde_json::to_string_pretty(&flags.json()).map_err(|e| e.to_string())?;
-            std::fs::write(&sidecar, text + "\n").map_err(io_at(&sidecar))?;
             eprintln!("{} rows ({}) → {}", l.rows(), l.skipped, out.display());
-            eprintln!("status flags (also in {}):", sidecar.display());
-            for line in flags.lines() {
-                eprintln!("  {line}");
-            }
+            write_flag_summary(out, &flags)?;
         }
         OpenedLog::Cycling(l) => {
             let (t, f) = table_and_out()?;
@@ -313,14 +321,17 @@ fn compensate_cmd(log: &Path, table: &Path, out: &Path, fmt: &StaticFlags) -> Re
             );
             let acc: Vec<Vec<f64>> = c.into_iter().map(|c| c.accel_g).collect();
             write_compensated(f, &l, &acc).map_err(io_at(out))?;
-            eprintln!("{} rows ({} skipped as glitches) → {}", l.rows(), l.glitches.len(), out.display());
+            eprintln!(
+                "{} rows ({} skipped as glitches, {} as written twice) → {}",
+                l.rows(),
+                l.glitches.len(),
+                l.repeated.count,
+                out.display()
+            );
             if let Some(s) = qfa_log::cycling::glitches_sentence(&l.glitches) {
                 eprintln!("{s}");
             }
-            eprintln!("status flags (the firmware's, per row; the output has no status column):");
-            for line in flags.lines() {
-                eprintln!("  {line}");
-            }
+            write_flag_summary(out, &flags)?;
         }
         OpenedLog::Autopilot(l) => {
             return Err(CliError::WrongLog {

@@ -112,6 +112,15 @@ fn calibrate_and_discover_on_a_cycling_log_write_pages_that_load() {
         assert!(html.contains(want), "calibrate's page lacks {want:?}");
     }
     browser::assert_page(&cal.join("report.html"), 2);
+    // Compensating a cycling log writes its flag counts beside the CSV, as a static log's
+    // compensation does: before, they went to the console only (and a static run's
+    // sidecar of the same name stayed beside the new CSV). Its rows are the CSV's.
+    let comp = d.join("comp.csv");
+    lab_ok(&["compensate", "--log", &s(&log), "--table", &s(&cal.join("table.bin")), "--out", &s(&comp)]);
+    let sidecar: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(comp.with_extension("flags.json")).unwrap()).unwrap();
+    let csv_rows = std::fs::read_to_string(&comp).unwrap().lines().count() - 1;
+    assert_eq!(sidecar["rows"].as_u64(), Some(csv_rows as u64), "{sidecar}");
     let disc = d.join("disc");
     // A plot an earlier run left in the folder (a single-channel log's discovery writes
     // this name; a cycling log's does not): before, the page inlined every PNG it found
