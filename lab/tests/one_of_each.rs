@@ -198,6 +198,7 @@ const NAMES_AND_VALUES: &[&str] = &[
     "BatchError::MergeClash",
     "ManifestFault::Setting",
     "ManifestFault::NoLog",
+    "ManifestFault::OverridesFlag",
     "ChamberFault::DuplicateColumn",
     "ChamberFault::NoNamedTimeColumn",
     "ChamberFault::SeveralTimeColumns",

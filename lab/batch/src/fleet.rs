@@ -41,7 +41,7 @@ mod fits;
 mod sensor;
 mod yardstick;
 
-use self::fits::{missing_axes, same_tables};
+use self::fits::InputFaults;
 use self::sensor::sensors;
 use self::yardstick::{feature_stats, Yardstick};
 use super::unit::{Calibrated, UnitOutcome, UnitResult};
@@ -419,12 +419,11 @@ pub(crate) fn fleet(results: &[UnitResult], limits: &Limits) -> Fleet {
             UnitOutcome::Failed { .. } => None,
         })
         .collect();
-    let missing = missing_axes(results);
-    let same = same_tables(results);
+    let faults = InputFaults::of(results);
     // A unit whose log does not fit the batch (an axis missing, or another serial's
     // readings) FAILs; its figures are shown but measure no yardstick: a log named for two
     // serials would count one unit twice, a unit without an axis would shift the others.
-    let input_fault: Vec<bool> = (0..results.len()).map(|i| missing[i].is_some() || !same[i].is_empty()).collect();
+    let input_fault: Vec<bool> = (0..results.len()).map(|i| faults.any(i)).collect();
     let fitting: Vec<Option<&Calibrated>> =
         cal.iter().zip(&input_fault).map(|(c, &fault)| if fault { None } else { *c }).collect();
     let axes = fleet_axes(&cal);
@@ -458,7 +457,7 @@ pub(crate) fn fleet(results: &[UnitResult], limits: &Limits) -> Fleet {
         f.sort_by(|a, b| b.z.abs().total_cmp(&a.z.abs()));
     }
     let mut counts = [0; 3];
-    let mut unit = fleet_units(results, (&missing, &same), &flags, &partial, &sensor, &mut counts);
+    let mut unit = fleet_units(results, &faults, &flags, &partial, &sensor, &mut counts);
     for (i, u) in unit.iter_mut().enumerate() {
         u.lot = lots.as_ref().and_then(|l| {
             l.unit[i].map(|(lot, probability)| UnitLot { lot, probability, compared_within: l.compared_within })
@@ -542,7 +541,7 @@ fn step_reasons(r: &UnitResult, flags: &[Flag]) -> Vec<String> {
 /// then its flags), counted in `counts`.
 fn fleet_units(
     results: &[UnitResult],
-    (missing, same): (&[Option<(String, String)>], &[Vec<String>]),
+    faults: &InputFaults,
     flags: &[Vec<Flag>],
     partial: &[bool],
     sensor: &[(Measured, Measured)],
@@ -560,21 +559,21 @@ fn fleet_units(
                 UnitOutcome::Calibrated(_) if !flags[i].is_empty() => (Decision::Review, Vec::new()),
                 UnitOutcome::Calibrated(_) => (Decision::Pass, Vec::new()),
             };
-            let input_fault = missing[i].is_some() || !same[i].is_empty();
-            if let Some((lacks, fleet)) = &missing[i] {
+            let input_fault = faults.any(i);
+            if let Some((lacks, fleet)) = &faults.missing[i] {
                 decision = Decision::Fail;
                 reasons.push(format!(
                     "its log holds no {lacks} where most of the batch's units hold {fleet}: its table leaves {lacks} \
                      uncompensated (a column missing or misnamed in its log)"
                 ));
             }
-            if !same[i].is_empty() {
+            if !faults.same[i].is_empty() {
                 decision = Decision::Fail;
                 reasons.push(format!(
                     "its table.bin is {}'s, byte for byte: their logs hold the same readings (one log named for two \
                      serials, a log copied under another serial's name, or a column logged twice), so no table here \
                      can be told to be this unit's",
-                    same[i].join(", ")
+                    faults.same[i].join(", ")
                 ));
             }
             reasons.extend(step_reasons(r, &flags[i]));

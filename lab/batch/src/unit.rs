@@ -433,7 +433,7 @@ pub(crate) fn normal(log: &StaticLog, deadband: f32) -> super::prior::UnitNormal
 }
 
 /// One leg of a chamber run as a unit's temperature sensor read it: the mean reading per
-/// [`TEMP_MEAN_S`] of the leg's clock, which every unit through that leg shares, and where
+/// minute (60 s) of the leg's clock, which every unit through that leg shares, and where
 /// the leg sits on the unit's own clock (for a drift in °C/h).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SensorLeg {

@@ -80,7 +80,7 @@ mod tests {
 }
 
 /// Rows a reader skipped for one reason: the count and the first
-/// [`crate::static_log::KEPT_LINES`] line numbers (1-based; the header is line 1).
+/// line numbers a reader keeps (20; 1-based, the header is line 1).
 #[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct SkipCount {
     /// Rows skipped.

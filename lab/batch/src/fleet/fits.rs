@@ -54,3 +54,25 @@ pub(super) fn same_tables(results: &[UnitResult]) -> Vec<Vec<String>> {
         })
         .collect()
 }
+
+/// What of each unit's input does not fit the batch: an axis the batch's units hold that its
+/// log lacks ([`missing_axes`]), and the other units whose readings are its own
+/// ([`same_tables`]).
+pub(super) struct InputFaults {
+    /// Per unit: the axes it lacks and the fleet's, or `None`.
+    pub(super) missing: Vec<Option<(String, String)>>,
+    /// Per unit: the serials whose `table.bin` is its own, byte for byte.
+    pub(super) same: Vec<Vec<String>>,
+}
+
+impl InputFaults {
+    /// The faults of `results`' inputs.
+    pub(super) fn of(results: &[UnitResult]) -> Self {
+        Self { missing: missing_axes(results), same: same_tables(results) }
+    }
+
+    /// Whether unit `i`'s log does not fit the batch.
+    pub(super) fn any(&self, i: usize) -> bool {
+        self.missing[i].is_some() || !self.same[i].is_empty()
+    }
+}
