@@ -7,6 +7,15 @@ mod common;
 
 use std::path::PathBuf;
 
+/// Three good static units of seed 7 simulated into `dir/sim` (`batch.toml`, `units/`).
+fn simulated(dir: &std::path::Path) -> PathBuf {
+    let sim = dir.join("sim");
+    let (ok, text) =
+        common::lab(&["simulate-batch", "--units", "3", "--no-bad", "--seed", "7", "--out", sim.to_str().unwrap()]);
+    assert!(ok, "{text}");
+    sim
+}
+
 fn scratch(name: &str) -> PathBuf {
     let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
     let _ = std::fs::remove_dir_all(&d);
@@ -21,20 +30,8 @@ fn scratch(name: &str) -> PathBuf {
 #[test]
 fn rows_written_twice_are_said_on_the_console_and_the_certificate() {
     let dir = scratch("batch-rows-twice");
-    let sim = dir.join("sim");
-    let (ok, text) =
-        common::lab(&["simulate-batch", "--units", "3", "--no-bad", "--seed", "7", "--out", sim.to_str().unwrap()]);
-    assert!(ok, "{text}");
-    let log = sim.join("units").join("SN0002.tsv");
-    let rows = std::fs::read_to_string(&log).unwrap();
-    let mut lines = rows.lines();
-    let mut twice = format!("{}\n", lines.next().unwrap());
-    let mut written = 0usize;
-    for l in lines {
-        twice.push_str(&format!("{l}\n{l}\n"));
-        written += 1;
-    }
-    std::fs::write(&log, twice).unwrap();
+    let sim = simulated(&dir);
+    let written = common::rewrite_rows(&sim.join("units").join("SN0002.tsv"), |l| format!("{l}\n{l}\n"));
     let out = dir.join("out");
     let (ok, console) =
         common::lab(&["batch", "--manifest", sim.join("batch.toml").to_str().unwrap(), "--out", out.to_str().unwrap()]);
@@ -55,10 +52,7 @@ fn rows_written_twice_are_said_on_the_console_and_the_certificate() {
 #[test]
 fn one_log_named_for_two_serials_fails_both_naming_each_other() {
     let dir = scratch("batch-one-log-twice");
-    let sim = dir.join("sim");
-    let (ok, text) =
-        common::lab(&["simulate-batch", "--units", "3", "--no-bad", "--seed", "7", "--out", sim.to_str().unwrap()]);
-    assert!(ok, "{text}");
+    let sim = simulated(&dir);
     let manifest = sim.join("batch.toml");
     let m = std::fs::read_to_string(&manifest).unwrap();
     assert_eq!(m.matches("units/SN0003.tsv").count(), 1, "{m}");
@@ -94,20 +88,12 @@ fn one_log_named_for_two_serials_fails_both_naming_each_other() {
 #[test]
 fn a_unit_in_another_unit_is_told_the_manifest_key_and_a_flag_the_manifest_overrides_is_refused() {
     let dir = scratch("batch-manifest-units");
-    let sim = dir.join("sim");
-    let (ok, text) =
-        common::lab(&["simulate-batch", "--units", "3", "--no-bad", "--seed", "7", "--out", sim.to_str().unwrap()]);
-    assert!(ok, "{text}");
-    let log = sim.join("units").join("SN0002.tsv");
-    let rows = std::fs::read_to_string(&log).unwrap();
-    let mut lines = rows.lines();
-    let mut mg = format!("{}\n", lines.next().unwrap());
-    for l in lines {
+    let sim = simulated(&dir);
+    common::rewrite_rows(&sim.join("units").join("SN0002.tsv"), |l| {
         let f: Vec<&str> = l.split('\t').collect();
         let a = |k: usize| format!("{}", f[k].parse::<f64>().unwrap() * 1000.0);
-        mg.push_str(&format!("{}\t{}\t{}\t{}\t{}\n", f[0], f[1], a(2), a(3), a(4)));
-    }
-    std::fs::write(&log, mg).unwrap();
+        format!("{}\t{}\t{}\t{}\t{}\n", f[0], f[1], a(2), a(3), a(4))
+    });
     let manifest = sim.join("batch.toml");
     let run = |out: &str, extra: &[&str]| {
         let out = dir.join(out);
@@ -143,10 +129,7 @@ fn a_unit_in_another_unit_is_told_the_manifest_key_and_a_flag_the_manifest_overr
 #[test]
 fn a_unit_that_fails_keeps_no_table_an_earlier_batch_wrote() {
     let dir = scratch("batch-rerun");
-    let sim = dir.join("sim");
-    let (ok, text) =
-        common::lab(&["simulate-batch", "--units", "3", "--no-bad", "--seed", "7", "--out", sim.to_str().unwrap()]);
-    assert!(ok, "{text}");
+    let sim = simulated(&dir);
     let out = dir.join("out");
     let run = || {
         common::lab(&[

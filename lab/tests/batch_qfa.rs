@@ -168,16 +168,7 @@ fn a_qfa_unit_whose_rows_were_written_twice_is_calibrated_as_written_once() {
     let truth = draw_qfa(&QfaPopulationSpec { units: 3, seed: 4, bad: false, truncated: 0 });
     write_qfa_manifest(&dir, &truth, 2).unwrap();
     let (once, _) = calibrate(&dir, "once", 2);
-    let log = dir.join("units").join("SN0002.csv");
-    let text = std::fs::read_to_string(&log).unwrap();
-    let mut lines = text.lines();
-    let mut twice = format!("{}\n", lines.next().unwrap());
-    let mut written = 0usize;
-    for l in lines {
-        twice.push_str(&format!("{l}\n{l}\n"));
-        written += 1;
-    }
-    std::fs::write(&log, twice).unwrap();
+    let written = common::rewrite_rows(&dir.join("units").join("SN0002.csv"), |l| format!("{l}\n{l}\n"));
     let (again, _) = calibrate(&dir, "twice", 2);
     let read = |out: &str, serial: &str| std::fs::read(dir.join(out).join(serial).join("table.bin")).unwrap();
     for serial in ["SN0001", "SN0002", "SN0003"] {

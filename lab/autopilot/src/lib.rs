@@ -200,10 +200,7 @@ fn remove_old_exports(out: &Path) -> Result<(), AutopilotCalError> {
     std::fs::create_dir_all(out).map_err(OutputError::io(out))?;
     for f in EXPORT_FILES {
         let path = out.join(f);
-        match std::fs::remove_file(&path) {
-            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(OutputError::io(&path)(e).into()),
-            _ => {}
-        }
+        qfa_log::io_fault::remove_if_present(&path).map_err(OutputError::io(&path))?;
     }
     Ok(())
 }

@@ -115,10 +115,7 @@ pub const UNIT_FILES: [&str; 19] = [
 fn clear_unit_folder(dir: &Path) -> Result<(), BatchError> {
     for name in UNIT_FILES {
         let path = dir.join(name);
-        match std::fs::remove_file(&path) {
-            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(OutputError::io(&path)(e).into()),
-            _ => {}
-        }
+        qfa_log::io_fault::remove_if_present(&path).map_err(OutputError::io(&path))?;
     }
     Ok(())
 }

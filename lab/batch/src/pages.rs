@@ -268,10 +268,7 @@ fn replace_plots(out: &Path, fleet: &Fleet, results: &[UnitResult]) -> Result<bo
     let plots = !fleet.stats.is_empty();
     for name in ["fleet_figures.png", "fleet_held_out.png"] {
         let path = out.join(name);
-        match std::fs::remove_file(&path) {
-            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(OutputError::io(&path)(e).into()),
-            _ => {}
-        }
+        qfa_log::io_fault::remove_if_present(&path).map_err(OutputError::io(&path))?;
     }
     if plots {
         let (figures, held_out) = (out.join("fleet_figures.png"), out.join("fleet_held_out.png"));

@@ -408,10 +408,7 @@ fn ardupilot_texts(
 /// A file could not be removed or written.
 pub fn write_exports(dir: &std::path::Path, axes: &[ExportAxis], opts: &ExportOptions) -> std::io::Result<Exports> {
     for f in EXPORT_FILES {
-        match std::fs::remove_file(dir.join(f)) {
-            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(e),
-            _ => {}
-        }
+        qfa_log::io_fault::remove_if_present(&dir.join(f))?;
     }
     let (files, notes) = export_texts(axes, opts);
     let mut written = Vec::new();

@@ -201,12 +201,7 @@ pub(crate) fn write(ch: &Channels, report: &Report, dir: &Path, scope: Scope<'_>
 
 /// Remove an older output at `path`, if there is one.
 fn remove_stale(path: &Path) -> Result<()> {
-    match std::fs::remove_file(path) {
-        Err(source) if source.kind() != std::io::ErrorKind::NotFound => {
-            Err(DiscoverError::Io { path: path.to_path_buf(), source })
-        }
-        _ => Ok(()),
-    }
+    qfa_log::io_fault::remove_if_present(path).map_err(|source| DiscoverError::Io { path: path.to_path_buf(), source })
 }
 
 /// Write `bytes` to `path`; the error names the file.

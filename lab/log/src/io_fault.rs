@@ -6,6 +6,20 @@ use std::fmt;
 use std::io;
 use std::path::{Path, PathBuf};
 
+/// Remove an earlier run's output at `path`, if there is one, so what a folder holds is
+/// this run's (a file that is not there is no error). The one rule for every stale output
+/// the lab clears: a batch unit's folder, its fleet plots, the export files, discovery's
+/// tables.
+///
+/// # Errors
+/// The file is there and cannot be removed.
+pub fn remove_if_present(path: &Path) -> io::Result<()> {
+    match std::fs::remove_file(path) {
+        Err(e) if e.kind() != io::ErrorKind::NotFound => Err(e),
+        _ => Ok(()),
+    }
+}
+
 /// A file or folder the lab could not read or write, and what the system said: its error
 /// kind, and the OS error code when there was one (then it prints as `std::io::Error`
 /// prints that code, e.g. `No such file or directory (os error 2)`).

@@ -349,3 +349,18 @@ pub fn assert_unit_files_are_listed(out: &std::path::Path) {
         }
     }
 }
+
+/// Rewrite the log at `path`: its first line (the header) kept, each later line replaced by
+/// `row(line)` (which may return several lines, or none); returns how many lines it mapped.
+pub fn rewrite_rows(path: &std::path::Path, row: impl Fn(&str) -> String) -> usize {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let mut out = format!("{}\n", lines.next().unwrap());
+    let mut mapped = 0usize;
+    for l in lines {
+        out.push_str(&row(l));
+        mapped += 1;
+    }
+    std::fs::write(path, out).unwrap();
+    mapped
+}
