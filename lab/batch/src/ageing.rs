@@ -79,12 +79,7 @@ impl std::error::Error for AgeingError {}
 /// [`AgeingError`]: too short a span of zero-g rows, or a table the compensator refuses.
 pub fn ageing(log: &Log, table: &Table) -> Result<Ageing, AgeingError> {
     // Each run's start on the log's clock, and its rows' outputs where compensated.
-    let mut start_s = Vec::with_capacity(log.runs.len());
-    let mut t = 0.0;
-    for run in &log.runs {
-        start_s.push(t);
-        t += run.samples.last().map_or(0.0, |s| s.time_s);
-    }
+    let start_s = log.run_starts_s();
     let compensated = |k: usize| -> Result<Vec<Option<f64>>, AgeingError> {
         let c = compensate_run(table, &log.runs[k]).map_err(AgeingError::Compensate)?;
         Ok(c.accel_g

@@ -462,22 +462,20 @@ pub(crate) fn temp_minutes(log: &StaticLog) -> Vec<SensorLeg> {
 
 /// A cycling log's legs, one per run: its readings' mean per [`TEMP_MEAN_S`] of the run's
 /// clock (rows before the run's first reading left out), each run starting where the one
-/// before it ended on the unit's clock ([`super::ageing`]'s clock).
+/// before it ended on the unit's clock ([`qfa_log::cycling::Log::run_starts_s`], the ageing's).
 #[must_use]
 pub(crate) fn cycling_temp_minutes(log: &qfa_log::cycling::Log) -> Vec<SensorLeg> {
-    let mut start_s = 0.0;
     log.runs
         .iter()
-        .map(|run| {
+        .zip(log.run_starts_s())
+        .map(|(run, start_s)| {
             let read: Vec<(f64, f64)> = run.samples.iter().filter_map(|s| s.temp_c.map(|t| (s.time_s, t))).collect();
             let time: Vec<f64> = read.iter().map(|r| r.0).collect();
             let minutes = qfa_calibrate::metrics::time_bin_means(read.iter().map(|r| r.1), &time, TEMP_MEAN_S)
                 .into_iter()
                 .map(|(k, m, _)| (k, m))
                 .collect();
-            let leg = SensorLeg { leg: format!("{}/{}", run.program, run.run), start_h: start_s / 3600.0, minutes };
-            start_s += run.samples.last().map_or(0.0, |s| s.time_s);
-            leg
+            SensorLeg { leg: format!("{}/{}", run.program, run.run), start_h: start_s / 3600.0, minutes }
         })
         .collect()
 }

@@ -161,6 +161,23 @@ fn drop_glitches(log: &mut Log) {
 }
 
 impl Log {
+    /// Each run's start on the log's own clock, s: a cycling log's times restart with each
+    /// run, so the runs are taken back to back in the log's order, each starting where the
+    /// one before it ended (a pause between runs is not seen). The one clock of a unit's
+    /// ageing and of its sensor's drift.
+    #[must_use]
+    pub fn run_starts_s(&self) -> Vec<f64> {
+        let mut t = 0.0;
+        self.runs
+            .iter()
+            .map(|run| {
+                let start = t;
+                t += run.samples.last().map_or(0.0, |s| s.time_s);
+                start
+            })
+            .collect()
+    }
+
     /// Number of rows.
     #[must_use]
     pub fn rows(&self) -> usize {
