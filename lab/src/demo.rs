@@ -197,7 +197,7 @@ pub fn run(
     let bytes = dir_bytes(&opts.out).map_err(DemoError::io(&opts.out))?;
     let total_s = t_all.elapsed().as_secs_f64();
     page(opts, &results, &pages, nav.as_ref(), &v, bytes, total_s)
-        .and_then(|p| p.write(&opts.out))
+        .write(&opts.out)
         .map_err(DemoError::io(&opts.out))?;
     let bytes = dir_bytes(&opts.out).map_err(DemoError::io(&opts.out))?;
     println!(
@@ -261,7 +261,14 @@ fn run_unit(
     if !opts.full_logs {
         std::fs::remove_file(&log_path).map_err(DemoError::io(&log_path))?;
     }
-    let page = UnitPage { dir: dir.clone(), coverage: cal.report.coverage.clone(), discovery: discovery_line, verdict };
+    let sf_plot = cal.plots.iter().find(|p| p.file == qfa_calibrate::report::SF_PLOT).cloned();
+    let page = UnitPage {
+        dir: dir.clone(),
+        coverage: cal.report.coverage.clone(),
+        discovery: discovery_line,
+        verdict,
+        sf_plot,
+    };
     let result = UnitResult {
         unit: truth.name.clone(),
         ours: cal.report.sensitivity_ppm_per_c,
@@ -454,6 +461,8 @@ struct UnitPage {
     coverage: qfa_calibrate::coverage::CalCoverage,
     discovery: Option<String>,
     verdict: Verdict,
+    /// The unit's `sf_vs_temp.png` as its calibration drew it.
+    sf_plot: Option<qfa_report::plot_png::Plot>,
 }
 
 /// The demo's `report.html`: the verdict, links to every sub-page, then each unit and the
@@ -466,7 +475,7 @@ fn page(
     v: &Verdict,
     bytes: u64,
     total_s: f64,
-) -> std::io::Result<qfa_report::html_report::Page> {
+) -> qfa_report::html_report::Page {
     let mut p = qfa_report::html_report::Page::new(TITLE);
     v.to_page(&mut p);
     p.section("Pages of this run").links(&links(results, units, navigation.is_some()));
@@ -520,18 +529,18 @@ fn page(
         ("navigation flight", opts.nav_duration_s.map_or("full".to_string(), |d| format!("first {d:.0} s"))),
     ]);
     for (r, u) in results.iter().zip(units) {
-        unit_section(&mut p, r, u)?;
+        unit_section(&mut p, r, u);
     }
     if let Some(n) = navigation {
-        navigation_section(&mut p, opts, n)?;
+        navigation_section(&mut p, n);
     }
     p.section("Console table").pre(&table4_text(results));
-    Ok(p)
+    p
 }
 
 /// One unit's section: its pages, its verdict, its coverage, its scale-factor plot and
 /// its discovery line.
-fn unit_section(p: &mut qfa_report::html_report::Page, r: &UnitResult, u: &UnitPage) -> std::io::Result<()> {
+fn unit_section(p: &mut qfa_report::html_report::Page, r: &UnitResult, u: &UnitPage) {
     let name = dir_name(u);
     p.section(&r.unit);
     let mut own =
@@ -545,36 +554,31 @@ fn unit_section(p: &mut qfa_report::html_report::Page, r: &UnitResult, u: &UnitP
     p.links(&own);
     p.para(&format!("{}: {}", u.verdict.outcome, u.verdict.answer));
     u.coverage.to_page(p);
-    p.image(
-        &u.dir.join("sf_vs_temp.png"),
-        &format!(
-            "{}: compensated scale factor against temperature, held-out bins (programs the fit never saw), one \
+    if let Some(plot) = &u.sf_plot {
+        p.plot(
+            plot,
+            &format!(
+                "{}: compensated scale factor against temperature, held-out bins (programs the fit never saw), one \
                  panel per model. Look for: the no-compensation panel's slope ({:.1} ppm/°C held out) gone in the \
                  hysteresis panel ({:.2} ppm/°C), where heating (red) and cooling (blue) bins lie in one band; their \
                  split in the simple panel is the rate (hysteresis) effect the simple model lacks.",
-            r.unit, r.ours.none, r.ours.hysteresis
-        ),
-    )?;
+                r.unit, r.ours.none, r.ours.hysteresis
+            ),
+        );
+    }
     if let Some(d) = &u.discovery {
         p.para(&format!("Discovery: {d}"));
     }
-    Ok(())
 }
 
 /// The navigation study's section: its page, its verdict and its error plot.
-fn navigation_section(
-    p: &mut qfa_report::html_report::Page,
-    opts: &DemoOptions,
-    n: &qfa_nav::NavigationOutcome,
-) -> std::io::Result<()> {
+fn navigation_section(p: &mut qfa_report::html_report::Page, n: &qfa_nav::NavigationOutcome) {
     p.section("Navigation");
     p.links(&[("Navigation study report", format!("{NAVIGATION_DIR}/{}", qfa_report::html_report::FILE))]);
     p.para(&format!("{}: {}", n.verdict.outcome, n.verdict.answer));
-    let png = opts.out.join(NAVIGATION_DIR).join("nav_errors.png");
-    if png.is_file() {
-        p.image(&png, &n.plot_caption)?;
+    if let Some(plot) = &n.plot {
+        p.plot(plot, &n.plot_caption);
     }
-    Ok(())
 }
 
 /// The Table-4-style comparison as text.

@@ -25,36 +25,14 @@ fn lab_ok(args: &[&str]) -> String {
     text
 }
 
-/// A 1×1 PNG (RFC 2083 minimal: one grey pixel).
-const PNG_1X1: &str = "iVBORw0KGgoAAAANSUhEUgAAAAEAAAABCAAAAAA6fptVAAAACklEQVR4nGNgAAAAAgABSK+kcQAAAABJRU5ErkJggg==";
-
-fn decode_b64(s: &str) -> Vec<u8> {
-    let val = |c: u8| match c {
-        b'A'..=b'Z' => c - b'A',
-        b'a'..=b'z' => c - b'a' + 26,
-        b'0'..=b'9' => c - b'0' + 52,
-        b'+' => 62,
-        _ => 63,
-    };
-    let b: Vec<u8> = s.bytes().filter(|&c| c != b'=').map(val).collect();
-    let mut out = Vec::new();
-    for c in b.chunks(4) {
-        let n = c.iter().enumerate().fold(0u32, |n, (i, &v)| n | (u32::from(v) << (18 - 6 * i)));
-        for k in 0..c.len() - 1 {
-            out.push((n >> (16 - 8 * k)) as u8);
-        }
-    }
-    out
-}
-
 #[test]
 fn the_browser_check_fails_on_a_broken_image_and_on_a_console_error() {
     let Some(c) = browser::chromium_or_skip("the browser check's own test") else { return };
     let d = tmp("probe");
-    let png = d.join("dot.png");
-    std::fs::write(&png, decode_b64(PNG_1X1)).unwrap();
+    // A 2×2 plot with nothing drawn on it: black pixels, a PNG all the same.
+    let dot = qfa_report::plot_png::Plot::draw("dot.png", (2, 2), |_| Ok(())).unwrap();
     let mut p = qfa_report::html_report::Page::new("probe");
-    p.image(&png, "a dot").unwrap();
+    p.plot(&dot, "a dot");
     let good = p.write(&d).unwrap();
     assert_eq!(browser::check(&c, &good), Ok(1), "a page with one good image passes");
     // The verdict-first check: this page has none; one with a verdict below a section fails
@@ -79,7 +57,7 @@ fn the_browser_check_fails_on_a_broken_image_and_on_a_console_error() {
     );
     // The same page with the image's data cut short: it no longer decodes.
     let html = std::fs::read_to_string(&good).unwrap();
-    let b64 = qfa_report::html_report::base64(&std::fs::read(&png).unwrap());
+    let b64 = qfa_report::html_report::base64(dot.png());
     let broken = d.join("broken.html");
     std::fs::write(&broken, html.replace(&b64, &b64[..12])).unwrap();
     let e = browser::check(&c, &broken).unwrap_err();

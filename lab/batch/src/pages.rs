@@ -12,6 +12,7 @@ use super::unit::{UnitOutcome, UnitResult};
 use super::BatchError;
 use qfa_calibrate::output_error::OutputError;
 use qfa_report::html_report::{escape, Page};
+use qfa_report::plot_png::{Area, Plot, PlotError};
 use qfa_report::verdict::Measured;
 
 /// A unit's certificate: what was calibrated from what, the figures, the decision, and the
@@ -251,7 +252,7 @@ pub(crate) fn write_fleet(
     let mut p = Page::new("Fleet");
     p.raw(&verdict_html(fleet, limits_from));
     capability_section(&mut p, fleet);
-    figures_section(&mut p, out, fleet, plots)?;
+    figures_section(&mut p, fleet, &plots);
     lots_section(&mut p, fleet);
     prior_section(&mut p, fleet);
     units_section(&mut p, fleet, results);
@@ -260,21 +261,27 @@ pub(crate) fn write_fleet(
     Ok(())
 }
 
-/// Remove an older batch's plots from `out` and draw this fleet's; false (none drawn)
+/// File names of the fleet's plots: [`plot_figures`]'s and [`plot_held_out`]'s.
+const FLEET_PLOTS: [&str; 2] = ["fleet_figures.png", "fleet_held_out.png"];
+
+/// Remove an older batch's plots from `out`, then draw this fleet's and write them; none
 /// without a calibrated unit.
-fn replace_plots(out: &Path, fleet: &Fleet, results: &[UnitResult]) -> Result<bool, BatchError> {
+fn replace_plots(out: &Path, fleet: &Fleet, results: &[UnitResult]) -> Result<Vec<Plot>, BatchError> {
     // Without a calibrated unit there is nothing to draw: the plots are not written (an
     // old batch's plots in the folder are removed, so none is taken for this one's).
-    let plots = !fleet.stats.is_empty();
-    for name in ["fleet_figures.png", "fleet_held_out.png"] {
+    for name in FLEET_PLOTS {
         let path = out.join(name);
         qfa_log::io_fault::remove_if_present(&path).map_err(OutputError::io(&path))?;
     }
-    if plots {
-        let (figures, held_out) = (out.join("fleet_figures.png"), out.join("fleet_held_out.png"));
-        plot_figures(&figures, fleet).map_err(OutputError::plot(&figures))?;
-        plot_held_out(&held_out, fleet, results).map_err(OutputError::plot(&held_out))?;
+    if fleet.stats.is_empty() {
+        return Ok(Vec::new());
     }
+    let (figures, held_out) = (out.join(FLEET_PLOTS[0]), out.join(FLEET_PLOTS[1]));
+    let plots = vec![
+        plot_figures(fleet).map_err(OutputError::plot(&figures))?,
+        plot_held_out(fleet, results).map_err(OutputError::plot(&held_out))?,
+    ];
+    qfa_report::plot_png::write_all(&plots, out).map_err(OutputError::io(out))?;
     Ok(plots)
 }
 
@@ -335,7 +342,7 @@ fn capability_section(p: &mut Page, fleet: &Fleet) {
 
 /// Each figure's spread across the fleet: the plots (or why there are none) and the
 /// robust statistics.
-fn figures_section(p: &mut Page, out: &Path, fleet: &Fleet, plots: bool) -> Result<(), BatchError> {
+fn figures_section(p: &mut Page, fleet: &Fleet, plots: &[Plot]) {
     p.section("Figures across the fleet").para(&format!(
         "Robust distance z = (x − median) / ({:.4}·MAD) over the units with full coverage (over its own lot's, when \
          the fleet holds two lots: below); a unit is flagged beyond ±{} (held-out RMS: above only). Red: flagged.{}",
@@ -347,12 +354,17 @@ fn figures_section(p: &mut Page, out: &Path, fleet: &Fleet, plots: bool) -> Resu
             " This fleet is too small to flag a unit (the verdict says why): the distances below are shown, not judged."
         }
     ));
-    if plots {
-        let (figures, held_out) = (out.join("fleet_figures.png"), out.join("fleet_held_out.png"));
-        p.image(&figures, "each figure's robust distance, one dot per unit").map_err(OutputError::io(&figures))?;
-        p.image(&held_out, "held-out bias RMS per axis against its limit").map_err(OutputError::io(&held_out))?;
-    } else {
+    if plots.is_empty() {
         p.warning("No unit was calibrated, so no figure can be compared: the verdict above says why.");
+    } else {
+        p.plots(plots, |file| {
+            if file == FLEET_PLOTS[0] {
+                "each figure's robust distance, one dot per unit"
+            } else {
+                "held-out bias RMS per axis against its limit"
+            }
+            .to_string()
+        });
     }
     let rows: Vec<Vec<String>> = fleet
         .stats
@@ -368,7 +380,6 @@ fn figures_section(p: &mut Page, out: &Path, fleet: &Fleet, plots: bool) -> Resu
         })
         .collect();
     p.table(&["figure", "unit", "units", "median", "robust SD"], &rows);
-    Ok(())
 }
 
 /// Two lots, what tells them apart and which units are in each; or why the fleet is one.
@@ -493,14 +504,17 @@ fn units_section(p: &mut Page, fleet: &Fleet, results: &[UnitResult]) {
     p.links(&links);
 }
 
-fn plot_figures(path: &Path, fleet: &Fleet) -> Result<(), qfa_report::plot_legend::DrawError> {
-    use plotters::prelude::*;
-    qfa_report::plot_font::register();
+fn plot_figures(fleet: &Fleet) -> Result<Plot, PlotError> {
     let rows = fleet.stats.len().max(1);
-    let root = BitMapBackend::new(path, (1200, 80 + 26 * rows as u32)).into_drawing_area();
+    Plot::draw(FLEET_PLOTS[0], (1200, 80 + 26 * rows as u32), |root| draw_figures(root, fleet))
+}
+
+fn draw_figures(root: &Area<'_>, fleet: &Fleet) -> Result<(), qfa_report::plot_legend::DrawError> {
+    use plotters::prelude::*;
+    let rows = fleet.stats.len().max(1);
     root.fill(&WHITE)?;
     let lim = 3.0 * fleet.z_flag;
-    let mut chart = ChartBuilder::on(&root)
+    let mut chart = ChartBuilder::on(root)
         .caption(
             "Each figure against the fleet, or its unit's lot (robust SDs; clipped at ±3× the flag line)",
             ("sans-serif", 18),
@@ -539,17 +553,27 @@ fn plot_figures(path: &Path, fleet: &Fleet) -> Result<(), qfa_report::plot_legen
             }
         }
     }
-    root.present()?;
     Ok(())
 }
 
-fn plot_held_out(path: &Path, fleet: &Fleet, results: &[UnitResult]) -> Result<(), qfa_report::plot_legend::DrawError> {
+/// The capability rows [`plot_held_out`] draws: a static unit's held-out bias per axis in
+/// mg, a QFA unit's in µg (each row says its unit).
+fn held_out_rows(fleet: &Fleet) -> Vec<&crate::fleet::Capability> {
+    fleet.capability.iter().filter(|c| c.limit == "held_out_bias_mg" || c.limit == "held_out_bias_ug").collect()
+}
+
+fn plot_held_out(fleet: &Fleet, results: &[UnitResult]) -> Result<Plot, PlotError> {
+    let rows = held_out_rows(fleet).len().max(1);
+    Plot::draw(FLEET_PLOTS[1], (1200, 120 + 60 * rows as u32), |root| draw_held_out(root, fleet, results))
+}
+
+fn draw_held_out(
+    root: &Area<'_>,
+    fleet: &Fleet,
+    results: &[UnitResult],
+) -> Result<(), qfa_report::plot_legend::DrawError> {
     use plotters::prelude::*;
-    qfa_report::plot_font::register();
-    // A static unit's held-out bias per axis in mg, a QFA unit's in µg: each row says its unit.
-    let caps: Vec<_> =
-        fleet.capability.iter().filter(|c| c.limit == "held_out_bias_mg" || c.limit == "held_out_bias_ug").collect();
-    let root = BitMapBackend::new(path, (1200, 120 + 60 * caps.len().max(1) as u32)).into_drawing_area();
+    let caps = held_out_rows(fleet);
     root.fill(&WHITE)?;
     let mut hi: f64 = 0.0;
     let mut pts: Vec<(usize, f64, bool)> = Vec::new();
@@ -570,7 +594,7 @@ fn plot_held_out(path: &Path, fleet: &Fleet, results: &[UnitResult]) -> Result<(
             }
         }
     }
-    let mut chart = ChartBuilder::on(&root)
+    let mut chart = ChartBuilder::on(root)
         .caption(
             "Held-out bias RMS per unit, with the limit (red line); red dots: units not passed",
             ("sans-serif", 18),
@@ -607,6 +631,5 @@ fn plot_held_out(path: &Path, fleet: &Fleet, results: &[UnitResult]) -> Result<(
             chart.draw_series([Circle::new((v, y), 3, BLUE.mix(0.4).filled())])?;
         }
     }
-    root.present()?;
     Ok(())
 }

@@ -83,6 +83,9 @@ pub struct Calibration {
     pub exports: export::Exports,
     /// The verdict the reports open with (`None` until [`calibrate_into`] writes them).
     pub verdict: Option<qfa_report::verdict::Verdict>,
+    /// The plots [`calibrate_into`] drew and wrote (none without `plots`): the page inlines
+    /// these bytes, and a caller's page (the demo's) can too.
+    pub plots: Vec<qfa_report::plot_png::Plot>,
 }
 
 fn bar(len: u64, msg: &str, show: bool) -> indicatif::ProgressBar {
@@ -291,6 +294,7 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
         peers: peer_fits,
         exports: export::Exports::default(),
         verdict: None,
+        plots: Vec::new(),
     })
 }
 
@@ -442,9 +446,12 @@ pub fn calibrate_into(
             cal.report.fit_programs.join(", ")
         );
         let title = if opts.title.is_empty() { held } else { format!("{}, {held}", opts.title) };
-        let (sf, residual) = (out.join("sf_vs_temp.png"), out.join("residual_vs_time.png"));
-        plot_sf_vs_temp(&sf, &title, &cal.eval).map_err(OutputError::plot(&sf))?;
-        plot_residual_vs_time(&residual, &title, &cal.eval).map_err(OutputError::plot(&residual))?;
+        let (sf, residual) = (out.join(report::SF_PLOT), out.join(report::RESIDUAL_PLOT));
+        cal.plots = vec![
+            plot_sf_vs_temp(&title, &cal.eval).map_err(OutputError::plot(&sf))?,
+            plot_residual_vs_time(&title, &cal.eval).map_err(OutputError::plot(&residual))?,
+        ];
+        qfa_report::plot_png::write_all(&cal.plots, out).map_err(OutputError::io(out))?;
     }
     if opts.reproducible {
         cal.report.timings_s = None;
@@ -458,9 +465,7 @@ pub fn calibrate_into(
         .chain(["report.json", "report.md", "report.html"])
         .map(String::from)
         .collect();
-    if opts.plots {
-        files.extend(["sf_vs_temp.png".to_string(), "residual_vs_time.png".to_string()]);
-    }
+    files.extend(cal.plots.iter().map(|p| p.file.clone()));
     files.extend(cal.exports.written.iter().map(|f| (*f).to_string()));
     let who = opts.unit.as_deref().or(opts.axis.as_deref()).unwrap_or("ax");
     let notes: Vec<String> = cal.exports.notes.iter().map(ToString::to_string).collect();
@@ -472,19 +477,12 @@ pub fn calibrate_into(
     let md_path = out.join("report.md");
     std::fs::write(&md_path, md).map_err(OutputError::io(&md_path))?;
     cal.verdict = Some(v);
-    page(&cal, out, opts).map_err(OutputError::io(out))?.write(out).map_err(OutputError::io(out))?;
+    page(&cal, opts).write(out).map_err(OutputError::io(out))?;
     Ok(cal)
 }
 
-/// The calibration's `report.html` (see [`qfa_report::html_report`]).
-///
-/// # Errors
-/// A plot that cannot be read.
-pub(crate) fn page(
-    cal: &Calibration,
-    out: &Path,
-    opts: &CalibrateOptions,
-) -> std::io::Result<qfa_report::html_report::Page> {
+/// The calibration's `report.html` (see [`qfa_report::html_report`]), with the plots it drew.
+pub(crate) fn page(cal: &Calibration, opts: &CalibrateOptions) -> qfa_report::html_report::Page {
     let r = &cal.report;
     let mut p = qfa_report::html_report::Page::new(&if opts.title.is_empty() {
         "Calibration report".to_string()
@@ -508,16 +506,14 @@ pub(crate) fn page(
     p.para(&format!("Metric: {}.", r.metric));
     r.coverage.to_page(&mut p);
     fit_section(&mut p, &r.fit);
-    if opts.plots {
-        plots_section(&mut p, out)?;
-    }
+    plots_section(&mut p, &cal.plots);
     if let Some(t) = r.timings_s {
         p.section("Timings").para(&format!(
             "read {:.2} s, fit {:.2} s, held-out compensation {:.2} s, plots {:.2} s",
             t.read, t.fit, t.evaluate, t.plots
         ));
     }
-    Ok(p)
+    p
 }
 
 /// The held-out figures of each model and peer.
@@ -573,26 +569,31 @@ fn fit_section(p: &mut qfa_report::html_report::Page, f: &FitSummary) {
     p.para(&format!("Limit (best CV MSE + its SE): {:.3} µg² over {} folds.", f.branch.limit_ug2, f.branch.folds));
 }
 
-/// The held-out plots, each with what to read in it.
-///
-/// # Errors
-/// A plot that cannot be read.
-fn plots_section(p: &mut qfa_report::html_report::Page, out: &Path) -> std::io::Result<()> {
+/// The held-out plots, each with what to read in it (no section without plots).
+fn plots_section(p: &mut qfa_report::html_report::Page, plots: &[qfa_report::plot_png::Plot]) {
+    if plots.is_empty() {
+        return;
+    }
     p.section("Plots (held-out bins only: the fit programs are not drawn)");
-    p.image(
-        &out.join("sf_vs_temp.png"),
-        "Scale factor against temperature on the held-out programs, per model. Left, uncompensated: the \
+    p.plots(plots, |file| plot_caption(file).to_string());
+}
+
+/// What to read in the cycling calibration's plot `file`.
+#[must_use]
+pub fn plot_caption(file: &str) -> &'static str {
+    match file {
+        report::SF_PLOT => {
+            "Scale factor against temperature on the held-out programs, per model. Left, uncompensated: the \
          drift and the gap between heating (red) and cooling (blue) are what the table must remove. Right, \
          the table (hysteresis): the points should lie flat, the two colours on one band; a slope left is \
-         sensitivity, a gap left is hysteresis the model did not carry.",
-    )?;
-    p.image(
-        &out.join("residual_vs_time.png"),
-        "Held-out residuals against time since each program's start, scale factor (top) and bias (bottom): \
+         sensitivity, a gap left is hysteresis the model did not carry."
+        }
+        _ => {
+            "Held-out residuals against time since each program's start, scale factor (top) and bias (bottom): \
          green (the table) should stay closer to zero than orange (the simple model) and show no trend; a \
-         jump that both models share is in the unit or the log, not in either model.",
-    )?;
-    Ok(())
+         jump that both models share is in the unit or the log, not in either model."
+        }
+    }
 }
 
 /// Read the cycling log at `log_path` and calibrate it into `out`: the demo's entry, for

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use qfa_log::IoFault;
-use qfa_report::plot_legend::DrawError;
+use qfa_report::plot_png::PlotError;
 
 /// An output that could not be written. The sources that are neither `Clone` nor
 /// `PartialEq` are shared (`Arc`); two errors are equal when the same file failed the
@@ -37,12 +37,12 @@ pub enum OutputError {
         /// The writer's error.
         source: toml::ser::Error,
     },
-    /// A plot that could not be drawn or written.
+    /// A plot that could not be drawn or encoded (writing it is [`OutputError::Io`]).
     Plot {
-        /// The image file.
+        /// The image file it was for.
         path: PathBuf,
-        /// The plotting library's error.
-        source: Arc<DrawError>,
+        /// The drawing's or the encoder's error.
+        source: Arc<PlotError>,
     },
 }
 
@@ -68,7 +68,7 @@ impl OutputError {
     }
 
     /// For `map_err`: a plot of `path` that failed.
-    pub fn plot(path: &Path) -> impl Fn(DrawError) -> Self + '_ {
+    pub fn plot(path: &Path) -> impl Fn(PlotError) -> Self + '_ {
         move |e| Self::Plot { path: path.to_path_buf(), source: Arc::new(e) }
     }
 

@@ -5,8 +5,6 @@
 //! figures come from compensating the other programs (0.5 and 0.7 °C/min) through the
 //! root crate's compensator. Metric definitions are in [`crate::metrics`].
 
-use std::path::Path;
-
 use serde::Serialize;
 
 use qfa_thermal::model::Branch;
@@ -297,7 +295,7 @@ fn branch_color(b: Branch) -> plotters::style::RGBColor {
     }
 }
 
-type PlotResult = Result<(), qfa_report::plot_legend::DrawError>;
+use qfa_report::plot_png::{Area, Plot, PlotError};
 
 /// Room above the data for a legend of `entries` lines, in data units: the y range grows
 /// by 12 % of the data's span per entry (a legend line is about 20 px of a 370–430 px
@@ -306,16 +304,23 @@ fn legend_headroom(lo: f64, hi: f64, entries: u32) -> f64 {
     ((hi - lo) * (0.05 + 0.12 * f64::from(entries))).max(1.0)
 }
 
-/// Scale factor (ppm from its mean) against temperature, before and after, heating red,
-/// cooling blue, hold grey, with a legend above each panel; only held-out bins are drawn (the title says
-/// which programs they come from).
+/// File name of the held-out scale factor against temperature plot.
+pub const SF_PLOT: &str = "sf_vs_temp.png";
+/// File name of the held-out residuals against time plot.
+pub const RESIDUAL_PLOT: &str = "residual_vs_time.png";
+
+/// `sf_vs_temp.png`: scale factor (ppm from its mean) against temperature, before and
+/// after, heating red, cooling blue, hold grey, with a legend above each panel; only
+/// held-out bins are drawn (the title says which programs they come from).
 ///
 /// # Errors
-/// Drawing or file errors.
-pub(crate) fn plot_sf_vs_temp(path: &Path, title: &str, ev: &Evaluation) -> PlotResult {
+/// Drawing or encoding errors.
+pub(crate) fn plot_sf_vs_temp(title: &str, ev: &Evaluation) -> Result<Plot, PlotError> {
+    Plot::draw(SF_PLOT, (1500, 500), |root| draw_sf_vs_temp(root, title, ev))
+}
+
+fn draw_sf_vs_temp(root: &Area<'_>, title: &str, ev: &Evaluation) -> Result<(), qfa_report::plot_legend::DrawError> {
     use plotters::prelude::*;
-    qfa_report::plot_font::register();
-    let root = BitMapBackend::new(path, (1500, 500)).into_drawing_area();
     root.fill(&WHITE)?;
     let (top, body) = root.split_vertically(30);
     top.titled(title, ("sans-serif", 20))?;
@@ -358,19 +363,24 @@ pub(crate) fn plot_sf_vs_temp(path: &Path, title: &str, ev: &Evaluation) -> Plot
             chart.draw_series(pts.into_iter().map(|p| Circle::new(p, 2, c.filled())))?;
         }
     }
-    root.present()?;
     Ok(())
 }
 
-/// Held-out residuals against time: bias (µg) and scale factor (ppm) for simple and
-/// hysteresis, each program's time from its own start.
+/// `residual_vs_time.png`: held-out residuals against time, bias (µg) and scale factor
+/// (ppm) for simple and hysteresis, each program's time from its own start.
 ///
 /// # Errors
-/// Drawing or file errors.
-pub(crate) fn plot_residual_vs_time(path: &Path, title: &str, ev: &Evaluation) -> PlotResult {
+/// Drawing or encoding errors.
+pub(crate) fn plot_residual_vs_time(title: &str, ev: &Evaluation) -> Result<Plot, PlotError> {
+    Plot::draw(RESIDUAL_PLOT, (1400, 800), |root| draw_residual_vs_time(root, title, ev))
+}
+
+fn draw_residual_vs_time(
+    root: &Area<'_>,
+    title: &str,
+    ev: &Evaluation,
+) -> Result<(), qfa_report::plot_legend::DrawError> {
     use plotters::prelude::*;
-    qfa_report::plot_font::register();
-    let root = BitMapBackend::new(path, (1400, 800)).into_drawing_area();
     root.fill(&WHITE)?;
     let (top, body) = root.split_vertically(30);
     top.titled(title, ("sans-serif", 20))?;
@@ -416,7 +426,6 @@ pub(crate) fn plot_residual_vs_time(path: &Path, title: &str, ev: &Evaluation) -
             .border_style(BLACK)
             .draw()?;
     }
-    root.present()?;
     Ok(())
 }
 

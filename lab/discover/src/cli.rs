@@ -18,7 +18,7 @@ pub fn discover(input: &Channels, start: Start, out_dir: &Path) -> Result<Report
 /// Output files could not be written ([`DiscoverError`]).
 pub fn discover_with_verdict(input: &Channels, start: Start, out_dir: &Path) -> Result<(Report, Verdict)> {
     let report = analyze(input, start);
-    let v = output::write(input, &report, out_dir, output::Scope::Own)?;
+    let (v, _) = output::write(input, &report, out_dir, output::Scope::Own)?;
     Ok((report, v))
 }
 

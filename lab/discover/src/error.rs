@@ -9,7 +9,7 @@ use qfa_calibrate::static_cal::StaticCalError;
 use qfa_log::channels::ChannelsError;
 
 // What drawing a residual plot fails with.
-use qfa_report::plot_legend::DrawError as PlotError;
+use qfa_report::plot_png::PlotError;
 
 /// Why a discovery run failed.
 ///
@@ -64,10 +64,9 @@ pub enum DiscoverError {
     },
     /// A table the root crate refuses to encode.
     Table(qfa_thermal::table::Error),
-    /// `report.html` not written: a plot it embeds could not be read, or the page not written
-    /// (the error names the file).
+    /// `report.html` not written (the error names the file).
     Page(io::Error),
-    /// A residual plot (its chart, title or legend) that could not be drawn.
+    /// A residual plot (its chart, title or legend) that could not be drawn or encoded.
     Plot(PlotError),
 }
 

@@ -22,6 +22,7 @@ use super::static_axes::{AxisDiscovery, StaticDiscovery};
 use super::{BiasUnit, Channels, DiscoverError, Gaps, LogKind, Report, Result};
 use markdown::markdown;
 use qfa_calibrate::metrics::rms_of_finite;
+use qfa_report::plot_png::{Plot, PlotError};
 use qfa_report::verdict::{json_with_verdict, Verdict};
 
 mod markdown;
@@ -141,13 +142,14 @@ impl Scope<'_> {
     }
 }
 
-/// Write every output into `dir` and return the verdict they open with. A static axis
+/// Write every output into `dir` and return the verdict they open with, and the plots drawn
+/// (written, and inlined in the page from these bytes). A static axis
 /// ([`Scope::StaticAxis`]) gets no `table.bin`/`model.bin` (see the module docs), and older
 /// ones there are removed.
 ///
 /// # Errors
 /// A file could not be written ([`DiscoverError`]).
-pub(crate) fn write(ch: &Channels, report: &Report, dir: &Path, scope: Scope<'_>) -> Result<Verdict> {
+pub(crate) fn write(ch: &Channels, report: &Report, dir: &Path, scope: Scope<'_>) -> Result<(Verdict, Vec<Plot>)> {
     std::fs::create_dir_all(dir).map_err(|source| DiscoverError::CreateDir { path: dir.into(), source })?;
     let mut tables: Vec<String> = Vec::new();
     let mut rest: Vec<String> = Vec::new();
@@ -178,10 +180,19 @@ pub(crate) fn write(ch: &Channels, report: &Report, dir: &Path, scope: Scope<'_>
     }
     write_csv(ch, report, &dir.join("residuals.csv"))?;
     rest.push("residuals.csv".to_string());
-    match plots(ch, report, dir, scope) {
-        Ok(names) => rest.extend(names),
-        Err(e) => notes.push(format!("plots failed: {e:#}")),
+    let mut drawn = match plots(ch, report, scope) {
+        Ok(drawn) => drawn,
+        Err(e) => {
+            notes.push(format!("plots failed: {e:#}"));
+            Vec::new()
+        }
+    };
+    for plot in &drawn {
+        write_file(&dir.join(&plot.file), plot.png())?;
+        rest.push(plot.file.clone());
     }
+    // The page shows them by file name.
+    drawn.sort_unstable_by(|a, b| a.file.cmp(&b.file));
     let files: Vec<String> =
         tables.into_iter().chain(["report.json", "report.md", "report.html"].map(String::from)).chain(rest).collect();
     let v = match scope {
@@ -195,8 +206,8 @@ pub(crate) fn write(ch: &Channels, report: &Report, dir: &Path, scope: Scope<'_>
     };
     write_json(&dir.join("report.json"), &v, report)?;
     write_file(&dir.join("report.md"), markdown(ch, report, scope, &v))?;
-    super::page::page(ch, report, dir, scope, &v).and_then(|p| p.write(dir)).map_err(DiscoverError::Page)?;
-    Ok(v)
+    super::page::page(ch, report, scope, &v, &drawn).write(dir).map_err(DiscoverError::Page)?;
+    Ok((v, drawn))
 }
 
 /// Remove an older output at `path`, if there is one.
@@ -320,9 +331,8 @@ pub(crate) fn hold_bins(ch: &Channels) -> usize {
 /// `residual_<channel>_vs_{time,temp}.png`: each channel's residual of every bin, start
 /// model above, named model below, on one shared scale; heating red, cooling blue, hold
 /// grey. The legend sits in a band above the data (the y range runs to 1.6× the largest
-/// residual), so it covers none of it. Returns the file names written.
-fn plots(ch: &Channels, r: &Report, dir: &Path, scope: Scope<'_>) -> Result<Vec<String>> {
-    qfa_report::plot_font::register();
+/// residual), so it covers none of it. Returns the plots, drawn in memory.
+fn plots(ch: &Channels, r: &Report, scope: Scope<'_>) -> std::result::Result<Vec<Plot>, PlotError> {
     let rows = rows(ch);
     let (b, a) = &r.residuals;
     let held = scope.folds_word();
@@ -338,61 +348,63 @@ fn plots(ch: &Channels, r: &Report, dir: &Path, scope: Scope<'_>) -> Result<Vec<
         let (before, after) = if stem == "scale_factor" { (&b.sf, &a.sf) } else { (&b.bias, &a.bias) };
         for vs_time in [true, false] {
             let file_name = format!("residual_{stem}_vs_{}.png", if vs_time { "time" } else { "temp" });
-            let file = dir.join(&file_name);
-            let root = BitMapBackend::new(&file, (1200, 800)).into_drawing_area();
-            root.fill(&WHITE)?;
-            let panels = root.split_evenly((2, 1));
-            let x_of = |i: usize| if vs_time { off[rows[i].trace] + rows[i].time_s / 3600.0 } else { rows[i].temp_c };
-            let (xlo, xhi) =
-                (0..rows.len()).map(x_of).fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| (l.min(x), h.max(x)));
-            let ymax =
-                before.iter().chain(after.iter()).filter(|v| v.is_finite()).fold(1e-12f64, |m, v| m.max(v.abs()));
-            let named = if worse(r) {
-                format!("{}, worse than the start", scope.model_name())
-            } else {
-                scope.model_name().to_string()
-            };
-            let titles = [
-                format!("start model `{}`: {held} RMS {:.2} {unit}", r.start.name(), rms_of_finite(before)),
-                format!("{named}: {held} RMS {:.2} {unit}", rms_of_finite(after)),
-            ];
-            let branches = [
-                (1, "heating", RGBColor(230, 60, 60)),
-                (-1, "cooling", RGBColor(60, 60, 230)),
-                (0, "hold", RGBColor(160, 160, 160)),
-            ];
-            for (p, (title, v)) in panels.iter().zip([(&titles[0], before), (&titles[1], after)]) {
-                // The legend in a strip above the chart: inside, it sat on the hottest bins.
-                let entries: Vec<qfa_report::plot_legend::Entry> = branches
-                    .iter()
-                    .filter(|(dir, _, _)| (0..rows.len()).any(|i| rows[i].dir == *dir && v[i].is_finite()))
-                    .map(|(_, what, c)| ((*what).to_string(), *c, qfa_report::plot_legend::Mark::Dot))
-                    .collect();
-                let area = qfa_report::plot_legend::heading(
-                    p,
-                    &format!("{name}, every bin from a fit that never saw it: {title}"),
-                    &entries,
-                )?;
-                let mut chart = ChartBuilder::on(&area)
-                    .margin(8)
-                    .x_label_area_size(30)
-                    .y_label_area_size(60)
-                    .build_cartesian_2d(xlo..xhi.max(xlo + 1e-9), -ymax..1.1 * ymax)?;
-                chart
-                    .configure_mesh()
-                    .x_desc(if vs_time { "time, h (programs in sequence)" } else { "temperature, °C" })
-                    .y_desc(label)
-                    .draw()?;
-                for (dir, _, c) in branches {
-                    let pts: Vec<(f64, f64)> = (0..rows.len())
-                        .filter(|&i| rows[i].dir == dir && v[i].is_finite())
-                        .map(|i| (x_of(i), v[i]))
+            let plot = Plot::draw(file_name, (1200, 800), |root| {
+                root.fill(&WHITE)?;
+                let panels = root.split_evenly((2, 1));
+                let x_of =
+                    |i: usize| if vs_time { off[rows[i].trace] + rows[i].time_s / 3600.0 } else { rows[i].temp_c };
+                let (xlo, xhi) = (0..rows.len())
+                    .map(x_of)
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| (l.min(x), h.max(x)));
+                let ymax =
+                    before.iter().chain(after.iter()).filter(|v| v.is_finite()).fold(1e-12f64, |m, v| m.max(v.abs()));
+                let named = if worse(r) {
+                    format!("{}, worse than the start", scope.model_name())
+                } else {
+                    scope.model_name().to_string()
+                };
+                let titles = [
+                    format!("start model `{}`: {held} RMS {:.2} {unit}", r.start.name(), rms_of_finite(before)),
+                    format!("{named}: {held} RMS {:.2} {unit}", rms_of_finite(after)),
+                ];
+                let branches = [
+                    (1, "heating", RGBColor(230, 60, 60)),
+                    (-1, "cooling", RGBColor(60, 60, 230)),
+                    (0, "hold", RGBColor(160, 160, 160)),
+                ];
+                for (p, (title, v)) in panels.iter().zip([(&titles[0], before), (&titles[1], after)]) {
+                    // The legend in a strip above the chart: inside, it sat on the hottest bins.
+                    let entries: Vec<qfa_report::plot_legend::Entry> = branches
+                        .iter()
+                        .filter(|(dir, _, _)| (0..rows.len()).any(|i| rows[i].dir == *dir && v[i].is_finite()))
+                        .map(|(_, what, c)| ((*what).to_string(), *c, qfa_report::plot_legend::Mark::Dot))
                         .collect();
-                    chart.draw_series(pts.into_iter().map(|p| Circle::new(p, 1, c.mix(0.7).filled())))?;
+                    let area = qfa_report::plot_legend::heading(
+                        p,
+                        &format!("{name}, every bin from a fit that never saw it: {title}"),
+                        &entries,
+                    )?;
+                    let mut chart = ChartBuilder::on(&area)
+                        .margin(8)
+                        .x_label_area_size(30)
+                        .y_label_area_size(60)
+                        .build_cartesian_2d(xlo..xhi.max(xlo + 1e-9), -ymax..1.1 * ymax)?;
+                    chart
+                        .configure_mesh()
+                        .x_desc(if vs_time { "time, h (programs in sequence)" } else { "temperature, °C" })
+                        .y_desc(label)
+                        .draw()?;
+                    for (dir, _, c) in branches {
+                        let pts: Vec<(f64, f64)> = (0..rows.len())
+                            .filter(|&i| rows[i].dir == dir && v[i].is_finite())
+                            .map(|i| (x_of(i), v[i]))
+                            .collect();
+                        chart.draw_series(pts.into_iter().map(|p| Circle::new(p, 1, c.mix(0.7).filled())))?;
+                    }
                 }
-            }
-            root.present()?;
-            written.push(file_name);
+                Ok(())
+            })?;
+            written.push(plot);
         }
     }
     Ok(written)

@@ -2,13 +2,12 @@
 //! tables (every table a [`Page::table`] or [`Page::kv`]), what the log covers, and every
 //! PNG in the output folder with a caption saying what to look for.
 
-use std::path::Path;
-
 use super::output::{gaps_text, Scope};
 use super::static_axes::StaticDiscovery;
 use super::{Channels, Gaps, Report};
 use qfa_calibrate::coverage::{Coverage, CoverageError};
 use qfa_report::html_report::Page;
+use qfa_report::plot_png::Plot;
 use qfa_report::verdict::Verdict;
 
 /// What the log's traces cover, as the rate estimator sees them.
@@ -117,12 +116,8 @@ pub(crate) fn caption(file: &str, ch: &Channels, r: &Report, scope: Scope<'_>) -
     s
 }
 
-/// The page of one discovery run whose files are in `dir` (the plots already written),
-/// opening with its verdict.
-///
-/// # Errors
-/// A file in `dir` that cannot be read.
-pub(crate) fn page(ch: &Channels, r: &Report, dir: &Path, scope: Scope<'_>, v: &Verdict) -> std::io::Result<Page> {
+/// The page of one discovery run, opening with its verdict, with the plots it drew.
+pub(crate) fn page(ch: &Channels, r: &Report, scope: Scope<'_>, v: &Verdict, plots: &[Plot]) -> Page {
     let held = scope.folds_word();
     let mut p = match scope {
         Scope::Own => Page::new("Discovery report"),
@@ -140,9 +135,9 @@ pub(crate) fn page(ch: &Channels, r: &Report, dir: &Path, scope: Scope<'_>, v: &
     page_where(&mut p, ch, r, held);
     page_rounds(&mut p, ch, r, held);
     p.section(&format!("Plots ({held} residuals)"));
-    p.images_of(dir, &v.files, |name| caption(name, ch, r, scope))?;
+    p.plots(plots, |name| caption(name, ch, r, scope));
     p.para("Every figure on this page is also in report.md and report.json beside it.");
-    Ok(p)
+    p
 }
 
 /// The held-out scheme: the log's own, or a static axis's held-out figures followed by
@@ -356,18 +351,9 @@ fn page_rounds(p: &mut Page, ch: &Channels, r: &Report, held: &str) {
     }
 }
 
-/// The page of a static log's discovery in `dir`: its verdict, the per-axis figures as
-/// tables, what the log covers, then each axis's plots from its own folder (each also has
-/// its own `report.html`).
-///
-/// # Errors
-/// A file in `dir` that cannot be read.
-pub(crate) fn static_page(
-    d: &StaticDiscovery,
-    v: &Verdict,
-    axis_files: &[Vec<qfa_report::verdict::FileUse>],
-    dir: &Path,
-) -> std::io::Result<Page> {
+/// The page of a static log's discovery: its verdict, the per-axis figures as tables, what
+/// the log covers, then each axis's plots (each axis also has its own `report.html`).
+pub(crate) fn static_page(d: &StaticDiscovery, v: &Verdict, axis_plots: &[Vec<Plot>]) -> Page {
     let mut p = Page::new("Discovery report, static multi-axis log");
     v.to_page(&mut p);
     let h = &d.holdout;
@@ -410,13 +396,13 @@ pub(crate) fn static_page(
             }
         }
     }
-    for (((a, r), ch), files) in d.axes.iter().zip(&d.reports).zip(&d.channels).zip(axis_files) {
+    for (((a, r), ch), plots) in d.axes.iter().zip(&d.reports).zip(&d.channels).zip(axis_plots) {
         p.section(&format!(
             "{} ({}): selection-fold residual plots (its own page: {}/report.html)",
             a.axis, a.column, a.axis
         ));
         let scope = Scope::StaticAxis { discovery: d, axis: a };
-        p.images_of(&dir.join(&a.axis), files, |name| format!("{}: {}", a.axis, caption(name, ch, r, scope)))?;
+        p.plots(plots, |name| format!("{}: {}", a.axis, caption(name, ch, r, scope)));
     }
-    Ok(p)
+    p
 }

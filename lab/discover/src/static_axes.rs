@@ -624,17 +624,17 @@ pub(crate) fn markdown(d: &StaticDiscovery) -> String {
 pub fn run(log: &StaticLog, start: Start, holdout: Holdout, dir: &Path) -> Result<(StaticDiscovery, Verdict)> {
     let d = discover_static(log, start, holdout)?;
     std::fs::create_dir_all(dir).map_err(|source| DiscoverError::CreateDir { path: dir.into(), source })?;
-    let mut axis_files = Vec::with_capacity(d.axes.len());
+    let mut axis_plots = Vec::with_capacity(d.axes.len());
     for ((a, r), ch) in d.axes.iter().zip(&d.reports).zip(&d.channels) {
         // Not flashable: the table of all axes is DIR/table.bin (see `output`'s docs).
-        let v = super::output::write(ch, r, &dir.join(&a.axis), Scope::StaticAxis { discovery: &d, axis: a })?;
-        axis_files.push(v.files);
+        let (_, plots) = super::output::write(ch, r, &dir.join(&a.axis), Scope::StaticAxis { discovery: &d, axis: a })?;
+        axis_plots.push(plots);
     }
     write_file(&dir.join("table.bin"), d.table.to_bytes().map_err(DiscoverError::Table)?)?;
     let files: Vec<String> = ["table.bin", "report.json", "report.md", "report.html"].map(String::from).to_vec();
     let v = super::verdict::static_verdict(&d, &files);
     write_json(&dir.join("report.json"), &v, &d)?;
     write_file(&dir.join("report.md"), format!("# Discovery on a static log\n\n{}{}", v.markdown(), markdown(&d)))?;
-    super::page::static_page(&d, &v, &axis_files, dir).and_then(|p| p.write(dir)).map_err(DiscoverError::Page)?;
+    super::page::static_page(&d, &v, &axis_plots).write(dir).map_err(DiscoverError::Page)?;
     Ok((d, v))
 }

@@ -87,6 +87,10 @@ pub struct Report {
     /// first key, [`qfa_report::verdict::json_with_verdict`], not here).
     #[serde(skip)]
     pub verdict: Option<qfa_report::verdict::Verdict>,
+    /// The plots the run drew and wrote, in the order its page shows them (its page inlines
+    /// these bytes; so can a caller's, the demo's).
+    #[serde(skip)]
+    pub plots: Vec<qfa_report::plot_png::Plot>,
 }
 
 impl Report {
@@ -271,6 +275,7 @@ pub fn report(
         },
         monte_carlo: None,
         verdict: None,
+        plots: Vec::new(),
     })
 }
 

@@ -133,8 +133,7 @@ pub enum NavError {
     Plan(PlanError),
     /// `nav_errors.png` could not be drawn.
     Plot(PlotError),
-    /// `report.html` could not be formed (a plot it embeds) or written; the error names
-    /// the file.
+    /// `report.html` could not be written; the error names the file.
     Page(std::io::Error),
     /// A report or a partial result could not be turned into JSON.
     Json(serde_json::Error),
@@ -351,16 +350,18 @@ pub fn nominal(args: &NavigateArgs, sc: &Scenario) -> Result<Report, NavError> {
     let t1 = Instant::now();
     let res = run::fly(sc, &mut truths_seeded(&units, sc.seed), variants(&tables, disc, sc.imu_rate_hz)?)?;
     let t_fly = t1.elapsed().as_secs_f64();
-    let rep = report(sc, &res, &tables, source, [t_cal, t_fly])?;
+    let mut rep = report(sc, &res, &tables, source, [t_cal, t_fly])?;
     std::fs::create_dir_all(&args.out).map_err(|e| NavError::CreateDir { path: args.out.clone(), source: e })?;
     write_timeseries(&args.out.join("nav_timeseries.csv"), &res)?;
     if !args.no_plots {
-        plot::plot_flight(
-            &args.out.join("nav_errors.png"),
+        let plot = plot::plot_flight(
             &format!("pure-inertial errors: {} (held out: the tables never saw the flight)", sc.name),
             &res,
         )
         .map_err(NavError::Plot)?;
+        let path = args.out.join(&plot.file);
+        std::fs::write(&path, plot.png()).map_err(|e| NavError::Write { path, source: e })?;
+        rep.plots.push(plot);
     }
     for (i, u) in tables.units.iter().enumerate() {
         for (n, t) in [("none", &u.none), ("simple", &u.simple), ("hysteresis", &u.hysteresis)] {
@@ -387,15 +388,17 @@ pub fn navigate(args: &NavigateArgs) -> Result<Report, NavError> {
     }
     if args.runs > 0 {
         let part = mc::run(&sc, &mc::Plan::of(args, &sc, (0, 1)), args.verbose)?;
-        let sum = mc::write_outputs(&args.out, std::slice::from_ref(&part), !args.no_plots)?;
+        let (sum, drawn) = mc::write_outputs(&args.out, std::slice::from_ref(&part), !args.no_plots)?;
         if args.verbose {
             eprintln!("{}", mc::table(&sum));
         }
         rep.monte_carlo = Some(sum);
+        // The study's plots first: the page's order, by file name.
+        rep.plots.splice(0..0, drawn);
     }
     let plan = plan::plan(&sc, args.lab_program)?;
     let v = verdict::of_flight(&rep, &plan, verdict::flight_files(!args.no_plots, args.runs));
-    write_reports(&args.out, &v, &rep, &markdown(&rep, &v), &page(args, &rep, &plan, &v).map_err(NavError::Page)?)?;
+    write_reports(&args.out, &v, &rep, &markdown(&rep, &v), &page(&rep, &plan, &v))?;
     rep.verdict = Some(v);
     Ok(rep)
 }
@@ -407,9 +410,9 @@ pub fn navigate(args: &NavigateArgs) -> Result<Report, NavError> {
 /// # Errors
 /// As [`mc::merge`], and I/O.
 pub fn merge(dirs: &[PathBuf], out: &Path, plots: bool) -> Result<(mc::Summary, Verdict), NavError> {
-    let (sum, report) = mc::merge(dirs, out, plots)?;
+    let (sum, report, drawn) = mc::merge(dirs, out, plots)?;
     let v = verdict::of_study(&sum, &report, verdict::study_files(plots));
-    write_reports(out, &v, &report, &merge_markdown(&sum, &v), &merge_page(out, &sum, &v).map_err(NavError::Page)?)?;
+    write_reports(out, &v, &report, &merge_markdown(&sum, &v), &merge_page(&sum, &v, &drawn))?;
     Ok((sum, v))
 }
 
@@ -456,6 +459,8 @@ pub struct NavigationOutcome {
     pub verdict: qfa_report::verdict::Verdict,
     /// The caption of `nav_errors.png`: what to look for, and why it may look alarming.
     pub plot_caption: String,
+    /// `nav_errors.png` as the study drew it (none without plots).
+    pub plot: Option<qfa_report::plot_png::Plot>,
 }
 
 /// The lab demo's navigation hook (the CLI's `demo::NavigationHook`): `navigate` on the
@@ -467,7 +472,8 @@ pub struct NavigationOutcome {
 pub fn demo_hook(out: &Path, duration_s: Option<f64>) -> Result<NavigationOutcome, NavError> {
     let args = NavigateArgs { out: out.to_path_buf(), duration_s, ..NavigateArgs::default() };
     let r = navigate(&args)?;
-    let plot_caption = verdict::caption("nav_errors.png", &verdict::alarms(&r));
+    let plot_caption = verdict::caption(plot::FLIGHT_PLOT, &verdict::alarms(&r));
+    let plot = r.plots.iter().find(|p| p.file == plot::FLIGHT_PLOT).cloned();
     let verdict = r.verdict.ok_or(NavError::NoVerdict)?;
-    Ok(NavigationOutcome { verdict, plot_caption })
+    Ok(NavigationOutcome { verdict, plot_caption, plot })
 }

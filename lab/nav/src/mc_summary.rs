@@ -12,6 +12,7 @@ use super::align::AlignErrors;
 use super::mc::{Outcome, Partial};
 use super::plot::PlotError;
 use super::scenario::{Scenario, Variation};
+use qfa_report::plot_png::Plot;
 
 /// Why the runs could not be summarized, merged or written.
 #[derive(Debug)]
@@ -321,19 +322,22 @@ pub fn summarize(parts: &[Partial]) -> Result<(Summary, Vec<Outcome>), SummaryEr
 }
 
 /// Summarize `parts` and write `mc_runs.csv` and, with `plots`, `mc_thermal_share.png`,
-/// `mc_thermal_cep.png` and `mc_cep.png` (empirical distribution functions) to `out`.
+/// `mc_thermal_cep.png` and `mc_cep.png` (empirical distribution functions) to `out`;
+/// returns the study and the plots written (for the page, which inlines these bytes).
 ///
 /// # Errors
 /// As [`summarize`], I/O or drawing.
-pub fn write_outputs(out: &Path, parts: &[Partial], plots: bool) -> Result<Summary, SummaryError> {
+pub fn write_outputs(out: &Path, parts: &[Partial], plots: bool) -> Result<(Summary, Vec<Plot>), SummaryError> {
     let (sum, outs) = summarize(parts)?;
     std::fs::create_dir_all(out).map_err(|e| SummaryError::CreateDir { path: out.into(), source: e })?;
     let names: Vec<String> = sum.cep_nmi_per_h.keys().cloned().collect();
     write_file(&out.join("mc_runs.csv"), &runs_csv(&names, &outs))?;
-    if plots {
-        plot_runs(out, &names, &outs)?;
+    let drawn = if plots { plot_runs(&names, &outs)? } else { Vec::new() };
+    for plot in &drawn {
+        let path = out.join(&plot.file);
+        std::fs::write(&path, plot.png()).map_err(|e| SummaryError::Write { path, source: e })?;
     }
-    Ok(sum)
+    Ok((sum, drawn))
 }
 
 /// `mc_runs.csv`: one row per run, the figures of each variant in `names`.
@@ -389,9 +393,9 @@ fn runs_csv(names: &[String], outs: &[Outcome]) -> String {
     s
 }
 
-/// `mc_thermal_share.png`, `mc_thermal_cep.png` and `mc_cep.png`: each variant's
-/// empirical distribution over the runs.
-fn plot_runs(out: &Path, names: &[String], outs: &[Outcome]) -> Result<(), SummaryError> {
+/// `mc_cep.png`, `mc_thermal_cep.png` and `mc_thermal_share.png` (in this order): each
+/// variant's empirical distribution over the runs.
+fn plot_runs(names: &[String], outs: &[Outcome]) -> Result<Vec<Plot>, SummaryError> {
     let col = |f: &dyn Fn(&Outcome) -> &BTreeMap<String, f64>, scale: f64, skip: &[&str]| -> Vec<(String, Vec<f64>)> {
         names
             .iter()
@@ -400,28 +404,30 @@ fn plot_runs(out: &Path, names: &[String], outs: &[Outcome]) -> Result<(), Summa
             .collect()
     };
     let title = format!("{} runs", outs.len());
-    super::plot::plot_distributions(
-        &out.join("mc_thermal_share.png"),
-        &format!("thermal share removed, (simple − v)/(simple − oracle) on thermal-only CEP; {title}"),
-        "thermal share removed (%)",
-        // `none` (several hundred % negative) would squash the scale.
-        &col(&|o| &o.thermal_share_removed, 100.0, &["none", "simple", "oracle"]),
-    )
-    .map_err(SummaryError::Plot)?;
-    super::plot::plot_distributions(
-        &out.join("mc_thermal_cep.png"),
-        &format!("thermal-only CEP rate (variant − oracle, same sensor data); {title}"),
-        "thermal-only CEP (nmile/h)",
-        &col(&|o| &o.thermal_cep_nmi_per_h, 1.0, &["none", "oracle"]),
-    )
-    .map_err(SummaryError::Plot)?;
-    super::plot::plot_distributions(
-        &out.join("mc_cep.png"),
-        &format!("CEP rate (radial growth) per variant; {title}"),
-        "CEP (nmile/h)",
-        &col(&|o| &o.cep_nmi_per_h, 1.0, &[]),
-    )
-    .map_err(SummaryError::Plot)
+    Ok(vec![
+        super::plot::plot_distributions(
+            "mc_cep.png",
+            &format!("CEP rate (radial growth) per variant; {title}"),
+            "CEP (nmile/h)",
+            &col(&|o| &o.cep_nmi_per_h, 1.0, &[]),
+        )
+        .map_err(SummaryError::Plot)?,
+        super::plot::plot_distributions(
+            "mc_thermal_cep.png",
+            &format!("thermal-only CEP rate (variant − oracle, same sensor data); {title}"),
+            "thermal-only CEP (nmile/h)",
+            &col(&|o| &o.thermal_cep_nmi_per_h, 1.0, &["none", "oracle"]),
+        )
+        .map_err(SummaryError::Plot)?,
+        super::plot::plot_distributions(
+            "mc_thermal_share.png",
+            &format!("thermal share removed, (simple − v)/(simple − oracle) on thermal-only CEP; {title}"),
+            "thermal share removed (%)",
+            // `none` (several hundred % negative) would squash the scale.
+            &col(&|o| &o.thermal_share_removed, 100.0, &["none", "simple", "oracle"]),
+        )
+        .map_err(SummaryError::Plot)?,
+    ])
 }
 
 /// Write `text` to `path`, the error naming the file.
@@ -430,12 +436,16 @@ fn write_file(path: &Path, text: &str) -> Result<(), SummaryError> {
 }
 
 /// Read every `mc_partial_*.json` in `dirs`, combine, write `mc_runs.csv` and the plots
-/// to `out`; returns the study and its report (the nominal run's keys from shard 0 plus
-/// `monte_carlo`), which [`super::merge`] writes as `report.json` with its verdict.
+/// to `out`; returns the study, its report (the nominal run's keys from shard 0 plus
+/// `monte_carlo`) and the plots written, which [`super::merge`] writes as `report.json` with its verdict.
 ///
 /// # Errors
 /// I/O, parse, or [`summarize`]'s checks.
-pub fn merge(dirs: &[PathBuf], out: &Path, plots: bool) -> Result<(Summary, serde_json::Value), SummaryError> {
+pub fn merge(
+    dirs: &[PathBuf],
+    out: &Path,
+    plots: bool,
+) -> Result<(Summary, serde_json::Value, Vec<Plot>), SummaryError> {
     let mut parts = Vec::new();
     for d in dirs {
         let mut files: Vec<PathBuf> = if d.is_dir() {
@@ -459,14 +469,14 @@ pub fn merge(dirs: &[PathBuf], out: &Path, plots: bool) -> Result<(Summary, serd
         }
     }
     crate::ensure(!parts.is_empty(), SummaryError::NoneFound { dirs: dirs.to_vec() })?;
-    let sum = write_outputs(out, &parts, plots)?;
+    let (sum, drawn) = write_outputs(out, &parts, plots)?;
     let mut rep = match parts.iter().find_map(|p| p.nominal.clone()) {
         Some(v) => v,
         None => return Err(SummaryError::NoNominal),
     };
     let obj = rep.as_object_mut().ok_or(SummaryError::NominalNotObject)?;
     obj.insert("monte_carlo".into(), serde_json::to_value(&sum).map_err(SummaryError::Json)?);
-    Ok((sum, rep))
+    Ok((sum, rep, drawn))
 }
 
 /// The Monte Carlo table: variant × median [p10, p90] of CEP and of the thermal share.

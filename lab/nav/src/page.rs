@@ -5,20 +5,14 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
 use super::*;
+use qfa_report::plot_png::Plot;
 use qfa_report::verdict::Verdict;
 
 /// `navigate`'s `report.html` ([`qfa_report::html_report`]): the verdict, the figures per
 /// variant, the warnings, what the lab program covers against what the flight needs
-/// (`plan`), and every plot in `args.out`, each captioned with what to look for.
-///
-/// # Errors
-/// A plot cannot be read.
-pub fn page(
-    args: &NavigateArgs,
-    r: &Report,
-    plan: &plan::Plan,
-    v: &Verdict,
-) -> std::io::Result<qfa_report::html_report::Page> {
+/// (`plan`), and every plot the run drew, each captioned with what to look for.
+#[must_use]
+pub fn page(r: &Report, plan: &plan::Plan, v: &Verdict) -> qfa_report::html_report::Page {
     let mut p = qfa_report::html_report::Page::new(&format!("Navigation report: {}", r.meta.scenario));
     v.to_page(&mut p);
     p.section("Held-out scheme").para(&format!(
@@ -87,8 +81,8 @@ pub fn page(
     }
     p.section("Plots (the flight: held out from every fit)");
     let alarms = verdict::alarms(r);
-    p.images_of(&args.out, &v.files, |name| verdict::caption(name, &alarms))?;
-    Ok(p)
+    p.plots(&r.plots, |name| verdict::caption(name, &alarms));
+    p
 }
 
 /// The rows of the figures table: variant, CEP, RMS vE and vN, thermal-only CEP and the
@@ -153,13 +147,10 @@ pub fn merge_markdown(sum: &mc::Summary, v: &Verdict) -> String {
 }
 
 /// `navigate merge`'s `report.html`: the verdict, the merged Monte Carlo table and every
-/// plot in `out`
-/// (the nominal run's figures are in `report.json`; its page is the one shard 0's
-/// `navigate` run would write).
-///
-/// # Errors
-/// A plot that cannot be read.
-pub fn merge_page(out: &Path, sum: &mc::Summary, v: &Verdict) -> std::io::Result<qfa_report::html_report::Page> {
+/// plot the merge drew (the nominal run's figures are in `report.json`; its page is the one
+/// shard 0's `navigate` run would write).
+#[must_use]
+pub fn merge_page(sum: &mc::Summary, v: &Verdict, plots: &[Plot]) -> qfa_report::html_report::Page {
     let mut p = qfa_report::html_report::Page::new("Navigation Monte Carlo study (merged shards)");
     v.to_page(&mut p);
     p.section("Held-out scheme").para(
@@ -168,6 +159,6 @@ pub fn merge_page(out: &Path, sum: &mc::Summary, v: &Verdict) -> std::io::Result
     );
     p.section("Monte Carlo").pre(&mc::table(sum));
     p.section("Plots");
-    p.images_of(out, &v.files, |name| verdict::caption(name, &[]))?;
-    Ok(p)
+    p.plots(plots, |name| verdict::caption(name, &[]));
+    p
 }

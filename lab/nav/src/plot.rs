@@ -3,23 +3,20 @@
 //! distributions. Each panel's legend sits in a strip above its chart, off the data.
 
 use std::fmt;
-use std::path::Path;
 
 use plotters::prelude::*;
 
 use super::run::FlightResult;
-use qfa_report::plot_legend::{heading, Entry, Mark};
+use qfa_report::plot_legend::{heading, DrawError, Entry, Mark};
+use qfa_report::plot_png::{Area, Plot};
 
-type PlotResult = Result<(), PlotError>;
-
-use qfa_report::plot_legend::DrawError;
-
-/// Why a plot could not be drawn or written.
+/// Why a plot could not be drawn.
 #[derive(Debug)]
 #[non_exhaustive]
 pub enum PlotError {
-    /// plotters could not draw or write the PNG (a chart, or a panel's title and legend).
-    Draw(DrawError),
+    /// plotters could not draw the plot (a chart, or a panel's title and legend), or its
+    /// bitmap did not encode as a PNG.
+    Draw(qfa_report::plot_png::PlotError),
     /// No finite value to plot.
     NoFiniteValues,
 }
@@ -43,8 +40,8 @@ impl std::error::Error for PlotError {
     }
 }
 
-impl From<DrawError> for PlotError {
-    fn from(e: DrawError) -> Self {
+impl From<qfa_report::plot_png::PlotError> for PlotError {
+    fn from(e: qfa_report::plot_png::PlotError) -> Self {
         Self::Draw(e)
     }
 }
@@ -65,12 +62,12 @@ fn color_of(name: &str, k: usize) -> RGBColor {
 }
 
 fn panel(
-    area: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>,
+    area: &Area<'_>,
     title: &str,
     y_desc: &str,
     t_h: &[f64],
     series: &[(String, Vec<f64>)],
-) -> PlotResult {
+) -> Result<(), DrawError> {
     let lo = series.iter().flat_map(|s| s.1.iter()).copied().fold(f64::INFINITY, f64::min);
     let hi = series.iter().flat_map(|s| s.1.iter()).copied().fold(f64::NEG_INFINITY, f64::max);
     let pad = ((hi - lo) * 0.05).max(1e-6);
@@ -91,13 +88,18 @@ fn panel(
     Ok(())
 }
 
-/// Write `nav_errors.png` (1600 × 1200) for `res` to `path`.
+/// File name of [`plot_flight`]'s plot.
+pub const FLIGHT_PLOT: &str = "nav_errors.png";
+
+/// `nav_errors.png` (1600 × 1200) of `res`.
 ///
 /// # Errors
-/// Drawing or file errors.
-pub fn plot_flight(path: &Path, title: &str, res: &FlightResult) -> PlotResult {
-    qfa_report::plot_font::register();
-    let root = BitMapBackend::new(path, (1600, 1200)).into_drawing_area();
+/// Drawing or encoding errors.
+pub fn plot_flight(title: &str, res: &FlightResult) -> Result<Plot, PlotError> {
+    Ok(Plot::draw(FLIGHT_PLOT, (1600, 1200), |root| draw_flight(root, title, res))?)
+}
+
+fn draw_flight(root: &Area<'_>, title: &str, res: &FlightResult) -> Result<(), DrawError> {
     root.fill(&WHITE)?;
     let (top, body) = root.split_vertically(30);
     top.titled(title, ("sans-serif", 20))?;
@@ -118,17 +120,20 @@ pub fn plot_flight(path: &Path, title: &str, res: &FlightResult) -> PlotResult {
     panel(&areas[3], "North velocity error", "m/s", &t_h, &by(&|v, i| tr[v].vn[i]))?;
     panel(&areas[4], "East position error", "m", &t_h, &by(&|v, i| tr[v].de[i]))?;
     panel(&areas[5], "North position error", "m", &t_h, &by(&|v, i| tr[v].dn[i]))?;
-    root.present()?;
     Ok(())
 }
 
-/// Empirical distribution functions of one quantity per variant (x: value, y: fraction of
-/// runs ≤ x), with the median marked; 1200 × 700.
+/// `file`: empirical distribution functions of one quantity per variant (x: value, y:
+/// fraction of runs ≤ x), with the median marked; 1200 × 700.
 ///
 /// # Errors
-/// Drawing or file errors, or no values.
-pub fn plot_distributions(path: &Path, title: &str, x_desc: &str, series: &[(String, Vec<f64>)]) -> PlotResult {
-    qfa_report::plot_font::register();
+/// Drawing or encoding errors, or no values.
+pub fn plot_distributions(
+    file: &str,
+    title: &str,
+    x_desc: &str,
+    series: &[(String, Vec<f64>)],
+) -> Result<Plot, PlotError> {
     let all = series.iter().flat_map(|s| s.1.iter()).copied();
     let lo = all.clone().fold(f64::INFINITY, f64::min);
     let hi = all.fold(f64::NEG_INFINITY, f64::max);
@@ -136,17 +141,26 @@ pub fn plot_distributions(path: &Path, title: &str, x_desc: &str, series: &[(Str
         return Err(PlotError::NoFiniteValues);
     }
     let pad = ((hi - lo) * 0.05).max(1e-6);
-    let root = BitMapBackend::new(path, (1200, 700)).into_drawing_area();
+    Ok(Plot::draw(file, (1200, 700), |root| draw_distributions(root, title, x_desc, series, (lo - pad, hi + pad)))?)
+}
+
+fn draw_distributions(
+    root: &Area<'_>,
+    title: &str,
+    x_desc: &str,
+    series: &[(String, Vec<f64>)],
+    (xlo, xhi): (f64, f64),
+) -> Result<(), DrawError> {
     root.fill(&WHITE)?;
     let mut entries: Vec<Entry> =
         series.iter().enumerate().map(|(k, (name, _))| (name.clone(), color_of(name, k), Mark::Line)).collect();
     entries.push(("dot: the curve's median".to_string(), BLACK, Mark::Dot));
-    let body = heading(&root, title, &entries)?;
+    let body = heading(root, title, &entries)?;
     let mut chart = ChartBuilder::on(&body)
         .margin(15)
         .x_label_area_size(40)
         .y_label_area_size(60)
-        .build_cartesian_2d((lo - pad)..(hi + pad), 0.0..1.0)?;
+        .build_cartesian_2d(xlo..xhi, 0.0..1.0)?;
     chart.configure_mesh().x_desc(x_desc).y_desc("fraction of runs ≤ x").draw()?;
     for (k, (name, v)) in series.iter().enumerate() {
         let mut s = v.clone();
@@ -160,6 +174,5 @@ pub fn plot_distributions(path: &Path, title: &str, x_desc: &str, series: &[(Str
             chart.draw_series(std::iter::once(Circle::new((m, 0.5), 5, c.filled())))?;
         }
     }
-    root.present()?;
     Ok(())
 }

@@ -5,7 +5,7 @@
 //! Every command that writes a page (`calibrate`, `discover`, `navigate`, `demo`) goes
 //! through [`Page`]; the page always opens with the command line that produced it.
 
-use crate::verdict::FileUse;
+use crate::plot_png::Plot;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -128,52 +128,26 @@ impl Page {
         self
     }
 
-    /// A PNG embedded as a data URI, with its caption (the file name is added).
-    ///
-    /// # Errors
-    /// The file cannot be read or is not a PNG.
-    pub fn image(&mut self, png: &Path, caption: &str) -> std::io::Result<&mut Self> {
-        let bytes = std::fs::read(png).map_err(|e| std::io::Error::new(e.kind(), format!("{}: {e}", png.display())))?;
-        if !bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
-            return Err(std::io::Error::new(
-                std::io::ErrorKind::InvalidData,
-                format!("{}: not a PNG file", png.display()),
-            ));
-        }
-        let name = png.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    /// A plot embedded as a data URI, with its caption (the file name is added): the bytes
+    /// the run drew, never a file read back.
+    pub fn plot(&mut self, plot: &Plot, caption: &str) -> &mut Self {
         let _ = writeln!(
             self.body,
             "<figure><img alt=\"{}\" src=\"data:image/png;base64,{}\"><figcaption>{} (<code>{}</code>)</figcaption></figure>",
-            escape(&name),
-            base64(&bytes),
+            escape(&plot.file),
+            base64(plot.png()),
             escape(caption),
-            escape(&name)
+            escape(&plot.file)
         );
-        Ok(self)
+        self
     }
 
-    /// The plots among `files` (what a run's verdict lists as written into `dir`), by name,
-    /// each captioned by `caption(name)`: a page shows the plots its own run drew, never a
-    /// PNG another run left in the folder (a stale plot read as this run's).
-    ///
-    /// # Errors
-    /// A listed plot cannot be read or is not a PNG.
-    pub fn images_of(
-        &mut self,
-        dir: &Path,
-        files: &[FileUse],
-        caption: impl Fn(&str) -> String,
-    ) -> std::io::Result<&mut Self> {
-        let mut plots: Vec<&str> = files
-            .iter()
-            .map(|f| f.file.as_str())
-            .filter(|f| Path::new(f).extension().is_some_and(|x| x.eq_ignore_ascii_case("png")))
-            .collect();
-        plots.sort_unstable();
-        for name in plots {
-            self.image(&dir.join(name), &caption(name))?;
+    /// Each of `plots` (what this run drew), in their order, captioned by `caption(file)`.
+    pub fn plots(&mut self, plots: &[Plot], caption: impl Fn(&str) -> String) -> &mut Self {
+        for p in plots {
+            self.plot(p, &caption(&p.file));
         }
-        Ok(self)
+        self
     }
 
     /// The complete document.
@@ -279,15 +253,16 @@ mod tests {
         assert!(p.html().contains("<li><a href=\"kt8%20%231/report.html%3Fx%22\">a &amp; b</a></li>"), "{}", p.html());
     }
 
+    /// A plot is inlined from the bytes it was drawn into, with its name and caption
+    /// escaped; no file is read.
     #[test]
-    fn an_image_that_is_not_a_png_is_refused() {
-        let d = std::env::temp_dir().join(format!("qfa-html-{}", std::process::id()));
-        std::fs::create_dir_all(&d).unwrap();
-        let f = d.join("x.png");
-        std::fs::write(&f, b"not a png").unwrap();
-        let e = Page::new("t").image(&f, "c").map(|_| ()).unwrap_err();
-        assert!(e.to_string().contains("not a PNG"), "{e}");
-        assert!(Page::new("t").image(&d.join("missing.png"), "c").is_err());
-        let _ = std::fs::remove_dir_all(&d);
+    fn a_plot_is_inlined_from_its_bytes() {
+        let plot = crate::plot_png::Plot::draw("a&b.png", (40, 30), |root| root.fill(&plotters::style::WHITE))
+            .expect("a white plot");
+        let mut p = Page::new("t");
+        p.plots(std::slice::from_ref(&plot), |f| format!("caption of {f} <x>"));
+        let h = p.html();
+        assert!(h.contains(&format!("src=\"data:image/png;base64,{}\"", base64(plot.png()))), "{h}");
+        assert!(h.contains("caption of a&amp;b.png &lt;x&gt; (<code>a&amp;b.png</code>)"), "{h}");
     }
 }

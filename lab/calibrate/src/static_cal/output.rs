@@ -6,6 +6,7 @@ use std::path::Path;
 use qfa_thermal::model::Branch;
 
 use crate::static_cal::*;
+use qfa_report::plot_png::{Area, Plot, PlotError};
 use qfa_report::verdict::Verdict;
 
 use crate::output_error::OutputError;
@@ -198,16 +199,15 @@ pub(crate) const BIAS_PLOT: &str = "bias_vs_temp.png";
 /// blue, hold grey; training rows as dots, held-out rows as crosses.
 ///
 /// # Errors
-/// Drawing or file errors.
-pub(crate) fn plot_bias_vs_temp(
-    path: &Path,
-    title: &str,
-    rows: &PlotRows,
-) -> Result<(), qfa_report::plot_legend::DrawError> {
-    use plotters::prelude::*;
-    qfa_report::plot_font::register();
+/// Drawing or encoding errors.
+pub(crate) fn plot_bias_vs_temp(title: &str, rows: &PlotRows) -> Result<Plot, PlotError> {
     let na = rows.axes.len().max(1);
-    let root = BitMapBackend::new(path, (1400, 70 + 360 * na as u32)).into_drawing_area();
+    Plot::draw(BIAS_PLOT, (1400, 70 + 360 * na as u32), |root| draw_bias_vs_temp(root, title, rows))
+}
+
+fn draw_bias_vs_temp(root: &Area<'_>, title: &str, rows: &PlotRows) -> Result<(), qfa_report::plot_legend::DrawError> {
+    use plotters::prelude::*;
+    let na = rows.axes.len().max(1);
     root.fill(&WHITE)?;
     let (top, body) = root.split_vertically(70);
     let top = top.titled(title, ("sans-serif", 20))?;
@@ -274,7 +274,6 @@ pub(crate) fn plot_bias_vs_temp(
             }
         }
     }
-    root.present()?;
     Ok(())
 }
 
@@ -304,11 +303,14 @@ pub(crate) fn write_static_page_as(
     command: Option<&str>,
 ) -> Result<(), StaticCalError> {
     let r = &cal.report;
-    if plots {
+    let plot = if plots {
         let title = format!("bias against temperature per axis; held-out scheme {}", r.holdout.scheme);
-        let plot = out.join(BIAS_PLOT);
-        plot_bias_vs_temp(&plot, &title, &cal.plot).map_err(OutputError::plot(&plot))?;
-    }
+        let plot = plot_bias_vs_temp(&title, &cal.plot).map_err(OutputError::plot(&out.join(BIAS_PLOT)))?;
+        plot.write_into(out).map_err(OutputError::io(&out.join(BIAS_PLOT)))?;
+        Some(plot)
+    } else {
+        None
+    };
     let mut p = match command {
         Some(c) => qfa_report::html_report::Page::with_command("Static calibration report", c),
         None => qfa_report::html_report::Page::new("Static calibration report"),
@@ -319,10 +321,9 @@ pub(crate) fn write_static_page_as(
     coverage_section(&mut p, r);
     heldout_section(&mut p, r);
     table_section(&mut p, r);
-    if plots {
+    if let Some(plot) = &plot {
         p.section("Plots");
-        let plot = out.join(BIAS_PLOT);
-        p.image(&plot, &bias_plot_caption(verdict)).map_err(OutputError::io(&plot))?;
+        p.plot(plot, &bias_plot_caption(verdict));
     }
     p.write(out).map_err(OutputError::io(out))?;
     Ok(())
