@@ -249,7 +249,7 @@ pub fn draw(spec: &PopulationSpec) -> PopulationTruth {
 
 /// The chamber air temperature at every row (1-s rows from 0 s).
 #[must_use]
-pub(crate) fn chamber_air() -> Vec<f64> {
+pub fn chamber_air() -> Vec<f64> {
     let mut out = vec![T_REF_C; FIRST_HOLD_S as usize];
     let mut t = T_REF_C;
     for (target, rate, hold) in PROGRAM {
@@ -265,9 +265,11 @@ pub(crate) fn chamber_air() -> Vec<f64> {
     out
 }
 
-/// One unit's rows: (sensor reading °C, [ax, ay, az] g), one per chamber row.
+/// One unit's rows: (sensor reading °C, [ax, ay, az] g), one per row of `air` (the air
+/// about the unit, 1-s rows: the chamber's, [`chamber_air`], or any other, such as a
+/// vehicle's warm-up and flight), drawn from the stream of unit `index` under `seed`.
 #[must_use]
-pub(crate) fn unit_rows(u: &UnitTruth, air: &[f64], seed: u64, index: usize) -> Vec<(f64, [f64; 3])> {
+pub fn unit_rows(u: &UnitTruth, air: &[f64], seed: u64, index: usize) -> Vec<(f64, [f64; 3])> {
     let mut r = seeded(stream_seed(seed, ROWS, index as u64));
     let mut lag = Lag::new(u.case_tau_s, 1.0, air[0]);
     let mut die_lag = (u.die_lag_s > 0.0).then(|| Lag::new(u.die_lag_s, 1.0, air[0]));
@@ -306,7 +308,7 @@ pub(crate) fn unit_rows(u: &UnitTruth, air: &[f64], seed: u64, index: usize) -> 
 
 /// The rows a truncated log keeps.
 #[must_use]
-pub(crate) fn kept_rows(t: Option<Truncation>, air: &[f64]) -> std::ops::Range<usize> {
+pub fn kept_rows(t: Option<Truncation>, air: &[f64]) -> std::ops::Range<usize> {
     match t {
         None => 0..air.len(),
         Some(Truncation::HeatingOnly) => {

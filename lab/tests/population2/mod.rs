@@ -302,6 +302,19 @@ pub fn rows() -> usize {
 /// One unit's rows: (time s, sensor reading °C, [ax, ay, az] g).
 #[must_use]
 pub fn unit_rows(u: &Unit, seed: u64, index: usize) -> Vec<(f64, f64, [f64; 3])> {
+    unit_rows_under(u, seed, index, &air_c, rows())
+}
+
+/// One unit's `n` rows under the air `air(t_s)` instead of the chamber's (a vehicle's
+/// warm-up and flight), the unit soaked at `air(0)` and its play on the cooling side.
+#[must_use]
+pub fn unit_rows_under(
+    u: &Unit,
+    seed: u64,
+    index: usize,
+    air: &dyn Fn(f64) -> f64,
+    n: usize,
+) -> Vec<(f64, f64, [f64; 3])> {
     let mut noise = rng(seed, index, 2);
     let mut spikes = rng(seed, index, 3);
     let mut sensor = rng(seed, index, 4);
@@ -310,15 +323,16 @@ pub fn unit_rows(u: &Unit, seed: u64, index: usize) -> Vec<(f64, f64, [f64; 3])>
     let scale = u.noise_g / 3f64.sqrt();
     let h = ROW_S / SUBSTEPS as f64;
     let (a_case, a_die) = ((-h / u.case_tau_s).exp(), if u.die_tau_s > 0.0 { (-h / u.die_tau_s).exp() } else { 0.0 });
-    let (mut case, mut die) = (START_C, START_C);
+    let start_c = air(0.0);
+    let (mut case, mut die) = (start_c, start_c);
     // The unit was cooled to the start: its play sits on the cooling side.
-    let mut play = START_C + PLAY_HALF_WIDTH_C;
-    let mut out = Vec::with_capacity(rows());
-    for i in 0..rows() {
+    let mut play = start_c + PLAY_HALF_WIDTH_C;
+    let mut out = Vec::with_capacity(n);
+    for i in 0..n {
         let t = i as f64 * ROW_S;
         if i > 0 {
             for s in 0..SUBSTEPS {
-                let air = air_c(t - ROW_S + (s as f64 + 0.5) * h);
+                let air = air(t - ROW_S + (s as f64 + 0.5) * h);
                 case = air + (case - air) * a_case;
                 die = case + (die - case) * a_die;
                 play = play.clamp(die - PLAY_HALF_WIDTH_C, die + PLAY_HALF_WIDTH_C);
