@@ -49,17 +49,41 @@ fn calibrate(dir: &Path, out: &str, threads: usize) -> (Vec<UnitResult>, Fleet) 
     (run.results.into_iter().map(|(_, r)| r).collect(), run.fleet.unwrap())
 }
 
+/// Each reading of the cycling log at `path` plus `c_per_h` °C per hour of its runs taken
+/// back to back: a sensor that drifts.
+fn drift_sensor(path: &Path, c_per_h: f64) {
+    let mut log = qfa_log::cycling::read_log(path).unwrap();
+    let mut start_s = 0.0;
+    for run in &mut log.runs {
+        for s in &mut run.samples {
+            s.temp_c = s.temp_c.map(|t| t + c_per_h * (start_s + s.time_s) / 3600.0);
+        }
+        start_s += run.samples.last().map_or(0.0, |s| s.time_s);
+    }
+    qfa_log::cycling::write_log(path, &log).unwrap();
+}
+
 /// The done-means batch: 20 QFA units from a manifest of cycling logs, one of 3× the fleet's
 /// scale-factor hysteresis, one ageing, one of 5× the temperature coefficient. Every unit
 /// gets `table.bin` and a certificate with its held-out Table-4 sensitivity and bias
 /// residual; each bad unit is flagged by the figure its defect moves; no good unit is
 /// flagged. Before QFA batches, the manifest was refused ("a batch calibrates static logs").
+///
+/// One good unit's sensor drifts by 0.01 °C/h, 3.8 °C over the campaign's 376 h, and is
+/// flagged by its drift. Before the drift's floor followed the campaign's length (0.1 °C
+/// over the span of the steady minutes), it was 0.05 °C/h, set for 2-h static runs: the
+/// drift read one fifth of a robust SD and the unit was flagged by its offset alone.
 #[test]
 fn a_qfa_batch_flags_each_bad_unit_by_the_figure_its_defect_moves_and_passes_the_rest() {
+    const DRIFT: f64 = 0.01;
     let dir = scratch("qfa_batch_20");
     let spec = QfaPopulationSpec { units: 20, seed: 1, bad: true, truncated: 0 };
-    let (truth, results, fleet) = run(&dir, &spec);
-    for (u, (r, f)) in truth.unit.iter().zip(results.iter().zip(&fleet.unit)) {
+    let truth = draw_qfa(&spec);
+    write_qfa_manifest(&dir, &truth, 2).unwrap();
+    let drifting = truth.unit.iter().position(|u| u.defect.is_none()).expect("a good unit");
+    drift_sensor(&dir.join("units").join(format!("{}.csv", truth.unit[drifting].serial)), DRIFT);
+    let (results, fleet) = calibrate(&dir, "out", 2);
+    for (i, (u, (r, f))) in truth.unit.iter().zip(results.iter().zip(&fleet.unit)).enumerate() {
         let UnitOutcome::Calibrated(c) = &r.outcome else { panic!("{}: {:?}", u.serial, r.outcome) };
         assert!(dir.join("out").join(&u.serial).join("table.bin").is_file(), "{}", u.serial);
         let cert = std::fs::read_to_string(dir.join("out").join(&u.serial).join("certificate.html")).unwrap();
@@ -76,6 +100,12 @@ fn a_qfa_batch_flags_each_bad_unit_by_the_figure_its_defect_moves_and_passes_the
             assert!(cert.contains(&line), "{}: certificate lacks {line}", u.serial);
         }
         match u.defect {
+            None if i == drifting => {
+                assert_ne!(f.decision, Decision::Pass, "{}: its drifting sensor passed", u.serial);
+                let flag = f.flags.iter().find(|x| x.feature == "sensor.drift_c_per_h");
+                let flag = flag.unwrap_or_else(|| panic!("{}: not flagged by its drift: {:?}", u.serial, f.reasons));
+                assert!((flag.value - DRIFT).abs() < 0.002, "{}: drift {}", u.serial, flag.value);
+            }
             None => assert_eq!(f.decision, Decision::Pass, "{}: {:?}", u.serial, f.reasons),
             Some(d) => {
                 assert_ne!(f.decision, Decision::Pass, "{} ({d:?}) passed", u.serial);
@@ -83,7 +113,7 @@ fn a_qfa_batch_flags_each_bad_unit_by_the_figure_its_defect_moves_and_passes_the
             }
         }
     }
-    assert_eq!(fleet.counts[0], 17, "{:?}", fleet.counts);
+    assert_eq!(fleet.counts[0], 16, "{:?}", fleet.counts);
 }
 
 /// The fleet's figures are the units' own: against the simulator's truth (not the code
@@ -200,16 +230,7 @@ fn a_qfa_units_sensor_is_compared_with_the_fleets_run_by_run() {
     write_qfa_manifest(&dir, &truth, 2).unwrap();
     // SN0004's sensor drifts: each reading plus 0.05 °C per hour of the unit's runs.
     const DRIFT: f64 = 0.05;
-    let path = dir.join("units").join("SN0004.csv");
-    let mut log = qfa_log::cycling::read_log(&path).unwrap();
-    let mut start_s = 0.0;
-    for run in &mut log.runs {
-        for s in &mut run.samples {
-            s.temp_c = s.temp_c.map(|t| t + DRIFT * (start_s + s.time_s) / 3600.0);
-        }
-        start_s += run.samples.last().map_or(0.0, |s| s.time_s);
-    }
-    qfa_log::cycling::write_log(&path, &log).unwrap();
+    drift_sensor(&dir.join("units").join("SN0004.csv"), DRIFT);
     let (_, fleet) = calibrate(&dir, "out", 2);
     // The fleet's median reading: SN0004's drifting sensor reads above every other unit's
     // over most of the runs, so it sits at the top of each minute's six readings.

@@ -322,7 +322,7 @@ pub struct Fleet {
 /// The figures compared, for the static units' axes `axes`, and a QFA unit's figures
 /// when `qfa` (a batch of cycling logs).
 #[must_use]
-pub(crate) fn features(axes: &[String], qfa: bool) -> Vec<Feature> {
+pub(crate) fn features(axes: &[String], qfa: bool, drift_floor_c_per_h: f64) -> Vec<Feature> {
     // The signature of a lot: every figure either side of the fleet but the sensor's drift
     // and the unit's ageing, which say a unit is failing.
     let f = |name: String, unit: &str, floor: f64, side: Side, full_coverage_only: bool| Feature {
@@ -354,7 +354,9 @@ pub(crate) fn features(axes: &[String], qfa: bool) -> Vec<Feature> {
         }
     }
     out.push(f("sensor.offset_c".into(), "°C", 0.05, Side::Both, false));
-    out.push(f("sensor.drift_c_per_h".into(), "°C/h", 0.05, Side::Both, false));
+    // What a sensor's drift is told from none by depends on how long the log ran
+    // (`sensor::DRIFT_RESOLUTION_C`).
+    out.push(f("sensor.drift_c_per_h".into(), "°C/h", drift_floor_c_per_h, Side::Both, false));
     // One glitch row an hour is the scale's floor: a fleet with none has no spread.
     out.push(f("log.glitches_per_h".into(), "rows/h", 1.0, Side::High, false));
     out
@@ -427,15 +429,18 @@ pub(crate) fn fleet(results: &[UnitResult], limits: &Limits) -> Fleet {
     let fitting: Vec<Option<&Calibrated>> =
         cal.iter().zip(&input_fault).map(|(c, &fault)| if fault { None } else { *c }).collect();
     let axes = fleet_axes(&cal);
-    let sensor = sensors(&cal, &input_fault);
+    let sensors = sensors(&cal, &input_fault);
+    let sensor = &sensors.unit;
     let partial = partial_units(&cal, &input_fault);
     let reference_unit: Vec<bool> = (0..results.len()).map(|i| !partial[i] && fitting[i].is_some()).collect();
     let qfa = cal.iter().flatten().any(|c| c.qfa.is_some());
     let mut flags: Vec<Vec<Flag>> = vec![Vec::new(); results.len()];
     let all_stats = |lots: Option<&super::lots::Lots>, flags: &mut [Vec<Flag>]| -> Vec<FeatureStats> {
-        let yard =
-            Yardstick { results, cal: &cal, sensor: &sensor, partial: &partial, reference: &reference_unit, lots };
-        features(&axes, qfa).into_iter().filter_map(|feat| feature_stats(feat, &yard, flags)).collect()
+        let yard = Yardstick { results, cal: &cal, sensor, partial: &partial, reference: &reference_unit, lots };
+        features(&axes, qfa, sensors.drift_floor_c_per_h)
+            .into_iter()
+            .filter_map(|feat| feature_stats(feat, &yard, flags))
+            .collect()
     };
     let mut stats = all_stats(None, &mut flags);
     let reference_idx: Vec<usize> = (0..results.len()).filter(|&i| reference_unit[i]).collect();
@@ -457,7 +462,7 @@ pub(crate) fn fleet(results: &[UnitResult], limits: &Limits) -> Fleet {
         f.sort_by(|a, b| b.z.abs().total_cmp(&a.z.abs()));
     }
     let mut counts = [0; 3];
-    let mut unit = fleet_units(results, &faults, &flags, &partial, &sensor, &mut counts);
+    let mut unit = fleet_units(results, &faults, &flags, &partial, sensor, &mut counts);
     for (i, u) in unit.iter_mut().enumerate() {
         u.lot = lots.as_ref().and_then(|l| {
             l.unit[i].map(|(lot, probability)| UnitLot { lot, probability, compared_within: l.compared_within })

@@ -9,12 +9,30 @@ pub(crate) const STEADY_C_PER_MIN: f64 = 0.1;
 pub(super) const MIN_UNITS_PER_MINUTE: usize = 3;
 /// Steady minutes a sensor comparison needs.
 const MIN_STEADY_MINUTES: usize = 10;
+/// The smallest change of a sensor's reading against the fleet's, over the span of a log's
+/// steady minutes, that the drift's yardstick tells from none, °C: 1.6 of the DS18B20's
+/// 1/16-°C steps. The drift's robust scale is at least this over the fleet's median span:
+/// 0.05 °C/h on a 2-h static chamber run (the floor it had as a constant), 0.0003 °C/h on
+/// a QFA campaign of 376 h, where a constant 0.05 °C/h would have let a sensor drift by
+/// 19 °C before its drift counted as one robust SD.
+pub(crate) const DRIFT_RESOLUTION_C: f64 = 0.1;
+/// The drift's floor when no unit's drift was measured (no yardstick is formed then).
+const DRIFT_FLOOR_WITHOUT_SPAN_C_PER_H: f64 = 0.05;
+
+/// Each unit's sensor offset and drift against the fleet, and the drift's floor.
+pub(crate) struct Sensors {
+    /// Per unit (in the batch's order): offset °C, drift °C/h.
+    pub(crate) unit: Vec<(Measured, Measured)>,
+    /// The drift's robust scale's floor, °C/h: [`DRIFT_RESOLUTION_C`] over the median span
+    /// of the units' steady minutes.
+    pub(crate) drift_floor_c_per_h: f64,
+}
 
 /// Each unit's sensor offset and drift against the fleet's median reading (module docs),
 /// the median formed without the units whose log does not fit the batch (`input_fault`).
 /// A minute is one of a leg's ([`crate::unit::SensorLeg`]): a static log's shared clock,
 /// or one program's run of a cycling log, which every unit ran through alike.
-pub(super) fn sensors(cal: &[Option<&Calibrated>], input_fault: &[bool]) -> Vec<(Measured, Measured)> {
+pub(super) fn sensors(cal: &[Option<&Calibrated>], input_fault: &[bool]) -> Sensors {
     use std::collections::BTreeMap;
     let mut per_minute: BTreeMap<(&str, i64), Vec<f64>> = BTreeMap::new();
     for c in cal.iter().zip(input_fault).filter(|(_, f)| !**f).filter_map(|(c, _)| *c) {
@@ -38,8 +56,11 @@ pub(super) fn sensors(cal: &[Option<&Calibrated>], input_fault: &[bool]) -> Vec<
         .map(|(k, v)| (*k, *v))
         .collect();
     let not = |why: &str| Measured::NotComputed { not_computed: why.to_string() };
-    cal.iter()
-        .map(|c| {
+    let mut spans_h = Vec::new();
+    let unit = cal
+        .iter()
+        .zip(input_fault)
+        .map(|(c, &fault)| {
             let Some(c) = c else { return (not("not calibrated"), not("not calibrated")) };
             let d: Vec<(f64, f64)> = c
                 .temp_minutes
@@ -60,9 +81,16 @@ pub(super) fn sensors(cal: &[Option<&Calibrated>], input_fault: &[bool]) -> Vec<
             }
             let diffs: Vec<f64> = d.iter().map(|p| p.1).collect();
             let offset = median(&diffs).map_or_else(|| not("no minute"), Measured::Value);
+            if !fault {
+                let (lo, hi) = d.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| (l.min(p.0), h.max(p.0)));
+                spans_h.push(hi - lo);
+            }
             (offset, drift_c_per_h(&d))
         })
-        .collect()
+        .collect();
+    let drift_floor_c_per_h =
+        median(&spans_h).filter(|&h| h > 0.0).map_or(DRIFT_FLOOR_WITHOUT_SPAN_C_PER_H, |h| DRIFT_RESOLUTION_C / h);
+    Sensors { unit, drift_floor_c_per_h }
 }
 
 /// The slope of `(hour, °C)` points, °C/h, by the lab's one solver (time from the middle
