@@ -37,10 +37,13 @@
 
 use serde::{Deserialize, Serialize};
 
+mod coverage;
 mod fits;
 mod sensor;
 mod yardstick;
 
+pub use self::coverage::Coverage;
+use self::coverage::{full_coverage, partial_units};
 use self::fits::InputFaults;
 use self::sensor::sensors;
 use self::yardstick::{feature_stats, Yardstick};
@@ -80,6 +83,7 @@ pub(crate) const SPLIT_RESOLUTION_MG: f64 = 0.05;
 pub(crate) const MIN_FLEET: usize = 15;
 /// A unit whose span is under this share of the fleet's median span has partial coverage.
 pub(crate) const FULL_SPAN_SHARE: f64 = 0.8;
+
 /// Which way a figure is bad.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -222,8 +226,11 @@ pub struct FleetUnit {
     pub reasons: Vec<String>,
     /// Figures outside the population.
     pub flags: Vec<Flag>,
-    /// Partial coverage (shape not compared).
+    /// Partial coverage (shape not compared): `coverage.partial()`.
     pub partial: bool,
+    /// Whether its rows cover the fleet's, and if not, why.
+    #[serde(default = "full_coverage")]
+    pub coverage: Coverage,
     /// Sensor offset from the fleet's median reading, °C.
     pub sensor_offset_c: Measured,
     /// Sensor drift against the fleet's median reading, °C/h.
@@ -431,7 +438,8 @@ pub(crate) fn fleet(results: &[UnitResult], limits: &Limits) -> Fleet {
     let axes = fleet_axes(&cal);
     let sensors = sensors(&cal, &input_fault);
     let sensor = &sensors.unit;
-    let partial = partial_units(&cal, &input_fault);
+    let coverage = partial_units(&cal, &input_fault);
+    let partial: Vec<bool> = coverage.iter().map(Coverage::partial).collect();
     let reference_unit: Vec<bool> = (0..results.len()).map(|i| !partial[i] && fitting[i].is_some()).collect();
     let qfa = cal.iter().flatten().any(|c| c.qfa.is_some());
     let mut flags: Vec<Vec<Flag>> = vec![Vec::new(); results.len()];
@@ -462,7 +470,7 @@ pub(crate) fn fleet(results: &[UnitResult], limits: &Limits) -> Fleet {
         f.sort_by(|a, b| b.z.abs().total_cmp(&a.z.abs()));
     }
     let mut counts = [0; 3];
-    let mut unit = fleet_units(results, &faults, &flags, &partial, sensor, &mut counts);
+    let mut unit = fleet_units(results, &faults, &flags, &coverage, sensor, &mut counts);
     for (i, u) in unit.iter_mut().enumerate() {
         u.lot = lots.as_ref().and_then(|l| {
             l.unit[i].map(|(lot, probability)| UnitLot { lot, probability, compared_within: l.compared_within })
@@ -513,22 +521,6 @@ fn fleet_axes(cal: &[Option<&Calibrated>]) -> Vec<String> {
     a
 }
 
-/// Per unit, whether its coverage is partial: not calibrated, one branch only, or a span
-/// short of [`FULL_SPAN_SHARE`] of the median span of the units whose log fits the batch
-/// (not `input_fault`).
-fn partial_units(cal: &[Option<&Calibrated>], input_fault: &[bool]) -> Vec<bool> {
-    let spans: Vec<f64> = cal
-        .iter()
-        .zip(input_fault)
-        .filter(|(_, f)| !**f)
-        .filter_map(|(c, _)| c.map(|c| c.temp_c[1] - c.temp_c[0]))
-        .collect();
-    let median_span = median(&spans).unwrap_or(0.0);
-    cal.iter()
-        .map(|c| c.is_none_or(|c| c.one_branch || c.temp_c[1] - c.temp_c[0] < FULL_SPAN_SHARE * median_span))
-        .collect()
-}
-
 /// What a flagged axis's residual says in the engineer's words: a step part-way through
 /// the run that the temperature did not make ([`super::unit::ResidualStep`]), on each axis
 /// the unit is flagged on.
@@ -548,7 +540,7 @@ fn fleet_units(
     results: &[UnitResult],
     faults: &InputFaults,
     flags: &[Vec<Flag>],
-    partial: &[bool],
+    coverage: &[Coverage],
     sensor: &[(Measured, Measured)],
     counts: &mut [usize; 3],
 ) -> Vec<FleetUnit> {
@@ -590,7 +582,8 @@ fn fleet_units(
                 calibrated: matches!(r.outcome, UnitOutcome::Calibrated(_)),
                 reasons,
                 flags: flags[i].clone(),
-                partial: partial[i],
+                partial: coverage[i].partial(),
+                coverage: coverage[i].clone(),
                 sensor_offset_c: sensor[i].0.clone(),
                 sensor_drift_c_per_h: sensor[i].1.clone(),
                 prior: None,

@@ -449,9 +449,10 @@ pub fn console(fleet: &Fleet, out: &Path) -> String {
     for u in &fleet.unit {
         if let Some(p) = u.prior.as_ref().filter(|_| u.flashable()) {
             s.push_str(&format!(
-                "prior: {}: partial coverage, flash {} (CRC-32 {}; its own rows cover {:.0} % of the fleet's span × both \
-                 branches)\n",
+                "prior: {}: partial coverage ({}), flash {} (CRC-32 {}; its own rows cover {:.0} % of the fleet's span × \
+                 both branches)\n",
                 u.serial,
+                u.coverage.words().unwrap_or_default(),
                 p.table,
                 p.table_crc32,
                 100.0 * p.covered_share

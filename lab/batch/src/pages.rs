@@ -35,6 +35,8 @@ pub(crate) struct Certificate<'a> {
     pub sensor_drift_c_per_h: &'a Measured,
     /// Shape compared with the fleet (false: partial coverage).
     pub shape_compared: bool,
+    /// Whether its rows cover the fleet's, and if not, why.
+    pub coverage: &'a super::fleet::Coverage,
     /// The table to flash under this serial and its header's CRC-32 (`None`: not calibrated).
     pub flash: Option<(String, String)>,
     /// For a unit with partial coverage, the population prior's table.
@@ -99,6 +101,7 @@ fn certificate_of<'a>(r: &'a UnitResult, f: &'a FleetUnit, limits_from: &'a str)
         sensor_offset_c: &f.sensor_offset_c,
         sensor_drift_c_per_h: &f.sensor_drift_c_per_h,
         shape_compared: !f.partial,
+        coverage: &f.coverage,
         flash: table_to_flash(r, f),
         prior: &f.prior,
         limits_from,
@@ -156,6 +159,13 @@ fn certificate_rows(
         ("serial".into(), r.serial.clone()),
         ("source".into(), r.source.clone()),
         ("limits".into(), limits_from.to_string()),
+        (
+            "coverage".into(),
+            f.coverage.words().map_or_else(
+                || "full: every figure compared with the fleet".to_string(),
+                |why| format!("partial: {why}; compared with the fleet on its sensor only"),
+            ),
+        ),
     ];
     match flash {
         Some((file, crc)) => {
@@ -468,7 +478,8 @@ fn prior_section(p: &mut Page, fleet: &Fleet) {
         return;
     }
     p.section("Population prior").para(&format!(
-        "Units with partial coverage (one branch, or under 0.8 of the fleet's median span) get a table from their rows \
+        "Units with partial coverage (one branch, under 0.8 of the fleet's median span, or a QFA log without a program \
+         most units ran) get a table from their rows \
          and the population together (empirical Bayes over the units with full coverage: {}), over the fleet's span \
          {:.1}..{:.1} °C. Under half the span × both branches covered, the prior decided most of it.",
         fleet.population.iter().map(|p| format!("{} from {} units", p.axis, p.units)).collect::<Vec<_>>().join(", "),

@@ -62,6 +62,10 @@ pub struct QfaFigures {
     pub bias_split_ug: Measured,
     /// The bias's ageing on the log's clock ([`super::ageing`]), µg/h.
     pub ageing_ug_per_h: Measured,
+    /// The programs its log holds, in the log's order: a unit that lacks a program most of
+    /// the fleet's units ran is compared on its sensor only (`fleet::Coverage::Programs`).
+    #[serde(default)]
+    pub programs: Vec<String>,
 }
 
 /// The figures the fleet compares, with their units, robust-scale floors (a resolution far
@@ -166,7 +170,10 @@ pub(crate) fn calibrate(
             .into_iter()
             .chain(super::unit::log_warnings(&qfa_lint::lint_cycling(log)))
             .collect(),
-        qfa: Some(figures(&cal.table.hysteresis.axes[0], sensitivity, bias_ug, ageing)),
+        qfa: Some(QfaFigures {
+            programs: programs_of(log),
+            ..figures(&cal.table.hysteresis.axes[0], sensitivity, bias_ug, ageing)
+        }),
     })
 }
 
@@ -290,7 +297,19 @@ fn figures(axis: &qfa_thermal::AxisModel, sensitivity: Measured, bias_ug: Measur
             Measured::Value(splits.iter().sum::<f64>() / splits.len() as f64)
         },
         ageing_ug_per_h: ageing,
+        programs: Vec::new(),
     }
+}
+
+/// The programs `log` holds, each once, in the log's order.
+fn programs_of(log: &Log) -> Vec<String> {
+    let mut out: Vec<String> = Vec::new();
+    for r in &log.runs {
+        if !out.contains(&r.program) {
+            out.push(r.program.clone());
+        }
+    }
+    out
 }
 
 /// The rows the cycling reader skipped as one-row glitches, per hour of the log's runs.
