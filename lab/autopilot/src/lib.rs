@@ -168,6 +168,9 @@ pub fn calibrate_autopilot(
     if calibrated.is_empty() {
         return Err(AutopilotCalError::NothingCalibrated(outcomes.iter().filter_map(|o| o.refused.clone()).collect()));
     }
+    // The folder holds this run's files only: a static or cycling run's table.bin left at
+    // its top would read as this log's.
+    qfa_calibrate::clear_outputs(out).map_err(AutopilotCalError::Output)?;
     let mut export_notes = Vec::new();
     let files = match log.stack {
         Stack::Px4 => px4_export(log, &calibrated, &mut outcomes, &mut export_notes),

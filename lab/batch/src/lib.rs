@@ -471,6 +471,16 @@ pub fn console(fleet: &Fleet, out: &Path) -> String {
 mod tests {
     use super::*;
 
+    /// A unit's folder is cleared of every file a calibration of one log may write there
+    /// (`qfa_calibrate::OUTPUT_FILES`): a file added to that list and not to this one would
+    /// outlive a failed unit.
+    #[test]
+    fn a_unit_folder_clears_every_calibration_output() {
+        for f in qfa_calibrate::OUTPUT_FILES {
+            assert!(UNIT_FILES.contains(&f), "{f} is not in UNIT_FILES");
+        }
+    }
+
     /// A list of serials reads whole up to four, then the first three and the last.
     #[test]
     fn serial_lists_stay_one_line() {

@@ -408,6 +408,40 @@ pub fn cycling_export_axis(cal: &Calibration, axis: &str) -> Result<export::Expo
     })
 }
 
+/// Every file a calibration of one log may write into its folder, of any kind of log (a
+/// cycling log's two tables and plots, a static log's plot, the reports, the PX4 and
+/// ArduPilot files). [`clear_outputs`] removes them before a calibration writes its own.
+pub const OUTPUT_FILES: [&str; 14] = [
+    "table.bin",
+    "table.toml",
+    "table_simple.bin",
+    "table_simple.toml",
+    "report.json",
+    "report.md",
+    "report.html",
+    static_cal::output::BIAS_PLOT,
+    report::SF_PLOT,
+    report::RESIDUAL_PLOT,
+    export::EXPORT_FILES[0],
+    export::EXPORT_FILES[1],
+    export::EXPORT_FILES[2],
+    export::EXPORT_FILES[3],
+];
+
+/// Remove every [`OUTPUT_FILES`] from `dir`, so the folder holds this calibration's files
+/// only: a static run into a folder where a cycling run wrote left its `table_simple.bin`
+/// (another unit's kind of table) and plots beside the new `table.bin`.
+///
+/// # Errors
+/// A file that is there and cannot be removed.
+pub fn clear_outputs(dir: &Path) -> Result<(), OutputError> {
+    for name in OUTPUT_FILES {
+        let path = dir.join(name);
+        qfa_log::io_fault::remove_if_present(&path).map_err(OutputError::io(&path))?;
+    }
+    Ok(())
+}
+
 /// Write a table as TOML and postcard `.bin` under `dir/stem.{toml,bin}`.
 ///
 /// # Errors
@@ -433,6 +467,7 @@ pub fn calibrate_into(
     let t0 = Instant::now();
     std::fs::create_dir_all(out).map_err(OutputError::io(out))?;
     let mut cal = calibrate_log(log, opts)?;
+    clear_outputs(out)?;
     write_table(out, "table", &cal.table.hysteresis)?;
     write_table(out, "table_simple", &cal.table.simple)?;
     // One accelerometer: a one-axis export, so the shared fields need opts.exports.range_c.

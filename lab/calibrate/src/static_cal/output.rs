@@ -140,6 +140,8 @@ pub fn calibrate_static_into(
 ) -> Result<(StaticCalibration, Verdict), StaticCalError> {
     let StaticRun { opts, exports, limits, plots, progress, command } = *run;
     let cal = crate::static_cal::calibrate_static(log, opts, progress)?;
+    std::fs::create_dir_all(out).map_err(OutputError::io(out))?;
+    crate::clear_outputs(out)?;
     write_static_table(out, &cal)?;
     let ex = crate::export::write_exports(out, &export_axes(&cal), exports)
         .map_err(|e| StaticCalError::Output(OutputError::io(out)(e)))?;
@@ -192,7 +194,7 @@ pub fn with_verdict(verdict: &Verdict, md: &str) -> String {
 }
 
 /// File name of the static calibration's plot.
-pub(crate) const BIAS_PLOT: &str = "bias_vs_temp.png";
+pub const BIAS_PLOT: &str = "bias_vs_temp.png";
 
 /// `bias_vs_temp.png`: per axis (a row), the bias against temperature before compensation
 /// (the axis's mean removed) and after (see [`PlotRows::axes`]), mg; heating red, cooling
