@@ -67,6 +67,9 @@ pub fn markdown(r: &StaticReport) -> String {
             );
         }
         s.push('\n');
+        if let Some(why) = r.ardupilot_choice() {
+            let _ = writeln!(s, "{why}\n");
+        }
     }
     let _ = writeln!(s, "Table (`table.bin`), fitted on all {} rows:\n", r.rows);
     s.push_str("| axis | structure | CV RMS, mg (its choice) | RMS on all rows, mg (in-sample) |\n|---|---|---|---|\n");
@@ -432,6 +435,9 @@ fn heldout_section(p: &mut qfa_report::html_report::Page, r: &StaticReport) {
             ],
             &t,
         );
+        if let Some(why) = r.ardupilot_choice() {
+            p.para(&why);
+        }
     }
     for a in &r.axes {
         if a.clamped_rows > 0 {
