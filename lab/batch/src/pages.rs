@@ -134,6 +134,11 @@ fn certificate_verdict_html(f: &FleetUnit) -> String {
         "<section id=\"verdict\"><h2>Verdict</h2><ul><li class=\"{class}\">verdict: {} ({})</li>",
         f.decision,
         match f.decision {
+            // A unit of partial coverage was compared with the fleet on its sensor alone.
+            Decision::Pass if f.partial => {
+                "every limit met held out, its sensor inside the population (partial coverage: its other figures not \
+                 compared, below): flash the table named below under this serial"
+            }
             Decision::Pass =>
                 "every limit met held out, inside the population: flash the table named below under this serial",
             Decision::Review => "every limit met, but outside the population: a person looks before it ships",
