@@ -237,6 +237,7 @@ fn run_unit(
             exports: qfa_calibrate::export::ExportOptions::default(),
             limits: LimitsChoice::default(),
             reproducible: false,
+            notes: Vec::new(),
         },
     )
     .map_err(|source| DemoError::Calibrate { unit: truth.name.clone(), source })?;

@@ -193,6 +193,7 @@ fn calibrate_cmd(a: CalibrateArgs) -> Result<(), CliError> {
                 exports,
                 limits: limits.clone(),
                 reproducible: false,
+                notes: Vec::new(),
             };
             let cal = calibrate_into(&l, &a.out, &opts, t0.elapsed().as_secs_f64())?;
             let v = cal.verdict.as_ref().ok_or_else(|| CliError::Failed("no verdict written".into()))?;

@@ -76,6 +76,11 @@ fn a_qfa_batch_flags_each_bad_unit_by_the_figure_its_defect_moves_and_passes_the
                 assert_eq!(f.coverage, qfa_batch::fleet::Coverage::Programs { missing }, "{}", u.serial);
                 assert_eq!(f.decision, Decision::Pass, "{}: {:?}", u.serial, f.reasons);
                 assert!(cert.contains("paper-0.5, paper-0.7"), "{}: the certificate does not say why", u.serial);
+                // Its own report says the certificate names the table: it flashes the
+                // prior's (the report said "table.bin: flash this" alone).
+                assert!(cert.contains("table_prior.bin (flash this)"), "{}", u.serial);
+                let report = std::fs::read_to_string(dir.join("out").join(&u.serial).join("report.md")).unwrap();
+                assert!(report.contains("flash the table its certificate (certificate.html) names"), "{}", u.serial);
             }
             None if i == drifting => {
                 assert_ne!(f.decision, Decision::Pass, "{}: its drifting sensor passed", u.serial);
@@ -91,6 +96,10 @@ fn a_qfa_batch_flags_each_bad_unit_by_the_figure_its_defect_moves_and_passes_the
         }
     }
     assert_eq!(fleet.counts[0], 16, "{:?}", fleet.counts);
+    // Every unit has a temperature coefficient, but the cut unit measures no yardstick: the
+    // page's count of units says both (it said 20, with the median over 19).
+    let mu = fleet.stats.iter().find(|s| s.feature.name == "qfa.mu_ppm_per_c").expect("μ/γ compared");
+    assert_eq!((mu.n, mu.yardstick_n), (20, 19));
 }
 
 /// The fleet's figures are the units' own: against the simulator's truth (not the code

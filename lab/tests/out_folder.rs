@@ -44,10 +44,18 @@ fn listed(dir: &Path) -> BTreeSet<String> {
         .collect()
 }
 
+/// The verdict's answer in `dir/report.json`.
+fn answer(dir: &Path) -> String {
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap();
+    v["verdict"]["answer"].as_str().unwrap().to_string()
+}
+
 /// A cycling log calibrated into a folder, then a static log into the same folder: the
 /// folder holds exactly the files the static run's report lists. Before, the cycling run's
 /// `table_simple.bin`, `table_simple.toml`, `sf_vs_temp.png` and `residual_vs_time.png`
 /// stayed beside the static `table.bin` (`qfa_calibrate::clear_outputs`). And the reverse.
+/// Each verdict's answer offers the parameter files only when the run wrote them.
 #[test]
 fn a_calibration_into_a_used_folder_leaves_only_its_own_files() {
     let d = tmp("calibrate");
@@ -77,11 +85,17 @@ fn a_calibration_into_a_used_folder_leaves_only_its_own_files() {
         &s(&cal),
     ];
     lab_ok(&calibrate_cycling);
+    // No parameter file is written for a cycling log here, so the answer names none (it
+    // said "or load the exported parameters" whatever was written).
+    assert!(!files_in(&cal).iter().any(|f| f.ends_with(".parm") || f.ends_with(".params")));
+    assert_eq!(answer(&cal), "table.bin meets every limit held out; flash it");
     let first = files_in(&cal);
     assert!(first.contains("table_simple.bin") && first.contains("sf_vs_temp.png"), "{first:?}");
     assert_eq!(first, listed(&cal), "the cycling run's folder against its report");
     lab_ok(&calibrate_static);
     assert_eq!(files_in(&cal), listed(&cal), "after a static run into the cycling run's folder");
+    assert!(files_in(&cal).contains("ardupilot_tcal_2_values.parm"));
+    assert_eq!(answer(&cal), "table.bin meets every limit held out; flash it, or load the exported parameters");
     lab_ok(&calibrate_cycling);
     assert_eq!(files_in(&cal), listed(&cal), "after a cycling run into the static run's folder");
     let _ = std::fs::remove_dir_all(&d);

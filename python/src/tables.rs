@@ -298,6 +298,7 @@ pub fn calibrate(
                 exports,
                 limits: qfa_report::verdict::LimitsChoice::default(),
                 reproducible: false,
+                notes: Vec::new(),
             };
             let calibration_err = |e: cal::CalibrateError| with_kind::<CalibrationError>(py, e.to_string(), e.kind());
             let c = py.detach(|| cal::calibrate_log(l, &opts)).map_err(calibration_err)?;

@@ -123,6 +123,10 @@ pub struct FeatureStats {
     pub feature: Feature,
     /// Units with a value.
     pub n: usize,
+    /// Of those, the units the median and scale are formed from: full coverage, a log that
+    /// fits the batch (the yardstick; the others are measured against it).
+    #[serde(default)]
+    pub yardstick_n: usize,
     /// Reference units' median.
     pub median: f64,
     /// Robust scale (1.4826 · MAD, at least the floor).

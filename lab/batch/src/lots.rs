@@ -284,6 +284,7 @@ mod tests {
                         signature: true,
                     },
                     n: x.len(),
+                    yardstick_n: x.len(),
                     median: med,
                     scale,
                     values: serials.iter().cloned().zip(col).collect(),

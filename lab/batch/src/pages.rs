@@ -389,12 +389,13 @@ fn figures_section(p: &mut Page, fleet: &Fleet, plots: &[Plot]) {
                 s.feature.name.clone(),
                 s.feature.unit.clone(),
                 s.n.to_string(),
+                s.yardstick_n.to_string(),
                 format!("{:.4}", s.median),
                 format!("{:.4}", s.scale),
             ]
         })
         .collect();
-    p.table(&["figure", "unit", "units", "median", "robust SD"], &rows);
+    p.table(&["figure", "unit", "units", "of them in the yardstick", "median", "robust SD"], &rows);
 }
 
 /// Two lots, what tells them apart and which units are in each; or why the fleet is one.

@@ -131,6 +131,7 @@ pub(crate) fn calibrate(
         unit: Some(input.serial.clone()),
         limits: opts.limits.clone(),
         reproducible: true,
+        notes: vec![super::unit::CERTIFICATE_NAMES_THE_TABLE.to_string()],
         ..CalibrateOptions::default()
     };
     let cal = calibrate_into(log, dir, &copts, 0.0).map_err(|e| BatchError::Unit(UnitFault::Cycling(Box::new(e))))?;

@@ -198,6 +198,12 @@ fn calibrate(input: &UnitInput, dir: &Path, opts: &UnitOptions) -> Result<Calibr
     }
 }
 
+/// Said on every batch unit's own report: the batch, not the unit's calibration, decides
+/// which table is flashed (a unit of partial coverage flashes the population prior's), and
+/// the certificate names it.
+pub(crate) const CERTIFICATE_NAMES_THE_TABLE: &str = "a unit of a batch: flash the table its certificate \
+     (certificate.html) names, which is table_prior.bin when the fleet finds its coverage partial, not table.bin";
+
 /// A static (MEMS) unit: calibrated as `qfa-lab calibrate` calibrates a static log.
 fn calibrate_static(
     input: &UnitInput,
@@ -208,7 +214,9 @@ fn calibrate_static(
 ) -> Result<Calibrated, BatchError> {
     opts.limits.check_applies("static", &STATIC_KEYS).map_err(|e| BatchError::Unit(UnitFault::Limits(e)))?;
     let warnings = log_warnings(&qfa_lint::lint_static(bytes, log));
-    let notes: Vec<String> = warnings.iter().map(|w| format!("lint: {w}")).collect();
+    let notes: Vec<String> = std::iter::once(CERTIFICATE_NAMES_THE_TABLE.to_string())
+        .chain(warnings.iter().map(|w| format!("lint: {w}")))
+        .collect();
     let exports = qfa_calibrate::export::ExportOptions::default();
     // The page names the batch, not the worker process that wrote it (a thread, a shard,
     // a Dask worker), so every way of running the batch writes the same bytes.

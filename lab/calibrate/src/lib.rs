@@ -64,6 +64,9 @@ pub struct CalibrateOptions {
     /// Leave the step timings out of the reports, so every file's bytes depend on the log
     /// alone (a batch's units, whatever thread or shard ran them).
     pub reproducible: bool,
+    /// Lines the verdict carries as warnings, before the exports' (a batch's word on which
+    /// table its certificate names).
+    pub notes: Vec<String>,
 }
 
 /// Result of a calibration.
@@ -503,7 +506,8 @@ pub fn calibrate_into(
     files.extend(cal.plots.iter().map(|p| p.file.clone()));
     files.extend(cal.exports.written.iter().map(|f| (*f).to_string()));
     let who = opts.unit.as_deref().or(opts.axis.as_deref()).unwrap_or("ax");
-    let notes: Vec<String> = cal.exports.notes.iter().map(ToString::to_string).collect();
+    let notes: Vec<String> =
+        opts.notes.iter().cloned().chain(cal.exports.notes.iter().map(ToString::to_string)).collect();
     let v = verdict::cycling_verdict(&cal.report, who, &opts.limits, &files, &notes);
     let json_path = out.join("report.json");
     let json = qfa_report::verdict::json_with_verdict(&v, &cal.report).map_err(OutputError::json(&json_path))?;

@@ -128,9 +128,7 @@ pub fn static_verdict(cal: &StaticCalibration, limits: &LimitsChoice, files: &[S
     let checks = limits.limits.static_checks(&held, span);
     let answer = match held.iter().find(|(_, v)| matches!(v, Measured::NotComputed { .. })) {
         Some(_) => "no held-out figure could be formed, so nothing says what to expect in use".to_string(),
-        None if checks.iter().all(|c| c.pass) => {
-            "table.bin meets every limit held out; flash it, or load the exported parameters".to_string()
-        }
+        None if checks.iter().all(|c| c.pass) => passing_answer(files),
         None => format!(
             "table.bin fails {}",
             checks
@@ -182,6 +180,16 @@ pub fn static_verdict(cal: &StaticCalibration, limits: &LimitsChoice, files: &[S
 /// The verdict of a cycling calibration of accelerometer `axis` (its IMU axis, or its
 /// serial in a batch) written into a folder holding `files`.
 #[must_use]
+/// What a run whose table meets every limit says to do: flash it, or load the parameter
+/// files among `files` when any was written (never a file the run did not write).
+fn passing_answer(files: &[String]) -> String {
+    let exported = files.iter().any(|f| crate::export::EXPORT_FILES.contains(&f.as_str()));
+    format!(
+        "table.bin meets every limit held out; flash it{}",
+        if exported { ", or load the exported parameters" } else { "" }
+    )
+}
+
 pub(crate) fn cycling_verdict(
     r: &Report,
     axis: &str,
@@ -198,7 +206,7 @@ pub(crate) fn cycling_verdict(
     let answer = if !r.held_out {
         "one program only: the figures are in-sample, so nothing says what to expect in use".to_string()
     } else if checks.iter().all(|c| c.pass) {
-        "table.bin meets every limit held out; flash it, or load the exported parameters".to_string()
+        passing_answer(files)
     } else {
         format!("table.bin fails {}", checks.iter().filter(|c| !c.pass).map(|c| c.limit).collect::<Vec<_>>().join(", "))
     };

@@ -40,7 +40,8 @@ pub(super) fn feature_stats(feat: Feature, y: &Yardstick<'_>, flags: &mut [Vec<F
     let of = |keep: &dyn Fn(usize) -> bool| -> Vec<f64> {
         values.iter().filter(|(i, _)| y.reference[*i] && keep(*i)).map(|(_, v)| *v).collect()
     };
-    let [med, scale] = median_scale(&of(&|_| true), feat.floor)?;
+    let reference = of(&|_| true);
+    let [med, scale] = median_scale(&reference, feat.floor)?;
     let within = y.lots.filter(|l| l.compared_within);
     let lot_of = |i: usize| within.and_then(|l| l.lot_of(i));
     let lots: Vec<[f64; 2]> = (0..if within.is_some() { 2 } else { 0 })
@@ -48,6 +49,7 @@ pub(super) fn feature_stats(feat: Feature, y: &Yardstick<'_>, flags: &mut [Vec<F
         .collect();
     let stats = FeatureStats {
         n: values.len(),
+        yardstick_n: reference.len(),
         median: med,
         scale,
         values: values.iter().map(|(i, v)| (y.results[*i].serial.clone(), *v)).collect(),

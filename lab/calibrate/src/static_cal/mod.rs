@@ -71,7 +71,7 @@
 //!   figure that cannot be formed is [`Figure::NotComputed`] with its reason (`none`, or
 //!   the ArduPilot learner on a log with no 2 °C rise), never a number in its place.
 //! * The table (`table.bin`/`table.toml`) and the exported peers (`px4_tc.params`,
-//!   `ardupilot_tcal.parm`): the chosen structure, and the peers, fitted on **every row**,
+//!   `ardupilot_tcal_1_enable.parm`, `ardupilot_tcal_2_values.parm`): the chosen structure, and the peers, fitted on **every row**,
 //!   the bias measured from the axis's mean over every row. `table_rms_mg` is that
 //!   table's RMS over every row (in-sample: not a held-out figure).
 
@@ -628,7 +628,7 @@ fn figures_text(scheme: &Scheme, n: usize) -> String {
         ),
     };
     format!(
-        "{held}; table.bin/table.toml, px4_tc.params and ardupilot_tcal.parm: fitted on all {n} rows (bias from each \
-         axis's mean over all rows); table_rms_mg: that table on all rows (in-sample)"
+        "{held}; table.bin/table.toml and the PX4 and ArduPilot parameter files written: fitted on all {n} rows (bias \
+         from each axis's mean over all rows); table_rms_mg: that table on all rows (in-sample)"
     )
 }
