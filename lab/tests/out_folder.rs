@@ -8,17 +8,10 @@ mod common;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("qfa-out-folder-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
+use common::lab_ok;
 
-fn lab_ok(args: &[&str]) -> String {
-    let (ok, text) = common::lab(args);
-    assert!(ok, "qfa-lab {args:?} failed:\n{text}");
-    text
+fn tmp(name: &str) -> PathBuf {
+    common::fresh_dir("out-folder", name)
 }
 
 /// The files in `dir` (not its folders).

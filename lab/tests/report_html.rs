@@ -9,20 +9,11 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use common::browser;
+use common::{browser, lab_ok};
 use qfa_discover::DiscoverError;
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("qfa-report-html-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn lab_ok(args: &[&str]) -> String {
-    let (ok, text) = common::lab(args);
-    assert!(ok, "qfa-lab {args:?} failed:\n{text}");
-    text
+    common::fresh_dir("report-html", name)
 }
 
 #[test]

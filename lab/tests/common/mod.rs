@@ -13,6 +13,21 @@ use std::process::Command;
 /// Standard gravity, m/s² (both stacks work in m/s²; the report is in mg).
 pub const G0: f64 = 9.806_65;
 
+/// Run qfa-lab, which must succeed; its stdout + stderr.
+pub fn lab_ok(args: &[&str]) -> String {
+    let (ok, text) = lab(args);
+    assert!(ok, "qfa-lab {args:?} failed:\n{text}");
+    text
+}
+
+/// A fresh folder for test `test`'s case `name` in the system's temporary folder.
+pub fn fresh_dir(test: &str, name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("qfa-{test}-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
 /// Run qfa-lab; (success, stdout + stderr).
 pub fn lab(args: &[&str]) -> (bool, String) {
     let out = Command::new(env!("CARGO_BIN_EXE_qfa-lab")).args(args).output().expect("run qfa-lab");
