@@ -58,9 +58,10 @@ struct Axis {
 /// 60-s means (the white noise, 0.15–0.3 mg a sample, would hide what the models differ
 /// by), mg.
 fn use_rms_mg(a: &Axis, model: Option<&Poly>) -> f64 {
-    let rows: Vec<f64> =
-        a.use_t.iter().zip(&a.use_y).skip(SETTLE_ROWS).map(|(&t, &y)| y - model.map_or(0.0, |m| m.eval(t))).collect();
-    let r: Vec<f64> = rows.chunks_exact(60).map(|c| c.iter().sum::<f64>() / 60.0).collect();
+    let rows = a.use_t.iter().zip(&a.use_y).skip(SETTLE_ROWS).map(|(&t, &y)| y - model.map_or(0.0, |m| m.eval(t)));
+    // 1-s rows: row i is at i s, so the 60-s bins are whole minutes of the flight.
+    let time_s: Vec<f64> = (SETTLE_ROWS..a.use_t.len()).map(|i| i as f64).collect();
+    let r: Vec<f64> = qfa_calibrate::metrics::time_bin_means(rows, &time_s, 60.0).into_iter().map(|b| b.1).collect();
     let mean = r.iter().sum::<f64>() / r.len() as f64;
     1e3 * (r.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / r.len() as f64).sqrt()
 }
