@@ -120,8 +120,14 @@ fn ulog_every_instance_its_id_and_px4_formula() {
     let Some(dir) = generated() else { return };
     let log = dir.join("thermal.ulg");
     let out = dir.join("cal-ulg");
+    // An earlier run's plot in an instance's folder: this run draws none (`--no-plots`), so
+    // a plot left there would read as this run's.
+    let stale = out.join("instance0").join("bias_vs_temp.png");
+    std::fs::create_dir_all(stale.parent().unwrap()).unwrap();
+    std::fs::write(&stale, b"an earlier run's plot").unwrap();
     let (ok, text) = lab(&["calibrate", "--log", log.to_str().unwrap(), "--out", out.to_str().unwrap(), "--no-plots"]);
     assert!(ok, "{text}");
+    assert!(!stale.exists(), "an earlier run's plot stayed in instance0/");
     println!("{text}");
     let r = report(&out);
     let inst = r["instances"].as_array().unwrap();

@@ -256,6 +256,11 @@ fn write_instance(
     let d = out.join(&dir);
     let files = static_cal::static_files(plots, &[]);
     let v = static_verdict(cal, limits, &files, &o.warnings);
+    // The instance's folder holds this run's files only (an earlier run's plot, when this
+    // one draws none, would read as this run's).
+    std::fs::create_dir_all(&d)
+        .map_err(|e| AutopilotCalError::Output(qfa_calibrate::output_error::OutputError::io(&d)(e)))?;
+    qfa_calibrate::clear_outputs(&d).map_err(AutopilotCalError::Output)?;
     static_cal::write_static(&d, cal, &v).map_err(AutopilotCalError::Instance)?;
     static_cal::write_static_page(&d, cal, plots, &v).map_err(AutopilotCalError::Instance)?;
     o.heldout_rms_mg = cal.report.axes.iter().map(|a| (a.axis.clone(), figure(&a.ours), figure(&a.cubic))).collect();
