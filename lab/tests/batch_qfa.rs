@@ -79,6 +79,8 @@ fn a_qfa_batch_flags_each_bad_unit_by_the_figure_its_defect_moves_and_passes_the
                 // Its own report says the certificate names the table: it flashes the
                 // prior's (the report said "table.bin: flash this" alone).
                 assert!(cert.contains("table_prior.bin (flash this)"), "{}", u.serial);
+                // Its held-out figures are its own table's, and the certificate says so.
+                assert!(cert.contains("of table.bin, the unit&#39;s own fit"), "{}", u.serial);
                 let report = std::fs::read_to_string(dir.join("out").join(&u.serial).join("report.md")).unwrap();
                 assert!(report.contains("flash the table its certificate (certificate.html) names"), "{}", u.serial);
             }

@@ -192,6 +192,17 @@ fn certificate_rows(
                 if p.mostly_prior { ", so the prior decided most of it" } else { "" }
             ),
         ));
+        // The held-out figures below, and the limits the decision checked, are of the
+        // unit's own fit: the prior's table is not held out (its gain is measured against
+        // the simulator's truth in the lab's studies).
+        kv.push((
+            "held-out figures below".into(),
+            format!(
+                "of table.bin, the unit's own fit: {} has none of its own (the prior's gain is measured against a \
+                 known truth in the lab guide's studies)",
+                p.table
+            ),
+        ));
     }
     match &r.outcome {
         UnitOutcome::Calibrated(c) => {
