@@ -238,6 +238,7 @@ fn run_unit(
             limits: LimitsChoice::default(),
             reproducible: false,
             notes: Vec::new(),
+            ext: qfa_thermal::Extensions::NONE,
         },
     )
     .map_err(|source| DemoError::Calibrate { unit: truth.name.clone(), source })?;

@@ -13,7 +13,6 @@ use qfa_calibrate::{calibrate_into, CalibrateOptions};
 use qfa_discover::{static_axes, Start};
 use qfa_lab::out_path::OutError;
 use qfa_lint::Severity;
-use qfa_log::channels::Channels;
 use qfa_log::cycling::{write_compensated, write_log};
 use qfa_log::open::{open, LogFormat, OpenError, OpenedLog, ReadFlags};
 use qfa_log::static_log::columns::{AccelUnit, ColumnMap, TimeUnit};
@@ -194,6 +193,7 @@ fn calibrate_cmd(a: CalibrateArgs) -> Result<(), CliError> {
                 limits: limits.clone(),
                 reproducible: false,
                 notes: Vec::new(),
+                ext: qfa_thermal::Extensions::NONE,
             };
             let cal = calibrate_into(&l, &a.out, &opts, t0.elapsed().as_secs_f64())?;
             let v = cal.verdict.as_ref().ok_or_else(|| CliError::Failed("no verdict written".into()))?;
@@ -270,9 +270,9 @@ fn discover_cmd(
         }
         opened => {
             cycling_holdout(holdout)?;
-            let ch = Channels::from_opened(&opened, 60.0)?;
+            let source = qfa_discover::Source::from_opened(opened, 60.0)?;
             let pb = qfa_lab::demo::spinner("discovery", true);
-            let r = qfa_discover::discover_with_verdict(&ch, start, out);
+            let r = qfa_discover::discover_with_verdict(&source, start, out);
             pb.finish_and_clear();
             let (r, v) = r?;
             let j = if json { Some(json_with_verdict(&v, &r).map_err(to_json)?) } else { None };

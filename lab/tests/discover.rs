@@ -199,7 +199,7 @@ fn discover_paper_structure_from_simple() {
 
 #[test]
 fn discover_single_channel_log_and_outputs() {
-    use qfa_discover::{discover, Channels};
+    use qfa_discover::{discover, Source};
     use qfa_sim::synth::single_csv;
     let ext = Extensions {
         bias_branch_hysteresis: Some(BranchHysteresis { half_width_c: 1.5, weight_g: 1.5e-5 }),
@@ -207,9 +207,9 @@ fn discover_single_channel_log_and_outputs() {
     };
     let cfg = SynthConfig { rates: vec![0.5], ..quick(20) };
     let csv = single_csv(&cfg, &truth(kt8_1_scale(), paper_bias(), ext));
-    let ch = Channels::parse(&csv, 60.0).unwrap();
+    let src = Source::parse(&csv, 60.0).unwrap();
     let dir = std::env::temp_dir().join(format!("qfa-discover-single-{}", std::process::id()));
-    let r = discover(&ch, Start::Paper, &dir).unwrap();
+    let r = discover(&src, Start::Paper, &dir).unwrap();
     assert_eq!(names(&r), ["bias_branch_hysteresis"]);
     // A single-channel log's unit is its own (here µg): the weight carries no unit name.
     within(param(&r, "bias_branch_hysteresis", "weight"), 15.0, 0.25);
@@ -250,14 +250,14 @@ fn discover_single_channel_log_and_outputs() {
 
 #[test]
 fn discover_from_lab_format_csv_with_pulses() {
-    use qfa_discover::{discover, Channels};
+    use qfa_discover::{discover, Source};
     use qfa_sim::synth::cycling_csv;
     let ext = Extensions { sensor_lag: Some(SensorLag { tau_s: 450.0 }), ..Default::default() };
     let csv = cycling_csv(&quick(21), &truth(kt8_1_scale(), paper_bias(), ext), 20.0);
-    let ch = Channels::parse(&csv, 60.0).unwrap();
-    assert_eq!(ch.traces.len(), 4);
+    let src = Source::parse(&csv, 60.0).unwrap();
+    assert_eq!(src.channels().traces.len(), 4);
     let dir = std::env::temp_dir().join(format!("qfa-discover-csv-{}", std::process::id()));
-    let r = discover(&ch, Start::Paper, &dir).unwrap();
+    let r = discover(&src, Start::Paper, &dir).unwrap();
     assert_eq!(names(&r), ["sensor_lag"]);
     within(param(&r, "sensor_lag", "tau_s"), 450.0, 0.25);
     assert_shrinks(&r, "scale_factor");

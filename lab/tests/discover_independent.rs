@@ -134,7 +134,7 @@ fn discovery_is_honest_on_independent_cycling_logs() {
 #[test]
 fn a_residual_far_above_its_floor_is_reported_in_words() {
     let t = CyclingTruth { campaign_ageing_ug_per_h: 0.3, ..CyclingTruth::default() };
-    let ch = Channels::parse(&truth::cycling(t, 1), 60.0).expect("parses");
+    let ch = qfa_discover::Source::parse(&truth::cycling(t, 1), 60.0).expect("parses");
     let dir = std::env::temp_dir().join(format!("qfa-discover-floor-{}", std::process::id()));
     let r = qfa_discover::discover(&ch, Start::Paper, &dir).expect("discovery writes its outputs");
     let md = std::fs::read_to_string(dir.join("report.md")).expect("report.md");

@@ -341,7 +341,7 @@ fn false_discovery_rate_single_channel() {
 fn unexplained_is_reported_in_json_and_in_words() {
     // Accelerating ageing leaves a t² the linear drift cannot take: report.json lists it
     // with what it follows, and report.md says it in a sentence.
-    let ch = Channels::parse(&generate(Hidden::Ageing2, 3), 60.0).expect("parses");
+    let ch = qfa_discover::Source::parse(&generate(Hidden::Ageing2, 3), 60.0).expect("parses");
     let dir = std::env::temp_dir().join(format!("qfa-discover-unexplained-{}", std::process::id()));
     let r = qfa_discover::discover(&ch, Start::Paper, &dir).expect("discovery writes its outputs");
     let json: serde_json::Value =

@@ -67,6 +67,11 @@ pub struct CalibrateOptions {
     /// Lines the verdict carries as warnings, before the exports' (a batch's word on which
     /// table its certificate names).
     pub notes: Vec<String>,
+    /// Extension slots in force in every fit, their parameters fixed (their bias is
+    /// subtracted before the bias grid is fitted): none for `calibrate`; on a cycling log
+    /// `discover` passes the slots its catalog named that carry to held-out programs, so
+    /// both commands' tables come from this one call.
+    pub ext: qfa_thermal::Extensions,
 }
 
 /// Result of a calibration.
@@ -241,7 +246,8 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
     check_inputs(log, &paired, &fit_p)?;
     let t = Instant::now();
     let pb = bar(fit_p.len() as u64, "fitting", opts.progress);
-    let fitted = fit(&paired, &FitOptions::new(fit_p.clone()), Some(&pb)).map_err(CalibrateError::Fit)?;
+    let fitted = fit(&paired, &FitOptions { ext: opts.ext, ..FitOptions::new(fit_p.clone()) }, Some(&pb))
+        .map_err(CalibrateError::Fit)?;
     pb.finish_and_clear();
     let mut t_fit = t.elapsed().as_secs_f64();
     let t = Instant::now();
@@ -263,6 +269,7 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
         let o = FitOptions {
             branch_mode: Some(fitted.branch.mode),
             curve_shape: Some(fitted.branch.shape),
+            ext: opts.ext,
             ..FitOptions::new(table_p.clone())
         };
         let table = fit(&paired, &o, None).map_err(CalibrateError::Fit)?;

@@ -66,6 +66,10 @@ pub enum DiscoverError {
     Table(qfa_thermal::table::Error),
     /// `report.html` not written (the error names the file).
     Page(io::Error),
+    /// A cycling log's table: calibrate's fit or its held-out figures failed on the log.
+    Calibrate(Box<qfa_calibrate::CalibrateError>),
+    /// A table with no axis.
+    NoAxis,
     /// A residual plot (its chart, title or legend) that could not be drawn or encoded.
     Plot(PlotError),
 }
@@ -85,6 +89,8 @@ impl fmt::Display for DiscoverError {
             Self::Table(_) => f.write_str("encoding table.bin")?,
             Self::Page(_) => f.write_str("writing report.html")?,
             Self::Plot(e) => write!(f, "{e}")?,
+            Self::Calibrate(_) => f.write_str("fitting the cycling log's table")?,
+            Self::NoAxis => f.write_str("calibrate's table has no axis")?,
         }
         if f.alternate() {
             let mut cause = std::error::Error::source(self);
@@ -108,7 +114,8 @@ impl std::error::Error for DiscoverError {
             Self::Toml { source, .. } => Some(source),
             Self::Json { source, .. } => Some(source),
             Self::Table(e) => Some(e),
-            Self::UnknownStart(_) | Self::NoModel { .. } => None,
+            Self::Calibrate(e) => Some(e.as_ref()),
+            Self::UnknownStart(_) | Self::NoModel { .. } | Self::NoAxis => None,
         }
     }
 }

@@ -92,6 +92,7 @@
 //! with the effective τ).
 
 pub(crate) mod cli;
+pub mod cycling_table;
 pub(crate) mod error;
 pub mod fit;
 mod folds;
@@ -117,7 +118,7 @@ use std::path::Path;
 use qfa_thermal::model::AxisModel;
 use serde::Serialize;
 
-pub use cli::{demo_hook, discover, discover_with_verdict};
+pub use cli::{analyze_source, demo_hook, discover, discover_with_verdict, Source};
 pub use error::DiscoverError;
 use fit::{Fitted, Residuals, Setup};
 use folds::*;

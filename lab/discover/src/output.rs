@@ -149,7 +149,13 @@ impl Scope<'_> {
 ///
 /// # Errors
 /// A file could not be written ([`DiscoverError`]).
-pub(crate) fn write(ch: &Channels, report: &Report, dir: &Path, scope: Scope<'_>) -> Result<(Verdict, Vec<Plot>)> {
+pub(crate) fn write(
+    ch: &Channels,
+    report: &Report,
+    flashed: Option<&Table>,
+    dir: &Path,
+    scope: Scope<'_>,
+) -> Result<(Verdict, Vec<Plot>)> {
     std::fs::create_dir_all(dir).map_err(|source| DiscoverError::CreateDir { path: dir.into(), source })?;
     let mut tables: Vec<String> = Vec::new();
     let mut rest: Vec<String> = Vec::new();
@@ -163,7 +169,9 @@ pub(crate) fn write(ch: &Channels, report: &Report, dir: &Path, scope: Scope<'_>
             remove_stale(&dir.join(f))?;
         }
     }
-    if let Some(t) = table(report, input).filter(|_| scope.flashable()) {
+    // A cycling log's table is calibrate's ([`super::cycling_table`]); else the catalog's model.
+    let table = || flashed.cloned().or_else(|| table(report, input));
+    if let Some(t) = table().filter(|_| scope.flashable()) {
         match t.to_bytes() {
             Ok(b) => {
                 write_file(&dir.join("table.bin"), &b)?;
@@ -173,7 +181,7 @@ pub(crate) fn write(ch: &Channels, report: &Report, dir: &Path, scope: Scope<'_>
             Err(e) => notes.push(format!("the table did not validate ({e:?}), so no table.bin was written")),
         }
     }
-    if let Some(t) = table(report, input) {
+    if let Some(t) = table() {
         let path = dir.join("model.toml");
         write_file(&path, toml::to_string(&t).map_err(|source| DiscoverError::Toml { path: path.clone(), source })?)?;
         tables.push("model.toml".to_string());

@@ -63,6 +63,9 @@ pub struct EffectReport {
     /// Whether the flashed table (`table.bin`) carries it (`bias_drift` has no root-crate
     /// slot yet: reported, not flashed).
     pub in_table: bool,
+    /// Why `table.bin` does not carry it, when it does not.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub not_in_table: Option<String>,
     /// Significant candidates it did not beat by one standard error (one-SE rule: the
     /// one with fewest parameters was added); empty when the name is clear.
     pub confusable_with: Vec<String>,
@@ -244,6 +247,14 @@ pub struct Report {
     /// Which model is flashed, its held-out figure, and a peer that predicts the bias
     /// better, if any.
     pub flashed: Flashed,
+    /// A cycling log's table: `calibrate`'s, with the catalog's slots that carry to
+    /// held-out programs ([`crate::cycling_table`]); `None` for a single-channel log, whose
+    /// table is the catalog's model.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub table: Option<crate::cycling_table::CyclingTable>,
+    /// The extension slots of the catalog's named model (fitted on every bin).
+    #[serde(skip)]
+    pub named_ext: qfa_thermal::Extensions,
     /// Held-out residuals before and after.
     #[serde(skip)]
     pub residuals: (Residuals, Residuals),

@@ -163,6 +163,7 @@ pub fn analyze(ch: &Channels, start: Start) -> Report {
         LogKind::Single => Gaps::Single { value_rms: noise_floor(ch, &cur.bias) },
     };
     let peers = peer_gaps(ch, &masks, &trains);
+    let named_ext = final_fit.model.ext;
     let (named_flashed, flashed) = choose_flashed(ch, &before, &cur, &peers);
     let flashed_model = if named_flashed {
         final_fit.model
@@ -193,6 +194,8 @@ pub fn analyze(ch: &Channels, start: Start) -> Report {
         where_after: localize(ch, &cur, 5),
         model: Some(flashed_model),
         flashed,
+        table: None,
+        named_ext,
         residuals: (before, cur),
         heldout_rule: rule,
     }
@@ -476,6 +479,7 @@ fn effect_report(
         params_ci,
         gain: g,
         in_table: e.in_firmware(),
+        not_in_table: (!e.in_firmware()).then(|| "no root-crate slot yet".to_string()),
         confusable_with,
         heldout_gap_before: gb,
         heldout_gap_after: ga,

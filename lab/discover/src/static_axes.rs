@@ -627,7 +627,8 @@ pub fn run(log: &StaticLog, start: Start, holdout: Holdout, dir: &Path) -> Resul
     let mut axis_plots = Vec::with_capacity(d.axes.len());
     for ((a, r), ch) in d.axes.iter().zip(&d.reports).zip(&d.channels) {
         // Not flashable: the table of all axes is DIR/table.bin (see `output`'s docs).
-        let (_, plots) = super::output::write(ch, r, &dir.join(&a.axis), Scope::StaticAxis { discovery: &d, axis: a })?;
+        let (_, plots) =
+            super::output::write(ch, r, None, &dir.join(&a.axis), Scope::StaticAxis { discovery: &d, axis: a })?;
         axis_plots.push(plots);
     }
     write_file(&dir.join("table.bin"), d.table.to_bytes().map_err(DiscoverError::Table)?)?;

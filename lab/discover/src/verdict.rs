@@ -117,14 +117,32 @@ fn covers_and_advice(v: &mut Verdict, ch: &Channels) {
 #[must_use]
 pub(crate) fn discovery_verdict(ch: &Channels, r: &Report, files: &[String], notes: &[String]) -> Verdict {
     let start = channel_figures(&r.heldout_gap_before, ch.bias_unit);
-    let named = channel_figures(&r.heldout_gap_after, ch.bias_unit);
+    // A cycling log's named model is its table ([`super::cycling_table`]); a single-channel
+    // log's is the catalog's.
+    let named =
+        channel_figures(if r.table.is_some() { &r.flashed.heldout } else { &r.heldout_gap_after }, ch.bias_unit);
     let (words, worse) = standing(r.start.name(), &start, &named);
-    let table = if files.iter().any(|f| f == "table.bin") {
+    let wrote = files.iter().any(|f| f == "table.bin");
+    let table = if wrote {
         format!("table.bin holds the {}", r.flashed.model)
     } else {
         "no table.bin was written (see the warnings)".to_string()
     };
-    let answer = if r.effects.is_empty() {
+    let answer = if let Some(t) = &r.table {
+        let caught = if r.effects.is_empty() {
+            "nothing beyond the start model".to_string()
+        } else {
+            r.effect_labels().join(", ")
+        };
+        let left: Vec<String> = r.effects.iter().filter(|e| e.not_in_table.is_some()).map(|e| e.name.clone()).collect();
+        format!(
+            "named {} = {}, the table `calibrate` writes for this log, which {words} ({}); the block test named {caught}{}",
+            t.structure,
+            if wrote { "table.bin" } else { "the table (not written: see the warnings)" },
+            both_figures(&start, &named),
+            if left.is_empty() { String::new() } else { format!("; not in table.bin: {} (see the warnings)", left.join(", ")) }
+        )
+    } else if r.effects.is_empty() {
         let figs: Vec<String> = start.iter().map(|(c, s, u)| format!("{c} {s:.2} {u}")).collect();
         format!(
             "nothing named, so the named model is the start model `{}` (held out {}); {table}",
@@ -146,7 +164,22 @@ pub(crate) fn discovery_verdict(ch: &Channels, r: &Report, files: &[String], not
             unit: (*u).to_string(),
         })
         .collect();
-    if !r.effects.is_empty() {
+    if let Some(t) = &r.table {
+        let c = &t.calibrate_heldout;
+        let what = format!(
+            "calibrate's held-out figures (fitted on {}, scored on {})",
+            c.fit_programs.join(", "),
+            c.eval_programs.join(", ")
+        );
+        v.expect.push(Expected {
+            axis: "sensitivity".into(),
+            what: what.clone(),
+            value: c.sensitivity_ppm_per_c,
+            unit: "ppm/°C".into(),
+        });
+        v.expect.push(Expected { axis: "bias".into(), what, value: c.bias_residual_ug, unit: "µg".into() });
+    }
+    if !r.effects.is_empty() || r.table.is_some() {
         for ((c, s, u), (_, n, _)) in start.iter().zip(&named) {
             if worse.contains(c) {
                 v.warnings.push(format!(
@@ -173,7 +206,8 @@ pub(crate) fn discovery_verdict(ch: &Channels, r: &Report, files: &[String], not
         ));
     }
     for e in r.effects.iter().filter(|e| !e.in_table) {
-        v.warnings.push(format!("{} is named but not in table.bin (no root-crate slot yet)", e.name));
+        let why = e.not_in_table.as_deref().unwrap_or("no root-crate slot yet");
+        v.warnings.push(format!("{} is named by the block test but not in table.bin: {why}", e.name));
     }
     for u in &r.unexplained {
         let unit = super::output::channel_unit(ch, &u.channel);
