@@ -5,7 +5,7 @@
 mod common;
 
 use qfa_calibrate::{calibrate_log, CalibrateOptions};
-use qfa_discover::cycling_table::{adopt_slots, Slots};
+use qfa_discover::cycling_table::{adopt_slots, SlotGaps, Slots};
 use qfa_discover::{analyze_source, Source, Start};
 use qfa_sim::synth::{cycling_csv, kt8_1_scale, truth, SynthConfig};
 use qfa_thermal::model::{Extensions, SensorLag};
@@ -62,7 +62,7 @@ fn a_slot_is_in_the_table_only_when_it_carries_forward() {
         .unwrap();
     let (r, table) = analyze_source(&src, Start::Paper).unwrap();
     let t = r.table.as_ref().expect("a cycling log's table");
-    let Slots::Added { without, with } = &t.slots else { panic!("the named lag must carry: {:?}", t.slots) };
+    let Slots::Added(SlotGaps { without, with }) = &t.slots else { panic!("the named lag must carry: {:?}", t.slots) };
     eprintln!("lag: without {without:?}, with {with:?}; {}", t.structure);
     let lag = table.as_ref().unwrap().axes[0].ext.sensor_lag.expect("the table holds the lag");
     assert!((lag.tau_s - 450.0).abs() < 0.25 * 450.0, "{lag:?}");
@@ -80,9 +80,9 @@ fn a_slot_is_in_the_table_only_when_it_carries_forward() {
     let (mut r, _) = analyze_source(&clean, Start::Paper).unwrap();
     let Source::Cycling { log, channels } = &clean else { unreachable!() };
     let bogus = Extensions { sensor_lag: Some(SensorLag { tau_s: 3000.0 }), ..Extensions::NONE };
-    let table = adopt_slots(log, channels, &mut r, vec!["sensor_lag".into()], bogus).unwrap();
+    let table = adopt_slots(log, channels, &mut r, vec!["sensor_lag".into()], bogus).unwrap().unwrap();
     let t = r.table.as_ref().unwrap();
-    assert!(matches!(t.slots, Slots::NotAdded { .. }), "a 3000-s lag on a log without one: {:?}", t.slots);
+    assert!(matches!(t.slots, Slots::NotAdded(_)), "a 3000-s lag on a log without one: {:?}", t.slots);
     assert!(table.axes[0].ext.sensor_lag.is_none());
     let plain = calibrate_log(log, &CalibrateOptions::default()).unwrap();
     assert_eq!(plain.table.hysteresis.to_bytes().unwrap(), table.to_bytes().unwrap());

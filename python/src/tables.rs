@@ -299,6 +299,7 @@ pub fn calibrate(
                 limits: qfa_report::verdict::LimitsChoice::default(),
                 reproducible: false,
                 notes: Vec::new(),
+                ext: qfa_thermal::Extensions::NONE,
             };
             let calibration_err = |e: cal::CalibrateError| with_kind::<CalibrationError>(py, e.to_string(), e.kind());
             let c = py.detach(|| cal::calibrate_log(l, &opts)).map_err(calibration_err)?;
@@ -420,8 +421,8 @@ fn run_discovery(log: &Log, start: qfa_discover::Start, holdout: Holdout, dir: &
             let Some(path) = &log.path else {
                 anyhow::bail!("discovery of a cycling log reads its file: read it with read_log(path)");
             };
-            let ch = qfa_log::channels::Channels::read(path, 60.0)?;
-            qfa_discover::discover(&ch, start, dir)?;
+            let source = qfa_discover::Source::read(path, 60.0)?;
+            qfa_discover::discover(&source, start, dir)?;
         }
     }
     Ok(std::fs::read_to_string(dir.join("report.json"))?)

@@ -2,62 +2,8 @@
 //! [`discover_with_verdict`]) and the lab demo's hook.
 
 use super::*;
-use qfa_log::channels::ChannelsError;
-use qfa_log::open::{open, open_bytes, OpenedLog, ReadFlags};
+pub use qfa_log::channels::Source;
 use qfa_report::verdict::Verdict;
-
-/// What a discovery reads: a cycling log (its channels for the catalog, and the log whose
-/// ±1 g pairs its table is fitted on, as `calibrate` fits them) or a single-channel log.
-#[derive(Debug)]
-pub enum Source {
-    /// A cycling log and its channels.
-    Cycling {
-        /// The log.
-        log: Box<qfa_log::cycling::Log>,
-        /// Its channels.
-        channels: Channels,
-    },
-    /// A single-channel log's channels.
-    Single(Channels),
-}
-
-impl Source {
-    /// The source of an opened log, binned at `bin_s`.
-    ///
-    /// # Errors
-    /// As [`Channels::from_opened`]: a static or autopilot log, a cycling log without pairs.
-    pub fn from_opened(opened: OpenedLog, bin_s: f64) -> Result<Self, ChannelsError> {
-        let channels = Channels::from_opened(&opened, bin_s)?;
-        Ok(match opened {
-            OpenedLog::Cycling(log) => Self::Cycling { log: Box::new(log), channels },
-            _ => Self::Single(channels),
-        })
-    }
-
-    /// Read a cycling or single-channel log.
-    ///
-    /// # Errors
-    /// The reader's error, or as [`Source::from_opened`].
-    pub fn read(path: &Path, bin_s: f64) -> Result<Self, ChannelsError> {
-        Self::from_opened(open(path, &ReadFlags::default()).map_err(ChannelsError::Open)?, bin_s)
-    }
-
-    /// Parse log text (see [`Source::read`]).
-    ///
-    /// # Errors
-    /// As [`Source::read`].
-    pub fn parse(text: &str, bin_s: f64) -> Result<Self, ChannelsError> {
-        Self::from_opened(open_bytes(text.as_bytes(), &ReadFlags::default()).map_err(ChannelsError::Read)?, bin_s)
-    }
-
-    /// The channels the catalog reads.
-    #[must_use]
-    pub fn channels(&self) -> &Channels {
-        match self {
-            Self::Cycling { channels, .. } | Self::Single(channels) => channels,
-        }
-    }
-}
 
 /// Run the workflow on `input` from `start` and write the outputs to `out_dir`.
 ///
@@ -77,7 +23,7 @@ pub fn discover(input: &Source, start: Start, out_dir: &Path) -> Result<Report> 
 pub fn analyze_source(input: &Source, start: Start) -> Result<(Report, Option<qfa_thermal::Table>)> {
     let mut report = analyze(input.channels(), start);
     let table = match input {
-        Source::Cycling { log, channels } => Some(crate::cycling_table::adopt(log, channels, &mut report)?),
+        Source::Cycling { log, channels } => crate::cycling_table::adopt(log, channels, &mut report)?,
         Source::Single(_) => None,
     };
     Ok((report, table))

@@ -14,11 +14,6 @@
 //! channels of (held-out RMS / noise floor)²). With no slot named, or none that carries,
 //! `discover`'s `table.bin` is the bytes `calibrate` writes (`--test discover_table`).
 //!
-//! Before, `discover` flashed the catalog's own model (its start model plus the effects it
-//! named, on a smooth single-valued bias) and `calibrate` the grid: on the simulator's
-//! default cycling log they wrote two tables, and `discover` warned that the PX4 cubic beat
-//! its own while `calibrate`'s tied it.
-//!
 //! The slots' time constants and weights are the catalog's fit on every bin, so the
 //! held-out folds have seen them: the judgement is of the slots' shape, not of their
 //! parameters. `bias_drift` has no slot, and the catalog's Eq. 11 terms and bias curvature
@@ -54,24 +49,18 @@ pub enum Slots {
     /// The catalog named no slot effect.
     NoneNamed,
     /// They carry to the held-out programs: in the table.
-    Added {
-        /// Held-out gaps on the selection folds without the slots.
-        without: Gaps,
-        /// With them.
-        with: Gaps,
-    },
+    Added(SlotGaps),
     /// They do not carry to the held-out programs: left out.
-    NotAdded {
-        /// Held-out gaps on the selection folds without the slots.
-        without: Gaps,
-        /// With them.
-        with: Gaps,
-    },
-    /// The log has no held-out program to judge them on (one program): left out.
-    NotJudged {
-        /// Why.
-        reason: String,
-    },
+    NotAdded(SlotGaps),
+}
+
+/// Held-out gaps on the selection folds of calibrate's fit without the slots and with them.
+#[derive(Clone, Debug, Serialize)]
+pub struct SlotGaps {
+    /// Without the slots.
+    pub without: Gaps,
+    /// With them.
+    pub with: Gaps,
 }
 
 /// `calibrate`'s held-out figures of a table.
@@ -93,7 +82,7 @@ pub struct CalibrateFigures {
 /// # Errors
 /// [`DiscoverError::Calibrate`] when calibrate's fit or its held-out figures fail on the
 /// log (the table could not be formed).
-pub fn adopt(log: &Log, ch: &Channels, report: &mut Report) -> Result<Table> {
+pub fn adopt(log: &Log, ch: &Channels, report: &mut Report) -> Result<Option<Table>> {
     let named_slots: Vec<String> = report
         .effects
         .iter()
@@ -115,35 +104,29 @@ pub fn adopt_slots(
     report: &mut Report,
     named_slots: Vec<String>,
     ext: Extensions,
-) -> Result<Table> {
+) -> Result<Option<Table>> {
     let paired = PairedLog::new(log);
     let setup = Setup::new(ch);
     let (masks, trains, _) = folds(ch);
-    let programs = fold_programs(ch, &trains);
+    // A log of one program is held out in time blocks, on which calibrate's fit (of whole
+    // programs) has no figure: its table stays the catalog's model, and `calibrate` has
+    // no held-out figure of its own there either.
+    let Some(programs) = fold_programs(ch, &trains) else {
+        return Ok(None);
+    };
     let floors = [noise_floor(ch, &report.residuals.1.sf), noise_floor(ch, &report.residuals.1.bias)];
     let score = |r: &Residuals| (rms(&r.sf) / floors[0]).powi(2) + (rms(&r.bias) / floors[1]).powi(2);
-    let base = match &programs {
-        Some(p) => Some(fold_residuals(&setup, &paired, &masks, p, Extensions::NONE)?),
-        None => None,
-    };
-    let (slots, chosen, chosen_res) = match (&base, &programs) {
-        _ if ext == Extensions::NONE => (Slots::NoneNamed, Extensions::NONE, base),
-        (Some(b), Some(p)) => {
-            let with = fold_residuals(&setup, &paired, &masks, p, ext)?;
-            let (without, with_g) = (gaps(ch.kind, b), gaps(ch.kind, &with));
-            if score(&with) <= score(b) {
-                (Slots::Added { without, with: with_g }, ext, Some(with))
-            } else {
-                (Slots::NotAdded { without, with: with_g }, Extensions::NONE, base)
-            }
+    let base = fold_residuals(&setup, &paired, &masks, &programs, Extensions::NONE)?;
+    let (slots, chosen, chosen_res) = if ext == Extensions::NONE {
+        (Slots::NoneNamed, Extensions::NONE, base)
+    } else {
+        let with = fold_residuals(&setup, &paired, &masks, &programs, ext)?;
+        let gaps = SlotGaps { without: gaps(ch.kind, &base), with: gaps(ch.kind, &with) };
+        if score(&with) <= score(&base) {
+            (Slots::Added(gaps), ext, with)
+        } else {
+            (Slots::NotAdded(gaps), Extensions::NONE, base)
         }
-        _ => (
-            Slots::NotJudged {
-                reason: "the log has one program with a ±1 g pair, so no held-out program to judge them on".into(),
-            },
-            Extensions::NONE,
-            None,
-        ),
     };
     let cal = calibrate_log(log, &CalibrateOptions { ext: chosen, ..CalibrateOptions::default() })
         .map_err(|e| DiscoverError::Calibrate(Box::new(e)))?;
@@ -153,7 +136,7 @@ pub fn adopt_slots(
         e.in_table = e.not_in_table.is_none();
     }
     let structure = structure_text(&cal, &table);
-    report.flashed = flashed(ch, report, &structure, chosen_res.as_ref());
+    report.flashed = flashed(ch, report, &structure, &chosen_res);
     report.table = Some(CyclingTable {
         structure,
         named_slots,
@@ -165,7 +148,7 @@ pub fn adopt_slots(
             bias_residual_ug: cal.report.bias_residual_ug.hysteresis,
         },
     });
-    Ok(table)
+    Ok(Some(table))
 }
 
 /// Why the effect `name` is not in the table, or `None` when it is.
@@ -173,24 +156,16 @@ fn why_not_in_table(name: &str, slots: &Slots) -> Option<String> {
     match name {
         "bias_drift" => Some("no root-crate slot: a bias linear in time is not in the firmware".into()),
         "sensor_lag" | "bias_branch_hysteresis" | "bias_creep" => match slots {
-            Slots::Added { .. } | Slots::NoneNamed => None,
-            Slots::NotAdded { without, with } => Some(format!(
+            Slots::Added(_) | Slots::NoneNamed => None,
+            Slots::NotAdded(SlotGaps { without, with }) => Some(format!(
                 "not added: the slots do not carry to the held-out programs (calibrate's fit on each fold: {} \
                  without them, {} with them)",
-                gaps_words(without),
-                gaps_words(with)
+                output::gaps_text(BiasUnit::G, without),
+                output::gaps_text(BiasUnit::G, with)
             )),
-            Slots::NotJudged { reason } => Some(format!("not added: {reason}")),
         },
         // Eq. 11's terms and the bias curvature are in every table.
         _ => None,
-    }
-}
-
-fn gaps_words(g: &Gaps) -> String {
-    match g {
-        Gaps::Cycling { scale_factor_ppm, bias_ug } => format!("{scale_factor_ppm:.2} ppm, {bias_ug:.2} µg"),
-        Gaps::Single { value_rms } => format!("{value_rms:.3}"),
     }
 }
 
@@ -209,13 +184,9 @@ fn structure_text(cal: &Calibration, table: &Table) -> String {
     format!("Eq. 11 + {}", s.name())
 }
 
-/// The flashed entry: the table, its held-out gaps on the selection folds (when the log has
-/// held-out programs), and a peer that predicts the bias better there by more than
+/// The flashed entry: the table, its held-out gaps on the selection folds, and a peer that predicts the bias better there by more than
 /// [`qfa_calibrate::verdict::PEER_TOLERANCE`].
-fn flashed(ch: &Channels, report: &Report, structure: &str, res: Option<&Residuals>) -> Flashed {
-    let Some(r) = res else {
-        return Flashed { model: structure.to_string(), heldout: report.flashed.heldout.clone(), peer_better: None };
-    };
+fn flashed(ch: &Channels, report: &Report, structure: &str, r: &Residuals) -> Flashed {
     let heldout = gaps(ch.kind, r);
     let bias = rms(&r.bias);
     let best = report
@@ -234,8 +205,7 @@ fn flashed(ch: &Channels, report: &Report, structure: &str, res: Option<&Residua
     }
 }
 
-/// Per fold, its training programs (those whose bins it trains on); `None` when the folds
-/// are not whole programs (a log of one program is split in time).
+/// Per fold, its training programs; `None` when the folds are not whole programs.
 fn fold_programs(ch: &Channels, trains: &[Vec<bool>]) -> Option<Vec<Vec<String>>> {
     if ch.traces.len() < 2 {
         return None;
@@ -244,7 +214,7 @@ fn fold_programs(ch: &Channels, trains: &[Vec<bool>]) -> Option<Vec<Vec<String>>
     let mut o = 0;
     for t in &ch.traces {
         for (k, train) in trains.iter().enumerate() {
-            if t.bins.first().is_some() && train[o] {
+            if !t.bins.is_empty() && train[o] {
                 out[k].push(t.program.clone());
             }
         }

@@ -67,8 +67,11 @@
 //!    same block test, level 0.05 shared over drivers and channels), run means that differ
 //!    beyond noise and slow noise, and catalog effects pinned at a search limit are
 //!    reported as `unexplained`, with where in time they live, not given a name.
-//! 9. **Flashed** ([`Flashed`]): the named model, or the start model when that predicts
-//!    better held out; a peer that predicts the bias better is named in the report.
+//! 9. **Flashed** ([`Flashed`]): on a cycling log, the table `calibrate` writes for the
+//!    same log with the catalog's slots that carry to held-out programs
+//!    ([`cycling_table`]: one table for one log, named as its structure); on a
+//!    single-channel log, the named model, or the start model when that predicts better
+//!    held out. A peer that predicts the bias better is named in the report.
 //!
 //! 10. **Peers** ([`PeerGap`]): the PX4/tofupilot cubic, ArduPilot TCAL and the paper's
 //!     simple model ([`qfa_calibrate::peers`]) on the same folds, bias channel only, so

@@ -235,8 +235,38 @@ pub(super) fn write_json<T: Serialize>(path: &Path, v: &Verdict, report: &T) -> 
     write_file(path, json + "\n")
 }
 
-/// The line saying what `table.bin` holds and what it scores held out.
+/// The line saying what `table.bin` holds and what it scores held out (on a cycling log,
+/// also `calibrate`'s own held-out figures of it and what was done with the catalog's slots).
 fn flashed_line(s: &mut String, ch: &Channels, r: &Report) {
+    if let Some(t) = &r.table {
+        let c = &t.calibrate_heldout;
+        let slots = match &t.slots {
+            super::cycling_table::Slots::NoneNamed => "the block test named no extension slot".to_string(),
+            super::cycling_table::Slots::Added(super::cycling_table::SlotGaps { without, with }) => format!(
+                "the block test's slots ({}) are in it: held out on the selection folds {} with them, {} without",
+                t.named_slots.join(", "),
+                gaps_text(ch.bias_unit, with),
+                gaps_text(ch.bias_unit, without)
+            ),
+            super::cycling_table::Slots::NotAdded(super::cycling_table::SlotGaps { without, with }) => format!(
+                "the block test's slots ({}) are not: they do not carry to the held-out programs (held out on the \
+                 selection folds {} with them, {} without)",
+                t.named_slots.join(", "),
+                gaps_text(ch.bias_unit, with),
+                gaps_text(ch.bias_unit, without)
+            ),
+        };
+        let _ = writeln!(
+            s,
+            "The table (`table.bin`) is the one `calibrate` writes for this log: {}; {slots}. `calibrate`'s own \
+             held-out figures of it (fitted on {}, scored on {}): sensitivity {:.2} ppm/°C, bias {:.2} µg.\n",
+            t.structure,
+            c.fit_programs.join(", "),
+            c.eval_programs.join(", "),
+            c.sensitivity_ppm_per_c,
+            c.bias_residual_ug
+        );
+    }
     let _ = writeln!(
         s,
         "Flashed (`table.bin`): the {}, held out {}{}.\n",

@@ -228,7 +228,7 @@ fn page_effects(p: &mut Page, r: &Report, scope: Scope<'_>) {
                 params.join("; "),
                 format!("{:.1} ± {:.1}", e.gain.gain, e.gain.bootstrap_se),
                 format!("{:.3} → {:.3}", e.heldout_gap_before, e.heldout_gap_after),
-                if e.in_table { "yes" } else { "no" }.to_string(),
+                e.not_in_table.as_deref().map_or_else(|| "yes".to_string(), |w| format!("no: {w}")),
                 e.confusable_with.join(", "),
             ]
         })

@@ -394,6 +394,59 @@ impl Channels {
     }
 }
 
+/// A log with its channels, what discovery reads: a cycling log (its channels, and the log
+/// whose ±1 g pairs its table is fitted on, as `calibrate` fits them) or a single-channel log.
+#[derive(Debug)]
+pub enum Source {
+    /// A cycling log and its channels.
+    Cycling {
+        /// The log.
+        log: Box<crate::cycling::Log>,
+        /// Its channels.
+        channels: Channels,
+    },
+    /// A single-channel log's channels.
+    Single(Channels),
+}
+
+impl Source {
+    /// The source of an opened log, binned at `bin_s`.
+    ///
+    /// # Errors
+    /// As [`Channels::from_opened`]: a static or autopilot log, a cycling log without pairs.
+    pub fn from_opened(opened: OpenedLog, bin_s: f64) -> Result<Self, ChannelsError> {
+        let channels = Channels::from_opened(&opened, bin_s)?;
+        Ok(match opened {
+            OpenedLog::Cycling(log) => Self::Cycling { log: Box::new(log), channels },
+            _ => Self::Single(channels),
+        })
+    }
+
+    /// Read a cycling or single-channel log.
+    ///
+    /// # Errors
+    /// The reader's error, or as [`Source::from_opened`].
+    pub fn read(path: &Path, bin_s: f64) -> Result<Self, ChannelsError> {
+        Self::from_opened(open(path, &ReadFlags::default()).map_err(ChannelsError::Open)?, bin_s)
+    }
+
+    /// Parse log text (see [`Source::read`]).
+    ///
+    /// # Errors
+    /// As [`Source::read`].
+    pub fn parse(text: &str, bin_s: f64) -> Result<Self, ChannelsError> {
+        Self::from_opened(open_bytes(text.as_bytes(), &ReadFlags::default()).map_err(ChannelsError::Read)?, bin_s)
+    }
+
+    /// The channels the catalog reads.
+    #[must_use]
+    pub fn channels(&self) -> &Channels {
+        match self {
+            Self::Cycling { channels, .. } | Self::Single(channels) => channels,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

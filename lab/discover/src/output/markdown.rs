@@ -176,7 +176,7 @@ fn markdown_effects(s: &mut String, r: &Report, scope: Scope<'_>) {
                 e.gain.bootstrap_se,
                 e.heldout_gap_before,
                 e.heldout_gap_after,
-                if e.in_table { "yes" } else { "no (no root-crate slot)" }
+                e.not_in_table.as_deref().map_or_else(|| "yes".to_string(), |w| format!("no ({w})"))
             );
         }
         let _ = writeln!(s);
