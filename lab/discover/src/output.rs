@@ -125,13 +125,14 @@ impl Scope<'_> {
     }
 
     /// What this run's reports call the model its own search added effects to: the named
-    /// model of a discovery of its own log; on a static axis the block test's own model
-    /// (the named model there is static calibration's search's, `table.bin`).
+    /// model of a single-channel log's discovery; the block test's own model on a static
+    /// axis or a cycling log with a table (the named model there is calibration's,
+    /// `table.bin`).
     #[must_use]
-    pub(crate) fn model_name(self) -> &'static str {
+    pub(crate) fn model_name(self, r: &Report) -> &'static str {
         match self {
-            Self::Own => "named model",
-            Self::StaticAxis { .. } => "block test's model",
+            Self::Own if r.table.is_none() => "named model",
+            _ => "block test's model",
         }
     }
 
@@ -397,9 +398,9 @@ fn plots(ch: &Channels, r: &Report, scope: Scope<'_>) -> std::result::Result<Vec
                 let ymax =
                     before.iter().chain(after.iter()).filter(|v| v.is_finite()).fold(1e-12f64, |m, v| m.max(v.abs()));
                 let named = if worse(r) {
-                    format!("{}, worse than the start", scope.model_name())
+                    format!("{}, worse than the start", scope.model_name(r))
                 } else {
-                    scope.model_name().to_string()
+                    scope.model_name(r).to_string()
                 };
                 let titles = [
                     format!("start model `{}`: {held} RMS {:.2} {unit}", r.start.name(), rms_of_finite(before)),

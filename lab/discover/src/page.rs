@@ -56,7 +56,7 @@ pub(crate) fn caption(file: &str, ch: &Channels, r: &Report, scope: Scope<'_>) -
         "{name} residual of every bin, each from a fit that never saw it ({}): start model above, {} below, on \
          one scale, against {}; red heating, blue cooling, grey hold.",
         scope.folds_name(),
-        scope.model_name(),
+        scope.model_name(r),
         if vs_time { "time" } else { "temperature" }
     );
     if vs_time {
@@ -64,7 +64,7 @@ pub(crate) fn caption(file: &str, ch: &Channels, r: &Report, scope: Scope<'_>) -
             " Look at the lower panel: a band about as wide as the noise ({floor:.2} {unit} bin to bin) means nothing \
              is left; steps between runs, slow trends, or heating sitting apart from cooling are what the {} \
              misses.",
-            scope.model_name()
+            scope.model_name(r)
         ));
     } else {
         s.push_str(
@@ -97,7 +97,7 @@ pub(crate) fn caption(file: &str, ch: &Channels, r: &Report, scope: Scope<'_>) -
         s.push_str(&format!(
             " The lower panel is the worse one: on this channel the {}'s {held} RMS ({named:.2} {unit}) is \
              above the start model's ({start:.2} {unit}); the verdict says what to expect.",
-            scope.model_name()
+            scope.model_name(r)
         ));
     }
     if let Scope::StaticAxis { axis, .. } = scope {
@@ -174,7 +174,7 @@ fn page_gaps(p: &mut Page, ch: &Channels, r: &Report, scope: Scope<'_>) {
     let (held, held_cap) = (scope.folds_word(), scope.folds_word_capital());
     let mut gap_rows = vec![
         ("start model".to_string(), gaps_text(ch.bias_unit, &r.heldout_gap_before)),
-        (scope.model_name().to_string(), gaps_text(ch.bias_unit, &r.heldout_gap_after)),
+        (scope.model_name(r).to_string(), gaps_text(ch.bias_unit, &r.heldout_gap_after)),
     ];
     if let Scope::Own = scope {
         gap_rows.push((
@@ -279,7 +279,7 @@ fn page_peers(p: &mut Page, ch: &Channels, r: &Report, scope: Scope<'_>) {
     };
     let mut peers: Vec<Vec<String>> = vec![
         vec![format!("start model (`{}`)", r.start.name()), format!("{:.4}", bias_gap(&r.heldout_gap_before))],
-        vec![scope.model_name().to_string(), format!("{:.4}", bias_gap(&r.heldout_gap_after))],
+        vec![scope.model_name(r).to_string(), format!("{:.4}", bias_gap(&r.heldout_gap_after))],
     ];
     peers.extend(r.peers.iter().map(|x| {
         vec![

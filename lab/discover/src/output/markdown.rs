@@ -63,7 +63,7 @@ fn markdown_gaps(s: &mut String, ch: &Channels, r: &Report, scope: Scope<'_>) {
     let _ = writeln!(
         s,
         "- {held_cap} gap, {}{}: {}",
-        scope.model_name(),
+        scope.model_name(r),
         if worse(r) { " (worse than the start)" } else { "" },
         gaps_text(ch.bias_unit, &r.heldout_gap_after)
     );
@@ -138,7 +138,7 @@ fn markdown_peers(s: &mut String, ch: &Channels, r: &Report, scope: Scope<'_>) {
         Gaps::Single { value_rms } => *value_rms,
     };
     let _ = writeln!(s, "| start model (`{}`) | {:.4} |", r.start.name(), bias_gap(&r.heldout_gap_before));
-    let _ = writeln!(s, "| {} | {:.4} |", scope.model_name(), bias_gap(&r.heldout_gap_after));
+    let _ = writeln!(s, "| {} | {:.4} |", scope.model_name(r), bias_gap(&r.heldout_gap_after));
     for p in &r.peers {
         match (&p.heldout_rms, &p.error) {
             (Some(x), _) => {
