@@ -131,3 +131,37 @@ def test_a_static_discovery_names_what_calibrate_flashes(static_log: Path, tmp_p
         assert a["steps"][-1]["structure"] == a["named_structure"]
         for fold, structure in zip(a["heldout_steps"], c["heldout_structures"]):
             assert fold[-1]["structure"] == structure
+
+
+def _write_cycling_log(path: Path) -> Path:
+    """Four programs of ramps 0..40 °C at 0.3/0.5/0.7/0.9 °C/min, ±1 g, 10-s rows: a scale
+    factor with a ΔT² and a Ṫ term, a curved bias, white noise."""
+    rng = np.random.default_rng(7)
+    rows = ["program,run,time_s,input_g,temp_c,pulses,interval_s"]
+    for rate in (0.3, 0.5, 0.7, 0.9):
+        half = int(round(40.0 / rate * 6))  # rows of one ramp
+        temp = np.concatenate([np.linspace(0.0, 40.0, half), np.linspace(40.0, 0.0, half)])
+        tdot = np.gradient(temp) * 6.0  # °C/min
+        for run, g in (("pos0", 1), ("pos2", -1)):
+            d = temp - 22.0
+            k1 = 320_000.0 * (1.0 - 30e-6 * d + 0.1e-6 * d * d + 20e-6 * tdot)
+            k0 = 1.2e-4 + 2.5e-6 * d + 1.5e-8 * d * d
+            pulses = np.round(10.0 * k1 * (g + k0) + rng.normal(0.0, 30.0, temp.size)).astype(int)
+            for i, (t, p) in enumerate(zip(temp, pulses)):
+                rows.append(f"paper-{rate},{run},{10 * (i + 1)},{g},{round(t * 16) / 16:.4f},{p},10")
+    path.write_text("\n".join(rows) + "\n")
+    return path
+
+
+def test_a_cycling_discovery_flashes_what_calibrate_flashes(tmp_path: Path) -> None:
+    """One table for one cycling log: discovery's table.bin is calibrate's bytes, and its
+    report names that table's structure with calibrate's own held-out figures of it."""
+    log = _write_cycling_log(tmp_path / "cycling.csv")
+    report = q.discover(log, start="paper", out=tmp_path / "disc")
+    table = q.calibrate(log)
+    assert (tmp_path / "disc" / "table.bin").read_bytes() == table.to_bytes()
+    t = report["table"]
+    assert t["structure"].startswith("Eq. 11 + ") and report["flashed"]["model"] == t["structure"]
+    assert report["verdict"]["answer"].startswith(f"named {t['structure']} = table.bin")
+    held = table.report()
+    assert t["calibrate_heldout"]["bias_residual_ug"] == held["bias_residual_ug"]["hysteresis"]
