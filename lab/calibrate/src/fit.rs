@@ -459,6 +459,30 @@ pub fn fit(
     Ok(Fitted { simple, hysteresis, sf_simple, sf_hysteresis, bias_simple, bias_hysteresis, branch, pairs: n, rows })
 }
 
+/// The table written for a log, the lab's one rule: the structure its fit programs chose
+/// (`chosen`: the branch tie and curve shape their cross-validation picked, the one the
+/// held-out figures are of) refitted on `programs` (every program with a pair), with the
+/// extension slots `ext`. `calibrate`, `discover` on a cycling log and the navigation
+/// study fly this table; re-choosing the tie on every program picked another one than the
+/// fit programs did on 3 of 36 simulated units.
+///
+/// # Errors
+/// As [`fit`].
+pub fn refit_chosen(
+    paired: &PairedLog<'_>,
+    chosen: &Fitted,
+    programs: &[String],
+    ext: Extensions,
+) -> Result<Fitted, FitError> {
+    let o = FitOptions {
+        branch_mode: Some(chosen.branch.mode),
+        curve_shape: Some(chosen.branch.shape),
+        ext,
+        ..FitOptions::new(programs.to_vec())
+    };
+    fit(paired, &o, None)
+}
+
 /// The paired rows of `opts.fit_programs`, in order, with the row each program starts at
 /// and the largest rate they reach, °C/min.
 fn fit_rows(

@@ -266,13 +266,7 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
         (fitted.clone(), fit_peers)
     } else {
         let t = Instant::now();
-        let o = FitOptions {
-            branch_mode: Some(fitted.branch.mode),
-            curve_shape: Some(fitted.branch.shape),
-            ext: opts.ext,
-            ..FitOptions::new(table_p.clone())
-        };
-        let table = fit(&paired, &o, None).map_err(CalibrateError::Fit)?;
+        let table = crate::fit::refit_chosen(&paired, &fitted, &table_p, opts.ext).map_err(CalibrateError::Fit)?;
         let deadband = table.hysteresis.axes[0].bias.deadband_c_per_min;
         let p = crate::report::peer_fit(&paired, &table_p, deadband)?;
         t_fit += t.elapsed().as_secs_f64();

@@ -17,9 +17,10 @@ use qfa_thermal::model::AxisModel;
 use qfa_thermal::table::Table;
 
 use qfa_calibrate::coverage::{CalCoverage, Coverage, CoverageError, TableLimits};
-use qfa_calibrate::fit::{fit, split_programs, FitError, FitOptions};
-use qfa_discover::{analyze, Channels, Start};
-use qfa_log::cycling::{write_log_to, Log};
+use qfa_calibrate::fit::{fit, refit_chosen, split_programs, FitError, FitOptions};
+use qfa_discover::{analyze_source, Source, Start};
+use qfa_log::cycling::Log;
+use qfa_log::open::OpenedLog;
 use qfa_sim::profile::{paper_positions, Program, PAPER_RATES};
 use qfa_sim::simulate;
 use qfa_sim::truth::Truth;
@@ -36,9 +37,9 @@ pub struct UnitTables {
     pub simple: Table,
     /// Eq. 11 plus heating / cooling bias grids.
     pub hysteresis: Table,
-    /// The hysteresis model refitted with the extension slots the discovery workflow
-    /// found on the same calibration log (start `paper`); the hysteresis table itself
-    /// when discovery finds nothing missing.
+    /// The table `discover` writes for the same calibration log (start `paper`): the
+    /// hysteresis table with the extension slots the catalog named that carry to held-out
+    /// programs; the hysteresis table itself when none does.
     pub discovered: Table,
     /// Effects the discovery workflow added, in order (empty: `none`).
     pub discovered_effects: Vec<String>,
@@ -142,7 +143,8 @@ pub enum CalibError {
     LabProgram(String),
     /// A table without axes.
     EmptyTable,
-    /// The fit on the fit programs, before the held-out evaluation, failed.
+    /// The fit on the fit programs (which chooses the structure the flown table keeps and,
+    /// with validation, is scored held out) failed.
     ValidationFit {
         /// The unit.
         unit: String,
@@ -179,14 +181,13 @@ pub enum CalibError {
     },
     /// The `none` table does not validate.
     NoneTable(qfa_thermal::table::Error),
-    /// The calibration log could not be written out as text for discovery.
-    Log(std::io::Error),
-    /// The log's text is not UTF-8.
-    Utf8(std::str::Utf8Error),
     /// Discovery could not form its channels from the log.
     Channels(qfa_log::channels::ChannelsError),
-    /// The refit with the extension slots discovery switched on failed.
-    Refit(FitError),
+    /// Discovery's table (`calibrate`'s with the slots that carry) could not be formed.
+    Discover(Box<qfa_discover::DiscoverError>),
+    /// A calibration log of one program: discovery's folds are not whole programs, so it
+    /// has no table of `calibrate`'s to fly.
+    OneProgram,
     /// The coverage of the fitted rows or the table's limits could not be formed.
     Coverage(CoverageError),
     /// A table with other than one axis where one 3-axis table is formed.
@@ -208,10 +209,9 @@ impl fmt::Display for CalibError {
             Self::Fit { unit, .. } => write!(f, "{unit}: fit"),
             Self::RateLimit { limit, .. } => write!(f, "rate limit {limit}"),
             Self::NoneTable(_) => f.write_str("none table"),
-            Self::Log(e) => write!(f, "{e}"),
-            Self::Utf8(e) => write!(f, "{e}"),
             Self::Channels(e) => write!(f, "{e}"),
-            Self::Refit(_) => f.write_str("refit with discovered slots"),
+            Self::Discover(_) => f.write_str("discovery's table"),
+            Self::OneProgram => f.write_str("a calibration log of one program has no discovered table"),
             Self::Coverage(e) => write!(f, "{e}"),
             Self::NotOneAxis => f.write_str("expected 1-axis tables"),
             Self::RateWindow => f.write_str("expected the lab's rate window"),
@@ -228,13 +228,12 @@ impl std::error::Error for CalibError {
             Self::Figures { source, .. } => Some(source),
             Self::RateLimit { source, .. } => Some(source),
             Self::NoneTable(e) => Some(e),
-            Self::Refit(e) | Self::Table3(e) => Some(e),
+            Self::Table3(e) => Some(e),
+            Self::Discover(e) => Some(e.as_ref()),
             // Printed as they are (above): their causes come next.
-            Self::Log(e) => e.source(),
-            Self::Utf8(e) => e.source(),
             Self::Channels(e) => e.source(),
             Self::Coverage(e) => e.source(),
-            Self::LabProgram(_) | Self::EmptyTable | Self::NotOneAxis | Self::RateWindow => None,
+            Self::LabProgram(_) | Self::EmptyTable | Self::NotOneAxis | Self::RateWindow | Self::OneProgram => None,
         }
     }
 }
@@ -299,15 +298,18 @@ pub fn calibrate_unit_on(
     let positions: Vec<_> = paper_positions().into_iter().filter(|p| p.input_g != 0.0).collect();
     let log = simulate(truth, &programs, &positions, ROW_S, seed, threads, None);
     let paired = PairedLog::new(&log);
+    // The structure (the bias grid's branch tie and shape) is chosen on the fit programs and
+    // refitted on every program, as `calibrate` writes its table (`refit_chosen`): the flown
+    // table is the one `calibrate` writes for this log, and the validation is of it.
+    let (fit_ids, held) = split_programs(&ids);
+    let chosen = fit(&paired, &FitOptions::new(fit_ids.clone()), None)
+        .map_err(|e| CalibError::ValidationFit { unit: truth.name.clone(), source: e })?;
     let validation = if opts.validate {
-        let (fit_ids, held) = split_programs(&ids);
-        let v = fit(&paired, &FitOptions::new(fit_ids.clone()), None)
-            .map_err(|e| CalibError::ValidationFit { unit: truth.name.clone(), source: e })?;
-        let ev = qfa_calibrate::report::evaluate(&paired, &held, &v.simple, &v.hysteresis, None)
+        let ev = qfa_calibrate::report::evaluate(&paired, &held, &chosen.simple, &chosen.hysteresis, None)
             .map_err(|e| CalibError::HeldOut { unit: truth.name.clone(), source: e })?;
         qfa_calibrate::check_figures(&ev).map_err(|e| CalibError::Figures { unit: truth.name.clone(), source: e })?;
         Validation::Computed {
-            fit_programs: fit_ids,
+            fit_programs: fit_ids.clone(),
             held_out_programs: held,
             sensitivity_ppm_per_c: ev.sensitivity_ppm_per_c,
             bias_residual_ug: ev.bias_residual_ug,
@@ -315,9 +317,12 @@ pub fn calibrate_unit_on(
     } else {
         Validation::NotComputed("validation off (Monte Carlo runs and tests skip it)".into())
     };
-    // The flown table: the chosen structure refitted on every program of the log.
-    let mut f = fit(&paired, &FitOptions::new(ids.clone()), None)
-        .map_err(|e| CalibError::Fit { unit: truth.name.clone(), source: e })?;
+    let mut f = if fit_ids == ids {
+        chosen
+    } else {
+        refit_chosen(&paired, &chosen, &ids, qfa_thermal::Extensions::NONE)
+            .map_err(|e| CalibError::Fit { unit: truth.name.clone(), source: e })?
+    };
     if let Some(l) = opts.rate_limit_override {
         for t in [&mut f.simple, &mut f.hysteresis] {
             for a in &mut t.axes {
@@ -335,11 +340,8 @@ pub fn calibrate_unit_on(
     let mut none_t = f.simple.clone();
     none_t.axes[0] = none;
     none_t.validate().map_err(CalibError::NoneTable)?;
-    let (discovered, discovered_effects) = if opts.discover {
-        discover_on(&log, &ids, &f.hysteresis)?
-    } else {
-        (f.hysteresis.clone(), vec!["not run".to_string()])
-    };
+    let (discovered, discovered_effects) =
+        if opts.discover { discover_on(&log)? } else { (f.hysteresis.clone(), vec!["not run".to_string()]) };
     let coverage = CalCoverage {
         covered: Coverage::of_log(&log, &ids, qfa_log::replay::branch_deadband_c_per_min())?,
         table: TableLimits::of(&f.hysteresis)?,
@@ -365,27 +367,18 @@ pub fn calibrate_unit_on(
     })
 }
 
-/// Run the discovery workflow (start `paper`) on the calibration log; refit the
-/// hysteresis model with the slots it switched on. Rate and temperature terms it may add
-/// are already in Eq. 11, so only the extension slots change the table.
+/// Run the discovery workflow (start `paper`) on the calibration log: the table `discover`
+/// writes for it (`qfa_discover::cycling_table`: `calibrate`'s table with the extension
+/// slots the catalog named that carry to held-out programs; Eq. 11 already holds the rate
+/// and temperature terms), and the effects the catalog named.
 ///
 /// # Errors
-/// Discovery or the refit failed.
-pub fn discover_on(log: &Log, fit_ids: &[String], hysteresis: &Table) -> Result<(Table, Vec<String>), CalibError> {
-    let mut csv = Vec::new();
-    write_log_to(&mut csv, log).map_err(CalibError::Log)?;
-    let ch =
-        Channels::parse(std::str::from_utf8(&csv).map_err(CalibError::Utf8)?, 60.0).map_err(CalibError::Channels)?;
-    drop(csv);
-    let rep = analyze(&ch, Start::Paper);
+/// Discovery or its table failed.
+pub fn discover_on(log: &Log) -> Result<(Table, Vec<String>), CalibError> {
+    let source = Source::from_opened(OpenedLog::Cycling(log.clone()), 60.0).map_err(CalibError::Channels)?;
+    let (rep, table) = analyze_source(&source, Start::Paper).map_err(|e| CalibError::Discover(Box::new(e)))?;
     let names: Vec<String> = rep.effects.iter().map(|e| e.name.clone()).collect();
-    let ext = rep.model.map(|m| m.ext).unwrap_or_default();
-    if ext == qfa_thermal::Extensions::default() {
-        return Ok((hysteresis.clone(), names));
-    }
-    let f = fit(&PairedLog::new(log), &FitOptions { ext, ..FitOptions::new(fit_ids.to_vec()) }, None)
-        .map_err(CalibError::Refit)?;
-    Ok((f.hysteresis, names))
+    Ok((table.ok_or(CalibError::OneProgram)?, names))
 }
 
 /// One 3-axis table (x, y, z) from three 1-axis tables, for a `Compensator<3, 32>`.

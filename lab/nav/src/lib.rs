@@ -10,7 +10,7 @@
 //! | `none` | room-temperature constants only (γ and K0 at T0 from the simple fit) |
 //! | `simple` | paper Eq. 3–4 (K1, K0 linear in ΔT) through the root crate's `Compensator` |
 //! | `hysteresis` | Eq. 11 + heating / cooling bias tables, calibrated from a simulated four-position test of the same unit, through the `Compensator` |
-//! | `discovered` | tables with the discovery workflow's extension effects, one per axis (postcard `.bin` or TOML, [`NavigateArgs::discovered_tables`]); by default, the hysteresis model refitted with the extension slots the discovery workflow (start `paper`) finds on each unit's own calibration log; `meta.discovered_source` names them |
+//! | `discovered` | tables with the discovery workflow's extension effects, one per axis (postcard `.bin` or TOML, [`NavigateArgs::discovered_tables`]); by default, the table `discover` writes for each unit's own calibration log (start `paper`: the hysteresis table with the extension slots the catalog named that carry to held-out programs); `meta.discovered_source` names them |
 //! | `oracle` | the truth model itself (true K1, K0 each cycle, f64): the limit |
 //!
 //! The three accelerometer axes are the paper's three units, the lab's presets

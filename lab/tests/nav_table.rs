@@ -1,0 +1,28 @@
+//! The navigation study flies the table `calibrate` writes for the same calibration log,
+//! and `discover`'s where the study runs discovery: one rule for "the table of a log"
+//! (`qfa_calibrate::fit::refit_chosen`).
+
+use qfa_calibrate::{calibrate_log, CalibrateOptions};
+use qfa_nav::calib::{calibrate_unit_on, CalibOptions, LabProgram, ROW_S};
+use qfa_sim::profile::paper_positions;
+use qfa_sim::truth::Truth;
+
+/// JB-KT8 #2 on the covering program, seed 1043: cross-validation on every program ties
+/// the bias grid's branches as one cubic curve, on the fit programs as two free curves, so
+/// before the study re-chose the tie on every program and flew a table `calibrate` does
+/// not write (3 of 36 simulated units differed so, on both lab programs).
+#[test]
+fn the_study_flies_the_table_calibrate_writes() {
+    let (truth, seed, lab) = (Truth::jb_kt8(2), 1043, LabProgram::Covering);
+    let opts = CalibOptions { lab, discover: true, ..CalibOptions::default() };
+    let unit = calibrate_unit_on(&truth, seed, 2, &opts).expect("the study calibrates the unit");
+    let positions: Vec<_> = paper_positions().into_iter().filter(|p| p.input_g != 0.0).collect();
+    let log = qfa_sim::simulate(&truth, &lab.programs(), &positions, ROW_S, seed, 2, None);
+    let cal = calibrate_log(&log, &CalibrateOptions::default()).expect("calibrate takes the same log");
+    let bytes = |t: &qfa_thermal::Table| t.to_bytes().expect("a valid table");
+    assert!(bytes(&unit.hysteresis) == bytes(&cal.table.hysteresis), "the flown table is not calibrate's");
+    // Without a slot that carries, discovery's table is the same bytes.
+    if unit.discovered.axes[0].ext == qfa_thermal::Extensions::NONE {
+        assert!(bytes(&unit.discovered) == bytes(&cal.table.hysteresis), "{:?}", unit.discovered_effects);
+    }
+}
