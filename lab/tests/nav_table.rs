@@ -1,6 +1,6 @@
 //! The navigation study flies the table `calibrate` writes for the same calibration log,
 //! and `discover`'s where the study runs discovery: one rule for "the table of a log"
-//! (`qfa_calibrate::fit::refit_chosen`).
+//! (`qfa_calibrate::fit::fit_table`).
 
 use qfa_calibrate::{calibrate_log, CalibrateOptions};
 use qfa_nav::calib::{calibrate_unit_on, CalibOptions, LabProgram, ROW_S};
@@ -8,9 +8,10 @@ use qfa_sim::profile::paper_positions;
 use qfa_sim::truth::Truth;
 
 /// JB-KT8 #2 on the covering program, seed 1043: cross-validation on every program ties
-/// the bias grid's branches as one cubic curve, on the fit programs as two free curves, so
-/// before the study re-chose the tie on every program and flew a table `calibrate` does
-/// not write (3 of 36 simulated units differed so, on both lab programs).
+/// the bias grid's branches as one cubic curve, on the fit programs as two free curves.
+/// Before, `calibrate` kept the fit programs' tie for its table while the study chose it
+/// again on every program, so the study flew a table `calibrate` does not write (3 of 36
+/// simulated units differed so, on both lab programs).
 #[test]
 fn the_study_flies_the_table_calibrate_writes() {
     let (truth, seed, lab) = (Truth::jb_kt8(2), 1043, LabProgram::Covering);

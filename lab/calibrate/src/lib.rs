@@ -11,9 +11,9 @@
 //!
 //! Which rows each comes from: the held-out figures (and the plots) from tables fitted on
 //! the fit programs and compensated on the others; the tables and parameters written from
-//! the same models refitted on **every** program with a ±1 g pair, with the bias grid's
-//! branch tie the fit programs chose ([`FitOptions::branch_mode`]), so no program's rows are
-//! left out of what is flashed. With one program, both are the same fit.
+//! the same procedure run on **every** program with a ±1 g pair ([`fit::fit_table`]: the
+//! bias grid's branch tie and shape chosen there by the same cross-validation), so no
+//! program's rows are left out of what is flashed. With one program, both are the same fit.
 
 pub mod compensate;
 pub mod coverage;
@@ -259,14 +259,14 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
     let t_eval = t.elapsed().as_secs_f64();
     check_figures(&eval)?;
     let (peers, fit_peers) = crate::report::peer_bias(&paired, &fit_p, &eval_p, &fitted.hysteresis)?;
-    // What is written: the same models on every program with a pair (the branch tie as
-    // the fit programs chose it), and the peers on the same pairs.
+    // What is written: the same procedure on every program with a pair (`fit_table`), and
+    // the peers on the same pairs.
     let table_p: Vec<String> = programs.iter().filter(|p| paired.program(p).is_some()).cloned().collect();
     let (table, peer_fits) = if table_p.iter().all(|p| fit_p.contains(p)) {
         (fitted.clone(), fit_peers)
     } else {
         let t = Instant::now();
-        let table = crate::fit::refit_chosen(&paired, &fitted, &table_p, opts.ext).map_err(CalibrateError::Fit)?;
+        let table = crate::fit::fit_table(&paired, &table_p, opts.ext).map_err(CalibrateError::Fit)?;
         let deadband = table.hysteresis.axes[0].bias.deadband_c_per_min;
         let p = crate::report::peer_fit(&paired, &table_p, deadband)?;
         t_fit += t.elapsed().as_secs_f64();
@@ -285,7 +285,7 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
         bias_residual_ug: eval.bias_residual_ug,
         peers_bias_residual_ug: peers,
         metric: METRIC_TEXT.to_string(),
-        fit: fit_summary(&fitted),
+        fit: fit_summary(&fitted, &table),
         rejected_readings: eval.rejected_readings,
         skipped_glitches: log.glitches.clone(),
         timings_s: Some(Timings { fit: t_fit, evaluate: t_eval, ..Timings::default() }),
@@ -328,7 +328,7 @@ fn figures_text(fit_p: &[String], eval_p: &[String], table_p: &[String]) -> Stri
     format!(
         "held-out figures and plots: tables fitted on {fit}, compensated on {}; table.*, table_simple.*, \
          px4_tc.params, ardupilot_tcal_*.parm: fitted on {} (every program with a +1 g / -1 g pair), the bias \
-         grid's branch tie as chosen on {fit}",
+         grid's branch tie and shape chosen there by the cross-validation that chose them on {fit}",
         eval_p.join(", "),
         table_p.join(", "),
         fit = fit_p.join(", ")
@@ -336,7 +336,7 @@ fn figures_text(fit_p: &[String], eval_p: &[String], table_p: &[String]) -> Stri
 }
 
 /// The fit's figures for the report.
-fn fit_summary(fitted: &Fitted) -> FitSummary {
+fn fit_summary(fitted: &Fitted, table: &Fitted) -> FitSummary {
     let h = &fitted.sf_hysteresis.coef;
     FitSummary {
         pairs: fitted.pairs,
@@ -348,6 +348,7 @@ fn fit_summary(fitted: &Fitted) -> FitSummary {
         simple_bias: [fitted.bias_simple.coef[0], fitted.bias_simple.coef[1]],
         rms_sf_hysteresis: fitted.sf_hysteresis.rms,
         branch: fitted.branch.clone(),
+        table_branch: (table.branch.mode, table.branch.shape),
     }
 }
 
@@ -590,6 +591,10 @@ fn fit_section(p: &mut qfa_report::html_report::Page, f: &FitSummary) {
         ),
         ("Eq. 11 [γ, μ, β, ε, η, α]", f.eq11.iter().map(|c| format!("{c:.6e}")).collect::<Vec<_>>().join(", ")),
         ("bias grid branch tie", format!("{:?} on {:?} curves: {}", f.branch.mode, f.branch.shape, f.branch.rule)),
+        (
+            "table.bin's tie (the same rule on every program)",
+            format!("{:?} on {:?} curves", f.table_branch.0, f.table_branch.1),
+        ),
     ]);
     let branch_rows: Vec<Vec<String>> = f
         .branch

@@ -175,8 +175,8 @@ fn why_not_in_table(name: &str, slots: &Slots) -> Option<String> {
 fn structure_text(cal: &Calibration, table: &Table) -> String {
     let ext = table.axes.first().map(|a| a.ext).unwrap_or_default();
     let s = qfa_calibrate::fit::StaticStructure {
-        shape: cal.fitted.branch.shape,
-        branches: cal.fitted.branch.mode,
+        shape: cal.table.branch.shape,
+        branches: cal.table.branch.mode,
         lag_tau_s: ext.sensor_lag.map(|l| l.tau_s.round()),
         creep_tau_s: ext.bias_creep.map(|c| c.tau_ref_s.round()),
         play_half_width_c: ext.bias_branch_hysteresis.map(|p| p.half_width_c),

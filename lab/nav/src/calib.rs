@@ -17,7 +17,7 @@ use qfa_thermal::model::AxisModel;
 use qfa_thermal::table::Table;
 
 use qfa_calibrate::coverage::{CalCoverage, Coverage, CoverageError, TableLimits};
-use qfa_calibrate::fit::{fit, refit_chosen, split_programs, FitError, FitOptions};
+use qfa_calibrate::fit::{fit, fit_table, split_programs, FitError, FitOptions};
 use qfa_discover::{analyze_source, Source, Start};
 use qfa_log::cycling::Log;
 use qfa_log::open::OpenedLog;
@@ -143,8 +143,7 @@ pub enum CalibError {
     LabProgram(String),
     /// A table without axes.
     EmptyTable,
-    /// The fit on the fit programs (which chooses the structure the flown table keeps and,
-    /// with validation, is scored held out) failed.
+    /// The fit on the fit programs, before the held-out evaluation, failed.
     ValidationFit {
         /// The unit.
         unit: String,
@@ -298,18 +297,15 @@ pub fn calibrate_unit_on(
     let positions: Vec<_> = paper_positions().into_iter().filter(|p| p.input_g != 0.0).collect();
     let log = simulate(truth, &programs, &positions, ROW_S, seed, threads, None);
     let paired = PairedLog::new(&log);
-    // The structure (the bias grid's branch tie and shape) is chosen on the fit programs and
-    // refitted on every program, as `calibrate` writes its table (`refit_chosen`): the flown
-    // table is the one `calibrate` writes for this log, and the validation is of it.
-    let (fit_ids, held) = split_programs(&ids);
-    let chosen = fit(&paired, &FitOptions::new(fit_ids.clone()), None)
-        .map_err(|e| CalibError::ValidationFit { unit: truth.name.clone(), source: e })?;
     let validation = if opts.validate {
-        let ev = qfa_calibrate::report::evaluate(&paired, &held, &chosen.simple, &chosen.hysteresis, None)
+        let (fit_ids, held) = split_programs(&ids);
+        let v = fit(&paired, &FitOptions::new(fit_ids.clone()), None)
+            .map_err(|e| CalibError::ValidationFit { unit: truth.name.clone(), source: e })?;
+        let ev = qfa_calibrate::report::evaluate(&paired, &held, &v.simple, &v.hysteresis, None)
             .map_err(|e| CalibError::HeldOut { unit: truth.name.clone(), source: e })?;
         qfa_calibrate::check_figures(&ev).map_err(|e| CalibError::Figures { unit: truth.name.clone(), source: e })?;
         Validation::Computed {
-            fit_programs: fit_ids.clone(),
+            fit_programs: fit_ids,
             held_out_programs: held,
             sensitivity_ppm_per_c: ev.sensitivity_ppm_per_c,
             bias_residual_ug: ev.bias_residual_ug,
@@ -317,12 +313,10 @@ pub fn calibrate_unit_on(
     } else {
         Validation::NotComputed("validation off (Monte Carlo runs and tests skip it)".into())
     };
-    let mut f = if fit_ids == ids {
-        chosen
-    } else {
-        refit_chosen(&paired, &chosen, &ids, qfa_thermal::Extensions::NONE)
-            .map_err(|e| CalibError::Fit { unit: truth.name.clone(), source: e })?
-    };
+    // The flown table: the procedure the validation judged, run on every program of the
+    // log, as `calibrate` writes its table (`fit_table`).
+    let mut f = fit_table(&paired, &ids, qfa_thermal::Extensions::NONE)
+        .map_err(|e| CalibError::Fit { unit: truth.name.clone(), source: e })?;
     if let Some(l) = opts.rate_limit_override {
         for t in [&mut f.simple, &mut f.hysteresis] {
             for a in &mut t.axes {
