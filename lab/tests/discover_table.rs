@@ -49,6 +49,38 @@ fn discover_writes_the_table_calibrate_writes() {
         .or_else(|| cal_json["sensitivity_ppm_per_c"]["hysteresis"].as_f64())
         .expect("calibrate's held-out sensitivity");
     assert_eq!(json["table"]["calibrate_heldout"]["sensitivity_ppm_per_c"].as_f64(), Some(sens));
+    // What to expect in use is calibrate's figure, once; the covers line is calibrate's.
+    let expect = text.lines().find(|l| l.starts_with("expect in use:")).expect("an expect line");
+    assert!(
+        expect.contains("calibrate's held-out figures of table.bin") && !expect.contains("held-out RMS"),
+        "{expect}"
+    );
+    let covers = |t: &str| t.lines().find(|l| l.starts_with("covers:")).map(str::to_string);
+    let cal_text = common::lab_ok(&["calibrate", "--log", log_s, "--out", cal.to_str().unwrap(), "--no-plots"]);
+    assert_eq!(covers(&text), covers(&cal_text));
+
+    // A log of one program: calibrate holds its table back, and discover writes the same
+    // bytes, held back too (before, it flashed the catalog's own model).
+    let text_all = std::fs::read_to_string(&log).unwrap();
+    let first = text_all.lines().nth(1).unwrap().split(',').next().unwrap().to_string();
+    let one: String = text_all
+        .lines()
+        .enumerate()
+        .filter(|(i, l)| *i == 0 || l.starts_with(&format!("{first},")))
+        .map(|(_, l)| format!("{l}\n"))
+        .collect();
+    let one_log = dir.join("one.csv");
+    std::fs::write(&one_log, one).unwrap();
+    let (one_s, cal1, disc1) = (one_log.to_str().unwrap(), dir.join("cal1"), dir.join("disc1"));
+    let _ = common::lab(&["calibrate", "--log", one_s, "--out", cal1.to_str().unwrap(), "--no-plots"]);
+    let text = common::lab_ok(&["discover", "--log", one_s, "--start", "paper", "--out", disc1.to_str().unwrap()]);
+    assert!(std::fs::read(cal1.join("table.bin")).unwrap() == std::fs::read(disc1.join("table.bin")).unwrap());
+    assert!(text.contains("= table.bin, the table `calibrate` writes for this log, held back: one program"), "{text}");
+    assert!(text.contains("file: table.bin: held back"), "{text}");
+    // A misspelt fit program is named as missing from the log, not as a program without a pair.
+    let (ok, err) =
+        common::lab(&["calibrate", "--log", log_s, "--fit-programs", "nope", "--out", cal.to_str().unwrap()]);
+    assert!(!ok && err.contains("program `nope` is not in the log (its programs: "), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -80,7 +112,7 @@ fn a_slot_is_in_the_table_only_when_it_carries_forward() {
     let (mut r, _) = analyze_source(&clean, Start::Paper).unwrap();
     let Source::Cycling { log, channels } = &clean else { unreachable!() };
     let bogus = Extensions { sensor_lag: Some(SensorLag { tau_s: 3000.0 }), ..Extensions::NONE };
-    let table = adopt_slots(log, channels, &mut r, vec!["sensor_lag".into()], bogus).unwrap().unwrap();
+    let table = adopt_slots(log, channels, &mut r, vec!["sensor_lag".into()], bogus).unwrap();
     let t = r.table.as_ref().unwrap();
     assert!(matches!(t.slots, Slots::NotAdded(_)), "a 3000-s lag on a log without one: {:?}", t.slots);
     assert!(table.axes[0].ext.sensor_lag.is_none());

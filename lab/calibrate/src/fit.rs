@@ -51,6 +51,14 @@ pub const T0_C: f64 = 22.0;
 pub enum FitError {
     /// A fit program lacks a +1 g or a −1 g run.
     NoPair(String),
+    /// A fit program the log does not hold (a misspelt `--fit-programs`), with the
+    /// programs it does hold.
+    NotInLog {
+        /// The program asked for.
+        program: String,
+        /// The log's programs.
+        programs: Vec<String>,
+    },
     /// Too few equations for the unknowns.
     TooFewRows {
         /// Equations.
@@ -117,6 +125,9 @@ impl fmt::Display for FitError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Self::NoPair(p) => write!(f, "program `{p}` has no +1 g / −1 g pair of runs"),
+            Self::NotInLog { program, programs } => {
+                write!(f, "program `{program}` is not in the log (its programs: {})", programs.join(", "))
+            }
             Self::TooFewRows { rows, unknowns } => write!(f, "{rows} equations for {unknowns} unknowns"),
             Self::TooManyAxes => write!(f, "more axes than a table holds"),
             Self::Table(e) => write!(f, "table rejected: {e}"),
@@ -301,7 +312,14 @@ fn rows_of(
     deadband: f32,
 ) -> Result<(Vec<Row>, f64), FitError> {
     let log = paired.log;
-    let pp = paired.program(program).ok_or_else(|| FitError::NoPair(program.to_string()))?;
+    let pp = paired.program(program).ok_or_else(|| {
+        let programs = log.programs();
+        if programs.iter().any(|p| p == program) {
+            FitError::NoPair(program.to_string())
+        } else {
+            FitError::NotInLog { program: program.to_string(), programs }
+        }
+    })?;
     let tp: Trace = trace_run(&log.runs[pp.plus], ext, deadband);
     let tm: Trace = trace_run(&log.runs[pp.minus], ext, deadband);
     let mut out = Vec::with_capacity(pp.rows.len());
@@ -457,6 +475,21 @@ pub fn fit(
         table_of(AxisModel { scale: scale_h, bias: grid_h, rate_limit_c_per_min: rate_limit, ext: opts.ext })?;
     let rows = FitRows { rows: rows.into(), starts, block: opts.block };
     Ok(Fitted { simple, hysteresis, sf_simple, sf_hysteresis, bias_simple, bias_hysteresis, branch, pairs: n, rows })
+}
+
+/// A cycling table's structure in words, in static calibration's naming (`grid`,
+/// `cubic-2-branches+lag463s`, …) after `Eq. 11 + `: the bias grid's tie and shape, and
+/// the extension slots `ext` (a lag rounded to a second, a creep's τ at its reference).
+#[must_use]
+pub fn cycling_structure(mode: BranchMode, shape: CurveShape, ext: &Extensions) -> String {
+    let s = StaticStructure {
+        shape,
+        branches: mode,
+        lag_tau_s: ext.sensor_lag.map(|l| l.tau_s.round()),
+        creep_tau_s: ext.bias_creep.map(|c| c.tau_ref_s.round()),
+        play_half_width_c: ext.bias_branch_hysteresis.map(|p| p.half_width_c),
+    };
+    format!("Eq. 11 + {}", s.name())
 }
 
 /// The table written for a log, the lab's one rule: the cycling fit on `programs` (every

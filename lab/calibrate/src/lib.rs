@@ -557,6 +557,18 @@ pub(crate) fn page(cal: &Calibration, opts: &CalibrateOptions) -> qfa_report::ht
     p
 }
 
+/// The structure the held-out figures are of (the fit programs' tie), and `table.bin`'s
+/// when its fit on every program chose another.
+pub(crate) fn held_out_structure(f: &FitSummary) -> String {
+    let held = fit::cycling_structure(f.branch.mode, f.branch.shape, &qfa_thermal::Extensions::NONE);
+    let table = fit::cycling_structure(f.table_branch.0, f.table_branch.1, &qfa_thermal::Extensions::NONE);
+    if held == table {
+        held
+    } else {
+        format!("{held}; table.bin's fit on every program chose {table}")
+    }
+}
+
 /// The held-out figures of each model and peer.
 fn held_out_figures_section(p: &mut qfa_report::html_report::Page, r: &Report) {
     let (s, b, pb) = (r.sensitivity_ppm_per_c, r.bias_residual_ug, r.peers_bias_residual_ug);
@@ -566,7 +578,7 @@ fn held_out_figures_section(p: &mut qfa_report::html_report::Page, r: &Report) {
             vec!["no compensation".to_string(), format!("{:.2}", s.none), format!("{:.2}", b.none)],
             vec!["simple (Eq. 3–4)".to_string(), format!("{:.2}", s.simple), format!("{:.2}", b.simple)],
             vec![
-                "hysteresis (Eq. 11 + branched bias), table.bin".to_string(),
+                format!("hysteresis ({}), table.bin", held_out_structure(&r.fit)),
                 format!("{:.2}", s.hysteresis),
                 format!("{:.2}", b.hysteresis),
             ],

@@ -266,7 +266,7 @@ pub(crate) fn markdown(r: &Report) -> String {
          fitted on programs {}.\n\n\
          | model | scale-factor sensitivity, ppm/°C | bias residual, µg RMS |\n|---|---|---|\n\
          | no compensation | {:.2} | {:.2} |\n| simple (Eq. 3–4) | {:.2} | {:.2} |\n\
-         | hysteresis (Eq. 11 + branched bias), table.bin | {:.2} | {:.2} |\n\
+         | hysteresis ({}), table.bin | {:.2} | {:.2} |\n\
          | PX4 / tofupilot cubic (bias only, in the table's place) | - | {:.2} |\n\
          | ArduPilot TCAL (bias only, in the table's place) | - | {:.2} |\n\n\
          A bias-only peer is scored with the table's scale factor, on its rows and bins.\n\n\
@@ -278,6 +278,7 @@ pub(crate) fn markdown(r: &Report) -> String {
         b.none,
         s.simple,
         b.simple,
+        crate::held_out_structure(&r.fit),
         s.hysteresis,
         b.hysteresis,
         pb.cubic,

@@ -8,22 +8,20 @@ use qfa_report::verdict::Verdict;
 /// Run the workflow on `input` from `start` and write the outputs to `out_dir`.
 ///
 /// # Errors
-/// A cycling log's table could not be fitted, or output files could not be written
-/// ([`DiscoverError`]).
+/// A cycling log's table not fitted, or an output not written ([`DiscoverError`]).
 pub fn discover(input: &Source, start: Start, out_dir: &Path) -> Result<Report> {
     Ok(discover_with_verdict(input, start, out_dir)?.0)
 }
 
-/// The catalog's report on `input` and, for a cycling log, the table both `calibrate` and
-/// `discover` write ([`crate::cycling_table`]); a single-channel log's table is the
-/// catalog's model (`None` here).
+/// The catalog's report on `input` and, for a cycling log, the table `calibrate` writes
+/// too ([`crate::cycling_table`]; `None`: a single-channel log's is the catalog's model).
 ///
 /// # Errors
 /// A cycling log's table could not be fitted.
 pub fn analyze_source(input: &Source, start: Start) -> Result<(Report, Option<qfa_thermal::Table>)> {
     let mut report = analyze(input.channels(), start);
     let table = match input {
-        Source::Cycling { log, channels } => crate::cycling_table::adopt(log, channels, &mut report)?,
+        Source::Cycling { log, channels } => Some(crate::cycling_table::adopt(log, channels, &mut report)?),
         Source::Single(_) => None,
     };
     Ok((report, table))
@@ -39,9 +37,8 @@ pub fn discover_with_verdict(input: &Source, start: Start, out_dir: &Path) -> Re
     Ok((report, v))
 }
 
-/// Demo hook (the demo runs one discovery): start `simple` on a unit's cycling log.
-/// With the simulator's Eq. 11 truth this should rediscover the paper's structure
-/// (`temp_quadratic` and the rate terms). Returns a one-line summary.
+/// Demo hook: start `simple` on a unit's cycling log, which should rediscover the paper's
+/// Eq. 11 terms. Returns a one-line summary.
 ///
 /// # Errors
 /// The log gives no channels, or an output could not be written (the demo fails with it).

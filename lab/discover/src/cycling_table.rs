@@ -1,26 +1,15 @@
-//! A cycling log's table: the one `calibrate` writes, with the extension slots the catalog
-//! named when they carry to held-out programs.
-//!
-//! # One table for one log
-//! `calibrate` and `discover` answer the same question for a cycling log, so both write the
-//! table of one call, [`qfa_calibrate::calibrate_log`]: Eq. 11 on the scale factor and the
-//! bias grid whose branch tie and curve shape its cross-validation chose, on the same
-//! programs, with the same held-out figures. What discovery adds is the catalog's
-//! extension slots (`sensor_lag`, `bias_branch_hysteresis`, `bias_creep`: what
-//! [`qfa_thermal::Extensions`] holds), their parameters as the catalog fitted them on every
-//! bin, and only when they carry forward: calibrate's fitter is run on each of discovery's
-//! held-out folds with and without them and scored on the fold's held-out programs through
-//! the root crate's `AxisModel`, by the rule that decides what is flashed (Σ over the
-//! channels of (held-out RMS / noise floor)²). With no slot named, or none that carries,
-//! `discover`'s `table.bin` is the bytes `calibrate` writes (`--test discover_table`).
-//!
-//! The slots' time constants and weights are the catalog's fit on every bin, so the
-//! held-out folds have seen them: the judgement is of the slots' shape, not of their
-//! parameters. `bias_drift` has no slot, and the catalog's Eq. 11 terms and bias curvature
-//! are in every table (Eq. 11 is fitted whole; the grid holds any curve).
+//! A cycling log's table: the one `calibrate` writes ([`qfa_calibrate::calibrate_log`],
+//! the same call), with the catalog's extension slots only when they carry forward:
+//! calibrate's fitter runs on each selection fold with and without them, scored on the
+//! fold's held-out programs through the root crate's `AxisModel` by the flash rule (Σ over
+//! the channels of (held-out RMS / noise floor)²). With none that carries, `table.bin` is
+//! `calibrate`'s bytes (`--test discover_table`). The slots' parameters are the catalog's
+//! fit on every bin, so the folds judge their shape, not their values. Eq. 11's terms and a
+//! bias curvature are in every table; `bias_drift` has no slot. A log of one program has
+//! no held-out program: the table is `calibrate`'s, held back as `calibrate` holds it.
 
 use qfa_calibrate::fit::{fit, FitOptions};
-use qfa_calibrate::{calibrate_log, CalibrateOptions, Calibration};
+use qfa_calibrate::{calibrate_log, CalibrateOptions};
 use qfa_log::cycling::Log;
 use qfa_log::pairing::PairedLog;
 use qfa_thermal::{Extensions, Table};
@@ -38,8 +27,14 @@ pub struct CyclingTable {
     /// Whether those slots are in the table, with the figures that decided it.
     pub slots: Slots,
     /// `calibrate`'s held-out figures of this table's structure (its own program split,
-    /// its Table-4 metric): the figures `calibrate` prints for the same log and slots.
-    pub calibrate_heldout: CalibrateFigures,
+    /// its Table-4 metric): the figures `calibrate` prints for the same log and slots;
+    /// absent on a log of one program, where `calibrate` holds its table back.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub calibrate_heldout: Option<CalibrateFigures>,
+    /// What `calibrate`'s fit rows cover: the verdict's `covers` and what to record next,
+    /// the same lines `calibrate` prints for the log.
+    #[serde(skip)]
+    pub coverage: qfa_calibrate::coverage::Coverage,
 }
 
 /// The decision on the catalog's slots.
@@ -52,6 +47,8 @@ pub enum Slots {
     Added(SlotGaps),
     /// They do not carry to the held-out programs: left out.
     NotAdded(SlotGaps),
+    /// The log has one program: no held-out program to judge them on, so left out.
+    OneProgram,
 }
 
 /// Held-out gaps on the selection folds of calibrate's fit without the slots and with them.
@@ -82,7 +79,7 @@ pub struct CalibrateFigures {
 /// # Errors
 /// [`DiscoverError::Calibrate`] when calibrate's fit or its held-out figures fail on the
 /// log (the table could not be formed).
-pub fn adopt(log: &Log, ch: &Channels, report: &mut Report) -> Result<Option<Table>> {
+pub fn adopt(log: &Log, ch: &Channels, report: &mut Report) -> Result<Table> {
     let named_slots: Vec<String> = report
         .effects
         .iter()
@@ -104,15 +101,14 @@ pub fn adopt_slots(
     report: &mut Report,
     named_slots: Vec<String>,
     ext: Extensions,
-) -> Result<Option<Table>> {
+) -> Result<Table> {
     let paired = PairedLog::new(log);
     let setup = Setup::new(ch);
     let (masks, trains, _) = folds(ch);
     // A log of one program is held out in time blocks, on which calibrate's fit (of whole
-    // programs) has no figure: its table stays the catalog's model, and `calibrate` has
-    // no held-out figure of its own there either.
+    // programs) has no figure: the table is calibrate's, held back as calibrate holds it.
     let Some(programs) = fold_programs(ch, &trains) else {
-        return Ok(None);
+        return one_program(log, report, named_slots);
     };
     let floors = [noise_floor(ch, &report.residuals.1.sf), noise_floor(ch, &report.residuals.1.bias)];
     let score = |r: &Residuals| (rms(&r.sf) / floors[0]).powi(2) + (rms(&r.bias) / floors[1]).powi(2);
@@ -135,20 +131,40 @@ pub fn adopt_slots(
         e.not_in_table = why_not_in_table(&e.name, &slots);
         e.in_table = e.not_in_table.is_none();
     }
-    let structure = structure_text(&cal, &table);
+    let ext = table.axes.first().map(|a| a.ext).unwrap_or_default();
+    let structure = qfa_calibrate::fit::cycling_structure(cal.table.branch.mode, cal.table.branch.shape, &ext);
     report.flashed = flashed(ch, report, &structure, &chosen_res);
-    report.table = Some(CyclingTable {
-        structure,
-        named_slots,
-        slots,
-        calibrate_heldout: CalibrateFigures {
-            fit_programs: cal.report.fit_programs.clone(),
-            eval_programs: cal.report.eval_programs.clone(),
-            sensitivity_ppm_per_c: cal.report.sensitivity_ppm_per_c.hysteresis,
-            bias_residual_ug: cal.report.bias_residual_ug.hysteresis,
-        },
+    let calibrate_heldout = Some(CalibrateFigures {
+        fit_programs: cal.report.fit_programs.clone(),
+        eval_programs: cal.report.eval_programs.clone(),
+        sensitivity_ppm_per_c: cal.report.sensitivity_ppm_per_c.hysteresis,
+        bias_residual_ug: cal.report.bias_residual_ug.hysteresis,
     });
-    Ok(Some(table))
+    let coverage = cal.report.coverage.covered.clone();
+    report.table = Some(CyclingTable { structure, named_slots, slots, calibrate_heldout, coverage });
+    Ok(table)
+}
+
+/// Why a log of one program has no held-out figure of its table.
+pub const ONE_PROGRAM: &str = "one program: nothing of calibrate's table is held out (calibrate holds it back for \
+                               the same reason); log a second program to judge it";
+
+/// [`adopt_slots`] on a log of one program: calibrate's table without slots, with no
+/// held-out figure ([`ONE_PROGRAM`]).
+fn one_program(log: &Log, report: &mut Report, named_slots: Vec<String>) -> Result<Table> {
+    let cal = calibrate_log(log, &CalibrateOptions::default()).map_err(|e| DiscoverError::Calibrate(Box::new(e)))?;
+    let slots = if named_slots.is_empty() { Slots::NoneNamed } else { Slots::OneProgram };
+    for e in &mut report.effects {
+        e.not_in_table = why_not_in_table(&e.name, &slots);
+        e.in_table = e.not_in_table.is_none();
+    }
+    let b = &cal.table.branch;
+    let structure = qfa_calibrate::fit::cycling_structure(b.mode, b.shape, &Extensions::NONE);
+    report.flashed =
+        Flashed { model: structure.clone(), heldout: None, not_computed: Some(ONE_PROGRAM.into()), peer_better: None };
+    let coverage = cal.report.coverage.covered.clone();
+    report.table = Some(CyclingTable { structure, named_slots, slots, calibrate_heldout: None, coverage });
+    Ok(cal.table.hysteresis)
 }
 
 /// Why the effect `name` is not in the table, or `None` when it is.
@@ -157,6 +173,7 @@ fn why_not_in_table(name: &str, slots: &Slots) -> Option<String> {
         "bias_drift" => Some("no root-crate slot: a bias linear in time is not in the firmware".into()),
         "sensor_lag" | "bias_branch_hysteresis" | "bias_creep" => match slots {
             Slots::Added(_) | Slots::NoneNamed => None,
+            Slots::OneProgram => Some("not added: one program, no held-out program to judge it on".into()),
             Slots::NotAdded(SlotGaps { without, with }) => Some(format!(
                 "not added: the slots do not carry to the held-out programs (calibrate's fit on each fold: {} \
                  without them, {} with them)",
@@ -164,24 +181,8 @@ fn why_not_in_table(name: &str, slots: &Slots) -> Option<String> {
                 output::gaps_text(BiasUnit::G, with)
             )),
         },
-        // Eq. 11's terms and the bias curvature are in every table.
         _ => None,
     }
-}
-
-/// The table's structure in words, in static calibration's naming: `Eq. 11 + grid`,
-/// `Eq. 11 + cubic-2-branches+lag450s` (the lag rounded to a second, the creep's τ at its
-/// reference temperature).
-fn structure_text(cal: &Calibration, table: &Table) -> String {
-    let ext = table.axes.first().map(|a| a.ext).unwrap_or_default();
-    let s = qfa_calibrate::fit::StaticStructure {
-        shape: cal.table.branch.shape,
-        branches: cal.table.branch.mode,
-        lag_tau_s: ext.sensor_lag.map(|l| l.tau_s.round()),
-        creep_tau_s: ext.bias_creep.map(|c| c.tau_ref_s.round()),
-        play_half_width_c: ext.bias_branch_hysteresis.map(|p| p.half_width_c),
-    };
-    format!("Eq. 11 + {}", s.name())
 }
 
 /// The flashed entry: the table, its held-out gaps on the selection folds, and a peer that predicts the bias better there by more than
@@ -196,7 +197,8 @@ fn flashed(ch: &Channels, report: &Report, structure: &str, r: &Residuals) -> Fl
         .min_by(|a, b| a.1.total_cmp(&b.1));
     Flashed {
         model: structure.to_string(),
-        heldout,
+        heldout: Some(heldout),
+        not_computed: None,
         // `calibrate`'s rule: a peer is better only beyond its tolerance (two fits of one
         // cubic, the grid's and the formula's, differ by up to 0.2 %).
         peer_better: best
@@ -234,10 +236,11 @@ fn fold_residuals(
 ) -> Result<Residuals> {
     let n = setup.ch.n_bins();
     let mut out = Residuals { sf: vec![f64::NAN; n], bias: vec![f64::NAN; n] };
-    for (test, p) in masks.iter().zip(programs) {
+    for (k, (test, p)) in masks.iter().zip(programs).enumerate() {
         let f = fit(paired, &FitOptions { ext, ..FitOptions::new(p.clone()) }, None)
             .map_err(|e| DiscoverError::Calibrate(Box::new(qfa_calibrate::CalibrateError::Fit(e))))?;
-        let model = f.hysteresis.axes.first().ok_or(DiscoverError::NoAxis)?;
+        let no_model = || DiscoverError::NoModel { axis: "the cycling table".into(), fold: Some(k + 1) };
+        let model = f.hysteresis.axes.first().ok_or_else(no_model)?;
         let r = setup.residuals(&setup.predict(model));
         for (i, _) in test.iter().enumerate().filter(|(_, &t)| t) {
             out.sf[i] = r.sf[i];

@@ -27,7 +27,8 @@ pub enum DiscoverError {
     /// A static log its calibration refuses (span, rows per degree, held-out scheme), or a
     /// held-out figure or fit of it that failed.
     StaticCal(StaticCalError),
-    /// Discovery on an axis of a static log gave no model.
+    /// Discovery on an axis of a static log, or calibrate's fit on a cycling log's fold
+    /// (`axis` then names the cycling table), gave no model.
     NoModel {
         /// The axis.
         axis: String,
@@ -68,8 +69,6 @@ pub enum DiscoverError {
     Page(io::Error),
     /// A cycling log's table: calibrate's fit or its held-out figures failed on the log.
     Calibrate(Box<qfa_calibrate::CalibrateError>),
-    /// A table with no axis.
-    NoAxis,
     /// A residual plot (its chart, title or legend) that could not be drawn or encoded.
     Plot(PlotError),
 }
@@ -90,7 +89,6 @@ impl fmt::Display for DiscoverError {
             Self::Page(_) => f.write_str("writing report.html")?,
             Self::Plot(e) => write!(f, "{e}")?,
             Self::Calibrate(_) => f.write_str("fitting the cycling log's table")?,
-            Self::NoAxis => f.write_str("calibrate's table has no axis")?,
         }
         if f.alternate() {
             let mut cause = std::error::Error::source(self);
@@ -115,7 +113,7 @@ impl std::error::Error for DiscoverError {
             Self::Json { source, .. } => Some(source),
             Self::Table(e) => Some(e),
             Self::Calibrate(e) => Some(e.as_ref()),
-            Self::UnknownStart(_) | Self::NoModel { .. } | Self::NoAxis => None,
+            Self::UnknownStart(_) | Self::NoModel { .. } => None,
         }
     }
 }

@@ -16,57 +16,27 @@
 //!    whose model has no ε·Ṫ, every fit also takes a timing offset δ between the
 //!    temperature channel and the counts (`fit::TimingOffset`): held while a round's
 //!    candidates are scored, reported with its interval.
-//! 3. **Held-out rule** (every figure of merit is held out): a cycling log's programs are
-//!    sorted by ramp rate and dealt alternately into two folds (0.3/0.7 and 0.5/0.9 °C/min
-//!    for the paper's test); each fold is fitted on the other and evaluated on itself,
-//!    so each bin's residual comes from a model that never saw its program. With one
-//!    program, or a single-channel log, each trace is cut into 20-bin (20-min) time blocks
-//!    dealt alternately into the two folds (interleaved blocks: every fold sees heating,
-//!    cooling and holds at every temperature). Model states always run through the whole
-//!    trace; only the fit skips the held-out bins. Nonlinear parameters are searched on
-//!    the training fold only, weighted by each channel's bin-to-bin noise floor.
+//! 3. **Held-out rule** (`folds`; every figure of merit is held out): a cycling log's
+//!    programs dealt by ramp rate into two folds, each fitted on the other; one program or
+//!    a single-channel log, 20-min time blocks dealt alternately. Nonlinear parameters are
+//!    searched on the training fold only.
 //! 4. **Localization** (`localize`): RMS of the held-out residual by heating / cooling
 //!    ramps × program rate × temperature band, and holds by time since the last change.
-//! 5. **Candidates**: each catalog effect not yet in the model. Nonlinear parameters by a
-//!    coarse log-grid then golden section (τ, r; 20 steps) or Nelder–Mead (creep τ_ref,
-//!    E; T_ref fixed at 22 °C); linear coefficients re-fitted by least squares for every
-//!    trial; every trial scored by running the root crate's `AxisModel::evaluate`.
-//! 6. **Selection** (`stats`, `noise`): both held-out residuals, before and after the
-//!    candidate, are whitened by the noise model fitted to the one after (white plus
-//!    Gauss–Markov is ARMA(1, 1); its innovations, clipped at 4 SD). The per-bin gain
-//!    (drop of (residual/RMS)², summed over the channels) is summed over blocks of
-//!    consecutive bins, four times the whitened residual's 1/e autocorrelation lag long
-//!    (≥ 10 bins, ≥ 8 blocks). A candidate is significant when that gain exceeds
-//!    t(1 − 0.05/m, blocks − 1) standard errors of the block sums (m = 9, the catalog's
-//!    size, in every round: Bonferroni over everything the workflow could add), and
-//!    when the same gain on the unwhitened residuals (blocks from their own
-//!    autocorrelation) passes the same test at the uncorrected level 0.05: the
-//!    improvement must show in the residual a user sees, not only in its fast part. An
-//!    effect with a weight of its own (drift rate, play weight, Eq. 11 term) must also
-//!    clear its weight test (`WeightZ`: |weight| > z(1 − 0.05/(2m)) moving-block
-//!    bootstrap SEs, held-out residuals resampled, nonlinear parameters searched again
-//!    per resample). A significant candidate with a parameter at a search limit is
-//!    not added (a limit, not the data, decided it); it is reported. Among the rest the
-//!    largest gain is best, and by the one-standard-error rule the candidate with fewest
-//!    parameters whose gain is within one SE of the best's is added; the others are
-//!    listed as `confusable_with` (name not identified). After the last round a
-//!    backward step drops any added effect whose removal the block test does not reject
-//!    (a simpler effect picked by the one-SE rule, made redundant by a later addition). Repeat until none is
-//!    left, then re-optimise the nonlinear parameters jointly (cyclic search). Measured
-//!    false-discovery rate on clean simulator logs: docs/measurements.md ("Lab: discovery") and
-//!    `tests/discover_fdr.rs`.
-//! 7. **Uncertainty**: each added effect's gain carries a block-bootstrap SE and 95 %
-//!    interval; nonlinear parameters a profile interval (all-data Σ(residual/RMS)² rising
-//!    by 3.84·N/N_eff, N/N_eff from the residual autocorrelation), linear ones a
-//!    moving-block bootstrap interval; `at_bound` flags a search limit.
+//! 5. **Candidates** (`search`, `optimize`): each catalog effect not yet in the model,
+//!    every trial scored by running the root crate's `AxisModel::evaluate`.
+//! 6. **Selection** (`stats`, `noise`, `select`): a candidate is added when its held-out
+//!    gain passes a block test on residuals whitened by their fitted noise model
+//!    (Bonferroni over the catalog's 9 effects, every round), the same gain passes on the
+//!    unwhitened residuals, and its weight clears a bootstrap test; a parameter at a
+//!    search limit is reported, not added; among the rest the one-SE rule picks the
+//!    fewest parameters, and a backward step drops what a later addition made redundant.
+//!    The rule in full is docs/lab.md, "Discovery"; its false-discovery rate,
+//!    docs/measurements.md, "Lab: discovery" (`tests/discover_fdr.rs`).
+//! 7. **Uncertainty** (`uncertainty`): block-bootstrap SEs and 95 % intervals of each
+//!    gain and linear weight, profile intervals of the nonlinear parameters, `at_bound`.
 //! 8. **Unexplained** (`unexplained`): each channel's final held-out residual against its
-//!    noise floor, the bin-to-bin noise of the model fitted to it (`noise`: white plus
-//!    Gauss–Markov, robust to glitches and steps; always reported); a change point inside a
-//!    run that the fitted model rejects; drivers it follows significantly (cross-fitted on
-//!    time since start, temperature, Ṫ, time since the last reversal and the ramp branch,
-//!    same block test, level 0.05 shared over drivers and channels), run means that differ
-//!    beyond noise and slow noise, and catalog effects pinned at a search limit are
-//!    reported as `unexplained`, with where in time they live, not given a name.
+//!    noise floor (`noise`), change points, drivers it follows, run levels and pinned
+//!    catalog effects, reported with where in time they live, not given a name.
 //! 9. **Flashed** ([`Flashed`]): on a cycling log, the table `calibrate` writes for the
 //!    same log with the catalog's slots that carry to held-out programs
 //!    ([`cycling_table`]: one table for one log, named as its structure); on a
@@ -83,16 +53,9 @@
 //! `table.bin` holds), and the steps above identify its parts, say what it does not hold,
 //! what is left, and where.
 //!
-//! The catalog's `bias_drift` (bias linear in time since the program start: ageing or a
-//! long turn-on settling) has no root-crate slot yet, so it is reported but not flashed
-//! (`in_table: false`). Left out of the catalog, on purpose: a thermal-gradient
-//! term in Ṫ on the bias (on the paper's test Ṫ is the same program signal that
-//! `sensor_lag` and, on the scale factor, `rate_hysteresis` already use: ε·Ṫ and a lag's
-//! −τ·Ṫ·∂b/∂T cannot be told apart without a second sensor or a gradient that changes
-//! sign independently of Ṫ), and a second lag stage (two stages τ₁, τ₂ give a response
-//! within a fraction of the noise of one stage with τ₁ + τ₂ on 0.3–0.9 °C/min ramps with
-//! 3-min dwells; the out-of-catalog test confirms a two-stage lag is named as one lag
-//! with the effective τ).
+//! The catalog's `bias_drift` has no root-crate slot yet, so it is reported but not
+//! flashed (`in_table: false`). What the catalog leaves out on purpose (a thermal-gradient
+//! term in Ṫ, a second lag stage), and why, is in docs/lab.md, "Discovery".
 
 pub(crate) mod cli;
 pub mod cycling_table;

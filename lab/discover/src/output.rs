@@ -41,6 +41,11 @@ pub(crate) fn worse(r: &Report) -> bool {
 
 /// A report's gaps in words with their units.
 #[must_use]
+/// The flashed model's held-out figure in words, or why it has none.
+pub(crate) fn flashed_text(unit: BiasUnit, f: &super::Flashed) -> String {
+    f.heldout.as_ref().map_or_else(|| f.not_computed.clone().unwrap_or_default(), |g| gaps_text(unit, g))
+}
+
 pub(crate) fn gaps_text(unit: BiasUnit, g: &Gaps) -> String {
     match g {
         Gaps::Cycling { scale_factor_ppm, bias_ug } => {
@@ -240,7 +245,6 @@ pub(super) fn write_json<T: Serialize>(path: &Path, v: &Verdict, report: &T) -> 
 /// also `calibrate`'s own held-out figures of it and what was done with the catalog's slots).
 fn flashed_line(s: &mut String, ch: &Channels, r: &Report) {
     if let Some(t) = &r.table {
-        let c = &t.calibrate_heldout;
         let slots = match &t.slots {
             super::cycling_table::Slots::NoneNamed => "the block test named no extension slot".to_string(),
             super::cycling_table::Slots::Added(super::cycling_table::SlotGaps { without, with }) => format!(
@@ -256,23 +260,34 @@ fn flashed_line(s: &mut String, ch: &Channels, r: &Report) {
                 gaps_text(ch.bias_unit, with),
                 gaps_text(ch.bias_unit, without)
             ),
+            super::cycling_table::Slots::OneProgram => {
+                format!("the block test's slots ({}) are not: one program", t.named_slots.join(", "))
+            }
         };
+        let figures = t.calibrate_heldout.as_ref().map_or_else(
+            || super::cycling_table::ONE_PROGRAM.to_string(),
+            |c| {
+                format!(
+                    "`calibrate`'s own held-out figures of it (fitted on {}, scored on {}): sensitivity {:.2} ppm/°C, \
+                     bias {:.2} µg",
+                    c.fit_programs.join(", "),
+                    c.eval_programs.join(", "),
+                    c.sensitivity_ppm_per_c,
+                    c.bias_residual_ug
+                )
+            },
+        );
         let _ = writeln!(
             s,
-            "The table (`table.bin`) is the one `calibrate` writes for this log: {}; {slots}. `calibrate`'s own \
-             held-out figures of it (fitted on {}, scored on {}): sensitivity {:.2} ppm/°C, bias {:.2} µg.\n",
-            t.structure,
-            c.fit_programs.join(", "),
-            c.eval_programs.join(", "),
-            c.sensitivity_ppm_per_c,
-            c.bias_residual_ug
+            "The table (`table.bin`) is the one `calibrate` writes for this log: {}; {slots}. {figures}.\n",
+            t.structure
         );
     }
     let _ = writeln!(
         s,
         "Flashed (`table.bin`): the {}, held out {}{}.\n",
         r.flashed.model,
-        gaps_text(ch.bias_unit, &r.flashed.heldout),
+        flashed_text(ch.bias_unit, &r.flashed),
         r.flashed.peer_better.as_ref().map_or_else(String::new, |p| format!(
             "; **{} predicts the bias better held out ({:.3} {})**{}",
             p.peer,

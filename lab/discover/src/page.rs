@@ -182,7 +182,7 @@ fn page_gaps(p: &mut Page, ch: &Channels, r: &Report, scope: Scope<'_>) {
             format!(
                 "{}: {}{}",
                 r.flashed.model,
-                gaps_text(ch.bias_unit, &r.flashed.heldout),
+                super::output::flashed_text(ch.bias_unit, &r.flashed),
                 r.flashed.peer_better.as_ref().map_or_else(String::new, |b| format!(
                     "; {} predicts the bias better ({:.3})",
                     b.peer, b.heldout_rms

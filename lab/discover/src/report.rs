@@ -165,8 +165,12 @@ pub struct Flashed {
     /// `named model` or `start model`: whichever predicts better held out (Σ over
     /// channels of (held-out RMS / noise floor)²).
     pub model: String,
-    /// Its held-out gaps.
-    pub heldout: Gaps,
+    /// Its held-out gaps; absent when none can be formed (`not_computed` says why).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub heldout: Option<Gaps>,
+    /// Why it has no held-out figure, when it has none.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub not_computed: Option<String>,
     /// A peer whose bias figure on the same folds beats it (a cycling table needs a
     /// scale-factor model, which the peers have not, so it is not flashed: said instead).
     #[serde(skip_serializing_if = "Option::is_none")]

@@ -580,7 +580,8 @@ fn choose_flashed(ch: &Channels, before: &Residuals, cur: &Residuals, peers: &[P
         peers.iter().filter_map(|p| p.heldout_rms.map(|x| (p.peer.clone(), x))).min_by(|a, b| a.1.total_cmp(&b.1));
     let flashed = Flashed {
         model: if named_flashed { "named model" } else { "start model" }.into(),
-        heldout: flashed_gaps,
+        heldout: Some(flashed_gaps),
+        not_computed: None,
         peer_better: best_peer.filter(|p| p.1 < flashed_bias).map(|(peer, x)| PeerBetter { peer, heldout_rms: x }),
     };
     (named_flashed, flashed)

@@ -104,8 +104,11 @@ fn file_uses(files: &[String], axis: bool) -> Vec<FileUse> {
 }
 
 /// Coverage of `ch` for the verdict: what the table covers and what to record next.
-fn covers_and_advice(v: &mut Verdict, ch: &Channels) {
-    if let Ok(c) = coverage(ch) {
+fn covers_and_advice(v: &mut Verdict, ch: &Channels, table: Option<&crate::cycling_table::CyclingTable>) {
+    if let Some(t) = table {
+        v.covers = Some(t.coverage.covers());
+        v.advice = t.coverage.record_next();
+    } else if let Ok(c) = coverage(ch) {
         v.covers = Some(c.covers());
         v.advice = c.record_next();
     }
@@ -119,8 +122,11 @@ pub(crate) fn discovery_verdict(ch: &Channels, r: &Report, files: &[String], not
     let start = channel_figures(&r.heldout_gap_before, ch.bias_unit);
     // A cycling log's named model is its table ([`super::cycling_table`]); a single-channel
     // log's is the catalog's.
-    let named =
-        channel_figures(if r.table.is_some() { &r.flashed.heldout } else { &r.heldout_gap_after }, ch.bias_unit);
+    let named = match (&r.table, &r.flashed.heldout) {
+        (None, _) => channel_figures(&r.heldout_gap_after, ch.bias_unit),
+        (Some(_), Some(g)) => channel_figures(g, ch.bias_unit),
+        (Some(_), None) => Vec::new(),
+    };
     let (words, worse) = standing(r.start.name(), &start, &named);
     let wrote = files.iter().any(|f| f == "table.bin");
     let table = if wrote {
@@ -135,12 +141,19 @@ pub(crate) fn discovery_verdict(ch: &Channels, r: &Report, files: &[String], not
             r.effect_labels().join(", ")
         };
         let left: Vec<String> = r.effects.iter().filter(|e| e.not_in_table.is_some()).map(|e| e.name.clone()).collect();
+        let standing = match &r.flashed.not_computed {
+            Some(why) => format!("held back: {why}"),
+            None => format!("which {words} ({})", both_figures(&start, &named)),
+        };
         format!(
-            "named {} = {}, the table `calibrate` writes for this log, which {words} ({}); the block test named {caught}{}",
+            "named {} = {}, the table `calibrate` writes for this log, {standing}; the block test named {caught}{}",
             t.structure,
             if wrote { "table.bin" } else { "the table (not written: see the warnings)" },
-            both_figures(&start, &named),
-            if left.is_empty() { String::new() } else { format!("; not in table.bin: {} (see the warnings)", left.join(", ")) }
+            if left.is_empty() {
+                String::new()
+            } else {
+                format!("; not in table.bin: {} (see the warnings)", left.join(", "))
+            }
         )
     } else if r.effects.is_empty() {
         let figs: Vec<String> = start.iter().map(|(c, s, u)| format!("{c} {s:.2} {u}")).collect();
@@ -154,30 +167,31 @@ pub(crate) fn discovery_verdict(ch: &Channels, r: &Report, files: &[String], not
     };
     let held_out = format!("{}; every figure called held-out comes from a fit that never saw its bins", r.heldout_rule);
     let mut v = Verdict::new(answer, held_out, Vec::new());
-    let flashed = channel_figures(&r.flashed.heldout, ch.bias_unit);
-    v.expect = flashed
-        .iter()
-        .map(|(c, x, u)| Expected {
-            axis: (*c).to_string(),
-            what: format!("held-out RMS of the {}", r.flashed.model),
-            value: *x,
-            unit: (*u).to_string(),
-        })
-        .collect();
+    // What to expect in use: a cycling table's figures are `calibrate`'s, one per quantity
+    // (its selection-fold figures compare it with the start model and the peers); a
+    // single-channel log's are the flashed model's.
     if let Some(t) = &r.table {
-        let c = &t.calibrate_heldout;
-        let what = format!(
-            "calibrate's held-out figures (fitted on {}, scored on {})",
-            c.fit_programs.join(", "),
-            c.eval_programs.join(", ")
-        );
-        v.expect.push(Expected {
-            axis: "sensitivity".into(),
-            what: what.clone(),
-            value: c.sensitivity_ppm_per_c,
-            unit: "ppm/°C".into(),
-        });
-        v.expect.push(Expected { axis: "bias".into(), what, value: c.bias_residual_ug, unit: "µg".into() });
+        if let Some(c) = &t.calibrate_heldout {
+            let what = format!(
+                "calibrate's held-out figures of table.bin (fitted on {}, scored on {})",
+                c.fit_programs.join(", "),
+                c.eval_programs.join(", ")
+            );
+            let (s, b) = (c.sensitivity_ppm_per_c, c.bias_residual_ug);
+            v.expect
+                .push(Expected { axis: "sensitivity".into(), what: what.clone(), value: s, unit: "ppm/°C".into() });
+            v.expect.push(Expected { axis: "bias".into(), what, value: b, unit: "µg".into() });
+        }
+    } else if let Some(g) = &r.flashed.heldout {
+        v.expect = channel_figures(g, ch.bias_unit)
+            .iter()
+            .map(|(c, x, u)| Expected {
+                axis: (*c).to_string(),
+                what: format!("held-out RMS of the {}", r.flashed.model),
+                value: *x,
+                unit: (*u).to_string(),
+            })
+            .collect();
     }
     if !r.effects.is_empty() || r.table.is_some() {
         for ((c, s, u), (_, n, _)) in start.iter().zip(&named) {
@@ -223,7 +237,12 @@ pub(crate) fn discovery_verdict(ch: &Channels, r: &Report, files: &[String], not
     v.warnings.extend(qfa_log::cycling::glitches_sentence(&ch.skipped_glitches));
     v.warnings.extend(notes.iter().cloned());
     v.files = file_uses(files, false);
-    covers_and_advice(&mut v, ch);
+    if let Some(why) = r.flashed.not_computed.as_ref().filter(|_| r.table.is_some()) {
+        for f in v.files.iter_mut().filter(|f| f.file == "table.bin" || f.file == "model.bin") {
+            f.action = format!("held back: {why}");
+        }
+    }
+    covers_and_advice(&mut v, ch, r.table.as_ref());
     v
 }
 
@@ -345,7 +364,7 @@ pub(crate) fn static_verdict(d: &StaticDiscovery, files: &[String]) -> Verdict {
         ),
     }));
     if let Some(ch) = d.channels.first() {
-        covers_and_advice(&mut v, ch);
+        covers_and_advice(&mut v, ch, None);
     }
     v
 }
@@ -356,7 +375,7 @@ pub(crate) fn axis_verdict(d: &StaticDiscovery, a: &AxisDiscovery, ch: &Channels
     let mut v = Verdict::new(axis_answer(d, a), static_held_out(d), Vec::new());
     v.expect = expect(std::slice::from_ref(a));
     v.warnings = axis_warnings(d, a);
-    covers_and_advice(&mut v, ch);
+    covers_and_advice(&mut v, ch, None);
     v
 }
 

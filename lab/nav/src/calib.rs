@@ -372,6 +372,7 @@ pub fn discover_on(log: &Log) -> Result<(Table, Vec<String>), CalibError> {
     let source = Source::from_opened(OpenedLog::Cycling(log.clone()), 60.0).map_err(CalibError::Channels)?;
     let (rep, table) = analyze_source(&source, Start::Paper).map_err(|e| CalibError::Discover(Box::new(e)))?;
     let names: Vec<String> = rep.effects.iter().map(|e| e.name.clone()).collect();
+    // A cycling source always has a table (a log of one program: calibrate's, held back).
     Ok((table.ok_or(CalibError::OneProgram)?, names))
 }
 
