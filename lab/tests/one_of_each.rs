@@ -211,6 +211,7 @@ const NAMES_AND_VALUES: &[&str] = &[
     "PriorError::NotInvertible",
     "CoverageError::NoValidRow",
     "FitError::NoPair",
+    "FitError::NotInLog",
     "CalibrateError::Axis",
     "StaticCalError::UnknownHoldout",
     "StaticCalError::Fit",
