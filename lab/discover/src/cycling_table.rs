@@ -111,7 +111,7 @@ pub fn adopt_slots(
         return one_program(log, report, named_slots);
     };
     let floors = [noise_floor(ch, &report.residuals.1.sf), noise_floor(ch, &report.residuals.1.bias)];
-    let score = |r: &Residuals| (rms(&r.sf) / floors[0]).powi(2) + (rms(&r.bias) / floors[1]).powi(2);
+    let score = |r: &Residuals| flash_score(ch.kind, r, floors);
     let base = fold_residuals(&setup, &paired, &masks, &programs, Extensions::NONE)?;
     let (slots, chosen, chosen_res) = if ext == Extensions::NONE {
         (Slots::NoneNamed, Extensions::NONE, base)
@@ -127,10 +127,7 @@ pub fn adopt_slots(
     let cal = calibrate_log(log, &CalibrateOptions { ext: chosen, ..CalibrateOptions::default() })
         .map_err(|e| DiscoverError::Calibrate(Box::new(e)))?;
     let table = cal.table.hysteresis.clone();
-    for e in &mut report.effects {
-        e.not_in_table = why_not_in_table(&e.name, &slots);
-        e.in_table = e.not_in_table.is_none();
-    }
+    mark_in_table(report, &slots);
     let ext = table.axes.first().map(|a| a.ext).unwrap_or_default();
     let structure = qfa_calibrate::fit::cycling_structure(cal.table.branch.mode, cal.table.branch.shape, &ext);
     report.flashed = flashed(ch, report, &structure, &chosen_res);
@@ -154,10 +151,7 @@ pub const ONE_PROGRAM: &str = "one program: nothing of calibrate's table is held
 fn one_program(log: &Log, report: &mut Report, named_slots: Vec<String>) -> Result<Table> {
     let cal = calibrate_log(log, &CalibrateOptions::default()).map_err(|e| DiscoverError::Calibrate(Box::new(e)))?;
     let slots = if named_slots.is_empty() { Slots::NoneNamed } else { Slots::OneProgram };
-    for e in &mut report.effects {
-        e.not_in_table = why_not_in_table(&e.name, &slots);
-        e.in_table = e.not_in_table.is_none();
-    }
+    mark_in_table(report, &slots);
     let b = &cal.table.branch;
     let structure = qfa_calibrate::fit::cycling_structure(b.mode, b.shape, &Extensions::NONE);
     report.flashed =
@@ -165,6 +159,14 @@ fn one_program(log: &Log, report: &mut Report, named_slots: Vec<String>) -> Resu
     let coverage = cal.report.coverage.covered.clone();
     report.table = Some(CyclingTable { structure, named_slots, slots, calibrate_heldout: None, coverage });
     Ok(cal.table.hysteresis)
+}
+
+/// Each named effect's `in_table` and `not_in_table` under the decision `slots`.
+fn mark_in_table(report: &mut Report, slots: &Slots) {
+    for e in &mut report.effects {
+        e.not_in_table = why_not_in_table(&e.name, slots);
+        e.in_table = e.not_in_table.is_none();
+    }
 }
 
 /// Why the effect `name` is not in the table, or `None` when it is.
@@ -185,25 +187,13 @@ fn why_not_in_table(name: &str, slots: &Slots) -> Option<String> {
     }
 }
 
-/// The flashed entry: the table, its held-out gaps on the selection folds, and a peer that predicts the bias better there by more than
-/// [`qfa_calibrate::verdict::PEER_TOLERANCE`].
+/// The flashed entry: the table, its held-out gaps on the selection folds, a better peer.
 fn flashed(ch: &Channels, report: &Report, structure: &str, r: &Residuals) -> Flashed {
-    let heldout = gaps(ch.kind, r);
-    let bias = rms(&r.bias);
-    let best = report
-        .peers
-        .iter()
-        .filter_map(|p| p.heldout_rms.map(|x| (p.peer.clone(), x)))
-        .min_by(|a, b| a.1.total_cmp(&b.1));
     Flashed {
         model: structure.to_string(),
-        heldout: Some(heldout),
+        heldout: Some(gaps(ch.kind, r)),
         not_computed: None,
-        // `calibrate`'s rule: a peer is better only beyond its tolerance (two fits of one
-        // cubic, the grid's and the formula's, differ by up to 0.2 %).
-        peer_better: best
-            .filter(|p| bias > p.1 * (1.0 + qfa_calibrate::verdict::PEER_TOLERANCE))
-            .map(|(peer, x)| PeerBetter { peer, heldout_rms: x }),
+        peer_better: peer_better(&report.peers, rms(&r.bias)),
     }
 }
 
@@ -241,11 +231,7 @@ fn fold_residuals(
             .map_err(|e| DiscoverError::Calibrate(Box::new(qfa_calibrate::CalibrateError::Fit(e))))?;
         let no_model = || DiscoverError::NoModel { axis: "the cycling table".into(), fold: Some(k + 1) };
         let model = f.hysteresis.axes.first().ok_or_else(no_model)?;
-        let r = setup.residuals(&setup.predict(model));
-        for (i, _) in test.iter().enumerate().filter(|(_, &t)| t) {
-            out.sf[i] = r.sf[i];
-            out.bias[i] = r.bias[i];
-        }
+        fill_heldout(&mut out, test, &setup.residuals(&setup.predict(model)));
     }
     Ok(out)
 }

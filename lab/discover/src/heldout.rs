@@ -11,6 +11,35 @@ pub(super) fn gaps(kind: LogKind, r: &Residuals) -> Gaps {
     }
 }
 
+/// The flash rule's score of a held-out residual: Σ over the log's channels of (held-out
+/// RMS / noise floor)², `floors` the scale factor's and the bias's. Lower is better.
+pub(crate) fn flash_score(kind: LogKind, r: &Residuals, floors: [f64; 2]) -> f64 {
+    let b = (rms(&r.bias) / floors[1]).powi(2);
+    if kind == LogKind::Cycling {
+        b + (rms(&r.sf) / floors[0]).powi(2)
+    } else {
+        b
+    }
+}
+
+/// The peer that predicts the bias better held out than a model whose bias RMS is `bias`,
+/// by `calibrate`'s rule: beyond [`qfa_calibrate::verdict::PEER_TOLERANCE`] (two fits of
+/// one cubic, the grid's and the formula's, differ by up to 0.2 %).
+pub(crate) fn peer_better(peers: &[PeerGap], bias: f64) -> Option<PeerBetter> {
+    let best =
+        peers.iter().filter_map(|p| p.heldout_rms.map(|x| (p.peer.clone(), x))).min_by(|a, b| a.1.total_cmp(&b.1));
+    best.filter(|p| bias > p.1 * (1.0 + qfa_calibrate::verdict::PEER_TOLERANCE))
+        .map(|(peer, heldout_rms)| PeerBetter { peer, heldout_rms })
+}
+
+/// Copy `r`'s residuals on the bins `test` marks into `out` (a fold's held-out bins).
+pub(crate) fn fill_heldout(out: &mut Residuals, test: &[bool], r: &Residuals) {
+    for (i, _) in test.iter().enumerate().filter(|(_, &t)| t) {
+        out.sf[i] = r.sf[i];
+        out.bias[i] = r.bias[i];
+    }
+}
+
 /// Held-out evaluation of a structure with per-fold nonlinear parameters.
 pub(super) fn heldout(
     setup: &Setup,
@@ -23,11 +52,7 @@ pub(super) fn heldout(
     let mut out = Residuals { sf: vec![f64::NAN; n], bias: vec![f64::NAN; n] };
     for (k, test) in masks.iter().enumerate() {
         let f = setup.fit(s, &nls[k], &trains[k]);
-        let r = setup.residuals(&f.pred);
-        for (i, _) in test.iter().enumerate().filter(|(_, &t)| t) {
-            out.sf[i] = r.sf[i];
-            out.bias[i] = r.bias[i];
-        }
+        fill_heldout(&mut out, test, &setup.residuals(&f.pred));
     }
     out
 }

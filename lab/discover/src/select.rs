@@ -558,31 +558,20 @@ fn linear_cis(
 /// residuals the selection used); and the peer that predicts the bias better, if any.
 /// Returns whether the named model is flashed, and the report's entry.
 fn choose_flashed(ch: &Channels, before: &Residuals, cur: &Residuals, peers: &[PeerGap]) -> (bool, Flashed) {
-    let cyc = ch.kind == LogKind::Cycling;
     // The block test only adds an effect that gains, but the backward step and the joint
     // re-fit can still leave a model that does worse; then the start is flashed.
     let floors = [noise_floor(ch, &cur.sf), noise_floor(ch, &cur.bias)];
-    let score = |r: &Residuals| {
-        let b = (rms(&r.bias) / floors[1]).powi(2);
-        if cyc {
-            b + (rms(&r.sf) / floors[0]).powi(2)
-        } else {
-            b
-        }
-    };
-    let named_flashed = score(cur) <= score(before);
+    let named_flashed = flash_score(ch.kind, cur, floors) <= flash_score(ch.kind, before, floors);
     let flashed_gaps = gaps(ch.kind, if named_flashed { cur } else { before });
     let flashed_bias = match flashed_gaps {
         Gaps::Cycling { bias_ug, .. } => bias_ug,
         Gaps::Single { value_rms } => value_rms,
     };
-    let best_peer =
-        peers.iter().filter_map(|p| p.heldout_rms.map(|x| (p.peer.clone(), x))).min_by(|a, b| a.1.total_cmp(&b.1));
     let flashed = Flashed {
         model: if named_flashed { "named model" } else { "start model" }.into(),
         heldout: Some(flashed_gaps),
         not_computed: None,
-        peer_better: best_peer.filter(|p| p.1 < flashed_bias).map(|(peer, x)| PeerBetter { peer, heldout_rms: x }),
+        peer_better: peer_better(peers, flashed_bias),
     };
     (named_flashed, flashed)
 }
