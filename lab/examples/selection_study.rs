@@ -52,6 +52,10 @@ struct Scores {
     both: Vec<Vec<Option<FoldSums>>>,
     forward: Vec<Vec<Option<FoldSums>>>,
     held: Vec<Vec<Option<f64>>>,
+    /// Leg-forward MSE inside the training rows: fitted on the rows before the training
+    /// rows' coldest row (their last turning point), scored on the rows after it inside the
+    /// fit's range.
+    leg: Vec<Vec<Option<f64>>>,
 }
 
 fn scores(log: &StaticLog, lat: &[StaticStructure]) -> Option<Scores> {
@@ -65,7 +69,11 @@ fn scores(log: &StaticLog, lat: &[StaticStructure]) -> Option<Scores> {
     let train: Vec<usize> = (0..=last).collect();
     let mask: Vec<bool> = (0..n).map(|i| i <= last).collect();
     let na = axes.len();
-    let mut s = Scores { both: vec![vec![]; na], forward: vec![vec![]; na], held: vec![vec![]; na] };
+    let mut s =
+        Scores { both: vec![vec![]; na], forward: vec![vec![]; na], held: vec![vec![]; na], leg: vec![vec![]; na] };
+    let turn = (0..=last).fold(0, |b, i| if log.temp_c[i] < log.temp_c[b] { i } else { b });
+    let leg_ok = turn * 10 >= last && (last - turn) * 10 >= last;
+    let before: Vec<bool> = (0..n).map(|i| i < turn).collect();
     for st in lat {
         let traces = StaticTraces::new(&axes[0], st, opts.deadband_c_per_min);
         let b = cv_fold_sums_axes(&axes, &traces, &train, 5, CvOrder::Both, &opts);
@@ -82,6 +90,19 @@ fn scores(log: &StaticLog, lat: &[StaticStructure]) -> Option<Scores> {
                 r.iter().map(|x| x * x).sum::<f64>() / r.len() as f64
             });
             s.held[a].push(h);
+            let l = leg_ok
+                .then(|| fit_static_traced(&axes[a], &traces, &before, opts.grid_points, opts.block).ok())
+                .flatten()
+                .and_then(|fit| {
+                    let tr = axes[a].model_trace(&fit.axis);
+                    let (lo, hi) = (f64::from(fit.axis.bias.t_start_c), f64::from(fit.axis.bias.t_end_c()));
+                    let r: Vec<f64> = (turn..=last)
+                        .filter(|&i| tr.valid[i] && (lo..=hi).contains(&tr.temp_c[i]))
+                        .map(|i| axes[a].accel_g[i] - fit.reference_g - tr.ext_k0_g[i])
+                        .collect();
+                    (r.len() >= 10).then(|| r.iter().map(|x| x * x).sum::<f64>() / r.len() as f64)
+                });
+            s.leg[a].push(l);
         }
     }
     Some(s)
@@ -91,8 +112,10 @@ fn mse(f: &FoldSums) -> f64 {
     f.total.0 / f.total.1 as f64
 }
 
+/// Per-fold MSEs of the folds that scored rows (a fold whose rows all lie outside its
+/// fit's grid scores none, and has no MSE).
 fn fold_mses(f: &FoldSums) -> Vec<f64> {
-    f.folds.iter().map(|&(s, c)| s / c as f64).collect()
+    f.folds.iter().filter(|&&(_, c)| c > 0).map(|&(s, c)| s / c as f64).collect()
 }
 
 fn unknowns(st: &StaticStructure) -> usize {
@@ -197,6 +220,88 @@ fn stepwise(cv: &[Option<FoldSums>], lat: &[StaticStructure], start: usize, z: f
     }
 }
 
+/// Parts of a structure, as (branch level, lag, creep).
+fn parts(st: &StaticStructure) -> (usize, Option<f32>, Option<f32>) {
+    let b = match st.branches {
+        BranchMode::Single => 0,
+        BranchMode::Offset => 1,
+        BranchMode::Free => 2,
+    };
+    (b, st.lag_tau_s, st.creep_tau_s)
+}
+
+fn below(x: &StaticStructure, goal: &StaticStructure) -> bool {
+    let (xb, xl, xc) = parts(x);
+    let (gb, gl, gc) = parts(goal);
+    x.shape == goal.shape && xb <= gb && (xl.is_none() || xl == gl) && (xc.is_none() || xc == gc)
+}
+
+/// Calibrate's search (lowest blocked CV among grid structures), its path walked from the
+/// plain grid one part at a time (lowest CV first); `mode` 0 stops at the first step that
+/// raises the leg-forward figure, 1 skips such a step's structure and goes on, 2 takes the
+/// path's structure with the lowest leg-forward figure. A step whose figure cannot be
+/// computed (a branch the earlier leg lacks) is kept.
+fn leg_judged(s: &Scores, a: usize, lat: &[StaticStructure], plain: usize, mode: u8) -> Option<usize> {
+    let best = lowest(&s.both[a], &|i| lat[i].shape == CurveShape::Nodes)?;
+    let goal = lat[best];
+    let cv = |i: usize| s.both[a][i].as_ref().map(mse);
+    let mut path = vec![plain];
+    while *path.last().unwrap() != best {
+        let at = lat[*path.last().unwrap()];
+        let next = (0..lat.len())
+            .filter(|&j| below(&lat[j], &goal) || j == best)
+            .filter(|&j| is_step(&at, &lat[j]) && cv(j).is_some())
+            .min_by(|&x, &y| cv(x).unwrap().total_cmp(&cv(y).unwrap()));
+        match next {
+            Some(j) => path.push(j),
+            None => path.push(best),
+        }
+    }
+    let leg = |i: usize| s.leg[a][i];
+    match mode {
+        0 => {
+            let mut cur = path[0];
+            for &j in &path[1..] {
+                match (leg(cur), leg(j)) {
+                    (Some(x), Some(y)) if y > x => return Some(cur),
+                    _ => cur = j,
+                }
+            }
+            Some(cur)
+        }
+        2 => path
+            .iter()
+            .copied()
+            .filter(|&i| leg(i).is_some())
+            .min_by(|&x, &y| leg(x).unwrap().total_cmp(&leg(y).unwrap()))
+            .or(Some(best)),
+        _ => {
+            // Skip a raising step: carry on from the current structure with the remaining parts.
+            let mut cur = path[0];
+            for w in path.windows(2) {
+                let (pb, pl, pc) = parts(&lat[w[0]]);
+                let (nb, nl, nc) = parts(&lat[w[1]]);
+                let (cb, cl, cc) = parts(&lat[cur]);
+                let cand = (
+                    cb.max(if nb > pb { nb } else { cb }),
+                    if nl != pl { nl } else { cl },
+                    if nc != pc { nc } else { cc },
+                );
+                let Some(j) = (0..lat.len()).find(|&j| lat[j].shape == CurveShape::Nodes && parts(&lat[j]) == cand)
+                else {
+                    continue;
+                };
+                match (leg(cur), leg(j)) {
+                    (Some(x), Some(y)) if y > x => {}
+                    _ if cv(j).is_some() => cur = j,
+                    _ => {}
+                }
+            }
+            Some(cur)
+        }
+    }
+}
+
 /// A selection rule: the structure it picks for an axis.
 type Rule<'a> = Box<dyn Fn(&Scores, usize) -> Option<usize> + 'a>;
 
@@ -227,7 +332,11 @@ fn main() {
     } else {
         println!("SKIPPED real log: set QFA_REAL_LOG");
     }
-    for seed in [11, 12, 13] {
+    let seeds: Vec<u64> = std::env::var("QFA_STUDY_SEEDS").map_or_else(
+        |_| vec![11, 12, 13],
+        |v| v.split(',').map(|x| x.parse().expect("QFA_STUDY_SEEDS: numbers")).collect(),
+    );
+    for &seed in &seeds {
         for e in [None, Some("sensor_lag"), Some("bias_creep"), Some("bias_branch_hysteresis")] {
             cases.push((format!("sim {} s{seed}", e.unwrap_or("none")), chamber_log(e, seed)));
         }
@@ -238,10 +347,27 @@ fn main() {
     }
     let rules: Vec<(&str, Rule<'_>)> = vec![
         ("lowest CV, grid (calibrate's search)", Box::new(|s: &Scores, a| lowest(&s.both[a], &nodes_only))),
+        (
+            "search, stop at a step that raises the leg-forward figure",
+            Box::new(|s: &Scores, a| leg_judged(s, a, &lat, plain, 0)),
+        ),
+        (
+            "search, skip steps that raise the leg-forward figure",
+            Box::new(|s: &Scores, a| leg_judged(s, a, &lat, plain, 1)),
+        ),
+        ("search path, lowest leg-forward figure", Box::new(|s: &Scores, a| leg_judged(s, a, &lat, plain, 2))),
         ("lowest forward CV, grid", Box::new(|s: &Scores, a| lowest(&s.forward[a], &nodes_only))),
         ("lowest CV, grid and cubic", Box::new(|s: &Scores, a| lowest(&s.both[a], &|_| true))),
         ("lowest forward CV, grid and cubic", Box::new(|s: &Scores, a| lowest(&s.forward[a], &|_| true))),
         ("one-SE rule, grid and cubic", Box::new(|s: &Scores, a| one_se(&s.both[a], &lat))),
+        (
+            "one-SE rule, grid",
+            Box::new(|s: &Scores, a| {
+                let g: Vec<Option<FoldSums>> =
+                    s.both[a].iter().enumerate().map(|(i, f)| f.clone().filter(|_| nodes_only(i))).collect();
+                one_se(&g, &lat)
+            }),
+        ),
         ("stepwise from the grid, any CV drop", Box::new(|s: &Scores, a| stepwise(&s.both[a], &lat, plain, 0.0))),
         (
             "stepwise from the grid, paired gain > 0.5 SE",
@@ -268,6 +394,7 @@ fn main() {
         ("stepwise from the cubic, any CV drop", Box::new(|s: &Scores, a| stepwise(&s.both[a], &lat, cubic0, 0.0))),
     ];
     let mut totals = vec![0.0; rules.len()];
+    let mut picked = vec![0usize; rules.len()];
     let mut clean_named = vec![0usize; rules.len()];
     let mut clean_axes = 0usize;
     let mut count = 0;
@@ -286,6 +413,7 @@ fn main() {
                     Some(i) => {
                         let h = s.held[a][i].unwrap_or(f64::NAN).sqrt();
                         totals[r] += (h * h / oracle.1).ln();
+                        picked[r] += 1;
                         let clean = name.contains("none") || name.contains("desk");
                         let base = if lat[i].shape == CurveShape::Cubic { cubic0 } else { plain };
                         if clean && i != base {
@@ -303,8 +431,9 @@ fn main() {
     }
     for (r, (rn, _)) in rules.iter().enumerate() {
         println!(
-            "rule=\"{rn}\" geo_mean_ratio_to_oracle={:.4} clean_axes_with_a_part_added={} of {clean_axes}",
-            (totals[r] / count as f64 / 2.0).exp(),
+            "rule=\"{rn}\" geo_mean_ratio_to_oracle={:.4} axes_picked={} of {count} clean_axes_with_a_part_added={} of {clean_axes}",
+            (totals[r] / picked[r] as f64 / 2.0).exp(),
+            picked[r],
             clean_named[r]
         );
     }

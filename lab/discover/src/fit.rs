@@ -227,6 +227,7 @@ impl Setup<'_> {
 
     fn features(&self, nl: &Nonlinear) -> Features {
         let probe = self.probe(nl);
+        let cyc = self.ch.kind == LogKind::Cycling; // else Eq. 11's sums are never read
         let n = self.ch.n_bins();
         let mut f = Features {
             sf: Vec::with_capacity(n),
@@ -239,10 +240,9 @@ impl Setup<'_> {
             let (mut s6, mut h, mut pl, mut cr) = ([0.0f64; 6], [0.0f64; GRID_POINTS], 0.0, 0.0);
             tr.advance_rows(&probe, |i, st, step| {
                 let (te, r) = (step.element_c, f64::from(step.rate_c_per_min));
-                let d = f64::from(te - T0_C);
-                let row = qfa_calibrate::fit::eq11_regressors(d, r);
-                for k in 0..6 {
-                    s6[k] += row[k];
+                if cyc {
+                    let row = qfa_calibrate::fit::eq11_regressors(f64::from(te - T0_C), r);
+                    (0..6).for_each(|k| s6[k] += row[k]);
                 }
                 let x = (te - self.grid_start) / self.grid_step;
                 let j = (x as usize).min(GRID_POINTS - 2);
