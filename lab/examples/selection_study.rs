@@ -7,6 +7,7 @@
 //! Cases: the real chamber log (`QFA_REAL_LOG`, else the shared folder beside the
 //! repository), the simulator's chamber cycle with each hidden effect (seeds 11–13), and the
 //! independent desk generator (seeds 1–2; seed 1's log has no later leg and is skipped).
+//! `QFA_STUDY_SEEDS=14,15` draws the simulator's cases from other seeds.
 //! `cargo xtask experiment selection_study` (about 8 s in release). Prints one line per axis
 //! (the oracle, the best any structure gives held out, then each rule's pick), and per rule
 //! the geometric mean over axes of its held-out RMS over the oracle's, and on how many clean

@@ -396,6 +396,10 @@ fn a_unit_logged_through_one_program_fails_saying_why_everywhere() {
     ]);
     assert!(!ok, "{text}");
     assert!(text.contains("fails 2 limit(s)") && text.contains("in-sample"), "{text}");
+    // Its warnings say in-sample too: none speaks of held-out runs the log does not have.
+    let warnings: Vec<&str> = text.lines().filter(|l| l.starts_with("warning:")).collect();
+    assert!(warnings.iter().any(|w| w.contains("in the runs scored in-sample")), "{warnings:#?}");
+    assert!(warnings.iter().all(|w| !w.contains("held-out runs") && !w.contains("held out")), "{warnings:#?}");
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(!report.contains("never saw"), "the held-out line claims rows the fit never saw");
 }

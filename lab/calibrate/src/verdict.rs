@@ -241,9 +241,11 @@ pub(crate) fn cycling_verdict(
     .collect();
     v.covers = Some(c.covers());
     let rej = r.rejected_readings;
+    // A log of one program has no held-out run: its runs are scored in-sample.
+    let runs = if r.held_out { "the held-out runs" } else { "the runs scored in-sample" };
     if rej.outside_sensor_range > 0 {
         v.warnings.push(format!(
-            "the compensator refused {} temperature readings in the held-out runs as outside the DS18B20's \
+            "the compensator refused {} temperature readings in {runs} as outside the DS18B20's \
              -55..125 °C: the program leaves the sensor's range there (the paper's goes to -60 °C), so in use \
              the table holds only within it; a chamber program inside -55..125 °C avoids the gap",
             rej.outside_sensor_range
@@ -251,7 +253,7 @@ pub(crate) fn cycling_verdict(
     }
     if rej.other > 0 {
         v.warnings.push(format!(
-            "the compensator refused {} temperature readings in the held-out runs (jumps, time steps or the \
+            "the compensator refused {} temperature readings in {runs} (jumps, time steps or the \
              power-on value: the log's temperature column has faults the firmware would flag)",
             rej.other
         ));
@@ -260,7 +262,7 @@ pub(crate) fn cycling_verdict(
         qfa_log::cycling::glitches_sentence(&r.skipped_glitches)
             .map(|s| format!("{s}; each is in report.json's skipped_glitches")),
     );
-    v.warnings.extend(worse_than_a_peer(r.bias_residual_ug.hysteresis, r.peers_bias_residual_ug));
+    v.warnings.extend(worse_than_a_peer(r.bias_residual_ug.hysteresis, r.peers_bias_residual_ug, r.held_out));
     v.warnings.extend(notes.iter().cloned());
     v.files = files.iter().map(|f| FileUse::of(f)).collect();
     v.hold_back_if_failed();
@@ -274,13 +276,15 @@ pub(crate) fn cycling_verdict(
 /// (the lab guide's "Peers"); 1 % is five times that, set after that measurement.
 pub const PEER_TOLERANCE: f64 = 0.01;
 
-/// The warning when the table's held-out bias residual `b` (µg) is worse than a peer's by
-/// more than [`PEER_TOLERANCE`], both scored in the table's place.
+/// The warning when the table's bias residual `b` (µg) is worse than a peer's by more than
+/// [`PEER_TOLERANCE`], both scored in the table's place: held out, or in-sample when the
+/// log has no held-out program (`held_out` false).
 #[must_use]
-pub fn worse_than_a_peer(b: f64, p: crate::report::PeerBias) -> Option<String> {
+pub fn worse_than_a_peer(b: f64, p: crate::report::PeerBias, held_out: bool) -> Option<String> {
+    let scored = if held_out { "held out" } else { "in-sample" };
     (b > p.cubic.min(p.ardupilot) * (1.0 + PEER_TOLERANCE)).then(|| {
         format!(
-            "the bias residual ({b:.2} µg) is worse held out than a bias-only peer in the table's place (PX4 cubic \
+            "the bias residual ({b:.2} µg) is worse {scored} than a bias-only peer in the table's place (PX4 cubic \
              {:.2}, ArduPilot {:.2} µg): a bias model the search did not hold",
             p.cubic, p.ardupilot
         )

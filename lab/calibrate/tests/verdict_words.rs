@@ -8,11 +8,14 @@ use qfa_calibrate::verdict::{leg_shape, worse_than_a_peer};
 #[test]
 fn a_peer_within_the_figures_resolution_is_not_a_warning_beyond_it_is() {
     let p = PeerBias { cubic: 9.679, ardupilot: 10.04 };
-    assert_eq!(worse_than_a_peer(9.684, p), None);
-    assert_eq!(worse_than_a_peer(9.0, p), None);
-    let w = worse_than_a_peer(9.80, p).expect("1.2 % worse");
+    assert_eq!(worse_than_a_peer(9.684, p, true), None);
+    assert_eq!(worse_than_a_peer(9.0, p, true), None);
+    let w = worse_than_a_peer(9.80, p, true).expect("1.2 % worse");
     assert!(w.starts_with("the bias residual (9.80 µg) is worse held out than a bias-only peer"), "{w}");
-    assert!(worse_than_a_peer(10.2, PeerBias { cubic: 11.0, ardupilot: 10.0 }).is_some());
+    assert!(worse_than_a_peer(10.2, PeerBias { cubic: 11.0, ardupilot: 10.0 }, true).is_some());
+    // A log of one program scores both in-sample, and the warning says so.
+    let w = worse_than_a_peer(9.80, p, false).expect("1.2 % worse");
+    assert!(w.starts_with("the bias residual (9.80 µg) is worse in-sample than a bias-only peer"), "{w}");
 }
 
 /// A held-out leg of an hour at 1-s rows, its residual `shape(t)` plus white noise of 0.1 mg

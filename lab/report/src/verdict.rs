@@ -397,7 +397,10 @@ impl Serialize for Verdict {
             // A study without a table covers nothing: the key is left out, never null.
             #[serde(skip_serializing_if = "Option::is_none")]
             covers: &'a Option<Covers>,
-            limits_from: &'a str,
+            // A study checks no limit, so it names no source of limits: the key is left
+            // out, never an empty string.
+            #[serde(skip_serializing_if = "Option::is_none")]
+            limits_from: Option<&'a str>,
             checks: &'a [Check],
             warnings: &'a [String],
             files: &'a [FileUse],
@@ -410,7 +413,7 @@ impl Serialize for Verdict {
             expect: &self.expect,
             held_out: &self.held_out,
             covers: &self.covers,
-            limits_from: &self.limits_from,
+            limits_from: (!self.checks.is_empty()).then_some(self.limits_from.as_str()),
             checks: &self.checks,
             warnings: &self.warnings,
             files: &self.files,

@@ -41,6 +41,16 @@ fn the_outcome_fails_on_any_failed_limit_and_on_a_figure_that_was_not_measured()
     assert!(nan.console().contains("not computed") && !nan.console().contains("NaN"), "{}", nan.console());
     let json = json_with_verdict(&nan, &serde_json::json!({})).unwrap();
     assert!(!json.contains("NaN") && !json.contains("null"), "{json}");
+    // A study checks no limit and names no source of limits: no key, never "".
+    let study = Verdict::new("a study", "held out", vec![]);
+    let json: serde_json::Value =
+        serde_json::from_str(&json_with_verdict(&study, &serde_json::json!({})).unwrap()).unwrap();
+    assert!(json["verdict"].get("limits_from").is_none(), "{json}");
+    let mut checked = verdict(&[1.0]);
+    checked.limits_from = "default limits".into();
+    let json: serde_json::Value =
+        serde_json::from_str(&json_with_verdict(&checked, &serde_json::json!({})).unwrap()).unwrap();
+    assert_eq!(json["verdict"]["limits_from"], "default limits");
 }
 
 #[test]
