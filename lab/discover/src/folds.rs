@@ -34,7 +34,7 @@ pub(super) fn folds(ch: &Channels) -> (Vec<Vec<bool>>, Vec<Vec<bool>>, String) {
             for b in 0..t.bins.len() {
                 masks[k][offs[ti] + b] = true;
             }
-            desc[k].push(format!("{} ({:.1} °C/min)", t.program, t.ramp_rate()));
+            desc[k].push(format!("{} ({})", t.program, t.ramp_rate_words()));
         }
         let rule = format!(
             "leave-programs-out, 2 folds by ramp-rate rank: fold A = {}; fold B = {}; each fold fitted on the other",

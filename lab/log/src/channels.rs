@@ -217,12 +217,32 @@ impl Trace {
     /// one (the lab's `paper-0.5`), else the mean |Ṫ| while ramping ([`Motion::direction`]).
     #[must_use]
     pub fn ramp_rate(&self) -> f64 {
+        self.named_rate().unwrap_or_else(|| self.measured_ramp_rate())
+    }
+
+    /// The rate at the end of the program's id (the lab's `paper-0.5`), °C/min, if any.
+    fn named_rate(&self) -> Option<f64> {
         let tail = self.program.rsplit(['-', '_', '@', ' ', '=']).next().unwrap_or("");
-        if let Ok(x) = tail.parse::<f64>() {
-            if x > 0.0 && x <= 20.0 {
-                return x;
+        tail.parse::<f64>().ok().filter(|x| *x > 0.0 && *x <= 20.0)
+    }
+
+    /// The program's rate in words: its id's rate beside what the unit's Ṫ reads while
+    /// ramping when the two differ by over a tenth (a staircase's dwells keep the unit
+    /// below its steps' rate: the lab's `paper-0.9` reads about 0.24 °C/min), else the one.
+    #[must_use]
+    pub fn ramp_rate_words(&self) -> String {
+        let measured = self.measured_ramp_rate();
+        match self.named_rate() {
+            Some(named) if (named - measured).abs() > 0.1 * named => {
+                format!("{named:.1} °C/min in its name; the unit's Ṫ reads {measured:.2} while ramping")
             }
+            _ => format!("{:.2} °C/min", self.ramp_rate()),
         }
+    }
+
+    /// Mean |Ṫ| while ramping ([`Motion::direction`]), °C/min; 0 for a trace that holds.
+    #[must_use]
+    pub fn measured_ramp_rate(&self) -> f64 {
         let r: Vec<f64> = self
             .est_rate
             .iter()
@@ -464,5 +484,28 @@ mod tests {
         let plus_only: String =
             std::iter::once(header.to_string()).chain((1..20).map(|i| format!("p,0,{i},1,22.0,320000,1\n"))).collect();
         assert!(matches!(Channels::parse(&plus_only, 60.0), Err(ChannelsError::NoPairedRuns)));
+    }
+
+    /// A staircase named for its steps' rate says what its unit's Ṫ reads too; a trace
+    /// whose name carries no rate, or the rate it reads, says one figure.
+    #[test]
+    fn a_programs_rate_in_words_is_what_its_rows_read() {
+        let trace = |program: &str, rate: f32| Trace {
+            program: program.into(),
+            time_s: (0..10).map(f64::from).collect(),
+            temp_raw: vec![0; 10],
+            est_t: vec![0.0; 10],
+            est_rate: vec![rate; 10],
+            dt_s: vec![1.0; 10],
+            branch: vec![Branch::Unknown; 10],
+            bins: Vec::new(),
+        };
+        assert_eq!(
+            trace("paper-0.9", 0.24).ramp_rate_words(),
+            "0.9 °C/min in its name; the unit's Ṫ reads 0.24 while ramping"
+        );
+        assert_eq!(trace("paper-0.9", -0.88).ramp_rate_words(), "0.90 °C/min");
+        assert_eq!(trace("chamber", 0.37).ramp_rate_words(), "0.37 °C/min");
+        assert_eq!(trace("paper-0.9", 0.24).ramp_rate(), 0.9, "the folds' order keeps the name's rate");
     }
 }
