@@ -151,6 +151,7 @@ fn a_cycling_discovery_tells_one_story_on_every_rendering() {
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     assert!(!html.contains("<pre") && !html.contains("|---|"), "Markdown on the page");
     assert!(html.matches("<figcaption>").count() >= 4 && html.contains("Look at the lower panel"), "captions");
+    candidates_say_why_not(&std::fs::read_to_string(out.join("report.md")).unwrap());
     let _ = std::fs::remove_dir_all(&d);
 }
 
@@ -188,8 +189,35 @@ fn a_static_discovery_tells_one_story_on_every_rendering() {
             assert!(!page.contains(h), "{axis}: a selection-fold figure called {h:?}");
         }
         assert!(page.contains("Selection-fold gaps"), "{axis}");
+        let md = std::fs::read_to_string(out.join(axis).join("report.md")).unwrap();
+        candidates_say_why_not(&md);
     }
     let _ = std::fs::remove_dir_all(&d);
+}
+
+/// Every candidate row of a discovery's `report.md` says "yes", or "no" with the first test
+/// that refused it, and what it says agrees with the row's own figures: "no: gain/SE" only where gain/SE is not above its critical
+/// value, "no: raw gain/SE" or "no: weight z" only where the whitened gain passed. (Before, the column read "no" alone, also beside a gain/SE
+/// above the critical value that the weight's z had refused.)
+fn candidates_say_why_not(md: &str) {
+    let rounds = md.split("## Candidates per round").nth(1).expect("a candidates section");
+    let mut rows = 0;
+    for line in rounds.lines().filter(|l| l.starts_with("| `")) {
+        let c: Vec<&str> = line.split(" | ").map(|x| x.trim_matches(|ch| ch == '|' || ch == ' ')).collect();
+        let (gain, t, critical, significant) =
+            (c[2].parse::<f64>().unwrap(), c[4].parse::<f64>().unwrap(), c[5].parse::<f64>().unwrap(), c[7]);
+        let whitened_passes = gain > 0.0 && t > critical;
+        match significant {
+            "yes" => assert!(whitened_passes, "{line}"),
+            "no: gain/SE" => assert!(!whitened_passes, "{line}"),
+            s if s.starts_with("no: raw gain/SE ") || s.starts_with("no: weight z ") => {
+                assert!(whitened_passes, "{line}")
+            }
+            other => panic!("a significance without its reason: {other:?} in {line}"),
+        }
+        rows += 1;
+    }
+    assert!(rows > 0, "no candidate rows in {rounds}");
 }
 
 /// The real log: each axis's clause names the structure `table.bin` holds and states how its

@@ -94,20 +94,14 @@ pub(crate) enum Scope<'a> {
 impl Scope<'_> {
     /// What this run's reports call the figures of discovery's own folds.
     #[must_use]
-    pub(crate) fn folds_word(self) -> &'static str {
-        match self {
-            Self::Own => "held-out",
-            Self::StaticAxis { .. } => "selection-fold",
-        }
+    pub(crate) fn folds_word(self) -> String {
+        self.relabel("held-out")
     }
 
     /// [`Scope::folds_word`] opening a sentence.
     #[must_use]
-    pub(crate) fn folds_word_capital(self) -> &'static str {
-        match self {
-            Self::Own => "Held-out",
-            Self::StaticAxis { .. } => "Selection-fold",
-        }
+    pub(crate) fn folds_word_capital(self) -> String {
+        self.relabel("Held-out")
     }
 
     /// The folds this run's own figures come from, by name.
@@ -309,11 +303,22 @@ pub(crate) fn round_row(ch: &Channels, t: &super::CandidateTrial) -> Vec<String>
         format!("{:.2}", t.gain.t),
         format!("{:.2}", t.gain.critical),
         format!("{} × {}", t.gain.blocks, t.gain.block_bins),
-        if t.significant { "yes" } else { "no" }.to_string(),
+        // The first test that refused it: the whitened gain, the raw gain, the weight's z.
+        match &t.weight {
+            _ if t.significant => "yes".into(),
+            _ if !t.gain.passes() => "no: gain/SE".into(),
+            _ if !t.raw_gain.passes() => format!("no: raw gain/SE {:.2} ≤ {:.2}", t.raw_gain.t, t.raw_gain.critical),
+            Some(w) => format!("no: weight z {:.2} ({} ± {:.3e})", w.z, w.param, w.se),
+            None => "no".into(),
+        },
         if t.at_bound.is_empty() { "-".to_string() } else { t.at_bound.join(", ") },
         gaps_text(ch.bias_unit, &t.gaps),
     ]
 }
+
+/// The columns of a round's candidate table before its gaps (`round_row`'s order).
+pub(crate) const ROUND_HEADER: [&str; 9] =
+    ["candidate", "channel", "gain", "SE", "gain/SE", "critical", "blocks × bins", "significant", "at search limit"];
 
 struct Row {
     trace: usize,
@@ -389,7 +394,7 @@ pub(crate) fn hold_bins(ch: &Channels) -> usize {
 fn plots(ch: &Channels, r: &Report, scope: Scope<'_>) -> std::result::Result<Vec<Plot>, PlotError> {
     let rows = rows(ch);
     let (b, a) = &r.residuals;
-    let held = scope.folds_word();
+    let held = &scope.folds_word();
     let mut written = Vec::new();
     // Program offsets so time runs on across programs.
     let mut off = vec![0.0; ch.traces.len()];

@@ -40,7 +40,7 @@ fn slow_noise_sentence(ch: &Channels, r: &Report, channel: &str) -> Option<Strin
 /// look alarming.
 #[must_use]
 pub(crate) fn caption(file: &str, ch: &Channels, r: &Report, scope: Scope<'_>) -> String {
-    let held = scope.folds_word();
+    let held = &scope.folds_word();
     let vs_time = file.ends_with("_vs_time.png");
     let (name, pick): (&str, fn(&Gaps) -> f64) = if file.starts_with("residual_scale_factor") {
         ("Scale-factor", |g| if let Gaps::Cycling { scale_factor_ppm, .. } = g { *scale_factor_ppm } else { f64::NAN })
@@ -118,7 +118,7 @@ pub(crate) fn caption(file: &str, ch: &Channels, r: &Report, scope: Scope<'_>) -
 
 /// The page of one discovery run, opening with its verdict, with the plots it drew.
 pub(crate) fn page(ch: &Channels, r: &Report, scope: Scope<'_>, v: &Verdict, plots: &[Plot]) -> Page {
-    let held = scope.folds_word();
+    let held = &scope.folds_word();
     let mut p = match scope {
         Scope::Own => Page::new("Discovery report"),
         Scope::StaticAxis { axis, .. } => {
@@ -171,7 +171,7 @@ fn page_scheme(p: &mut Page, r: &Report, scope: Scope<'_>) {
 /// The gaps section: the start, named and flashed models' gaps, the noise floor and
 /// model, the change points, the timing offset and the residual against the floor.
 fn page_gaps(p: &mut Page, ch: &Channels, r: &Report, scope: Scope<'_>) {
-    let (held, held_cap) = (scope.folds_word(), scope.folds_word_capital());
+    let (held, held_cap) = (&scope.folds_word(), &scope.folds_word_capital());
     let mut gap_rows = vec![
         ("start model".to_string(), gaps_text(ch.bias_unit, &r.heldout_gap_before)),
         (scope.model_name(r).to_string(), gaps_text(ch.bias_unit, &r.heldout_gap_after)),
@@ -216,7 +216,7 @@ fn page_gaps(p: &mut Page, ch: &Channels, r: &Report, scope: Scope<'_>) {
 
 /// The effects added, one row each, or a line saying none was.
 fn page_effects(p: &mut Page, r: &Report, scope: Scope<'_>) {
-    let held = scope.folds_word();
+    let held = &scope.folds_word();
     let effects: Vec<Vec<String>> = r
         .effects
         .iter()
@@ -272,7 +272,7 @@ fn page_unexplained(p: &mut Page, ch: &Channels, r: &Report, held: &str) {
 
 /// The peers' table: every model's held-out RMS of the bias channel on the same split.
 fn page_peers(p: &mut Page, ch: &Channels, r: &Report, scope: Scope<'_>) {
-    let held = scope.folds_word();
+    let held = &scope.folds_word();
     let bias_gap = |g: &Gaps| match g {
         Gaps::Cycling { bias_ug, .. } => *bias_ug,
         Gaps::Single { value_rms } => *value_rms,
@@ -332,18 +332,8 @@ fn page_rounds(p: &mut Page, ch: &Channels, r: &Report, held: &str) {
         "Gain: drop of the {held} Σ(residual/RMS)² (units of one bin's variance); SE from the block sums; \
          significant when gain/SE exceeds the critical value."
     ));
-    let header = [
-        "candidate".to_string(),
-        "channel".to_string(),
-        "gain".to_string(),
-        "SE".to_string(),
-        "gain/SE".to_string(),
-        "critical".to_string(),
-        "blocks × bins".to_string(),
-        "significant".to_string(),
-        "at search limit".to_string(),
-        format!("{held} gaps"),
-    ];
+    let mut header: Vec<String> = super::output::ROUND_HEADER.map(String::from).to_vec();
+    header.push(format!("{held} gaps"));
     for (i, round) in r.rounds.iter().enumerate() {
         p.para(&format!("Round {}", i + 1));
         let rows: Vec<Vec<String>> = round.iter().map(|t| super::output::round_row(ch, t)).collect();

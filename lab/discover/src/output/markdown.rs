@@ -8,7 +8,7 @@ use super::*;
 /// `report.md`: the opening, the gaps and the summary, then the peers, the effects, what
 /// is unexplained, where the models disagree, the rounds and the files.
 pub(super) fn markdown(ch: &Channels, r: &Report, scope: Scope<'_>, v: &Verdict) -> String {
-    let held = scope.folds_word();
+    let held = &scope.folds_word();
     let mut s = String::new();
     markdown_opening(&mut s, r, scope, v);
     markdown_gaps(&mut s, ch, r, scope);
@@ -58,7 +58,7 @@ fn markdown_opening(s: &mut String, r: &Report, scope: Scope<'_>, v: &Verdict) {
 /// The gaps of the start and the named model, the noise floor, the noise model, the
 /// change points and the timing offset, as a list.
 fn markdown_gaps(s: &mut String, ch: &Channels, r: &Report, scope: Scope<'_>) {
-    let (held, held_cap) = (scope.folds_word(), scope.folds_word_capital());
+    let (held, held_cap) = (&scope.folds_word(), &scope.folds_word_capital());
     let _ = writeln!(s, "- {held_cap} gap, start model: {}", gaps_text(ch.bias_unit, &r.heldout_gap_before));
     let _ = writeln!(
         s,
@@ -127,7 +127,7 @@ fn summary_text(ch: &Channels, r: &Report, held: &str) -> String {
 
 /// The peers' table: every model's held-out RMS of the bias channel on the same split.
 fn markdown_peers(s: &mut String, ch: &Channels, r: &Report, scope: Scope<'_>) {
-    let held = scope.folds_word();
+    let held = &scope.folds_word();
     let unit = ch.bias_unit.label();
     let _ = writeln!(
         s,
@@ -154,7 +154,7 @@ fn markdown_peers(s: &mut String, ch: &Channels, r: &Report, scope: Scope<'_>) {
 
 /// The effects added, one row each, or a line saying none was.
 fn markdown_effects(s: &mut String, r: &Report, scope: Scope<'_>) {
-    let held = scope.folds_word();
+    let held = &scope.folds_word();
     if r.effects.is_empty() {
         let _ = writeln!(s, "## Effects added: none\n\nNo candidate improved the {held} fit significantly.\n");
     } else {
@@ -305,7 +305,9 @@ fn markdown_where(s: &mut String, ch: &Channels, r: &Report, held: &str) {
 fn markdown_rounds(s: &mut String, ch: &Channels, r: &Report, held: &str) {
     let _ = writeln!(s, "\n## Candidates per round\n\nGain: drop of the {held} Σ(residual/RMS)² (units of one bin's variance); SE from the block sums; significant when gain/SE exceeds the critical value.\n");
     for (i, round) in r.rounds.iter().enumerate() {
-        let _ = writeln!(s, "### Round {}\n\n| candidate | channel | gain | SE | gain/SE | critical | blocks × bins | significant | at search limit | {held} gaps |\n|---|---|---|---|---|---|---|---|---|---|", i + 1);
+        let cols = super::ROUND_HEADER.join(" | ");
+        let _ =
+            writeln!(s, "### Round {}\n\n| {cols} | {held} gaps |\n|---|---|---|---|---|---|---|---|---|---|", i + 1);
         for t in round {
             let _ = writeln!(s, "| {} |", round_row(ch, t).join(" | "));
         }
