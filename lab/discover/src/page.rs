@@ -330,7 +330,8 @@ fn page_where(p: &mut Page, ch: &Channels, r: &Report, held: &str) {
 fn page_rounds(p: &mut Page, ch: &Channels, r: &Report, held: &str) {
     p.section("Candidates per round").para(&format!(
         "Gain: drop of the {held} Σ(residual/RMS)² (units of one bin's variance); SE from the block sums; \
-         significant when gain/SE exceeds the critical value."
+         significant when gain/SE exceeds the critical value and the raw gain and the effect's weight pass their \
+         tests too; a \"no\" names the first that did not."
     ));
     let mut header: Vec<String> = super::output::ROUND_HEADER.map(String::from).to_vec();
     header.push(format!("{held} gaps"));

@@ -303,7 +303,7 @@ fn markdown_where(s: &mut String, ch: &Channels, r: &Report, held: &str) {
 
 /// Every round's candidates, one table per round.
 fn markdown_rounds(s: &mut String, ch: &Channels, r: &Report, held: &str) {
-    let _ = writeln!(s, "\n## Candidates per round\n\nGain: drop of the {held} Σ(residual/RMS)² (units of one bin's variance); SE from the block sums; significant when gain/SE exceeds the critical value.\n");
+    let _ = writeln!(s, "\n## Candidates per round\n\nGain: drop of the {held} Σ(residual/RMS)² (units of one bin's variance); SE from the block sums; significant when gain/SE exceeds the critical value and the raw gain and the effect's weight pass their tests too; a \"no\" names the first that did not.\n");
     for (i, round) in r.rounds.iter().enumerate() {
         let cols = super::ROUND_HEADER.join(" | ");
         let _ =
