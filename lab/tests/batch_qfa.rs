@@ -402,6 +402,9 @@ fn a_unit_logged_through_one_program_fails_saying_why_everywhere() {
     assert!(warnings.iter().all(|w| !w.contains("held-out runs") && !w.contains("held out")), "{warnings:#?}");
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(!report.contains("never saw"), "the held-out line claims rows the fit never saw");
+    assert!(report.contains("## In-sample figures") && !report.contains("## Held-out figures"), "{report}");
+    let page = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(!page.contains("Held-out figures") && !page.contains("held-out bins only"), "the page calls them held out");
 }
 
 /// A fleet of four (three of them bad) is too few to compare units with: no unit is flagged

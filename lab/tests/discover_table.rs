@@ -119,3 +119,33 @@ fn a_slot_is_in_the_table_only_when_it_carries_forward() {
     let plain = calibrate_log(log, &CalibrateOptions::default()).unwrap();
     assert_eq!(plain.table.hysteresis.to_bytes().unwrap(), table.to_bytes().unwrap());
 }
+
+/// What `covers` and the table's limits describe is the table written, fitted on every
+/// program with a pair, not the fit programs the held-out figures come from. Before, a
+/// two-program log's report said the table clamps |Ṫ| to 1.25 × its fit program's fastest
+/// rate while `table.bin` held 1.25 × the faster held-out program's.
+#[test]
+fn the_coverage_is_of_the_table_written() {
+    let src = Source::parse(
+        &cycling_csv(&quick(41), &truth(kt8_1_scale(), [1.2e-4, 2.5e-6, 1.5e-8], Extensions::NONE), 20.0),
+        60.0,
+    )
+    .unwrap();
+    let log = log_of(&src);
+    let cal = calibrate_log(log, &CalibrateOptions::default()).unwrap();
+    let r = &cal.report;
+    assert!(r.fit_programs.len() < r.table_programs.len(), "a log whose table has more programs than its fit");
+    assert_eq!(r.coverage.programs, r.table_programs);
+    let table = &cal.table.hysteresis;
+    let written = qfa_thermal::Table::decode(&table.to_bytes().unwrap()).unwrap();
+    assert_eq!(r.coverage.table.rate_limit_c_per_min, f64::from(written.axes[0].rate_limit_c_per_min));
+    // Every program's rows are in the coverage: as many rows as the table's programs' runs
+    // have temperatures, counted here from the log itself.
+    let rows: usize = log
+        .runs
+        .iter()
+        .filter(|run| r.table_programs.contains(&run.program))
+        .map(|run| run.samples.iter().filter(|s| s.temp_c.is_some_and(f64::is_finite)).count())
+        .sum();
+    assert!(r.coverage.covered.rows >= rows * 9 / 10, "{} rows covered of {rows}", r.coverage.covered.rows);
+}

@@ -220,7 +220,7 @@ impl TableLimits {
 /// A calibration's coverage and its table's limits, for the reports.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct CalCoverage {
-    /// Programs the coverage is of (the flown table's fit programs).
+    /// Programs the coverage is of: those the table written was fitted on.
     pub programs: Vec<String>,
     /// What their rows span.
     pub covered: Coverage,
@@ -231,8 +231,8 @@ pub struct CalCoverage {
 impl CalCoverage {
     /// Coverage, the table's limits, and what to record next, as a report section.
     pub fn to_page(&self, page: &mut qfa_report::html_report::Page) {
-        page.section("What the fit rows cover, against what the model needs");
-        let mut rows = vec![("fit programs".to_string(), self.programs.join(", "))];
+        page.section("What the table's rows cover, against what the model needs");
+        let mut rows = vec![("the table's programs".to_string(), self.programs.join(", "))];
         rows.extend(self.covered.rows());
         rows.push((
             "table clamps to".to_string(),
@@ -243,7 +243,7 @@ impl CalCoverage {
         ));
         page.kv(&rows);
         page.para(
-            "The hysteresis model (Eq. 11 plus heating and cooling bias grids) needs both legs, over the temperatures              and at the rates the unit will see: outside them the firmware clamps and flags. Compare the limits with              a mission (`qfa-lab plan`).",
+            "The hysteresis model (Eq. 11 plus heating and cooling bias grids) needs both legs, over the temperatures and at the rates the unit will see: outside them the firmware clamps and flags. Compare the limits with a mission (`qfa-lab plan`).",
         );
         let next = self.covered.record_next();
         if next.is_empty() {

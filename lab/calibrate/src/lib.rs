@@ -272,7 +272,9 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
         t_fit += t.elapsed().as_secs_f64();
         (table, p)
     };
-    let coverage = cal_coverage(log, &fit_p, &fitted)?;
+    // What the table written covers and clamps to: its own programs and limits (the
+    // held-out figures' fit programs are a part of them).
+    let coverage = cal_coverage(log, &table_p, &table)?;
     let report = Report {
         coverage,
         rows: log.rows(),
@@ -313,13 +315,13 @@ fn fit_and_eval_programs(programs: &[String], fit_programs: Option<&[String]>) -
     (fit_p, eval_p)
 }
 
-/// What the fit programs covered and what the hysteresis table claims.
-fn cal_coverage(log: &Log, fit_p: &[String], fitted: &Fitted) -> Result<crate::coverage::CalCoverage, CalibrateError> {
+/// What the table's programs `table_p` cover and what its hysteresis table claims.
+fn cal_coverage(log: &Log, table_p: &[String], table: &Fitted) -> Result<crate::coverage::CalCoverage, CalibrateError> {
     let deadband = qfa_log::replay::branch_deadband_c_per_min();
     Ok(crate::coverage::CalCoverage {
-        covered: crate::coverage::Coverage::of_log(log, fit_p, deadband).map_err(CalibrateError::Coverage)?,
-        table: crate::coverage::TableLimits::of(&fitted.hysteresis).map_err(CalibrateError::Coverage)?,
-        programs: fit_p.to_vec(),
+        covered: crate::coverage::Coverage::of_log(log, table_p, deadband).map_err(CalibrateError::Coverage)?,
+        table: crate::coverage::TableLimits::of(&table.hysteresis).map_err(CalibrateError::Coverage)?,
+        programs: table_p.to_vec(),
     })
 }
 
@@ -535,7 +537,10 @@ pub(crate) fn page(cal: &Calibration, opts: &CalibrateOptions) -> qfa_report::ht
     }
     p.section("Held-out scheme").kv(&[
         ("fitted on (programs)", r.fit_programs.join(", ")),
-        ("held out, figures from (programs)", r.eval_programs.join(", ")),
+        (
+            if r.held_out { "held out, figures from (programs)" } else { "in-sample, figures from (programs)" },
+            r.eval_programs.join(", "),
+        ),
         ("written tables fitted on (programs)", r.table_programs.join(", ")),
         ("which rows each output comes from", r.figures.clone()),
         ("log rows", r.rows.to_string()),
@@ -547,7 +552,7 @@ pub(crate) fn page(cal: &Calibration, opts: &CalibrateOptions) -> qfa_report::ht
     p.para(&format!("Metric: {}.", r.metric));
     r.coverage.to_page(&mut p);
     fit_section(&mut p, &r.fit);
-    plots_section(&mut p, &cal.plots);
+    plots_section(&mut p, &cal.plots, r.held_out);
     if let Some(t) = r.timings_s {
         p.section("Timings").para(&format!(
             "read {:.2} s, fit {:.2} s, held-out compensation {:.2} s, plots {:.2} s",
@@ -572,7 +577,7 @@ pub(crate) fn held_out_structure(f: &FitSummary) -> String {
 /// The held-out figures of each model and peer.
 fn held_out_figures_section(p: &mut qfa_report::html_report::Page, r: &Report) {
     let (s, b, pb) = (r.sensitivity_ppm_per_c, r.bias_residual_ug, r.peers_bias_residual_ug);
-    p.section("Held-out figures").table(
+    p.section(&format!("{} figures", r.scored())).table(
         &["model", "scale-factor sensitivity, ppm/°C", "bias residual, µg RMS"],
         &[
             vec!["no compensation".to_string(), format!("{:.2}", s.none), format!("{:.2}", b.none)],
@@ -627,11 +632,15 @@ fn fit_section(p: &mut qfa_report::html_report::Page, f: &FitSummary) {
 }
 
 /// The held-out plots, each with what to read in it (no section without plots).
-fn plots_section(p: &mut qfa_report::html_report::Page, plots: &[qfa_report::plot_png::Plot]) {
+fn plots_section(p: &mut qfa_report::html_report::Page, plots: &[qfa_report::plot_png::Plot], held_out: bool) {
     if plots.is_empty() {
         return;
     }
-    p.section("Plots (held-out bins only: the fit programs are not drawn)");
+    p.section(if held_out {
+        "Plots (held-out bins only: the fit programs are not drawn)"
+    } else {
+        "Plots (in-sample: the log's one program, the rows its tables were fitted on)"
+    });
     p.plots(plots, |file| plot_caption(file).to_string());
 }
 
@@ -640,7 +649,7 @@ fn plots_section(p: &mut qfa_report::html_report::Page, plots: &[qfa_report::plo
 pub fn plot_caption(file: &str) -> &'static str {
     match file {
         report::SF_PLOT => {
-            "Scale factor against temperature on the held-out programs, per model. Left, uncompensated: the \
+            "Scale factor against temperature on the programs scored (held out; a one-program log's own), per model. Left, uncompensated: the \
          drift and the gap between heating (red) and cooling (blue) are what the table must remove. Right, \
          the table (hysteresis): the points should lie flat, the two colours on one band; a slope left is \
          sensitivity, a gap left is hysteresis the model did not carry."

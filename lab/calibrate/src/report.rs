@@ -256,13 +256,26 @@ pub struct Timings {
     pub total: f64,
 }
 
+impl Report {
+    /// What its figures are: `Held-out`, or `In-sample` for a log of one program, whose
+    /// tables are scored on the rows they were fitted on.
+    #[must_use]
+    pub fn scored(&self) -> &'static str {
+        if self.held_out {
+            "Held-out"
+        } else {
+            "In-sample"
+        }
+    }
+}
+
 /// The held-out figures of a cycling calibration in Markdown (after the verdict in
 /// `report.md`).
 #[must_use]
 pub(crate) fn markdown(r: &Report) -> String {
     let (s, b, pb) = (r.sensitivity_ppm_per_c, r.bias_residual_ug, r.peers_bias_residual_ug);
     format!(
-        "## Held-out figures\n\nTables fitted on programs {}, figures from programs {}; the written tables are \
+        "## {} figures\n\nTables fitted on programs {}, figures from programs {}; the written tables are \
          fitted on programs {}.\n\n\
          | model | scale-factor sensitivity, ppm/°C | bias residual, µg RMS |\n|---|---|---|\n\
          | no compensation | {:.2} | {:.2} |\n| simple (Eq. 3–4) | {:.2} | {:.2} |\n\
@@ -271,6 +284,7 @@ pub(crate) fn markdown(r: &Report) -> String {
          | ArduPilot TCAL (bias only, in the table's place) | - | {:.2} |\n\n\
          A bias-only peer is scored with the table's scale factor, on its rows and bins.\n\n\
          Metric: {}.\n",
+        r.scored(),
         r.fit_programs.join(", "),
         r.eval_programs.join(", "),
         r.table_programs.join(", "),
@@ -288,7 +302,7 @@ pub(crate) fn markdown(r: &Report) -> String {
 }
 
 /// Metric definition written into the report.
-pub(crate) const METRIC_TEXT: &str = "Table-4 sensitivity (max-min)/(mean*span)*1e6 ppm/degC over held-out bins \
+pub(crate) const METRIC_TEXT: &str = "Table-4 sensitivity (max-min)/(mean*span)*1e6 ppm/degC over the scored bins \
 (program, branch segment, 1 degC of T-hat; bins >= 60 s); compensated scale factor (a+ - a-)/2 from the root \
 crate's Compensator<1,32>; bias residual = RMS of binned (a+ + a-)/2 and 0 g outputs, ug";
 

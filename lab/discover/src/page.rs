@@ -19,15 +19,15 @@ pub(crate) fn coverage(ch: &Channels) -> Result<Coverage, CoverageError> {
     Coverage::of_samples(s, f64::from(qfa_log::replay::branch_deadband_c_per_min()))
 }
 
-/// The caption's sentence for a `channel` whose residual wanders more than twice its white
-/// noise while its fitted noise model is not rejected: slow noise explains it.
+/// The caption's sentence for a `channel` whose residual wanders more than twice its noise
+/// floor (bin to bin) while its fitted noise model is not rejected: slow noise explains it.
 fn slow_noise_sentence(ch: &Channels, r: &Report, channel: &str) -> Option<String> {
     let f = r.residual_vs_floor.iter().find(|f| f.channel == channel && f.ratio > 2.0)?;
     if r.unexplained.iter().any(|u| u.channel == channel) {
         return None;
     }
     Some(format!(
-        " The lower panel wanders {:.1}× wider than its white noise, and the noise model fitted to it ({}) \
+        " The lower panel wanders {:.1}× wider than its bin-to-bin noise floor, and the noise model fitted to it ({}) \
          is not rejected (no step inside a run, run levels within its noise, no driver followed): slow \
          noise of that size explains it, and the catalog's effects cannot be told from it.",
         f.ratio,

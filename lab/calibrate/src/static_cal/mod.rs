@@ -628,7 +628,8 @@ fn figures_text(scheme: &Scheme, n: usize) -> String {
         ),
     };
     format!(
-        "{held}; table.bin/table.toml and the PX4 and ArduPilot parameter files written: fitted on all {n} rows (bias \
-         from each axis's mean over all rows); table_rms_mg: that table on all rows (in-sample)"
+        "{held}; every table written (table.bin, and what else the command writes: table.toml, the PX4 and \
+         ArduPilot files): fitted on all {n} rows (bias from each axis's mean over all rows); table_rms_mg: that table \
+         on all rows (in-sample)"
     )
 }
