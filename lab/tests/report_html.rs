@@ -75,9 +75,14 @@ fn calibrate_and_discover_on_a_cycling_log_write_pages_that_load() {
     let cal = d.join("cal");
     lab_ok(&["calibrate", "--log", &s(&log), "--out", &s(&cal)]);
     let html = std::fs::read_to_string(cal.join("report.html")).unwrap();
-    for want in
-        ["Held-out scheme", "paper-0.5", "rows cover, against what the model needs", "heating leg", "cooling leg", "table clamps to"]
-    {
+    for want in [
+        "Held-out scheme",
+        "paper-0.5",
+        "rows cover, against what the model needs",
+        "heating leg",
+        "cooling leg",
+        "table clamps to",
+    ] {
         assert!(html.contains(want), "calibrate's page lacks {want:?}");
     }
     browser::assert_page(&cal.join("report.html"), 2);
