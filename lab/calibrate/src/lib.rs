@@ -279,7 +279,7 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
         coverage,
         rows: log.rows(),
         held_out: fit_p.iter().all(|p| !eval_p.contains(p)),
-        figures: figures_text(&fit_p, &eval_p, &table_p),
+        figures: figures_text(&fit_p, &eval_p, &table_p, fit_p.iter().all(|p| !eval_p.contains(p))),
         table_programs: table_p,
         fit_programs: fit_p,
         eval_programs: eval_p,
@@ -326,11 +326,12 @@ fn cal_coverage(log: &Log, table_p: &[String], table: &Fitted) -> Result<crate::
 }
 
 /// Which rows each output comes from, in words.
-fn figures_text(fit_p: &[String], eval_p: &[String], table_p: &[String]) -> String {
+fn figures_text(fit_p: &[String], eval_p: &[String], table_p: &[String], held_out: bool) -> String {
     format!(
-        "held-out figures and plots: tables fitted on {fit}, compensated on {}; table.*, table_simple.*, \
+        "{} figures and plots: tables fitted on {fit}, compensated on {}; table.*, table_simple.*, \
          px4_tc.params, ardupilot_tcal_*.parm: fitted on {} (every program with a +1 g / -1 g pair), the bias \
          grid's branch tie and shape chosen there by the cross-validation that chose them on {fit}",
+        if held_out { "held-out" } else { "in-sample (one program)" },
         eval_p.join(", "),
         table_p.join(", "),
         fit = fit_p.join(", ")
@@ -483,15 +484,17 @@ pub fn calibrate_into(
     let t = Instant::now();
     if opts.plots {
         let held = format!(
-            "held out: programs {} (tables fitted on {})",
+            "{}: programs {} (tables fitted on {})",
+            if cal.report.held_out { "held out" } else { "in-sample" },
             cal.report.eval_programs.join(", "),
             cal.report.fit_programs.join(", ")
         );
+        let bins = if cal.report.held_out { "held-out bins" } else { "in-sample bins" };
         let title = if opts.title.is_empty() { held } else { format!("{}, {held}", opts.title) };
         let (sf, residual) = (out.join(report::SF_PLOT), out.join(report::RESIDUAL_PLOT));
         cal.plots = vec![
-            plot_sf_vs_temp(&title, &cal.eval).map_err(OutputError::plot(&sf))?,
-            plot_residual_vs_time(&title, &cal.eval).map_err(OutputError::plot(&residual))?,
+            plot_sf_vs_temp(&title, &cal.eval, bins).map_err(OutputError::plot(&sf))?,
+            plot_residual_vs_time(&title, &cal.eval, bins).map_err(OutputError::plot(&residual))?,
         ];
         qfa_report::plot_png::write_all(&cal.plots, out).map_err(OutputError::io(out))?;
     }

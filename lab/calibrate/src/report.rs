@@ -334,11 +334,16 @@ pub const RESIDUAL_PLOT: &str = "residual_vs_time.png";
 ///
 /// # Errors
 /// Drawing or encoding errors.
-pub(crate) fn plot_sf_vs_temp(title: &str, ev: &Evaluation) -> Result<Plot, PlotError> {
-    Plot::draw(SF_PLOT, (1500, 500), |root| draw_sf_vs_temp(root, title, ev))
+pub(crate) fn plot_sf_vs_temp(title: &str, ev: &Evaluation, bins_word: &str) -> Result<Plot, PlotError> {
+    Plot::draw(SF_PLOT, (1500, 500), |root| draw_sf_vs_temp(root, title, ev, bins_word))
 }
 
-fn draw_sf_vs_temp(root: &Area<'_>, title: &str, ev: &Evaluation) -> Result<(), qfa_report::plot_legend::DrawError> {
+fn draw_sf_vs_temp(
+    root: &Area<'_>,
+    title: &str,
+    ev: &Evaluation,
+    bins_word: &str,
+) -> Result<(), qfa_report::plot_legend::DrawError> {
     use plotters::prelude::*;
     root.fill(&WHITE)?;
     let (top, body) = root.split_vertically(30);
@@ -364,9 +369,7 @@ fn draw_sf_vs_temp(root: &Area<'_>, title: &str, ev: &Evaluation) -> Result<(), 
         // The legend in a strip above the chart: in the chart it covered bins.
         let entries: Vec<qfa_report::plot_legend::Entry> = drawn
             .iter()
-            .map(|(br, label)| {
-                (format!("{label}, held-out bins"), branch_color(*br), qfa_report::plot_legend::Mark::Dot)
-            })
+            .map(|(br, label)| (format!("{label}, {bins_word}"), branch_color(*br), qfa_report::plot_legend::Mark::Dot))
             .collect();
         let body = qfa_report::plot_legend::heading(area, names[k], &entries)?;
         let mut chart = ChartBuilder::on(&body)
@@ -390,14 +393,15 @@ fn draw_sf_vs_temp(root: &Area<'_>, title: &str, ev: &Evaluation) -> Result<(), 
 ///
 /// # Errors
 /// Drawing or encoding errors.
-pub(crate) fn plot_residual_vs_time(title: &str, ev: &Evaluation) -> Result<Plot, PlotError> {
-    Plot::draw(RESIDUAL_PLOT, (1400, 800), |root| draw_residual_vs_time(root, title, ev))
+pub(crate) fn plot_residual_vs_time(title: &str, ev: &Evaluation, bins_word: &str) -> Result<Plot, PlotError> {
+    Plot::draw(RESIDUAL_PLOT, (1400, 800), |root| draw_residual_vs_time(root, title, ev, bins_word))
 }
 
 fn draw_residual_vs_time(
     root: &Area<'_>,
     title: &str,
     ev: &Evaluation,
+    bins_word: &str,
 ) -> Result<(), qfa_report::plot_legend::DrawError> {
     use plotters::prelude::*;
     root.fill(&WHITE)?;
@@ -432,7 +436,7 @@ fn draw_residual_vs_time(
         let ydesc = if k == 0 { "scale-factor residual (ppm)" } else { "bias residual (ug)" };
         chart.configure_mesh().x_desc("time since program start (h)").y_desc(ydesc).draw()?;
         for (s, (pts, c)) in series.iter().zip(colors).enumerate() {
-            let label = if s == 0 { "simple, held-out bins" } else { "hysteresis, held-out bins" };
+            let label = format!("{}, {bins_word}", if s == 0 { "simple" } else { "hysteresis" });
             chart
                 .draw_series(pts.iter().map(|&p| Circle::new(p, 2, c.filled())))?
                 .label(label)
