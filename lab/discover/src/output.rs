@@ -296,7 +296,7 @@ fn flashed_line(s: &mut String, ch: &Channels, r: &Report) {
 #[must_use]
 pub(crate) fn round_row(ch: &Channels, t: &super::CandidateTrial) -> Vec<String> {
     vec![
-        format!("`{}`", t.name),
+        t.name.clone(),
         t.channel.clone(),
         format!("{:.1}", t.gain.gain),
         format!("{:.1}", t.gain.se),
@@ -423,7 +423,7 @@ fn plots(ch: &Channels, r: &Report, scope: Scope<'_>) -> std::result::Result<Vec
                     scope.model_name(r).to_string()
                 };
                 let titles = [
-                    format!("start model `{}`: {held} RMS {:.2} {unit}", r.start.name(), rms_of_finite(before)),
+                    format!("start model {}: {held} RMS {:.2} {unit}", r.start.name(), rms_of_finite(before)),
                     format!("{named}: {held} RMS {:.2} {unit}", rms_of_finite(after)),
                 ];
                 let branches = [

@@ -278,7 +278,7 @@ fn page_peers(p: &mut Page, ch: &Channels, r: &Report, scope: Scope<'_>) {
         Gaps::Single { value_rms } => *value_rms,
     };
     let mut peers: Vec<Vec<String>> = vec![
-        vec![format!("start model (`{}`)", r.start.name()), format!("{:.4}", bias_gap(&r.heldout_gap_before))],
+        vec![format!("start model ({})", r.start.name()), format!("{:.4}", bias_gap(&r.heldout_gap_before))],
         vec![scope.model_name(r).to_string(), format!("{:.4}", bias_gap(&r.heldout_gap_after))],
     ];
     peers.extend(r.peers.iter().map(|x| {

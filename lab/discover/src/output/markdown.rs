@@ -309,7 +309,7 @@ fn markdown_rounds(s: &mut String, ch: &Channels, r: &Report, held: &str) {
         let _ =
             writeln!(s, "### Round {}\n\n| {cols} | {held} gaps |\n|---|---|---|---|---|---|---|---|---|---|", i + 1);
         for t in round {
-            let _ = writeln!(s, "| {} |", round_row(ch, t).join(" | "));
+            let _ = writeln!(s, "| `{} |", round_row(ch, t).join(" | ").replacen(" | ", "` | ", 1));
         }
         let _ = writeln!(s);
     }
