@@ -275,11 +275,13 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
     // What the table written covers and clamps to: its own programs and limits (the
     // held-out figures' fit programs are a part of them).
     let coverage = cal_coverage(log, &table_p, &table)?;
+    // Held out when no fit program is scored (a log of one program scores its own rows).
+    let held_out = fit_p.iter().all(|p| !eval_p.contains(p));
     let report = Report {
         coverage,
         rows: log.rows(),
-        held_out: fit_p.iter().all(|p| !eval_p.contains(p)),
-        figures: figures_text(&fit_p, &eval_p, &table_p, fit_p.iter().all(|p| !eval_p.contains(p))),
+        held_out,
+        figures: figures_text(&fit_p, &eval_p, &table_p, held_out),
         table_programs: table_p,
         fit_programs: fit_p,
         eval_programs: eval_p,
