@@ -264,7 +264,7 @@ pub struct Draw {
     pub scenario: Scenario,
     /// The three units with their spread.
     pub units: [Truth; 3],
-    /// The run's seed, `splitmix64(base + i)`.
+    /// The run's seed: stream `i` of the base seed's `monte carlo: runs` family.
     pub seed: u64,
     /// Temperature shift, °C.
     pub temp_offset_c: f64,
