@@ -8,7 +8,8 @@
 //! Smaller deadbands cannot be flown any more: the compensator raises any table's deadband
 //! to its floor. Before the floor existed, the same 16 runs gave a median of 70.3 %
 //! (worst −92 %) at the fit's old 0.05 °C/min and 78.4 % (worst 66.6 %) at 0.15.
-//! Measured now (release, 200 Hz; tables fitted at the floor, flown at each deadband):
+//! Measured later (release, 200 Hz; tables fitted at the floor, flown at each deadband; the
+//! paper's programs, on the simulator's earlier run streams):
 //! 0.182 → median 79.0 %, p10 72.0 %, worst 65.2 %; 0.3 → 78.9 %, 73.5 %, 66.8 %;
 //! 0.5 → 82.0 %, 72.3 %, 70.6 %. Not applied: 0.3 and 0.5 are not derived from anything,
 //! and the fit traces the branch with the table's deadband.

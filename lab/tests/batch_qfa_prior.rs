@@ -81,8 +81,11 @@ fn qfa_prior_summary(rows: &[&QfaPriorRow]) -> ([f64; 4], [f64; 2]) {
 /// the first; on the simulator's next streams one unit's own table read 0.83 µg against
 /// its prior's 2.20 (the full units' RMS 2.51 → 2.78 µg, 10 % apart), and the 120 full
 /// units of `qfa_prior_study_50` read 2–5 % apart. With the population's sample
-/// covariance unshrunk, the cut units' scale factor came out worse with the prior
-/// (17.9 → 27.4 ppm on the earlier streams) and this test fails.
+/// covariance unshrunk, the cut units' scale factor came out worse with the prior on the
+/// earlier streams (17.9 → 27.4 ppm) and this test failed; on this draw it reads
+/// 34.4 → 19.1 ppm (8.7 shrunk) and passes, so the shrinkage itself is checked where it
+/// is computed (`prior::tests::the_population_shrinks_noise_correlations_and_keeps_real_ones`,
+/// which fails unshrunk).
 #[test]
 fn the_qfa_prior_helps_units_with_cut_logs() {
     let rows = qfa_prior_study(12, 4, 5, "qfa_prior_12");

@@ -220,7 +220,8 @@ pub(crate) fn population(reference: &[&UnitNormal]) -> Vec<Population> {
 /// sample correlation of 8 units is mostly noise. Unshrunk, the posterior of a unit whose
 /// rows leave a direction open followed those correlations: a simulated heating-only QFA
 /// unit's ε went 2.4 fleet SDs from the fleet's mean, and its table's scale-factor error
-/// against the truth grew from 11 to 40 ppm (`the_qfa_prior_helps_units_with_cut_logs`).
+/// against the truth grew from 11 to 40 ppm (`the_qfa_prior_helps_units_with_cut_logs`, on the
+/// simulator's earlier noise streams).
 fn shrunk_covariance(thetas: &[DVector<f64>], mean: &DVector<f64>) -> DMatrix<f64> {
     let (n, p) = (thetas.len() as f64, mean.len());
     let d: Vec<DVector<f64>> = thetas.iter().map(|t| t - mean).collect();

@@ -500,7 +500,8 @@ pub fn cycling_structure(mode: BranchMode, shape: CurveShape, ext: &Extensions) 
 /// the navigation study fly this table. Keeping the tie the fit programs chose instead
 /// (an earlier rule of `calibrate`'s) flew worse: 20 Monte Carlo runs of the navigation
 /// study removed a median 92.9 % of the simple model's thermal error (worst run 84.7 %)
-/// against 94.3 % (worst 91.4 %) with the tie chosen on every program.
+/// against 94.3 % (worst 91.4 %) with the tie chosen on every program (on the simulator's
+/// earlier run streams).
 ///
 /// # Errors
 /// As [`fit`].

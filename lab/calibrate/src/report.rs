@@ -492,8 +492,8 @@ pub(crate) fn peer_bias(
 ///
 /// Why: scored on each pair's measured K0 instead, a bias-only peer was given the pair's
 /// own scale factor, so the table's figure carried the scale factor's run-to-run error and
-/// the peer's did not (default simulated log: the PX4 cubic 9.58 µg that way, 9.68 in the
-/// table's place, the table itself 9.68).
+/// the peer's did not (default simulated log, on the simulator's earlier run streams: the
+/// PX4 cubic 9.58 µg that way, 9.68 in the table's place, the table itself 9.68).
 ///
 /// # Errors
 /// A table the compensator refuses, or no held-out bin.

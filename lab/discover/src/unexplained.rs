@@ -6,7 +6,7 @@
 //! Every report gives each channel's held-out RMS over its noise floor (the bin-to-bin
 //! noise of its fitted noise model, [`super::noise`]), with a block-bootstrap 95 % interval
 //! ([`FloorRatio`]). The ratio alone cannot decide: slow noise (a Gauss–Markov bias
-//! instability) is mostly not in the bin-to-bin floor, and clean logs reach 8.2× on the lab
+//! instability) is mostly not in the bin-to-bin floor, and clean logs reach 8.4× on the lab
 //! simulator's 120 false-discovery logs and 4.7× on the independent generator's 100
 //! (`floor_ratio_max` of the false-discovery runs).
 //! So the ratio is reported, and the decision is left to tests that slow noise passes:
