@@ -35,6 +35,14 @@ use crate::physics::{Physics, Profile, CONVERSION_DELAY_S};
 use crate::scenarios;
 
 const AXES: usize = 3;
+
+// A history's draws, each family its own stream of the history's seed: where each axis
+// stood before power-up, each reading's rounding coin, each cycle's pulses. XORs of
+// shifted indices into the seed, as these were, drew second 0's rounding coins from the
+// numbers of its first cycle's pulses.
+const PRIOR_STATE: qfa_rng::Stream = qfa_rng::Stream::named("field: state before power-up");
+const QUANTIZATION: qfa_rng::Stream = qfa_rng::Stream::named("field: reading rounding");
+const PULSES: qfa_rng::Stream = qfa_rng::Stream::named("field: pulses");
 type Comp = Compensator<AXES, 32, AXES, Table>;
 
 /// One axis's extension slots, drawn.
@@ -355,7 +363,7 @@ pub fn run(h: &History) -> Verdict {
     let before = h.before_power_up_s;
     // The unit itself: where each axis stood before the history (its branch, its play
     // output within the half-width) is drawn, as nobody knows it.
-    let drawn: [u64; AXES] = core::array::from_fn(|j| qfa_rng::splitmix64(h.flicker_seed ^ 0xB7A2_0000 ^ j as u64));
+    let drawn: [u64; AXES] = core::array::from_fn(|j| qfa_rng::stream_seed(h.flicker_seed, PRIOR_STATE, j as u64));
     let branches = drawn.map(|d| if d & 1 == 0 { 1i8 } else { -1 });
     let play_fracs = drawn.map(|d| ((d >> 8) % 2_001) as f64 / 1_000.0 - 1.0);
     let mut physics =
@@ -419,7 +427,7 @@ pub fn run(h: &History) -> Verdict {
                 let _ = comp.on_missed_reading(j, t_ms);
                 continue;
             }
-            let coin = qfa_rng::splitmix64(h.flicker_seed ^ (u64::from(s) << 8) ^ j as u64);
+            let coin = qfa_rng::stream_seed(h.flicker_seed, QUANTIZATION, (u64::from(s) << 8) | j as u64);
             let raw = quantize(true_c, coin);
             match here {
                 Some(Event::Crc) => {
@@ -444,7 +452,8 @@ pub fn run(h: &History) -> Verdict {
         }
         for c in 0..h.cycles_per_s {
             let pulses: [i32; AXES] = core::array::from_fn(|i| {
-                let r = qfa_rng::splitmix64(h.flicker_seed ^ (u64::from(s) << 20) ^ (u64::from(c) << 4) ^ i as u64);
+                let r =
+                    qfa_rng::stream_seed(h.flicker_seed, PULSES, (u64::from(s) << 20) | (u64::from(c) << 4) | i as u64);
                 1_601 - (r % 3_203) as i32
             });
             let dt = 5_000;

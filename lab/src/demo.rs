@@ -23,6 +23,10 @@ use qfa_report::verdict::{FileUse, LimitsChoice, Verdict};
 use qfa_sim::simulate_paper;
 use qfa_sim::truth::Truth;
 
+/// The family each demo unit's log is drawn from (stream `u` for unit `u`), so no two
+/// units, and no unit and another command's log of the same seed, share noise.
+const UNIT_LOGS: qfa_rng::Stream = qfa_rng::Stream::named("demo: unit logs");
+
 /// The paper's Table 4: (none, simple, hysteresis) ppm/°C for #1, #2, #3.
 pub const PAPER_TABLE4: [[f64; 3]; 3] = [[74.14, 12.78, 2.48], [104.22, 14.14, 4.23], [105.79, 14.46, 5.19]];
 
@@ -33,7 +37,7 @@ pub struct DemoOptions {
     pub out: std::path::PathBuf,
     /// Row length, s.
     pub row_s: u32,
-    /// Seed.
+    /// Base seed: unit `u`'s log is drawn from stream `u` of its `demo: unit logs` family.
     pub seed: u64,
     /// Threads for the simulation.
     pub threads: usize,
@@ -299,7 +303,8 @@ fn simulate_unit(
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
     pb.set_message("simulating runs");
-    let log = simulate_paper(truth, opts.row_s, opts.seed + u64::from(unit), opts.threads, Some(&pb));
+    let unit_seed = qfa_rng::stream_seed(opts.seed, UNIT_LOGS, u64::from(unit));
+    let log = simulate_paper(truth, opts.row_s, unit_seed, opts.threads, Some(&pb));
     pb.finish_and_clear();
     let simulate_s = t.elapsed().as_secs_f64();
     let t = Instant::now();

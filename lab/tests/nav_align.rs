@@ -28,9 +28,9 @@ fn stationary(seed: u64, align_s: f64) -> Scenario {
 }
 
 /// The alignment errors a stationary alignment cannot avoid, from the biases `fly` draws
-/// first from the scenario seed.
+/// first from the scenario seed's IMU stream.
 fn expected(sc: &Scenario) -> AlignErrors {
-    let mut rng = qfa_rng::seeded(sc.seed);
+    let mut rng = qfa_rng::seeded(qfa_nav::seeds::imu_errors(sc.seed));
     let d = qfa_nav::errors::ImuDraw::draw(&sc.imu, &mut rng);
     let q = Flight::new(sc).state.q;
     let lat = sc.start.lat_deg.to_radians();

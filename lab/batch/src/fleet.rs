@@ -48,7 +48,7 @@ use self::fits::InputFaults;
 use self::sensor::sensors;
 use self::yardstick::{feature_stats, Yardstick};
 use super::unit::{Calibrated, UnitOutcome, UnitResult};
-use qfa_log::robust::{median, MAD_TO_SD};
+use qfa_log::robust::median;
 use qfa_report::verdict::{Limits, Measured, Outcome};
 
 /// Robust scales out that flag a unit. Set to 6 when this was written, after one 20-unit

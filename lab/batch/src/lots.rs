@@ -271,9 +271,8 @@ mod tests {
         let stats = (0..d)
             .map(|j| {
                 let col: Vec<f64> = x.iter().map(|r| r[j]).collect();
-                let med = qfa_log::robust::median(&col).unwrap();
-                let dev: Vec<f64> = col.iter().map(|v| (v - med).abs()).collect();
-                let scale = (qfa_log::robust::MAD_TO_SD * qfa_log::robust::median(&dev).unwrap()).max(0.01);
+                let (med, sd) = qfa_log::robust::median_and_sd(&col).unwrap();
+                let scale = sd.max(0.01);
                 FeatureStats {
                     feature: Feature {
                         name: format!("f{j}"),

@@ -98,7 +98,7 @@ use split::{clipped, max_split, max_split_gls, split_allowed, Powers};
 
 mod null;
 mod split;
-use qfa_log::robust::{median, neighbour_noise, MAD_TO_SD};
+use qfa_log::robust::{median, neighbour_noise, sd_from_abs_deviations};
 
 /// Lags of the structure function, bins.
 const LAGS: [usize; 12] = [1, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64];
@@ -286,8 +286,7 @@ fn fit_runs(runs: &[&[f64]], bin_s: f64) -> NoiseModel {
     let mut d = Vec::new();
     for &k in &LAGS {
         let diffs: Vec<f64> = runs.iter().flat_map(|v| v.windows(k + 1).map(|w| (w[k] - w[0]).abs())).collect();
-        let (true, Some(mad)) = (diffs.len() >= MIN_PAIRS, median(&diffs)) else { break };
-        let s = MAD_TO_SD * mad;
+        let (true, Some(s)) = (diffs.len() >= MIN_PAIRS, sd_from_abs_deviations(&diffs)) else { break };
         d.push((k as f64, (s * s).max(1e-300)));
     }
     // The residual's own variance bounds the model's: D(∞) = 2(W + Q), from the runs'
@@ -298,11 +297,8 @@ fn fit_runs(runs: &[&[f64]], bin_s: f64) -> NoiseModel {
     // noise with τ near a run's length is then partly a level per run, which the run-level
     // test weighs.
     let dev: Vec<f64> = runs.iter().filter(|v| !v.is_empty()).flat_map(|v| abs_deviations(v)).collect();
-    let far = match median(&dev) {
-        Some(mad) if !d.is_empty() && dev.len() >= MIN_PAIRS => {
-            let s = MAD_TO_SD * mad;
-            Some(2.0 * (s * s).max(1e-300))
-        }
+    let far = match sd_from_abs_deviations(&dev) {
+        Some(s) if !d.is_empty() && dev.len() >= MIN_PAIRS => Some(2.0 * (s * s).max(1e-300)),
         _ => None,
     };
     if d.is_empty() {
@@ -586,9 +582,9 @@ pub(crate) fn branch_test(
 }
 
 /// Fit the noise model to `r` and test it against a change point in any run, at level
-/// `alpha`. `seed` fixes the null draws (the same log gives the same answer).
+/// `alpha`. `null_stream` picks the null draws' stream (the same log gives the same answer).
 #[must_use]
-pub(crate) fn test(ch: &Channels, series: &str, r: &[f64], alpha: f64, seed: u64) -> NoiseTest {
+pub(crate) fn test(ch: &Channels, series: &str, r: &[f64], alpha: f64, null_stream: u64) -> NoiseTest {
     let model = fit(ch, r);
     let runs = runs_of(ch, r);
     let allowed = split_allowed(ch);
@@ -626,7 +622,7 @@ pub(crate) fn test(ch: &Channels, series: &str, r: &[f64], alpha: f64, seed: u64
     let Some(max_z) = obs.map(|o| o.0) else {
         return NoiseTest::untested(series, model, runs_searched);
     };
-    let null = null_quantile(&model, &masks, alpha, seed);
+    let null = null_quantile(&model, &masks, alpha, null_stream);
     let (critical, run_noise_critical) = (null.means, null.run_noise);
     let run_label = |k: usize| {
         format!(

@@ -223,7 +223,7 @@ pub(crate) fn noise_tests(ch: &Channels, cur: &Residuals) -> Vec<NoiseTest> {
         .into_iter()
         .enumerate()
         .map(|(k, (name, r, is_sf))| {
-            let mut t = noise::test(ch, name, r, alpha, 0x006e_6f69_7365 + k as u64);
+            let mut t = noise::test(ch, name, r, alpha, k as u64);
             if is_sf {
                 if let Some((z, critical, level)) =
                     noise::branch_test(ch, r, driver("branch"), driver("time_since_reversal"), &t.model, branch_alpha)

@@ -20,7 +20,7 @@ use qfa_calibrate::static_cal::{check_coverage, check_outputs, is_one_branch, sp
 use qfa_log::open::{open_bytes, OpenError, OpenedLog, ReadError, ReadFlags};
 use qfa_log::pairing::trace_view;
 use qfa_log::replay::branch_deadband_c_per_min;
-use qfa_log::robust::{median, MAD_TO_SD};
+use qfa_log::robust::{median, neighbour_noise};
 use qfa_log::spelling::Spelling;
 use qfa_log::static_log::{StaticError, StaticLog, COMMON_NAMES};
 use qfa_log::units::{ReaderOption, UnitSource};
@@ -582,12 +582,11 @@ fn compensation_on(log: &StaticLog, out: &mut Vec<Finding>) {
         }
         let range = meds.iter().map(|m| m.0).fold(f64::NEG_INFINITY, f64::max)
             - meds.iter().map(|m| m.0).fold(f64::INFINITY, f64::min);
-        let d: Vec<f64> = a.accel_g.windows(2).map(|w| (w[1] - w[0]).abs()).collect();
-        let (Some(mad), Some(per_bin)) = (median(&d), median(&meds.iter().map(|m| m.1 as f64).collect::<Vec<_>>()))
+        let (Some(sigma), Some(per_bin)) =
+            (neighbour_noise(&a.accel_g), median(&meds.iter().map(|m| m.1 as f64).collect::<Vec<_>>()))
         else {
             return;
         };
-        let sigma = MAD_TO_SD * mad / std::f64::consts::SQRT_2;
         let noise = (1.25 * sigma / per_bin.sqrt()).max(1e-7);
         flat &= range < FLAT_FACTOR * noise;
         per_axis.push(format!("{} changes {:.3} mg (noise per 1-°C bin {:.4} mg)", a.name, range * 1e3, noise * 1e3));

@@ -43,6 +43,22 @@ fn from_order_key(key: i64) -> f64 {
     f64::from_bits((key ^ ((((key >> 63) as u64) >> 1) as i64)) as u64)
 }
 
+/// The normal standard deviation whose absolute deviations `abs` are (1.4826 × their
+/// median); `None` when `abs` is empty. Every robust scale of the lab is this.
+#[must_use]
+pub fn sd_from_abs_deviations(abs: &[f64]) -> Option<f64> {
+    Some(MAD_TO_SD * median(abs)?)
+}
+
+/// The median of `v` and the robust SD about it (1.4826 × the median absolute deviation);
+/// `None` when `v` is empty.
+#[must_use]
+pub fn median_and_sd(v: &[f64]) -> Option<(f64, f64)> {
+    let mid = median(v)?;
+    let dev: Vec<f64> = v.iter().map(|x| (x - mid).abs()).collect();
+    Some((mid, sd_from_abs_deviations(&dev)?))
+}
+
 /// The noise of a series from its neighbours: 1.4826 × the median |difference of
 /// neighbouring values| / √2, the SD of white noise on it. A step or a slow wander moves
 /// one difference, or each a little, so neither counts as noise. `None` with fewer than two
@@ -50,7 +66,7 @@ fn from_order_key(key: i64) -> f64 {
 #[must_use]
 pub fn neighbour_noise(v: &[f64]) -> Option<f64> {
     let diffs: Vec<f64> = v.windows(2).map(|w| (w[1] - w[0]).abs()).collect();
-    Some(MAD_TO_SD * median(&diffs)? / std::f64::consts::SQRT_2)
+    Some(sd_from_abs_deviations(&diffs)? / std::f64::consts::SQRT_2)
 }
 
 /// Robust σ above which a one-row deviation is a glitch ([`glitches`]), in every reader.

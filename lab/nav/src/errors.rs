@@ -22,6 +22,7 @@
 //! `(I + K)⁻¹` as the table's misalignment matrix ([`AccelErrors::carried_misalignment`]).
 
 use nalgebra::{Matrix3, Vector3};
+use qfa_rng::GaussMarkov;
 use rand::Rng;
 use serde::{Deserialize, Serialize};
 
@@ -166,7 +167,7 @@ pub struct ImuDraw {
     /// Accelerometer `(I + S + M)·(I + K)` (random, then the known triad term), applied
     /// to the true Δv before the thermal truth model.
     pub accel_m: Matrix3<f64>,
-    gm: Vector3<f64>,
+    gm: [GaussMarkov; 3],
     gm_sigma: f64,
     gm_tau_s: f64,
     arw: f64,
@@ -191,7 +192,7 @@ impl ImuDraw {
         let accel_bias = Vector3::from_fn(|_, _| a.bias_ug * 1e-6 * G0 * z(rng));
         let accel_m = matrix(a.scale_factor_ppm, a.misalignment_arcsec, rng) * a.triad();
         let gm_sigma = g.bias_instability_dph * DPH;
-        let gm = Vector3::from_fn(|_, _| gm_sigma * z(rng));
+        let gm = core::array::from_fn(|_| GaussMarkov::stationary(gm_sigma, rng));
         Self {
             gyro_bias,
             gyro_m,
@@ -216,12 +217,12 @@ impl ImuDraw {
     pub fn gyro<R: Rng + ?Sized>(&mut self, dtheta: &Vector3<f64>, dt: f64, rng: &mut R) -> Vector3<f64> {
         if self.gm_sigma > 0.0 {
             let phi = (-dt / self.gm_tau_s).exp();
-            let q = self.gm_sigma * (1.0 - phi * phi).sqrt();
-            for i in 0..3 {
-                self.gm[i] = phi * self.gm[i] + q * z(rng);
+            for g in &mut self.gm {
+                g.step(phi, rng);
             }
         }
-        let mut out = self.gyro_m * dtheta + (self.gyro_bias + self.gm) * dt;
+        let gm = Vector3::from_fn(|i, _| self.gm[i].value());
+        let mut out = self.gyro_m * dtheta + (self.gyro_bias + gm) * dt;
         if self.arw > 0.0 {
             let s = self.arw * dt.sqrt();
             for i in 0..3 {

@@ -159,10 +159,11 @@ pub struct Injected {
 }
 
 impl Injector {
-    /// An injector of `set`.
+    /// Injector `index` of `set` (0–2 an axis's readings, 3 the IMU cycle's jitter), drawing
+    /// from its own stream of the set's seed.
     #[must_use]
-    pub fn new(set: FaultSet) -> Self {
-        let rng = seeded(set.seed ^ 0xFA17);
+    pub fn new(set: FaultSet, index: u64) -> Self {
+        let rng = seeded(crate::seeds::faults(set.seed, index));
         Self { set, rng, brown_outs_done: 0, last_raw: None, stuck_raw: None, in_stuck: None }
     }
 
@@ -275,9 +276,7 @@ impl<C: ThermalCompensator> FaultyCompensation<C> {
     /// compensation and its shared log.
     #[must_use]
     pub fn new(mut comp: C, set: &FaultSet, table: &[u8]) -> (Self, Rc<RefCell<FaultLog>>) {
-        let injs: [Injector; 3] = core::array::from_fn(|i| {
-            Injector::new(FaultSet { seed: set.seed.wrapping_add(i as u64 * 0x1000), ..set.clone() })
-        });
+        let injs: [Injector; 3] = core::array::from_fn(|i| Injector::new(set.clone(), i as u64));
         let mut log = FaultLog { table_loaded: true, ..FaultLog::default() };
         let good = Table::decode(table).ok();
         for (offered, corrupted) in injs[0].table_loads(table) {
@@ -307,7 +306,7 @@ impl<C: ThermalCompensator> FaultyCompensation<C> {
             dropout_flagged: windows(&set.dropouts_s),
             stuck_seen: windows(&set.stuck_s),
             stuck_flagged: windows(&set.stuck_s),
-            jitter: Injector::new(FaultSet { seed: set.seed ^ 0x5EED, ..set.clone() }),
+            jitter: Injector::new(set.clone(), 3),
             injs,
         };
         (me, log)

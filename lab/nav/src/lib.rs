@@ -67,6 +67,7 @@ pub mod plan;
 pub mod plot;
 pub mod run;
 pub mod scenario;
+pub mod seeds;
 pub mod strapdown;
 pub mod tables;
 pub mod thermal;

@@ -198,7 +198,8 @@ impl From<ProfileError> for RunError {
 
 /// Run the scenario with the given accelerometer truths (x, y, z) and variants.
 ///
-/// The non-thermal IMU errors are drawn from `sc.imu` with `sc.seed`. With
+/// The non-thermal IMU errors are drawn from `sc.imu` on `sc.seed`'s IMU stream
+/// ([`super::seeds::imu_errors`]). With
 /// `sc.alignment.enabled` (the default) every variant first aligns on the ground on its
 /// own compensated output ([`super::align`]) and starts from its aligned attitude, zero
 /// velocity and the true position; otherwise every variant starts at the true state.
@@ -218,7 +219,7 @@ pub fn fly(
     let ground_c = sc.ground_temp_c();
     let chain =
         sc.thermal.start(if align_steps > 0 { ground_c } else { profile.at(0.0) }, dt, sc.thermal.element_tau_s);
-    let mut rng = qfa_rng::seeded(sc.seed);
+    let mut rng = qfa_rng::seeded(super::seeds::imu_errors(sc.seed));
     let draw = ImuDraw::draw(&sc.imu, &mut rng);
     let imu = Imu { truths, sensors, draw, rng };
     let mut flight = Flight::new(sc);

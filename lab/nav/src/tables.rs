@@ -56,7 +56,7 @@ pub fn calibrate_on(
     calibrate_opts(units, sc.seed, 2, &calib::CalibOptions { discover: true, validate: true, lab, rate_limit_override })
 }
 
-/// Calibrate each unit (seeds `seed + 1000 + i`) on `threads` threads; `discover` runs
+/// Calibrate each unit (its log's seed [`super::seeds::calibration_log`]) on `threads` threads; `discover` runs
 /// the discovery workflow for the `discovered` variant.
 ///
 /// # Errors
@@ -77,7 +77,7 @@ pub fn calibrate_opts(
 ) -> Result<Tables, CalibError> {
     let mut out = Vec::new();
     for (i, u) in units.iter().enumerate() {
-        out.push(calib::calibrate_unit_on(u, seed.wrapping_add(1000 + i as u64), threads, opts)?);
+        out.push(calib::calibrate_unit_on(u, super::seeds::calibration_log(seed, i), threads, opts)?);
     }
     let reports = out.iter().map(|u| u.report.clone()).collect();
     let hysteresis = calib::table3([&out[0].hysteresis, &out[1].hysteresis, &out[2].hysteresis])?;
@@ -94,5 +94,5 @@ pub fn truths(units: &[Truth; 3]) -> [Box<dyn AccelTruth>; 3] {
 /// Truth models of the three axes, noise seeded from `seed`.
 #[must_use]
 pub fn truths_seeded(units: &[Truth; 3], seed: u64) -> [Box<dyn AccelTruth>; 3] {
-    [0, 1, 2].map(|i| Box::new(LabAccel::new(&units[i], seed.wrapping_add(77 + i as u64))) as Box<dyn AccelTruth>)
+    [0, 1, 2].map(|i| Box::new(LabAccel::new(&units[i], super::seeds::accelerometer(seed, i))) as Box<dyn AccelTruth>)
 }

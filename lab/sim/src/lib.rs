@@ -20,14 +20,14 @@ pub mod truth;
 use crate::profile::{Position, Program};
 use crate::truth::{NoiseTruth, Truth, TruthModel};
 use qfa_log::cycling::{Log, Run, Sample};
-use qfa_rng::{normal, seeded, LabRng};
+use qfa_rng::{normal, seeded, GaussMarkov, LabRng};
 
 /// Accelerometer noise generator (white + Gauss–Markov), g.
 #[derive(Debug)]
 pub struct NoiseGen {
     rng: LabRng,
     cfg: NoiseTruth,
-    bias_g: f64,
+    bias: GaussMarkov,
 }
 
 impl NoiseGen {
@@ -35,17 +35,15 @@ impl NoiseGen {
     #[must_use]
     pub fn new(cfg: NoiseTruth, seed: u64) -> Self {
         let mut rng = seeded(seed);
-        let z = normal(&mut rng);
-        Self { rng, cfg, bias_g: z * cfg.bias_instability_ug * 1e-6 }
+        let bias = GaussMarkov::stationary(cfg.bias_instability_ug * 1e-6, &mut rng);
+        Self { rng, cfg, bias }
     }
 
     /// Mean noise over a step of `dt_s`, g.
     pub fn step(&mut self, dt_s: f64) -> f64 {
         let c = self.cfg;
         if c.bias_instability_ug > 0.0 {
-            let phi = (-dt_s / c.bias_instability_tau_s).exp();
-            let z = normal(&mut self.rng);
-            self.bias_g = phi * self.bias_g + c.bias_instability_ug * 1e-6 * (1.0 - phi * phi).sqrt() * z;
+            self.bias.step((-dt_s / c.bias_instability_tau_s).exp(), &mut self.rng);
         }
         let white = if c.white_ug_per_rthz > 0.0 {
             let z = normal(&mut self.rng);
@@ -53,7 +51,7 @@ impl NoiseGen {
         } else {
             0.0
         };
-        self.bias_g + white
+        self.bias.value() + white
     }
 }
 
@@ -134,6 +132,10 @@ impl Accelerometer {
 /// The named stream every run's noise is drawn from.
 const RUN_NOISE: qfa_rng::Stream = qfa_rng::Stream::named("run noise");
 
+/// The named stream of a run's DS18B20 quantization draws, beside its accelerometer noise
+/// (the run's seed itself).
+const SENSOR_READINGS: qfa_rng::Stream = qfa_rng::Stream::named("DS18B20 readings");
+
 /// The noise seed of one (program, run) of a log simulated with `seed`: stream
 /// `program · 2³² + run` of the base seed's run-noise family, so no two (seed, program,
 /// run) a study uses share a stream, across logs as well as within one
@@ -168,7 +170,7 @@ pub fn simulate_run_from(truth: &Truth, program: &Program, pos: Position, row_s:
     let start_air = program.temp_at(0.0);
     let mut chain = truth.thermal.start(start_air, dt, truth.element_tau_s());
     let mut acc = Accelerometer::started_at(truth, seed, start_s);
-    let mut srng = seeded(seed ^ 0xD518_B20D_518B_20D5);
+    let mut srng = seeded(qfa_rng::stream_seed(seed, SENSOR_READINGS, 0));
     let steps = program.duration_s().floor() as u64;
     let rows = steps / u64::from(row_s);
     let mut samples = Vec::with_capacity(rows as usize);
@@ -310,15 +312,19 @@ mod tests {
     }
 
     /// Consecutive base seeds (a batch's units, the demo's units, a study's logs) over
-    /// every program and position index a study uses: no two runs draw the same noise.
-    /// The XOR mixing failed at seed 1: its runs 0 and 1 were seed 0's runs 1 and 0.
+    /// every program and position index a study uses: no two runs draw the same noise, and
+    /// no run's DS18B20 stream is another run's accelerometer stream. The XOR mixing
+    /// failed at seed 1: its runs 0 and 1 were seed 0's runs 1 and 0.
     #[test]
     fn no_two_logs_share_a_noise_stream() {
         let mut seen = std::collections::HashSet::new();
         for seed in (0..600u64).chain(1000..1200).chain(2015..2030) {
             for program in 0..6 {
                 for run in 0..8 {
-                    assert!(seen.insert(run_seed(seed, program, run)), "seed {seed}, program {program}, run {run}");
+                    let s = run_seed(seed, program, run);
+                    assert!(seen.insert(s), "seed {seed}, program {program}, run {run}");
+                    let sensor = qfa_rng::stream_seed(s, SENSOR_READINGS, 0);
+                    assert!(seen.insert(sensor), "seed {seed}, program {program}, run {run}'s sensor");
                 }
             }
         }

@@ -1,9 +1,7 @@
 //! Each figure's yardstick: the median and robust scale of the units of full coverage (or
 //! of a unit's own lot), and the units beyond the flag line (the fleet's module docs).
 
-use super::{
-    median, value_of, words, Calibrated, Feature, FeatureStats, Flag, Measured, Side, UnitResult, MAD_TO_SD, Z_FLAG,
-};
+use super::{value_of, words, Calibrated, Feature, FeatureStats, Flag, Measured, Side, UnitResult, Z_FLAG};
 
 /// What a figure's units are compared with: the fleet's units of full coverage, or, when
 /// the fleet holds two lots, a unit's own lot.
@@ -19,9 +17,8 @@ pub(super) struct Yardstick<'a> {
 
 /// The median and robust scale (at least `floor`) of `values`.
 fn median_scale(values: &[f64], floor: f64) -> Option<[f64; 2]> {
-    let med = median(values)?;
-    let dev: Vec<f64> = values.iter().map(|v| (v - med).abs()).collect();
-    Some([med, (MAD_TO_SD * median(&dev).unwrap_or(0.0)).max(floor)])
+    let (med, sd) = qfa_log::robust::median_and_sd(values)?;
+    Some([med, sd.max(floor)])
 }
 
 /// The fleet's robust statistics of `feat` (median and scale over the units of full

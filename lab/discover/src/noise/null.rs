@@ -3,7 +3,10 @@
 
 use super::split::{clipped, max_split, max_split_gls};
 use super::{fit_runs, max_run_noise, NoiseModel, NULL_DRAWS};
-use qfa_rng::{normal, seeded};
+use qfa_rng::{normal, seeded, stream_seed, GaussMarkov, Stream};
+
+/// Stream `index` (the tested series) under base seed 0: a log always gets one answer.
+const NULL_DRAWS_STREAM: Stream = Stream::named("change-point null draws");
 
 /// The critical values of [`test`]'s three statistics under the fitted model.
 pub(super) struct NullCriticals {
@@ -39,23 +42,18 @@ pub(super) fn joint_criticals(a: &[f64], b: &[f64], alpha: f64) -> (f64, f64) {
 
 /// The critical values at level `alpha` of the change-point searches (jointly) and of the
 /// noisiest run over runs drawn from `model`, one per mask of `masks` (its length the
-/// run's, its values where a split may fall).
-pub(super) fn null_quantile(model: &NoiseModel, masks: &[Vec<bool>], alpha: f64, seed: u64) -> NullCriticals {
-    let mut rng = seeded(seed ^ 0x6e6f_6973_6521);
+/// run's, its values where a split may fall), drawn from stream `index` of the null draws'
+/// family.
+pub(super) fn null_quantile(model: &NoiseModel, masks: &[Vec<bool>], alpha: f64, index: u64) -> NullCriticals {
+    let mut rng = seeded(stream_seed(0, NULL_DRAWS_STREAM, index));
     let phi = model.phi();
-    let innov = model.slow_sd * (1.0 - phi * phi).max(0.0).sqrt();
     let mut draws: Vec<(f64, f64, f64)> = (0..NULL_DRAWS)
         .map(|_| {
             let series: Vec<Vec<f64>> = masks
                 .iter()
                 .map(|mask| {
-                    let mut g = model.slow_sd * normal(&mut rng);
-                    (0..mask.len())
-                        .map(|_| {
-                            g = phi * g + innov * normal(&mut rng);
-                            g + model.white * normal(&mut rng)
-                        })
-                        .collect()
+                    let mut g = GaussMarkov::stationary(model.slow_sd, &mut rng);
+                    (0..mask.len()).map(|_| g.step(phi, &mut rng) + model.white * normal(&mut rng)).collect()
                 })
                 .collect();
             let refs: Vec<&[f64]> = series.iter().map(Vec::as_slice).collect();
