@@ -135,3 +135,74 @@ fn every_lab_library_is_optimized_in_the_tests() {
     assert!(optimized("qfa-calibrate"), "the check reads .cargo/config.toml wrongly");
     assert!(missing.is_empty(), "lab crates at opt-level 0 in the tests (add them to .cargo/config.toml): {missing:?}");
 }
+
+/// `(file, function)` of every lab and `rng` function over 80 lines, by the page's rule: a
+/// function runs from its `fn` line (not a declaration ending in `;`) to the first line that
+/// is only `}` at the `fn` line's indent, end-to-end tests (`tests/` folders) left out.
+fn functions_over_80_lines(root: &Path) -> BTreeSet<(String, String)> {
+    let mut out = BTreeSet::new();
+    let mut stack = vec![root.join("lab"), root.join("rng")];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).expect("a source folder").flatten() {
+            let p = e.path();
+            let name = p.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
+            if p.is_dir() {
+                if name != "tests" && name != "target" {
+                    stack.push(p);
+                }
+                continue;
+            }
+            if !name.ends_with(".rs") {
+                continue;
+            }
+            let text = std::fs::read_to_string(&p).expect("readable source");
+            let mut open: Option<(usize, usize, String)> = None;
+            for (i, line) in text.lines().enumerate() {
+                let indent = line.len() - line.trim_start().len();
+                let code = line.trim_start();
+                let head = ["pub(crate) ", "pub(super) ", "pub ", ""]
+                    .iter()
+                    .find_map(|v| code.strip_prefix(v))
+                    .map(|c| c.strip_prefix("const ").unwrap_or(c))
+                    .and_then(|c| c.strip_prefix("fn "));
+                if let (None, Some(h)) = (&open, head) {
+                    let f: String = h.chars().take_while(|c| c.is_ascii_alphanumeric() || *c == '_').collect();
+                    if !f.is_empty() && !line.trim_end().ends_with(';') {
+                        open = Some((i, indent, f));
+                    }
+                } else if let Some((start, at, f)) = &open {
+                    if code == "}" && indent == *at {
+                        if i - start + 1 > 80 {
+                            let rel = p.strip_prefix(root).unwrap_or(&p).to_string_lossy().to_string();
+                            out.insert((rel, f.clone()));
+                        }
+                        open = None;
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The functions over 80 lines are the ones docs/architecture.md names (each as
+/// `` `file` `function` `` in the list under "Functions over 80 lines"): a function that grows
+/// past it, or one split without the page changing, fails here.
+#[test]
+fn the_functions_over_80_lines_are_the_ones_the_page_names() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("the repository");
+    let page = std::fs::read_to_string(root.join("docs/architecture.md")).expect("docs/architecture.md");
+    let list = page.split("Functions over 80 lines").nth(1).expect("the page's list of long functions");
+    let named: BTreeSet<(String, String)> = list
+        .lines()
+        .skip(1)
+        .take_while(|l| l.starts_with("- "))
+        .filter_map(|l| {
+            let mut ticks = l.split('`').skip(1).step_by(2);
+            Some((ticks.next()?.to_string(), ticks.next()?.to_string()))
+        })
+        .collect();
+    let found = functions_over_80_lines(root);
+    assert!(found.len() >= 3, "the walk finds too few long functions: {found:?}");
+    assert_eq!(found, named, "functions over 80 lines (left) against the page's list (right)");
+}

@@ -139,7 +139,7 @@ fn plan_judges_lab_programs_against_the_default_flight() {
 fn nav_table_rate_limit_is_the_covered_rate_plus_margin() {
     let u = calibrate_unit_on(
         &Truth::jb_kt8(1),
-        2019 + 1000,
+        qfa_nav::seeds::calibration_log(2019, 0),
         2,
         &CalibOptions { lab: LabProgram::Paper, ..CalibOptions::default() },
     )

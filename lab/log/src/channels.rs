@@ -297,7 +297,7 @@ pub enum ChannelsError {
     /// An autopilot log (PX4 ULog or ArduPilot DataFlash): calibrated, not discovered.
     AutopilotLog {
         /// The stack that wrote it.
-        stack: String,
+        stack: crate::autopilot::Stack,
     },
 }
 
@@ -393,7 +393,7 @@ impl Channels {
             OpenedLog::Cycling(l) => Self::from_cycling(l, bin_s),
             OpenedLog::Single(l) => Ok(Self::from_single(l, bin_s)),
             OpenedLog::Static(_) => Err(ChannelsError::StaticLog),
-            OpenedLog::Autopilot(l) => Err(ChannelsError::AutopilotLog { stack: l.stack.to_string() }),
+            OpenedLog::Autopilot(l) => Err(ChannelsError::AutopilotLog { stack: l.stack }),
         }
     }
 

@@ -21,11 +21,11 @@ use super::autopilot::{AccelInstance, AutopilotLog, Stack};
 pub(crate) const MAGIC: [u8; 7] = *b"ULog\x01\x12\x35";
 
 /// Why a ULog was not read.
-#[derive(Debug, PartialEq, Eq)]
+#[derive(Debug)]
 #[non_exhaustive]
 pub enum UlogError {
-    /// The parser refused the file.
-    Parse(String),
+    /// The parser refused the file: its own error.
+    Parse(px4_ulog::stream_parser::model::UlogParseError),
     /// No `sensor_accel` sample.
     NoAccel {
         /// Topics the log has, for the message.
@@ -53,7 +53,14 @@ impl fmt::Display for UlogError {
     }
 }
 
-impl std::error::Error for UlogError {}
+impl std::error::Error for UlogError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            Self::Parse(e) => Some(e),
+            _ => None,
+        }
+    }
+}
 
 /// Read a ULog from its bytes.
 ///
@@ -76,7 +83,7 @@ pub(crate) fn read_ulog(bytes: &[u8]) -> Result<AutopilotLog, UlogError> {
     parser.set_data_message_callback(&mut on_data);
     parser.set_parameter_message_callback(&mut on_param);
     parser.set_dropout_message_callback(&mut on_dropout);
-    parser.consume_bytes(bytes).map_err(|e| UlogError::Parse(e.to_string()))?;
+    parser.consume_bytes(bytes).map_err(UlogError::Parse)?;
     let leftover = parser.has_leftover();
     let appended = parser.appended_offsets().iter().any(|&o| o != 0);
     drop(parser);

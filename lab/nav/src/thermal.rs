@@ -38,10 +38,11 @@ impl fmt::Display for ProfileError {
 
 impl std::error::Error for ProfileError {}
 
-/// Piecewise-linear drive profile, held constant outside its breakpoints.
+/// Piecewise-linear drive profile, held constant outside its breakpoints: the lab's one
+/// temperature program ([`qfa_sim::profile::Program`]) over the flight's breakpoints.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Profile {
-    points: Vec<TempPoint>,
+    program: qfa_sim::profile::Program,
 }
 
 impl Profile {
@@ -52,22 +53,14 @@ impl Profile {
     pub fn new(points: Vec<TempPoint>) -> Result<Self, ProfileError> {
         crate::ensure(!points.is_empty(), ProfileError::NoBreakpoints)?;
         crate::ensure(points.windows(2).all(|w| w[1].t_s > w[0].t_s), ProfileError::NotIncreasing)?;
-        Ok(Self { points })
+        let points = points.iter().map(|p| (p.t_s, p.temp_c)).collect();
+        Ok(Self { program: qfa_sim::profile::Program { id: "flight".into(), points } })
     }
 
     /// Drive temperature at `t_s`, °C.
     #[must_use]
     pub fn at(&self, t_s: f64) -> f64 {
-        let p = &self.points;
-        if t_s <= p[0].t_s {
-            return p[0].temp_c;
-        }
-        let i = p.partition_point(|q| q.t_s <= t_s);
-        if i >= p.len() {
-            return p[p.len() - 1].temp_c;
-        }
-        let (a, b) = (p[i - 1], p[i]);
-        a.temp_c + (b.temp_c - a.temp_c) * (t_s - a.t_s) / (b.t_s - a.t_s)
+        self.program.temp_at(t_s)
     }
 }
 

@@ -24,6 +24,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::thermal::Lag;
+use qfa_log::replay::Motion;
 use qfa_rng::{normal, seeded, stream_seed, uniform, Stream};
 
 /// Where the defects and truncations fall.
@@ -289,10 +290,11 @@ pub fn unit_rows(u: &UnitTruth, air: &[f64], seed: u64, index: usize) -> Vec<(f6
         prev_case = case;
         let rate = (die - prev) * 60.0;
         prev = die;
-        if rate > TRUTH_DEADBAND_C_PER_MIN {
-            heating = true;
-        } else if rate < -TRUTH_DEADBAND_C_PER_MIN {
-            heating = false;
+        // The lab's one branch classifier, with the truth's own deadband.
+        match Motion::against(rate, TRUTH_DEADBAND_C_PER_MIN) {
+            Motion::Heating => heating = true,
+            Motion::Cooling => heating = false,
+            Motion::Holding => {}
         }
         let drift = u.sensor_drift_c * i as f64 / n as f64;
         let reading = ((case + u.sensor_offset_c + drift + 0.02 * normal(&mut r)) * 16.0).round() / 16.0;
