@@ -79,11 +79,12 @@ fn qfa_prior_summary(rows: &[&QfaPriorRow]) -> ([f64; 4], [f64; 2]) {
 /// factor error, and the full units' bias error RMS within 25 % of their own tables'.
 /// The margins were set after seeing two draws: full units within 0.1 ppm and 0.6 µg on
 /// the first; on the simulator's next streams one unit's own table read 0.83 µg against
-/// its prior's 2.20 (the full units' RMS 2.51 → 2.78 µg, 10 % apart), and the 120 full
+/// its prior's 2.20 (2.21 on the draw after; the full units' RMS 2.51 → 2.78 µg on both,
+/// 10 % apart), and the 120 full
 /// units of `qfa_prior_study_50` read 2–5 % apart. With the population's sample
 /// covariance unshrunk, the cut units' scale factor came out worse with the prior on the
-/// earlier streams (17.9 → 27.4 ppm) and this test failed; on this draw it reads
-/// 34.4 → 19.1 ppm (8.7 shrunk) and passes, so the shrinkage itself is checked where it
+/// earlier streams (17.9 → 27.4 ppm) and this test failed; on the next draw it read
+/// 34.4 → 19.1 ppm (8.7 shrunk) and passed, so the shrinkage itself is checked where it
 /// is computed (`prior::tests::the_population_shrinks_noise_correlations_and_keeps_real_ones`,
 /// which fails unshrunk).
 #[test]

@@ -8,12 +8,12 @@ use qfa_sim::profile::paper_positions;
 use qfa_sim::truth::Truth;
 
 /// JB-KT8 #1 on the covering program, seed 1041: cross-validation on every program ties
-/// the bias grid's branches as one cubic curve, on the fit programs as two free curves
-/// (asserted, so a redraw of the simulator's noise that loses the case fails here rather
+/// the bias grid's branches one way and on the fit programs another (on the draw it was
+/// picked on, one cubic curve against two free curves; asserted, so a redraw of the simulator's noise that loses the case fails here rather
 /// than passing on a unit where the two rules agree). Before, `calibrate` kept the fit
 /// programs' tie for its table while the study chose it again on every program, so the
 /// study flew a table `calibrate` does not write (22 of 105 units of seeds 1040–1074
-/// differed so on the covering program).
+/// differed so on the covering program, on that draw).
 #[test]
 fn the_study_flies_the_table_calibrate_writes() {
     let (truth, seed, lab) = (Truth::jb_kt8(1), 1041, LabProgram::Covering);

@@ -217,8 +217,10 @@ fn one_branch_logs_calibrate_and_hold_on_the_other_leg() {
 /// 11–13, four cases), the rule as it was (lowest 5-fold blocked cross-validation RMS among
 /// the 72 candidates, fitted on every row of the leg) against the cubic shape and the
 /// free-node grid, each scored on the other leg against the cubic peer. The counts asserted
-/// are the ones measured on the lab's one random stream (deterministic seeds); when the rule
-/// was designed, on the earlier streams, they were 18 and 22 of 24 and the worst 2.0×. Slow (several
+/// are the ones measured on the lab's one random stream (deterministic seeds; 17 of 24 and
+/// the worst 4.4× before the simulator's noise came from `qfa_rng::GaussMarkov` and named
+/// streams); when the rule was designed, on the earlier streams, they were 18 and 22 of 24
+/// and the worst 2.0×. Slow (several
 /// hundred fits): `cargo test --release -p qfa-lab --test static_sim -- --ignored`.
 #[test]
 #[ignore]
@@ -270,8 +272,8 @@ fn one_branch_rule_on_the_simulator() {
         }
     }
     println!("old rule worse than the cubic in {old_worse} of {cases} (worst {worst:.2}x); cubic shape beats the grid in {cubic_beats_grid}");
-    assert_eq!((cases, old_worse, cubic_beats_grid), (24, 17, 20));
-    assert!((4.3..4.5).contains(&worst), "{worst}");
+    assert_eq!((cases, old_worse, cubic_beats_grid), (24, 16, 20));
+    assert!((9.8..10.0).contains(&worst), "{worst}");
 }
 
 /// 5-fold blocked CV RMS (g) of `st` over every row of `series` (contiguous blocks), as the

@@ -77,7 +77,7 @@ pub(crate) const SPLIT_RESOLUTION_MG: f64 = 0.05;
 /// 5/80 at 10, 2/96 at 12, 2/120 at 15, 2/160 at 20, 1/240 at 30. Set to 15 after that run
 /// (it was 10, from a run whose seeds drew overlapping fleets), the smallest size under the
 /// goal of one good unit in 50 (redrawn with each run's own noise stream: 3/80 at 10,
-/// 1/120 at 15); on normal figures the rate is 2.7 % at 10 units and 1.0 %
+/// 1/120 at 15; with every draw a named stream: 4/80 and 1/120); on normal figures the rate is 2.7 % at 10 units and 1.0 %
 /// at 15 (`a_fleet_of_min_fleet_units_flags_under_one_good_unit_in_50`, which fails at 10).
 /// Below it the fleet says so and judges its units by their limits alone
 /// (`a_fleet_too_small_to_compare_says_so_and_flags_no_unit` fails when it is 0).

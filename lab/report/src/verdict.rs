@@ -450,7 +450,7 @@ pub struct Limits {
     /// Default 50 (simulated JB-KT8 units: about 9).
     pub held_out_bias_ug: f64,
     /// Cycling logs: the held-out Table-4 scale-factor sensitivity must not exceed this,
-    /// ppm/°C. Default 1.0 (simulated JB-KT8 units: 0.28–0.32; the paper's: 2.48–5.19).
+    /// ppm/°C. Default 1.0 (simulated JB-KT8 units: 0.28–0.34 over three draws; the paper's: 2.48–5.19).
     pub held_out_sensitivity_ppm_per_c: f64,
     /// Every log: the temperature span the table is fitted over must reach this, °C.
     /// Default 30.
