@@ -51,7 +51,7 @@ fn fly(hours: f64, imu_hz: f64) -> [ClockFigures; 3] {
         variants.push(Variant { name: name.into(), comp: Box::new(c) });
         logs.push(log);
     }
-    let res = run::fly(&sc, &mut qfa_nav::truths(&units), variants).unwrap();
+    let res = run::fly(&sc, &mut qfa_nav::truths_seeded(&units, sc.seed), variants).unwrap();
     let hours_flown = res.t.last().unwrap() / 3600.0;
     assert!((hours_flown - hours).abs() < 0.01, "flew {hours_flown} h");
     let th = thermal_ceps(&res).unwrap();

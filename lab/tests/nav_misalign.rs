@@ -49,7 +49,7 @@ fn the_triad_misalignment_matrix_matters() {
             comp: Box::new(TableCompensation::new(h, sc.imu_rate_hz).unwrap()),
         },
     ];
-    let res = run::fly(&sc, &mut qfa_nav::truths(&units), variants).unwrap();
+    let res = run::fly(&sc, &mut qfa_nav::truths_seeded(&units, sc.seed), variants).unwrap();
     let th = thermal_ceps(&res).unwrap();
     let cep = |i: usize| run::Figures::of(&res.t, &res.tracks[i]).cep_nmi_per_h;
     println!(

@@ -306,7 +306,7 @@ pub fn fly_with_faults(
         logs.push(log);
     }
     let units = crate::units();
-    let res = run::fly(sc, &mut crate::truths(&units), variants)?;
+    let res = run::fly(sc, &mut crate::truths_seeded(&units, sc.seed), variants)?;
     crate::ensure(clean_log.borrow().refused == 0, FaultsError::TwinRefused)?;
     let growth = |a: &run::Track, b: &run::Track| -> f64 {
         let d = |x: &[f64], y: &[f64]| -> Vec<f64> { x.iter().zip(y).map(|(p, q)| p - q).collect() };

@@ -93,7 +93,7 @@ pub use flight_report::{
     clamped_warnings, flag_shares, report, share, summary, thermal_ceps, Meta, PaperFigures, Report,
 };
 pub use page::{markdown, merge_markdown, merge_page, page};
-pub use tables::{calibrate, calibrate_on, calibrate_opts, calibrate_with, truths, truths_seeded, units, Tables};
+pub use tables::{calibrate, calibrate_on, calibrate_opts, calibrate_with, truths_seeded, units, Tables};
 pub use variants::{mc_variants, read_table, variants, VARIANTS};
 
 /// Why `navigate`, a shard or a merge failed. Each module has its own error; those that

@@ -85,13 +85,9 @@ pub fn calibrate_opts(
     Ok(Tables { units: out, hysteresis, simple, reports, misalignment: None })
 }
 
-/// Truth models of the three axes with the default noise seed.
-#[must_use]
-pub fn truths(units: &[Truth; 3]) -> [Box<dyn AccelTruth>; 3] {
-    truths_seeded(units, 2019)
-}
-
-/// Truth models of the three axes, noise seeded from `seed`.
+/// Truth models of the three axes, noise drawn from `seed`'s accelerometer streams (the
+/// flight's seed: a fixed default seed here let the fault study fly every scenario's
+/// accelerometers on seed 2019's noise).
 #[must_use]
 pub fn truths_seeded(units: &[Truth; 3], seed: u64) -> [Box<dyn AccelTruth>; 3] {
     [0, 1, 2].map(|i| Box::new(LabAccel::new(&units[i], super::seeds::accelerometer(seed, i))) as Box<dyn AccelTruth>)
