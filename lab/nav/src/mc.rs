@@ -2,7 +2,7 @@
 //! 10th / 90th percentiles.
 //!
 //! Run `i` of base seed `S` draws from named streams of its seed
-//! `qfa_rng::stream_seed(S, RUNS, i)` (the lab's one seed derivation, [`super::seeds`]),
+//! [`super::seeds::monte_carlo_run`] (the lab's one seed derivation),
 //! whatever the shard or thread that flies it, so a study split into shards and merged gives the same numbers as one process. Each run draws, from its seed:
 //!
 //! * the temperature variation within the scenario's `[monte_carlo]` bounds: the drive
@@ -272,20 +272,10 @@ pub struct Draw {
     pub temp_scale: f64,
 }
 
-/// The Monte Carlo runs' seeds (index: the run).
-const RUNS: qfa_rng::Stream = qfa_rng::Stream::named("monte carlo: runs");
-
-/// The seed of run `i` of base seed `seed`: every draw of the run follows from it
-/// ([`super::seeds`]).
-#[must_use]
-pub fn run_seed(seed: u64, i: u64) -> u64 {
-    qfa_rng::stream_seed(seed, RUNS, i)
-}
-
 /// The draws of run `i` of base seed `seed` (see the module doc).
 #[must_use]
 pub fn draw(sc: &Scenario, seed: u64, i: u64) -> Draw {
-    let rs = run_seed(seed, i);
+    let rs = super::seeds::monte_carlo_run(seed, i);
     let mut rng = qfa_rng::seeded(super::seeds::variation(rs));
     let v = sc.monte_carlo;
     let off = if v.temp_offset_c > 0.0 { rng.random_range(-v.temp_offset_c..=v.temp_offset_c) } else { 0.0 };

@@ -7,11 +7,19 @@
 
 use qfa_rng::{stream_seed, Stream};
 
+const MONTE_CARLO_RUNS: Stream = Stream::named("monte carlo: runs");
 const VARIATION: Stream = Stream::named("flight: temperature variation and unit spread");
 const IMU_ERRORS: Stream = Stream::named("flight: IMU errors and noise");
 const ACCELEROMETER: Stream = Stream::named("flight: accelerometer noise");
 const CALIBRATION_LOG: Stream = Stream::named("flight: calibration log");
 const FAULTS: Stream = Stream::named("flight: injected faults");
+
+/// The seed of run `i` of a Monte Carlo study of base seed `seed`: every draw of the run
+/// follows from it.
+#[must_use]
+pub fn monte_carlo_run(seed: u64, i: u64) -> u64 {
+    stream_seed(seed, MONTE_CARLO_RUNS, i)
+}
 
 /// The seed of a Monte Carlo run's temperature variation and unit spread.
 #[must_use]
@@ -56,7 +64,7 @@ mod tests {
     #[test]
     fn no_two_draws_of_a_flight_share_a_stream() {
         let mut seen = std::collections::HashSet::new();
-        let runs = |s: u64| (0..400).map(move |i| crate::mc::run_seed(s, i));
+        let runs = |s: u64| (0..400).map(move |i| monte_carlo_run(s, i));
         for base in [2019, 40].into_iter().chain(runs(2019)).chain(runs(7)) {
             let mut mine = vec![base, variation(base), imu_errors(base)];
             for axis in 0..3 {
