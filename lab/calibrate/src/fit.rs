@@ -18,8 +18,8 @@
 //!   as in `BiasGrid::k0`), minus the extension slots' bias. How the two branches are tied
 //!   is chosen from the data, as the static fit chooses among the same [`BranchMode`]s:
 //!   Single (one curve, `g` unknowns), Offset (one curve ± a constant half-step, `g + 1`)
-//!   or Free (a curve per branch, `2g`), by blocked cross-validation over the fit programs'
-//!   paired rows with the one-standard-error rule (`crate::select`): the
+//!   or Free (a curve per branch, `2g`), by blocked cross-validation over the fitted
+//!   programs' paired rows with the one-standard-error rule (`crate::select`): the
 //!   fewest-unknown mode whose held-out K0 error is within one SE of the best's. Without
 //!   it, a unit whose bias is single-valued got two branches that differ by calibration
 //!   noise, which the firmware then applies as a branch-switching error. Weak regularisers
@@ -37,10 +37,12 @@ use qfa_log::replay::RATE_WINDOW;
 pub(crate) use super::solver::{lstsq, LsResult};
 
 mod branch;
+mod table;
 pub use crate::static_cal::fit::{fit_static_axis, BranchMode, CurveShape, StaticSeries, StaticStructure};
 pub use crate::static_cal::fit::{fit_static_traced, StaticDesign, StaticFit, StaticTraces};
 use branch::choose_branch_mode;
 pub use branch::{BranchChoice, BranchCv};
+pub use table::{fit_held_out, fit_table};
 
 /// Reference temperature of every lab table, °C (the paper's start temperature).
 pub const T0_C: f64 = 22.0;
@@ -490,23 +492,6 @@ pub fn cycling_structure(mode: BranchMode, shape: CurveShape, ext: &Extensions) 
         play_half_width_c: ext.bias_branch_hysteresis.map(|p| p.half_width_c),
     };
     format!("Eq. 11 + {}", s.name())
-}
-
-/// The table written for a log, the lab's one rule: the cycling fit on `programs` (every
-/// program with a pair) with the extension slots `ext`, its bias grid's branch tie and
-/// shape chosen by the same cross-validation on those programs. The held-out figures are
-/// of this procedure run on the fit programs (cross-validation judges the procedure; the
-/// table is the procedure run on every row). `calibrate`, `discover` on a cycling log and
-/// the navigation study fly this table. Keeping the tie the fit programs chose instead
-/// (an earlier rule of `calibrate`'s) flew worse: 20 Monte Carlo runs of the navigation
-/// study removed a median 92.9 % of the simple model's thermal error (worst run 84.7 %)
-/// against 94.3 % (worst 91.4 %) with the tie chosen on every program (on the simulator's
-/// earlier run streams).
-///
-/// # Errors
-/// As [`fit`].
-pub fn fit_table(paired: &PairedLog<'_>, programs: &[String], ext: Extensions) -> Result<Fitted, FitError> {
-    fit(paired, &FitOptions { ext, ..FitOptions::new(programs.to_vec()) }, None)
 }
 
 /// The paired rows of `opts.fit_programs`, in order, with the row each program starts at

@@ -9,11 +9,12 @@
 //! names, when they can be loaded as written (see [`export::write_exports`]: a one-axis
 //! export needs [`export::ExportOptions::range_c`]).
 //!
-//! Which rows each comes from: the held-out figures (and the plots) from tables fitted on
-//! the fit programs and compensated on the others; the tables and parameters written from
-//! the same procedure run on **every** program with a ±1 g pair ([`fit::fit_table`]: the
-//! bias grid's branch tie and shape chosen there by the same cross-validation), so no
-//! program's rows are left out of what is flashed. With one program, both are the same fit.
+//! Which rows each comes from: one structure per log, the bias grid's branch tie and shape
+//! chosen once by cross-validation on **every** program with a ±1 g pair
+//! ([`fit::fit_table`]), so no program's rows are left out of what is flashed; the
+//! held-out figures (and the plots) are of that structure fitted on the fit programs
+//! alone ([`fit::fit_held_out`]) and compensated on the others. With one program, both
+//! are the same fit.
 
 pub mod compensate;
 pub mod coverage;
@@ -244,12 +245,25 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
     let paired = PairedLog::new(log);
     let (fit_p, eval_p) = fit_and_eval_programs(&programs, opts.fit_programs.as_deref());
     check_inputs(log, &paired, &fit_p)?;
+    // The table written: the structure chosen once, on every program with a pair
+    // (`fit_table`); the held-out figures are of that structure fitted on the fit programs
+    // (`fit_held_out`), so the figures score what is flashed. With no program beyond the
+    // fit programs, both are one fit.
+    let table_p: Vec<String> = programs.iter().filter(|p| paired.program(p).is_some()).cloned().collect();
+    let one_fit = table_p.iter().all(|p| fit_p.contains(p));
     let t = Instant::now();
     let pb = bar(fit_p.len() as u64, "fitting", opts.progress);
-    let fitted = fit(&paired, &FitOptions { ext: opts.ext, ..FitOptions::new(fit_p.clone()) }, Some(&pb))
-        .map_err(CalibrateError::Fit)?;
+    let (table, fitted) = if one_fit {
+        let f = fit(&paired, &FitOptions { ext: opts.ext, ..FitOptions::new(fit_p.clone()) }, Some(&pb))
+            .map_err(CalibrateError::Fit)?;
+        (f.clone(), f)
+    } else {
+        let table = crate::fit::fit_table(&paired, &table_p, opts.ext).map_err(CalibrateError::Fit)?;
+        let f = crate::fit::fit_held_out(&paired, &fit_p, &table, opts.ext, Some(&pb)).map_err(CalibrateError::Fit)?;
+        (table, f)
+    };
     pb.finish_and_clear();
-    let mut t_fit = t.elapsed().as_secs_f64();
+    let t_fit = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let n_eval = log.runs.iter().filter(|r| eval_p.contains(&r.program)).count();
     let pb = bar(n_eval as u64, "held-out compensation", opts.progress);
@@ -259,18 +273,12 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
     let t_eval = t.elapsed().as_secs_f64();
     check_figures(&eval)?;
     let (peers, fit_peers) = crate::report::peer_bias(&paired, &fit_p, &eval_p, &fitted.hysteresis)?;
-    // What is written: the same procedure on every program with a pair (`fit_table`), and
-    // the peers on the same pairs.
-    let table_p: Vec<String> = programs.iter().filter(|p| paired.program(p).is_some()).cloned().collect();
-    let (table, peer_fits) = if table_p.iter().all(|p| fit_p.contains(p)) {
-        (fitted.clone(), fit_peers)
+    // The peers written: fitted on the table's programs.
+    let peer_fits = if one_fit {
+        fit_peers
     } else {
-        let t = Instant::now();
-        let table = crate::fit::fit_table(&paired, &table_p, opts.ext).map_err(CalibrateError::Fit)?;
         let deadband = table.hysteresis.axes[0].bias.deadband_c_per_min;
-        let p = crate::report::peer_fit(&paired, &table_p, deadband)?;
-        t_fit += t.elapsed().as_secs_f64();
-        (table, p)
+        crate::report::peer_fit(&paired, &table_p, deadband)?
     };
     // What the table written covers and clamps to: its own programs and limits (the
     // held-out figures' fit programs are a part of them).
@@ -332,7 +340,7 @@ fn figures_text(fit_p: &[String], eval_p: &[String], table_p: &[String], held_ou
     format!(
         "{} figures and plots: tables fitted on {fit}, compensated on {}; table.*, table_simple.*, \
          px4_tc.params, ardupilot_tcal_*.parm: fitted on {} (every program with a +1 g / -1 g pair), the bias \
-         grid's branch tie and shape chosen there by the cross-validation that chose them on {fit}",
+         grid's branch tie and shape chosen there by cross-validation, and the held-out tables of that structure",
         if held_out { "held-out" } else { "in-sample (one program)" },
         eval_p.join(", "),
         table_p.join(", "),
@@ -352,8 +360,7 @@ fn fit_summary(fitted: &Fitted, table: &Fitted) -> FitSummary {
         simple_sf: [fitted.sf_simple.coef[0], fitted.sf_simple.coef[1]],
         simple_bias: [fitted.bias_simple.coef[0], fitted.bias_simple.coef[1]],
         rms_sf_hysteresis: fitted.sf_hysteresis.rms,
-        branch: fitted.branch.clone(),
-        table_branch: (table.branch.mode, table.branch.shape),
+        branch: table.branch.clone(),
     }
 }
 
@@ -567,16 +574,9 @@ pub(crate) fn page(cal: &Calibration, opts: &CalibrateOptions) -> qfa_report::ht
     p
 }
 
-/// The structure the held-out figures are of (the fit programs' tie), and `table.bin`'s
-/// when its fit on every program chose another.
+/// The structure the held-out figures are of, which `table.bin` holds.
 pub(crate) fn held_out_structure(f: &FitSummary) -> String {
-    let held = fit::cycling_structure(f.branch.mode, f.branch.shape, &qfa_thermal::Extensions::NONE);
-    let table = fit::cycling_structure(f.table_branch.0, f.table_branch.1, &qfa_thermal::Extensions::NONE);
-    if held == table {
-        held
-    } else {
-        format!("{held}; table.bin's fit on every program chose {table}")
-    }
+    fit::cycling_structure(f.branch.mode, f.branch.shape, &qfa_thermal::Extensions::NONE)
 }
 
 /// The held-out figures of each model and peer.
@@ -612,10 +612,9 @@ fn fit_section(p: &mut qfa_report::html_report::Page, f: &FitSummary) {
             format!("{:.1}, {:.1}, {:.1}", f.cond_sf_simple, f.cond_sf_hysteresis, f.cond_bias_grid),
         ),
         ("Eq. 11 [γ, μ, β, ε, η, α]", f.eq11.iter().map(|c| format!("{c:.6e}")).collect::<Vec<_>>().join(", ")),
-        ("bias grid branch tie", format!("{:?} on {:?} curves: {}", f.branch.mode, f.branch.shape, f.branch.rule)),
         (
-            "table.bin's tie (the same rule on every program)",
-            format!("{:?} on {:?} curves", f.table_branch.0, f.table_branch.1),
+            "bias grid branch tie (table.bin's, and the held-out figures')",
+            format!("{:?} on {:?} curves: {}", f.branch.mode, f.branch.shape, f.branch.rule),
         ),
     ]);
     let branch_rows: Vec<Vec<String>> = f
@@ -625,6 +624,7 @@ fn fit_section(p: &mut qfa_report::html_report::Page, f: &FitSummary) {
         .map(|c| {
             vec![
                 format!("{:?}", c.mode),
+                format!("{:?}", c.shape),
                 c.unknowns.to_string(),
                 format!("{:.2}", c.cv_rms_ug),
                 format!("{:.3}", c.cv_mse_ug2),
@@ -632,7 +632,7 @@ fn fit_section(p: &mut qfa_report::html_report::Page, f: &FitSummary) {
             ]
         })
         .collect();
-    p.table(&["branch tie", "unknowns", "CV RMS, µg", "CV MSE, µg²", "SE, µg²"], &branch_rows);
+    p.table(&["branch tie", "curves", "unknowns", "CV RMS, µg", "CV MSE, µg²", "SE, µg²"], &branch_rows);
     p.para(&format!("Limit (best CV MSE + its SE): {:.3} µg² over {} folds.", f.branch.limit_ug2, f.branch.folds));
 }
 

@@ -172,12 +172,11 @@ pub struct FitSummary {
     pub simple_bias: [f64; 2],
     /// RMS residual of the Eq. 11 fit, pulses/(g·s).
     pub rms_sf_hysteresis: f64,
-    /// The bias grid's branch tie, chosen by cross-validation on the fit programs, with
-    /// every mode's figures (the structure the held-out figures are of).
+    /// The bias grid's branch tie and shape `table.bin` holds, chosen by cross-validation
+    /// on every program the table is fitted on (`crate::fit::fit_table`), with every
+    /// candidate's figures: the structure the held-out figures are of too
+    /// (`crate::fit::fit_held_out`).
     pub branch: crate::fit::BranchChoice,
-    /// The tie and shape `table.bin` holds: the same cross-validation on every program
-    /// the table is fitted on (`crate::fit::fit_table`), which may choose another.
-    pub table_branch: (crate::fit::BranchMode, crate::fit::CurveShape),
 }
 
 /// `report.json`.

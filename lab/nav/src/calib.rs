@@ -17,7 +17,7 @@ use qfa_thermal::model::AxisModel;
 use qfa_thermal::table::Table;
 
 use qfa_calibrate::coverage::{CalCoverage, Coverage, CoverageError, TableLimits};
-use qfa_calibrate::fit::{fit, fit_table, split_programs, FitError, FitOptions};
+use qfa_calibrate::fit::{fit_held_out, fit_table, split_programs, FitError};
 use qfa_discover::{analyze_source, Source, Start};
 use qfa_log::cycling::Log;
 use qfa_log::open::OpenedLog;
@@ -297,9 +297,14 @@ pub fn calibrate_unit_on(
     let positions: Vec<_> = paper_positions().into_iter().filter(|p| p.input_g != 0.0).collect();
     let log = simulate(truth, &programs, &positions, ROW_S, seed, threads, None);
     let paired = PairedLog::new(&log);
+    // The flown table: the structure chosen once on every program of the log, as
+    // `calibrate` writes its table (`fit_table`); the validation scores that structure
+    // fitted on the fit programs alone (`fit_held_out`), as `calibrate`'s figures do.
+    let mut f = fit_table(&paired, &ids, qfa_thermal::Extensions::NONE)
+        .map_err(|e| CalibError::Fit { unit: truth.name.clone(), source: e })?;
     let validation = if opts.validate {
         let (fit_ids, held) = split_programs(&ids);
-        let v = fit(&paired, &FitOptions::new(fit_ids.clone()), None)
+        let v = fit_held_out(&paired, &fit_ids, &f, qfa_thermal::Extensions::NONE, None)
             .map_err(|e| CalibError::ValidationFit { unit: truth.name.clone(), source: e })?;
         let ev = qfa_calibrate::report::evaluate(&paired, &held, &v.simple, &v.hysteresis, None)
             .map_err(|e| CalibError::HeldOut { unit: truth.name.clone(), source: e })?;
@@ -313,10 +318,6 @@ pub fn calibrate_unit_on(
     } else {
         Validation::NotComputed("validation off (Monte Carlo runs and tests skip it)".into())
     };
-    // The flown table: the procedure the validation judged, run on every program of the
-    // log, as `calibrate` writes its table (`fit_table`).
-    let mut f = fit_table(&paired, &ids, qfa_thermal::Extensions::NONE)
-        .map_err(|e| CalibError::Fit { unit: truth.name.clone(), source: e })?;
     if let Some(l) = opts.rate_limit_override {
         for t in [&mut f.simple, &mut f.hysteresis] {
             for a in &mut t.axes {

@@ -135,7 +135,7 @@ pub(super) fn choose_branch_mode(
         rule: format!(
             "bias-grid branch tie (Single: one curve; Offset: one curve ± a constant half-step; Free: a curve per branch), \
              each curve free nodes or nodes on a cubic in temperature (the stacks' own shape), by {k}-fold blocked \
-             cross-validation over the fit programs' paired rows (contiguous equal chunks in time), \
+             cross-validation over the paired rows of every program fitted (contiguous equal chunks in time), \
              scored on the held-out chunk's {block}-row K0 means; the candidate with the fewest unknowns whose CV MSE is \
              within one standard error of the best's (one-SE rule)"
         ),
