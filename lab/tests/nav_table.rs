@@ -98,6 +98,9 @@ fn the_structure_choice_seeing_every_program_gains_little_held_out() {
     let positions: Vec<_> = paper_positions().into_iter().filter(|p| p.input_g != 0.0).collect();
     let (mut differ, mut n, mut worst_gain) = (0, 0, f64::NEG_INFINITY);
     let (mut gains, mut fresh_gains) = (Vec::new(), Vec::new());
+    // Units whose verdict warns that a bias-only peer did better held out, as scored now
+    // and as the fit programs' own choice scored.
+    let (mut peer_warnings, mut peer_warnings_before) = (0, 0);
     for (lab, seed, k) in [LabProgram::Paper, LabProgram::Covering]
         .into_iter()
         .flat_map(|lab| (1040_u64..1060).flat_map(move |seed| (1..=3).map(move |k| (lab, seed, k))))
@@ -117,8 +120,16 @@ fn the_structure_choice_seeing_every_program_gains_little_held_out() {
             .expect("evaluate");
             let (ours, procedure) = (cal.report.bias_residual_ug.hysteresis, ev.bias_residual_ug.hysteresis);
             let same = structure_of(grid(&alone.hysteresis)) == structure_of(grid(&cal.table.hysteresis));
+            let warns = |b: f64| qfa_calibrate::verdict::worse_than_a_peer(b, cal.report.peers_bias_residual_ug, true);
+            peer_warnings += usize::from(warns(ours).is_some());
+            peer_warnings_before += usize::from(warns(procedure).is_some());
+            let (tie, shape) = structure_of(grid(&cal.table.hysteresis));
             println!(
-                "program={lab:?} seed={seed} unit={k} table_structure_ug={ours:.3} fit_programs_choice_ug={procedure:.3} same_choice={same}"
+                "program={lab:?} seed={seed} unit={k} table_structure_ug={ours:.3} fit_programs_choice_ug={procedure:.3} \
+                 same_choice={same} table=\"{tie} {shape}\" px4_cubic_ug={:.3} ardupilot_ug={:.3} peer_warning={}",
+                cal.report.peers_bias_residual_ug.cubic,
+                cal.report.peers_bias_residual_ug.ardupilot,
+                warns(ours).is_some()
             );
             n += 1;
             if !same {
@@ -149,10 +160,81 @@ fn the_structure_choice_seeing_every_program_gains_little_held_out() {
     let mean = |g: &[f64]| g.iter().sum::<f64>() / g.len().max(1) as f64;
     println!(
         "units={n} choices_differ={differ} mean_gain_ug={:.3} worst_gain_ug={worst_gain:.3} fresh_log_mean_gain_ug={:.3} \
-         fresh_log_gains_negative={}",
+         fresh_log_gains_negative={} peer_warnings={peer_warnings} peer_warnings_fit_programs_choice={peer_warnings_before}",
         mean(&gains),
         mean(&fresh_gains),
         fresh_gains.iter().filter(|g| **g < 0.0).count()
+    );
+    assert!(n == 120, "every unit calibrated");
+}
+
+/// Whether the bias grid weighted as the held-out figure weighs its bins
+/// (`BiasWeighting::TemperatureCells`) predicts better than every block alike (the
+/// default): per unit, both rules' held-out bias (the table's structure chosen on every
+/// program, fitted on the fit programs), on the log and on a fresh log of the same unit,
+/// beside the peers. A study, not a check: `cargo test --release -p qfa-lab --test
+/// nav_table the_bias_weighting -- --ignored --nocapture`.
+#[test]
+#[ignore = "a study: 120 logs, about 8 min in release"]
+fn the_bias_weighting_study() {
+    use qfa_calibrate::fit::BiasWeighting;
+    let positions: Vec<_> = paper_positions().into_iter().filter(|p| p.input_g != 0.0).collect();
+    let (mut n, mut warn_blocks, mut warn_cells, mut cells_better, mut cells_better_fresh) = (0, 0, 0, 0, 0);
+    let (mut sum_blocks, mut sum_cells, mut sum_blocks_fresh, mut sum_cells_fresh) = (0.0, 0.0, 0.0, 0.0);
+    for (lab, seed, k) in [LabProgram::Paper, LabProgram::Covering]
+        .into_iter()
+        .flat_map(|lab| (1040_u64..1060).flat_map(move |seed| (1..=3).map(move |k| (lab, seed, k))))
+    {
+        let log = qfa_sim::simulate(&Truth::jb_kt8(k), &lab.programs(), &positions, ROW_S, seed, 2, None);
+        let fresh = qfa_sim::simulate(&Truth::jb_kt8(k), &lab.programs(), &positions, ROW_S, seed + 10_000, 2, None);
+        let cal = calibrate_log(&log, &CalibrateOptions::default()).expect("calibrate");
+        let paired = PairedLog::new(&log);
+        let fresh = PairedLog::new(&fresh);
+        let r = &cal.report;
+        let fit_with = |w: BiasWeighting| {
+            let table =
+                fit(&paired, &FitOptions { bias_weighting: w, ..FitOptions::new(r.table_programs.clone()) }, None)
+                    .expect("table fit");
+            let opts = FitOptions {
+                bias_weighting: w,
+                branch_mode: Some(table.branch.mode),
+                curve_shape: Some(table.branch.shape),
+                ..FitOptions::new(r.fit_programs.clone())
+            };
+            fit(&paired, &opts, None).expect("held-out fit")
+        };
+        let score = |on: &PairedLog<'_>, f: &qfa_calibrate::fit::Fitted| {
+            qfa_calibrate::report::evaluate(on, &r.eval_programs, &f.simple, &f.hysteresis, None)
+                .expect("evaluate")
+                .bias_residual_ug
+                .hysteresis
+        };
+        let (b, c) = (fit_with(BiasWeighting::Blocks), fit_with(BiasWeighting::TemperatureCells));
+        let (sb, sc, fb, fc) = (score(&paired, &b), score(&paired, &c), score(&fresh, &b), score(&fresh, &c));
+        assert!((sb - r.bias_residual_ug.hysteresis).abs() < 1e-9, "the default is calibrate's figure");
+        let warns = |x: f64| qfa_calibrate::verdict::worse_than_a_peer(x, r.peers_bias_residual_ug, true).is_some();
+        println!(
+            "program={lab:?} seed={seed} unit={k} blocks_ug={sb:.3} cells_ug={sc:.3} fresh_blocks_ug={fb:.3} \
+             fresh_cells_ug={fc:.3} px4_ug={:.3} ardupilot_ug={:.3}",
+            r.peers_bias_residual_ug.cubic, r.peers_bias_residual_ug.ardupilot
+        );
+        n += 1;
+        warn_blocks += usize::from(warns(sb));
+        warn_cells += usize::from(warns(sc));
+        cells_better += usize::from(sc < sb);
+        cells_better_fresh += usize::from(fc < fb);
+        (sum_blocks, sum_cells, sum_blocks_fresh, sum_cells_fresh) =
+            (sum_blocks + sb, sum_cells + sc, sum_blocks_fresh + fb, sum_cells_fresh + fc);
+    }
+    let m = f64::from(n);
+    println!(
+        "units={n} mean_blocks_ug={:.3} mean_cells_ug={:.3} mean_fresh_blocks_ug={:.3} mean_fresh_cells_ug={:.3} \
+         cells_better={cells_better} cells_better_fresh={cells_better_fresh} peer_warnings_blocks={warn_blocks} \
+         peer_warnings_cells={warn_cells}",
+        sum_blocks / m,
+        sum_cells / m,
+        sum_blocks_fresh / m,
+        sum_cells_fresh / m
     );
     assert!(n == 120, "every unit calibrated");
 }
