@@ -183,25 +183,9 @@ pub struct FitOptions {
     /// (`choose_branch_mode`). `Some(mode)` forces it (the CV figures are still
     /// reported, the rule says it was forced): for tests that must show a wrong tie fails.
     pub branch_mode: Option<BranchMode>,
-    /// `None`: the curves' shape is chosen with the tie. `Some` forces it (the held-out
-    /// fit takes the shape the table's fit on every program chose).
+    /// `None`: the curves' shape is chosen with the tie. `Some` forces it (the table fit on
+    /// every program takes the shape the held-out fit chose).
     pub curve_shape: Option<CurveShape>,
-    /// How the bias grid's equations weigh against each other.
-    pub bias_weighting: BiasWeighting,
-}
-
-/// How the bias grid's block equations are weighted in its least squares and in the
-/// cross-validation that chooses its tie.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum BiasWeighting {
-    /// Every block alike: a temperature weighs by the time the chamber program spends there.
-    #[default]
-    Blocks,
-    /// Every (program, branch, 1 °C of temperature) cell alike, its blocks sharing its
-    /// weight: the held-out bias figure's own weighting (one value per 1 °C bin of a
-    /// program's branch segment), and what a learner that takes one point per temperature
-    /// step does. Weights are scaled to a mean of 1.
-    TemperatureCells,
 }
 
 impl FitOptions {
@@ -217,7 +201,6 @@ impl FitOptions {
             grid_points: MAX_BIAS_POINTS,
             branch_mode: None,
             curve_shape: None,
-            bias_weighting: BiasWeighting::Blocks,
         }
     }
 }
@@ -403,49 +386,6 @@ pub(crate) fn block_average(x: &[f64], y: &[f64], p: usize, block: usize, starts
     (xo, yo)
 }
 
-/// The weight of each block of [`block_ranges`]`(rows.len(), block, block_starts)` under
-/// `weighting` (`program_starts`: the row each program starts at).
-fn weigh_blocks(
-    rows: &[Row],
-    block: usize,
-    block_starts: &[usize],
-    program_starts: &[usize],
-    weighting: BiasWeighting,
-) -> Vec<f64> {
-    let ranges = block_ranges(rows.len(), block, block_starts);
-    if weighting == BiasWeighting::Blocks {
-        return vec![1.0; ranges.len()];
-    }
-    let key = |&(s, e): &(usize, usize)| {
-        let program = program_starts.partition_point(|&x| x <= s);
-        let t = rows[s..e].iter().map(|r| r.tp).sum::<f64>() / (e - s) as f64;
-        let branch = match rows[s].bp {
-            Branch::Heating => 1u8,
-            Branch::Cooling => 2,
-            Branch::Unknown => 0,
-        };
-        (program, branch, t.floor() as i64)
-    };
-    let mut count = std::collections::HashMap::new();
-    for r in &ranges {
-        *count.entry(key(r)).or_insert(0usize) += 1;
-    }
-    let w: Vec<f64> = ranges.iter().map(|r| 1.0 / count[&key(r)] as f64).collect();
-    let mean = w.iter().sum::<f64>() / w.len().max(1) as f64;
-    w.into_iter().map(|x| x / mean).collect()
-}
-
-/// Scale block equations `xb` (`p` columns) and targets `yb` by √`w`.
-fn scale_blocks(xb: &mut [f64], yb: &mut [f64], p: usize, w: &[f64]) {
-    for (b, wb) in w.iter().enumerate() {
-        let r = wb.sqrt();
-        yb[b] *= r;
-        for x in &mut xb[b * p..(b + 1) * p] {
-            *x *= r;
-        }
-    }
-}
-
 /// The grid node at or below temperature `t` (clamped to the grid) and the fraction of the
 /// way to the next: the hat weights are `1 − f` on node `i` and `f` on node `i + 1`.
 pub(crate) fn hat_node(t: f64, start: f64, step: f64, n: usize) -> (usize, f64) {
@@ -599,8 +539,7 @@ fn fit_bias_grid(
     let y_k0x: Vec<f64> = rows.iter().map(|r| r.k0 - r.ext_k0).collect();
     // How the branches are tied is the data's call (cross-validation, one-SE rule), then
     // the chosen mode is fitted on all fit rows with the fit's own blocks.
-    let weights = weigh_blocks(rows, opts.block, starts, starts, opts.bias_weighting);
-    let mut branch = choose_branch_mode(rows, &y_k0x, starts, grid, opts.block, opts.bias_weighting)?;
+    let mut branch = choose_branch_mode(rows, &y_k0x, starts, grid, opts.block)?;
     if opts.branch_mode.is_some() || opts.curve_shape.is_some() {
         branch.mode = opts.branch_mode.unwrap_or(branch.mode);
         branch.shape = opts.curve_shape.unwrap_or(branch.shape);
@@ -612,7 +551,6 @@ fn fit_bias_grid(
     let (xg, p) = bias_design(rows, branch.shape, branch.mode, grid);
     let (mut xb, mut yb) = block_average(&xg, &y_k0x, p, opts.block, starts);
     drop(xg);
-    scale_blocks(&mut xb, &mut yb, p, &weights);
     branch.mode.push_shaped_regularisers(branch.shape, &mut xb, &mut yb, p, grid.g);
     let bias_hysteresis = lstsq(&xb, p, &yb)?;
     Ok((branch, bias_hysteresis))

@@ -4,8 +4,7 @@
 use serde::Serialize;
 
 use super::{
-    bias_design, block_average, block_ranges, lstsq, scale_blocks, weigh_blocks, BiasWeighting, BranchMode, CurveShape,
-    CvFault, FitError, GridSpec, Row,
+    bias_design, block_average, block_ranges, lstsq, BranchMode, CurveShape, CvFault, FitError, GridSpec, Row,
 };
 
 /// Contiguous cross-validation folds over the cycling fit's paired rows. Chosen before any
@@ -64,7 +63,6 @@ pub(super) fn choose_branch_mode(
     starts: &[usize],
     gs: GridSpec,
     block: usize,
-    weighting: BiasWeighting,
 ) -> Result<BranchChoice, FitError> {
     let n = y.len();
     let k = CYCLING_CV_FOLDS;
@@ -74,7 +72,6 @@ pub(super) fn choose_branch_mode(
     st.sort_unstable();
     st.dedup();
     let ranges = block_ranges(n, block, &st);
-    let block_weights = weigh_blocks(rows, block, &st, starts, weighting);
     let fold_of: Vec<usize> = ranges.iter().map(|&(s, _)| s * k / n.max(1)).collect();
     let mut cands = Vec::new();
     let shapes_and_modes = [CurveShape::Nodes, CurveShape::Cubic]
@@ -82,9 +79,8 @@ pub(super) fn choose_branch_mode(
         .flat_map(|s| [BranchMode::Single, BranchMode::Offset, BranchMode::Free].map(|m| (s, m)));
     for (shape, mode) in shapes_and_modes {
         let (x, p) = bias_design(rows, shape, mode, gs);
-        let (mut xb, mut yb) = block_average(&x, y, p, block, &st);
+        let (xb, yb) = block_average(&x, y, p, block, &st);
         drop(x);
-        scale_blocks(&mut xb, &mut yb, p, &block_weights);
         let mut fold_mse = Vec::with_capacity(k);
         for f in 0..k {
             let (mut xt, mut yt) = (Vec::new(), Vec::new());
@@ -96,20 +92,18 @@ pub(super) fn choose_branch_mode(
             }
             mode.push_shaped_regularisers(shape, &mut xt, &mut yt, p, gs.g);
             let c = lstsq(&xt, p, &yt)?.coef;
-            let (mut sse, mut m, mut wsum) = (0.0, 0usize, 0.0);
+            let (mut sse, mut m) = (0.0, 0usize);
             for (b, &fb) in fold_of.iter().enumerate() {
                 if fb == f {
                     let pred: f64 = xb[b * p..(b + 1) * p].iter().zip(&c).map(|(a, ci)| a * ci).sum();
                     sse += (yb[b] - pred).powi(2);
                     m += 1;
-                    wsum += block_weights[b];
                 }
             }
             if m == 0 {
                 return Err(FitError::Cv(CvFault::EmptyFold { fold: f, folds: k, block, rows: n }));
             }
-            // The blocks are scaled by √weight, so `sse` is the weighted sum.
-            fold_mse.push(sse / wsum * 1e12);
+            fold_mse.push(sse / m as f64 * 1e12);
         }
         cands.push((shape, mode, p, crate::select::CvFigure::of_folds(&fold_mse)?));
     }
