@@ -196,3 +196,26 @@ fn a_bias_model_in_the_tables_place_is_scored_as_the_table_is() {
     // this replaced was 1 % off, which the bound still refuses.
     assert!((got[0] - want).abs() < 3e-3 * want, "{} against {want}", got[0]);
 }
+
+/// Nothing held out says why in the log's own terms: a log of two programs with both named
+/// as fit programs is not "one program" (it read so before), and a log of one program is.
+#[test]
+fn nothing_held_out_says_whether_the_log_has_one_program_or_all_were_fitted() {
+    use qfa_report::verdict::Measured;
+    let log = short_log(&Truth::jb_kt8(1), &[1.0, 1.5], 2, 5);
+    let reason = |fit_programs: Vec<String>, log: &Log| {
+        let opts = CalibrateOptions { fit_programs: Some(fit_programs), ..CalibrateOptions::default() };
+        let cal = calibrate_log(log, &opts).expect("calibrates");
+        assert!(!cal.report.held_out, "nothing is held out");
+        match cal.report.held_out_table_figures().1 {
+            Measured::NotComputed { not_computed } => not_computed,
+            Measured::Value(v) => panic!("an in-sample figure given as held out: {v}"),
+        }
+    };
+    let all = reason(log.programs(), &log);
+    assert!(all.starts_with("every program fitted"), "{all}");
+    let mut one = log.clone();
+    one.runs.retain(|r| r.program == "ramp-1");
+    let only = reason(vec!["ramp-1".into()], &one);
+    assert!(only.starts_with("one program only"), "{only}");
+}

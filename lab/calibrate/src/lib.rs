@@ -341,7 +341,7 @@ fn figures_text(fit_p: &[String], eval_p: &[String], table_p: &[String], held_ou
         "{} figures and plots: tables fitted on {fit}, compensated on {}; table.*, table_simple.*, \
          px4_tc.params, ardupilot_tcal_*.parm: fitted on {} (every program with a +1 g / -1 g pair), the bias \
          grid's branch tie and shape chosen there by cross-validation, and the held-out tables of that structure",
-        if held_out { "held-out" } else { "in-sample (one program)" },
+        if held_out { "held-out" } else { "in-sample (nothing held out)" },
         eval_p.join(", "),
         table_p.join(", "),
         fit = fit_p.join(", ")
@@ -558,7 +558,7 @@ pub(crate) fn page(cal: &Calibration, opts: &CalibrateOptions) -> qfa_report::ht
         ("log rows", r.rows.to_string()),
     ]);
     if !r.held_out {
-        p.warning("one program only: the figures are in-sample, not held out");
+        p.warning(r.in_sample_reason());
     }
     held_out_figures_section(&mut p, r);
     p.para(&format!("Metric: {}.", r.metric));

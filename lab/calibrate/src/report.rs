@@ -222,21 +222,37 @@ pub struct Report {
 /// Why a one-program log's held-out figures are not computed.
 pub const IN_SAMPLE: &str = "one program only: the figures are in-sample, not held out";
 
+/// Why the held-out figures are not computed when the fit programs are every program of a
+/// log of several (`--fit-programs` naming them all).
+pub const ALL_FITTED: &str =
+    "every program fitted (the fit programs name them all): the figures are in-sample, not held out";
+
 impl Report {
     /// `table.bin`'s held-out Table-4 sensitivity (ppm/°C) and bias residual (µg RMS): what
     /// its limits judge, its verdict expects in use and a batch compares. Not computed on a
-    /// one-program log ([`IN_SAMPLE`]): its figures were scored on the rows they were
-    /// fitted on.
+    /// one-program log ([`IN_SAMPLE`]), nor when the fit programs are all of them
+    /// ([`ALL_FITTED`]): their figures were scored on the rows they were fitted on.
     #[must_use]
     pub fn held_out_table_figures(&self) -> (Measured, Measured) {
         let figure = |x: f64| {
             if self.held_out {
                 Measured::Value(x)
             } else {
-                Measured::NotComputed { not_computed: IN_SAMPLE.into() }
+                Measured::NotComputed { not_computed: self.in_sample_reason().into() }
             }
         };
         (figure(self.sensitivity_ppm_per_c.hysteresis), figure(self.bias_residual_ug.hysteresis))
+    }
+
+    /// Why nothing was held out, when nothing was: the log holds one program
+    /// ([`IN_SAMPLE`]), or the fit programs are every program it holds ([`ALL_FITTED`]).
+    #[must_use]
+    pub fn in_sample_reason(&self) -> &'static str {
+        if self.table_programs.len() <= 1 {
+            IN_SAMPLE
+        } else {
+            ALL_FITTED
+        }
     }
 }
 

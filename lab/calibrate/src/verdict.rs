@@ -204,24 +204,13 @@ pub(crate) fn cycling_verdict(
     // why (so the reasons a batch or `--limits` gives are those checks, never an empty list).
     let checks = limits.limits.cycling_checks(axis, sensitivity.clone(), bias.clone(), span);
     let answer = if !r.held_out {
-        "one program only: the figures are in-sample, so nothing says what to expect in use".to_string()
+        format!("{}, so nothing says what to expect in use", r.in_sample_reason().replace(", not held out", ""))
     } else if checks.iter().all(|c| c.pass) {
         passing_answer(files)
     } else {
         format!("table.bin fails {}", checks.iter().filter(|c| !c.pass).map(|c| c.limit).collect::<Vec<_>>().join(", "))
     };
-    let held_out = if r.held_out {
-        format!(
-            "tables fitted on programs {}, scored on programs {} (whole programs the fit never saw)",
-            r.fit_programs.join(", "),
-            r.eval_programs.join(", ")
-        )
-    } else {
-        format!(
-            "none: the log holds one program ({}), so the tables were scored on the rows they were fitted on",
-            r.fit_programs.join(", ")
-        )
-    };
+    let held_out = held_out_line(r);
     let mut v = Verdict::new(answer, held_out, checks);
     v.limits_from = limits.source_for(&v.checks);
     // In-sample figures say nothing of use: the report's figures section shows them,
@@ -268,6 +257,29 @@ pub(crate) fn cycling_verdict(
     v.hold_back_if_failed();
     v.advice = c.record_next();
     v
+}
+
+/// The verdict's `held-out` line: which programs were fitted and scored, or why none was
+/// held out.
+fn held_out_line(r: &Report) -> String {
+    if r.held_out {
+        format!(
+            "tables fitted on programs {}, scored on programs {} (whole programs the fit never saw)",
+            r.fit_programs.join(", "),
+            r.eval_programs.join(", ")
+        )
+    } else if r.table_programs.len() <= 1 {
+        format!(
+            "none: the log holds one program ({}), so the tables were scored on the rows they were fitted on",
+            r.fit_programs.join(", ")
+        )
+    } else {
+        format!(
+            "none: the fit programs are every program of the log ({}), so the tables were scored on the rows they \
+             were fitted on; name fewer with --fit-programs to hold the others out",
+            r.fit_programs.join(", ")
+        )
+    }
 }
 
 /// How much worse than a bias-only peer the table's held-out bias residual may be before
