@@ -213,7 +213,7 @@ fn nothing_held_out_says_whether_the_log_has_one_program_or_all_were_fitted() {
         }
     };
     let all = reason(log.programs(), &log);
-    assert!(all.starts_with("every program fitted"), "{all}");
+    assert!(all.starts_with("every program of the log fitted"), "{all}");
     let mut one = log.clone();
     one.runs.retain(|r| r.program == "ramp-1");
     let only = reason(vec!["ramp-1".into()], &one);

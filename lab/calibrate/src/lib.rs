@@ -297,7 +297,7 @@ pub fn calibrate_log(log: &Log, opts: &CalibrateOptions) -> Result<Calibration, 
         bias_residual_ug: eval.bias_residual_ug,
         peers_bias_residual_ug: peers,
         metric: METRIC_TEXT.to_string(),
-        fit: fit_summary(&fitted, &table),
+        fit: fit_summary(&table),
         rejected_readings: eval.rejected_readings,
         skipped_glitches: log.glitches.clone(),
         timings_s: Some(Timings { fit: t_fit, evaluate: t_eval, ..Timings::default() }),
@@ -340,26 +340,27 @@ fn figures_text(fit_p: &[String], eval_p: &[String], table_p: &[String], held_ou
     format!(
         "{} figures and plots: tables fitted on {fit}, compensated on {}; table.*, table_simple.*, \
          px4_tc.params, ardupilot_tcal_*.parm: fitted on {} (every program with a +1 g / -1 g pair), the bias \
-         grid's branch tie and shape chosen there by cross-validation, and the held-out tables of that structure",
+         grid's branch tie and shape chosen there by cross-validation{}",
         if held_out { "held-out" } else { "in-sample (nothing held out)" },
         eval_p.join(", "),
         table_p.join(", "),
+        if held_out { ", the figures' tables of that structure" } else { "" },
         fit = fit_p.join(", ")
     )
 }
 
-/// The fit's figures for the report.
-fn fit_summary(fitted: &Fitted, table: &Fitted) -> FitSummary {
-    let h = &fitted.sf_hysteresis.coef;
+/// The figures of `table`, the fit `table.bin` holds, for the report's "Fit".
+fn fit_summary(table: &Fitted) -> FitSummary {
+    let h = &table.sf_hysteresis.coef;
     FitSummary {
-        pairs: fitted.pairs,
-        cond_sf_simple: fitted.sf_simple.cond,
-        cond_sf_hysteresis: fitted.sf_hysteresis.cond,
-        cond_bias_grid: fitted.bias_hysteresis.cond,
+        pairs: table.pairs,
+        cond_sf_simple: table.sf_simple.cond,
+        cond_sf_hysteresis: table.sf_hysteresis.cond,
+        cond_bias_grid: table.bias_hysteresis.cond,
         eq11: [h[0], h[1], h[2], h[3], h[4], h[5]],
-        simple_sf: [fitted.sf_simple.coef[0], fitted.sf_simple.coef[1]],
-        simple_bias: [fitted.bias_simple.coef[0], fitted.bias_simple.coef[1]],
-        rms_sf_hysteresis: fitted.sf_hysteresis.rms,
+        simple_sf: [table.sf_simple.coef[0], table.sf_simple.coef[1]],
+        simple_bias: [table.bias_simple.coef[0], table.bias_simple.coef[1]],
+        rms_sf_hysteresis: table.sf_hysteresis.rms,
         branch: table.branch.clone(),
     }
 }
@@ -605,7 +606,7 @@ fn held_out_figures_section(p: &mut qfa_report::html_report::Page, r: &Report) {
 /// The fit: its rows, condition numbers, Eq. 11 coefficients and the branch tie's
 /// cross-validation.
 fn fit_section(p: &mut qfa_report::html_report::Page, f: &FitSummary) {
-    p.section("Fit").kv(&[
+    p.section("Fit (table.bin: every program with a pair)").kv(&[
         ("paired rows", f.pairs.to_string()),
         (
             "condition numbers (simple, Eq. 11, bias grid)",
@@ -644,7 +645,7 @@ fn plots_section(p: &mut qfa_report::html_report::Page, plots: &[qfa_report::plo
     p.section(if held_out {
         "Plots (held-out bins only: the fit programs are not drawn)"
     } else {
-        "Plots (in-sample: the log's one program, the rows its tables were fitted on)"
+        "Plots (in-sample: the rows the tables were fitted on)"
     });
     p.plots(plots, |file| plot_caption(file).to_string());
 }

@@ -156,7 +156,8 @@ fn bin_zero_g_runs<'a>(
 /// Fit diagnostics in the report.
 #[derive(Clone, Debug, Serialize)]
 pub struct FitSummary {
-    /// Paired rows fitted.
+    /// Paired rows fitted (every program with a pair: `table.bin`'s fit, whose figures
+    /// these all are).
     pub pairs: usize,
     /// Condition number (column-scaled) of the simple scale-factor fit.
     pub cond_sf_simple: f64,
@@ -224,8 +225,7 @@ pub const IN_SAMPLE: &str = "one program only: the figures are in-sample, not he
 
 /// Why the held-out figures are not computed when the fit programs are every program of a
 /// log of several (`--fit-programs` naming them all).
-pub const ALL_FITTED: &str =
-    "every program fitted (the fit programs name them all): the figures are in-sample, not held out";
+pub const ALL_FITTED: &str = "every program of the log fitted: the figures are in-sample, not held out";
 
 impl Report {
     /// `table.bin`'s held-out Table-4 sensitivity (ppm/°C) and bias residual (µg RMS): what
