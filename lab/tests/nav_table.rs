@@ -93,7 +93,7 @@ fn the_study_flies_the_table_calibrate_writes_and_its_figures_score() {
 /// `cargo test --release -p qfa-lab --test nav_table -- --ignored --nocapture`; it prints
 /// `key=value` lines (figures in docs/measurements.md, "Lab: Table 4, held out").
 #[test]
-#[ignore = "a study: 120 logs on the paper's and the covering programs, about 6 min in release"]
+#[ignore = "a study: 120 logs on the paper's and the covering programs, about 4 min in release"]
 fn the_structure_choice_seeing_every_program_gains_little_held_out() {
     let positions: Vec<_> = paper_positions().into_iter().filter(|p| p.input_g != 0.0).collect();
     let (mut differ, mut n, mut worst_gain) = (0, 0, f64::NEG_INFINITY);
