@@ -167,7 +167,7 @@ fn main() {
 /// `cargo xtask experiment NAME [ARGS]`: run the lab's example NAME in release.
 fn experiment(args: &[String]) -> Result {
     let Some(name) = args.first() else {
-        return fail("experiment: which one? (the files in lab/examples/: nav_deadband, nav_branches, batch_bench, selection_study)");
+        return fail("experiment: which one? (the files in lab/examples/: nav_deadband, nav_branches, batch_bench, selection_study, static_table_study)");
     };
     let mut c = cargo();
     c.args(["run", "--release", "-p", "qfa-lab", "--example", name, "--"]).args(&args[1..]);

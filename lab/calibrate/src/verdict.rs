@@ -117,17 +117,24 @@ pub fn static_verdict(cal: &StaticCalibration, limits: &LimitsChoice, files: &[S
         .axes
         .iter()
         .map(|a| {
-            let m = a.ours.score().map_or_else(
-                || Measured::NotComputed { not_computed: "no held-out figure could be formed".into() },
-                |s| Measured::Value(s.rms_mg),
-            );
+            let m = match &a.ours {
+                crate::static_cal::Figure::Score(s) => Measured::Value(s.rms_mg),
+                crate::static_cal::Figure::NotComputed { not_computed } => {
+                    Measured::NotComputed { not_computed: not_computed.clone() }
+                }
+            };
             (a.axis.clone(), m)
         })
         .collect();
     let span = r.coverage.temp_c[1] - r.coverage.temp_c[0];
     let checks = limits.limits.static_checks(&held, span);
-    let answer = match held.iter().find(|(_, v)| matches!(v, Measured::NotComputed { .. })) {
-        Some(_) => "no held-out figure could be formed, so nothing says what to expect in use".to_string(),
+    let answer = match held.iter().find_map(|(axis, v)| match v {
+        Measured::NotComputed { not_computed } => Some((axis, not_computed)),
+        Measured::Value(_) => None,
+    }) {
+        Some((axis, why)) => {
+            format!("no held-out figure could be formed ({axis}: {why}), so nothing says what to expect in use")
+        }
         None if checks.iter().all(|c| c.pass) => passing_answer(files),
         None => format!(
             "table.bin fails {}",

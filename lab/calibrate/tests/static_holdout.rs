@@ -38,7 +38,10 @@ fn a_log_with_a_later_leg_is_held_out_after_its_maximum() {
     let mut t: Vec<f64> = (0..300).map(|i| 20.0 + 0.1 * f64::from(i)).collect();
     t.extend((0..100).map(|i| 49.9 - 0.1 * f64::from(i)));
     let log = log_of(&t);
-    assert_eq!(resolve_holdout(&log, Holdout::Auto, 10).unwrap().0, Scheme::AfterMax { last: 299 });
+    // Heating then cooling: `auto` takes blocks here (the rows before the later leg hold one
+    // branch; `several_cycles_hold_out_everything_after_the_first_maximum`), `after-max`
+    // by name splits at the maximum.
+    assert_eq!(resolve_holdout(&log, Holdout::AfterMax, 10).unwrap().0, Scheme::AfterMax { last: 299 });
     assert_eq!(Scheme::AfterMax { last: 299 }.folds(400), vec![300..400]);
     // Blocks too large for the log are refused with the reason.
     let e = resolve_holdout(&log, Holdout::Blocks(50), 10).unwrap_err();
@@ -76,17 +79,25 @@ fn auto_does_not_hold_out_a_later_leg_its_training_rows_cannot_fit() {
 
 #[test]
 fn several_cycles_hold_out_everything_after_the_first_maximum() {
-    // Two cycles 20 → 50 → 20 °C, the second peaking 0.5 °C lower: the later leg is
-    // everything after the first peak (the second cycle included).
-    let mut t: Vec<f64> = Vec::new();
+    // A cooling leg 35 → 20 °C, then two cycles 20 → 50 → 20 °C, the second peaking 0.5 °C
+    // lower: the later leg is everything after the first peak (the second cycle included).
+    let mut t: Vec<f64> = (0..150).map(|i| 35.0 - 15.0 * f64::from(i) / 150.0).collect();
     for peak in [50.0, 49.5] {
         t.extend((0..300).map(|i| 20.0 + (peak - 20.0) * f64::from(i) / 300.0));
         t.extend((0..300).map(|i| peak - (peak - 20.0) * f64::from(i) / 300.0));
     }
     let log = log_of(&t);
     let (scheme, rule) = resolve_holdout(&log, Holdout::Auto, 10).unwrap();
-    assert_eq!(scheme, Scheme::AfterMax { last: 300 });
-    assert!(rule.contains("evaluate on rows 302..=1200"), "{rule}");
+    assert_eq!(scheme, Scheme::AfterMax { last: 450 }, "{rule}");
+    assert!(rule.contains("evaluate on rows 452..=1350"), "{rule}");
+    // Without the first cooling leg the rows up to the peak heat only, while the log also
+    // cools: they could not fit the heating/cooling terms a table of the whole log may
+    // hold, so `auto` takes blocks and says why; `after-max` by name still runs.
+    let log = log_of(&t[150..]);
+    let (scheme, rule) = resolve_holdout(&log, Holdout::Auto, 10).unwrap();
+    assert_eq!(scheme, Scheme::Blocks { k: CV_FOLDS }, "{rule}");
+    assert!(rule.contains("hold one branch (") && rule.contains("while the log holds both"), "{rule}");
+    assert_eq!(resolve_holdout(&log, Holdout::AfterMax, 10).unwrap().0, Scheme::AfterMax { last: 300 });
     assert_eq!(scheme.selection_folds(), CV_FOLDS);
     assert_eq!(Scheme::Blocks { k: 7 }.selection_folds(), 7);
 }

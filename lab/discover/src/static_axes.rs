@@ -93,8 +93,6 @@ pub struct AxisDiscovery {
     /// What the model search added over every row, one part per step, as `effect (form)`
     /// (empty: the simplest structure): the parts of `named_structure`, the table's.
     pub effects: Vec<String>,
-    /// The same inside each fold's training rows (the parts of the model `after` is of).
-    pub effects_per_fold: Vec<Vec<String>>,
     /// The search's steps over every row, each with its cross-validation figure and whether
     /// the block test identifies its effect.
     pub steps: Vec<Step>,
@@ -414,7 +412,6 @@ fn axis_discovery(
         reference_g: reference,
         // Filled in by `adopt_search`, once the search has run.
         effects: Vec::new(),
-        effects_per_fold: Vec::new(),
         steps: Vec::new(),
         block_test_names: r.effect_labels(),
         not_added: Vec::new(),
@@ -507,7 +504,6 @@ pub(crate) fn table_rows(d: &StaticDiscovery) -> (Vec<&'static str>, Vec<Vec<Str
         "its parts, in the search's order: what the block test says of each",
         "the block test names (every row)",
         "not added, and why",
-        "parts inside the training rows (the held-out model's)",
         "start model, held out",
         "named model = table.bin, held out",
         "CV RMS of the named structure, mg",
@@ -542,7 +538,6 @@ pub(crate) fn table_rows(d: &StaticDiscovery) -> (Vec<&'static str>, Vec<Vec<Str
                 parts,
                 identified,
                 list(&a.not_added),
-                a.effects_per_fold.iter().map(|f| list(f)).collect::<Vec<_>>().join(" | "),
                 a.before.cell(),
                 if named_is_worse(a) { format!("{} (worse than the start)", a.after.cell()) } else { a.after.cell() },
                 format!("{:.2}", a.cv_rms_mg),

@@ -251,14 +251,6 @@ pub(crate) fn rms(f: &Figure) -> Option<f64> {
     f.score().map(|s| s.rms_mg)
 }
 
-/// Effect labels of a static axis (the channel is always the bias: `(value)` says nothing).
-fn static_labels(labels: &[String]) -> String {
-    if labels.is_empty() {
-        return "nothing".to_string();
-    }
-    labels.iter().map(|l| l.replace(" (value)", "").replace("(value; ", "(")).collect::<Vec<_>>().join(", ")
-}
-
 /// The named model of `a` is worse than the start model held out (at the printed precision).
 #[must_use]
 pub(crate) fn named_is_worse(a: &AxisDiscovery) -> bool {
@@ -273,11 +265,6 @@ fn axis_answer(d: &StaticDiscovery, a: &AxisDiscovery) -> String {
     let mut s = format!("{}: named {} = table.bin", a.axis, a.named_structure);
     if !parts.is_empty() {
         s.push_str(&format!(" ({})", parts.join("; ")));
-    }
-    let named = static_labels(&a.effects);
-    let folds: Vec<String> = a.effects_per_fold.iter().map(|f| static_labels(f)).collect();
-    if folds.iter().any(|f| *f != named) {
-        s.push_str(&format!(" (inside the training rows: {})", folds.join(" | ")));
     }
     let start = d.start.name();
     match (rms(&a.before), rms(&a.after)) {
@@ -313,15 +300,15 @@ fn axis_warnings(d: &StaticDiscovery, a: &AxisDiscovery) -> Vec<String> {
     if let (true, Some(b), Some(n)) = (named_is_worse(a), rms(&a.before), rms(&a.after)) {
         w.push(format!(
             "{}: the named model (table.bin) is worse held out than the start model `{}` ({n:.2} mg against {b:.2} \
-             mg): the structure the search picks inside the training rows does worse on the held-out rows",
+             mg): the structure the search picks, fitted on the training rows, does worse on the held-out rows",
             a.axis,
             d.start.name()
         ));
     }
     for s in crate::static_axes::steps_not_carried(a) {
         w.push(format!(
-            "{}: inside the training rows the search's step {s}: it lowered the cross-validation there but does not \
-             carry forward to the held-out rows",
+            "{}: the search's step {s} (fitted on the training rows): it lowered the search's cross-validation but \
+             does not carry forward to the held-out rows",
             a.axis
         ));
     }
@@ -405,15 +392,5 @@ mod tests {
             both_figures(&s, &[("scale factor", 24.0, "ppm"), ("bias", 30.0, "µg")]),
             "scale factor: named 24.00 ppm, start 400.00 ppm; bias: named 30.00 µg, start 27.00 µg"
         );
-    }
-
-    #[test]
-    fn a_static_axis_label_drops_the_channel() {
-        let l = vec![
-            "bias_creep (value)".to_string(),
-            "bias_branch_hysteresis (value; not identified: as good as bias_creep)".to_string(),
-        ];
-        assert_eq!(static_labels(&l), "bias_creep, bias_branch_hysteresis (not identified: as good as bias_creep)");
-        assert_eq!(static_labels(&[]), "nothing");
     }
 }

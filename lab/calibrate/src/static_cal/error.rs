@@ -163,6 +163,13 @@ pub enum SplitFault {
         /// The highest, °C.
         hi_c: f64,
     },
+    /// The rows up to the highest temperature hold one branch while the log holds both.
+    OneBranchBefore {
+        /// Heating rows up to the highest temperature.
+        heating: usize,
+        /// Cooling rows up to it.
+        cooling: usize,
+    },
 }
 
 impl fmt::Display for SplitFault {
@@ -185,6 +192,12 @@ impl fmt::Display for SplitFault {
                 f,
                 "{outside} of the {later} rows after the highest temperature lie outside the {lo_c:.1}..{hi_c:.1} °C \
                  the rows before it cover: the later leg would score an extrapolation"
+            ),
+            Self::OneBranchBefore { heating, cooling } => write!(
+                f,
+                "the rows up to the highest temperature hold one branch ({heating} heating, {cooling} cooling rows) \
+                 while the log holds both: fitted on them, a table with heating/cooling terms could not be scored on \
+                 the later leg"
             ),
         }
     }
@@ -214,8 +227,6 @@ pub enum FigureFault {
     NoCandidate {
         /// The axis.
         axis: String,
-        /// The fold whose training rows were tried; `None`: every row.
-        fold: Option<usize>,
         /// The first candidate refused (its name) and why.
         first_refusal: Option<Box<(String, FitError)>>,
     },
@@ -226,11 +237,8 @@ impl fmt::Display for FigureFault {
         match self {
             Self::NoModelOutput { figure } => write!(f, "{figure}: no held-out row had a model output"),
             Self::NonFinite { figure } => write!(f, "{figure}: non-finite residual"),
-            Self::NoCandidate { axis, fold, first_refusal } => {
+            Self::NoCandidate { axis, first_refusal } => {
                 write!(f, "{axis}: no candidate model could be fitted in cross-validation")?;
-                if let Some(k) = fold {
-                    write!(f, " inside the training rows of fold {k}")?;
-                }
                 match first_refusal.as_deref() {
                     Some((name, e)) => write!(f, " (first refusal: {name}: {e})"),
                     None => f.write_str(" (first refusal: none)"),

@@ -122,10 +122,14 @@ pub fn split_index(log: &StaticLog) -> Result<usize, StaticCalError> {
 }
 
 /// `auto` holds out the later leg only where that leg is a test of the training rows: they
-/// can hold a grid ([`check_coverage`]) and at most a tenth of the later leg's rows lie
-/// outside their temperature range. A log whose highest reading falls in a hold before
-/// any ramp (a run cut short while it warmed up again) would otherwise be fitted on that
-/// hold alone and fail, or be scored on extrapolation.
+/// can hold a grid ([`check_coverage`]), at most a tenth of the later leg's rows lie
+/// outside their temperature range, and they hold both branches when the log does. A log
+/// whose highest reading falls in a hold before any ramp (a run cut short while it warmed
+/// up again) would otherwise be fitted on that hold alone and fail, or be scored on
+/// extrapolation; a log that heats to its maximum and then cools would be fitted on the
+/// heating branch alone, which cannot fit the branch terms its table may hold, so its
+/// table would have no held-out figure. The branches are the firmware's (its default
+/// deadband), as the model search counts them ([`is_one_branch`]).
 ///
 /// # Errors
 /// [`StaticCalError::Split`] saying which condition failed.
@@ -143,6 +147,16 @@ fn later_leg_inside(log: &StaticLog, last: usize) -> Result<(), StaticCalError> 
             lo_c: lo,
             hi_c: hi,
         }));
+    }
+    let view = crate::fit::StaticSeries::view_of(&log.time_s, &log.temp_c, o.deadband_c_per_min);
+    let plain = qfa_log::pairing::trace_view(&view, &qfa_thermal::Extensions::default(), o.deadband_c_per_min);
+    let count = |rows: std::ops::Range<usize>| {
+        let of = |b: qfa_thermal::model::Branch| rows.clone().filter(|&i| plain.branch[i] == b).count();
+        (of(qfa_thermal::model::Branch::Heating), of(qfa_thermal::model::Branch::Cooling))
+    };
+    let (before, every) = (count(0..last + 1), count(0..log.rows()));
+    if is_one_branch(before) && !is_one_branch(every) {
+        return Err(StaticCalError::Split(SplitFault::OneBranchBefore { heating: before.0, cooling: before.1 }));
     }
     Ok(())
 }

@@ -86,12 +86,13 @@ pub struct AxisReport {
     /// The exported ArduPilot cubic over every row, likewise (not computed when its learner
     /// formed no fit).
     pub exported_ardupilot: Figure,
-    /// The structure chosen inside each fold's training rows (what the held-out figure of
-    /// ours is of).
+    /// The structure each fold's held-out figure of ours is of: the table's, chosen on every
+    /// row, fitted on the fold's training rows.
     pub heldout_structures: Vec<String>,
-    /// Per fold, the search's path inside its training rows, each step fitted there and
-    /// scored on the fold's held-out rows: what each part added to the model did on rows it
-    /// never saw (the last step is `heldout_structures`' entry).
+    /// Per fold, the search's path (on every row, `search_path`), each step fitted on the
+    /// fold's training rows and scored on its held-out rows: what each part added to the
+    /// model did on rows it never saw (the last step is the table's structure; empty for a
+    /// fold that cannot fit it).
     pub heldout_paths: Vec<Vec<HeldOutStep>>,
     /// Ours (the chosen structure through the root crate), held out.
     pub ours: Figure,
@@ -271,7 +272,7 @@ pub struct StaticCalibration {
     pub report: StaticReport,
     /// Per-row residuals for the plots.
     pub plot: PlotRows,
-    /// Per axis, per row set (0: every row, the table's; 1 + f: fold f's training rows), the
-    /// model search's path ([`SearchStep`]): its last step is the structure chosen there.
-    pub paths: Vec<Vec<Vec<SearchStep>>>,
+    /// Per axis, the model search's path on every row ([`SearchStep`]): its last step is the
+    /// structure the table holds.
+    pub paths: Vec<Vec<SearchStep>>,
 }

@@ -6,27 +6,23 @@ use crate::fit::{fit_static_traced, StaticSeries, StaticStructure, StaticTraces}
 use crate::static_cal::choice::{self, cv_rms_axes, SearchStep};
 use crate::static_cal::{FigureFault, Run, StaticCalError};
 
-/// What the model search found for one axis.
+/// What the model search found for one axis, on every row (the table's rows).
 pub(crate) struct AxisChoice {
-    /// Per set, the search's path: its start and every step it took, the last the choice.
-    pub(crate) paths: Vec<Vec<SearchStep>>,
+    /// The search's path: its start and every step it took, the last the choice.
+    pub(crate) path: Vec<SearchStep>,
     /// The table's refusals: every candidate (its name) the search tried that could not be
     /// fitted on every row, and why.
     pub(crate) refused: Vec<(String, crate::fit::FitError)>,
-    /// Per set, the first refusal, so a fold where nothing could be fitted says why.
-    pub(crate) fold_refused: Vec<Option<(String, crate::fit::FitError)>>,
 }
 
 impl AxisChoice {
-    /// The choice (CV RMS, structure) on set `s`: the search's last step; an error, with the
-    /// first refusal, when no candidate could be fitted there.
-    pub(crate) fn chosen(&self, s: usize, axis: &str) -> Result<(f64, StaticStructure), StaticCalError> {
-        self.paths[s].last().map(|st| (st.cv_rms_g, st.structure)).ok_or_else(|| {
+    /// The choice (CV RMS, structure): the search's last step; an error, with the first
+    /// refusal, when no candidate could be fitted.
+    pub(crate) fn chosen(&self, axis: &str) -> Result<(f64, StaticStructure), StaticCalError> {
+        self.path.last().map(|st| (st.cv_rms_g, st.structure)).ok_or_else(|| {
             StaticCalError::Figure(FigureFault::NoCandidate {
                 axis: axis.to_string(),
-                fold: (s > 0).then_some(s),
-                first_refusal: if s == 0 { self.refused.first() } else { self.fold_refused[s].as_ref() }
-                    .map(|r| Box::new(r.clone())),
+                first_refusal: self.refused.first().map(|r| Box::new(r.clone())),
             })
         })
     }
@@ -39,81 +35,49 @@ struct Tried {
     cv: Vec<Vec<Result<f64, crate::fit::FitError>>>,
 }
 
-/// The model search ([`crate::static_cal`], *Model choice*) on every row set, for every
-/// axis: every candidate's blocked cross-validation RMS, the lowest chosen, and the path
-/// from the simplest candidate to it ([`path_to`]). Rows with one branch get
-/// [`super::ONE_BRANCH`] alone. Figures are computed once per set and structure, for every axis at
-/// once (the traces depend on the temperatures only).
+/// The model search ([`crate::static_cal`], *Model choice*) on every row, for every axis:
+/// every candidate's blocked cross-validation RMS, the lowest chosen, and the path from the
+/// simplest candidate to it ([`path_to`]). A log with one branch gets
+/// [`super::ONE_BRANCH`] alone. Figures are computed once per structure, for every axis at
+/// once (the traces depend on the temperatures only). The table and every held-out figure
+/// of ours hold this one choice, so no fold searches on its own.
 pub(crate) fn choose_structures(run: &Run<'_>, progress: bool) -> Vec<AxisChoice> {
     let opts = run.opts;
     let na = run.log.axes.len();
-    let pb = if progress {
-        indicatif::ProgressBar::new((run.sets.len() * opts.candidates.len()) as u64)
-    } else {
-        indicatif::ProgressBar::hidden()
-    };
-    let mut choices: Vec<AxisChoice> = (0..na)
-        .map(|_| AxisChoice {
-            paths: vec![Vec::new(); run.sets.len()],
-            refused: Vec::new(),
-            fold_refused: vec![None; run.sets.len()],
-        })
-        .collect();
+    let set = &run.sets[0];
+    let candidates = run.candidates(0);
+    let pb =
+        if progress { indicatif::ProgressBar::new(candidates.len() as u64) } else { indicatif::ProgressBar::hidden() };
+    let mut choices: Vec<AxisChoice> = (0..na).map(|_| AxisChoice { path: Vec::new(), refused: Vec::new() }).collect();
     let axes: Vec<StaticSeries<'_>> = (0..na).map(|a| run.series(a)).collect();
-    let mut tried: Vec<Tried> = run.sets.iter().map(|_| Tried { structures: Vec::new(), cv: Vec::new() }).collect();
-    // Structure by structure, each set that can choose it, so one structure's traces serve
-    // every set.
-    let mut union: Vec<StaticStructure> = Vec::new();
-    for s in 0..run.sets.len() {
-        for st in run.candidates(s) {
-            if !union.contains(&st) {
-                union.push(st);
-            }
-        }
-    }
-    for st in &union {
+    let mut tried = Tried { structures: Vec::new(), cv: Vec::new() };
+    for st in &candidates {
         let traces = StaticTraces::new(&axes[0], st, opts.deadband_c_per_min);
-        for (s, set) in run.sets.iter().enumerate() {
-            if !run.candidates(s).contains(st) {
-                continue;
+        let cv = cv_rms_axes(&axes, &traces, &set.rows, run.k_sel, opts);
+        for (choice, r) in choices.iter_mut().zip(&cv) {
+            if let Err(e) = r {
+                choice.refused.push((st.name(), e.clone()));
             }
-            let cv = cv_rms_axes(&axes, &traces, &set.rows, run.k_sel, opts);
-            for (choice, r) in choices.iter_mut().zip(&cv) {
-                match r {
-                    Ok(_) => {}
-                    Err(e) if s == 0 => choice.refused.push((st.name(), e.clone())),
-                    Err(e) => {
-                        choice.fold_refused[s].get_or_insert_with(|| (st.name(), e.clone()));
-                    }
-                }
-            }
-            tried[s].structures.push(*st);
-            tried[s].cv.push(cv);
         }
-        pb.inc(na as u64);
+        tried.structures.push(*st);
+        tried.cv.push(cv);
+        pb.inc(1);
     }
     pb.finish_and_clear();
-    // A choice is a table the set's rows give: a structure whose table is refused there
-    // (its terms past the root crate's bounds on that grid, where the folds' passed) is
-    // refused on the set and the search takes the next. Traces built once per structure.
+    // A choice is a table the rows give: a structure whose table is refused (its terms past
+    // the root crate's bounds on that grid, where the cross-validation's folds passed) is
+    // refused and the search takes the next. Traces built once per structure.
     let mut checked: Vec<(StaticStructure, StaticTraces)> = Vec::new();
-    for (s, t) in tried.iter_mut().enumerate() {
-        for (a, ch) in choices.iter_mut().enumerate() {
-            while let Some(end) = path_to_end(&mut ch.paths[s], t, a, opts.grid_points) {
-                let k = checked.iter().position(|c| c.0 == end).unwrap_or_else(|| {
-                    checked.push((end, StaticTraces::new(&axes[0], &end, opts.deadband_c_per_min)));
-                    checked.len() - 1
-                });
-                let fit = fit_static_traced(&axes[a], &checked[k].1, &run.sets[s].mask, opts.grid_points, opts.block);
-                let Err(e) = fit else { break };
-                t.cv.iter_mut().zip(&t.structures).filter(|c| *c.1 == end).for_each(|c| c.0[a] = Err(e.clone()));
-                let refusal = (end.name(), e);
-                if s == 0 {
-                    ch.refused.push(refusal)
-                } else {
-                    ch.fold_refused[s].get_or_insert(refusal);
-                }
-            }
+    for (a, ch) in choices.iter_mut().enumerate() {
+        while let Some(end) = path_to_end(&mut ch.path, &tried, a, opts.grid_points) {
+            let k = checked.iter().position(|c| c.0 == end).unwrap_or_else(|| {
+                checked.push((end, StaticTraces::new(&axes[0], &end, opts.deadband_c_per_min)));
+                checked.len() - 1
+            });
+            let fit = fit_static_traced(&axes[a], &checked[k].1, &set.mask, opts.grid_points, opts.block);
+            let Err(e) = fit else { break };
+            tried.cv.iter_mut().zip(&tried.structures).filter(|c| *c.1 == end).for_each(|c| c.0[a] = Err(e.clone()));
+            ch.refused.push((end.name(), e));
         }
     }
     choices

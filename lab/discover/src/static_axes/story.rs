@@ -60,38 +60,31 @@ fn path_labels(path: &[StaticStructure]) -> Vec<String> {
         .collect()
 }
 
-/// Record on axis `x` what the one search found (`c`, its `paths`: every row, then each
-/// fold's training rows): the named structure and its steps, their figures, which of them
+/// Record on axis `x` what the one search found (`c`, its `path` on every row): the named
+/// structure and its steps, their figures (each step held out on every fold), which of them
 /// the block test (`r`, every row) identifies, and which of its names the model does not
 /// hold, with why.
 pub(super) fn adopt_search(
     x: &mut AxisDiscovery,
     r: &Report,
     c: &qfa_calibrate::static_cal::AxisReport,
-    paths: &[Vec<qfa_calibrate::static_cal::SearchStep>],
+    p: &[qfa_calibrate::static_cal::SearchStep],
 ) {
-    let structures = |p: &[qfa_calibrate::static_cal::SearchStep]| p.iter().map(|s| s.structure).collect::<Vec<_>>();
-    let all = paths.first().map(|p| structures(p)).unwrap_or_default();
-    x.effects = path_labels(&all);
-    x.effects_per_fold = paths.iter().skip(1).map(|p| path_labels(&structures(p))).collect();
-    x.steps = paths
-        .first()
-        .map(|p| {
-            p.iter()
-                .enumerate()
-                .map(|(i, st)| {
-                    let (effect, (identified, evidence)) = match i {
-                        0 => ("start".to_string(), (true, "the search's start".to_string())),
-                        _ => {
-                            let (e, form) = part_added(&p[i - 1].structure, &st.structure);
-                            (format!("{e} ({form})"), evidence_for(r, e))
-                        }
-                    };
-                    Step { effect, structure: st.structure.name(), cv_rms_mg: st.cv_rms_g * 1e3, identified, evidence }
-                })
-                .collect()
+    x.effects = path_labels(&p.iter().map(|s| s.structure).collect::<Vec<_>>());
+    x.steps = p
+        .iter()
+        .enumerate()
+        .map(|(i, st)| {
+            let (effect, (identified, evidence)) = match i {
+                0 => ("start".to_string(), (true, "the search's start".to_string())),
+                _ => {
+                    let (e, form) = part_added(&p[i - 1].structure, &st.structure);
+                    (format!("{e} ({form})"), evidence_for(r, e))
+                }
+            };
+            Step { effect, structure: st.structure.name(), cv_rms_mg: st.cv_rms_g * 1e3, identified, evidence }
         })
-        .unwrap_or_default();
+        .collect();
     x.named_structure.clone_from(&c.structure);
     x.after = c.ours.clone();
     x.cv_rms_mg = c.cv_rms_mg;
@@ -124,11 +117,12 @@ pub(super) fn adopt_search(
         .collect();
 }
 
-/// Each fold's search, step by step, held out: `[step, structure, CV mg, held-out mg]`.
+/// The search, step by step, held out on each fold: `[step, structure, CV mg, held-out mg]`.
 #[must_use]
 pub(crate) fn step_rows(a: &AxisDiscovery) -> Vec<[String; 5]> {
     let mut out = Vec::new();
-    for (f, (steps, labels)) in a.heldout_steps.iter().zip(&a.effects_per_fold).enumerate() {
+    let labels = &a.effects;
+    for (f, steps) in a.heldout_steps.iter().enumerate() {
         for (i, st) in steps.iter().enumerate() {
             let label = if i == 0 { "start of the search".to_string() } else { labels[i - 1].clone() };
             let fold = if a.heldout_steps.len() > 1 { format!("fold {}: ", f + 1) } else { String::new() };
@@ -152,12 +146,13 @@ pub(crate) fn step_rows(a: &AxisDiscovery) -> Vec<[String; 5]> {
     out
 }
 
-/// The search's steps inside the training rows that raised the held-out RMS, in words:
-/// `effect (form) raised … → … mg`, with its fold when there are several.
+/// The search's steps that raised the held-out RMS (each fitted on the training rows), in
+/// words: `effect (form) raised … → … mg`, with its fold when there are several.
 #[must_use]
 pub(crate) fn steps_not_carried(a: &AxisDiscovery) -> Vec<String> {
     let mut out = Vec::new();
-    for (f, (steps, labels)) in a.heldout_steps.iter().zip(&a.effects_per_fold).enumerate() {
+    let labels = &a.effects;
+    for (f, steps) in a.heldout_steps.iter().enumerate() {
         for (i, w) in steps.windows(2).enumerate() {
             if let (Some(b), Some(n)) = (rms(&w[0].held_out), rms(&w[1].held_out)) {
                 if compare(b, n) == Compared::Worse {
