@@ -16,6 +16,7 @@
 
 #[path = "../tests/chamber/mod.rs"]
 mod chamber;
+mod common;
 #[path = "../tests/truth/mod.rs"]
 mod truth;
 
@@ -25,7 +26,7 @@ use qfa_calibrate::fit::{fit_static_traced, BranchMode, CurveShape, StaticSeries
 use qfa_calibrate::static_cal::{
     cv_fold_sums_axes, resolve_holdout, CvOrder, FoldSums, Holdout, Scheme, StaticCalOptions,
 };
-use qfa_log::static_log::{read_static_from, AccelUnit, StaticLog, StaticOptions, TimeUnit};
+use qfa_log::static_log::{read_static_from, StaticLog, StaticOptions};
 
 fn lattice() -> Vec<StaticStructure> {
     let mut out = Vec::new();
@@ -320,18 +321,8 @@ fn main() {
         })
         .unwrap();
     let mut cases: Vec<(String, StaticLog)> = Vec::new();
-    let real = std::env::var("QFA_REAL_LOG")
-        .unwrap_or_else(|_| "../shared/real/tofupilot-imu-thermal-cycle/imu_raw_data.tsv".into());
-    if let Ok(text) = std::fs::read(&real) {
-        let opts = StaticOptions {
-            columns: "time=timestamp,temp=imu.temperature,ax=imu.acc.x,ay=imu.acc.y,az=imu.acc.z".parse().unwrap(),
-            time_unit: Some(TimeUnit::Us),
-            accel_unit: Some(AccelUnit::Mps2),
-            ..Default::default()
-        };
-        cases.push(("real".into(), read_static_from(&text[..], &opts).unwrap()));
-    } else {
-        println!("SKIPPED real log: set QFA_REAL_LOG");
+    if let Some(log) = common::real_static_log() {
+        cases.push(("real".into(), log));
     }
     let seeds: Vec<u64> = std::env::var("QFA_STUDY_SEEDS").map_or_else(
         |_| vec![11, 12, 13],

@@ -19,12 +19,13 @@
 //! geometric means: each table's fresh RMS, and each held-out figure over its table's fresh
 //! RMS (how well the report predicts what the table does on a new log).
 //!
-//! `cargo xtask experiment static_table_study` (about a minute in release);
+//! `cargo xtask experiment static_table_study` (about 20 s in release);
 //! `QFA_STUDY_SEEDS=11,12` picks the simulator's seeds (default 11–19). The figures are in
 //! docs/measurements.md ("Real data").
 
 #[path = "../tests/chamber/mod.rs"]
 mod chamber;
+mod common;
 #[path = "../tests/truth/mod.rs"]
 mod truth;
 
@@ -34,7 +35,7 @@ use qfa_calibrate::fit::{fit_static_traced, StaticFit, StaticSeries, StaticStruc
 use qfa_calibrate::static_cal::{
     calibrate_static, candidates, cv_rms_axes, resolve_holdout, Holdout, Scheme, StaticCalOptions, CV_FOLDS,
 };
-use qfa_log::static_log::{read_static_from, AccelUnit, StaticLog, StaticOptions, TimeUnit};
+use qfa_log::static_log::{read_static_from, StaticLog, StaticOptions};
 
 /// `st` fitted on axis `a` of `log` on the rows `mask` holds.
 fn fit(log: &StaticLog, a: usize, st: &StaticStructure, mask: &[bool]) -> Option<StaticFit> {
@@ -99,18 +100,8 @@ fn main() {
         |v| v.split(',').map(|x| x.parse().expect("QFA_STUDY_SEEDS: numbers")).collect(),
     );
     let mut cases: Vec<(String, StaticLog, Option<StaticLog>)> = Vec::new();
-    let real = std::env::var("QFA_REAL_LOG")
-        .unwrap_or_else(|_| "../shared/real/tofupilot-imu-thermal-cycle/imu_raw_data.tsv".into());
-    if let Ok(text) = std::fs::read(&real) {
-        let opts = StaticOptions {
-            columns: "time=timestamp,temp=imu.temperature,ax=imu.acc.x,ay=imu.acc.y,az=imu.acc.z".parse().unwrap(),
-            time_unit: Some(TimeUnit::Us),
-            accel_unit: Some(AccelUnit::Mps2),
-            ..Default::default()
-        };
-        cases.push(("real".into(), read_static_from(&text[..], &opts).unwrap(), None));
-    } else {
-        println!("SKIPPED real log: set QFA_REAL_LOG");
+    if let Some(log) = common::real_static_log() {
+        cases.push(("real".into(), log, None));
     }
     for &seed in &seeds {
         for e in [None, Some("sensor_lag"), Some("bias_creep"), Some("bias_branch_hysteresis")] {

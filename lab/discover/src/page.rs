@@ -365,10 +365,7 @@ pub(crate) fn static_page(d: &StaticDiscovery, v: &Verdict, axis_plots: &[Vec<Pl
     for a in &d.axes {
         p.section(&format!("{}: the search, step by step, held out", a.axis));
         let rows: Vec<Vec<String>> = super::static_axes::step_rows(a).into_iter().map(Vec::from).collect();
-        p.table(
-            &["step", "structure", "CV RMS in the training rows, mg", "held out, mg", "change held out, mg"],
-            &rows,
-        );
+        p.table(&["step", "structure", "CV RMS over every row, mg", "held out, mg", "change held out, mg"], &rows);
         for n in &a.not_added {
             p.warning(&format!("{}: named by the block test, not added: {n}", a.axis));
         }

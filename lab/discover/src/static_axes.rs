@@ -24,10 +24,10 @@
 //!
 //! # One search: what is named is what is flashed
 //! The model is named by one search, the one `calibrate` runs ([`calibrate_static`]):
-//! every candidate structure's blocked cross-validation RMS inside the rows it is fitted on,
-//! the lowest chosen. So the named structure is the one `DIR/table.bin` holds, byte for
-//! byte the table `calibrate` writes, and its held-out figure is the one `calibrate`
-//! reports. The search's path explains it: from the simplest structure, one part at a time
+//! every candidate structure's blocked cross-validation RMS over every row, the lowest
+//! chosen. So the named structure is the one `DIR/table.bin` holds, byte for byte the table
+//! `calibrate` writes, and its held-out figure is the one `calibrate` reports: that
+//! structure fitted on each fold's training rows. The search's path explains it: from the simplest structure, one part at a time
 //! (a branch tie loosened, a lag, a creep), each step to the lowest cross-validation RMS,
 //! each with its figure over every row and, per fold, its held-out figure
 //! ([`AxisDiscovery::heldout_steps`]). A step that raises the figure is shown as one (a part
@@ -558,12 +558,12 @@ pub(crate) fn how_to_read(d: &StaticDiscovery) -> [String; 3] {
     [
         format!("Which rows each figure comes from: {}.", d.figures),
         "Every figure called held out is on the held-out rows, RMS over rows / over 60-s means, mg, from models \
-         chosen and fitted on each fold's training rows only; peers are fitted on the same training rows, as \
-         `calibrate` fits them."
+         fitted on each fold's training rows only (the named model: table.bin's structure, chosen over every \
+         row); peers are fitted on the same training rows, as `calibrate` fits them."
             .to_string(),
         "Named is flashed: one model search, the one `calibrate` runs (every candidate structure's blocked \
-         cross-validation (CV) RMS inside the rows it is fitted on, the lowest chosen), names the structure and \
-         `table.bin` holds it. Its parts are listed in the order a path from the simplest structure adds them, \
+         cross-validation (CV) RMS over every row, the lowest chosen), names the structure, `table.bin` holds it \
+         and the held-out figures score it. Its parts are listed in the order a path from the simplest structure adds them, \
          one at a time, each to the lowest CV. A part is identified when the block test, a claim about the \
          physics with a known false-discovery rate, names its effect on every row; the block test's own model \
          is shown held out beside it, and what it names that the table does not hold is listed under not added, \
@@ -599,7 +599,7 @@ pub(crate) fn markdown(d: &StaticDiscovery) -> String {
         let _ = writeln!(
             s,
             "\n**{}: the search, step by step, held out** (each step fitted on the training rows, scored on the \
-             held-out rows):\n\n| step | structure | CV RMS in the training rows, mg | held out, mg | change held out, mg |\n|---|---|---|---|---|",
+             held-out rows):\n\n| step | structure | CV RMS over every row, mg | held out, mg | change held out, mg |\n|---|---|---|---|---|",
             a.axis
         );
         for r in step_rows(a) {
