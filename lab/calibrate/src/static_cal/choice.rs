@@ -257,3 +257,17 @@ pub const ONE_BRANCH: StaticStructure = StaticStructure {
 pub fn is_one_branch((heating, cooling): (usize, usize)) -> bool {
     heating.min(cooling) * 10 < heating + cooling
 }
+
+/// Rows on the heating and on the cooling branch among `rows`, each row's branch read from
+/// `branch` (the firmware's, deadband included, from a plain replay of the log): the
+/// counts [`is_one_branch`] judges.
+pub(crate) fn branch_rows(
+    branch: &[qfa_thermal::model::Branch],
+    rows: impl IntoIterator<Item = usize>,
+) -> (usize, usize) {
+    rows.into_iter().fold((0, 0), |(h, c), i| match branch[i] {
+        qfa_thermal::model::Branch::Heating => (h + 1, c),
+        qfa_thermal::model::Branch::Cooling => (h, c + 1),
+        _ => (h, c),
+    })
+}

@@ -150,11 +150,8 @@ fn later_leg_inside(log: &StaticLog, last: usize) -> Result<(), StaticCalError> 
     }
     let view = crate::fit::StaticSeries::view_of(&log.time_s, &log.temp_c, o.deadband_c_per_min);
     let plain = qfa_log::pairing::trace_view(&view, &qfa_thermal::Extensions::default(), o.deadband_c_per_min);
-    let count = |rows: std::ops::Range<usize>| {
-        let of = |b: qfa_thermal::model::Branch| rows.clone().filter(|&i| plain.branch[i] == b).count();
-        (of(qfa_thermal::model::Branch::Heating), of(qfa_thermal::model::Branch::Cooling))
-    };
-    let (before, every) = (count(0..last + 1), count(0..log.rows()));
+    let before = crate::static_cal::choice::branch_rows(&plain.branch, 0..last + 1);
+    let every = crate::static_cal::choice::branch_rows(&plain.branch, 0..log.rows());
     if is_one_branch(before) && !is_one_branch(every) {
         return Err(StaticCalError::Split(SplitFault::OneBranchBefore { heating: before.0, cooling: before.1 }));
     }

@@ -100,7 +100,6 @@ mod shape;
 
 use std::ops::Range;
 
-use qfa_thermal::model::Branch;
 use qfa_thermal::Input;
 
 use crate::fit::{fit_static_traced, table_of_axes, StaticFit, StaticSeries, StaticStructure, StaticTraces};
@@ -233,8 +232,7 @@ impl<'a> Run<'a> {
 
     /// Rows on the heating and on the cooling branch among `rows`.
     fn branch_rows(&self, rows: &[usize]) -> (usize, usize) {
-        let count = |b: Branch| rows.iter().filter(|&&i| self.plain.branch[i] == b).count();
-        (count(Branch::Heating), count(Branch::Cooling))
+        choice::branch_rows(&self.plain.branch, rows.iter().copied())
     }
 
     /// The candidates on set `s` (the same for every axis): [`ONE_BRANCH`] alone on rows
